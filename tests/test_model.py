@@ -1,0 +1,121 @@
+"""Loading URDFs: bundled legs, example-robot-data robots, locking and choosing joints, bad input."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pinid import JointError, ModelError, RobotModel
+
+from conftest import assert_clean_error, load, run_cli
+
+
+def test_exo_leg_has_table2_limits(exo):
+    assert exo.joint_names == ["hip", "knee"]
+    np.testing.assert_allclose(exo.lower, [-0.087, -1.658])
+    np.testing.assert_allclose(exo.upper, [1.309, -0.087])
+    np.testing.assert_allclose(exo.velocity_limit, [1.645, 1.645])
+    assert np.all(exo.coulomb > 0) and np.all(exo.viscous > 0)
+
+
+def test_exo_leg_hangs_down_at_zero(exo):
+    """At q = 0 the leg hangs straight down: gravity torque is nearly zero, and grows with hip flexion."""
+    g0 = exo.rnea(np.zeros(2), np.zeros(2), np.zeros(2))
+    g1 = exo.rnea(np.array([0.5, 0.0]), np.zeros(2), np.zeros(2))
+    assert np.all(np.abs(g0) < 0.2 * np.abs(g1).max())
+
+
+def test_panda_fingers_locked_by_preset():
+    panda = load("panda")
+    assert panda.nv == 7 and "panda_finger_joint1" in panda.locked
+
+
+def test_choose_active_joints_and_lock_others():
+    m = RobotModel.from_urdf("ur5", joints=["shoulder_lift_joint", "elbow_joint"], locked={"wrist_1_joint": 0.3})
+    assert m.joint_names == ["shoulder_lift_joint", "elbow_joint"]
+    assert m.locked["wrist_1_joint"] == 0.3
+    assert m.inertial_parameters().shape == (20,)
+
+
+def test_locked_joint_mass_merges_into_parent():
+    full = load("ur5")
+    reduced = RobotModel.from_urdf("ur5", joints=["shoulder_pan_joint", "shoulder_lift_joint"])
+    m_full = full.inertial_parameters()[::10].sum()
+    m_red = reduced.inertial_parameters()[::10].sum()
+    assert m_red == pytest.approx(m_full)
+
+
+def test_continuous_joints_use_angles():
+    m = RobotModel.from_urdf(load("double_pendulum").urdf_path.with_name("double_pendulum_continuous.urdf"))
+    assert [j.kind for j in m.joints] == ["continuous", "continuous"]
+    q = np.array([0.3, -1.2])
+    np.testing.assert_allclose(m.configuration(q), [np.cos(0.3), np.sin(0.3), np.cos(-1.2), np.sin(-1.2)])
+
+
+@pytest.mark.parametrize(
+    "content, fragment",
+    [
+        ("", "empty"),
+        ("not xml at all", "not well-formed XML"),
+        ("<html><body/></html>", "expected <robot>"),
+        ("<robot name='r'><link name='a'/></robot>", "no movable joint"),
+        ("<?xml version='1.0'?><!DOCTYPE r [<!ENTITY a 'aaaa'>]><robot name='r'>&a;</robot>", "ENTITY"),
+        ("<robot name='r'><link name='a'/><link name='b'/><joint name='j' type='revolute'><parent link='a'/>"
+         "<child link='zzz'/><axis xyz='0 0 1'/><limit lower='-1' upper='1' effort='1' velocity='1'/></joint></robot>",
+         "not a valid URDF"),
+    ],
+)
+def test_bad_urdf_gives_model_error(tmp_path, content, fragment):
+    p = tmp_path / "bad.urdf"
+    p.write_text(content)
+    with pytest.raises(ModelError, match=fragment):
+        RobotModel.from_urdf(p)
+
+
+def test_binary_and_wrong_encoding(tmp_path):
+    p = tmp_path / "bin.urdf"
+    p.write_bytes(b"\x89PNG\x00\x00\x01garbage")
+    with pytest.raises(ModelError, match="binary"):
+        RobotModel.from_urdf(p)
+    p.write_bytes("<robot name='é'/>".encode("utf-16"))
+    with pytest.raises(ModelError):
+        RobotModel.from_urdf(p)
+
+
+def test_unknown_joint_and_out_of_range_lock():
+    with pytest.raises(JointError, match="'ankle' is not in"):
+        RobotModel.from_urdf("exo_leg", joints=["hip", "ankle"])
+    with pytest.raises(ModelError, match="outside its limits"):
+        RobotModel.from_urdf("exo_leg", joints=["hip"], locked={"knee": 0.5})
+
+
+@pytest.mark.parametrize(
+    "args, fragment",
+    [
+        (["--urdf", "no/such/file.urdf"], "no such URDF file"),
+        (["--urdf", "exo_leg", "--joints", "hip,ankle"], "'ankle' is not in"),
+        (["--urdf", "exo_leg", "--joints", "hip", "--lock", "knee=0.5"], "outside its limits"),
+        (["--urdf", "exo_leg", "--lock", "knee"], "expected JOINT=VALUE"),
+        (["--urdf", "exo_leg", "--terms", "fc,magic"], "unknown joint term"),
+    ],
+)
+def test_cli_info_bad_input(args, fragment):
+    assert_clean_error(run_cli("info", *args), fragment)
+
+
+def test_cli_info_not_urdf_and_no_joint(tmp_path):
+    (tmp_path / "a.urdf").write_text("hello")
+    assert_clean_error(run_cli("info", "--urdf", str(tmp_path / "a.urdf")), "not well-formed XML")
+    (tmp_path / "b.urdf").write_text("<robot name='r'><link name='a'/></robot>")
+    assert_clean_error(run_cli("info", "--urdf", str(tmp_path / "b.urdf")), "no movable joint")
+
+
+def test_cli_info_prints_base_parameters_and_writes_json(tmp_path):
+    out = tmp_path / "info.json"
+    proc = run_cli("info", "--urdf", "exo_leg", "--json", str(out))
+    assert proc.returncode == 0, proc.stderr
+    assert "10 base parameters" in proc.stdout and "hip" in proc.stdout and "1.309" in proc.stdout
+    import json
+
+    d = json.loads(out.read_text())
+    assert len(d["base_parameters"]) == 10 and d["joints"][0]["upper"] == 1.309
