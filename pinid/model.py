@@ -8,12 +8,16 @@ configuration layout is.  Standard inertial parameters per body are Pinocchio's
 
 from __future__ import annotations
 
+import contextlib
+import io
 import os
 import re
+import sys
+import tempfile
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Mapping, Sequence
+from typing import Iterator, Mapping, Sequence
 
 import numpy as np
 import pinocchio as pin
@@ -54,7 +58,41 @@ def _read_urdf_text(path: Path) -> str:
         raise ModelError(f"{path}: not well-formed XML ({exc}), expected a URDF") from None
     if root.tag != "robot":
         raise ModelError(f"{path}: root element is <{root.tag}>, expected <robot> (a URDF)")
+    declared = {link.get("name") for link in root.findall("link")}
+    parents = {j.find("parent").get("link") for j in root.findall("joint") if j.find("parent") is not None}
+    children = {j.find("child").get("link") for j in root.findall("joint") if j.find("child") is not None}
+    missing_children = sorted(c for c in children if c not in declared)
+    if missing_children:
+        raise ModelError(f"{path}: joint child link(s) {missing_children} are not declared as <link>")
+    # Many exporters weld the robot to a "world" link they never declare; urdfdom refuses that.
+    # Declaring the missing root link is what the URDF spec asks for and changes nothing else.
+    missing_roots = sorted(p for p in parents if p and p not in declared)
+    if missing_roots:
+        extra = "".join(f'<link name="{name}"/>' for name in missing_roots)
+        text = re.sub(r"(<robot\b[^>]*>)", lambda m: m.group(1) + extra, text, count=1)
     return text
+
+
+@contextlib.contextmanager
+def _captured_stderr() -> Iterator[io.StringIO]:
+    """Capture what C++ code (urdfdom) prints on file descriptor 2, so errors stay one line."""
+    out = io.StringIO()
+    try:
+        fd = sys.stderr.fileno()
+    except (AttributeError, ValueError, io.UnsupportedOperation):
+        yield out
+        return
+    sys.stderr.flush()
+    saved = os.dup(fd)
+    with tempfile.TemporaryFile(mode="w+b") as tmp:
+        os.dup2(tmp.fileno(), fd)
+        try:
+            yield out
+        finally:
+            os.dup2(saved, fd)
+            os.close(saved)
+            tmp.seek(0)
+            out.write(tmp.read().decode("utf-8", "replace"))
 
 
 @dataclass(frozen=True)
@@ -116,11 +154,16 @@ class RobotModel:
         """
         path, preset_locked = resolve_robot(urdf)
         text = _read_urdf_text(path)
-        try:
-            full = pin.buildModelFromXML(text)
-        except Exception as exc:  # noqa: BLE001 - Pinocchio raises plain RuntimeError/ValueError
-            msg = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-            raise ModelError(f"{path}: not a valid URDF ({msg})") from None
+        with _captured_stderr() as printed:
+            try:
+                full = pin.buildModelFromXML(text)
+                failure = None
+            except Exception as exc:  # noqa: BLE001 - Pinocchio raises plain RuntimeError/ValueError
+                failure = exc
+        if failure is not None:
+            said = [ln.strip() for ln in printed.getvalue().splitlines() if ln.strip().startswith("Error:")]
+            msg = said[0][len("Error:"):].strip() if said else (str(failure).strip().splitlines() or [""])[0]
+            raise ModelError(f"{path}: not a valid URDF ({msg or type(failure).__name__})") from None
         lock = {k: v for k, v in preset_locked.items() if k not in (joints or ())}
         lock.update(locked or {})
         names = [full.names[i] for i in range(1, full.njoints)]
