@@ -1,0 +1,138 @@
+"""Preprocessing: defaults from the sample rate, derivatives, alignment of torques, jitter, presets, errors."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+
+from pinid.data import DataWarning
+from pinid.dataset import Dataset
+from pinid.errors import DataError, SpecError
+from pinid.preprocess import PRESETS, default_cutoff, prepare
+from pinid.trajectory import FourierTrajectory
+
+TRAJ = FourierTrajectory(["hip", "knee"], 2 * np.pi * 0.5, [0.3, -0.5],
+                         [[0.3, 0.1, 0.05], [0.2, -0.1, 0.04]], [[0.1, 0.0, 0.02], [0.05, 0.1, -0.03]])
+
+
+def recording(fs: float, seconds: float = 12.0, *, noise: float = 1e-4, jitter: float = 0.0, seed: int = 0,
+              velocity: bool = False) -> Dataset:
+    rng = np.random.default_rng(seed)
+    t = np.arange(int(seconds * fs)) / fs
+    if jitter:
+        t = t + rng.uniform(-jitter, jitter, t.shape) / fs
+    q, dq, ddq = TRAJ.evaluate(t)
+    tau = 2.0 * ddq + 5.0 * np.sin(q) + 0.3 * dq
+    return Dataset(t=t, q=q + rng.normal(0, noise, q.shape), joints=["hip", "knee"],
+                   dq=dq + rng.normal(0, 0.01, q.shape) if velocity else None,
+                   tau=tau + rng.normal(0, 0.02, q.shape))
+
+
+def rel_rms(a, b):
+    return float(np.max(np.sqrt(np.mean((a - b) ** 2, axis=0)) / np.sqrt(np.mean(b**2, axis=0))))
+
+
+@pytest.mark.parametrize("fs", [100.0, 1000.0, 5000.0])
+@pytest.mark.parametrize("differentiation", ["savgol", "central"])
+def test_defaults_work_from_100_hz_to_5_khz(fs, differentiation):
+    out = prepare(recording(fs), differentiation=differentiation)
+    q, dq, ddq = TRAJ.evaluate(out.t)
+    pp = out.meta["preprocess"]
+    assert pp["cutoff"] == default_cutoff(fs) == 10.0
+    assert pp["output_rate"] == pytest.approx(min(fs, 1000.0))
+    assert out.t[0] >= pp["trim"] - 1e-9
+    # stated tolerances (docs/data.md): 1e-4 rad noise, 1 Hz motion
+    assert np.max(np.abs(out.q - q)) < 3e-4
+    assert rel_rms(out.dq, dq) < 2e-3
+    assert rel_rms(out.ddq, ddq) < 2e-2
+
+
+def test_noise_free_accuracy_and_edges():
+    out = prepare(recording(1000.0, noise=0.0))
+    q, dq, ddq = TRAJ.evaluate(out.t)
+    assert np.max(np.abs(out.q - q)) < 1e-6
+    assert np.max(np.abs(out.dq - dq)) < 1e-4  # also at the trimmed edges
+    assert np.max(np.abs(out.ddq - ddq)) < 2e-3
+
+
+def test_torque_and_positions_share_the_filter():
+    ds = recording(500.0)
+    ds.tau = ds.q.copy()
+    out = prepare(ds)
+    np.testing.assert_allclose(out.tau, out.q, atol=1e-12)
+
+
+def test_low_rate_default_cutoff():
+    assert default_cutoff(40.0) == 4.0
+    out = prepare(recording(40.0, seconds=30.0, noise=0.0))
+    assert out.meta["preprocess"]["cutoff"] == 4.0
+
+
+def test_jittered_time_is_resampled():
+    ds = recording(300.0, jitter=0.3)
+    out = prepare(ds)
+    pp = out.meta["preprocess"]
+    assert pp["resampled"] and pp["jitter"] > 0.1
+    assert np.ptp(np.diff(out.t)) < 1e-9
+    q, dq, ddq = TRAJ.evaluate(out.t)
+    assert rel_rms(out.dq, dq) < 3e-3 and rel_rms(out.ddq, ddq) < 3e-2
+    assert not prepare(recording(300.0)).meta["preprocess"]["resampled"]
+
+
+def test_measured_velocity_used_when_asked():
+    ds = recording(1000.0, velocity=True)
+    a = prepare(ds)
+    b = prepare(ds, use_measured_velocity=False)
+    assert a.meta["preprocess"]["measured_velocity"] and not b.meta["preprocess"]["measured_velocity"]
+    _, dq, ddq = TRAJ.evaluate(a.t)
+    assert rel_rms(a.dq, dq) < 2e-3 and rel_rms(a.ddq, ddq) < 3e-2
+    assert not np.allclose(a.dq, b.dq)
+
+
+def test_presets():
+    assert set(PRESETS) == {"seed000", "seed001"}
+    out = prepare(recording(500.0), preset="seed000")
+    pp = out.meta["preprocess"]
+    assert (pp["cutoff"], pp["order"], pp["sample_rate"], pp["resampled"]) == (10.0, 4, pytest.approx(1000.0), True)
+    out = prepare(recording(5000.0, seconds=4.0), preset="seed000")  # downsampled with an anti-alias filter
+    assert out.meta["preprocess"]["sample_rate"] == pytest.approx(1000.0)
+    _, dq, ddq = TRAJ.evaluate(out.t)
+    assert rel_rms(out.dq, dq) < 2e-3 and rel_rms(out.ddq, ddq) < 2e-2
+    out = prepare(recording(500.0), preset="seed001", cutoff=3.0)  # explicit options win over the preset
+    assert out.meta["preprocess"]["cutoff"] == 3.0 and out.meta["preprocess"]["preset"] == "seed001"
+    with pytest.raises(SpecError, match="preset 'seed002' is unknown"):
+        prepare(recording(500.0), preset="seed002")
+
+
+def test_decimate_and_trim_options():
+    out = prepare(recording(1000.0), decimate=4, trim=0.5)
+    assert out.meta["preprocess"]["output_rate"] == pytest.approx(250.0)
+    assert out.t[0] == pytest.approx(0.5) and np.diff(out.t)[0] == pytest.approx(0.004)
+    assert prepare(recording(5000.0, seconds=3.0), decimate=1).meta["preprocess"]["output_rate"] == pytest.approx(5000.0)
+
+
+def test_errors():
+    with pytest.raises(DataError, match="sample rate 15 Hz is too low for a 10 Hz low-pass"):
+        prepare(recording(15.0, seconds=60.0), cutoff=10.0)
+    with pytest.raises(DataError, match="no torque"):
+        ds = recording(100.0)
+        prepare(Dataset(t=ds.t, q=ds.q, joints=ds.joints))
+    with pytest.raises(DataError, match="too few"):
+        prepare(recording(100.0, seconds=0.5))
+    with pytest.raises(DataError, match="decimating 1000 Hz by 60 leaves 16.67 Hz"):
+        prepare(recording(1000.0, seconds=3.0), decimate=60)
+    with pytest.raises(SpecError, match="differentiation 'spline'"):
+        prepare(recording(100.0), differentiation="spline")
+    with pytest.raises(SpecError, match="filter order 0"):
+        prepare(recording(100.0), order=0)
+
+
+def test_warns_when_motion_is_faster_than_the_cutoff():
+    ds = recording(200.0, seconds=20.0)
+    with pytest.warns(DataWarning, match="removes 26 % of the position variance of joint 'knee'"):
+        prepare(ds, cutoff=0.8)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        prepare(ds)
