@@ -208,6 +208,37 @@ def _per_joint(value, model: RobotModel, name: str) -> np.ndarray:
     return a
 
 
+class Plant:
+    """The twin's equations of motion, M(q)·ddq + h(q, dq) + fc·tanh(dq/v_s) + fv·dq = τ, and one
+    integration step (see the module text: implicit friction when stiff, velocity first, trapezoidal
+    position).  ``coulomb`` [N·m], ``viscous`` [N·m·s/rad] per joint, ``coulomb_velocity`` v_s [rad/s]."""
+
+    def __init__(self, model: RobotModel, coulomb: np.ndarray, viscous: np.ndarray, coulomb_velocity: float) -> None:
+        self.model = model
+        self.fc = np.asarray(coulomb, dtype=float)
+        self.fv = np.asarray(viscous, dtype=float)
+        self._ivs = 1.0 / coulomb_velocity
+        self._data = model.pin_model.createData()
+        self._eye = np.eye(model.nv)
+        self._conf = model.configuration if model._continuous else (lambda x: x)
+
+    def step(self, q: np.ndarray, v: np.ndarray, tau: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(ddq, q_next, v_next)``: the acceleration at (q, v) under ``tau`` and the state ``h`` [s] later."""
+        pm, pdata = self.model.pin_model, self._data
+        qc = self._conf(q)
+        Minv = pin.computeMinverse(pm, pdata, qc)
+        nle = pin.nonLinearEffects(pm, pdata, qc, v)
+        th = np.tanh(v * self._ivs)
+        a = Minv @ (tau - nle - self.fc * th - self.fv * v)
+        D = self.fc * self._ivs * (1.0 - th * th) + self.fv
+        if h * float(np.max(Minv.diagonal() * D)) > 0.1:  # stiff (near zero velocity): implicit friction
+            dv = np.linalg.solve(self._eye + (h * Minv) * D, h * a)
+        else:
+            dv = h * a
+        v_new = v + dv
+        return a, q + (0.5 * h) * (v + v_new), v_new
+
+
 def simulate(
     model: RobotModel,
     trajectory: FourierTrajectory,
@@ -347,9 +378,7 @@ def simulate(
     true_v = np.empty((n_samples, nv))
     true_a = np.empty((n_samples, nv))
     true_tau = np.empty((n_samples, nv))
-    eye = np.eye(nv)
-    ivs = 1.0 / coulomb_velocity
-    fc_ivs = fc * ivs
+    plant = Plant(model, fc, fv, coulomb_velocity)
     tau = np.zeros(nv)
     saturated = 0
     s_idx = 0
@@ -376,24 +405,12 @@ def simulate(
                     tau = clipped
                 if bar is not None and k % 1000 == 0 and k:
                     bar.update(1000)
-            qc = conf(q)
-            Minv = pin.computeMinverse(pm, pdata, qc)
-            nle = pin.nonLinearEffects(pm, pdata, qc, v)
-            th = np.tanh(v * ivs)
-            r = tau - nle - fc * th - fv * v
-            a = Minv @ r
+            a, q_new, v_new = plant.step(q, v, tau, h)
             if i % n_s == 0:
                 rec_q[s_idx] = measure(i, q)
                 true_q[s_idx], true_v[s_idx], true_a[s_idx], true_tau[s_idx] = q, v, a, tau
                 s_idx += 1
-            D = fc_ivs * (1.0 - th * th) + fv
-            if h * float(np.max(Minv.diagonal() * D)) > 0.1:  # stiff (near zero velocity): implicit friction
-                dv = np.linalg.solve(eye + (h * Minv) * D, h * a)
-            else:
-                dv = h * a
-            v_new = v + dv
-            q = q + (0.5 * h) * (v + v_new)
-            v = v_new
+            q, v = q_new, v_new
             if not np.all(np.isfinite(v)):
                 raise DataError(f"simulation diverged at t = {i * h:.4g} s; expected a stable closed loop "
                                 "(lower --bandwidth or raise the control rate)")
