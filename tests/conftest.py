@@ -2,6 +2,13 @@
 
 from __future__ import annotations
 
+import os
+
+# One BLAS thread, before numpy loads: on a 2-core machine threaded OpenBLAS on tall matrices is
+# 10-40x slower whenever anything else runs (measured in docs/identification.md).
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+
 import functools
 import subprocess
 import sys

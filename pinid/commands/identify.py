@@ -1,0 +1,209 @@
+"""``pinid identify``: identify dynamic parameters from recordings, validate, export."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import numpy as np
+
+from . import add_robot_arguments, add_terms_argument, robot_from_args, terms_from_args
+
+HELP = "identify dynamic parameters from recordings (OLS, WLS, physically consistent LMI), validate, export"
+DESCRIPTION = """\
+Reads a URDF and one or more training recordings (CSV; --mapping names their columns), fills missing
+velocities and accelerations (zero-phase filter and differentiation with defaults chosen from the
+sample rate; measured velocities are used when present), identifies the base parameters with each
+method, checks every result for physical consistency, validates on --validate recordings and writes
+into the output folder (-o, default results/):
+
+  identification.json      every method: base parameters with standard deviations, standard
+                           parameters, consistency, condition number, train/validation metrics, time
+  model_<method>.json      the identified model for controller code (pinid.identified.IdentifiedModel)
+  identified_<method>.urdf the URDF with identified inertials and friction (consistent results only,
+                           unless --force-export)
+  report.md, *.png         a readable report with the figures
+
+Rows where a joint is nearly at rest are left out of the fit when Coulomb friction is in the model
+(--rest-velocity).  Methods: ols (least squares), wls (each joint weighted by 1/its residual
+variance), sdp (physically consistent least squares, pseudo-inertia LMI, cvxpy + Clarabel).
+
+example:
+  pinid identify --urdf urdf/exo_leg.urdf --data run1.csv --data run2.csv --validate run3.csv -o results/
+  pinid identify --urdf double_pendulum.urdf --mapping docs/examples/double_pendulum.toml \\
+      --data trajectory_00.csv --validate trajectory_01.csv --terms fc,fv,armature --methods ols,sdp
+"""
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    add_robot_arguments(p)
+    add_terms_argument(p)
+    p.add_argument("--data", action="append", required=True, metavar="FILE",
+                   help="training recording (CSV); repeat for several")
+    p.add_argument("--validate", action="append", default=[], metavar="FILE",
+                   help="validation recording (a different trajectory); repeatable")
+    p.add_argument("--methods", default="ols,wls,sdp", help="comma-separated methods; default ols,wls,sdp")
+    p.add_argument("--mapping", default=None, metavar="SPEC", help="TOML mapping of the recordings' columns to joints")
+    p.add_argument("-o", "--output", default="results", metavar="FOLDER", help="output folder; default results/")
+    g = p.add_argument_group("preprocessing (defaults chosen from the sample rate)")
+    g.add_argument("--preprocess", choices=("auto", "always", "never"), default="auto",
+                   help="auto: only recordings without dq/ddq (default); always; never")
+    g.add_argument("--preset", default=None, help="preprocessing preset (see pinid.preprocess)")
+    g.add_argument("--cutoff", type=float, default=None, metavar="HZ", help="low-pass cut-off [Hz]")
+    g.add_argument("--order", type=int, default=None, help="filter order (default 4)")
+    g.add_argument("--differentiation", default=None, help="differentiation method (default savgol)")
+    g.add_argument("--no-measured-velocity", action="store_true",
+                   help="differentiate q even when the recording has measured velocities")
+    g.add_argument("--trim", type=float, default=None, metavar="SECONDS", help="seconds trimmed at each end")
+    g.add_argument("--decimate", type=int, default=None, metavar="N", help="keep every N-th sample after filtering")
+    g = p.add_argument_group("estimation")
+    g.add_argument("--rest-velocity", default="auto", metavar="V",
+                   help="rows with |dq| below V [rad/s] are left out (Coulomb friction); a number, one per joint "
+                        "(comma-separated), 0 to keep all, or auto (default: max(2%% of the joint's peak speed, "
+                        "3 × its velocity noise))")
+    g.add_argument("--regularization", type=float, default=None,
+                   help="sdp: weight of the pull toward the URDF in unidentifiable directions (default 1e-3)")
+    g.add_argument("--mass-bounds", default=None, metavar="LO,HI", help="sdp: bounds on every body's mass [kg]")
+    g.add_argument("--sdp-weighting", choices=("none", "joint"), default=None,
+                   help="sdp: row weighting (none: as OLS, default; joint: as WLS)")
+    g.add_argument("--wls-iterations", type=int, default=None, help="wls: reweighting passes (default 1)")
+    p.add_argument("--force-export", action="store_true",
+                   help="also write identified URDFs of physically inconsistent results")
+    p.add_argument("--no-report", action="store_true", help="do not write report.md and the figures")
+
+
+def _preprocess_options(args) -> dict | bool | None:
+    opts = {}
+    for key in ("preset", "cutoff", "order", "differentiation", "trim", "decimate"):
+        value = getattr(args, key)
+        if value is not None:
+            opts[key] = value
+    if args.no_measured_velocity:
+        opts["use_measured_velocity"] = False
+    if args.preprocess == "never":
+        if opts:
+            from ..errors import SpecError
+
+            raise SpecError("--preprocess never contradicts the preprocessing options given")
+        return False
+    if args.preprocess == "always" or opts:
+        return opts
+    return None
+
+
+def _rest_velocity(text: str):
+    from ..errors import SpecError
+
+    if text.strip().lower() == "auto":
+        return "auto"
+    try:
+        values = [float(x) for x in text.split(",") if x.strip()]
+    except ValueError:
+        raise SpecError(f"--rest-velocity {text!r}: expected auto, a number or comma-separated numbers [rad/s]") from None
+    if not values:
+        raise SpecError(f"--rest-velocity {text!r}: expected auto, a number or comma-separated numbers [rad/s]")
+    return values[0] if len(values) == 1 else values
+
+
+def _options(args, methods) -> dict:
+    from ..errors import SpecError
+
+    opts: dict = {}
+    if "sdp" in methods:
+        sdp = {}
+        if args.regularization is not None:
+            sdp["regularization"] = args.regularization
+        if args.sdp_weighting is not None:
+            sdp["weighting"] = args.sdp_weighting
+        if args.mass_bounds is not None:
+            try:
+                lo, hi = (float(x) for x in args.mass_bounds.split(","))
+            except ValueError:
+                raise SpecError(f"--mass-bounds {args.mass_bounds!r}: expected LO,HI in kg, e.g. 0.1,20") from None
+            if not 0 <= lo <= hi:
+                raise SpecError(f"--mass-bounds {args.mass_bounds!r}: expected 0 ≤ LO ≤ HI")
+            sdp["mass_bounds"] = (lo, hi)
+        if sdp:
+            opts["sdp"] = sdp
+    if "wls" in methods and args.wls_iterations is not None:
+        opts["wls"] = {"iterations": args.wls_iterations}
+    return opts
+
+
+def print_result(r) -> None:
+    """One method's table: base parameters with standard deviations, then torque metrics."""
+    flag = "physically consistent" if r.physically_consistent else "NOT physically consistent"
+    print(f"\n== {r.method}: {r.description}")
+    print(f"   {flag} ({r.standard_source}); cond(W_b) {r.condition_number:.4g}; {r.seconds:.3f} s; status {r.status}")
+    if not r.physically_consistent:
+        for prob in (r.consistency.get("problems") or [])[:4]:
+            print(f"   - {prob}")
+    width = max(len(n) for n in r.base_names)
+    print(f"   {'parameter':<{width}} {'value':>13} {'std':>11} {'std %':>9}")
+    for n, v, s, sp in zip(r.base_names, r.base, r.std, r.std_percent):
+        sp_text = f"{sp:9.3g}" if np.isfinite(sp) else f"{'inf':>9}"
+        print(f"   {n:<{width}} {v:13.6g} {s:11.3g} {sp_text}")
+    for kind, m in (("train", r.train), ("validation", r.validation)):
+        if m is None:
+            continue
+        print(f"   {kind}: {'joint':<18}{'RMS':>10}{'RMS %':>9}{'mean ± std |e|':>24}{'max |e|':>10}")
+        for row in m.table():
+            print(f"   {'':<{len(kind) + 2}}{row[0]:<18}{row[1]:>10}{row[2]:>9}{row[3]:>24}{row[4]:>10}")
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..errors import SpecError
+    from ..identification import identify
+    from ..io import check_writable, write_json, write_text
+
+    out = Path(args.output)
+    check_writable(out / "identification.json")
+    methods = [m.strip().lower() for m in args.methods.split(",") if m.strip()]
+    if not methods:
+        raise SpecError("--methods: expected at least one method, e.g. ols,wls,sdp")
+    model = robot_from_args(args)
+    terms = terms_from_args(args)
+    print(f"identifying {model.name} ({', '.join(model.joint_names)}) with {', '.join(methods)}; "
+          f"terms {', '.join(terms.names) or 'none'}")
+    ident = identify(
+        model, args.data, methods=methods, validate=args.validate or None, terms=terms, mapping=args.mapping,
+        preprocess=_preprocess_options(args), rest_velocity=_rest_velocity(args.rest_velocity),
+        options=_options(args, methods), show_progress=None,
+    )
+    d = ident.data
+    print(f"training: {d['samples']} samples from {len(d['sources'])} recording(s), {d['rows']} torque rows used"
+          + (f"; validation: {len(ident.validation_sources)} recording(s)" if ident.validation_sources else ""))
+    for r in ident:
+        print_result(r)
+    # everything is computed before any file is written
+    urdfs, refused = {}, []
+    for m, r in ident.results.items():
+        if r.physically_consistent or args.force_export:
+            urdfs[m] = r.export_urdf(force=args.force_export)
+        else:
+            refused.append(m)
+    models = {m: r.model.to_dict() for m, r in ident.results.items()}
+    figs = None
+    if not args.no_report:
+        from ..report import figure_names, make_figures, report_markdown
+
+        figs = make_figures(ident)
+        names = figure_names(ident)
+        report = report_markdown(ident, {k: names[k] for k in figs})
+    written = [write_json(out / "identification.json", ident.to_dict())]
+    for m, dm in models.items():
+        written.append(write_json(out / f"model_{m}.json", dm))
+    for m, text in urdfs.items():
+        written.append(write_text(out / f"identified_{m}.urdf", text))
+    if figs is not None:
+        from ..plots import save_figure
+
+        for key, fig in figs.items():
+            path = out / names[key]
+            save_figure(fig, path)
+            written.append(path)
+        written.append(write_text(out / "report.md", report))
+    print(f"\nbest: {ident.best}" + (f"; no URDF for inconsistent result(s) {', '.join(refused)} "
+                                       "(--force-export writes them)" if refused else ""))
+    print(f"wrote {len(written)} files to {out}/: " + ", ".join(p.name for p in written))
+    return 0

@@ -1,0 +1,37 @@
+"""Estimators of the dynamic parameters, one file per family, one registry.
+
+Every estimator follows the contract of :class:`~pinid.estimators.base.Estimator`: ``__init__`` only
+stores settings, ``fit(problem)`` returns ``self``, fitted values end in ``_`` (``base_`` always;
+``standard_``, ``history_`` when the estimator has them).  Adding one is a file here and one line in
+:data:`ESTIMATORS`.
+"""
+
+from __future__ import annotations
+
+from ..errors import SpecError
+from .base import Estimator
+from .ols import OLS
+from .sdp import PhysicalLS
+from .wls import WLS
+
+#: Registry: method name (as in ``pinid identify --methods``) -> estimator class.
+ESTIMATORS: dict[str, type[Estimator]] = {
+    "ols": OLS,
+    "wls": WLS,
+    "sdp": PhysicalLS,
+}
+
+
+def make_estimator(name: str, **settings) -> Estimator:
+    """An estimator from the registry by name, with settings; SpecError for an unknown name or setting."""
+    key = name.strip().lower()
+    if key not in ESTIMATORS:
+        raise SpecError(f"unknown method '{name}', expected one of {', '.join(ESTIMATORS)}")
+    cls = ESTIMATORS[key]
+    try:
+        return cls(**settings)
+    except TypeError as exc:
+        raise SpecError(f"method '{key}': bad settings {sorted(settings)} ({exc})") from None
+
+
+__all__ = ["ESTIMATORS", "Estimator", "OLS", "PhysicalLS", "WLS", "make_estimator"]

@@ -1,0 +1,109 @@
+"""IdentifiedModel: the equation of motion holds term by term; save/load; the docs' computed-torque example."""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from pinid import JointTerms, standard_parameters
+from pinid.errors import ModelError, SpecError
+from pinid.identified import IdentifiedModel
+
+from conftest import load
+from test_identification import identify, truth_model, twin
+
+ALL = JointTerms(coulomb=True, viscous=True, offset=True, armature=True)
+
+
+def model_with_terms(name="ur5", seed=0):
+    robot = load(name)
+    theta = standard_parameters(robot, ALL)
+    theta[10 * robot.nv:] = np.random.default_rng(seed).uniform(0.05, 0.5, robot.nv * 4)
+    return IdentifiedModel(robot, ALL, theta, meta={"method": "test"})
+
+
+def test_equation_of_motion_term_by_term():
+    m = model_with_terms()
+    rng = np.random.default_rng(1)
+    q, dq, ddq = m.robot.random_states(10, rng)
+    for a, b, c in zip(q, dq, ddq):
+        M, C, g = m.mass_matrix(a), m.coriolis(a, b), m.gravity(a)
+        tau = M @ c + C @ b + g + m.friction(b) + m.offset
+        np.testing.assert_allclose(m.inverse_dynamics(a, b, c), tau, atol=1e-10)
+        np.testing.assert_allclose(M, M.T, atol=0)
+        assert np.linalg.eigvalsh(M)[0] > 0
+        np.testing.assert_allclose(m.friction(b), m.fc * np.sign(b) + m.fv * b)
+        np.testing.assert_allclose(m.forward_dynamics(a, b, m.inverse_dynamics(a, b, c)), c, atol=1e-8)
+    # batch = one by one
+    np.testing.assert_allclose(m.inverse_dynamics(q, dq, ddq), [m.inverse_dynamics(*x) for x in zip(q, dq, ddq)])
+    np.testing.assert_allclose(m.gravity(q), [m.gravity(x) for x in q])
+    assert m.armature.shape == (6,) and np.all(np.diag(m.mass_matrix(q[0])) - np.diag(
+        pin.crba(m.pin_model, m.pin_data, q[0])) == pytest.approx(m.armature))
+
+
+def test_coriolis_matrix_makes_mdot_minus_2c_skew():
+    m = model_with_terms("panda")
+    rng = np.random.default_rng(2)
+    q, dq, _ = m.robot.random_states(3, rng)
+    h = 1e-6
+    for a, b in zip(q, dq):
+        Mdot = (m.mass_matrix(a + h * b) - m.mass_matrix(a - h * b)) / (2 * h)
+        S = Mdot - 2 * m.coriolis(a, b)
+        np.testing.assert_allclose(S, -S.T, atol=1e-6)
+
+
+def test_model_matches_the_truth_after_identification():
+    truth = truth_model("exo_leg")
+    res = identify(truth, twin(truth, seconds=10, rate=200, seed=1), methods=["sdp"])
+    m = res.model
+    assert m.physically_consistent and res.best == "sdp"
+    q, dq, ddq = truth.random_states(20, np.random.default_rng(3))
+    expected = truth.rnea(q, dq, ddq) + truth.coulomb * np.sign(dq) + truth.viscous * dq
+    np.testing.assert_allclose(m.inverse_dynamics(q, dq, ddq), expected, atol=1e-6)
+    np.testing.assert_allclose(m.gravity(q[0]), truth.rnea(q[0], 0 * q[0], 0 * q[0]), atol=1e-6)
+
+
+def test_save_and_load(tmp_path):
+    m = model_with_terms("panda")
+    path = m.save(tmp_path / "model.json")
+    back = IdentifiedModel.load(path)
+    q, dq, ddq = m.robot.random_states(5, np.random.default_rng(4))
+    np.testing.assert_allclose(back.inverse_dynamics(q, dq, ddq), m.inverse_dynamics(q, dq, ddq), atol=1e-12)
+    assert back.terms == ALL and back.meta == {"method": "test"} and back.physically_consistent
+    assert back.joint_names == m.joint_names
+    (tmp_path / "junk.json").write_text('{"format": "other"}')
+    with pytest.raises(SpecError, match="not an identified model"):
+        IdentifiedModel.load(tmp_path / "junk.json")
+    with pytest.raises(SpecError, match="file not found"):
+        IdentifiedModel.load(tmp_path / "none.json")
+    with pytest.raises(ModelError, match="expected 98 standard parameters"):
+        IdentifiedModel(m.nominal_robot, ALL, np.zeros(12))
+
+
+def test_computed_torque_example_tracks():
+    """The computed-torque controller of docs/identification.md, on the identified model of a twin."""
+    truth = truth_model("exo_leg")
+    result = identify(truth, twin(truth, seconds=20, rate=200, seed=5, noise=0.2), methods=["ols", "sdp"])
+    model = result.model
+    Kp, Kd = np.diag([400.0, 400.0]), np.diag([40.0, 40.0])
+
+    def computed_torque(q, dq, q_d, dq_d, ddq_d):
+        v = ddq_d + Kd @ (dq_d - dq) + Kp @ (q_d - q)
+        return model.mass_matrix(q) @ v + model.coriolis(q, dq) @ dq + model.gravity(q) + model.friction(dq_d)
+
+    # the plant is the truth (exact friction with sign(dq)), integrated at 2 kHz
+    plant = IdentifiedModel(truth, JointTerms(), standard_parameters(truth, JointTerms()))
+    w, dt = 2 * np.pi * 0.5, 5e-4
+    ref = lambda t: (np.array([0.6, -0.9]) + 0.3 * np.sin(w * t), 0.3 * w * np.cos(w * t) * np.ones(2),
+                     -0.3 * w * w * np.sin(w * t) * np.ones(2))
+    q, dq = ref(0.0)[0].copy(), ref(0.0)[1].copy()
+    errors = []
+    for k in range(4000):
+        q_d, dq_d, ddq_d = ref(k * dt)
+        tau = computed_torque(q, dq, q_d, dq_d, ddq_d)
+        ddq = plant.forward_dynamics(q, dq, tau)
+        dq = dq + dt * ddq
+        q = q + dt * dq
+        errors.append(q - ref((k + 1) * dt)[0])
+    assert np.abs(np.array(errors[1000:])).max() < 5e-3
