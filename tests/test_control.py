@@ -1,0 +1,94 @@
+"""Controllers on a model: exact models track to the noise level; backstepping's Lyapunov function decreases."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pinid.control import Backstepping, ComputedTorque, nominal_model, track
+from pinid.errors import SpecError
+from pinid.trajectory import FourierTrajectory
+
+from conftest import load
+
+REF = FourierTrajectory(["hip", "knee"], 0.5 * np.pi, [0.61, -0.87], [[0.5], [0.5]], [[0.0], [0.0]])
+
+
+@pytest.mark.parametrize("controller", [Backstepping, ComputedTorque])
+def test_exact_model_tracks_to_noise_level(exo, controller):
+    noise = 1e-4  # rad
+    r = track(exo, controller(nominal_model(exo)), REF, seconds=3, position_noise=noise, seed=1)
+    for name, m in r.metrics(after=1.0).items():
+        assert m["rms"] < 3 * noise, (name, m)
+    # inside Table 2 all along
+    assert np.all(r.q >= exo.lower - 0.02) and np.all(r.q <= exo.upper + 0.02)
+
+
+def test_backstepping_lyapunov_decreases_noise_free(exo):
+    """Seed 001 Eq. (30): with the exact model, V̇ = −δ1ᵀK1δ1 − δ2ᵀK2δ2 < 0 along the run.
+
+    Coulomb friction is left out of this check: under a zero-order hold its sign can flip inside a
+    control period, which no sampled controller can cancel (V then rises by ~1e-5·V0 at reversals)."""
+    plant = exo.with_inertial_parameters(exo.inertial_parameters(), coulomb=np.zeros(2))
+    ctrl = Backstepping(nominal_model(plant), K1=5.0, K2=10.0, friction_from="measured")
+    r = track(plant, ctrl, REF, seconds=1.5, lyapunov=True, rate=1000, substeps=4)
+    V = r.lyapunov
+    assert V[0] > 0.1
+    assert np.all(np.diff(V) < 1e-8 * V[0]), np.diff(V).max()  # zero-order-hold rounding only
+    assert V[-1] < 1e-3 * V[0]
+
+
+def test_wrong_model_tracks_worse(exo):
+    rng = np.random.default_rng(0)
+    theta = exo.inertial_parameters() * (1 + 0.3 * rng.choice([-1, 1], size=20))
+    wrong = nominal_model(exo.with_inertial_parameters(theta), friction=False)
+    good = track(exo, ComputedTorque(nominal_model(exo)), REF, seconds=3).metrics(after=1.0)
+    bad = track(exo, ComputedTorque(wrong), REF, seconds=3).metrics(after=1.0)
+    for j in ("hip", "knee"):
+        assert bad[j]["rms"] > 10 * good[j]["rms"]
+
+
+def test_gains_must_be_positive_definite(exo):
+    with pytest.raises(SpecError, match="positive definite"):
+        Backstepping(nominal_model(exo), K1=-1.0)
+    with pytest.raises(SpecError, match="expected a number"):
+        ComputedTorque(nominal_model(exo), Kp=np.ones(3))
+    with pytest.raises(SpecError, match="friction_from"):
+        ComputedTorque(nominal_model(exo), friction_from="sometimes")
+
+
+EXCITATION = FourierTrajectory(["hip", "knee"], 0.2 * np.pi, [0.61, -0.87],
+                               [[0.3, 0.15, 0.05], [-0.25, 0.12, -0.06]], [[0.1, -0.08, 0.04], [0.1, 0.06, -0.03]])
+
+
+def test_identified_model_halves_tracking_error_of_both_controllers(exo):
+    """Issue 7: CAD model 30 % off without friction vs the model identified from twin recordings."""
+    from pinid.commands.track import sine_reference
+    from pinid.control import identified_vs_cad
+
+    r = identified_vs_cad(exo, EXCITATION, sine_reference(exo), record_seconds=20, track_seconds=5)
+    for controller, per_model in r["table"].items():
+        cad, ident = per_model.values()
+        for joint in ("hip", "knee"):
+            assert ident["metrics"][joint]["rms"] <= 0.5 * cad["metrics"][joint]["rms"], (controller, joint)
+
+
+def test_cli_track_writes_json_and_plots(tmp_path):
+    from conftest import run_cli
+
+    proc = run_cli("track", "--seconds", "2", "--after", "0.5", "--controller", "computed-torque", "-o", str(tmp_path))
+    assert proc.returncode == 0, proc.stderr
+    assert "computed-torque" in proc.stdout and (tmp_path / "tracking_computed-torque.png").is_file()
+    import json
+
+    d = json.loads((tmp_path / "tracking.json").read_text())
+    assert d["results"]["computed-torque"]["nominal"]["hip"]["rms"] < 1e-3
+
+
+def test_cli_track_bad_input(tmp_path):
+    from conftest import assert_clean_error, run_cli
+
+    assert_clean_error(run_cli("track", "--model", str(tmp_path / "none.json")), "no such file")
+    assert_clean_error(run_cli("track", "--controller", "pid-magic", "-o", str(tmp_path / "o")), "controller")
+    assert not (tmp_path / "o" / "tracking.json").exists()
+    assert_clean_error(run_cli("track", "--seconds", "1", "--after", "2"), "expected seconds > after")
