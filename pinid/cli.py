@@ -52,6 +52,8 @@ def build_parser() -> argparse.ArgumentParser:
         p = sub.add_parser(name, help=mod.HELP, description=mod.DESCRIPTION,
                            formatter_class=argparse.RawDescriptionHelpFormatter)
         mod.add_arguments(p)
+        if not any("--force" in a.option_strings for a in p._actions):
+            p.add_argument("--force", action="store_true", help="overwrite output files that already exist")
         p.set_defaults(_run=mod.run)
     return parser
 
@@ -63,6 +65,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     if not getattr(args, "_run", None):
         parser.print_help()
         return 2
+    from .io import OVERWRITE
+
+    OVERWRITE.set(bool(getattr(args, "force", False)))  # the CLI never replaces a file unless told to
     try:
         return int(args._run(args) or 0)
     except PinidError as exc:

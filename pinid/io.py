@@ -6,6 +6,7 @@ A reader never sees a half-written file, and an interrupted run leaves the old f
 from __future__ import annotations
 
 import contextlib
+import contextvars
 import json
 import os
 import tempfile
@@ -15,12 +16,18 @@ from typing import Any, Iterator
 from .errors import OutputError
 
 
-def check_writable(path: str | os.PathLike, *, overwrite: bool = True) -> Path:
+#: Whether existing output files may be replaced.  The Python API replaces them (``save()`` saves); the
+#: CLI refuses unless ``--force`` is given (:func:`pinid.cli.main` sets this for the run).
+OVERWRITE: contextvars.ContextVar[bool] = contextvars.ContextVar("pinid_overwrite", default=True)
+
+
+def check_writable(path: str | os.PathLike, *, overwrite: bool | None = None) -> Path:
     """Check before any work that ``path`` can be written; return it as a Path.
 
     Raises OutputError if the folder cannot be created or written, if the path is a folder, or if it
-    exists and ``overwrite`` is False.
+    exists and ``overwrite`` is False (None: the current :data:`OVERWRITE` policy).
     """
+    overwrite = OVERWRITE.get() if overwrite is None else overwrite
     p = Path(path)
     if p.is_dir():
         raise OutputError(f"{p}: is a folder, expected a file path")
@@ -34,6 +41,11 @@ def check_writable(path: str | os.PathLike, *, overwrite: bool = True) -> Path:
     if not os.access(folder, os.W_OK):
         raise OutputError(f"{folder}: output folder is not writable")
     return p
+
+
+def check_all_writable(paths) -> list[Path]:
+    """:func:`check_writable` for every path, before the first one is written (all or nothing)."""
+    return [check_writable(p) for p in paths]
 
 
 @contextlib.contextmanager

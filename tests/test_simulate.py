@@ -231,7 +231,10 @@ def test_cli_issue_command_line(tmp_path):
     assert ds.n == 2000 and ds.joints == ["hip", "knee"]
     d = json.loads(truth.read_text())
     assert d["seed"] == 1 and d["standard"]["names"] == parameter_names(exo)
-    assert run_cli(*args, cwd=tmp_path).returncode == 0
+    again = run_cli(*args, cwd=tmp_path)  # the CLI never replaces an existing file unless told to
+    assert again.returncode == 2 and "already exists" in again.stderr
+    assert (_md5(run1), _md5(truth)) == first
+    assert run_cli(*args, "--force", cwd=tmp_path).returncode == 0
     assert (_md5(run1), _md5(truth)) == first  # same arguments, same files
 
 

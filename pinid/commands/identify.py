@@ -190,6 +190,13 @@ def run(args: argparse.Namespace) -> int:
         figs = make_figures(ident)
         names = figure_names(ident)
         report = report_markdown(ident, {k: names[k] for k in figs})
+    from ..io import check_all_writable
+
+    planned = [out / "identification.json", *(out / f"model_{m}.json" for m in models),
+               *(out / f"identified_{m}.urdf" for m in urdfs)]
+    if figs is not None:
+        planned += [out / names[k] for k in figs] + [out / "report.md"]
+    check_all_writable(planned)  # all or nothing: no file is written if one of them cannot be
     written = [write_json(out / "identification.json", ident.to_dict())]
     for m, dm in models.items():
         written.append(write_json(out / f"model_{m}.json", dm))

@@ -180,7 +180,7 @@ def _argv_of(args: argparse.Namespace) -> list[str]:
     """The options that define the run, for the record (paths included as given)."""
     out = []
     for k, v in sorted(vars(args).items()):
-        if k.startswith("_") or k == "command" or v is None or v is False or v == []:
+        if k.startswith("_") or k in ("command", "force") or v is None or v is False or v == []:
             continue
         flag = "--" + k.replace("_", "-")
         if v is True:

@@ -72,8 +72,9 @@ def run(args: argparse.Namespace) -> int:
     print(f"{'controller':<17}{'model':<34}{'joint':<10}{'RMS [mrad]':>11}{'max [mrad]':>11}{'settle [s]':>11}")
     for c, per_model in table.items():
         for name, entry in per_model.items():
+            label = name if name == "nominal" else Path(name).name
             for joint, m in entry["metrics"].items():
-                print(f"{c:<17}{name[-33:]:<34}{joint:<10}{1e3 * m['rms']:>11.3f}{1e3 * m['max_abs']:>11.3f}"
+                print(f"{c:<17}{label[:33]:<34}{joint:<10}{1e3 * m['rms']:>11.3f}{1e3 * m['max_abs']:>11.3f}"
                       f"{m['settling_time']:>11.2f}")
     if out is not None:
         from ..plots import save_figure
