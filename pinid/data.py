@@ -141,6 +141,11 @@ def _at(ds: Dataset, k: int) -> str:
     return f"line {line0 + k}" if line0 is not None else f"sample {k}"
 
 
+#: Largest magnitude accepted for q, dq, ddq and tau: beyond it squares overflow and the value is a
+#: unit, scale or parsing error, not a measurement.
+MAX_ABS_VALUE = 1e9
+
+
 def check_recording(ds: Dataset, model=None, *, limits: str = "error", degrees: str = "error") -> Dataset:
     """Check a dataset (and, with a model, reorder it to ``model.joint_names``); return the checked dataset.
 
@@ -176,6 +181,11 @@ def check_recording(ds: Dataset, model=None, *, limits: str = "error", degrees: 
         if not finite.all():
             k, j = (int(x[0]) for x in np.nonzero(~finite))
             raise DataError(f"{src}: {qty} of joint '{ds.joints[j]}' is not finite at {_at(ds, k)}; expected finite numbers")
+        huge = np.abs(a) > MAX_ABS_VALUE
+        if huge.any():
+            k, j = (int(x[0]) for x in np.nonzero(huge))
+            raise DataError(f"{src}: {qty} of joint '{ds.joints[j]}' is {a[k, j]:.3g} at {_at(ds, k)}; expected "
+                            f"|value| below {MAX_ABS_VALUE:.0e} (a unit or scale error?)")
     if model is None:
         return ds
     return _check_against_model(ds, model, limits, degrees)

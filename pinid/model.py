@@ -160,8 +160,10 @@ class RobotModel:
                 failure = None
             except Exception as exc:  # noqa: BLE001 - Pinocchio raises plain RuntimeError/ValueError
                 failure = exc
+        said = [ln.strip() for ln in printed.getvalue().splitlines() if ln.strip().startswith("Error:")]
+        if failure is None and said:  # urdfdom drops what it cannot parse (e.g. a NaN mass) and says so
+            raise ModelError(f"{path}: not a valid URDF ({said[0][len('Error:'):].strip()})")
         if failure is not None:
-            said = [ln.strip() for ln in printed.getvalue().splitlines() if ln.strip().startswith("Error:")]
             msg = said[0][len("Error:"):].strip() if said else (str(failure).strip().splitlines() or [""])[0]
             raise ModelError(f"{path}: not a valid URDF ({msg or type(failure).__name__})") from None
         lock = {k: v for k, v in preset_locked.items() if k not in (joints or ())}
@@ -206,6 +208,7 @@ class RobotModel:
         # keep the URDF friction of the active joints before reducing
         coul = np.array([full.friction[full.joints[full.getJointId(n)].idx_v] for n in active])
         visc = np.array([full.damping[full.joints[full.getJointId(n)].idx_v] for n in active])
+        _check_inertias(full, path)
         model = pin.buildReducedModel(full, to_lock, q_ref) if to_lock else full
         # order of the reduced model's joints follows the URDF tree, not the user's list
         order = [model.names[i] for i in range(1, model.njoints)]
@@ -318,6 +321,22 @@ class RobotModel:
 
     def __repr__(self) -> str:
         return f"RobotModel({self.name!r}, joints={self.joint_names})"
+
+
+#: Largest body mass [kg] accepted from a URDF; anything heavier is a unit or typing error.
+MAX_BODY_MASS = 1e6
+
+
+def _check_inertias(model: pin.Model, path: Path) -> None:
+    """Refuse inertial values that are not numbers, negative masses, and absurdly large ones."""
+    for jid in range(1, model.njoints):
+        p = model.inertias[jid].toDynamicParameters()
+        name = model.names[jid]
+        if not np.all(np.isfinite(p)):
+            raise ModelError(f"{path}: the body moved by joint '{name}' has a NaN or infinite <inertial> value")
+        if p[0] < 0 or p[0] > MAX_BODY_MASS:
+            raise ModelError(f"{path}: the body moved by joint '{name}' has mass {p[0]:.3g} kg; "
+                             f"expected 0 to {MAX_BODY_MASS:.0e} kg")
 
 
 def _joint_info(model: pin.Model, jid: int) -> JointInfo:
