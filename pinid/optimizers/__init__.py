@@ -1,0 +1,48 @@
+"""Population-based optimisers behind one interface (see :mod:`pinid.optimizers.base`).
+
+They minimise a batch function ``f(X) -> (P,)`` of a population ``X (P, d)`` inside a box, with a seeded
+``numpy.random.Generator``, and return an :class:`OptimizeResult` (best point, value, best value per
+iteration, evaluations, time).  Excitation design (:mod:`pinid.excitation`) and identification reuse
+them.  Adding an optimiser is one file plus one line in :data:`OPTIMIZERS`.
+
+=========  ===========================================================================
+name       method
+=========  ===========================================================================
+``pso``    particle swarm, linearly decreasing inertia weight (seed 000 Eqs. (7)-(8))
+``woa``    whale optimisation (seed 001 Eqs. (14)-(17))
+``ewoa``   whale optimisation + differential mutation of the better whales (seed 001 Eq. (18))
+``de``     scipy's differential evolution, vectorised
+=========  ===========================================================================
+"""
+
+from __future__ import annotations
+
+from ..errors import SpecError
+from .base import OptimizeResult, Optimizer
+from .de import DEOptions, DifferentialEvolution
+from .pso import PSO, PSOOptions
+from .woa import EWOA, WOA, EWOAOptions, WOAOptions
+
+#: Optimisers by name.
+OPTIMIZERS: dict[str, type[Optimizer]] = {
+    "pso": PSO,
+    "woa": WOA,
+    "ewoa": EWOA,
+    "de": DifferentialEvolution,
+}
+
+
+def get_optimizer(name: str, options=None, **kw) -> Optimizer:
+    """An optimiser by registry name, with its options dataclass and/or keyword settings.
+
+    ``get_optimizer("pso", population=50, iterations=100)``; unknown names or options raise SpecError.
+    """
+    try:
+        cls = OPTIMIZERS[name.lower()]
+    except (KeyError, AttributeError):
+        raise SpecError(f"unknown optimizer {name!r}, expected one of {', '.join(OPTIMIZERS)}") from None
+    return cls(options, **kw)
+
+
+__all__ = ["DEOptions", "DifferentialEvolution", "EWOA", "EWOAOptions", "OPTIMIZERS", "OptimizeResult",
+           "Optimizer", "PSO", "PSOOptions", "WOA", "WOAOptions", "get_optimizer"]

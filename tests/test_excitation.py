@@ -1,0 +1,304 @@
+"""Excitation design: specs and their errors, limits at every instant, rest start, seed 001 Table 3, the CLI."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pinid import JointTerms, regressor
+from pinid.base import base_parameters
+from pinid.errors import SpecError
+from pinid.excitation import (
+    DesignProblem, ExcitationSpec, bundled_spec_path, condition_number, default_spec, design_excitation,
+    evaluate_trajectory, limit_violations, load_spec, spec_for, trajectory_extremes,
+)
+from pinid.trajectory import FourierTrajectory
+
+from conftest import assert_clean_error, load, run_cli
+
+ROOT = Path(__file__).resolve().parent.parent
+TABLE3 = ROOT / "excitation" / "seed001_table3.json"
+TABLE2 = ROOT / "excitation" / "exo_leg_table2.toml"
+A_DEG = [[1.685, -2.258, 13.828, -15.389], [3.530, -9.949, -15.978, 5.415]]
+B_DEG = [[5.689, 2.904, 14.805, 10.822], [5.205, 4.578, 15.914, 11.738]]
+# a small, fast configuration of the default optimiser for tests
+FAST = {"starts": 2, "screen": 2, "polish": 1, "maxiter": 40, "polish_maxiter": 60}
+KEYS = ["condition_number", "criterion", "harmonics", "base_frequency", "q0", "a", "b", "joints", "limits",
+        "extremes", "feasible", "optimizer", "seconds"]
+
+
+def dense_extremes(tr: FourierTrajectory, n: int = 50_000):
+    q, dq, ddq = tr.evaluate(np.linspace(0, tr.period, n))
+    return q.min(0), q.max(0), np.abs(dq).max(0), np.abs(ddq).max(0)
+
+
+def assert_inside(tr: FourierTrajectory, spec: ExcitationSpec, tol: float = 1e-9):
+    qmin, qmax, v, a = dense_extremes(tr)
+    assert np.all(qmin >= spec.lower - tol), (qmin, spec.lower)
+    assert np.all(qmax <= spec.upper + tol), (qmax, spec.upper)
+    assert np.all(v <= spec.velocity + tol), (v, spec.velocity)
+    assert np.all(a <= spec.acceleration + tol), (a, spec.acceleration)
+
+
+# ---------------------------------------------------------------------------------------- seed 001 Table 3
+def test_table3_read_as_published_stays_inside_table2():
+    tr = FourierTrajectory.from_eq19(["hip", "knee"], 0.2 * np.pi, [0.6107, -0.8727], A_DEG, B_DEG)
+    qmin, qmax, v, a = dense_extremes(tr, 200_001)
+    # the figures of ../shared/README.md, to the digits printed there
+    np.testing.assert_allclose(qmin, [-0.087, -1.558], atol=5e-4)
+    np.testing.assert_allclose(qmax, [1.222, -0.175], atol=5e-4)
+    np.testing.assert_allclose(v, [1.42, 1.41], atol=5e-3)
+    np.testing.assert_allclose(a, [3.21, 3.02], atol=6e-3)  # 3.2047 is printed there as "≤ 3.21"
+    np.testing.assert_array_less(a, 5.168)
+    np.testing.assert_array_less(v, 1.645)
+    # read as radians it would be wildly outside Table 2
+    wrong = FourierTrajectory.from_eq19(["hip", "knee"], 0.2 * np.pi, [0.6107, -0.8727], A_DEG, B_DEG, unit="rad")
+    assert dense_extremes(wrong)[2].max() > 50
+
+
+def test_shipped_table3_file_is_the_published_trajectory_in_radians():
+    shipped = FourierTrajectory.load(TABLE3)
+    tr = FourierTrajectory.from_eq19(["hip", "knee"], 0.2 * np.pi, [0.6107, -0.8727], A_DEG, B_DEG)
+    assert shipped.joints == ["hip", "knee"] and shipped.harmonics == 4
+    assert shipped.base_frequency == pytest.approx(0.2 * np.pi)
+    np.testing.assert_allclose(shipped.q0, [0.6107, -0.8727])
+    np.testing.assert_allclose(shipped.a, tr.a, rtol=1e-15)
+    np.testing.assert_allclose(shipped.b, tr.b, rtol=1e-15)
+    assert shipped.meta["published"]["a_deg"] == A_DEG
+
+
+def test_table3_only_overshoots_table2_by_rounding(exo):
+    spec = spec_for(exo)
+    ev = evaluate_trajectory(exo, FourierTrajectory.load(TABLE3), spec)
+    assert ev["condition_number"] == pytest.approx(43.68, abs=0.01)
+    # the printed coefficients reach −0.08742 rad at the hip: 0.4 mrad beyond −0.087
+    assert limit_violations(ev["extremes"], spec) == ["hip: q_min -0.0874194 < -0.087 by 0.00042 rad"]
+    assert limit_violations(ev["extremes"], spec, tol=1e-3) == []
+
+
+# ---------------------------------------------------------------------------------------- specs
+def test_bundled_spec_is_table2_and_used_by_default(exo):
+    assert bundled_spec_path(exo) == TABLE2
+    spec = spec_for(exo)
+    assert spec.source == str(TABLE2)
+    np.testing.assert_allclose(spec.q_min, [-0.087, -1.658])
+    np.testing.assert_allclose(spec.q_max, [1.309, -0.087])
+    np.testing.assert_allclose(spec.dq_max, [1.645, 1.645])
+    np.testing.assert_allclose(spec.ddq_max, [5.168, 5.168])
+    np.testing.assert_allclose(spec.q0, [0.6107, -0.8727])
+    assert (spec.harmonics, spec.samples, spec.rest_start, spec.optimize_offsets, spec.margin) == (4, 200, True, False, 0.0)
+    assert spec.base_frequency == pytest.approx(0.2 * np.pi) and spec.terms == JointTerms()
+    assert spec_for(exo, rest_start=False, harmonics=None).rest_start is False
+
+
+def test_default_spec_without_urdf_limits():
+    model = load("double_pendulum")  # its URDF has no position or velocity limits
+    spec = default_spec(model)
+    np.testing.assert_allclose(spec.q_min, -np.pi)
+    np.testing.assert_allclose(spec.q_max, np.pi)
+    np.testing.assert_allclose(spec.dq_max, 2.0)
+    np.testing.assert_allclose(spec.ddq_max, 5.0)
+    assert bundled_spec_path(model) is None and spec_for(model).source.endswith("pinid defaults)")
+
+
+@pytest.mark.parametrize("text, fragment", [
+    ("harmonics = 'four'", "harmonics = 'four', expected a number"),
+    ("colour = 3", "unknown setting(s) colour"),
+    ("[joints.ankle]\nq_min = 0", "joint 'ankle' is not an active joint"),
+    ("[joints.hip]\nspeed = 1", "joints.hip: unknown key(s) speed"),
+    ("[joints.hip]\nq_max = 2.0", "joints.hip.q_max = 2 is outside the URDF's limit 1.309"),
+    ("[joints.knee]\ndq_max = 3.0", "joints.knee.dq_max = 3 is outside the URDF's limit 1.645"),
+    ("harmonics = [", "not valid TOML"),
+])
+def test_malformed_spec_files(tmp_path, exo, text, fragment):
+    p = tmp_path / "spec.toml"
+    p.write_text(text)
+    with pytest.raises(SpecError) as info:
+        load_spec(p, exo)
+    assert fragment in str(info.value) and "\n" not in str(info.value)
+
+
+@pytest.mark.parametrize("changes, fragment", [
+    ({"q0": [1.5, -0.8727]}, "joint 'hip': offset q0 = 1.5 is outside its range"),
+    ({"q_min": [-0.087, -0.5], "q_max": [1.309, -0.5], "q0": [0.6107, -0.5]}, "joint 'knee': position range [-0.5, -0.5] has no width"),
+    ({"ddq_max": [5.168, 1e-6]}, "joint 'knee': ddq_max 1e-06 allows at most 2.53e-06 rad of motion"),
+    ({"ddq_max": [5.168, 0.0]}, "joint 'knee': ddq_max 0, expected a finite limit > 0"),
+    ({"harmonics": 1}, "rest_start needs at least 2 harmonics"),
+    ({"samples": 6}, "samples 6, expected an integer > 2·harmonics = 8"),
+    ({"samples": 4, "harmonics": 1, "rest_start": False}, "4 × 2 joints = 8 rows < 10 base parameters"),
+    ({"margin": 0.6}, "margin 0.6, expected a fraction in [0, 0.5)"),
+    ({"criterion": "trace"}, "criterion 'trace', expected one of cond, logdet"),
+])
+def test_infeasible_limits_raise_clear_errors(exo, changes, fragment):
+    spec = spec_for(exo).replace(**{k: np.asarray(v) if isinstance(v, list) else v for k, v in changes.items()})
+    with pytest.raises(SpecError) as info:
+        spec.validate(exo)
+    assert fragment in str(info.value), str(info.value)
+    assert "\n" not in str(info.value)
+
+
+# ---------------------------------------------------------------------------------------- the design problem
+@pytest.mark.parametrize("rest", [True, False])
+def test_parametrisation_and_rest_start_hold_exactly(exo, rest):
+    problem = DesignProblem(exo, spec_for(exo, rest_start=rest))
+    rng = np.random.default_rng(0)
+    lower, upper = problem.box()
+    X = lower + rng.random((20, problem.d)) * (upper - lower)
+    q, dq, ddq = problem.states(X)
+    for x, qi, dqi, ddqi in zip(X, q, dq, ddq):
+        tr = problem.trajectory(x)
+        t = problem.times
+        np.testing.assert_allclose(np.hstack(tr.evaluate(t)), np.hstack([qi, dqi, ddqi]), atol=1e-12)
+        np.testing.assert_allclose(problem.variables(tr), x, atol=1e-12)
+        assert tr.starts_at_rest(1e-12) == rest
+    # limits by scaling: every candidate inside the limits on the check grid
+    Xs = problem.scale_into_limits(X)
+    q, dq, ddq = problem.states(Xs, problem.check_times)
+    spec = problem.spec
+    assert np.all(q >= spec.lower - 1e-12) and np.all(q <= spec.upper + 1e-12)
+    assert np.all(np.abs(dq) <= spec.velocity + 1e-12) and np.all(np.abs(ddq) <= spec.acceleration + 1e-12)
+
+
+def test_linear_constraints_are_the_limits_on_the_grid(exo):
+    problem = DesignProblem(exo, spec_for(exo, rest_start=False, optimize_offsets=True), check_samples=64)
+    A, b = problem.linear_constraints()
+    rng = np.random.default_rng(1)
+    lower, upper = problem.box()
+    for x in lower + rng.random((10, problem.d)) * (upper - lower):
+        q, dq, ddq = (v[0] for v in problem.states(x[None], problem.check_times))
+        s = problem.spec
+        expected = np.all(q <= s.upper) & np.all(q >= s.lower) & np.all(np.abs(dq) <= s.velocity) \
+            & np.all(np.abs(ddq) <= s.acceleration)
+        assert expected == np.all(A @ x <= b)
+
+
+def test_batch_criterion_is_the_condition_number_of_the_base_regressor(exo):
+    spec = spec_for(exo)
+    problem = DesignProblem(exo, spec)
+    rng = np.random.default_rng(2)
+    lower, upper = problem.box()
+    X = problem.scale_into_limits(lower + rng.random((3, problem.d)) * (upper - lower))
+    values = problem.evaluate(X)
+    base = base_parameters(exo, spec.terms)
+    for x, v in zip(X, values):
+        tr = problem.trajectory(x)
+        t = np.arange(200) * tr.period / 200
+        q, dq, ddq = tr.evaluate(t)
+        dq[0] = 0.0  # exact rest at t = 0
+        W = base.columns(regressor(exo, q, dq, ddq, spec.terms))
+        assert v == pytest.approx(np.linalg.cond(W), rel=1e-9)
+        assert condition_number(exo, tr) == pytest.approx(v, rel=1e-9)
+
+
+def test_extremes_are_exact(exo):
+    tr = FourierTrajectory.load(TABLE3)
+    ext = trajectory_extremes(tr, points=400)  # a coarse grid, refined by Newton steps
+    qmin, qmax, v, a = dense_extremes(tr, 400_001)
+    for j, name in enumerate(tr.joints):
+        e = ext[name]
+        assert e["q_min"] == pytest.approx(qmin[j], abs=1e-9) and e["q_max"] == pytest.approx(qmax[j], abs=1e-9)
+        assert e["dq_abs_max"] == pytest.approx(v[j], abs=1e-9) and e["ddq_abs_max"] == pytest.approx(a[j], abs=1e-9)
+
+
+# ---------------------------------------------------------------------------------------- designs
+@pytest.mark.parametrize("rest", [True, False])
+def test_small_design_improves_on_table3_inside_the_limits(exo, rest):
+    spec = spec_for(exo, rest_start=rest)
+    res = design_excitation(exo, spec, options=FAST, seed=0)
+    assert res.feasible
+    assert_inside(res.trajectory, spec)
+    assert res.trajectory.starts_at_rest(1e-12) == rest
+    table3 = condition_number(exo, FourierTrajectory.load(TABLE3))
+    assert res.condition_number < 0.85 * table3
+    assert res.condition_number == pytest.approx(condition_number(exo, res.trajectory), rel=1e-12)
+    again = design_excitation(exo, spec, options=FAST, seed=0)
+    np.testing.assert_array_equal(again.trajectory.a, res.trajectory.a)
+
+
+@pytest.mark.parametrize("name", ["pso", "ewoa"])
+def test_metaheuristic_design_is_feasible(exo, name):
+    spec = spec_for(exo).replace(samples=60)
+    res = design_excitation(exo, spec, optimizer=name, options={"population": 12, "iterations": 6}, seed=3)
+    assert res.feasible and res.optimizer == name
+    assert_inside(res.trajectory, spec)
+    assert res.trajectory.starts_at_rest(1e-12)
+    assert len(res.history) == 7 and np.all(np.diff(res.history) <= 0)
+    assert res.condition_number == pytest.approx(res.history[-1], rel=1e-2)
+
+
+def test_offsets_margin_and_logdet(exo):
+    spec = spec_for(exo, optimize_offsets=True, margin=0.1, criterion="logdet", samples=60)
+    res = design_excitation(exo, spec, options=FAST, seed=1)
+    assert res.feasible and res.criterion == "logdet"
+    assert_inside(res.trajectory, spec)
+    assert not np.allclose(res.trajectory.q0, spec.q0)
+    d = res.to_dict()
+    assert d["criterion"] == "logdet" and d["margin"] == 0.1 and np.isfinite(d["log_det"])
+
+
+def test_torque_limits_hold(exo):
+    spec = spec_for(exo).replace(samples=60, tau_max=np.array([22.0, np.inf]))
+    res = design_excitation(exo, spec, optimizer="pso", options={"population": 16, "iterations": 8}, seed=0)
+    assert res.feasible
+    assert res.tau_abs_max[0] <= 22.0 * (1 + 1e-6)
+    assert res.extremes["hip"]["tau_abs_max"] == pytest.approx(res.tau_abs_max[0])
+    assert "tau" in res.usage["hip"] and "tau" not in res.usage["knee"]
+
+
+def test_csv_export(tmp_path):
+    tr = FourierTrajectory.load(TABLE3)
+    path = tr.to_csv(tmp_path / "t.csv", rate=100.0)
+    lines = path.read_text().splitlines()
+    assert lines[0] == "t,q_hip,q_knee,dq_hip,dq_knee,ddq_hip,ddq_knee"
+    data = np.loadtxt(path, delimiter=",", skiprows=1)
+    assert data.shape == (1000, 7)
+    np.testing.assert_allclose(data[:, 1:], np.hstack(tr.evaluate(data[:, 0])), atol=1e-9)
+    with pytest.raises(SpecError, match="rate"):
+        tr.to_csv(tmp_path / "u.csv", rate=0)
+
+
+# ---------------------------------------------------------------------------------------- the command
+def test_cli_writes_json_csv_and_plot(tmp_path):
+    out, csv, png = tmp_path / "exo.json", tmp_path / "exo.csv", tmp_path / "exo.png"
+    proc = run_cli("excite", "--urdf", str(ROOT / "urdf" / "exo_leg.urdf"), "-o", str(out), "--csv", str(csv),
+                   "--plot", str(png), "--rate", "50", "--starts", "2", "--option", "screen=2", "--option", "polish=1",
+                   "--option", "polish_maxiter=40")
+    assert proc.returncode == 0, proc.stderr
+    assert "condition number" in proc.stdout and "hip" in proc.stdout and "|ddq| max" in proc.stdout
+    d = json.loads(out.read_text())
+    for key in KEYS:
+        assert key in d, key
+    assert d["optimizer"] == "slsqp" and d["feasible"] is True and d["criterion"] == "cond"
+    assert set(d["extremes"]["hip"]) >= {"q_min", "q_max", "dq_abs_max", "ddq_abs_max"}
+    assert d["limits"]["knee"]["ddq_max"] == 5.168
+    tr = FourierTrajectory.load(out)
+    assert tr.starts_at_rest(1e-12)
+    assert len(csv.read_text().splitlines()) == 501 and png.stat().st_size > 10_000
+    proc = run_cli("excite", "--urdf", "exo_leg", "--evaluate", str(out))
+    assert proc.returncode == 0 and f"condition number {d['condition_number']:.6g}" in proc.stdout
+
+
+@pytest.mark.parametrize("spec_text, fragment", [
+    ("[q0]\nhip = 1.5", "offset q0 = 1.5 is outside its range"),
+    ("[joints.knee]\nq_min = -0.5\nq_max = -0.5\n", "position range [-0.5, -0.5] has no width"),
+    ("[joints.knee]\nddq_max = 0.00001", "ddq_max 1e-05 allows at most"),
+])
+def test_cli_infeasible_spec_is_one_line_and_writes_nothing(tmp_path, spec_text, fragment):
+    spec = tmp_path / "bad.toml"
+    spec.write_text(spec_text)
+    out = tmp_path / "out.json"
+    proc = run_cli("excite", "--urdf", "exo_leg", "--spec", str(spec), "-o", str(out))
+    assert_clean_error(proc, "pinid excite: error:", str(spec), fragment)
+    assert not out.exists() and list(tmp_path.iterdir()) == [spec]
+
+
+def test_cli_bad_options(tmp_path):
+    out = tmp_path / "o.json"
+    assert_clean_error(run_cli("excite", "--optimizer", "gradient", "-o", str(out)), "--optimizer 'gradient'")
+    assert_clean_error(run_cli("excite", "--optimizer", "pso", "--option", "swarm=3", "-o", str(out)),
+                       "unknown option(s) swarm")
+    assert_clean_error(run_cli("excite", "--starts", "3", "--population", "10", "-o", str(out)), "--population")
+    assert not out.exists()
