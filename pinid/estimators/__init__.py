@@ -10,7 +10,9 @@ from __future__ import annotations
 
 from ..errors import SpecError
 from .base import Estimator
+from .metaheuristic import DEEstimator, EWOAEstimator, Metaheuristic, PSOEstimator, RLSPSO, WOAEstimator
 from .ols import OLS
+from .rls import RLS
 from .sdp import PhysicalLS
 from .wls import WLS
 
@@ -19,6 +21,12 @@ ESTIMATORS: dict[str, type[Estimator]] = {
     "ols": OLS,
     "wls": WLS,
     "sdp": PhysicalLS,
+    "rls": RLS,
+    "pso": PSOEstimator,
+    "rls-pso": RLSPSO,
+    "woa": WOAEstimator,
+    "ewoa": EWOAEstimator,
+    "de": DEEstimator,
 }
 
 
@@ -34,4 +42,5 @@ def make_estimator(name: str, **settings) -> Estimator:
         raise SpecError(f"method '{key}': bad settings {sorted(settings)} ({exc})") from None
 
 
-__all__ = ["ESTIMATORS", "Estimator", "OLS", "PhysicalLS", "WLS", "make_estimator"]
+__all__ = ["DEEstimator", "ESTIMATORS", "EWOAEstimator", "Estimator", "Metaheuristic", "OLS", "PSOEstimator",
+           "PhysicalLS", "RLS", "RLSPSO", "WLS", "WOAEstimator", "make_estimator"]

@@ -1,0 +1,355 @@
+"""Metaheuristic estimators: PSO, RLS-PSO, WOA, EWOA and differential evolution on the base parameters.
+
+Each estimator searches the nb base parameters inside a box with a population optimiser of
+:mod:`pinid.optimizers` (seed 000 Eqs. (7)-(8); seed 001 Eqs. (14)-(18); scipy's
+``differential_evolution``), minimising one of two fitness functions of the torque residual
+``r = τ − W_b·x`` over the training rows (row weights ``w``, ones unless given):
+
+``"sse"``  ½·Σ w·r²  — seed 001 Eq. (22).  Evaluated for the whole swarm at once in the compressed
+           form ``½(‖R·(s∘x) − c‖² + ρ²)`` (:func:`~pinid.estimators.base.augmented_r`: R is nb × nb),
+           so an iteration costs one (P × nb)·(nb × nb) product whatever the number of samples, and
+           there is no cancellation near the minimum.
+``"sae"``  Σ √w·|r|  — seed 000 (its PSO minimises the sum of absolute torque errors, "ΔT1 + ΔT2").
+           Needs the tall product ``W·Xᵀ`` (rows × P) every iteration, computed in chunks of rows.
+
+**Least squares is the global minimiser of "sse"** on the training data (``../shared/design.md``): none of
+these estimators can reach a lower "sse" than :class:`~pinid.estimators.ols.OLS`; with "sae" they aim at
+the least-absolute-deviations fit (:func:`least_absolute_deviations`, convex, found deterministically
+by IRLS) instead.  Every result reports both training costs, the least-squares value of its fitness
+(``info_["ls_fitness"]``) and the global minimum of its fitness (``info_["min_fitness"]``), so that the
+distance to the optimum is visible.
+
+The search box
+--------------
+The seeds do not give a usable box (seed 000's plain PSO searches an "infinite domain", which cannot be
+sampled).  ``box`` chooses it:
+
+``"nominal"`` (default)  the URDF's base parameters ``x_nom`` ± ``max(box_width·|x_nom|, box_floor·s)``,
+                         ``s`` the natural magnitude of each base parameter (its standard combination
+                         with mass M, first moments M·L, inertias M·L² of each body,
+                         :func:`pinid.physical.parameter_scale`; 1 for friction).  Defaults
+                         ``box_width = 1`` (±100 %) and ``box_floor = 0.5``.  It uses only prior
+                         knowledge, never the data.
+``"rls"``                each parameter's [min, max] of a recursive least-squares run on the same data
+                         (:class:`~pinid.estimators.rls.RLS`, settings in ``rls``), seed 000's RLS-PSO.
+``"ls"``                 the least-squares estimate ± ``box_width``·(its standard deviation)·10 — circular
+                         (the box is centred on the answer of the method it is compared with); for
+                         experiments only.
+``(lower, upper)``       explicit arrays (nb each), or a dict ``{name: (lo, hi)}`` overriding the nominal box.
+
+The settings ``population`` (100) and ``iterations`` (200) are seed 001's; ``seed`` seeds the
+optimiser's ``numpy.random.Generator`` (same seed → same result, bit for bit); ``tol`` stops when the
+best fitness falls below it (seed 000's ε); ``options`` passes the optimiser's own settings (PSO's
+``w_max``, ``w_min``, ``c1``, ``c2``; WOA's ``spiral``; EWOA's ``mutation_fraction`` and ``scale``; …).
+
+Fitted values: ``base_``; ``history_`` (best fitness after the initial population and after every
+iteration); ``path_`` (iterations, nb): the best particle after each iteration (seed 000 Figs. 8,
+11); ``box_``; ``info_`` (optimiser, evaluations, iterations, stop message, box, the fitness reached,
+both training costs and the least-squares ones).
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from ..errors import SpecError
+from .base import Estimator, solve_r
+
+#: Fitness functions: name -> description.
+FITNESS = {"sse": "½·Σ r² (seed 001 Eq. (22))", "sae": "Σ |r| (seed 000)"}
+_CHUNK_ELEMENTS = 2_000_000  # rows × particles per block of the "sae" product (16 MB)
+
+
+# ------------------------------------------------------------------------------------------- helpers
+def natural_scale(problem) -> np.ndarray:
+    """Natural magnitude of every base parameter (nb,): ``|P|·s`` with ``s`` = per body M, M·L, M·L²
+    (:func:`pinid.physical.parameter_scale`, from the nominal parameters) and 1 for joint terms.
+    A problem may provide it directly as ``problem.natural_scale`` (sub-problems do)."""
+    given = getattr(problem, "natural_scale", None)
+    if given is not None:
+        return np.asarray(given, dtype=float)
+    from ..physical import parameter_scale
+
+    s = parameter_scale(problem.nominal, problem.nv, len(problem.terms))
+    return np.abs(problem.base.P) @ s
+
+
+def fitness_function(problem, kind: str = "sse"):
+    """The batch fitness ``f(X) -> (P,)`` of a population ``X (P, nb)`` on ``problem`` (see the module text)."""
+    if kind == "sse":
+        R, c, rho, scale = problem.compressed()
+        RT = np.ascontiguousarray(R.T)
+        rho2 = rho * rho
+
+        def sse(X: np.ndarray) -> np.ndarray:
+            E = (X * scale) @ RT - c
+            return 0.5 * (np.einsum("ij,ij->i", E, E) + rho2)
+
+        return sse
+    if kind == "sae":
+        W = np.ascontiguousarray(problem.W, dtype=float)
+        tau = np.asarray(problem.tau, dtype=float)
+        w = np.asarray(problem.weights, dtype=float) if problem.weights is not None else None
+        sw = None if w is None or np.all(w == 1.0) else np.sqrt(w)
+        rows = len(tau)
+
+        def sae(X: np.ndarray) -> np.ndarray:
+            P = len(X)
+            out = np.zeros(P)
+            XT = np.ascontiguousarray(X.T)
+            step = max(1, _CHUNK_ELEMENTS // max(P, 1))
+            for start in range(0, rows, step):
+                stop = min(rows, start + step)
+                E = W[start:stop] @ XT
+                E -= tau[start:stop, None]
+                np.abs(E, out=E)
+                out += (sw[start:stop] @ E) if sw is not None else E.sum(axis=0)
+            return out
+
+        return sae
+    raise SpecError(f"fitness {kind!r}, expected one of {', '.join(FITNESS)}")
+
+
+def training_costs(problem, x: np.ndarray) -> dict:
+    """``{"sse": ½Σw·r², "sae": Σ√w·|r|}`` of base parameters ``x`` on the problem's rows."""
+    r = np.asarray(problem.tau) - np.asarray(problem.W) @ np.asarray(x, dtype=float)
+    w = np.asarray(problem.weights, dtype=float) if problem.weights is not None else np.ones(len(r))
+    return {"sse": float(0.5 * np.sum(w * r * r)), "sae": float(np.sum(np.sqrt(w) * np.abs(r)))}
+
+
+def least_squares(problem) -> np.ndarray:
+    """The (weighted) least-squares base parameters of the problem: the global minimum of "sse"."""
+    return solve_r(*[problem.compressed()[i] for i in (0, 1, 3)])
+
+
+def least_absolute_deviations(problem, iterations: int = 200, tol: float = 1e-12) -> np.ndarray:
+    """Least-absolute-deviations base parameters, ``argmin Σ √w·|τ − W x|`` — the global minimum of "sae" —
+    by iteratively reweighted least squares from the least-squares solution (weights
+    ``√w / max(|r|, 1e-9·RMS(r))``; the cost is convex, so this converges to its minimum)."""
+    from .base import weighted_lstsq
+
+    W, tau = np.asarray(problem.W), np.asarray(problem.tau)
+    sw = np.sqrt(np.asarray(problem.weights, float)) if problem.weights is not None else np.ones(len(tau))
+    x = least_squares(problem)
+    cost = float(np.sum(sw * np.abs(tau - W @ x)))
+    for _ in range(iterations):
+        r = tau - W @ x
+        eps = 1e-9 * max(float(np.sqrt(np.mean(r * r))), 1e-300)
+        x_new = weighted_lstsq(W, tau, sw / np.maximum(np.abs(r), eps))
+        new = float(np.sum(sw * np.abs(tau - W @ x_new)))
+        if new > cost:
+            break
+        done = cost - new <= tol * max(cost, 1e-300)
+        x, cost = x_new, new
+        if done:
+            break
+    return x
+
+
+def nominal_box(problem, width: float = 1.0, floor: float = 0.5) -> tuple[np.ndarray, np.ndarray]:
+    """``x_nom ± max(width·|x_nom|, floor·s)`` (see the module text)."""
+    if not width >= 0 or not floor >= 0 or (width == 0 and floor == 0):
+        raise SpecError(f"box_width {width!r} and box_floor {floor!r}: expected ≥ 0, not both 0")
+    x = np.asarray(problem.nominal_base, dtype=float)
+    half = np.maximum(width * np.abs(x), floor * natural_scale(problem))
+    half = np.maximum(half, 1e-9 * np.maximum(natural_scale(problem), 1e-300))
+    return x - half, x + half
+
+
+def search_box(problem, box="nominal", *, width: float = 1.0, floor: float = 0.5, rls: dict | None = None):
+    """``(lower, upper, info)``: the search box the settings describe (module text)."""
+    nb = problem.nb
+    names = list(problem.names)
+    info: dict = {}
+    if isinstance(box, str):
+        kind = box.lower()
+        if kind == "nominal":
+            lower, upper = nominal_box(problem, width, floor)
+        elif kind == "rls":
+            from .rls import RLS
+
+            est = RLS(**dict(rls or {})).fit(problem)
+            lower, upper = est.box_
+            info["rls"] = {"final": dict(zip(names, map(float, est.base_))), "burn_in_rows": est.info_["burn_in_rows"],
+                           "forgetting": est.info_["forgetting"]}
+        elif kind == "ls":
+            from ..identification import base_statistics
+
+            x = least_squares(problem)
+            if hasattr(problem, "base"):
+                std = base_statistics(problem, x)[0]
+            else:
+                r = problem.tau - problem.W @ x
+                R, _, _, scale = problem.compressed()
+                sigma2 = float(r @ r) / max(len(r) - nb, 1)
+                Rinv = np.linalg.inv(R)
+                std = np.sqrt(sigma2 * np.sum(Rinv**2, axis=1)) / scale
+            half = np.maximum(10.0 * max(width, 1e-12) * std, 1e-9 * natural_scale(problem))
+            lower, upper = x - half, x + half
+        else:
+            raise SpecError(f"box {box!r}, expected 'nominal', 'rls', 'ls', (lower, upper) or {{name: (lo, hi)}}")
+        info["kind"] = kind
+    elif isinstance(box, dict):
+        lower, upper = nominal_box(problem, width, floor)
+        for name, (lo, hi) in box.items():
+            if name not in names:
+                raise SpecError(f"box: unknown base parameter {name!r} (base parameters: {', '.join(names)})")
+            i = names.index(name)
+            lower[i], upper[i] = float(lo), float(hi)
+        info["kind"] = "nominal with overrides"
+    else:
+        try:
+            lower, upper = (np.asarray(b, dtype=float).reshape(-1) for b in box)
+        except (TypeError, ValueError):
+            raise SpecError(f"box {box!r}: expected 'nominal', 'rls', 'ls', (lower, upper) arrays or a dict") from None
+        if lower.shape != (nb,) or upper.shape != (nb,):
+            raise SpecError(f"box: lower and upper with {lower.size} and {upper.size} values, expected {nb} each")
+        info["kind"] = "given"
+    lower, upper = np.asarray(lower, float).copy(), np.asarray(upper, float).copy()
+    if np.any(~np.isfinite(lower)) or np.any(~np.isfinite(upper)) or np.any(lower > upper):
+        raise SpecError("box: expected finite bounds with lower ≤ upper")
+    # a degenerate dimension (an RLS range of zero width) gets a sliver, so the optimiser can move
+    tiny = 1e-9 * np.maximum(natural_scale(problem), 1e-300)
+    thin = upper - lower < tiny
+    lower[thin] -= tiny[thin] / 2
+    upper[thin] += tiny[thin] / 2
+    info["lower"] = dict(zip(names, map(float, lower)))
+    info["upper"] = dict(zip(names, map(float, upper)))
+    return lower, upper, info
+
+
+# ------------------------------------------------------------------------------------------- estimators
+class Metaheuristic(Estimator):
+    """Base class: a population optimiser searching the base parameters in a box (module text).
+
+    Subclasses set ``name``, ``description``, ``optimizer`` (a key of :data:`pinid.optimizers.OPTIMIZERS`)
+    and ``default_box``.
+    """
+
+    optimizer: str = ""
+    default_box = "nominal"
+
+    def __init__(self, population: int = 100, iterations: int = 200, fitness: str = "sse", box=None,
+                 box_width: float = 1.0, box_floor: float = 0.5, seed: int = 0, tol: float | None = None,
+                 options: dict | None = None, rls: dict | None = None, x0=None, progress: bool | None = None) -> None:
+        self.population = population
+        self.iterations = iterations
+        self.fitness = fitness
+        self.box = box
+        self.box_width = box_width
+        self.box_floor = box_floor
+        self.seed = seed
+        self.tol = tol
+        self.options = options
+        self.rls = rls
+        self.x0 = x0
+        self.progress = progress
+
+    def fit(self, problem) -> "Metaheuristic":
+        from ..optimizers import get_optimizer
+
+        if self.fitness not in FITNESS:
+            raise SpecError(f"{self.name}: fitness {self.fitness!r}, expected one of {', '.join(FITNESS)}")
+        box = self.default_box if self.box is None else self.box
+        lower, upper, box_info = search_box(problem, box, width=self.box_width, floor=self.box_floor, rls=self.rls)
+        opt = get_optimizer(self.optimizer, population=int(self.population), iterations=int(self.iterations),
+                            **dict(self.options or {}))
+        f = fitness_function(problem, self.fitness)
+        path: list[np.ndarray] = []
+        tol = self.tol
+
+        def callback(it, x, fbest):
+            path.append(x)
+            return tol is not None and fbest < tol
+
+        x0 = None
+        if self.x0 is not None:
+            if isinstance(self.x0, str):
+                if self.x0 != "nominal":
+                    raise SpecError(f"{self.name}: x0 {self.x0!r}, expected 'nominal' or {problem.nb} numbers")
+                x0 = np.asarray(problem.nominal_base, float)
+            else:
+                x0 = np.asarray(self.x0, float)
+        rng = np.random.default_rng(self.seed)
+        t0 = time.perf_counter()
+        res = opt.minimize(f, lower, upper, rng=rng, x0=x0, callback=callback, progress=self.progress)
+        seconds = time.perf_counter() - t0
+        x = np.asarray(res.x, float)
+        history = [float(h) for h in res.history]
+        # the best particle after every iteration (seed 000 Figs. 8, 11)
+        self.path_ = np.vstack(path) if path else x[None, :]
+        if self.tol is not None and res.message.startswith("stopped by callback"):
+            message = f"best fitness {res.fun:g} < tol {self.tol:g}"
+        else:
+            message = res.message
+        x_ls = least_squares(problem)
+        costs = training_costs(problem, x)
+        ls_costs = training_costs(problem, x_ls)
+        best = ls_costs["sse"] if self.fitness == "sse" else \
+            training_costs(problem, least_absolute_deviations(problem))["sae"]
+        self.base_ = x
+        self.box_ = (lower, upper)
+        self.standard_ = None
+        self.weights_ = None
+        self.history_ = history
+        self.status_ = "ok"
+        at_bound = [n for n, v, lo, hi in zip(problem.names, x, lower, upper)
+                    if min(v - lo, hi - v) <= 1e-6 * (hi - lo)]
+        self.info_ = {
+            "optimizer": self.optimizer, "optimizer_options": _plain(opt.options), "seed": self.seed,
+            "fitness": self.fitness, "fitness_value": float(res.fun), "ls_fitness": float(ls_costs[self.fitness]),
+            "min_fitness": float(best),
+            "train_costs": costs, "ls_train_costs": ls_costs, "nfev": int(res.nfev), "iterations": int(res.nit),
+            "message": message, "optimizer_seconds": seconds, "box": box_info, "at_bound": at_bound,
+        }
+        return self
+
+
+def _plain(options) -> dict:
+    import dataclasses
+
+    d = dataclasses.asdict(options) if dataclasses.is_dataclass(options) else dict(options)
+    return {k: (list(v) if isinstance(v, tuple) else v) for k, v in d.items()}
+
+
+class PSOEstimator(Metaheuristic):
+    """Particle swarm (seed 000 Eqs. (7)-(8)) in the nominal box (module text)."""
+
+    name = "pso"
+    description = "particle swarm optimisation (seed 000 Eqs. (7)-(8)) in a box around the URDF's values"
+    optimizer = "pso"
+
+
+class RLSPSO(Metaheuristic):
+    """Seed 000's RLS-PSO: particle swarm inside the box of a recursive least-squares run (§2.2, Fig. 4)."""
+
+    name = "rls-pso"
+    description = "particle swarm inside the range of a recursive least-squares run (seed 000 RLS-PSO)"
+    optimizer = "pso"
+    default_box = "rls"
+
+
+class WOAEstimator(Metaheuristic):
+    """Whale optimisation (seed 001 Eqs. (14)-(17)) in the nominal box."""
+
+    name = "woa"
+    description = "whale optimisation (seed 001 Eqs. (14)-(17)) in a box around the URDF's values"
+    optimizer = "woa"
+
+
+class EWOAEstimator(Metaheuristic):
+    """Seed 001's enhanced whale optimisation (WOA + differential mutation, Eq. (18)) in the nominal box."""
+
+    name = "ewoa"
+    description = "enhanced whale optimisation (seed 001 Eqs. (14)-(18)) in a box around the URDF's values"
+    optimizer = "ewoa"
+
+
+class DEEstimator(Metaheuristic):
+    """scipy's differential evolution (vectorised) in the nominal box: an off-the-shelf reference."""
+
+    name = "de"
+    description = "scipy differential evolution in a box around the URDF's values (reference)"
+    optimizer = "de"

@@ -1,0 +1,182 @@
+"""`pinid compare` and pinid.compare: the same data for every method, several seeds, honest measures."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from pinid.compare import DETERMINISTIC, Comparison, compare, lad
+from pinid.errors import SpecError
+from pinid.estimators.metaheuristic import training_costs
+from pinid.identification import IdentificationProblem
+from pinid.simulate import perturb
+
+from conftest import assert_clean_error, run_cli
+from test_identification import true_base, truth_model, twin
+from test_segmental import hip_fixed
+
+SMALL = {"population": 20, "iterations": 25}
+
+
+@pytest.fixture(scope="module")
+def setting():
+    truth = truth_model("exo_leg")
+    cad = perturb(truth, 20, np.random.default_rng(3))  # the nominal model: not the truth
+    train = twin(truth, seconds=20, rate=100, seed=1, noise=0.5)
+    valid = twin(truth, seconds=10, rate=100, seed=2, noise=0.5)
+    return truth, cad, train, valid
+
+
+@pytest.fixture(scope="module")
+def comparison(setting):
+    truth, cad, train, valid = setting
+    _, xt = true_base(truth)
+    return compare(cad, train, valid, methods=["ols", "sdp", "rls", "pso", "rls-pso", "woa", "ewoa", "de"],
+                   seeds=2, truth=xt, metaheuristic=SMALL)
+
+
+def test_runs_deterministic_methods_once_and_metaheuristics_per_seed(comparison):
+    assert comparison.seeds == [0, 1]
+    for m, runs in comparison.runs.items():
+        if m in DETERMINISTIC:
+            assert [r.seed for r in runs] == [None]
+        else:
+            assert [r.seed for r in runs] == [0, 1]
+            assert not np.array_equal(runs[0].base, runs[1].base)
+            assert len(runs[0].history) == SMALL["iterations"] + 1
+    s = comparison.summary()
+    assert s["pso"]["runs"] == 2 and s["ols"]["seconds"][1] == 0.0
+
+
+def test_least_squares_wins_the_training_cost_it_minimises(comparison):
+    ref = comparison.reference["main"]
+    ols = comparison.runs["ols"][0].costs["sse"]
+    assert ols == pytest.approx(ref["sse"], rel=1e-9)
+    for m, runs in comparison.runs.items():
+        for r in runs:
+            assert r.costs["sse"] >= ref["sse"] * (1 - 1e-9), m
+            assert r.costs["sae"] >= ref["sae"] * (1 - 1e-9), m  # nothing below the LAD minimum either
+
+
+def test_validation_truth_errors_and_tables(comparison, setting):
+    truth, *_ = setting
+    r = comparison.runs["ols"][0]
+    assert set(r.validation) == {"validation"}
+    v = r.validation["validation"]
+    assert set(v["per_joint"]) == {"hip", "knee"} and v["all"]["mean_abs"] > 0
+    assert set(r.parameter_error) == set(comparison.base_names)
+    assert max(r.parameter_error.values()) < 50  # LS on a well-excited twin
+    np.testing.assert_allclose(comparison.truth, true_base(truth)[1])
+    assert not np.allclose(comparison.nominal, comparison.truth)  # the box is built around the CAD model
+    table = comparison.table()
+    for m in comparison.runs:
+        assert f"\n{m} " in table
+    assert "above min %" in table and "param err max %" in table
+    values = comparison.values_table()
+    assert "truth" in values and "hip.mzR" in values
+
+
+def test_save_load_roundtrip(comparison, tmp_path):
+    path = comparison.save(tmp_path / "c.json")
+    back = Comparison.load(path)
+    assert back.to_dict() == comparison.to_dict()
+    assert back.table() == comparison.table()
+    d = json.loads(path.read_text())
+    assert d["summary"]["pso"]["runs"] == 2 and "urdf_text" in d["robot"]
+    (tmp_path / "bad.json").write_text("{}")
+    with pytest.raises(SpecError, match="not a comparison file"):
+        Comparison.load(tmp_path / "bad.json")
+
+
+def test_figures(comparison):
+    from pinid.plots.compare import comparison_figures
+
+    figs = comparison_figures(comparison)
+    assert set(figs) == {"compare_convergence.png", "compare_errors_validation.png", "compare_parameters.png"}
+    import matplotlib.pyplot as plt
+
+    for f in figs.values():
+        plt.close(f)
+
+
+def test_lad_is_the_minimum_of_the_absolute_error(setting):
+    truth, cad, train, _ = setting
+    p = IdentificationProblem.from_datasets(cad, train)
+    x = lad(p)
+    best = training_costs(p, x)["sae"]
+    rng = np.random.default_rng(0)
+    for _ in range(20):
+        assert training_costs(p, x + rng.normal(size=x.size) * 1e-3 * np.abs(x))["sae"] >= best
+
+
+def test_segmental_comparison_and_truth_from_a_truth_dict(setting):
+    truth, cad, train, valid = setting
+    bp, xt = true_base(truth)
+    c = compare(cad, train, {"both": valid, "knee only": hip_fixed(truth, seed=4)}, methods=["ols", "sdp", "pso"],
+                seeds=[7], truth={"base": {"names": bp.names, "values": xt.tolist()}},
+                segmental={"first": hip_fixed(truth, seed=3, noise=0.2)}, metaheuristic=SMALL)
+    assert c.segmental["first_joints"] == ["knee"] and set(c.validation_sources) == {"both", "knee only"}
+    assert c.runs["pso"][0].seed == 7 and c.runs["pso"][0].history_first
+    assert c.runs["sdp"][0].physically_consistent
+    assert "first" in c.reference
+    from pinid.plots.compare import comparison_figures
+
+    assert "compare_convergence_first.png" in comparison_figures(c)
+
+
+def test_errors(setting):
+    truth, cad, train, valid = setting
+    with pytest.raises(SpecError, match="unknown method"):
+        compare(cad, train, methods="ols,magic")
+    with pytest.raises(SpecError, match="not run"):
+        compare(cad, train, methods="ols", options={"pso": {}})
+    with pytest.raises(SpecError, match="truth"):
+        compare(cad, train, methods="ols", truth=[1.0, 2.0])
+    with pytest.raises(SpecError, match="seeds"):
+        compare(cad, train, methods="pso", seeds=[])
+
+
+def test_cli_compare(tmp_path, setting):
+    from pinid.data import write_recording
+
+    truth, cad, train, valid = setting
+    write_recording(tmp_path / "train.csv", train)
+    write_recording(tmp_path / "valid.csv", valid)
+    out = tmp_path / "out"
+    proc = run_cli("compare", "--urdf", "exo_leg", "--data", str(tmp_path / "train.csv"), "--validate",
+                   str(tmp_path / "valid.csv"), "--methods", "ols,pso,ewoa", "--seeds", "2", "--population", "15",
+                   "--iterations", "10", "--fitness", "sae", "-o", str(out), "--preprocess", "never")
+    assert proc.returncode == 0, proc.stderr
+    assert "above min %" in proc.stdout
+    d = json.loads((out / "comparison.json").read_text())
+    assert d["methods"] == ["ols", "pso", "ewoa"] and len(d["runs"]["pso"]) == 2
+    assert d["runs"]["pso"][0]["info"]["fitness"] == "sae"
+    for name in ("comparison.md", "compare_convergence.png", "compare_errors_validation.png"):
+        assert (out / name).is_file(), name
+    proc = run_cli("compare", "--urdf", "exo_leg", "--data", str(tmp_path / "train.csv"), "--methods", "ols,magic",
+                   "-o", str(tmp_path / "o2"))
+    assert_clean_error(proc, "magic")
+    proc = run_cli("compare", "--urdf", "exo_leg", "--data", str(tmp_path / "train.csv"), "--first-validate",
+                   str(tmp_path / "valid.csv"), "-o", str(tmp_path / "o3"))
+    assert_clean_error(proc, "--first-data")
+    assert not (tmp_path / "o2").exists() or not any((tmp_path / "o2").iterdir())
+
+
+def test_cli_compare_does_not_replace_files_without_force(tmp_path, setting):
+    from pinid.data import write_recording
+
+    truth, cad, train, valid = setting
+    write_recording(tmp_path / "train.csv", train)
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "compare_convergence.png").write_text("old")
+    args = ["compare", "--urdf", "exo_leg", "--data", str(tmp_path / "train.csv"), "--methods", "ols,pso",
+            "--seeds", "1", "--population", "10", "--iterations", "5", "-o", str(out)]
+    proc = run_cli(*args)
+    assert_clean_error(proc, "compare_convergence.png", "--force")
+    assert sorted(p.name for p in out.iterdir()) == ["compare_convergence.png"]
+    proc = run_cli(*args, "--force")
+    assert proc.returncode == 0, proc.stderr
+    assert (out / "comparison.json").is_file() and (out / "compare_convergence.png").read_bytes()[:4] == b"\x89PNG"
