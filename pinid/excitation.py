@@ -312,7 +312,15 @@ def load_spec(path: str | os.PathLike, model: RobotModel) -> ExcitationSpec:
         raise SpecError(f"{p}: not valid {kind} ({str(exc).splitlines()[0]})") from None
     if not isinstance(data, dict):
         raise SpecError(f"{p}: expected a table of settings at the top level")
-    return spec_from_dict(data, model, source=str(p))
+    return spec_from_dict(data, model, source=_display_path(p))
+
+
+def _display_path(p: Path) -> str:
+    """``p`` relative to the working directory when it lies below it, so saved files carry no machine paths."""
+    try:
+        return str(p.resolve().relative_to(Path.cwd().resolve()))
+    except ValueError:
+        return str(p)
 
 
 def spec_from_dict(data: dict, model: RobotModel, *, source: str = "<spec>") -> ExcitationSpec:
@@ -583,7 +591,8 @@ class DesignProblem:
         self.check_times = sample_times(spec.period, check_samples or max(2 * spec.samples, 40 * N))
         self._basis_design, self._basis_check = self._basis_at(self.times), self._basis_at(self.check_times)
         self.theta = standard_parameters(model, spec.terms) if spec.has_torque_limits else None
-        self.nfev = 0
+        self.nfev = 0  # criterion values computed (a value with its gradient counts once)
+        self.regressor_samples = 0  # samples whose regressor was computed: the cost of the design
 
     # ------------------------------------------------------------------ variables
     def _basis_at(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -703,6 +712,7 @@ class DesignProblem:
         W = regressor(self.model, q.reshape(-1, nv), _clean_rest(dq.reshape(-1, nv)), ddq.reshape(-1, nv),
                       self.spec.terms)
         self.nfev += P
+        self.regressor_samples += P * n
         return W, self.base.columns(W).reshape(P, n * nv, -1)
 
     def evaluate(self, X: np.ndarray, *, torque: bool = False):
@@ -743,7 +753,8 @@ class DesignProblem:
             DQ[1 + nv + j, :, j] += h
             DDQ[1 + 2 * nv + j, :, j] += h
         W = regressor(self.model, Q.reshape(-1, nv), DQ.reshape(-1, nv), DDQ.reshape(-1, nv), self.spec.terms)
-        self.nfev += 1 + self.d
+        self.nfev += 1
+        self.regressor_samples += k * n
         W = W.reshape(k, n, nv, -1)
         D = (W[1:] - W[0]) / h  # (3nv, n, nv, p): d(row of sample s)/d(state)
         ni, names = 10 * nv, self.spec.terms.names
@@ -1054,8 +1065,10 @@ def _design(model, spec, optimizer, options, seed, progress, x0) -> ExcitationRe
     x, traj = _final_repair(problem, x)
     ev = evaluate_trajectory(model, traj, spec, base=problem.base)
     seconds = time.perf_counter() - start
-    details = {"robot": model.name, "urdf": str(model.urdf_path) if model.urdf_path else None, **extra}
-    nfev = problem.nfev + int(extra.get("search_nfev", 0))
+    nfev = problem.nfev + int(extra.pop("search_nfev", 0))
+    samples = problem.regressor_samples + int(extra.pop("search_regressor_samples", 0))
+    details = {"robot": model.name, "urdf": str(model.urdf_path) if model.urdf_path else None,
+               "regressor_samples": samples, **extra}
     return ExcitationResult(traj, spec, ev["condition_number"], ev["log_det"], ev["extremes"], ev["usage"],
                             ev["feasible"], name, used_options, seed, seconds, np.asarray(history, float),
                             nfev, ev["tau_abs_max"], details)
@@ -1175,6 +1188,7 @@ def _multistart(problem: DesignProblem, opts: MultistartOptions, rng: np.random.
     if best_x is None:
         best_x = problem.scale_into_limits(starts[:1])[0]
     return best_x, history, {"starts_run": len(found), "search_samples": ns, "search_nfev": search.nfev,
+                             "search_regressor_samples": search.regressor_samples,
                              "polished_values": polished}
 
 

@@ -202,7 +202,7 @@ def run(args: argparse.Namespace) -> int:
         raise SolverError(f"{name} found no trajectory within the limits (torque limits too tight?); nothing written")
     crit = "" if spec.criterion == "cond" else f", log det(WᵀW) {result.log_det:.6g} (criterion logdet)"
     print(f"condition number {result.condition_number:.6g}{crit} in {result.seconds:.1f} s "
-          f"({result.nfev} trajectories evaluated)")
+          f"({result.nfev} criterion evaluations, {result.details['regressor_samples']} regressor samples)")
     for line in _fmt_usage(spec, result.extremes, result.usage, result.trajectory.q0):
         say(line)
     _write_outputs(args, output, result.trajectory, spec, say, result.to_dict())
