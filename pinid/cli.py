@@ -68,8 +68,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     from .io import OVERWRITE
 
     OVERWRITE.set(bool(getattr(args, "force", False)))  # the CLI never replaces a file unless told to
+    from .blas import cli_blas_threads
+
     try:
-        return int(args._run(args) or 0)
+        with cli_blas_threads():  # one BLAS thread unless the user set a count (pinid/blas.py)
+            return int(args._run(args) or 0)
     except PinidError as exc:
         print(f"pinid {args.command}: error: {exc}", file=sys.stderr)
         return 2

@@ -54,7 +54,6 @@ number reported is then recomputed with :func:`condition_number` on the ``sample
 
 from __future__ import annotations
 
-import contextlib
 import json
 import math
 import os
@@ -65,6 +64,7 @@ from pathlib import Path
 import numpy as np
 
 from .base import BaseParameters, base_parameters
+from .blas import single_threaded_blas
 from .errors import SpecError
 from .model import RobotModel
 from .regressor import JointTerms, regressor, standard_parameters
@@ -952,67 +952,6 @@ def _final_repair(problem: DesignProblem, x: np.ndarray) -> tuple[np.ndarray, Fo
 
 
 # ====================================================================================== design
-@contextlib.contextmanager
-def single_threaded_blas():
-    """Run the block with one BLAS thread (threadpoolctl if installed, else OpenBLAS's own setter via ctypes;
-    a no-op where neither works), restoring the previous setting afterwards."""
-    import scipy.optimize  # noqa: F401 - load scipy's OpenBLAS too, so that it is limited as well
-
-    try:
-        from threadpoolctl import threadpool_limits  # type: ignore
-    except ImportError:
-        threadpool_limits = None
-    if threadpool_limits is not None:
-        with threadpool_limits(1, user_api="blas"):
-            yield
-        return
-    handles = _openblas_handles()
-    previous = []
-    for setter, getter in handles:
-        try:
-            previous.append(int(getter()))
-            setter(1)
-        except Exception:  # noqa: BLE001 - best effort only
-            previous.append(None)
-    try:
-        yield
-    finally:
-        for (setter, _), n in zip(handles, previous):
-            if n:
-                try:
-                    setter(n)
-                except Exception:  # noqa: BLE001
-                    pass
-
-
-def _openblas_handles() -> list:
-    """(set_num_threads, get_num_threads) of every OpenBLAS library loaded in this process (Linux)."""
-    import ctypes
-
-    try:
-        with open("/proc/self/maps", encoding="utf-8") as f:
-            paths = sorted({line.split()[-1] for line in f if "openblas" in line.lower() and ".so" in line})
-    except OSError:
-        return []
-    names = [("scipy_openblas_set_num_threads64_", "scipy_openblas_get_num_threads64_"),
-             ("scipy_openblas_set_num_threads", "scipy_openblas_get_num_threads"),
-             ("openblas_set_num_threads64_", "openblas_get_num_threads64_"),
-             ("openblas_set_num_threads", "openblas_get_num_threads")]
-    out = []
-    for path in paths:
-        try:
-            lib = ctypes.CDLL(path)
-        except OSError:
-            continue
-        for set_name, get_name in names:
-            if hasattr(lib, set_name) and hasattr(lib, get_name):
-                setter, getter = getattr(lib, set_name), getattr(lib, get_name)
-                setter.argtypes, setter.restype, getter.restype = [ctypes.c_int], None, ctypes.c_int
-                out.append((setter, getter))
-                break
-    return out
-
-
 def design_excitation(
     model: RobotModel,
     spec: ExcitationSpec | None = None,

@@ -12,10 +12,23 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 import functools
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
 from pinid import RobotModel
+
+
+def shared_data() -> Path:
+    """The project's shared recordings: ``$PINID_SHARED_DATA``, else ``../shared/data`` beside the clone,
+    else ``/work/shared/data`` (where a clone elsewhere on the project's machine finds them).  Tests that
+    need them skip when none exists."""
+    candidates = [os.environ.get("PINID_SHARED_DATA"), Path(__file__).resolve().parents[2] / "shared" / "data",
+                  "/work/shared/data"]
+    for c in candidates:
+        if c and (Path(c) / "double_pendulum").is_dir():
+            return Path(c)
+    return Path(candidates[1])
 
 
 @functools.lru_cache(maxsize=None)

@@ -206,7 +206,10 @@ def test_interrupted_run_leaves_nothing(tmp_path):
     out = tmp_path / "long.csv"
     proc = subprocess.Popen([sys.executable, "-m", "pinid.cli", "simulate", "--excitation", "seed000-1", "--urdf",
                              "apal_leg", "--seconds", "600", "-o", str(out)],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            # a test runner started in the background inherits SIGINT ignored, and Python
+                            # then installs no KeyboardInterrupt handler: give the child the default back
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     time.sleep(4.0)
     proc.send_signal(signal.SIGINT)
     _, err = proc.communicate(timeout=60)

@@ -19,9 +19,9 @@ from pinid.errors import DataError, SpecError
 from pinid.identification import (Identification, IdentificationProblem, IdentificationResult, identify,
                                   rest_thresholds)
 
-from conftest import assert_clean_error, load, run_cli
+from conftest import assert_clean_error, load, run_cli, shared_data
 
-SHARED = Path(__file__).resolve().parents[2] / "shared" / "data"
+SHARED = shared_data()
 FRICTION = {"fc": 0.4, "fv": 0.2}
 
 

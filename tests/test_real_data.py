@@ -14,11 +14,13 @@ import pytest
 
 from pinid import RobotModel, base_parameters, regressor, standard_parameters
 from pinid.data import read_recording
-from pinid.errors import DataError, ModelError
+from pinid.errors import DataError
 from pinid.preprocess import prepare
 
+from conftest import shared_data
+
 ROOT = Path(__file__).resolve().parents[1]
-DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "double_pendulum"
+DATA = shared_data() / "double_pendulum"
 SPEC = ROOT / "docs" / "examples" / "double_pendulum.toml"
 GOOD = ["00", "01", "02", "03", "11", "12", "13"]
 SPINNING = ["04", "05"]  # the elbow turns more than a full turn: beyond the URDF's ±π
@@ -28,17 +30,9 @@ pytestmark = pytest.mark.skipif(not (DATA / "trajectory_00.csv").is_file(),
 
 
 @pytest.fixture(scope="module")
-def model(tmp_path_factory) -> RobotModel:
-    urdf = DATA / "double_pendulum.urdf"
-    try:
-        return RobotModel.from_urdf(urdf)
-    except ModelError:
-        # The rig's URDF welds base_link to a parent link "world" it never declares; urdfdom refuses that.
-        # Declare it (a copy in a temporary folder; the shared file stays untouched).
-        text = urdf.read_text().replace('name="double_pendulum">', 'name="double_pendulum">\n  <link name="world"/>', 1)
-        fixed = tmp_path_factory.mktemp("dp") / "double_pendulum.urdf"
-        fixed.write_text(text)
-        return RobotModel.from_urdf(fixed)
+def model() -> RobotModel:
+    # The rig's URDF welds base_link to a parent link "world" it never declares: the loader declares it.
+    return RobotModel.from_urdf(DATA / "double_pendulum.urdf")
 
 
 def read(nn: str, model, **kw):

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..estimators import ESTIMATORS
 from . import add_robot_arguments, add_terms_argument, robot_from_args, terms_from_args
 
 HELP = "identify dynamic parameters from recordings (OLS, WLS, physically consistent LMI), validate, export"
@@ -42,7 +43,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="training recording (CSV); repeat for several")
     p.add_argument("--validate", action="append", default=[], metavar="FILE",
                    help="validation recording (a different trajectory); repeatable")
-    p.add_argument("--methods", default="ols,wls,sdp", help="comma-separated methods; default ols,wls,sdp")
+    p.add_argument("--methods", default="ols,wls,sdp", help="comma-separated methods of the estimator registry: ols, wls, sdp, rls, pso, rls-pso, woa, ewoa, de (default ols,wls,sdp)")
     p.add_argument("--mapping", default=None, metavar="SPEC", help="TOML mapping of the recordings' columns to joints")
     p.add_argument("-o", "--output", default="results", metavar="FOLDER", help="output folder; default results/")
     g = p.add_argument_group("preprocessing (defaults chosen from the sample rate)")
@@ -161,6 +162,9 @@ def run(args: argparse.Namespace) -> int:
     methods = [m.strip().lower() for m in args.methods.split(",") if m.strip()]
     if not methods:
         raise SpecError("--methods: expected at least one method, e.g. ols,wls,sdp")
+    unknown = [m for m in methods if m not in ESTIMATORS]
+    if unknown:
+        raise SpecError(f"--methods: unknown method(s) {', '.join(unknown)}, expected some of {', '.join(ESTIMATORS)}")
     model = robot_from_args(args)
     terms = terms_from_args(args)
     print(f"identifying {model.name} ({', '.join(model.joint_names)}) with {', '.join(methods)}; "

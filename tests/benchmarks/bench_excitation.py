@@ -31,8 +31,8 @@ from pathlib import Path
 import numpy as np
 
 from pinid import RobotModel
-from pinid.excitation import (DesignProblem, design_excitation, evaluate_trajectory, limit_violations,
-                              single_threaded_blas, spec_for)
+from pinid.blas import single_threaded_blas
+from pinid.excitation import DesignProblem, design_excitation, evaluate_trajectory, limit_violations, spec_for
 from pinid.trajectory import FourierTrajectory
 
 ROOT = Path(__file__).resolve().parents[2]
