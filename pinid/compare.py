@@ -82,6 +82,7 @@ class Run:
     info: dict = field(default_factory=dict)
 
     def to_dict(self, names: list[str]) -> dict:
+        """Plain-JSON form, parameters named by ``names``."""
         return {
             "method": self.method, "seed": self.seed, "base": dict(zip(names, map(float, self.base))),
             "seconds": float(self.seconds), "train": self.train, "costs": self.costs, "validation": self.validation,
@@ -92,6 +93,7 @@ class Run:
 
     @classmethod
     def from_dict(cls, d: dict, names: list[str]) -> "Run":
+        """Rebuild from :meth:`to_dict`'s output."""
         return cls(d["method"], d["seed"], np.array([float(d["base"][n]) for n in names]), float(d["seconds"]),
                    d["train"], d["costs"], d["validation"], d.get("parameter_error_percent"), d.get("history"),
                    d.get("history_first"), bool(d["physically_consistent"]), d.get("standard_source", ""),
@@ -133,6 +135,7 @@ class Comparison:
     # ---------------------------------------------------------------- summaries
     @property
     def joints(self) -> list[str]:
+        """Names of the robot's joints."""
         return list(self.robot.get("joints", []))
 
     def summary(self) -> dict:
@@ -241,6 +244,7 @@ class Comparison:
 
     # ---------------------------------------------------------------- JSON
     def to_dict(self) -> dict:
+        """Plain-JSON form (``comparison.json``)."""
         from . import __version__
         from .identification import _clean
 
@@ -255,6 +259,7 @@ class Comparison:
 
     @classmethod
     def from_dict(cls, d: dict) -> "Comparison":
+        """Rebuild from :meth:`to_dict`'s output."""
         names = list(d["base_names"])
         nan = (lambda v: float("nan") if v is None else float(v))
         return cls(

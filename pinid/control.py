@@ -35,10 +35,14 @@ from .model import RobotModel
 class DynamicsModel(Protocol):
     """What a model-based controller needs from a model."""
 
-    def mass_matrix(self, q: np.ndarray) -> np.ndarray: ...
-    def coriolis(self, q: np.ndarray, dq: np.ndarray) -> np.ndarray: ...
-    def gravity(self, q: np.ndarray) -> np.ndarray: ...
-    def friction(self, dq: np.ndarray) -> np.ndarray: ...
+    def mass_matrix(self, q: np.ndarray) -> np.ndarray:
+        """Joint-space mass matrix M(q) (nv, nv) [kg·m²]."""
+    def coriolis(self, q: np.ndarray, dq: np.ndarray) -> np.ndarray:
+        """Coriolis matrix C(q, dq) (nv, nv) with C·dq the velocity torques [N·m]."""
+    def gravity(self, q: np.ndarray) -> np.ndarray:
+        """Gravity torque g(q) (nv,) [N·m]."""
+    def friction(self, dq: np.ndarray) -> np.ndarray:
+        """Friction torque f(dq) (nv,) [N·m]."""
 
 
 def nominal_model(robot: RobotModel, *, friction: bool = True):

@@ -171,6 +171,7 @@ class ExcitationSpec:
 
     @property
     def has_torque_limits(self) -> bool:
+        """True when any joint has a torque limit (then the design computes torques with the nominal URDF)."""
         return bool(np.any(np.isfinite(self.tau_max)))
 
     def replace(self, **changes) -> "ExcitationSpec":
@@ -883,6 +884,7 @@ class ExcitationResult:
 
     @property
     def criterion(self) -> str:
+        """The criterion minimised: ``cond`` (condition number) or ``logdet`` (D-optimal)."""
         return self.spec.criterion
 
     def to_dict(self) -> dict:

@@ -477,10 +477,12 @@ class FlexibleModel:
     # ------------------------------------------------------------------ description
     @property
     def joint_names(self) -> list[str]:
+        """Names of the joints, in model order."""
         return self.robot.joint_names
 
     @property
     def nv(self) -> int:
+        """Number of joints."""
         return self.robot.nv
 
     @property
@@ -490,6 +492,7 @@ class FlexibleModel:
 
     @property
     def ratios(self) -> np.ndarray:
+        """Reduction ratios r = motor angle / link angle, 1 for rigid joints."""
         return np.array([d.ratio for d in self.drives])
 
     def index(self, name: str) -> int:
@@ -509,6 +512,7 @@ class FlexibleModel:
                         f"(expected one of {', '.join(known)})")
 
     def value(self, name: str) -> float:
+        """A parameter by name ``<joint>.<K1|K2|C|Jm|…>`` [SI]."""
         return float(self.values[self.index(name)])
 
     def with_values(self, values: Mapping[str, float] | np.ndarray) -> "FlexibleModel":

@@ -569,6 +569,7 @@ class Identification:
 
     @classmethod
     def from_dict(cls, d: dict) -> "Identification":
+        """Rebuild from :meth:`to_dict`'s output (a loaded ``identification.json``)."""
         robot = d["robot"]
         results = {m: IdentificationResult.from_dict(r, robot=robot) for m, r in d["methods"].items()}
         return cls(robot, results, d.get("data") or {}, d.get("base") or {}, list(d.get("validation_sources") or []),

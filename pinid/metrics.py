@@ -53,6 +53,7 @@ class TorqueMetrics:
 
     @classmethod
     def from_dict(cls, d: dict) -> "TorqueMetrics":
+        """Rebuild from :meth:`to_dict`'s output."""
         unclean = (lambda m: {k: (float("nan") if v is None else float(v)) for k, v in m.items()})
         return cls({j: unclean(m) for j, m in d["per_joint"].items()}, unclean(d["all"]), int(d["samples"]))
 

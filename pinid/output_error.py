@@ -161,10 +161,12 @@ class FlexRecording:
 
     @property
     def n(self) -> int:
+        """Number of samples."""
         return len(self.t)
 
     @property
     def input_prefix(self) -> str:
+        """Column prefix of the input: ``T_`` (motor torque) or ``u_`` (voltage)."""
         return "T_" if self.input == "torque" else "V_"
 
     def reorder(self, joints: Sequence[str]) -> "FlexRecording":
@@ -297,6 +299,7 @@ class FlexSpec:
 
     @property
     def nominal(self) -> dict[str, float]:
+        """Starting values [SI]: the truth where the spec gives it, else the middle of each bound."""
         t = self.truth or {}
         return {n: t.get(n, 0.5 * (lo + hi)) for n, lo, hi in zip(self.free, self.lower, self.upper)}
 
@@ -314,6 +317,7 @@ class FlexSpec:
                        upper=self.upper[keep], truth=None if self.truth is None else drop(self.truth))
 
     def to_dict(self) -> dict:
+        """Plain-JSON form of the spec."""
         return {
             "source": self.source, "urdf": str(self.robot.urdf_path), "description": self.description,
             "drives": [{"joint": d.joint, "ratio": d.ratio, "flexible": d.flexible} for d in self.drives],
@@ -690,6 +694,7 @@ class OutputErrorProblem:
 
     @property
     def d(self) -> int:
+        """Number of fitted parameters."""
         return len(self.free)
 
     def full(self, X: np.ndarray) -> np.ndarray:
@@ -744,6 +749,7 @@ class OutputErrorProblem:
         return np.concatenate(parts, axis=2) - self.measured[None]
 
     def cost_of_errors(self, e: np.ndarray) -> np.ndarray:
+        """The cost of angle errors ``e`` (P, samples, channels) [rad]: Σ|e| (seed 003 Eq. (15)) or Σe²; inf where not finite."""
         with np.errstate(all="ignore"):
             c = np.abs(e).sum(axis=(1, 2)) if self.cost_kind == "abs" else (e * e).sum(axis=(1, 2))
         return np.where(np.isfinite(c), c, np.inf)
@@ -753,6 +759,7 @@ class OutputErrorProblem:
         return self.cost_of_errors(self.errors(X))
 
     def cost(self, x) -> float:
+        """The cost of one parameter vector ``x``."""
         return float(self.cost_batch(np.atleast_2d(x))[0])
 
     def integrator_error(self, x, refine: int = 4) -> float:
@@ -806,10 +813,12 @@ class OutputErrorResult:
 
     @property
     def values(self) -> dict[str, float]:
+        """Fitted values by name [SI]."""
         return {n: float(v) for n, v in zip(self.names, self.x)}
 
     @property
     def rel_error(self) -> dict[str, float] | None:
+        """Relative error against the truth [%] per parameter, None without a truth."""
         if not self.truth:
             return None
         out = {}
@@ -825,6 +834,7 @@ class OutputErrorResult:
         return float(np.sqrt(np.mean([m["rms"] ** 2 for m in self.metrics.values()])))
 
     def to_dict(self) -> dict:
+        """Plain-JSON form (the file ``pinid flex fit`` writes)."""
         return _jsonable({
             "method": self.method, "model": self.model_kind, "cost_kind": self.cost_kind, "cost": self.cost,
             "values": self.values, "bounds": {n: [float(a), float(b)] for n, a, b in zip(self.names, self.lower, self.upper)},
@@ -834,12 +844,14 @@ class OutputErrorResult:
         })
 
     def save(self, path: str | os.PathLike) -> Path:
+        """Write :meth:`to_dict` as JSON (atomically)."""
         from .io import write_json
 
         return write_json(path, self.to_dict())
 
     @classmethod
     def from_dict(cls, d: dict) -> "OutputErrorResult":
+        """Rebuild from :meth:`to_dict`'s output."""
         names = list(d["values"])
         known = {"method", "model", "cost_kind", "cost", "values", "bounds", "truth", "rel_error", "metrics", "rms",
                  "history", "nfev", "seconds", "message", "step"}
@@ -850,6 +862,7 @@ class OutputErrorResult:
 
     @classmethod
     def load(cls, path: str | os.PathLike) -> "OutputErrorResult":
+        """Read a file written by :meth:`save`."""
         p = Path(path)
         try:
             return cls.from_dict(json.loads(p.read_text(encoding="utf-8")))

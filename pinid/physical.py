@@ -88,6 +88,7 @@ class BodyCheck:
 
     @property
     def consistent(self) -> bool:
+        """True when every check passed."""
         return self.relative >= -RTOL
 
 
@@ -112,6 +113,7 @@ class ConsistencyReport:
         return out
 
     def to_dict(self) -> dict:
+        """Plain-JSON form."""
         return {
             "consistent": self.consistent,
             "problems": self.problems,

@@ -74,14 +74,17 @@ class SubProblem:
 
     @property
     def nb(self) -> int:
+        """Number of base parameters."""
         return self.W.shape[1]
 
     @property
     def nv(self) -> int:
+        """Number of joints."""
         return self.model.nv
 
     @property
     def rows(self) -> int:
+        """Number of torque rows."""
         return len(self.tau)
 
     def compressed(self, weights: np.ndarray | None = None):
@@ -187,6 +190,7 @@ class SegmentalProblem:
 
     @property
     def names(self) -> list[str]:
+        """Names of the base parameters."""
         return list(self.base.names)
 
     def second_problem(self, x_first: np.ndarray) -> SubProblem:
@@ -237,6 +241,8 @@ class Segmental(Estimator):
         return {"method": self.method, "segmental": True, **dict(self.settings or {})}
 
     def fit(self, seg: SegmentalProblem) -> "Segmental":
+        """Identify the ``first_joints``' parameters on the ``first`` recordings, subtract their torque from the
+        ``second`` recordings, then identify the rest there (seed 000 §3.1); sets ``base_``."""
         from .estimators import make_estimator
 
         if not isinstance(seg, SegmentalProblem):

@@ -45,6 +45,7 @@ class Estimator:
     info_: dict
 
     def fit(self, problem) -> "Estimator":  # pragma: no cover - abstract
+        """Estimate the base parameters of ``problem`` (an :class:`~pinid.identification.IdentificationProblem`); set the fitted attributes (``base_`` …) and return ``self``."""
         raise NotImplementedError
 
     def get_params(self) -> dict:

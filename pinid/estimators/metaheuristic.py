@@ -247,6 +247,7 @@ class Metaheuristic(Estimator):
         self.progress = progress
 
     def fit(self, problem) -> "Metaheuristic":
+        """Search the box for the base parameters with the lowest fitness; sets ``base_``, ``history_``, ``path_``, ``box_``, ``info_``."""
         from ..optimizers import get_optimizer
 
         if self.fitness not in FITNESS:

@@ -21,6 +21,7 @@ class OLS(Estimator):
         pass
 
     def fit(self, problem) -> "OLS":
+        """Least squares on the base regressor; sets ``base_``."""
         R, c, rho, scale = problem.compressed()
         self.base_ = solve_r(R, c, scale)
         self.standard_ = None

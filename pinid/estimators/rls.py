@@ -81,6 +81,7 @@ class RLS(Estimator):
         return lam, skip
 
     def fit(self, problem) -> "RLS":
+        """Run the recursion over the problem's rows in order; sets ``base_``, ``history_`` and the search box ``box_``."""
         lam, skip = self._check(problem)
         W = np.asarray(problem.W, dtype=float)
         tau = np.asarray(problem.tau, dtype=float)

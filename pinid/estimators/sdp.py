@@ -65,6 +65,7 @@ class PhysicalLS(Estimator):
         self.solver_options = solver_options
 
     def fit(self, problem) -> "PhysicalLS":
+        """Solve the LMI-constrained least squares; sets ``base_``, ``standard_`` and the solver's ``status_``; SolverError if it fails."""
         import cvxpy as cp
 
         if self.weighting not in ("none", "joint"):

@@ -28,6 +28,7 @@ class WLS(Estimator):
         self.tol = tol
 
     def fit(self, problem) -> "WLS":
+        """OLS, then least squares with each joint's rows weighted by 1/σ_j²; sets ``base_`` and ``sigma_`` [N·m]."""
         if int(self.iterations) < 1:
             raise ValueError(f"WLS: iterations={self.iterations}, expected ≥ 1")
         R, c, _, scale = problem.compressed()
