@@ -50,3 +50,57 @@ def terms_from_args(args: argparse.Namespace) -> JointTerms:
         return JointTerms.from_names(args.terms)
     except ValueError as exc:
         raise SpecError(f"--terms: {exc}") from None
+
+
+def add_preprocessing_arguments(p: argparse.ArgumentParser) -> None:
+    """The preprocessing options of the commands that read recordings (identify, compare)."""
+    g = p.add_argument_group("preprocessing (defaults chosen from the sample rate)")
+    g.add_argument("--preprocess", choices=("auto", "always", "never"), default="auto",
+                   help="auto: only recordings without dq/ddq (default); always; never")
+    g.add_argument("--preset", default=None, help="preprocessing preset (seed000, seed001)")
+    g.add_argument("--cutoff", type=float, default=None, metavar="HZ", help="low-pass cut-off [Hz]")
+    g.add_argument("--order", type=int, default=None, help="filter order (default 4)")
+    g.add_argument("--differentiation", default=None, help="differentiation method (default savgol)")
+    g.add_argument("--no-measured-velocity", action="store_true",
+                   help="differentiate q even when the recording has measured velocities")
+    g.add_argument("--trim", type=float, default=None, metavar="SECONDS", help="seconds trimmed at each end")
+    g.add_argument("--decimate", type=int, default=None, metavar="N", help="keep every N-th sample after filtering")
+    g.add_argument("--rest-velocity", default="auto", metavar="V",
+                   help="rows with |dq| below V [rad/s] are left out (Coulomb friction); a number, one per joint "
+                        "(comma-separated), 0 to keep all, or auto (default: max(2%% of the joint's peak speed, "
+                        "3 × its velocity noise))")
+
+
+def preprocess_from_args(args: argparse.Namespace) -> dict | bool | None:
+    """The ``preprocess`` argument of :func:`pinid.identify` the preprocessing options describe."""
+    from ..errors import SpecError
+
+    opts = {}
+    for key in ("preset", "cutoff", "order", "differentiation", "trim", "decimate"):
+        value = getattr(args, key)
+        if value is not None:
+            opts[key] = value
+    if args.no_measured_velocity:
+        opts["use_measured_velocity"] = False
+    if args.preprocess == "never":
+        if opts:
+            raise SpecError("--preprocess never contradicts the preprocessing options given")
+        return False
+    if args.preprocess == "always" or opts:
+        return opts
+    return None
+
+
+def rest_velocity_from_args(text: str):
+    """The ``rest_velocity`` of :func:`pinid.identify` from the --rest-velocity option's text."""
+    from ..errors import SpecError
+
+    if text.strip().lower() == "auto":
+        return "auto"
+    try:
+        values = [float(x) for x in text.split(",") if x.strip()]
+    except ValueError:
+        raise SpecError(f"--rest-velocity {text!r}: expected auto, a number or comma-separated numbers [rad/s]") from None
+    if not values:
+        raise SpecError(f"--rest-velocity {text!r}: expected auto, a number or comma-separated numbers [rad/s]")
+    return values[0] if len(values) == 1 else values

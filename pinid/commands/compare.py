@@ -6,7 +6,8 @@ import argparse
 import sys
 from pathlib import Path
 
-from . import add_robot_arguments, add_terms_argument, robot_from_args, terms_from_args
+from . import (add_preprocessing_arguments, add_robot_arguments, add_terms_argument, preprocess_from_args,
+               rest_velocity_from_args, robot_from_args, terms_from_args)
 
 HELP = "compare estimators (LS, LMI, RLS, PSO, RLS-PSO, WOA, EWOA, DE) on the same data, several seeds"
 DESCRIPTION = """\
@@ -71,19 +72,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--first-joints", default="knee", help="joints identified first, comma-separated; default knee")
     g.add_argument("--first-validate", action="append", default=[], metavar="FILE",
                    help="validation recording of the first stage (reported as 'first-stage validation')")
-    g = p.add_argument_group("preprocessing (defaults chosen from the sample rate)")
-    g.add_argument("--preprocess", choices=("auto", "always", "never"), default="auto",
-                   help="auto: only recordings without dq/ddq (default); always; never")
-    g.add_argument("--preset", default=None, help="preprocessing preset (seed000, seed001)")
-    g.add_argument("--cutoff", type=float, default=None, metavar="HZ", help="low-pass cut-off [Hz]")
-    g.add_argument("--order", type=int, default=None, help="filter order (default 4)")
-    g.add_argument("--differentiation", default=None, help="differentiation method (default savgol)")
-    g.add_argument("--no-measured-velocity", action="store_true",
-                   help="differentiate q even when the recording has measured velocities")
-    g.add_argument("--trim", type=float, default=None, metavar="SECONDS", help="seconds trimmed at each end")
-    g.add_argument("--decimate", type=int, default=None, metavar="N", help="keep every N-th sample after filtering")
-    g.add_argument("--rest-velocity", default="auto", metavar="V",
-                   help="rows with |dq| below V [rad/s] are left out (Coulomb friction); default auto")
+    add_preprocessing_arguments(p)
 
 
 def _settings(args) -> tuple[dict, dict]:
@@ -103,7 +92,6 @@ def run(args: argparse.Namespace) -> int:
     from ..compare import compare
     from ..errors import SpecError
     from ..io import check_writable, write_text
-    from .identify import _preprocess_options, _rest_velocity
 
     out = Path(args.output)
     check_writable(out / "comparison.json")
@@ -134,7 +122,7 @@ def run(args: argparse.Namespace) -> int:
           + ("; segmental" if segmental else ""))
     comp = compare(model, args.data, validate or None, methods=methods, seeds=args.seeds, truth=args.truth,
                    terms=terms, options=options, metaheuristic=meta, segmental=segmental, mapping=args.mapping,
-                   preprocess=_preprocess_options(args), rest_velocity=_rest_velocity(args.rest_velocity),
+                   preprocess=preprocess_from_args(args), rest_velocity=rest_velocity_from_args(args.rest_velocity),
                    show_progress=None)
     table, values = comp.table(), comp.values_table()
     print(table)

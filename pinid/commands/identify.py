@@ -8,7 +8,8 @@ from pathlib import Path
 import numpy as np
 
 from ..estimators import ESTIMATORS
-from . import add_robot_arguments, add_terms_argument, robot_from_args, terms_from_args
+from . import (add_preprocessing_arguments, add_robot_arguments, add_terms_argument, preprocess_from_args,
+               rest_velocity_from_args, robot_from_args, terms_from_args)
 
 HELP = "identify dynamic parameters from recordings (OLS, WLS, physically consistent LMI), validate, export"
 DESCRIPTION = """\
@@ -46,22 +47,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--methods", default="ols,wls,sdp", help="comma-separated methods of the estimator registry: ols, wls, sdp, rls, pso, rls-pso, woa, ewoa, de (default ols,wls,sdp)")
     p.add_argument("--mapping", default=None, metavar="SPEC", help="TOML mapping of the recordings' columns to joints")
     p.add_argument("-o", "--output", default="results", metavar="FOLDER", help="output folder; default results/")
-    g = p.add_argument_group("preprocessing (defaults chosen from the sample rate)")
-    g.add_argument("--preprocess", choices=("auto", "always", "never"), default="auto",
-                   help="auto: only recordings without dq/ddq (default); always; never")
-    g.add_argument("--preset", default=None, help="preprocessing preset (see pinid.preprocess)")
-    g.add_argument("--cutoff", type=float, default=None, metavar="HZ", help="low-pass cut-off [Hz]")
-    g.add_argument("--order", type=int, default=None, help="filter order (default 4)")
-    g.add_argument("--differentiation", default=None, help="differentiation method (default savgol)")
-    g.add_argument("--no-measured-velocity", action="store_true",
-                   help="differentiate q even when the recording has measured velocities")
-    g.add_argument("--trim", type=float, default=None, metavar="SECONDS", help="seconds trimmed at each end")
-    g.add_argument("--decimate", type=int, default=None, metavar="N", help="keep every N-th sample after filtering")
+    add_preprocessing_arguments(p)
     g = p.add_argument_group("estimation")
-    g.add_argument("--rest-velocity", default="auto", metavar="V",
-                   help="rows with |dq| below V [rad/s] are left out (Coulomb friction); a number, one per joint "
-                        "(comma-separated), 0 to keep all, or auto (default: max(2%% of the joint's peak speed, "
-                        "3 × its velocity noise))")
     g.add_argument("--regularization", type=float, default=None,
                    help="sdp: weight of the pull toward the URDF in unidentifiable directions (default 1e-3)")
     g.add_argument("--mass-bounds", default=None, metavar="LO,HI", help="sdp: bounds on every body's mass [kg]")
@@ -71,39 +58,6 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--force-export", action="store_true",
                    help="also write identified URDFs of physically inconsistent results")
     p.add_argument("--no-report", action="store_true", help="do not write report.md and the figures")
-
-
-def _preprocess_options(args) -> dict | bool | None:
-    opts = {}
-    for key in ("preset", "cutoff", "order", "differentiation", "trim", "decimate"):
-        value = getattr(args, key)
-        if value is not None:
-            opts[key] = value
-    if args.no_measured_velocity:
-        opts["use_measured_velocity"] = False
-    if args.preprocess == "never":
-        if opts:
-            from ..errors import SpecError
-
-            raise SpecError("--preprocess never contradicts the preprocessing options given")
-        return False
-    if args.preprocess == "always" or opts:
-        return opts
-    return None
-
-
-def _rest_velocity(text: str):
-    from ..errors import SpecError
-
-    if text.strip().lower() == "auto":
-        return "auto"
-    try:
-        values = [float(x) for x in text.split(",") if x.strip()]
-    except ValueError:
-        raise SpecError(f"--rest-velocity {text!r}: expected auto, a number or comma-separated numbers [rad/s]") from None
-    if not values:
-        raise SpecError(f"--rest-velocity {text!r}: expected auto, a number or comma-separated numbers [rad/s]")
-    return values[0] if len(values) == 1 else values
 
 
 def _options(args, methods) -> dict:
@@ -171,7 +125,7 @@ def run(args: argparse.Namespace) -> int:
           f"terms {', '.join(terms.names) or 'none'}")
     ident = identify(
         model, args.data, methods=methods, validate=args.validate or None, terms=terms, mapping=args.mapping,
-        preprocess=_preprocess_options(args), rest_velocity=_rest_velocity(args.rest_velocity),
+        preprocess=preprocess_from_args(args), rest_velocity=rest_velocity_from_args(args.rest_velocity),
         options=_options(args, methods), show_progress=None,
     )
     d = ident.data
