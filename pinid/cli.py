@@ -4,14 +4,18 @@
 * ``add_arguments(parser)`` and ``run(args) -> int``.
 
 Adding a subcommand is one file plus one entry in :data:`COMMANDS`.  Errors derived from
-:class:`~pinid.errors.PinidError` become one line on stderr and exit status 2, with no traceback.
+:class:`~pinid.errors.PinidError` (bad input) become one line on stderr and exit status 2, with no
+traceback; any other exception is a bug and becomes one line and exit status 1 (``PINID_DEBUG=1``
+re-raises it with its traceback).
 """
 
 from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import sys
+from pathlib import Path
 from typing import Sequence
 
 from .errors import PinidError
@@ -82,6 +86,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     except (OSError, MemoryError) as exc:
         print(f"pinid {args.command}: error: {exc}", file=sys.stderr)
         return 2
+    except Exception as exc:  # a bug, not bad input: still one line (status 1); PINID_DEBUG=1 shows the traceback
+        if os.environ.get("PINID_DEBUG"):
+            raise
+        where = exc.__traceback__
+        while where is not None and where.tb_next is not None:
+            where = where.tb_next
+        at = f" at {Path(where.tb_frame.f_code.co_filename).name}:{where.tb_lineno}" if where is not None else ""
+        print(f"pinid {args.command}: internal error: {type(exc).__name__}: {exc}{at} "
+              "(a bug: please report it; PINID_DEBUG=1 shows the traceback)", file=sys.stderr)
+        return 1
 
 
 if __name__ == "__main__":

@@ -246,9 +246,9 @@ class Comparison:
     def to_dict(self) -> dict:
         """Plain-JSON form (``comparison.json``)."""
         from . import __version__
-        from .identification import _clean
+        from .io import jsonable
 
-        return _clean({
+        return jsonable({
             "pinid_version": __version__, "robot": self.robot, "base_names": self.base_names,
             "nominal": self.nominal.tolist(), "truth": None if self.truth is None else self.truth.tolist(),
             "methods": self.methods, "seeds": self.seeds, "reference": self.reference, "data": self.data,

@@ -229,9 +229,11 @@ def track(
                           meta={"rate": rate, "substeps": substeps, "seconds": seconds, "seed": seed})
 
 
-def load_controller_model(spec: str, plant: RobotModel, *, friction: bool = True):
-    """A dynamics model from ``spec``: ``nominal`` (the plant's URDF), a URDF file, an identified model
-    (``model_<method>.json``) or an identification (``identification.json``: its best result)."""
+def load_controller_model(spec: str, plant: RobotModel, *, friction: bool = True, seed: int = 0):
+    """A dynamics model from ``spec``: ``nominal`` (the plant's URDF), ``cad:PERCENT`` (the plant's inertial
+    parameters about PERCENT % off, :func:`pinid.simulate.perturb` seeded by ``seed``, friction ignored — what
+    a CAD model knows), a URDF file, an identified model (``model_<method>.json``) or an identification
+    (``identification.json``: its best result)."""
     from pathlib import Path
 
     from .identification import Identification, _read_json
@@ -239,6 +241,14 @@ def load_controller_model(spec: str, plant: RobotModel, *, friction: bool = True
 
     if spec == "nominal":
         return nominal_model(plant, friction=friction)
+    if spec.startswith("cad:"):
+        from .simulate import perturb
+
+        try:
+            percent = float(spec[4:])
+        except ValueError:
+            raise SpecError(f"{spec}: expected cad:PERCENT with a number, e.g. cad:30") from None
+        return nominal_model(perturb(plant, percent, np.random.default_rng(seed)), friction=False)
     p = Path(spec)
     if not p.is_file():
         raise SpecError(f"{spec}: no such file; expected 'nominal', a URDF, model_<method>.json or identification.json")

@@ -38,6 +38,7 @@ import numpy as np
 from .base import BaseParameters, base_parameters
 from .dataset import Dataset
 from .errors import DataError, PinidError, SpecError
+from .io import jsonable
 from .metrics import TorqueMetrics, torque_metrics
 from .model import RobotModel
 from .regressor import JointTerms, regressor, standard_parameters
@@ -308,23 +309,6 @@ def base_regressor(model: RobotModel, terms: JointTerms, base: BaseParameters, d
 
 
 # ====================================================================== results
-def _clean(x):
-    """JSON-safe: NaN and infinities become None; numpy scalars become floats."""
-    if isinstance(x, dict):
-        return {k: _clean(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_clean(v) for v in x]
-    if isinstance(x, (np.floating, float)):
-        return float(x) if np.isfinite(x) else None
-    if isinstance(x, np.integer):
-        return int(x)
-    if isinstance(x, np.bool_):
-        return bool(x)
-    if isinstance(x, np.ndarray):
-        return _clean(x.tolist())
-    return x
-
-
 def _robot_dict(model: RobotModel, terms: JointTerms) -> dict:
     return {"name": model.name, "urdf": None if model.urdf_path is None else str(model.urdf_path),
             "joints": model.joint_names, "locked": dict(model.locked), "terms": terms.names,
@@ -459,7 +443,7 @@ class IdentificationResult:
         }
         if include_robot:
             d["robot"] = self.robot
-        return _clean(d)
+        return jsonable(d)
 
     @classmethod
     def from_dict(cls, d: dict, *, robot: dict | None = None) -> "IdentificationResult":
@@ -556,7 +540,7 @@ class Identification:
         """The content of ``identification.json``."""
         from . import __version__
 
-        return _clean({
+        return jsonable({
             "pinid_version": __version__,
             "robot": self.robot,
             "data": self.data,

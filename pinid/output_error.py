@@ -43,6 +43,7 @@ from typing import Mapping, Sequence
 import numpy as np
 
 from .errors import DataError, JointError, PinidError, SolverError, SpecError
+from .io import jsonable
 from .flexible import FLEX_PARAMS, RIGID_PARAMS, Drive, FlexibleModel, FlexSimulation, check_parameter
 from .model import INERTIAL_NAMES, RobotModel
 
@@ -200,7 +201,7 @@ class FlexRecording:
                 f.write(",".join(names) + "\n")
                 f.write("\n".join(fmt % tuple(r) for r in data.tolist()) + "\n")
         if self.meta:
-            write_json(path.with_suffix(path.suffix + ".json"), _jsonable(self.meta))
+            write_json(path.with_suffix(path.suffix + ".json"), jsonable(self.meta))
         return path
 
     @classmethod
@@ -835,7 +836,7 @@ class OutputErrorResult:
 
     def to_dict(self) -> dict:
         """Plain-JSON form (the file ``pinid flex fit`` writes)."""
-        return _jsonable({
+        return jsonable({
             "method": self.method, "model": self.model_kind, "cost_kind": self.cost_kind, "cost": self.cost,
             "values": self.values, "bounds": {n: [float(a), float(b)] for n, a, b in zip(self.names, self.lower, self.upper)},
             "truth": self.truth, "rel_error": self.rel_error, "metrics": self.metrics, "rms": self.rms,
@@ -878,21 +879,6 @@ class OutputErrorResult:
             rows.append([n, f"{v:.6g}", "-" if t is None else f"{t:.6g}",
                          "-" if n not in rel else f"{100 * rel[n]:+.3f}", f"{lo:.4g}", f"{hi:.4g}"])
         return rows
-
-
-def _jsonable(obj):
-    if isinstance(obj, dict):
-        return {str(k): _jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_jsonable(v) for v in obj]
-    if isinstance(obj, np.ndarray):
-        return _jsonable(obj.tolist())
-    if isinstance(obj, (np.floating, float)):
-        v = float(obj)
-        return v if math.isfinite(v) else None
-    if isinstance(obj, np.integer):
-        return int(obj)
-    return obj
 
 
 # ====================================================================== fitting

@@ -22,6 +22,13 @@ def test_demo_runs_the_whole_loop(tmp_path):
     assert sdp["physically_consistent"]
     # validated on a different trajectory (seed 001's Table 3): within a few % of the torque
     assert all(m["rel_rms_percent"] < 10 for m in sdp["validation"]["per_joint"].values()), sdp["validation"]
+    # the identified model tracks far better than the CAD model (inertia 30 % off, friction ignored)
+    track = json.loads((out / "track" / "tracking.json").read_text())["results"]
+    for controller, per_model in track.items():
+        cad = per_model["cad:30"]
+        ident = next(v for k, v in per_model.items() if k.endswith("identification.json"))
+        for joint in ("hip", "knee"):
+            assert ident[joint]["rms"] < 0.5 * cad[joint]["rms"], (controller, joint, ident, cad)
     # a second run refuses to replace the files
     again = run_cli("demo", "-o", str(out), "--methods", "ols")
     assert again.returncode == 2 and "already exists" in again.stderr

@@ -15,7 +15,7 @@ commands would (each step prints what it does):
                      a DIFFERENT trajectory — seed 001's published Table 3 excitation (validation)
   3. pinid identify  every registered estimator, validated on the second recording; identified URDF,
                      report
-  4. pinid track     backstepping and computed torque on the identified model vs the nominal URDF
+  4. pinid track     backstepping and computed torque on a CAD model (30 % off) vs the identified model
 
 Reads only what ships with pinid.  Writes into FOLDER (default demo/): excitation.json / .png / .csv,
 train.csv, validate.csv (+ .truth.json each), identification/ (identification.json, model_*.json,
@@ -52,9 +52,9 @@ def steps(out: str, seed: int, methods: str) -> list[tuple[str, list[str]]]:
         ("identify with every estimator, validate, export", [
             "identify", "--urdf", "exo_leg", "--data", f"{out}/train.csv", "--validate", f"{out}/validate.csv",
             "--methods", methods, "-o", f"{out}/identification"]),
-        ("track with the identified model and the nominal URDF", [
-            "track", "--urdf-true", "exo_leg", "--model", f"{out}/identification/identification.json",
-            "--model", "nominal", "--seconds", "6", "-o", f"{out}/track"]),
+        ("track with a CAD model (inertia 30 % off, no friction) and with the identified model", [
+            "track", "--urdf-true", "exo_leg", "--model", "cad:30",
+            "--model", f"{out}/identification/identification.json", "--seconds", "6", "-o", f"{out}/track"]),
     ]
 
 

@@ -186,7 +186,8 @@ def run(args: argparse.Namespace) -> int:
 
 def _check(args) -> int:
     from ..io import check_writable, write_json
-    from ..output_error import _jsonable, classify, problem_from_spec, sensitivity
+    from ..io import jsonable
+    from ..output_error import classify, problem_from_spec, sensitivity
 
     if args.json:
         check_writable(args.json)
@@ -209,7 +210,7 @@ def _check(args) -> int:
         flag = classify(rs)
         print(f"  {n:<16} [{lo:>9.4g}, {hi:>9.4g}]  rel. std {100 * rs:>10.3g} %  {flag}")
     if args.json:
-        write_json(args.json, _jsonable({"spec": spec.to_dict(), "step": prob.step, "sensitivity": sens}))
+        write_json(args.json, jsonable({"spec": spec.to_dict(), "step": prob.step, "sensitivity": sens}))
         print(f"wrote {args.json}")
     return 0
 
