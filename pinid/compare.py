@@ -280,15 +280,11 @@ class Comparison:
     @classmethod
     def load(cls, path: str | os.PathLike) -> "Comparison":
         """Read a file written by :meth:`save` (or ``pinid compare``)."""
-        p = Path(path)
-        if not p.is_file():
-            raise SpecError(f"{p}: file not found, expected a comparison JSON file")
-        try:
-            d = json.loads(p.read_text(encoding="utf-8"))
-        except (UnicodeDecodeError, json.JSONDecodeError) as exc:
-            raise SpecError(f"{p}: not valid JSON ({exc}), expected a comparison file") from None
-        if not isinstance(d, dict) or "runs" not in d or "base_names" not in d:
-            raise SpecError(f"{p}: not a comparison file (no 'runs' or 'base_names')")
+        from .io import read_json
+
+        d = read_json(path, "comparison")
+        if "runs" not in d or "base_names" not in d:
+            raise SpecError(f"{path}: not a comparison file (no 'runs' or 'base_names')")
         return cls.from_dict(d)
 
 
@@ -306,6 +302,8 @@ def _truth_vector(truth, names: list[str]) -> np.ndarray | None:
             raise SpecError(f"{p}: cannot read the truth JSON ({exc})") from None
     if isinstance(truth, Mapping) and "base" in truth and isinstance(truth["base"], Mapping):
         b = truth["base"]
+        if not (isinstance(b.get("names"), list) and isinstance(b.get("values"), list)):
+            raise SpecError("truth: 'base' must hold 'names' and 'values' lists, as pinid simulate's truth JSON does")
         truth = dict(zip(b["names"], b["values"]))
     if isinstance(truth, Mapping):
         missing = [n for n in names if n not in truth]
@@ -399,6 +397,8 @@ def compare(
         s = {}
         if issubclass(ESTIMATORS[m], Metaheuristic):
             s.update(meta)
+            if ESTIMATORS[m].default_box != "nominal":
+                s.pop("box", None)  # rls-pso is PSO in *its* RLS box: a box choice for the others leaves it alone
             s["seed"] = seed
             s.setdefault("progress", show_progress)
         s.update(options.get(m, {}))

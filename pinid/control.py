@@ -236,7 +236,8 @@ def load_controller_model(spec: str, plant: RobotModel, *, friction: bool = True
     (``identification.json``: its best result)."""
     from pathlib import Path
 
-    from .identification import Identification, _read_json
+    from .identification import Identification
+    from .io import read_json
     from .identified import IdentifiedModel
 
     if spec == "nominal":
@@ -255,7 +256,7 @@ def load_controller_model(spec: str, plant: RobotModel, *, friction: bool = True
     if p.suffix.lower() == ".urdf":
         robot = RobotModel.from_urdf(p, joints=plant.joint_names, locked=plant.locked or None)
         return nominal_model(robot, friction=friction)
-    d = _read_json(p, "controller model")
+    d = read_json(p, "controller model")
     model = Identification.from_dict(d).model if "methods" in d else IdentifiedModel.from_dict(d)
     if model.joint_names != plant.joint_names:
         raise SpecError(f"{spec}: model joints {model.joint_names}, expected the plant's {plant.joint_names}")

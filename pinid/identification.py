@@ -26,7 +26,6 @@ Training metrics are over the rows used in the fit; validation metrics are over 
 
 from __future__ import annotations
 
-import json
 import os
 import time
 from dataclasses import dataclass, field
@@ -38,7 +37,7 @@ import numpy as np
 from .base import BaseParameters, base_parameters
 from .dataset import Dataset
 from .errors import DataError, PinidError, SpecError
-from .io import jsonable
+from .io import jsonable, read_json
 from .metrics import TorqueMetrics, torque_metrics
 from .model import RobotModel
 from .regressor import JointTerms, regressor, standard_parameters
@@ -161,7 +160,11 @@ class IdentificationProblem:
                     raise SpecError(f"rest_velocity={rest_velocity!r}, expected 'auto', a number or one per joint")
                 thresholds.append(rest_thresholds(ds.dq, rest_fraction))
             else:
-                v = np.broadcast_to(np.asarray(rest_velocity, dtype=float), (nv,)).copy()
+                v = np.asarray(rest_velocity, dtype=float).reshape(-1)
+                if v.size not in (1, nv):
+                    raise SpecError(f"rest_velocity={rest_velocity!r}: {v.size} values, expected one or one per joint "
+                                    f"({nv}: {', '.join(model.joint_names)})")
+                v = np.broadcast_to(v, (nv,)).copy()
                 if np.any(~np.isfinite(v)) or np.any(v < 0):
                     raise SpecError(f"rest_velocity={rest_velocity!r}, expected non-negative numbers [rad/s]")
                 thresholds.append(v)
@@ -473,20 +476,7 @@ class IdentificationResult:
     @classmethod
     def load(cls, path: str | os.PathLike) -> "IdentificationResult":
         """Read a JSON file written by :meth:`save`."""
-        return cls.from_dict(_read_json(path, "identification result"))
-
-
-def _read_json(path, what: str) -> dict:
-    p = Path(path)
-    if not p.is_file():
-        raise SpecError(f"{p}: file not found, expected a {what} JSON file")
-    try:
-        d = json.loads(p.read_text(encoding="utf-8"))
-    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise SpecError(f"{p}: not valid JSON ({exc}), expected a {what} file") from None
-    if not isinstance(d, dict):
-        raise SpecError(f"{p}: expected a JSON object ({what})")
-    return d
+        return cls.from_dict(read_json(path, "identification result"))
 
 
 @dataclass
@@ -568,7 +558,7 @@ class Identification:
     @classmethod
     def load(cls, path: str | os.PathLike) -> "Identification":
         """Read a file written by :meth:`save` (or ``pinid identify``)."""
-        d = _read_json(path, "identification")
+        d = read_json(path, "identification")
         if "methods" not in d or "robot" not in d:
             raise SpecError(f"{path}: not an identification file (no 'methods' or 'robot')")
         return cls.from_dict(d)

@@ -169,9 +169,9 @@ class IdentifiedModel:
     @classmethod
     def load(cls, path: str | os.PathLike) -> "IdentifiedModel":
         """Read a JSON file written by :meth:`save` (or by ``pinid identify``: ``model_<method>.json``)."""
-        from .identification import _read_json
+        from .io import read_json
 
-        return cls.from_dict(_read_json(path, "identified model"))
+        return cls.from_dict(read_json(path, "identified model"))
 
     def export_urdf(self, path: str | os.PathLike | None = None, *, force: bool = False) -> str:
         """The identified URDF text (see :func:`pinid.export.identified_urdf`); written to ``path`` when given."""

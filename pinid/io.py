@@ -95,6 +95,22 @@ def jsonable(obj: Any) -> Any:
     return obj
 
 
+def read_json(path: str | os.PathLike, what: str) -> dict:
+    """The JSON object in ``path``; SpecError naming ``what`` was expected if it is missing or not one."""
+    from .errors import SpecError
+
+    p = Path(path)
+    if not p.is_file():
+        raise SpecError(f"{p}: file not found, expected a {what} JSON file")
+    try:
+        d = json.loads(p.read_text(encoding="utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise SpecError(f"{p}: not valid JSON ({exc}), expected a {what} file") from None
+    if not isinstance(d, dict):
+        raise SpecError(f"{p}: expected a JSON object ({what})")
+    return d
+
+
 def write_json(path: str | os.PathLike, obj: Any) -> Path:
     """Write ``obj`` as indented JSON atomically to ``path`` (through :func:`jsonable`: NaN is written null)."""
     return write_text(path, json.dumps(jsonable(obj), indent=2, sort_keys=False, allow_nan=False) + "\n")

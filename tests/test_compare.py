@@ -180,3 +180,25 @@ def test_cli_compare_does_not_replace_files_without_force(tmp_path, setting):
     proc = run_cli(*args, "--force")
     assert proc.returncode == 0, proc.stderr
     assert (out / "comparison.json").is_file() and (out / "compare_convergence.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def test_box_choice_leaves_rls_pso_in_its_rls_box_and_keeps_forgetting(setting):
+    """--box applies to pso/woa/ewoa/de only; the RLS settings reach an RLS box whoever asks for it."""
+    truth, cad, train, valid = setting
+    c = compare(cad, train, methods=["pso", "rls-pso"], seeds=1,
+                metaheuristic={**SMALL, "box": "ls", "rls": {"forgetting": 0.999}})
+    assert c.runs["pso"][0].info["box"]["kind"] == "ls"
+    assert c.runs["rls-pso"][0].info["box"]["kind"] == "rls"
+    assert c.runs["rls-pso"][0].info["box"]["rls"]["forgetting"] == 0.999
+    c = compare(cad, train, methods=["pso"], seeds=1, metaheuristic={**SMALL, "box": "rls", "rls": {"forgetting": 0.99}})
+    assert c.runs["pso"][0].info["box"]["rls"]["forgetting"] == 0.99
+
+
+def test_bad_truth_file_and_rest_velocity_are_clean_errors(tmp_path, setting):
+    truth, cad, train, valid = setting
+    bad = tmp_path / "truth.json"
+    bad.write_text(json.dumps({"base": {"values": [1.0]}}))
+    with pytest.raises(SpecError, match="names"):
+        compare(cad, train, methods="ols", truth=str(bad))
+    with pytest.raises(SpecError, match="one per joint"):
+        compare(cad, train, methods="ols", rest_velocity=[0.1, 0.2, 0.3])

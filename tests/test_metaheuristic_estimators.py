@@ -195,3 +195,20 @@ def test_identify_runs_the_metaheuristics_through_the_common_result(noisy):
         assert r.settings["population"] == 20
         assert r.train.all["rms"] >= res["ols"].train.all["rms"] * (1 - 1e-12)
     assert issubclass(ESTIMATORS["woa"], Metaheuristic)
+
+
+def test_bad_settings_are_clean_errors(clean):
+    with pytest.raises(SpecError, match="own setting"):
+        make_estimator("pso", options={"population": 5}, **SMALL).fit(clean)
+    with pytest.raises(SpecError, match="pair"):
+        make_estimator("pso", box={clean.names[0]: 3.0}, **SMALL).fit(clean)
+    with pytest.raises(SpecError, match="rls"):
+        make_estimator("rls-pso", rls={"nonsense": 1}, **SMALL).fit(clean)
+    with pytest.raises(SpecError, match="x0 has"):
+        make_estimator("rls", x0=[1.0, 2.0]).fit(clean)
+
+
+def test_de_history_starts_at_the_initial_population(clean):
+    est = make_estimator("de", **SMALL).fit(clean)
+    assert est.history_[0] > est.history_[-1]
+    assert est.history_[0] >= est.history_[1]

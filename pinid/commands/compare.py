@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import shlex
 import sys
 from pathlib import Path
 
@@ -59,8 +60,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--fitness", choices=("sse", "sae"), default=None,
                    help="sse: ½Σr² (seed 001, default); sae: Σ|r| (seed 000)")
     g.add_argument("--box", choices=("nominal", "rls", "ls"), default=None,
-                   help="search box of pso, woa, ewoa, de: nominal (default; around the URDF's values), rls "
-                        "(range of an RLS run), ls (around least squares — circular, for experiments)")
+                   help="search box of pso, woa, ewoa, de (rls-pso always searches its RLS box): nominal (default; "
+                        "around the URDF's values), rls (range of an RLS run), ls (around least squares — circular, "
+                        "for experiments)")
     g.add_argument("--box-width", type=float, default=None, help="nominal box: ± this fraction of |value| (default 1)")
     g.add_argument("--box-floor", type=float, default=None,
                    help="nominal box: at least ± this fraction of the natural magnitude (default 0.5)")
@@ -91,7 +93,7 @@ def _settings(args) -> tuple[dict, dict]:
 def run(args: argparse.Namespace) -> int:
     from ..compare import compare
     from ..errors import SpecError
-    from ..io import check_writable, write_text
+    from ..io import check_all_writable, check_writable, write_text
 
     out = Path(args.output)
     check_writable(out / "comparison.json")
@@ -107,8 +109,8 @@ def run(args: argparse.Namespace) -> int:
     meta, options = _settings(args)
     if methods is not None:
         options = {k: v for k, v in options.items() if k in methods}
-        if "rls-pso" not in methods and "rls" in meta:
-            meta.pop("rls")
+        if "rls-pso" not in methods and args.box != "rls" and "rls" in meta:
+            meta.pop("rls")  # the RLS settings matter only where an RLS box is built
     validate = {}
     if args.validate:
         validate["validation"] = args.validate
@@ -133,13 +135,11 @@ def run(args: argparse.Namespace) -> int:
         from ..plots.compare import comparison_figures
 
         figs = comparison_figures(comp)
-    command = "pinid " + " ".join(sys.argv[1:]) if sys.argv and sys.argv[0].endswith("pinid") else "pinid compare …"
+    command = "pinid " + shlex.join(sys.argv[1:])
     md = (f"# Comparison on {model.name}\n\n```\n{command}\n```\n\n```\n{table}\n```\n\nIdentified base parameters "
           f"(mean ± spread over the seeds):\n\n```\n{values}\n```\n"
           + "".join(f"\n![{name}]({name})\n" for name in figs))
-    # every output checked before the first is written (an existing file needs --force)
-    for name in ["comparison.json", "comparison.md", *figs]:
-        check_writable(out / name)
+    check_all_writable([out / name for name in ["comparison.json", "comparison.md", *figs]])  # before any write
     written = [comp.save(out / "comparison.json"), write_text(out / "comparison.md", md)]
     if figs:
         from ..plots import save_figure

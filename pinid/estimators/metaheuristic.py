@@ -120,7 +120,8 @@ def training_costs(problem, x: np.ndarray) -> dict:
 
 def least_squares(problem) -> np.ndarray:
     """The (weighted) least-squares base parameters of the problem: the global minimum of "sse"."""
-    return solve_r(*[problem.compressed()[i] for i in (0, 1, 3)])
+    R, c, _, scale = problem.compressed()
+    return solve_r(R, c, scale)
 
 
 def least_absolute_deviations(problem, iterations: int = 200, tol: float = 1e-12) -> np.ndarray:
@@ -167,9 +168,9 @@ def search_box(problem, box="nominal", *, width: float = 1.0, floor: float = 0.5
         if kind == "nominal":
             lower, upper = nominal_box(problem, width, floor)
         elif kind == "rls":
-            from .rls import RLS
+            from . import make_estimator
 
-            est = RLS(**dict(rls or {})).fit(problem)
+            est = make_estimator("rls", **dict(rls or {})).fit(problem)  # bad settings: SpecError
             lower, upper = est.box_
             info["rls"] = {"final": dict(zip(names, map(float, est.base_))), "burn_in_rows": est.info_["burn_in_rows"],
                            "forgetting": est.info_["forgetting"]}
@@ -177,14 +178,7 @@ def search_box(problem, box="nominal", *, width: float = 1.0, floor: float = 0.5
             from ..identification import base_statistics
 
             x = least_squares(problem)
-            if hasattr(problem, "base"):
-                std = base_statistics(problem, x)[0]
-            else:
-                r = problem.tau - problem.W @ x
-                R, _, _, scale = problem.compressed()
-                sigma2 = float(r @ r) / max(len(r) - nb, 1)
-                Rinv = np.linalg.inv(R)
-                std = np.sqrt(sigma2 * np.sum(Rinv**2, axis=1)) / scale
+            std = base_statistics(problem, x)[0]  # works on a segmental SubProblem too
             half = np.maximum(10.0 * max(width, 1e-12) * std, 1e-9 * natural_scale(problem))
             lower, upper = x - half, x + half
         else:
@@ -192,7 +186,11 @@ def search_box(problem, box="nominal", *, width: float = 1.0, floor: float = 0.5
         info["kind"] = kind
     elif isinstance(box, dict):
         lower, upper = nominal_box(problem, width, floor)
-        for name, (lo, hi) in box.items():
+        for name, pair in box.items():
+            try:
+                lo, hi = (float(v) for v in pair)
+            except (TypeError, ValueError):
+                raise SpecError(f"box: {name} = {pair!r}, expected a (lower, upper) pair of numbers") from None
             if name not in names:
                 raise SpecError(f"box: unknown base parameter {name!r} (base parameters: {', '.join(names)})")
             i = names.index(name)
@@ -254,8 +252,11 @@ class Metaheuristic(Estimator):
             raise SpecError(f"{self.name}: fitness {self.fitness!r}, expected one of {', '.join(FITNESS)}")
         box = self.default_box if self.box is None else self.box
         lower, upper, box_info = search_box(problem, box, width=self.box_width, floor=self.box_floor, rls=self.rls)
-        opt = get_optimizer(self.optimizer, population=int(self.population), iterations=int(self.iterations),
-                            **dict(self.options or {}))
+        extra = dict(self.options or {})
+        clash = sorted({"population", "iterations"} & set(extra))
+        if clash:
+            raise SpecError(f"{self.name}: set {', '.join(clash)} as the estimator's own setting, not in options")
+        opt = get_optimizer(self.optimizer, population=int(self.population), iterations=int(self.iterations), **extra)
         f = fitness_function(problem, self.fitness)
         path: list[np.ndarray] = []
         tol = self.tol

@@ -99,9 +99,10 @@ class RLS(Estimator):
             else:
                 raise SpecError(f"rls: x0 {self.x0!r}, expected 'zero', 'nominal' or {nb} numbers")
         else:
-            z = np.asarray(self.x0, dtype=float).reshape(-1) * scale
+            z = np.asarray(self.x0, dtype=float).reshape(-1)
             if z.shape != (nb,):
                 raise SpecError(f"rls: x0 has {z.size} values, expected {nb}")
+            z = z * scale
         P = np.eye(nb) * float(self.p0)
         path = np.empty((rows, nb))
         err = np.empty(rows)

@@ -57,6 +57,8 @@ class DifferentialEvolution(Optimizer):
             k = int(np.argmin(values))
             if values[k] < best["f"]:
                 best["x"], best["f"] = X[k].copy(), float(values[k])
+            if "initial" not in best:  # scipy's first call evaluates the initial population
+                best["initial"] = best["f"]
             return values
 
         history: list[float] = []
@@ -64,8 +66,6 @@ class DifferentialEvolution(Optimizer):
         bar = progress_bar(G, "de", enabled=progress)
 
         def cb(*args, **kwargs):
-            if not history:  # first call: scipy evaluated the initial population before iterating
-                pass
             history.append(best["f"])
             bar.update(1)
             bar.set_postfix_str(f"best {best['f']:.6g}", refresh=False)
@@ -86,8 +86,6 @@ class DifferentialEvolution(Optimizer):
             bar.close()
         if float(res.fun) <= best["f"]:
             best["x"], best["f"] = np.asarray(res.x, float), float(res.fun)
-        # history[0]: the initial population (what scipy evaluated before its first callback)
-        init_best = history[0] if history else best["f"]
-        history = [init_best] + history
+        history = [best.get("initial", best["f"])] + history  # [0]: the initial population's best
         message = "stopped by callback" if state["stopped"] else str(res.message)
         return best["x"], best["f"], history, int(res.nit), message, {}

@@ -16,6 +16,10 @@ def _color(method: str, k: int) -> str:
     return _COLORS.get(method, f"C{k % 10}")
 
 
+#: Methods whose history is not a best-fitness curve (WLS: its passes; RLS: a-priori error per tenth of the rows).
+_NO_CONVERGENCE = ("wls", "rls")
+
+
 def convergence(comparison, *, stage: str = "main", ax=None, title: str | None = None, excess: bool = True):
     """Best fitness per iteration of every metaheuristic run (thin: each seed; thick: the median), log scale.
 
@@ -33,7 +37,7 @@ def convergence(comparison, *, stage: str = "main", ax=None, title: str | None =
     ls_excess = []
     drawn = 0
     for k, (m, runs) in enumerate(comparison.runs.items()):
-        if m in ("wls", "rls"):
+        if m in _NO_CONVERGENCE:
             continue
         color = _color(m, k)
         curves = []
@@ -139,7 +143,8 @@ def parameter_errors(comparison, *, ax=None, title: str | None = None):
 def comparison_figures(comparison) -> dict:
     """All figures of a comparison, ``{file name: figure}`` (``compare_*.png``)."""
     figs = {}
-    if any(r.history and len(r.history) > 2 for runs in comparison.runs.values() for r in runs):
+    if any(m not in _NO_CONVERGENCE and r.history and len(r.history) > 2
+           for m, runs in comparison.runs.items() for r in runs):
         figs["compare_convergence.png"] = convergence(
             comparison, title="convergence" + (" (second stage)" if comparison.segmental else ""))
     if comparison.segmental and any(r.history_first for runs in comparison.runs.values() for r in runs):
