@@ -113,7 +113,7 @@ class RLS(Estimator):
             if found is not None:
                 start, z, P = found
                 path[:start] = z
-                err[:start] = 0.0
+                err[:start] = np.nan  # never predicted a priori: left out of history_
         elif self.init != "prior":
             raise SpecError(f"rls: init {self.init!r}, expected 'exact' or 'prior'")
         for k in range(start, rows):  # sequential by nature; ~5 µs per row for 10 parameters
@@ -122,7 +122,7 @@ class RLS(Estimator):
             wk = w[k]
             if wk <= 0:
                 path[k] = z
-                err[k] = 0.0
+                err[k] = np.nan  # a row of weight 0 is not predicted
                 continue
             e = tau[k] - h @ z
             K = Ph / (lam / wk + h @ Ph)
@@ -143,7 +143,7 @@ class RLS(Estimator):
         self.standard_ = None
         self.weights_ = None
         tenth = np.array_split(err, 10)
-        self.history_ = [float(np.sqrt(np.mean(c**2))) if c.size else float("nan") for c in tenth]
+        self.history_ = [float(np.sqrt(np.nanmean(c**2))) if np.isfinite(c).any() else float("nan") for c in tenth]
         self.status_ = "ok"
         names = list(problem.names)
         self.info_ = {
