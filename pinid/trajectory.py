@@ -12,7 +12,6 @@ so that published tables (seed 001 Table 3) can be loaded as printed.
 
 from __future__ import annotations
 
-import json
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -176,13 +175,6 @@ class FourierTrajectory:
     @classmethod
     def load(cls, path: str | os.PathLike) -> "FourierTrajectory":
         """Read a JSON file written by :meth:`save` or by ``pinid excite``."""
-        p = Path(path)
-        if not p.is_file():
-            raise SpecError(f"{p}: file not found, expected a trajectory JSON file")
-        try:
-            d = json.loads(p.read_text(encoding="utf-8"))
-        except (UnicodeDecodeError, json.JSONDecodeError) as exc:
-            raise SpecError(f"{p}: not valid JSON ({exc}), expected a trajectory file") from None
-        if not isinstance(d, dict):
-            raise SpecError(f"{p}: expected a JSON object with joints, base_frequency, q0, a, b")
-        return cls.from_dict(d, source=str(p))
+        from .io import read_json
+
+        return cls.from_dict(read_json(path, "trajectory (joints, base_frequency, q0, a, b)"), source=str(path))

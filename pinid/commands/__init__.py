@@ -52,6 +52,14 @@ def terms_from_args(args: argparse.Namespace) -> JointTerms:
         raise SpecError(f"--terms: {exc}") from None
 
 
+def add_recording_arguments(p: argparse.ArgumentParser) -> None:
+    """--data, --validate: the recordings of the commands that identify (identify, compare)."""
+    p.add_argument("--data", action="append", required=True, metavar="FILE",
+                   help="training recording (CSV); repeat for several")
+    p.add_argument("--validate", action="append", default=[], metavar="FILE",
+                   help="validation recording (a different trajectory); repeatable")
+
+
 def add_preprocessing_arguments(p: argparse.ArgumentParser) -> None:
     """The preprocessing options of the commands that read recordings (identify, compare)."""
     g = p.add_argument_group("preprocessing (defaults chosen from the sample rate)")

@@ -7,8 +7,8 @@ import shlex
 import sys
 from pathlib import Path
 
-from . import (add_preprocessing_arguments, add_robot_arguments, add_terms_argument, preprocess_from_args,
-               rest_velocity_from_args, robot_from_args, terms_from_args)
+from . import (add_preprocessing_arguments, add_recording_arguments, add_robot_arguments, add_terms_argument,
+               preprocess_from_args, rest_velocity_from_args, robot_from_args, terms_from_args)
 
 HELP = "compare estimators (LS, LMI, RLS, PSO, RLS-PSO, WOA, EWOA, DE) on the same data, several seeds"
 DESCRIPTION = """\
@@ -43,10 +43,7 @@ example:
 def add_arguments(p: argparse.ArgumentParser) -> None:
     add_robot_arguments(p)
     add_terms_argument(p)
-    p.add_argument("--data", action="append", required=True, metavar="FILE",
-                   help="training recording (CSV); repeat for several")
-    p.add_argument("--validate", action="append", default=[], metavar="FILE",
-                   help="validation recording (a different trajectory); repeatable")
+    add_recording_arguments(p)
     p.add_argument("--methods", default="all", help="comma-separated methods, or all (default)")
     p.add_argument("--seeds", type=int, default=5, help="seeds per metaheuristic (0 … N−1); default 5")
     p.add_argument("--truth", default=None, metavar="FILE",

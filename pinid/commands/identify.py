@@ -8,8 +8,8 @@ from pathlib import Path
 import numpy as np
 
 from ..estimators import ESTIMATORS
-from . import (add_preprocessing_arguments, add_robot_arguments, add_terms_argument, preprocess_from_args,
-               rest_velocity_from_args, robot_from_args, terms_from_args)
+from . import (add_preprocessing_arguments, add_recording_arguments, add_robot_arguments, add_terms_argument,
+               preprocess_from_args, rest_velocity_from_args, robot_from_args, terms_from_args)
 
 HELP = "identify dynamic parameters from recordings (OLS, WLS, physically consistent LMI), validate, export"
 DESCRIPTION = """\
@@ -40,10 +40,7 @@ example:
 def add_arguments(p: argparse.ArgumentParser) -> None:
     add_robot_arguments(p)
     add_terms_argument(p)
-    p.add_argument("--data", action="append", required=True, metavar="FILE",
-                   help="training recording (CSV); repeat for several")
-    p.add_argument("--validate", action="append", default=[], metavar="FILE",
-                   help="validation recording (a different trajectory); repeatable")
+    add_recording_arguments(p)
     p.add_argument("--methods", default="ols,wls,sdp", help="comma-separated methods of the estimator registry: ols, wls, sdp, rls, pso, rls-pso, woa, ewoa, de (default ols,wls,sdp)")
     p.add_argument("--mapping", default=None, metavar="SPEC", help="TOML mapping of the recordings' columns to joints")
     p.add_argument("-o", "--output", default="results", metavar="FOLDER", help="output folder; default results/")
