@@ -151,44 +151,15 @@ class IdentificationProblem:
         base = base if base is not None else base_parameters(model, terms)
         prepared = [check_dataset(ds, model) for ds in datasets]
         nv = model.nv
-        thresholds = []
-        for ds in prepared:
-            if not terms.coulomb or rest_velocity in (None, 0, 0.0):
-                thresholds.append(np.zeros(nv))
-            elif isinstance(rest_velocity, str):
-                if rest_velocity != "auto":
-                    raise SpecError(f"rest_velocity={rest_velocity!r}, expected 'auto', a number or one per joint")
-                thresholds.append(rest_thresholds(ds.dq, rest_fraction))
-            else:
-                v = np.asarray(rest_velocity, dtype=float).reshape(-1)
-                if v.size not in (1, nv):
-                    raise SpecError(f"rest_velocity={rest_velocity!r}: {v.size} values, expected one or one per joint "
-                                    f"({nv}: {', '.join(model.joint_names)})")
-                v = np.broadcast_to(v, (nv,)).copy()
-                if np.any(~np.isfinite(v)) or np.any(v < 0):
-                    raise SpecError(f"rest_velocity={rest_velocity!r}, expected non-negative numbers [rad/s]")
-                thresholds.append(v)
-        Ws, taus, joints, samples = [], [], [], []
-        offset = 0
+        thresholds = [rest_threshold(ds, model, terms, rest_velocity, rest_fraction) for ds in prepared]
         total = sum(ds.n for ds in prepared)
         from .progress import progress
 
         bar = progress(total, "regressor", enabled=show_progress)
         try:
-            for ds, thr in zip(prepared, thresholds):
-                Wb = base_regressor(model, terms, base, ds, bar=bar)
-                keep = (np.abs(ds.dq) >= thr).reshape(-1) if np.any(thr > 0) else np.ones(ds.n * nv, bool)
-                Ws.append(Wb[keep])
-                taus.append(ds.tau.reshape(-1)[keep])
-                joints.append(np.tile(np.arange(nv), ds.n)[keep])
-                samples.append((offset + np.repeat(np.arange(ds.n), nv))[keep])
-                offset += ds.n
+            W, tau, joint, sample = stack_rows(model, terms, base, prepared, thresholds, bar=bar)
         finally:
             bar.close()
-        W = np.concatenate(Ws) if len(Ws) > 1 else Ws[0]
-        tau = np.concatenate(taus) if len(taus) > 1 else taus[0]
-        joint = np.concatenate(joints) if len(joints) > 1 else joints[0]
-        sample = np.concatenate(samples)
         dropped = np.array([total - int(np.sum(joint == j)) for j in range(nv)])
         if weights is None:
             w = np.ones(len(tau))
@@ -296,6 +267,48 @@ def rest_thresholds(dq: np.ndarray, fraction: float = REST_FRACTION) -> np.ndarr
     else:
         noise = np.zeros(dq.shape[1])
     return np.maximum(fraction * peak, 3.0 * noise)
+
+
+def rest_threshold(ds: Dataset, model: RobotModel, terms: JointTerms, rest_velocity="auto",
+                   rest_fraction: float = REST_FRACTION) -> np.ndarray:
+    """Per joint, the speed [rad/s] below which a row of ``ds`` counts as at rest and is left out (zeros
+    when Coulomb friction is not in the model or ``rest_velocity`` is 0/None; see the module text)."""
+    nv = model.nv
+    if not terms.coulomb or rest_velocity is None or (not isinstance(rest_velocity, str) and np.ndim(rest_velocity) == 0
+                                                      and float(rest_velocity) == 0.0):
+        return np.zeros(nv)
+    if isinstance(rest_velocity, str):
+        if rest_velocity != "auto":
+            raise SpecError(f"rest_velocity={rest_velocity!r}, expected 'auto', a number or one per joint")
+        return rest_thresholds(ds.dq, rest_fraction)
+    v = np.asarray(rest_velocity, dtype=float).reshape(-1)
+    if v.size not in (1, nv):
+        raise SpecError(f"rest_velocity={rest_velocity!r}: {v.size} values, expected one or one per joint "
+                        f"({nv}: {', '.join(model.joint_names)})")
+    v = np.broadcast_to(v, (nv,)).copy()
+    if np.any(~np.isfinite(v)) or np.any(v < 0):
+        raise SpecError(f"rest_velocity={rest_velocity!r}, expected non-negative numbers [rad/s]")
+    return v
+
+
+def stack_rows(model: RobotModel, terms: JointTerms, base: BaseParameters, datasets: Sequence[Dataset],
+               thresholds: Sequence[np.ndarray], *, bar=None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``(W_b, tau, joint, sample)`` of checked recordings stacked row ``k·nv + j``, without the rows whose
+    joint speed is below its threshold; ``sample`` counts on across recordings."""
+    nv = model.nv
+    Ws, taus, joints, samples = [], [], [], []
+    offset = 0
+    for ds, thr in zip(datasets, thresholds):
+        Wb = base_regressor(model, terms, base, ds, bar=bar)
+        keep = (np.abs(ds.dq) >= thr).reshape(-1) if np.any(thr > 0) else np.ones(ds.n * nv, bool)
+        Ws.append(Wb[keep])
+        taus.append(ds.tau.reshape(-1)[keep])
+        joints.append(np.tile(np.arange(nv), ds.n)[keep])
+        samples.append((offset + np.repeat(np.arange(ds.n), nv))[keep])
+        offset += ds.n
+    if len(Ws) == 1:
+        return Ws[0], taus[0], joints[0], samples[0]
+    return np.concatenate(Ws), np.concatenate(taus), np.concatenate(joints), np.concatenate(samples)
 
 
 def base_regressor(model: RobotModel, terms: JointTerms, base: BaseParameters, ds: Dataset, *, bar=None) -> np.ndarray:

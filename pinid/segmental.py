@@ -43,8 +43,8 @@ from .base import BaseParameters, base_parameters
 from .dataset import Dataset
 from .errors import DataError, SpecError
 from .estimators.base import Estimator, augmented_r
-from .identification import (REST_FRACTION, IdentificationProblem, IdentificationResult, base_regressor,
-                             check_dataset, make_result, rest_thresholds)
+from .identification import (REST_FRACTION, IdentificationProblem, IdentificationResult, check_dataset,
+                             make_result, rest_threshold, stack_rows)
 from .model import RobotModel
 from .regressor import JointTerms, standard_parameters
 
@@ -116,25 +116,9 @@ def stack(model: RobotModel, datasets: Dataset | Sequence[Dataset], terms: Joint
     datasets = [check_dataset(ds, model) for ds in datasets]
     if not datasets:
         raise DataError("no recording given for a stage of the segmental identification")
-    nv = model.nv
-    Ws, taus, joints, samples = [], [], [], []
-    offset = 0
-    for ds in datasets:
-        if not terms.coulomb or rest_velocity in (None, 0, 0.0):
-            thr = np.zeros(nv)
-        elif isinstance(rest_velocity, str):
-            thr = rest_thresholds(ds.dq, rest_fraction)
-        else:
-            thr = np.broadcast_to(np.asarray(rest_velocity, dtype=float), (nv,))
-        Wb = base_regressor(model, terms, base, ds)
-        keep = (np.abs(ds.dq) >= thr).reshape(-1)
-        Ws.append(Wb[keep])
-        taus.append(ds.tau.reshape(-1)[keep])
-        joints.append(np.tile(np.arange(nv), ds.n)[keep])
-        samples.append((offset + np.repeat(np.arange(ds.n), nv))[keep])
-        offset += ds.n
-    return {"W": np.concatenate(Ws), "tau": np.concatenate(taus), "joint": np.concatenate(joints),
-            "sample": np.concatenate(samples), "sources": [ds.source for ds in datasets]}
+    thresholds = [rest_threshold(ds, model, terms, rest_velocity, rest_fraction) for ds in datasets]
+    W, tau, joint, sample = stack_rows(model, terms, base, datasets, thresholds)
+    return {"W": W, "tau": tau, "joint": joint, "sample": sample, "sources": [ds.source for ds in datasets]}
 
 
 # ============================================================================================ the problem
