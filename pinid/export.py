@@ -33,6 +33,13 @@ from .physical import check_consistency, com_inertia
 from .regressor import JointTerms
 
 
+
+def _comment(text: str) -> ET.Element:
+    """An XML comment; "--" may not appear inside one (the file would not parse), so it is spaced out."""
+    while "--" in text:
+        text = text.replace("--", "- -")
+    return ET.Comment(text if not text.endswith("-") else text + " ")
+
 def _num(x: float) -> str:
     x = float(x)
     return "0" if x == 0 else f"{x:.17g}"
@@ -66,7 +73,7 @@ def _link_owners(root: ET.Element, active: list[str]) -> tuple[dict[str, str | N
 
 
 def identified_urdf(model: RobotModel, theta: np.ndarray, terms: JointTerms, path: str | os.PathLike | None = None,
-                    *, force: bool = False, comment: str | None = None) -> str:
+                    *, force: bool = False, comment: str | None = None, origin: str = "identified by pinid") -> str:
     """The URDF text of ``model`` with the standard parameters ``theta`` (see the module text).
 
     Written atomically to ``path`` when given.  Raises ModelError for an inconsistent set unless
@@ -97,7 +104,7 @@ def identified_urdf(model: RobotModel, theta: np.ndarray, terms: JointTerms, pat
         _set_inertial(link, m, c, I)
         merged = sorted(n for n, o in owners.items() if o == jname and n != child_of[jname])
         if merged:
-            link.insert(0, ET.Comment(f" pinid: identified inertia of body '{jname}', including merged link(s) "
+            link.insert(0, _comment(f" pinid: identified inertia of body '{jname}', including merged link(s) "
                                       f"{', '.join(merged)} "))
     for name, link in links.items():
         owner = owners.get(name)
@@ -105,7 +112,7 @@ def identified_urdf(model: RobotModel, theta: np.ndarray, terms: JointTerms, pat
             continue
         for el in link.findall("inertial"):
             link.remove(el)
-        link.insert(0, ET.Comment(f" pinid: inertial removed; it is part of the identified body of joint '{owner}' "))
+        link.insert(0, _comment(f" pinid: inertial removed; it is part of the identified body of joint '{owner}' "))
     values = theta[10 * nv:].reshape(nv, nt) if nt else np.zeros((nv, 0))
     for i, jname in enumerate(active):
         jel = joints[jname]
@@ -120,12 +127,12 @@ def identified_urdf(model: RobotModel, theta: np.ndarray, terms: JointTerms, pat
                 dyn.set("friction", _num(v["fc"]))
         extra = [f"{t} {_num(v[t])} {u}" for t, u in (("armature", "kg·m²"), ("offset", "N·m")) if t in v]
         if extra:
-            jel.append(ET.Comment(f" pinid: {', '.join(extra)} (no URDF field) "))
-    head = (f" identified by pinid{' (' + comment + ')' if comment else ''}: inertials of the moving links and "
+            jel.append(_comment(f" pinid: {', '.join(extra)} (no URDF field) "))
+    head = (f" {origin}{' (' + comment + ')' if comment else ''}: inertials of the moving links and "
             f"joint friction replaced; physically consistent: {'yes' if report.consistent else 'NO (forced)'}"
             + (f"; locked joints: {', '.join(f'{k}={v:g}' for k, v in model.locked.items())}" if model.locked else "")
             + " ")
-    root.insert(0, ET.Comment(head))
+    root.insert(0, _comment(head))
     ET.indent(root, space="  ")
     text = '<?xml version="1.0" encoding="utf-8"?>\n' + ET.tostring(root, encoding="unicode") + "\n"
     if path is not None:

@@ -253,6 +253,21 @@ def test_cli_perturb_npz_and_true_signals(tmp_path):
     assert true.ddq is not None and true.n == 1000
 
 
+def test_cli_cad_urdf_is_the_perturbed_model(tmp_path):
+    """--cad-urdf writes the CAD model of --perturb as a URDF that loads back with the truth JSON's 'cad' values."""
+    from pinid import JointTerms, RobotModel, standard_parameters
+
+    cad = tmp_path / "cad.urdf"
+    proc = run_cli("simulate", "--urdf", "exo_leg", "--excitation", "excitation/exo_leg.json", "--seconds", "1",
+                   "-o", str(tmp_path / "r.csv"), "--perturb", "30", "--cad-urdf", str(cad))
+    assert proc.returncode == 0, proc.stderr
+    d = json.loads((tmp_path / "r.truth.json").read_text())
+    back = RobotModel.from_urdf(cad)
+    np.testing.assert_allclose(standard_parameters(back, JointTerms()), d["cad"]["standard"]["values"], rtol=1e-9,
+                               atol=1e-12)
+    assert d["cad"]["standard"]["values"] != d["standard"]["values"]
+
+
 @pytest.mark.parametrize("args, message", [
     (["--excitation", "seed000-7"], "seed000-7: no such excitation file, and not a trajectory preset"),
     (["--urdf", "exo_leg", "--excitation", "seed000-3"], "trajectory takes joint 'knee' to -1.66 rad at t = 0.617 s, outside its URDF limits"),
@@ -262,6 +277,7 @@ def test_cli_perturb_npz_and_true_signals(tmp_path):
     (["--excitation", "seed000-1", "--torque-noise", "lots%"], "--torque-noise 'lots%'"),
     (["--excitation", "seed000-1", "--sample-rate", "300", "--control-rate", "7"], "velocity cut-off 30 Hz"),
     (["--excitation", "seed000-1", "--perturb", "150"], "perturbation 150.0 %"),
+    (["--excitation", "seed000-1", "--cad-urdf", "cad.urdf"], "--cad-urdf needs --perturb"),
     (["--excitation", "bad.json"], "not valid JSON"),
     (["--excitation", "hip.json"], "trajectory joints ['thigh'] do not match apal_leg's active joints"),
 ])

@@ -20,6 +20,8 @@ adds sensor noise and encoder quantisation, and writes
   OUTPUT (.csv or .npz)    the recording in pinid's dataset format: t, q_<joint>, [dq_<joint>,] tau_<joint>
   OUTPUT.truth.json        true standard and base parameters, friction, noise levels, seed, rates
                            (name it with --truth)
+  --cad-urdf FILE          with --perturb: the 'CAD' model as a URDF (the truth's kinematics and
+                           friction, its inertial parameters perturbed), to identify or control with
 
 The same arguments give the same files.  Defaults: 1 kHz control and sampling, 16-bit encoders plus
 2e-5 rad noise, torque noise 1 % of each joint's peak, the URDF's <dynamics> friction.
@@ -27,6 +29,7 @@ The same arguments give the same files.  Defaults: 1 kHz control and sampling, 1
 example:
   pinid simulate --urdf urdf/exo_leg.urdf --excitation excitation/exo_leg.json --seconds 60 --seed 1 -o data/run1.csv
   pinid simulate --urdf apal_leg --excitation seed000-3 --seconds 20 -o data/apal3.csv --perturb 20
+  pinid simulate --urdf exo_leg --excitation excitation/exo_leg.json -o data/run1.csv --perturb 30 --cad-urdf data/cad.urdf
 """
 
 
@@ -55,6 +58,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--perturb", type=float, default=None, metavar="PERCENT",
                    help="feed-forward from a 'CAD' model whose inertial parameters differ from the truth by about "
                         "PERCENT %% (seeded); its parameters go into the truth JSON under 'cad'")
+    g.add_argument("--cad-urdf", default=None, metavar="FILE",
+                   help="with --perturb: also write that CAD model as a URDF (inertia perturbed, friction as the truth's)")
     g = p.add_argument_group("friction (true values; default the URDF's <dynamics>)")
     g.add_argument("--coulomb", default=None, metavar="VALUES",
                    help="Coulomb friction [N·m]: one value, one per joint (a,b) or JOINT=VALUE,...")
@@ -115,11 +120,14 @@ def run(args: argparse.Namespace) -> int:
     if out.suffix.lower() not in (".csv", ".npz"):
         raise SpecError(f"{out}: unknown suffix '{out.suffix}', expected .csv or .npz for the recording")
     truth_path = Path(args.truth) if args.truth else out.with_name(out.stem + ".truth.json")
-    targets = [out, truth_path] + ([Path(args.true_signals)] if args.true_signals else [])
+    if args.cad_urdf and args.perturb is None:
+        raise SpecError("--cad-urdf needs --perturb PERCENT (the CAD model is the truth perturbed)")
+    targets = ([out, truth_path] + ([Path(args.true_signals)] if args.true_signals else [])
+               + ([Path(args.cad_urdf)] if args.cad_urdf else []))
     if args.true_signals and Path(args.true_signals).suffix.lower() not in (".csv", ".npz"):
         raise SpecError(f"{args.true_signals}: unknown suffix, expected .csv or .npz for --true-signals")
     if len({p.resolve() for p in targets}) != len(targets):
-        raise SpecError("the recording, truth and true-signals files must be different paths")
+        raise SpecError("the recording, truth, true-signals and CAD URDF files must be different paths")
     for p in targets:
         check_writable(p)
     if args.encoder_bits < 0 or args.encoder_bits > 40:
@@ -163,6 +171,13 @@ def run(args: argparse.Namespace) -> int:
         if args.true_signals:
             write_recording(args.true_signals, truth["signals"])
             written.append(Path(args.true_signals))
+        if args.cad_urdf:
+            from ..export import identified_urdf
+
+            identified_urdf(cad, theta_cad, terms, args.cad_urdf, origin="a CAD model written by pinid simulate",
+                            comment=f"the truth's inertial parameters perturbed by about {args.perturb:g} %, "
+                                    f"seed {args.seed}")
+            written.append(Path(args.cad_urdf))
     except BaseException:
         for p in written:
             p.unlink(missing_ok=True)
@@ -173,6 +188,8 @@ def run(args: argparse.Namespace) -> int:
     print(f"wrote {truth_path} ({len(truth['standard']['names'])} standard, {len(truth['base']['names'])} base parameters)")
     if args.true_signals:
         print(f"wrote {args.true_signals} (noise-free signals)")
+    if args.cad_urdf:
+        print(f"wrote {args.cad_urdf} (CAD model: inertia perturbed by about {args.perturb:g} %)")
     return 0
 
 
