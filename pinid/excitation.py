@@ -66,6 +66,7 @@ import numpy as np
 from .base import BaseParameters, base_parameters
 from .blas import single_threaded_blas
 from .errors import SpecError
+from .io import display_path
 from .model import RobotModel
 from .regressor import JointTerms, regressor, standard_parameters
 from .trajectory import FourierTrajectory
@@ -313,15 +314,7 @@ def load_spec(path: str | os.PathLike, model: RobotModel) -> ExcitationSpec:
         raise SpecError(f"{p}: not valid {kind} ({str(exc).splitlines()[0]})") from None
     if not isinstance(data, dict):
         raise SpecError(f"{p}: expected a table of settings at the top level")
-    return spec_from_dict(data, model, source=_display_path(p))
-
-
-def _display_path(p: Path) -> str:
-    """``p`` relative to the working directory when it lies below it, so saved files carry no machine paths."""
-    try:
-        return str(p.resolve().relative_to(Path.cwd().resolve()))
-    except ValueError:
-        return str(p)
+    return spec_from_dict(data, model, source=display_path(p))
 
 
 def spec_from_dict(data: dict, model: RobotModel, *, source: str = "<spec>") -> ExcitationSpec:

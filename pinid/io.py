@@ -95,6 +95,16 @@ def jsonable(obj: Any) -> Any:
     return obj
 
 
+def display_path(path: str | os.PathLike) -> str:
+    """``path`` relative to the working directory when it lies below it (what a report or a saved spec
+    shows, free of machine paths), else as given."""
+    p = Path(path)
+    try:
+        return str(p.resolve().relative_to(Path.cwd().resolve()))
+    except (ValueError, OSError):
+        return str(p)
+
+
 def read_json(path: str | os.PathLike, what: str) -> dict:
     """The JSON object in ``path``; SpecError naming ``what`` was expected if it is missing or not one."""
     from .errors import SpecError

@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .io import display_path
 from .physical import com_inertia
 
 
@@ -72,7 +73,8 @@ def report_markdown(ident, figures: dict[str, str] | None = None) -> str:
     lines.append(f"pinid {__version__}, {_dt.datetime.now().strftime('%Y-%m-%d %H:%M')}; "
                  f"total time {ident.seconds:.2f} s.")
     lines += ["", "## Robot and data", ""]
-    lines.append(f"- URDF: `{robot.get('urdf')}`; joints {', '.join(f'`{j}`' for j in robot['joints'])}"
+    urdf = robot.get("urdf")
+    lines.append(f"- URDF: `{display_path(urdf) if urdf else None}`; joints {', '.join(f'`{j}`' for j in robot['joints'])}"
                  + (f"; locked {', '.join(f'`{k}` = {v:g}' for k, v in robot['locked'].items())}" if robot.get("locked") else ""))
     lines.append(f"- joint terms: {', '.join(robot['terms']) or 'none'}; "
                  f"{len(ident.base.get('names', []))} base parameters")
