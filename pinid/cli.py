@@ -93,7 +93,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         while where is not None and where.tb_next is not None:
             where = where.tb_next
         at = f" at {Path(where.tb_frame.f_code.co_filename).name}:{where.tb_lineno}" if where is not None else ""
-        print(f"pinid {args.command}: internal error: {type(exc).__name__}: {exc}{at} "
+        message = " ".join(str(exc).split())  # one line, whatever the exception's text
+        print(f"pinid {args.command}: internal error: {type(exc).__name__}: {message}{at} "
               "(a bug: please report it; PINID_DEBUG=1 shows the traceback)", file=sys.stderr)
         return 1
 

@@ -216,3 +216,21 @@ def test_interrupted_run_leaves_nothing(tmp_path):
     assert proc.returncode == 2, err
     assert "Traceback" not in err and len(err.strip().splitlines()) == 1, err
     _no_files(tmp_path)
+
+
+def test_a_bug_is_one_line_with_status_1_and_debug_shows_it(monkeypatch, capsys):
+    """Not bad input but a bug: still no traceback by default (status 1), the traceback with PINID_DEBUG=1."""
+    import pinid.commands.info as info
+    from pinid.cli import main
+
+    def broken(args):
+        raise ValueError("something\nwent wrong")
+
+    monkeypatch.setattr(info, "run", broken)
+    monkeypatch.delenv("PINID_DEBUG", raising=False)
+    assert main(["info", "--urdf", "exo_leg"]) == 1
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and "internal error: ValueError: something went wrong" in err
+    monkeypatch.setenv("PINID_DEBUG", "1")
+    with pytest.raises(ValueError):
+        main(["info", "--urdf", "exo_leg"])
