@@ -76,8 +76,8 @@ def identified_urdf(model: RobotModel, theta: np.ndarray, terms: JointTerms, pat
                     *, force: bool = False, comment: str | None = None, origin: str = "identified by pinid") -> str:
     """The URDF text of ``model`` with the standard parameters ``theta`` (see the module text).
 
-    Written atomically to ``path`` when given.  Raises ModelError for an inconsistent set unless
-    ``force``, or when the model has no URDF text.
+    Written atomically to ``path`` when given.  The file's first comment reads ``origin (comment)``.  Raises
+    ModelError for an inconsistent set unless ``force``, or when the model has no URDF text.
     """
     theta = np.asarray(theta, dtype=float)
     nv, nt = model.nv, len(terms)
