@@ -1,12 +1,12 @@
 """pinid: identify the rigid-body dynamics of robots (exoskeleton legs first) from a URDF and data."""
 
-from .base import BaseParameters, base_parameters
-from .estimators import ESTIMATORS
-from .errors import DataError, JointError, ModelError, OutputError, PinidError, SolverError, SpecError
-from .identification import Identification, IdentificationProblem, IdentificationResult, identify
-from .identified import IdentifiedModel
-from .model import INERTIAL_NAMES, RobotModel
-from .regressor import JointTerms, joint_torque, parameter_names, regressor, standard_parameters
+from pinid.model.base import BaseParameters, base_parameters
+from pinid.estimators import ESTIMATORS
+from pinid.errors import DataError, JointError, ModelError, OutputError, PinidError, SolverError, SpecError
+from pinid.identification.core import Identification, IdentificationProblem, IdentificationResult, identify
+from pinid.identification.identified import IdentifiedModel
+from pinid.model.robot import INERTIAL_NAMES, RobotModel
+from pinid.model.regressor import JointTerms, joint_torque, parameter_names, regressor, standard_parameters
 
 __version__ = "0.1.0"
 

@@ -15,7 +15,7 @@ import os
 import re
 import sys
 
-from .cli import build_parser
+from pinid.cli.main import build_parser
 
 
 #: The Python that generated a reference: argparse and inspect format a little differently across versions.
@@ -44,28 +44,28 @@ def cli_reference() -> str:
 
 #: The modules of the Python API reference, in the order a user meets them, with a heading each.
 API_MODULES: tuple[tuple[str, str], ...] = (
-    ("pinid.model", "Robot models"),
-    ("pinid.regressor", "Standard parameters and the regressor"),
-    ("pinid.base", "Base parameters"),
-    ("pinid.trajectory", "Fourier trajectories"),
-    ("pinid.excitation", "Excitation design"),
-    ("pinid.dataset", "Recordings in memory"),
-    ("pinid.data", "Reading and checking recordings"),
-    ("pinid.mapping", "Mapping specs"),
-    ("pinid.preprocess", "Preprocessing"),
-    ("pinid.simulate", "The digital twin"),
-    ("pinid.identification", "Identification"),
+    ("pinid.model.robot", "Robot models"),
+    ("pinid.model.regressor", "Standard parameters and the regressor"),
+    ("pinid.model.base", "Base parameters"),
+    ("pinid.excitation.trajectory", "Fourier trajectories"),
+    ("pinid.excitation.design", "Excitation design"),
+    ("pinid.data.dataset", "Recordings in memory"),
+    ("pinid.data.formats", "Reading and checking recordings"),
+    ("pinid.data.mapping", "Mapping specs"),
+    ("pinid.data.preprocess", "Preprocessing"),
+    ("pinid.simulation.twin", "The digital twin"),
+    ("pinid.identification.core", "Identification"),
     ("pinid.estimators", "Estimators"),
     ("pinid.optimizers", "Optimisers"),
-    ("pinid.physical", "Physical consistency"),
-    ("pinid.metrics", "Validation metrics"),
-    ("pinid.identified", "The identified model for controllers"),
-    ("pinid.export", "Identified URDF"),
-    ("pinid.control", "Model-based control"),
-    ("pinid.compare", "Comparing estimators"),
-    ("pinid.segmental", "Seed 000's segmental identification"),
-    ("pinid.flexible", "Flexible joints"),
-    ("pinid.output_error", "Output-error identification"),
+    ("pinid.model.physical", "Physical consistency"),
+    ("pinid.identification.metrics", "Validation metrics"),
+    ("pinid.identification.identified", "The identified model for controllers"),
+    ("pinid.model.export", "Identified URDF"),
+    ("pinid.control.controllers", "Model-based control"),
+    ("pinid.identification.compare", "Comparing estimators"),
+    ("pinid.identification.segmental", "Seed 000's segmental identification"),
+    ("pinid.flexible.model", "Flexible joints"),
+    ("pinid.flexible.output_error", "Output-error identification"),
     ("pinid.errors", "Errors"),
     ("pinid.blas", "BLAS threads"),
 )
@@ -134,7 +134,7 @@ def api_reference() -> str:
         "",
         "```python",
         "import pinid",
-        "from pinid.excitation import design_excitation",
+        "from pinid.excitation.design import design_excitation",
         "",
         "leg = pinid.RobotModel.from_urdf(\"exo_leg\")                    # or a path to any serial URDF",
         "design = design_excitation(leg)                                # Table 2 limits for exo_leg",

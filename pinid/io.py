@@ -13,11 +13,11 @@ import tempfile
 from pathlib import Path
 from typing import Any, Iterator
 
-from .errors import OutputError
+from pinid.errors import OutputError
 
 
 #: Whether existing output files may be replaced.  The Python API replaces them (``save()`` saves); the
-#: CLI refuses unless ``--force`` is given (:func:`pinid.cli.main` sets this for the run).
+#: CLI refuses unless ``--force`` is given (:func:`pinid.cli.main.main` sets this for the run).
 OVERWRITE: contextvars.ContextVar[bool] = contextvars.ContextVar("pinid_overwrite", default=True)
 
 
@@ -107,7 +107,7 @@ def display_path(path: str | os.PathLike) -> str:
 
 def read_json(path: str | os.PathLike, what: str) -> dict:
     """The JSON object in ``path``; SpecError naming ``what`` was expected if it is missing or not one."""
-    from .errors import SpecError
+    from pinid.errors import SpecError
 
     p = Path(path)
     if not p.is_file():

@@ -220,8 +220,8 @@ def test_interrupted_run_leaves_nothing(tmp_path):
 
 def test_a_bug_is_one_line_with_status_1_and_debug_shows_it(monkeypatch, capsys):
     """Not bad input but a bug: still no traceback by default (status 1), the traceback with PINID_DEBUG=1."""
-    import pinid.commands.info as info
-    from pinid.cli import main
+    import pinid.cli.info as info
+    from pinid.cli.main import main
 
     def broken(args):
         raise ValueError("something\nwent wrong")

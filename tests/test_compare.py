@@ -1,4 +1,4 @@
-"""`pinid compare` and pinid.compare: the same data for every method, several seeds, honest measures."""
+"""`pinid compare` and pinid.identification.compare: the same data for every method, several seeds, honest measures."""
 
 from __future__ import annotations
 
@@ -7,11 +7,11 @@ import json
 import numpy as np
 import pytest
 
-from pinid.compare import DETERMINISTIC, Comparison, compare, lad
+from pinid.identification.compare import DETERMINISTIC, Comparison, compare, lad
 from pinid.errors import SpecError
 from pinid.estimators.metaheuristic import training_costs
-from pinid.identification import IdentificationProblem
-from pinid.simulate import perturb
+from pinid.identification.core import IdentificationProblem
+from pinid.simulation.twin import perturb
 
 from conftest import assert_clean_error, run_cli
 from test_identification import true_base, truth_model, twin
@@ -91,7 +91,7 @@ def test_save_load_roundtrip(comparison, tmp_path):
 
 
 def test_figures(comparison):
-    from pinid.plots.compare import comparison_figures
+    from pinid.report.plot_compare import comparison_figures
 
     figs = comparison_figures(comparison)
     assert set(figs) == {"compare_convergence.png", "compare_errors_validation.png", "compare_parameters.png"}
@@ -121,7 +121,7 @@ def test_segmental_comparison_and_truth_from_a_truth_dict(setting):
     assert c.runs["pso"][0].seed == 7 and c.runs["pso"][0].history_first
     assert c.runs["sdp"][0].physically_consistent
     assert "first" in c.reference
-    from pinid.plots.compare import comparison_figures
+    from pinid.report.plot_compare import comparison_figures
 
     assert "compare_convergence_first.png" in comparison_figures(c)
 
@@ -139,7 +139,7 @@ def test_errors(setting):
 
 
 def test_cli_compare(tmp_path, setting):
-    from pinid.data import write_recording
+    from pinid.data.formats import write_recording
 
     truth, cad, train, valid = setting
     write_recording(tmp_path / "train.csv", train)
@@ -165,7 +165,7 @@ def test_cli_compare(tmp_path, setting):
 
 
 def test_cli_compare_does_not_replace_files_without_force(tmp_path, setting):
-    from pinid.data import write_recording
+    from pinid.data.formats import write_recording
 
     truth, cad, train, valid = setting
     write_recording(tmp_path / "train.csv", train)

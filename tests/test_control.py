@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pinid.control import Backstepping, ComputedTorque, nominal_model, track
+from pinid.control.controllers import Backstepping, ComputedTorque, nominal_model, track
 from pinid.errors import SpecError
-from pinid.trajectory import FourierTrajectory
+from pinid.excitation.trajectory import FourierTrajectory
 
 from conftest import load
 
@@ -63,8 +63,8 @@ EXCITATION = FourierTrajectory(["hip", "knee"], 0.2 * np.pi, [0.61, -0.87],
 
 def test_identified_model_halves_tracking_error_of_both_controllers(exo):
     """Issue 7: CAD model 30 % off without friction vs the model identified from twin recordings."""
-    from pinid.commands.track import sine_reference
-    from pinid.control import identified_vs_cad
+    from pinid.cli.track import sine_reference
+    from pinid.control.controllers import identified_vs_cad
 
     r = identified_vs_cad(exo, EXCITATION, sine_reference(exo), record_seconds=20, track_seconds=5)
     for controller, per_model in r["table"].items():

@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 
 from conftest import assert_clean_error, load, run_cli
-from pinid.data import DataWarning, format_spec, read_recording, write_recording
-from pinid.dataset import Dataset
+from pinid.data.formats import DataWarning, format_spec, read_recording, write_recording
+from pinid.data.dataset import Dataset
 from pinid.errors import DataError, SpecError
-from pinid.mapping import MappingSpec
+from pinid.data.mapping import MappingSpec
 
 FS = 200.0
 

@@ -63,7 +63,7 @@ def test_api_reference_is_generated_from_docstrings():
 
 
 def test_every_command_help_says_what_it_reads_writes_and_shows_an_example():
-    from pinid.cli import build_parser
+    from pinid.cli.main import build_parser
 
     parser = build_parser()
     sub = next(a for a in parser._actions if a.__class__.__name__ == "_SubParsersAction")

@@ -8,8 +8,8 @@ import pytest
 from pinid import JointTerms
 from pinid.errors import SolverError, SpecError
 from pinid.estimators import ESTIMATORS, OLS, WLS, Estimator, PhysicalLS, make_estimator
-from pinid.identification import IdentificationProblem
-from pinid.physical import check_consistency
+from pinid.identification.core import IdentificationProblem
+from pinid.model.physical import check_consistency
 
 from test_identification import relative_errors, true_base, truth_model, twin
 
@@ -99,7 +99,7 @@ def test_sdp_stays_consistent_where_ols_is_not(arm_problem):
 
 
 def test_sdp_mass_matrix_positive_definite_at_10000_configurations(arm_problem):
-    from pinid.identified import IdentifiedModel
+    from pinid.identification.identified import IdentifiedModel
 
     sdp = PhysicalLS().fit(arm_problem)
     model = IdentifiedModel(arm_problem.model, arm_problem.terms, sdp.standard_)

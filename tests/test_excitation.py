@@ -9,19 +9,19 @@ import numpy as np
 import pytest
 
 from pinid import JointTerms, regressor
-from pinid.base import base_parameters
+from pinid.model.base import base_parameters
 from pinid.errors import SpecError
-from pinid.excitation import (
+from pinid.excitation.design import (
     DesignProblem, ExcitationSpec, bundled_spec_path, condition_number, default_spec, design_excitation,
     evaluate_trajectory, limit_violations, load_spec, spec_for, trajectory_extremes,
 )
-from pinid.trajectory import FourierTrajectory
+from pinid.excitation.trajectory import FourierTrajectory
 
 from conftest import assert_clean_error, load, run_cli
 
 ROOT = Path(__file__).resolve().parent.parent
 TABLE3 = ROOT / "excitation" / "seed001_table3.json"
-TABLE2 = ROOT / "excitation" / "exo_leg_table2.toml"
+TABLE2 = (ROOT / "excitation" / "exo_leg_table2.toml").resolve()  # the top-level folder links to pinid/resources
 A_DEG = [[1.685, -2.258, 13.828, -15.389], [3.530, -9.949, -15.978, 5.415]]
 B_DEG = [[5.689, 2.904, 14.805, 10.822], [5.205, 4.578, 15.914, 11.738]]
 # a small, fast configuration of the default optimiser for tests

@@ -13,8 +13,8 @@ import pinocchio as pin
 import pytest
 
 from pinid import DataError, JointError, RobotModel, SpecError
-from pinid.flexible import Drive, FlexibleModel, TrigDynamics, flexible_model
-from pinid.output_error import (FlexRecording, OutputErrorProblem, OutputErrorResult, classify,
+from pinid.flexible.model import Drive, FlexibleModel, TrigDynamics, flexible_model
+from pinid.flexible.output_error import (FlexRecording, OutputErrorProblem, OutputErrorResult, classify,
                                 fit_output_error, load_flex_spec, make_twin, methods, problem_from_spec,
                                 sensitivity)
 

@@ -14,9 +14,9 @@ import numpy as np
 import pytest
 
 from pinid import JointTerms, base_parameters, standard_parameters
-from pinid.dataset import Dataset
+from pinid.data.dataset import Dataset
 from pinid.errors import DataError, SpecError
-from pinid.identification import (Identification, IdentificationProblem, IdentificationResult, identify,
+from pinid.identification.core import (Identification, IdentificationProblem, IdentificationResult, identify,
                                   rest_thresholds)
 
 from conftest import assert_clean_error, load, run_cli, shared_data
@@ -69,9 +69,9 @@ def true_base(model, terms=JointTerms()):
 def relative_errors(model, estimate, truth, terms=JointTerms()):
     """|estimate − truth| relative to max(|truth_i|, s_i): s_i is the natural magnitude of the base
     parameter (its standard combination with mass M, first moments M·L, inertias M·L² of each body,
-    :func:`pinid.physical.parameter_scale`), so a parameter that happens to be 0 (a product of inertia of
+    :func:`pinid.model.physical.parameter_scale`), so a parameter that happens to be 0 (a product of inertia of
     a symmetric link) is not a division by zero."""
-    from pinid.physical import parameter_scale
+    from pinid.model.physical import parameter_scale
 
     bp = base_parameters(model, terms)
     scale = np.abs(bp.P) @ parameter_scale(standard_parameters(model, terms), model.nv, len(terms))
@@ -121,10 +121,10 @@ def test_noisy_twin_validation_rms_is_at_the_noise_floor(name, sigma):
 
 
 def test_simulated_twin_validation_rms_is_at_the_noise_floor():
-    """pinid.simulate's twin (closed loop, quantised positions, noisy torques, no dq/ddq recorded) through
+    """pinid.simulation.twin's twin (closed loop, quantised positions, noisy torques, no dq/ddq recorded) through
     the default preprocessing: the validation RMS is within 5 % of the RMS of the added torque noise."""
-    from pinid.simulate import simulate
-    from pinid.trajectory import FourierTrajectory
+    from pinid.simulation.twin import simulate
+    from pinid.excitation.trajectory import FourierTrajectory
 
     model = load("exo_leg")
     t1 = FourierTrajectory(["hip", "knee"], 0.2 * np.pi, [0.61, -0.87], [[0.25, 0.1, 0.05], [0.25, -0.1, 0.05]],
@@ -247,7 +247,7 @@ def test_nan_mismatched_joints_few_samples_and_rank_deficiency_are_named():
 
 
 def test_recordings_without_derivatives_are_prepared():
-    """A recording with q and tau only goes through pinid.preprocess (defaults from the sample rate)."""
+    """A recording with q and tau only goes through pinid.data.preprocess (defaults from the sample rate)."""
     model = truth_model("exo_leg")
     full = twin(model, seconds=30, rate=1000, seed=10)
     raw = Dataset(full.t, full.q, full.joints, tau=full.tau, source="raw")
@@ -299,9 +299,9 @@ def test_estimator_options_reach_the_estimators():
 
 # ---------------------------------------------------------------------------------------------- CLI
 def _simulated_csv(tmp_path, seed: int, seconds: float = 12.0) -> Path:
-    from pinid.data import write_recording
-    from pinid.simulate import simulate
-    from pinid.trajectory import FourierTrajectory
+    from pinid.data.formats import write_recording
+    from pinid.simulation.twin import simulate
+    from pinid.excitation.trajectory import FourierTrajectory
 
     model = load("exo_leg")
     traj = FourierTrajectory(["hip", "knee"], 0.2 * np.pi, [0.61, -0.87],
@@ -326,8 +326,8 @@ def test_cli_identify_on_simulated_recordings(tmp_path):
     assert d["methods"]["sdp"]["physically_consistent"]
     assert (out / "identified_sdp.urdf").is_file() and (out / "report.md").is_file()
     assert (out / "errors.png").is_file() and (out / "torque_sdp.png").is_file()
-    from pinid.identified import IdentifiedModel
-    from pinid.model import RobotModel
+    from pinid.identification.identified import IdentifiedModel
+    from pinid.model.robot import RobotModel
 
     m = IdentifiedModel.load(out / "model_sdp.json")
     reloaded = RobotModel.from_urdf(out / "identified_sdp.urdf")
@@ -355,7 +355,7 @@ DP = SHARED / "double_pendulum"
 @pytest.mark.skipif(not (DP / "trajectory_02.csv").is_file(), reason="shared double-pendulum recordings absent")
 def test_real_double_pendulum_recordings(tmp_path):
     """Train on one real recording, validate on another: an imperfect but sensible fit (see its README)."""
-    from pinid.model import RobotModel
+    from pinid.model.robot import RobotModel
 
     mapping = Path(__file__).resolve().parents[1] / "docs" / "examples" / "double_pendulum.toml"
     if not mapping.is_file():
@@ -379,7 +379,7 @@ def test_cli_on_real_recordings(tmp_path):
     mapping spec, two training recordings, validation on a third; every output written and reloadable."""
     import json
 
-    from pinid.model import RobotModel
+    from pinid.model.robot import RobotModel
 
     mapping = Path(__file__).resolve().parents[1] / "docs" / "examples" / "double_pendulum.toml"
     out = tmp_path / "dp"
@@ -400,9 +400,9 @@ def test_cli_on_real_recordings(tmp_path):
 def test_default_preprocessing_on_a_6dof_arm_at_100_hz_and_5_khz(rate):
     """Recordings of q and tau only (no dq, ddq), no tuning flag: the identified model predicts the
     validation torques as well as the true parameters do on the same preprocessed data."""
-    from pinid.preprocess import prepare
-    from pinid.simulate import simulate
-    from pinid.trajectory import FourierTrajectory
+    from pinid.data.preprocess import prepare
+    from pinid.simulation.twin import simulate
+    from pinid.excitation.trajectory import FourierTrajectory
 
     model = load("ur5")
     fc, fv = np.full(6, 0.5), np.full(6, 0.3)

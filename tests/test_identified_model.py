@@ -8,7 +8,7 @@ import pytest
 
 from pinid import JointTerms, standard_parameters
 from pinid.errors import ModelError, SpecError
-from pinid.identified import IdentifiedModel
+from pinid.identification.identified import IdentifiedModel
 
 from conftest import load
 from test_identification import identify, truth_model, twin

@@ -9,7 +9,7 @@ from pinid.errors import SpecError
 from pinid.estimators import ESTIMATORS, OLS, RLS, RLSPSO, Metaheuristic, PSOEstimator, make_estimator
 from pinid.estimators.metaheuristic import (fitness_function, natural_scale, nominal_box, search_box,
                                             training_costs)
-from pinid.identification import IdentificationProblem, identify
+from pinid.identification.core import IdentificationProblem, identify
 
 from test_identification import relative_errors, true_base, truth_model, twin
 
@@ -172,7 +172,7 @@ def test_tol_stops_early_like_seed_000s_epsilon(noisy):
 
 
 def test_sae_fitness_heads_for_the_least_absolute_deviations_fit(noisy):
-    from pinid.compare import lad
+    from pinid.identification.compare import lad
 
     x_lad = lad(noisy)
     sae = training_costs(noisy, x_lad)["sae"]

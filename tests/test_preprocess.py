@@ -7,11 +7,11 @@ import warnings
 import numpy as np
 import pytest
 
-from pinid.data import DataWarning
-from pinid.dataset import Dataset
+from pinid.data.formats import DataWarning
+from pinid.data.dataset import Dataset
 from pinid.errors import DataError, SpecError
-from pinid.preprocess import PRESETS, default_cutoff, prepare
-from pinid.trajectory import FourierTrajectory
+from pinid.data.preprocess import PRESETS, default_cutoff, prepare
+from pinid.excitation.trajectory import FourierTrajectory
 
 TRAJ = FourierTrajectory(["hip", "knee"], 2 * np.pi * 0.5, [0.3, -0.5],
                          [[0.3, 0.1, 0.05], [0.2, -0.1, 0.04]], [[0.1, 0.0, 0.02], [0.05, 0.1, -0.03]])

@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 
 from pinid import RobotModel, base_parameters, regressor, standard_parameters
-from pinid.data import read_recording
+from pinid.data.formats import read_recording
 from pinid.errors import DataError
-from pinid.preprocess import prepare
+from pinid.data.preprocess import prepare
 
 from conftest import shared_data
 

@@ -7,10 +7,10 @@ import warnings
 import numpy as np
 import pytest
 
-from pinid.dataset import Dataset
+from pinid.data.dataset import Dataset
 from pinid.errors import SpecError
-from pinid.physical import check_consistency
-from pinid.segmental import Segmental, SegmentalProblem, segmental_identify
+from pinid.model.physical import check_consistency
+from pinid.identification.segmental import Segmental, SegmentalProblem, segmental_identify
 
 from test_identification import fourier_motion, relative_errors, true_base, truth_model, twin
 
@@ -76,8 +76,8 @@ def test_segmental_metaheuristics_run_both_stages(seg):
 def test_segmental_on_the_simulated_apal_leg_recovers_the_hip():
     """Seed 000's Table 1 trajectories 1 and 3 on the twin (closed loop, noise, 10 Hz zero-phase filter)."""
     from pinid import RobotModel
-    from pinid.preprocess import prepare
-    from pinid.simulate import load_trajectory, simulate
+    from pinid.data.preprocess import prepare
+    from pinid.simulation.twin import load_trajectory, simulate
 
     model = RobotModel.from_urdf("apal_leg")
     recs = {}

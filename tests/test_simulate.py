@@ -11,11 +11,11 @@ import pytest
 
 from conftest import assert_clean_error, load, run_cli
 from pinid import base_parameters, parameter_names
-from pinid.data import read_recording, write_recording
+from pinid.data.formats import read_recording, write_recording
 from pinid.errors import SpecError
-from pinid.preprocess import lowpass, prepare
-from pinid.simulate import SEED000_TABLE1, friction_torque, load_trajectory, perturb, simulate, truth_json
-from pinid.trajectory import FourierTrajectory
+from pinid.data.preprocess import lowpass, prepare
+from pinid.simulation.twin import SEED000_TABLE1, friction_torque, load_trajectory, perturb, simulate, truth_json
+from pinid.excitation.trajectory import FourierTrajectory
 
 
 @pytest.fixture(scope="module")

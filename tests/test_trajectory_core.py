@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from pinid.errors import SpecError
-from pinid.trajectory import FourierTrajectory
+from pinid.excitation.trajectory import FourierTrajectory
 
 
 def _traj():

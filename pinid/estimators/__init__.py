@@ -8,13 +8,13 @@ stores settings, ``fit(problem)`` returns ``self``, fitted values end in ``_`` (
 
 from __future__ import annotations
 
-from ..errors import SpecError
-from .base import Estimator
-from .metaheuristic import DEEstimator, EWOAEstimator, Metaheuristic, PSOEstimator, RLSPSO, WOAEstimator
-from .ols import OLS
-from .rls import RLS
-from .sdp import PhysicalLS
-from .wls import WLS
+from pinid.errors import SpecError
+from pinid.estimators.base import Estimator
+from pinid.estimators.metaheuristic import DEEstimator, EWOAEstimator, Metaheuristic, PSOEstimator, RLSPSO, WOAEstimator
+from pinid.estimators.ols import OLS
+from pinid.estimators.rls import RLS
+from pinid.estimators.sdp import PhysicalLS
+from pinid.estimators.wls import WLS
 
 #: Registry: method name (as in ``pinid identify --methods``) -> estimator class.
 ESTIMATORS: dict[str, type[Estimator]] = {

@@ -3,7 +3,7 @@
 An estimator follows the scikit-learn contract:
 
 * ``__init__`` only stores its settings (keyword arguments, kept as attributes of the same name);
-* ``fit(problem)`` takes an :class:`~pinid.identification.IdentificationProblem` and returns ``self``;
+* ``fit(problem)`` takes an :class:`~pinid.identification.core.IdentificationProblem` and returns ``self``;
 * fitted values end in ``_``:
 
   ``base_``       (nb,) base parameters, in the order of ``problem.base.names`` (required)
@@ -24,7 +24,7 @@ import inspect
 
 import numpy as np
 
-from ..errors import SolverError
+from pinid.errors import SolverError
 
 
 class Estimator:
@@ -45,7 +45,7 @@ class Estimator:
     info_: dict
 
     def fit(self, problem) -> "Estimator":  # pragma: no cover - abstract
-        """Estimate the base parameters of ``problem`` (an :class:`~pinid.identification.IdentificationProblem`); set the fitted attributes (``base_`` …) and return ``self``."""
+        """Estimate the base parameters of ``problem`` (an :class:`~pinid.identification.core.IdentificationProblem`); set the fitted attributes (``base_`` …) and return ``self``."""
         raise NotImplementedError
 
     def get_params(self) -> dict:

@@ -27,7 +27,7 @@ sampled).  ``box`` chooses it:
 ``"nominal"`` (default)  the URDF's base parameters ``x_nom`` ± ``max(box_width·|x_nom|, box_floor·s)``,
                          ``s`` the natural magnitude of each base parameter (its standard combination
                          with mass M, first moments M·L, inertias M·L² of each body,
-                         :func:`pinid.physical.parameter_scale`; 1 for friction).  Defaults
+                         :func:`pinid.model.physical.parameter_scale`; 1 for friction).  Defaults
                          ``box_width = 1`` (±100 %) and ``box_floor = 0.5``.  It uses only prior
                          knowledge, never the data.
 ``"rls"``                each parameter's [min, max] of a recursive least-squares run on the same data
@@ -54,8 +54,8 @@ import time
 
 import numpy as np
 
-from ..errors import SpecError
-from .base import Estimator, solve_r
+from pinid.errors import SpecError
+from pinid.estimators.base import Estimator, solve_r
 
 #: Fitness functions: name -> description.
 FITNESS = {"sse": "½·Σ r² (seed 001 Eq. (22))", "sae": "Σ |r| (seed 000)"}
@@ -65,12 +65,12 @@ _CHUNK_ELEMENTS = 500_000  # particles × rows per block of the "sae" product (4
 # ------------------------------------------------------------------------------------------- helpers
 def natural_scale(problem) -> np.ndarray:
     """Natural magnitude of every base parameter (nb,): ``|P|·s`` with ``s`` = per body M, M·L, M·L²
-    (:func:`pinid.physical.parameter_scale`, from the nominal parameters) and 1 for joint terms.
+    (:func:`pinid.model.physical.parameter_scale`, from the nominal parameters) and 1 for joint terms.
     A problem may provide it directly as ``problem.natural_scale`` (sub-problems do)."""
     given = getattr(problem, "natural_scale", None)
     if given is not None:
         return np.asarray(given, dtype=float)
-    from ..physical import parameter_scale
+    from pinid.model.physical import parameter_scale
 
     s = parameter_scale(problem.nominal, problem.nv, len(problem.terms))
     return np.abs(problem.base.P) @ s
@@ -138,7 +138,7 @@ def least_absolute_deviations(problem, iterations: int = 200, tol: float = 1e-12
     """Least-absolute-deviations base parameters, ``argmin Σ √w·|τ − W x|`` — the global minimum of "sae" —
     by iteratively reweighted least squares from the least-squares solution (weights
     ``√w / max(|r|, 1e-9·RMS(r))``; the cost is convex, so this converges to its minimum)."""
-    from .base import weighted_lstsq
+    from pinid.estimators.base import weighted_lstsq
 
     W, tau = np.asarray(problem.W), np.asarray(problem.tau)
     sw = np.sqrt(np.asarray(problem.weights, float)) if problem.weights is not None else np.ones(len(tau))
@@ -178,14 +178,14 @@ def search_box(problem, box="nominal", *, width: float = 1.0, floor: float = 0.5
         if kind == "nominal":
             lower, upper = nominal_box(problem, width, floor)
         elif kind == "rls":
-            from . import make_estimator
+            from pinid.estimators import make_estimator
 
             est = make_estimator("rls", **dict(rls or {})).fit(problem)  # bad settings: SpecError
             lower, upper = est.box_
             info["rls"] = {"final": dict(zip(names, map(float, est.base_))), "burn_in_rows": est.info_["burn_in_rows"],
                            "forgetting": est.info_["forgetting"]}
         elif kind == "ls":
-            from ..identification import base_statistics
+            from pinid.identification.core import base_statistics
 
             x = least_squares(problem)
             std = base_statistics(problem, x)[0]  # works on a segmental SubProblem too
@@ -256,7 +256,7 @@ class Metaheuristic(Estimator):
 
     def fit(self, problem) -> "Metaheuristic":
         """Search the box for the base parameters with the lowest fitness; sets ``base_``, ``history_``, ``path_``, ``box_``, ``info_``."""
-        from ..optimizers import get_optimizer
+        from pinid.optimizers import get_optimizer
 
         if self.fitness not in FITNESS:
             raise SpecError(f"{self.name}: fitness {self.fitness!r}, expected one of {', '.join(FITNESS)}")

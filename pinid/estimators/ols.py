@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from .base import Estimator, solve_r
+from pinid.estimators.base import Estimator, solve_r
 
 
 class OLS(Estimator):

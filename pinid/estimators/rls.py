@@ -38,8 +38,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import SpecError
-from .base import Estimator
+from pinid.errors import SpecError
+from pinid.estimators.base import Estimator
 
 
 class RLS(Estimator):

@@ -18,7 +18,7 @@ consistency can be imposed on every body.  Problem::
 * The regulariser pulls θ toward the URDF's nominal parameters only in the directions the data cannot
   see: ``N`` projects (in the scaled coordinates ``S⁻¹θ``) onto the null space of the base map ``P``,
   so it never competes with the data on a base parameter; it only decides how a base parameter is
-  shared out among the standard ones.  ``S`` is :func:`pinid.physical.parameter_scale` (mass, mass ×
+  shared out among the standard ones.  ``S`` is :func:`pinid.model.physical.parameter_scale` (mass, mass ×
   length, mass × length² per body).  Default weight ``regularization = 1e-3``; 0 switches it off (the
   split among standard parameters is then whatever the solver lands on).
 * ε = ``margin`` (default 1e-8) keeps every pseudo-inertia strictly positive definite, so that the
@@ -26,7 +26,7 @@ consistency can be imposed on every body.  Problem::
 * ``weighting="joint"`` weights each joint's rows by 1/σ_j² from an ordinary least-squares pass, as
   :class:`~pinid.estimators.wls.WLS` does; the default ``"none"`` weights rows by ``problem.weights``.
 
-The result is checked afterwards (:func:`pinid.physical.check_consistency`): a solver status other
+The result is checked afterwards (:func:`pinid.model.physical.check_consistency`): a solver status other
 than ``optimal`` (``optimal_inaccurate`` included) is accepted only when that check passes and the
 base parameters follow from θ; anything else raises :class:`~pinid.errors.SolverError`.
 """
@@ -37,9 +37,9 @@ import warnings
 
 import numpy as np
 
-from ..errors import SolverError
-from ..physical import NONNEGATIVE_TERMS, PSEUDO_INERTIA_BASIS, check_consistency, parameter_scale
-from .base import Estimator, augmented_r, joint_weights, solve_r
+from pinid.errors import SolverError
+from pinid.model.physical import NONNEGATIVE_TERMS, PSEUDO_INERTIA_BASIS, check_consistency, parameter_scale
+from pinid.estimators.base import Estimator, augmented_r, joint_weights, solve_r
 
 
 class PhysicalLS(Estimator):

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import Estimator, joint_weights, solve_r, weighted_lstsq
+from pinid.estimators.base import Estimator, joint_weights, solve_r, weighted_lstsq
 
 
 class WLS(Estimator):

@@ -2,7 +2,7 @@
 
 They minimise a batch function ``f(X) -> (P,)`` of a population ``X (P, d)`` inside a box, with a seeded
 ``numpy.random.Generator``, and return an :class:`OptimizeResult` (best point, value, best value per
-iteration, evaluations, time).  Excitation design (:mod:`pinid.excitation`) and identification reuse
+iteration, evaluations, time).  Excitation design (:mod:`pinid.excitation.design`) and identification reuse
 them.  Adding an optimiser is one file plus one line in :data:`OPTIMIZERS`.
 
 =========  ===========================================================================
@@ -17,11 +17,11 @@ name       method
 
 from __future__ import annotations
 
-from ..errors import SpecError
-from .base import OptimizeResult, Optimizer
-from .de import DEOptions, DifferentialEvolution
-from .pso import PSO, PSOOptions
-from .woa import EWOA, WOA, EWOAOptions, WOAOptions
+from pinid.errors import SpecError
+from pinid.optimizers.base import OptimizeResult, Optimizer
+from pinid.optimizers.de import DEOptions, DifferentialEvolution
+from pinid.optimizers.pso import PSO, PSOOptions
+from pinid.optimizers.woa import EWOA, WOA, EWOAOptions, WOAOptions
 
 #: Optimisers by name.
 OPTIMIZERS: dict[str, type[Optimizer]] = {

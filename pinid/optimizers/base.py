@@ -23,7 +23,7 @@ from typing import Callable, ClassVar
 
 import numpy as np
 
-from ..errors import SolverError, SpecError
+from pinid.errors import SolverError, SpecError
 
 #: ``fun_batch(X) -> values``: X is ``(P, d)``, values ``(P,)``.
 BatchFunction = Callable[[np.ndarray], np.ndarray]

@@ -19,9 +19,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import SpecError
-from ..progress import progress as progress_bar
-from .base import Optimizer, initial_population, stop_requested
+from pinid.errors import SpecError
+from pinid.progress import progress as progress_bar
+from pinid.optimizers.base import Optimizer, initial_population, stop_requested
 
 
 @dataclass

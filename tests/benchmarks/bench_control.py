@@ -18,9 +18,9 @@ from pathlib import Path
 import numpy as np
 
 from pinid import RobotModel
-from pinid.commands.track import sine_reference
-from pinid.control import identified_vs_cad
-from pinid.trajectory import FourierTrajectory
+from pinid.cli.track import sine_reference
+from pinid.control.controllers import identified_vs_cad
+from pinid.excitation.trajectory import FourierTrajectory
 
 ROOT = Path(__file__).resolve().parents[2]
 FALLBACK = FourierTrajectory(["hip", "knee"], 0.2 * np.pi, [0.61, -0.87],
@@ -49,8 +49,8 @@ def main() -> None:
                 for j, m in e["metrics"].items():
                     rms.setdefault((c, name.split(" (")[0], j), []).append(1e3 * m["rms"])
         if seed == 0:
-            from pinid.plots import save_figure
-            from pinid.plots.control import tracking_figure
+            from pinid.report.figures import save_figure
+            from pinid.report.plot_control import tracking_figure
 
             for c, per_model in r["table"].items():
                 fig = tracking_figure({n: e["result"] for n, e in per_model.items()}, title=f"{c}, exo_leg")

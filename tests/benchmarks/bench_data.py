@@ -20,11 +20,11 @@ from pathlib import Path
 import numpy as np
 
 from pinid import RobotModel
-from pinid.data import read_recording, write_recording
-from pinid.dataset import Dataset
-from pinid.preprocess import prepare
-from pinid.simulate import simulate
-from pinid.trajectory import FourierTrajectory
+from pinid.data.formats import read_recording, write_recording
+from pinid.data.dataset import Dataset
+from pinid.data.preprocess import prepare
+from pinid.simulation.twin import simulate
+from pinid.excitation.trajectory import FourierTrajectory
 
 
 def best_time(fn, repeats: int = 3) -> tuple[float, object]:

@@ -16,7 +16,7 @@ Prints Markdown tables:
 6. the same design on a 6-DOF (UR5) and a 7-DOF (Panda) arm of example-robot-data, limits from the URDF.
 
 The condition number is always that of the base regressor (friction columns included, unscaled) over
-200 samples of one period, computed by :func:`pinid.excitation.condition_number`.
+200 samples of one period, computed by :func:`pinid.excitation.design.condition_number`.
 """
 
 from __future__ import annotations
@@ -32,8 +32,8 @@ import numpy as np
 
 from pinid import RobotModel
 from pinid.blas import single_threaded_blas
-from pinid.excitation import DesignProblem, design_excitation, evaluate_trajectory, limit_violations, spec_for
-from pinid.trajectory import FourierTrajectory
+from pinid.excitation.design import DesignProblem, design_excitation, evaluate_trajectory, limit_violations, spec_for
+from pinid.excitation.trajectory import FourierTrajectory
 
 ROOT = Path(__file__).resolve().parents[2]
 TABLE3 = ROOT / "excitation" / "seed001_table3.json"
@@ -105,8 +105,8 @@ def optimizers(model, c3: float, default, img_dir: Path | None) -> None:
         print(f"| {name} | {res.condition_number:.3f} | {res.condition_number / c3:.4f} | {res.nfev} | "
               f"{res.details['regressor_samples'] / 1e6:.2f} M | {res.seconds:.1f} |", flush=True)
     if img_dir is not None:
-        from pinid.plots import save_figure
-        from pinid.plots.excitation import plot_convergence
+        from pinid.report.figures import save_figure
+        from pinid.report.plot_excitation import plot_convergence
 
         fig = plot_convergence(histories, references={"slsqp (default)": default.condition_number,
                                                       "seed 001 Table 3": c3}, log=False)
@@ -161,8 +161,8 @@ def main() -> None:
     c3 = table3(model)
     defaults = default_designs(model, c3)
     if img_dir is not None:
-        from pinid.plots import save_figure
-        from pinid.plots.excitation import plot_excitation
+        from pinid.report.figures import save_figure
+        from pinid.report.plot_excitation import plot_excitation
 
         res = defaults[True]
         save_figure(plot_excitation(res.trajectory, res.spec,

@@ -28,10 +28,10 @@ from pathlib import Path
 
 import numpy as np
 
-from pinid.output_error import (LEAST_SQUARES, classify, fit_output_error, load_flex_spec, make_twin,
+from pinid.flexible.output_error import (LEAST_SQUARES, classify, fit_output_error, load_flex_spec, make_twin,
                                 problem_from_spec, sensitivity)
-from pinid.plots import save_figure
-from pinid.plots.flexible import plot_angles, plot_cost_curves, plot_parameter_errors
+from pinid.report.figures import save_figure
+from pinid.report.plot_flexible import plot_angles, plot_cost_curves, plot_parameter_errors
 
 ROOT = Path(__file__).resolve().parents[2]
 SPEC = ROOT / "excitation" / "tracker_flex_spec.toml"
@@ -43,7 +43,7 @@ def truth_vector(problem) -> np.ndarray:
 
 
 def part_cost(spec, quick: bool) -> None:
-    from pinid.flexible import FlexibleModel
+    from pinid.flexible.model import FlexibleModel
 
     print("\n## 1. Simulation cost per parameter set (2 s at 500 Hz, RK4 step 2 ms, 1000 steps)\n")
     print("| population P | trig backend [s per batch] | [ms per set] | pinocchio ABA [s per batch] | [ms per set] |")

@@ -32,7 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from pinid import JointTerms, RobotModel
-from pinid.dataset import Dataset
+from pinid.data.dataset import Dataset
 
 
 def fourier(model, seconds: float, rate: float, seed: int):
@@ -69,7 +69,7 @@ def best_of(fn, repeats: int = 3) -> tuple[float, object]:
 
 def bench_sdp() -> list[str]:
     from pinid.estimators import PhysicalLS
-    from pinid.identification import IdentificationProblem
+    from pinid.identification.core import IdentificationProblem
 
     model = RobotModel.from_urdf("panda")
     ds = recording(model, 20.0, 1000.0, 0, noise=0.5)  # 20 000 samples
@@ -88,7 +88,7 @@ def bench_sdp() -> list[str]:
 
 
 def bench_cli() -> list[str]:
-    from pinid.data import write_recording
+    from pinid.data.formats import write_recording
 
     model = RobotModel.from_urdf("exo_leg")
     with tempfile.TemporaryDirectory() as tmp:

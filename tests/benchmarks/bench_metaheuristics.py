@@ -23,9 +23,9 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 import numpy as np
 
 from pinid import RobotModel
-from pinid.dataset import Dataset
+from pinid.data.dataset import Dataset
 from pinid.estimators import make_estimator
-from pinid.identification import IdentificationProblem
+from pinid.identification.core import IdentificationProblem
 
 
 def data(model: RobotModel, samples: int, rate: float = 1000.0, seed: int = 0) -> Dataset:

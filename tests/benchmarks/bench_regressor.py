@@ -2,7 +2,7 @@
 
     python tests/benchmarks/bench_regressor.py
 
-Times ``pinid.regressor`` for 100 000 samples of exo_leg and 20 000 samples of the 7-DOF Panda (fingers
+Times ``pinid.model.regressor`` for 100 000 samples of exo_leg and 20 000 samples of the 7-DOF Panda (fingers
 locked), best of 3 runs, and prints a Markdown table.  Targets: ≤ 0.5 s and ≤ 1 s on a 2-core machine.
 """
 

@@ -18,10 +18,10 @@ from pathlib import Path
 import numpy as np
 
 from pinid import RobotModel
-from pinid.data import read_recording
-from pinid.dataset import Dataset
+from pinid.data.formats import read_recording
+from pinid.data.dataset import Dataset
 from pinid.estimators import make_estimator
-from pinid.identification import IdentificationProblem, prepare_dataset
+from pinid.identification.core import IdentificationProblem, prepare_dataset
 
 ROOT = Path(__file__).resolve().parents[2]
 SPEC = ROOT / "docs" / "examples" / "double_pendulum.toml"

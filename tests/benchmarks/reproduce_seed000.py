@@ -7,7 +7,7 @@ The paper's protocol, step by step:
 
 * robot: ``urdf/apal_leg.urdf`` (the truth, fitted to the paper's RLS-PSO parameters, docs/robots.md);
   the identification starts from a "CAD" model — the truth perturbed by 20 % (inertia,
-  :func:`pinid.simulate.perturb`) and friction scaled by a factor in [0.5, 1.5] — which is also the
+  :func:`pinid.simulation.twin.perturb`) and friction scaled by a factor in [0.5, 1.5] — which is also the
   controller's feed-forward model and the centre of the plain PSO's search box;
 * data: Table 1 trajectories 1 and 2 (hip fixed at −10°, knee swinging) and 3 and 4 (both swinging),
   ``--seconds`` each at 1 kHz, PD control, 16-bit encoders, 1 % torque noise, Coulomb (tanh) and viscous
@@ -42,10 +42,10 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 import numpy as np
 
 from pinid import RobotModel
-from pinid.compare import compare, lad
-from pinid.preprocess import prepare
-from pinid.segmental import SegmentalProblem
-from pinid.simulate import load_trajectory, perturb, simulate
+from pinid.identification.compare import compare, lad
+from pinid.data.preprocess import prepare
+from pinid.identification.segmental import SegmentalProblem
+from pinid.simulation.twin import load_trajectory, perturb, simulate
 
 # The paper's numbers.  Validation: mean ± std of |e| [N·m]; Fig. 10 knee (trajectory 2), Fig. 13 hip (trajectory 4).
 PAPER_VALIDATION = {
@@ -101,8 +101,8 @@ def lad_segmental(seg: SegmentalProblem) -> np.ndarray:
 
 
 def validation_metrics(model, base_values: np.ndarray, ds, joint: str) -> tuple[float, float, float]:
-    from pinid.base import base_parameters
-    from pinid.identification import predict_torque
+    from pinid.model.base import base_parameters
+    from pinid.identification.core import predict_torque
 
     bp = base_parameters(model)
     pred = predict_torque(model, model_terms(), bp, ds, base_values)
@@ -280,7 +280,7 @@ def markdown(out: dict, agg: dict) -> str:
 
 
 def figures(out: dict, agg: dict, folder: Path) -> list[Path]:
-    from pinid.plots import new_figure, save_figure
+    from pinid.report.figures import new_figure, save_figure
 
     folder.mkdir(parents=True, exist_ok=True)
     written = []

@@ -6,14 +6,14 @@
 1. **Excitation design** (its Fig. 3a): minimise the condition number of the base regressor (Eq. (20)) of
    a Fourier trajectory (Eq. (19), N = 4, ωf = 0.2π rad/s, offsets 0.6107 / −0.8727 rad) inside the
    Table 2 limits (``excitation/exo_leg_table2.toml``), on ``urdf/exo_leg.urdf``, with
-   :func:`pinid.excitation.design_excitation` and ``optimizer`` = pso, woa, ewoa (population 100,
+   :func:`pinid.excitation.design.design_excitation` and ``optimizer`` = pso, woa, ewoa (population 100,
    200 iterations), ``--seeds`` seeds each; pinid's default gradient-based multistart (``slsqp``) and the
    paper's own Table 3 trajectory (``excitation/seed001_table3.json``) as references.
 2. **Identification** (its Fig. 3b, Table 4): the twin (exo_leg as the truth, PID control as in the paper,
    16-bit encoders, 1 % torque noise, the "CAD" model — truth perturbed by 20 %, friction scaled by
    [0.5, 1.5] — as feed-forward and as the centre of the search box) runs ``--seconds`` of the trajectory
    EWOA designed with seed 0; preprocessing with the ``seed001`` preset (Butterworth, forward and
-   reverse); validation on a different trajectory, the paper's Table 3 one.  :func:`pinid.compare.compare`
+   reverse); validation on a different trajectory, the paper's Table 3 one.  :func:`pinid.identification.compare.compare`
    runs LS, the LMI method, PSO, WOA, EWOA and DE with seed 001's fitness ½Σr² (Eq. (22)), population
    100, 200 iterations, ``--seeds`` seeds.
 
@@ -35,10 +35,10 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 import numpy as np
 
 from pinid import RobotModel
-from pinid.compare import compare
-from pinid.excitation import design_excitation, evaluate_trajectory, spec_for
-from pinid.preprocess import prepare
-from pinid.simulate import load_trajectory, perturb, simulate
+from pinid.identification.compare import compare
+from pinid.excitation.design import design_excitation, evaluate_trajectory, spec_for
+from pinid.data.preprocess import prepare
+from pinid.simulation.twin import load_trajectory, perturb, simulate
 
 ROOT = Path(__file__).resolve().parents[2]
 OPTIMIZERS = ("pso", "woa", "ewoa")
@@ -120,8 +120,8 @@ def markdown(exc: dict, ident: dict, args) -> str:
 
 
 def figures(exc: dict, ident: dict, folder: Path) -> list[Path]:
-    from pinid.plots import new_figure, save_figure
-    from pinid.plots.compare import convergence, parameter_errors, validation_errors
+    from pinid.report.figures import new_figure, save_figure
+    from pinid.report.plot_compare import convergence, parameter_errors, validation_errors
 
     folder.mkdir(parents=True, exist_ok=True)
     written = []
@@ -171,7 +171,7 @@ def main(argv=None) -> int:
     args = p.parse_args(argv)
     t0 = time.perf_counter()
     if args.replot:
-        from pinid.compare import Comparison
+        from pinid.identification.compare import Comparison
 
         saved = json.loads((Path(args.out) / "results.json").read_text())
         exc = saved["excitation"]
@@ -181,7 +181,7 @@ def main(argv=None) -> int:
     else:
         leg = RobotModel.from_urdf("exo_leg")
         exc = excitation_part(leg, args)
-        from pinid.trajectory import FourierTrajectory
+        from pinid.excitation.trajectory import FourierTrajectory
 
         ewoa0 = FourierTrajectory.from_dict(exc["runs"]["ewoa"][0]["trajectory"])
         ident = identification_part(leg, ewoa0, args)

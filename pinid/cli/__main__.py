@@ -1,0 +1,7 @@
+"""``python -m pinid.cli`` is the ``pinid`` command."""
+
+import sys
+
+from pinid.cli.main import main
+
+sys.exit(main())

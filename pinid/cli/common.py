@@ -1,0 +1,114 @@
+"""Subcommands of the ``pinid`` command, one module each (see :mod:`pinid.cli.main`)."""
+
+from __future__ import annotations
+
+import argparse
+
+from pinid.model.regressor import JointTerms
+
+
+def add_robot_arguments(p: argparse.ArgumentParser, *, default: str | None = "exo_leg") -> None:
+    """The options every command uses to choose a robot: --urdf, --joints, --lock."""
+    p.add_argument("--urdf", default=default, required=default is None,
+                   help="URDF file, bundled robot (exo_leg, apal_leg) or example-robot-data name (panda, ur5, "
+                        f"double_pendulum){'' if default is None else f'; default {default}'}")
+    p.add_argument("--joints", default=None, help="comma-separated active joints (default: all movable, unlocked)")
+    p.add_argument("--lock", action="append", default=[], metavar="JOINT=VALUE",
+                   help="hold a joint fixed at VALUE [rad or m]; repeatable")
+
+
+def add_terms_argument(p: argparse.ArgumentParser) -> None:
+    """The --terms option: which joint terms enter the model."""
+    p.add_argument("--terms", default="fc,fv",
+                   help="joint terms in the model, comma-separated from fc (Coulomb), fv (viscous), "
+                        "offset (constant torque), armature (rotor inertia); 'none' for none; default fc,fv")
+
+
+def robot_from_args(args: argparse.Namespace):
+    """Load the RobotModel the robot options describe."""
+    from pinid.errors import SpecError
+    from pinid.model.robot import RobotModel
+
+    locked = {}
+    for item in args.lock:
+        name, sep, value = item.partition("=")
+        try:
+            if not sep:
+                raise ValueError
+            locked[name.strip()] = float(value)
+        except ValueError:
+            raise SpecError(f"--lock {item!r}: expected JOINT=VALUE with a number, e.g. --lock knee=-0.5") from None
+    joints = [j.strip() for j in args.joints.split(",") if j.strip()] if args.joints else None
+    return RobotModel.from_urdf(args.urdf, joints=joints, locked=locked)
+
+
+def terms_from_args(args: argparse.Namespace) -> JointTerms:
+    """The JointTerms the --terms option describes."""
+    from pinid.errors import SpecError
+
+    try:
+        return JointTerms.from_names(args.terms)
+    except ValueError as exc:
+        raise SpecError(f"--terms: {exc}") from None
+
+
+def add_recording_arguments(p: argparse.ArgumentParser) -> None:
+    """--data, --validate: the recordings of the commands that identify (identify, compare)."""
+    p.add_argument("--data", action="append", required=True, metavar="FILE",
+                   help="training recording (CSV); repeat for several")
+    p.add_argument("--validate", action="append", default=[], metavar="FILE",
+                   help="validation recording (a different trajectory); repeatable")
+
+
+def add_preprocessing_arguments(p: argparse.ArgumentParser) -> None:
+    """The preprocessing options of the commands that read recordings (identify, compare)."""
+    g = p.add_argument_group("preprocessing (defaults chosen from the sample rate)")
+    g.add_argument("--preprocess", choices=("auto", "always", "never"), default="auto",
+                   help="auto: only recordings without dq/ddq (default); always; never")
+    g.add_argument("--preset", default=None, help="preprocessing preset (seed000, seed001)")
+    g.add_argument("--cutoff", type=float, default=None, metavar="HZ", help="low-pass cut-off [Hz]")
+    g.add_argument("--order", type=int, default=None, help="filter order (default 4)")
+    g.add_argument("--differentiation", default=None, help="differentiation method (default savgol)")
+    g.add_argument("--no-measured-velocity", action="store_true",
+                   help="differentiate q even when the recording has measured velocities")
+    g.add_argument("--trim", type=float, default=None, metavar="SECONDS", help="seconds trimmed at each end")
+    g.add_argument("--decimate", type=int, default=None, metavar="N", help="keep every N-th sample after filtering")
+    g.add_argument("--rest-velocity", default="auto", metavar="V",
+                   help="rows with |dq| below V [rad/s] are left out (Coulomb friction); a number, one per joint "
+                        "(comma-separated), 0 to keep all, or auto (default: max(2%% of the joint's peak speed, "
+                        "3 × its velocity noise))")
+
+
+def preprocess_from_args(args: argparse.Namespace) -> dict | bool | None:
+    """The ``preprocess`` argument of :func:`pinid.identify` the preprocessing options describe."""
+    from pinid.errors import SpecError
+
+    opts = {}
+    for key in ("preset", "cutoff", "order", "differentiation", "trim", "decimate"):
+        value = getattr(args, key)
+        if value is not None:
+            opts[key] = value
+    if args.no_measured_velocity:
+        opts["use_measured_velocity"] = False
+    if args.preprocess == "never":
+        if opts:
+            raise SpecError("--preprocess never contradicts the preprocessing options given")
+        return False
+    if args.preprocess == "always" or opts:
+        return opts
+    return None
+
+
+def rest_velocity_from_args(text: str):
+    """The ``rest_velocity`` of :func:`pinid.identify` from the --rest-velocity option's text."""
+    from pinid.errors import SpecError
+
+    if text.strip().lower() == "auto":
+        return "auto"
+    try:
+        values = [float(x) for x in text.split(",") if x.strip()]
+    except ValueError:
+        raise SpecError(f"--rest-velocity {text!r}: expected auto, a number or comma-separated numbers [rad/s]") from None
+    if not values:
+        raise SpecError(f"--rest-velocity {text!r}: expected auto, a number or comma-separated numbers [rad/s]")
+    return values[0] if len(values) == 1 else values

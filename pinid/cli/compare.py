@@ -1,0 +1,148 @@
+"""``pinid compare``: run several estimators on the same recordings with several seeds and compare them."""
+
+from __future__ import annotations
+
+import argparse
+import shlex
+import sys
+from pathlib import Path
+
+from pinid.cli.common import (add_preprocessing_arguments, add_recording_arguments, add_robot_arguments, add_terms_argument,
+               preprocess_from_args, rest_velocity_from_args, robot_from_args, terms_from_args)
+
+HELP = "compare estimators (LS, LMI, RLS, PSO, RLS-PSO, WOA, EWOA, DE) on the same data, several seeds"
+DESCRIPTION = """\
+Reads a URDF and training recordings (CSV; --mapping names their columns; missing velocities and
+accelerations are filled as in pinid identify), runs the chosen methods (default: all of ols, wls, sdp,
+rls, pso, rls-pso, woa, ewoa, de) on the same rows — deterministic methods once, the metaheuristics once
+per seed — validates every run on the held-out --validate recordings and writes into the output folder
+(-o, default results/):
+
+  comparison.json      every run: identified base parameters, training costs (½Σr² and Σ|r|) next to
+                       their global minima, validation error per joint (mean ± std of |e|, RMS,
+                       relative RMS), error against --truth, convergence curve, time; and a summary
+                       over the seeds
+  comparison.md        the tables below and the command
+  compare_*.png        convergence curves, validation errors, parameter errors (with --truth)
+
+Least squares minimises ½Σr² globally on its training data, so no method can fit the training data
+better on that cost; the comparison that means something is on held-out data, against the truth
+(twin), over several seeds.  The metaheuristics search a box around the URDF's base parameters
+(±max(100 %, half the parameter's natural magnitude); --box rls: the range of a recursive
+least-squares run, seed 000's RLS-PSO).  With --first-data the methods run in seed 000's segmental
+strategy: the --first-joints (default knee) from recordings where only they move, then the others
+from --data with the first joints' contribution subtracted.
+
+example:
+  pinid compare --urdf cad.urdf --data run1.csv --validate run2.csv --truth run1.truth.json --seeds 5
+  pinid compare --urdf apal_leg --first-data traj1.csv --first-validate traj2.csv \\
+      --data traj3.csv --validate traj4.csv --methods ols,sdp,pso,rls-pso --fitness sae
+"""
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    add_robot_arguments(p)
+    add_terms_argument(p)
+    add_recording_arguments(p)
+    p.add_argument("--methods", default="all", help="comma-separated methods, or all (default)")
+    p.add_argument("--seeds", type=int, default=5, help="seeds per metaheuristic (0 … N−1); default 5")
+    p.add_argument("--truth", default=None, metavar="FILE",
+                   help="truth JSON of pinid simulate: report the error against the true base parameters")
+    p.add_argument("--mapping", default=None, metavar="SPEC", help="TOML mapping of the recordings' columns to joints")
+    p.add_argument("-o", "--output", default="results", metavar="FOLDER", help="output folder; default results/")
+    p.add_argument("--no-plots", action="store_true", help="do not write the figures")
+    g = p.add_argument_group("metaheuristics (pso, rls-pso, woa, ewoa, de)")
+    g.add_argument("--population", type=int, default=None, help="population size (default 100)")
+    g.add_argument("--iterations", type=int, default=None, help="iterations (default 200)")
+    g.add_argument("--fitness", choices=("sse", "sae"), default=None,
+                   help="sse: ½Σr² (seed 001, default); sae: Σ|r| (seed 000)")
+    g.add_argument("--box", choices=("nominal", "rls", "ls"), default=None,
+                   help="search box of pso, woa, ewoa, de (rls-pso always searches its RLS box): nominal (default; "
+                        "around the URDF's values), rls (range of an RLS run), ls (around least squares — circular, "
+                        "for experiments)")
+    g.add_argument("--box-width", type=float, default=None, help="nominal box: ± this fraction of |value| (default 1)")
+    g.add_argument("--box-floor", type=float, default=None,
+                   help="nominal box: at least ± this fraction of the natural magnitude (default 0.5)")
+    g.add_argument("--forgetting", type=float, default=None,
+                   help="rls and rls-pso: forgetting factor λ in (0, 1] (default 1)")
+    g = p.add_argument_group("segmental strategy (seed 000 §3.1)")
+    g.add_argument("--first-data", action="append", default=[], metavar="FILE",
+                   help="recording with only the first joints moving (seed 000: hip fixed); repeatable")
+    g.add_argument("--first-joints", default="knee", help="joints identified first, comma-separated; default knee")
+    g.add_argument("--first-validate", action="append", default=[], metavar="FILE",
+                   help="validation recording of the first stage (reported as 'first-stage validation')")
+    add_preprocessing_arguments(p)
+
+
+def _settings(args) -> tuple[dict, dict]:
+    meta = {}
+    for key in ("population", "iterations", "fitness", "box", "box_width", "box_floor"):
+        value = getattr(args, key)
+        if value is not None:
+            meta[key] = value
+    options: dict = {}
+    if args.forgetting is not None:
+        meta["rls"] = {"forgetting": args.forgetting}
+        options["rls"] = {"forgetting": args.forgetting}
+    return meta, options
+
+
+def run(args: argparse.Namespace) -> int:
+    from pinid.identification.compare import compare
+    from pinid.errors import SpecError
+    from pinid.io import check_all_writable, check_writable, write_text
+
+    out = Path(args.output)
+    check_writable(out / "comparison.json")
+    if args.seeds < 1:
+        raise SpecError(f"--seeds {args.seeds}: expected at least 1")
+    methods = None if args.methods.strip().lower() == "all" else [m.strip() for m in args.methods.split(",") if m.strip()]
+    if methods is not None and not methods:
+        raise SpecError("--methods: expected at least one method, e.g. ols,pso,rls-pso")
+    if args.first_validate and not args.first_data:
+        raise SpecError("--first-validate needs --first-data (the segmental strategy)")
+    model = robot_from_args(args)
+    terms = terms_from_args(args)
+    meta, options = _settings(args)
+    if methods is not None:
+        options = {k: v for k, v in options.items() if k in methods}
+        if "rls-pso" not in methods and args.box != "rls" and "rls" in meta:
+            meta.pop("rls")  # the RLS settings matter only where an RLS box is built
+    validate = {}
+    if args.validate:
+        validate["validation"] = args.validate
+    if args.first_validate:
+        validate["first-stage validation"] = args.first_validate
+    segmental = None
+    if args.first_data:
+        segmental = {"first": args.first_data,
+                      "joints": tuple(j.strip() for j in args.first_joints.split(",") if j.strip())}
+    print(f"comparing on {model.name} ({', '.join(model.joint_names)}): {args.methods}; seeds {args.seeds}"
+          + ("; segmental" if segmental else ""))
+    comp = compare(model, args.data, validate or None, methods=methods, seeds=args.seeds, truth=args.truth,
+                   terms=terms, options=options, metaheuristic=meta, segmental=segmental, mapping=args.mapping,
+                   preprocess=preprocess_from_args(args), rest_velocity=rest_velocity_from_args(args.rest_velocity),
+                   show_progress=None)
+    table, values = comp.table(), comp.values_table()
+    print(table)
+    print()
+    print(values)
+    figs = {}
+    if not args.no_plots:
+        from pinid.report.plot_compare import comparison_figures
+
+        figs = comparison_figures(comp)
+    command = "pinid " + shlex.join(sys.argv[1:])
+    md = (f"# Comparison on {model.name}\n\n```\n{command}\n```\n\n```\n{table}\n```\n\nIdentified base parameters "
+          f"(mean ± spread over the seeds):\n\n```\n{values}\n```\n"
+          + "".join(f"\n![{name}]({name})\n" for name in figs))
+    check_all_writable([out / name for name in ["comparison.json", "comparison.md", *figs]])  # before any write
+    written = [comp.save(out / "comparison.json"), write_text(out / "comparison.md", md)]
+    if figs:
+        from pinid.report.figures import save_figure
+
+        for name, fig in figs.items():
+            save_figure(fig, out / name)
+            written.append(out / name)
+    print(f"\nwrote {len(written)} files to {out}/: " + ", ".join(Path(p).name for p in written))
+    return 0

@@ -1,0 +1,228 @@
+"""``pinid excite``: design a Fourier excitation trajectory with the lowest condition number within limits."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import time
+
+import numpy as np
+
+from pinid.cli.common import add_robot_arguments, add_terms_argument, robot_from_args
+
+HELP = "design an excitation trajectory (Fourier series) that conditions the identification best"
+DESCRIPTION = """\
+Designs a periodic excitation — a finite Fourier series per joint (seed 001 Eq. (19)) — that minimises
+the condition number of the base regressor (friction columns included, seed 001 Eq. (20)), or
+maximises log det(WᵀW) with --criterion logdet, while the position, velocity and acceleration limits
+(and optionally torque limits) hold at every instant of the period.
+
+Reads: the URDF (position and velocity limits) and a spec file (.toml or .json) for what a URDF cannot
+hold — acceleration limits, margins, offsets, harmonics, base frequency.  Without --spec, exo_leg uses
+excitation/exo_leg_table2.toml (seed 001 Table 2); other robots use their URDF limits, 5 rad/s² and
+offsets at the centres of the ranges.  Options given here override the spec.
+Writes: the trajectory and the design report as JSON (-o), optionally samples as CSV for the rig's
+controller (--csv: t, q_<joint>, dq_<joint>, ddq_<joint>) and a figure (--plot).
+With --evaluate TRAJ it designs nothing: it reports the condition number and limit usage of TRAJ.
+
+examples:
+  pinid excite --urdf urdf/exo_leg.urdf -o excitation/exo_leg.json --csv exo_leg.csv --plot exo_leg.png
+  pinid excite --urdf exo_leg --optimizer ewoa --population 100 --iterations 200 --seed 1
+  pinid excite --urdf exo_leg --evaluate excitation/seed001_table3.json
+  pinid excite --urdf panda --harmonics 5 -o panda_excitation.json
+"""
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    add_robot_arguments(p)
+    add_terms_argument(p)
+    p.set_defaults(terms=None)
+    g = p.add_argument_group("limits and trajectory (override the spec)")
+    g.add_argument("--spec", metavar="FILE", help="excitation spec (.toml or .json); default: the bundled one for "
+                   "exo_leg, else URDF limits and pinid's defaults")
+    g.add_argument("--harmonics", type=int, help="number of harmonics N (spec default 4)")
+    g.add_argument("--base-frequency", type=float, metavar="W", help="base frequency ωf [rad/s] (default 0.2π)")
+    g.add_argument("--samples", type=int, help="samples per period of the regressor (default 200)")
+    rest = g.add_mutually_exclusive_group()
+    rest.add_argument("--rest-start", dest="rest_start", action="store_true", default=None,
+                      help="start and end at rest: dq = ddq = 0 at t = 0 (the default)")
+    rest.add_argument("--no-rest-start", dest="rest_start", action="store_false", help="do not force a start at rest")
+    g.add_argument("--optimize-offsets", action="store_true", default=None, help="also optimise the offsets q0")
+    g.add_argument("--criterion", choices=["cond", "logdet"], help="cond (default) or logdet (D-optimal)")
+    g.add_argument("--margin", type=float, help="fraction of every limit kept in reserve (default 0)")
+    g.add_argument("--torque-limits", action="store_true",
+                   help="also keep |torque| (nominal URDF parameters) within the URDF's effort limits")
+    o = p.add_argument_group("optimiser")
+    o.add_argument("--optimizer", default="slsqp",
+                   help="slsqp (gradient-based multistart, default), pso, woa, ewoa or de")
+    o.add_argument("--seed", type=int, default=0, help="random seed (default 0): the same seed gives the same result")
+    o.add_argument("--population", type=int, help="population of pso/woa/ewoa/de (default 100)")
+    o.add_argument("--iterations", type=int, help="iterations of pso/woa/ewoa/de (default 200)")
+    o.add_argument("--starts", type=int, help="local searches of slsqp (default 128)")
+    o.add_argument("--option", action="append", default=[], metavar="KEY=VALUE",
+                   help="any other optimiser setting, e.g. --option w_min=0.3; repeatable")
+    out = p.add_argument_group("output")
+    out.add_argument("-o", "--output", metavar="FILE", help="trajectory and report as JSON (default <robot>_excitation.json; "
+                     "with --evaluate, only if given)")
+    out.add_argument("--csv", metavar="FILE", help="also write samples as CSV (t, q_*, dq_*, ddq_*)")
+    out.add_argument("--rate", type=float, default=1000.0, help="CSV sample rate [Hz] (default 1000)")
+    out.add_argument("--periods", type=float, default=1.0, help="CSV duration in periods (default 1)")
+    out.add_argument("--plot", metavar="FILE", help="also draw q, dq, ddq with the limit bands (.png, .pdf, .svg)")
+    out.add_argument("--evaluate", metavar="TRAJ", help="evaluate this trajectory JSON instead of designing one")
+    out.add_argument("--quiet", action="store_true", help="print only the condition number and the files written")
+
+
+def _options(args: argparse.Namespace) -> dict:
+    from pinid.errors import SpecError
+
+    opts: dict = {}
+    name = args.optimizer.lower()
+    if name == "slsqp":
+        if args.population is not None or args.iterations is not None:
+            raise SpecError("--population and --iterations apply to pso, woa, ewoa and de, not to slsqp (use --starts)")
+        if args.starts is not None:
+            opts["starts"] = args.starts
+    else:
+        if args.starts is not None:
+            raise SpecError(f"--starts applies to slsqp, not to {name} (use --population and --iterations)")
+        if args.population is not None:
+            opts["population"] = args.population
+        if args.iterations is not None:
+            opts["iterations"] = args.iterations
+    for item in args.option:
+        key, sep, value = item.partition("=")
+        if not sep or not key.strip():
+            raise SpecError(f"--option {item!r}: expected KEY=VALUE, e.g. --option w_min=0.3")
+        opts[key.strip()] = _parse_value(value.strip())
+    return opts
+
+
+def _parse_value(text: str):
+    low = text.lower()
+    if low in ("true", "false"):
+        return low == "true"
+    if low in ("none", "null"):
+        return None
+    for cast in (int, float):
+        try:
+            return cast(text)
+        except ValueError:
+            pass
+    return text
+
+
+def _fmt_usage(spec, extremes, usage, q0) -> list[str]:
+    """A table of how much of each limit the trajectory uses."""
+    has_tau = any("tau" in u for u in usage.values())
+    w = max(8, max(len(j) for j in spec.joints) + 2)
+    head = (f"  {'joint':<{w}}{'q reached [rad]':>20}{'q limits [rad]':>20}{'range':>7}{'toward lo/hi':>14}"
+            f"{'|dq| max':>10}{'use':>6}{'|ddq| max':>11}{'use':>6}" + (f"{'|tau| max':>11}{'use':>6}" if has_tau else ""))
+    lines = [head]
+    for i, j in enumerate(spec.joints):
+        e, u = extremes[j], usage[j]
+        toward = f"{100 * u['q_low']:.0f}%/{100 * u['q_high']:.0f}%"
+        row = (f"  {j:<{w}}{e['q_min']:>9.4f} / {e['q_max']:<8.4f}{spec.q_min[i]:>9.4g} / {spec.q_max[i]:<8.4g}"
+               f"{100 * u['q_range']:>6.0f}%{toward:>14}{e['dq_abs_max']:>10.3f}{100 * u['dq']:>5.0f}%"
+               f"{e['ddq_abs_max']:>11.3f}{100 * u['ddq']:>5.0f}%")
+        if "tau" in u:
+            row += f"{e.get('tau_abs_max', float('nan')):>11.2f}{100 * u['tau']:>5.0f}%"
+        lines.append(row)
+    lines.append("  (q limits as given; 'toward lo/hi': how far the motion goes from q0 = "
+                 + ", ".join(f"{q:.4f}" for q in q0) + " towards each position limit; dq [rad/s], ddq [rad/s²])")
+    return lines
+
+
+def run(args: argparse.Namespace) -> int:
+    from pinid.errors import SolverError, SpecError
+    from pinid.excitation.design import (design_excitation, design_optimizers, evaluate_trajectory, limit_violations,
+                              spec_for)
+    from pinid.io import check_writable
+    from pinid.model.regressor import JointTerms
+    from pinid.excitation.trajectory import FourierTrajectory
+
+    name = args.optimizer.lower()
+    if name not in design_optimizers():
+        raise SpecError(f"--optimizer {args.optimizer!r}: expected one of {', '.join(design_optimizers())}")
+    if not (math.isfinite(args.rate) and args.rate > 0):
+        raise SpecError(f"--rate {args.rate}: expected a sample rate > 0 [Hz]")
+    if not (math.isfinite(args.periods) and args.periods > 0):
+        raise SpecError(f"--periods {args.periods}: expected a number of periods > 0")
+    opts = _options(args)
+    model = robot_from_args(args)
+    output = args.output
+    if output is None and not args.evaluate:
+        output = f"{model.name}_excitation.json"
+    for path in (output, args.csv, args.plot):  # fail before the work, not after
+        if path:
+            check_writable(path)
+    terms = None
+    if args.terms is not None:
+        try:
+            terms = JointTerms.from_names(args.terms)
+        except ValueError as exc:
+            raise SpecError(f"--terms: {exc}") from None
+    spec = spec_for(model, args.spec, harmonics=args.harmonics, base_frequency=args.base_frequency,
+                    samples=args.samples, rest_start=args.rest_start, optimize_offsets=args.optimize_offsets,
+                    criterion=args.criterion, margin=args.margin, terms=terms)
+    if args.torque_limits:
+        effort = model.effort_limit
+        if not np.any(np.isfinite(effort)):
+            raise SpecError(f"--torque-limits: the URDF {model.urdf_path} gives no effort limit for any joint")
+        spec = spec.replace(tau_max=np.minimum(spec.tau_max, effort))
+    say = (lambda *a: None) if args.quiet else print
+    period = spec.period
+    say(f"robot {model.name} ({model.urdf_path}), joints {', '.join(model.joint_names)}")
+    say(f"spec {spec.source}: {spec.harmonics} harmonics, ωf = {spec.base_frequency:.6g} rad/s (period {period:.4g} s), "
+        f"{spec.samples} samples, {'start at rest' if spec.rest_start else 'no rest start'}, "
+        f"offsets {'optimised' if spec.optimize_offsets else 'fixed'}, terms {','.join(spec.terms.names) or 'none'}"
+        + (f", margin {spec.margin:g}" if spec.margin else ""))
+    if args.evaluate:
+        traj = FourierTrajectory.load(args.evaluate)
+        spec.validate(model)
+        started = time.perf_counter()
+        ev = evaluate_trajectory(model, traj, spec)
+        print(f"{args.evaluate}: condition number {ev['condition_number']:.6g} (base regressor, {spec.samples} samples), "
+              f"log det {ev['log_det']:.6g}, {'inside' if ev['feasible'] else 'OUTSIDE'} the limits"
+              + (", starts at rest" if ev["rest_start"] else ""))
+        for line in _fmt_usage(spec, ev["extremes"], ev["usage"], traj.q0):
+            say(line)
+        for line in limit_violations(ev["extremes"], spec):
+            print(f"  outside: {line}")
+        report = dict(traj.meta)
+        report.update(condition_number=ev["condition_number"], criterion="cond", log_det=ev["log_det"],
+                      feasible=ev["feasible"], limits=spec.limits_dict(), extremes=ev["extremes"], usage=ev["usage"],
+                      optimizer=None, seconds=round(time.perf_counter() - started, 3), spec=spec.source,
+                      samples=spec.samples, terms=spec.terms.names)
+        traj = FourierTrajectory(traj.joints, traj.base_frequency, traj.q0, traj.a, traj.b, meta=report)
+        _write_outputs(args, output, traj, spec, say, traj.to_dict())
+        return 0
+    say(f"optimizer {name}" + (f" {opts}" if opts else "") + f", seed {args.seed}")
+    result = design_excitation(model, spec, optimizer=name, options=opts, seed=args.seed)
+    if not result.feasible:
+        raise SolverError(f"{name} found no trajectory within the limits (torque limits too tight?); nothing written")
+    crit = "" if spec.criterion == "cond" else f", log det(WᵀW) {result.log_det:.6g} (criterion logdet)"
+    print(f"condition number {result.condition_number:.6g}{crit} in {result.seconds:.1f} s "
+          f"({result.nfev} criterion evaluations, {result.details['regressor_samples']} regressor samples)")
+    for line in _fmt_usage(spec, result.extremes, result.usage, result.trajectory.q0):
+        say(line)
+    _write_outputs(args, output, result.trajectory, spec, say, result.to_dict())
+    return 0
+
+
+def _write_outputs(args, output, traj, spec, say, report: dict) -> None:
+    from pinid.io import write_json
+
+    if args.plot:  # the figure first: the slowest to fail
+        from pinid.report.figures import save_figure
+        from pinid.report.plot_excitation import plot_excitation
+
+        cond = report.get("condition_number")
+        title = f"{len(traj.joints)}-joint excitation, condition number {cond:.4g}" if cond else None
+        save_figure(plot_excitation(traj, spec, title=title), args.plot)
+        say(f"wrote {args.plot}")
+    if args.csv:
+        traj.to_csv(args.csv, args.rate, args.periods * traj.period)
+        say(f"wrote {args.csv} ({args.rate:g} Hz, {args.periods:g} period{'s' if args.periods != 1 else ''})")
+    if output:
+        write_json(output, report)
+        print(f"wrote {output}")

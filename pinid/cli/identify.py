@@ -1,0 +1,171 @@
+"""``pinid identify``: identify dynamic parameters from recordings, validate, export."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import numpy as np
+
+from pinid.estimators import ESTIMATORS
+from pinid.cli.common import (add_preprocessing_arguments, add_recording_arguments, add_robot_arguments, add_terms_argument,
+               preprocess_from_args, rest_velocity_from_args, robot_from_args, terms_from_args)
+
+HELP = "identify dynamic parameters from recordings (OLS, WLS, physically consistent LMI), validate, export"
+DESCRIPTION = """\
+Reads a URDF and one or more training recordings (CSV; --mapping names their columns), fills missing
+velocities and accelerations (zero-phase filter and differentiation with defaults chosen from the
+sample rate; measured velocities are used when present), identifies the base parameters with each
+method, checks every result for physical consistency, validates on --validate recordings and writes
+into the output folder (-o, default results/):
+
+  identification.json      every method: base parameters with standard deviations, standard
+                           parameters, consistency, condition number, train/validation metrics, time
+  model_<method>.json      the identified model for controller code (pinid.identification.identified.IdentifiedModel)
+  identified_<method>.urdf the URDF with identified inertials and friction (consistent results only,
+                           unless --force-export)
+  report.md, *.png         a readable report with the figures
+
+Rows where a joint is nearly at rest are left out of the fit when Coulomb friction is in the model
+(--rest-velocity).  Methods: ols (least squares), wls (each joint weighted by 1/its residual
+variance), sdp (physically consistent least squares, pseudo-inertia LMI, cvxpy + Clarabel).
+
+example:
+  pinid identify --urdf urdf/exo_leg.urdf --data run1.csv --data run2.csv --validate run3.csv -o results/
+  pinid identify --urdf double_pendulum.urdf --mapping docs/examples/double_pendulum.toml \\
+      --data trajectory_00.csv --validate trajectory_01.csv --terms fc,fv,armature --methods ols,sdp
+"""
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    add_robot_arguments(p)
+    add_terms_argument(p)
+    add_recording_arguments(p)
+    p.add_argument("--methods", default="ols,wls,sdp", help="comma-separated methods of the estimator registry: ols, wls, sdp, rls, pso, rls-pso, woa, ewoa, de (default ols,wls,sdp)")
+    p.add_argument("--mapping", default=None, metavar="SPEC", help="TOML mapping of the recordings' columns to joints")
+    p.add_argument("-o", "--output", default="results", metavar="FOLDER", help="output folder; default results/")
+    add_preprocessing_arguments(p)
+    g = p.add_argument_group("estimation")
+    g.add_argument("--regularization", type=float, default=None,
+                   help="sdp: weight of the pull toward the URDF in unidentifiable directions (default 1e-3)")
+    g.add_argument("--mass-bounds", default=None, metavar="LO,HI", help="sdp: bounds on every body's mass [kg]")
+    g.add_argument("--sdp-weighting", choices=("none", "joint"), default=None,
+                   help="sdp: row weighting (none: as OLS, default; joint: as WLS)")
+    g.add_argument("--wls-iterations", type=int, default=None, help="wls: reweighting passes (default 1)")
+    p.add_argument("--force-export", action="store_true",
+                   help="also write identified URDFs of physically inconsistent results")
+    p.add_argument("--no-report", action="store_true", help="do not write report.md and the figures")
+
+
+def _options(args, methods) -> dict:
+    from pinid.errors import SpecError
+
+    opts: dict = {}
+    if "sdp" in methods:
+        sdp = {}
+        if args.regularization is not None:
+            sdp["regularization"] = args.regularization
+        if args.sdp_weighting is not None:
+            sdp["weighting"] = args.sdp_weighting
+        if args.mass_bounds is not None:
+            try:
+                lo, hi = (float(x) for x in args.mass_bounds.split(","))
+            except ValueError:
+                raise SpecError(f"--mass-bounds {args.mass_bounds!r}: expected LO,HI in kg, e.g. 0.1,20") from None
+            if not 0 <= lo <= hi:
+                raise SpecError(f"--mass-bounds {args.mass_bounds!r}: expected 0 ≤ LO ≤ HI")
+            sdp["mass_bounds"] = (lo, hi)
+        if sdp:
+            opts["sdp"] = sdp
+    if "wls" in methods and args.wls_iterations is not None:
+        opts["wls"] = {"iterations": args.wls_iterations}
+    return opts
+
+
+def print_result(r) -> None:
+    """One method's table: base parameters with standard deviations, then torque metrics."""
+    flag = "physically consistent" if r.physically_consistent else "NOT physically consistent"
+    print(f"\n== {r.method}: {r.description}")
+    print(f"   {flag} ({r.standard_source}); cond(W_b) {r.condition_number:.4g}; {r.seconds:.3f} s; status {r.status}")
+    if not r.physically_consistent:
+        for prob in (r.consistency.get("problems") or [])[:4]:
+            print(f"   - {prob}")
+    width = max(len(n) for n in r.base_names)
+    print(f"   {'parameter':<{width}} {'value':>13} {'std':>11} {'std %':>9}")
+    for n, v, s, sp in zip(r.base_names, r.base, r.std, r.std_percent):
+        sp_text = f"{sp:9.3g}" if np.isfinite(sp) else f"{'inf':>9}"
+        print(f"   {n:<{width}} {v:13.6g} {s:11.3g} {sp_text}")
+    for kind, m in (("train", r.train), ("validation", r.validation)):
+        if m is None:
+            continue
+        print(f"   {kind}: {'joint':<18}{'RMS':>10}{'RMS %':>9}{'mean ± std |e|':>24}{'max |e|':>10}")
+        for row in m.table():
+            print(f"   {'':<{len(kind) + 2}}{row[0]:<18}{row[1]:>10}{row[2]:>9}{row[3]:>24}{row[4]:>10}")
+
+
+def run(args: argparse.Namespace) -> int:
+    from pinid.errors import SpecError
+    from pinid.identification.core import identify
+    from pinid.io import check_writable, write_json, write_text
+
+    out = Path(args.output)
+    check_writable(out / "identification.json")
+    methods = [m.strip().lower() for m in args.methods.split(",") if m.strip()]
+    if not methods:
+        raise SpecError("--methods: expected at least one method, e.g. ols,wls,sdp")
+    unknown = [m for m in methods if m not in ESTIMATORS]
+    if unknown:
+        raise SpecError(f"--methods: unknown method(s) {', '.join(unknown)}, expected some of {', '.join(ESTIMATORS)}")
+    model = robot_from_args(args)
+    terms = terms_from_args(args)
+    print(f"identifying {model.name} ({', '.join(model.joint_names)}) with {', '.join(methods)}; "
+          f"terms {', '.join(terms.names) or 'none'}")
+    ident = identify(
+        model, args.data, methods=methods, validate=args.validate or None, terms=terms, mapping=args.mapping,
+        preprocess=preprocess_from_args(args), rest_velocity=rest_velocity_from_args(args.rest_velocity),
+        options=_options(args, methods), show_progress=None,
+    )
+    d = ident.data
+    print(f"training: {d['samples']} samples from {len(d['sources'])} recording(s), {d['rows']} torque rows used"
+          + (f"; validation: {len(ident.validation_sources)} recording(s)" if ident.validation_sources else ""))
+    for r in ident:
+        print_result(r)
+    # everything is computed before any file is written
+    urdfs, refused = {}, []
+    for m, r in ident.results.items():
+        if r.physically_consistent or args.force_export:
+            urdfs[m] = r.export_urdf(force=args.force_export)
+        else:
+            refused.append(m)
+    models = {m: r.model.to_dict() for m, r in ident.results.items()}
+    figs = None
+    if not args.no_report:
+        from pinid.report.markdown import figure_names, make_figures, report_markdown
+
+        figs = make_figures(ident)
+        names = figure_names(ident)
+        report = report_markdown(ident, {k: names[k] for k in figs})
+    from pinid.io import check_all_writable
+
+    planned = [out / "identification.json", *(out / f"model_{m}.json" for m in models),
+               *(out / f"identified_{m}.urdf" for m in urdfs)]
+    if figs is not None:
+        planned += [out / names[k] for k in figs] + [out / "report.md"]
+    check_all_writable(planned)  # all or nothing: no file is written if one of them cannot be
+    written = [write_json(out / "identification.json", ident.to_dict())]
+    for m, dm in models.items():
+        written.append(write_json(out / f"model_{m}.json", dm))
+    for m, text in urdfs.items():
+        written.append(write_text(out / f"identified_{m}.urdf", text))
+    if figs is not None:
+        from pinid.report.figures import save_figure
+
+        for key, fig in figs.items():
+            path = out / names[key]
+            save_figure(fig, path)
+            written.append(path)
+        written.append(write_text(out / "report.md", report))
+    print(f"\nbest: {ident.best}" + (f"; no URDF for inconsistent result(s) {', '.join(refused)} "
+                                       "(--force-export writes them)" if refused else ""))
+    print(f"wrote {len(written)} files to {out}/: " + ", ".join(p.name for p in written))
+    return 0

@@ -1,0 +1,103 @@
+"""The ``pinid`` command.  Each subcommand lives in ``pinid/cli/<name>.py`` and provides
+
+* ``HELP`` (one line), ``DESCRIPTION`` (what it reads, what it writes, an example),
+* ``add_arguments(parser)`` and ``run(args) -> int``.
+
+Adding a subcommand is one file plus one entry in :data:`COMMANDS`.  Errors derived from
+:class:`~pinid.errors.PinidError` (bad input) become one line on stderr and exit status 2, with no
+traceback; any other exception is a bug and becomes one line and exit status 1 (``PINID_DEBUG=1``
+re-raises it with its traceback).
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import os
+import sys
+from pathlib import Path
+from typing import Sequence
+
+from pinid.errors import PinidError
+
+#: Subcommands in the order ``pinid --help`` lists them.
+COMMANDS: tuple[str, ...] = ("info", "excite", "simulate", "identify", "compare", "track", "flex", "demo")
+
+
+def _load(name: str):
+    try:
+        return importlib.import_module(f"pinid.cli.{name}")
+    except ModuleNotFoundError as exc:
+        if exc.name == f"pinid.cli.{name}":
+            return None  # not built yet
+        raise
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str) -> None:  # argparse's own errors: one line, exit 2
+        self.exit(2, f"{self.prog}: error: {message}\n")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of the ``pinid`` command with every available subcommand."""
+    parser = _Parser(
+        prog="pinid",
+        description="Identify the rigid-body dynamics of a robot from its URDF and measured data.",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    from pinid import __version__
+
+    parser.add_argument("--version", action="version", version=f"pinid {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+    for name in COMMANDS:
+        mod = _load(name)
+        if mod is None:
+            continue
+        p = sub.add_parser(name, help=mod.HELP, description=mod.DESCRIPTION,
+                           formatter_class=argparse.RawDescriptionHelpFormatter)
+        mod.add_arguments(p)
+        if not any("--force" in a.option_strings for a in p._actions):
+            p.add_argument("--force", action="store_true", help="overwrite output files that already exist")
+        p.set_defaults(_run=mod.run)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the ``pinid`` console script; returns the exit status."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if not getattr(args, "_run", None):
+        parser.print_help()
+        return 2
+    from pinid.io import OVERWRITE
+
+    OVERWRITE.set(bool(getattr(args, "force", False)))  # the CLI never replaces a file unless told to
+    from pinid.blas import cli_blas_threads
+
+    try:
+        with cli_blas_threads():  # one BLAS thread unless the user set a count (pinid/blas.py)
+            return int(args._run(args) or 0)
+    except PinidError as exc:
+        print(f"pinid {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"pinid {args.command}: interrupted; no output file was written", file=sys.stderr)
+        return 2
+    except (OSError, MemoryError) as exc:
+        print(f"pinid {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+    except Exception as exc:  # a bug, not bad input: still one line (status 1); PINID_DEBUG=1 shows the traceback
+        if os.environ.get("PINID_DEBUG"):
+            raise
+        where = exc.__traceback__
+        while where is not None and where.tb_next is not None:
+            where = where.tb_next
+        at = f" at {Path(where.tb_frame.f_code.co_filename).name}:{where.tb_lineno}" if where is not None else ""
+        message = " ".join(str(exc).split())  # one line, whatever the exception's text
+        print(f"pinid {args.command}: internal error: {type(exc).__name__}: {message}{at} "
+              "(a bug: please report it; PINID_DEBUG=1 shows the traceback)", file=sys.stderr)
+        return 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())

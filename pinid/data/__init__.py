@@ -1,0 +1,1 @@
+"""Recordings: the Dataset, file formats, mapping specs, preprocessing."""

@@ -1,0 +1,91 @@
+"""A recording in memory: time, joint positions, optional velocities and accelerations, torques.
+
+This is the one object the data path hands to identification.  Arrays are ``(N, nv)`` in the order of
+``joints``; units are SI: t [s], q [rad or m], dq [rad/s], ddq [rad/s²], tau [N·m].  Reading files,
+checking them and preprocessing live in :mod:`pinid.data.formats`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from pinid.errors import DataError
+
+
+@dataclass
+class Dataset:
+    """One recording; ``dq``, ``ddq`` and ``tau`` may be None when not measured."""
+
+    t: np.ndarray
+    q: np.ndarray
+    joints: list[str]
+    dq: np.ndarray | None = None
+    ddq: np.ndarray | None = None
+    tau: np.ndarray | None = None
+    source: str = "<memory>"
+    meta: dict = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        self.t = np.asarray(self.t, dtype=float).reshape(-1)
+        self.q = _as2d(self.q, "q", self)
+        for name in ("dq", "ddq", "tau"):
+            value = getattr(self, name)
+            if value is not None:
+                setattr(self, name, _as2d(value, name, self))
+        n, nv = len(self.t), len(self.joints)
+        for name in ("q", "dq", "ddq", "tau"):
+            a = getattr(self, name)
+            if a is not None and a.shape != (n, nv):
+                raise DataError(
+                    f"{self.source}: {name} has shape {a.shape}, expected ({n}, {nv}) for {n} time stamps "
+                    f"and joints {self.joints}"
+                )
+
+    @property
+    def n(self) -> int:
+        """Number of samples."""
+        return len(self.t)
+
+    @property
+    def nv(self) -> int:
+        """Number of joints."""
+        return len(self.joints)
+
+    @property
+    def duration(self) -> float:
+        """Time span [s]."""
+        return float(self.t[-1] - self.t[0]) if self.n > 1 else 0.0
+
+    @property
+    def sample_rate(self) -> float:
+        """Median sample rate [Hz]."""
+        if self.n < 2:
+            return float("nan")
+        return float(1.0 / np.median(np.diff(self.t)))
+
+    def select(self, index) -> "Dataset":
+        """A dataset of the samples ``index`` (slice, boolean mask or indices)."""
+        pick = (lambda a: None if a is None else a[index])
+        return replace(self, t=self.t[index], q=self.q[index], dq=pick(self.dq), ddq=pick(self.ddq),
+                       tau=pick(self.tau), meta=dict(self.meta))
+
+    def reorder(self, joints: list[str]) -> "Dataset":
+        """The same data with columns in the order of ``joints`` (a model's joint names)."""
+        missing = [j for j in joints if j not in self.joints]
+        if missing:
+            raise DataError(f"{self.source}: no data for joint(s) {missing}; the recording has {self.joints}")
+        idx = [self.joints.index(j) for j in joints]
+        pick = (lambda a: None if a is None else a[:, idx])
+        return replace(self, q=self.q[:, idx], dq=pick(self.dq), ddq=pick(self.ddq), tau=pick(self.tau),
+                       joints=list(joints), meta=dict(self.meta))
+
+
+def _as2d(a, name: str, ds: Dataset) -> np.ndarray:
+    a = np.asarray(a, dtype=float)
+    if a.ndim == 1:
+        a = a[:, None]
+    if a.ndim != 2:
+        raise DataError(f"{ds.source}: {name} has {a.ndim} dimensions, expected a (samples, joints) table")
+    return a

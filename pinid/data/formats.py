@@ -1,0 +1,294 @@
+"""Recordings on disk: read (pinid's dataset format, or any file through a mapping spec), check, write.
+
+Dataset format (``docs/data.md``): a CSV file with a header, or an NPZ archive of 1-D arrays, with the
+columns
+
+=================  ==========================================  =========
+name               what                                        unit
+=================  ==========================================  =========
+``t``              time, strictly increasing                   s
+``q_<joint>``      joint position (one per joint, required)    rad or m
+``dq_<joint>``     joint velocity (optional)                   rad/s
+``ddq_<joint>``    joint acceleration (optional)               rad/s²
+``tau_<joint>``    joint torque (optional for reading)         N·m or N
+=================  ==========================================  =========
+
+Other columns are ignored (listed in ``Dataset.meta["ignored_columns"]``).  A quantity is given for
+every joint or for none.  Anything else is read with a mapping spec (:mod:`pinid.data.mapping`).
+
+Checks (:func:`check_recording`, run by :func:`read_recording`): time stamps finite and strictly
+increasing (no duplicates), no NaN or infinite values, columns of equal length; with a model: every
+joint of the model present and no joint unknown to it, revolute positions that look like degrees,
+positions outside the URDF limits.  Failures raise :class:`~pinid.errors.DataError` with a one-line
+message naming the file, the column or joint, and what was expected; softer findings are
+:class:`DataWarning` and are also listed in ``Dataset.meta["warnings"]``.
+"""
+
+from __future__ import annotations
+
+import os
+import warnings
+import zipfile
+from pathlib import Path
+
+import numpy as np
+
+from pinid.data.dataset import Dataset
+from pinid.errors import DataError, SpecError
+from pinid.data.mapping import QUANTITIES, MappingSpec, peek_columns
+
+PREFIXES: dict[str, str] = {"q": "q_", "dq": "dq_", "ddq": "ddq_", "tau": "tau_"}
+CHECK_MODES = ("error", "warn", "off")
+
+
+class DataWarning(UserWarning):
+    """A finding about a recording that does not stop the work (also kept in ``meta["warnings"]``)."""
+
+
+def warn(ds: Dataset | None, message: str) -> None:
+    """Issue a :class:`DataWarning` and remember it in ``ds.meta["warnings"]``."""
+    if ds is not None:
+        ds.meta.setdefault("warnings", []).append(message)
+    warnings.warn(message, DataWarning, stacklevel=3)
+
+
+# ---------------------------------------------------------------------------------------------- reading
+def format_spec(names: list[str], source: str = "recording") -> tuple[dict, list[str]]:
+    """The mapping spec (dict form) of a file in the dataset format with columns ``names``.
+
+    Returns ``(spec, ignored_columns)``.
+    """
+    from pinid.data.mapping import _FLOAT_RE
+
+    if names and all(_FLOAT_RE.match(n) for n in names):
+        raise DataError(f"{source}: the first line is numbers, not column names; pinid's dataset format needs a header "
+                        "(t, q_<joint>, ...), and a file without one needs a mapping spec with header = false")
+    if "t" not in names:
+        hint = " (it has 'time': use a mapping spec with time = \"time\")" if "time" in names else ""
+        raise DataError(f"{source}: no column 't'{hint}; expected pinid's dataset format (t, q_<joint>, "
+                        "dq_<joint>, ddq_<joint>, tau_<joint>) or a mapping spec (--mapping) that says how to read it")
+    joints: dict[str, dict] = {}
+    order: list[str] = []
+    ignored: list[str] = []
+    by_qty: dict[str, list[str]] = {q: [] for q in QUANTITIES}
+    for n in names:
+        for qty, pre in PREFIXES.items():
+            if n.startswith(pre) and len(n) > len(pre):
+                by_qty[qty].append(n[len(pre):])
+                break
+        else:
+            if n != "t":
+                ignored.append(n)
+    order = list(by_qty["q"])
+    if not order:
+        raise DataError(f"{source}: no position column q_<joint>; expected one q_<joint> per joint "
+                        f"(columns: {', '.join(names[:20])})")
+    for qty in ("dq", "ddq", "tau"):
+        extra = [j for j in by_qty[qty] if j not in order]
+        if extra:
+            raise DataError(f"{source}: column '{PREFIXES[qty]}{extra[0]}' has no position column 'q_{extra[0]}'; "
+                            "expected every joint to have q_<joint>")
+    for qty in ("dq", "ddq", "tau"):
+        have = by_qty[qty]
+        if have and len(have) != len(order):
+            missing = [j for j in order if j not in have]
+            raise DataError(f"{source}: {qty} given for joints {have} but not for {missing}; expected a "
+                            f"{PREFIXES[qty]}<joint> column for every joint or for none")
+    for j in order:
+        joints[j] = {qty: f"{PREFIXES[qty]}{j}" for qty in QUANTITIES if j in by_qty[qty]}
+    return {"time": "t", "joints": joints}, ignored
+
+
+def read_recording(
+    path: str | os.PathLike,
+    *,
+    mapping: str | os.PathLike | dict | MappingSpec | None = None,
+    model=None,
+    limits: str | None = None,
+    degrees: str | None = None,
+) -> Dataset:
+    """Read a recording into a :class:`~pinid.data.dataset.Dataset` and check it.
+
+    ``path``: a CSV or NPZ file in pinid's dataset format, or any file described by ``mapping`` (a TOML
+    mapping spec path, a dict of the same structure, or a :class:`~pinid.data.mapping.MappingSpec`).
+    ``model``: a :class:`~pinid.model.robot.RobotModel`; when given, the columns are put in the order of
+    ``model.joint_names`` and checked against the URDF (missing or unknown joints, degrees, limits).
+    ``limits`` / ``degrees``: "error" (default), "warn" or "off" for those two checks; a mapping spec's
+    ``[checks]`` table sets them too (the keyword wins).
+    Raises DataError (bad data) or SpecError (bad mapping spec), one-line messages.
+    """
+    path = Path(path)
+    if mapping is None:
+        _, names = peek_columns(path)
+        spec_dict, ignored = format_spec(names, str(path))
+        spec = MappingSpec.from_dict(spec_dict, origin=f"{path} (dataset format)")
+    else:
+        spec = MappingSpec.load(mapping)
+        ignored = []
+    ds = spec.read(path)
+    if ignored:
+        ds.meta["ignored_columns"] = ignored
+    checks = dict(ds.meta.get("checks", {}))
+    if limits is not None:
+        checks["limits"] = limits
+    if degrees is not None:
+        checks["degrees"] = degrees
+    return check_recording(ds, model, limits=checks.get("limits", "error"), degrees=checks.get("degrees", "error"))
+
+
+def _at(ds: Dataset, k: int) -> str:
+    line0 = ds.meta.get("line0")
+    return f"line {line0 + k}" if line0 is not None else f"sample {k}"
+
+
+#: Largest magnitude accepted for q, dq, ddq and tau: beyond it squares overflow and the value is a
+#: unit, scale or parsing error, not a measurement.
+MAX_ABS_VALUE = 1e9
+
+
+def check_recording(ds: Dataset, model=None, *, limits: str = "error", degrees: str = "error") -> Dataset:
+    """Check a dataset (and, with a model, reorder it to ``model.joint_names``); return the checked dataset.
+
+    Raises DataError on: fewer than 2 samples, non-finite or non-increasing (or duplicate) time stamps,
+    NaN/inf values, and, with a model, joints missing from the recording or unknown to the URDF, revolute
+    positions beyond a full turn (degrees?), positions outside the URDF limits by more than 1 % of the
+    range.  ``limits`` / ``degrees`` = "warn" or "off" soften those two.
+    """
+    for name, mode in (("limits", limits), ("degrees", degrees)):
+        if mode not in CHECK_MODES:
+            raise SpecError(f"check {name} = {mode!r}, expected one of {', '.join(CHECK_MODES)}")
+    src = ds.source
+    if ds.n < 2:
+        raise DataError(f"{src}: {ds.n} sample{'s' if ds.n != 1 else ''}, expected a recording of at least 2 samples")
+    t = ds.t
+    if not np.all(np.isfinite(t)):
+        k = int(np.flatnonzero(~np.isfinite(t))[0])
+        raise DataError(f"{src}: time stamp at {_at(ds, k)} is not finite, expected finite times [s]")
+    d = np.diff(t)
+    bad = np.flatnonzero(d <= 0)
+    if bad.size:
+        k = int(bad[0])
+        if d[k] == 0:
+            raise DataError(f"{src}: duplicate time stamp t = {t[k]:.9g} s at {_at(ds, k)} and {_at(ds, k + 1)} "
+                            f"({bad.size} non-increasing step{'s' if bad.size > 1 else ''}); expected strictly increasing time")
+        raise DataError(f"{src}: time goes backwards at {_at(ds, k + 1)} (t = {t[k]:.9g} s then {t[k + 1]:.9g} s); "
+                        "expected strictly increasing time stamps")
+    for qty in QUANTITIES:
+        a = getattr(ds, qty)
+        if a is None:
+            continue
+        finite = np.isfinite(a)
+        if not finite.all():
+            k, j = (int(x[0]) for x in np.nonzero(~finite))
+            raise DataError(f"{src}: {qty} of joint '{ds.joints[j]}' is not finite at {_at(ds, k)}; expected finite numbers")
+        huge = np.abs(a) > MAX_ABS_VALUE
+        if huge.any():
+            k, j = (int(x[0]) for x in np.nonzero(huge))
+            raise DataError(f"{src}: {qty} of joint '{ds.joints[j]}' is {a[k, j]:.3g} at {_at(ds, k)}; expected "
+                            f"|value| below {MAX_ABS_VALUE:.0e} (a unit or scale error?)")
+    if model is None:
+        return ds
+    return _check_against_model(ds, model, limits, degrees)
+
+
+def _check_against_model(ds: Dataset, model, limits: str, degrees: str) -> Dataset:
+    src = ds.source
+    names = model.joint_names
+    unknown = [j for j in ds.joints if j not in names and j not in model.locked]
+    if unknown:
+        raise DataError(f"{src}: joint '{unknown[0]}' of the recording is not a joint of {model.name} "
+                        f"(its active joints: {', '.join(names)}); expected the URDF's joint names")
+    missing = [j for j in names if j not in ds.joints]
+    if missing:
+        raise DataError(f"{src}: no data for joint '{missing[0]}' of {model.name}"
+                        f"{f' (nor {missing[1:]})' if len(missing) > 1 else ''}; the recording has {', '.join(ds.joints)}")
+    for j in ds.joints:
+        if j in model.locked:
+            q = ds.q[:, ds.joints.index(j)]
+            moved = float(np.max(np.abs(q - model.locked[j])))
+            if moved > 0.01:
+                warn(ds, f"{src}: joint '{j}' is locked at {model.locked[j]:g} in the model but moves by up to "
+                         f"{moved:.3g} in the recording; its data are dropped")
+    out = ds.reorder(names)
+    out.meta.setdefault("warnings", list(ds.meta.get("warnings", [])))
+    for i, info in enumerate(model.joints):
+        q = out.q[:, i]
+        qmin, qmax = float(q.min()), float(q.max())
+        if info.kind == "revolute" and degrees != "off":
+            peak = max(abs(qmin), abs(qmax))
+            if peak > 2 * np.pi * 1.05:
+                msg = (f"{src}: positions of joint '{info.name}' reach {peak:.4g}, more than a full turn for a revolute "
+                       "joint: they look like degrees; expected radians (a mapping spec converts with scale = \"deg\"; "
+                           "a joint that really turns that far needs degrees = \"off\" in its [checks])")
+                if degrees == "error":
+                    raise DataError(msg)
+                warn(out, msg)
+        if limits == "off" or not (np.isfinite(info.lower) or np.isfinite(info.upper)):
+            continue
+        span = info.upper - info.lower if np.isfinite(info.upper - info.lower) else 1.0
+        tol = max(1e-6, 0.01 * span)
+        low, high = qmin < info.lower - tol, qmax > info.upper + tol
+        if low or high:
+            k = int(np.argmin(q) if low else np.argmax(q))
+            value = qmin if low else qmax
+            hint = ""
+            if info.kind != "prismatic" and info.lower - tol <= qmin * np.pi / 180 and qmax * np.pi / 180 <= info.upper + tol:
+                hint = "; in degrees they would fit (a mapping spec converts with scale = \"deg\")"
+            elif info.lower - tol <= -qmax and -qmin <= info.upper + tol:
+                hint = "; with the opposite sign they would fit (sign = -1 in a mapping spec)"
+            msg = (f"{src}: joint '{info.name}' reaches {value:.4g} at {_at(out, k)}, outside its URDF limits "
+                   f"[{info.lower:.4g}, {info.upper:.4g}]{hint}")
+            if limits == "error":
+                raise DataError(msg)
+            warn(out, msg)
+    return out
+
+
+# ---------------------------------------------------------------------------------------------- writing
+def _columns(ds: Dataset) -> tuple[list[str], np.ndarray]:
+    names = ["t"]
+    blocks = [ds.t[:, None]]
+    for qty in QUANTITIES:
+        a = getattr(ds, qty)
+        if a is None:
+            continue
+        names += [f"{PREFIXES[qty]}{j}" for j in ds.joints]
+        blocks.append(a)
+    return names, np.hstack(blocks)
+
+
+def write_recording(path: str | os.PathLike, ds: Dataset, *, digits: int = 12) -> Path:
+    """Write ``ds`` in the dataset format, CSV or NPZ by the suffix of ``path``, atomically.
+
+    CSV values carry ``digits`` significant digits; NPZ keeps full precision.  The output depends only on
+    the data (no time stamp inside), so the same dataset always gives the same bytes.
+    """
+    from pinid.io import atomic_path
+
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix not in (".csv", ".npz"):
+        raise DataError(f"{path}: unknown suffix '{path.suffix}', expected .csv or .npz for a recording")
+    for j in ds.joints:
+        if not j or any(c in j for c in ",;\t\n\"") or j != j.strip():
+            raise DataError(f"{path}: joint name {j!r} cannot be a column name, expected no commas, quotes or spaces at the ends")
+    names, data = _columns(ds)
+    if not np.all(np.isfinite(data)):
+        raise DataError(f"{path}: the dataset holds NaN or infinite values, refusing to write them")
+    with atomic_path(path) as tmp:
+        if suffix == ".npz":
+            with zipfile.ZipFile(tmp, "w", compression=zipfile.ZIP_STORED, allowZip64=True) as zf:
+                for i, n in enumerate(names):
+                    info = zipfile.ZipInfo(f"{n}.npy", date_time=(1980, 1, 1, 0, 0, 0))
+                    with zf.open(info, "w", force_zip64=True) as f:
+                        np.lib.format.write_array(f, np.ascontiguousarray(data[:, i]), allow_pickle=False)
+        else:
+            fmt = ",".join([f"%.{digits}g"] * data.shape[1])
+            with open(tmp, "w", encoding="utf-8", newline="\n") as f:
+                f.write(",".join(names) + "\n")
+                chunk = 20000
+                for s in range(0, len(data), chunk):
+                    rows = data[s : s + chunk].tolist()
+                    f.write("\n".join(fmt % tuple(r) for r in rows))
+                    f.write("\n")
+    return path

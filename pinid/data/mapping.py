@@ -1,0 +1,759 @@
+"""Mapping specs: how to read a recording that is not in pinid's dataset format.
+
+A mapping spec is a small TOML file (or the same structure as a dict) that says where each joint's
+position, velocity, acceleration and torque are, in which unit, and where the time is.  The full
+reference with worked examples is ``docs/data.md``; in short::
+
+    # top-level keys describe the main file (the one given to read_recording / --data)
+    header = true                 # false: columns by 0-based index (or name them with `names`)
+    delimiter = ","               # default: guessed from the first data line (, ; tab or spaces)
+    rows = [0, -1]                # rows to keep, Python slice [start, stop) (default: all)
+    time = { column = "time", scale = 1.0 }     # or time = { rate = 1000.0 } when there is no time column
+
+    [joints.hip]
+    q = { column = "pos_meas1" }                # a column name, a 0-based index, or a table
+    tau = { column = "cur1", scale = 0.107 }    # current [A] × torque constant [N·m/A]
+
+    [joints.knee]
+    q = { column = 3, scale = "deg", sign = -1 }
+    tau = { source = "torques", column = "knee", scale = 2.5 }
+
+    [sources.torques]             # another file (path relative to the main file's folder)
+    path = "{stem}_torque.csv"    # {stem}: the main file's name without suffix; {name}: with it
+    time = { column = "t_ms", scale = "ms" }   # own time stamps: interpolated onto the main time
+
+Motor-side measurements through a transmission (possibly coupled, as on wrists)::
+
+    [transmission]
+    joints = ["wrist_2", "wrist_3"]
+    motors = ["m2", "m3"]
+    matrix = [[50, 0], [-50, 50]]   # q_motor = matrix · q_joint  (rows: motors, columns: joints)
+    [motors.m2]
+    q = { column = "enc2", scale = 9.587e-5 }
+    tau = { column = "cur2", scale = 0.05 }
+
+Positions, velocities and accelerations of the joints are ``matrix⁻¹ · motor``; joint torques are
+``matrixᵀ · motor torque`` (power balance, losses ignored).  A value is ``sign · scale · raw + offset``,
+``offset`` in SI units after scaling.
+"""
+
+from __future__ import annotations
+
+import difflib
+import os
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from pinid.errors import DataError, SpecError
+
+QUANTITIES: tuple[str, ...] = ("q", "dq", "ddq", "tau")
+
+#: Unit words accepted as ``scale`` of joint quantities (factor to SI).
+SCALE_WORDS: dict[str, float] = {"rad": 1.0, "deg": np.pi / 180.0, "mrad": 1e-3, "m": 1.0, "mm": 1e-3,
+                                 "N·m": 1.0, "Nm": 1.0, "mNm": 1e-3}
+#: Unit words accepted as ``scale`` of the time column (factor to seconds).
+TIME_WORDS: dict[str, float] = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "µs": 1e-6, "ns": 1e-9}
+
+_SOURCE_KEYS = {"path", "format", "delimiter", "header", "skip_rows", "comment", "names", "rows", "time"}
+_TOP_KEYS = (_SOURCE_KEYS - {"path"}) | {"joints", "motors", "sources", "transmission", "checks", "description"}
+_COLUMN_KEYS = {"column", "source", "index", "scale", "sign", "offset"}
+_TIME_KEYS = {"column", "index", "scale", "offset", "rate"}
+_CHECK_VALUES = ("error", "warn", "off")
+_CHECK_KEYS = {"limits", "degrees"}
+MAIN = "main"
+
+
+# ---------------------------------------------------------------------------------------------- spec objects
+@dataclass(frozen=True)
+class ColumnRef:
+    """Where one signal is: a source, a column (name or 0-based index), and the conversion to SI."""
+
+    source: str
+    column: str | int
+    index: int | None = None  # column of a 2-D array in an NPZ file
+    scale: float = 1.0
+    sign: float = 1.0
+    offset: float = 0.0
+    where: str = ""  # the spec's table, for messages: "[joints.hip.tau]"
+
+
+@dataclass(frozen=True)
+class TimeSpec:
+    """The time of a source: a column (scaled to seconds) or a constant sample rate [Hz]."""
+
+    column: str | int | None = None
+    index: int | None = None
+    scale: float = 1.0
+    offset: float = 0.0
+    rate: float | None = None
+
+
+@dataclass
+class SourceSpec:
+    """How to read one file."""
+
+    name: str
+    path: str | None = None  # None for the main file
+    format: str = "auto"
+    delimiter: str | None = None
+    header: bool = True
+    skip_rows: int = 0
+    comment: str = "#"
+    names: list[str] | None = None
+    rows: tuple[int | None, int | None] = (None, None)
+    time: TimeSpec | None = None
+
+
+@dataclass
+class Transmission:
+    """Motor-side measurements: ``q_motor = matrix · q_joint``; ``tau_joint = matrixᵀ · tau_motor``."""
+
+    joints: list[str]
+    motors: list[str]
+    matrix: np.ndarray
+
+
+@dataclass
+class MappingSpec:
+    """A parsed, validated mapping spec; :meth:`read` turns a file into a :class:`~pinid.data.dataset.Dataset`."""
+
+    main: SourceSpec
+    sources: dict[str, SourceSpec] = field(default_factory=dict)
+    joints: dict[str, dict[str, ColumnRef]] = field(default_factory=dict)
+    motors: dict[str, dict[str, ColumnRef]] = field(default_factory=dict)
+    transmission: Transmission | None = None
+    checks: dict[str, str] = field(default_factory=dict)
+    origin: str = "<mapping>"
+
+    # ------------------------------------------------------------------ construction
+    @classmethod
+    def load(cls, spec: "str | os.PathLike | dict | MappingSpec") -> "MappingSpec":
+        """A spec from a TOML file, a dict of the same structure, or an existing spec."""
+        if isinstance(spec, MappingSpec):
+            return spec
+        if isinstance(spec, dict):
+            return cls.from_dict(spec, origin="mapping spec")
+        p = Path(spec)
+        if not p.is_file():
+            raise SpecError(f"{p}: mapping spec not found, expected a TOML file")
+        try:
+            import tomllib  # type: ignore[import-not-found]
+        except ModuleNotFoundError:  # Python 3.10
+            import tomli as tomllib  # type: ignore[no-redef]
+        try:
+            d = tomllib.loads(p.read_text(encoding="utf-8"))
+        except UnicodeDecodeError:
+            raise SpecError(f"{p}: not UTF-8 text, expected a TOML mapping spec") from None
+        except tomllib.TOMLDecodeError as exc:
+            raise SpecError(f"{p}: not valid TOML ({exc})") from None
+        return cls.from_dict(d, origin=str(p))
+
+    @classmethod
+    def from_dict(cls, d: dict, *, origin: str = "mapping spec") -> "MappingSpec":
+        """Validate the dict form; unknown keys are errors (they are usually typos)."""
+        if not isinstance(d, dict):
+            raise SpecError(f"{origin}: expected a table of keys, got {type(d).__name__}")
+        _unknown(d, _TOP_KEYS, origin, "the top level")
+        main = _source(MAIN, {k: v for k, v in d.items() if k in _SOURCE_KEYS}, origin, main=True)
+        if main.time is None:
+            raise SpecError(f"{origin}: no time: give time = {{ column = \"...\" }} (a time column) or "
+                            "time = { rate = ... } (a constant sample rate in Hz)")
+        sources = {}
+        raw_sources = d.get("sources", {})
+        if not isinstance(raw_sources, dict):
+            raise SpecError(f"{origin}: [sources] must be a table of named files")
+        for name, sd in raw_sources.items():
+            if name == MAIN:
+                raise SpecError(f"{origin}: [sources.{MAIN}] is reserved for the main file; choose another name")
+            if not isinstance(sd, dict):
+                raise SpecError(f"{origin}: [sources.{name}] must be a table with at least path = \"...\"")
+            _unknown(sd, _SOURCE_KEYS, origin, f"[sources.{name}]")
+            if "path" not in sd:
+                raise SpecError(f"{origin}: [sources.{name}] has no path, expected path = \"file.csv\"")
+            sources[name] = _source(name, sd, origin)
+        known_sources = {MAIN, *sources}
+        joints = _signal_tables(d.get("joints", {}), "joints", origin, known_sources)
+        motors = _signal_tables(d.get("motors", {}), "motors", origin, known_sources)
+        transmission = None
+        if "transmission" in d:
+            transmission = _transmission(d["transmission"], origin, motors, joints)
+        elif motors:
+            raise SpecError(f"{origin}: [motors] given without a [transmission] saying how motors drive joints")
+        if not joints and transmission is None:
+            raise SpecError(f"{origin}: no joints, expected [joints.<name>] tables (or a [transmission])")
+        checks = d.get("checks", {})
+        if not isinstance(checks, dict):
+            raise SpecError(f"{origin}: [checks] must be a table, e.g. limits = \"warn\"")
+        _unknown(checks, _CHECK_KEYS, origin, "[checks]")
+        for k, v in checks.items():
+            if v not in _CHECK_VALUES:
+                raise SpecError(f"{origin}: [checks] {k} = {v!r}, expected one of {', '.join(_CHECK_VALUES)}")
+        return cls(main, sources, joints, motors, transmission, dict(checks), origin)
+
+    @property
+    def joint_names(self) -> list[str]:
+        """Joints the spec produces: the direct ones, then those behind the transmission."""
+        out = list(self.joints)
+        if self.transmission is not None:
+            out += [j for j in self.transmission.joints if j not in out]
+        return out
+
+    # ------------------------------------------------------------------ reading
+    def read(self, path: str | os.PathLike):
+        """Read the main file ``path`` (and the other sources) into a Dataset (not yet checked against a model)."""
+        from pinid.data.dataset import Dataset
+
+        path = Path(path)
+        refs_by_source: dict[str, list[ColumnRef]] = {}
+        for table in (self.joints, self.motors):
+            for sig in table.values():
+                for ref in sig.values():
+                    refs_by_source.setdefault(ref.source, []).append(ref)
+        # main file
+        main_tab = _open_source(self.main, path, path, refs_by_source.get(MAIN, []), self.origin)
+        t = _time_of(main_tab, self.main, self.origin)
+        columns_desc: dict[str, str] = {}
+        values: dict[ColumnRef, np.ndarray] = {}
+        for ref in refs_by_source.get(MAIN, []):
+            values[ref] = main_tab.values(ref, self.origin)
+        keep = np.ones(len(t), dtype=bool)
+        for name, src in self.sources.items():
+            refs = refs_by_source.get(name, [])
+            if not refs:
+                continue
+            file = path.parent / src.path.format(stem=path.stem, name=path.name, suffix=path.suffix)
+            tab = _open_source(src, file, path, refs, self.origin)
+            if src.time is None:
+                if tab.nrows != len(t):
+                    raise DataError(
+                        f"{file}: {tab.nrows} rows, but {path.name} has {len(t)} (columns of different lengths); "
+                        f"expected the same number of rows, or a time for [sources.{name}] to align them"
+                    )
+                for ref in refs:
+                    values[ref] = tab.values(ref, self.origin)
+            else:
+                ts = _time_of(tab, src, self.origin)
+                inside = (t >= ts[0]) & (t <= ts[-1])
+                if not inside.any():
+                    raise DataError(f"{file}: its time [{ts[0]:g}, {ts[-1]:g}] s does not overlap "
+                                    f"{path.name}'s [{t[0]:g}, {t[-1]:g}] s, expected recordings of the same run")
+                keep &= inside
+                for ref in refs:
+                    values[ref] = np.interp(t, ts, tab.values(ref, self.origin))
+        for ref in values:
+            columns_desc.setdefault(ref.where, f"{ref.source}:{ref.column!r}")
+        n = len(t)
+        # assemble joint signals
+        signals: dict[str, dict[str, np.ndarray]] = {}
+        for joint, sig in self.joints.items():
+            signals[joint] = {qty: _convert(values[ref], ref) for qty, ref in sig.items()}
+        if self.transmission is not None:
+            tr = self.transmission
+            for qty in QUANTITIES:
+                have = [m for m in tr.motors if qty in self.motors.get(m, {})]
+                if not have:
+                    continue
+                if len(have) != len(tr.motors):
+                    missing = [m for m in tr.motors if m not in have]
+                    raise SpecError(f"{self.origin}: {qty} given for motors {have} but not {missing}; "
+                                    "a transmission needs every motor's value to compute the joints'")
+                motor = np.column_stack([_convert(values[self.motors[m][qty]], self.motors[m][qty]) for m in tr.motors])
+                joint_vals = motor @ tr.matrix if qty == "tau" else np.linalg.solve(tr.matrix, motor.T).T
+                for i, j in enumerate(tr.joints):
+                    signals.setdefault(j, {})[qty] = joint_vals[:, i]
+        joint_names = self.joint_names
+        for j in joint_names:
+            if "q" not in signals.get(j, {}):
+                raise SpecError(f"{self.origin}: joint '{j}' has no position q, expected q = {{ column = ... }}")
+        arrays: dict[str, np.ndarray | None] = {}
+        for qty in QUANTITIES:
+            have = [j for j in joint_names if qty in signals[j]]
+            if have and len(have) != len(joint_names):
+                missing = [j for j in joint_names if j not in have]
+                raise SpecError(f"{self.origin}: {qty} given for joints {have} but not for {missing}; "
+                                f"expected {qty} for every joint or for none")
+            arrays[qty] = np.column_stack([signals[j][qty] for j in joint_names]) if have else None
+        idx = np.flatnonzero(keep)
+        if idx.size < n:
+            import warnings
+
+            from pinid.data.formats import DataWarning
+
+            warnings.warn(f"{path}: kept {idx.size} of {n} samples, those inside every source's time span",
+                          DataWarning, stacklevel=3)
+            t = t[idx]
+            arrays = {k: (None if v is None else v[idx]) for k, v in arrays.items()}
+        meta = {"mapping": self.origin, "columns": columns_desc, "checks": dict(self.checks)}
+        if main_tab.line0 is not None and idx.size == n:
+            meta["line0"] = main_tab.line0 + main_tab.row0  # file line of sample 0, for messages
+        return Dataset(t=t, q=arrays["q"], joints=joint_names, dq=arrays["dq"], ddq=arrays["ddq"],
+                       tau=arrays["tau"], source=str(path), meta=meta)
+
+
+# ---------------------------------------------------------------------------------------------- parsing
+def _unknown(d: dict, allowed: set[str], origin: str, where: str) -> None:
+    for k in d:
+        if k not in allowed:
+            close = difflib.get_close_matches(str(k), sorted(allowed), n=1)
+            hint = f" (did you mean '{close[0]}'?)" if close else ""
+            raise SpecError(f"{origin}: unknown key '{k}' in {where}{hint}; expected some of {', '.join(sorted(allowed))}")
+
+
+def _number(v: Any, origin: str, where: str, *, words: dict[str, float] | None = None) -> float:
+    if isinstance(v, str) and words is not None and v in words:
+        return words[v]
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not np.isfinite(v):
+        extra = f" or one of {', '.join(words)}" if words else ""
+        raise SpecError(f"{origin}: {where} = {v!r}, expected a finite number{extra}")
+    return float(v)
+
+
+def _rows(v: Any, origin: str, where: str) -> tuple[int | None, int | None]:
+    if isinstance(v, dict):
+        _unknown(v, {"start", "stop"}, origin, where)
+        v = [v.get("start"), v.get("stop")]
+    if not isinstance(v, list) or len(v) != 2 or not all(x is None or (isinstance(x, int) and not isinstance(x, bool)) for x in v):
+        raise SpecError(f"{origin}: {where} = {v!r}, expected [start, stop] (0-based, stop excluded, negative from the end)")
+    return v[0], v[1]
+
+
+def _time(v: Any, origin: str, where: str) -> TimeSpec:
+    if isinstance(v, (str, int)) and not isinstance(v, bool):
+        return TimeSpec(column=v)
+    if not isinstance(v, dict):
+        raise SpecError(f"{origin}: {where} = {v!r}, expected a column name or index, or a table with column or rate")
+    _unknown(v, _TIME_KEYS, origin, where)
+    if ("column" in v) == ("rate" in v):
+        raise SpecError(f"{origin}: {where} needs exactly one of column (time stamps) or rate (constant rate in Hz)")
+    if "rate" in v:
+        rate = _number(v["rate"], origin, f"{where}.rate")
+        if rate <= 0:
+            raise SpecError(f"{origin}: {where}.rate = {rate:g}, expected a sample rate > 0 [Hz]")
+        return TimeSpec(rate=rate)
+    col = v["column"]
+    if isinstance(col, bool) or not isinstance(col, (str, int)):
+        raise SpecError(f"{origin}: {where}.column = {col!r}, expected a column name or a 0-based index")
+    index = v.get("index")
+    return TimeSpec(column=col, index=index, scale=_number(v.get("scale", 1.0), origin, f"{where}.scale", words=TIME_WORDS),
+                    offset=_number(v.get("offset", 0.0), origin, f"{where}.offset"))
+
+
+def _source(name: str, d: dict, origin: str, *, main: bool = False) -> SourceSpec:
+    where = "the top level" if main else f"[sources.{name}]"
+    s = SourceSpec(name=name, path=None if main else str(d["path"]))
+    fmt = d.get("format", "auto")
+    if fmt not in ("auto", "csv", "npz"):
+        raise SpecError(f"{origin}: format = {fmt!r} in {where}, expected 'csv', 'npz' or 'auto' (by suffix)")
+    s.format = fmt
+    if "delimiter" in d:
+        delim = d["delimiter"]
+        if not isinstance(delim, str) or len(delim) != 1 and delim not in ("whitespace", "\\t"):
+            raise SpecError(f"{origin}: delimiter = {delim!r} in {where}, expected one character or 'whitespace'")
+        s.delimiter = "\t" if delim == "\\t" else delim
+    if "header" in d:
+        if not isinstance(d["header"], bool):
+            raise SpecError(f"{origin}: header = {d['header']!r} in {where}, expected true or false")
+        s.header = d["header"]
+    if "skip_rows" in d:
+        if isinstance(d["skip_rows"], bool) or not isinstance(d["skip_rows"], int) or d["skip_rows"] < 0:
+            raise SpecError(f"{origin}: skip_rows = {d['skip_rows']!r} in {where}, expected a count of lines >= 0")
+        s.skip_rows = d["skip_rows"]
+    if "comment" in d:
+        if not isinstance(d["comment"], str) or not d["comment"]:
+            raise SpecError(f"{origin}: comment = {d['comment']!r} in {where}, expected a non-empty string such as '#'")
+        s.comment = d["comment"]
+    if "names" in d:
+        names = d["names"]
+        if not isinstance(names, list) or not all(isinstance(x, str) for x in names):
+            raise SpecError(f"{origin}: names in {where} must be a list of column names")
+        s.names = list(names)
+    if "rows" in d:
+        s.rows = _rows(d["rows"], origin, f"rows in {where}")
+    if "time" in d:
+        s.time = _time(d["time"], origin, f"time in {where}")
+    return s
+
+
+def _column(v: Any, origin: str, where: str, sources: set[str]) -> ColumnRef:
+    if isinstance(v, (str, int)) and not isinstance(v, bool):
+        return ColumnRef(MAIN, v, where=where)
+    if not isinstance(v, dict):
+        raise SpecError(f"{origin}: {where} = {v!r}, expected a column name, a 0-based index or a table with column = ...")
+    _unknown(v, _COLUMN_KEYS, origin, where)
+    if "column" not in v:
+        raise SpecError(f"{origin}: {where} has no column, expected column = \"name\" or a 0-based index")
+    col = v["column"]
+    if isinstance(col, bool) or not isinstance(col, (str, int)) or (isinstance(col, int) and col < 0):
+        raise SpecError(f"{origin}: {where}.column = {col!r}, expected a column name or a 0-based index >= 0")
+    source = v.get("source", MAIN)
+    if source not in sources:
+        raise SpecError(f"{origin}: {where}.source = {source!r} is not defined; expected '{MAIN}' or one of "
+                        f"[sources.*] ({', '.join(sorted(sources - {MAIN})) or 'none defined'})")
+    index = v.get("index")
+    if index is not None and (isinstance(index, bool) or not isinstance(index, int) or index < 0):
+        raise SpecError(f"{origin}: {where}.index = {index!r}, expected a 0-based column of a 2-D array")
+    sign = _number(v.get("sign", 1.0), origin, f"{where}.sign")
+    if sign not in (1.0, -1.0):
+        raise SpecError(f"{origin}: {where}.sign = {sign:g}, expected 1 or -1")
+    scale = _number(v.get("scale", 1.0), origin, f"{where}.scale", words=SCALE_WORDS)
+    if scale == 0:
+        raise SpecError(f"{origin}: {where}.scale = 0, expected a non-zero factor to SI units")
+    return ColumnRef(source, col, index, scale, sign, _number(v.get("offset", 0.0), origin, f"{where}.offset"), where)
+
+
+def _signal_tables(d: Any, kind: str, origin: str, sources: set[str]) -> dict[str, dict[str, ColumnRef]]:
+    if not isinstance(d, dict):
+        raise SpecError(f"{origin}: [{kind}] must be a table of [{kind}.<name>] tables")
+    out = {}
+    for name, sig in d.items():
+        if not isinstance(sig, dict):
+            raise SpecError(f"{origin}: [{kind}.{name}] must be a table with q = ..., and optionally dq, ddq, tau")
+        _unknown(sig, set(QUANTITIES), origin, f"[{kind}.{name}]")
+        out[name] = {qty: _column(v, origin, f"[{kind}.{name}.{qty}]", sources) for qty, v in sig.items()}
+    return out
+
+
+def _transmission(d: Any, origin: str, motors: dict, joints: dict) -> Transmission:
+    if not isinstance(d, dict):
+        raise SpecError(f"{origin}: [transmission] must be a table with joints, motors, matrix")
+    _unknown(d, {"joints", "motors", "matrix"}, origin, "[transmission]")
+    for k in ("joints", "motors", "matrix"):
+        if k not in d:
+            raise SpecError(f"{origin}: [transmission] has no {k}; expected joints, motors and matrix")
+    tj, tm = d["joints"], d["motors"]
+    if not (isinstance(tj, list) and isinstance(tm, list) and all(isinstance(x, str) for x in tj + tm)):
+        raise SpecError(f"{origin}: [transmission] joints and motors must be lists of names")
+    if len(set(tj)) != len(tj) or len(set(tm)) != len(tm):
+        raise SpecError(f"{origin}: [transmission] joints and motors must not repeat names")
+    try:
+        R = np.array(d["matrix"], dtype=float)
+    except (TypeError, ValueError):
+        raise SpecError(f"{origin}: [transmission] matrix must be a list of rows of numbers") from None
+    if R.shape != (len(tm), len(tj)) or len(tm) != len(tj):
+        raise SpecError(f"{origin}: [transmission] matrix has shape {R.shape}, expected a square "
+                        f"({len(tm)} motors × {len(tj)} joints) matrix with q_motor = matrix · q_joint")
+    if not np.all(np.isfinite(R)) or abs(np.linalg.det(R)) < 1e-12 * max(1.0, np.abs(R).max()) ** len(tj):
+        raise SpecError(f"{origin}: [transmission] matrix is singular or not finite, expected an invertible matrix")
+    for m in tm:
+        if m not in motors:
+            raise SpecError(f"{origin}: motor '{m}' of [transmission] has no [motors.{m}] table")
+    for m in motors:
+        if m not in tm:
+            raise SpecError(f"{origin}: [motors.{m}] is not listed in [transmission] motors {tm}")
+    for j in tj:
+        if j in joints:
+            raise SpecError(f"{origin}: joint '{j}' has data both in [joints.{j}] and through [transmission]; "
+                            "expected one or the other")
+    return Transmission(list(tj), list(tm), R)
+
+
+def _convert(raw: np.ndarray, ref: ColumnRef) -> np.ndarray:
+    if ref.scale == 1.0 and ref.sign == 1.0 and ref.offset == 0.0:
+        return raw
+    return (ref.sign * ref.scale) * raw + ref.offset
+
+
+# ---------------------------------------------------------------------------------------------- tables
+class _Table:
+    """Columns of one file, read once; ``values(ref)`` returns one raw column (rows selected)."""
+
+    def __init__(self, path: Path, names: list[str] | None, data: dict, nrows: int, line0: int | None) -> None:
+        self.path, self.names, self.data, self.nrows, self.line0 = path, names, data, nrows, line0
+        self.row0 = 0  # index of the first kept row (after rows = [start, stop])
+
+    def key(self, column: str | int, where: str, origin: str) -> str | int:
+        if isinstance(column, int):
+            if self.names is not None and column >= len(self.names):
+                raise SpecError(f"{origin}: {where} column {column} is out of range, {self.path.name} has "
+                                f"{len(self.names)} columns (0-based index)")
+            return column
+        if self.names is None or column not in self.names:
+            if self.names is None:
+                raise SpecError(f"{origin}: {where} column {column!r}: {self.path.name} has no header "
+                                "(header = false); give a 0-based index or name the columns with names = [...]")
+            close = difflib.get_close_matches(column, self.names, n=1)
+            hint = f" (did you mean '{close[0]}'?)" if close else ""
+            raise SpecError(f"{origin}: {where} column {column!r} is not in {self.path.name}{hint}; "
+                            f"its columns: {', '.join(self.names[:40])}")
+        return column
+
+    def values(self, ref: ColumnRef, origin: str) -> np.ndarray:
+        key = (ref.column, ref.index)
+        return self.data[key]
+
+
+def _open_source(src: SourceSpec, file: Path, main_path: Path, refs: list[ColumnRef], origin: str) -> _Table:
+    fmt = src.format
+    if fmt == "auto":
+        suffix = file.suffix.lower()
+        fmt = "npz" if suffix == ".npz" else "csv" if suffix in (".csv", ".txt", ".tsv", ".dat", "") else None
+        if fmt is None:
+            raise DataError(f"{file}: unknown file type '{file.suffix}', expected .csv (text) or .npz; "
+                            "or set format = \"csv\" in the mapping spec")
+    _check_file(file)
+    wanted: list[tuple[str | int, int | None, str]] = [(r.column, r.index, r.where) for r in refs]
+    if src.time is not None and src.time.column is not None:
+        wanted.append((src.time.column, src.time.index, f"time of {'the main file' if src.name == MAIN else f'[sources.{src.name}]'}"))
+    if fmt == "npz":
+        tab = _read_npz(file, wanted, origin)
+    else:
+        tab = _read_csv(file, src, wanted, origin)
+    start, stop = src.rows
+    if start is not None or stop is not None:
+        sl = slice(start, stop)
+        kept = range(tab.nrows)[sl]
+        if len(kept) == 0:
+            raise SpecError(f"{origin}: rows [{start}, {stop}] keep no row of {file.name}, which has {tab.nrows} rows")
+        tab.data = {k: v[sl] for k, v in tab.data.items()}
+        tab.nrows = len(kept)
+        tab.row0 = kept.start
+    else:
+        tab.row0 = 0
+    for (col, index, where) in wanted:
+        a = tab.data[(col, index)]
+        bad = np.flatnonzero(~np.isfinite(a))
+        if bad.size:
+            i = int(bad[0])
+            kind = "NaN" if np.isnan(a[i]) else "an infinite value"
+            at = (f"line {tab.line0 + tab.row0 + i}" if tab.line0 is not None else f"index {tab.row0 + i}")
+            name = f"{col}" + ("" if index is None else f"[:, {index}]")
+            raise DataError(f"{file}: column '{name}' ({where.strip('[]')}) has {kind} at {at} "
+                            f"({bad.size} non-finite value{'s' if bad.size > 1 else ''} in all); expected finite numbers "
+                            "(drop those rows with rows = [start, stop] in a mapping spec)")
+    return tab
+
+
+def _check_file(file: Path) -> None:
+    if not file.exists():
+        raise DataError(f"{file}: file not found, expected a recording")
+    if file.is_dir():
+        raise DataError(f"{file}: is a folder, expected a recording file")
+    if file.stat().st_size == 0:
+        raise DataError(f"{file}: file is empty, expected a recording")
+
+
+def _read_npz(file: Path, wanted, origin: str) -> _Table:
+    import zipfile
+
+    try:
+        npz = np.load(file, allow_pickle=False)
+    except (OSError, ValueError, zipfile.BadZipFile) as exc:
+        raise DataError(f"{file}: not a readable NPZ file ({exc})") from None
+    if not hasattr(npz, "files"):
+        raise DataError(f"{file}: holds a single array, expected an NPZ archive of named arrays")
+    names = list(npz.files)
+    tab = _Table(file, names, {}, 0, None)
+    lengths: dict[str, int] = {}
+    with npz:
+        for col, index, where in wanted:
+            if isinstance(col, int):
+                raise SpecError(f"{origin}: {where} column {col}: NPZ arrays have names, not indices; "
+                                f"expected one of {', '.join(names)}")
+            tab.key(col, where, origin)
+            try:
+                a = np.asarray(npz[col])
+            except ValueError as exc:
+                raise DataError(f"{file}: array '{col}' cannot be read ({exc})") from None
+            if a.dtype.kind not in "fiub":
+                raise DataError(f"{file}: array '{col}' has type {a.dtype}, expected numbers")
+            if index is not None:
+                if a.ndim != 2 or index >= a.shape[1]:
+                    raise SpecError(f"{origin}: {where} index {index}: array '{col}' has shape {a.shape}, "
+                                    "expected a 2-D (samples, columns) array with that column")
+                a = a[:, index]
+            elif a.ndim != 1:
+                raise DataError(f"{file}: array '{col}' has shape {a.shape}, expected one value per sample "
+                                "(1-D); for a 2-D array give index = ... in the mapping spec")
+            tab.data[(col, index)] = a.astype(float)
+            lengths[f"{col}" + ("" if index is None else f"[:, {index}]")] = len(a)
+    if len(set(lengths.values())) > 1:
+        parts = ", ".join(f"'{k}' {v}" for k, v in lengths.items())
+        raise DataError(f"{file}: columns of different lengths ({parts}), expected one value per sample in each")
+    tab.nrows = next(iter(lengths.values())) if lengths else 0
+    return tab
+
+
+_FLOAT_RE = re.compile(r"^[\s\"']*[-+]?(\d+\.?\d*([eE][-+]?\d+)?|\.\d+([eE][-+]?\d+)?|nan|inf|infinity)[\s\"']*$", re.I)
+
+
+def _split(line: str, delimiter: str | None) -> list[str]:
+    return line.split() if delimiter is None else line.split(delimiter)
+
+
+def _read_csv(file: Path, src: SourceSpec, wanted, origin: str) -> _Table:
+    with open(file, "rb") as fb:
+        head = fb.read(65536)
+    if b"\x00" in head:
+        raise DataError(f"{file}: binary file, expected CSV text (or an .npz file)")
+    try:
+        f = open(file, encoding="utf-8-sig", newline="")
+        lines_consumed = 0
+        header_names = None
+        first_data = None
+        with f:
+            for _ in range(src.skip_rows):
+                if not f.readline():
+                    break
+                lines_consumed += 1
+            while True:
+                line = f.readline()
+                if not line:
+                    break
+                stripped = line.strip()
+                if not stripped or stripped.startswith(src.comment):
+                    lines_consumed += 1
+                    continue
+                if src.header and header_names is None:
+                    header_names = line.rstrip("\r\n")
+                    lines_consumed += 1
+                    continue
+                first_data = line.rstrip("\r\n")
+                break
+    except UnicodeDecodeError:
+        raise DataError(f"{file}: not UTF-8 text, expected a CSV recording") from None
+    if first_data is None:
+        raise DataError(f"{file}: no data rows" + (" after the header" if header_names is not None else "")
+                        + ", expected at least one row of numbers")
+    delim = src.delimiter
+    if delim == "whitespace":
+        delim = None
+    elif delim is None:
+        for cand in (",", ";", "\t"):
+            if cand in first_data:
+                delim = cand
+                break
+    first_fields = _split(first_data.strip() if delim is None else first_data, delim)
+    ncols = len(first_fields)
+    if header_names is not None:
+        names = [h.strip().strip('"').strip("'").strip() for h in _split(header_names.strip() if delim is None else header_names, delim)]
+        if len(names) != ncols:
+            raise DataError(f"{file}: the header has {len(names)} columns but the first data row {ncols} "
+                            "(columns of different lengths); expected the same number")
+        if all(_FLOAT_RE.match(x) for x in names):
+            raise DataError(f"{file}: the first row ({header_names[:60]}) is numbers, not column names; "
+                            "for a file without a header set header = false in a mapping spec")
+        dup = sorted({n for n in names if names.count(n) > 1 and n})
+        if dup:
+            raise DataError(f"{file}: column name(s) {dup} appear more than once in the header, expected unique names")
+    elif src.names is not None:
+        names = list(src.names)
+        if len(names) != ncols:
+            raise SpecError(f"{origin}: names lists {len(names)} columns, but {file.name} has {ncols}")
+    else:
+        names = None
+    tab = _Table(file, names, {}, 0, lines_consumed + 1)
+    if src.header and src.names is not None:
+        raise SpecError(f"{origin}: names = [...] is for files without a header; set header = false or drop names")
+    keys = []
+    for col, index, where in wanted:
+        if index is not None:
+            raise SpecError(f"{origin}: {where} index = {index} is for 2-D arrays in NPZ files, not CSV columns")
+        k = tab.key(col, where, origin)
+        if isinstance(k, int) and k >= ncols:
+            raise SpecError(f"{origin}: {where} column {k} is out of range, {file.name} has {ncols} columns (0-based)")
+        keys.append(k if isinstance(k, int) else names.index(k))
+    usecols = sorted(set(keys))
+    if not usecols:
+        tab.nrows = 0
+        return tab
+    try:
+        arr = np.loadtxt(file, delimiter=delim, skiprows=lines_consumed, usecols=usecols, comments=src.comment,
+                         ndmin=2, dtype=float, encoding="utf-8-sig", quotechar='"')
+    except ValueError as exc:
+        raise DataError(f"{file}: {_bad_line_message(file, delim, lines_consumed, src.comment, ncols, names, usecols)}") from None
+    # a row shorter than the first one in a column we do not read is still a sign of a cut file
+    _check_ragged_tail(file, delim, ncols, lines_consumed)
+    col_of = {c: i for i, c in enumerate(usecols)}
+    for (col, index, where), k in zip(wanted, keys):
+        tab.data[(col, index)] = arr[:, col_of[k]]
+    tab.nrows = arr.shape[0]
+    return tab
+
+
+def _check_ragged_tail(file: Path, delim: str | None, ncols: int, lines_consumed: int) -> None:
+    """Check that the last line has as many fields as the first (a logger killed mid-line)."""
+    size = file.stat().st_size
+    with open(file, "rb") as fb:
+        fb.seek(max(0, size - 8192))
+        tail = fb.read().decode("utf-8", errors="replace").rstrip("\r\n ")
+    last = tail.splitlines()[-1] if tail else ""
+    if not last.strip() or last.lstrip().startswith("#"):
+        return
+    n = len(_split(last.strip() if delim is None else last, delim))
+    if n != ncols:
+        raise DataError(f"{file}: the last line has {n} fields, the first data line {ncols} "
+                        "(columns of different lengths: was the file cut short?)")
+
+
+def _bad_line_message(file: Path, delim: str | None, skip: int, comment: str, ncols: int, names, usecols) -> str:
+    """Find the first line that loadtxt could not read (slow path, only on error) and say what is wrong."""
+    with open(file, encoding="utf-8-sig", errors="replace") as f:
+        for lineno, line in enumerate(f, start=1):
+            if lineno <= skip:
+                continue
+            body = line.split(comment, 1)[0] if comment else line
+            if not body.strip():
+                continue
+            fields = _split(body.strip() if delim is None else body.rstrip("\r\n"), delim)
+            if len(fields) < max(usecols) + 1 or len(fields) != ncols:
+                return (f"line {lineno} has {len(fields)} fields, the first data line {ncols} "
+                        "(columns of different lengths), expected the same number in every row")
+            for c in usecols:
+                text = fields[c].strip().strip('"')
+                try:
+                    float(text)
+                except ValueError:
+                    col = names[c] if names is not None else str(c)
+                    what = "an empty field" if not text else f"'{text[:30]}'"
+                    return f"line {lineno}, column '{col}': {what} is not a number, expected numeric data"
+    return "cannot be read as CSV numbers"
+
+
+def _time_of(tab: _Table, src: SourceSpec, origin: str) -> np.ndarray:
+    ts = src.time
+    where = "the main file" if src.name == MAIN else f"[sources.{src.name}]"
+    if ts.rate is not None:
+        return (tab.row0 + np.arange(tab.nrows)) / ts.rate
+    key = (ts.column, ts.index)
+    if key not in tab.data:  # pragma: no cover - always requested
+        raise SpecError(f"{origin}: time column {ts.column!r} of {where} was not read")
+    t = tab.data[key] * ts.scale + ts.offset
+    return t
+
+
+def peek_columns(path: str | os.PathLike) -> tuple[str, list[str]]:
+    """``(format, names)`` of a file in pinid's dataset format: the CSV header or the NPZ array names."""
+    file = Path(path)
+    _check_file(file)
+    suffix = file.suffix.lower()
+    if suffix == ".npz":
+        import zipfile
+
+        try:
+            with np.load(file, allow_pickle=False) as npz:
+                return "npz", list(npz.files)
+        except (OSError, ValueError, zipfile.BadZipFile, AttributeError) as exc:
+            raise DataError(f"{file}: not a readable NPZ file ({exc})") from None
+    if suffix not in (".csv", ".txt", ".tsv", ".dat"):
+        raise DataError(f"{file}: unknown file type '{file.suffix}', expected .csv or .npz in pinid's dataset "
+                        "format, or a mapping spec (--mapping) that says how to read it")
+    with open(file, "rb") as fb:
+        if b"\x00" in fb.read(65536):
+            raise DataError(f"{file}: binary file, expected CSV text (or an .npz file)")
+    try:
+        with open(file, encoding="utf-8-sig", newline="") as f:
+            for line in f:
+                if line.strip() and not line.strip().startswith("#"):
+                    break
+            else:
+                raise DataError(f"{file}: no header line, expected a CSV recording with a header (t, q_<joint>, ...)")
+    except UnicodeDecodeError:
+        raise DataError(f"{file}: not UTF-8 text, expected a CSV recording") from None
+    line = line.rstrip("\r\n")
+    delim = next((c for c in (",", ";", "\t") if c in line), None)
+    names = [h.strip().strip('"').strip("'").strip() for h in _split(line.strip() if delim is None else line, delim)]
+    return "csv", names

@@ -1,0 +1,258 @@
+"""Preprocessing: from a raw recording to q, dq, ddq, tau ready for identification.
+
+:func:`prepare` does, in this order:
+
+1. **Uniform grid.**  If the time stamps jitter — any step differs from the median step by more than
+   1 % — every signal is resampled onto a uniform grid at the median rate (cubic spline through the
+   samples; gaps longer than 5 median steps are reported).  ``rate=`` resamples to another rate (after
+   a zero-phase anti-alias low-pass at 0.4 × the new rate when that is lower).
+2. **Zero-phase low-pass.**  A Butterworth filter of ``order`` (default 4) and ``cutoff`` [Hz], run
+   forward and backward (``scipy.signal.sosfiltfilt``: no phase lag, squared magnitude: −6 dB at the
+   cut-off), applied to the positions, the measured velocities and accelerations if used, and the
+   torques alike, so that torques and motion stay aligned.  Default cut-off: ``min(10 Hz, fs/10)``
+   (10 Hz is seed 000's choice for leg motion; ``fs/10`` = 0.2 × Nyquist keeps slow recordings
+   sensible).  A cut-off at or above 0.8 × Nyquist is refused.
+3. **Derivatives.**  ``differentiation="savgol"`` (default): Savitzky–Golay, polynomial order 5, window
+   ``2M+1`` samples with ``M = max(4, round(0.3·fs/cutoff))`` (its own −3 dB point then sits at about
+   2.8 × the Butterworth cut-off, so it differentiates without filtering the band again); ``"central"``:
+   second-order central differences (``numpy.gradient``) for dq and the 3-point second difference for ddq.
+   Measured velocities (``dq`` columns) are used, filtered, when present and ``use_measured_velocity``
+   is true; then ddq is the derivative of the filtered velocity.  Measured accelerations likewise.
+4. **Trimming.**  ``trim`` seconds are dropped at each end, where the filter and the derivative windows
+   see the edge: default ``ln(1000) / (2π·cutoff·sin(π/(2·order))) + (M+1)/fs`` — the time the slowest
+   pole of the Butterworth filter needs to decay to 1/1000, plus the derivative window (0.29 s + 0.03 s
+   at 10 Hz, order 4).
+5. **Decimation.**  Every ``decimate``-th sample is kept (after filtering, so no aliasing).  Default:
+   down to no less than ``max(1 kHz, 20 × cutoff)`` — a 5 kHz recording becomes 1 kHz, 1 kHz and
+   slower stay as they are.  ``decimate=1`` keeps every sample.
+
+Presets (``preset=``) fill in the options left at their defaults: see :data:`PRESETS`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy import signal
+from scipy.interpolate import CubicSpline
+
+from pinid.data.dataset import Dataset
+from pinid.errors import DataError, SpecError
+
+#: Named recipes.  ``seed000``: Zha et al. 2019 — 1 kHz sampling, zero-phase 10 Hz low-pass (the paper
+#: gives no order: 4 here; it differentiates by forward differences, which lag half a sample: central
+#: differences here).  ``seed001``: Shi et al. 2024 — Butterworth low-pass run forward and reverse (the
+#: paper gives neither order nor cut-off: order 4 and 5 Hz here, ten times its highest trajectory
+#: harmonic of 0.4 Hz and above the torque's own harmonics).
+PRESETS: dict[str, dict] = {
+    "seed000": {"cutoff": 10.0, "order": 4, "differentiation": "central", "rate": 1000.0,
+                "description": "seed 000 (Zha et al. 2019): 1 kHz, zero-phase 10 Hz Butterworth low-pass"},
+    "seed001": {"cutoff": 5.0, "order": 4, "differentiation": "central",
+                "description": "seed 001 (Shi et al. 2024): Butterworth low-pass, forward and reverse (5 Hz, order 4)"},
+}
+
+DIFFERENTIATION = ("savgol", "central")
+JITTER_TOLERANCE = 0.01  # relative step deviation that triggers resampling
+_DEFAULTS = {"cutoff": None, "order": 4, "differentiation": "savgol", "trim": None, "decimate": None, "rate": None}
+
+
+def default_cutoff(fs: float) -> float:
+    """Default low-pass cut-off [Hz] for a sample rate ``fs`` [Hz]: ``min(10, fs/10)``."""
+    return float(min(10.0, fs / 10.0))
+
+
+SAVGOL_POLYORDER = 5
+
+
+def savgol_half_window(fs: float, cutoff: float) -> int:
+    """Half-width ``M`` of the Savitzky–Golay window (length ``2M+1``) for rate ``fs`` and cut-off [Hz]."""
+    return int(max(4, round(0.3 * fs / cutoff)))
+
+
+def default_trim(fs: float, cutoff: float, order: int) -> float:
+    """Default time [s] trimmed at each end: filter settling to 1/1000 plus the derivative window."""
+    settle = np.log(1000.0) / (2 * np.pi * cutoff * np.sin(np.pi / (2 * order)))
+    return float(settle + (savgol_half_window(fs, cutoff) + 1) / fs)
+
+
+def lowpass(x: np.ndarray, fs: float, cutoff: float, order: int = 4) -> np.ndarray:
+    """Zero-phase Butterworth low-pass of ``x`` (samples along axis 0) [same unit as x]."""
+    sos = signal.butter(order, cutoff, btype="low", fs=fs, output="sos")
+    return signal.sosfiltfilt(sos, x, axis=0)
+
+
+def uniform_grid(ds: Dataset, rate: float | None = None) -> tuple[Dataset, dict]:
+    """``ds`` on a uniform time grid (resampled when jittered or when ``rate`` is given); and a report."""
+    t = ds.t
+    dt = np.diff(t)
+    step = float(np.median(dt))
+    jitter = float(np.max(np.abs(dt - step)) / step)
+    gaps = np.flatnonzero(dt > 5 * step)
+    report = {"median_step": step, "jitter": jitter, "resampled": False}
+    if gaps.size:
+        from pinid.data.formats import warn
+
+        k = int(gaps[0])
+        warn(ds, f"{ds.source}: {gaps.size} gap(s) in the time stamps, the first of {dt[k]:.4g} s at t = {t[k]:.6g} s "
+                 f"(median step {step:.4g} s); interpolated across")
+    if jitter <= JITTER_TOLERANCE and (rate is None or abs(rate * step - 1.0) <= 1e-9):
+        return ds, report
+    new_step = 1.0 / rate if rate else step
+    n = int(np.floor((t[-1] - t[0]) / new_step + 1e-9)) + 1
+    tn = t[0] + np.arange(n) * new_step
+    tn[-1] = min(tn[-1], t[-1])
+
+    anti_alias = None
+    if rate and rate < 0.95 / step:
+        # downsampling: a zero-phase anti-alias low-pass at 0.4 × the new rate first
+        anti_alias = signal.butter(8, 0.4 * rate, btype="low", fs=1.0 / step, output="sos")
+
+    def interp(a):
+        if a is None:
+            return None
+        if anti_alias is not None:
+            a = signal.sosfiltfilt(anti_alias, a, axis=0)
+        return CubicSpline(t, a, axis=0)(tn)
+
+    out = Dataset(t=tn, q=interp(ds.q), joints=list(ds.joints), dq=interp(ds.dq), ddq=interp(ds.ddq),
+                  tau=interp(ds.tau), source=ds.source, meta=dict(ds.meta))
+    report.update(resampled=True, rate=1.0 / new_step)
+    return out, report
+
+
+def prepare(
+    ds: Dataset,
+    *,
+    preset: str | None = None,
+    cutoff: float | None = None,
+    order: int = 4,
+    differentiation: str = "savgol",
+    use_measured_velocity: bool = True,
+    use_measured_acceleration: bool = True,
+    trim: float | None = None,
+    decimate: int | None = None,
+    rate: float | None = None,
+) -> Dataset:
+    """Filter, differentiate, trim and decimate a recording; return a dataset with q, dq, ddq, tau filled.
+
+    ``cutoff`` [Hz] (default ``min(10, fs/10)``), ``order`` of the Butterworth filter run forward and
+    backward; ``differentiation`` "savgol" or "central"; ``trim`` [s] dropped at each end (default
+    the filter's settling time plus the derivative window); ``decimate`` keep every n-th sample (default: down to
+    ``max(1 kHz, 20·cutoff)``); ``rate`` [Hz] resample to this uniform rate first (by default only
+    jittered recordings are resampled, at their median rate).  ``preset`` ("seed000", "seed001") fills
+    the options left at their defaults.  The options used are recorded in ``meta["preprocess"]``.
+    Raises DataError when there is no torque, too few samples, or a cut-off the sample rate cannot carry.
+    """
+    given = {"cutoff": cutoff, "order": order, "differentiation": differentiation, "trim": trim,
+             "decimate": decimate, "rate": rate}
+    if preset is not None:
+        if preset not in PRESETS:
+            raise SpecError(f"preprocessing preset {preset!r} is unknown, expected one of {', '.join(PRESETS)}")
+        for k, v in PRESETS[preset].items():
+            if k in given and given[k] == _DEFAULTS[k]:
+                given[k] = v
+    cutoff, order, differentiation = given["cutoff"], given["order"], given["differentiation"]
+    trim, decimate, rate = given["trim"], given["decimate"], given["rate"]
+    src = ds.source
+    if differentiation not in DIFFERENTIATION:
+        raise SpecError(f"differentiation {differentiation!r}, expected one of {', '.join(DIFFERENTIATION)}")
+    if isinstance(order, bool) or not isinstance(order, (int, np.integer)) or not 1 <= order <= 10:
+        raise SpecError(f"filter order {order!r}, expected an integer from 1 to 10")
+    if ds.tau is None:
+        raise DataError(f"{src}: no torque (tau) columns, expected measured joint torques to identify from")
+    if ds.n < 10:
+        raise DataError(f"{src}: {ds.n} samples, expected at least 10 to filter and differentiate")
+    if rate is not None and (not np.isfinite(rate) or rate <= 0):
+        raise SpecError(f"resampling rate {rate!r}, expected a rate > 0 [Hz]")
+    ds, grid = uniform_grid(ds, rate)
+    fs = float(f"{1.0 / float(np.median(np.diff(ds.t))):.9g}")  # 1000 Hz, not 999.9999999999991 Hz
+    nyquist = fs / 2
+    if cutoff is None:
+        if fs < 10.0:
+            raise DataError(f"{src}: sample rate {fs:.3g} Hz is too low for the default low-pass "
+                            "(needs at least 10 Hz); expected a recording sampled at 10 Hz or faster")
+        cutoff = default_cutoff(fs)
+    elif not np.isfinite(cutoff) or cutoff <= 0:
+        raise SpecError(f"cut-off {cutoff!r}, expected a frequency > 0 [Hz]")
+    if cutoff >= 0.8 * nyquist:
+        raise DataError(f"{src}: sample rate {fs:.4g} Hz is too low for a {cutoff:g} Hz low-pass: the cut-off must be "
+                        f"below 0.8 × Nyquist = {0.8 * nyquist:.4g} Hz; expected a sample rate above {2.5 * cutoff:.4g} Hz "
+                        "or a lower cut-off")
+    sos = signal.butter(order, cutoff, btype="low", fs=fs, output="sos")
+    padlen = 3 * (2 * len(sos) + 1)
+    M = savgol_half_window(fs, cutoff)
+    if trim is None:
+        trim = default_trim(fs, cutoff, order)
+    elif not np.isfinite(trim) or trim < 0:
+        raise SpecError(f"trim {trim!r}, expected a duration >= 0 [s]")
+    n_trim = int(np.ceil(trim * fs - 1e-9))
+    if ds.n <= max(padlen, 2 * n_trim + 10):
+        raise DataError(f"{src}: {ds.n} samples ({ds.duration:.3g} s) are too few for a {cutoff:g} Hz order-{order} "
+                        f"low-pass trimmed by {trim:.3g} s at each end; expected more than {max(padlen, 2 * n_trim + 10)} samples")
+
+    # pad (odd extension) over the filter's settling time, so that its start-up transient dies out
+    # before it reaches the data (scipy's default of 3·(2·sections+1) samples is too short at high rates)
+    pad = int(min(ds.n - 1, max(padlen, np.ceil(default_trim(fs, cutoff, order) * fs))))
+
+    def filt(a):
+        return signal.sosfiltfilt(sos, a, axis=0, padtype="odd", padlen=pad)
+
+    h = 1.0 / fs
+    q = filt(ds.q)
+    tau = filt(ds.tau)
+    measured_v = ds.dq is not None and use_measured_velocity
+    measured_a = ds.ddq is not None and use_measured_acceleration
+    polyorder = SAVGOL_POLYORDER
+
+    def d1(a):
+        if differentiation == "savgol":
+            return signal.savgol_filter(a, 2 * M + 1, polyorder, deriv=1, delta=h, axis=0, mode="interp")
+        return np.gradient(a, h, axis=0)
+
+    def d2(a):
+        if differentiation == "savgol":
+            return signal.savgol_filter(a, 2 * M + 1, polyorder, deriv=2, delta=h, axis=0, mode="interp")
+        out = np.empty_like(a)
+        out[1:-1] = (a[2:] - 2 * a[1:-1] + a[:-2]) / (h * h)
+        out[0], out[-1] = out[1], out[-2]
+        return out
+
+    dq = filt(ds.dq) if measured_v else d1(q)
+    if measured_a:
+        ddq = filt(ds.ddq)
+    elif measured_v:
+        ddq = d1(dq)
+    else:
+        ddq = d2(q)
+    if decimate is None:
+        decimate = max(1, int(np.floor(fs / max(1000.0, 20.0 * cutoff) + 1e-9)))
+    elif isinstance(decimate, bool) or not isinstance(decimate, (int, np.integer)) or decimate < 1:
+        raise SpecError(f"decimate {decimate!r}, expected an integer >= 1")
+    elif cutoff >= 0.8 * (fs / decimate) / 2:
+        raise DataError(f"{src}: decimating {fs:.4g} Hz by {decimate} leaves {fs / decimate:.4g} Hz, too low for the "
+                        f"{cutoff:g} Hz low-pass (needs above {2.5 * cutoff:.4g} Hz); expected a smaller factor")
+    keep = slice(n_trim, ds.n - n_trim if n_trim else None, decimate)
+    meta = dict(ds.meta)
+    meta["preprocess"] = {
+        "preset": preset, "sample_rate": fs, "resampled": grid["resampled"], "jitter": grid["jitter"],
+        "cutoff": float(cutoff), "order": int(order), "filter": "butterworth, zero-phase (sosfiltfilt)",
+        "differentiation": differentiation, "savgol_window": 2 * M + 1 if differentiation == "savgol" else None,
+        "measured_velocity": bool(measured_v), "measured_acceleration": bool(measured_a),
+        "trim": float(trim), "decimate": int(decimate), "output_rate": fs / decimate,
+    }
+    _warn_content_above_cutoff(ds, q, fs, cutoff)
+    return Dataset(t=ds.t[keep], q=q[keep], joints=list(ds.joints), dq=dq[keep], ddq=ddq[keep], tau=tau[keep],
+                   source=ds.source, meta=meta)
+
+
+def _warn_content_above_cutoff(ds: Dataset, q_filtered: np.ndarray, fs: float, cutoff: float) -> None:
+    """Warn when the low-pass removes more than 1 % of the position signal's (detrended) variance."""
+    raw = ds.q - ds.q.mean(axis=0)
+    removed = ds.q - q_filtered
+    var = raw.var(axis=0)
+    frac = np.divide(removed.var(axis=0), var, out=np.zeros_like(var), where=var > 0)
+    j = int(np.argmax(frac))
+    if frac[j] > 0.01:
+        from pinid.data.formats import warn
+
+        warn(ds, f"{ds.source}: the {cutoff:g} Hz low-pass removes {100 * frac[j]:.2g} % of the position variance of "
+                 f"joint '{ds.joints[j]}': the motion may be faster than the cut-off (pass a higher cut-off)")

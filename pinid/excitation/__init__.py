@@ -1,0 +1,1 @@
+"""Fourier excitation trajectories and their design under joint limits."""

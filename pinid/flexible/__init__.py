@@ -1,0 +1,1 @@
+"""Flexible (belt, cable, series-elastic) joints and output-error identification."""

@@ -1,0 +1,505 @@
+"""Compare estimators honestly: the same recordings, held-out validation, several seeds, the truth if known.
+
+:func:`compare` runs chosen methods of :data:`pinid.estimators.ESTIMATORS` (default: all) on the same
+training recordings — the deterministic ones (least squares, WLS, the LMI method, RLS) once, the
+metaheuristics once per seed — and measures for every run:
+
+* the **training costs** of the fit: ½·Σr² (seed 001's fitness, Eq. (22)) and Σ|r| (seed 000's), next to
+  their global minima on the same rows — least squares for the first (``../shared/design.md``: no
+  method can beat it there), the least-absolute-deviations fit (:func:`lad`) for the second;
+* the **validation torque error** on held-out recordings, per joint: mean ± std of |e| (seed 000's
+  Figs. 10 and 13), RMS and relative RMS;
+* the **identified values** and, when the recordings come from the twin, their **error against the
+  true parameters**: ``100·|x − x_true| / max(|x_true|, 1 % of the parameter's natural magnitude)``;
+* the **convergence curve** (best fitness per iteration, seed 000 Figs. 8 and 11, seed 001 Fig. 3b), the
+  **time**, and whether a physically consistent standard set exists behind the result.
+
+With ``segmental`` (seed 000 §3.1, :mod:`pinid.identification.segmental`) every method runs in the two stages.
+
+:class:`Comparison` holds the runs, summarises them over seeds (mean and standard deviation of each
+measure across runs), prints a table and saves/loads JSON; :mod:`pinid.report.plot_compare` draws them;
+``pinid compare`` is the command.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Mapping, Sequence
+
+import numpy as np
+
+from pinid.data.dataset import Dataset
+from pinid.errors import SpecError
+from pinid.identification.metrics import torque_metrics
+from pinid.model.robot import RobotModel
+from pinid.model.regressor import JointTerms
+
+#: Methods that give the same result whatever the seed (run once).
+DETERMINISTIC: tuple[str, ...] = ("ols", "wls", "sdp", "rls")
+#: Default number of seeds for the metaheuristics.
+DEFAULT_SEEDS = 5
+
+
+# ============================================================================================ references
+def lad(problem, iterations: int = 200, tol: float = 1e-12) -> np.ndarray:
+    """Least-absolute-deviations base parameters, the global minimum of seed 000's fitness Σ|r|
+    (:func:`pinid.estimators.metaheuristic.least_absolute_deviations`)."""
+    from pinid.estimators.metaheuristic import least_absolute_deviations
+
+    return least_absolute_deviations(problem, iterations, tol)
+
+
+def _references(problem) -> dict:
+    from pinid.estimators.metaheuristic import _lad_of, least_squares, training_costs
+
+    x_ls = least_squares(problem)
+    x_lad = _lad_of(problem)  # kept on the problem: the Σ|r| metaheuristics of every seed reuse it
+    ls = training_costs(problem, x_ls)
+    return {"sse": ls["sse"], "sae": training_costs(problem, x_lad)["sae"], "sae_ls": ls["sae"]}
+
+
+# ============================================================================================ results
+@dataclass
+class Run:
+    """One method's run with one seed (``seed`` None for the deterministic methods)."""
+
+    method: str
+    seed: int | None
+    base: np.ndarray
+    seconds: float
+    train: dict
+    costs: dict
+    validation: dict
+    parameter_error: dict | None
+    history: list | None
+    history_first: list | None
+    physically_consistent: bool
+    standard_source: str
+    info: dict = field(default_factory=dict)
+
+    def to_dict(self, names: list[str]) -> dict:
+        """Plain-JSON form, parameters named by ``names``."""
+        return {
+            "method": self.method, "seed": self.seed, "base": dict(zip(names, map(float, self.base))),
+            "seconds": float(self.seconds), "train": self.train, "costs": self.costs, "validation": self.validation,
+            "parameter_error_percent": self.parameter_error, "history": self.history,
+            "history_first": self.history_first, "physically_consistent": bool(self.physically_consistent),
+            "standard_source": self.standard_source, "info": self.info,
+        }
+
+    @classmethod
+    def from_dict(cls, d: dict, names: list[str]) -> "Run":
+        """Rebuild from :meth:`to_dict`'s output."""
+        return cls(d["method"], d["seed"], np.array([float(d["base"][n]) for n in names]), float(d["seconds"]),
+                   d["train"], d["costs"], d["validation"], d.get("parameter_error_percent"), d.get("history"),
+                   d.get("history_first"), bool(d["physically_consistent"]), d.get("standard_source", ""),
+                   d.get("info") or {})
+
+
+def _mean_std(values) -> tuple[float, float]:
+    a = np.array([np.nan if v is None else float(v) for v in values], dtype=float)
+    a = a[np.isfinite(a)]
+    if a.size == 0:
+        return float("nan"), float("nan")
+    return float(a.mean()), float(a.std())
+
+
+@dataclass
+class Comparison:
+    """Runs of several methods on the same data (what :func:`compare` returns); JSON with save/load.
+
+    ``runs[method]`` is a list of :class:`Run`; ``reference`` the global minima of both training costs
+    and the least-squares Σ|r| (``{"main": {"sse": …, "sae": …, "sae_ls": …}}``, plus ``"first"`` for the
+    first stage of a segmental run);
+    ``truth`` the true base parameters when known; ``nominal`` the URDF's.
+    """
+
+    robot: dict
+    base_names: list[str]
+    nominal: np.ndarray
+    truth: np.ndarray | None
+    methods: list[str]
+    seeds: list[int]
+    runs: dict[str, list[Run]]
+    reference: dict
+    data: dict
+    validation_sources: dict[str, list[str]]
+    settings: dict = field(default_factory=dict)
+    segmental: dict | None = None
+    seconds: float = 0.0
+
+    # ---------------------------------------------------------------- summaries
+    @property
+    def joints(self) -> list[str]:
+        """Names of the robot's joints."""
+        return list(self.robot.get("joints", []))
+
+    def summary(self) -> dict:
+        """Per method: every measure as ``[mean, std]`` over its runs (a single run has std 0)."""
+        out = {}
+        for m, runs in self.runs.items():
+            s: dict = {"runs": len(runs)}
+            for cost in ("sse", "sae"):
+                s[f"train_{cost}"] = _mean_std(r.costs[cost] for r in runs)
+            s["train_rms"] = _mean_std(r.train["all"]["rms"] for r in runs)
+            s["seconds"] = _mean_std(r.seconds for r in runs)
+            s["consistent"] = sum(bool(r.physically_consistent) for r in runs)
+            val = {}
+            for label in self.validation_sources:
+                per = {}
+                for j in self.joints + ["all"]:
+                    pick = (lambda r, k: (r.validation[label]["all"] if j == "all" else
+                                          r.validation[label]["per_joint"][j])[k])
+                    per[j] = {k: _mean_std(pick(r, k) for r in runs)
+                              for k in ("mean_abs", "std_abs", "rms", "rel_rms_percent")}
+                val[label] = per
+            s["validation"] = val
+            s["base"] = {n: _mean_std(r.base[i] for r in runs) for i, n in enumerate(self.base_names)}
+            if self.truth is not None:
+                s["parameter_error_percent"] = {
+                    n: _mean_std(r.parameter_error[n] for r in runs) for n in self.base_names}
+                s["parameter_error_max_percent"] = _mean_std(max(r.parameter_error.values()) for r in runs)
+                s["parameter_error_median_percent"] = _mean_std(
+                    float(np.median(list(r.parameter_error.values()))) for r in runs)
+            out[m] = s
+        return out
+
+    def table(self) -> str:
+        """A text table: training costs, validation error per joint, parameter error, time."""
+        summ = self.summary()
+        lines = []
+        ref = self.reference.get("main", {})
+        lines.append(f"training cost minima on the same rows: ½Σr² (least squares) {ref.get('sse', float('nan')):.6g}, "
+                     f"Σ|r| (least absolute deviations) {ref.get('sae', float('nan')):.6g}")
+        head = ["method", "runs", "train ½Σr² above min %", "train Σ|r| above min %"]
+        labels = list(self.validation_sources)
+        for label in labels:
+            for j in self.joints:
+                head.append(f"{label}: {j} |e| [N·m]")
+            head.append(f"{label}: rel RMS %")
+        if self.truth is not None:
+            head += ["param err max %", "param err median %"]
+        head += ["consistent", "time [s]"]
+        rows = [head]
+
+        def ms(v, fmt=".4g"):
+            m, s = v
+            if not np.isfinite(m):
+                return "—"
+            return f"{m:{fmt}}" if s == 0 else f"{m:{fmt}} ± {s:.2g}"
+
+        for m, s in summ.items():
+            row = [m, str(s["runs"])]
+            for cost in ("sse", "sae"):
+                lo = ref.get(cost)
+                mean, sd = s[f"train_{cost}"]
+                if lo and np.isfinite(mean):
+                    row.append(ms((100.0 * (mean / lo - 1.0), 100.0 * sd / lo), ".3g"))
+                else:
+                    row.append(ms((mean, sd)))
+            for label in labels:
+                for j in self.joints:
+                    v = s["validation"][label][j]
+                    # the seeds' format: mean ± std of |e| (of the first run's ... averaged over runs)
+                    row.append(f"{v['mean_abs'][0]:.4g} ± {v['std_abs'][0]:.3g}"
+                               + (f" (sd {v['mean_abs'][1]:.2g})" if v["mean_abs"][1] > 0 else ""))
+                row.append(ms(s["validation"][label]["all"]["rel_rms_percent"], ".3g"))
+            if self.truth is not None:
+                row += [ms(s["parameter_error_max_percent"], ".3g"), ms(s["parameter_error_median_percent"], ".3g")]
+            row += [f"{s['consistent']}/{s['runs']}", ms(s["seconds"], ".3g")]
+            rows.append(row)
+        widths = [max(len(r[i]) for r in rows) for i in range(len(head))]
+        for k, r in enumerate(rows):
+            lines.append("  ".join(c.ljust(w) for c, w in zip(r, widths)).rstrip())
+            if k == 0:
+                lines.append("  ".join("-" * w for w in widths))
+        lines.append("train … above min %: how far the fit's training cost is above the global minimum of that cost on "
+                     "the same rows (0 for least squares on ½Σr²: nothing can be below it)")
+        lines.append("|e| columns: mean ± std of the absolute validation torque error within a run (seed 000's "
+                     "format), averaged over the runs; (sd …): spread of the mean over the seeds")
+        return "\n".join(lines)
+
+    def values_table(self) -> str:
+        """Identified base parameters (mean over runs) per method, with the truth and the URDF's values."""
+        summ = self.summary()
+        head = ["parameter", "URDF"] + (["truth"] if self.truth is not None else []) + list(summ)
+        rows = [head]
+        for i, n in enumerate(self.base_names):
+            row = [n, f"{self.nominal[i]:.5g}"] + ([f"{self.truth[i]:.5g}"] if self.truth is not None else [])
+            for m, s in summ.items():
+                mean, sd = s["base"][n]
+                row.append(f"{mean:.5g}" + (f" ± {sd:.2g}" if sd > 0 else ""))
+            rows.append(row)
+        widths = [max(len(r[i]) for r in rows) for i in range(len(head))]
+        out = []
+        for k, r in enumerate(rows):
+            out.append("  ".join(c.ljust(w) for c, w in zip(r, widths)).rstrip())
+            if k == 0:
+                out.append("  ".join("-" * w for w in widths))
+        return "\n".join(out)
+
+    # ---------------------------------------------------------------- JSON
+    def to_dict(self) -> dict:
+        """Plain-JSON form (``comparison.json``)."""
+        from pinid import __version__
+        from pinid.io import jsonable
+
+        return jsonable({
+            "pinid_version": __version__, "robot": self.robot, "base_names": self.base_names,
+            "nominal": self.nominal.tolist(), "truth": None if self.truth is None else self.truth.tolist(),
+            "methods": self.methods, "seeds": self.seeds, "reference": self.reference, "data": self.data,
+            "validation_sources": self.validation_sources, "settings": self.settings, "segmental": self.segmental,
+            "seconds": self.seconds, "summary": self.summary(),
+            "runs": {m: [r.to_dict(self.base_names) for r in runs] for m, runs in self.runs.items()},
+        })
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "Comparison":
+        """Rebuild from :meth:`to_dict`'s output."""
+        names = list(d["base_names"])
+        nan = (lambda v: float("nan") if v is None else float(v))
+        return cls(
+            robot=d["robot"], base_names=names, nominal=np.array([nan(v) for v in d["nominal"]]),
+            truth=None if d.get("truth") is None else np.array([nan(v) for v in d["truth"]]),
+            methods=list(d["methods"]), seeds=list(d["seeds"]),
+            runs={m: [Run.from_dict(r, names) for r in runs] for m, runs in d["runs"].items()},
+            reference=d.get("reference") or {}, data=d.get("data") or {},
+            validation_sources=d.get("validation_sources") or {}, settings=d.get("settings") or {},
+            segmental=d.get("segmental"), seconds=float(d.get("seconds") or 0.0))
+
+    def save(self, path: str | os.PathLike) -> Path:
+        """Write as JSON (atomically)."""
+        from pinid.io import write_json
+
+        return write_json(path, self.to_dict())
+
+    @classmethod
+    def load(cls, path: str | os.PathLike) -> "Comparison":
+        """Read a file written by :meth:`save` (or ``pinid compare``)."""
+        from pinid.io import read_json
+
+        d = read_json(path, "comparison")
+        if "runs" not in d or "base_names" not in d:
+            raise SpecError(f"{path}: not a comparison file (no 'runs' or 'base_names')")
+        return cls.from_dict(d)
+
+
+# ============================================================================================ the runner
+def _truth_vector(truth, names: list[str]) -> np.ndarray | None:
+    """The true base parameters in ``names``' order from an array, ``{name: value}``, a truth dict of
+    :func:`pinid.simulation.twin.simulate` or the path of its JSON."""
+    if truth is None:
+        return None
+    if isinstance(truth, (str, os.PathLike)):
+        p = Path(truth)
+        try:
+            truth = json.loads(p.read_text(encoding="utf-8"))
+        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+            raise SpecError(f"{p}: cannot read the truth JSON ({exc})") from None
+    if isinstance(truth, Mapping) and "base" in truth and isinstance(truth["base"], Mapping):
+        b = truth["base"]
+        if not (isinstance(b.get("names"), list) and isinstance(b.get("values"), list)):
+            raise SpecError("truth: 'base' must hold 'names' and 'values' lists, as pinid simulate's truth JSON does")
+        truth = dict(zip(b["names"], b["values"]))
+    if isinstance(truth, Mapping):
+        missing = [n for n in names if n not in truth]
+        if missing:
+            raise SpecError(f"truth: no value for base parameter(s) {', '.join(missing)} (has {', '.join(truth)}); "
+                            "were the recordings simulated with the same joint terms?")
+        return np.array([float(truth[n]) for n in names])
+    a = np.asarray(truth, dtype=float).reshape(-1)
+    if a.shape != (len(names),):
+        raise SpecError(f"truth: {a.size} values, expected {len(names)} base parameters ({', '.join(names)})")
+    return a
+
+
+def parameter_errors(x: np.ndarray, truth: np.ndarray, scale: np.ndarray, names: list[str]) -> dict:
+    """``{name: 100·|x − x_true| / max(|x_true|, 0.01·scale)}`` [%]."""
+    den = np.maximum(np.abs(truth), 0.01 * scale)
+    return dict(zip(names, map(float, 100.0 * np.abs(x - truth) / den)))
+
+
+def _as_sets(items, model, preprocess, what, mapping=None) -> list[Dataset]:
+    from pinid.identification.core import _load_data
+
+    return _load_data(items, model, mapping, preprocess, what)
+
+
+def compare(
+    model: RobotModel | str,
+    data,
+    validate=None,
+    *,
+    methods: Sequence[str] | str | None = None,
+    seeds: int | Sequence[int] = DEFAULT_SEEDS,
+    truth=None,
+    terms: JointTerms | str = JointTerms(),
+    options: Mapping[str, Mapping] | None = None,
+    metaheuristic: Mapping | None = None,
+    segmental: Mapping | None = None,
+    mapping=None,
+    preprocess=None,
+    rest_velocity="auto",
+    complete: bool = True,
+    show_progress: bool | None = False,
+) -> Comparison:
+    """Run ``methods`` on the same recordings with several seeds; validate; compare (module text).
+
+    ``model``: the robot with its **nominal** (URDF/CAD) parameters — the metaheuristics' default box is
+    built around them, so on the twin pass the CAD model, not the truth.  ``data``: training
+    recordings (Datasets or paths).  ``validate``: held-out recordings — a list, or ``{label: recordings}``
+    to report several validation sets separately.  ``methods``: names of
+    :data:`pinid.estimators.ESTIMATORS` (default all).  ``seeds``: a number of seeds (0, 1, …) or the
+    seeds themselves, for the metaheuristics; deterministic methods run once.  ``truth``: true base
+    parameters (array, dict, a truth dict of :func:`pinid.simulation.twin.simulate` or its JSON path).
+    ``options``: settings per method; ``metaheuristic``: settings for every metaheuristic (``population``,
+    ``iterations``, ``fitness``, ``box`` …; ``options`` override them).  ``segmental``:
+    ``{"first": recordings, "joints": ("knee",)}`` runs seed 000's segmental strategy (``data`` is then
+    the recording with every joint moving).  ``mapping``, ``preprocess``, ``rest_velocity``,
+    ``complete``: as in :func:`pinid.identification.core.identify`.
+    """
+    from pinid.estimators import ESTIMATORS, make_estimator
+    from pinid.estimators.metaheuristic import Metaheuristic, training_costs
+    from pinid.identification.core import (IdentificationProblem, _robot_dict, base_regressor, check_dataset, make_result)
+    from pinid.progress import progress
+
+    t_start = time.perf_counter()
+    if not isinstance(model, RobotModel):
+        model = RobotModel.from_urdf(model)
+    if isinstance(terms, str):
+        try:
+            terms = JointTerms.from_names(terms)
+        except ValueError as exc:
+            raise SpecError(str(exc)) from None
+    if methods is None:
+        methods = list(ESTIMATORS)
+    elif isinstance(methods, str):
+        methods = [m.strip() for m in methods.split(",") if m.strip()]
+    methods = list(dict.fromkeys(m.lower() for m in methods))
+    unknown = [m for m in methods if m not in ESTIMATORS]
+    if unknown or not methods:
+        raise SpecError(f"unknown method(s) {', '.join(unknown) or '(none given)'}, expected some of "
+                        f"{', '.join(ESTIMATORS)}")
+    seed_list = list(range(int(seeds))) if np.ndim(seeds) == 0 else [int(s) for s in seeds]
+    if not seed_list:
+        raise SpecError("seeds: expected at least one seed")
+    options = {k.lower(): dict(v) for k, v in dict(options or {}).items()}
+    bad = [k for k in options if k not in methods]
+    if bad:
+        raise SpecError(f"options for method(s) {', '.join(bad)} that are not run (methods: {', '.join(methods)})")
+    meta = dict(metaheuristic or {})
+
+    def settings_for(m: str, seed: int | None) -> dict:
+        s = {}
+        if issubclass(ESTIMATORS[m], Metaheuristic):
+            s.update(meta)
+            if ESTIMATORS[m].default_box != "nominal":
+                s.pop("box", None)  # rls-pso is PSO in *its* RLS box: a box choice for the others leaves it alone
+            s["seed"] = seed
+            s.setdefault("progress", show_progress)
+        s.update(options.get(m, {}))
+        return s
+
+    train_sets = _as_sets(data, model, preprocess, "training", mapping)
+    if validate is None:
+        val = {}
+    elif isinstance(validate, Mapping):
+        val = {str(k): _as_sets(v, model, preprocess, f"validation ({k})", mapping) for k, v in validate.items()}
+    else:
+        val = {"validation": _as_sets(validate, model, preprocess, "validation", mapping)}
+    from pinid.model.base import base_parameters
+
+    base = base_parameters(model, terms)
+    seg = None
+    if segmental:
+        from pinid.identification.segmental import Segmental, SegmentalProblem
+
+        unknown_keys = [k for k in segmental if k not in ("first", "joints")]
+        if unknown_keys or "first" not in segmental:
+            raise SpecError("segmental: expected {'first': recordings with only the first joints moving, "
+                            "'joints': (first joints, default knee)}")
+        first_sets = _as_sets(segmental["first"], model, preprocess, "first-stage", mapping)
+        seg = SegmentalProblem(model, first_sets, train_sets, first_joints=tuple(segmental.get("joints", ("knee",))),
+                               terms=terms, rest_velocity=rest_velocity, base=base)
+        problem = seg.problem
+    else:
+        problem = IdentificationProblem.from_datasets(model, train_sets, terms=terms, base=base,
+                                                      rest_velocity=rest_velocity)
+    names = problem.names
+    truth_x = _truth_vector(truth, names)
+    from pinid.estimators.metaheuristic import natural_scale
+
+    scale = natural_scale(problem)
+    reference = {"main": _references(problem)}
+    if seg is not None:
+        # the second stage's minimum depends on the first stage's values: per run, in run.info
+        reference["first"] = _references(seg.first_problem)
+    val_W = {label: [(check_dataset(ds, model), None) for ds in sets] for label, sets in val.items()}
+    val_W = {label: [(ds, base_regressor(model, terms, base, ds)) for ds, _ in items] for label, items in val_W.items()}
+    plan = [(m, None) if m in DETERMINISTIC else (m, s) for m in methods for s in
+            ([None] if m in DETERMINISTIC else seed_list)]
+    runs: dict[str, list[Run]] = {m: [] for m in methods}
+    bar = progress(len(plan), "compare", enabled=show_progress)
+    try:
+        for m, s in plan:
+            bar.set_description(f"{m}" + ("" if s is None else f" seed {s}"))
+            settings = settings_for(m, s)
+            if seg is not None:
+                est = Segmental(m, settings)
+                target = seg
+            else:
+                est = make_estimator(m, **settings)
+                target = problem
+                problem.__dict__.pop("_compressed", None)  # each run's time includes its compression
+            t0 = time.perf_counter()
+            est.fit(target)
+            seconds = time.perf_counter() - t0
+            res = make_result(problem, est, seconds, complete=complete)
+            validation = {}
+            for label, items in val_W.items():
+                tau = np.concatenate([ds.tau for ds, _ in items])
+                pred = np.concatenate([(Wb @ res.base).reshape(ds.n, model.nv) for ds, Wb in items])
+                validation[label] = torque_metrics(tau, pred, model.joint_names).to_dict()
+            hist_first = None
+            info: dict = {}
+            if seg is not None:
+                st = res.info.get("segmental", {})
+                hist_first = (st.get("first_stage") or {}).get("history")
+                info["segmental"] = {k: v for k, v in st.items() if k not in ("first_stage", "second_stage")}
+                for stage in ("first_stage", "second_stage"):
+                    d = st.get(stage) or {}
+                    info[stage] = {k: d[k] for k in ("seconds", "fitness_value", "ls_fitness", "min_fitness", "message",
+                                                     "iterations", "nfev", "box", "at_bound") if k in d}
+            else:
+                info = {k: res.info[k] for k in ("fitness", "fitness_value", "ls_fitness", "min_fitness", "message",
+                                                 "iterations", "nfev", "box", "at_bound") if k in res.info}
+            if issubclass(ESTIMATORS[m], Metaheuristic):
+                info["fitness"] = settings.get("fitness", "sse")
+            if "not_realisable" in res.info:
+                info["not_realisable"] = res.info["not_realisable"]
+            runs[m].append(Run(
+                method=m, seed=s, base=res.base.copy(), seconds=seconds, train=res.train.to_dict(),
+                costs=training_costs(problem, res.base), validation=validation,
+                parameter_error=None if truth_x is None else parameter_errors(res.base, truth_x, scale, names),
+                history=None if res.history is None else [float(h) for h in res.history],
+                history_first=None if hist_first is None else [float(h) for h in hist_first],
+                physically_consistent=res.physically_consistent, standard_source=res.standard_source or "",
+                info=info))
+            bar.update(1)
+    finally:
+        bar.close()
+    settings_out = {"metaheuristic": {k: v for k, v in meta.items() if k != "progress"}, "options": options, "terms": terms.names,
+                    "rest_velocity": rest_velocity if isinstance(rest_velocity, str) else np.asarray(rest_velocity).tolist()}
+    return Comparison(
+        robot=_robot_dict(model, terms), base_names=names, nominal=problem.nominal_base.copy(), truth=truth_x,
+        methods=methods, seeds=seed_list, runs=runs, reference=reference, data=problem.summary(),
+        validation_sources={label: [ds.source for ds in sets] for label, sets in val.items()},
+        settings=settings_out,
+        segmental=None if seg is None else {"first_joints": seg.first_joints, "first_sources": seg.first_problem.sources,
+                                            "first_rows": seg.first_problem.rows},
+        seconds=time.perf_counter() - t_start,
+    )

@@ -1,0 +1,185 @@
+"""The identified model for controller code: inverse dynamics, mass matrix, Coriolis, gravity, friction.
+
+A Pinocchio model carries the identified inertial parameters; the joint terms (Coulomb and viscous
+friction, armature, constant offset) are added on top.  The equation of motion is::
+
+    τ = (M(q) + diag(armature))·ddq + C(q, dq)·dq + g(q) + friction(dq) + offset
+    friction(dq) = fc·sign(dq) + fv·dq
+
+All methods take one sample (``(nv,)`` arrays) or, for ``inverse_dynamics``, ``gravity`` and
+``friction``, also ``(N, nv)`` batches.  Units: q [rad or m], dq [rad/s], ddq [rad/s²], τ [N·m].
+Terms not in the identified model are zero.
+
+Any standard parameter set with the identified base parameters gives exactly the same τ, M, C and g;
+``physically_consistent`` says whether this one is consistent (then M(q) is positive definite).
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+
+from pinid.errors import ModelError, SpecError
+from pinid.model.robot import RobotModel
+from pinid.model.regressor import JointTerms, parameter_names
+
+_FORMAT = "pinid.identified_model"
+
+
+class IdentifiedModel:
+    """A robot model with identified parameters (see the module text).
+
+    Build it from an identification result (``pinid.identify(...).model``), from a standard parameter
+    vector (``IdentifiedModel(robot, terms, theta)``), or load a saved one (:meth:`load`).
+    """
+
+    def __init__(self, robot: RobotModel, terms: JointTerms | None, theta: np.ndarray, *,
+                 physically_consistent: bool | None = None, meta: dict | None = None) -> None:
+        terms = JointTerms() if terms is None else terms
+        theta = np.asarray(theta, dtype=float).reshape(-1)
+        nv, nt = robot.nv, len(terms)
+        if theta.shape != (10 * nv + nt * nv,):
+            raise ModelError(f"expected {10 * nv + nt * nv} standard parameters for {robot.name} with terms "
+                             f"{terms.names}, got {theta.size}")
+        if not np.all(np.isfinite(theta)):
+            raise ModelError("identified parameters contain NaN or infinite values")
+        joint = theta[10 * nv:].reshape(nv, nt)
+        values = {name: joint[:, i] for i, name in enumerate(terms.names)}
+        zeros = np.zeros(nv)
+        self.fc = np.array(values.get("fc", zeros), dtype=float)
+        self.fv = np.array(values.get("fv", zeros), dtype=float)
+        self.offset = np.array(values.get("offset", zeros), dtype=float)
+        self.armature = np.array(values.get("armature", zeros), dtype=float)
+        self.terms = terms
+        self.theta = theta.copy()
+        self.nominal_robot = robot
+        self.robot = robot.with_inertial_parameters(theta[: 10 * nv], coulomb=self.fc, viscous=self.fv)
+        self.pin_model: pin.Model = self.robot.pin_model
+        self.pin_data = self.pin_model.createData()
+        if physically_consistent is None:
+            from pinid.model.physical import check_consistency
+
+            physically_consistent = check_consistency(theta, robot.joint_names, terms.names).consistent
+        self.physically_consistent = bool(physically_consistent)
+        self.meta = dict(meta or {})
+        self._plain = not robot._continuous
+
+    # ---------------------------------------------------------------- description
+    @property
+    def nv(self) -> int:
+        """Number of joints."""
+        return self.robot.nv
+
+    @property
+    def joint_names(self) -> list[str]:
+        """Joint names, in the order of q."""
+        return self.robot.joint_names
+
+    @property
+    def standard_parameters(self) -> dict[str, float]:
+        """``{name: value}`` of the standard parameters."""
+        return dict(zip(parameter_names(self.robot, self.terms), map(float, self.theta)))
+
+    def _q(self, q):
+        q = np.asarray(q, dtype=float)
+        if q.shape != (self.nv,):
+            raise ValueError(f"q has shape {q.shape}, expected ({self.nv},) for joints {self.joint_names}")
+        return q if self._plain else self.robot.configuration(q)
+
+    # ---------------------------------------------------------------- dynamics
+    def friction(self, dq: np.ndarray) -> np.ndarray:
+        """Joint friction fc·sign(dq) + fv·dq [N·m] (one sample or a batch)."""
+        dq = np.asarray(dq, dtype=float)
+        return self.fc * np.sign(dq) + self.fv * dq
+
+    def gravity(self, q: np.ndarray) -> np.ndarray:
+        """Gravity torque g(q) [N·m] (one sample or a batch)."""
+        q = np.asarray(q, dtype=float)
+        if q.ndim == 2:
+            return np.array([self.gravity(x) for x in q])
+        return pin.computeGeneralizedGravity(self.pin_model, self.pin_data, self._q(q)).copy()
+
+    def mass_matrix(self, q: np.ndarray) -> np.ndarray:
+        """Joint-space mass matrix M(q) + diag(armature) [kg·m²], symmetric (nv, nv)."""
+        M = pin.crba(self.pin_model, self.pin_data, self._q(q)).copy()
+        M = np.triu(M) + np.triu(M, 1).T
+        M[np.diag_indices(self.nv)] += self.armature
+        return M
+
+    def coriolis(self, q: np.ndarray, dq: np.ndarray) -> np.ndarray:
+        """Coriolis/centrifugal matrix C(q, dq) (nv, nv), with Ṁ − 2C skew-symmetric; C·dq is the torque."""
+        dq = np.asarray(dq, dtype=float)
+        return pin.computeCoriolisMatrix(self.pin_model, self.pin_data, self._q(q), dq).copy()
+
+    def inverse_dynamics(self, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray) -> np.ndarray:
+        """Joint torque τ [N·m] for the motion (q, dq, ddq): rigid body + armature + friction + offset."""
+        q, dq, ddq = (np.asarray(x, dtype=float) for x in (q, dq, ddq))
+        if q.ndim == 2:
+            return np.array([self.inverse_dynamics(a, b, c) for a, b, c in zip(q, dq, ddq)])
+        tau = pin.rnea(self.pin_model, self.pin_data, self._q(q), dq, ddq).copy()
+        return tau + self.armature * ddq + self.friction(dq) + self.offset
+
+    def forward_dynamics(self, q: np.ndarray, dq: np.ndarray, tau: np.ndarray) -> np.ndarray:
+        """Joint acceleration ddq [rad/s²] under torque ``tau`` (solves the equation of motion)."""
+        q, dq, tau = (np.asarray(x, dtype=float) for x in (q, dq, tau))
+        h = self.inverse_dynamics(q, dq, np.zeros(self.nv))
+        return np.linalg.solve(self.mass_matrix(q), tau - h)
+
+    # ---------------------------------------------------------------- files
+    def to_dict(self) -> dict:
+        """Plain-dict form with the URDF text, so that :meth:`from_dict` needs no other file."""
+        from pinid import __version__
+
+        r = self.nominal_robot
+        return {
+            "format": _FORMAT, "version": 1, "pinid_version": __version__,
+            "robot": {"name": r.name, "urdf": None if r.urdf_path is None else str(r.urdf_path),
+                      "joints": r.joint_names, "locked": dict(r.locked), "terms": self.terms.names,
+                      "urdf_text": r.urdf_text},
+            "standard_parameters": self.standard_parameters,
+            "physically_consistent": self.physically_consistent,
+            "meta": self.meta,
+        }
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "IdentifiedModel":
+        """Inverse of :meth:`to_dict`."""
+        from pinid.identification.core import _robot_from_dict
+
+        if d.get("format") != _FORMAT:
+            raise SpecError(f"not an identified model (format {d.get('format')!r}, expected {_FORMAT!r})")
+        robot, terms = _robot_from_dict(d["robot"])
+        names = parameter_names(robot, terms)
+        values = d["standard_parameters"]
+        missing = [n for n in names if n not in values]
+        if missing:
+            raise SpecError(f"identified model: missing parameter(s) {missing[:5]}")
+        theta = np.array([float(values[n]) for n in names])
+        return cls(robot, terms, theta, physically_consistent=d.get("physically_consistent"), meta=d.get("meta"))
+
+    def save(self, path: str | os.PathLike) -> Path:
+        """Write as JSON (atomically)."""
+        from pinid.io import write_json
+
+        return write_json(path, self.to_dict())
+
+    @classmethod
+    def load(cls, path: str | os.PathLike) -> "IdentifiedModel":
+        """Read a JSON file written by :meth:`save` (or by ``pinid identify``: ``model_<method>.json``)."""
+        from pinid.io import read_json
+
+        return cls.from_dict(read_json(path, "identified model"))
+
+    def export_urdf(self, path: str | os.PathLike | None = None, *, force: bool = False) -> str:
+        """The identified URDF text (see :func:`pinid.model.export.identified_urdf`); written to ``path`` when given."""
+        from pinid.model.export import identified_urdf
+
+        return identified_urdf(self.nominal_robot, self.theta, self.terms, path, force=force,
+                               comment=f"method {self.meta.get('method', '?')}")
+
+    def __repr__(self) -> str:
+        return (f"IdentifiedModel({self.robot.name!r}, joints={self.joint_names}, terms={self.terms.names}, "
+                f"physically_consistent={self.physically_consistent})")

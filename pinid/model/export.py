@@ -1,0 +1,153 @@
+"""The identified URDF: the input URDF with its ``<inertial>`` and ``<dynamics>`` tags replaced.
+
+Frames.  Pinocchio's body frame of an active joint is the joint frame, which in a URDF is the frame
+of the joint's child link.  The identified standard parameters of body ``i`` (mass, first moments
+``m·c`` and inertia about that frame) become the child link's ``<inertial>``: ``<origin xyz="c"
+rpy="0 0 0"/>``, ``<mass>`` and the inertia about the centre of mass (``I_c = I − m·(|c|²·1 − c·cᵀ)``).
+
+Merged links.  Pinocchio merges into one body a moving link and every link attached below it by
+fixed joints or by joints held *locked* during identification; the data only see their sum.  The
+export puts that whole identified inertia on the moving link and removes the ``<inertial>`` of the
+merged links (a comment in each says so), so that the file loads back to exactly the identified
+model.  The export is therefore valid for the locked configuration used in identification; links
+fixed to the world are left as they are (they do not move).
+
+Joint terms.  Coulomb (``fc``) and viscous (``fv``) friction go to ``<dynamics friction=… damping=…/>``
+of each active joint when they are in the model (otherwise the URDF's values stay).  Armature and
+a constant offset have no URDF field: they are written as a comment in the joint element (and kept in
+the JSON outputs).
+
+A physically inconsistent set is refused unless ``force=True``.  Comments of the input are kept.
+"""
+
+from __future__ import annotations
+
+import os
+import xml.etree.ElementTree as ET
+
+import numpy as np
+
+from pinid.errors import ModelError
+from pinid.model.robot import RobotModel
+from pinid.model.physical import check_consistency, com_inertia
+from pinid.model.regressor import JointTerms
+
+
+
+def _comment(text: str) -> ET.Element:
+    """An XML comment; "--" may not appear inside one (the file would not parse), so it is spaced out."""
+    while "--" in text:
+        text = text.replace("--", "- -")
+    return ET.Comment(text if not text.endswith("-") else text + " ")
+
+def _num(x: float) -> str:
+    x = float(x)
+    return "0" if x == 0 else f"{x:.17g}"
+
+
+def _link_owners(root: ET.Element, active: list[str]) -> tuple[dict[str, str | None], dict[str, str]]:
+    """For every link, the active joint whose body it is merged into (None: fixed to the world);
+    and for every active joint, its child link."""
+    parent_joint = {}
+    child_of = {}
+    for j in root.findall("joint"):
+        child, parent = j.find("child"), j.find("parent")
+        if child is None or parent is None:
+            continue
+        parent_joint[child.get("link")] = j
+        if j.get("name") in active:
+            child_of[j.get("name")] = child.get("link")
+    owners = {}
+    for link in root.findall("link"):
+        name = link.get("name")
+        owner, cur, seen = None, name, set()
+        while cur in parent_joint and cur not in seen:
+            seen.add(cur)
+            j = parent_joint[cur]
+            if j.get("name") in active:
+                owner = j.get("name")
+                break
+            cur = j.find("parent").get("link")
+        owners[name] = owner
+    return owners, child_of
+
+
+def identified_urdf(model: RobotModel, theta: np.ndarray, terms: JointTerms, path: str | os.PathLike | None = None,
+                    *, force: bool = False, comment: str | None = None, origin: str = "identified by pinid") -> str:
+    """The URDF text of ``model`` with the standard parameters ``theta`` (see the module text).
+
+    Written atomically to ``path`` when given.  The file's first comment reads ``origin (comment)``.  Raises
+    ModelError for an inconsistent set unless ``force``, or when the model has no URDF text.
+    """
+    theta = np.asarray(theta, dtype=float)
+    nv, nt = model.nv, len(terms)
+    if theta.shape != (10 * nv + nt * nv,):
+        raise ModelError(f"expected {10 * nv + nt * nv} standard parameters, got {theta.size}")
+    report = check_consistency(theta, model.joint_names, terms.names)
+    if not report.consistent and not force:
+        raise ModelError("refusing to export physically inconsistent parameters ("
+                         + "; ".join(report.problems[:3]) + "); force the export to write them anyway")
+    if not model.urdf_text:
+        raise ModelError(f"{model.name}: no URDF text to edit")
+    parser = ET.XMLParser(target=ET.TreeBuilder(insert_comments=True))
+    root = ET.fromstring(model.urdf_text, parser=parser)
+    active = model.joint_names
+    owners, child_of = _link_owners(root, active)
+    links = {link.get("name"): link for link in root.findall("link")}
+    joints = {j.get("name"): j for j in root.findall("joint")}
+    missing = [j for j in active if j not in child_of]
+    if missing:
+        raise ModelError(f"{model.name}: joint(s) {missing} not found in the URDF text")
+    for i, jname in enumerate(active):
+        link = links[child_of[jname]]
+        m, c, I = com_inertia(theta[10 * i: 10 * i + 10])
+        _set_inertial(link, m, c, I)
+        merged = sorted(n for n, o in owners.items() if o == jname and n != child_of[jname])
+        if merged:
+            link.insert(0, _comment(f" pinid: identified inertia of body '{jname}', including merged link(s) "
+                                      f"{', '.join(merged)} "))
+    for name, link in links.items():
+        owner = owners.get(name)
+        if owner is None or name == child_of.get(owner):
+            continue
+        for el in link.findall("inertial"):
+            link.remove(el)
+        link.insert(0, _comment(f" pinid: inertial removed; it is part of the identified body of joint '{owner}' "))
+    values = theta[10 * nv:].reshape(nv, nt) if nt else np.zeros((nv, 0))
+    for i, jname in enumerate(active):
+        jel = joints[jname]
+        v = {t: values[i, k] for k, t in enumerate(terms.names)}
+        if "fc" in v or "fv" in v:
+            dyn = jel.find("dynamics")
+            if dyn is None:
+                dyn = ET.SubElement(jel, "dynamics")
+            if "fv" in v:
+                dyn.set("damping", _num(v["fv"]))
+            if "fc" in v:
+                dyn.set("friction", _num(v["fc"]))
+        extra = [f"{t} {_num(v[t])} {u}" for t, u in (("armature", "kg·m²"), ("offset", "N·m")) if t in v]
+        if extra:
+            jel.append(_comment(f" pinid: {', '.join(extra)} (no URDF field) "))
+    head = (f" {origin}{' (' + comment + ')' if comment else ''}: inertials of the moving links and "
+            f"joint friction replaced; physically consistent: {'yes' if report.consistent else 'NO (forced)'}"
+            + (f"; locked joints: {', '.join(f'{k}={v:g}' for k, v in model.locked.items())}" if model.locked else "")
+            + " ")
+    root.insert(0, _comment(head))
+    ET.indent(root, space="  ")
+    text = '<?xml version="1.0" encoding="utf-8"?>\n' + ET.tostring(root, encoding="unicode") + "\n"
+    if path is not None:
+        from pinid.io import write_text
+
+        write_text(path, text)
+    return text
+
+
+def _set_inertial(link: ET.Element, m: float, c: np.ndarray, I: np.ndarray) -> None:
+    for el in link.findall("inertial"):
+        link.remove(el)
+    inertial = ET.Element("inertial")
+    ET.SubElement(inertial, "origin", xyz=" ".join(_num(x) for x in c), rpy="0 0 0")
+    ET.SubElement(inertial, "mass", value=_num(m))
+    ET.SubElement(inertial, "inertia", ixx=_num(I[0, 0]), ixy=_num(I[0, 1]), ixz=_num(I[0, 2]),
+                  iyy=_num(I[1, 1]), iyz=_num(I[1, 2]), izz=_num(I[2, 2]))
+    link.insert(0, inertial)

@@ -1,0 +1,368 @@
+"""Load a fixed-base URDF into a Pinocchio model: active joints, locked joints, limits, parameter names.
+
+Conventions: SI units and radians.  Joint coordinates ``q`` are one number per active joint (the angle
+for revolute and continuous joints, the displacement for prismatic ones), whatever Pinocchio's own
+configuration layout is.  Standard inertial parameters per body are Pinocchio's
+``[m, mx, my, mz, Ixx, Ixy, Iyy, Ixz, Iyz, Izz]`` about the joint frame, named ``<joint>.<name>``.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import os
+import re
+import sys
+import tempfile
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Iterator, Mapping, Sequence
+
+import numpy as np
+import pinocchio as pin
+
+from pinid.errors import JointError, ModelError
+from pinid.model.bundled import resolve_robot
+
+#: Names of the 10 standard inertial parameters of a body, in Pinocchio's order.
+INERTIAL_NAMES: tuple[str, ...] = ("m", "mx", "my", "mz", "Ixx", "Ixy", "Iyy", "Ixz", "Iyz", "Izz")
+
+_MAX_URDF_BYTES = 50 * 1024 * 1024
+_UNBOUNDED = 1e10  # |limit| above this is treated as no limit
+
+
+def _read_urdf_text(path: Path) -> str:
+    """Read and sanity-check a URDF file; return its text.  Rejects entity declarations (XML bombs)."""
+    if not path.exists():
+        raise ModelError(f"{path}: file not found, expected a URDF file")
+    if path.is_dir():
+        raise ModelError(f"{path}: is a folder, expected a URDF file")
+    size = path.stat().st_size
+    if size == 0:
+        raise ModelError(f"{path}: file is empty, expected a URDF file")
+    if size > _MAX_URDF_BYTES:
+        raise ModelError(f"{path}: file is {size} bytes, larger than a URDF should be (limit {_MAX_URDF_BYTES})")
+    raw = path.read_bytes()
+    if b"\x00" in raw[:4096]:
+        raise ModelError(f"{path}: binary file, expected a URDF (XML text)")
+    try:
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise ModelError(f"{path}: not UTF-8 text (byte {exc.start}), expected a URDF in UTF-8") from None
+    if re.search(r"<!ENTITY", text, re.IGNORECASE) or re.search(r"<!DOCTYPE", text, re.IGNORECASE):
+        raise ModelError(f"{path}: contains a DOCTYPE/ENTITY declaration, which a URDF does not need; refused")
+    try:
+        root = ET.fromstring(text)
+    except ET.ParseError as exc:
+        raise ModelError(f"{path}: not well-formed XML ({exc}), expected a URDF") from None
+    if root.tag != "robot":
+        raise ModelError(f"{path}: root element is <{root.tag}>, expected <robot> (a URDF)")
+    declared = {link.get("name") for link in root.findall("link")}
+    parents = {j.find("parent").get("link") for j in root.findall("joint") if j.find("parent") is not None}
+    children = {j.find("child").get("link") for j in root.findall("joint") if j.find("child") is not None}
+    missing_children = sorted(c for c in children if c not in declared)
+    if missing_children:
+        raise ModelError(f"{path}: joint child link(s) {missing_children} are not declared as <link>")
+    # Many exporters weld the robot to a "world" link they never declare; urdfdom refuses that.
+    # Declaring the missing root link is what the URDF spec asks for and changes nothing else.
+    missing_roots = sorted(p for p in parents if p and p not in declared)
+    if missing_roots:
+        extra = "".join(f'<link name="{name}"/>' for name in missing_roots)
+        text = re.sub(r"(<robot\b[^>]*>)", lambda m: m.group(1) + extra, text, count=1)
+    return text
+
+
+@contextlib.contextmanager
+def _captured_stderr() -> Iterator[io.StringIO]:
+    """Capture what C++ code (urdfdom) prints on file descriptor 2, so errors stay one line."""
+    out = io.StringIO()
+    try:
+        fd = sys.stderr.fileno()
+    except (AttributeError, ValueError, io.UnsupportedOperation):
+        yield out
+        return
+    sys.stderr.flush()
+    saved = os.dup(fd)
+    with tempfile.TemporaryFile(mode="w+b") as tmp:
+        os.dup2(tmp.fileno(), fd)
+        try:
+            yield out
+        finally:
+            os.dup2(saved, fd)
+            os.close(saved)
+            tmp.seek(0)
+            out.write(tmp.read().decode("utf-8", "replace"))
+
+
+@dataclass(frozen=True)
+class JointInfo:
+    """One active joint: name, kind and limits [rad, rad/s, N·m] (or [m, m/s, N] for prismatic)."""
+
+    name: str
+    kind: str  # "revolute", "continuous" or "prismatic"
+    lower: float
+    upper: float
+    velocity: float
+    effort: float
+
+
+class RobotModel:
+    """A fixed-base serial (or tree) robot with one degree of freedom per active joint.
+
+    Build it with :meth:`from_urdf`.  ``pin_model`` is the (reduced) Pinocchio model; its armature,
+    damping and friction are zero so that ``rnea`` is the rigid-body torque only; the joint friction
+    read from the URDF ``<dynamics>`` tags is kept in ``coulomb`` [N·m] and ``viscous`` [N·m·s/rad].
+    """
+
+    def __init__(
+        self,
+        pin_model: pin.Model,
+        joints: Sequence[JointInfo],
+        *,
+        coulomb: np.ndarray,
+        viscous: np.ndarray,
+        urdf_path: Path | None = None,
+        urdf_text: str | None = None,
+        locked: Mapping[str, float] | None = None,
+    ) -> None:
+        self.pin_model = pin_model
+        self.joints: tuple[JointInfo, ...] = tuple(joints)
+        self.coulomb = np.asarray(coulomb, dtype=float)
+        self.viscous = np.asarray(viscous, dtype=float)
+        self.urdf_path = urdf_path
+        self.urdf_text = urdf_text
+        self.locked = dict(locked or {})
+        self._data = pin_model.createData()
+        self._continuous = [i for i, j in enumerate(self.joints) if j.kind == "continuous"]
+        self._idx_q = [pin_model.joints[i + 1].idx_q for i in range(len(self.joints))]
+
+    # ------------------------------------------------------------------ construction
+    @classmethod
+    def from_urdf(
+        cls,
+        urdf: str | os.PathLike,
+        *,
+        joints: Sequence[str] | None = None,
+        locked: Mapping[str, float] | None = None,
+    ) -> "RobotModel":
+        """Load a URDF file, a bundled robot name (``exo_leg``) or an example-robot-data name (``panda``).
+
+        ``joints``: names of the active joints (default: every movable joint not in ``locked``).
+        ``locked``: joints held fixed at a value [rad or m]; other inactive joints are held at 0 (or at
+        the middle of their range when 0 is outside it).
+        """
+        path, preset_locked = resolve_robot(urdf)
+        text = _read_urdf_text(path)
+        with _captured_stderr() as printed:
+            try:
+                full = pin.buildModelFromXML(text)
+                failure = None
+            except Exception as exc:  # noqa: BLE001 - Pinocchio raises plain RuntimeError/ValueError
+                failure = exc
+        said = [ln.strip() for ln in printed.getvalue().splitlines() if ln.strip().startswith("Error:")]
+        if failure is None and said:  # urdfdom drops what it cannot parse (e.g. a NaN mass) and says so
+            raise ModelError(f"{path}: not a valid URDF ({said[0][len('Error:'):].strip()})")
+        if failure is not None:
+            msg = said[0][len("Error:"):].strip() if said else (str(failure).strip().splitlines() or [""])[0]
+            raise ModelError(f"{path}: not a valid URDF ({msg or type(failure).__name__})") from None
+        lock = {k: v for k, v in preset_locked.items() if k not in (joints or ())}
+        lock.update(locked or {})
+        names = [full.names[i] for i in range(1, full.njoints)]
+        for jid in range(1, full.njoints):
+            j = full.joints[jid]
+            if j.nv != 1:
+                raise ModelError(
+                    f"{path}: joint '{full.names[jid]}' has {j.nv} degrees of freedom "
+                    "(floating or planar); pinid supports fixed-base robots with 1-DOF joints"
+                )
+        if not names:
+            raise ModelError(f"{path}: no movable joint, expected at least one revolute, continuous or prismatic joint")
+        for n in list(lock) + list(joints or []):
+            if n not in names:
+                raise JointError(f"joint '{n}' is not in {path.name} (its joints: {', '.join(names)})")
+        active = list(joints) if joints is not None else [n for n in names if n not in lock]
+        if not active:
+            raise ModelError(f"{path}: every movable joint is locked, expected at least one active joint")
+        for n in active:
+            if n in lock:
+                raise ModelError(f"joint '{n}' is both active and locked, expected one or the other")
+        infos_full = {n: _joint_info(full, full.getJointId(n)) for n in names}
+        q_ref = pin.neutral(full)
+        to_lock = []
+        for n in names:
+            if n in active:
+                continue
+            info = infos_full[n]
+            value = lock.get(n)
+            if value is None:
+                value = 0.0 if info.lower <= 0.0 <= info.upper else 0.5 * (info.lower + info.upper)
+            elif not (info.lower - 1e-12 <= value <= info.upper + 1e-12):
+                raise ModelError(
+                    f"joint '{n}': locked value {value:g} is outside its limits [{info.lower:g}, {info.upper:g}]"
+                )
+            lock[n] = float(value)
+            jid = full.getJointId(n)
+            _set_coordinate(q_ref, full.joints[jid], info.kind, value)
+            to_lock.append(jid)
+        # keep the URDF friction of the active joints before reducing
+        coul = np.array([full.friction[full.joints[full.getJointId(n)].idx_v] for n in active])
+        visc = np.array([full.damping[full.joints[full.getJointId(n)].idx_v] for n in active])
+        _check_inertias(full, path)
+        model = pin.buildReducedModel(full, to_lock, q_ref) if to_lock else full
+        # order of the reduced model's joints follows the URDF tree, not the user's list
+        order = [model.names[i] for i in range(1, model.njoints)]
+        if order != active:
+            perm = [active.index(n) for n in order]
+            coul, visc, active = coul[perm], visc[perm], order
+        model.armature[:] = 0.0
+        model.damping[:] = 0.0
+        model.friction[:] = 0.0
+        infos = [_joint_info(model, model.getJointId(n)) for n in active]
+        return cls(model, infos, coulomb=coul, viscous=visc, urdf_path=path, urdf_text=text,
+                   locked={k: v for k, v in lock.items() if k not in active})
+
+    # ------------------------------------------------------------------ description
+    @property
+    def name(self) -> str:
+        """The robot's name from the URDF."""
+        return self.pin_model.name
+
+    @property
+    def nv(self) -> int:
+        """Number of active joints."""
+        return len(self.joints)
+
+    @property
+    def joint_names(self) -> list[str]:
+        """Names of the active joints, in model order."""
+        return [j.name for j in self.joints]
+
+    @property
+    def lower(self) -> np.ndarray:
+        """Lower position limits [rad or m] (−inf where none)."""
+        return np.array([j.lower for j in self.joints])
+
+    @property
+    def upper(self) -> np.ndarray:
+        """Upper position limits [rad or m] (+inf where none)."""
+        return np.array([j.upper for j in self.joints])
+
+    @property
+    def velocity_limit(self) -> np.ndarray:
+        """Velocity limits [rad/s or m/s] (inf where none)."""
+        return np.array([j.velocity for j in self.joints])
+
+    @property
+    def effort_limit(self) -> np.ndarray:
+        """Effort limits [N·m or N] (inf where none)."""
+        return np.array([j.effort for j in self.joints])
+
+    def joint_index(self, name: str) -> int:
+        """Index of an active joint by name; JointError if unknown."""
+        try:
+            return self.joint_names.index(name)
+        except ValueError:
+            raise JointError(f"joint '{name}' is not an active joint (active joints: {', '.join(self.joint_names)})") from None
+
+    @property
+    def inertial_names(self) -> list[str]:
+        """Names ``<joint>.<param>`` of the 10·nv standard inertial parameters."""
+        return [f"{j}.{p}" for j in self.joint_names for p in INERTIAL_NAMES]
+
+    def inertial_parameters(self) -> np.ndarray:
+        """Standard inertial parameters of the model (10 per body, about the joint frame)."""
+        return np.concatenate(
+            [self.pin_model.inertias[i].toDynamicParameters() for i in range(1, self.pin_model.njoints)]
+        )
+
+    def with_inertial_parameters(self, theta: np.ndarray, *, coulomb=None, viscous=None) -> "RobotModel":
+        """A copy of this model with other inertial parameters (and optionally friction)."""
+        theta = np.asarray(theta, dtype=float)
+        if theta.shape != (10 * self.nv,):
+            raise ValueError(f"expected {10 * self.nv} inertial parameters, got shape {theta.shape}")
+        model = pin.Model(self.pin_model)
+        for i in range(self.nv):
+            model.inertias[i + 1] = pin.Inertia.FromDynamicParameters(theta[10 * i : 10 * i + 10])
+        return RobotModel(
+            model, self.joints,
+            coulomb=self.coulomb if coulomb is None else coulomb,
+            viscous=self.viscous if viscous is None else viscous,
+            urdf_path=self.urdf_path, urdf_text=self.urdf_text, locked=self.locked,
+        )
+
+    # ------------------------------------------------------------------ kinematics helpers
+    def configuration(self, q: np.ndarray) -> np.ndarray:
+        """Pinocchio configuration vector for joint coordinates ``q`` (nv,) [rad or m]."""
+        if not self._continuous:
+            return np.asarray(q, dtype=float)
+        out = np.empty(self.pin_model.nq)
+        for i, j in enumerate(self.joints):
+            _set_coordinate(out, self.pin_model.joints[i + 1], j.kind, q[i])
+        return out
+
+    def rnea(self, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray) -> np.ndarray:
+        """Rigid-body inverse dynamics [N·m] for one sample (nv,) or many (N, nv); no friction."""
+        q, dq, ddq = (np.asarray(x, dtype=float) for x in (q, dq, ddq))
+        if q.ndim == 1:
+            return pin.rnea(self.pin_model, self._data, self.configuration(q), dq, ddq).copy()
+        return np.array([pin.rnea(self.pin_model, self._data, self.configuration(a), b, c).copy()
+                         for a, b, c in zip(q, dq, ddq)])
+
+    def random_states(self, n: int, rng: np.random.Generator, *, acceleration: float = 5.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``n`` random (q, dq, ddq) inside the position and velocity limits; |ddq| ≤ ``acceleration``."""
+        lo = np.where(np.isfinite(self.lower), self.lower, -np.pi)
+        hi = np.where(np.isfinite(self.upper), self.upper, np.pi)
+        vmax = np.where(np.isfinite(self.velocity_limit) & (self.velocity_limit > 0), self.velocity_limit, 2.0)
+        q = rng.uniform(lo, hi, size=(n, self.nv))
+        dq = rng.uniform(-vmax, vmax, size=(n, self.nv))
+        ddq = rng.uniform(-acceleration, acceleration, size=(n, self.nv))
+        return q, dq, ddq
+
+    def __repr__(self) -> str:
+        return f"RobotModel({self.name!r}, joints={self.joint_names})"
+
+
+#: Largest body mass [kg] accepted from a URDF; anything heavier is a unit or typing error.
+MAX_BODY_MASS = 1e6
+
+
+def _check_inertias(model: pin.Model, path: Path) -> None:
+    """Refuse inertial values that are not numbers, negative masses, and absurdly large ones."""
+    for jid in range(1, model.njoints):
+        p = model.inertias[jid].toDynamicParameters()
+        name = model.names[jid]
+        if not np.all(np.isfinite(p)):
+            raise ModelError(f"{path}: the body moved by joint '{name}' has a NaN or infinite <inertial> value")
+        if p[0] < 0 or p[0] > MAX_BODY_MASS:
+            raise ModelError(f"{path}: the body moved by joint '{name}' has mass {p[0]:.3g} kg; "
+                             f"expected 0 to {MAX_BODY_MASS:.0e} kg")
+
+
+def _joint_info(model: pin.Model, jid: int) -> JointInfo:
+    j = model.joints[jid]
+    short = j.shortname()
+    if j.nq == 2:
+        kind, lo, hi = "continuous", -np.inf, np.inf
+    else:
+        kind = "prismatic" if "P" in short.replace("JointModel", "")[:1] else "revolute"
+        lo, hi = float(model.lowerPositionLimit[j.idx_q]), float(model.upperPositionLimit[j.idx_q])
+        lo = -np.inf if lo < -_UNBOUNDED else lo
+        hi = np.inf if hi > _UNBOUNDED else hi
+        if lo == hi:  # CAD exporters write <limit lower="0" upper="0"/> for "not given"
+            lo, hi = -np.inf, np.inf
+    vel = float(model.velocityLimit[j.idx_v])
+    eff = float(model.effortLimit[j.idx_v])
+    return JointInfo(  # a zero velocity or effort limit is read as "not given" too
+        name=model.names[jid], kind=kind, lower=lo, upper=hi,
+        velocity=np.inf if (vel > _UNBOUNDED or vel <= 0) else vel,
+        effort=np.inf if (eff > _UNBOUNDED or eff <= 0) else eff,
+    )
+
+
+def _set_coordinate(q_pin: np.ndarray, joint, kind: str, value: float) -> None:
+    if kind == "continuous":
+        q_pin[joint.idx_q] = np.cos(value)
+        q_pin[joint.idx_q + 1] = np.sin(value)
+    else:
+        q_pin[joint.idx_q] = value

@@ -1,0 +1,1 @@
+"""Markdown/HTML reports and figures (matplotlib is imported inside the drawing functions)."""

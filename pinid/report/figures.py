@@ -1,0 +1,25 @@
+"""Figures, one module per topic.  matplotlib is imported inside the functions (Agg backend); plots
+never call ``plt.show()``, take ``ax=None`` where a single axes fits, and return the figure."""
+
+from __future__ import annotations
+
+
+def new_figure(*args, **kwargs):
+    """``plt.subplots(*args, **kwargs)`` on the non-interactive Agg backend."""
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    return plt.subplots(*args, **kwargs)
+
+
+def save_figure(fig, path) -> None:
+    """Save ``fig`` atomically to ``path`` (format from the suffix) and close it."""
+    import matplotlib.pyplot as plt
+
+    from pinid.io import atomic_path
+
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, format=str(path).rsplit(".", 1)[-1], dpi=120, bbox_inches="tight")
+    plt.close(fig)

@@ -1,0 +1,185 @@
+"""A readable Markdown report of an identification, with its figures, for a lab notebook.
+
+``write_report(identification, folder)`` writes ``report.md`` and the PNG figures it shows
+(``torque_<method>.png``: measured vs predicted torque with the error underneath, seed 000 Figs. 9/12;
+``errors.png``: mean ± std of the absolute torque error per method, Figs. 10/13).  Every file is
+written atomically.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import os
+from pathlib import Path
+
+import numpy as np
+
+from pinid.io import display_path
+from pinid.model.physical import com_inertia
+
+
+def _f(x, fmt: str = ".4g") -> str:
+    if x is None or (isinstance(x, float) and not np.isfinite(x)):
+        return "–"
+    return format(x, fmt)
+
+
+def _table(header: list[str], rows: list[list[str]]) -> str:
+    out = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
+    out += ["| " + " | ".join(str(c) for c in r) + " |" for r in rows]
+    return "\n".join(out)
+
+
+#: Seconds of the torque traces drawn in the report (from the start of the recording).
+WINDOW = 30.0
+
+
+def figure_names(ident) -> dict[str, str]:
+    """File names of the report's figures: ``{"errors": …, "torque_<method>": …}``."""
+    names = {f"torque_{m}": f"torque_{m}.png" for m in ident.results}
+    names["errors"] = "errors.png"
+    return names
+
+
+def make_figures(ident) -> dict[str, object]:
+    """The report's matplotlib figures by key (see :func:`figure_names`); empty without torque curves."""
+    from pinid.report.plot_identification import error_bars, torque_comparison
+
+    figs = {}
+    c = ident.curves or {}
+    joints = ident.robot["joints"]
+    if c.get("predicted"):
+        t = np.asarray(c["t"])
+        span = f", first {WINDOW:g} s" if len(t) and t[-1] - t[0] > WINDOW else ""
+        for m, pred in c["predicted"].items():
+            figs[f"torque_{m}"] = torque_comparison(
+                c["t"], c["measured"], {m: pred}, joints, window=WINDOW,
+                title=f"{m}: measured and predicted torque ({c['kind']}, {Path(str(c['source'])).name}{span})")
+    metrics = {m: (r.validation if r.validation is not None else r.train) for m, r in ident.results.items()}
+    if metrics:
+        kind = "validation" if all(r.validation is not None for r in ident.results.values()) else "training"
+        figs["errors"] = error_bars(metrics, title=f"absolute torque error, mean ± std ({kind})")
+    return figs
+
+
+def report_markdown(ident, figures: dict[str, str] | None = None) -> str:
+    """The report text; ``figures`` maps figure keys to the file names to link (missing keys are skipped)."""
+    from pinid import __version__
+
+    figures = figures or {}
+    robot = ident.robot
+    data = ident.data
+    lines = [f"# Identification of `{robot['name']}`", ""]
+    lines.append(f"pinid {__version__}, {_dt.datetime.now().strftime('%Y-%m-%d %H:%M')}; "
+                 f"total time {ident.seconds:.2f} s.")
+    lines += ["", "## Robot and data", ""]
+    urdf = robot.get("urdf")
+    lines.append(f"- URDF: `{display_path(urdf) if urdf else None}`; joints {', '.join(f'`{j}`' for j in robot['joints'])}"
+                 + (f"; locked {', '.join(f'`{k}` = {v:g}' for k, v in robot['locked'].items())}" if robot.get("locked") else ""))
+    lines.append(f"- joint terms: {', '.join(robot['terms']) or 'none'}; "
+                 f"{len(ident.base.get('names', []))} base parameters")
+    lines.append(f"- training: {', '.join(f'`{s}`' for s in data.get('sources', []))} — {data.get('samples')} samples, "
+                 f"{data.get('rows')} torque rows used")
+    rates = [r for r in data.get("sample_rates_hz") or [] if r]
+    if rates:
+        lines.append(f"- sample rate(s): {', '.join(f'{r:.4g} Hz' for r in rates)}")
+    if data.get("rows_dropped_at_rest") and any(data["rows_dropped_at_rest"].values()):
+        rest = ", ".join(f"`{j}` {n} (|dq| < {_f(data['rest_velocity'][j], '.3g')} rad/s)"
+                         for j, n in data["rows_dropped_at_rest"].items())
+        lines.append(f"- rows dropped at rest (Coulomb friction undefined there): {rest}")
+    lines.append(f"- validation: {', '.join(f'`{s}`' for s in ident.validation_sources) or 'none (metrics are on the training data)'}")
+
+    lines += ["", "## Summary", ""]
+    rows = []
+    for m, r in ident.results.items():
+        v = r.validation
+        rows.append([
+            f"**{m}**" if m == ident.best else m, "yes" if r.physically_consistent else "**no**",
+            _f(r.condition_number, ".3g"), _f(r.train.all["rms"]),
+            "–" if v is None else _f(v.all["rms"]), "–" if v is None else _f(v.all["rel_rms_percent"], ".3g"),
+            "–" if v is None else f"{_f(v.all['mean_abs'])} ± {_f(v.all['std_abs'])}",
+            _f(r.seconds, ".3g"), r.status,
+        ])
+    lines.append(_table(["method", "consistent", "cond(W_b)", "train RMS [N·m]", "valid. RMS [N·m]",
+                         "valid. RMS [%]", "valid. mean ± std abs [N·m]", "time [s]", "status"], rows))
+    lines.append("")
+    lines.append(f"Best (bold): **{ident.best}** — the physically consistent result with the lowest "
+                 f"{'validation' if ident.validation_sources else 'training'} RMS; its model is saved as "
+                 f"`model_{ident.best}.json`.")
+    for m, r in ident.results.items():
+        if not r.physically_consistent:
+            probs = r.consistency.get("problems") or []
+            lines.append(f"- `{m}` is not physically consistent: {'; '.join(probs[:4])}"
+                         + (" …" if len(probs) > 4 else ""))
+
+    if "errors" in figures:
+        lines += ["", f"![mean ± std of the absolute torque error]({figures['errors']})"]
+
+    lines += ["", "## Torque error per joint", ""]
+    for m, r in ident.results.items():
+        metrics = r.validation if r.validation is not None else r.train
+        kind = "validation" if r.validation is not None else "training"
+        lines += [f"### {m} ({kind})", ""]
+        lines.append(_table(["joint", "RMS [N·m]", "RMS [%]", "mean ± std abs [N·m]", "max abs [N·m]"],
+                            metrics.table()))
+        key = f"torque_{m}"
+        if key in figures:
+            lines += ["", f"![{m}: measured and predicted torque]({figures[key]})"]
+        lines.append("")
+
+    lines += ["## Base parameters", "",
+              "Value and relative standard deviation σ% (from the residual variance); large σ% marks poorly "
+              "excited parameters.", ""]
+    names = ident.base.get("names", [])
+    exprs = ident.base.get("expressions", [""] * len(names))
+    nominal = ident.base.get("nominal", [None] * len(names))
+    header = ["parameter", "combination", "URDF"] + [f"{m} (σ%)" for m in ident.results]
+    rows = []
+    for i, n in enumerate(names):
+        cells = [f"`{n}`", exprs[i] if len(exprs[i]) < 70 else exprs[i][:67] + "…", _f(nominal[i])]
+        for r in ident.results.values():
+            cells.append(f"{_f(r.base[i])} ({_f(r.std_percent[i], '.2g')})")
+        rows.append(cells)
+    lines.append(_table(header, rows))
+
+    best = ident.results.get(ident.best)
+    if best is not None:
+        lines += ["", f"## Link parameters ({ident.best}, {best.standard_source})", "",
+                  "Mass, centre of mass in the joint (child link) frame and principal moments of inertia about "
+                  "the centre of mass; joint friction.", ""]
+        nv = len(robot["joints"])
+        rows = []
+        terms = robot["terms"]
+        jt = best.standard[10 * nv:].reshape(nv, len(terms)) if terms else np.zeros((nv, 0))
+        for i, j in enumerate(robot["joints"]):
+            m, c, I = com_inertia(best.standard[10 * i: 10 * i + 10])
+            ev = np.linalg.eigvalsh(0.5 * (I + I.T))
+            rows.append([f"`{j}`", _f(m), " ".join(_f(x, ".3g") for x in c), " ".join(_f(x, ".3g") for x in ev)]
+                        + [_f(jt[i, k]) for k in range(len(terms))])
+        lines.append(_table(["joint", "mass [kg]", "c [m]", "principal I_c [kg·m²]"] + terms, rows))
+
+    lines += ["", "## Using the result", "", "```python", "from pinid.identification.identified import IdentifiedModel", "",
+              f"model = IdentifiedModel.load(\"model_{ident.best}.json\")",
+              "tau = model.inverse_dynamics(q, dq, ddq)     # M(q) ddq + C(q, dq) dq + g(q) + friction(dq)",
+              "M, C, g = model.mass_matrix(q), model.coriolis(q, dq), model.gravity(q)", "```", ""]
+    return "\n".join(lines)
+
+
+def write_report(ident, folder: str | os.PathLike, *, name: str = "report.md", figures: bool = True) -> list[Path]:
+    """Write ``report.md`` and its figures into ``folder``; return the paths written."""
+    from pinid.io import write_text
+    from pinid.report.figures import save_figure
+
+    folder = Path(folder)
+    written = []
+    names = {}
+    if figures:
+        figs = make_figures(ident)
+        all_names = figure_names(ident)
+        for key, fig in figs.items():
+            path = folder / all_names[key]
+            save_figure(fig, path)
+            names[key] = all_names[key]
+            written.append(path)
+    written.append(write_text(folder / name, report_markdown(ident, names)))
+    return written

@@ -1,0 +1,158 @@
+"""Figures of a :class:`pinid.identification.compare.Comparison`: convergence curves (seed 000 Figs. 8, 11; seed 001 Fig. 3b),
+validation error bars (seed 000 Figs. 10, 13) and parameter errors against the truth."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from pinid.report.figures import new_figure
+from pinid.report.plot_identification import error_bars
+
+_COLORS = {"ols": "black", "wls": "grey", "sdp": "tab:green", "rls": "tab:brown", "pso": "tab:blue",
+           "rls-pso": "tab:cyan", "woa": "tab:orange", "ewoa": "tab:red", "de": "tab:purple"}
+
+
+def _color(method: str, k: int) -> str:
+    return _COLORS.get(method, f"C{k % 10}")
+
+
+#: Methods whose history is not a best-fitness curve (WLS: its passes; RLS: a-priori error per tenth of the rows).
+_NO_CONVERGENCE = ("wls", "rls")
+
+
+def convergence(comparison, *, stage: str = "main", ax=None, title: str | None = None, excess: bool = True):
+    """Best fitness per iteration of every metaheuristic run (thin: each seed; thick: the median), log scale.
+
+    ``stage``: ``"main"`` (the fit, or a segmental run's second stage) or ``"first"`` (the first stage).
+    ``excess`` (default): plot ``f/f_min − 1``, how far the best particle is above the global minimum of
+    its fitness on the same rows (least squares for ½Σr², least absolute deviations for Σ|r|; each run's
+    own, since a segmental second stage depends on that run's first stage); a dashed line marks where
+    least squares sits for Σ|r|.  Otherwise the raw fitness with the minima as lines.  Returns the figure.
+    """
+    if ax is None:
+        fig, ax = new_figure(figsize=(7, 4))
+    else:
+        fig = ax.figure
+    fitness_kinds = set()
+    ls_excess = []
+    drawn = 0
+    for k, (m, runs) in enumerate(comparison.runs.items()):
+        if m in _NO_CONVERGENCE:
+            continue
+        color = _color(m, k)
+        curves = []
+        for r in runs:
+            c = r.history_first if stage == "first" else r.history
+            if not c or len(c) <= 2:
+                continue
+            c = np.asarray(c, float)
+            src = (r.info.get("first_stage" if stage == "first" else "second_stage") or {}) if comparison.segmental \
+                else r.info
+            if "fitness" in r.info:
+                fitness_kinds.add(r.info["fitness"])
+            if excess:
+                low = src.get("min_fitness") or src.get("ls_fitness")
+                if not low:
+                    continue
+                c = np.maximum(c / float(low) - 1.0, 1e-12)
+                if src.get("ls_fitness") and src.get("min_fitness"):
+                    ls_excess.append(float(src["ls_fitness"]) / float(src["min_fitness"]) - 1.0)
+            curves.append(c)
+        if not curves:
+            continue
+        for c in curves:
+            ax.plot(np.arange(len(c)), c, color=color, lw=0.6, alpha=0.35)
+        n = min(len(c) for c in curves)
+        med = np.median(np.vstack([c[:n] for c in curves]), axis=0)
+        ax.plot(np.arange(n), med, color=color, lw=1.8, label=f"{m} (median of {len(curves)})")
+        drawn += 1
+    kind = next(iter(fitness_kinds)) if len(fitness_kinds) == 1 else None
+    ref = comparison.reference.get(stage) or {}
+    if excess:
+        name = {"sse": "½Σr²", "sae": "Σ|r|"}.get(kind, "fitness")
+        ax.set_ylabel(f"{name} of the best / its minimum − 1")
+        if kind == "sae" and ls_excess and np.median(ls_excess) > 1e-12:
+            ax.axhline(float(np.median(ls_excess)), color="black", ls="--", lw=1.0, label="least squares")
+    else:
+        ax.set_ylabel({"sse": "best fitness ½Σr² [N²·m²]", "sae": "best fitness Σ|r| [N·m]"}.get(kind, "best fitness"))
+        if ref.get("sse") and kind == "sse":
+            ax.axhline(ref["sse"], color="black", ls="--", lw=1.0, label="least squares (the minimum)")
+        if ref.get("sae") and kind == "sae":
+            ax.axhline(ref["sae"], color="tab:green", ls=":", lw=1.2, label="least absolute deviations (the minimum)")
+    ax.set_yscale("log")
+    ax.set_xlabel("iteration")
+    ax.grid(alpha=0.3, which="both")
+    if drawn:
+        ax.legend(fontsize="small")
+    if title:
+        ax.set_title(title)
+    fig.tight_layout()
+    return fig
+
+
+def validation_errors(comparison, label: str | None = None, *, ax=None, title: str | None = None):
+    """Mean ± std of the absolute validation torque error per joint and method (averaged over runs).
+
+    ``label``: which validation set (default the first).  Returns the figure.
+    """
+    labels = list(comparison.validation_sources)
+    if not labels:
+        raise ValueError("the comparison has no validation recordings")
+    label = labels[0] if label is None else label
+    metrics = {}
+    for m, runs in comparison.runs.items():
+        vals = [r.validation[label] for r in runs]
+        avg = (lambda pick: {k: float(np.mean([pick(v)[k] for v in vals])) for k in ("mean_abs", "std_abs")})
+        metrics[m] = {"per_joint": {j: avg(lambda v, j=j: v["per_joint"][j]) for j in vals[0]["per_joint"]},
+                      "all": avg(lambda v: v["all"])}
+    if ax is None:
+        _, ax = new_figure(figsize=(min(12.0, 3.0 + 0.45 * len(metrics) * (len(comparison.joints) + 1)), 3.8))
+    return error_bars(metrics, ax=ax, title=title or f"validation torque error ({label})")
+
+
+def parameter_errors(comparison, *, ax=None, title: str | None = None):
+    """Error of every base parameter against the truth [%] per method (bars: mean over runs; whiskers:
+    min and max), log scale.  Returns the figure."""
+    if comparison.truth is None:
+        raise ValueError("the comparison has no true parameters (truth=None)")
+    names = comparison.base_names
+    methods = list(comparison.runs)
+    if ax is None:
+        fig, ax = new_figure(figsize=(min(12.0, max(7.0, 0.12 * len(names) * max(1, len(methods)) + 2)), 4))
+    else:
+        fig = ax.figure
+    width = 0.8 / max(1, len(methods))
+    x = np.arange(len(names))
+    for k, m in enumerate(methods):
+        e = np.array([[r.parameter_error[n] for n in names] for r in comparison.runs[m]])
+        mean = e.mean(axis=0)
+        lo, hi = mean - e.min(axis=0), e.max(axis=0) - mean
+        ax.bar(x + (k - (len(methods) - 1) / 2) * width, np.maximum(mean, 1e-6), width, yerr=[lo, hi], capsize=1.5,
+               label=m, color=_color(m, k))
+    ax.set_yscale("log")
+    ax.set_xticks(x, names, rotation=35, ha="right")
+    ax.set_ylabel("|x − x_true| / |x_true| [%]")
+    ax.grid(axis="y", alpha=0.3, which="both")
+    ax.legend(fontsize="x-small", ncol=min(5, len(methods)))
+    if title:
+        ax.set_title(title)
+    fig.tight_layout()
+    return fig
+
+
+def comparison_figures(comparison) -> dict:
+    """All figures of a comparison, ``{file name: figure}`` (``compare_*.png``)."""
+    figs = {}
+    if any(m not in _NO_CONVERGENCE and r.history and len(r.history) > 2
+           for m, runs in comparison.runs.items() for r in runs):
+        figs["compare_convergence.png"] = convergence(
+            comparison, title="convergence" + (" (second stage)" if comparison.segmental else ""))
+    if comparison.segmental and any(r.history_first for runs in comparison.runs.values() for r in runs):
+        figs["compare_convergence_first.png"] = convergence(comparison, stage="first",
+                                                            title="convergence (first stage)")
+    for label in comparison.validation_sources:
+        safe = "".join(ch if ch.isalnum() or ch in "-_" else "_" for ch in label)
+        figs[f"compare_errors_{safe}.png"] = validation_errors(comparison, label)
+    if comparison.truth is not None:
+        figs["compare_parameters.png"] = parameter_errors(comparison, title="error against the true parameters")
+    return figs

@@ -1,0 +1,1 @@
+"""The digital twin: closed-loop simulation with friction, noise and quantisation."""

@@ -1,0 +1,497 @@
+"""The digital twin: a leg (or any fixed-base robot) tracking a trajectory in closed loop, recorded.
+
+:func:`simulate` integrates the rigid-body dynamics of a :class:`~pinid.model.robot.RobotModel` (the truth)
+with joint friction, driven by a PD or PID controller with optional feed-forward, and returns what a rig
+would record — noisy, quantised positions and noisy torques at the sample rate — plus a truth dict
+(standard and base parameters, noise levels, seed, rates) and the noise-free signals.
+
+Model, exactly the regressor's (:mod:`pinid.model.regressor`)::
+
+    tau_applied = M(q)·ddq + h(q, dq) + fc·sign(dq) + fv·dq          (per joint: fc, fv ≥ 0)
+
+**Coulomb friction near zero velocity.**  ``sign(dq)`` makes the equations of motion stiff (set-valued
+at dq = 0).  The simulator uses ``fc·tanh(dq / v_s)`` with ``v_s = coulomb_velocity`` (default
+0.01 rad/s) and integrates friction implicitly (linearised backward Euler on the velocity), so any
+``v_s`` is stable.  The difference to the regressor's ``sign`` is ``fc·(1 − tanh(|dq|/v_s))``: below
+1 % of ``fc`` once ``|dq| > 2.65·v_s`` (0.027 rad/s), and at most ``fc`` in a band of a few ``v_s``
+around each velocity reversal — a fraction ``≈ (2/π)·2.65·v_s / (amplitude of dq)`` of the samples of a
+sinusoidal motion, about 0.5 % for 3 rad/s.  The recorded (applied) torque is exact for the twin's
+dynamics; the truth dict states ``v_s`` so that tests can mask those samples.
+
+**Integration.**  The controller runs at ``control_rate`` (zero-order hold on its torque); the plant is
+integrated on a finer fixed grid (``integration_rate``, default the smallest multiple of the control
+and sample rates ≥ 2 kHz) with a semi-implicit scheme: Pinocchio's ``computeMinverse`` and
+``nonLinearEffects`` (the model's damping and friction are zero, friction is added here), implicit
+friction, velocity updated first, position by the trapezoidal rule.  The "true" acceleration stored
+for each sample is the instantaneous one, ``M⁻¹(τ − h − friction)`` at the sample's state and torque,
+so ``rnea(q, dq, ddq) + friction == tau_applied`` holds to rounding at every sample.
+
+**Controller.**  PD: ``Kp = M_jj·ω²``, ``Kd = 2·M_jj·ω``; PID: ``3·M_jj·ω²``, ``3·M_jj·ω``,
+``M_jj·ω³`` (all poles at −ω), ``ω = 2π·bandwidth`` and ``M_jj`` the mass-matrix diagonal at the start.
+It reads the measured (noisy, quantised) positions and a velocity estimated from them (backward
+difference, first-order low-pass at ``velocity_cutoff``) against the desired velocity through the same
+low-pass, so that the filter's lag does not become a tracking error.  Feed-forward ("model", default): inverse
+dynamics of the desired trajectory with ``feedforward_model`` (default: the truth; give a perturbed
+"CAD" model for realism) plus its friction; "gravity" or "none".  Torques are clipped at the URDF effort
+limits.  The run starts on the trajectory (q, dq at t = 0).
+
+**Sensors.**  Positions: Gaussian noise ``position_noise`` [rad], then quantised to
+``encoder_resolution`` [rad] (default 16-bit: 2π/65536).  Torques: Gaussian noise ``torque_noise``
+[N·m] per joint (default ``torque_noise_percent`` = 1 % of each joint's peak applied torque).  Velocities (``record_velocity``):
+true velocity plus Gaussian ``velocity_noise`` [rad/s].  Everything random comes from ``seed``.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Sequence
+
+import numpy as np
+import pinocchio as pin
+
+from pinid.data.dataset import Dataset
+from pinid.errors import DataError, SpecError
+from pinid.model.robot import RobotModel
+from pinid.excitation.trajectory import FourierTrajectory
+
+#: Seed 000 (Zha et al. 2019) Table 1, degrees: (hip offset, hip sin amplitude, knee offset, knee sin
+#: amplitude) of q = offset + amplitude·sin(2π t); q = 0 hanging down, counter-clockwise positive.
+SEED000_TABLE1: dict[int, tuple[float, float, float, float]] = {
+    1: (-10.0, 0.0, 45.0, -30.0),
+    2: (-10.0, 0.0, 60.0, -30.0),
+    3: (-30.0, -30.0, 75.0, -30.0),
+    4: (-45.0, -30.0, 60.0, 30.0),
+}
+
+#: How seed 000's joint angles map onto a bundled robot's joints: (joint, sign) for hip and knee.  Angles
+#: are in the paper's convention (q = 0 hanging down, counter-clockwise positive seen from the side).
+#: ``apal_leg`` (seed 000's own leg): axes +y, positive = swing backward, exactly the paper's convention.
+#: ``exo_leg`` (seed 001's leg): axes −y, positive hip = flexion and negative knee = flexion, so both
+#: signs flip (paper hip −10° → exo_leg hip +10°; paper knee +45° → exo_leg knee −45°).
+PAPER_CONVENTIONS: dict[str, tuple[tuple[str, float], tuple[str, float]]] = {
+    "apal_leg": (("hip", 1.0), ("knee", 1.0)),
+    "exo_leg": (("hip", -1.0), ("knee", -1.0)),
+}
+
+
+def trajectory_presets() -> list[str]:
+    """Names of the trajectory presets: ``seed000-1`` … ``seed000-4``."""
+    return [f"seed000-{k}" for k in SEED000_TABLE1]
+
+
+def seed000_trajectory(number: int, joints: Sequence[str] = ("hip", "knee"), signs: Sequence[float] = (1.0, 1.0)) -> FourierTrajectory:
+    """Seed 000's Table 1 trajectory ``number`` (1–4) as a Fourier trajectory (ω = 2π rad/s, one harmonic).
+
+    ``joints``: names for (hip, knee); ``signs``: +1 or −1 per joint when the robot's axis points the other
+    way than the paper's (counter-clockwise positive, q = 0 hanging down).  Angles become radians.
+    """
+    if number not in SEED000_TABLE1:
+        raise SpecError(f"seed 000 Table 1 has trajectories 1 to 4, not {number!r}")
+    ho, ha, ko, ka = SEED000_TABLE1[number]
+    d = np.pi / 180
+    s = np.asarray(signs, dtype=float)
+    return FourierTrajectory(
+        list(joints), 2 * np.pi, s * np.array([ho, ko]) * d, (s * np.array([ha, ka]) * d)[:, None], np.zeros((2, 1)),
+        meta={"name": f"seed000-{number}", "source": "Zha et al. 2019 (seed 000), Table 1",
+              "paper_degrees": {"hip": [ho, ha], "knee": [ko, ka]}, "signs": s.tolist()},
+    )
+
+
+def load_trajectory(spec: str, model: RobotModel, *, flip: Sequence[str] = ()) -> FourierTrajectory:
+    """A trajectory for ``model`` from a JSON file (``pinid excite``) or a preset name (``seed000-3``).
+
+    Presets are mapped onto the model's joints named ``hip`` and ``knee`` (or, failing that, its two
+    joints in order) with the signs of :data:`PAPER_CONVENTIONS` for that robot; ``flip`` negates more
+    joints (the robot's axis pointing the other way).  Files must name the model's joints.
+    """
+    from pathlib import Path
+
+    if spec in trajectory_presets():
+        number = int(spec.split("-")[1])
+        names = model.joint_names
+        conv = PAPER_CONVENTIONS.get(model.name)
+        if conv is not None:
+            joints, signs = [c[0] for c in conv], [c[1] for c in conv]
+        elif "hip" in names and "knee" in names:
+            joints, signs = ["hip", "knee"], [1.0, 1.0]
+        elif len(names) == 2:
+            joints, signs = list(names), [1.0, 1.0]
+        else:
+            raise SpecError(f"trajectory preset {spec} is for a two-joint leg (hip, knee); {model.name} has joints "
+                            f"{', '.join(names)}")
+        for f in flip:
+            if f not in joints:
+                raise SpecError(f"--flip {f}: not a joint of the preset (its joints: {', '.join(joints)})")
+        signs = [-s if j in flip else s for j, s in zip(joints, signs)]
+        if len(names) != 2:
+            raise SpecError(f"trajectory preset {spec} moves two joints; {model.name} has {len(names)} active joints "
+                            f"({', '.join(names)}); lock the others with --lock")
+        return seed000_trajectory(number, joints, signs)
+    p = Path(spec)
+    if not p.exists():
+        raise SpecError(f"{spec}: no such excitation file, and not a trajectory preset "
+                        f"(presets: {', '.join(trajectory_presets())})")
+    tr = FourierTrajectory.load(p)
+    if flip:
+        raise SpecError("--flip applies to trajectory presets only; an excitation file is in the URDF's convention")
+    return tr
+
+
+def _reorder(tr: FourierTrajectory, model: RobotModel) -> FourierTrajectory:
+    names = model.joint_names
+    if sorted(tr.joints) != sorted(names):
+        raise SpecError(f"trajectory joints {tr.joints} do not match {model.name}'s active joints {names}")
+    idx = [tr.joints.index(j) for j in names]
+    return FourierTrajectory(list(names), tr.base_frequency, tr.q0[idx], tr.a[idx], tr.b[idx], meta=dict(tr.meta))
+
+
+# ---------------------------------------------------------------------------------------------- perturbation
+def perturb(model: RobotModel, percent: float, rng: np.random.Generator) -> RobotModel:
+    """A copy of ``model`` whose inertial parameters differ by about ``percent`` % — a "CAD" model.
+
+    Each body's mass distribution is transformed, which keeps it physically consistent: the mass is
+    scaled by ``1 + ε·u`` (|u| ≤ 1, ε = percent/100) and the mass distribution mapped by ``x → S·x + t``
+    with ``S = 1 + (ε/2)·U`` (entries of U uniform in [−1, 1]) and ``t`` up to ``(ε/2)·r`` per axis, r
+    the body's radius of gyration about its joint.  In pseudo-inertia form ``J' = (1 + ε·u)·A J Aᵀ``
+    with ``A = [[S, t], [0, 1]]``, so ``J' ⪰ 0`` whenever ``J ⪰ 0``.  Mass changes by at most ``percent``
+    %, first moments and inertias by about as much.  Friction is unchanged.
+    """
+    if not np.isfinite(percent) or percent < 0 or percent >= 100:
+        raise SpecError(f"perturbation {percent!r} %, expected a percentage from 0 to below 100")
+    eps = percent / 100.0
+    theta = model.inertial_parameters().copy()
+    for b in range(model.nv):
+        p = theta[10 * b : 10 * b + 10]
+        m, h = p[0], p[1:4]
+        Ixx, Ixy, Iyy, Ixz, Iyz, Izz = p[4:10]
+        inertia = np.array([[Ixx, Ixy, Ixz], [Ixy, Iyy, Iyz], [Ixz, Iyz, Izz]])
+        sigma = 0.5 * np.trace(inertia) * np.eye(3) - inertia
+        J = np.zeros((4, 4))
+        J[:3, :3], J[:3, 3], J[3, :3], J[3, 3] = sigma, h, h, m
+        S = np.eye(3) + 0.5 * eps * rng.uniform(-1, 1, (3, 3))
+        radius = math.sqrt(max(np.trace(sigma), 0.0) / m) if m > 0 else 0.0
+        A = np.eye(4)
+        A[:3, :3] = S
+        A[:3, 3] = 0.5 * eps * radius * rng.uniform(-1, 1, 3)
+        Jp = (1.0 + eps * rng.uniform(-1, 1)) * (A @ J @ A.T)
+        sig = 0.5 * (Jp[:3, :3] + Jp[:3, :3].T)
+        I2 = np.trace(sig) * np.eye(3) - sig
+        theta[10 * b : 10 * b + 10] = [Jp[3, 3], *Jp[:3, 3], I2[0, 0], I2[0, 1], I2[1, 1], I2[0, 2], I2[1, 2], I2[2, 2]]
+    return model.with_inertial_parameters(theta)
+
+
+# ---------------------------------------------------------------------------------------------- simulation
+def _rates(control_rate: float, sample_rate: float, integration_rate: float | None) -> tuple[int, int, int]:
+    for name, r in (("control rate", control_rate), ("sample rate", sample_rate)):
+        if not np.isfinite(r) or r <= 0 or float(r) != int(r):
+            raise SpecError(f"{name} {r!r}, expected a whole number of Hz > 0")
+    c, s = int(control_rate), int(sample_rate)
+    base = c * s // math.gcd(c, s)
+    if integration_rate is None:
+        grid = base * max(1, math.ceil(2000 / base))
+    else:
+        if not np.isfinite(integration_rate) or integration_rate <= 0 or float(integration_rate) != int(integration_rate) \
+                or int(integration_rate) % base:
+            raise SpecError(f"integration rate {integration_rate!r}, expected a whole multiple of {base} Hz "
+                            f"(the least common multiple of the control and sample rates)")
+        grid = int(integration_rate)
+    if grid > 200_000:
+        raise SpecError(f"control rate {c} Hz and sample rate {s} Hz need a {grid} Hz integration grid; "
+                        "expected rates whose least common multiple is at most 200 kHz")
+    return c, s, grid
+
+
+def _per_joint(value, model: RobotModel, name: str) -> np.ndarray:
+    a = np.broadcast_to(np.asarray(value, dtype=float), (model.nv,)).copy() if np.ndim(value) == 0 else np.asarray(value, float)
+    if a.shape != (model.nv,) or not np.all(np.isfinite(a)):
+        raise SpecError(f"{name}: {value!r}, expected one finite number or one per joint ({model.nv}: {model.joint_names})")
+    return a
+
+
+class Plant:
+    """The twin's equations of motion, M(q)·ddq + h(q, dq) + fc·tanh(dq/v_s) + fv·dq = τ, and one
+    integration step (see the module text: implicit friction when stiff, velocity first, trapezoidal
+    position).  ``coulomb`` [N·m], ``viscous`` [N·m·s/rad] per joint, ``coulomb_velocity`` v_s [rad/s]."""
+
+    def __init__(self, model: RobotModel, coulomb: np.ndarray, viscous: np.ndarray, coulomb_velocity: float) -> None:
+        self.model = model
+        self.fc = np.asarray(coulomb, dtype=float)
+        self.fv = np.asarray(viscous, dtype=float)
+        self._ivs = 1.0 / coulomb_velocity
+        self._data = model.pin_model.createData()
+        self._eye = np.eye(model.nv)
+        self._conf = model.configuration if model._continuous else (lambda x: x)
+
+    def step(self, q: np.ndarray, v: np.ndarray, tau: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(ddq, q_next, v_next)``: the acceleration at (q, v) under ``tau`` and the state ``h`` [s] later."""
+        pm, pdata = self.model.pin_model, self._data
+        qc = self._conf(q)
+        Minv = pin.computeMinverse(pm, pdata, qc)
+        nle = pin.nonLinearEffects(pm, pdata, qc, v)
+        th = np.tanh(v * self._ivs)
+        a = Minv @ (tau - nle - self.fc * th - self.fv * v)
+        D = self.fc * self._ivs * (1.0 - th * th) + self.fv
+        if h * float(np.max(Minv.diagonal() * D)) > 0.1:  # stiff (near zero velocity): implicit friction
+            dv = np.linalg.solve(self._eye + (h * Minv) * D, h * a)
+        else:
+            dv = h * a
+        v_new = v + dv
+        return a, q + (0.5 * h) * (v + v_new), v_new
+
+
+def simulate(
+    model: RobotModel,
+    trajectory: FourierTrajectory,
+    *,
+    seconds: float,
+    seed: int = 0,
+    control_rate: float = 1000.0,
+    sample_rate: float | None = None,
+    integration_rate: float | None = None,
+    controller: str = "pd",
+    bandwidth: float = 4.0,
+    kp=None,
+    kd=None,
+    ki=None,
+    feedforward: str = "model",
+    feedforward_model: RobotModel | None = None,
+    coulomb=None,
+    viscous=None,
+    coulomb_velocity: float = 0.01,
+    position_noise: float = 2e-5,
+    encoder_resolution: float = 2 * np.pi / 2**16,
+    torque_noise=None,
+    torque_noise_percent: float = 1.0,
+    record_velocity: bool = False,
+    velocity_noise: float = 0.01,
+    velocity_cutoff: float = 30.0,
+    progress: bool | None = False,
+) -> tuple[Dataset, dict]:
+    """Simulate ``model`` (the truth) tracking ``trajectory`` for ``seconds``; return ``(recording, truth)``.
+
+    The recording has t [s], q (measured) [rad], tau (applied plus noise) [N·m], and dq [rad/s] when
+    ``record_velocity``.  ``truth`` is JSON-ready except ``truth["signals"]``, a Dataset of the true
+    q, dq, ddq (instantaneous) and applied torque at the sample times (see :func:`truth_json`).
+    ``coulomb`` / ``viscous`` [N·m, N·m·s/rad]: true friction per joint (default the URDF's
+    ``<dynamics>``, ``model.coulomb`` / ``model.viscous``).  Other options: see the module docstring.
+    """
+    from pinid.model.base import base_parameters
+    from pinid.model.regressor import JointTerms, parameter_names, standard_parameters
+
+    if not np.isfinite(seconds) or seconds <= 0:
+        raise SpecError(f"duration {seconds!r} s, expected a duration > 0")
+    if controller not in ("pd", "pid"):
+        raise SpecError(f"controller {controller!r}, expected 'pd' or 'pid'")
+    if feedforward not in ("model", "gravity", "none"):
+        raise SpecError(f"feed-forward {feedforward!r}, expected 'model', 'gravity' or 'none'")
+    for name, v in (("bandwidth", bandwidth), ("coulomb velocity scale", coulomb_velocity), ("velocity cut-off", velocity_cutoff)):
+        if not np.isfinite(v) or v <= 0:
+            raise SpecError(f"{name} {v!r}, expected a value > 0")
+    for name, v in (("position noise", position_noise), ("encoder resolution", encoder_resolution), ("velocity noise", velocity_noise)):
+        if not np.isfinite(v) or v < 0:
+            raise SpecError(f"{name} {v!r}, expected a value >= 0")
+    sample_rate = control_rate if sample_rate is None else sample_rate
+    ctrl, smp, grid = _rates(control_rate, sample_rate, integration_rate)
+    if velocity_cutoff >= ctrl / 2:
+        raise SpecError(f"velocity cut-off {velocity_cutoff:g} Hz, expected below half the control rate ({ctrl / 2:g} Hz)")
+    n_c, n_s = grid // ctrl, grid // smp
+    n_steps = int(round(seconds * grid))
+    if n_steps < 2 * n_s:
+        raise SpecError(f"duration {seconds:g} s is shorter than two samples at {smp} Hz")
+    tr = _reorder(trajectory, model)
+    nv = model.nv
+    fc = _per_joint(model.coulomb if coulomb is None else coulomb, model, "Coulomb friction")
+    fv = _per_joint(model.viscous if viscous is None else viscous, model, "viscous friction")
+    if np.any(fc < 0) or np.any(fv < 0):
+        raise SpecError(f"friction must be >= 0 (Coulomb {fc.tolist()}, viscous {fv.tolist()})")
+
+    # desired trajectory at the control instants, and limits
+    k_ctrl = np.arange(n_steps // n_c + 1)
+    t_ctrl = k_ctrl / ctrl
+    qd, dqd, ddqd = tr.evaluate(t_ctrl)
+    lo, hi = model.lower, model.upper
+    tol = 1e-3  # rad: published trajectories are rounded (seed 001 Table 3 reaches -0.0874 against -0.087)
+    for j in range(nv):
+        out = np.flatnonzero((qd[:, j] < lo[j] - tol) | (qd[:, j] > hi[j] + tol))
+        if out.size:
+            k = int(out[0])
+            raise SpecError(f"trajectory takes joint '{model.joint_names[j]}' to {qd[k, j]:.4g} rad at t = {t_ctrl[k]:.4g} s, "
+                            f"outside its URDF limits [{lo[j]:.4g}, {hi[j]:.4g}]")
+
+    vmax = model.velocity_limit
+    over = np.flatnonzero(np.max(np.abs(dqd), axis=0) > vmax * (1 + 1e-9))
+    if over.size:
+        import warnings
+
+        from pinid.data.formats import DataWarning
+
+        j = int(over[0])
+        warnings.warn(f"trajectory reaches {np.max(np.abs(dqd[:, j])):.3g} rad/s on joint '{model.joint_names[j]}', "
+                      f"above its URDF velocity limit {vmax[j]:.3g} rad/s (simulated anyway)", DataWarning, stacklevel=2)
+    pm, pdata = model.pin_model, model.pin_model.createData()
+    cont = bool(model._continuous)
+    conf = model.configuration if cont else (lambda x: x)
+    # gains
+    Mjj = np.diag(pin.crba(pm, pdata, conf(qd[0]))).copy()
+    w = 2 * np.pi * bandwidth
+    if controller == "pd":
+        gains = {"kp": Mjj * w**2, "kd": 2 * Mjj * w, "ki": np.zeros(nv)}
+    else:
+        gains = {"kp": 3 * Mjj * w**2, "kd": 3 * Mjj * w, "ki": Mjj * w**3}
+    for name, v in (("kp", kp), ("kd", kd), ("ki", ki)):
+        if v is not None:
+            gains[name] = _per_joint(v, model, name)
+    Kp, Kd, Ki = gains["kp"], gains["kd"], gains["ki"]
+    # feed-forward at the control instants
+    ffm = feedforward_model or model
+    if feedforward == "model":
+        tau_ff = ffm.rnea(qd, dqd, ddqd) + ffm.coulomb * np.sign(dqd) + ffm.viscous * dqd
+    elif feedforward == "gravity":
+        tau_ff = ffm.rnea(qd, np.zeros_like(qd), np.zeros_like(qd))
+    else:
+        tau_ff = np.zeros_like(qd)
+    effort = model.effort_limit
+
+    # random streams: positions, torques, velocities
+    ss = np.random.SeedSequence(int(seed))
+    rng_q, rng_tau, rng_v = (np.random.default_rng(s) for s in ss.spawn(3))
+    g = math.gcd(n_c, n_s)
+    q_noise = rng_q.normal(0.0, position_noise, (n_steps // g + 1, nv)) if position_noise > 0 else np.zeros((n_steps // g + 1, nv))
+    res = float(encoder_resolution)
+
+    def measure(i: int, q: np.ndarray) -> np.ndarray:
+        y = q + q_noise[i // g]
+        return np.round(y / res) * res if res > 0 else y
+
+    # state
+    h = 1.0 / grid
+    q = qd[0].copy()
+    v = dqd[0].copy()
+    alpha = math.exp(-2 * math.pi * velocity_cutoff / ctrl)
+    v_est = dqd[0].copy()
+    v_ref = dqd[0].copy()  # desired velocity through the same low-pass as the estimate (no phase mismatch)
+    integ = np.zeros(nv)
+    q_prev = None
+    n_samples = len(range(0, n_steps, n_s))
+    rec_t = np.arange(n_samples) / smp
+    rec_q = np.empty((n_samples, nv))
+    true_q = np.empty((n_samples, nv))
+    true_v = np.empty((n_samples, nv))
+    true_a = np.empty((n_samples, nv))
+    true_tau = np.empty((n_samples, nv))
+    plant = Plant(model, fc, fv, coulomb_velocity)
+    tau = np.zeros(nv)
+    saturated = 0
+    s_idx = 0
+    bar = None
+    if progress:
+        from pinid.progress import progress as _progress
+
+        bar = _progress(n_steps // n_c, "simulate", enabled=None if progress is None else bool(progress))
+    try:
+        for i in range(n_steps):
+            if i % n_c == 0:
+                k = i // n_c
+                qm = measure(i, q)
+                if q_prev is not None:
+                    v_est = alpha * v_est + (1.0 - alpha) * (qm - q_prev) * ctrl
+                    v_ref = alpha * v_ref + (1.0 - alpha) * dqd[k]
+                q_prev = qm
+                e = qd[k] - qm
+                integ += e / ctrl
+                tau = tau_ff[k] + Kp * e + Kd * (v_ref - v_est) + Ki * integ
+                clipped = np.clip(tau, -effort, effort)
+                if np.any(clipped != tau):
+                    saturated += 1
+                    tau = clipped
+                if bar is not None and k % 1000 == 0 and k:
+                    bar.update(1000)
+            a, q_new, v_new = plant.step(q, v, tau, h)
+            if i % n_s == 0:
+                rec_q[s_idx] = measure(i, q)
+                true_q[s_idx], true_v[s_idx], true_a[s_idx], true_tau[s_idx] = q, v, a, tau
+                s_idx += 1
+            q, v = q_new, v_new
+            if not np.all(np.isfinite(v)):
+                raise DataError(f"simulation diverged at t = {i * h:.4g} s; expected a stable closed loop "
+                                "(lower --bandwidth or raise the control rate)")
+    finally:
+        if bar is not None:
+            bar.close()
+    if np.any(np.abs(true_q.ravel()) > 1e6):  # pragma: no cover - diverged without NaN
+        raise DataError("simulation diverged; expected a stable closed loop (lower the bandwidth)")
+
+    # sensors
+    peak = np.max(np.abs(true_tau), axis=0)
+    if torque_noise is None:
+        if not np.isfinite(torque_noise_percent) or torque_noise_percent < 0:
+            raise SpecError(f"torque noise {torque_noise_percent!r} %, expected a percentage >= 0")
+        sigma_tau = torque_noise_percent / 100.0 * peak
+    else:
+        sigma_tau = _per_joint(torque_noise, model, "torque noise")
+        if np.any(sigma_tau < 0):
+            raise SpecError(f"torque noise {torque_noise!r}, expected values >= 0 [N·m]")
+    rec_tau = true_tau + rng_tau.normal(0.0, 1.0, true_tau.shape) * sigma_tau
+    rec_dq = true_v + rng_v.normal(0.0, velocity_noise, true_v.shape) if record_velocity else None
+    joints = model.joint_names
+    recording = Dataset(t=rec_t, q=rec_q, joints=joints, dq=rec_dq, tau=rec_tau, source="pinid simulate",
+                        meta={"simulated": True, "seed": int(seed)})
+    signals = Dataset(t=rec_t, q=true_q, joints=joints, dq=true_v, ddq=true_a, tau=true_tau, source="pinid simulate (truth)")
+
+    terms = JointTerms()
+    truth_model = model.with_inertial_parameters(model.inertial_parameters(), coulomb=fc, viscous=fv)
+    theta = standard_parameters(truth_model, terms)
+    bp = base_parameters(truth_model, terms)
+    qd_s, _, _ = tr.evaluate(rec_t)
+    err = true_q - qd_s
+    truth = {
+        "robot": model.name,
+        "urdf": str(model.urdf_path) if model.urdf_path else None,
+        "joints": joints,
+        "locked": model.locked,
+        "seed": int(seed),
+        "seconds": float(seconds),
+        "samples": int(n_samples),
+        "rates": {"control": ctrl, "sample": smp, "integration": grid},
+        "trajectory": tr.to_dict(),
+        "terms": terms.names,
+        "standard": {"names": parameter_names(truth_model, terms), "values": theta.tolist()},
+        "base": {"names": bp.names, "expressions": bp.expressions(), "values": bp.from_standard(theta).tolist()},
+        "friction": {
+            "model": "tau = rnea(q, dq, ddq) + fc*sign(dq) + fv*dq; the simulator uses fc*tanh(dq/v_s)",
+            "coulomb": dict(zip(joints, fc.tolist())), "viscous": dict(zip(joints, fv.tolist())),
+            "coulomb_velocity_scale": float(coulomb_velocity),
+        },
+        "noise": {
+            "position_std": float(position_noise), "encoder_resolution": res,
+            "torque_std": dict(zip(joints, np.asarray(sigma_tau, float).tolist())),
+            "velocity_std": float(velocity_noise) if record_velocity else None,
+        },
+        "controller": {
+            "type": controller, "bandwidth_hz": float(bandwidth), "feedforward": feedforward,
+            "feedforward_model": "truth" if feedforward_model is None else "given (e.g. perturbed CAD)",
+            "kp": Kp.tolist(), "kd": Kd.tolist(), "ki": Ki.tolist(), "velocity_cutoff_hz": float(velocity_cutoff),
+            "saturated_fraction": saturated / max(1, len(k_ctrl) - 1),
+        },
+        "tracking": {"rms_error": dict(zip(joints, np.sqrt(np.mean(err**2, axis=0)).tolist())),
+                     "max_error": dict(zip(joints, np.max(np.abs(err), axis=0).tolist()))},
+        "signals": signals,
+    }
+    return recording, truth
+
+
+def truth_json(truth: dict) -> dict:
+    """The JSON-ready part of a truth dict (everything but the in-memory ``signals``)."""
+    return {k: v for k, v in truth.items() if k != "signals"}
+
+
+def save_truth(path, truth: dict):
+    """Write the truth dict (without ``signals``) as JSON, atomically."""
+    from pinid.io import write_json
+
+    return write_json(path, truth_json(truth))
+
+
+def friction_torque(dq: np.ndarray, coulomb, viscous) -> np.ndarray:
+    """The regressor's friction ``fc·sign(dq) + fv·dq`` [N·m] for velocities ``dq`` (N, nv)."""
+    return np.asarray(coulomb) * np.sign(dq) + np.asarray(viscous) * dq
