@@ -96,7 +96,7 @@ def test_unknown_joint_and_out_of_range_lock():
         (["--urdf", "exo_leg", "--joints", "hip,ankle"], "'ankle' is not in"),
         (["--urdf", "exo_leg", "--joints", "hip", "--lock", "knee=0.5"], "outside its limits"),
         (["--urdf", "exo_leg", "--lock", "knee"], "expected JOINT=VALUE"),
-        (["--urdf", "exo_leg", "--terms", "fc,magic"], "unknown joint term"),
+        (["--urdf", "exo_leg", "--terms", "fc,magic"], "unknown term"),
     ],
 )
 def test_cli_info_bad_input(args, fragment):

@@ -103,5 +103,5 @@ def test_regressor_rejects_wrong_shapes(exo):
 def test_joint_terms_from_names():
     assert JointTerms.from_names("fc,offset") == JointTerms(True, False, True, False)
     assert JointTerms.from_names("none").names == []
-    with pytest.raises(ValueError, match="unknown joint term"):
+    with pytest.raises(ValueError, match="unknown term"):
         JointTerms.from_names("fc,stiction")

@@ -38,7 +38,8 @@ import warnings
 import numpy as np
 
 from pinid.errors import SolverError
-from pinid.model.physical import NONNEGATIVE_TERMS, PSEUDO_INERTIA_BASIS, check_consistency, parameter_scale
+from pinid.model import terms as _terms
+from pinid.model.physical import PSEUDO_INERTIA_BASIS, check_consistency, parameter_scale
 from pinid.estimators.base import Estimator, augmented_r, joint_weights, solve_r
 
 
@@ -104,7 +105,7 @@ class PhysicalLS(Estimator):
         theta = np.asarray(z.value, dtype=float) * S
         # clip tiny negative joint terms the interior-point solver leaves at −1e-12
         theta = _clip_terms(theta, problem)
-        report = check_consistency(theta, problem.model.joint_names, problem.terms.names)
+        report = check_consistency(theta, problem.model.joint_names, problem.terms.names, problem.model.motor_names)
         if not report.consistent:
             raise SolverError(f"sdp: solver {self.solver} status '{status}', but the result is not physically "
                               f"consistent ({'; '.join(report.problems)}); not returned")
@@ -141,8 +142,8 @@ def consistency_constraints(z, problem, S: np.ndarray, margin: float, mass_bound
     """cvxpy constraints making θ = S·z physically consistent (LMI per body, non-negative joint terms)."""
     import cvxpy as cp
 
-    nv, nt = problem.nv, len(problem.terms)
-    p = 10 * nv + nt * nv
+    nv = problem.nv
+    p = 10 * nv + _terms.count(problem.model, problem.terms)
     joints = problem.model.joint_names
     cons = []
     for i in range(nv):
@@ -154,10 +155,9 @@ def consistency_constraints(z, problem, S: np.ndarray, margin: float, mass_bound
             B[:, 10 * i + k] = (T @ PSEUDO_INERTIA_BASIS[k] @ T).reshape(-1, order="F") * S[10 * i + k]
         J = cp.reshape(B @ z, (4, 4), order="F")
         cons.append(0.5 * (J + J.T) >> float(margin) * np.eye(4))
-    for t, name in enumerate(problem.terms.names):
-        if name in NONNEGATIVE_TERMS:
-            idx = [10 * nv + j * nt + t for j in range(nv)]
-            cons.append(z[idx] >= 0)
+    idx = 10 * nv + np.flatnonzero(_terms.nonnegative(problem.model, problem.terms))
+    if idx.size:
+        cons.append(z[idx] >= 0)
     if mass_bounds is not None:
         bounds = mass_bounds if isinstance(mass_bounds, dict) else {j: mass_bounds for j in joints}
         for j, (lo, hi) in bounds.items():
@@ -205,11 +205,11 @@ def _solve_time(prob) -> float | None:
 
 
 def _clip_terms(theta: np.ndarray, problem) -> np.ndarray:
-    nv, nt = problem.nv, len(problem.terms)
     out = theta.copy()
-    for t, name in enumerate(problem.terms.names):
-        if name in NONNEGATIVE_TERMS:
-            idx = [10 * nv + j * nt + t for j in range(nv)]
+    params = _terms.robot_layout(problem.model, problem.terms)
+    for name in {p.term.name for p in params if p.term.nonnegative}:
+        idx = [10 * problem.nv + k for k, p in enumerate(params) if p.term.name == name]
+        if idx:
             out[idx] = np.where((out[idx] < 0) & (out[idx] > -1e-9 * max(1.0, np.abs(out[idx]).max())), 0.0,
                                 out[idx])
     return out
@@ -246,7 +246,7 @@ def consistent_completion(problem, base: np.ndarray, *, solver: str = "CLARABEL"
     mismatch = np.abs(P @ theta - base) / bscale
     if mismatch.max() > 1e-6:
         return None, f"solver status '{status}', base parameters reproduced only to {mismatch.max():.1e}"
-    report = check_consistency(theta, problem.model.joint_names, problem.terms.names)
+    report = check_consistency(theta, problem.model.joint_names, problem.terms.names, problem.model.motor_names)
     if not report.consistent:
         return None, "; ".join(report.problems)
     return theta, status

@@ -649,7 +649,7 @@ def make_result(problem: IdentificationProblem, estimator, seconds: float, *, co
         if theta is None:
             theta = least_norm_completion(problem, base)
             source = "least-norm completion"
-    report = check_consistency(theta, problem.model.joint_names, problem.terms.names)
+    report = check_consistency(theta, problem.model.joint_names, problem.terms.names, problem.model.motor_names)
     consistent = report.consistent and "standard_base_mismatch" not in info
     w = getattr(estimator, "weights_", None)
     std, cond, cond_scaled = base_statistics(problem, base, w)

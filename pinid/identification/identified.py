@@ -1,10 +1,13 @@
 """The identified model for controller code: inverse dynamics, mass matrix, Coriolis, gravity, friction.
 
-A Pinocchio model carries the identified inertial parameters; the joint terms (Coulomb and viscous
-friction, armature, constant offset) are added on top.  The equation of motion is::
+A Pinocchio model carries the identified inertial parameters; the terms (:mod:`pinid.model.terms`:
+Coulomb and viscous friction, armature, constant offset, joint side and, through the drives' ``G``,
+motor side) are added on top.  With the classic joint terms the equation of motion is::
 
     τ = (M(q) + diag(armature))·ddq + C(q, dq)·dq + g(q) + friction(dq) + offset
     friction(dq) = fc·sign(dq) + fv·dq
+
+and a motor term adds ``Gᵀ·τ_motor(G·q, G·dq, G·ddq)`` (rotor inertia ``Gᵀ·diag(Im)·G`` in ``M``).
 
 All methods take one sample (``(nv,)`` arrays) or, for ``inverse_dynamics``, ``gravity`` and
 ``friction``, also ``(N, nv)`` batches.  Units: q [rad or m], dq [rad/s], ddq [rad/s²], τ [N·m].
@@ -24,6 +27,7 @@ import pinocchio as pin
 
 from pinid.errors import ModelError, SpecError
 from pinid.model.robot import RobotModel
+from pinid.model import terms as _terms
 from pinid.model.regressor import JointTerms, parameter_names
 
 _FORMAT = "pinid.identified_model"
@@ -40,19 +44,18 @@ class IdentifiedModel:
                  physically_consistent: bool | None = None, meta: dict | None = None) -> None:
         terms = JointTerms() if terms is None else terms
         theta = np.asarray(theta, dtype=float).reshape(-1)
-        nv, nt = robot.nv, len(terms)
-        if theta.shape != (10 * nv + nt * nv,):
-            raise ModelError(f"expected {10 * nv + nt * nv} standard parameters for {robot.name} with terms "
+        nv, nt = robot.nv, _terms.count(robot, terms)
+        _terms.robot_layout(robot, terms)  # motor terms need drives
+        if theta.shape != (10 * nv + nt,):
+            raise ModelError(f"expected {10 * nv + nt} standard parameters for {robot.name} with terms "
                              f"{terms.names}, got {theta.size}")
         if not np.all(np.isfinite(theta)):
             raise ModelError("identified parameters contain NaN or infinite values")
-        joint = theta[10 * nv:].reshape(nv, nt)
-        values = {name: joint[:, i] for i, name in enumerate(terms.names)}
-        zeros = np.zeros(nv)
-        self.fc = np.array(values.get("fc", zeros), dtype=float)
-        self.fv = np.array(values.get("fv", zeros), dtype=float)
-        self.offset = np.array(values.get("offset", zeros), dtype=float)
-        self.armature = np.array(values.get("armature", zeros), dtype=float)
+        self._values = _terms.values(robot, terms, theta[10 * nv:])
+        self.fc = self._values["fc"]
+        self.fv = self._values["fv"]
+        self.offset = self._values["offset"]
+        self.armature = self._values["armature"]
         self.terms = terms
         self.theta = theta.copy()
         self.nominal_robot = robot
@@ -62,7 +65,7 @@ class IdentifiedModel:
         if physically_consistent is None:
             from pinid.model.physical import check_consistency
 
-            physically_consistent = check_consistency(theta, robot.joint_names, terms.names).consistent
+            physically_consistent = check_consistency(theta, robot.joint_names, terms.names, robot.motor_names).consistent
         self.physically_consistent = bool(physically_consistent)
         self.meta = dict(meta or {})
         self._plain = not robot._continuous
@@ -90,10 +93,19 @@ class IdentifiedModel:
         return q if self._plain else self.robot.configuration(q)
 
     # ---------------------------------------------------------------- dynamics
+    def _term_torque(self, q, dq, ddq, keep) -> np.ndarray:
+        """Torque (N, nv) of the selected terms for which ``keep(term)`` holds."""
+        sel = JointTerms(names=[t.name for t in self.terms.joint + self.terms.motor if keep(t)])
+        theta = np.array([self._values[p.term.name][p.index] for p in _terms.robot_layout(self.robot, sel)])
+        return _terms.torque(self.robot, sel, theta, q, dq, ddq)
+
     def friction(self, dq: np.ndarray) -> np.ndarray:
-        """Joint friction fc·sign(dq) + fv·dq [N·m] (one sample or a batch)."""
+        """Friction torque [N·m] at joint velocities ``dq`` (one sample or a batch): the velocity-dependent
+        terms, joint side (fc·sign(dq) + fv·dq) plus ``Gᵀ·`` motor side."""
         dq = np.asarray(dq, dtype=float)
-        return self.fc * np.sign(dq) + self.fv * dq
+        zero = np.zeros_like(np.atleast_2d(dq))
+        tau = self._term_torque(zero, np.atleast_2d(dq), zero, lambda t: not t.inertia and t.suffix != "offset")
+        return tau[0] if dq.ndim == 1 else tau
 
     def gravity(self, q: np.ndarray) -> np.ndarray:
         """Gravity torque g(q) [N·m] (one sample or a batch)."""
@@ -106,8 +118,19 @@ class IdentifiedModel:
         """Joint-space mass matrix M(q) + diag(armature) [kg·m²], symmetric (nv, nv)."""
         M = pin.crba(self.pin_model, self.pin_data, self._q(q)).copy()
         M = np.triu(M) + np.triu(M, 1).T
-        M[np.diag_indices(self.nv)] += self.armature
+        M += self.term_inertia
         return M
+
+    @property
+    def term_inertia(self) -> np.ndarray:
+        """Constant inertia of the terms (nv, nv) [kg·m²]: diag(armature) + Gᵀ·diag(motor armature)·G."""
+        out = np.zeros((self.nv, self.nv))
+        for t in self.terms.joint + self.terms.motor:
+            if t.inertia:
+                v = self._values[t.name]
+                G = np.eye(self.nv) if t.space == "joint" else self.robot.drives.matrix
+                out += G.T @ (v[:, None] * G)
+        return out
 
     def coriolis(self, q: np.ndarray, dq: np.ndarray) -> np.ndarray:
         """Coriolis/centrifugal matrix C(q, dq) (nv, nv), with Ṁ − 2C skew-symmetric; C·dq is the torque."""
@@ -120,7 +143,7 @@ class IdentifiedModel:
         if q.ndim == 2:
             return np.array([self.inverse_dynamics(a, b, c) for a, b, c in zip(q, dq, ddq)])
         tau = pin.rnea(self.pin_model, self.pin_data, self._q(q), dq, ddq).copy()
-        return tau + self.armature * ddq + self.friction(dq) + self.offset
+        return tau + _terms.torque(self.robot, self.terms, self.theta[10 * self.nv:], q[None], dq[None], ddq[None])[0]
 
     def forward_dynamics(self, q: np.ndarray, dq: np.ndarray, tau: np.ndarray) -> np.ndarray:
         """Joint acceleration ddq [rad/s²] under torque ``tau`` (solves the equation of motion)."""

@@ -314,7 +314,7 @@ def _sdp_stage(seg: SegmentalProblem, stage: int, x_first, *, regularization: fl
     if z.value is None:
         raise SolverError(f"segmental sdp stage {stage}: status '{status}' without a solution")
     theta = _clip_terms(np.asarray(z.value, float) * S, p)
-    report = check_consistency(theta, p.model.joint_names, p.terms.names)
+    report = check_consistency(theta, p.model.joint_names, p.terms.names, p.model.motor_names)
     if not report.consistent:
         raise SolverError(f"segmental sdp stage {stage}: status '{status}' but the result is not physically "
                           f"consistent ({'; '.join(report.problems)})")

@@ -30,6 +30,7 @@ import numpy as np
 from pinid.errors import ModelError
 from pinid.model.robot import RobotModel
 from pinid.model.physical import check_consistency, com_inertia
+from pinid.model import terms as _terms
 from pinid.model.regressor import JointTerms
 
 
@@ -80,10 +81,10 @@ def identified_urdf(model: RobotModel, theta: np.ndarray, terms: JointTerms, pat
     ModelError for an inconsistent set unless ``force``, or when the model has no URDF text.
     """
     theta = np.asarray(theta, dtype=float)
-    nv, nt = model.nv, len(terms)
-    if theta.shape != (10 * nv + nt * nv,):
-        raise ModelError(f"expected {10 * nv + nt * nv} standard parameters, got {theta.size}")
-    report = check_consistency(theta, model.joint_names, terms.names)
+    nv, nt = model.nv, _terms.count(model, terms)
+    if theta.shape != (10 * nv + nt,):
+        raise ModelError(f"expected {10 * nv + nt} standard parameters, got {theta.size}")
+    report = check_consistency(theta, model.joint_names, terms.names, model.motor_names)
     if not report.consistent and not force:
         raise ModelError("refusing to export physically inconsistent parameters ("
                          + "; ".join(report.problems[:3]) + "); force the export to write them anyway")
@@ -113,19 +114,18 @@ def identified_urdf(model: RobotModel, theta: np.ndarray, terms: JointTerms, pat
         for el in link.findall("inertial"):
             link.remove(el)
         link.insert(0, _comment(f" pinid: inertial removed; it is part of the identified body of joint '{owner}' "))
-    values = theta[10 * nv:].reshape(nv, nt) if nt else np.zeros((nv, 0))
+    params = _terms.robot_layout(model, terms)
     for i, jname in enumerate(active):
         jel = joints[jname]
-        v = {t: values[i, k] for k, t in enumerate(terms.names)}
-        if "fc" in v or "fv" in v:
+        mine = [(p.term, theta[10 * nv + k]) for k, p in enumerate(params) if p.term.space == "joint" and p.index == i]
+        fields = [(t, v) for t, v in mine if t.field]
+        if fields:
             dyn = jel.find("dynamics")
             if dyn is None:
                 dyn = ET.SubElement(jel, "dynamics")
-            if "fv" in v:
-                dyn.set("damping", _num(v["fv"]))
-            if "fc" in v:
-                dyn.set("friction", _num(v["fc"]))
-        extra = [f"{t} {_num(v[t])} {u}" for t, u in (("armature", "kg·m²"), ("offset", "N·m")) if t in v]
+            for t, v in sorted(fields, key=lambda tv: tv[0].field):
+                dyn.set(t.field, _num(v))
+        extra = [f"{t.suffix} {_num(v)} {t.unit}" for t, v in mine if not t.field]
         if extra:
             jel.append(_comment(f" pinid: {', '.join(extra)} (no URDF field) "))
     head = (f" {origin}{' (' + comment + ')' if comment else ''}: inertials of the moving links and "

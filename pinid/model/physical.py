@@ -18,8 +18,11 @@ armature are non-negative (the constant ``offset`` may have any sign).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Sequence
 
 import numpy as np
+
+from pinid.model.terms import TERMS, layout
 
 #: Relative tolerance of the checks: an eigenvalue of J ≥ −RTOL·‖J‖ counts as non-negative.
 RTOL = 1e-8
@@ -123,20 +126,24 @@ class ConsistencyReport:
         }
 
 
-#: Joint terms that must be non-negative.
-NONNEGATIVE_TERMS: tuple[str, ...] = ("fc", "fv", "armature")
+#: Terms that must be non-negative (from the terms registry; kept for compatibility).
+NONNEGATIVE_TERMS: tuple[str, ...] = tuple(n for n, t in TERMS.items() if t.nonnegative)
 
 
-def check_consistency(theta: np.ndarray, joints: list[str], term_names: list[str]) -> ConsistencyReport:
-    """Check a full standard vector (inertial block for ``joints``, then ``term_names`` per joint).
+def check_consistency(theta: np.ndarray, joints: list[str], term_names: list[str],
+                      motors: Sequence[str] = ()) -> ConsistencyReport:
+    """Check a full standard vector (inertial block for ``joints``, then the terms ``term_names`` laid out
+    per joint, then per motor of ``motors``; see :mod:`pinid.model.terms`).
 
-    Body ``i`` is consistent when the smallest eigenvalue of its pseudo-inertia is ≥ −RTOL·‖J‖₂; a joint
-    term ``fc``, ``fv`` or ``armature`` when it is ≥ −RTOL·max(1, |largest term of that kind|).
+    Body ``i`` is consistent when the smallest eigenvalue of its pseudo-inertia is ≥ −RTOL·‖J‖₂; a term the
+    registry marks non-negative (Coulomb, viscous, rotor inertia) when it is ≥ −RTOL·max(1, |largest
+    parameter of that term|).
     """
     theta = np.asarray(theta, dtype=float)
-    nv, nt = len(joints), len(term_names)
-    if theta.shape != (10 * nv + nt * nv,):
-        raise ValueError(f"expected {10 * nv + nt * nv} standard parameters, got shape {theta.shape}")
+    nv = len(joints)
+    params = layout(joints, motors, term_names)
+    if theta.shape != (10 * nv + len(params),):
+        raise ValueError(f"expected {10 * nv + len(params)} standard parameters, got shape {theta.shape}")
     bodies = []
     for i, j in enumerate(joints):
         J = pseudo_inertia(theta[10 * i: 10 * i + 10])
@@ -144,14 +151,13 @@ def check_consistency(theta: np.ndarray, joints: list[str], term_names: list[str
         norm = max(np.abs(ev).max(), 1e-300)
         bodies.append(BodyCheck(j, float(J[3, 3]), float(ev[0]), float(ev[0] / norm)))
     negative = {}
-    terms = theta[10 * nv:].reshape(nv, nt) if nt else np.zeros((nv, 0))
-    for t, name in enumerate(term_names):
-        if name not in NONNEGATIVE_TERMS:
-            continue
-        scale = RTOL * max(1.0, float(np.abs(terms[:, t]).max()))
-        for i, j in enumerate(joints):
-            if terms[i, t] < -scale:
-                negative[f"{j}.{name}"] = float(terms[i, t])
+    values = theta[10 * nv:]
+    for name in {p.term.name for p in params if p.term.nonnegative}:
+        idx = [k for k, p in enumerate(params) if p.term.name == name]
+        scale = RTOL * max(1.0, float(np.abs(values[idx]).max()))
+        for k in idx:
+            if values[k] < -scale:
+                negative[params[k].name] = float(values[k])
     return ConsistencyReport(bodies, negative)
 
 
@@ -171,7 +177,7 @@ def parameter_scale(theta_nominal: np.ndarray, nv: int, nt: int) -> np.ndarray:
     lengths = np.array(lengths) if nv else np.zeros(0)
     big_m = masses.max() if nv else 1.0
     big_l = lengths.max() if nv else 0.0
-    scale = np.ones(10 * nv + nt * nv)
+    scale = np.ones(theta_nominal.size)  # terms (joint and motor): 1 in their units
     for i in range(nv):
         M = max(masses[i], 0.01 * big_m, 1e-3)
         L = max(lengths[i], 0.05, 0.1 * big_l)

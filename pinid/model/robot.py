@@ -133,6 +133,7 @@ class RobotModel:
         self.urdf_path = urdf_path
         self.urdf_text = urdf_text
         self.locked = dict(locked or {})
+        self.drives = None  # the robot's transmissions (pinid.model.drives.Drives) when it has any
         self._data = pin_model.createData()
         self._continuous = [i for i, j in enumerate(self.joints) if j.kind == "continuous"]
         self._idx_q = [pin_model.joints[i + 1].idx_q for i in range(len(self.joints))]
@@ -258,6 +259,11 @@ class RobotModel:
         """Effort limits [N·m or N] (inf where none)."""
         return np.array([j.effort for j in self.joints])
 
+    @property
+    def motor_names(self) -> list[str]:
+        """Names of the motors of the robot's drives (empty without drives)."""
+        return list(self.drives.motor_names) if self.drives is not None else []
+
     def joint_index(self, name: str) -> int:
         """Index of an active joint by name; JointError if unknown."""
         try:
@@ -284,12 +290,14 @@ class RobotModel:
         model = pin.Model(self.pin_model)
         for i in range(self.nv):
             model.inertias[i + 1] = pin.Inertia.FromDynamicParameters(theta[10 * i : 10 * i + 10])
-        return RobotModel(
+        out = RobotModel(
             model, self.joints,
             coulomb=self.coulomb if coulomb is None else coulomb,
             viscous=self.viscous if viscous is None else viscous,
             urdf_path=self.urdf_path, urdf_text=self.urdf_text, locked=self.locked,
         )
+        out.drives = self.drives
+        return out
 
     # ------------------------------------------------------------------ kinematics helpers
     def configuration(self, q: np.ndarray) -> np.ndarray:

@@ -1,0 +1,265 @@
+"""The per-joint and per-motor terms of the dynamic model (friction, offset, rotor inertia, …): one registry.
+
+A *term* adds one parameter per joint (``space="joint"``, named ``<joint>.<suffix>``, e.g. ``hip.fc``) or
+per motor of the robot's drives (``space="motor"``, named ``<motor>.<suffix>``, e.g. ``m6.fc``).  Its
+regressor column is a function of the motion in its own space, vectorised over samples:
+
+* a joint term's column ``c(q, dq, ddq)`` (N, nv) enters joint ``j``'s row as ``c[:, j]``;
+* a motor term's column is evaluated on the motor motion ``(G·q, G·dq, G·ddq)`` and enters joint ``j``'s
+  row as ``G[m, j]·c[:, m]`` (``τ_joint = Gᵀ·τ_motor``; see :mod:`pinid.model.drives`).
+
+Adding a term is one :func:`register` call (see docs/architecture.md and BOARD.md): give the selection
+name used by ``--terms``, the parameter suffix, label, unit, the column function, and optionally the
+nominal value per joint (read from the robot), the SDP sign constraint, the URDF ``<dynamics>`` /
+drives TOML field, whether it is an inertia (its column is an acceleration) and the torque the digital
+twin's plant applies (default: value × column).
+
+Parameter layout after the 10·nv inertial parameters: the joint block, joint-major (joint ``j``'s
+terms together, in registry order), then the motor block, motor-major.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable, Iterable, NamedTuple, Sequence
+
+import numpy as np
+
+
+class Motion(NamedTuple):
+    """What a column function sees: coordinates of one space, (N, n) arrays, and their names."""
+
+    q: np.ndarray  # [rad or m]
+    dq: np.ndarray  # [rad/s or m/s]
+    ddq: np.ndarray  # [rad/s² or m/s²]
+    names: Sequence[str]  # joint (or motor) names, one per column of q
+    robot: object = None  # the RobotModel (for terms that need its structure)
+
+
+@dataclass(frozen=True)
+class Term:
+    """One kind of per-joint or per-motor parameter (see the module text)."""
+
+    name: str  # selection name (``--terms``): "fc", "motor_fc"
+    suffix: str  # parameter name suffix: "fc" → "hip.fc" / "m6.fc"
+    label: str
+    unit: str
+    column: Callable[[Motion], np.ndarray]  # (N, n) regressor column per joint (or motor)
+    space: str = "joint"  # "joint" or "motor"
+    nonnegative: bool = False  # SDP constraint and consistency check: value ≥ 0
+    nominal: Callable[[object], np.ndarray] | None = None  # RobotModel → (nv,) nominal values (default 0)
+    field: str | None = None  # URDF <dynamics> attribute (joint terms) or drives TOML key (motor terms)
+    inertia: bool = False  # the column is an acceleration: the plant adds the value to the mass matrix
+    plant: Callable[[np.ndarray, Motion, float], np.ndarray] | None = None  # (values, motion, v_s) → torque
+
+    def torque(self, values: np.ndarray, motion: Motion, smoothing: float | None = None) -> np.ndarray:
+        """Torque of this term [N·m] in its own space for per-joint/motor ``values``; the plant's law when
+        ``smoothing`` (a velocity scale [rad/s]) is given and the term has one, else value × column."""
+        if smoothing is not None and self.plant is not None:
+            return self.plant(np.asarray(values, dtype=float), motion, smoothing)
+        return np.asarray(values, dtype=float) * self.column(motion)
+
+
+#: Every known term, in column order (registration order).
+TERMS: dict[str, Term] = {}
+
+
+def register(term: Term) -> Term:
+    """Add a term to the registry (its name must be new); returns it."""
+    if term.name in TERMS:
+        raise ValueError(f"term {term.name!r} is already registered")
+    if term.space not in ("joint", "motor"):
+        raise ValueError(f"term {term.name!r}: space {term.space!r}, expected 'joint' or 'motor'")
+    TERMS[term.name] = term
+    return term
+
+
+def _coulomb_plant(values: np.ndarray, m: Motion, vs: float) -> np.ndarray:
+    return values * np.tanh(m.dq / vs)
+
+
+register(Term("fc", "fc", "Coulomb friction", "N·m", lambda m: np.sign(m.dq), nonnegative=True,
+              nominal=lambda r: r.coulomb, field="friction", plant=_coulomb_plant))
+register(Term("fv", "fv", "viscous friction", "N·m·s/rad", lambda m: m.dq, nonnegative=True,
+              nominal=lambda r: r.viscous, field="damping"))
+register(Term("offset", "offset", "constant torque", "N·m", lambda m: np.ones_like(m.dq)))
+register(Term("armature", "armature", "rotor inertia", "kg·m²", lambda m: m.ddq, nonnegative=True, inertia=True))
+
+#: The classic joint terms (``JointTerms``' keyword arguments), in column order.
+JOINT_TERM_NAMES: tuple[str, ...] = ("fc", "fv", "offset", "armature")
+_FLAGS = dict(zip(("coulomb", "viscous", "offset", "armature"), JOINT_TERM_NAMES))
+
+
+class JointTerms:
+    """Which terms enter the model (default: joint Coulomb and viscous friction).
+
+    ``JointTerms(coulomb=True, viscous=True, offset=False, armature=False)`` selects the classic joint
+    terms; ``JointTerms.from_names("fc,fv,motor_fc")`` any registered ones.  ``names`` is in column order.
+    """
+
+    __slots__ = ("_names",)
+
+    def __init__(self, coulomb: bool = True, viscous: bool = True, offset: bool = False, armature: bool = False,
+                 *, names: Iterable[str] | None = None) -> None:
+        if names is None:
+            flags = (coulomb, viscous, offset, armature)
+            names = [n for n, on in zip(JOINT_TERM_NAMES, flags) if on]
+        names = list(names)
+        unknown = [n for n in names if n not in TERMS]
+        if unknown:
+            raise ValueError(f"unknown term(s) {unknown}, expected some of {list(TERMS)}")
+        self._names = tuple(n for n in TERMS if n in names)
+
+    @classmethod
+    def from_names(cls, names: str | Iterable[str]) -> "JointTerms":
+        """Build from ``"fc,fv,offset"`` or a list of term names; ``""`` or ``"none"`` for no term."""
+        if isinstance(names, str):
+            names = [n.strip() for n in names.split(",") if n.strip() and n.strip() != "none"]
+        return cls(names=names)
+
+    @property
+    def names(self) -> list[str]:
+        """Names of the selected terms, in column order."""
+        return list(self._names)
+
+    @property
+    def joint(self) -> list[Term]:
+        """The selected joint-side terms."""
+        return [TERMS[n] for n in self._names if TERMS[n].space == "joint"]
+
+    @property
+    def motor(self) -> list[Term]:
+        """The selected motor-side terms."""
+        return [TERMS[n] for n in self._names if TERMS[n].space == "motor"]
+
+    coulomb = property(lambda self: "fc" in self._names, doc="Joint Coulomb friction selected.")
+    viscous = property(lambda self: "fv" in self._names, doc="Joint viscous friction selected.")
+    offset = property(lambda self: "offset" in self._names, doc="Joint constant torque selected.")
+    armature = property(lambda self: "armature" in self._names, doc="Joint rotor inertia selected.")
+
+    def __contains__(self, name: str) -> bool:
+        return name in self._names
+
+    def __len__(self) -> int:
+        return len(self._names)
+
+    def __eq__(self, other) -> bool:
+        return isinstance(other, JointTerms) and other._names == self._names
+
+    def __hash__(self) -> int:
+        return hash(self._names)
+
+    def __repr__(self) -> str:
+        return f"JointTerms.from_names({','.join(self._names)!r})"
+
+
+class TermParameter(NamedTuple):
+    """One term parameter: its name, its term, and the index of its joint (or motor) in its space."""
+
+    name: str
+    term: Term
+    index: int
+
+
+def layout(joints: Sequence[str], motors: Sequence[str], terms: JointTerms | Iterable[str]) -> list[TermParameter]:
+    """The term parameters in order (joint block joint-major, then motor block motor-major)."""
+    terms = terms if isinstance(terms, JointTerms) else JointTerms(names=terms)
+    if terms.motor and not motors:
+        raise ValueError(f"motor term(s) {[t.name for t in terms.motor]} need drives (none given)")
+    out = [TermParameter(f"{j}.{t.suffix}", t, i) for i, j in enumerate(joints) for t in terms.joint]
+    out += [TermParameter(f"{m}.{t.suffix}", t, i) for i, m in enumerate(motors) for t in terms.motor]
+    return out
+
+
+def _motors(robot) -> list[str]:
+    drives = getattr(robot, "drives", None)
+    return list(drives.motor_names) if drives is not None else []
+
+
+def robot_layout(robot, terms: JointTerms) -> list[TermParameter]:
+    """:func:`layout` for a RobotModel (its joints and its drives' motors); ModelError if motor terms have no drives."""
+    from pinid.errors import ModelError
+
+    try:
+        return layout(robot.joint_names, _motors(robot), terms)
+    except ValueError as exc:
+        raise ModelError(f"{robot.name}: {exc}; give the robot's transmissions (URDF <transmission> or --drives FILE)") from None
+
+
+def count(robot, terms: JointTerms) -> int:
+    """Number of term parameters of ``robot`` with ``terms``."""
+    return len(terms.joint) * robot.nv + len(terms.motor) * len(_motors(robot))
+
+
+def parameter_names(robot, terms: JointTerms) -> list[str]:
+    """Names of the term parameters (``hip.fc``, ``m6.fc``), in column order."""
+    return [p.name for p in robot_layout(robot, terms)]
+
+
+def nominal(robot, terms: JointTerms) -> np.ndarray:
+    """Nominal term values: the robot's own (URDF ``<dynamics>``, drives file) where it has them, else 0."""
+    layout_ = robot_layout(robot, terms)
+    cache = {t.name: (np.asarray(t.nominal(robot), dtype=float) if t.nominal else None) for t in {p.term for p in layout_}}
+    return np.array([0.0 if cache[p.term.name] is None else cache[p.term.name][p.index] for p in layout_])
+
+
+def nonnegative(robot, terms: JointTerms) -> np.ndarray:
+    """Boolean mask over the term parameters: True where the value must be ≥ 0."""
+    return np.array([p.term.nonnegative for p in robot_layout(robot, terms)], dtype=bool)
+
+
+def motion(robot, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray, space: str = "joint") -> Motion:
+    """The (N, ·) motion in joint space or motor space (``G·q``, ``G·dq``, ``G·ddq``)."""
+    if space == "joint":
+        return Motion(q, dq, ddq, robot.joint_names, robot)
+    G = robot.drives.matrix
+    return Motion(q @ G.T, dq @ G.T, ddq @ G.T, robot.drives.motor_names, robot)
+
+
+def columns(robot, terms: JointTerms, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray) -> np.ndarray:
+    """Regressor columns of the terms, (N, nv, count) for (N, nv) joint motion (vectorised over samples)."""
+    n, nv = q.shape
+    joint, motor = terms.joint, terms.motor
+    nm = len(_motors(robot)) if motor else 0
+    out = np.zeros((n, nv, len(joint) * nv + len(motor) * nm))
+    if joint:
+        mj = motion(robot, q, dq, ddq)
+        rows = np.arange(nv)
+        for t, term in enumerate(joint):
+            out[:, rows, rows * len(joint) + t] = term.column(mj)
+    if motor:
+        robot_layout(robot, terms)  # raises when there are no drives
+        mm = motion(robot, q, dq, ddq, "motor")
+        G = robot.drives.matrix
+        start = len(joint) * nv
+        for t, term in enumerate(motor):
+            c = term.column(mm)  # (N, nm)
+            out[:, :, start + np.arange(nm) * len(motor) + t] = c[:, None, :] * G.T[None, :, :]
+    return out
+
+
+def values(robot, terms: JointTerms, theta_terms: np.ndarray) -> dict[str, np.ndarray]:
+    """``{term name: per-joint (or per-motor) values}`` of the term block ``theta_terms``; unselected
+    classic joint terms are zero arrays."""
+    theta_terms = np.asarray(theta_terms, dtype=float)
+    out: dict[str, np.ndarray] = {n: np.zeros(robot.nv) for n in JOINT_TERM_NAMES}
+    for t in terms.joint + terms.motor:
+        out[t.name] = np.zeros(robot.nv if t.space == "joint" else len(_motors(robot)))
+    for p, v in zip(robot_layout(robot, terms), theta_terms):
+        out[p.term.name][p.index] = v
+    return out
+
+
+def torque(robot, terms: JointTerms, theta_terms: np.ndarray, q, dq, ddq, *, smoothing: float | None = None) -> np.ndarray:
+    """Joint torque (N, nv) [N·m] of the terms with values ``theta_terms``: joint terms plus ``Gᵀ·``(motor
+    terms); with ``smoothing`` [rad/s] each term's plant law (e.g. Coulomb ``fc·tanh(dq/v_s)``)."""
+    q, dq, ddq = (np.atleast_2d(np.asarray(x, dtype=float)) for x in (q, dq, ddq))
+    vals = values(robot, terms, theta_terms)
+    tau = np.zeros_like(q)
+    for t in terms.joint:
+        tau += t.torque(vals[t.name], motion(robot, q, dq, ddq), smoothing)
+    if terms.motor:
+        mm = motion(robot, q, dq, ddq, "motor")
+        tau_m = sum(t.torque(vals[t.name], mm, smoothing) for t in terms.motor)
+        tau += tau_m @ robot.drives.matrix
+    return tau
