@@ -3,7 +3,9 @@
 from pinid.model.base import BaseParameters, base_parameters
 from pinid.estimators import ESTIMATORS
 from pinid.errors import DataError, JointError, ModelError, OutputError, PinidError, SolverError, SpecError
-from pinid.identification.core import Identification, IdentificationProblem, IdentificationResult, identify
+from pinid.identification.problem import IdentificationProblem
+from pinid.identification.result import Identification, IdentificationResult
+from pinid.identification.run import identify
 from pinid.identification.identified import IdentifiedModel
 from pinid.model.robot import INERTIAL_NAMES, RobotModel
 from pinid.model.regressor import JointTerms, joint_torque, parameter_names, regressor, standard_parameters

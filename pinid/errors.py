@@ -38,3 +38,7 @@ class SolverError(PinidError, RuntimeError):
 
 class OutputError(PinidError, OSError):
     """An output path that cannot be written."""
+
+
+class DataWarning(UserWarning):
+    """A finding about a recording that does not stop the work (also kept in ``meta["warnings"]``)."""

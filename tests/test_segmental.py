@@ -104,3 +104,11 @@ def test_the_proximal_joint_cannot_go_first(leg):
         SegmentalProblem(leg, knee_fixed, twin(leg, seed=1), first_joints=("ankle",))
     with pytest.raises(SpecError, match="expects a SegmentalProblem"):
         Segmental("ols").fit(twin(leg, seed=1))
+
+
+
+def test_stages_are_problems_of_the_estimator_protocol(seg):
+    from pinid.identification.problem import Problem
+
+    assert isinstance(seg.problem, Problem) and isinstance(seg.first_problem, Problem)
+    assert isinstance(seg.second_problem(seg.nominal_base[seg.first_cols]), Problem)

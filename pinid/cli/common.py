@@ -112,3 +112,46 @@ def rest_velocity_from_args(text: str):
     if not values:
         raise SpecError(f"--rest-velocity {text!r}: expected auto, a number or comma-separated numbers [rad/s]")
     return values[0] if len(values) == 1 else values
+
+
+def add_method_arguments(p: argparse.ArgumentParser, default: str) -> None:
+    """--methods (names of the estimator registry) and the generic, repeatable --option METHOD.KEY=VALUE."""
+    from pinid.estimators import ESTIMATORS
+
+    p.add_argument("--methods", default=default,
+                   help=f"comma-separated methods of the estimator registry: {', '.join(ESTIMATORS)}, or all; "
+                        f"default {default}")
+    p.add_argument("--option", action="append", default=[], metavar="METHOD.KEY=VALUE",
+                   help="a setting of one method, e.g. sdp.regularization=0.01 or pso.population=50 (VALUE in JSON: "
+                        "numbers, true/false, null, [lists], or plain text); repeatable; see docs/estimators.md")
+
+
+def methods_from_args(args: argparse.Namespace) -> list[str]:
+    """The --methods list (:func:`pinid.identification.run.parse_methods`; SpecError naming --methods)."""
+    from pinid.errors import SpecError
+    from pinid.identification.run import parse_methods
+
+    try:
+        return parse_methods(args.methods)
+    except SpecError as exc:
+        raise SpecError(f"--methods: {exc}") from None
+
+
+def options_from_args(args: argparse.Namespace, options: dict | None = None) -> dict:
+    """Per-method settings from --option METHOD.KEY=VALUE, on top of ``options`` (the per-method flags)."""
+    import json
+
+    from pinid.errors import SpecError
+
+    out = {m: dict(v) for m, v in (options or {}).items()}
+    for item in args.option:
+        lhs, sep, text = item.partition("=")
+        method, dot, key = lhs.strip().partition(".")
+        if not sep or not dot or not method or not key:
+            raise SpecError(f"--option {item!r}: expected METHOD.KEY=VALUE, e.g. sdp.regularization=0.01")
+        try:
+            value = json.loads(text)
+        except ValueError:
+            value = None if text.strip().lower() == "none" else text
+        out.setdefault(method.strip().lower(), {})[key.strip()] = value
+    return out

@@ -7,14 +7,16 @@ import shlex
 import sys
 from pathlib import Path
 
-from pinid.cli.common import (add_preprocessing_arguments, add_recording_arguments, add_robot_arguments, add_terms_argument,
-               preprocess_from_args, rest_velocity_from_args, robot_from_args, terms_from_args)
+from pinid.estimators import ESTIMATORS
+from pinid.cli.common import (add_method_arguments, add_preprocessing_arguments, add_recording_arguments,
+                              add_robot_arguments, add_terms_argument, methods_from_args, options_from_args,
+                              preprocess_from_args, rest_velocity_from_args, robot_from_args, terms_from_args)
 
-HELP = "compare estimators (LS, LMI, RLS, PSO, RLS-PSO, WOA, EWOA, DE) on the same data, several seeds"
-DESCRIPTION = """\
+HELP = f"compare estimators ({', '.join(ESTIMATORS)}) on the same data, several seeds"
+DESCRIPTION = f"""\
 Reads a URDF and training recordings (CSV; --mapping names their columns; missing velocities and
-accelerations are filled as in pinid identify), runs the chosen methods (default: all of ols, wls, sdp,
-rls, pso, rls-pso, woa, ewoa, de) on the same rows — deterministic methods once, the metaheuristics once
+accelerations are filled as in pinid identify), runs the chosen methods (default: all of the
+estimator registry: {', '.join(ESTIMATORS)}) on the same rows — deterministic methods once, the metaheuristics once
 per seed — validates every run on the held-out --validate recordings and writes into the output folder
 (-o, default results/):
 
@@ -44,14 +46,14 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     add_robot_arguments(p)
     add_terms_argument(p)
     add_recording_arguments(p)
-    p.add_argument("--methods", default="all", help="comma-separated methods, or all (default)")
+    add_method_arguments(p, "all")
     p.add_argument("--seeds", type=int, default=5, help="seeds per metaheuristic (0 … N−1); default 5")
     p.add_argument("--truth", default=None, metavar="FILE",
                    help="truth JSON of pinid simulate: report the error against the true base parameters")
     p.add_argument("--mapping", default=None, metavar="SPEC", help="TOML mapping of the recordings' columns to joints")
     p.add_argument("-o", "--output", default="results", metavar="FOLDER", help="output folder; default results/")
     p.add_argument("--no-plots", action="store_true", help="do not write the figures")
-    g = p.add_argument_group("metaheuristics (pso, rls-pso, woa, ewoa, de)")
+    g = p.add_argument_group(f"metaheuristics ({', '.join(m for m, c in ESTIMATORS.items() if not c.deterministic)})")
     g.add_argument("--population", type=int, default=None, help="population size (default 100)")
     g.add_argument("--iterations", type=int, default=None, help="iterations (default 200)")
     g.add_argument("--fitness", choices=("sse", "sae"), default=None,
@@ -96,18 +98,15 @@ def run(args: argparse.Namespace) -> int:
     check_writable(out / "comparison.json")
     if args.seeds < 1:
         raise SpecError(f"--seeds {args.seeds}: expected at least 1")
-    methods = None if args.methods.strip().lower() == "all" else [m.strip() for m in args.methods.split(",") if m.strip()]
-    if methods is not None and not methods:
-        raise SpecError("--methods: expected at least one method, e.g. ols,pso,rls-pso")
+    methods = methods_from_args(args)
     if args.first_validate and not args.first_data:
         raise SpecError("--first-validate needs --first-data (the segmental strategy)")
     model = robot_from_args(args)
     terms = terms_from_args(args)
     meta, options = _settings(args)
-    if methods is not None:
-        options = {k: v for k, v in options.items() if k in methods}
-        if "rls-pso" not in methods and args.box != "rls" and "rls" in meta:
-            meta.pop("rls")  # the RLS settings matter only where an RLS box is built
+    options = options_from_args(args, {k: v for k, v in options.items() if k in methods})
+    if "rls-pso" not in methods and args.box != "rls" and "rls" in meta:
+        meta.pop("rls")  # the RLS settings matter only where an RLS box is built
     validate = {}
     if args.validate:
         validate["validation"] = args.validate

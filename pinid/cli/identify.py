@@ -7,9 +7,9 @@ from pathlib import Path
 
 import numpy as np
 
-from pinid.estimators import ESTIMATORS
-from pinid.cli.common import (add_preprocessing_arguments, add_recording_arguments, add_robot_arguments, add_terms_argument,
-               preprocess_from_args, rest_velocity_from_args, robot_from_args, terms_from_args)
+from pinid.cli.common import (add_method_arguments, add_preprocessing_arguments, add_recording_arguments,
+                              add_robot_arguments, add_terms_argument, methods_from_args, options_from_args,
+                              preprocess_from_args, rest_velocity_from_args, robot_from_args, terms_from_args)
 
 HELP = "identify dynamic parameters from recordings (OLS, WLS, physically consistent LMI), validate, export"
 DESCRIPTION = """\
@@ -41,7 +41,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     add_robot_arguments(p)
     add_terms_argument(p)
     add_recording_arguments(p)
-    p.add_argument("--methods", default="ols,wls,sdp", help="comma-separated methods of the estimator registry: ols, wls, sdp, rls, pso, rls-pso, woa, ewoa, de (default ols,wls,sdp)")
+    add_method_arguments(p, "ols,wls,sdp")
     p.add_argument("--mapping", default=None, metavar="SPEC", help="TOML mapping of the recordings' columns to joints")
     p.add_argument("-o", "--output", default="results", metavar="FOLDER", help="output folder; default results/")
     add_preprocessing_arguments(p)
@@ -110,12 +110,7 @@ def run(args: argparse.Namespace) -> int:
 
     out = Path(args.output)
     check_writable(out / "identification.json")
-    methods = [m.strip().lower() for m in args.methods.split(",") if m.strip()]
-    if not methods:
-        raise SpecError("--methods: expected at least one method, e.g. ols,wls,sdp")
-    unknown = [m for m in methods if m not in ESTIMATORS]
-    if unknown:
-        raise SpecError(f"--methods: unknown method(s) {', '.join(unknown)}, expected some of {', '.join(ESTIMATORS)}")
+    methods = methods_from_args(args)
     model = robot_from_args(args)
     terms = terms_from_args(args)
     print(f"identifying {model.name} ({', '.join(model.joint_names)}) with {', '.join(methods)}; "
@@ -123,7 +118,7 @@ def run(args: argparse.Namespace) -> int:
     ident = identify(
         model, args.data, methods=methods, validate=args.validate or None, terms=terms, mapping=args.mapping,
         preprocess=preprocess_from_args(args), rest_velocity=rest_velocity_from_args(args.rest_velocity),
-        options=_options(args, methods), show_progress=None,
+        options=options_from_args(args, _options(args, methods)), show_progress=None,
     )
     d = ident.data
     print(f"training: {d['samples']} samples from {len(d['sources'])} recording(s), {d['rows']} torque rows used"

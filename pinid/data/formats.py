@@ -34,15 +34,11 @@ from pathlib import Path
 import numpy as np
 
 from pinid.data.dataset import Dataset
-from pinid.errors import DataError, SpecError
-from pinid.data.mapping import QUANTITIES, MappingSpec, peek_columns
+from pinid.errors import DataError, DataWarning, SpecError
+from pinid.data.mapping import FLOAT_RE, QUANTITIES, MappingSpec, peek_columns
 
 PREFIXES: dict[str, str] = {"q": "q_", "dq": "dq_", "ddq": "ddq_", "tau": "tau_"}
 CHECK_MODES = ("error", "warn", "off")
-
-
-class DataWarning(UserWarning):
-    """A finding about a recording that does not stop the work (also kept in ``meta["warnings"]``)."""
 
 
 def warn(ds: Dataset | None, message: str) -> None:
@@ -58,9 +54,7 @@ def format_spec(names: list[str], source: str = "recording") -> tuple[dict, list
 
     Returns ``(spec, ignored_columns)``.
     """
-    from pinid.data.mapping import _FLOAT_RE
-
-    if names and all(_FLOAT_RE.match(n) for n in names):
+    if names and all(FLOAT_RE.match(n) for n in names):
         raise DataError(f"{source}: the first line is numbers, not column names; pinid's dataset format needs a header "
                         "(t, q_<joint>, ...), and a file without one needs a mapping spec with header = false")
     if "t" not in names:

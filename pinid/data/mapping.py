@@ -42,13 +42,14 @@ from __future__ import annotations
 import difflib
 import os
 import re
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from pinid.errors import DataError, SpecError
+from pinid.errors import DataError, DataWarning, SpecError
 
 QUANTITIES: tuple[str, ...] = ("q", "dq", "ddq", "tau")
 
@@ -279,10 +280,6 @@ class MappingSpec:
             arrays[qty] = np.column_stack([signals[j][qty] for j in joint_names]) if have else None
         idx = np.flatnonzero(keep)
         if idx.size < n:
-            import warnings
-
-            from pinid.data.formats import DataWarning
-
             warnings.warn(f"{path}: kept {idx.size} of {n} samples, those inside every source's time span",
                           DataWarning, stacklevel=3)
             t = t[idx]
@@ -577,7 +574,8 @@ def _read_npz(file: Path, wanted, origin: str) -> _Table:
     return tab
 
 
-_FLOAT_RE = re.compile(r"^[\s\"']*[-+]?(\d+\.?\d*([eE][-+]?\d+)?|\.\d+([eE][-+]?\d+)?|nan|inf|infinity)[\s\"']*$", re.I)
+#: A number as text (also "nan", "inf", quoted): a first line of these is data, not a header.
+FLOAT_RE = re.compile(r"^[\s\"']*[-+]?(\d+\.?\d*([eE][-+]?\d+)?|\.\d+([eE][-+]?\d+)?|nan|inf|infinity)[\s\"']*$", re.I)
 
 
 def _split(line: str, delimiter: str | None) -> list[str]:
@@ -633,7 +631,7 @@ def _read_csv(file: Path, src: SourceSpec, wanted, origin: str) -> _Table:
         if len(names) != ncols:
             raise DataError(f"{file}: the header has {len(names)} columns but the first data row {ncols} "
                             "(columns of different lengths); expected the same number")
-        if all(_FLOAT_RE.match(x) for x in names):
+        if all(FLOAT_RE.match(x) for x in names):
             raise DataError(f"{file}: the first row ({header_names[:60]}) is numbers, not column names; "
                             "for a file without a header set header = false in a mapping spec")
         dup = sorted({n for n in names if names.count(n) > 1 and n})

@@ -9,9 +9,10 @@ stores settings, ``fit(problem)`` returns ``self``, fitted values end in ``_`` (
 from __future__ import annotations
 
 from pinid.errors import SpecError
-from pinid.estimators.base import Estimator
+from pinid.estimators.base import Estimator, Setting
 from pinid.estimators.metaheuristic import DEEstimator, EWOAEstimator, Metaheuristic, PSOEstimator, RLSPSO, WOAEstimator
 from pinid.estimators.ols import OLS
+from pinid.estimators.ridge import Ridge
 from pinid.estimators.rls import RLS
 from pinid.estimators.sdp import PhysicalLS
 from pinid.estimators.wls import WLS
@@ -27,20 +28,18 @@ ESTIMATORS: dict[str, type[Estimator]] = {
     "woa": WOAEstimator,
     "ewoa": EWOAEstimator,
     "de": DEEstimator,
+    "ridge": Ridge,
 }
 
 
 def make_estimator(name: str, **settings) -> Estimator:
-    """An estimator from the registry by name, with settings; SpecError for an unknown name or setting."""
+    """An estimator from the registry by name, with checked settings (:meth:`Estimator.create`); SpecError
+    for an unknown name or a bad setting."""
     key = name.strip().lower()
     if key not in ESTIMATORS:
         raise SpecError(f"unknown method '{name}', expected one of {', '.join(ESTIMATORS)}")
-    cls = ESTIMATORS[key]
-    try:
-        return cls(**settings)
-    except TypeError as exc:
-        raise SpecError(f"method '{key}': bad settings {sorted(settings)} ({exc})") from None
+    return ESTIMATORS[key].create(**settings)
 
 
 __all__ = ["DEEstimator", "ESTIMATORS", "EWOAEstimator", "Estimator", "Metaheuristic", "OLS", "PSOEstimator",
-           "PhysicalLS", "RLS", "RLSPSO", "WLS", "WOAEstimator", "make_estimator"]
+           "PhysicalLS", "RLS", "RLSPSO", "Ridge", "Setting", "WLS", "WOAEstimator", "make_estimator"]

@@ -3,7 +3,8 @@
 An estimator follows the scikit-learn contract:
 
 * ``__init__`` only stores its settings (keyword arguments, kept as attributes of the same name);
-* ``fit(problem)`` takes an :class:`~pinid.identification.core.IdentificationProblem` and returns ``self``;
+* ``fit(problem)`` takes a :class:`~pinid.identification.problem.Problem` (an
+  :class:`~pinid.identification.problem.IdentificationProblem` or a segmental stage) and returns ``self``;
 * fitted values end in ``_``:
 
   ``base_``       (nb,) base parameters, in the order of ``problem.base.names`` (required)
@@ -14,17 +15,81 @@ An estimator follows the scikit-learn contract:
   ``status_``     short text: ``"optimal"``, ``"ok"`` … (what the solver said)
   ``info_``       dict of anything else worth reporting (JSON-serialisable)
 
+What the rest of pinid needs to know about an estimator it reads from class attributes: ``name``,
+``description``, ``deterministic`` (run once in a comparison, not once per seed), ``history`` (what
+``history_`` holds, for the convergence plots), ``colour`` (in every figure), ``settings`` (a
+:class:`Setting` per ``__init__`` argument: types, range, choices — :meth:`Estimator.create` checks
+them, so a bad setting is a :class:`~pinid.errors.SpecError` before any data is read).
+
 Adding an estimator is one file in ``pinid/estimators/`` with a subclass of :class:`Estimator` and one
-line in the registry of ``pinid/estimators/__init__.py``.
+line in the registry of ``pinid/estimators/__init__.py`` (docs/architecture.md has a worked example).
 """
 
 from __future__ import annotations
 
 import inspect
+import numbers
+from dataclasses import dataclass
+from typing import Any, ClassVar
 
 import numpy as np
 
-from pinid.errors import SolverError
+from pinid.errors import SpecError
+from pinid.identification.problem import Problem
+from pinid.linalg import augmented_r, solve_r, weighted_lstsq
+
+
+@dataclass(frozen=True)
+class Setting:
+    """One setting of an estimator: what values it takes.  ``kind``: "int", "float", "bool", "str",
+    "dict" or "any"; ``low``/``high``: inclusive bounds (``low_open``: strictly above ``low``);
+    ``choices``: the allowed values; ``optional``: None allowed; ``help``: one line with units."""
+
+    kind: str = "any"
+    low: float | None = None
+    high: float | None = None
+    low_open: bool = False
+    choices: tuple | None = None
+    optional: bool = False
+    help: str = ""
+
+    def check(self, method: str, key: str, value: Any) -> Any:
+        """``value`` checked (an integral float becomes an int for "int"); SpecError naming the setting."""
+        where = f"method '{method}': setting {key}={value!r}"
+        if value is None:
+            if self.optional:
+                return None
+            raise SpecError(f"{where}, expected {self.expected()}")
+        kinds = {"int": numbers.Integral, "float": numbers.Real, "bool": (bool, np.bool_), "str": str, "dict": dict}
+        if self.kind == "int" and isinstance(value, numbers.Real) and not isinstance(value, bool) \
+                and float(value).is_integer():
+            value = int(value)
+        if self.kind in kinds and (not isinstance(value, kinds[self.kind])
+                                   or (self.kind in ("int", "float") and isinstance(value, bool))):
+            raise SpecError(f"{where}, expected {self.expected()}")
+        if self.choices is not None and value not in self.choices:
+            raise SpecError(f"{where}, expected {self.expected()}")
+        if self.kind in ("int", "float"):
+            v = float(value)
+            if not np.isfinite(v) or (self.low is not None and (v < self.low or (self.low_open and v == self.low))) \
+                    or (self.high is not None and v > self.high):
+                raise SpecError(f"{where}, expected {self.expected()}")
+        return value
+
+    def expected(self) -> str:
+        """What the setting takes, in words (for errors and the CLI's help)."""
+        if self.choices is not None:
+            text = "one of " + ", ".join(map(str, self.choices))
+        else:
+            text = {"int": "an integer", "float": "a number", "bool": "true or false", "str": "a string",
+                    "dict": "a table of settings", "any": "a value"}[self.kind]
+            if self.low is not None and self.high is not None:
+                text += f" in {'(' if self.low_open else '['}{self.low:g}, {self.high:g}]"
+            elif self.low is not None:
+                text += f" {'>' if self.low_open else '≥'} {self.low:g}"
+            elif self.high is not None:
+                text += f" ≤ {self.high:g}"
+        return text + (" or none" if self.optional else "")
 
 
 class Estimator:
@@ -36,6 +101,18 @@ class Estimator:
     description: str = ""
     #: True when ``standard_`` is physically consistent by construction (still checked afterwards).
     consistent_by_construction: bool = False
+    #: True when the estimator fits the full standard parameters and runs the stages of a staged
+    #: (segmental) fit itself with ``fit_stage`` (see :class:`~pinid.estimators.sdp.PhysicalLS`).
+    fits_standard: ClassVar[bool] = False
+    #: True when the result does not depend on a random seed (a comparison runs it once).
+    deterministic: ClassVar[bool] = True
+    #: What ``history_`` holds: "none"; "passes" (the cost after each pass); "rows" (an error along the
+    #: rows); "fitness" (the best fitness per iteration: drawn as a convergence curve).
+    history: ClassVar[str] = "none"
+    #: Matplotlib colour of this method in every figure (None: the next of the default cycle).
+    colour: ClassVar[str | None] = None
+    #: The settings ``__init__`` takes, each with its accepted values (checked by :meth:`create`).
+    settings: ClassVar[dict[str, Setting]] = {}
 
     base_: np.ndarray
     standard_: np.ndarray | None = None
@@ -44,8 +121,19 @@ class Estimator:
     status_: str = "ok"
     info_: dict
 
-    def fit(self, problem) -> "Estimator":  # pragma: no cover - abstract
-        """Estimate the base parameters of ``problem`` (an :class:`~pinid.identification.core.IdentificationProblem`); set the fitted attributes (``base_`` …) and return ``self``."""
+    @classmethod
+    def create(cls, **settings) -> "Estimator":
+        """An instance with ``settings`` checked against :attr:`settings` (SpecError for an unknown or bad one)."""
+        known = [k for k in inspect.signature(cls.__init__).parameters if k != "self"]
+        unknown = sorted(k for k in settings if k not in known)
+        if unknown:
+            raise SpecError(f"method '{cls.name}': bad settings {sorted(settings)} (unknown {', '.join(unknown)}; "
+                            f"expected some of {', '.join(known) or 'none'})")
+        checked = {k: (cls.settings[k].check(cls.name, k, v) if k in cls.settings else v) for k, v in settings.items()}
+        return cls(**checked)
+
+    def fit(self, problem: Problem) -> "Estimator":  # pragma: no cover - abstract
+        """Estimate the base parameters of ``problem`` (a :class:`~pinid.identification.problem.Problem`); set the fitted attributes (``base_`` …) and return ``self``."""
         raise NotImplementedError
 
     def get_params(self) -> dict:
@@ -60,77 +148,6 @@ class Estimator:
     def __repr__(self) -> str:
         args = ", ".join(f"{k}={v!r}" for k, v in self.get_params().items())
         return f"{type(self).__name__}({args})"
-
-
-def augmented_r(W: np.ndarray, tau: np.ndarray, weights: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, float, np.ndarray]:
-    """Compress a weighted least-squares problem: ``(R, c, rho, scale)``.
-
-    With ``A = diag(√w)·W·diag(1/scale)`` (columns scaled to unit norm) and ``y = √w·τ``,
-    ``‖A x − y‖² = ‖R x − c‖² + rho²`` for every ``x``: ``R`` is ``(nb, nb)`` upper triangular, ``rho``
-    the least-squares residual norm.  One pass over the tall matrix: the Cholesky factor of the
-    column-scaled Gram matrix ``AᵀA`` when its condition number is below 1e10 (then the normal
-    equations lose at most ~1e-6 relative accuracy, far below any noise), else — and for rank
-    deficiency — Householder QR of ``[A | y]``.
-    """
-    import scipy.linalg
-
-    W = np.asarray(W, dtype=float)
-    y = np.asarray(tau, dtype=float)
-    nb = W.shape[1]
-    if weights is not None and not np.all(weights == 1.0):
-        w = np.asarray(weights, dtype=float)
-        Ww = W * w[:, None]
-        G = Ww.T @ W
-        b = Ww.T @ y
-        yy = float(np.dot(w * y, y))
-        del Ww
-    else:
-        w = None
-        G = W.T @ W
-        b = W.T @ y
-        yy = float(np.dot(y, y))
-    scale = np.sqrt(np.maximum(np.diag(G), 0.0))
-    scale[scale == 0] = 1.0
-    Gs = G / np.outer(scale, scale)
-    ev = np.linalg.eigvalsh(Gs) if nb else np.ones(1)
-    if nb and ev[0] > 1e-10 * ev[-1] and np.all(np.isfinite(Gs)):
-        try:
-            R = scipy.linalg.cholesky(Gs, lower=False)
-            c = scipy.linalg.solve_triangular(R, b / scale, trans="T")
-            rho = float(np.sqrt(max(yy - float(c @ c), 0.0)))
-            return R, c, rho, scale
-        except (np.linalg.LinAlgError, ValueError):
-            pass
-    # ill-conditioned or rank-deficient: Householder QR of the scaled, weighted [A | y]
-    aug = np.empty((W.shape[0], nb + 1))
-    if w is not None:
-        sw = np.sqrt(w)
-        np.multiply(W, (sw[:, None] / scale), out=aug[:, :nb])
-        aug[:, nb] = y * sw
-    else:
-        np.divide(W, scale, out=aug[:, :nb])
-        aug[:, nb] = y
-    R_aug = np.linalg.qr(aug, mode="r")
-    k = min(R_aug.shape[0], nb + 1)
-    R_full = np.zeros((nb + 1, nb + 1))
-    R_full[:k] = R_aug[:k]
-    return R_full[:nb, :nb], R_full[:nb, nb], float(abs(R_full[nb, nb])), scale
-
-
-def solve_r(R: np.ndarray, c: np.ndarray, scale: np.ndarray) -> np.ndarray:
-    """The least-squares solution ``x`` of the compressed problem of :func:`augmented_r`."""
-    import scipy.linalg
-
-    d = np.abs(np.diag(R))
-    if d.size and (not np.all(np.isfinite(R)) or d.min() <= 1e-13 * d.max()):
-        raise SolverError("least squares: the (weighted) base regressor is rank deficient")
-    return scipy.linalg.solve_triangular(R, c) / scale
-
-
-def weighted_lstsq(W: np.ndarray, tau: np.ndarray, weights: np.ndarray | None = None) -> np.ndarray:
-    """``argmin ‖diag(√w)(W x − τ)‖²`` through a column-scaled QR factorisation."""
-    R, c, _, scale = augmented_r(W, tau, weights)
-    return solve_r(R, c, scale)
 
 
 def joint_weights(problem, residual: np.ndarray, floor: float = 1e-12) -> tuple[np.ndarray, np.ndarray]:
@@ -152,3 +169,6 @@ def joint_weights(problem, residual: np.ndarray, floor: float = 1e-12) -> tuple[
         tau_rms = float(np.sqrt(np.mean(problem.tau[sel] ** 2))) if n_j else 1.0
         sigma[j] = max(np.sqrt(s2), floor * max(tau_rms, 1e-300))
     return (1.0 / sigma**2)[problem.joint], sigma
+
+
+__all__ = ["Estimator", "Setting", "augmented_r", "joint_weights", "solve_r", "weighted_lstsq"]

@@ -55,7 +55,11 @@ import time
 import numpy as np
 
 from pinid.errors import SpecError
-from pinid.estimators.base import Estimator, solve_r
+from pinid.estimators.base import Estimator, Setting
+from pinid.estimators.rls import RLS
+from pinid.identification.problem import Problem, base_statistics
+from pinid.linalg import solve_r, weighted_lstsq
+from pinid.optimizers import get_optimizer
 
 #: Fitness functions: name -> description.
 FITNESS = {"sse": "½·Σ r² (seed 001 Eq. (22))", "sae": "Σ |r| (seed 000)"}
@@ -66,14 +70,8 @@ _CHUNK_ELEMENTS = 500_000  # particles × rows per block of the "sae" product (4
 def natural_scale(problem) -> np.ndarray:
     """Natural magnitude of every base parameter (nb,): ``|P|·s`` with ``s`` = per body M, M·L, M·L²
     (:func:`pinid.model.physical.parameter_scale`, from the nominal parameters) and 1 for joint terms.
-    A problem may provide it directly as ``problem.natural_scale`` (sub-problems do)."""
-    given = getattr(problem, "natural_scale", None)
-    if given is not None:
-        return np.asarray(given, dtype=float)
-    from pinid.model.physical import parameter_scale
-
-    s = parameter_scale(problem.nominal, problem.nv, len(problem.terms))
-    return np.abs(problem.base.P) @ s
+    Every :class:`~pinid.identification.problem.Problem` provides it as ``problem.natural_scale``."""
+    return np.asarray(problem.natural_scale, dtype=float)
 
 
 def fitness_function(problem, kind: str = "sse"):
@@ -124,7 +122,7 @@ def least_squares(problem) -> np.ndarray:
     return solve_r(R, c, scale)
 
 
-def _lad_of(problem) -> np.ndarray:
+def cached_lad(problem) -> np.ndarray:
     """:func:`least_absolute_deviations` of ``problem``, kept on it: every seed of a comparison needs it."""
     key = (id(problem.W), id(problem.tau), id(problem.weights))
     cache = problem.__dict__.get("_lad")
@@ -138,8 +136,6 @@ def least_absolute_deviations(problem, iterations: int = 200, tol: float = 1e-12
     """Least-absolute-deviations base parameters, ``argmin Σ √w·|τ − W x|`` — the global minimum of "sae" —
     by iteratively reweighted least squares from the least-squares solution (weights
     ``√w / max(|r|, 1e-9·RMS(r))``; the cost is convex, so this converges to its minimum)."""
-    from pinid.estimators.base import weighted_lstsq
-
     W, tau = np.asarray(problem.W), np.asarray(problem.tau)
     sw = np.sqrt(np.asarray(problem.weights, float)) if problem.weights is not None else np.ones(len(tau))
     x = least_squares(problem)
@@ -178,15 +174,11 @@ def search_box(problem, box="nominal", *, width: float = 1.0, floor: float = 0.5
         if kind == "nominal":
             lower, upper = nominal_box(problem, width, floor)
         elif kind == "rls":
-            from pinid.estimators import make_estimator
-
-            est = make_estimator("rls", **dict(rls or {})).fit(problem)  # bad settings: SpecError
+            est = RLS.create(**dict(rls or {})).fit(problem)  # bad settings: SpecError
             lower, upper = est.box_
             info["rls"] = {"final": dict(zip(names, map(float, est.base_))), "burn_in_rows": est.info_["burn_in_rows"],
                            "forgetting": est.info_["forgetting"]}
         elif kind == "ls":
-            from pinid.identification.core import base_statistics
-
             x = least_squares(problem)
             std = base_statistics(problem, x)[0]  # works on a segmental SubProblem too
             half = np.maximum(10.0 * max(width, 1e-12) * std, 1e-9 * natural_scale(problem))
@@ -237,6 +229,22 @@ class Metaheuristic(Estimator):
 
     optimizer: str = ""
     default_box = "nominal"
+    deterministic = False
+    history = "fitness"
+    settings = {
+        "population": Setting("int", low=2, help="particles per iteration"),
+        "iterations": Setting("int", low=1, help="iterations"),
+        "fitness": Setting("str", choices=tuple(FITNESS), help="sse: ½Σr² (seed 001); sae: Σ|r| (seed 000)"),
+        "box": Setting("any", optional=True, help="'nominal', 'rls', 'ls', (lower, upper) or {name: (lo, hi)}"),
+        "box_width": Setting("float", low=0.0, help="nominal box: ± this fraction of |value|"),
+        "box_floor": Setting("float", low=0.0, help="nominal box: at least ± this fraction of the natural magnitude"),
+        "seed": Setting("int", low=0, optional=True, help="seed of the random generator"),
+        "tol": Setting("float", optional=True, help="stop when the best fitness falls below it"),
+        "options": Setting("dict", optional=True, help="the optimiser's own settings"),
+        "rls": Setting("dict", optional=True, help="settings of the RLS run behind an 'rls' box"),
+        "x0": Setting("any", optional=True, help="'nominal' or nb numbers: a particle of the first population"),
+        "progress": Setting("bool", optional=True, help="progress bar"),
+    }
 
     def __init__(self, population: int = 100, iterations: int = 200, fitness: str = "sse", box=None,
                  box_width: float = 1.0, box_floor: float = 0.5, seed: int = 0, tol: float | None = None,
@@ -254,10 +262,8 @@ class Metaheuristic(Estimator):
         self.x0 = x0
         self.progress = progress
 
-    def fit(self, problem) -> "Metaheuristic":
+    def fit(self, problem: Problem) -> "Metaheuristic":
         """Search the box for the base parameters with the lowest fitness; sets ``base_``, ``history_``, ``path_``, ``box_``, ``info_``."""
-        from pinid.optimizers import get_optimizer
-
         if self.fitness not in FITNESS:
             raise SpecError(f"{self.name}: fitness {self.fitness!r}, expected one of {', '.join(FITNESS)}")
         box = self.default_box if self.box is None else self.box
@@ -298,7 +304,7 @@ class Metaheuristic(Estimator):
         x_ls = least_squares(problem)
         costs = training_costs(problem, x)
         ls_costs = training_costs(problem, x_ls)
-        best = ls_costs["sse"] if self.fitness == "sse" else training_costs(problem, _lad_of(problem))["sae"]
+        best = ls_costs["sse"] if self.fitness == "sse" else training_costs(problem, cached_lad(problem))["sae"]
         self.base_ = x
         self.box_ = (lower, upper)
         self.standard_ = None
@@ -329,6 +335,7 @@ class PSOEstimator(Metaheuristic):
 
     name = "pso"
     description = "particle swarm optimisation (seed 000 Eqs. (7)-(8)) in a box around the URDF's values"
+    colour = "tab:blue"
     optimizer = "pso"
 
 
@@ -337,6 +344,7 @@ class RLSPSO(Metaheuristic):
 
     name = "rls-pso"
     description = "particle swarm inside the range of a recursive least-squares run (seed 000 RLS-PSO)"
+    colour = "tab:cyan"
     optimizer = "pso"
     default_box = "rls"
 
@@ -346,6 +354,7 @@ class WOAEstimator(Metaheuristic):
 
     name = "woa"
     description = "whale optimisation (seed 001 Eqs. (14)-(17)) in a box around the URDF's values"
+    colour = "tab:orange"
     optimizer = "woa"
 
 
@@ -354,6 +363,7 @@ class EWOAEstimator(Metaheuristic):
 
     name = "ewoa"
     description = "enhanced whale optimisation (seed 001 Eqs. (14)-(18)) in a box around the URDF's values"
+    colour = "tab:red"
     optimizer = "ewoa"
 
 
@@ -362,4 +372,5 @@ class DEEstimator(Metaheuristic):
 
     name = "de"
     description = "scipy differential evolution in a box around the URDF's values (reference)"
+    colour = "tab:purple"
     optimizer = "de"

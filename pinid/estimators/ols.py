@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
-from pinid.estimators.base import Estimator, solve_r
+from pinid.estimators.base import Estimator
+from pinid.identification.problem import Problem
+from pinid.linalg import solve_r
 
 
 class OLS(Estimator):
@@ -16,11 +18,12 @@ class OLS(Estimator):
 
     name = "ols"
     description = "ordinary least squares on the base regressor"
+    colour = "black"
 
     def __init__(self) -> None:
         pass
 
-    def fit(self, problem) -> "OLS":
+    def fit(self, problem: Problem) -> "OLS":
         """Least squares on the base regressor; sets ``base_``."""
         R, c, rho, scale = problem.compressed()
         self.base_ = solve_r(R, c, scale)

@@ -39,7 +39,8 @@ from __future__ import annotations
 import numpy as np
 
 from pinid.errors import SpecError
-from pinid.estimators.base import Estimator
+from pinid.estimators.base import Estimator, Setting
+from pinid.identification.problem import Problem
 
 
 class RLS(Estimator):
@@ -53,6 +54,16 @@ class RLS(Estimator):
 
     name = "rls"
     description = "recursive least squares with forgetting factor (seed 000 Eq. (6)); its range defines a box"
+    colour = "tab:brown"
+    history = "rows"
+    settings = {
+        "forgetting": Setting("float", low=0.0, high=1.0, low_open=True, help="forgetting factor λ"),
+        "init": Setting("str", choices=("exact", "prior"), help="start from an exact fit of the first rows, or x0"),
+        "p0": Setting("float", low=0.0, low_open=True, help="initial covariance scale (init='prior')"),
+        "x0": Setting("any", help="'zero', 'nominal' or nb numbers (init='prior')"),
+        "burn_in": Setting("float", low=0.0, help="fraction of the rows (< 1) or number of rows left out of the box"),
+        "widen": Setting("float", low=0.0, help="widen the box by this fraction of its width on each side"),
+    }
 
     def __init__(self, forgetting: float = 1.0, init: str = "exact", p0: float = 1e6, x0="zero",
                  burn_in: float = 0.1, widen: float = 0.0) -> None:
@@ -80,7 +91,7 @@ class RLS(Estimator):
             raise SpecError(f"rls: burn_in of {skip} rows leaves none of the {rows} rows for the box")
         return lam, skip
 
-    def fit(self, problem) -> "RLS":
+    def fit(self, problem: Problem) -> "RLS":
         """Run the recursion over the problem's rows in order; sets ``base_``, ``history_`` and the search box ``box_``."""
         lam, skip = self._check(problem)
         W = np.asarray(problem.W, dtype=float)

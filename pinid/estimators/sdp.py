@@ -33,14 +33,15 @@ base parameters follow from θ; anything else raises :class:`~pinid.errors.Solve
 
 from __future__ import annotations
 
-import warnings
-
 import numpy as np
 
-from pinid.errors import SolverError
-from pinid.model import terms as _terms
-from pinid.model.physical import PSEUDO_INERTIA_BASIS, check_consistency, parameter_scale
-from pinid.estimators.base import Estimator, augmented_r, joint_weights, solve_r
+from pinid.errors import SolverError, SpecError
+from pinid.estimators.base import Estimator, Setting, joint_weights
+from pinid.identification.problem import IdentificationProblem, Problem
+from pinid.linalg import augmented_r, solve_r
+from pinid.model.lmi import (CLARABEL_OPTIONS, clip_terms, consistency_constraints, consistent_completion, null_projector,
+                             solve, solve_time)
+from pinid.model.physical import check_consistency, parameter_scale
 
 
 class PhysicalLS(Estimator):
@@ -55,6 +56,16 @@ class PhysicalLS(Estimator):
     name = "sdp"
     description = "physically consistent least squares (pseudo-inertia LMI, cvxpy + Clarabel)"
     consistent_by_construction = True
+    fits_standard = True
+    colour = "tab:green"
+    settings = {
+        "weighting": Setting("str", choices=("none", "joint"), help="row weighting: none (as OLS) or joint (as WLS)"),
+        "regularization": Setting("float", low=0.0, help="weight of the pull toward the URDF in unidentifiable directions"),
+        "mass_bounds": Setting("any", optional=True, help="(lo, hi) [kg] for every body, or {joint: (lo, hi)}"),
+        "margin": Setting("float", low=0.0, help="ε of the strict pseudo-inertia LMI"),
+        "solver": Setting("str", help="a cvxpy solver name"),
+        "solver_options": Setting("dict", optional=True, help="passed to the solver"),
+    }
 
     def __init__(self, weighting: str = "none", regularization: float = 1e-3, mass_bounds=None,
                  margin: float = 1e-8, solver: str = "CLARABEL", solver_options: dict | None = None) -> None:
@@ -65,9 +76,9 @@ class PhysicalLS(Estimator):
         self.solver = solver
         self.solver_options = solver_options
 
-    def fit(self, problem) -> "PhysicalLS":
+    def fit(self, problem: IdentificationProblem) -> "PhysicalLS":
         """Solve the LMI-constrained least squares; sets ``base_``, ``standard_`` and the solver's ``status_``; SolverError if it fails."""
-        import cvxpy as cp
+        import cvxpy as cp  # heavy optional dependency: loaded when the LMI method runs
 
         if self.weighting not in ("none", "joint"):
             raise ValueError(f"sdp: weighting={self.weighting!r}, expected 'none' or 'joint'")
@@ -75,7 +86,8 @@ class PhysicalLS(Estimator):
             raise ValueError(f"sdp: regularization={self.regularization}, expected ≥ 0")
         w = problem.weights
         if self.weighting == "joint":
-            x = solve_r(*_take(problem.compressed(), 0, 1, 3))
+            R0, c0, _, s0 = problem.compressed()
+            x = solve_r(R0, c0, s0)
             jw, _ = joint_weights(problem, problem.tau - problem.W @ x)
             w = w * jw
             R, c, rho, colscale = augmented_r(problem.W, problem.tau, w)
@@ -92,19 +104,19 @@ class PhysicalLS(Estimator):
         cost = cp.norm(G @ z - g)
         reg = None
         if self.regularization > 0:
-            N = _null_projector(P * S)
+            N = null_projector(P * S)
             if N is not None:
                 z0 = problem.nominal / S
                 reg = cp.norm(N @ (z - z0))
                 cost = cost + float(self.regularization) * reg
         constraints = consistency_constraints(z, problem, S, self.margin, self.mass_bounds)
         prob = cp.Problem(cp.Minimize(cost), constraints)
-        status = _solve(prob, self.solver, self.solver_options, "sdp")
+        status = solve(prob, self.solver, self.solver_options, "sdp")
         if z.value is None:
             raise SolverError(f"sdp: solver {self.solver} returned status '{status}' without a solution")
         theta = np.asarray(z.value, dtype=float) * S
         # clip tiny negative joint terms the interior-point solver leaves at −1e-12
-        theta = _clip_terms(theta, problem)
+        theta = clip_terms(theta, problem)
         report = check_consistency(theta, problem.model.joint_names, problem.terms.names, problem.model.motor_names)
         if not report.consistent:
             raise SolverError(f"sdp: solver {self.solver} status '{status}', but the result is not physically "
@@ -117,136 +129,50 @@ class PhysicalLS(Estimator):
         excess = float(np.linalg.norm(G @ (theta / S) - g))
         self.info_ = {
             "solver": self.solver, "status": status,
-            "solve_seconds": _solve_time(prob),
+            "solve_seconds": solve_time(prob),
             "excess_residual_relative": excess,
             "regularizer": None if reg is None else float(reg.value),
         }
         return self
 
+    def fit_stage(self, problem: IdentificationProblem, sub: Problem, cols: np.ndarray, *,
+                  fixed: tuple[np.ndarray, np.ndarray] | None = None, what: str = "sdp stage") -> tuple[np.ndarray, dict]:
+        """One stage of a staged fit (seed 000's segmental strategy): a physically consistent θ of ``problem``
+        whose base parameters ``cols`` fit ``sub``'s rows (``sub.W``'s columns are those base parameters),
+        and whose base parameters ``fixed[0]`` equal ``fixed[1]``.  Returns ``(θ, {"status", "rows"})``."""
+        import cvxpy as cp  # heavy optional dependency: loaded when the LMI method runs
 
-def _take(seq, *idx):
-    return [seq[i] for i in idx]
-
-
-def _null_projector(A: np.ndarray, tol: float = 1e-10) -> np.ndarray | None:
-    """Orthogonal projector onto the null space of ``A`` (None when it is trivial)."""
-    _, s, Vt = np.linalg.svd(A, full_matrices=True)
-    rank = int(np.sum(s > tol * (s[0] if s.size else 1.0)))
-    V0 = Vt[rank:].T
-    if V0.shape[1] == 0:
-        return None
-    return V0 @ V0.T
-
-
-def consistency_constraints(z, problem, S: np.ndarray, margin: float, mass_bounds=None) -> list:
-    """cvxpy constraints making θ = S·z physically consistent (LMI per body, non-negative joint terms)."""
-    import cvxpy as cp
-
-    nv = problem.nv
-    p = 10 * nv + _terms.count(problem.model, problem.terms)
-    joints = problem.model.joint_names
-    cons = []
-    for i in range(nv):
-        M = S[10 * i]
-        L = np.sqrt(S[10 * i + 4] / M)
-        T = np.diag([1.0 / (np.sqrt(M) * L)] * 3 + [1.0 / np.sqrt(M)])
-        B = np.zeros((16, p))
-        for k in range(10):
-            B[:, 10 * i + k] = (T @ PSEUDO_INERTIA_BASIS[k] @ T).reshape(-1, order="F") * S[10 * i + k]
-        J = cp.reshape(B @ z, (4, 4), order="F")
-        cons.append(0.5 * (J + J.T) >> float(margin) * np.eye(4))
-    idx = 10 * nv + np.flatnonzero(_terms.nonnegative(problem.model, problem.terms))
-    if idx.size:
-        cons.append(z[idx] >= 0)
-    if mass_bounds is not None:
-        bounds = mass_bounds if isinstance(mass_bounds, dict) else {j: mass_bounds for j in joints}
-        for j, (lo, hi) in bounds.items():
-            i = problem.model.joint_index(j)
-            if lo is not None:
-                cons.append(z[10 * i] >= float(lo) / S[10 * i])
-            if hi is not None:
-                cons.append(z[10 * i] <= float(hi) / S[10 * i])
-    return cons
+        if self.weighting != "none":
+            raise SpecError("segmental sdp: only weighting='none'")
+        regularization = self.regularization
+        P = problem.base.P
+        nv, nt = problem.nv, len(problem.terms)
+        S = parameter_scale(problem.nominal, nv, nt)
+        R, c, rho, colscale = sub.compressed()
+        norm_y = float(np.sqrt(c @ c + rho * rho)) or 1.0
+        G = (R * colscale) @ P[cols] * S / norm_y
+        g = c / norm_y
+        z = cp.Variable(P.shape[1])
+        cost = cp.norm(G @ z - g)
+        seen = P[cols] if fixed is None else P
+        N = null_projector(seen * S) if regularization > 0 else None
+        if N is not None:
+            cost = cost + float(regularization) * cp.norm(N @ (z - problem.nominal / S))
+        cons = consistency_constraints(z, problem, S, self.margin, self.mass_bounds)
+        if fixed is not None:
+            A = P[fixed[0]] * S
+            rs = np.maximum(np.abs(A).sum(axis=1), 1e-300)
+            cons.append((A / rs[:, None]) @ z == np.asarray(fixed[1], float) / rs)
+        prob = cp.Problem(cp.Minimize(cost), cons)
+        status = solve(prob, self.solver, self.solver_options, what)
+        if z.value is None:
+            raise SolverError(f"{what}: status '{status}' without a solution")
+        theta = clip_terms(np.asarray(z.value, float) * S, problem)
+        report = check_consistency(theta, problem.model.joint_names, problem.terms.names, problem.model.motor_names)
+        if not report.consistent:
+            raise SolverError(f"{what}: status '{status}' but the result is not physically "
+                              f"consistent ({'; '.join(report.problems)})")
+        return theta, {"status": status, "rows": sub.rows}
 
 
-#: Clarabel's tolerances used by default (its own defaults are 1e-8): the data term is a norm with a
-#: kink at the least-squares solution, and 1e-10 brings noise-free base parameters back to ≤ 1e-6.
-CLARABEL_OPTIONS = {"tol_gap_abs": 1e-10, "tol_gap_rel": 1e-10, "tol_feas": 1e-10, "tol_ktratio": 1e-8}
-
-
-def _solve(prob, solver: str, options: dict | None, what: str) -> str:
-    """Solve a cvxpy problem; return its status, raise SolverError when it failed outright."""
-    import cvxpy as cp
-
-    opts = dict(CLARABEL_OPTIONS) if solver.upper() == "CLARABEL" else {}
-    opts.update(options or {})
-    try:
-        with warnings.catch_warnings():  # the status says it; the result is checked by the caller
-            warnings.simplefilter("ignore")
-            prob.solve(solver=solver, **opts)
-    except cp.error.SolverError as exc:
-        raise SolverError(f"{what}: solver {solver} failed ({str(exc).strip().splitlines()[0]})") from None
-    status = prob.status
-    if status in (cp.INFEASIBLE, cp.INFEASIBLE_INACCURATE):
-        raise SolverError(f"{what}: solver {solver} says the constraints are infeasible (status '{status}'); "
-                          "check the mass bounds")
-    if status in (cp.UNBOUNDED, cp.UNBOUNDED_INACCURATE):
-        raise SolverError(f"{what}: solver {solver} says the problem is unbounded (status '{status}')")
-    if status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
-        raise SolverError(f"{what}: solver {solver} stopped with status '{status}'")
-    return status
-
-
-def _solve_time(prob) -> float | None:
-    try:
-        return float(prob.solver_stats.solve_time)
-    except (AttributeError, TypeError):
-        return None
-
-
-def _clip_terms(theta: np.ndarray, problem) -> np.ndarray:
-    out = theta.copy()
-    params = _terms.robot_layout(problem.model, problem.terms)
-    for name in {p.term.name for p in params if p.term.nonnegative}:
-        idx = [10 * problem.nv + k for k, p in enumerate(params) if p.term.name == name]
-        if idx:
-            out[idx] = np.where((out[idx] < 0) & (out[idx] > -1e-9 * max(1.0, np.abs(out[idx]).max())), 0.0,
-                                out[idx])
-    return out
-
-
-def consistent_completion(problem, base: np.ndarray, *, solver: str = "CLARABEL") -> tuple[np.ndarray | None, str]:
-    """A physically consistent standard vector θ with ``P·θ = base``, as close to the nominal one as possible.
-
-    Minimises ``‖S⁻¹(θ − θ_nominal)‖`` subject to ``P·θ = base``, every pseudo-inertia ⪰ 0 and
-    non-negative fc, fv, armature.  Returns ``(θ, status)``, or ``(None, reason)`` when no consistent θ
-    reproduces these base parameters (the base parameters are not physically realisable).  θ is checked:
-    consistent, and ``P·θ`` equal to ``base`` within 1e-6 relatively.
-    """
-    import cvxpy as cp
-
-    P = problem.base.P
-    nv, nt = problem.nv, len(problem.terms)
-    S = parameter_scale(problem.nominal, nv, nt)
-    A = P * S
-    bscale = np.maximum(np.abs(A).sum(axis=1), 1e-300)
-    base = np.asarray(base, dtype=float)
-    z = cp.Variable(P.shape[1])
-    z0 = problem.nominal / S
-    cons = [(A / bscale[:, None]) @ z == base / bscale]
-    cons += consistency_constraints(z, problem, S, 0.0)
-    prob = cp.Problem(cp.Minimize(cp.norm(z - z0)), cons)
-    try:
-        status = _solve(prob, solver, None, "consistent completion")
-    except SolverError as exc:
-        return None, str(exc)
-    if z.value is None:
-        return None, f"solver status '{status}' without a solution"
-    theta = _clip_terms(np.asarray(z.value) * S, problem)
-    mismatch = np.abs(P @ theta - base) / bscale
-    if mismatch.max() > 1e-6:
-        return None, f"solver status '{status}', base parameters reproduced only to {mismatch.max():.1e}"
-    report = check_consistency(theta, problem.model.joint_names, problem.terms.names, problem.model.motor_names)
-    if not report.consistent:
-        return None, "; ".join(report.problems)
-    return theta, status
+__all__ = ["CLARABEL_OPTIONS", "PhysicalLS", "consistency_constraints", "consistent_completion"]

@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from pinid.estimators.base import Estimator, joint_weights, solve_r, weighted_lstsq
+from pinid.estimators.base import Estimator, Setting, joint_weights
+from pinid.identification.problem import Problem
+from pinid.linalg import solve_r, weighted_lstsq
 
 
 class WLS(Estimator):
@@ -22,12 +24,16 @@ class WLS(Estimator):
 
     name = "wls"
     description = "least squares, each joint weighted by 1/(its residual variance)"
+    colour = "grey"
+    history = "passes"
+    settings = {"iterations": Setting("int", low=1, help="reweighting passes"),
+                "tol": Setting("float", low=0.0, help="stop when the parameters change less than this, relatively")}
 
     def __init__(self, iterations: int = 1, tol: float = 1e-10) -> None:
         self.iterations = iterations
         self.tol = tol
 
-    def fit(self, problem) -> "WLS":
+    def fit(self, problem: Problem) -> "WLS":
         """OLS, then least squares with each joint's rows weighted by 1/σ_j²; sets ``base_`` and ``sigma_`` [N·m]."""
         if int(self.iterations) < 1:
             raise ValueError(f"WLS: iterations={self.iterations}, expected ≥ 1")

@@ -32,14 +32,20 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
-from pinid.data.dataset import Dataset
 from pinid.errors import SpecError
+from pinid.estimators import ESTIMATORS, Metaheuristic
+from pinid.estimators.metaheuristic import (cached_lad, least_absolute_deviations, least_squares, natural_scale,
+                                            training_costs)
 from pinid.identification.metrics import torque_metrics
-from pinid.model.robot import RobotModel
+from pinid.identification.problem import base_regressor, check_dataset
+from pinid.identification.run import Fit, as_model, check_options, parse_methods, parse_terms, run_jobs, setup
+from pinid.io import jsonable, read_json, write_json
 from pinid.model.regressor import JointTerms
+from pinid.model.robot import RobotModel
+from pinid.model.serialize import robot_to_dict
 
-#: Methods that give the same result whatever the seed (run once).
-DETERMINISTIC: tuple[str, ...] = ("ols", "wls", "sdp", "rls")
+#: Methods that give the same result whatever the seed (run once): the registry's ``deterministic`` ones.
+DETERMINISTIC: tuple[str, ...] = tuple(m for m, cls in ESTIMATORS.items() if cls.deterministic)
 #: Default number of seeds for the metaheuristics.
 DEFAULT_SEEDS = 5
 
@@ -48,16 +54,14 @@ DEFAULT_SEEDS = 5
 def lad(problem, iterations: int = 200, tol: float = 1e-12) -> np.ndarray:
     """Least-absolute-deviations base parameters, the global minimum of seed 000's fitness Σ|r|
     (:func:`pinid.estimators.metaheuristic.least_absolute_deviations`)."""
-    from pinid.estimators.metaheuristic import least_absolute_deviations
-
     return least_absolute_deviations(problem, iterations, tol)
 
 
-def _references(problem) -> dict:
-    from pinid.estimators.metaheuristic import _lad_of, least_squares, training_costs
-
+def references(problem) -> dict:
+    """The global minima of both training costs on the problem's rows and least squares' Σ|r|:
+    ``{"sse", "sae", "sae_ls"}``."""
     x_ls = least_squares(problem)
-    x_lad = _lad_of(problem)  # kept on the problem: the Σ|r| metaheuristics of every seed reuse it
+    x_lad = cached_lad(problem)  # kept on the problem: the Σ|r| metaheuristics of every seed reuse it
     ls = training_costs(problem, x_ls)
     return {"sse": ls["sse"], "sae": training_costs(problem, x_lad)["sae"], "sae_ls": ls["sae"]}
 
@@ -245,8 +249,7 @@ class Comparison:
     # ---------------------------------------------------------------- JSON
     def to_dict(self) -> dict:
         """Plain-JSON form (``comparison.json``)."""
-        from pinid import __version__
-        from pinid.io import jsonable
+        from pinid import __version__  # the package's own attribute: set after its submodules load
 
         return jsonable({
             "pinid_version": __version__, "robot": self.robot, "base_names": self.base_names,
@@ -273,15 +276,11 @@ class Comparison:
 
     def save(self, path: str | os.PathLike) -> Path:
         """Write as JSON (atomically)."""
-        from pinid.io import write_json
-
         return write_json(path, self.to_dict())
 
     @classmethod
     def load(cls, path: str | os.PathLike) -> "Comparison":
         """Read a file written by :meth:`save` (or ``pinid compare``)."""
-        from pinid.io import read_json
-
         d = read_json(path, "comparison")
         if "runs" not in d or "base_names" not in d:
             raise SpecError(f"{path}: not a comparison file (no 'runs' or 'base_names')")
@@ -323,12 +322,6 @@ def parameter_errors(x: np.ndarray, truth: np.ndarray, scale: np.ndarray, names:
     return dict(zip(names, map(float, 100.0 * np.abs(x - truth) / den)))
 
 
-def _as_sets(items, model, preprocess, what, mapping=None) -> list[Dataset]:
-    from pinid.identification.core import _load_data
-
-    return _load_data(items, model, mapping, preprocess, what)
-
-
 def compare(
     model: RobotModel | str,
     data,
@@ -360,37 +353,16 @@ def compare(
     ``iterations``, ``fitness``, ``box`` …; ``options`` override them).  ``segmental``:
     ``{"first": recordings, "joints": ("knee",)}`` runs seed 000's segmental strategy (``data`` is then
     the recording with every joint moving).  ``mapping``, ``preprocess``, ``rest_velocity``,
-    ``complete``: as in :func:`pinid.identification.core.identify`.
+    ``complete``: as in :func:`pinid.identification.run.identify`.
     """
-    from pinid.estimators import ESTIMATORS, make_estimator
-    from pinid.estimators.metaheuristic import Metaheuristic, training_costs
-    from pinid.identification.core import (IdentificationProblem, _robot_dict, base_regressor, check_dataset, make_result)
-    from pinid.progress import progress
-
     t_start = time.perf_counter()
-    if not isinstance(model, RobotModel):
-        model = RobotModel.from_urdf(model)
-    if isinstance(terms, str):
-        try:
-            terms = JointTerms.from_names(terms)
-        except ValueError as exc:
-            raise SpecError(str(exc)) from None
-    if methods is None:
-        methods = list(ESTIMATORS)
-    elif isinstance(methods, str):
-        methods = [m.strip() for m in methods.split(",") if m.strip()]
-    methods = list(dict.fromkeys(m.lower() for m in methods))
-    unknown = [m for m in methods if m not in ESTIMATORS]
-    if unknown or not methods:
-        raise SpecError(f"unknown method(s) {', '.join(unknown) or '(none given)'}, expected some of "
-                        f"{', '.join(ESTIMATORS)}")
+    model = as_model(model)
+    terms = parse_terms(terms)
+    methods = parse_methods(methods, default=list(ESTIMATORS))
     seed_list = list(range(int(seeds))) if np.ndim(seeds) == 0 else [int(s) for s in seeds]
     if not seed_list:
         raise SpecError("seeds: expected at least one seed")
-    options = {k.lower(): dict(v) for k, v in dict(options or {}).items()}
-    bad = [k for k in options if k not in methods]
-    if bad:
-        raise SpecError(f"options for method(s) {', '.join(bad)} that are not run (methods: {', '.join(methods)})")
+    options = check_options(options, methods)
     meta = dict(metaheuristic or {})
 
     def settings_for(m: str, seed: int | None) -> dict:
@@ -404,102 +376,68 @@ def compare(
         s.update(options.get(m, {}))
         return s
 
-    train_sets = _as_sets(data, model, preprocess, "training", mapping)
-    if validate is None:
-        val = {}
-    elif isinstance(validate, Mapping):
-        val = {str(k): _as_sets(v, model, preprocess, f"validation ({k})", mapping) for k, v in validate.items()}
-    else:
-        val = {"validation": _as_sets(validate, model, preprocess, "validation", mapping)}
-    from pinid.model.base import base_parameters
-
-    base = base_parameters(model, terms)
-    seg = None
-    if segmental:
-        from pinid.identification.segmental import Segmental, SegmentalProblem
-
-        unknown_keys = [k for k in segmental if k not in ("first", "joints")]
-        if unknown_keys or "first" not in segmental:
-            raise SpecError("segmental: expected {'first': recordings with only the first joints moving, "
-                            "'joints': (first joints, default knee)}")
-        first_sets = _as_sets(segmental["first"], model, preprocess, "first-stage", mapping)
-        seg = SegmentalProblem(model, first_sets, train_sets, first_joints=tuple(segmental.get("joints", ("knee",))),
-                               terms=terms, rest_velocity=rest_velocity, base=base)
-        problem = seg.problem
-    else:
-        problem = IdentificationProblem.from_datasets(model, train_sets, terms=terms, base=base,
-                                                      rest_velocity=rest_velocity)
+    st = setup(model, data, validate, terms=terms, mapping=mapping, preprocess=preprocess,
+               rest_velocity=rest_velocity, segmental=segmental)
+    problem, seg, base = st.problem, st.segmental, st.base
     names = problem.names
     truth_x = _truth_vector(truth, names)
-    from pinid.estimators.metaheuristic import natural_scale
-
     scale = natural_scale(problem)
-    reference = {"main": _references(problem)}
+    reference = {"main": references(problem)}
     if seg is not None:
         # the second stage's minimum depends on the first stage's values: per run, in run.info
-        reference["first"] = _references(seg.first_problem)
-    val_W = {label: [(check_dataset(ds, model), None) for ds in sets] for label, sets in val.items()}
-    val_W = {label: [(ds, base_regressor(model, terms, base, ds)) for ds, _ in items] for label, items in val_W.items()}
-    plan = [(m, None) if m in DETERMINISTIC else (m, s) for m in methods for s in
-            ([None] if m in DETERMINISTIC else seed_list)]
+        reference["first"] = references(seg.first_problem)
+    val_W = {label: [(ds, base_regressor(model, terms, base, ds)) for ds in (check_dataset(d, model) for d in sets)]
+             for label, sets in st.validation.items()}
+    jobs = [(m, s, settings_for(m, s)) for m in methods
+            for s in ([None] if ESTIMATORS[m].deterministic else seed_list)]
     runs: dict[str, list[Run]] = {m: [] for m in methods}
-    bar = progress(len(plan), "compare", enabled=show_progress)
-    try:
-        for m, s in plan:
-            bar.set_description(f"{m}" + ("" if s is None else f" seed {s}"))
-            settings = settings_for(m, s)
-            if seg is not None:
-                est = Segmental(m, settings)
-                target = seg
-            else:
-                est = make_estimator(m, **settings)
-                target = problem
-                problem.__dict__.pop("_compressed", None)  # each run's time includes its compression
-            t0 = time.perf_counter()
-            est.fit(target)
-            seconds = time.perf_counter() - t0
-            res = make_result(problem, est, seconds, complete=complete)
-            validation = {}
-            for label, items in val_W.items():
-                tau = np.concatenate([ds.tau for ds, _ in items])
-                pred = np.concatenate([(Wb @ res.base).reshape(ds.n, model.nv) for ds, Wb in items])
-                validation[label] = torque_metrics(tau, pred, model.joint_names).to_dict()
-            hist_first = None
-            info: dict = {}
-            if seg is not None:
-                st = res.info.get("segmental", {})
-                hist_first = (st.get("first_stage") or {}).get("history")
-                info["segmental"] = {k: v for k, v in st.items() if k not in ("first_stage", "second_stage")}
-                for stage in ("first_stage", "second_stage"):
-                    d = st.get(stage) or {}
-                    info[stage] = {k: d[k] for k in ("seconds", "fitness_value", "ls_fitness", "min_fitness", "message",
-                                                     "iterations", "nfev", "box", "at_bound") if k in d}
-            else:
-                info = {k: res.info[k] for k in ("fitness", "fitness_value", "ls_fitness", "min_fitness", "message",
-                                                 "iterations", "nfev", "box", "at_bound") if k in res.info}
-            if issubclass(ESTIMATORS[m], Metaheuristic):
-                info["fitness"] = settings.get("fitness", "sse")
-            if "not_realisable" in res.info:
-                info["not_realisable"] = res.info["not_realisable"]
-            runs[m].append(Run(
-                method=m, seed=s, base=res.base.copy(), seconds=seconds, train=res.train.to_dict(),
-                costs=training_costs(problem, res.base), validation=validation,
-                parameter_error=None if truth_x is None else parameter_errors(res.base, truth_x, scale, names),
-                history=None if res.history is None else [float(h) for h in res.history],
-                history_first=None if hist_first is None else [float(h) for h in hist_first],
-                physically_consistent=res.physically_consistent, standard_source=res.standard_source or "",
-                info=info))
-            bar.update(1)
-    finally:
-        bar.close()
-    settings_out = {"metaheuristic": {k: v for k, v in meta.items() if k != "progress"}, "options": options, "terms": terms.names,
+    for fit in run_jobs(st, jobs, complete=complete, show_progress=show_progress, label="compare"):
+        runs[fit.method].append(_run_of(fit, problem, val_W, truth_x, scale, seg is not None))
+    settings_out = {"metaheuristic": {k: v for k, v in meta.items() if k != "progress"}, "options": options,
+                    "terms": terms.names,
                     "rest_velocity": rest_velocity if isinstance(rest_velocity, str) else np.asarray(rest_velocity).tolist()}
     return Comparison(
-        robot=_robot_dict(model, terms), base_names=names, nominal=problem.nominal_base.copy(), truth=truth_x,
+        robot=robot_to_dict(model, terms), base_names=names, nominal=problem.nominal_base.copy(), truth=truth_x,
         methods=methods, seeds=seed_list, runs=runs, reference=reference, data=problem.summary(),
-        validation_sources={label: [ds.source for ds in sets] for label, sets in val.items()},
+        validation_sources={label: [ds.source for ds in sets] for label, sets in st.validation.items()},
         settings=settings_out,
         segmental=None if seg is None else {"first_joints": seg.first_joints, "first_sources": seg.first_problem.sources,
                                             "first_rows": seg.first_problem.rows},
         seconds=time.perf_counter() - t_start,
     )
+
+
+_INFO_KEYS = ("fitness", "fitness_value", "ls_fitness", "min_fitness", "message", "iterations", "nfev", "box", "at_bound")
+
+
+def _run_of(fit: Fit, problem, val_W: dict, truth_x, scale, segmental: bool) -> Run:
+    """The measures of one fitted job (:class:`Run`)."""
+    res, model = fit.result, problem.model
+    validation = {}
+    for label, items in val_W.items():
+        tau = np.concatenate([ds.tau for ds, _ in items])
+        pred = np.concatenate([(Wb @ res.base).reshape(ds.n, model.nv) for ds, Wb in items])
+        validation[label] = torque_metrics(tau, pred, model.joint_names).to_dict()
+    hist_first = None
+    info: dict = {}
+    if segmental:
+        st = res.info.get("segmental", {})
+        hist_first = (st.get("first_stage") or {}).get("history")
+        info["segmental"] = {k: v for k, v in st.items() if k not in ("first_stage", "second_stage")}
+        for stage in ("first_stage", "second_stage"):
+            d = st.get(stage) or {}
+            info[stage] = {k: d[k] for k in ("seconds",) + _INFO_KEYS[1:] if k in d}
+    else:
+        info = {k: res.info[k] for k in _INFO_KEYS if k in res.info}
+    if issubclass(ESTIMATORS[fit.method], Metaheuristic):
+        info["fitness"] = fit.settings.get("fitness", "sse")
+    if "not_realisable" in res.info:
+        info["not_realisable"] = res.info["not_realisable"]
+    names = problem.names
+    return Run(
+        method=fit.method, seed=fit.seed, base=res.base.copy(), seconds=fit.seconds, train=res.train.to_dict(),
+        costs=training_costs(problem, res.base), validation=validation,
+        parameter_error=None if truth_x is None else parameter_errors(res.base, truth_x, scale, names),
+        history=None if res.history is None else [float(h) for h in res.history],
+        history_first=None if hist_first is None else [float(h) for h in hist_first],
+        physically_consistent=res.physically_consistent, standard_source=res.standard_source or "", info=info)

@@ -26,9 +26,13 @@ import numpy as np
 import pinocchio as pin
 
 from pinid.errors import ModelError, SpecError
-from pinid.model.robot import RobotModel
+from pinid.io import read_json, write_json
 from pinid.model import terms as _terms
+from pinid.model.export import identified_urdf
+from pinid.model.physical import check_consistency
 from pinid.model.regressor import JointTerms, parameter_names
+from pinid.model.robot import RobotModel
+from pinid.model.serialize import robot_from_dict, robot_to_dict
 
 _FORMAT = "pinid.identified_model"
 
@@ -63,8 +67,6 @@ class IdentifiedModel:
         self.pin_model: pin.Model = self.robot.pin_model
         self.pin_data = self.pin_model.createData()
         if physically_consistent is None:
-            from pinid.model.physical import check_consistency
-
             physically_consistent = check_consistency(theta, robot.joint_names, terms.names, robot.motor_names).consistent
         self.physically_consistent = bool(physically_consistent)
         self.meta = dict(meta or {})
@@ -154,14 +156,12 @@ class IdentifiedModel:
     # ---------------------------------------------------------------- files
     def to_dict(self) -> dict:
         """Plain-dict form with the URDF text, so that :meth:`from_dict` needs no other file."""
-        from pinid import __version__
+        from pinid import __version__  # the package's own attribute: set after its submodules load
 
         r = self.nominal_robot
         return {
             "format": _FORMAT, "version": 1, "pinid_version": __version__,
-            "robot": {"name": r.name, "urdf": None if r.urdf_path is None else str(r.urdf_path),
-                      "joints": r.joint_names, "locked": dict(r.locked), "terms": self.terms.names,
-                      "urdf_text": r.urdf_text},
+            "robot": robot_to_dict(r, self.terms),
             "standard_parameters": self.standard_parameters,
             "physically_consistent": self.physically_consistent,
             "meta": self.meta,
@@ -170,11 +170,9 @@ class IdentifiedModel:
     @classmethod
     def from_dict(cls, d: dict) -> "IdentifiedModel":
         """Inverse of :meth:`to_dict`."""
-        from pinid.identification.core import _robot_from_dict
-
         if d.get("format") != _FORMAT:
             raise SpecError(f"not an identified model (format {d.get('format')!r}, expected {_FORMAT!r})")
-        robot, terms = _robot_from_dict(d["robot"])
+        robot, terms = robot_from_dict(d["robot"])
         names = parameter_names(robot, terms)
         values = d["standard_parameters"]
         missing = [n for n in names if n not in values]
@@ -185,21 +183,15 @@ class IdentifiedModel:
 
     def save(self, path: str | os.PathLike) -> Path:
         """Write as JSON (atomically)."""
-        from pinid.io import write_json
-
         return write_json(path, self.to_dict())
 
     @classmethod
     def load(cls, path: str | os.PathLike) -> "IdentifiedModel":
         """Read a JSON file written by :meth:`save` (or by ``pinid identify``: ``model_<method>.json``)."""
-        from pinid.io import read_json
-
         return cls.from_dict(read_json(path, "identified model"))
 
     def export_urdf(self, path: str | os.PathLike | None = None, *, force: bool = False) -> str:
         """The identified URDF text (see :func:`pinid.model.export.identified_urdf`); written to ``path`` when given."""
-        from pinid.model.export import identified_urdf
-
         return identified_urdf(self.nominal_robot, self.theta, self.terms, path, force=force,
                                comment=f"method {self.meta.get('method', '?')}")
 

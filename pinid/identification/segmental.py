@@ -20,13 +20,13 @@ first group's contribution.  It needs the first joints' torques not to depend on
 parameters — true when the first joints are the distal ones of a serial chain (checked).
 
 Every estimator of :data:`pinid.estimators.ESTIMATORS` works on the stages' sub-problems
-(:class:`SubProblem`), except the LMI method, which needs the full standard parameters: its segmental
-form is done here (:func:`_sdp_stage`): stage one finds a physically consistent θ whose first-group
+(:class:`SubProblem`), except those that fit the full standard parameters (``fits_standard``: the LMI
+method), which run each stage themselves (``fit_stage``): stage one finds a physically consistent θ whose first-group
 base parameters fit the first joints' rows; stage two a consistent θ whose first-group base parameters
 *equal* the first stage's and whose others fit the second rows — so the final θ is consistent and
 reproduces both stages.
 
-The combined base vector is wrapped by :func:`pinid.identification.core.make_result` on the second
+The combined base vector is wrapped by :func:`pinid.identification.result.make_result` on the second
 recordings' full problem (standard deviations, consistency check or completion, training metrics
 over both joints of the second recordings).
 """
@@ -42,10 +42,14 @@ import numpy as np
 from pinid.model.base import BaseParameters, base_parameters
 from pinid.data.dataset import Dataset
 from pinid.errors import DataError, SpecError
-from pinid.estimators.base import Estimator, augmented_r
-from pinid.identification.core import (REST_FRACTION, IdentificationProblem, IdentificationResult, check_dataset,
-                             make_result, rest_threshold, stack_rows)
+from pinid.estimators import ESTIMATORS, make_estimator
+from pinid.estimators.base import Estimator
+from pinid.identification.problem import (REST_FRACTION, IdentificationProblem, check_dataset, load_datasets,
+                                          rest_threshold, stack_rows)
+from pinid.identification.result import IdentificationResult, make_result
+from pinid.linalg import augmented_r
 from pinid.model.robot import RobotModel
+from pinid.model.physical import parameter_scale
 from pinid.model.regressor import JointTerms, standard_parameters
 
 
@@ -54,9 +58,10 @@ from pinid.model.regressor import JointTerms, standard_parameters
 class SubProblem:
     """Some rows and some base-parameter columns of a stacked problem, with a known torque subtracted.
 
-    It offers what base-only estimators use (``W``, ``tau``, ``weights``, ``joint``, ``sample``, ``nb``,
-    ``nv``, ``rows``, ``names``, ``nominal_base``, ``natural_scale``, ``compressed()``, ``model``,
-    ``terms``), not ``base`` (the map to standard parameters belongs to the full problem).
+    It is a :class:`~pinid.identification.problem.Problem` (what base-only estimators use: ``W``, ``tau``,
+    ``weights``, ``joint``, ``sample``, ``nb``, ``nv``, ``rows``, ``names``, ``nominal_base``,
+    ``natural_scale``, ``compressed()``, ``model``, ``terms``), without ``base`` (the map to standard
+    parameters belongs to the full problem).
     """
 
     model: RobotModel
@@ -99,8 +104,6 @@ class SubProblem:
 
 
 def _natural_scale(model: RobotModel, terms: JointTerms, base: BaseParameters) -> np.ndarray:
-    from pinid.model.physical import parameter_scale
-
     return np.abs(base.P) @ parameter_scale(standard_parameters(model, terms), model.nv, len(terms))
 
 
@@ -127,7 +130,7 @@ class SegmentalProblem:
 
     ``first``: recordings with the other joints held fixed (seed 000: hip fixed, knee swinging);
     ``second``: recordings with every joint moving; ``first_joints``: the joints identified first.
-    ``problem`` is the full :class:`~pinid.identification.core.IdentificationProblem` of ``second`` (what the
+    ``problem`` is the full :class:`~pinid.identification.problem.IdentificationProblem` of ``second`` (what the
     result is reported on); ``first_problem`` the first stage's :class:`SubProblem`.
     """
 
@@ -216,8 +219,6 @@ class Segmental(Estimator):
 
     @property
     def description(self) -> str:  # type: ignore[override]
-        from pinid.estimators import ESTIMATORS
-
         cls = ESTIMATORS.get(self.method)
         return f"{cls.description if cls else self.method} — segmental (seed 000 §3.1)"
 
@@ -227,17 +228,18 @@ class Segmental(Estimator):
     def fit(self, seg: SegmentalProblem) -> "Segmental":
         """Identify the ``first_joints``' parameters on the ``first`` recordings, subtract their torque from the
         ``second`` recordings, then identify the rest there (seed 000 §3.1); sets ``base_``."""
-        from pinid.estimators import make_estimator
-
         if not isinstance(seg, SegmentalProblem):
             raise SpecError("Segmental.fit expects a SegmentalProblem")
         settings = dict(self.settings or {})
         t0 = time.perf_counter()
-        if self.method == "sdp":
-            theta1, info1 = _sdp_stage(seg, 1, None, **settings)
+        if ESTIMATORS[self.method].fits_standard:  # stages on the full standard parameters (the LMI method)
+            est = make_estimator(self.method, **settings)
+            theta1, info1 = est.fit_stage(seg.problem, seg.first_problem, seg.first_cols,
+                                          what="segmental sdp stage 1")
             x1 = (seg.base.P @ theta1)[seg.first_cols]
             t1 = time.perf_counter()
-            theta, info2 = _sdp_stage(seg, 2, x1, **settings)
+            theta, info2 = est.fit_stage(seg.problem, seg.second_problem(x1), seg.second_cols,
+                                         fixed=(seg.first_cols, x1), what="segmental sdp stage 2")
             x = seg.base.P @ theta
             x[seg.first_cols] = x1  # equal to the solver's precision; keep the first stage's exact values
             self.standard_ = theta
@@ -274,53 +276,6 @@ def _json_info(info: dict | None) -> dict:
     return {k: v for k, v in dict(info or {}).items() if k not in ("history",)}
 
 
-def _sdp_stage(seg: SegmentalProblem, stage: int, x_first, *, regularization: float = 1e-3, margin: float = 1e-8,
-               mass_bounds=None, solver: str = "CLARABEL", solver_options: dict | None = None,
-               weighting: str = "none") -> tuple[np.ndarray, dict]:
-    """One stage of the segmental LMI method: a consistent θ (see the module text)."""
-    import cvxpy as cp
-
-    from pinid.errors import SolverError
-    from pinid.estimators.sdp import _clip_terms, _null_projector, _solve, consistency_constraints
-    from pinid.model.physical import check_consistency, parameter_scale
-
-    if weighting != "none":
-        raise SpecError("segmental sdp: only weighting='none'")
-    p = seg.problem
-    P = seg.base.P
-    nv, nt = p.nv, len(p.terms)
-    S = parameter_scale(p.nominal, nv, nt)
-    if stage == 1:
-        sub, cols = seg.first_problem, seg.first_cols
-    else:
-        sub, cols = seg.second_problem(x_first), seg.second_cols
-    R, c, rho, colscale = sub.compressed()
-    norm_y = float(np.sqrt(c @ c + rho * rho)) or 1.0
-    G = (R * colscale) @ P[cols] * S / norm_y
-    g = c / norm_y
-    z = cp.Variable(P.shape[1])
-    cost = cp.norm(G @ z - g)
-    seen = P[cols] if stage == 1 else P
-    N = _null_projector(seen * S) if regularization > 0 else None
-    if N is not None:
-        cost = cost + float(regularization) * cp.norm(N @ (z - p.nominal / S))
-    cons = consistency_constraints(z, p, S, margin, mass_bounds)
-    if stage == 2:
-        A = P[seg.first_cols] * S
-        rs = np.maximum(np.abs(A).sum(axis=1), 1e-300)
-        cons.append((A / rs[:, None]) @ z == np.asarray(x_first, float) / rs)
-    prob = cp.Problem(cp.Minimize(cost), cons)
-    status = _solve(prob, solver, solver_options, f"segmental sdp stage {stage}")
-    if z.value is None:
-        raise SolverError(f"segmental sdp stage {stage}: status '{status}' without a solution")
-    theta = _clip_terms(np.asarray(z.value, float) * S, p)
-    report = check_consistency(theta, p.model.joint_names, p.terms.names, p.model.motor_names)
-    if not report.consistent:
-        raise SolverError(f"segmental sdp stage {stage}: status '{status}' but the result is not physically "
-                          f"consistent ({'; '.join(report.problems)})")
-    return theta, {"status": status, "rows": sub.rows}
-
-
 # ============================================================================================ the API
 def segmental_identify(model: RobotModel | str, first, second, *, method: str = "ols",
                        first_joints: Sequence[str] = ("knee",), settings: dict | None = None,
@@ -330,15 +285,13 @@ def segmental_identify(model: RobotModel | str, first, second, *, method: str = 
 
     ``first``: recording(s) with only ``first_joints`` moving (seed 000: trajectory 1, hip fixed);
     ``second``: recording(s) with every joint moving (trajectory 3).  Recordings without ``dq``/``ddq``
-    are prepared (:func:`pinid.identification.core.prepare_dataset`).  The result's training metrics are over
+    are prepared (:func:`pinid.identification.problem.prepare_dataset`).  The result's training metrics are over
     the second recordings' rows (both joints); ``info["segmental"]`` describes the stages.
     """
-    from pinid.identification.core import _load_data
-
     if not isinstance(model, RobotModel):
         model = RobotModel.from_urdf(model)
-    first_sets = _load_data(first, model, None, preprocess, "first-stage")
-    second_sets = _load_data(second, model, None, preprocess, "second-stage")
+    first_sets = load_datasets(first, model, None, preprocess, "first-stage")
+    second_sets = load_datasets(second, model, None, preprocess, "second-stage")
     seg = SegmentalProblem(model, first_sets, second_sets, first_joints=first_joints, terms=terms,
                            rest_velocity=rest_velocity)
     est = Segmental(method, settings)

@@ -5,19 +5,21 @@ from __future__ import annotations
 
 import numpy as np
 
+from pinid.estimators import ESTIMATORS
 from pinid.report.figures import new_figure
 from pinid.report.plot_identification import error_bars
 
-_COLORS = {"ols": "black", "wls": "grey", "sdp": "tab:green", "rls": "tab:brown", "pso": "tab:blue",
-           "rls-pso": "tab:cyan", "woa": "tab:orange", "ewoa": "tab:red", "de": "tab:purple"}
 
 
 def _color(method: str, k: int) -> str:
-    return _COLORS.get(method, f"C{k % 10}")
+    cls = ESTIMATORS.get(method)
+    return cls.colour if cls is not None and cls.colour else f"C{k % 10}"
 
 
-#: Methods whose history is not a best-fitness curve (WLS: its passes; RLS: a-priori error per tenth of the rows).
-_NO_CONVERGENCE = ("wls", "rls")
+def _converges(method: str) -> bool:
+    """Whether the method's history is a best-fitness curve (WLS: its passes; RLS: an error along the rows)."""
+    cls = ESTIMATORS.get(method)
+    return cls is not None and cls.history == "fitness"
 
 
 def convergence(comparison, *, stage: str = "main", ax=None, title: str | None = None, excess: bool = True):
@@ -37,7 +39,7 @@ def convergence(comparison, *, stage: str = "main", ax=None, title: str | None =
     ls_excess = []
     drawn = 0
     for k, (m, runs) in enumerate(comparison.runs.items()):
-        if m in _NO_CONVERGENCE:
+        if not _converges(m):
             continue
         color = _color(m, k)
         curves = []
@@ -143,7 +145,7 @@ def parameter_errors(comparison, *, ax=None, title: str | None = None):
 def comparison_figures(comparison) -> dict:
     """All figures of a comparison, ``{file name: figure}`` (``compare_*.png``)."""
     figs = {}
-    if any(m not in _NO_CONVERGENCE and r.history and len(r.history) > 2
+    if any(_converges(m) and r.history and len(r.history) > 2
            for m, runs in comparison.runs.items() for r in runs):
         figs["compare_convergence.png"] = convergence(
             comparison, title="convergence" + (" (second stage)" if comparison.segmental else ""))

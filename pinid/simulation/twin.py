@@ -44,13 +44,14 @@ true velocity plus Gaussian ``velocity_noise`` [rad/s].  Everything random comes
 from __future__ import annotations
 
 import math
+import warnings
 from typing import Sequence
 
 import numpy as np
 import pinocchio as pin
 
 from pinid.data.dataset import Dataset
-from pinid.errors import DataError, SpecError
+from pinid.errors import DataError, DataWarning, SpecError
 from pinid.model.robot import RobotModel
 from pinid.excitation.trajectory import FourierTrajectory
 
@@ -321,10 +322,6 @@ def simulate(
     vmax = model.velocity_limit
     over = np.flatnonzero(np.max(np.abs(dqd), axis=0) > vmax * (1 + 1e-9))
     if over.size:
-        import warnings
-
-        from pinid.data.formats import DataWarning
-
         j = int(over[0])
         warnings.warn(f"trajectory reaches {np.max(np.abs(dqd[:, j])):.3g} rad/s on joint '{model.joint_names[j]}', "
                       f"above its URDF velocity limit {vmax[j]:.3g} rad/s (simulated anyway)", DataWarning, stacklevel=2)

@@ -1,0 +1,437 @@
+"""The identification problem: recordings stacked into what every estimator takes, and its statistics.
+
+:class:`IdentificationProblem` stacks one or more :class:`~pinid.data.dataset.Dataset` into the base
+regressor ``W`` (rows × nb), the torques ``tau``, each row's joint and sample, row weights, the
+base-parameter map and the nominal standard parameters.  :func:`base_statistics` gives the standard
+deviations and condition numbers of a fit.  Estimators (:mod:`pinid.estimators`) take any object of
+the :class:`Problem` protocol — this class or a segmental stage's
+:class:`~pinid.identification.segmental.SubProblem`.
+
+Coulomb friction near rest
+--------------------------
+When a joint is nearly at rest, sign(dq) flips with velocity noise and the Coulomb column says
+±1 at random; in reality the joint is in stiction and its friction torque is anywhere in
+[−fc, fc].  Such rows carry no usable information about the model and bias the fit, so — when
+the Coulomb term is in the model — the *row of that joint* at that sample (row ``k·nv + j``) is
+dropped from the fit; the other joints' rows of the same sample stay.  The threshold per joint is
+
+    v_rest_j = max(rest_fraction · max_k |dq_j|,  3 · σ̂_v,j)
+
+with ``rest_fraction = 0.02`` and σ̂_v,j the velocity noise estimated from the data (the robust
+standard deviation of the second difference of dq_j divided by √6, exact for white noise on a smooth
+signal).  ``rest_velocity`` overrides it (a number or one per joint [rad/s]; 0 keeps every row).
+Training metrics are over the rows used in the fit; validation metrics are over every sample.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+from typing import Mapping, Protocol, Sequence, runtime_checkable
+
+import numpy as np
+import scipy.linalg
+
+from pinid.data.dataset import Dataset
+from pinid.data.formats import read_recording
+from pinid.errors import DataError, SpecError
+from pinid.linalg import RANK_TOL, augmented_r
+from pinid.model.base import BaseParameters, base_parameters
+from pinid.model.physical import parameter_scale
+from pinid.model.regressor import JointTerms, regressor, standard_parameters
+from pinid.model.robot import RobotModel
+from pinid.progress import progress
+
+#: Default fraction of a joint's largest speed below which its row counts as "at rest".
+REST_FRACTION = 0.02
+_CHUNK = 20_000  # samples per regressor chunk (bounds memory of the full standard regressor)
+
+
+@runtime_checkable
+class Problem(Protocol):
+    """What an estimator's ``fit`` may use: stacked rows of a linear-in-parameters torque model.
+
+    :class:`IdentificationProblem` has all of it (and ``base``, the map to standard parameters, which
+    only estimators of the standard parameters need); a segmental stage's
+    :class:`~pinid.identification.segmental.SubProblem` has the rest.
+    """
+
+    model: RobotModel
+    terms: JointTerms
+    W: np.ndarray
+    tau: np.ndarray
+    joint: np.ndarray
+    sample: np.ndarray
+    weights: np.ndarray
+
+    @property
+    def nv(self) -> int: ...
+
+    @property
+    def nb(self) -> int: ...
+
+    @property
+    def rows(self) -> int: ...
+
+    @property
+    def names(self) -> list[str]: ...
+
+    @property
+    def nominal_base(self) -> np.ndarray: ...
+
+    @property
+    def natural_scale(self) -> np.ndarray: ...
+
+    def compressed(self, weights: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, float, np.ndarray]: ...
+
+
+@dataclass
+class IdentificationProblem:
+    """What an estimator is given.  Rows are stacked sample-major (row of joint ``joint[r]`` at ``sample[r]``).
+
+    ``W``        (rows, nb) base regressor: ``W @ base ≈ tau`` [N·m]
+    ``tau``      (rows,) measured joint torques [N·m]
+    ``joint``    (rows,) index of each row's joint in ``model.joint_names``
+    ``sample``   (rows,) index of each row's sample in the concatenated recordings
+    ``weights``  (rows,) row weights (ones unless given); OLS minimises Σ w·r²
+    ``base``     the :class:`~pinid.model.base.BaseParameters` map (``base.P @ θ_standard``)
+    ``nominal``  (p,) the URDF's standard parameters (inertias, ``<dynamics>`` friction)
+    """
+
+    model: RobotModel
+    terms: JointTerms
+    base: BaseParameters
+    W: np.ndarray
+    tau: np.ndarray
+    joint: np.ndarray
+    sample: np.ndarray
+    weights: np.ndarray
+    nominal: np.ndarray
+    samples: int = 0
+    rest_velocity: np.ndarray | None = None
+    dropped: np.ndarray | None = None
+    sources: list[str] = field(default_factory=list)
+    sample_rates: list[float] = field(default_factory=list)
+    peak_velocity: np.ndarray | None = None
+
+    # ---------------------------------------------------------------- sizes and names
+    @property
+    def nv(self) -> int:
+        """Number of joints."""
+        return self.model.nv
+
+    @property
+    def nb(self) -> int:
+        """Number of base parameters."""
+        return self.base.count
+
+    @property
+    def rows(self) -> int:
+        """Number of torque rows used."""
+        return len(self.tau)
+
+    @property
+    def names(self) -> list[str]:
+        """Names of the base parameters."""
+        return list(self.base.names)
+
+    @property
+    def standard_names(self) -> list[str]:
+        """Names of the standard parameters."""
+        return list(self.base.standard_names)
+
+    @property
+    def nominal_base(self) -> np.ndarray:
+        """The nominal (URDF) base parameters."""
+        return self.base.from_standard(self.nominal)
+
+    @property
+    def natural_scale(self) -> np.ndarray:
+        """Natural magnitude of every base parameter (nb,): ``|P|·s`` with ``s`` = per body M, M·L, M·L²
+        (:func:`pinid.model.physical.parameter_scale`, from the nominal parameters) and 1 for joint terms."""
+        return np.abs(self.base.P) @ parameter_scale(self.nominal, self.nv, len(self.terms))
+
+    def summary(self) -> dict:
+        """Plain-dict description of the data used."""
+        joints = self.model.joint_names
+        return {
+            "sources": list(self.sources),
+            "samples": int(self.samples),
+            "rows": int(self.rows),
+            "sample_rates_hz": [None if not np.isfinite(r) else float(r) for r in self.sample_rates],
+            "rest_velocity": None if self.rest_velocity is None else
+            {j: float(v) for j, v in zip(joints, self.rest_velocity)},
+            "rows_dropped_at_rest": None if self.dropped is None else
+            {j: int(v) for j, v in zip(joints, self.dropped)},
+        }
+
+    # ---------------------------------------------------------------- construction
+    @classmethod
+    def from_datasets(
+        cls,
+        model: RobotModel,
+        datasets: Dataset | Sequence[Dataset],
+        *,
+        terms: JointTerms = JointTerms(),
+        base: BaseParameters | None = None,
+        rest_velocity: float | Sequence[float] | str | None = "auto",
+        rest_fraction: float = REST_FRACTION,
+        weights: np.ndarray | None = None,
+        show_progress: bool | None = False,
+    ) -> "IdentificationProblem":
+        """Stack recordings with ``q, dq, ddq, tau`` into a problem (see the module text on rest).
+
+        Raises DataError for missing joints or columns, NaN, too few rows for the number of base
+        parameters, and a rank-deficient regressor (naming the parameters the data do not excite).
+        """
+        if isinstance(datasets, Dataset):
+            datasets = [datasets]
+        datasets = list(datasets)
+        if not datasets:
+            raise DataError("no recording given, expected at least one training recording")
+        base = base if base is not None else base_parameters(model, terms)
+        prepared = [check_dataset(ds, model) for ds in datasets]
+        nv = model.nv
+        thresholds = [rest_threshold(ds, model, terms, rest_velocity, rest_fraction) for ds in prepared]
+        total = sum(ds.n for ds in prepared)
+        bar = progress(total, "regressor", enabled=show_progress)
+        try:
+            W, tau, joint, sample = stack_rows(model, terms, base, prepared, thresholds, bar=bar)
+        finally:
+            bar.close()
+        dropped = np.array([total - int(np.sum(joint == j)) for j in range(nv)])
+        if weights is None:
+            w = np.ones(len(tau))
+        else:
+            w = np.asarray(weights, dtype=float).reshape(-1)
+            if w.shape != (total * nv,):
+                raise DataError(f"weights: {w.shape[0]} values, expected one per torque row ({total * nv})")
+            w = w[np.concatenate([(np.abs(ds.dq) >= thr).reshape(-1) for ds, thr in zip(prepared, thresholds)])]
+            if np.any(~np.isfinite(w)) or np.any(w < 0):
+                raise DataError("weights: expected finite non-negative numbers")
+        problem = cls(model, terms, base, W, tau, joint, sample, w, standard_parameters(model, terms),
+                      samples=total, rest_velocity=np.max(thresholds, axis=0), dropped=dropped,
+                      sources=[ds.source for ds in prepared], sample_rates=[ds.sample_rate for ds in prepared],
+                      peak_velocity=np.max([np.abs(ds.dq).max(axis=0) for ds in prepared], axis=0))
+        problem.check()
+        return problem
+
+    def check(self) -> None:
+        """DataError when there are too few rows or the data do not excite every base parameter."""
+        nb, rows = self.nb, self.rows
+        joints = self.model.joint_names
+        hints = []
+        if self.peak_velocity is not None:
+            still = [j for j, v in zip(joints, self.peak_velocity) if v <= 1e-9]
+            if still:
+                hints.append(f"joint(s) {', '.join(still)} at rest in every sample")
+        if self.dropped is not None and self.samples:
+            rest = [j for j, d, v in zip(joints, self.dropped, self.peak_velocity if self.peak_velocity is not None
+                                         else np.ones(len(joints))) if d > 0.5 * self.samples and v > 1e-9]
+            if rest:
+                hints.append(f"joint(s) {', '.join(rest)} at rest in most samples (rows dropped for Coulomb friction, "
+                             "see rest_velocity)")
+        hint = "; " + "; ".join(hints) if hints else ""
+        if rows <= nb:
+            raise DataError(f"{', '.join(self.sources)}: {rows} torque rows ({self.samples} samples × {self.nv} joints, "
+                            f"after dropping rows at rest) for {nb} base parameters; need more rows than parameters"
+                            + hint)
+        norms = np.sqrt(np.einsum("ij,ij,i->j", self.W, self.W, self.weights))
+        zero = np.flatnonzero(norms <= 1e-12 * max(norms.max(), 1e-300))
+        if zero.size:
+            names = [self.names[i] for i in zero]
+            raise DataError(f"{', '.join(self.sources)}: rank-deficient regressor, the data do not excite "
+                            f"{', '.join(names)} (their columns are zero){hint}")
+        R = self.compressed()[0]
+        # pivoted QR of R reveals the rank of the tall (column-scaled) regressor: RᵀR = AᵀA
+        _, R2, piv = scipy.linalg.qr(R, pivoting=True)
+        d = np.abs(np.diag(R2))
+        rank = int(np.sum(d > RANK_TOL * d[0]))
+        if rank < nb:
+            names = [self.names[i] for i in piv[rank:]]
+            raise DataError(f"{', '.join(self.sources)}: rank-deficient regressor (rank {rank} < {nb} base parameters), "
+                            f"the data do not excite {', '.join(names)} independently of the others{hint}")
+
+    def compressed(self, weights: np.ndarray | None = None):
+        """``(R, c, rho, scale)`` of :func:`pinid.estimators.base.augmented_r` for ``weights`` (default
+        ``self.weights``) — one QR pass over the tall regressor, cached for the problem's own weights."""
+        if weights is not None and weights is not self.weights:
+            return augmented_r(self.W, self.tau, weights)
+        key = (id(self.W), id(self.tau), id(self.weights), self.W.shape)
+        cache = self.__dict__.get("_compressed")
+        if cache is None or cache[0] != key:
+            cache = (key, augmented_r(self.W, self.tau, self.weights))
+            self.__dict__["_compressed"] = cache
+        return cache[1]
+
+
+def check_dataset(ds: Dataset, model: RobotModel) -> Dataset:
+    """The recording in the model's joint order, checked: torques, dq, ddq present and finite."""
+    if not isinstance(ds, Dataset):
+        raise DataError(f"expected a pinid Dataset, got {type(ds).__name__}")
+    ds = ds.reorder(model.joint_names)
+    if ds.tau is None:
+        raise DataError(f"{ds.source}: no torque (tau) columns; identification needs measured joint torques")
+    for name in ("dq", "ddq"):
+        if getattr(ds, name) is None:
+            raise DataError(f"{ds.source}: no {name} columns; differentiate q first (pinid.data.preprocess.prepare, "
+                            "which identify() and `pinid identify` call for you)")
+    if ds.n == 0:
+        raise DataError(f"{ds.source}: no samples")
+    if not np.all(np.isfinite(ds.t)):
+        k = int(np.flatnonzero(~np.isfinite(ds.t))[0])
+        raise DataError(f"{ds.source}: time has NaN or infinite values (first at sample {k})")
+    for name in ("q", "dq", "ddq", "tau"):
+        a = getattr(ds, name)
+        bad = ~np.isfinite(a)
+        if bad.any():
+            k, j = (int(x) for x in np.argwhere(bad)[0])
+            raise DataError(f"{ds.source}: {name} of joint '{ds.joints[j]}' has {int(bad[:, j].sum())} NaN or "
+                            f"infinite value(s) (first at sample {k}, t = {ds.t[k]:.6g} s); clean or trim the recording")
+    return ds
+
+
+def rest_thresholds(dq: np.ndarray, fraction: float = REST_FRACTION) -> np.ndarray:
+    """Per joint: max(fraction·max|dq|, 3·σ̂_v) [rad/s], σ̂_v the velocity noise from the second difference."""
+    dq = np.asarray(dq, dtype=float)
+    peak = np.max(np.abs(dq), axis=0) if len(dq) else np.zeros(dq.shape[1])
+    if len(dq) >= 5:
+        d2 = np.diff(dq, 2, axis=0)
+        mad = np.median(np.abs(d2 - np.median(d2, axis=0)), axis=0)
+        noise = 1.4826 * mad / np.sqrt(6.0)
+    else:
+        noise = np.zeros(dq.shape[1])
+    return np.maximum(fraction * peak, 3.0 * noise)
+
+
+def rest_threshold(ds: Dataset, model: RobotModel, terms: JointTerms, rest_velocity="auto",
+                   rest_fraction: float = REST_FRACTION) -> np.ndarray:
+    """Per joint, the speed [rad/s] below which a row of ``ds`` counts as at rest and is left out (zeros
+    when Coulomb friction is not in the model or ``rest_velocity`` is 0/None; see the module text)."""
+    nv = model.nv
+    if not terms.coulomb or rest_velocity is None or (not isinstance(rest_velocity, str) and np.ndim(rest_velocity) == 0
+                                                      and float(rest_velocity) == 0.0):
+        return np.zeros(nv)
+    if isinstance(rest_velocity, str):
+        if rest_velocity != "auto":
+            raise SpecError(f"rest_velocity={rest_velocity!r}, expected 'auto', a number or one per joint")
+        return rest_thresholds(ds.dq, rest_fraction)
+    v = np.asarray(rest_velocity, dtype=float).reshape(-1)
+    if v.size not in (1, nv):
+        raise SpecError(f"rest_velocity={rest_velocity!r}: {v.size} values, expected one or one per joint "
+                        f"({nv}: {', '.join(model.joint_names)})")
+    v = np.broadcast_to(v, (nv,)).copy()
+    if np.any(~np.isfinite(v)) or np.any(v < 0):
+        raise SpecError(f"rest_velocity={rest_velocity!r}, expected non-negative numbers [rad/s]")
+    return v
+
+
+def stack_rows(model: RobotModel, terms: JointTerms, base: BaseParameters, datasets: Sequence[Dataset],
+               thresholds: Sequence[np.ndarray], *, bar=None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``(W_b, tau, joint, sample)`` of checked recordings stacked row ``k·nv + j``, without the rows whose
+    joint speed is below its threshold; ``sample`` counts on across recordings."""
+    nv = model.nv
+    Ws, taus, joints, samples = [], [], [], []
+    offset = 0
+    for ds, thr in zip(datasets, thresholds):
+        Wb = base_regressor(model, terms, base, ds, bar=bar)
+        keep = (np.abs(ds.dq) >= thr).reshape(-1) if np.any(thr > 0) else np.ones(ds.n * nv, bool)
+        Ws.append(Wb[keep])
+        taus.append(ds.tau.reshape(-1)[keep])
+        joints.append(np.tile(np.arange(nv), ds.n)[keep])
+        samples.append((offset + np.repeat(np.arange(ds.n), nv))[keep])
+        offset += ds.n
+    if len(Ws) == 1:
+        return Ws[0], taus[0], joints[0], samples[0]
+    return np.concatenate(Ws), np.concatenate(taus), np.concatenate(joints), np.concatenate(samples)
+
+
+def base_regressor(model: RobotModel, terms: JointTerms, base: BaseParameters, ds: Dataset, *, bar=None) -> np.ndarray:
+    """Stacked base regressor ``(N·nv, nb)`` of a checked recording, computed in chunks to bound memory."""
+    n = ds.n
+    out = np.empty((n * model.nv, base.count))
+    for start in range(0, n, _CHUNK):
+        stop = min(n, start + _CHUNK)
+        W = regressor(model, ds.q[start:stop], ds.dq[start:stop], ds.ddq[start:stop], terms)
+        np.take(W, base.independent, axis=1, out=out[start * model.nv: stop * model.nv])
+        if bar is not None:
+            bar.update(stop - start)
+    return out
+
+
+
+# ====================================================================== statistics
+def base_statistics(problem: Problem, base: np.ndarray, weights: np.ndarray | None = None
+                    ) -> tuple[np.ndarray, float, float]:
+    """``(std, condition_number, condition_number_scaled)`` of base parameters fitted with row ``weights``.
+
+    σ² = Σ w·r² / (rows − nb), cov = σ²·(Wᵀ diag(w) W)⁻¹; the condition numbers are those of
+    diag(√w)·W as it is and with unit-norm columns.
+    """
+    w = problem.weights if weights is None else weights
+    r = problem.tau - problem.W @ base
+    dof = max(problem.rows - problem.nb, 1)
+    sigma2 = float(np.sum(w * r * r)) / dof
+    R, _, _, scale = problem.compressed(weights)
+    try:
+        Rinv = scipy.linalg.solve_triangular(R, np.eye(len(R)))
+        std = np.sqrt(sigma2 * np.sum(Rinv**2, axis=1)) / scale
+    except (np.linalg.LinAlgError, ValueError):
+        std = np.full(problem.nb, np.inf)
+    s_scaled = np.linalg.svd(R, compute_uv=False)
+    s_raw = np.linalg.svd(R * scale, compute_uv=False)
+    cond = float(s_raw[0] / s_raw[-1]) if s_raw[-1] > 0 else float("inf")
+    cond_scaled = float(s_scaled[0] / s_scaled[-1]) if s_scaled[-1] > 0 else float("inf")
+    return std, cond, cond_scaled
+
+
+def least_norm_completion(problem: IdentificationProblem, base: np.ndarray) -> np.ndarray:
+    """The standard vector closest to the nominal one (in the scaled norm) with ``P·θ = base``."""
+    S = parameter_scale(problem.nominal, problem.nv, len(problem.terms))
+    A = problem.base.P * S
+    z0 = problem.nominal / S
+    dz = np.linalg.lstsq(A, base - A @ z0, rcond=None)[0]
+    return (z0 + dz) * S
+
+
+# ====================================================================== recordings
+def load_datasets(items, model: RobotModel, mapping=None, preprocess: Mapping | bool | None = None,
+                  what: str = "training") -> list[Dataset]:
+    """Recordings (Datasets or paths, one or several) read with ``mapping`` and prepared
+    (:func:`~pinid.identification.problem.prepare_dataset`); DataError when none is given."""
+    if items is None:
+        return []
+    if isinstance(items, (Dataset, str, os.PathLike)):
+        items = [items]
+    out = []
+    for item in items:
+        ds = item if isinstance(item, Dataset) else read_recording(item, mapping=mapping, model=model)
+        out.append(prepare_dataset(ds, preprocess))
+    if not out:
+        raise DataError(f"no {what} recording given")
+    return out
+
+
+def prepare_dataset(ds: Dataset, preprocess: Mapping | bool | None = None) -> Dataset:
+    """Fill ``dq`` and ``ddq`` when missing (pinid.data.preprocess.prepare with defaults from the sample rate).
+
+    ``preprocess``: None — prepare only recordings without ``dq`` or ``ddq``; a dict — always prepare,
+    with these options (``cutoff``, ``preset``, ``differentiation``, ``trim`` …); False — never.
+    """
+    needs = ds.dq is None or ds.ddq is None
+    if preprocess is False or (preprocess is None and not needs):
+        return ds
+    # scipy.signal is heavy: imported only when a recording is actually filtered
+    from pinid.data.preprocess import prepare
+
+    return prepare(ds, **dict(preprocess or {}))
+
+
+def predict_torque(model: RobotModel, terms: JointTerms, base: BaseParameters, ds: Dataset,
+                   values: np.ndarray | Mapping[str, np.ndarray]):
+    """Predicted torques ``(N, nv)`` [N·m] on a checked recording for base ``values`` (or a dict of them)."""
+    ds = check_dataset(ds, model)
+    Wb = base_regressor(model, terms, base, ds)
+    if isinstance(values, Mapping):
+        return {k: (Wb @ v).reshape(ds.n, model.nv) for k, v in values.items()}
+    return (Wb @ values).reshape(ds.n, model.nv)

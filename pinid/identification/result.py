@@ -1,0 +1,292 @@
+"""Identification results: one method's (:class:`IdentificationResult`), several methods' on the same data
+(:class:`Identification`), their JSON, and :func:`make_result`, which checks a fitted estimator and wraps it.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from pinid.errors import PinidError, SpecError
+from pinid.identification.identified import IdentifiedModel
+from pinid.identification.metrics import TorqueMetrics, torque_metrics
+from pinid.identification.problem import IdentificationProblem, base_statistics, least_norm_completion
+from pinid.io import jsonable, read_json, write_json
+from pinid.model.export import identified_urdf
+from pinid.model.lmi import consistent_completion
+from pinid.model.physical import check_consistency
+from pinid.model.regressor import JointTerms
+from pinid.model.robot import RobotModel
+from pinid.model.serialize import robot_from_dict, robot_to_dict
+
+
+@dataclass
+class IdentificationResult:
+    """One method's result.  Arrays follow ``base_names`` / ``standard_names``.
+
+    ``std``: standard deviations of the base parameters, σ² (WᵀW)⁻¹ with σ² = Σ w·r²/(rows − nb) and
+    the weights the method used; ``std_percent``: 100·std/|value| (inf for a zero value).
+    ``standard``: full standard parameters — the estimator's own (``standard_source = "estimator"``),
+    else the physically consistent set closest to the URDF that reproduces the base parameters
+    (``"consistent completion"``), else, when none exists, the least-squares completion closest to the
+    URDF (``"least-norm completion"``, inconsistent).  Any completion gives the same torques, mass
+    matrix, Coriolis and gravity, because those depend on the base parameters only.
+    ``physically_consistent``: the check of ``standard`` (:func:`pinid.model.physical.check_consistency`).
+    """
+
+    method: str
+    base_names: list[str]
+    base: np.ndarray
+    std: np.ndarray
+    standard_names: list[str]
+    standard: np.ndarray
+    standard_source: str
+    physically_consistent: bool
+    consistency: dict
+    condition_number: float
+    train: TorqueMetrics
+    seconds: float
+    validation: TorqueMetrics | None = None
+    settings: dict = field(default_factory=dict)
+    description: str = ""
+    status: str = "ok"
+    info: dict = field(default_factory=dict)
+    history: list | None = None
+    robot: dict | None = None
+    _robot_model: RobotModel | None = field(default=None, repr=False, compare=False)
+    _model_cache: object = field(default=None, repr=False, compare=False)
+
+    @property
+    def std_percent(self) -> np.ndarray:
+        """Relative standard deviations [%]."""
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return 100.0 * self.std / np.abs(self.base)
+
+    @property
+    def residual_rms(self) -> dict[str, float]:
+        """Training residual RMS per joint [N·m]."""
+        return {j: m["rms"] for j, m in self.train.per_joint.items()}
+
+    @property
+    def base_parameters(self) -> dict[str, float]:
+        """``{name: value}`` of the base parameters."""
+        return dict(zip(self.base_names, map(float, self.base)))
+
+    @property
+    def standard_parameters(self) -> dict[str, float]:
+        """``{name: value}`` of the standard parameters."""
+        return dict(zip(self.standard_names, map(float, self.standard)))
+
+    @property
+    def robot_model(self) -> RobotModel:
+        """The (nominal) RobotModel this result belongs to, rebuilt from the saved URDF text if needed."""
+        if self._robot_model is None:
+            if not self.robot:
+                raise SpecError("result has no robot description; cannot build its model")
+            self._robot_model, _ = robot_from_dict(self.robot)
+        return self._robot_model
+
+    @property
+    def model(self):
+        """The :class:`~pinid.identification.identified.IdentifiedModel` with these parameters (built once)."""
+        if self._model_cache is None:
+            terms = JointTerms.from_names(self.robot["terms"]) if self.robot else None
+            self._model_cache = IdentifiedModel(
+                self.robot_model, terms, self.standard, physically_consistent=self.physically_consistent,
+                meta={"method": self.method, "standard_source": self.standard_source})
+        return self._model_cache
+
+    def export_urdf(self, path: str | os.PathLike | None = None, *, force: bool = False) -> str:
+        """The identified URDF (see :func:`pinid.model.export.identified_urdf`); written to ``path`` when given."""
+        return identified_urdf(self.robot_model, self.standard, JointTerms.from_names(self.robot["terms"]), path,
+                               force=force, comment=f"method {self.method}")
+
+    def to_dict(self, *, include_robot: bool = True) -> dict:
+        """Plain-dict form (the entry of ``identification.json`` under ``methods``)."""
+        d = {
+            "method": self.method,
+            "description": self.description,
+            "settings": {k: (v if isinstance(v, (int, float, str, bool, type(None), dict, list, tuple)) else repr(v))
+                         for k, v in self.settings.items()},
+            "status": self.status,
+            "base_parameters": self.base_parameters,
+            "std": dict(zip(self.base_names, map(float, self.std))),
+            "std_percent": dict(zip(self.base_names, map(float, self.std_percent))),
+            "standard_parameters": self.standard_parameters,
+            "standard_source": self.standard_source,
+            "physically_consistent": bool(self.physically_consistent),
+            "consistency": self.consistency,
+            "condition_number": self.condition_number,
+            "residual_rms": self.residual_rms,
+            "train": self.train.to_dict(),
+            "validation": None if self.validation is None else self.validation.to_dict(),
+            "seconds": self.seconds,
+            "info": self.info,
+            "history": self.history,
+        }
+        if include_robot:
+            d["robot"] = self.robot
+        return jsonable(d)
+
+    @classmethod
+    def from_dict(cls, d: dict, *, robot: dict | None = None) -> "IdentificationResult":
+        """Inverse of :meth:`to_dict` (``robot``: the description when stored separately)."""
+        base_names = list(d["base_parameters"])
+        std_names = list(d["standard_parameters"])
+        num = (lambda v: float("nan") if v is None else float(v))
+        return cls(
+            method=d["method"], base_names=base_names,
+            base=np.array([num(d["base_parameters"][n]) for n in base_names]),
+            std=np.array([num(d["std"][n]) for n in base_names]),
+            standard_names=std_names, standard=np.array([num(d["standard_parameters"][n]) for n in std_names]),
+            standard_source=d["standard_source"], physically_consistent=bool(d["physically_consistent"]),
+            consistency=d.get("consistency") or {}, condition_number=num(d["condition_number"]),
+            train=TorqueMetrics.from_dict(d["train"]), seconds=float(d["seconds"]),
+            validation=None if d.get("validation") is None else TorqueMetrics.from_dict(d["validation"]),
+            settings=d.get("settings") or {}, description=d.get("description", ""), status=d.get("status", "ok"),
+            info=d.get("info") or {}, history=d.get("history"), robot=robot if robot is not None else d.get("robot"),
+        )
+
+    def save(self, path: str | os.PathLike) -> Path:
+        """Write as JSON (atomically), with the robot's URDF text so that :meth:`load` needs nothing else."""
+        return write_json(path, self.to_dict())
+
+    @classmethod
+    def load(cls, path: str | os.PathLike) -> "IdentificationResult":
+        """Read a JSON file written by :meth:`save`."""
+        return cls.from_dict(read_json(path, "identification result"))
+
+
+@dataclass
+class Identification:
+    """Results of several methods on the same data (what :func:`identify` returns).
+
+    ``results[method]`` is an :class:`IdentificationResult`; ``best`` names the one ``model`` uses: the
+    physically consistent result with the lowest validation RMS (training RMS without validation); if
+    none is consistent, the lowest RMS.  ``curves`` keeps the torque traces for plots (not saved).
+    """
+
+    robot: dict
+    results: dict[str, IdentificationResult]
+    data: dict
+    base: dict
+    validation_sources: list[str] = field(default_factory=list)
+    seconds: float = 0.0
+    curves: dict = field(default_factory=dict, repr=False, compare=False)
+
+    def __getitem__(self, method: str) -> IdentificationResult:
+        try:
+            return self.results[method]
+        except KeyError:
+            raise SpecError(f"no result for method '{method}' (methods run: {', '.join(self.results)})") from None
+
+    def __iter__(self):
+        return iter(self.results.values())
+
+    @property
+    def best(self) -> str:
+        """Name of the preferred result (see the class text).  Results within 0.1 % of the lowest RMS
+        count as equal; among those, one whose standard parameters come from the estimator itself (the
+        LMI method) wins, then the first in the order run."""
+        def score(r: IdentificationResult) -> float:
+            m = r.validation if r.validation is not None else r.train
+            v = m.all["rms"]
+            return v if np.isfinite(v) else np.inf
+
+        pool = [r for r in self.results.values() if r.physically_consistent] or list(self.results.values())
+        low = min(score(r) for r in pool)
+        close = [r for r in pool if score(r) <= low * 1.001 or score(r) == low]
+        close.sort(key=lambda r: 0 if r.standard_source == "estimator" else 1)
+        return close[0].method
+
+    @property
+    def model(self):
+        """The :class:`~pinid.identification.identified.IdentifiedModel` of the best result."""
+        return self.results[self.best].model
+
+    def to_dict(self) -> dict:
+        """The content of ``identification.json``."""
+        from pinid import __version__  # the package's own attribute: set after its submodules load
+
+        return jsonable({
+            "pinid_version": __version__,
+            "robot": self.robot,
+            "data": self.data,
+            "validation_sources": self.validation_sources,
+            "base": self.base,
+            "best": self.best if self.results else None,
+            "seconds": self.seconds,
+            "methods": {m: r.to_dict(include_robot=False) for m, r in self.results.items()},
+        })
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "Identification":
+        """Rebuild from :meth:`to_dict`'s output (a loaded ``identification.json``)."""
+        robot = d["robot"]
+        results = {m: IdentificationResult.from_dict(r, robot=robot) for m, r in d["methods"].items()}
+        return cls(robot, results, d.get("data") or {}, d.get("base") or {}, list(d.get("validation_sources") or []),
+                   float(d.get("seconds") or 0.0))
+
+    def save(self, path: str | os.PathLike) -> Path:
+        """Write ``identification.json`` (atomically)."""
+        return write_json(path, self.to_dict())
+
+    @classmethod
+    def load(cls, path: str | os.PathLike) -> "Identification":
+        """Read a file written by :meth:`save` (or ``pinid identify``)."""
+        d = read_json(path, "identification")
+        if "methods" not in d or "robot" not in d:
+            raise SpecError(f"{path}: not an identification file (no 'methods' or 'robot')")
+        return cls.from_dict(d)
+
+
+
+def make_result(problem: IdentificationProblem, estimator, seconds: float, *, complete: bool = True
+                ) -> IdentificationResult:
+    """Check a fitted estimator and wrap it as an :class:`IdentificationResult` (training metrics included)."""
+    base = np.asarray(estimator.base_, dtype=float)
+    if base.shape != (problem.nb,):
+        raise PinidError(f"{estimator.name}: base_ has shape {base.shape}, expected ({problem.nb},)")
+    info = dict(getattr(estimator, "info_", {}) or {})
+    std_names = problem.standard_names
+    theta = getattr(estimator, "standard_", None)
+    if not np.all(np.isfinite(base)):
+        raise PinidError(f"{estimator.name}: the estimate has NaN or infinite values")
+    if theta is not None:
+        theta = np.asarray(theta, dtype=float)
+        source = "estimator"
+        mismatch = np.abs(problem.base.P @ theta - base).max() / max(np.abs(base).max(), 1e-300)
+        if mismatch > 1e-6:
+            info["standard_base_mismatch"] = float(mismatch)
+    else:
+        source = None
+        if complete:
+            t0 = time.perf_counter()
+            theta, why = consistent_completion(problem, base)
+            info["completion_seconds"] = time.perf_counter() - t0
+            if theta is not None:
+                source = "consistent completion"
+            else:
+                info["not_realisable"] = why
+        if theta is None:
+            theta = least_norm_completion(problem, base)
+            source = "least-norm completion"
+    report = check_consistency(theta, problem.model.joint_names, problem.terms.names, problem.model.motor_names)
+    consistent = report.consistent and "standard_base_mismatch" not in info
+    w = getattr(estimator, "weights_", None)
+    std, cond, cond_scaled = base_statistics(problem, base, w)
+    info["condition_number_scaled"] = cond_scaled
+    train = torque_metrics(problem.tau, problem.W @ base, problem.model.joint_names, problem.joint)
+    return IdentificationResult(
+        method=estimator.name, base_names=problem.names, base=base, std=std, standard_names=std_names,
+        standard=theta, standard_source=source, physically_consistent=bool(consistent),
+        consistency=report.to_dict(), condition_number=cond, train=train, seconds=float(seconds),
+        settings=estimator.get_params(), description=estimator.description,
+        status=str(getattr(estimator, "status_", "ok")), info=info, history=getattr(estimator, "history_", None),
+        robot=robot_to_dict(problem.model, problem.terms), _robot_model=problem.model,
+    )
+

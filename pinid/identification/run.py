@@ -1,0 +1,233 @@
+"""One way through: recordings → problem → methods × seeds → results, behind :func:`identify` and
+:func:`pinid.identification.compare.compare`.
+
+* :func:`parse_methods`, :func:`parse_terms`, :func:`check_options` — the one place where method names,
+  joint terms and per-method settings are read (the CLI passes its strings straight through);
+* :func:`setup` — the model, the training problem (or the segmental stages) and the validation sets;
+* :func:`run_jobs` — fits one estimator per ``(method, seed, settings)`` job on the setup, times each
+  fit and wraps it as an :class:`~pinid.identification.result.IdentificationResult`.
+
+:func:`identify` runs each method once and validates; ``compare`` runs the metaheuristics once per seed
+and measures more (:mod:`pinid.identification.compare`).
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from dataclasses import dataclass, field
+from typing import Iterable, Mapping, Sequence
+
+import numpy as np
+
+from pinid.data.dataset import Dataset
+from pinid.errors import SpecError
+from pinid.estimators import ESTIMATORS, Estimator, make_estimator
+from pinid.identification.metrics import torque_metrics
+from pinid.identification.problem import (REST_FRACTION, IdentificationProblem, check_dataset, load_datasets,
+                                          predict_torque)
+from pinid.identification.result import Identification, IdentificationResult, make_result
+from pinid.identification.segmental import Segmental, SegmentalProblem
+from pinid.model.base import BaseParameters, base_parameters
+from pinid.model.regressor import JointTerms
+from pinid.model.robot import RobotModel
+from pinid.model.serialize import robot_to_dict
+from pinid.progress import progress
+
+#: Default methods of :func:`identify` and ``pinid identify``.
+DEFAULT_METHODS: tuple[str, ...] = ("ols", "wls", "sdp")
+
+
+# ====================================================================== parsing (one place)
+def parse_methods(methods: Sequence[str] | str | None, default: Sequence[str] = DEFAULT_METHODS) -> list[str]:
+    """Method names from ``"ols,sdp"``, a list, ``"all"`` or None (``default``); lower case, no repeats.
+
+    SpecError for an empty list or a name not in :data:`pinid.estimators.ESTIMATORS`.
+    """
+    if methods is None:
+        methods = list(default)
+    elif isinstance(methods, str):
+        if methods.strip().lower() == "all":
+            methods = list(ESTIMATORS)
+        else:
+            methods = [m.strip() for m in methods.split(",") if m.strip()]
+    names = list(dict.fromkeys(str(m).strip().lower() for m in methods))
+    if not names:
+        raise SpecError(f"no method given, expected some of {', '.join(ESTIMATORS)}")
+    unknown = [m for m in names if m not in ESTIMATORS]
+    if unknown:
+        listed = ", ".join(f"'{m}'" for m in unknown)
+        raise SpecError(f"unknown method{'s' if len(unknown) > 1 else ''} {listed}, expected one of "
+                        f"{', '.join(ESTIMATORS)}")
+    return names
+
+
+def parse_terms(terms: JointTerms | str | Sequence[str]) -> JointTerms:
+    """Joint terms from a :class:`JointTerms`, ``"fc,fv"`` or a list of names (SpecError for unknown ones)."""
+    if isinstance(terms, JointTerms):
+        return terms
+    try:
+        return JointTerms.from_names(terms)
+    except ValueError as exc:
+        raise SpecError(str(exc)) from None
+
+
+def check_options(options: Mapping[str, Mapping] | None, methods: Sequence[str]) -> dict[str, dict]:
+    """Per-method settings with lower-case keys; SpecError for settings of a method that is not run."""
+    options = {str(k).strip().lower(): dict(v) for k, v in dict(options or {}).items()}
+    bad = [k for k in options if k not in methods]
+    if bad:
+        raise SpecError(f"options for method(s) {', '.join(bad)} that are not run (methods: {', '.join(methods)})")
+    return options
+
+
+def as_model(model: RobotModel | str | os.PathLike) -> RobotModel:
+    """A RobotModel as it is, or loaded from a URDF path or a bundled robot's name."""
+    return model if isinstance(model, RobotModel) else RobotModel.from_urdf(model)
+
+
+# ====================================================================== the setup and the runner
+@dataclass
+class Setup:
+    """Everything the runs share: the model, the training problem (or segmental stages), validation sets."""
+
+    model: RobotModel
+    terms: JointTerms
+    base: BaseParameters
+    problem: IdentificationProblem
+    train: list[Dataset]
+    validation: dict[str, list[Dataset]] = field(default_factory=dict)
+    segmental: SegmentalProblem | None = None
+
+
+def setup(model: RobotModel, data, validate=None, *, terms: JointTerms = JointTerms(), mapping=None,
+          preprocess: Mapping | bool | None = None, rest_velocity="auto", rest_fraction: float = REST_FRACTION,
+          segmental: Mapping | None = None, show_progress: bool | None = False) -> Setup:
+    """Load and stack the recordings.  ``validate``: recordings, or ``{label: recordings}``;
+    ``segmental``: ``{"first": recordings, "joints": first joints}`` (seed 000's two stages)."""
+    train = load_datasets(data, model, mapping, preprocess, "training")
+    if validate is None:
+        val = {}
+    elif isinstance(validate, Mapping):
+        val = {str(k): load_datasets(v, model, mapping, preprocess, f"validation ({k})") for k, v in validate.items()}
+    else:
+        val = {"validation": load_datasets(validate, model, mapping, preprocess, "validation")}
+    base = base_parameters(model, terms)
+    seg = None
+    if segmental:
+        unknown_keys = [k for k in segmental if k not in ("first", "joints")]
+        if unknown_keys or "first" not in segmental:
+            raise SpecError("segmental: expected {'first': recordings with only the first joints moving, "
+                            "'joints': (first joints, default knee)}")
+        first = load_datasets(segmental["first"], model, mapping, preprocess, "first-stage")
+        seg = SegmentalProblem(model, first, train, first_joints=tuple(segmental.get("joints", ("knee",))),
+                               terms=terms, rest_velocity=rest_velocity, rest_fraction=rest_fraction, base=base)
+        problem = seg.problem
+    else:
+        problem = IdentificationProblem.from_datasets(model, train, terms=terms, base=base,
+                                                      rest_velocity=rest_velocity, rest_fraction=rest_fraction,
+                                                      show_progress=show_progress)
+    return Setup(model, terms, base, problem, train, val, seg)
+
+
+@dataclass
+class Fit:
+    """One job's outcome: the fitted estimator, its wrapped result and the fit time [s]."""
+
+    method: str
+    seed: int | None
+    settings: dict
+    estimator: Estimator
+    result: IdentificationResult
+    seconds: float
+
+
+def run_jobs(s: Setup, jobs: Iterable[tuple[str, int | None, dict]], *, complete: bool = True,
+             show_progress: bool | None = False, label: str = "methods") -> list[Fit]:
+    """Fit every ``(method, seed, settings)`` job on the setup's problem (or its segmental stages)."""
+    jobs = list(jobs)
+    fits = []
+    bar = progress(len(jobs), label, enabled=show_progress)
+    try:
+        for method, seed, settings in jobs:
+            bar.set_description(method + ("" if seed is None else f" seed {seed}"))
+            if s.segmental is not None:
+                est, target = Segmental(method, settings), s.segmental
+            else:
+                est, target = make_estimator(method, **settings), s.problem
+                s.problem.__dict__.pop("_compressed", None)  # each run's time includes its QR compression
+            t0 = time.perf_counter()
+            est.fit(target)
+            seconds = time.perf_counter() - t0
+            fits.append(Fit(method, seed, settings, est, make_result(s.problem, est, seconds, complete=complete),
+                            seconds))
+            bar.update(1)
+    finally:
+        bar.close()
+    return fits
+
+
+# ====================================================================== identify
+def identify(
+    model: RobotModel | str | os.PathLike,
+    data: Dataset | str | os.PathLike | Iterable,
+    *,
+    methods: Sequence[str] | str = DEFAULT_METHODS,
+    validate: Dataset | str | os.PathLike | Iterable | None = None,
+    terms: JointTerms | str = JointTerms(),
+    mapping=None,
+    preprocess: Mapping | bool | None = None,
+    rest_velocity: float | Sequence[float] | str | None = "auto",
+    rest_fraction: float = REST_FRACTION,
+    options: Mapping[str, Mapping] | None = None,
+    complete: bool = True,
+    show_progress: bool | None = False,
+) -> Identification:
+    """Identify ``model``'s dynamic parameters from recordings with several methods; validate; compare.
+
+    ``model``: a RobotModel, URDF path or robot name.  ``data`` / ``validate``: Datasets or recording
+    paths (read with :func:`pinid.data.formats.read_recording` and ``mapping``).  Recordings without ``dq`` or
+    ``ddq`` go through :func:`pinid.data.preprocess.prepare` (see
+    :func:`~pinid.identification.problem.prepare_dataset` for ``preprocess``).
+    ``methods``: names from :data:`pinid.estimators.ESTIMATORS` (default ols, wls, sdp).  ``terms``: the
+    joint terms in the model (default Coulomb and viscous friction).  ``rest_velocity``,
+    ``rest_fraction``: rows at rest dropped for Coulomb friction (:mod:`pinid.identification.problem`).
+    ``options``: settings per method, e.g. ``{"sdp": {"regularization": 1e-2, "mass_bounds": (0.1, 20)}}``.
+    ``complete``: look for a consistent standard set behind base-only results (one small SDP each).
+
+    Returns an :class:`~pinid.identification.result.Identification`; ``result.model`` is the best
+    result's :class:`~pinid.identification.identified.IdentifiedModel`, ``result["sdp"]`` one method's result.
+    """
+    t_start = time.perf_counter()
+    model = as_model(model)
+    terms = parse_terms(terms)
+    methods = parse_methods(methods)
+    options = check_options(options, methods)
+    for m in methods:  # bad settings fail before any recording is read
+        make_estimator(m, **options.get(m, {}))
+    s = setup(model, data, validate, terms=terms, mapping=mapping, preprocess=preprocess,
+              rest_velocity=rest_velocity, rest_fraction=rest_fraction, show_progress=show_progress)
+    fits = run_jobs(s, [(m, None, options.get(m, {})) for m in methods], complete=complete,
+                    show_progress=show_progress)
+    results = {f.method: f.result for f in fits}
+    values = {m: r.base for m, r in results.items()}
+    val_sets = s.validation.get("validation", [])
+    if val_sets:
+        checked = [check_dataset(ds, model) for ds in val_sets]
+        preds = [predict_torque(model, terms, s.base, ds, values) for ds in checked]
+        tau_all = np.concatenate([ds.tau for ds in checked])
+        for m, r in results.items():
+            r.validation = torque_metrics(tau_all, np.concatenate([p[m] for p in preds]), model.joint_names)
+        first = checked[0]
+        curves = {"kind": "validation", "source": first.source, "t": first.t, "measured": first.tau,
+                  "predicted": preds[0]}
+    else:
+        ds = check_dataset(s.train[0], model)
+        curves = {"kind": "training", "source": ds.source, "t": ds.t, "measured": ds.tau,
+                  "predicted": predict_torque(model, terms, s.base, ds, values)}
+    return Identification(
+        robot=robot_to_dict(model, terms), results=results, data=s.problem.summary(),
+        base={"names": s.base.names, "expressions": s.base.expressions(),
+              "nominal": s.base.from_standard(s.problem.nominal).tolist()},
+        validation_sources=[ds.source for ds in val_sets], seconds=time.perf_counter() - t_start, curves=curves,
+    )

@@ -1,0 +1,37 @@
+"""A robot model and its joint terms as a plain dict (saved with every result), and back.
+
+The dict holds the URDF text, so a saved result rebuilds its model without the original file.
+"""
+
+from __future__ import annotations
+
+import tempfile
+from pathlib import Path
+
+from pinid.errors import SpecError
+from pinid.model.regressor import JointTerms
+from pinid.model.robot import RobotModel
+
+
+def robot_to_dict(model: RobotModel, terms: JointTerms) -> dict:
+    """``{"name", "urdf", "joints", "locked", "terms", "urdf_text"}`` of a model and its joint terms."""
+    return {"name": model.name, "urdf": None if model.urdf_path is None else str(model.urdf_path),
+            "joints": model.joint_names, "locked": dict(model.locked), "terms": terms.names,
+            "urdf_text": model.urdf_text}
+
+
+def robot_from_dict(d: dict) -> tuple[RobotModel, JointTerms]:
+    """Inverse of :func:`robot_to_dict` (from the URDF text when present, else the URDF path)."""
+    terms = JointTerms.from_names(list(d["terms"]))
+    text = d.get("urdf_text")
+    if text:
+        with tempfile.TemporaryDirectory() as tmp:
+            path = Path(tmp) / "robot.urdf"
+            path.write_text(text, encoding="utf-8")
+            model = RobotModel.from_urdf(path, joints=d["joints"], locked=d.get("locked") or {})
+        model.urdf_path = Path(d["urdf"]) if d.get("urdf") else None
+    elif d.get("urdf"):
+        model = RobotModel.from_urdf(d["urdf"], joints=d["joints"], locked=d.get("locked") or {})
+    else:
+        raise SpecError("saved result has no URDF (neither text nor path); cannot rebuild the robot model")
+    return model, terms
