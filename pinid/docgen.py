@@ -52,6 +52,7 @@ API_MODULES: tuple[tuple[str, str], ...] = (
     ("pinid.data.dataset", "Recordings in memory"),
     ("pinid.data.formats", "Reading and checking recordings"),
     ("pinid.data.mapping", "Mapping specs"),
+    ("pinid.data.registry", "File formats (reader and writer registry)"),
     ("pinid.data.preprocess", "Preprocessing"),
     ("pinid.simulation.twin", "The digital twin"),
     ("pinid.identification.run", "Identification"),

@@ -35,7 +35,9 @@ import numpy as np
 
 from pinid.data.dataset import Dataset
 from pinid.errors import DataError, DataWarning, SpecError
+from pinid.io import atomic_path
 from pinid.data.mapping import FLOAT_RE, QUANTITIES, MappingSpec, peek_columns
+from pinid.data.registry import Writer, register_writer, writer_for
 
 PREFIXES: dict[str, str] = {"q": "q_", "dq": "dq_", "ddq": "ddq_", "tau": "tau_"}
 CHECK_MODES = ("error", "warn", "off")
@@ -252,17 +254,14 @@ def _columns(ds: Dataset) -> tuple[list[str], np.ndarray]:
 
 
 def write_recording(path: str | os.PathLike, ds: Dataset, *, digits: int = 12) -> Path:
-    """Write ``ds`` in the dataset format, CSV or NPZ by the suffix of ``path``, atomically.
+    """Write ``ds`` in the dataset format, atomically, with the writer of ``path``'s suffix (CSV or NPZ;
+    :mod:`pinid.data.registry`).
 
     CSV values carry ``digits`` significant digits; NPZ keeps full precision.  The output depends only on
     the data (no time stamp inside), so the same dataset always gives the same bytes.
     """
-    from pinid.io import atomic_path
-
     path = Path(path)
-    suffix = path.suffix.lower()
-    if suffix not in (".csv", ".npz"):
-        raise DataError(f"{path}: unknown suffix '{path.suffix}', expected .csv or .npz for a recording")
+    writer = writer_for(path)
     for j in ds.joints:
         if not j or any(c in j for c in ",;\t\n\"") or j != j.strip():
             raise DataError(f"{path}: joint name {j!r} cannot be a column name, expected no commas, quotes or spaces at the ends")
@@ -270,19 +269,30 @@ def write_recording(path: str | os.PathLike, ds: Dataset, *, digits: int = 12) -
     if not np.all(np.isfinite(data)):
         raise DataError(f"{path}: the dataset holds NaN or infinite values, refusing to write them")
     with atomic_path(path) as tmp:
-        if suffix == ".npz":
-            with zipfile.ZipFile(tmp, "w", compression=zipfile.ZIP_STORED, allowZip64=True) as zf:
-                for i, n in enumerate(names):
-                    info = zipfile.ZipInfo(f"{n}.npy", date_time=(1980, 1, 1, 0, 0, 0))
-                    with zf.open(info, "w", force_zip64=True) as f:
-                        np.lib.format.write_array(f, np.ascontiguousarray(data[:, i]), allow_pickle=False)
-        else:
-            fmt = ",".join([f"%.{digits}g"] * data.shape[1])
-            with open(tmp, "w", encoding="utf-8", newline="\n") as f:
-                f.write(",".join(names) + "\n")
-                chunk = 20000
-                for s in range(0, len(data), chunk):
-                    rows = data[s : s + chunk].tolist()
-                    f.write("\n".join(fmt % tuple(r) for r in rows))
-                    f.write("\n")
+        writer.write(tmp, names, data, digits)
     return path
+
+
+def _write_npz(tmp: Path, names: list[str], data: np.ndarray, digits: int) -> None:
+    """NPZ, one array per column, full precision, no time stamp inside (same data, same bytes)."""
+    with zipfile.ZipFile(tmp, "w", compression=zipfile.ZIP_STORED, allowZip64=True) as zf:
+        for i, n in enumerate(names):
+            info = zipfile.ZipInfo(f"{n}.npy", date_time=(1980, 1, 1, 0, 0, 0))
+            with zf.open(info, "w", force_zip64=True) as f:
+                np.lib.format.write_array(f, np.ascontiguousarray(data[:, i]), allow_pickle=False)
+
+
+def _write_csv(tmp: Path, names: list[str], data: np.ndarray, digits: int) -> None:
+    """CSV with a header line, ``digits`` significant digits."""
+    fmt = ",".join([f"%.{digits}g"] * data.shape[1])
+    with open(tmp, "w", encoding="utf-8", newline="\n") as f:
+        f.write(",".join(names) + "\n")
+        chunk = 20000
+        for s in range(0, len(data), chunk):
+            rows = data[s : s + chunk].tolist()
+            f.write("\n".join(fmt % tuple(r) for r in rows))
+            f.write("\n")
+
+
+register_writer(Writer("csv", _write_csv, suffixes=(".csv",)))
+register_writer(Writer("npz", _write_npz, suffixes=(".npz",)))

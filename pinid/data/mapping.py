@@ -43,12 +43,14 @@ import difflib
 import os
 import re
 import warnings
+import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from pinid.data.registry import READERS, Reader, Table, reader_for, register_reader
 from pinid.errors import DataError, DataWarning, SpecError
 
 QUANTITIES: tuple[str, ...] = ("q", "dq", "ddq", "tau")
@@ -343,8 +345,9 @@ def _source(name: str, d: dict, origin: str, *, main: bool = False) -> SourceSpe
     where = "the top level" if main else f"[sources.{name}]"
     s = SourceSpec(name=name, path=None if main else str(d["path"]))
     fmt = d.get("format", "auto")
-    if fmt not in ("auto", "csv", "npz"):
-        raise SpecError(f"{origin}: format = {fmt!r} in {where}, expected 'csv', 'npz' or 'auto' (by suffix)")
+    if fmt != "auto" and fmt not in READERS:
+        raise SpecError(f"{origin}: format = {fmt!r} in {where}, expected {', '.join(repr(r) for r in READERS)} "
+                        "or 'auto' (by suffix)")
     s.format = fmt
     if "delimiter" in d:
         delim = d["delimiter"]
@@ -455,50 +458,14 @@ def _convert(raw: np.ndarray, ref: ColumnRef) -> np.ndarray:
 
 
 # ---------------------------------------------------------------------------------------------- tables
-class _Table:
-    """Columns of one file, read once; ``values(ref)`` returns one raw column (rows selected)."""
-
-    def __init__(self, path: Path, names: list[str] | None, data: dict, nrows: int, line0: int | None) -> None:
-        self.path, self.names, self.data, self.nrows, self.line0 = path, names, data, nrows, line0
-        self.row0 = 0  # index of the first kept row (after rows = [start, stop])
-
-    def key(self, column: str | int, where: str, origin: str) -> str | int:
-        if isinstance(column, int):
-            if self.names is not None and column >= len(self.names):
-                raise SpecError(f"{origin}: {where} column {column} is out of range, {self.path.name} has "
-                                f"{len(self.names)} columns (0-based index)")
-            return column
-        if self.names is None or column not in self.names:
-            if self.names is None:
-                raise SpecError(f"{origin}: {where} column {column!r}: {self.path.name} has no header "
-                                "(header = false); give a 0-based index or name the columns with names = [...]")
-            close = difflib.get_close_matches(column, self.names, n=1)
-            hint = f" (did you mean '{close[0]}'?)" if close else ""
-            raise SpecError(f"{origin}: {where} column {column!r} is not in {self.path.name}{hint}; "
-                            f"its columns: {', '.join(self.names[:40])}")
-        return column
-
-    def values(self, ref: ColumnRef, origin: str) -> np.ndarray:
-        key = (ref.column, ref.index)
-        return self.data[key]
-
-
-def _open_source(src: SourceSpec, file: Path, main_path: Path, refs: list[ColumnRef], origin: str) -> _Table:
-    fmt = src.format
-    if fmt == "auto":
-        suffix = file.suffix.lower()
-        fmt = "npz" if suffix == ".npz" else "csv" if suffix in (".csv", ".txt", ".tsv", ".dat", "") else None
-        if fmt is None:
-            raise DataError(f"{file}: unknown file type '{file.suffix}', expected .csv (text) or .npz; "
-                            "or set format = \"csv\" in the mapping spec")
-    _check_file(file)
+def _open_source(src: SourceSpec, file: Path, main_path: Path, refs: list[ColumnRef], origin: str) -> Table:
+    reader = reader_for(file, src.format)
+    if not reader.folder:
+        _check_file(file)
     wanted: list[tuple[str | int, int | None, str]] = [(r.column, r.index, r.where) for r in refs]
     if src.time is not None and src.time.column is not None:
         wanted.append((src.time.column, src.time.index, f"time of {'the main file' if src.name == MAIN else f'[sources.{src.name}]'}"))
-    if fmt == "npz":
-        tab = _read_npz(file, wanted, origin)
-    else:
-        tab = _read_csv(file, src, wanted, origin)
+    tab = reader.read(file, src, wanted, origin)
     start, stop = src.rows
     if start is not None or stop is not None:
         sl = slice(start, stop)
@@ -533,9 +500,7 @@ def _check_file(file: Path) -> None:
         raise DataError(f"{file}: file is empty, expected a recording")
 
 
-def _read_npz(file: Path, wanted, origin: str) -> _Table:
-    import zipfile
-
+def _read_npz(file: Path, src: SourceSpec, wanted, origin: str) -> Table:
     try:
         npz = np.load(file, allow_pickle=False)
     except (OSError, ValueError, zipfile.BadZipFile) as exc:
@@ -543,7 +508,7 @@ def _read_npz(file: Path, wanted, origin: str) -> _Table:
     if not hasattr(npz, "files"):
         raise DataError(f"{file}: holds a single array, expected an NPZ archive of named arrays")
     names = list(npz.files)
-    tab = _Table(file, names, {}, 0, None)
+    tab = Table(file, names, {}, 0, None)
     lengths: dict[str, int] = {}
     with npz:
         for col, index, where in wanted:
@@ -582,7 +547,7 @@ def _split(line: str, delimiter: str | None) -> list[str]:
     return line.split() if delimiter is None else line.split(delimiter)
 
 
-def _read_csv(file: Path, src: SourceSpec, wanted, origin: str) -> _Table:
+def _read_csv(file: Path, src: SourceSpec, wanted, origin: str) -> Table:
     with open(file, "rb") as fb:
         head = fb.read(65536)
     if b"\x00" in head:
@@ -643,7 +608,7 @@ def _read_csv(file: Path, src: SourceSpec, wanted, origin: str) -> _Table:
             raise SpecError(f"{origin}: names lists {len(names)} columns, but {file.name} has {ncols}")
     else:
         names = None
-    tab = _Table(file, names, {}, 0, lines_consumed + 1)
+    tab = Table(file, names, {}, 0, lines_consumed + 1)
     if src.header and src.names is not None:
         raise SpecError(f"{origin}: names = [...] is for files without a header; set header = false or drop names")
     keys = []
@@ -711,7 +676,7 @@ def _bad_line_message(file: Path, delim: str | None, skip: int, comment: str, nc
     return "cannot be read as CSV numbers"
 
 
-def _time_of(tab: _Table, src: SourceSpec, origin: str) -> np.ndarray:
+def _time_of(tab: Table, src: SourceSpec, origin: str) -> np.ndarray:
     ts = src.time
     where = "the main file" if src.name == MAIN else f"[sources.{src.name}]"
     if ts.rate is not None:
@@ -724,21 +689,33 @@ def _time_of(tab: _Table, src: SourceSpec, origin: str) -> np.ndarray:
 
 
 def peek_columns(path: str | os.PathLike) -> tuple[str, list[str]]:
-    """``(format, names)`` of a file in pinid's dataset format: the CSV header or the NPZ array names."""
+    """``(format, names)`` of a file in pinid's dataset format: the CSV header or the NPZ array names
+    (any registered reader with a ``columns`` function, :mod:`pinid.data.registry`)."""
     file = Path(path)
-    _check_file(file)
-    suffix = file.suffix.lower()
-    if suffix == ".npz":
-        import zipfile
-
+    reader = None
+    if file.suffix:
         try:
-            with np.load(file, allow_pickle=False) as npz:
-                return "npz", list(npz.files)
-        except (OSError, ValueError, zipfile.BadZipFile, AttributeError) as exc:
-            raise DataError(f"{file}: not a readable NPZ file ({exc})") from None
-    if suffix not in (".csv", ".txt", ".tsv", ".dat"):
-        raise DataError(f"{file}: unknown file type '{file.suffix}', expected .csv or .npz in pinid's dataset "
+            reader = reader_for(file)
+        except DataError:
+            pass
+    if reader is None or not reader.folder:
+        _check_file(file)
+    if reader is None or reader.columns is None:
+        known = " or ".join(r.suffixes[0] for r in READERS.values() if r.columns and r.suffixes)
+        raise DataError(f"{file}: unknown file type '{file.suffix}', expected {known} in pinid's dataset "
                         "format, or a mapping spec (--mapping) that says how to read it")
+    return reader.name, reader.columns(file)
+
+
+def _npz_columns(file: Path) -> list[str]:
+    try:
+        with np.load(file, allow_pickle=False) as npz:
+            return list(npz.files)
+    except (OSError, ValueError, zipfile.BadZipFile, AttributeError) as exc:
+        raise DataError(f"{file}: not a readable NPZ file ({exc})") from None
+
+
+def _csv_columns(file: Path) -> list[str]:
     with open(file, "rb") as fb:
         if b"\x00" in fb.read(65536):
             raise DataError(f"{file}: binary file, expected CSV text (or an .npz file)")
@@ -754,4 +731,8 @@ def peek_columns(path: str | os.PathLike) -> tuple[str, list[str]]:
     line = line.rstrip("\r\n")
     delim = next((c for c in (",", ";", "\t") if c in line), None)
     names = [h.strip().strip('"').strip("'").strip() for h in _split(line.strip() if delim is None else line, delim)]
-    return "csv", names
+    return names
+
+
+register_reader(Reader("csv", _read_csv, suffixes=(".csv", ".txt", ".tsv", ".dat", ""), columns=_csv_columns))
+register_reader(Reader("npz", _read_npz, suffixes=(".npz",), columns=_npz_columns))

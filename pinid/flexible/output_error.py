@@ -43,7 +43,9 @@ from typing import Mapping, Sequence
 import numpy as np
 
 from pinid.errors import DataError, JointError, PinidError, SolverError, SpecError
-from pinid.io import jsonable
+from pinid.data.mapping import SourceSpec, peek_columns
+from pinid.data.registry import reader_for, writer_for
+from pinid.io import atomic_path, jsonable, write_json
 from pinid.flexible.model import FLEX_PARAMS, RIGID_PARAMS, Drive, FlexibleModel, FlexSimulation, check_parameter
 from pinid.model.robot import INERTIAL_NAMES, RobotModel
 
@@ -185,47 +187,36 @@ class FlexRecording:
                        joints=list(joints), meta=dict(self.meta))
 
     def save(self, path: str | os.PathLike, *, digits: int = 12) -> Path:
-        """Write a CSV (``t, T_<j>|V_<j>, q_<j>, [qm_<j>]``) atomically; ``meta`` goes to ``<path>.json`` if any."""
-        from pinid.io import atomic_path, write_json
-
+        """Write ``t, T_<j>|V_<j>, q_<j>, [qm_<j>]`` atomically with the recording writers of
+        :mod:`pinid.data.registry` (CSV or NPZ by suffix); ``meta`` goes to ``<path>.json`` if any."""
         path = Path(path)
+        writer = writer_for(path)
         names = ["t"] + [f"{self.input_prefix}{j}" for j in self.joints] + [f"q_{j}" for j in self.joints]
         blocks = [self.t[:, None], self.u, self.q]
         if self.qm is not None:
             names += [f"qm_{j}" for j in self.joints]
             blocks.append(self.qm)
         data = np.hstack(blocks)
-        fmt = ",".join([f"%.{digits}g"] * data.shape[1])
         with atomic_path(path) as tmp:
-            with open(tmp, "w", encoding="utf-8", newline="\n") as f:
-                f.write(",".join(names) + "\n")
-                f.write("\n".join(fmt % tuple(r) for r in data.tolist()) + "\n")
+            writer.write(tmp, names, data, digits)
         if self.meta:
             write_json(path.with_suffix(path.suffix + ".json"), jsonable(self.meta))
         return path
 
     @classmethod
     def load(cls, path: str | os.PathLike) -> "FlexRecording":
-        """Read a CSV written by :meth:`save` (or by hand: the same columns); DataError on bad content."""
+        """Read a file written by :meth:`save` (or by hand: the same columns) with the recording readers of
+        :mod:`pinid.data.registry` (CSV or NPZ); DataError on bad content."""
         p = Path(path)
         if not p.is_file():
             raise DataError(f"{p}: file not found, expected a flexible-joint recording (CSV: t, T_<joint>, q_<joint>)")
-        try:
-            with open(p, encoding="utf-8") as f:
-                header = f.readline().strip()
-            data = np.loadtxt(p, delimiter=",", skiprows=1, ndmin=2)
-        except UnicodeDecodeError:
-            raise DataError(f"{p}: not UTF-8 text, expected a CSV recording") from None
-        except ValueError as exc:
-            raise DataError(f"{p}: not a numeric CSV after the header ({str(exc).splitlines()[0]})") from None
-        names = [c.strip() for c in header.split(",")]
+        _, names = peek_columns(p)
         if len(set(names)) != len(names):
             raise DataError(f"{p}: duplicate column names in the header")
         if not names or names[0] != "t":
             raise DataError(f"{p}: first column is {names[0]!r}, expected 't' (time [s])")
-        if data.shape[1] != len(names):
-            raise DataError(f"{p}: {data.shape[1]} values per row but {len(names)} column names")
-        col = {n: data[:, i] for i, n in enumerate(names)}
+        table = reader_for(p).read(p, SourceSpec(name="main"), [(n, None, f"column {n}") for n in names], str(p))
+        col = {n: table.data[(n, None)] for n in names}
         joints = [n[2:] for n in names if n.startswith("q_")]
         if not joints:
             raise DataError(f"{p}: no link-angle column q_<joint>")
@@ -846,8 +837,6 @@ class OutputErrorResult:
 
     def save(self, path: str | os.PathLike) -> Path:
         """Write :meth:`to_dict` as JSON (atomically)."""
-        from pinid.io import write_json
-
         return write_json(path, self.to_dict())
 
     @classmethod
