@@ -15,13 +15,19 @@ def add_robot_arguments(p: argparse.ArgumentParser, *, default: str | None = "ex
     p.add_argument("--joints", default=None, help="comma-separated active joints (default: all movable, unlocked)")
     p.add_argument("--lock", action="append", default=[], metavar="JOINT=VALUE",
                    help="hold a joint fixed at VALUE [rad or m]; repeatable")
+    p.add_argument("--drives", default=None, metavar="FILE",
+                   help="drives TOML: [transmission] joints, motors, matrix (q_motor = matrix·q_joint) and "
+                        "optional [motors.NAME] fc, fv, armature, offset; replaces the URDF's <transmission> "
+                        "(see docs/drives.md)")
 
 
 def add_terms_argument(p: argparse.ArgumentParser) -> None:
     """The --terms option: which joint terms enter the model."""
     p.add_argument("--terms", default="fc,fv",
-                   help="joint terms in the model, comma-separated from fc (Coulomb), fv (viscous), "
-                        "offset (constant torque), armature (rotor inertia); 'none' for none; default fc,fv")
+                   help="terms in the model, comma-separated: joint side fc (Coulomb), fv (viscous), "
+                        "offset (constant torque), armature (rotor inertia); motor side (needs drives: URDF "
+                        "<transmission> or --drives) motor_fc, motor_fv, motor_offset, motor_armature; "
+                        "'none' for none; default fc,fv")
 
 
 def robot_from_args(args: argparse.Namespace):
@@ -39,7 +45,12 @@ def robot_from_args(args: argparse.Namespace):
         except ValueError:
             raise SpecError(f"--lock {item!r}: expected JOINT=VALUE with a number, e.g. --lock knee=-0.5") from None
     joints = [j.strip() for j in args.joints.split(",") if j.strip()] if args.joints else None
-    return RobotModel.from_urdf(args.urdf, joints=joints, locked=locked)
+    robot = RobotModel.from_urdf(args.urdf, joints=joints, locked=locked)
+    if getattr(args, "drives", None):
+        from pinid.model.drives import attach
+
+        attach(robot, args.drives)
+    return robot
 
 
 def terms_from_args(args: argparse.Namespace) -> JointTerms:

@@ -43,6 +43,8 @@ def describe(model, terms) -> dict:
             for j in model.joints
         ],
         "locked": model.locked,
+        "drives": None if model.drives is None else {
+            "source": model.drives.origin, "motors": model.motor_names, "matrix": model.drives.matrix.tolist()},
         "terms": terms.names,
         "standard_parameters": len(bp.standard_names),
         "base_parameters": [
@@ -72,9 +74,15 @@ def run(args: argparse.Namespace) -> int:
         print(f"{j['name']:<24}{j['type']:<12}" + "".join(f"{c:>10}" for c in cells))
     if d["locked"]:
         print("locked: " + ", ".join(f"{k}={v:g}" for k, v in d["locked"].items()))
+    if d["drives"]:
+        print(f"drives ({d['drives']['source']}): q_motor = G·q_joint, rows {', '.join(d['drives']['motors'])}")
+        for m, row in zip(d["drives"]["motors"], d["drives"]["matrix"]):
+            print(f"  {m:<22}" + "".join(f"{x:>10.4g}" for x in row))
     nb = len(d["base_parameters"])
-    print(f"\n{d['standard_parameters']} standard parameters (10 inertial per body + {', '.join(terms.names) or 'no'} "
-          f"per joint), {nb} base parameters:")
+    per = [f"{', '.join(t.name for t in terms.joint)} per joint"] if terms.joint else []
+    per += [f"{', '.join(t.name for t in terms.motor)} per motor"] if terms.motor else []
+    print(f"\n{d['standard_parameters']} standard parameters (10 inertial per body + {'; '.join(per) or 'no terms'}), "
+          f"{nb} base parameters:")
     width = max(len(b["name"]) for b in d["base_parameters"])
     for b in d["base_parameters"]:
         print(f"  {b['name']:<{width}} = {b['expression']}    (URDF: {b['nominal']:.6g})")

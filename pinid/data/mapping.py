@@ -52,6 +52,7 @@ import numpy as np
 
 from pinid.data.registry import READERS, Reader, Table, reader_for, register_reader
 from pinid.errors import DataError, DataWarning, SpecError
+from pinid.model.drives import Transmission, transmission_from_table
 
 QUANTITIES: tuple[str, ...] = ("q", "dq", "ddq", "tau")
 
@@ -109,15 +110,6 @@ class SourceSpec:
     names: list[str] | None = None
     rows: tuple[int | None, int | None] = (None, None)
     time: TimeSpec | None = None
-
-
-@dataclass
-class Transmission:
-    """Motor-side measurements: ``q_motor = matrix · q_joint``; ``tau_joint = matrixᵀ · tau_motor``."""
-
-    joints: list[str]
-    motors: list[str]
-    matrix: np.ndarray
 
 
 @dataclass
@@ -418,26 +410,8 @@ def _signal_tables(d: Any, kind: str, origin: str, sources: set[str]) -> dict[st
 
 
 def _transmission(d: Any, origin: str, motors: dict, joints: dict) -> Transmission:
-    if not isinstance(d, dict):
-        raise SpecError(f"{origin}: [transmission] must be a table with joints, motors, matrix")
-    _unknown(d, {"joints", "motors", "matrix"}, origin, "[transmission]")
-    for k in ("joints", "motors", "matrix"):
-        if k not in d:
-            raise SpecError(f"{origin}: [transmission] has no {k}; expected joints, motors and matrix")
-    tj, tm = d["joints"], d["motors"]
-    if not (isinstance(tj, list) and isinstance(tm, list) and all(isinstance(x, str) for x in tj + tm)):
-        raise SpecError(f"{origin}: [transmission] joints and motors must be lists of names")
-    if len(set(tj)) != len(tj) or len(set(tm)) != len(tm):
-        raise SpecError(f"{origin}: [transmission] joints and motors must not repeat names")
-    try:
-        R = np.array(d["matrix"], dtype=float)
-    except (TypeError, ValueError):
-        raise SpecError(f"{origin}: [transmission] matrix must be a list of rows of numbers") from None
-    if R.shape != (len(tm), len(tj)) or len(tm) != len(tj):
-        raise SpecError(f"{origin}: [transmission] matrix has shape {R.shape}, expected a square "
-                        f"({len(tm)} motors × {len(tj)} joints) matrix with q_motor = matrix · q_joint")
-    if not np.all(np.isfinite(R)) or abs(np.linalg.det(R)) < 1e-12 * max(1.0, np.abs(R).max()) ** len(tj):
-        raise SpecError(f"{origin}: [transmission] matrix is singular or not finite, expected an invertible matrix")
+    t = transmission_from_table(d, origin)  # the same type and checks as a robot's drives
+    tj, tm = t.joints, t.motors
     for m in tm:
         if m not in motors:
             raise SpecError(f"{origin}: motor '{m}' of [transmission] has no [motors.{m}] table")
@@ -448,7 +422,7 @@ def _transmission(d: Any, origin: str, motors: dict, joints: dict) -> Transmissi
         if j in joints:
             raise SpecError(f"{origin}: joint '{j}' has data both in [joints.{j}] and through [transmission]; "
                             "expected one or the other")
-    return Transmission(list(tj), list(tm), R)
+    return t
 
 
 def _convert(raw: np.ndarray, ref: ColumnRef) -> np.ndarray:

@@ -752,16 +752,25 @@ class DesignProblem:
         self.regressor_samples += k * n
         W = W.reshape(k, n, nv, -1)
         D = (W[1:] - W[0]) / h  # (3nv, n, nv, p): d(row of sample s)/d(state)
-        ni, names = 10 * nv, self.spec.terms.names
-        nt = len(names)
-        D[:, :, :, ni:] = 0.0  # joint terms: analytic derivatives
-        for t, name in enumerate(names):
+        ni, terms = 10 * nv, self.spec.terms
+        nt = len(terms.joint)
+        D[:, :, :, ni:] = 0.0  # joint and motor terms: analytic derivatives (Coulomb: 0 almost everywhere)
+        for t, term in enumerate(terms.joint):
             for j in range(nv):
                 col = ni + j * nt + t
-                if name == "fv":
+                if term.name == "fv":
                     D[nv + j, :, j, col] = 1.0
-                elif name == "armature":
+                elif term.name == "armature":
                     D[2 * nv + j, :, j, col] = 1.0
+        if terms.motor:  # column G[m, j]·(G·dq)_m: derivative G[m, j]·G[m, k] with respect to dq_k (ddq_k)
+            G, ntm = self.model.drives.matrix, len(terms.motor)
+            for t, term in enumerate(terms.motor):
+                if term.suffix not in ("fv", "armature"):
+                    continue
+                block = nv if term.suffix == "fv" else 2 * nv
+                for m in range(G.shape[0]):
+                    col = ni + nt * nv + m * ntm + t
+                    D[block: block + nv, :, :, col] = np.outer(G[m], G[m])[:, None, :]
         W0 = W[0].reshape(n * nv, -1)
         Wb = self.base.columns(W0)
         tau = tau_jac = None

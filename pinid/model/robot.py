@@ -151,7 +151,8 @@ class RobotModel:
 
         ``joints``: names of the active joints (default: every movable joint not in ``locked``).
         ``locked``: joints held fixed at a value [rad or m]; other inactive joints are held at 0 (or at
-        the middle of their range when 0 is outside it).
+        the middle of their range when 0 is outside it).  The URDF's ``<transmission>`` elements become
+        ``drives`` (:mod:`pinid.model.drives`).
         """
         path, preset_locked = resolve_robot(urdf)
         text = _read_urdf_text(path)
@@ -220,8 +221,14 @@ class RobotModel:
         model.damping[:] = 0.0
         model.friction[:] = 0.0
         infos = [_joint_info(model, model.getJointId(n)) for n in active]
-        return cls(model, infos, coulomb=coul, viscous=visc, urdf_path=path, urdf_text=text,
-                   locked={k: v for k, v in lock.items() if k not in active})
+        robot = cls(model, infos, coulomb=coul, viscous=visc, urdf_path=path, urdf_text=text,
+                    locked={k: v for k, v in lock.items() if k not in active})
+        from pinid.model.drives import Drives, urdf_transmissions
+
+        transmissions = urdf_transmissions(text, active, path.name)
+        if transmissions:
+            robot.drives = Drives(list(active), transmissions, {}, f"{path.name} <transmission>")
+        return robot
 
     # ------------------------------------------------------------------ description
     @property

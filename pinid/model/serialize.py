@@ -14,10 +14,10 @@ from pinid.model.robot import RobotModel
 
 
 def robot_to_dict(model: RobotModel, terms: JointTerms) -> dict:
-    """``{"name", "urdf", "joints", "locked", "terms", "urdf_text"}`` of a model and its joint terms."""
+    """``{"name", "urdf", "joints", "locked", "terms", "urdf_text", "drives"}`` of a model and its terms."""
     return {"name": model.name, "urdf": None if model.urdf_path is None else str(model.urdf_path),
             "joints": model.joint_names, "locked": dict(model.locked), "terms": terms.names,
-            "urdf_text": model.urdf_text}
+            "urdf_text": model.urdf_text, "drives": None if model.drives is None else model.drives.to_dict()}
 
 
 def robot_from_dict(d: dict) -> tuple[RobotModel, JointTerms]:
@@ -34,4 +34,8 @@ def robot_from_dict(d: dict) -> tuple[RobotModel, JointTerms]:
         model = RobotModel.from_urdf(d["urdf"], joints=d["joints"], locked=d.get("locked") or {})
     else:
         raise SpecError("saved result has no URDF (neither text nor path); cannot rebuild the robot model")
+    if d.get("drives") is not None:
+        from pinid.model.drives import Drives
+
+        model.drives = Drives.from_dict(d["drives"], model.joint_names, "saved drives")
     return model, terms

@@ -85,6 +85,12 @@ register(Term("fv", "fv", "viscous friction", "N·m·s/rad", lambda m: m.dq, non
 register(Term("offset", "offset", "constant torque", "N·m", lambda m: np.ones_like(m.dq)))
 register(Term("armature", "armature", "rotor inertia", "kg·m²", lambda m: m.ddq, nonnegative=True, inertia=True))
 
+for _base in ("fc", "fv", "offset", "armature"):
+    _t = TERMS[_base]
+    register(Term(f"motor_{_base}", _base, f"motor {_t.label}", _t.unit, _t.column, space="motor",
+                  nonnegative=_t.nonnegative, nominal=lambda r, s=_base: r.drives.nominal(s), field=_base,
+                  inertia=_t.inertia, plant=_t.plant))
+
 #: The classic joint terms (``JointTerms``' keyword arguments), in column order.
 JOINT_TERM_NAMES: tuple[str, ...] = ("fc", "fv", "offset", "armature")
 _FLAGS = dict(zip(("coulomb", "viscous", "offset", "armature"), JOINT_TERM_NAMES))

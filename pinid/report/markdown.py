@@ -16,6 +16,7 @@ import numpy as np
 
 from pinid.io import display_path
 from pinid.model.physical import com_inertia
+from pinid.model.terms import JointTerms
 
 
 def _f(x, fmt: str = ".4g") -> str:
@@ -149,8 +150,8 @@ def report_markdown(ident, figures: dict[str, str] | None = None) -> str:
                   "the centre of mass; joint friction.", ""]
         nv = len(robot["joints"])
         rows = []
-        terms = robot["terms"]
-        jt = best.standard[10 * nv:].reshape(nv, len(terms)) if terms else np.zeros((nv, 0))
+        terms = [t.name for t in JointTerms.from_names(robot["terms"]).joint]  # the motor block follows
+        jt = best.standard[10 * nv: 10 * nv + nv * len(terms)].reshape(nv, len(terms)) if terms else np.zeros((nv, 0))
         for i, j in enumerate(robot["joints"]):
             m, c, I = com_inertia(best.standard[10 * i: 10 * i + 10])
             ev = np.linalg.eigvalsh(0.5 * (I + I.T))

@@ -53,6 +53,7 @@ import pinocchio as pin
 from pinid.data.dataset import Dataset
 from pinid.errors import DataError, DataWarning, SpecError
 from pinid.model.robot import RobotModel
+from pinid.model.terms import JointTerms
 from pinid.excitation.trajectory import FourierTrajectory
 
 #: Seed 000 (Zha et al. 2019) Table 1, degrees: (hip offset, hip sin amplitude, knee offset, knee sin
@@ -212,7 +213,10 @@ def _per_joint(value, model: RobotModel, name: str) -> np.ndarray:
 class Plant:
     """The twin's equations of motion, M(q)·ddq + h(q, dq) + fc·tanh(dq/v_s) + fv·dq = τ, and one
     integration step (see the module text: implicit friction when stiff, velocity first, trapezoidal
-    position).  ``coulomb`` [N·m], ``viscous`` [N·m·s/rad] per joint, ``coulomb_velocity`` v_s [rad/s]."""
+    position).  ``coulomb`` [N·m], ``viscous`` [N·m·s/rad] per joint, ``coulomb_velocity`` v_s [rad/s].
+
+    With drives (``model.drives`` with nominal motor values) the motors add, through ``G``:
+    rotor inertia ``Gᵀ·diag(Im)·G`` to M, and ``Gᵀ·(fc_m·tanh(G·dq/v_s) + fv_m·G·dq + offset_m)``."""
 
     def __init__(self, model: RobotModel, coulomb: np.ndarray, viscous: np.ndarray, coulomb_velocity: float) -> None:
         self.model = model
@@ -222,18 +226,40 @@ class Plant:
         self._data = model.pin_model.createData()
         self._eye = np.eye(model.nv)
         self._conf = model.configuration if model._continuous else (lambda x: x)
+        d = model.drives
+        self.motor = None
+        if d is not None and any(np.any(d.nominal(k) != 0) for k in ("fc", "fv", "armature", "offset")):
+            G = d.matrix
+            self.motor = {k: d.nominal(k) for k in ("fc", "fv", "armature", "offset")}
+            self.G = G
+            self.rotor = G.T @ (self.motor["armature"][:, None] * G)  # Gᵀ·diag(Im)·G [kg·m²]
 
     def step(self, q: np.ndarray, v: np.ndarray, tau: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(ddq, q_next, v_next)``: the acceleration at (q, v) under ``tau`` and the state ``h`` [s] later."""
         pm, pdata = self.model.pin_model, self._data
         qc = self._conf(q)
-        Minv = pin.computeMinverse(pm, pdata, qc)
         nle = pin.nonLinearEffects(pm, pdata, qc, v)
         th = np.tanh(v * self._ivs)
-        a = Minv @ (tau - nle - self.fc * th - self.fv * v)
-        D = self.fc * self._ivs * (1.0 - th * th) + self.fv
-        if h * float(np.max(Minv.diagonal() * D)) > 0.1:  # stiff (near zero velocity): implicit friction
-            dv = np.linalg.solve(self._eye + (h * Minv) * D, h * a)
+        if self.motor is None:
+            Minv = pin.computeMinverse(pm, pdata, qc)
+            a = Minv @ (tau - nle - self.fc * th - self.fv * v)
+            D = self.fc * self._ivs * (1.0 - th * th) + self.fv
+            stiff = h * float(np.max(Minv.diagonal() * D)) > 0.1
+            D = np.diag(D) if stiff else D
+        else:
+            m, G = self.motor, self.G
+            M = pin.crba(pm, pdata, qc)
+            M = np.triu(M) + np.triu(M, 1).T + self.rotor
+            Minv = np.linalg.inv(M)
+            vm = G @ v
+            thm = np.tanh(vm * self._ivs)
+            f = self.fc * th + self.fv * v + G.T @ (m["fc"] * thm + m["fv"] * vm + m["offset"])
+            a = Minv @ (tau - nle - f)
+            Dm = m["fc"] * self._ivs * (1.0 - thm * thm) + m["fv"]
+            D = np.diag(self.fc * self._ivs * (1.0 - th * th) + self.fv) + G.T @ (Dm[:, None] * G)
+            stiff = h * float(np.max(np.abs(Minv @ D))) > 0.1
+        if stiff:  # near zero velocity: implicit friction
+            dv = np.linalg.solve(self._eye + (h * Minv) @ D, h * a)
         else:
             dv = h * a
         v_new = v + dv
@@ -343,6 +369,11 @@ def simulate(
     ffm = feedforward_model or model
     if feedforward == "model":
         tau_ff = ffm.rnea(qd, dqd, ddqd) + ffm.coulomb * np.sign(dqd) + ffm.viscous * dqd
+        motor_terms = _motor_terms(ffm)
+        if motor_terms:
+            from pinid.model import terms as _terms
+
+            tau_ff += _terms.torque(ffm, motor_terms, _terms.nominal(ffm, motor_terms), qd, dqd, ddqd)
     elif feedforward == "gravity":
         tau_ff = ffm.rnea(qd, np.zeros_like(qd), np.zeros_like(qd))
     else:
@@ -435,7 +466,7 @@ def simulate(
                         meta={"simulated": True, "seed": int(seed)})
     signals = Dataset(t=rec_t, q=true_q, joints=joints, dq=true_v, ddq=true_a, tau=true_tau, source="pinid simulate (truth)")
 
-    terms = JointTerms()
+    terms = JointTerms(names=["fc", "fv"] + _motor_terms(model).names)
     truth_model = model.with_inertial_parameters(model.inertial_parameters(), coulomb=fc, viscous=fv)
     theta = standard_parameters(truth_model, terms)
     bp = base_parameters(truth_model, terms)
@@ -455,10 +486,12 @@ def simulate(
         "standard": {"names": parameter_names(truth_model, terms), "values": theta.tolist()},
         "base": {"names": bp.names, "expressions": bp.expressions(), "values": bp.from_standard(theta).tolist()},
         "friction": {
-            "model": "tau = rnea(q, dq, ddq) + fc*sign(dq) + fv*dq; the simulator uses fc*tanh(dq/v_s)",
+            "model": "tau = rnea(q, dq, ddq) + fc*sign(dq) + fv*dq (+ G^T*(motor terms at G*dq) with drives); "
+                     "the simulator uses fc*tanh(dq/v_s)",
             "coulomb": dict(zip(joints, fc.tolist())), "viscous": dict(zip(joints, fv.tolist())),
             "coulomb_velocity_scale": float(coulomb_velocity),
         },
+        "drives": None if model.drives is None else model.drives.to_dict(),
         "noise": {
             "position_std": float(position_noise), "encoder_resolution": res,
             "torque_std": dict(zip(joints, np.asarray(sigma_tau, float).tolist())),
@@ -475,6 +508,14 @@ def simulate(
         "signals": signals,
     }
     return recording, truth
+
+
+def _motor_terms(model: RobotModel) -> JointTerms:
+    """The motor terms the plant of ``model`` has (all four when its drives carry any nominal value)."""
+    d = model.drives
+    if d is None or not any(np.any(d.nominal(k) != 0) for k in ("fc", "fv", "armature", "offset")):
+        return JointTerms(names=[])
+    return JointTerms(names=["motor_fc", "motor_fv", "motor_offset", "motor_armature"])
 
 
 def truth_json(truth: dict) -> dict:

@@ -1,0 +1,259 @@
+"""Drives: the motors of a robot and the transmissions between motors and joints.
+
+A transmission couples some motors to as many joints: ``q_motor = matrix · q_joint`` (rows motors,
+columns joints; square and invertible).  A plain reduction is a 1×1 matrix ``[[n]]``; a wrist
+differential a 2×2 block; a cable that couples hip and knee a triangular block.  Then
+``dq_motor = G·dq``, ``ddq_motor = G·ddq`` and the joint torques are ``τ_joint = Gᵀ·τ_motor`` (power
+balance, losses ignored).  The robot's ``G`` (motors × joints, in the robot's joint order) stacks its
+transmissions; a joint without a transmission has no motor (a motor term cannot act on it).
+
+The motor-side terms of :mod:`pinid.model.terms` (``motor_fc``, ``motor_fv``, ``motor_armature``,
+``motor_offset``; parameters ``<motor>.fc`` …) enter joint ``j``'s row as ``G[m, j]·c_m(G·q, G·dq, G·ddq)``.
+
+Two sources, with the same meaning of ``matrix`` as a mapping spec's ``[transmission]``
+(:mod:`pinid.data.mapping`; one :class:`Transmission` type and one parser for both):
+
+1. the URDF's own ``<transmission>`` elements (ros_control / transmission_interface convention):
+   ``SimpleTransmission`` with the actuator's ``mechanicalReduction`` ``n`` gives ``[[n]]``;
+   ``DifferentialTransmission`` with actuator roles ``actuator1/2`` (reductions ``a1, a2``) and joint
+   roles ``joint1/2`` (reductions ``j1, j2``, default 1) gives ``[[a1·j1, a1·j2], [a2·j1, −a2·j2]]``.
+   Other transmission types and transmissions of inactive (locked or fixed) joints are left out.
+2. a drives TOML (``--drives FILE``), replacing the URDF's::
+
+       [transmission]                 # or [[transmission]] for several
+       joints = ["wrist_2", "wrist_3"]
+       motors = ["m5", "m6"]
+       matrix = [[1, 0], [1, 1]]      # q_motor = matrix · q_joint
+       [motors.m6]                    # optional nominal motor terms (SI units): the twin's plant uses
+       fc = 0.3                       # them, identification starts from them, export writes them
+       fv = 0.02
+       armature = 1e-4
+       offset = 0.0
+"""
+
+from __future__ import annotations
+
+import os
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Mapping, Sequence
+
+import numpy as np
+
+from pinid.errors import ModelError, SpecError
+
+#: Keys of a ``[motors.<name>]`` table of a drives file: the motor terms' parameter suffixes.
+MOTOR_VALUE_KEYS: tuple[str, ...] = ("fc", "fv", "armature", "offset")
+
+
+@dataclass(frozen=True)
+class Transmission:
+    """``q_motor = matrix · q_joint`` for ``motors`` × ``joints`` (square, invertible); ``τ_joint = matrixᵀ·τ_motor``."""
+
+    joints: list[str]
+    motors: list[str]
+    matrix: np.ndarray
+
+
+def transmission_from_table(d: Any, origin: str, error: type = SpecError) -> Transmission:
+    """Parse and check a ``[transmission]`` table (``joints``, ``motors``, ``matrix``); one-line ``error``."""
+    where = "[transmission]"
+    if not isinstance(d, dict):
+        raise error(f"{origin}: {where} must be a table with joints, motors, matrix")
+    extra = sorted(set(d) - {"joints", "motors", "matrix"})
+    if extra:
+        raise error(f"{origin}: {where} has unknown key(s) {extra}; expected joints, motors, matrix")
+    for k in ("joints", "motors", "matrix"):
+        if k not in d:
+            raise error(f"{origin}: {where} has no {k}; expected joints, motors and matrix")
+    tj, tm = d["joints"], d["motors"]
+    if not (isinstance(tj, list) and isinstance(tm, list) and all(isinstance(x, str) for x in tj + tm)):
+        raise error(f"{origin}: {where} joints and motors must be lists of names")
+    if len(set(tj)) != len(tj) or len(set(tm)) != len(tm):
+        raise error(f"{origin}: {where} joints and motors must not repeat names")
+    try:
+        R = np.array(d["matrix"], dtype=float)
+    except (TypeError, ValueError):
+        raise error(f"{origin}: {where} matrix must be a list of rows of numbers") from None
+    return checked(Transmission(list(tj), list(tm), R), origin, error)
+
+
+def checked(t: Transmission, origin: str, error: type = SpecError) -> Transmission:
+    """``t`` if its matrix is square (motors × joints) and invertible, else a one-line ``error``."""
+    R = t.matrix
+    if R.shape != (len(t.motors), len(t.joints)) or len(t.motors) != len(t.joints) or not t.joints:
+        raise error(f"{origin}: transmission of {t.joints}: matrix has shape {R.shape}, expected a square "
+                    f"({len(t.motors)} motors × {len(t.joints)} joints) matrix with q_motor = matrix · q_joint")
+    if not np.all(np.isfinite(R)) or abs(np.linalg.det(R)) < 1e-12 * max(1.0, np.abs(R).max()) ** len(t.joints):
+        raise error(f"{origin}: transmission of {t.joints}: matrix is singular or not finite ({R.tolist()}), "
+                    "expected an invertible matrix")
+    return t
+
+
+@dataclass
+class Drives:
+    """The motors of a robot: ``matrix`` G (motors × the robot's joints) and nominal motor-term values."""
+
+    joints: list[str]  # the robot's active joints, in model order (the columns of matrix)
+    transmissions: list[Transmission]
+    values: dict[str, dict[str, float]] = field(default_factory=dict)  # motor → {suffix: value}
+    origin: str = "drives"
+
+    def __post_init__(self) -> None:
+        seen_j: dict[str, str] = {}
+        seen_m: set[str] = set()
+        for t in self.transmissions:
+            for j in t.joints:
+                if j not in self.joints:
+                    raise SpecError(f"{self.origin}: transmission names joint '{j}', which is not an active joint "
+                                    f"(active joints: {', '.join(self.joints)})")
+                if j in seen_j:
+                    raise SpecError(f"{self.origin}: joint '{j}' is in two transmissions, expected one")
+                seen_j[j] = t.motors[0]
+            for m in t.motors:
+                if m in seen_m:
+                    raise SpecError(f"{self.origin}: motor '{m}' is in two transmissions, expected one")
+                seen_m.add(m)
+        for m, vals in self.values.items():
+            if m not in seen_m:
+                raise SpecError(f"{self.origin}: [motors.{m}] is not a motor of any transmission "
+                                f"(motors: {', '.join(self.motor_names)})")
+            for k, v in vals.items():
+                if k not in MOTOR_VALUE_KEYS:
+                    raise SpecError(f"{self.origin}: [motors.{m}] has unknown key '{k}', expected some of "
+                                    f"{list(MOTOR_VALUE_KEYS)}")
+                if not isinstance(v, (int, float)) or isinstance(v, bool) or not np.isfinite(v):
+                    raise SpecError(f"{self.origin}: [motors.{m}] {k} = {v!r}, expected a finite number")
+                if k != "offset" and v < 0:
+                    raise SpecError(f"{self.origin}: [motors.{m}] {k} = {v!r}, expected >= 0")
+        G = np.zeros((len(seen_m), len(self.joints)))
+        r = 0
+        for t in self.transmissions:
+            cols = [self.joints.index(j) for j in t.joints]
+            G[r: r + len(t.motors), cols] = t.matrix
+            r += len(t.motors)
+        self.matrix = G
+
+    @property
+    def motor_names(self) -> list[str]:
+        """Motor names, in the order of G's rows."""
+        return [m for t in self.transmissions for m in t.motors]
+
+    def nominal(self, suffix: str) -> np.ndarray:
+        """Per motor, the nominal value of a motor term (``fc``, ``fv``, ``armature``, ``offset``; 0 if not given)."""
+        return np.array([float(self.values.get(m, {}).get(suffix, 0.0)) for m in self.motor_names])
+
+    def to_dict(self) -> dict:
+        """The drives TOML as a dict (``[[transmission]]`` tables and ``[motors.<m>]`` values)."""
+        out: dict = {"transmission": [{"joints": list(t.joints), "motors": list(t.motors),
+                                       "matrix": np.asarray(t.matrix, dtype=float).tolist()} for t in self.transmissions]}
+        if self.values:
+            out["motors"] = {m: dict(v) for m, v in self.values.items()}
+        return out
+
+    @classmethod
+    def from_dict(cls, d: Mapping, joints: Sequence[str], origin: str = "drives") -> "Drives":
+        """Parse a drives TOML's dict for a robot with active ``joints`` (see the module text)."""
+        if not isinstance(d, Mapping):
+            raise SpecError(f"{origin}: expected a table with [transmission] and optional [motors.<name>]")
+        extra = sorted(set(d) - {"transmission", "motors", "description"})
+        if extra:
+            raise SpecError(f"{origin}: unknown table(s) {extra}; expected [transmission] and [motors.<name>]")
+        if "transmission" not in d:
+            raise SpecError(f"{origin}: no [transmission] table; expected joints, motors and matrix")
+        tables = d["transmission"] if isinstance(d["transmission"], list) else [d["transmission"]]
+        transmissions = [transmission_from_table(t, origin) for t in tables]
+        motors = d.get("motors", {})
+        if not isinstance(motors, Mapping) or not all(isinstance(v, Mapping) for v in motors.values()):
+            raise SpecError(f"{origin}: [motors] must hold [motors.<name>] tables of numbers")
+        return cls(list(joints), transmissions, {m: dict(v) for m, v in motors.items()}, origin)
+
+    def with_values(self, values: Mapping[str, Mapping[str, float]]) -> "Drives":
+        """A copy with other nominal motor-term values (e.g. identified ones)."""
+        return Drives(list(self.joints), list(self.transmissions), {m: dict(v) for m, v in values.items()}, self.origin)
+
+
+def load_drives(path: str | os.PathLike, joints: Sequence[str]) -> Drives:
+    """Read a drives TOML file for a robot with active ``joints``; SpecError (one line) when it is wrong."""
+    import tomllib
+
+    p = Path(path)
+    if not p.is_file():
+        raise SpecError(f"{p}: drives file not found, expected a TOML file with a [transmission] table")
+    try:
+        d = tomllib.loads(p.read_text(encoding="utf-8"))
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise SpecError(f"{p}: not a valid TOML file ({str(exc).splitlines()[0]})") from None
+    return Drives.from_dict(d, joints, str(p))
+
+
+def _number(el: ET.Element | None, tag: str, origin: str, default: float | None = None) -> float:
+    sub = el.find(tag) if el is not None else None
+    if sub is None or not (sub.text or "").strip():
+        if default is None:
+            raise ModelError(f"{origin}: <{tag}> missing, expected a number")
+        return default
+    try:
+        v = float(sub.text)
+    except ValueError:
+        raise ModelError(f"{origin}: <{tag}> is {sub.text.strip()!r}, expected a number") from None
+    if not np.isfinite(v):
+        raise ModelError(f"{origin}: <{tag}> is {v}, expected a finite number")
+    return v
+
+
+def urdf_transmissions(urdf_text: str, joints: Sequence[str], origin: str = "URDF") -> list[Transmission]:
+    """The transmissions of a URDF's ``<transmission>`` elements among the active ``joints`` (module text)."""
+    root = ET.fromstring(urdf_text)
+    known = {j.get("name") for j in root.findall("joint")}
+    out = []
+    for tr in root.findall("transmission"):
+        name = tr.get("name", "?")
+        where = f"{origin}: <transmission name={name!r}>"
+        kind = (tr.findtext("type") or tr.get("type") or "").strip().split("/")[-1]
+        jels, aels = tr.findall("joint"), tr.findall("actuator")
+        jnames = [j.get("name") for j in jels]
+        unknown = [j for j in jnames if j not in known]
+        if unknown:
+            raise ModelError(f"{where} names joint(s) {unknown} that the URDF does not have")
+        if kind not in ("SimpleTransmission", "DifferentialTransmission"):
+            continue
+        active = [j for j in jnames if j in joints]
+        if not active:
+            continue
+        if len(active) != len(jnames):
+            raise ModelError(f"{where} couples active joint(s) {active} with inactive ones "
+                             f"{[j for j in jnames if j not in joints]}; expected all of them active")
+        if kind == "SimpleTransmission":
+            if len(jels) != 1 or len(aels) != 1:
+                raise ModelError(f"{where}: SimpleTransmission needs one joint and one actuator")
+            n = _number(aels[0], "mechanicalReduction", where, 1.0)
+            out.append(checked(Transmission(jnames, [aels[0].get("name")], np.array([[n]])), where, ModelError))
+            continue
+        if len(jels) != 2 or len(aels) != 2:
+            raise ModelError(f"{where}: DifferentialTransmission needs two joints and two actuators")
+        a = _by_role(aels, ("actuator1", "actuator2"), where)
+        j = _by_role(jels, ("joint1", "joint2"), where)
+        a1, a2 = (_number(e, "mechanicalReduction", where, 1.0) for e in a)
+        j1, j2 = (_number(e, "mechanicalReduction", where, 1.0) for e in j)
+        G = np.array([[a1 * j1, a1 * j2], [a2 * j1, -a2 * j2]])
+        out.append(checked(Transmission([e.get("name") for e in j], [e.get("name") for e in a], G), where, ModelError))
+    return out
+
+
+def _by_role(els: list[ET.Element], roles: tuple[str, str], where: str) -> list[ET.Element]:
+    by = {(e.findtext("role") or "").strip(): e for e in els}
+    if set(by) != set(roles):
+        raise ModelError(f"{where}: roles {sorted(by)}, expected {list(roles)}")
+    return [by[r] for r in roles]
+
+
+def attach(robot, drives: Drives | str | os.PathLike | None):
+    """``robot`` with these drives (a :class:`Drives`, a drives TOML path, or None for none); returns it."""
+    if drives is not None and not isinstance(drives, Drives):
+        drives = load_drives(drives, robot.joint_names)
+    if drives is not None and list(drives.joints) != robot.joint_names:
+        drives = Drives(robot.joint_names, drives.transmissions, drives.values, drives.origin)
+    robot.drives = drives
+    return robot
