@@ -384,3 +384,19 @@ def test_cli_twin_fit_compare(spec, tmp_path):
     d = json.loads(cmp_.read_text())
     assert d["flexible"]["model"] == "flexible" and d["rigid"]["model"] == "rigid"
     assert "rigid" in p.stdout and (tmp_path / "cmp.png").exists()
+
+
+def test_flex_output_option_is_o_like_every_command_and_out_still_works(tmp_path):
+    """-o/--output as in the other commands; --out is a deprecated alias (same file)."""
+    import subprocess
+    import sys
+
+    sp = tmp_path / "s.toml"
+    sp.write_text(SPEC.read_text().replace("duration = 2.0", "duration = 0.3").replace('urdf = "../urdf/', f'urdf = "{ROOT}/urdf/'))
+    a, b = tmp_path / "a.csv", tmp_path / "b.csv"
+    assert run_cli("flex", "twin", "--spec", str(sp), "-o", str(a), "--seed", "3").returncode == 0
+    proc = subprocess.run([sys.executable, "-W", "error::DeprecationWarning:pinid.cli.flex", "-m", "pinid.cli", "flex",
+                           "twin", "--spec", str(sp), "--out", str(b), "--seed", "3"], capture_output=True, text=True)
+    assert proc.returncode != 0 and "deprecated" in proc.stderr  # the warning is there (made an error here)
+    assert run_cli("flex", "twin", "--spec", str(sp), "--out", str(b), "--seed", "3").returncode == 0
+    assert a.read_bytes() == b.read_bytes()

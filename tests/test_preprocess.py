@@ -92,16 +92,16 @@ def test_measured_velocity_used_when_asked():
 
 
 def test_presets():
-    assert set(PRESETS) == {"seed000", "seed001"}
-    out = prepare(recording(500.0), preset="seed000")
+    assert set(PRESETS) == {"zha2019", "shi2024"}  # the source papers by author and year
+    out = prepare(recording(500.0), preset="zha2019")
     pp = out.meta["preprocess"]
     assert (pp["cutoff"], pp["order"], pp["sample_rate"], pp["resampled"]) == (10.0, 4, pytest.approx(1000.0), True)
-    out = prepare(recording(5000.0, seconds=4.0), preset="seed000")  # downsampled with an anti-alias filter
+    out = prepare(recording(5000.0, seconds=4.0), preset="zha2019")  # downsampled with an anti-alias filter
     assert out.meta["preprocess"]["sample_rate"] == pytest.approx(1000.0)
     _, dq, ddq = TRAJ.evaluate(out.t)
     assert rel_rms(out.dq, dq) < 2e-3 and rel_rms(out.ddq, ddq) < 2e-2
-    out = prepare(recording(500.0), preset="seed001", cutoff=3.0)  # explicit options win over the preset
-    assert out.meta["preprocess"]["cutoff"] == 3.0 and out.meta["preprocess"]["preset"] == "seed001"
+    out = prepare(recording(500.0), preset="shi2024", cutoff=3.0)  # explicit options win over the preset
+    assert out.meta["preprocess"]["cutoff"] == 3.0 and out.meta["preprocess"]["preset"] == "shi2024"
     with pytest.raises(SpecError, match="preset 'seed002' is unknown"):
         prepare(recording(500.0), preset="seed002")
 
@@ -136,3 +136,11 @@ def test_warns_when_motion_is_faster_than_the_cutoff():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         prepare(ds)
+
+
+def test_old_preset_names_still_work_with_a_deprecation_warning():
+    with pytest.warns(DeprecationWarning, match="'seed000' is deprecated, use 'zha2019'"):
+        old = prepare(recording(500.0), preset="seed000")
+    new = prepare(recording(500.0), preset="zha2019")
+    np.testing.assert_array_equal(old.ddq, new.ddq)
+    assert old.meta["preprocess"]["preset"] == "zha2019"

@@ -293,3 +293,16 @@ def test_cli_errors_leave_nothing(tmp_path, args, message):
     proc = run_cli(*base, *args, cwd=tmp_path)
     assert_clean_error(proc, message)
     assert set(tmp_path.iterdir()) == before
+
+
+def test_old_trajectory_preset_names_still_work_with_a_deprecation_warning():
+    from pinid.simulation import twin as twin_module
+
+    model = load("apal_leg")
+    with pytest.warns(DeprecationWarning, match="'seed000-3' is deprecated, use 'zha2019-3'"):
+        old = load_trajectory("seed000-3", model)
+    new = load_trajectory("zha2019-3", model)
+    assert old.meta["name"] == new.meta["name"] == "zha2019-3"
+    np.testing.assert_array_equal(old.evaluate(0.3)[0], new.evaluate(0.3)[0])
+    with pytest.warns(DeprecationWarning, match="seed000_trajectory is deprecated"):
+        assert twin_module.seed000_trajectory is twin_module.zha2019_trajectory

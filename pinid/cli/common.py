@@ -76,7 +76,8 @@ def add_preprocessing_arguments(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("preprocessing (defaults chosen from the sample rate)")
     g.add_argument("--preprocess", choices=("auto", "always", "never"), default="auto",
                    help="auto: only recordings without dq/ddq (default); always; never")
-    g.add_argument("--preset", default=None, help="preprocessing preset (seed000, seed001)")
+    g.add_argument("--preset", default=None, help="preprocessing preset: zha2019 (Zha et al. 2019: 1 kHz, 10 Hz) or shi2024 (Shi et al. 2024: 5 Hz); "
+                        "the old names seed000, seed001 still work (deprecated)")
     g.add_argument("--cutoff", type=float, default=None, metavar="HZ", help="low-pass cut-off [Hz]")
     g.add_argument("--order", type=int, default=None, help="filter order (default 4)")
     g.add_argument("--differentiation", default=None, help="differentiation method (default savgol)")

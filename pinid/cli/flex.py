@@ -25,10 +25,10 @@ actions:
 
 examples:
   pinid flex check --spec excitation/tracker_flex_spec.toml
-  pinid flex twin --spec excitation/tracker_flex_spec.toml --out tracker_twin.csv
-  pinid flex fit --spec excitation/tracker_flex_spec.toml --data tracker_twin.csv --method pso --out fit.json
-  pinid flex fit --spec excitation/tracker_flex_spec.toml --method least_squares --x0 fit.json --out polished.json
-  pinid flex compare --spec excitation/tracker_flex_spec.toml --out cmp.json --plot cmp.png
+  pinid flex twin --spec excitation/tracker_flex_spec.toml -o tracker_twin.csv
+  pinid flex fit --spec excitation/tracker_flex_spec.toml --data tracker_twin.csv --method pso -o fit.json
+  pinid flex fit --spec excitation/tracker_flex_spec.toml --method least_squares --x0 fit.json -o polished.json
+  pinid flex compare --spec excitation/tracker_flex_spec.toml -o cmp.json --plot cmp.png
 """
 
 DEFAULT_SPEC = "excitation/tracker_flex_spec.toml"
@@ -65,11 +65,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
     t = sub.add_parser("twin", help="simulate the spec's truth and write a recording")
     common(t)
-    t.add_argument("--out", required=True, metavar="CSV", help="recording to write (CSV); the truth goes to CSV.json")
+    _output(t, "CSV", "recording to write (CSV or NPZ); the truth goes to CSV.json")
     t.add_argument("--noise", type=float, default=None, help="noise on every angle [rad] (default: the spec's)")
     t.add_argument("--seed", type=int, default=None, help="noise seed (default: the spec's)")
     t.add_argument("--no-motor", action="store_true", help="do not record motor angles")
-    t.add_argument("--force", action="store_true", help="overwrite --out")
+    t.add_argument("--force", action="store_true", help="overwrite the output")
 
     f = sub.add_parser("fit", help="fit the free parameters by output error")
     common(f)
@@ -79,7 +79,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     f.add_argument("--x0", default=None, metavar="middle|truth|JSON",
                    help="start: least_squares' start point, or a member of the initial population (default: middle "
                         "of the box for least_squares, none otherwise); a JSON result of an earlier fit")
-    f.add_argument("--out", required=True, metavar="JSON", help="result to write")
+    _output(f, "JSON", "result to write")
     f.add_argument("--plot", default=None, metavar="PNG", help="also plot measured and simulated angles")
     f.add_argument("--force", action="store_true", help="overwrite outputs")
 
@@ -88,12 +88,29 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     data_opts(m)
     fit_opts(m)
     m.add_argument("--no-polish", action="store_true", help="do not refine each metaheuristic result with least_squares")
-    m.add_argument("--out", required=True, metavar="JSON", help="result to write")
+    _output(m, "JSON", "result to write")
     m.add_argument("--plot", default=None, metavar="PNG", help="also plot measured and simulated angles")
     m.add_argument("--force", action="store_true", help="overwrite outputs")
 
 
 # ---------------------------------------------------------------------------------------------- helpers
+class _DeprecatedOut(argparse.Action):
+    """``--out``: the old spelling of ``-o/--output`` (as every other command has it), kept for one release."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        import warnings
+
+        warnings.warn("pinid flex --out is deprecated, use -o/--output", DeprecationWarning, stacklevel=1)
+        setattr(namespace, self.dest, values)
+
+
+def _output(p: argparse.ArgumentParser, metavar: str, text: str) -> None:
+    """-o/--output (required), with --out as a deprecated alias."""
+    g = p.add_mutually_exclusive_group(required=True)
+    g.add_argument("-o", "--output", dest="out", metavar=metavar, help=text)
+    g.add_argument("--out", dest="out", metavar=metavar, action=_DeprecatedOut, help="deprecated alias of -o/--output")
+
+
 def _spec(args):
     from pinid.errors import SpecError
     from pinid.flexible.output_error import load_flex_spec

@@ -12,7 +12,7 @@ from pinid.cli.common import add_robot_arguments, robot_from_args
 HELP = "simulate a robot tracking a trajectory and write a recording plus its true parameters"
 DESCRIPTION = """\
 Reads a URDF holding the TRUE parameters and a trajectory — an excitation file from `pinid excite`, or
-a preset: seed000-1 .. seed000-4, seed 000's Table 1 trajectories (degrees, q = 0 hanging down,
+a preset: zha2019-1 .. zha2019-4, the Table 1 trajectories of Zha et al. 2019 (degrees, q = 0 hanging down,
 mapped onto the robot's hip and knee; see docs/simulate.md).  Simulates the robot tracking it in closed
 loop (PD or PID plus feed-forward, forward dynamics with Pinocchio, Coulomb and viscous friction),
 adds sensor noise and encoder quantisation, and writes
@@ -28,7 +28,7 @@ The same arguments give the same files.  Defaults: 1 kHz control and sampling, 1
 
 example:
   pinid simulate --urdf urdf/exo_leg.urdf --excitation excitation/exo_leg.json --seconds 60 --seed 1 -o data/run1.csv
-  pinid simulate --urdf apal_leg --excitation seed000-3 --seconds 20 -o data/apal3.csv --perturb 20
+  pinid simulate --urdf apal_leg --excitation zha2019-3 --seconds 20 -o data/apal3.csv --perturb 20
   pinid simulate --urdf exo_leg --excitation excitation/exo_leg.json -o data/run1.csv --perturb 30 --cad-urdf data/cad.urdf
 """
 
@@ -36,7 +36,7 @@ example:
 def add_arguments(p: argparse.ArgumentParser) -> None:
     add_robot_arguments(p)
     p.add_argument("--excitation", required=True, metavar="FILE|PRESET",
-                   help="trajectory JSON (from pinid excite) or a preset: seed000-1 .. seed000-4")
+                   help="trajectory JSON (from pinid excite) or a preset: zha2019-1 .. zha2019-4")
     p.add_argument("--flip", action="append", default=[], metavar="JOINT",
                    help="negate a preset's angle for JOINT (robot axis opposite to the paper's); repeatable")
     p.add_argument("--seconds", type=float, default=60.0, help="duration [s]; default 60")

@@ -31,6 +31,8 @@ Presets (``preset=``) fill in the options left at their defaults: see :data:`PRE
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 from scipy import signal
 from scipy.interpolate import CubicSpline
@@ -38,17 +40,19 @@ from scipy.interpolate import CubicSpline
 from pinid.data.dataset import Dataset
 from pinid.errors import DataError, SpecError
 
-#: Named recipes.  ``seed000``: Zha et al. 2019 — 1 kHz sampling, zero-phase 10 Hz low-pass (the paper
+#: Named recipes, after the paper they reproduce.  ``zha2019``: Zha et al. 2019 — 1 kHz sampling, zero-phase 10 Hz low-pass (the paper
 #: gives no order: 4 here; it differentiates by forward differences, which lag half a sample: central
-#: differences here).  ``seed001``: Shi et al. 2024 — Butterworth low-pass run forward and reverse (the
+#: differences here).  ``shi2024``: Shi et al. 2024 — Butterworth low-pass run forward and reverse (the
 #: paper gives neither order nor cut-off: order 4 and 5 Hz here, ten times its highest trajectory
 #: harmonic of 0.4 Hz and above the torque's own harmonics).
 PRESETS: dict[str, dict] = {
-    "seed000": {"cutoff": 10.0, "order": 4, "differentiation": "central", "rate": 1000.0,
-                "description": "seed 000 (Zha et al. 2019): 1 kHz, zero-phase 10 Hz Butterworth low-pass"},
-    "seed001": {"cutoff": 5.0, "order": 4, "differentiation": "central",
-                "description": "seed 001 (Shi et al. 2024): Butterworth low-pass, forward and reverse (5 Hz, order 4)"},
+    "zha2019": {"cutoff": 10.0, "order": 4, "differentiation": "central", "rate": 1000.0,
+                "description": "Zha et al. 2019 (seed 000): 1 kHz, zero-phase 10 Hz Butterworth low-pass"},
+    "shi2024": {"cutoff": 5.0, "order": 4, "differentiation": "central",
+                "description": "Shi et al. 2024 (seed 001): Butterworth low-pass, forward and reverse (5 Hz, order 4)"},
 }
+#: Old preset names (the seed papers' numbers), accepted with a DeprecationWarning for one release.
+DEPRECATED_PRESETS: dict[str, str] = {"seed000": "zha2019", "seed001": "shi2024"}
 
 DIFFERENTIATION = ("savgol", "central")
 JITTER_TOLERANCE = 0.01  # relative step deviation that triggers resampling
@@ -138,12 +142,16 @@ def prepare(
     backward; ``differentiation`` "savgol" or "central"; ``trim`` [s] dropped at each end (default
     the filter's settling time plus the derivative window); ``decimate`` keep every n-th sample (default: down to
     ``max(1 kHz, 20·cutoff)``); ``rate`` [Hz] resample to this uniform rate first (by default only
-    jittered recordings are resampled, at their median rate).  ``preset`` ("seed000", "seed001") fills
+    jittered recordings are resampled, at their median rate).  ``preset`` ("zha2019", "shi2024"; the old "seed000", "seed001" are deprecated) fills
     the options left at their defaults.  The options used are recorded in ``meta["preprocess"]``.
     Raises DataError when there is no torque, too few samples, or a cut-off the sample rate cannot carry.
     """
     given = {"cutoff": cutoff, "order": order, "differentiation": differentiation, "trim": trim,
              "decimate": decimate, "rate": rate}
+    if preset in DEPRECATED_PRESETS:
+        warnings.warn(f"preprocessing preset {preset!r} is deprecated, use {DEPRECATED_PRESETS[preset]!r}",
+                      DeprecationWarning, stacklevel=2)
+        preset = DEPRECATED_PRESETS[preset]
     if preset is not None:
         if preset not in PRESETS:
             raise SpecError(f"preprocessing preset {preset!r} is unknown, expected one of {', '.join(PRESETS)}")

@@ -45,6 +45,7 @@ from __future__ import annotations
 
 import math
 import warnings
+from pathlib import Path
 from typing import Sequence
 
 import numpy as np
@@ -58,7 +59,7 @@ from pinid.excitation.trajectory import FourierTrajectory
 
 #: Seed 000 (Zha et al. 2019) Table 1, degrees: (hip offset, hip sin amplitude, knee offset, knee sin
 #: amplitude) of q = offset + amplitude·sin(2π t); q = 0 hanging down, counter-clockwise positive.
-SEED000_TABLE1: dict[int, tuple[float, float, float, float]] = {
+ZHA2019_TABLE1: dict[int, tuple[float, float, float, float]] = {
     1: (-10.0, 0.0, 45.0, -30.0),
     2: (-10.0, 0.0, 60.0, -30.0),
     3: (-30.0, -30.0, 75.0, -30.0),
@@ -77,37 +78,40 @@ PAPER_CONVENTIONS: dict[str, tuple[tuple[str, float], tuple[str, float]]] = {
 
 
 def trajectory_presets() -> list[str]:
-    """Names of the trajectory presets: ``seed000-1`` … ``seed000-4``."""
-    return [f"seed000-{k}" for k in SEED000_TABLE1]
+    """Names of the trajectory presets: ``zha2019-1`` … ``zha2019-4`` (Zha et al. 2019, Table 1; the old
+    names ``seed000-1`` … are accepted with a DeprecationWarning)."""
+    return [f"zha2019-{k}" for k in ZHA2019_TABLE1]
 
 
-def seed000_trajectory(number: int, joints: Sequence[str] = ("hip", "knee"), signs: Sequence[float] = (1.0, 1.0)) -> FourierTrajectory:
+def zha2019_trajectory(number: int, joints: Sequence[str] = ("hip", "knee"), signs: Sequence[float] = (1.0, 1.0)) -> FourierTrajectory:
     """Seed 000's Table 1 trajectory ``number`` (1–4) as a Fourier trajectory (ω = 2π rad/s, one harmonic).
 
     ``joints``: names for (hip, knee); ``signs``: +1 or −1 per joint when the robot's axis points the other
     way than the paper's (counter-clockwise positive, q = 0 hanging down).  Angles become radians.
     """
-    if number not in SEED000_TABLE1:
+    if number not in ZHA2019_TABLE1:
         raise SpecError(f"seed 000 Table 1 has trajectories 1 to 4, not {number!r}")
-    ho, ha, ko, ka = SEED000_TABLE1[number]
+    ho, ha, ko, ka = ZHA2019_TABLE1[number]
     d = np.pi / 180
     s = np.asarray(signs, dtype=float)
     return FourierTrajectory(
         list(joints), 2 * np.pi, s * np.array([ho, ko]) * d, (s * np.array([ha, ka]) * d)[:, None], np.zeros((2, 1)),
-        meta={"name": f"seed000-{number}", "source": "Zha et al. 2019 (seed 000), Table 1",
+        meta={"name": f"zha2019-{number}", "source": "Zha et al. 2019 (seed 000), Table 1",
               "paper_degrees": {"hip": [ho, ha], "knee": [ko, ka]}, "signs": s.tolist()},
     )
 
 
 def load_trajectory(spec: str, model: RobotModel, *, flip: Sequence[str] = ()) -> FourierTrajectory:
-    """A trajectory for ``model`` from a JSON file (``pinid excite``) or a preset name (``seed000-3``).
+    """A trajectory for ``model`` from a JSON file (``pinid excite``) or a preset name (``zha2019-3``).
 
     Presets are mapped onto the model's joints named ``hip`` and ``knee`` (or, failing that, its two
     joints in order) with the signs of :data:`PAPER_CONVENTIONS` for that robot; ``flip`` negates more
     joints (the robot's axis pointing the other way).  Files must name the model's joints.
     """
-    from pathlib import Path
-
+    renamed = spec.replace("seed000-", "zha2019-", 1) if spec.startswith("seed000-") else None
+    if renamed in trajectory_presets():
+        warnings.warn(f"trajectory preset {spec!r} is deprecated, use {renamed!r}", DeprecationWarning, stacklevel=2)
+        spec = renamed
     if spec in trajectory_presets():
         number = int(spec.split("-")[1])
         names = model.joint_names
@@ -128,7 +132,7 @@ def load_trajectory(spec: str, model: RobotModel, *, flip: Sequence[str] = ()) -
         if len(names) != 2:
             raise SpecError(f"trajectory preset {spec} moves two joints; {model.name} has {len(names)} active joints "
                             f"({', '.join(names)}); lock the others with --lock")
-        return seed000_trajectory(number, joints, signs)
+        return zha2019_trajectory(number, joints, signs)
     p = Path(spec)
     if not p.exists():
         raise SpecError(f"{spec}: no such excitation file, and not a trajectory preset "
@@ -533,3 +537,15 @@ def save_truth(path, truth: dict):
 def friction_torque(dq: np.ndarray, coulomb, viscous) -> np.ndarray:
     """The regressor's friction ``fc·sign(dq) + fv·dq`` [N·m] for velocities ``dq`` (N, nv)."""
     return np.asarray(coulomb) * np.sign(dq) + np.asarray(viscous) * dq
+
+
+#: Old public names (the seed papers' numbers) and their new ones; they still work for one release.
+_DEPRECATED = {"SEED000_TABLE1": "ZHA2019_TABLE1", "seed000_trajectory": "zha2019_trajectory"}
+
+
+def __getattr__(name: str):
+    if name in _DEPRECATED:
+        warnings.warn(f"pinid.simulation.twin.{name} is deprecated, use {_DEPRECATED[name]}", DeprecationWarning,
+                      stacklevel=2)
+        return globals()[_DEPRECATED[name]]
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

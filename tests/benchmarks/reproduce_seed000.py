@@ -85,11 +85,11 @@ def cad_model(truth: RobotModel, percent: float, seed: int) -> RobotModel:
 def recordings(truth: RobotModel, cad: RobotModel, seconds: float, seed: int) -> tuple[dict, dict]:
     recs, truths = {}, {}
     for k in (1, 2, 3, 4):
-        rec, tr = simulate(truth, load_trajectory(f"seed000-{k}", truth), seconds=seconds, seed=100 * seed + k,
+        rec, tr = simulate(truth, load_trajectory(f"zha2019-{k}", truth), seconds=seconds, seed=100 * seed + k,
                            feedforward_model=cad)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # "the low-pass removes most of the hip's variance" (it is fixed)
-            recs[k] = prepare(rec, preset="seed000")
+            recs[k] = prepare(rec, preset="zha2019")
         truths[k] = tr
     return recs, truths
 

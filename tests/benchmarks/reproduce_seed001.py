@@ -82,8 +82,8 @@ def identification_part(leg: RobotModel, train_traj, args) -> dict:
         rec, truth = simulate(leg, train_traj, seconds=args.seconds, seed=11, controller="pid", feedforward_model=cad)
         val, _ = simulate(leg, val_traj, seconds=min(args.seconds, 30.0), seed=12, controller="pid",
                           feedforward_model=cad)
-        train = prepare(rec, preset="seed001")
-        valid = prepare(val, preset="seed001")
+        train = prepare(rec, preset="shi2024")
+        valid = prepare(val, preset="shi2024")
     comp = compare(cad, train, {"Table 3 trajectory": valid}, methods=["ols", "sdp", "pso", "woa", "ewoa", "de"],
                    seeds=args.seeds, truth=truth,
                    metaheuristic={"fitness": "sse", "population": args.population, "iterations": args.iterations})
