@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import Any, Iterator
 
 from pinid.errors import OutputError
+from pinid.errors import SpecError
 
 
 #: Whether existing output files may be replaced.  The Python API replaces them (``save()`` saves); the
@@ -107,8 +108,6 @@ def display_path(path: str | os.PathLike) -> str:
 
 def read_json(path: str | os.PathLike, what: str) -> dict:
     """The JSON object in ``path``; SpecError naming ``what`` was expected if it is missing or not one."""
-    from pinid.errors import SpecError
-
     p = Path(path)
     if not p.is_file():
         raise SpecError(f"{p}: file not found, expected a {what} JSON file")

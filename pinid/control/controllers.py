@@ -30,6 +30,14 @@ import numpy as np
 
 from pinid.errors import SpecError
 from pinid.model.robot import RobotModel
+from pinid.errors import SolverError
+from pinid.identification.result import Identification
+from pinid.identification.run import identify
+from pinid.identification.identified import IdentifiedModel
+from pinid.io import read_json
+from pinid.model.base import base_parameters
+from pinid.model.regressor import JointTerms, standard_parameters
+from pinid.simulation.twin import Plant, perturb, simulate
 
 
 class DynamicsModel(Protocol):
@@ -47,9 +55,6 @@ class DynamicsModel(Protocol):
 
 def nominal_model(robot: RobotModel, *, friction: bool = True):
     """The URDF's own parameters as a dynamics model; ``friction=False`` ignores its ``<dynamics>``."""
-    from pinid.identification.identified import IdentifiedModel
-    from pinid.model.regressor import JointTerms, standard_parameters
-
     terms = JointTerms() if friction else JointTerms(coulomb=False, viscous=False)
     return IdentifiedModel(robot, terms, standard_parameters(robot, terms), meta={"method": "nominal"})
 
@@ -199,9 +204,6 @@ def track(
     implicit when stiff) integrated at ``rate·substeps`` [Hz].  Starts at ``q0`` (default the reference at
     t = 0) at rest.  Seeded: the same arguments give the same run.
     """
-    from pinid.errors import SolverError
-    from pinid.simulation.twin import Plant
-
     rng = np.random.default_rng(seed)
     nv = plant.nv
     limit = plant.effort_limit if torque_limit is None else np.broadcast_to(np.asarray(torque_limit, float), (nv,))
@@ -236,15 +238,9 @@ def load_controller_model(spec: str, plant: RobotModel, *, friction: bool = True
     (``identification.json``: its best result)."""
     from pathlib import Path
 
-    from pinid.identification.core import Identification
-    from pinid.io import read_json
-    from pinid.identification.identified import IdentifiedModel
-
     if spec == "nominal":
         return nominal_model(plant, friction=friction)
     if spec.startswith("cad:"):
-        from pinid.simulation.twin import perturb
-
         try:
             percent = float(spec[4:])
         except ValueError:
@@ -310,11 +306,6 @@ def identified_vs_cad(
 
     Returns ``{"table": compare_models(...), "identification": Identification, "cad_base_error_percent":
     ..., "identified_base_error_percent": ...}`` (relative errors of the base parameters [%])."""
-    from pinid.model.base import base_parameters
-    from pinid.identification.core import identify
-    from pinid.model.regressor import JointTerms, standard_parameters
-    from pinid.simulation.twin import perturb, simulate
-
     rng = np.random.default_rng(seed)
     cad_robot = perturb(plant, percent, rng)
     cad = nominal_model(cad_robot, friction=False)

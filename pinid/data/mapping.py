@@ -53,6 +53,7 @@ import numpy as np
 from pinid.data.registry import READERS, Reader, Table, reader_for, register_reader
 from pinid.errors import DataError, DataWarning, SpecError
 from pinid.model.drives import Transmission, transmission_from_table
+from pinid.data.dataset import Dataset
 
 QUANTITIES: tuple[str, ...] = ("q", "dq", "ddq", "tau")
 
@@ -200,8 +201,6 @@ class MappingSpec:
     # ------------------------------------------------------------------ reading
     def read(self, path: str | os.PathLike):
         """Read the main file ``path`` (and the other sources) into a Dataset (not yet checked against a model)."""
-        from pinid.data.dataset import Dataset
-
         path = Path(path)
         refs_by_source: dict[str, list[ColumnRef]] = {}
         for table in (self.joints, self.motors):

@@ -39,6 +39,7 @@ from scipy.interpolate import CubicSpline
 
 from pinid.data.dataset import Dataset
 from pinid.errors import DataError, SpecError
+from pinid.data.formats import warn
 
 #: Named recipes, after the paper they reproduce.  ``zha2019``: Zha et al. 2019 — 1 kHz sampling, zero-phase 10 Hz low-pass (the paper
 #: gives no order: 4 here; it differentiates by forward differences, which lag half a sample: central
@@ -93,8 +94,6 @@ def uniform_grid(ds: Dataset, rate: float | None = None) -> tuple[Dataset, dict]
     gaps = np.flatnonzero(dt > 5 * step)
     report = {"median_step": step, "jitter": jitter, "resampled": False}
     if gaps.size:
-        from pinid.data.formats import warn
-
         k = int(gaps[0])
         warn(ds, f"{ds.source}: {gaps.size} gap(s) in the time stamps, the first of {dt[k]:.4g} s at t = {t[k]:.6g} s "
                  f"(median step {step:.4g} s); interpolated across")
@@ -260,7 +259,5 @@ def _warn_content_above_cutoff(ds: Dataset, q_filtered: np.ndarray, fs: float, c
     frac = np.divide(removed.var(axis=0), var, out=np.zeros_like(var), where=var > 0)
     j = int(np.argmax(frac))
     if frac[j] > 0.01:
-        from pinid.data.formats import warn
-
         warn(ds, f"{ds.source}: the {cutoff:g} Hz low-pass removes {100 * frac[j]:.2g} % of the position variance of "
                  f"joint '{ds.joints[j]}': the motion may be faster than the cut-off (pass a higher cut-off)")

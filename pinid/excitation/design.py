@@ -71,6 +71,10 @@ from pinid.resources import EXCITATION_DIR as BUNDLED_EXCITATION_DIR
 from pinid.model.robot import RobotModel
 from pinid.model.regressor import JointTerms, regressor, standard_parameters
 from pinid.excitation.trajectory import FourierTrajectory
+from pinid.io import write_json
+from pinid.model.bundled import BUNDLED_URDF_DIR
+from pinid.optimizers import OPTIMIZERS, get_optimizer
+from pinid.progress import progress as progress_bar
 
 #: Acceleration limit [rad/s² or m/s²] when neither the spec nor the URDF gives one.
 DEFAULT_ACCELERATION = 5.0
@@ -275,8 +279,6 @@ def default_spec(model: RobotModel, **settings) -> ExcitationSpec:
 
 def bundled_spec_path(model: RobotModel) -> Path | None:
     """The spec file pinid uses by default for a bundled robot (``exo_leg`` → ``excitation/exo_leg_table2.toml``)."""
-    from pinid.model.bundled import BUNDLED_URDF_DIR
-
     if model.urdf_path is None:
         return None
     path = Path(model.urdf_path)
@@ -860,8 +862,6 @@ class MultistartOptions:
 
 #: Names accepted by :func:`design_excitation` (``slsqp`` plus the population-based optimisers).
 def design_optimizers() -> list[str]:
-    from pinid.optimizers import OPTIMIZERS
-
     return ["slsqp", *OPTIMIZERS]
 
 
@@ -921,8 +921,6 @@ class ExcitationResult:
 
     def save(self, path: str | os.PathLike) -> Path:
         """Write the JSON form atomically (readable by :meth:`FourierTrajectory.load`)."""
-        from pinid.io import write_json
-
         return write_json(path, self.to_dict())
 
 
@@ -985,8 +983,6 @@ def design_excitation(
 
 
 def _design(model, spec, optimizer, options, seed, progress, x0) -> ExcitationResult:
-    from pinid.optimizers import OPTIMIZERS, get_optimizer
-
     start = time.perf_counter()
     problem = DesignProblem(model, spec)
     rng = np.random.default_rng(seed)
@@ -1078,8 +1074,6 @@ def _multistart(problem: DesignProblem, opts: MultistartOptions, rng: np.random.
 
     ``history``: best criterion value (on the full problem's samples) after each polished candidate,
     preceded by phase 1's best values per start (on the search samples)."""
-    from pinid.progress import progress as progress_bar
-
     for key in ("starts", "screen", "polish", "maxiter", "polish_maxiter"):
         value = getattr(opts, key)
         if int(value) != value or value < 1:

@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from pinid.errors import SpecError
+from pinid.io import read_json, write_json, write_text
 
 
 @dataclass
@@ -125,8 +126,6 @@ class FourierTrajectory:
         Columns: ``t`` [s], then ``q_<joint>`` [rad], ``dq_<joint>`` [rad/s], ``ddq_<joint>`` [rad/s²] for
         every joint — what a rig's position controller reads.
         """
-        from pinid.io import write_text
-
         if not np.isfinite(rate) or rate <= 0:
             raise SpecError(f"CSV export: rate {rate}, expected > 0 [Hz]")
         if duration is not None and (not np.isfinite(duration) or duration <= 0):
@@ -168,13 +167,9 @@ class FourierTrajectory:
 
     def save(self, path: str | os.PathLike) -> Path:
         """Write as JSON (atomically)."""
-        from pinid.io import write_json
-
         return write_json(path, self.to_dict())
 
     @classmethod
     def load(cls, path: str | os.PathLike) -> "FourierTrajectory":
         """Read a JSON file written by :meth:`save` or by ``pinid excite``."""
-        from pinid.io import read_json
-
         return cls.from_dict(read_json(path, "trajectory (joints, base_frequency, q0, a, b)"), source=str(path))

@@ -48,6 +48,7 @@ from pinid.data.registry import reader_for, writer_for
 from pinid.io import atomic_path, jsonable, write_json
 from pinid.flexible.model import FLEX_PARAMS, RIGID_PARAMS, Drive, FlexibleModel, FlexSimulation, check_parameter
 from pinid.model.robot import INERTIAL_NAMES, RobotModel
+from pinid.optimizers import OPTIMIZERS, get_optimizer
 
 #: Costs of :class:`OutputErrorProblem`.
 COSTS: tuple[str, ...] = ("abs", "sq")
@@ -59,8 +60,6 @@ LEAST_SQUARES = "least_squares"
 
 def methods() -> list[str]:
     """Every method :func:`fit_output_error` accepts."""
-    from pinid.optimizers import OPTIMIZERS
-
     return list(OPTIMIZERS) + [LEAST_SQUARES]
 
 
@@ -897,8 +896,6 @@ def fit_output_error(
     if method == LEAST_SQUARES:
         x, message, extra = _least_squares(problem, x0, history, f_scale, max_nfev, options or {})
     else:
-        from pinid.optimizers import get_optimizer
-
         opt = get_optimizer(method, **dict(options or {}))
 
         def fun(X):

@@ -20,6 +20,7 @@ import scipy.linalg
 
 from pinid.model.robot import RobotModel
 from pinid.model.regressor import JointTerms, parameter_names, regressor
+from pinid.io import write_json
 
 
 @dataclass
@@ -79,8 +80,6 @@ class BaseParameters:
 
     def save(self, path) -> None:
         """Write as JSON."""
-        from pinid.io import write_json
-
         write_json(path, self.to_dict())
 
     @classmethod

@@ -32,6 +32,7 @@ from pinid.model.robot import RobotModel
 from pinid.model.physical import check_consistency, com_inertia
 from pinid.model import terms as _terms
 from pinid.model.regressor import JointTerms
+from pinid.io import write_text
 
 
 
@@ -136,8 +137,6 @@ def identified_urdf(model: RobotModel, theta: np.ndarray, terms: JointTerms, pat
     ET.indent(root, space="  ")
     text = '<?xml version="1.0" encoding="utf-8"?>\n' + ET.tostring(root, encoding="unicode") + "\n"
     if path is not None:
-        from pinid.io import write_text
-
         write_text(path, text)
     return text
 

@@ -24,6 +24,7 @@ from dataclasses import dataclass
 from typing import Callable, Iterable, NamedTuple, Sequence
 
 import numpy as np
+from pinid.errors import ModelError
 
 
 class Motion(NamedTuple):
@@ -184,8 +185,6 @@ def _motors(robot) -> list[str]:
 
 def robot_layout(robot, terms: JointTerms) -> list[TermParameter]:
     """:func:`layout` for a RobotModel (its joints and its drives' motors); ModelError if motor terms have no drives."""
-    from pinid.errors import ModelError
-
     try:
         return layout(robot.joint_names, _motors(robot), terms)
     except ValueError as exc:

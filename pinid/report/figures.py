@@ -3,6 +3,8 @@ never call ``plt.show()``, take ``ax=None`` where a single axes fits, and return
 
 from __future__ import annotations
 
+from pinid.io import atomic_path
+
 
 def new_figure(*args, **kwargs):
     """``plt.subplots(*args, **kwargs)`` on the non-interactive Agg backend."""
@@ -17,8 +19,6 @@ def new_figure(*args, **kwargs):
 def save_figure(fig, path) -> None:
     """Save ``fig`` atomically to ``path`` (format from the suffix) and close it."""
     import matplotlib.pyplot as plt
-
-    from pinid.io import atomic_path
 
     with atomic_path(path) as tmp:
         fig.savefig(tmp, format=str(path).rsplit(".", 1)[-1], dpi=120, bbox_inches="tight")

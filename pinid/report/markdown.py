@@ -17,6 +17,9 @@ import numpy as np
 from pinid.io import display_path
 from pinid.model.physical import com_inertia
 from pinid.model.terms import JointTerms
+from pinid.io import write_text
+from pinid.report.figures import save_figure
+from pinid.report.plot_identification import error_bars, torque_comparison
 
 
 def _f(x, fmt: str = ".4g") -> str:
@@ -44,8 +47,6 @@ def figure_names(ident) -> dict[str, str]:
 
 def make_figures(ident) -> dict[str, object]:
     """The report's matplotlib figures by key (see :func:`figure_names`); empty without torque curves."""
-    from pinid.report.plot_identification import error_bars, torque_comparison
-
     figs = {}
     c = ident.curves or {}
     joints = ident.robot["joints"]
@@ -168,9 +169,6 @@ def report_markdown(ident, figures: dict[str, str] | None = None) -> str:
 
 def write_report(ident, folder: str | os.PathLike, *, name: str = "report.md", figures: bool = True) -> list[Path]:
     """Write ``report.md`` and its figures into ``folder``; return the paths written."""
-    from pinid.io import write_text
-    from pinid.report.figures import save_figure
-
     folder = Path(folder)
     written = []
     names = {}

@@ -56,6 +56,11 @@ from pinid.errors import DataError, DataWarning, SpecError
 from pinid.model.robot import RobotModel
 from pinid.model.terms import JointTerms
 from pinid.excitation.trajectory import FourierTrajectory
+from pinid.io import write_json
+from pinid.model import terms as _terms
+from pinid.model.base import base_parameters
+from pinid.model.regressor import JointTerms, parameter_names, standard_parameters
+from pinid.progress import progress as _progress
 
 #: Seed 000 (Zha et al. 2019) Table 1, degrees: (hip offset, hip sin amplitude, knee offset, knee sin
 #: amplitude) of q = offset + amplitude·sin(2π t); q = 0 hanging down, counter-clockwise positive.
@@ -306,9 +311,6 @@ def simulate(
     ``coulomb`` / ``viscous`` [N·m, N·m·s/rad]: true friction per joint (default the URDF's
     ``<dynamics>``, ``model.coulomb`` / ``model.viscous``).  Other options: see the module docstring.
     """
-    from pinid.model.base import base_parameters
-    from pinid.model.regressor import JointTerms, parameter_names, standard_parameters
-
     if not np.isfinite(seconds) or seconds <= 0:
         raise SpecError(f"duration {seconds!r} s, expected a duration > 0")
     if controller not in ("pd", "pid"):
@@ -375,8 +377,6 @@ def simulate(
         tau_ff = ffm.rnea(qd, dqd, ddqd) + ffm.coulomb * np.sign(dqd) + ffm.viscous * dqd
         motor_terms = _motor_terms(ffm)
         if motor_terms:
-            from pinid.model import terms as _terms
-
             tau_ff += _terms.torque(ffm, motor_terms, _terms.nominal(ffm, motor_terms), qd, dqd, ddqd)
     elif feedforward == "gravity":
         tau_ff = ffm.rnea(qd, np.zeros_like(qd), np.zeros_like(qd))
@@ -417,8 +417,6 @@ def simulate(
     s_idx = 0
     bar = None
     if progress:
-        from pinid.progress import progress as _progress
-
         bar = _progress(n_steps // n_c, "simulate", enabled=None if progress is None else bool(progress))
     try:
         for i in range(n_steps):
@@ -529,8 +527,6 @@ def truth_json(truth: dict) -> dict:
 
 def save_truth(path, truth: dict):
     """Write the truth dict (without ``signals``) as JSON, atomically."""
-    from pinid.io import write_json
-
     return write_json(path, truth_json(truth))
 
 
