@@ -22,7 +22,8 @@ from pinid.model.robot import RobotModel
 from conftest import assert_clean_error, load, run_cli
 from test_identification import fourier_motion, truth_model
 
-ALL_TERMS = JointTerms.from_names("fc,fv,offset,armature,motor_fc,motor_fv,motor_offset,motor_armature")
+ALL_TERMS = JointTerms.from_names("fc,fv,offset,armature,fc_pos,fc_neg,"
+                                  "motor_fc,motor_fv,motor_offset,motor_armature,motor_fc_pos,motor_fc_neg")
 MOTOR_TERMS = JointTerms.from_names("fc,fv,motor_fc,motor_fv,motor_offset,motor_armature")
 EXO_G = [[30.0, 0.0], [12.0, 25.0]]  # cable: the knee motor turns with the hip too
 WRIST_G = [[50.0, 0.0], [50.0, 50.0]]  # differential wrist: motor 6 turns with q5 + q6
@@ -51,7 +52,8 @@ def expected_torque(m: RobotModel, q, dq, ddq, theta_terms, terms: JointTerms) -
     nj, nmt = len(terms.joint), len(terms.motor)
     J = theta_terms[: nv * nj].reshape(nv, nj)
     M = theta_terms[nv * nj:].reshape(nm, nmt)
-    formula = {"fc": np.sign, "fv": lambda x: x, "offset": np.ones_like}
+    formula = {"fc": np.sign, "fv": lambda x: x, "offset": np.ones_like,
+               "fc_pos": lambda x: (x > 0) * 1.0, "fc_neg": lambda x: -1.0 * (x < 0)}
     tau = m.rnea(q, dq, ddq)
     for k, t in enumerate(terms.joint):
         tau += J[:, k] * (ddq if t.name == "armature" else formula[t.name](dq))
@@ -237,3 +239,27 @@ def test_simulated_plant_has_motor_friction_and_rotor_inertia():
                                                 smoothing=truth["friction"]["coulomb_velocity_scale"])
     assert np.allclose(want, s.tau, atol=1e-8)
     assert "motor_armature" in truth["terms"] and truth["drives"]["transmission"][0]["matrix"] == EXO_G
+
+
+def test_cli_identify_with_drives_exports_drives_toml_and_motor_names(tmp_path):
+    from pinid.data.formats import write_recording
+
+    m = coupled("exo_leg")
+    write_recording(tmp_path / "train.csv", twin(m, MOTOR_TERMS, seconds=10))
+    drives_file = tmp_path / "d.toml"
+    drives_file.write_text('[transmission]\njoints = ["hip", "knee"]\nmotors = ["m_hip", "m_knee"]\n'
+                           f'matrix = {EXO_G}\n[motors.m_knee]\nfc = 0.05\n')
+    out = tmp_path / "out"
+    proc = run_cli("identify", "--urdf", "exo_leg", "--drives", str(drives_file), "--data", str(tmp_path / "train.csv"),
+                   "--terms", ",".join(MOTOR_TERMS.names), "--methods", "sdp", "--no-report", "-o", str(out))
+    assert proc.returncode == 0, proc.stderr
+    d = json.loads((out / "identification.json").read_text())
+    assert "m_knee.armature" in d["methods"]["sdp"]["base_parameters"] or any(
+        n.startswith("m_knee.") for n in d["methods"]["sdp"]["base_parameters"])
+    back = load_drives(out / "identified_sdp_drives.toml", m.joint_names)
+    assert np.array_equal(back.matrix, m.drives.matrix)
+    ident = IdentifiedModel.load(out / "model_sdp.json")  # the saved model carries its drives
+    q, dq, ddq = m.random_states(4, np.random.default_rng(1))
+    theta = standard_parameters(m, MOTOR_TERMS)
+    want = expected_torque(m, q, dq, ddq, theta[10 * m.nv:], MOTOR_TERMS)
+    assert np.allclose(ident.inverse_dynamics(q, dq, ddq), want, atol=1e-5)

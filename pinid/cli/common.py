@@ -25,8 +25,9 @@ def add_terms_argument(p: argparse.ArgumentParser) -> None:
     """The --terms option: which joint terms enter the model."""
     p.add_argument("--terms", default="fc,fv",
                    help="terms in the model, comma-separated: joint side fc (Coulomb), fv (viscous), "
-                        "offset (constant torque), armature (rotor inertia); motor side (needs drives: URDF "
-                        "<transmission> or --drives) motor_fc, motor_fv, motor_offset, motor_armature; "
+                        "offset (constant torque), armature (rotor inertia), fc_pos/fc_neg (asymmetric Coulomb, "
+                        "instead of fc); motor side (needs drives: URDF <transmission> or --drives) motor_fc, "
+                        "motor_fv, motor_offset, motor_armature, motor_fc_pos, motor_fc_neg; "
                         "'none' for none; default fc,fv")
 
 

@@ -24,6 +24,8 @@ into the output folder (-o, default results/):
   model_<method>.json      the identified model for controller code (pinid.identification.identified.IdentifiedModel)
   identified_<method>.urdf the URDF with identified inertials and friction (consistent results only,
                            unless --force-export)
+  identified_<method>_drives.toml  with motor terms: the drives with the identified motor friction,
+                           offset and rotor inertia (URDF has no field for them; read back with --drives)
   report.md, *.png         a readable report with the figures
 
 Rows where a joint is nearly at rest are left out of the fit when Coulomb friction is in the model
@@ -126,10 +128,13 @@ def run(args: argparse.Namespace) -> int:
     for r in ident:
         print_result(r)
     # everything is computed before any file is written
-    urdfs, refused = {}, []
+    urdfs, drives, refused = {}, {}, []
     for m, r in ident.results.items():
         if r.physically_consistent or args.force_export:
             urdfs[m] = r.export_urdf(force=args.force_export)
+            text = r.model.export_drives()
+            if text is not None:
+                drives[m] = text
         else:
             refused.append(m)
     models = {m: r.model.to_dict() for m, r in ident.results.items()}
@@ -143,7 +148,7 @@ def run(args: argparse.Namespace) -> int:
     from pinid.io import check_all_writable
 
     planned = [out / "identification.json", *(out / f"model_{m}.json" for m in models),
-               *(out / f"identified_{m}.urdf" for m in urdfs)]
+               *(out / f"identified_{m}.urdf" for m in urdfs), *(out / f"identified_{m}_drives.toml" for m in drives)]
     if figs is not None:
         planned += [out / names[k] for k in figs] + [out / "report.md"]
     check_all_writable(planned)  # all or nothing: no file is written if one of them cannot be
@@ -152,6 +157,8 @@ def run(args: argparse.Namespace) -> int:
         written.append(write_json(out / f"model_{m}.json", dm))
     for m, text in urdfs.items():
         written.append(write_text(out / f"identified_{m}.urdf", text))
+    for m, text in drives.items():
+        written.append(write_text(out / f"identified_{m}_drives.toml", text))
     if figs is not None:
         from pinid.report.figures import save_figure
 

@@ -195,6 +195,14 @@ class IdentifiedModel:
         return identified_urdf(self.nominal_robot, self.theta, self.terms, path, force=force,
                                comment=f"method {self.meta.get('method', '?')}")
 
+    def export_drives(self, path: str | os.PathLike | None = None) -> str | None:
+        """The drives TOML with the identified motor terms (:func:`pinid.model.export.identified_drives`), None
+        without motor terms; written to ``path`` when given (read it back with ``--drives``)."""
+        from pinid.model.export import identified_drives
+
+        return identified_drives(self.nominal_robot, self.theta, self.terms, path,
+                                 comment=f"method {self.meta.get('method', '?')}")
+
     def __repr__(self) -> str:
         return (f"IdentifiedModel({self.robot.name!r}, joints={self.joint_names}, terms={self.terms.names}, "
                 f"physically_consistent={self.physically_consistent})")

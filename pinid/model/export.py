@@ -150,3 +150,32 @@ def _set_inertial(link: ET.Element, m: float, c: np.ndarray, I: np.ndarray) -> N
     ET.SubElement(inertial, "inertia", ixx=_num(I[0, 0]), ixy=_num(I[0, 1]), ixz=_num(I[0, 2]),
                   iyy=_num(I[1, 1]), iyz=_num(I[1, 2]), izz=_num(I[2, 2]))
     link.insert(0, inertial)
+
+
+def identified_drives(model: RobotModel, theta: np.ndarray, terms: JointTerms, path: str | os.PathLike | None = None,
+                      *, comment: str | None = None) -> str | None:
+    """The drives TOML of ``model`` with the motor-term values of the standard parameters ``theta``
+    (``[motors.<name>]`` fc, fv, offset, armature; URDF has no field for them); None without motor terms.
+    Written atomically to ``path`` when given.  Read it back with ``--drives``."""
+    if not terms.motor or model.drives is None:
+        return None
+    theta = np.asarray(theta, dtype=float)
+    values = _terms.values(model, terms, theta[10 * model.nv:])
+    lines = [f"# drives identified by pinid{' (' + comment + ')' if comment else ''}: q_motor = matrix · q_joint; "
+             "motor terms in SI units (N·m, N·m·s/rad, kg·m²)"]
+    for t in model.drives.transmissions:
+        lines += ["", "[[transmission]]", f"joints = [{', '.join(_q(j) for j in t.joints)}]",
+                  f"motors = [{', '.join(_q(m) for m in t.motors)}]",
+                  "matrix = [" + ", ".join("[" + ", ".join(_num(x) for x in row) + "]" for row in t.matrix) + "]"]
+    for i, m in enumerate(model.motor_names):
+        lines += ["", f"[motors.{_q(m)}]"] + [f"{t.suffix} = {_num(values[t.name][i])}" for t in terms.motor]
+    text = "\n".join(lines) + "\n"
+    if path is not None:
+        from pinid.io import write_text
+
+        write_text(path, text)
+    return text
+
+
+def _q(name: str) -> str:
+    return '"' + name.replace("\\", "\\\\").replace('"', '\\"') + '"'

@@ -86,7 +86,12 @@ register(Term("fv", "fv", "viscous friction", "N·m·s/rad", lambda m: m.dq, non
 register(Term("offset", "offset", "constant torque", "N·m", lambda m: np.ones_like(m.dq)))
 register(Term("armature", "armature", "rotor inertia", "kg·m²", lambda m: m.ddq, nonnegative=True, inertia=True))
 
-for _base in ("fc", "fv", "offset", "armature"):
+register(Term("fc_pos", "fc_pos", "Coulomb friction, positive velocity", "N·m", lambda m: (m.dq > 0).astype(float),
+              nonnegative=True, plant=lambda v, m, vs: v * np.maximum(np.tanh(m.dq / vs), 0.0)))
+register(Term("fc_neg", "fc_neg", "Coulomb friction, negative velocity", "N·m", lambda m: -(m.dq < 0).astype(float),
+              nonnegative=True, plant=lambda v, m, vs: v * np.minimum(np.tanh(m.dq / vs), 0.0)))
+
+for _base in ("fc", "fv", "offset", "armature", "fc_pos", "fc_neg"):
     _t = TERMS[_base]
     register(Term(f"motor_{_base}", _base, f"motor {_t.label}", _t.unit, _t.column, space="motor",
                   nonnegative=_t.nonnegative, nominal=lambda r, s=_base: r.drives.nominal(s), field=_base,
