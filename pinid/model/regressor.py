@@ -76,7 +76,8 @@ def regressor(
     else:
         for k in range(n):
             inertial[k] = compute(m, d, q[k], dq[k], ddq[k])
-    out[:, :, ni:] = _terms.columns(model, terms, q, dq, ddq)
+    out[:, :, ni:] = 0.0
+    _terms.columns(model, terms, q, dq, ddq, out=out[:, :, ni:])
     return out.reshape(n * nv, ni + nt)
 
 

@@ -226,12 +226,15 @@ def motion(robot, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray, space: str = "
     return Motion(q @ G.T, dq @ G.T, ddq @ G.T, robot.drives.motor_names, robot)
 
 
-def columns(robot, terms: JointTerms, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray) -> np.ndarray:
-    """Regressor columns of the terms, (N, nv, count) for (N, nv) joint motion (vectorised over samples)."""
+def columns(robot, terms: JointTerms, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray,
+            out: np.ndarray | None = None) -> np.ndarray:
+    """Regressor columns of the terms, (N, nv, count) for (N, nv) joint motion (vectorised over samples);
+    written into ``out`` (a zeroed (N, nv, count) array or view) when given."""
     n, nv = q.shape
     joint, motor = terms.joint, terms.motor
     nm = len(_motors(robot)) if motor else 0
-    out = np.zeros((n, nv, len(joint) * nv + len(motor) * nm))
+    if out is None:
+        out = np.zeros((n, nv, len(joint) * nv + len(motor) * nm))
     if joint:
         mj = motion(robot, q, dq, ddq)
         rows = np.arange(nv)
@@ -244,7 +247,8 @@ def columns(robot, terms: JointTerms, q: np.ndarray, dq: np.ndarray, ddq: np.nda
         start = len(joint) * nv
         for t, term in enumerate(motor):
             c = term.column(mm)  # (N, nm)
-            out[:, :, start + np.arange(nm) * len(motor) + t] = c[:, None, :] * G.T[None, :, :]
+            for m in range(nm):
+                np.multiply(c[:, m, None], G[m], out=out[:, :, start + m * len(motor) + t])
     return out
 
 
