@@ -23,6 +23,9 @@ example:
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--urdf-true", default="exo_leg", help="the plant's URDF or robot name; default exo_leg")
+    p.add_argument("--drives", default=None, metavar="FILE",
+                   help="the plant's drives TOML (docs/drives.md): its [motors.NAME] friction and rotor inertia "
+                        "act in the plant; replaces the URDF's <transmission>")
     p.add_argument("--model", action="append", default=[], metavar="SPEC",
                    help="controller model: nominal | cad:PERCENT | FILE.urdf | model_<method>.json | identification.json; "
                         "repeatable")
@@ -66,6 +69,10 @@ def run(args: argparse.Namespace) -> int:
     if not (args.seconds > args.after >= 0):
         raise SpecError(f"--seconds {args.seconds} and --after {args.after}: expected seconds > after >= 0")
     plant = RobotModel.from_urdf(args.urdf_true)
+    if args.drives:
+        from pinid.model.drives import attach
+
+        attach(plant, args.drives)
     reference = sine_reference(plant) if args.reference == "sine" else FourierTrajectory.load(args.reference)
     if reference.joints != plant.joint_names:
         raise SpecError(f"{args.reference}: joints {reference.joints}, expected {plant.joint_names}")
