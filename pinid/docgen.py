@@ -70,6 +70,8 @@ API_MODULES: tuple[tuple[str, str], ...] = (
     ("pinid.control.controllers", "Model-based control"),
     ("pinid.identification.compare", "Comparing estimators"),
     ("pinid.identification.segmental", "Seed 000's segmental identification"),
+    ("pinid.wearer.anthropometry", "Wearer: anthropometric segments"),
+    ("pinid.wearer.attach", "Wearer: segments strapped to the exoskeleton"),
     ("pinid.flexible.model", "Flexible joints"),
     ("pinid.flexible.output_error", "Output-error identification"),
     ("pinid.errors", "Errors"),

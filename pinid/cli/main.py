@@ -21,7 +21,7 @@ from typing import Sequence
 from pinid.errors import PinidError
 
 #: Subcommands in the order ``pinid --help`` lists them.
-COMMANDS: tuple[str, ...] = ("info", "excite", "simulate", "identify", "compare", "track", "flex", "demo")
+COMMANDS: tuple[str, ...] = ("info", "wearer", "excite", "simulate", "identify", "compare", "track", "flex", "demo")
 
 
 def _load(name: str):

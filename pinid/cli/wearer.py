@@ -1,0 +1,46 @@
+"""``pinid wearer``: an exoskeleton URDF with the wearer's thigh, shank and foot strapped to it."""
+
+from __future__ import annotations
+
+import argparse
+
+HELP = "add a wearer's leg segments (anthropometric tables) to an exoskeleton URDF"
+DESCRIPTION = """\
+Reads an exoskeleton URDF and a wearer's body mass, height and sex, takes the mass, centre of mass
+and radii of gyration of the thigh, shank and foot from de Leva 1996 (pinid/resources/anthropometry/
+de_leva_1996.toml; lengths scale with height), and writes the URDF with each human segment as a link
+fixed to the exo link it is strapped to: proximal endpoint at the joint centre, segment axis along the
+exo link, transverse axis along the joint axis (see docs/wearer.md).  A foot strapped to the shank's
+link (no ankle joint) starts at the ankle and points forward.
+
+  OUTPUT    the URDF: the exo's links unchanged, plus links wearer_<segment> and fixed joints
+            wearer_<segment>_strap
+
+Body mass 40-150 kg and height 1.40-2.10 m (the range pinid accepts for the table's proportional scaling).
+
+example:
+  pinid wearer --urdf exo_leg --mass 75 --height 1.78 --sex male --attach hip:thigh,knee:shank -o exo_with_wearer.urdf
+"""
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--urdf", default="exo_leg", help="exoskeleton URDF file or bundled robot name; default exo_leg")
+    p.add_argument("--mass", type=float, required=True, help="wearer's body mass [kg]")
+    p.add_argument("--height", type=float, required=True, help="wearer's height (stature) [m]")
+    p.add_argument("--sex", choices=("male", "female"), required=True, help="which de Leva table to use")
+    p.add_argument("--attach", default="hip:thigh,knee:shank",
+                   help="POINT:SEGMENT pairs, comma-separated: POINT an exo joint (its child link) or link, "
+                        "SEGMENT thigh, shank or foot; default hip:thigh,knee:shank")
+    p.add_argument("-o", "--output", required=True, metavar="FILE", help="URDF to write")
+
+
+def run(args: argparse.Namespace) -> int:
+    from pinid.io import check_writable, display_path
+    from pinid.wearer.attach import wearer_links, wearer_urdf
+
+    check_writable(args.output)
+    text = wearer_urdf(args.urdf, args.attach, mass=args.mass, height=args.height, sex=args.sex, path=args.output)
+    for seg, (link, m, c, _) in wearer_links(text).items():
+        print(f"{seg:6s} on {link}: {m:.2f} kg, CoM ({c[0]:+.3f}, {c[1]:+.3f}, {c[2]:+.3f}) m")
+    print(f"wrote {display_path(args.output)}")
+    return 0

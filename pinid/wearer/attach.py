@@ -1,0 +1,193 @@
+"""An exoskeleton URDF with the wearer's leg segments strapped to it (``pinid wearer``).
+
+Each human segment becomes a link ``wearer_<segment>`` fixed (joint ``wearer_<segment>_strap``) to
+the exoskeleton link it is strapped to.  Placement, in the frame of that exo link (the frame of the
+joint that moves it):
+
+* the segment's proximal endpoint is the joint centre (joint centres aligned, offset zero) — except a
+  foot strapped to the same link as the shank (an exo without an ankle joint): its proximal endpoint
+  is the ankle, one shank length down the shank's axis, and its axis points forward;
+* the segment's longitudinal axis ``d`` runs along the exo link: towards the origin of the link's first
+  child joint; for a last link (no child joint) along the previous link's axis (the direction of its
+  own joint's origin, in its frame at q = 0); failing that towards its centre of mass; else along −z;
+* its transverse axis is the joint axis (made orthogonal to ``d``), its sagittal axis completes the
+  right-handed frame — so for a sagittal-plane exo the table's transverse radius of gyration is the
+  one that matters.
+
+Pinocchio merges fixed links into the moving body, so the URDF loads as the exo with heavier links;
+the wearer's share stays readable from the ``wearer_*`` links (:func:`wearer_links`).
+"""
+
+from __future__ import annotations
+
+import os
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass
+
+import numpy as np
+import pinocchio as pin
+
+from pinid.errors import SpecError
+from pinid.wearer.anthropometry import LEG_SEGMENTS, Segment, check_person, segment
+
+PREFIX = "wearer_"
+
+
+@dataclass(frozen=True)
+class Placement:
+    """A segment in its exo link's frame: centre of mass ``com`` [m], inertia about it ``inertia`` [kg·m²]."""
+
+    segment: Segment
+    link: str
+    com: np.ndarray
+    inertia: np.ndarray
+
+
+def parse_attach(text: str) -> list[tuple[str, str]]:
+    """``"hip:thigh,knee:shank"`` → ``[("hip", "thigh"), ("knee", "shank")]`` (exo joint or link : segment)."""
+    pairs = []
+    for item in (s.strip() for s in text.split(",")):
+        point, sep, seg = item.partition(":")
+        if not item or not sep or not point.strip() or not seg.strip():
+            raise SpecError(f"--attach {item!r}: expected POINT:SEGMENT, e.g. hip:thigh,knee:shank")
+        pairs.append((point.strip(), seg.strip()))
+    segs = [s for _, s in pairs]
+    for s in segs:
+        if s not in LEG_SEGMENTS:
+            raise SpecError(f"--attach: segment {s!r} is not one of {', '.join(LEG_SEGMENTS)}")
+        if segs.count(s) > 1:
+            raise SpecError(f"--attach: segment {s!r} attached twice, expected once")
+    return pairs
+
+
+def _vec(text: str | None, default=(0.0, 0.0, 0.0)) -> np.ndarray:
+    return np.array([float(x) for x in text.split()]) if text else np.array(default, dtype=float)
+
+
+def _unit(v: np.ndarray) -> np.ndarray | None:
+    n = np.linalg.norm(v)
+    return v / n if n > 1e-9 else None
+
+
+def _frame(d: np.ndarray, axis: np.ndarray) -> np.ndarray:
+    """Columns: sagittal, transverse (joint axis ⟂ d), longitudinal (d)."""
+    y = _unit(axis - axis @ d * d)
+    if y is None:  # joint axis along the segment: any transverse direction
+        y = _unit(np.cross(d, [1.0, 0, 0])) if abs(d[0]) < 0.9 else _unit(np.cross(d, [0, 1.0, 0]))
+    return np.column_stack([np.cross(y, d), y, d])
+
+
+def place(root: ET.Element, pairs, *, mass: float, height: float, sex: str, source: str = "URDF") -> list[Placement]:
+    """Where each (point, segment) pair goes in the URDF tree ``root`` (see the module docstring)."""
+    check_person(mass, height, sex)
+    links = {lk.get("name"): lk for lk in root.findall("link")}
+    joints = {j.get("name"): j for j in root.findall("joint")}
+    parent_joint = {j.find("child").get("link"): j for j in joints.values() if j.find("child") is not None}
+    out, shank_on = [], {}
+    for point, seg in sorted(pairs, key=lambda p: LEG_SEGMENTS.index(p[1])):
+        if point in joints and joints[point].find("child") is not None:
+            link = joints[point].find("child").get("link")
+        elif point in links:
+            link = point
+        else:
+            raise SpecError(f"--attach {point}:{seg}: {point!r} names no joint or link of {source} "
+                            f"(joints: {', '.join(joints)}; links: {', '.join(links)})")
+        pj = parent_joint.get(link)
+        axis_el = pj.find("axis") if pj is not None else None
+        axis = _unit(_vec(axis_el.get("xyz") if axis_el is not None else None, (1.0, 0, 0)))
+        axis = axis if axis is not None else np.array([1.0, 0, 0])
+        children = [j for j in joints.values() if j.find("parent") is not None and j.find("parent").get("link") == link]
+        d = None
+        for j in children:
+            o = j.find("origin")
+            d = d if d is not None else _unit(_vec(o.get("xyz") if o is not None else None))
+        if d is None and pj is not None and pj.find("origin") is not None:  # last link: continue the chain
+            o = pj.find("origin")
+            R0 = pin.rpy.rpyToMatrix(*_vec(o.get("rpy")))
+            d = _unit(R0.T @ _vec(o.get("xyz")))
+        if d is None:
+            io = links[link].find("inertial/origin")
+            d = _unit(_vec(io.get("xyz") if io is not None else None))
+        d = d if d is not None else np.array([0.0, 0.0, -1.0])
+        s = segment(seg, mass=mass, height=height, sex=sex)
+        start = np.zeros(3)
+        if seg == "foot" and link in shank_on:
+            start = shank_on[link][0] * shank_on[link][1]
+            forward = _unit(np.cross(axis, d))
+            d = forward if forward is not None else d
+        if seg == "shank":
+            shank_on[link] = (s.length, d)
+        R = _frame(d, axis)
+        out.append(Placement(s, link, start + s.com * d, R @ np.diag(s.inertia) @ R.T))
+    return out
+
+
+def _num(x: float) -> str:
+    return "0" if abs(x) < 1e-15 else f"{float(x):.10g}"
+
+
+def wearer_urdf(urdf: str | os.PathLike, attach: str | list[tuple[str, str]], *, mass: float, height: float,
+                sex: str, path: str | os.PathLike | None = None) -> str:
+    """The URDF ``urdf`` (file or robot name) with the wearer's segments fixed to it; written to ``path`` if given.
+
+    ``attach``: ``"hip:thigh,knee:shank"`` or pairs (exo joint or link, segment); ``mass`` [kg],
+    ``height`` [m], ``sex`` ``"male"`` / ``"female"`` (de Leva 1996).  Raises SpecError on bad input
+    before writing anything.
+    """
+    from pinid.model.bundled import resolve_robot
+
+    pairs = parse_attach(attach) if isinstance(attach, str) else list(attach)
+    file, _ = resolve_robot(urdf)
+    try:
+        root = ET.fromstring(file.read_text(encoding="utf-8"),
+                             parser=ET.XMLParser(target=ET.TreeBuilder(insert_comments=True)))
+    except ET.ParseError as exc:
+        raise SpecError(f"{file}: not a valid URDF ({exc})") from None
+    if root.find(f"link[@name='{PREFIX}thigh']") is not None or any(
+            (lk.get("name") or "").startswith(PREFIX) for lk in root.findall("link")):
+        raise SpecError(f"{file}: already carries a wearer (links named {PREFIX}*), expected a bare exoskeleton")
+    placements = place(root, pairs, mass=mass, height=height, sex=sex, source=file.name)
+    root.append(ET.Comment(
+        f" pinid wearer: {sex}, {mass:g} kg, {height:g} m, de Leva 1996 (pinid/resources/anthropometry/"
+        "de_leva_1996.toml); segments fixed to the exo links, proximal endpoint at the joint centre "))
+    for p in placements:
+        s = p.segment
+        name = f"{PREFIX}{s.name}"
+        link = ET.SubElement(root, "link", name=name)
+        link.append(ET.Comment(f" {s.source}: mass {s.mass:.4g} kg, length {s.length:.4g} m, CoM {s.com:.4g} m "
+                               f"from the proximal end; inertia about the CoM in the frame of '{p.link}' "))
+        inertial = ET.SubElement(link, "inertial")
+        ET.SubElement(inertial, "origin", xyz=" ".join(_num(x) for x in p.com), rpy="0 0 0")
+        ET.SubElement(inertial, "mass", value=_num(s.mass))
+        I = p.inertia
+        ET.SubElement(inertial, "inertia", ixx=_num(I[0, 0]), ixy=_num(I[0, 1]), ixz=_num(I[0, 2]),
+                      iyy=_num(I[1, 1]), iyz=_num(I[1, 2]), izz=_num(I[2, 2]))
+        joint = ET.SubElement(root, "joint", name=f"{name}_strap", type="fixed")
+        ET.SubElement(joint, "parent", link=p.link)
+        ET.SubElement(joint, "child", link=name)
+        ET.SubElement(joint, "origin", xyz="0 0 0", rpy="0 0 0")
+    ET.indent(root, space="  ")
+    text = '<?xml version="1.0"?>\n' + ET.tostring(root, encoding="unicode") + "\n"
+    if path is not None:
+        from pinid.io import write_text
+
+        write_text(path, text)
+    return text
+
+
+def wearer_links(urdf_text: str) -> dict[str, tuple[str, float, np.ndarray, np.ndarray]]:
+    """The wearer segments of a URDF written by :func:`wearer_urdf`:
+    ``{segment: (exo link, mass [kg], CoM [m], inertia about the CoM [kg·m²])}`` in the exo link's frame."""
+    root = ET.fromstring(urdf_text)
+    parent = {j.find("child").get("link"): j.find("parent").get("link")
+              for j in root.findall("joint") if j.find("child") is not None}
+    out = {}
+    for lk in root.findall("link"):
+        name = lk.get("name") or ""
+        if not name.startswith(PREFIX):
+            continue
+        i = lk.find("inertial")
+        g = {k: float(i.find("inertia").get(k)) for k in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")}
+        I = np.array([[g["ixx"], g["ixy"], g["ixz"]], [g["ixy"], g["iyy"], g["iyz"]], [g["ixz"], g["iyz"], g["izz"]]])
+        out[name[len(PREFIX):]] = (parent[name], float(i.find("mass").get("value")), _vec(i.find("origin").get("xyz")), I)
+    return out
