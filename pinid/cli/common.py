@@ -26,7 +26,8 @@ def add_terms_argument(p: argparse.ArgumentParser) -> None:
     p.add_argument("--terms", default="fc,fv",
                    help="terms in the model, comma-separated: joint side fc (Coulomb), fv (viscous), "
                         "offset (constant torque), armature (rotor inertia), fc_pos/fc_neg (asymmetric Coulomb, "
-                        "instead of fc); motor side (needs drives: URDF <transmission> or --drives) motor_fc, "
+                        "instead of fc), passive (wearer's passive joint moments, scale of Riener & Edrich 1999; "
+                        "docs/wearer.md); motor side (needs drives: URDF <transmission> or --drives) motor_fc, "
                         "motor_fv, motor_offset, motor_armature, motor_fc_pos, motor_fc_neg; "
                         "'none' for none; default fc,fv")
 

@@ -25,6 +25,7 @@ from typing import Callable, Iterable, NamedTuple, Sequence
 
 import numpy as np
 from pinid.errors import ModelError
+from pinid.wearer import passive
 
 
 class Motion(NamedTuple):
@@ -90,6 +91,10 @@ register(Term("fc_pos", "fc_pos", "Coulomb friction, positive velocity", "N·m",
               nonnegative=True, plant=lambda v, m, vs: v * np.maximum(np.tanh(m.dq / vs), 0.0)))
 register(Term("fc_neg", "fc_neg", "Coulomb friction, negative velocity", "N·m", lambda m: -(m.dq < 0).astype(float),
               nonnegative=True, plant=lambda v, m, vs: v * np.minimum(np.tanh(m.dq / vs), 0.0)))
+
+register(Term("passive", "kp", "wearer passive moment (scale of Riener & Edrich 1999)", "1",
+              lambda m: passive.column(m.q, m.robot),
+              nominal=lambda r: np.array([1.0 if kind else 0.0 for kind, _ in passive.anatomy(r)])))
 
 for _base in ("fc", "fv", "offset", "armature", "fc_pos", "fc_neg"):
     _t = TERMS[_base]

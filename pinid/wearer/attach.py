@@ -41,6 +41,8 @@ class Placement:
     link: str
     com: np.ndarray
     inertia: np.ndarray
+    start: np.ndarray  # proximal endpoint [m]
+    frame: np.ndarray  # columns: sagittal, transverse, longitudinal axis
 
 
 def parse_attach(text: str) -> list[tuple[str, str]]:
@@ -118,7 +120,7 @@ def place(root: ET.Element, pairs, *, mass: float, height: float, sex: str, sour
         if seg == "shank":
             shank_on[link] = (s.length, d)
         R = _frame(d, axis)
-        out.append(Placement(s, link, start + s.com * d, R @ np.diag(s.inertia) @ R.T))
+        out.append(Placement(s, link, start + s.com * d, R @ np.diag(s.inertia) @ R.T, start, R))
     return out
 
 
@@ -162,6 +164,12 @@ def wearer_urdf(urdf: str | os.PathLike, attach: str | list[tuple[str, str]], *,
         I = p.inertia
         ET.SubElement(inertial, "inertia", ixx=_num(I[0, 0]), ixy=_num(I[0, 1]), ixz=_num(I[0, 2]),
                       iyy=_num(I[1, 1]), iyz=_num(I[1, 2]), izz=_num(I[2, 2]))
+        d = p.frame[:, 2]  # the segment as a cylinder (√2·longitudinal radius of gyration): also what
+        visual = ET.SubElement(link, "visual", name="segment")  # wearer_prior reads its extent from
+        ET.SubElement(visual, "origin", xyz=" ".join(_num(x) for x in p.start + 0.5 * s.length * d),
+                      rpy=" ".join(_num(x) for x in pin.rpy.matrixToRpy(p.frame)))
+        ET.SubElement(ET.SubElement(visual, "geometry"), "cylinder", radius=_num(np.sqrt(2.0) * s.radii[2]),
+                      length=_num(s.length))
         joint = ET.SubElement(root, "joint", name=f"{name}_strap", type="fixed")
         ET.SubElement(joint, "parent", link=p.link)
         ET.SubElement(joint, "child", link=name)

@@ -1,0 +1,76 @@
+"""Passive elastic moments of the wearer's hip, knee and ankle (Riener & Edrich 1999).
+
+``M = Σ sign·exp(c0 + cH·φH + cK·φK + cA·φA) + constant`` [N·m] with the angles in degrees, every moment
+positive in the direction its own angle grows; the coefficients live in
+``pinid/resources/anthropometry/riener_edrich_1999.toml`` with their source.
+
+Robot joints map to anatomical ones by name (a joint whose name contains ``hip``, ``knee`` or
+``ankle``; other joints get no passive moment).  The anatomical angle is ``s·q``: ``s = +1`` when the
+joint's range reaches further on the positive side (``|upper| ≥ |lower|``), else ``-1`` — the larger
+excursion is flexion for hip and knee, plantarflexion for the ankle.  exo_leg: hip ``s = +1``, knee
+``s = −1`` (its knee flexes negative).  A joint the leg does not have sits at its neutral 0.
+
+In the dynamic model the passive moment is a joint term (``--terms passive``, parameter ``<joint>.kp``,
+a dimensionless scale factor of the published shape, nominal 1): the motors supply
+``τ = ID(q, dq, ddq) + … − kp·s·M(φ)``, so the term's regressor column is ``−s·M``.
+"""
+
+from __future__ import annotations
+
+import tomllib
+from functools import lru_cache
+from importlib import resources
+
+import numpy as np
+
+#: Anatomical joints, in the order of the exponent coefficients (after the constant).
+ANATOMICAL: tuple[str, ...] = ("hip", "knee", "ankle")
+
+
+@lru_cache(maxsize=None)
+def coefficients() -> dict:
+    """The Riener & Edrich 1999 table as read from the shipped TOML file."""
+    text = (resources.files("pinid.resources") / "anthropometry" / "riener_edrich_1999.toml").read_text(encoding="utf-8")
+    return tomllib.loads(text)
+
+
+def moment(joint: str, hip: np.ndarray, knee: np.ndarray, ankle: np.ndarray) -> np.ndarray:
+    """Passive moment [N·m] of anatomical ``joint`` at hip, knee and ankle angles [deg] (R&E convention)."""
+    row = coefficients()[joint]
+    angles = np.stack(np.broadcast_arrays(np.asarray(hip, float), np.asarray(knee, float), np.asarray(ankle, float)))
+    out = np.full(angles.shape[1:], float(row["constant"]))
+    for t in row["terms"]:
+        c = np.asarray(t["c"], dtype=float)
+        out = out + t["sign"] * np.exp(c[0] + np.tensordot(c[1:], angles, axes=1))
+    return out
+
+
+def anatomy(robot) -> list[tuple[str | None, float]]:
+    """For each active joint of ``robot``: (anatomical joint or None, sign s of anatomical = s·q)."""
+    out = []
+    for j in robot.joints:
+        kind = next((a for a in ANATOMICAL if a in j.name.lower()), None)
+        lo, hi = abs(j.lower), abs(j.upper)
+        s = 1.0 if not (np.isfinite(lo) and np.isfinite(hi)) or hi >= lo else -1.0
+        out.append((kind, s))
+    return out
+
+
+def column(q: np.ndarray, robot) -> np.ndarray:
+    """Regressor column (N, nv) of the passive scale factors: ``−s·M`` per mapped joint [N·m], 0 elsewhere."""
+    q = np.atleast_2d(np.asarray(q, dtype=float))
+    amap = anatomy(robot)
+    deg = {a: np.zeros(q.shape[0]) for a in ANATOMICAL}
+    for i, (kind, s) in enumerate(amap):
+        if kind is not None:
+            deg[kind] = np.degrees(s * q[:, i])
+    out = np.zeros_like(q)
+    for i, (kind, s) in enumerate(amap):
+        if kind is not None:
+            out[:, i] = -s * moment(kind, deg["hip"], deg["knee"], deg["ankle"])
+    return out
+
+
+def torque(q: np.ndarray, robot, scale: np.ndarray | float = 1.0) -> np.ndarray:
+    """Passive moment the wearer's tissues apply on the robot's joints [N·m], (N, nv): ``scale·s·M``."""
+    return -np.asarray(scale, dtype=float) * column(q, robot)

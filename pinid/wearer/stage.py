@@ -1,0 +1,175 @@
+"""Stage 2 of the wearer workflow: identify only the wearer, the exoskeleton fixed from stage 1.
+
+Stage 1 is ``pinid identify`` on the exoskeleton alone (no wearer).  Stage 2 takes a recording with
+the wearer strapped in, subtracts the torque the stage-1 model predicts for the exo (rigid body,
+friction, every term it has), and fits what is left with the wearer's own parameters only: the
+standard inertial parameters each exo body gains from its segments (``θ_w``, about the joint frame)
+and, optionally, the scale factors ``kp`` of the passive joint moments (Riener & Edrich 1999).
+
+Problem (cvxpy + Clarabel, on the compressed regressor ``R`` from ``QR([W y])``, never the tall one)::
+
+    minimise  ‖R·θ − Qᵀy‖ + 10⁻³·‖V₀ᵀ S⁻¹(θ − θ_table)‖ + λ·σ₁·‖S⁻¹(θ − θ_table)‖
+    subject to  pseudo-inertia(θ_w,body) ⪰ 0,  (1 − ρ)·m_table ≤ m ≤ (1 + ρ)·m_table,
+                CoM inside the segment (linear in m and m·c),  kp ≥ 0
+
+``V₀`` spans the directions the data cannot see (the null space of ``R S``), so the tables decide
+exactly what the data cannot, and with ``λ = 0`` (the default) the data alone decide the rest:
+noise-free, the wearer's base parameters come back exactly.  ``λ > 0`` also pulls the identifiable
+directions toward the table (useful for a short, poorly exciting recording).  ``S`` scales the
+parameters (per body: table mass, mass × segment length, mass × length²; ``kp``: 1).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from pinid.errors import DataError, SpecError
+from pinid.model.base import base_parameters
+from pinid.model.physical import PSEUDO_INERTIA_BASIS
+from pinid.model.regressor import JointTerms, parameter_names, regressor
+from pinid.model.robot import RobotModel
+from pinid.wearer.passive import anatomy
+from pinid.wearer.prior import MASS_RANGE, BodyPrior, wearer_prior
+
+
+@dataclass
+class WearerFit:
+    """Stage-2 result: the wearer's standard parameters ``theta`` (10·nv inertial, then ``kp`` per joint
+    when ``passive``), the table's ``table``, their base parameters ``base`` / ``base_table`` named
+    ``base_names``, the solver status and time [s]."""
+
+    robot: RobotModel
+    exo: object  # the stage-1 IdentifiedModel
+    priors: list[BodyPrior]
+    terms: JointTerms
+    theta: np.ndarray
+    table: np.ndarray
+    base_names: list[str]
+    base: np.ndarray
+    base_table: np.ndarray
+    status: str
+    seconds: float
+
+    @property
+    def names(self) -> list[str]:
+        """Names of ``theta``'s entries (``knee.m``, ``knee.kp``)."""
+        return parameter_names(self.robot, self.terms)
+
+    def model(self, which: str = "identified"):
+        """The exo + wearer IdentifiedModel: ``"identified"`` wearer, ``"table"`` wearer, or ``"exo"`` alone."""
+        from pinid.identification.identified import IdentifiedModel
+        from pinid.model import terms as _terms
+
+        exo = self.exo
+        nv = self.robot.nv
+        w = {"identified": self.theta, "table": self.table, "exo": np.zeros_like(self.theta)}[which]
+        names = [n for n in exo.terms.names if n != "passive"] + (["passive"] if "passive" in self.terms else [])
+        terms = JointTerms.from_names(names)
+        vals = _terms.values(exo.robot, exo.terms, exo.theta[10 * nv:])
+        wv = _terms.values(self.robot, self.terms, w[10 * nv:])
+        if "passive" in self.terms:
+            vals["passive"] = wv["passive"]
+        block = [vals[p.term.name][p.index] for p in _terms.robot_layout(self.robot, terms)]
+        theta = np.concatenate([exo.theta[:10 * nv] + w[:10 * nv], block])
+        return IdentifiedModel(self.robot, terms, theta, meta={"wearer": which})
+
+    def to_dict(self) -> dict:
+        """Plain-dict form (for JSON)."""
+        return {"parameters": dict(zip(self.names, self.theta.tolist())),
+                "table": dict(zip(self.names, self.table.tolist())),
+                "base": dict(zip(self.base_names, self.base.tolist())),
+                "base_table": dict(zip(self.base_names, self.base_table.tolist())),
+                "bodies": {b.joint: b.segments for b in self.priors},
+                "status": self.status, "seconds": self.seconds}
+
+
+def _scale(priors: list[BodyPrior], nv: int, nt: int) -> np.ndarray:
+    s = np.ones(10 * nv + nt)
+    for b in priors:
+        M, L = max(b.theta[0], 1e-3), max(b.end - b.start, 0.05)
+        s[10 * b.index] = M
+        s[10 * b.index + 1: 10 * b.index + 4] = M * L
+        s[10 * b.index + 4: 10 * b.index + 10] = M * L * L
+    return s
+
+
+def compress(W: np.ndarray, y: np.ndarray, block: int = 20000) -> tuple[np.ndarray, np.ndarray]:
+    """``(R, z)`` with ``‖W·x − y‖² = ‖R·x − z‖² + const``, from QR of ``[W y]`` in row blocks."""
+    acc = np.zeros((0, W.shape[1] + 1))
+    for k in range(0, W.shape[0], block):
+        acc = np.linalg.qr(np.vstack([acc, np.column_stack([W[k:k + block], y[k:k + block]])]), mode="r")
+    return acc[:, :-1], acc[:, -1]
+
+
+def identify_wearer(exo, prior_urdf, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray, tau: np.ndarray, *,
+                    passive: bool = True, mass_range: float = MASS_RANGE, prior_weight: float = 0.0,
+                    solver: str = "CLARABEL") -> WearerFit:
+    """Stage 2: the wearer's parameters from (N, nv) arrays ``q`` [rad], ``dq``, ``ddq``, ``tau`` [N·m].
+
+    ``exo``: the stage-1 IdentifiedModel (or its JSON path); ``prior_urdf``: the URDF of
+    ``pinid wearer`` (the table values, the bounds); ``mass_range`` ρ; ``prior_weight`` λ (see the module text).
+    """
+    import cvxpy as cp  # heavy optional dependency: imported only when the problem is built
+
+    from pinid.identification.identified import IdentifiedModel
+    from pinid.model.lmi import CLARABEL_OPTIONS, solve
+
+    exo = exo if isinstance(exo, IdentifiedModel) else IdentifiedModel.load(exo)
+    robot = prior_urdf if isinstance(prior_urdf, RobotModel) else RobotModel.from_urdf(prior_urdf)
+    if robot.joint_names != exo.joint_names:
+        raise SpecError(f"prior URDF joints {robot.joint_names} differ from the stage-1 model's {exo.joint_names}")
+    if not 0 < mass_range < 1 or prior_weight < 0:
+        raise SpecError(f"mass_range {mass_range:g} must be in (0, 1) and prior_weight {prior_weight:g} ≥ 0")
+    priors = wearer_prior(robot.urdf_text or robot.urdf_path.read_text(encoding="utf-8"), robot)
+    q, dq, ddq, tau = (np.atleast_2d(np.asarray(x, dtype=float)) for x in (q, dq, ddq, tau))
+    if not (q.shape == dq.shape == ddq.shape == tau.shape) or q.shape[1] != robot.nv:
+        raise DataError(f"q, dq, ddq, tau: shapes {q.shape}, {dq.shape}, {ddq.shape}, {tau.shape}, expected (N, {robot.nv}) each")
+    t0 = time.perf_counter()
+    nv = robot.nv
+    terms = JointTerms.from_names("passive" if passive else "none")
+    nt = nv if passive else 0
+    table = np.zeros(10 * nv + nt)
+    for b in priors:
+        table[10 * b.index: 10 * b.index + 10] = b.theta
+    mapped = [i for i, (kind, _) in enumerate(anatomy(robot)) if kind is not None] if passive else []
+    table[[10 * nv + i for i in mapped]] = 1.0
+    free = [10 * b.index + k for b in priors for k in range(10)] + [10 * nv + i for i in mapped]
+    W = regressor(robot, q, dq, ddq, terms)[:, free]
+    y = (tau - exo.inverse_dynamics(q, dq, ddq)).reshape(-1)
+    S = _scale(priors, nv, nt)[free]
+    R, z = compress(W * S, y)
+    z0 = table[free] / S
+    _, sv, Vt = np.linalg.svd(R)
+    rank = int(np.sum(sv > 1e-9 * sv[0]))
+    V0 = Vt[rank:].T
+    x = cp.Variable(len(free))
+    cost = cp.norm(R @ x - z)  # a norm, not its square: an exact fit, when feasible, is a kink the solver lands on
+    if V0.shape[1]:
+        cost += 1e-3 * cp.norm(V0.T @ (x - z0))
+    if prior_weight:
+        cost += prior_weight * sv[0] * cp.norm(x - z0)
+    cons = []
+    pos = {k: n for n, k in enumerate(free)}
+    for b in priors:
+        th = [S[pos[10 * b.index + k]] * x[pos[10 * b.index + k]] for k in range(10)]
+        m0 = b.theta[0]
+        J = sum(th[k] * (PSEUDO_INERTIA_BASIS[k] / m0) for k in range(10))
+        cons.append(0.5 * (J + J.T) >> 0)
+        cons += [th[0] >= (1 - mass_range) * m0, th[0] <= (1 + mass_range) * m0]
+        h = cp.hstack(th[1:4])
+        e1 = np.cross(b.axis, [0.0, 1.0, 0.0]) if abs(b.axis[1]) < 0.9 else np.cross(b.axis, [1.0, 0, 0])
+        e1 /= np.linalg.norm(e1)
+        e2 = np.cross(b.axis, e1)
+        cons += [b.axis @ h >= b.start * th[0], b.axis @ h <= b.end * th[0]]
+        cons += [cp.abs(e @ h) <= b.radius * th[0] for e in (e1, e2)]
+    cons += [x[pos[10 * nv + i]] >= 0 for i in mapped]
+    prob = cp.Problem(cp.Minimize(cost), cons)
+    status = solve(prob, solver, dict(CLARABEL_OPTIONS) if solver.upper() == "CLARABEL" else None, "wearer stage 2")
+    theta = np.zeros_like(table)
+    theta[free] = S * np.asarray(x.value).reshape(-1)
+    bp = base_parameters(robot, terms)
+    return WearerFit(robot, exo, priors, terms, theta, table, bp.names, bp.from_standard(theta),
+                     bp.from_standard(table), status, time.perf_counter() - t0)
