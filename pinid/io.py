@@ -123,3 +123,128 @@ def read_json(path: str | os.PathLike, what: str) -> dict:
 def write_json(path: str | os.PathLike, obj: Any) -> Path:
     """Write ``obj`` as indented JSON atomically to ``path`` (through :func:`jsonable`: NaN is written null)."""
     return write_text(path, json.dumps(jsonable(obj), indent=2, sort_keys=False, allow_nan=False) + "\n")
+
+
+class Artefacts:
+    """The set of output files of one run, written all or nothing.
+
+    Plan every output with :meth:`add` (a path and a function that writes it), then :meth:`write`:
+
+    1. check all of them before anything is written: no two outputs on one path, none exists unless
+       overwriting is allowed (``--force``; the :data:`OVERWRITE` policy), every folder can be created
+       and written;
+    2. write them into a temporary folder next to the destination (``.pinid-*``);
+    3. move them into place, then remove the files of an earlier run in ``stale`` folders that this
+       run did not write (``clean(folder, patterns)``).
+
+    An error or an interrupt (SIGINT, or SIGTERM under the CLI) before step 3 leaves nothing behind:
+    no file, no ``.part``, no empty output folder.  Usable from Python::
+
+        out = Artefacts()
+        out.add("run/result.json", lambda p: p.write_text("{}"))
+        out.write()   # -> [Path('run/result.json')]
+    """
+
+    def __init__(self, *, overwrite: bool | None = None) -> None:
+        self.overwrite = OVERWRITE.get() if overwrite is None else overwrite
+        self._planned: list[tuple[Path, Any]] = []
+        self._stale: list[tuple[Path, tuple[str, ...]]] = []
+
+    def add(self, path: str | os.PathLike, write) -> Path:
+        """Plan ``path``; ``write`` is called with a temporary path of the same name and writes the file
+        (str or bytes: written as they are).  Returns ``path`` as a Path."""
+        p = Path(path)
+        self._planned.append((p, write))
+        return p
+
+    def clean(self, folder: str | os.PathLike, patterns) -> None:
+        """After a successful write, remove files in ``folder`` matching the glob ``patterns`` (outputs
+        of an earlier run) that this run did not write, so a ``--force`` re-run leaves no stale file."""
+        self._stale.append((Path(folder), tuple(patterns)))
+
+    @property
+    def paths(self) -> list[Path]:
+        """The planned output paths, in order."""
+        return [p for p, _ in self._planned]
+
+    def check(self) -> list[Path]:
+        """Check every planned output (see the class docstring) without writing or creating anything."""
+        seen: dict[Path, Path] = {}
+        for p, _ in self._planned:
+            key = Path(os.path.abspath(p))
+            if key in seen:
+                raise OutputError(f"{p}: two outputs of this run would be written to the same file "
+                                  f"(also {seen[key]}); give them different paths")
+            seen[key] = p
+            if p.is_dir():
+                raise OutputError(f"{p}: is a folder, expected a file path")
+            if p.exists() and not self.overwrite:
+                raise OutputError(f"{p}: already exists (use --force to overwrite)")
+            folder = _existing_ancestor(p.parent)
+            if not folder.is_dir():
+                raise OutputError(f"{folder}: is not a folder, cannot create the output folder {p.parent}")
+            if not os.access(folder, os.W_OK | os.X_OK):
+                raise OutputError(f"{folder}: output folder is not writable")
+        return self.paths
+
+    def write(self) -> list[Path]:
+        """Check, write into a temporary folder, move into place; returns the written paths."""
+        import shutil
+
+        self.check()
+        if not self._planned:
+            return []
+        first = self._planned[0][0]
+        stage = Path(tempfile.mkdtemp(prefix=".pinid-", dir=_existing_ancestor(first.parent)))
+        created: list[Path] = []
+        try:
+            staged = []
+            for i, (p, write) in enumerate(self._planned):
+                tmp = stage / str(i) / p.name
+                tmp.parent.mkdir()
+                if isinstance(write, str):
+                    tmp.write_text(write, encoding="utf-8")
+                elif isinstance(write, bytes):
+                    tmp.write_bytes(write)
+                else:
+                    write(tmp)
+                if not tmp.is_file():
+                    raise OutputError(f"{p}: its writer produced no file")
+                staged.append((tmp, p))
+            for _, p in staged:  # create the missing folders, remembering them to undo on failure
+                missing = []
+                f = p.parent
+                while str(f) and not f.exists():
+                    missing.append(f)
+                    f = f.parent
+                for f in reversed(missing):
+                    f.mkdir()
+                    created.append(f)
+            for tmp, p in staged:
+                try:
+                    os.replace(tmp, p)
+                except OSError:  # another file system
+                    shutil.move(str(tmp), str(p))
+        except BaseException:
+            for f in reversed(created):
+                with contextlib.suppress(OSError):
+                    f.rmdir()
+            raise
+        finally:
+            shutil.rmtree(stage, ignore_errors=True)
+        written = {Path(os.path.abspath(p)) for p in self.paths}
+        for folder, patterns in self._stale:
+            for pattern in patterns:
+                for old in folder.glob(pattern):
+                    if old.is_file() and Path(os.path.abspath(old)) not in written:
+                        with contextlib.suppress(OSError):
+                            old.unlink()
+        return self.paths
+
+
+def _existing_ancestor(folder: Path) -> Path:
+    """``folder`` or its nearest ancestor that exists (the working directory for a relative empty path)."""
+    f = Path(os.path.abspath(folder if str(folder) else "."))
+    while not f.exists() and f != f.parent:
+        f = f.parent
+    return f

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 
 from pinid.model.regressor import JointTerms
 
@@ -169,3 +170,27 @@ def options_from_args(args: argparse.Namespace, options: dict | None = None) -> 
             value = None if text.strip().lower() == "none" else text
         out.setdefault(method.strip().lower(), {})[key.strip()] = value
     return out
+
+
+def _number(kind, test, expected):
+    """An argparse ``type=`` function: parse with ``kind``, refuse values failing ``test`` (one-line error)."""
+
+    def parse(text: str):
+        try:
+            value = kind(text)
+        except (TypeError, ValueError):
+            raise argparse.ArgumentTypeError(f"{text!r}: expected {expected}") from None
+        if not test(value):
+            raise argparse.ArgumentTypeError(f"{text!r}: expected {expected}")
+        return value
+
+    parse.__name__ = expected
+    return parse
+
+
+#: argparse ``type=`` functions for numbers: they reject what no run can use, before any work.
+seed_int = _number(int, lambda v: 0 <= v < 2**32, "a seed 0 ≤ n < 2³²")
+positive_int = _number(int, lambda v: v > 0, "an integer > 0")
+nonnegative_int = _number(int, lambda v: v >= 0, "an integer ≥ 0")
+positive_float = _number(float, lambda v: math.isfinite(v) and v > 0, "a finite number > 0")
+nonnegative_float = _number(float, lambda v: math.isfinite(v) and v >= 0, "a finite number ≥ 0")

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import argparse
+
+from pinid.cli.common import seed_int
 import time
 
 HELP = "run the whole loop on the bundled exoskeleton leg: excite, simulate, identify, validate, track"
@@ -29,7 +31,7 @@ example:
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("-o", "--output", default="demo", metavar="FOLDER", help="output folder; default demo/")
-    p.add_argument("--seed", type=int, default=1, help="random seed of the recordings; default 1")
+    p.add_argument("--seed", type=seed_int, default=1, help="random seed of the recordings; default 1")
     p.add_argument("--methods", default=None,
                    help="estimators to run (default: every registered one, see pinid identify --help)")
 

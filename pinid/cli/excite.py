@@ -8,7 +8,8 @@ import time
 
 import numpy as np
 
-from pinid.cli.common import add_robot_arguments, add_terms_argument, robot_from_args
+from pinid.cli.common import (add_robot_arguments, add_terms_argument, positive_float, positive_int, robot_from_args,
+                              seed_int)
 
 HELP = "design an excitation trajectory (Fourier series) that conditions the identification best"
 DESCRIPTION = """\
@@ -40,9 +41,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("limits and trajectory (override the spec)")
     g.add_argument("--spec", metavar="FILE", help="excitation spec (.toml or .json); default: the bundled one for "
                    "exo_leg, else URDF limits and pinid's defaults")
-    g.add_argument("--harmonics", type=int, help="number of harmonics N (spec default 4)")
-    g.add_argument("--base-frequency", type=float, metavar="W", help="base frequency ωf [rad/s] (default 0.2π)")
-    g.add_argument("--samples", type=int, help="samples per period of the regressor (default 200)")
+    g.add_argument("--harmonics", type=positive_int, help="number of harmonics N (spec default 4)")
+    g.add_argument("--base-frequency", type=positive_float, metavar="W", help="base frequency ωf [rad/s] (default 0.2π)")
+    g.add_argument("--samples", type=positive_int, help="samples per period of the regressor (default 200)")
     rest = g.add_mutually_exclusive_group()
     rest.add_argument("--rest-start", dest="rest_start", action="store_true", default=None,
                       help="start and end at rest: dq = ddq = 0 at t = 0 (the default)")
@@ -55,7 +56,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     o = p.add_argument_group("optimiser")
     o.add_argument("--optimizer", default="slsqp",
                    help="slsqp (gradient-based multistart, default), pso, woa, ewoa or de")
-    o.add_argument("--seed", type=int, default=0, help="random seed (default 0): the same seed gives the same result")
+    o.add_argument("--seed", type=seed_int, default=0, help="random seed (default 0): the same seed gives the same result")
     o.add_argument("--population", type=int, help="population of pso/woa/ewoa/de (default 100)")
     o.add_argument("--iterations", type=int, help="iterations of pso/woa/ewoa/de (default 200)")
     o.add_argument("--starts", type=int, help="local searches of slsqp (default 128)")
@@ -136,7 +137,6 @@ def run(args: argparse.Namespace) -> int:
     from pinid.errors import SolverError, SpecError
     from pinid.excitation.design import (design_excitation, design_optimizers, evaluate_trajectory, limit_violations,
                               spec_for)
-    from pinid.io import check_writable
     from pinid.model.regressor import JointTerms
     from pinid.excitation.trajectory import FourierTrajectory
 
@@ -152,9 +152,7 @@ def run(args: argparse.Namespace) -> int:
     output = args.output
     if output is None and not args.evaluate:
         output = f"{model.name}_excitation.json"
-    for path in (output, args.csv, args.plot):  # fail before the work, not after
-        if path:
-            check_writable(path)
+    _plan(args, output, None, None, None, None).check()  # fail before the work (no collision, nothing exists)
     terms = None
     if args.terms is not None:
         try:
@@ -209,20 +207,35 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
+def _plan(args, output, traj, spec, say, report):
+    """The outputs of one run as one :class:`~pinid.io.Artefacts` (plot, CSV, JSON: all or nothing)."""
+    import json
+
+    from pinid.io import Artefacts, jsonable
+
+    arts = Artefacts()
+    if args.plot:
+        def plot(p):
+            from pinid.report.figures import save_figure
+            from pinid.report.plot_excitation import plot_excitation
+
+            cond = report.get("condition_number")
+            title = f"{len(traj.joints)}-joint excitation, condition number {cond:.4g}" if cond else None
+            save_figure(plot_excitation(traj, spec, title=title), p)
+
+        arts.add(args.plot, plot)
+    if args.csv:
+        arts.add(args.csv, lambda p: traj.to_csv(p, args.rate, args.periods * traj.period))
+    if output:
+        arts.add(output, lambda p: p.write_text(json.dumps(jsonable(report), indent=2, allow_nan=False) + "\n"))
+    return arts
+
+
 def _write_outputs(args, output, traj, spec, say, report: dict) -> None:
-    from pinid.io import write_json
-
-    if args.plot:  # the figure first: the slowest to fail
-        from pinid.report.figures import save_figure
-        from pinid.report.plot_excitation import plot_excitation
-
-        cond = report.get("condition_number")
-        title = f"{len(traj.joints)}-joint excitation, condition number {cond:.4g}" if cond else None
-        save_figure(plot_excitation(traj, spec, title=title), args.plot)
+    _plan(args, output, traj, spec, say, report).write()
+    if args.plot:
         say(f"wrote {args.plot}")
     if args.csv:
-        traj.to_csv(args.csv, args.rate, args.periods * traj.period)
         say(f"wrote {args.csv} ({args.rate:g} Hz, {args.periods:g} period{'s' if args.periods != 1 else ''})")
     if output:
-        write_json(output, report)
         print(f"wrote {output}")

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 
+from pinid.cli.common import seed_int
+
 import numpy as np
 
 HELP = "flexible joints: simulate a twin, fit spring/damper/motor parameters by output error, rigid vs flexible"
@@ -54,7 +56,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         q.add_argument("--outputs", default=None, help="compared angles: link, or link,motor; default: the spec's")
         q.add_argument("--population", type=int, default=None, help="metaheuristic population (default: the spec's)")
         q.add_argument("--iterations", type=int, default=None, help="metaheuristic iterations (default: the spec's)")
-        q.add_argument("--seed", type=int, default=None, help="random seed (default: the spec's)")
+        q.add_argument("--seed", type=seed_int, default=None, help="random seed (default: the spec's)")
         q.add_argument("--max-nfev", type=int, default=60, help="least_squares: residual evaluations (default 60)")
 
     c = sub.add_parser("check", help="drives, free parameters, step and observability of a spec",
@@ -67,7 +69,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     common(t)
     _output(t, "CSV", "recording to write (CSV or NPZ); the truth goes to CSV.json")
     t.add_argument("--noise", type=float, default=None, help="noise on every angle [rad] (default: the spec's)")
-    t.add_argument("--seed", type=int, default=None, help="noise seed (default: the spec's)")
+    t.add_argument("--seed", type=seed_int, default=None, help="noise seed (default: the spec's)")
     t.add_argument("--no-motor", action="store_true", help="do not record motor angles")
     t.add_argument("--force", action="store_true", help="overwrite the output")
 

@@ -8,8 +8,9 @@ from pathlib import Path
 import numpy as np
 
 from pinid.cli.common import (add_method_arguments, add_preprocessing_arguments, add_recording_arguments,
-                              add_robot_arguments, add_terms_argument, methods_from_args, options_from_args,
-                              preprocess_from_args, rest_velocity_from_args, robot_from_args, terms_from_args)
+                              add_robot_arguments, add_terms_argument, methods_from_args, nonnegative_float,
+                              options_from_args, positive_int, preprocess_from_args, rest_velocity_from_args,
+                              robot_from_args, terms_from_args)
 
 HELP = "identify dynamic parameters from recordings (OLS, WLS, physically consistent LMI), validate, export"
 DESCRIPTION = """\
@@ -48,12 +49,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("-o", "--output", default="results", metavar="FOLDER", help="output folder; default results/")
     add_preprocessing_arguments(p)
     g = p.add_argument_group("estimation")
-    g.add_argument("--regularization", type=float, default=None,
+    g.add_argument("--regularization", type=nonnegative_float, default=None,
                    help="sdp: weight of the pull toward the URDF in unidentifiable directions (default 1e-3)")
     g.add_argument("--mass-bounds", default=None, metavar="LO,HI", help="sdp: bounds on every body's mass [kg]")
     g.add_argument("--sdp-weighting", choices=("none", "joint"), default=None,
                    help="sdp: row weighting (none: as OLS, default; joint: as WLS)")
-    g.add_argument("--wls-iterations", type=int, default=None, help="wls: reweighting passes (default 1)")
+    g.add_argument("--wls-iterations", type=positive_int, default=None, help="wls: reweighting passes (default 1)")
     p.add_argument("--force-export", action="store_true",
                    help="also write identified URDFs of physically inconsistent results")
     p.add_argument("--no-report", action="store_true", help="do not write report.md and the figures")
@@ -108,10 +109,12 @@ def print_result(r) -> None:
 def run(args: argparse.Namespace) -> int:
     from pinid.errors import SpecError
     from pinid.identification.core import identify
-    from pinid.io import check_writable, write_json, write_text
+    from pinid.io import Artefacts
 
     out = Path(args.output)
-    check_writable(out / "identification.json")
+    early = Artefacts()
+    early.add(out / "identification.json", "")
+    early.check()  # fail before the work (creates nothing)
     methods = methods_from_args(args)
     model = robot_from_args(args)
     terms = terms_from_args(args)
@@ -145,28 +148,31 @@ def run(args: argparse.Namespace) -> int:
         figs = make_figures(ident)
         names = figure_names(ident)
         report = report_markdown(ident, {k: names[k] for k in figs})
-    from pinid.io import check_all_writable
+    import json
 
-    planned = [out / "identification.json", *(out / f"model_{m}.json" for m in models),
-               *(out / f"identified_{m}.urdf" for m in urdfs), *(out / f"identified_{m}_drives.toml" for m in drives)]
-    if figs is not None:
-        planned += [out / names[k] for k in figs] + [out / "report.md"]
-    check_all_writable(planned)  # all or nothing: no file is written if one of them cannot be
-    written = [write_json(out / "identification.json", ident.to_dict())]
+    from pinid.io import jsonable
+
+    def as_json(obj):
+        return json.dumps(jsonable(obj), indent=2, allow_nan=False) + "\n"
+
+    arts = Artefacts()  # all or nothing: checked, written to a temporary folder, moved into place
+    arts.add(out / "identification.json", as_json(ident.to_dict()))
     for m, dm in models.items():
-        written.append(write_json(out / f"model_{m}.json", dm))
+        arts.add(out / f"model_{m}.json", as_json(dm))
     for m, text in urdfs.items():
-        written.append(write_text(out / f"identified_{m}.urdf", text))
+        arts.add(out / f"identified_{m}.urdf", text)
     for m, text in drives.items():
-        written.append(write_text(out / f"identified_{m}_drives.toml", text))
+        arts.add(out / f"identified_{m}_drives.toml", text)
     if figs is not None:
         from pinid.report.figures import save_figure
 
         for key, fig in figs.items():
-            path = out / names[key]
-            save_figure(fig, path)
-            written.append(path)
-        written.append(write_text(out / "report.md", report))
+            arts.add(out / names[key], lambda p, fig=fig: save_figure(fig, p))
+        arts.add(out / "report.md", report)
+    # a --force re-run into an earlier run's folder leaves none of that run's outputs behind
+    arts.clean(out, ["identification.json", "model_*.json", "identified_*.urdf", "identified_*_drives.toml",
+                     "report.md", "report.html", "torque_*.png", "errors.png"])
+    written = arts.write()
     print(f"\nbest: {ident.best}" + (f"; no URDF for inconsistent result(s) {', '.join(refused)} "
                                        "(--force-export writes them)" if refused else ""))
     print(f"wrote {len(written)} files to {out}/: " + ", ".join(p.name for p in written))

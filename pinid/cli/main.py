@@ -74,6 +74,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     OVERWRITE.set(bool(getattr(args, "force", False)))  # the CLI never replaces a file unless told to
     from pinid.blas import cli_blas_threads
 
+    _sigterm_as_interrupt()
     try:
         with cli_blas_threads():  # one BLAS thread unless the user set a count (pinid/blas.py)
             return int(args._run(args) or 0)
@@ -97,6 +98,19 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"pinid {args.command}: internal error: {type(exc).__name__}: {message}{at} "
               "(a bug: please report it; PINID_DEBUG=1 shows the traceback)", file=sys.stderr)
         return 1
+
+
+def _sigterm_as_interrupt() -> None:
+    """Handle SIGTERM like SIGINT (KeyboardInterrupt), so the all-or-nothing output writer
+    (:class:`pinid.io.Artefacts`) cleans up after ``kill`` as it does after Ctrl-C."""
+    import signal
+    import threading
+
+    def handler(signum, frame):
+        raise KeyboardInterrupt
+
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGTERM, handler)
 
 
 if __name__ == "__main__":

@@ -7,7 +7,7 @@ import sys
 import warnings
 from pathlib import Path
 
-from pinid.cli.common import add_robot_arguments, robot_from_args
+from pinid.cli.common import add_robot_arguments, nonnegative_float, robot_from_args, seed_int
 
 HELP = "simulate a robot tracking a trajectory and write a recording plus its true parameters"
 DESCRIPTION = """\
@@ -40,7 +40,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--flip", action="append", default=[], metavar="JOINT",
                    help="negate a preset's angle for JOINT (robot axis opposite to the paper's); repeatable")
     p.add_argument("--seconds", type=float, default=60.0, help="duration [s]; default 60")
-    p.add_argument("--seed", type=int, default=0, help="random seed (noise, perturbation); default 0")
+    p.add_argument("--seed", type=seed_int, default=0, help="random seed (noise, perturbation); default 0")
     p.add_argument("-o", "--output", required=True, help="recording to write (.csv or .npz)")
     p.add_argument("--truth", default=None, help="truth JSON to write; default OUTPUT with .truth.json")
     p.add_argument("--true-signals", default=None, metavar="FILE",
@@ -67,7 +67,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--coulomb-velocity", type=float, default=0.01,
                    help="velocity scale of the simulator's tanh(dq/v_s) Coulomb model [rad/s]; default 0.01")
     g = p.add_argument_group("sensors")
-    g.add_argument("--position-noise", type=float, default=2e-5, help="position noise std [rad]; default 2e-5")
+    g.add_argument("--position-noise", type=nonnegative_float, default=2e-5, help="position noise std [rad]; default 2e-5")
     g.add_argument("--encoder-bits", type=int, default=16, help="encoder counts per turn = 2^BITS; 0: no quantisation")
     g.add_argument("--torque-noise", default="1%",
                    help="torque noise std: N·m (one value, per joint, or JOINT=VALUE) or a percentage of each "

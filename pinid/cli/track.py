@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 
+from pinid.cli.common import nonnegative_float, seed_int
+
 HELP = "track a reference on the twin with backstepping / computed torque built on a model"
 DESCRIPTION = """\
 Reads the "true" leg (--urdf-true: URDF with its friction in <dynamics>), the controller's model
@@ -35,8 +37,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="comma-separated: backstepping, computed-torque; default both")
     p.add_argument("--seconds", type=float, default=8.0, help="duration [s]; default 8")
     p.add_argument("--after", type=float, default=2.0, help="start of the error statistics [s]; default 2")
-    p.add_argument("--position-noise", type=float, default=2e-5, help="encoder noise σ [rad]; default 2e-5")
-    p.add_argument("--seed", type=int, default=0, help="noise seed (and the cad: perturbation's); default 0")
+    p.add_argument("--position-noise", type=nonnegative_float, default=2e-5, help="encoder noise σ [rad]; default 2e-5")
+    p.add_argument("--seed", type=seed_int, default=0, help="noise seed (and the cad: perturbation's); default 0")
     p.add_argument("-o", "--output", default=None, metavar="FOLDER", help="write tracking.json and plots here")
 
 

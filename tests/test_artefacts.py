@@ -1,0 +1,173 @@
+"""The one output writer (pinid.io.Artefacts) and the CLI cases of issue 14 it fixes: outputs are all or
+nothing, collisions are refused, a failed run leaves no folder, --force removes an earlier run's outputs."""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import pytest
+
+from conftest import assert_clean_error, run_cli
+from pinid.errors import OutputError, PinidError
+from pinid.io import Artefacts
+
+
+def test_writes_all_into_new_folder(tmp_path):
+    arts = Artefacts(overwrite=False)
+    arts.add(tmp_path / "a" / "b" / "x.json", "{}")
+    arts.add(tmp_path / "a" / "y.bin", b"\x00\x01")
+    arts.add(tmp_path / "a" / "z.txt", lambda p: p.write_text("z"))
+    assert [p.name for p in arts.write()] == ["x.json", "y.bin", "z.txt"]
+    assert (tmp_path / "a" / "b" / "x.json").read_text() == "{}"
+    assert (tmp_path / "a" / "y.bin").read_bytes() == b"\x00\x01"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a"]  # no staging folder left
+
+
+def test_failure_leaves_nothing(tmp_path):
+    def boom(p):
+        p.write_text("half")
+        raise KeyboardInterrupt
+
+    arts = Artefacts(overwrite=False)
+    arts.add(tmp_path / "out" / "x.json", "{}")
+    arts.add(tmp_path / "out" / "y.json", boom)
+    with pytest.raises(KeyboardInterrupt):
+        arts.write()
+    assert list(tmp_path.iterdir()) == []  # no file, no .part, no empty folder
+
+
+def test_collision_and_existing_refused(tmp_path):
+    arts = Artefacts(overwrite=True)
+    arts.add(tmp_path / "e.json", "{}")
+    arts.add(tmp_path / "." / "e.json", "a,b")
+    with pytest.raises(OutputError, match="same file"):
+        arts.write()
+    (tmp_path / "old.json").write_text("keep")
+    arts = Artefacts(overwrite=False)
+    arts.add(tmp_path / "new.json", "{}")
+    arts.add(tmp_path / "old.json", "{}")
+    with pytest.raises(OutputError, match="already exists"):
+        arts.write()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["old.json"]
+    assert (tmp_path / "old.json").read_text() == "keep"
+
+
+def test_unwritable_folder(tmp_path):
+    if os.geteuid() == 0:
+        pytest.skip("root writes anywhere")
+    ro = tmp_path / "ro"
+    ro.mkdir()
+    ro.chmod(0o500)
+    arts = Artefacts()
+    arts.add(ro / "sub" / "x.json", "{}")
+    with pytest.raises(OutputError, match="not writable"):
+        arts.write()
+    assert list(ro.iterdir()) == []
+
+
+def test_clean_removes_stale_outputs_only(tmp_path):
+    for name in ("model_sdp.json", "identified_sdp.urdf", "notes.txt"):
+        (tmp_path / name).write_text("old")
+    arts = Artefacts(overwrite=True)
+    arts.add(tmp_path / "model_ols.json", "{}")
+    arts.clean(tmp_path, ["model_*.json", "identified_*.urdf"])
+    arts.write()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["model_ols.json", "notes.txt"]
+
+
+def test_output_error_is_pinid_error():
+    assert issubclass(OutputError, PinidError)
+
+
+# ------------------------------------------------------------------ through the CLI
+
+
+@pytest.fixture(scope="module")
+def recording(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("rec")
+    t = np.arange(1500) / 500.0
+    q = np.c_[0.6 + 0.4 * np.sin(2 * t), -0.9 + 0.4 * np.sin(3 * t)]
+    tau = np.c_[5 + np.sin(2 * t), 1 + np.cos(3 * t)]
+    path = folder / "r.csv"
+    rows = ["t,q_hip,q_knee,tau_hip,tau_knee"] + [",".join(f"{v:.9g}" for v in (a, *b, *c)) for a, b, c in zip(t, q, tau)]
+    path.write_text("\n".join(rows) + "\n")
+    return path
+
+
+def test_identify_force_removes_stale_outputs(tmp_path, recording):
+    """Issue 14 case 13: a --force re-run leaves no output of the earlier run next to the new one."""
+    out = tmp_path / "run"
+    base = ["identify", "--urdf", "exo_leg", "--data", str(recording), "--no-report", "-o", str(out)]
+    first = run_cli(*base, "--methods", "ols,wls")
+    assert first.returncode == 0, first.stderr
+    assert (out / "model_wls.json").exists()
+    (out / "report.md").write_text("old report")
+    second = run_cli(*base, "--methods", "ols", "--force")
+    assert second.returncode == 0, second.stderr
+    names = sorted(p.name for p in out.iterdir())
+    assert "model_wls.json" not in names and "report.md" not in names, names
+    assert "model_ols.json" in names and "identification.json" in names
+
+
+def test_failed_identify_leaves_no_folder(tmp_path):
+    """Issue 14 case 24: a failed run leaves no empty output folder."""
+    out = tmp_path / "never"
+    proc = run_cli("identify", "--urdf", "exo_leg", "--data", str(tmp_path / "missing.csv"), "-o", str(out))
+    assert_clean_error(proc, "missing.csv")
+    assert not out.exists()
+
+
+def test_sigterm_like_sigint(tmp_path, recording):
+    """Issue 14 case 17: SIGTERM is handled like SIGINT: one line, status 2, no output, no .part."""
+    import subprocess
+    import sys
+    import time
+
+    out = tmp_path / "run"
+    proc = subprocess.Popen([sys.executable, "-m", "pinid.cli", "identify", "--urdf", "exo_leg", "--data",
+                             str(recording), "--methods", "sdp", "-o", str(out)],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    time.sleep(1.5)  # inside the imports or the fit
+    proc.terminate()
+    _, err = proc.communicate(timeout=60)
+    if proc.returncode == 0:
+        pytest.skip("finished before the signal")
+    assert proc.returncode == 2, (proc.returncode, err)
+    assert len(err.strip().splitlines()) == 1 and "interrupted" in err
+    assert not out.exists() or not any(out.rglob("*"))
+    assert not any(p.name.startswith(".pinid-") for p in tmp_path.iterdir())
+
+
+@pytest.mark.parametrize("argv, fragment", [
+    (["excite", "--urdf", "exo_leg", "--seed", "-1"], "--seed"),
+    (["simulate", "--urdf", "exo_leg", "--seed", "-1"], "--seed"),
+    (["track", "--seed", "-1"], "--seed"),
+    (["demo", "--seed", "-1"], "--seed"),
+    (["excite", "--urdf", "exo_leg", "--base-frequency", "0"], "--base-frequency"),
+    (["excite", "--urdf", "exo_leg", "--base-frequency", "nan"], "--base-frequency"),
+    (["identify", "--urdf", "exo_leg", "--data", "x.csv", "--regularization", "-1"], "--regularization"),
+    (["identify", "--urdf", "exo_leg", "--data", "x.csv", "--regularization", "nan"], "--regularization"),
+    (["identify", "--urdf", "exo_leg", "--data", "x.csv", "--methods", "wls", "--wls-iterations", "0"],
+     "--wls-iterations"),
+    (["identify", "--urdf", "exo_leg", "--data", "x.csv", "--methods", "wls", "--wls-iterations", "-1"],
+     "--wls-iterations"),
+    (["track", "--position-noise", "-1"], "--position-noise"),
+    (["track", "--position-noise", "nan"], "--position-noise"),
+])
+def test_numbers_checked_at_parse(tmp_path, argv, fragment):
+    """Issue 14 cases 5, 6 and 21: numbers no run can use are refused before any work, leaving no file."""
+    proc = run_cli(*argv, cwd=tmp_path)
+    assert_clean_error(proc, fragment)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_excite_outputs_on_one_path_refused(tmp_path):
+    """Issue 14 case 18: two outputs on one path are refused before any work; the existing file stays."""
+    proc = run_cli("excite", "--urdf", "exo_leg", "-o", "e.json", "--csv", "e.json", cwd=tmp_path)
+    assert_clean_error(proc, "same file")
+    assert list(tmp_path.iterdir()) == []
+    (tmp_path / "e.json").write_text("keep")
+    proc = run_cli("excite", "--urdf", "exo_leg", "-o", "e.json", "--csv", "e.json", "--force", cwd=tmp_path)
+    assert_clean_error(proc, "same file")
+    assert (tmp_path / "e.json").read_text() == "keep"
