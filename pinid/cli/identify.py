@@ -58,6 +58,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--force-export", action="store_true",
                    help="also write identified URDFs of physically inconsistent results")
     p.add_argument("--no-report", action="store_true", help="do not write report.md and the figures")
+    p.add_argument("--no-figures", action="store_true",
+                   help="write report.md without its figures (faster: matplotlib is not loaded)")
 
 
 def _options(args, methods) -> dict:
@@ -145,7 +147,7 @@ def run(args: argparse.Namespace) -> int:
     if not args.no_report:
         from pinid.report.markdown import figure_names, make_figures, report_markdown
 
-        figs = make_figures(ident)
+        figs = {} if args.no_figures else make_figures(ident)
         names = figure_names(ident)
         report = report_markdown(ident, {k: names[k] for k in figs})
     import json

@@ -34,8 +34,6 @@ from __future__ import annotations
 import warnings
 
 import numpy as np
-from scipy import signal
-from scipy.interpolate import CubicSpline
 
 from pinid.data.dataset import Dataset
 from pinid.errors import DataError, SpecError
@@ -81,6 +79,8 @@ def default_trim(fs: float, cutoff: float, order: int) -> float:
 
 def lowpass(x: np.ndarray, fs: float, cutoff: float, order: int = 4) -> np.ndarray:
     """Zero-phase Butterworth low-pass of ``x`` (samples along axis 0) [same unit as x]."""
+    from scipy import signal  # deliberately deferred: scipy.signal takes ~1 s to import
+
     sos = signal.butter(order, cutoff, btype="low", fs=fs, output="sos")
     return signal.sosfiltfilt(sos, x, axis=0)
 
@@ -103,6 +103,10 @@ def uniform_grid(ds: Dataset, rate: float | None = None) -> tuple[Dataset, dict]
     n = int(np.floor((t[-1] - t[0]) / new_step + 1e-9)) + 1
     tn = t[0] + np.arange(n) * new_step
     tn[-1] = min(tn[-1], t[-1])
+
+    # deliberately deferred: scipy.signal and scipy.interpolate take ~1 s to import; only resampling needs them
+    from scipy import signal
+    from scipy.interpolate import CubicSpline
 
     anti_alias = None
     if rate and rate < 0.95 / step:
@@ -184,6 +188,8 @@ def prepare(
         raise DataError(f"{src}: sample rate {fs:.4g} Hz is too low for a {cutoff:g} Hz low-pass: the cut-off must be "
                         f"below 0.8 × Nyquist = {0.8 * nyquist:.4g} Hz; expected a sample rate above {2.5 * cutoff:.4g} Hz "
                         "or a lower cut-off")
+    from scipy import signal  # deliberately deferred: scipy.signal takes ~1 s to import
+
     sos = signal.butter(order, cutoff, btype="low", fs=fs, output="sos")
     padlen = 3 * (2 * len(sos) + 1)
     M = savgol_half_window(fs, cutoff)
