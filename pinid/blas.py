@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import contextlib
 import os
-from typing import ContextManager, Iterator
+from collections.abc import Iterator
 
 #: Environment variables through which a user chooses the BLAS thread count; the CLI respects them.
 THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
@@ -27,7 +27,7 @@ def single_threaded_blas() -> Iterator[None]:
         yield
 
 
-def cli_blas_threads() -> ContextManager[None]:
+def cli_blas_threads() -> contextlib.AbstractContextManager[None]:
     """The CLI's setting: one BLAS thread, unless one of :data:`THREAD_VARIABLES` is set."""
     if any(os.environ.get(v) for v in THREAD_VARIABLES):
         return contextlib.nullcontext()

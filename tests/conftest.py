@@ -31,7 +31,7 @@ def shared_data() -> Path:
     return Path(candidates[1])
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def load(name: str) -> RobotModel:
     """A RobotModel by name, cached."""
     return RobotModel.from_urdf(name)

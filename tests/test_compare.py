@@ -138,6 +138,7 @@ def test_errors(setting):
         compare(cad, train, methods="pso", seeds=[])
 
 
+@pytest.mark.slow
 def test_cli_compare(tmp_path, setting):
     from pinid.data.formats import write_recording
 
@@ -164,6 +165,7 @@ def test_cli_compare(tmp_path, setting):
     assert not (tmp_path / "o2").exists() or not any((tmp_path / "o2").iterdir())
 
 
+@pytest.mark.slow
 def test_cli_compare_does_not_replace_files_without_force(tmp_path, setting):
     from pinid.data.formats import write_recording
 

@@ -9,7 +9,6 @@ from pinid.control.controllers import Backstepping, ComputedTorque, nominal_mode
 from pinid.errors import SpecError
 from pinid.excitation.trajectory import FourierTrajectory
 
-from conftest import load
 
 REF = FourierTrajectory(["hip", "knee"], 0.5 * np.pi, [0.61, -0.87], [[0.5], [0.5]], [[0.0], [0.0]])
 
@@ -61,6 +60,7 @@ EXCITATION = FourierTrajectory(["hip", "knee"], 0.2 * np.pi, [0.61, -0.87],
                                [[0.3, 0.15, 0.05], [-0.25, 0.12, -0.06]], [[0.1, -0.08, 0.04], [0.1, 0.06, -0.03]])
 
 
+@pytest.mark.slow
 def test_identified_model_halves_tracking_error_of_both_controllers(exo):
     """Issue 7: CAD model 30 % off without friction vs the model identified from twin recordings."""
     from pinid.cli.track import sine_reference

@@ -9,6 +9,7 @@ import pytest
 from conftest import run_cli
 
 
+@pytest.mark.slow
 def test_demo_runs_the_whole_loop(tmp_path):
     out = tmp_path / "demo"
     proc = run_cli("demo", "-o", str(out), "--methods", "ols,sdp")

@@ -108,6 +108,7 @@ def test_ridge_between_least_squares_and_its_prior(clean):
     assert np.abs(far).max() < 1e-6 * np.abs(ols).max()
 
 
+@pytest.mark.slow
 def test_cli_option_reaches_the_estimator_and_bad_settings_exit_2(tmp_path, clean):
     from conftest import assert_clean_error, run_cli
     from pinid.data.formats import write_recording

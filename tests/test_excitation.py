@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pinid import JointTerms, regressor
+from pinid import JointTerms, RobotModel, regressor
 from pinid.model.base import base_parameters
 from pinid.errors import SpecError
 from pinid.excitation.design import (
@@ -92,6 +92,19 @@ def test_bundled_spec_is_table2_and_used_by_default(exo):
     assert (spec.harmonics, spec.samples, spec.rest_start, spec.optimize_offsets, spec.margin) == (4, 200, True, False, 0.0)
     assert spec.base_frequency == pytest.approx(0.2 * np.pi) and spec.terms == JointTerms()
     assert spec_for(exo, rest_start=False, harmonics=None).rest_start is False
+
+
+def test_bundled_spec_for_a_copy_only_when_unchanged(tmp_path):
+    """An unchanged copy of exo_leg.urdf is the bundled robot (Table 2 spec); an edited copy has its own limits."""
+    from pinid.resources import URDF_DIR
+
+    text = (URDF_DIR / "exo_leg.urdf").read_text()
+    (tmp_path / "same").mkdir()
+    (tmp_path / "same" / "exo_leg.urdf").write_text(text)
+    assert bundled_spec_path(RobotModel.from_urdf(tmp_path / "same" / "exo_leg.urdf")) == TABLE2
+    (tmp_path / "edited").mkdir()
+    (tmp_path / "edited" / "exo_leg.urdf").write_text(text.replace("<robot ", "<!-- edited -->\n<robot ", 1))
+    assert bundled_spec_path(RobotModel.from_urdf(tmp_path / "edited" / "exo_leg.urdf")) is None
 
 
 def test_default_spec_without_urdf_limits():
@@ -205,6 +218,7 @@ def test_extremes_are_exact(exo):
 
 # ---------------------------------------------------------------------------------------- designs
 @pytest.mark.parametrize("rest", [True, False])
+@pytest.mark.slow
 def test_small_design_improves_on_table3_inside_the_limits(exo, rest):
     spec = spec_for(exo, rest_start=rest)
     res = design_excitation(exo, spec, options=FAST, seed=0)
@@ -261,6 +275,7 @@ def test_csv_export(tmp_path):
 
 
 # ---------------------------------------------------------------------------------------- the command
+@pytest.mark.slow
 def test_cli_writes_json_csv_and_plot(tmp_path):
     out, csv, png = tmp_path / "exo.json", tmp_path / "exo.csv", tmp_path / "exo.png"
     proc = run_cli("excite", "--urdf", str(ROOT / "urdf" / "exo_leg.urdf"), "-o", str(out), "--csv", str(csv),

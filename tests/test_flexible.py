@@ -305,6 +305,7 @@ def test_cli_bad_spec_is_one_line(tmp_path):
 
 
 # ---------------------------------------------------------------------------------------------- identification
+@pytest.mark.slow
 def test_noise_free_recovery_within_two_percent(spec):
     """Noise-free twin (made with a 4× finer step), least squares from 10 % off: every parameter within 2 %
     with the 0.5 ms step; the simulated angles match to the integrator's tolerance."""
@@ -359,6 +360,7 @@ def test_problem_checks(spec):
 
 
 # ---------------------------------------------------------------------------------------------- CLI
+@pytest.mark.slow
 def test_cli_twin_fit_compare(spec, tmp_path):
     text = SPEC.read_text().replace("duration = 2.0", "duration = 0.3").replace('urdf = "../urdf/', f'urdf = "{ROOT}/urdf/')
     sp = tmp_path / "s.toml"

@@ -120,6 +120,7 @@ def test_noisy_twin_validation_rms_is_at_the_noise_floor(name, sigma):
     assert res["sdp"].physically_consistent
 
 
+@pytest.mark.slow
 def test_simulated_twin_validation_rms_is_at_the_noise_floor():
     """pinid.simulation.twin's twin (closed loop, quantised positions, noisy torques, no dq/ddq recorded) through
     the default preprocessing: the validation RMS is within 5 % of the RMS of the added torque noise."""
@@ -313,6 +314,7 @@ def _simulated_csv(tmp_path, seed: int, seconds: float = 12.0) -> Path:
     return write_recording(tmp_path / f"run{seed}.csv", ds)
 
 
+@pytest.mark.slow
 def test_cli_identify_on_simulated_recordings(tmp_path):
     train, valid = _simulated_csv(tmp_path, 0), _simulated_csv(tmp_path, 1)
     out = tmp_path / "results"
@@ -352,7 +354,8 @@ def test_cli_errors_are_one_line_and_write_nothing(tmp_path):
 DP = SHARED / "double_pendulum"
 
 
-@pytest.mark.skipif(not (DP / "trajectory_02.csv").is_file(), reason="shared double-pendulum recordings absent")
+@pytest.mark.skipif(not (DP / "trajectory_02.csv").is_file(),
+                    reason=f"real recordings not found at {DP} (set PINID_SHARED_DATA to the folder holding double_pendulum/)")
 def test_real_double_pendulum_recordings(tmp_path):
     """Train on one real recording, validate on another: an imperfect but sensible fit (see its README)."""
     from pinid.model.robot import RobotModel
@@ -373,7 +376,9 @@ def test_real_double_pendulum_recordings(tmp_path):
     assert res["sdp"].export_urdf(tmp_path / "identified.urdf")
 
 
-@pytest.mark.skipif(not (DP / "trajectory_02.csv").is_file(), reason="shared double-pendulum recordings absent")
+@pytest.mark.skipif(not (DP / "trajectory_02.csv").is_file(),
+                    reason=f"real recordings not found at {DP} (set PINID_SHARED_DATA to the folder holding double_pendulum/)")
+@pytest.mark.slow
 def test_cli_on_real_recordings(tmp_path):
     """The real-data path from the command line: the rig's own URDF and column names through the documented
     mapping spec, two training recordings, validation on a third; every output written and reloadable."""
@@ -397,6 +402,7 @@ def test_cli_on_real_recordings(tmp_path):
 
 
 @pytest.mark.parametrize("rate", [100, 5000])
+@pytest.mark.slow
 def test_default_preprocessing_on_a_6dof_arm_at_100_hz_and_5_khz(rate):
     """Recordings of q and tau only (no dq, ddq), no tuning flag: the identified model predicts the
     validation torques as well as the true parameters do on the same preprocessed data."""

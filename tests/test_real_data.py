@@ -26,7 +26,7 @@ GOOD = ["00", "01", "02", "03", "11", "12", "13"]
 SPINNING = ["04", "05"]  # the elbow turns more than a full turn: beyond the URDF's ±π
 
 pytestmark = pytest.mark.skipif(not (DATA / "trajectory_00.csv").is_file(),
-                                reason=f"shared data not found at {DATA} (the project's ../shared folder)")
+                                reason=f"real recordings not found at {DATA} (set PINID_SHARED_DATA to the folder holding double_pendulum/)")
 
 
 @pytest.fixture(scope="module")

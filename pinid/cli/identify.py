@@ -109,7 +109,6 @@ def print_result(r) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from pinid.errors import SpecError
     from pinid.identification.core import identify
     from pinid.io import Artefacts
 

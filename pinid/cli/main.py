@@ -16,7 +16,7 @@ import importlib
 import os
 import sys
 from pathlib import Path
-from typing import Sequence
+from collections.abc import Sequence
 
 from pinid.errors import PinidError
 

@@ -114,7 +114,7 @@ def run(args: argparse.Namespace) -> int:
     from pinid.data.formats import write_recording
     from pinid.errors import SpecError
     from pinid.io import check_writable
-    from pinid.simulation.twin import load_trajectory, perturb, save_truth, simulate
+    from pinid.simulation.twin import load_trajectory, perturb, save_truth
 
     out = Path(args.output)
     if out.suffix.lower() not in (".csv", ".npz"):

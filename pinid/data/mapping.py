@@ -63,7 +63,7 @@ SCALE_WORDS: dict[str, float] = {"rad": 1.0, "deg": np.pi / 180.0, "mrad": 1e-3,
 #: Unit words accepted as ``scale`` of the time column (factor to seconds).
 TIME_WORDS: dict[str, float] = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "µs": 1e-6, "ns": 1e-9}
 
-_SOURCE_KEYS = {"path", "format", "delimiter", "header", "skip_rows", "comment", "names", "rows", "time"}
+_SOURCE_KEYS = {"path", "format", "delimiter", "header", "skip_rows", "comment", "names", "rows", "time", "ros"}
 _TOP_KEYS = (_SOURCE_KEYS - {"path"}) | {"joints", "motors", "sources", "transmission", "checks", "description"}
 _COLUMN_KEYS = {"column", "source", "index", "scale", "sign", "offset"}
 _TIME_KEYS = {"column", "index", "scale", "offset", "rate"}
@@ -111,6 +111,7 @@ class SourceSpec:
     names: list[str] | None = None
     rows: tuple[int | None, int | None] = (None, None)
     time: TimeSpec | None = None
+    ros: dict | None = None  # [ros] of a ROS 2 bag: topic, effort_topic, time (pinid.data.rosbag)
 
 
 @dataclass
@@ -155,6 +156,8 @@ class MappingSpec:
             raise SpecError(f"{origin}: expected a table of keys, got {type(d).__name__}")
         _unknown(d, _TOP_KEYS, origin, "the top level")
         main = _source(MAIN, {k: v for k, v in d.items() if k in _SOURCE_KEYS}, origin, main=True)
+        if main.time is None and main.ros is not None:
+            main.time = TimeSpec(column="t")  # a ROS 2 bag's own clock
         if main.time is None:
             raise SpecError(f"{origin}: no time: give time = {{ column = \"...\" }} (a time column) or "
                             "time = { rate = ... } (a constant sample rate in Hz)")
@@ -366,6 +369,10 @@ def _source(name: str, d: dict, origin: str, *, main: bool = False) -> SourceSpe
         s.rows = _rows(d["rows"], origin, f"rows in {where}")
     if "time" in d:
         s.time = _time(d["time"], origin, f"time in {where}")
+    if "ros" in d:
+        if not isinstance(d["ros"], dict):
+            raise SpecError(f"{origin}: ros in {where} must be a table, e.g. [ros] topic = \"/joint_states\"")
+        s.ros = dict(d["ros"])  # its keys are checked by the ROS 2 bag reader (pinid.data.rosbag.options)
     return s
 
 
@@ -599,12 +606,12 @@ def _read_csv(file: Path, src: SourceSpec, wanted, origin: str) -> Table:
     try:
         arr = np.loadtxt(file, delimiter=delim, skiprows=lines_consumed, usecols=usecols, comments=src.comment,
                          ndmin=2, dtype=float, encoding="utf-8-sig", quotechar='"')
-    except ValueError as exc:
+    except ValueError:
         raise DataError(f"{file}: {_bad_line_message(file, delim, lines_consumed, src.comment, ncols, names, usecols)}") from None
     # a row shorter than the first one in a column we do not read is still a sign of a cut file
     _check_ragged_tail(file, delim, ncols, lines_consumed)
     col_of = {c: i for i, c in enumerate(usecols)}
-    for (col, index, where), k in zip(wanted, keys):
+    for (col, index, _where), k in zip(wanted, keys):
         tab.data[(col, index)] = arr[:, col_of[k]]
     tab.nrows = arr.shape[0]
     return tab
@@ -666,7 +673,7 @@ def peek_columns(path: str | os.PathLike) -> tuple[str, list[str]]:
     (any registered reader with a ``columns`` function, :mod:`pinid.data.registry`)."""
     file = Path(path)
     reader = None
-    if file.suffix:
+    if file.suffix or file.is_dir():
         try:
             reader = reader_for(file)
         except DataError:

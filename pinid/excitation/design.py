@@ -285,9 +285,9 @@ def bundled_spec_path(model: RobotModel) -> Path | None:
     name = DEFAULT_SPECS.get(path.stem)
     if name is None:
         return None
-    try:
+    try:  # the bundled file itself (any path to it) or an unchanged copy; an edited copy gets its own limits
         bundled = BUNDLED_URDF_DIR / f"{path.stem}.urdf"
-        if not (bundled.exists() and os.path.samefile(bundled, path)):
+        if not (bundled.exists() and (os.path.samefile(bundled, path) or bundled.read_bytes() == path.read_bytes())):
             return None
     except OSError:
         return None

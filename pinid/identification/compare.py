@@ -28,7 +28,7 @@ import os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Mapping, Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 
@@ -156,7 +156,7 @@ class Comparison:
             for label in self.validation_sources:
                 per = {}
                 for j in self.joints + ["all"]:
-                    pick = (lambda r, k: (r.validation[label]["all"] if j == "all" else
+                    pick = (lambda r, k, label=label, j=j: (r.validation[label]["all"] if j == "all" else
                                           r.validation[label]["per_joint"][j])[k])
                     per[j] = {k: _mean_std(pick(r, k) for r in runs)
                               for k in ("mean_abs", "std_abs", "rms", "rel_rms_percent")}
@@ -234,7 +234,7 @@ class Comparison:
         rows = [head]
         for i, n in enumerate(self.base_names):
             row = [n, f"{self.nominal[i]:.5g}"] + ([f"{self.truth[i]:.5g}"] if self.truth is not None else [])
-            for m, s in summ.items():
+            for s in summ.values():
                 mean, sd = s["base"][n]
                 row.append(f"{mean:.5g}" + (f" ± {sd:.2g}" if sd > 0 else ""))
             rows.append(row)

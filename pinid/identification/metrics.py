@@ -8,6 +8,8 @@ Per joint, with ``e = τ_measured − τ_predicted`` [N·m]:
 ``mean_abs``        mean |e|       — seed 000's "mean ± std of the absolute torque error"
 ``std_abs``         std |e|          (Figs. 10 and 13), the population standard deviation
 ``max_abs``         max |e|
+``p5_abs``          5th and 95th percentiles of |e|: the band the report's errors.png draws (an
+``p95_abs``         absolute error never goes below zero, unlike mean − std)
 =================== ===========================================================================
 
 ``all`` pools every joint's samples (one number for a whole method).
@@ -19,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-METRIC_NAMES: tuple[str, ...] = ("rms", "rel_rms_percent", "mean_abs", "std_abs", "max_abs")
+METRIC_NAMES: tuple[str, ...] = ("rms", "rel_rms_percent", "mean_abs", "std_abs", "max_abs", "p5_abs", "p95_abs")
 
 
 def _stats(measured: np.ndarray, error: np.ndarray) -> dict:
@@ -28,12 +30,15 @@ def _stats(measured: np.ndarray, error: np.ndarray) -> dict:
     a = np.abs(error)
     rms = float(np.sqrt(np.mean(error**2)))
     ref = float(np.sqrt(np.mean(measured**2)))
+    p5, p95 = np.percentile(a, [5.0, 95.0])
     return {
         "rms": rms,
         "rel_rms_percent": 100.0 * rms / ref if ref > 0 else float("nan"),
         "mean_abs": float(a.mean()),
         "std_abs": float(a.std()),
         "max_abs": float(a.max()),
+        "p5_abs": float(p5),
+        "p95_abs": float(p95),
     }
 
 

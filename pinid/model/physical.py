@@ -18,7 +18,7 @@ armature are non-negative (the constant ``offset`` may have any sign).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 

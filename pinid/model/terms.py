@@ -21,7 +21,8 @@ terms together, in registry order), then the motor block, motor-major.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Callable, Iterable, NamedTuple, Sequence
+from typing import NamedTuple
+from collections.abc import Callable, Iterable, Sequence
 
 import numpy as np
 from pinid.errors import ModelError

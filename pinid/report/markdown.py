@@ -2,7 +2,8 @@
 
 ``write_report(identification, folder)`` writes ``report.md`` and the PNG figures it shows
 (``torque_<method>.png``: measured vs predicted torque with the error underneath, seed 000 Figs. 9/12;
-``errors.png``: mean ± std of the absolute torque error per method, Figs. 10/13).  Every file is
+``errors.png``: the absolute torque error per joint and method, mean and [p5, p95] band — seed 000
+Figs. 10/13 draw mean ± std, which goes below zero for an absolute error).  Every file is
 written atomically.
 """
 
@@ -60,7 +61,7 @@ def make_figures(ident) -> dict[str, object]:
     metrics = {m: (r.validation if r.validation is not None else r.train) for m, r in ident.results.items()}
     if metrics:
         kind = "validation" if all(r.validation is not None for r in ident.results.values()) else "training"
-        figs["errors"] = error_bars(metrics, title=f"absolute torque error, mean ± std ({kind})")
+        figs["errors"] = error_bars(metrics, title=f"absolute torque error ({kind}): mean (dot) and [p5, p95] band")
     return figs
 
 
@@ -115,7 +116,7 @@ def report_markdown(ident, figures: dict[str, str] | None = None) -> str:
                          + (" …" if len(probs) > 4 else ""))
 
     if "errors" in figures:
-        lines += ["", f"![mean ± std of the absolute torque error]({figures['errors']})"]
+        lines += ["", f"![absolute torque error: mean and [p5, p95] per joint and method]({figures['errors']})"]
 
     lines += ["", "## Torque error per joint", ""]
     for m, r in ident.results.items():

@@ -92,8 +92,9 @@ def convergence(comparison, *, stage: str = "main", ax=None, title: str | None =
     return fig
 
 
-def validation_errors(comparison, label: str | None = None, *, ax=None, title: str | None = None):
-    """Mean ± std of the absolute validation torque error per joint and method (averaged over runs).
+def validation_errors(comparison, label: str | None = None, *, title: str | None = None):
+    """The absolute validation torque error per joint and method: mean and [p5, p95] band, each averaged
+    over the runs (:func:`~pinid.report.plot_identification.error_bars`).
 
     ``label``: which validation set (default the first).  Returns the figure.
     """
@@ -104,12 +105,14 @@ def validation_errors(comparison, label: str | None = None, *, ax=None, title: s
     metrics = {}
     for m, runs in comparison.runs.items():
         vals = [r.validation[label] for r in runs]
-        avg = (lambda pick: {k: float(np.mean([pick(v)[k] for v in vals])) for k in ("mean_abs", "std_abs")})
+
+        def avg(pick, vals=vals):
+            keys = [k for k in ("mean_abs", "p5_abs", "p95_abs") if all(pick(v).get(k) is not None for v in vals)]
+            return {k: float(np.mean([pick(v)[k] for v in vals])) for k in keys}
+
         metrics[m] = {"per_joint": {j: avg(lambda v, j=j: v["per_joint"][j]) for j in vals[0]["per_joint"]},
                       "all": avg(lambda v: v["all"])}
-    if ax is None:
-        _, ax = new_figure(figsize=(min(12.0, 3.0 + 0.45 * len(metrics) * (len(comparison.joints) + 1)), 3.8))
-    return error_bars(metrics, ax=ax, title=title or f"validation torque error ({label})")
+    return error_bars(metrics, title=title or f"validation torque error ({label}): mean and [p5, p95], over runs")
 
 
 def parameter_errors(comparison, *, ax=None, title: str | None = None):

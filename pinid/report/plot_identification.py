@@ -3,7 +3,7 @@ and the mean ± std of the absolute torque error per method (seed 000 Figs. 10, 
 
 from __future__ import annotations
 
-from typing import Mapping
+from collections.abc import Mapping
 
 import numpy as np
 
@@ -38,7 +38,7 @@ def torque_comparison(t: np.ndarray, measured: np.ndarray, predicted: np.ndarray
     for j, name in enumerate(joints):
         top, bottom = axes[2 * j, 0], axes[2 * j + 1, 0]
         top.plot(t[idx], measured[idx, j], color="black", lw=1.0, label="measured")
-        for k, (m, p) in enumerate(preds.items()):
+        for m, p in preds.items():
             p = np.asarray(p, dtype=float)
             top.plot(t[idx], p[idx, j], lw=0.9, label=m, alpha=0.85)
             bottom.plot(t[idx], measured[idx, j] - p[idx, j], lw=0.8, label=m, alpha=0.85)
@@ -60,38 +60,48 @@ def torque_comparison(t: np.ndarray, measured: np.ndarray, predicted: np.ndarray
     return fig
 
 
-def error_bars(metrics: Mapping[str, object], *, ax=None, title: str | None = None):
-    """Bar chart of the mean ± std of the absolute torque error [N·m], per joint and method.
+def error_bars(metrics: Mapping[str, object], *, title: str | None = None):
+    """The absolute torque error |e| [N·m] per joint (one panel each, and one pooling all joints) and method:
+    the mean (dot, value written) and the [p5, p95] band of |e| (never below zero, unlike mean − std).
 
-    ``metrics``: ``{method: TorqueMetrics}`` (or their ``to_dict()`` forms).  Returns the figure.
+    ``metrics``: ``{method: TorqueMetrics}`` (or their ``to_dict()`` forms).  A grid of at most three
+    panels per row, 10 inches wide, so it fits a page.  Returns the figure.
     """
-    methods = list(metrics)
-    per = {}
-    for m, v in metrics.items():
-        d = v.to_dict() if hasattr(v, "to_dict") else v
-        per[m] = d
-    joints = list(next(iter(per.values()))["per_joint"]) + ["all"] if per else []
-    if ax is None:
-        fig, ax = new_figure(figsize=(max(5, 1.2 * len(joints) * max(1, len(methods))), 3.8))
-    else:
-        fig = ax.figure
-    width = 0.8 / max(1, len(methods))
-    x = np.arange(len(joints))
-    for k, m in enumerate(methods):
-        d = per[m]
-        rows = [d["per_joint"][j] for j in joints[:-1]] + [d["all"]]
-        mean = [r["mean_abs"] if r["mean_abs"] is not None else np.nan for r in rows]
-        std = [r["std_abs"] if r["std_abs"] is not None else np.nan for r in rows]
-        bars = ax.bar(x + (k - (len(methods) - 1) / 2) * width, mean, width, yerr=std, capsize=3, label=m)
-        for b, v in zip(bars, mean):
-            if np.isfinite(v):
-                ax.annotate(f"{v:.3g}", (b.get_x() + b.get_width() / 2, v), ha="center", va="bottom",
-                            fontsize="x-small", xytext=(0, 1), textcoords="offset points")
-    ax.set_xticks(x, joints)
-    ax.set_ylabel("|τ error|, mean ± std [N·m]")
-    ax.grid(axis="y", alpha=0.3)
-    ax.legend(fontsize="small")
+    per = {m: (v.to_dict() if hasattr(v, "to_dict") else v) for m, v in metrics.items()}
+    methods = list(per)
+    panels = (list(next(iter(per.values()))["per_joint"]) + ["all"]) if per else []
+    ncols = max(1, min(3, len(panels)))
+    nrows = max(1, -(-len(panels) // ncols))
+    height = nrows * (0.9 + 0.28 * max(1, len(methods))) + (0.4 if title else 0.0)
+    fig, axes = new_figure(nrows, ncols, figsize=(10, min(height, 13)), squeeze=False)
+    y = np.arange(len(methods))[::-1]
+    colours = [f"C{k % 10}" for k in range(len(methods))]
+    for k, name in enumerate(panels):
+        ax = axes[k // ncols, k % ncols]
+        top = 0.0
+        for i, m in enumerate(methods):
+            d = per[m]["all"] if name == "all" else per[m]["per_joint"][name]
+            mean = d.get("mean_abs")
+            if mean is None:
+                continue
+            lo, hi = d.get("p5_abs"), d.get("p95_abs")
+            if lo is not None and hi is not None:
+                ax.plot([lo, hi], [y[i], y[i]], lw=6, alpha=0.35, color=colours[i], solid_capstyle="butt")
+                top = max(top, hi)
+            ax.plot([mean], [y[i]], "o", color=colours[i], ms=5)
+            ax.annotate(f"{mean:.3g}", (mean, y[i]), xytext=(0, 6), textcoords="offset points", ha="center",
+                        fontsize="x-small")
+            top = max(top, mean)
+        ax.set_xlim(0, 1.12 * top if top > 0 else 1.0)
+        ax.set_ylim(-0.7, len(methods) - 0.3)
+        ax.set_yticks(y, methods if k % ncols == 0 else [""] * len(methods), fontsize="small")
+        ax.set_title("all joints" if name == "all" else name, fontsize="medium")
+        ax.set_xlabel("|τ error| [N·m]", fontsize="small")
+        ax.tick_params(axis="x", labelsize="small")
+        ax.grid(axis="x", alpha=0.3)
+    for k in range(len(panels), nrows * ncols):
+        axes[k // ncols, k % ncols].set_visible(False)
     if title:
-        ax.set_title(title)
+        fig.suptitle(title, fontsize="medium")
     fig.tight_layout()
     return fig

@@ -46,7 +46,7 @@ from __future__ import annotations
 import math
 import warnings
 from pathlib import Path
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 import pinocchio as pin
@@ -54,7 +54,6 @@ import pinocchio as pin
 from pinid.data.dataset import Dataset
 from pinid.errors import DataError, DataWarning, SpecError
 from pinid.model.robot import RobotModel
-from pinid.model.terms import JointTerms
 from pinid.excitation.trajectory import FourierTrajectory
 from pinid.io import write_json
 from pinid.model import terms as _terms

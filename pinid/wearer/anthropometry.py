@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import tomllib
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import cache
 from importlib import resources
 
 import numpy as np
@@ -21,7 +21,7 @@ SEXES: tuple[str, ...] = ("male", "female")
 LEG_SEGMENTS: tuple[str, ...] = ("thigh", "shank", "foot")
 
 
-@lru_cache(maxsize=None)
+@cache
 def table() -> dict:
     """The de Leva 1996 table as read from the shipped TOML file."""
     text = (resources.files("pinid.resources") / "anthropometry" / "de_leva_1996.toml").read_text(encoding="utf-8")

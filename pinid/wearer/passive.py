@@ -18,7 +18,7 @@ a dimensionless scale factor of the published shape, nominal 1): the motors supp
 from __future__ import annotations
 
 import tomllib
-from functools import lru_cache
+from functools import cache
 from importlib import resources
 
 import numpy as np
@@ -27,7 +27,7 @@ import numpy as np
 ANATOMICAL: tuple[str, ...] = ("hip", "knee", "ankle")
 
 
-@lru_cache(maxsize=None)
+@cache
 def coefficients() -> dict:
     """The Riener & Edrich 1999 table as read from the shipped TOML file."""
     text = (resources.files("pinid.resources") / "anthropometry" / "riener_edrich_1999.toml").read_text(encoding="utf-8")

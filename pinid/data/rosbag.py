@@ -1,0 +1,232 @@
+"""ROS 2 recordings: rosbag2 folders (sqlite3 or MCAP storage) and plain ``.mcap`` / ``.db3`` files.
+
+``sensor_msgs/msg/JointState`` messages become the columns of pinid's dataset format, by joint name:
+``t``, ``q_<joint>`` (position [rad or m]), ``dq_<joint>`` (velocity) and ``tau_<joint>`` (effort [N·m or
+N]), so a bag whose joint names are the URDF's is read with no mapping spec at all.  A mapping spec
+chooses the topics and the clock, and renames, scales or flips joints as for any file::
+
+    time = "t"
+    [ros]
+    topic = "/joint_states"          # default: /joint_states, else the bag's only JointState topic
+    effort_topic = "/joint_efforts"  # optional: efforts from another JointState topic (interpolated)
+    time = "header"                  # "header" (message stamps, default) or "receive" (bag time)
+    [joints.hip]
+    q = "q_left_hip_joint"
+    tau = { column = "tau_left_hip_joint", sign = -1 }
+
+``t`` is in seconds from the first message of ``topic``.  When the messages of a topic name different
+joints (several publishers on one topic), the samples are the messages that hold every joint asked for.
+Read with ``rosbags`` (pure Python, no ROS installation needed).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from pinid.data.registry import Reader, Table, register_reader
+from pinid.errors import DataError, PinidError, SpecError
+
+JOINT_STATE = "sensor_msgs/msg/JointState"
+DEFAULT_TOPIC = "/joint_states"
+#: dataset-format prefix → JointState field
+FIELDS = {"q_": "position", "dq_": "velocity", "tau_": "effort"}
+_OPTION_KEYS = {"topic", "effort_topic", "time"}
+
+
+def is_bag_folder(path: Path) -> bool:
+    """A rosbag2 folder: a directory with a ``metadata.yaml``."""
+    return path.is_dir() and (path / "metadata.yaml").is_file()
+
+
+def options(source, origin: str) -> dict:
+    """The ``[ros]`` table of a mapping spec's source, checked: ``topic``, ``effort_topic``, ``time``."""
+    raw = getattr(source, "ros", None) or {}
+    unknown = sorted(set(raw) - _OPTION_KEYS)
+    if unknown:
+        raise SpecError(
+            f"{origin}: unknown key '{unknown[0]}' in [ros]; expected some of {', '.join(sorted(_OPTION_KEYS))}"
+        )
+    for key in ("topic", "effort_topic"):
+        if key in raw and not (isinstance(raw[key], str) and raw[key]):
+            raise SpecError(f'{origin}: [ros] {key} = {raw[key]!r}, expected a topic name such as "/joint_states"')
+    clock = raw.get("time", "header")
+    if clock not in ("header", "receive"):
+        raise SpecError(f'{origin}: [ros] time = {clock!r}, expected "header" (message stamps) or "receive" (bag time)')
+    return {"topic": raw.get("topic"), "effort_topic": raw.get("effort_topic"), "time": clock}
+
+
+class _Topic:
+    """The JointState messages of one topic: time stamps [ns] and, per message, names and arrays."""
+
+    def __init__(self, stamps: np.ndarray, names: list[tuple[str, ...]], fields: dict[str, list[np.ndarray]]):
+        self.stamps, self.names, self.fields = stamps, names, fields
+
+    def joints(self) -> list[str]:
+        """Every joint name the topic carries, in order of first appearance."""
+        seen: dict[str, None] = {}
+        for ns in dict.fromkeys(self.names):
+            seen.update(dict.fromkeys(ns))
+        return list(seen)
+
+    def has(self, field: str) -> bool:
+        """Whether any message fills ``field`` (JointState leaves unmeasured fields empty)."""
+        return any(len(a) for a in self.fields[field])
+
+    def samples(self, joints: list[str], fields: list[str], file: Path, topic: str):
+        """``(stamps [ns], {(field, joint): values})`` over the messages holding every joint in ``joints``."""
+        missing = [j for j in joints if j not in self.joints()]
+        if missing:
+            raise DataError(
+                f"{file}: joint '{missing[0]}' is not in topic {topic} (its joints: {', '.join(self.joints())})"
+            )
+        index_of: dict[tuple[str, ...], list[int] | None] = {}
+        keep = []
+        for k, ns in enumerate(self.names):
+            if ns not in index_of:
+                pos = {n: i for i, n in enumerate(ns)}
+                index_of[ns] = [pos[j] for j in joints] if all(j in pos for j in joints) else None
+            if index_of[ns] is not None:
+                keep.append(k)
+        if not keep:
+            raise DataError(
+                f"{file}: no message of {topic} holds all of {', '.join(joints)} together; "
+                "expected one JointState message per sample with every joint"
+            )
+        out = {}
+        for field in fields:
+            cols = np.full((len(keep), len(joints)), np.nan)
+            for r, k in enumerate(keep):
+                a = self.fields[field][k]
+                if len(a) == 0:
+                    raise DataError(
+                        f"{file}: message {k} of {topic} has no {field} (an empty array), "
+                        f"expected {field} in every message"
+                    )
+                cols[r] = a[index_of[self.names[k]]]
+            for i, j in enumerate(joints):
+                out[(field, j)] = cols[:, i]
+        return self.stamps[keep], out
+
+
+def _read_topics(file: Path, topics: list[str | None], clock: str) -> dict[str, _Topic]:
+    """Read the JointState messages of ``topics`` (None: /joint_states or the only JointState topic)."""
+    try:
+        from rosbags.rosbag2 import Reader as BagReader
+        from rosbags.typesys import Stores, get_typestore
+    except ModuleNotFoundError:  # pragma: no cover - a declared dependency
+        raise DataError(f"{file}: reading ROS 2 bags needs the 'rosbags' package (pip install rosbags)") from None
+    if not file.exists():
+        raise DataError(
+            f"{file}: not found, expected a ROS 2 bag (a folder with metadata.yaml, or a .mcap or .db3 file)"
+        )
+    try:
+        bag = BagReader(file)
+        bag.open()
+    except Exception as exc:  # rosbags raises its own error types, and OSError/KeyError on damaged files
+        msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise DataError(f"{file}: not a readable ROS 2 bag ({msg})") from None
+    try:
+        kinds = {c.topic: c.msgtype for c in bag.connections}
+        listing = ", ".join(f"{t} ({m})" for t, m in sorted(kinds.items())) or "none"
+        chosen: list[str] = []
+        for t in topics:
+            if t is None:
+                states = sorted(x for x, m in kinds.items() if m == JOINT_STATE)
+                if DEFAULT_TOPIC in kinds or len(states) != 1:
+                    t = DEFAULT_TOPIC
+                else:
+                    t = states[0]
+            if t not in kinds:
+                raise SpecError(f"{file}: no topic {t}; its topics: {listing} (choose one with [ros] topic = ...)")
+            if kinds[t] != JOINT_STATE:
+                raise SpecError(f"{file}: topic {t} has message type {kinds[t]}, expected {JOINT_STATE}")
+            chosen.append(t)
+        store = get_typestore(Stores.LATEST)
+        raw: dict[str, tuple[list, list, dict]] = {t: ([], [], {f: [] for f in FIELDS.values()}) for t in chosen}
+        conns = [c for c in bag.connections if c.topic in raw]
+        for conn, received, data in bag.messages(connections=conns):
+            msg = store.deserialize_cdr(data, conn.msgtype)
+            stamps, names, fields = raw[conn.topic]
+            stamp = msg.header.stamp
+            stamps.append(int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec) if clock == "header" else int(received))
+            names.append(tuple(msg.name))
+            for f in fields:
+                fields[f].append(np.asarray(getattr(msg, f), dtype=float))
+    except PinidError:
+        raise
+    except Exception as exc:
+        msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise DataError(f"{file}: cannot read the ROS 2 bag ({msg})") from None
+    finally:
+        bag.close()
+    out = {}
+    for t, (stamps, names, fields) in raw.items():
+        if not stamps:
+            raise DataError(f"{file}: topic {t} has no messages, expected {JOINT_STATE} samples")
+        st = np.asarray(stamps, dtype=np.int64)
+        if clock == "header" and not st.any():
+            raise DataError(f'{file}: every header stamp of {t} is zero; use [ros] time = "receive" (bag time)')
+        order = np.argsort(st, kind="stable")
+        out[t] = _Topic(st[order], [names[k] for k in order], {f: [v[k] for k in order] for f, v in fields.items()})
+    return out
+
+
+def columns(file: Path) -> list[str]:
+    """The dataset-format columns of the default JointState topic: t, q_<joint>, dq_<joint>, tau_<joint>."""
+    topic = next(iter(_read_topics(file, [None], "header").values()))
+    names = ["t"]
+    for prefix, field in FIELDS.items():
+        if prefix == "q_" or topic.has(field):
+            names += [prefix + j for j in topic.joints()]
+    return names
+
+
+def read(file: Path, source, wanted, origin: str) -> Table:
+    """The ``wanted`` columns (``t``, ``q_<joint>``, ``dq_<joint>``, ``tau_<joint>``) of a bag."""
+    opts = options(source, origin)
+    effort_apart = opts["effort_topic"] is not None
+    topics = _read_topics(file, [opts["topic"]] + ([opts["effort_topic"]] if effort_apart else []), opts["time"])
+    names = list(topics)
+    main = topics[names[0]]
+    effort = topics[names[-1]]
+    asked: dict[str, list[str]] = {}  # field -> joints
+    for col, _index, where in wanted:
+        if col == "t":
+            continue
+        prefix = next((p for p in FIELDS if isinstance(col, str) and col.startswith(p) and len(col) > len(p)), None)
+        if prefix is None:
+            raise SpecError(
+                f"{origin}: {where} column {col!r} is not a column of a ROS 2 bag; expected t, "
+                "q_<joint>, dq_<joint> or tau_<joint> (JointState position, velocity, effort)"
+            )
+        asked.setdefault(FIELDS[prefix], []).append(col[len(prefix) :])
+    inline = {f: js for f, js in asked.items() if not (effort_apart and f == "effort")}
+    joints = list(dict.fromkeys(j for js in inline.values() for j in js)) or main.joints()[:1]
+    stamps, values = main.samples(joints, list(inline), file, names[0])
+    t0 = stamps[0]
+    if effort_apart and "effort" in asked:
+        e_stamps, e_values = effort.samples(asked["effort"], ["effort"], file, names[-1])
+        te, tm = (e_stamps - t0) * 1e-9, (stamps - t0) * 1e-9
+        if te[-1] < tm[0] or te[0] > tm[-1]:
+            raise DataError(
+                f"{file}: {names[-1]} [{te[0]:g}, {te[-1]:g}] s does not overlap {names[0]} "
+                f"[{tm[0]:g}, {tm[-1]:g}] s, expected efforts of the same run"
+            )
+        inside = (tm >= te[0]) & (tm <= te[-1])
+        stamps, tm = stamps[inside], tm[inside]
+        values = {k: v[inside] for k, v in values.items()}
+        for j in asked["effort"]:
+            values[("effort", j)] = np.interp(tm, te, e_values[("effort", j)])
+    tab = Table(file, ["t"] + [p + j for p, f in FIELDS.items() for j in asked.get(f, [])], {}, len(stamps), None)
+    for col, index, _where in wanted:
+        if col == "t":
+            tab.data[(col, index)] = (stamps - t0) * 1e-9
+        else:
+            prefix = next(p for p in FIELDS if col.startswith(p))
+            tab.data[(col, index)] = values[(FIELDS[prefix], col[len(prefix) :])]
+    return tab
+
+
+register_reader(Reader("ros2bag", read, suffixes=(".mcap", ".db3"), columns=columns, match=is_bag_folder, folder=True))
