@@ -317,3 +317,26 @@ def test_cli_bad_options(tmp_path):
                        "unknown option(s) swarm")
     assert_clean_error(run_cli("excite", "--starts", "3", "--population", "10", "-o", str(out)), "--population")
     assert not out.exists()
+
+
+@pytest.mark.parametrize("robot, terms", [("exo_leg", "fc,fv"), ("ur5", "fc,fv,armature,offset")])
+def test_exact_gradient_and_torque_jacobian_match_central_differences(robot, terms):
+    """The cond gradient (RNEA derivatives of a model per singular vector) and the torque Jacobian are exact."""
+    model = RobotModel.from_urdf(robot)
+    spec = spec_for(model).replace(samples=max(20, 30 // model.nv * 2), terms=JointTerms.from_names(terms),
+                                   tau_max=np.full(model.nv, 1e3))
+    problem = DesignProblem(model, spec)
+    lower, upper = problem.box()
+    x = problem.scale_into_limits(lower + np.random.default_rng(3).random(problem.d) * (upper - lower))[0]
+    f, grad, tau, tau_jac = problem.objective_and_gradient(x, torque=True)
+    h, fd, jac = 1e-6, np.zeros_like(grad), np.zeros_like(tau_jac)
+    for i in range(len(x)):
+        e = np.zeros_like(x)
+        e[i] = h
+        (cp,), tp = problem.evaluate(x + e, torque=True)
+        (cm,), tm = problem.evaluate(x - e, torque=True)
+        fd[i] = (np.log(cp) - np.log(cm)) / (2 * h)
+        jac[:, i] = (tp - tm).reshape(-1) / (2 * h)
+    assert f == pytest.approx(np.log(problem.evaluate(x)[0]), rel=1e-12)
+    assert np.abs(grad - fd).max() <= 1e-6 * np.abs(fd).max()
+    assert np.abs(tau_jac - jac).max() <= 1e-6 * np.abs(jac).max()

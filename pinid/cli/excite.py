@@ -59,7 +59,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     o.add_argument("--seed", type=seed_int, default=0, help="random seed (default 0): the same seed gives the same result")
     o.add_argument("--population", type=int, help="population of pso/woa/ewoa/de (default 100)")
     o.add_argument("--iterations", type=int, help="iterations of pso/woa/ewoa/de (default 200)")
-    o.add_argument("--starts", type=int, help="local searches of slsqp (default 128)")
+    o.add_argument("--starts", type=int, help="local searches of slsqp (default 128 up to 4 joints, 12 above)")
     o.add_argument("--option", action="append", default=[], metavar="KEY=VALUE",
                    help="any other optimiser setting, e.g. --option w_min=0.3; repeatable")
     out = p.add_argument_group("output")

@@ -62,6 +62,7 @@ from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
+import pinocchio as pin
 
 from pinid.model.base import BaseParameters, base_parameters
 from pinid.blas import single_threaded_blas
@@ -70,6 +71,7 @@ from pinid.io import display_path
 from pinid.resources import EXCITATION_DIR as BUNDLED_EXCITATION_DIR
 from pinid.model.robot import RobotModel
 from pinid.model.regressor import JointTerms, regressor, standard_parameters
+from pinid.model.terms import count as _term_count
 from pinid.excitation.trajectory import FourierTrajectory
 from pinid.io import write_json
 from pinid.model.bundled import BUNDLED_URDF_DIR
@@ -89,6 +91,8 @@ DEFAULT_BASE_FREQUENCY = 0.2 * math.pi
 DEFAULT_SAMPLES = 200
 #: Points per period of the grid on which the final extremes are measured.
 DENSE_SAMPLES = 4000
+#: robots with up to this many joints get the full default multistart (128 starts, 4 polished)
+SMALL_ROBOT = 4
 #: Smallest motion [rad or m] a joint's limits must allow at the base frequency.
 MIN_AMPLITUDE = 1e-3
 #: Criteria: name -> description.
@@ -731,49 +735,25 @@ class DesignProblem:
         """``(f, grad, tau, tau_jac)`` at ``x``.
 
         ``f``: log cond(W_b) (criterion ``cond``) or −log det(W_bᵀW_b) (``logdet``).  The gradient uses the
-        singular vectors of W_b(x) (``dσ_i = u_iᵀ dW v_i``) and the derivatives of each sample's regressor
-        row with respect to that sample's q_j, dq_j and ddq_j: forward differences of step ``h`` for the
-        rigid-body columns (exact for ddq, which they are linear in), analytic for the joint-term columns
-        (so that sign(dq) in the Coulomb column cannot blow a difference up).  That is 1 + 3·nv regressors
-        per sample whatever the number of design variables, and one SVD; the chain rule through the
-        Fourier basis gives d/dx.  With ``torque``: the nominal torques ``tau (samples, nv)`` and their
-        Jacobian ``tau_jac (samples·nv, d)``."""
+        singular vectors of W_b(x): ``dσ_i = u_iᵀ dW v_i``.  For ``cond`` it is exact: ``W·v`` is the
+        inverse dynamics of a model whose inertial parameters are ``v`` (the regressor is linear in them),
+        so ``d(W v)`` with respect to each sample's q, dq, ddq is Pinocchio's RNEA derivatives of that model
+        (:meth:`_contract`) — three RNEA-derivative passes per sample, whatever the number of design
+        variables.  For ``logdet`` it uses forward differences of step ``h`` of each sample's regressor row
+        (exact for ddq).  Joint-term columns: analytic (Coulomb: 0 almost everywhere).  The chain rule
+        through the Fourier basis gives d/dx.  With ``torque``: the nominal torques ``tau (samples, nv)``
+        and their Jacobian ``tau_jac (samples·nv, d)`` (RNEA derivatives of the nominal model)."""
         x = np.asarray(x, dtype=float)
         n, nv = len(self.times), self.nv
         q, dq, ddq = (v[0] for v in self.states(x[None, :]))
         dq = _clean_rest(dq)
-        # states: the point, then q_j + h, dq_j + h, ddq_j + h for every joint j
-        k = 1 + 3 * nv
-        Q, DQ, DDQ = (np.broadcast_to(v, (k, n, nv)).copy() for v in (q, dq, ddq))
-        for j in range(nv):
-            Q[1 + j, :, j] += h
-            DQ[1 + nv + j, :, j] += h
-            DDQ[1 + 2 * nv + j, :, j] += h
-        W = regressor(self.model, Q.reshape(-1, nv), DQ.reshape(-1, nv), DDQ.reshape(-1, nv), self.spec.terms)
+        if self.spec.criterion == "cond":
+            W0 = regressor(self.model, q, dq, ddq, self.spec.terms)
+            D = None
+            self.regressor_samples += n
+        else:
+            W0, D = self._difference_derivatives(q, dq, ddq, h)
         self.nfev += 1
-        self.regressor_samples += k * n
-        W = W.reshape(k, n, nv, -1)
-        D = (W[1:] - W[0]) / h  # (3nv, n, nv, p): d(row of sample s)/d(state)
-        ni, terms = 10 * nv, self.spec.terms
-        nt = len(terms.joint)
-        D[:, :, :, ni:] = 0.0  # joint and motor terms: analytic derivatives (Coulomb: 0 almost everywhere)
-        for t, term in enumerate(terms.joint):
-            for j in range(nv):
-                col = ni + j * nt + t
-                if term.name == "fv":
-                    D[nv + j, :, j, col] = 1.0
-                elif term.name == "armature":
-                    D[2 * nv + j, :, j, col] = 1.0
-        if terms.motor:  # column G[m, j]·(G·dq)_m: derivative G[m, j]·G[m, k] with respect to dq_k (ddq_k)
-            G, ntm = self.model.drives.matrix, len(terms.motor)
-            for t, term in enumerate(terms.motor):
-                if term.suffix not in ("fv", "armature"):
-                    continue
-                block = nv if term.suffix == "fv" else 2 * nv
-                for m in range(G.shape[0]):
-                    col = ni + nt * nv + m * ntm + t
-                    D[block: block + nv, :, :, col] = np.outer(G[m], G[m])[:, None, :]
-        W0 = W[0].reshape(n * nv, -1)
         Wb = self.base.columns(W0)
         tau = tau_jac = None
         try:
@@ -786,14 +766,14 @@ class DesignProblem:
             cols = self.base.independent
 
             def full(v):  # a vector over the base columns, spread over all columns (zeros elsewhere)
-                out = np.zeros(D.shape[-1])
+                out = np.zeros(W0.shape[-1])
                 out[cols] = v
                 return out
 
             if self.spec.criterion == "cond":
                 f = float(np.log(sv[0] / sv[-1]))
-                G = (((D @ full(Vt[0])) * U[:, 0].reshape(n, nv)).sum(-1) / sv[0]
-                     - ((D @ full(Vt[-1])) * U[:, -1].reshape(n, nv)).sum(-1) / sv[-1])
+                G = self._contract(q, dq, ddq, [full(Vt[0]), full(Vt[-1])],
+                                   [U[:, 0].reshape(n, nv) / sv[0], -U[:, -1].reshape(n, nv) / sv[-1]])
             else:
                 f = float(-2 * np.sum(np.log(sv)))
                 pinv_t = np.zeros((n * nv, D.shape[-1]))
@@ -802,9 +782,107 @@ class DesignProblem:
         grad = self._chain(G)
         if torque:
             tau = (W0 @ self.theta).reshape(n, nv)
-            dtau = D @ self.theta  # (3nv, n, nv)
+            ni = 10 * nv
+            dtau = np.moveaxis(self._rnea_derivatives(self.model.pin_model, q, dq, ddq), 3, 1)  # (3, nv, n, nv)
+            dtau = dtau.reshape(3 * nv, n, nv) + (self._term_derivatives() @ self.theta[ni:])[:, None, :]
             tau_jac = self._chain_rows(dtau)
         return f, grad, tau, tau_jac
+
+    def _difference_derivatives(self, q, dq, ddq, h):
+        """Regressor ``W (n·nv, p)`` at the samples and ``D (3nv, n, nv, p)``: d(row of sample s)/d(q_j, dq_j,
+        ddq_j) by forward differences of step ``h`` (rigid-body columns), analytic for the term columns."""
+        n, nv = len(q), self.nv
+        k = 1 + 3 * nv
+        Q, DQ, DDQ = (np.broadcast_to(v, (k, n, nv)).copy() for v in (q, dq, ddq))
+        for j in range(nv):
+            Q[1 + j, :, j] += h
+            DQ[1 + nv + j, :, j] += h
+            DDQ[1 + 2 * nv + j, :, j] += h
+        W = regressor(self.model, Q.reshape(-1, nv), DQ.reshape(-1, nv), DDQ.reshape(-1, nv), self.spec.terms)
+        self.regressor_samples += k * n
+        W = W.reshape(k, n, nv, -1)
+        D = (W[1:] - W[0]) / h
+        ni = 10 * nv
+        D[:, :, :, ni:] = self._term_derivatives()[:, None, :, :]
+        return W[0].reshape(n * nv, -1), D
+
+    def _term_derivatives(self) -> np.ndarray:
+        """``(3nv, nv, nt)``: d(term column of joint row i)/d(q_j, dq_j, ddq_j), the same at every sample:
+        1 for viscous friction (dq) and armature (ddq), G[m, i]·G[m, k] for their motor forms, 0 otherwise
+        (Coulomb: 0 almost everywhere)."""
+        if getattr(self, "_term_d", None) is not None:
+            return self._term_d
+        nv, terms = self.nv, self.spec.terms
+        nt = len(terms.joint)
+        D = np.zeros((3 * nv, nv, _term_count(self.model, terms)))
+        for t, term in enumerate(terms.joint):
+            for j in range(nv):
+                col = j * nt + t
+                if term.name == "fv":
+                    D[nv + j, j, col] = 1.0
+                elif term.name == "armature":
+                    D[2 * nv + j, j, col] = 1.0
+        if terms.motor:  # column G[m, j]·(G·dq)_m: derivative G[m, j]·G[m, k] with respect to dq_k (ddq_k)
+            G, ntm = self.model.drives.matrix, len(terms.motor)
+            for t, term in enumerate(terms.motor):
+                if term.suffix not in ("fv", "armature"):
+                    continue
+                block = nv if term.suffix == "fv" else 2 * nv
+                for m in range(G.shape[0]):
+                    D[block: block + nv, :, nt * nv + m * ntm + t] = np.outer(G[m], G[m])
+        self._term_d = D
+        return D
+
+    def _rnea_derivatives(self, pin_model, q, dq, ddq) -> np.ndarray:
+        """``(3, n, nv, nv)``: ∂τ/∂q, ∂τ/∂dq, ∂τ/∂ddq of the Pinocchio model ``pin_model`` at each sample
+        (``[k, s, i, j]`` = ∂τ_i/∂state_j at sample s)."""
+        n, nv = q.shape
+        out = np.empty((3, n, nv, nv))
+        data = pin_model.createData()
+        rnea_d = pin.computeRNEADerivatives
+        conf = self.model.configuration if self.model._continuous else None
+        for s in range(n):
+            a, b, c = rnea_d(pin_model, data, conf(q[s]) if conf else q[s], dq[s], ddq[s])
+            out[0, s], out[1, s], out[2, s] = a, b, c
+        M = out[2]  # Pinocchio fills the upper triangle of the mass matrix only
+        low = np.tril_indices(nv, -1)
+        M[:, low[0], low[1]] = M[:, low[1], low[0]]
+        self.regressor_samples += n
+        return out
+
+    def _contract(self, q, dq, ddq, vectors: list[np.ndarray], weights: list[np.ndarray]) -> np.ndarray:
+        """``G (3nv, n)`` = Σ_r Σ_i weights[r][s, i]·d(W(s) vectors[r])_i/d(state_j(s)), exactly.
+
+        ``W v`` restricted to the inertial columns is the inverse dynamics of a model whose inertial
+        parameters are ``v``; a parameter vector need not be a physical body (its mass can be 0), so every
+        body gets a shift ``c·e`` (mass c at the joint, inertia c·1, c > 2 max|v|) and the shift's own
+        derivatives (one more pass) are subtracted — RNEA is linear in the inertial parameters."""
+        nv, ni = self.nv, 10 * self.nv
+        e = np.tile([1.0, 0, 0, 0, 1, 0, 1, 0, 0, 1], nv)
+        c = 1.0 + 2.0 * max(np.abs(v[:ni]).max() for v in vectors)
+        pm = self._scratch_model()
+        Dt = self._term_derivatives()
+        G = np.zeros((3 * nv, len(q)))
+        shift_weight = 0.0
+        for v, u in zip(vectors, weights):
+            self._set_inertias(pm, v[:ni] + c * e)
+            R = self._rnea_derivatives(pm, q, dq, ddq)
+            G += np.einsum("ksij,si->kjs", R, u).reshape(3 * nv, -1)
+            G += (Dt @ v[ni:]) @ u.T
+            shift_weight = shift_weight + u
+        self._set_inertias(pm, c * e)
+        R = self._rnea_derivatives(pm, q, dq, ddq)
+        G -= np.einsum("ksij,si->kjs", R, shift_weight).reshape(3 * nv, -1)
+        return G
+
+    def _scratch_model(self):
+        if getattr(self, "_scratch", None) is None:
+            self._scratch = pin.Model(self.model.pin_model)
+        return self._scratch
+
+    def _set_inertias(self, pin_model, theta: np.ndarray) -> None:
+        for i in range(self.nv):
+            pin_model.inertias[i + 1] = pin.Inertia.FromDynamicParameters(theta[10 * i: 10 * i + 10])
 
     def _chain(self, G: np.ndarray) -> np.ndarray:
         """d/dx of Σ_s G[type_j, s]·d(state_j(s)): G is (3nv, n) per (q_j, dq_j, ddq_j) and sample."""
@@ -847,17 +925,27 @@ class MultistartOptions:
     ``ftol``).  Phase 2 (polish): the ``polish`` best distinct results are refined on the full problem
     (``samples`` per period, limits on a grid of ``2·samples``) with ``polish_maxiter`` and ``polish_ftol``.
     ``time_limit`` [s]: no new phase-1 start after it (None: no limit).
+
+    ``starts`` and ``polish`` left at None depend on the robot's size (:meth:`resolved`): 128 and 4 up to
+    ``SMALL_ROBOT`` (4) joints, 12 and 1 above — on a 6- or 7-DOF arm one search start costs 1.5–2 s and
+    one polish 10–25 s here, and this keeps the default design of those arms under a minute.
     """
 
-    starts: int = 128
+    starts: int | None = None
     screen: int = 8
-    polish: int = 4
+    polish: int | None = None
     search_samples: int | None = None
     maxiter: int = 100
     ftol: float = 1e-5
     polish_maxiter: int = 300
     polish_ftol: float = 1e-9
     time_limit: float | None = None
+
+    def resolved(self, nv: int) -> "MultistartOptions":
+        """These options with ``starts`` and ``polish`` filled in for a robot of ``nv`` joints."""
+        small = nv <= SMALL_ROBOT
+        return replace(self, starts=(128 if small else 12) if self.starts is None else self.starts,
+                       polish=(4 if small else 1) if self.polish is None else self.polish)
 
 
 #: Names accepted by :func:`design_excitation` (``slsqp`` plus the population-based optimisers).
@@ -990,7 +1078,7 @@ def _design(model, spec, optimizer, options, seed, progress, x0) -> ExcitationRe
     name = optimizer.lower()
     if name == "slsqp":
         try:
-            opts = MultistartOptions(**options)
+            opts = MultistartOptions(**options).resolved(model.nv)
         except TypeError:
             known = ", ".join(f.name for f in MultistartOptions.__dataclass_fields__.values())
             raise SpecError(f"slsqp: unknown option(s) {', '.join(options)} (options: {known})") from None

@@ -1,0 +1,60 @@
+"""Benchmark: `pinid excite` on the 2-DOF leg and on 6- and 7-DOF arms (issue 17).
+
+    python tests/benchmarks/bench_excite_arms.py                      # this tree: exo_leg, ur5, panda defaults
+    python tests/benchmarks/bench_excite_arms.py --before /tmp/before # also `--starts 2` on ur5, old vs new
+
+Each case is one `pinid excite` command line run from the shell (a fresh process, imports included) in an
+empty folder; the script prints the wall time, the command's own design time and the condition number it
+reports.  With ``--before DIR`` (a checkout of an older pinid) the same ``--starts 2`` run on ur5 is made
+with both trees, one after the other, so their ratio comes from the same machine state.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import platform
+import re
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def excite(tree: Path, args: list[str]) -> tuple[float, float, float]:
+    """(wall [s], design time printed [s], condition number) of ``pinid excite ARGS`` with ``tree`` on the path."""
+    env = dict(os.environ, PYTHONPATH=str(tree), MPLBACKEND="Agg")
+    with tempfile.TemporaryDirectory() as tmp:  # not the tree: `python -m` would put the cwd first on the path
+        t = time.perf_counter()
+        proc = subprocess.run([sys.executable, "-m", "pinid.cli", "excite", *args, "-o", "design.json"], cwd=tmp,
+                              env=env, capture_output=True, text=True)
+        wall = time.perf_counter() - t
+    if proc.returncode:
+        raise SystemExit(f"pinid excite {' '.join(args)} failed ({tree}):\n{proc.stderr}")
+    m = re.search(r"condition number ([0-9.]+) in ([0-9.]+) s", proc.stdout)
+    return wall, float(m.group(2)), float(m.group(1))
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--before", type=Path, help="checkout of an older pinid to compare `--starts 2` on ur5 with")
+    args = ap.parse_args()
+    print(f"machine: {platform.machine()}, nproc {os.cpu_count()}, {platform.processor() or '?'}, "
+          f"python {platform.python_version()}, load {os.getloadavg()[0]:.2f}")
+    print("\n| tree | command | wall [s] | design [s] | condition number |\n|---|---|---|---|---|")
+    cases = []
+    if args.before:
+        cases += [(args.before, ["--urdf", "ur5", "--starts", "2"]), (ROOT, ["--urdf", "ur5", "--starts", "2"])]
+    cases += [(ROOT, ["--urdf", "exo_leg"]), (ROOT, ["--urdf", "ur5"]), (ROOT, ["--urdf", "panda"])]
+    for tree, argv in cases:
+        wall, design, cond = excite(tree, argv)
+        name = "before" if tree != ROOT else "this"
+        print(f"| {name} | `pinid excite {' '.join(argv)}` | {wall:.1f} | {design:.1f} | {cond:.4f} |", flush=True)
+    print(f"\nload after: {os.getloadavg()[0]:.2f}")
+
+
+if __name__ == "__main__":
+    main()
