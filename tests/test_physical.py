@@ -74,6 +74,9 @@ def test_inconsistencies_are_found_and_named():
     assert r.negative_terms == {"a.fc": -0.1}
     r = check_consistency(np.r_[pi, 0.1, 0.2, -5.0, -0.01], ["a"], terms)
     assert list(r.negative_terms) == ["a.armature"]
+    # several: listed in column order (joint-major), the same in every process (no set order)
+    r = check_consistency(np.r_[pi, pi, -0.1, -0.2, 0.0, 0.0, -0.3, -0.4], ["a", "b"], ["fc", "fv", "offset"])
+    assert list(r.negative_terms) == ["a.fc", "a.fv", "b.fv"]
     with pytest.raises(ValueError, match="expected 14"):
         check_consistency(pi, ["a"], terms)
 

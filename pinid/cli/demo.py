@@ -12,7 +12,8 @@ DESCRIPTION = """\
 Runs every step of pinid on urdf/exo_leg.urdf with its embedded defaults, exactly as the separate
 commands would (each step prints what it does):
 
-  1. pinid excite    design the Fourier excitation under seed 001's Table 2 limits
+  1. pinid excite    design the Fourier excitation under seed 001's Table 2 limits (a short
+                     search, --starts 8 --option polish=1; the default search takes half a minute)
   2. pinid simulate  record 60 s of the twin following it (training) and 30 s of the twin following
                      a DIFFERENT trajectory — seed 001's published Table 3 excitation (validation)
   3. pinid identify  every registered estimator, validated on the second recording; identified URDF,
@@ -43,8 +44,9 @@ def steps(out: str, seed: int, methods: str) -> list[tuple[str, list[str]]]:
 
     table3 = str(BUNDLED_URDF_DIR.parent / "excitation" / "seed001_table3.json")
     return [
-        ("design the excitation", ["excite", "--urdf", "exo_leg", "-o", f"{out}/excitation.json",
-                                   "--plot", f"{out}/excitation.png", "--csv", f"{out}/excitation.csv"]),
+        ("design the excitation (a short search: 8 starts, 1 polished)", [
+            "excite", "--urdf", "exo_leg", "--starts", "8", "--option", "polish=1", "-o", f"{out}/excitation.json",
+            "--plot", f"{out}/excitation.png", "--csv", f"{out}/excitation.csv"]),
         ("record the training run on the twin", ["simulate", "--urdf", "exo_leg", "--excitation",
                                                  f"{out}/excitation.json", "--seconds", "60", "--seed", str(seed),
                                                  "-o", f"{out}/train.csv"]),

@@ -152,12 +152,13 @@ def check_consistency(theta: np.ndarray, joints: list[str], term_names: list[str
         bodies.append(BodyCheck(j, float(J[3, 3]), float(ev[0]), float(ev[0] / norm)))
     negative = {}
     values = theta[10 * nv:]
-    for name in {p.term.name for p in params if p.term.nonnegative}:
+    scale = {}  # per term name; the report lists parameters in column order (not a set's hash order)
+    for name in dict.fromkeys(p.term.name for p in params if p.term.nonnegative):
         idx = [k for k, p in enumerate(params) if p.term.name == name]
-        scale = RTOL * max(1.0, float(np.abs(values[idx]).max()))
-        for k in idx:
-            if values[k] < -scale:
-                negative[params[k].name] = float(values[k])
+        scale[name] = RTOL * max(1.0, float(np.abs(values[idx]).max()))
+    for k, p in enumerate(params):
+        if p.term.nonnegative and values[k] < -scale[p.term.name]:
+            negative[p.name] = float(values[k])
     return ConsistencyReport(bodies, negative)
 
 

@@ -5,7 +5,8 @@
 Simulates the exo_leg twin once with this tree (preset zha2019-1, 60 s training; zha2019-2, 30 s
 validation), runs the same ``pinid identify --methods ols,wls,sdp --no-figures`` with both trees, and
 compares the two ``identification.json`` files: every number (recursively, lists and dicts) must print
-the same with 12 significant digits; timings (``seconds``), paths and versions are skipped.  Prints how
+the same with 12 significant digits, and every text the same; timings (``seconds``), paths and versions are
+skipped.  Both runs get ``PYTHONHASHSEED=0``, so a difference is the code's, not the hash seed's.  Prints how
 many numbers were compared, the largest relative difference, and each key that differs; exit status 1
 if any does.
 """
@@ -25,7 +26,7 @@ SKIP = {"seconds", "version", "pinid_version", "created", "path", "urdf", "data"
 
 
 def run(tree: Path, args: list[str], cwd: Path) -> None:
-    env = dict(os.environ, PYTHONPATH=str(tree), MPLBACKEND="Agg", OPENBLAS_NUM_THREADS="1")
+    env = dict(os.environ, PYTHONPATH=str(tree), MPLBACKEND="Agg", OPENBLAS_NUM_THREADS="1", PYTHONHASHSEED="0")
     subprocess.run([sys.executable, "-m", "pinid.cli", *args], cwd=cwd, env=env, check=True,
                    stdout=subprocess.DEVNULL)
 
@@ -49,6 +50,7 @@ def compare(a, b, where: str, out: dict) -> None:
     elif isinstance(a, (int, float)) and isinstance(b, (int, float)) and not isinstance(a, bool):
         out["numbers"] += 1
         if f"{a:.12g}" != f"{b:.12g}":
+            out["numdiff"] += 1
             out["diff"].append(f"{where}: {a!r} vs {b!r}")
         if a != b:
             rel = abs(a - b) / max(abs(a), abs(b))
@@ -73,10 +75,11 @@ def main() -> None:
             run(tree, ["identify", "--urdf", "exo_leg", "--data", "train.csv", "--validate", "val.csv",
                        "--methods", a.methods, "--no-figures", "-o", name], d)
             result[name] = json.loads((d / name / "identification.json").read_text())
-    out = {"numbers": 0, "max_rel": 0.0, "diff": []}
+    out = {"numbers": 0, "numdiff": 0, "max_rel": 0.0, "diff": []}
     compare(result["before"], result["this"], "identification", out)
     print(f"identification.json ({a.methods}): {out['numbers']} numbers compared, "
-          f"{len(out['diff'])} differ at 12 significant digits, largest relative difference {out['max_rel']:.3g}")
+          f"{out['numdiff']} differ at 12 significant digits, largest relative difference {out['max_rel']:.3g}; "
+          f"{len(out['diff']) - out['numdiff']} other differences (text, keys, lengths)")
     for line in out["diff"][:40]:
         print("  " + line)
     sys.exit(1 if out["diff"] else 0)

@@ -1,0 +1,62 @@
+"""Benchmark: how long `pinid demo` takes from the shell, step by step (issue 17: target ≤ 30 s).
+
+    python tests/benchmarks/bench_demo.py                         # this tree
+    python tests/benchmarks/bench_demo.py --before /tmp/before    # and an older checkout, one after the other
+
+Runs ``pinid demo -o out`` in an empty folder (fresh process, imports included), reads its output as it
+streams and prints the wall time of each of its five steps and of the whole command.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import platform
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parents[2]
+
+
+def demo(tree: Path) -> tuple[float, list[tuple[str, float]]]:
+    """(total wall [s], [(step title, wall [s])]) of ``pinid demo`` with ``tree`` on the path."""
+    env = dict(os.environ, PYTHONPATH=str(tree), MPLBACKEND="Agg", OPENBLAS_NUM_THREADS="1", PYTHONUNBUFFERED="1")
+    steps: list[tuple[str, float]] = []
+    with tempfile.TemporaryDirectory() as tmp:  # not the tree: `python -m` puts the cwd first on the path
+        t0 = time.perf_counter()
+        proc = subprocess.Popen([sys.executable, "-m", "pinid.cli", "demo", "-o", "out"], cwd=tmp, env=env,
+                                stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+        last, title = t0, "start-up (imports)"
+        for line in proc.stdout:
+            if line.startswith("[") and "/" in line[:6]:
+                now = time.perf_counter()
+                steps.append((title, now - last))
+                last, title = now, line.split(": pinid ", 1)[0]
+        proc.wait()
+        end = time.perf_counter()
+        steps.append((title, end - last))
+    if proc.returncode:
+        raise SystemExit(f"pinid demo failed with {tree}")
+    return end - t0, steps
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--before", type=Path, help="an older checkout to time next to this tree")
+    a = ap.parse_args()
+    print(f"machine: {platform.machine()}, nproc {os.cpu_count()}, python {platform.python_version()}, "
+          f"load {os.getloadavg()[0]:.2f}")
+    trees = ([("before", a.before.resolve())] if a.before else []) + [("this", HERE)]
+    for name, tree in trees:
+        total, steps = demo(tree)
+        print(f"\n{name}: `pinid demo` {total:.1f} s wall\n\n| step | wall [s] |\n|---|---|")
+        for title, seconds in steps:
+            print(f"| {title} | {seconds:.1f} |")
+    print(f"\nload after: {os.getloadavg()[0]:.2f}")
+
+
+if __name__ == "__main__":
+    main()
