@@ -1,0 +1,85 @@
+"""Benchmark: peak memory of `pinid identify` on a long recording of a 7-DOF arm (issue 17).
+
+    python tests/benchmarks/bench_memory.py                     # 500 000 samples of panda, ols
+    python tests/benchmarks/bench_memory.py --samples 100000 --methods ols,sdp
+
+Writes a recording of the Panda (example-robot-data, 7 DOF) following a random Fourier trajectory inside
+its limits at 1 kHz — q, dq, ddq exact, τ = W(q, dq, ddq)·θ_URDF (friction fc, fv from the URDF) plus
+0.01 N·m noise — as NPZ, then runs ``pinid identify --urdf panda --data FILE --methods M --no-report`` in
+a fresh process and prints its wall time and peak resident memory (``ru_maxrss`` of the child), with the
+size of the recording and of the tall base regressor for comparison.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import platform
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from pinid import RobotModel
+from pinid.data.dataset import Dataset
+from pinid.data.formats import write_recording
+from pinid.excitation.design import DesignProblem, spec_for
+from pinid.model.base import base_parameters
+from pinid.model.regressor import regressor, standard_parameters
+
+HERE = Path(__file__).resolve().parents[2]
+
+
+def recording(path: Path, samples: int, seed: int = 0) -> int:
+    """Write the recording; returns the number of base parameters."""
+    model = RobotModel.from_urdf("panda")
+    spec = spec_for(model)
+    problem = DesignProblem(model, spec)
+    lower, upper = problem.box()
+    rng = np.random.default_rng(seed)
+    x = problem.scale_into_limits(lower + rng.random(problem.d) * (upper - lower))[0]
+    traj = problem.trajectory(x)
+    t = np.arange(samples) / 1000.0
+    q, dq, ddq = traj.evaluate(t)
+    theta = standard_parameters(model, spec.terms)
+    tau = np.empty_like(q)
+    for s in range(0, samples, 50_000):
+        e = min(samples, s + 50_000)
+        tau[s:e] = (regressor(model, q[s:e], dq[s:e], ddq[s:e], spec.terms) @ theta).reshape(e - s, -1)
+    tau += 0.01 * rng.standard_normal(tau.shape)
+    write_recording(path, Dataset(t, q, model.joint_names, dq, ddq, tau, source=path.name))
+    return base_parameters(model, spec.terms).count
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--samples", type=int, default=500_000)
+    ap.add_argument("--methods", default="ols")
+    a = ap.parse_args()
+    print(f"machine: {platform.machine()}, nproc {os.cpu_count()}, python {platform.python_version()}, "
+          f"load {os.getloadavg()[0]:.2f}")
+    with tempfile.TemporaryDirectory() as tmp:
+        d = Path(tmp)
+        nb = recording(d / "panda.npz", a.samples)
+        size = (d / "panda.npz").stat().st_size
+        env = dict(os.environ, PYTHONPATH=str(HERE), MPLBACKEND="Agg", OPENBLAS_NUM_THREADS="1")
+        t0 = time.perf_counter()
+        proc = subprocess.run([sys.executable, "-m", "pinid.cli", "identify", "--urdf", "panda", "--data", "panda.npz",
+                               "--methods", a.methods, "--no-report", "-o", "out"], cwd=d, env=env,
+                              capture_output=True, text=True)
+        wall = time.perf_counter() - t0
+        if proc.returncode:
+            raise SystemExit(proc.stderr)
+    peak_mb = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024  # Linux: kB
+    rows = a.samples * 7
+    print(f"panda, {a.samples} samples ({rows} torque rows, {nb} base parameters), NPZ {size / 1e6:.0f} MB")
+    print(f"tall base regressor alone (float64): {rows * nb * 8 / 1e6:.0f} MB")
+    print(f"`pinid identify --methods {a.methods} --no-report`: {wall:.1f} s wall, peak RSS {peak_mb:.0f} MB")
+
+
+if __name__ == "__main__":
+    main()
