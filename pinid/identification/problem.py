@@ -330,31 +330,50 @@ def rest_threshold(ds: Dataset, model: RobotModel, terms: JointTerms, rest_veloc
 def stack_rows(model: RobotModel, terms: JointTerms, base: BaseParameters, datasets: Sequence[Dataset],
                thresholds: Sequence[np.ndarray], *, bar=None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """``(W_b, tau, joint, sample)`` of checked recordings stacked row ``k·nv + j``, without the rows whose
-    joint speed is below its threshold; ``sample`` counts on across recordings."""
+    joint speed is below its threshold; ``sample`` counts on across recordings.
+
+    ``W_b`` is allocated once with the kept rows only and filled chunk by chunk, so the tall matrix exists
+    once (not once whole and once without the rows at rest, nor once per recording and once concatenated)."""
     nv = model.nv
-    Ws, taus, joints, samples = [], [], [], []
-    offset = 0
-    for ds, thr in zip(datasets, thresholds):
-        Wb = base_regressor(model, terms, base, ds, bar=bar)
-        keep = (np.abs(ds.dq) >= thr).reshape(-1) if np.any(thr > 0) else np.ones(ds.n * nv, bool)
-        Ws.append(Wb[keep])
+    keeps = [(np.abs(ds.dq) >= thr).reshape(-1) if np.any(thr > 0) else np.ones(ds.n * nv, bool)
+             for ds, thr in zip(datasets, thresholds)]
+    counts = [int(np.count_nonzero(k)) for k in keeps]
+    W = np.empty((sum(counts), base.count))
+    taus, joints, samples = [], [], []
+    row = offset = 0
+    for ds, keep, m in zip(datasets, keeps, counts):
+        base_regressor(model, terms, base, ds, bar=bar, keep=keep, out=W[row:row + m])
+        row += m
         taus.append(ds.tau.reshape(-1)[keep])
         joints.append(np.tile(np.arange(nv), ds.n)[keep])
         samples.append((offset + np.repeat(np.arange(ds.n), nv))[keep])
         offset += ds.n
-    if len(Ws) == 1:
-        return Ws[0], taus[0], joints[0], samples[0]
-    return np.concatenate(Ws), np.concatenate(taus), np.concatenate(joints), np.concatenate(samples)
+    if len(taus) == 1:
+        return W, taus[0], joints[0], samples[0]
+    return W, np.concatenate(taus), np.concatenate(joints), np.concatenate(samples)
 
 
-def base_regressor(model: RobotModel, terms: JointTerms, base: BaseParameters, ds: Dataset, *, bar=None) -> np.ndarray:
-    """Stacked base regressor ``(N·nv, nb)`` of a checked recording, computed in chunks to bound memory."""
-    n = ds.n
-    out = np.empty((n * model.nv, base.count))
+def base_regressor(model: RobotModel, terms: JointTerms, base: BaseParameters, ds: Dataset, *, bar=None,
+                   keep: np.ndarray | None = None, out: np.ndarray | None = None) -> np.ndarray:
+    """Stacked base regressor ``(N·nv, nb)`` of a checked recording, computed in chunks to bound memory.
+
+    ``keep`` (N·nv,) booleans: only those rows, in order; ``out``: the array to fill (kept rows × nb)."""
+    n, nv = ds.n, model.nv
+    rows = n * nv if keep is None else int(np.count_nonzero(keep))
+    if out is None:
+        out = np.empty((rows, base.count))
+    elif out.shape != (rows, base.count):
+        raise ValueError(f"out: shape {out.shape}, expected {(rows, base.count)}")
+    r = 0
     for start in range(0, n, _CHUNK):
         stop = min(n, start + _CHUNK)
         W = regressor(model, ds.q[start:stop], ds.dq[start:stop], ds.ddq[start:stop], terms)
-        np.take(W, base.independent, axis=1, out=out[start * model.nv: stop * model.nv])
+        if keep is None:
+            np.take(W, base.independent, axis=1, out=out[start * nv: stop * nv])
+        else:
+            k = np.flatnonzero(keep[start * nv: stop * nv])
+            out[r: r + len(k)] = W[np.ix_(k, base.independent)]
+            r += len(k)
         if bar is not None:
             bar.update(stop - start)
     return out
@@ -430,9 +449,16 @@ def prepare_dataset(ds: Dataset, preprocess: Mapping | bool | None = None) -> Da
 
 def predict_torque(model: RobotModel, terms: JointTerms, base: BaseParameters, ds: Dataset,
                    values: np.ndarray | Mapping[str, np.ndarray]):
-    """Predicted torques ``(N, nv)`` [N·m] on a checked recording for base ``values`` (or a dict of them)."""
+    """Predicted torques ``(N, nv)`` [N·m] on a checked recording for base ``values`` (or a dict of them).
+
+    Computed chunk by chunk (``_CHUNK`` samples): the recording's tall regressor never exists whole."""
     ds = check_dataset(ds, model)
-    Wb = base_regressor(model, terms, base, ds)
-    if isinstance(values, Mapping):
-        return {k: (Wb @ v).reshape(ds.n, model.nv) for k, v in values.items()}
-    return (Wb @ values).reshape(ds.n, model.nv)
+    single = not isinstance(values, Mapping)
+    items = {None: values} if single else dict(values)
+    out = {k: np.empty((ds.n, model.nv)) for k in items}
+    for start in range(0, ds.n, _CHUNK):
+        part = ds.select(slice(start, min(ds.n, start + _CHUNK)))
+        Wb = base_regressor(model, terms, base, part)
+        for k, v in items.items():
+            out[k][start:start + part.n] = (Wb @ v).reshape(part.n, model.nv)
+    return out[None] if single else out

@@ -2,12 +2,14 @@
 
     python tests/benchmarks/bench_memory.py                     # 500 000 samples of panda, ols
     python tests/benchmarks/bench_memory.py --samples 100000 --methods ols,sdp
+    python tests/benchmarks/bench_memory.py --before /tmp/before   # an older checkout too, same file, one run
 
 Writes a recording of the Panda (example-robot-data, 7 DOF) following a random Fourier trajectory inside
 its limits at 1 kHz — q, dq, ddq exact, τ = W(q, dq, ddq)·θ_URDF (friction fc, fv from the URDF) plus
 0.01 N·m noise — as NPZ, then runs ``pinid identify --urdf panda --data FILE --methods M --no-report`` in
-a fresh process and prints its wall time and peak resident memory (``ru_maxrss`` of the child), with the
-size of the recording and of the tall base regressor for comparison.
+a fresh process (per tree with ``--before``) and prints its wall time and peak resident memory
+(``ru_maxrss`` of that child, from ``os.wait4``), with the size of the recording and of the tall base
+regressor for comparison.
 """
 
 from __future__ import annotations
@@ -15,7 +17,6 @@ from __future__ import annotations
 import argparse
 import os
 import platform
-import resource
 import subprocess
 import sys
 import tempfile
@@ -55,10 +56,27 @@ def recording(path: Path, samples: int, seed: int = 0) -> int:
     return base_parameters(model, spec.terms).count
 
 
+def identify(tree: Path, folder: Path, methods: str) -> tuple[float, float]:
+    """(wall [s], peak RSS [MB]) of ``pinid identify`` on ``folder/panda.npz`` with ``tree`` on the path."""
+    env = dict(os.environ, PYTHONPATH=str(tree), MPLBACKEND="Agg", OPENBLAS_NUM_THREADS="1")
+    t0 = time.perf_counter()
+    proc = subprocess.Popen([sys.executable, "-m", "pinid.cli", "identify", "--urdf", "panda", "--data", "panda.npz",
+                             "--methods", methods, "--no-report", "--force", "-o", "out"], cwd=folder, env=env,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    _, status, usage = os.wait4(proc.pid, 0)
+    wall = time.perf_counter() - t0
+    err = proc.stderr.read()
+    proc.stderr.close()
+    if status:
+        raise SystemExit(err)
+    return wall, usage.ru_maxrss / 1024  # Linux: kB
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--samples", type=int, default=500_000)
     ap.add_argument("--methods", default="ols")
+    ap.add_argument("--before", type=Path, help="an older checkout to measure on the same file")
     a = ap.parse_args()
     print(f"machine: {platform.machine()}, nproc {os.cpu_count()}, python {platform.python_version()}, "
           f"load {os.getloadavg()[0]:.2f}")
@@ -66,19 +84,13 @@ def main() -> None:
         d = Path(tmp)
         nb = recording(d / "panda.npz", a.samples)
         size = (d / "panda.npz").stat().st_size
-        env = dict(os.environ, PYTHONPATH=str(HERE), MPLBACKEND="Agg", OPENBLAS_NUM_THREADS="1")
-        t0 = time.perf_counter()
-        proc = subprocess.run([sys.executable, "-m", "pinid.cli", "identify", "--urdf", "panda", "--data", "panda.npz",
-                               "--methods", a.methods, "--no-report", "-o", "out"], cwd=d, env=env,
-                              capture_output=True, text=True)
-        wall = time.perf_counter() - t0
-        if proc.returncode:
-            raise SystemExit(proc.stderr)
-    peak_mb = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024  # Linux: kB
-    rows = a.samples * 7
-    print(f"panda, {a.samples} samples ({rows} torque rows, {nb} base parameters), NPZ {size / 1e6:.0f} MB")
-    print(f"tall base regressor alone (float64): {rows * nb * 8 / 1e6:.0f} MB")
-    print(f"`pinid identify --methods {a.methods} --no-report`: {wall:.1f} s wall, peak RSS {peak_mb:.0f} MB")
+        rows = a.samples * 7
+        print(f"panda, {a.samples} samples ({rows} torque rows, {nb} base parameters), NPZ {size / 1e6:.0f} MB")
+        print(f"tall base regressor alone (float64): {rows * nb * 8 / 1e6:.0f} MB")
+        trees = ([("before", a.before.resolve())] if a.before else []) + [("this", HERE)]
+        for name, tree in trees:
+            wall, peak = identify(tree, d, a.methods)
+            print(f"{name}: `pinid identify --methods {a.methods} --no-report`: {wall:.1f} s wall, peak RSS {peak:.0f} MB")
 
 
 if __name__ == "__main__":
