@@ -3,24 +3,14 @@
 from __future__ import annotations
 
 import numpy as np
-import pinocchio as pin
 import pytest
 
 from pinid.identification.identified import IdentifiedModel
 from pinid.model.regressor import JointTerms, regressor, standard_parameters
 from pinid.model.robot import RobotModel
 from pinid.wearer.attach import wearer_urdf
-from pinid.wearer.prior import wearer_prior
+from pinid.wearer.prior import drawn as _perturbed, wearer_prior
 from pinid.wearer.stage import identify_wearer
-
-
-def _perturbed(theta10, rng, mass=0.25, com=0.20):
-    """A body's table parameters with its mass and CoM distance scaled (inertia about the CoM with the mass)."""
-    m, c, Ic = theta10[0], theta10[1:4] / theta10[0], pin.Inertia.FromDynamicParameters(theta10).inertia
-    m, c = theta10[0], theta10[1:4] / theta10[0]
-    Ic = pin.Inertia.FromDynamicParameters(theta10).inertia
-    k, kc = 1 + rng.uniform(-mass, mass), 1 + rng.uniform(-com, com)
-    return pin.Inertia(m * k, c * kc, Ic * k).toDynamicParameters()
 
 
 @pytest.fixture(scope="module")

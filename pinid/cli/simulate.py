@@ -66,6 +66,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--viscous", default=None, metavar="VALUES", help="viscous friction [N·m·s/rad], same forms")
     g.add_argument("--coulomb-velocity", type=float, default=0.01,
                    help="velocity scale of the simulator's tanh(dq/v_s) Coulomb model [rad/s]; default 0.01")
+    g = p.add_argument_group("wearer (a URDF from pinid wearer: its passive joint moments always act)")
+    g.add_argument("--wearer-draw", action="store_true",
+                   help="draw the true wearer away from the tables: each body's segments' mass ±25 %%, CoM ±20 %% "
+                        "(seeded); drawn and table values go into the truth JSON under 'wearer'")
+    g.add_argument("--wearer-torque", type=nonnegative_float, default=0.0, metavar="PERCENT",
+                   help="the wearer's involuntary active torque: smooth random (0.2-2 Hz), per joint PERCENT %% of "
+                        "the RMS gravity torque along the trajectory (seeded); acts on the leg, not in the recorded torque")
     g = p.add_argument_group("sensors")
     g.add_argument("--position-noise", type=nonnegative_float, default=2e-5, help="position noise std [rad]; default 2e-5")
     g.add_argument("--encoder-bits", type=int, default=16, help="encoder counts per turn = 2^BITS; 0: no quantisation")
@@ -133,6 +140,15 @@ def run(args: argparse.Namespace) -> int:
     if args.encoder_bits < 0 or args.encoder_bits > 40:
         raise SpecError(f"--encoder-bits {args.encoder_bits}, expected 0 (no quantisation) to 40")
     model = robot_from_args(args)
+    drawn = None
+    if args.wearer_draw:
+        from pinid.simulation.twin import _wearer
+        from pinid.wearer.prior import draw_wearer
+
+        if not _wearer(model):
+            raise SpecError(f"--wearer-draw: {model.name} carries no wearer (links wearer_*); write it with pinid wearer")
+        table = model.inertial_parameters()
+        model, drawn = draw_wearer(model, np.random.default_rng(np.random.SeedSequence([int(args.seed), 2])))
     trajectory = load_trajectory(args.excitation, model, flip=args.flip)
     torque_noise, torque_pct = None, 1.0
     text = args.torque_noise.strip()
@@ -161,6 +177,10 @@ def run(args: argparse.Namespace) -> int:
         bp = base_parameters(model, terms)
         truth["cad"] = {"percent": float(args.perturb), "standard": {"names": truth["standard"]["names"],
                         "values": theta_cad.tolist()}, "base": {"names": bp.names, "values": bp.from_standard(theta_cad).tolist()}}
+    if drawn is not None:
+        truth["wearer"]["drawn"] = {"mass_percent": 25.0, "com_percent": 20.0,
+                                    "wearer_standard": {j: w.tolist() for j, w in drawn.items()},
+                                    "table_standard": table.tolist()}
     truth["command"] = "pinid simulate " + " ".join(_argv_of(args))
     written: list[Path] = []
     try:
@@ -222,5 +242,6 @@ def _simulate(args, model, trajectory, cad, torque_noise, torque_pct):
         coulomb_velocity=args.coulomb_velocity, position_noise=args.position_noise,
         encoder_resolution=(2 * np.pi / 2**args.encoder_bits) if args.encoder_bits else 0.0,
         torque_noise=torque_noise, torque_noise_percent=torque_pct,
-        record_velocity=args.record_velocity, velocity_noise=args.velocity_noise, progress=None,
+        record_velocity=args.record_velocity, velocity_noise=args.velocity_noise,
+        wearer_torque=args.wearer_torque, progress=None,
     )

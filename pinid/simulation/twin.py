@@ -7,7 +7,11 @@ would record — noisy, quantised positions and noisy torques at the sample rate
 
 Model, exactly the regressor's (:mod:`pinid.model.regressor`)::
 
-    tau_applied = M(q)·ddq + h(q, dq) + fc·sign(dq) + fv·dq          (per joint: fc, fv ≥ 0)
+    tau_applied (+ d) = M(q)·ddq + h(q, dq) + fc·sign(dq) + fv·dq (+ Σ more joint terms)   (fc, fv ≥ 0)
+
+More joint terms of the registry (``terms=``, e.g. the wearer's passive moments, on by default for a
+URDF from ``pinid wearer``) act through their own plant laws (:class:`Plant`); ``d`` is the wearer's
+involuntary active torque (``wearer_torque``), which moves the leg but is not in the recorded torque.
 
 **Coulomb friction near zero velocity.**  ``sign(dq)`` makes the equations of motion stiff (set-valued
 at dq = 0).  The simulator uses ``fc·tanh(dq / v_s)`` with ``v_s = coulomb_velocity`` (default
@@ -219,28 +223,53 @@ def _per_joint(value, model: RobotModel, name: str) -> np.ndarray:
 
 
 class Plant:
-    """The twin's equations of motion, M(q)·ddq + h(q, dq) + fc·tanh(dq/v_s) + fv·dq = τ, and one
+    """The twin's equations of motion, M(q)·ddq + h(q, dq) + fc·tanh(dq/v_s) + fv·dq + Σ terms = τ, and one
     integration step (see the module text: implicit friction when stiff, velocity first, trapezoidal
     position).  ``coulomb`` [N·m], ``viscous`` [N·m·s/rad] per joint, ``coulomb_velocity`` v_s [rad/s].
 
     With drives (``model.drives`` with nominal motor values) the motors add, through ``G``:
-    rotor inertia ``Gᵀ·diag(Im)·G`` to M, and ``Gᵀ·(fc_m·tanh(G·dq/v_s) + fv_m·G·dq + offset_m)``."""
+    rotor inertia ``Gᵀ·diag(Im)·G`` to M, and ``Gᵀ·(fc_m·tanh(G·dq/v_s) + fv_m·G·dq + offset_m)``.
 
-    def __init__(self, model: RobotModel, coulomb: np.ndarray, viscous: np.ndarray, coulomb_velocity: float) -> None:
+    ``terms``: more joint terms of the registry (:mod:`pinid.model.terms`) with their true per-joint
+    values, e.g. ``{"passive": [1, 1], "fc_pos": [...]}``; each acts through its own plant law
+    (``Term.torque`` with ``smoothing = v_s``), an inertia term adds its values to M's diagonal, and a
+    term with a smoothed law (Coulomb-like, stiff near zero velocity) joins the implicit friction with
+    its velocity derivative (central difference)."""
+
+    def __init__(self, model: RobotModel, coulomb: np.ndarray, viscous: np.ndarray, coulomb_velocity: float,
+                 terms: dict[str, np.ndarray] | None = None) -> None:
         self.model = model
         self.fc = np.asarray(coulomb, dtype=float)
         self.fv = np.asarray(viscous, dtype=float)
+        self._vs = coulomb_velocity
         self._ivs = 1.0 / coulomb_velocity
         self._data = model.pin_model.createData()
         self._eye = np.eye(model.nv)
         self._conf = model.configuration if model._continuous else (lambda x: x)
+        extra = [(_terms.TERMS[n], np.asarray(v, dtype=float)) for n, v in (terms or {}).items()]
+        self.extra = [(t, v) for t, v in extra if not t.inertia]
+        added = sum((v for t, v in extra if t.inertia), np.zeros(model.nv))
         d = model.drives
         self.motor = None
+        self.rotor = np.diag(added) if np.any(added) else None
         if d is not None and any(np.any(d.nominal(k) != 0) for k in ("fc", "fv", "armature", "offset")):
             G = d.matrix
             self.motor = {k: d.nominal(k) for k in ("fc", "fv", "armature", "offset")}
             self.G = G
-            self.rotor = G.T @ (self.motor["armature"][:, None] * G)  # Gᵀ·diag(Im)·G [kg·m²]
+            rotor = G.T @ (self.motor["armature"][:, None] * G)  # Gᵀ·diag(Im)·G [kg·m²]
+            self.rotor = rotor if self.rotor is None else rotor + self.rotor
+
+    def _extra(self, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Torque [N·m] of the extra terms at (q, v), and its velocity derivative (diagonal) [N·m·s/rad]."""
+        def f(terms, vel):
+            m = _terms.Motion(q[None], vel[None], np.zeros((1, q.size)), self.model.joint_names, self.model)
+            return sum((t.torque(x, m, self._vs)[0] for t, x in terms), np.zeros(q.size))
+        stiff = [(t, x) for t, x in self.extra if t.plant is not None]
+        D = np.zeros(q.size)
+        if stiff:
+            dv = 1e-3 * self._vs
+            D = (f(stiff, v + dv) - f(stiff, v - dv)) / (2 * dv)
+        return f(self.extra, v), D
 
     def step(self, q: np.ndarray, v: np.ndarray, tau: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(ddq, q_next, v_next)``: the acceleration at (q, v) under ``tau`` and the state ``h`` [s] later."""
@@ -248,23 +277,30 @@ class Plant:
         qc = self._conf(q)
         nle = pin.nonLinearEffects(pm, pdata, qc, v)
         th = np.tanh(v * self._ivs)
-        if self.motor is None:
+        Dx = 0.0
+        if self.extra:
+            fx, Dx = self._extra(q, v)
+            tau = tau - fx
+        if self.rotor is None:
             Minv = pin.computeMinverse(pm, pdata, qc)
             a = Minv @ (tau - nle - self.fc * th - self.fv * v)
-            D = self.fc * self._ivs * (1.0 - th * th) + self.fv
+            D = self.fc * self._ivs * (1.0 - th * th) + self.fv + Dx
             stiff = h * float(np.max(Minv.diagonal() * D)) > 0.1
             D = np.diag(D) if stiff else D
         else:
-            m, G = self.motor, self.G
             M = pin.crba(pm, pdata, qc)
             M = np.triu(M) + np.triu(M, 1).T + self.rotor
             Minv = np.linalg.inv(M)
-            vm = G @ v
-            thm = np.tanh(vm * self._ivs)
-            f = self.fc * th + self.fv * v + G.T @ (m["fc"] * thm + m["fv"] * vm + m["offset"])
+            f = self.fc * th + self.fv * v
+            D = np.diag(self.fc * self._ivs * (1.0 - th * th) + self.fv + Dx)
+            if self.motor is not None:
+                m, G = self.motor, self.G
+                vm = G @ v
+                thm = np.tanh(vm * self._ivs)
+                f = f + G.T @ (m["fc"] * thm + m["fv"] * vm + m["offset"])
+                Dm = m["fc"] * self._ivs * (1.0 - thm * thm) + m["fv"]
+                D = D + G.T @ (Dm[:, None] * G)
             a = Minv @ (tau - nle - f)
-            Dm = m["fc"] * self._ivs * (1.0 - thm * thm) + m["fv"]
-            D = np.diag(self.fc * self._ivs * (1.0 - th * th) + self.fv) + G.T @ (Dm[:, None] * G)
             stiff = h * float(np.max(np.abs(Minv @ D))) > 0.1
         if stiff:  # near zero velocity: implicit friction
             dv = np.linalg.solve(self._eye + (h * Minv) @ D, h * a)
@@ -300,6 +336,8 @@ def simulate(
     record_velocity: bool = False,
     velocity_noise: float = 0.01,
     velocity_cutoff: float = 30.0,
+    terms: dict[str, Sequence[float]] | None = None,
+    wearer_torque: float = 0.0,
     progress: bool | None = False,
 ) -> tuple[Dataset, dict]:
     """Simulate ``model`` (the truth) tracking ``trajectory`` for ``seconds``; return ``(recording, truth)``.
@@ -308,7 +346,12 @@ def simulate(
     ``record_velocity``.  ``truth`` is JSON-ready except ``truth["signals"]``, a Dataset of the true
     q, dq, ddq (instantaneous) and applied torque at the sample times (see :func:`truth_json`).
     ``coulomb`` / ``viscous`` [N·m, N·m·s/rad]: true friction per joint (default the URDF's
-    ``<dynamics>``, ``model.coulomb`` / ``model.viscous``).  Other options: see the module docstring.
+    ``<dynamics>``, ``model.coulomb`` / ``model.viscous``).  ``terms``: more true joint terms for the plant,
+    ``{term name: per-joint values}`` (see :class:`Plant`; default: the wearer's passive moments at their
+    nominal scale 1 when the URDF carries a wearer, else none).  ``wearer_torque`` [%]: the wearer's
+    involuntary active torque, per joint that percentage of the RMS gravity torque along the trajectory
+    (:func:`wearer_disturbance`); it acts on the plant but is not in the recorded (motor) torque.
+    Other options: see the module docstring.
     """
     if not np.isfinite(seconds) or seconds <= 0:
         raise SpecError(f"duration {seconds!r} s, expected a duration > 0")
@@ -336,6 +379,9 @@ def simulate(
     fv = _per_joint(model.viscous if viscous is None else viscous, model, "viscous friction")
     if np.any(fc < 0) or np.any(fv < 0):
         raise SpecError(f"friction must be >= 0 (Coulomb {fc.tolist()}, viscous {fv.tolist()})")
+    extra = _extra_terms(model, terms)
+    if not np.isfinite(wearer_torque) or wearer_torque < 0:
+        raise SpecError(f"wearer torque {wearer_torque!r} %, expected a percentage >= 0")
 
     # desired trajectory at the control instants, and limits
     k_ctrl = np.arange(n_steps // n_c + 1)
@@ -385,7 +431,9 @@ def simulate(
 
     # random streams: positions, torques, velocities
     ss = np.random.SeedSequence(int(seed))
-    rng_q, rng_tau, rng_v = (np.random.default_rng(s) for s in ss.spawn(3))
+    rng_q, rng_tau, rng_v, rng_w = (np.random.default_rng(s) for s in ss.spawn(4))
+    g_rms = np.sqrt(np.mean(model.rnea(qd, np.zeros_like(qd), np.zeros_like(qd)) ** 2, axis=0))
+    disturbance = wearer_disturbance(t_ctrl, wearer_torque / 100.0 * g_rms, rng_w) if wearer_torque > 0 else None
     g = math.gcd(n_c, n_s)
     q_noise = rng_q.normal(0.0, position_noise, (n_steps // g + 1, nv)) if position_noise > 0 else np.zeros((n_steps // g + 1, nv))
     res = float(encoder_resolution)
@@ -410,7 +458,7 @@ def simulate(
     true_v = np.empty((n_samples, nv))
     true_a = np.empty((n_samples, nv))
     true_tau = np.empty((n_samples, nv))
-    plant = Plant(model, fc, fv, coulomb_velocity)
+    plant = Plant(model, fc, fv, coulomb_velocity, extra)
     tau = np.zeros(nv)
     saturated = 0
     s_idx = 0
@@ -435,7 +483,7 @@ def simulate(
                     tau = clipped
                 if bar is not None and k % 1000 == 0 and k:
                     bar.update(1000)
-            a, q_new, v_new = plant.step(q, v, tau, h)
+            a, q_new, v_new = plant.step(q, v, tau if disturbance is None else tau + disturbance[i // n_c], h)
             if i % n_s == 0:
                 rec_q[s_idx] = measure(i, q)
                 true_q[s_idx], true_v[s_idx], true_a[s_idx], true_tau[s_idx] = q, v, a, tau
@@ -467,9 +515,12 @@ def simulate(
                         meta={"simulated": True, "seed": int(seed)})
     signals = Dataset(t=rec_t, q=true_q, joints=joints, dq=true_v, ddq=true_a, tau=true_tau, source="pinid simulate (truth)")
 
-    terms = JointTerms(names=["fc", "fv"] + _motor_terms(model).names)
+    terms = JointTerms(names=["fc", "fv"] + list(extra) + _motor_terms(model).names)
     truth_model = model.with_inertial_parameters(model.inertial_parameters(), coulomb=fc, viscous=fv)
     theta = standard_parameters(truth_model, terms)
+    for k, p in enumerate(_terms.robot_layout(model, terms)):
+        if p.term.name in extra:
+            theta[10 * nv + k] = extra[p.term.name][p.index]
     bp = base_parameters(truth_model, terms)
     qd_s, _, _ = tr.evaluate(rec_t)
     err = true_q - qd_s
@@ -508,7 +559,51 @@ def simulate(
                      "max_error": dict(zip(joints, np.max(np.abs(err), axis=0).tolist()))},
         "signals": signals,
     }
+    if extra or disturbance is not None or _wearer(model):
+        truth["wearer"] = {
+            "table_segments": {s: {"link": lk, "mass": m, "com": c.tolist(), "inertia_about_com": I.tolist()}
+                         for s, (lk, m, c, I) in _wearer(model).items()},
+            "terms": {n: dict(zip(joints, v.tolist())) for n, v in extra.items()},
+            "active_torque": {"percent_of_gravity_rms": float(wearer_torque),
+                              "rms": dict(zip(joints, (wearer_torque / 100.0 * g_rms).tolist())),
+                              "band_hz": list(WEARER_BAND)},
+        }
     return recording, truth
+
+
+#: Frequency band [Hz] of the wearer's involuntary active torque (slow, voluntary-like movement).
+WEARER_BAND = (0.2, 2.0)
+
+
+def wearer_disturbance(t: np.ndarray, rms: np.ndarray, rng: np.random.Generator, components: int = 16) -> np.ndarray:
+    """A smooth random torque (N, nv) [N·m] at times ``t`` [s]: per joint a sum of ``components`` sinusoids,
+    frequencies uniform in :data:`WEARER_BAND`, random phases and amplitudes, scaled to exactly ``rms`` [N·m]."""
+    rms = np.asarray(rms, dtype=float)
+    f = rng.uniform(*WEARER_BAND, (components, rms.size))
+    phase = rng.uniform(0, 2 * np.pi, (components, rms.size))
+    amp = rng.normal(0, 1, (components, rms.size))
+    x = np.einsum("kj,nkj->nj", amp, np.sin(2 * np.pi * t[:, None, None] * f + phase))
+    return x * (rms / np.maximum(np.sqrt(np.mean(x**2, axis=0)), 1e-300))
+
+
+def _wearer(model: RobotModel) -> dict:
+    from pinid.wearer.attach import wearer_links
+
+    return wearer_links(model.urdf_text) if model.urdf_text else {}
+
+
+def _extra_terms(model: RobotModel, terms: dict | None) -> dict[str, np.ndarray]:
+    """The plant's extra joint terms, checked: ``terms`` or, by default, the wearer's passive moments."""
+    if terms is None:
+        return {"passive": _terms.nominal(model, JointTerms(names=["passive"]))} if _wearer(model) else {}
+    out = {}
+    for name, v in terms.items():
+        t = _terms.TERMS.get(name)
+        if t is None or t.space != "joint" or name in ("fc", "fv"):
+            raise SpecError(f"plant term {name!r}, expected a joint term other than fc and fv (give those as "
+                            f"coulomb/viscous): {[n for n, x in _terms.TERMS.items() if x.space == 'joint' and n not in ('fc', 'fv')]}")
+        out[name] = _per_joint(v, model, f"term {name}")
+    return out
 
 
 def _motor_terms(model: RobotModel) -> JointTerms:

@@ -83,3 +83,24 @@ def wearer_prior(urdf_text: str, robot) -> list[BodyPrior]:
     if not out:
         raise SpecError(f"{robot.name}: the prior URDF has no wearer segment (links {PREFIX}*); write it with pinid wearer")
     return sorted(out.values(), key=lambda b: b.index)
+
+
+def drawn(theta: np.ndarray, rng: np.random.Generator, mass: float = 0.25, com: float = 0.20) -> np.ndarray:
+    """One body's table parameters (10,) drawn away from the table: mass × (1 ± ``mass``), CoM distance
+    from the joint × (1 ± ``com``) (uniform, seeded), inertia about the CoM scaled with the mass."""
+    m, c = theta[0], theta[1:4] / theta[0]
+    Ic = pin.Inertia.FromDynamicParameters(np.asarray(theta, dtype=float)).inertia
+    k, kc = 1 + rng.uniform(-mass, mass), 1 + rng.uniform(-com, com)
+    return pin.Inertia(m * k, c * kc, Ic * k).toDynamicParameters()
+
+
+def draw_wearer(robot, rng: np.random.Generator, mass: float = 0.25, com: float = 0.20):
+    """``robot`` (exo + wearer) with its wearer's share of each body replaced by :func:`drawn` — the twin's
+    "true" wearer; returns ``(model, {joint: drawn (10,) wearer parameters})``."""
+    theta = robot.inertial_parameters().copy()
+    out = {}
+    for b in wearer_prior(robot.urdf_text, robot):
+        w = drawn(b.theta, rng, mass, com)
+        theta[10 * b.index: 10 * b.index + 10] += w - b.theta
+        out[b.joint] = w
+    return robot.with_inertial_parameters(theta), out
