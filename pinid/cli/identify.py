@@ -55,6 +55,19 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--sdp-weighting", choices=("none", "joint"), default=None,
                    help="sdp: row weighting (none: as OLS, default; joint: as WLS)")
     g.add_argument("--wls-iterations", type=positive_int, default=None, help="wls: reweighting passes (default 1)")
+    g = p.add_argument_group("stage 2: the wearer (docs/wearer.md)")
+    g.add_argument("--stage", choices=("robot", "wearer"), default="robot",
+                   help="robot: identify the URDF's robot (default); wearer: identify only the wearer of an "
+                        "exo + wearer URDF (pinid wearer), the exoskeleton fixed to --exo")
+    g.add_argument("--exo", default=None, metavar="MODEL_JSON",
+                   help="--stage wearer: the stage-1 exoskeleton model (model_<method>.json of pinid identify)")
+    g.add_argument("--mass-range", type=float, default=None, metavar="FRACTION",
+                   help="--stage wearer: each body's wearer mass within ±FRACTION of the table's; default 0.3")
+    g.add_argument("--prior-weight", type=nonnegative_float, default=0.0,
+                   help="--stage wearer: pull of the identifiable directions toward the tables; default 0 "
+                        "(the tables decide only what the data cannot see)")
+    g.add_argument("--no-passive", action="store_true",
+                   help="--stage wearer: do not identify the passive-moment scale factors (keep none)")
     p.add_argument("--force-export", action="store_true",
                    help="also write identified URDFs of physically inconsistent results")
     p.add_argument("--no-report", action="store_true", help="do not write report.md and the figures")
@@ -109,6 +122,7 @@ def print_result(r) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from pinid.errors import SpecError
     from pinid.identification.core import identify
     from pinid.io import Artefacts
 
@@ -116,6 +130,10 @@ def run(args: argparse.Namespace) -> int:
     early = Artefacts()
     early.add(out / "identification.json", "")
     early.check()  # fail before the work (creates nothing)
+    if (args.stage == "wearer") != (args.exo is not None):
+        raise SpecError("--stage wearer and --exo MODEL_JSON go together (stage 2: the wearer, the exo fixed)")
+    if args.stage == "wearer":
+        return _run_wearer(args, out)
     methods = methods_from_args(args)
     model = robot_from_args(args)
     terms = terms_from_args(args)
@@ -149,13 +167,7 @@ def run(args: argparse.Namespace) -> int:
         figs = {} if args.no_figures else make_figures(ident)
         names = figure_names(ident)
         report = report_markdown(ident, {k: names[k] for k in figs})
-    import json
-
-    from pinid.io import jsonable
-
-    def as_json(obj):
-        return json.dumps(jsonable(obj), indent=2, allow_nan=False) + "\n"
-
+    as_json = _as_json
     arts = Artefacts()  # all or nothing: checked, written to a temporary folder, moved into place
     arts.add(out / "identification.json", as_json(ident.to_dict()))
     for m, dm in models.items():
@@ -176,5 +188,47 @@ def run(args: argparse.Namespace) -> int:
     written = arts.write()
     print(f"\nbest: {ident.best}" + (f"; no URDF for inconsistent result(s) {', '.join(refused)} "
                                        "(--force-export writes them)" if refused else ""))
+    print(f"wrote {len(written)} files to {out}/: " + ", ".join(p.name for p in written))
+    return 0
+
+
+def _as_json(obj) -> str:
+    import json
+
+    from pinid.io import jsonable
+
+    return json.dumps(jsonable(obj), indent=2, allow_nan=False) + "\n"
+
+
+def _run_wearer(args: argparse.Namespace, out: Path) -> int:
+    """Stage 2: the wearer of ``--urdf`` identified with the exoskeleton fixed to ``--exo``."""
+    from pinid.identification.problem import load_datasets
+    from pinid.io import Artefacts
+    from pinid.wearer.prior import MASS_RANGE
+    from pinid.wearer.stage import identify_wearer, stack
+
+    robot = robot_from_args(args)
+    pre = preprocess_from_args(args)
+    train = load_datasets(args.data, robot, args.mapping, pre, "training")
+    val = load_datasets(args.validate or None, robot, args.mapping, pre, "validation")
+    fit = identify_wearer(args.exo, robot, *stack(train), passive=not args.no_passive,
+                          mass_range=MASS_RANGE if args.mass_range is None else args.mass_range,
+                          prior_weight=args.prior_weight)
+    result = {"stage": "wearer", "exo": args.exo, "urdf": str(robot.urdf_path), **fit.to_dict(),
+              "train_rms": fit.rms(train), "validation_rms": fit.rms(val) if val else None}
+    print(f"stage 2 (wearer) of {robot.name}: status {fit.status}, {fit.seconds:.2f} s")
+    width = max(len(n) for n in fit.base_names)
+    print(f"   {'base parameter':<{width}} {'identified':>13} {'table':>13}")
+    for n, v, t in zip(fit.base_names, fit.base, fit.base_table):
+        print(f"   {n:<{width}} {v:13.6g} {t:13.6g}")
+    for kind in ("train_rms", "validation_rms"):
+        if result[kind]:
+            print(f"   {kind.replace('_', ' ')} [N·m]: " + "; ".join(
+                f"{w} " + ", ".join(f"{j} {v:.4g}" for j, v in r.items()) for w, r in result[kind].items()))
+    arts = Artefacts()
+    arts.add(out / "identification.json", _as_json(result))
+    arts.add(out / "model_wearer.json", _as_json(fit.model("identified").to_dict()))
+    arts.add(out / "model_table.json", _as_json(fit.model("table").to_dict()))
+    written = arts.write()
     print(f"wrote {len(written)} files to {out}/: " + ", ".join(p.name for p in written))
     return 0

@@ -76,6 +76,14 @@ class WearerFit:
         theta = np.concatenate([exo.theta[:10 * nv] + w[:10 * nv], block])
         return IdentifiedModel(self.robot, terms, theta, meta={"wearer": which})
 
+    def rms(self, datasets) -> dict[str, dict[str, float]]:
+        """Torque RMS error [N·m] per joint on ``datasets`` (with q, dq, ddq, tau) of the three models:
+        ``{"identified" | "table" | "exo": {joint: rms}}``."""
+        q, dq, ddq, tau = stack(datasets)
+        return {w: dict(zip(self.robot.joint_names, np.sqrt(np.mean((tau - self.model(w).inverse_dynamics(q, dq, ddq)) ** 2,
+                                                                       axis=0)).tolist()))
+                for w in ("identified", "table", "exo")}
+
     def to_dict(self) -> dict:
         """Plain-dict form (for JSON)."""
         return {"parameters": dict(zip(self.names, self.theta.tolist())),
@@ -173,3 +181,9 @@ def identify_wearer(exo, prior_urdf, q: np.ndarray, dq: np.ndarray, ddq: np.ndar
     bp = base_parameters(robot, terms)
     return WearerFit(robot, exo, priors, terms, theta, table, bp.names, bp.from_standard(theta),
                      bp.from_standard(table), status, time.perf_counter() - t0)
+
+
+
+def stack(datasets) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``(q, dq, ddq, tau)`` of recordings (Datasets with all four), their samples stacked, (N, nv) each."""
+    return tuple(np.vstack([getattr(d, k) for d in datasets]) for k in ("q", "dq", "ddq", "tau"))

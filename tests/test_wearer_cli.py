@@ -1,0 +1,69 @@
+"""Stage 2 from the command line: pinid identify --stage wearer on the twin with a wearer."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from conftest import assert_clean_error, run_cli
+from pinid.identification.identified import IdentifiedModel
+from pinid.model.base import base_parameters
+from pinid.model.regressor import JointTerms, standard_parameters
+from pinid.model.robot import RobotModel
+from pinid.wearer.attach import wearer_urdf
+
+EXCITATION = str(Path(__file__).resolve().parents[1] / "excitation" / "exo_leg.json")
+
+
+@pytest.fixture(scope="module")
+def twin(tmp_path_factory):
+    """Exo model (stage 1: the truth's exo, viscous friction only), exo + wearer URDF, a noise-free twin run
+    with a drawn wearer and its exact signals."""
+    d = tmp_path_factory.mktemp("s2")
+    wearer_urdf("exo_leg", "hip:thigh,knee:shank,knee:foot", mass=75, height=1.78, sex="male", path=d / "eww.urdf")
+    exo = RobotModel.from_urdf("exo_leg")
+    terms = JointTerms.from_names("fv")
+    IdentifiedModel(exo, terms, standard_parameters(exo, terms)).save(d / "exo.json")
+    p = run_cli("simulate", "--urdf", str(d / "eww.urdf"), "--excitation", EXCITATION, "--seconds", "5", "--seed", "4",
+                "--wearer-draw", "--coulomb", "0", "--torque-noise", "0", "--true-signals", str(d / "true.npz"),
+                "-o", str(d / "rec.csv"))
+    assert p.returncode == 0, p.stderr
+    return d
+
+
+def test_noise_free_stage2_recovers_wearer_base_parameters(twin):
+    d = twin
+    p = run_cli("identify", "--stage", "wearer", "--exo", str(d / "exo.json"), "--urdf", str(d / "eww.urdf"),
+                "--data", str(d / "true.npz"), "--preprocess", "never", "-o", str(d / "out"))
+    assert p.returncode == 0, p.stderr
+    res = json.loads((d / "out" / "identification.json").read_text())
+    drawn = json.loads((d / "rec.truth.json").read_text())["wearer"]["drawn"]["wearer_standard"]
+    robot = RobotModel.from_urdf(d / "eww.urdf")
+    truth = np.zeros(22)
+    for j, w in drawn.items():
+        truth[10 * robot.joint_index(j): 10 * robot.joint_index(j) + 10] = w
+    truth[20:] = 1.0  # passive scale factors of the twin
+    bp = base_parameters(robot, JointTerms.from_names("passive"))
+    expected = dict(zip(bp.names, bp.from_standard(truth)))
+    got = res["base"]
+    scale = max(abs(v) for v in expected.values())
+    for n, v in expected.items():
+        assert abs(got[n] - v) <= 1e-6 * max(abs(v), 1e-2 * scale), (n, got[n], v)
+    assert abs(res["parameters"]["knee.kp"] - 1) < 1e-6 and abs(res["parameters"]["hip.kp"] - 1) < 1e-6
+    assert sorted(p.name for p in (d / "out").iterdir()) == ["identification.json", "model_table.json", "model_wearer.json"]
+    m = IdentifiedModel.load(d / "out" / "model_wearer.json")
+    assert "passive" in m.terms
+
+
+def test_stage2_bad_input_writes_nothing(twin, tmp_path):
+    d = twin
+    p = run_cli("identify", "--stage", "wearer", "--urdf", str(d / "eww.urdf"), "--data", str(d / "true.npz"),
+                "-o", str(tmp_path / "a"))
+    assert_clean_error(p, "--stage wearer", "--exo")
+    p = run_cli("identify", "--stage", "wearer", "--exo", str(d / "exo.json"), "--urdf", "exo_leg",
+                "--data", str(d / "true.npz"), "-o", str(tmp_path / "b"))
+    assert_clean_error(p, "no wearer segment")
+    assert not list(tmp_path.iterdir())
