@@ -51,6 +51,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--optimize-offsets", action="store_true", default=None, help="also optimise the offsets q0")
     g.add_argument("--criterion", choices=["cond", "logdet"], help="cond (default) or logdet (D-optimal)")
     g.add_argument("--margin", type=float, help="fraction of every limit kept in reserve (default 0)")
+    g.add_argument("--comfort", nargs="?", const="", default=None, metavar="FILE",
+                   help="design within a wearer's comfort limits (TOML: hip, knee, ankle range [deg], speed, "
+                        "acceleration) intersected with the URDF's; without FILE the shipped defaults (docs/wearer.md)")
     g.add_argument("--torque-limits", action="store_true",
                    help="also keep |torque| (nominal URDF parameters) within the URDF's effort limits")
     o = p.add_argument_group("optimiser")
@@ -162,6 +165,10 @@ def run(args: argparse.Namespace) -> int:
     spec = spec_for(model, args.spec, harmonics=args.harmonics, base_frequency=args.base_frequency,
                     samples=args.samples, rest_start=args.rest_start, optimize_offsets=args.optimize_offsets,
                     criterion=args.criterion, margin=args.margin, terms=terms)
+    if args.comfort is not None:
+        from pinid.wearer.comfort import within_comfort
+
+        spec = within_comfort(spec, model, args.comfort or None)
     if args.torque_limits:
         effort = model.effort_limit
         if not np.any(np.isfinite(effort)):
