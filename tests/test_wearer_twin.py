@@ -80,3 +80,36 @@ def test_cli_wearer_draw_and_torque(worn, tmp_path):
                 "-o", str(tmp_path / "x.csv"))
     assert_clean_error(p, "--wearer-draw", "no wearer")
     assert not list(tmp_path.glob("x*"))
+
+
+def test_model_with_passive_terms_for_control(worn):
+    """The passive moment depends on q only: a model's gravity(q) includes it, its friction(dq) does not."""
+    from pinid.identification.identified import IdentifiedModel
+    from pinid.model.regressor import standard_parameters
+
+    _, m = worn
+    terms = JointTerms.from_names("fv,passive")
+    model = IdentifiedModel(m, terms, standard_parameters(m, terms))
+    q, dq = np.array([0.9, -1.5]), np.array([0.3, -0.2])
+    np.testing.assert_allclose(model.friction(dq), m.viscous * dq)
+    expected = m.rnea(q[None], 0 * q[None], 0 * q[None])[0] + T.torque(m, JointTerms.from_names("passive"), np.ones(2),
+                                                                        q[None], 0 * q[None], 0 * q[None])[0]
+    np.testing.assert_allclose(model.gravity(q), expected, atol=1e-12)
+    np.testing.assert_allclose(model.inverse_dynamics(q, dq, 0 * q),
+                               model.gravity(q) + model.coriolis(q, dq) @ dq + model.friction(dq), atol=1e-10)
+
+
+def test_track_plant_carries_the_wearer(worn):
+    """pinid.control's plant applies the passive moments: a model without them tracks worse than with them."""
+    from pinid.cli.track import sine_reference
+    from pinid.control.controllers import ComputedTorque, nominal_model, track
+    from pinid.identification.identified import IdentifiedModel
+    from pinid.model.regressor import standard_parameters
+
+    _, m = worn
+    terms = JointTerms.from_names("fc,fv,passive")
+    full = IdentifiedModel(m, terms, standard_parameters(m, terms))
+    ref = sine_reference(m)
+    e_full = track(m, ComputedTorque(full), ref, seconds=2.0).metrics(after=1.0)
+    e_rigid = track(m, ComputedTorque(nominal_model(m)), ref, seconds=2.0).metrics(after=1.0)
+    assert all(e_rigid[j]["rms"] > 100 * e_full[j]["rms"] for j in m.joint_names)

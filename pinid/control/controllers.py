@@ -37,7 +37,7 @@ from pinid.identification.identified import IdentifiedModel
 from pinid.io import read_json
 from pinid.model.base import base_parameters
 from pinid.model.regressor import JointTerms, standard_parameters
-from pinid.simulation.twin import Plant, perturb, simulate
+from pinid.simulation.twin import Plant, perturb, plant_terms, simulate
 
 
 class DynamicsModel(Protocol):
@@ -193,6 +193,8 @@ def track(
     q0: np.ndarray | None = None,
     seed: int = 0,
     lyapunov: bool = False,
+    terms: dict | None = None,
+    disturbance=None,
 ) -> TrackingResult:
     """Simulate ``plant`` (a URDF model with its true friction) under ``controller`` following ``reference``.
 
@@ -202,12 +204,15 @@ def track(
     ``torque_limit`` [N·m] (default: the URDF's effort limits).  The plant is the digital twin's
     (:class:`pinid.simulation.twin.Plant`: ABA-equivalent dynamics, Coulomb friction fc·tanh(dq/``coulomb_velocity``),
     implicit when stiff) integrated at ``rate·substeps`` [Hz].  Starts at ``q0`` (default the reference at
-    t = 0) at rest.  Seeded: the same arguments give the same run.
+    t = 0) at rest.  Seeded: the same arguments give the same run.  ``terms``: the plant's extra joint
+    terms (:func:`pinid.simulation.twin.plant_terms`; default the wearer's passive moments when the plant
+    carries a wearer); ``disturbance(t) -> (nv,)`` [N·m]: a torque acting on the plant besides the
+    controller's (e.g. the wearer's, :func:`pinid.simulation.twin.wearer_disturbance`).
     """
     rng = np.random.default_rng(seed)
     nv = plant.nv
     limit = plant.effort_limit if torque_limit is None else np.broadcast_to(np.asarray(torque_limit, float), (nv,))
-    dynamics = Plant(plant, plant.coulomb, plant.viscous, coulomb_velocity)
+    dynamics = Plant(plant, plant.coulomb, plant.viscous, coulomb_velocity, plant_terms(plant, terms))
     n = int(round(seconds * rate))
     t = np.arange(n) / rate
     q_d, dq_d, ddq_d = reference.evaluate(t)
@@ -223,8 +228,9 @@ def track(
         Q[k], DQ[k], TAU[k] = q, dq, tau
         if lyapunov:
             V[k] = controller.lyapunov(q, dq, q_d[k], dq_d[k])
+        applied = tau if disturbance is None else tau + disturbance(t[k])
         for _ in range(substeps):
-            _, q, dq = dynamics.step(q, dq, tau, h)
+            _, q, dq = dynamics.step(q, dq, applied, h)
         if not (np.all(np.isfinite(q)) and np.all(np.isfinite(dq))):
             raise SolverError(f"closed loop diverged at t = {t[k]:.3f} s; lower the gains or raise the rate")
     return TrackingResult(t, q_d, Q, DQ, TAU, plant.joint_names, V,

@@ -106,15 +106,21 @@ class IdentifiedModel:
         terms, joint side (fc·sign(dq) + fv·dq) plus ``Gᵀ·`` motor side."""
         dq = np.asarray(dq, dtype=float)
         zero = np.zeros_like(np.atleast_2d(dq))
-        tau = self._term_torque(zero, np.atleast_2d(dq), zero, lambda t: not t.inertia and t.suffix != "offset")
+        tau = self._term_torque(zero, np.atleast_2d(dq), zero,
+                                lambda t: not t.inertia and not t.static and t.suffix != "offset")
         return tau[0] if dq.ndim == 1 else tau
 
     def gravity(self, q: np.ndarray) -> np.ndarray:
-        """Gravity torque g(q) [N·m] (one sample or a batch)."""
+        """Static torque g(q) [N·m] (one sample or a batch): gravity, plus the terms that depend on q only
+        (the wearer's passive moments)."""
         q = np.asarray(q, dtype=float)
         if q.ndim == 2:
             return np.array([self.gravity(x) for x in q])
-        return pin.computeGeneralizedGravity(self.pin_model, self.pin_data, self._q(q)).copy()
+        g = pin.computeGeneralizedGravity(self.pin_model, self.pin_data, self._q(q)).copy()
+        if any(t.static for t in self.terms.joint):
+            zero = np.zeros((1, self.nv))
+            g += self._term_torque(q[None], zero, zero, lambda t: t.static)[0]
+        return g
 
     def mass_matrix(self, q: np.ndarray) -> np.ndarray:
         """Joint-space mass matrix M(q) + diag(armature) [kg·m²], symmetric (nv, nv)."""

@@ -54,6 +54,7 @@ class Term:
     field: str | None = None  # URDF <dynamics> attribute (joint terms) or drives TOML key (motor terms)
     inertia: bool = False  # the column is an acceleration: the plant adds the value to the mass matrix
     plant: Callable[[np.ndarray, Motion, float], np.ndarray] | None = None  # (values, motion, v_s) → torque
+    static: bool = False  # the column depends on q only (like gravity): a model's gravity(q) includes it
 
     def torque(self, values: np.ndarray, motion: Motion, smoothing: float | None = None) -> np.ndarray:
         """Torque of this term [N·m] in its own space for per-joint/motor ``values``; the plant's law when
@@ -94,7 +95,7 @@ register(Term("fc_neg", "fc_neg", "Coulomb friction, negative velocity", "N·m",
               nonnegative=True, plant=lambda v, m, vs: v * np.minimum(np.tanh(m.dq / vs), 0.0)))
 
 register(Term("passive", "kp", "wearer passive moment (scale of Riener & Edrich 1999)", "1",
-              lambda m: passive.column(m.q, m.robot),
+              lambda m: passive.column(m.q, m.robot), static=True,
               nominal=lambda r: np.array([1.0 if kind else 0.0 for kind, _ in passive.anatomy(r)])))
 
 for _base in ("fc", "fv", "offset", "armature", "fc_pos", "fc_neg"):

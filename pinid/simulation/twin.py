@@ -379,7 +379,7 @@ def simulate(
     fv = _per_joint(model.viscous if viscous is None else viscous, model, "viscous friction")
     if np.any(fc < 0) or np.any(fv < 0):
         raise SpecError(f"friction must be >= 0 (Coulomb {fc.tolist()}, viscous {fv.tolist()})")
-    extra = _extra_terms(model, terms)
+    extra = plant_terms(model, terms)
     if not np.isfinite(wearer_torque) or wearer_torque < 0:
         raise SpecError(f"wearer torque {wearer_torque!r} %, expected a percentage >= 0")
 
@@ -592,7 +592,7 @@ def _wearer(model: RobotModel) -> dict:
     return wearer_links(model.urdf_text) if model.urdf_text else {}
 
 
-def _extra_terms(model: RobotModel, terms: dict | None) -> dict[str, np.ndarray]:
+def plant_terms(model: RobotModel, terms: dict | None = None) -> dict[str, np.ndarray]:
     """The plant's extra joint terms, checked: ``terms`` or, by default, the wearer's passive moments."""
     if terms is None:
         return {"passive": _terms.nominal(model, JointTerms(names=["passive"]))} if _wearer(model) else {}

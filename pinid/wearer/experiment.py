@@ -1,0 +1,66 @@
+"""The wearer workflow end to end on the twin (issue 18's figures): stage 1, stage 2, validation, control.
+
+1. Stage 1: a twin recording of the bare exoskeleton (default noise) identified with ``sdp``.
+2. The true wearer: the exo + wearer URDF's table wearer drawn away from the tables
+   (:func:`pinid.wearer.prior.draw_wearer`), passive moments on; two twin recordings with the wearer's
+   active torque (``wearer_torque`` % of the gravity RMS) and default noise — one to identify the
+   wearer (stage 2), one on another trajectory to validate.
+3. Validation torque RMS of exo + identified wearer, exo + table wearer, exo alone, and the *floor*:
+   the RMS of the true exo + wearer model on the same (preprocessed) validation data — what the
+   sensor noise and the active torque leave, that no model can explain.
+4. Both controllers track a reference on the true plant with each model.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from pinid.identification.identified import IdentifiedModel
+from pinid.identification.problem import prepare_dataset
+from pinid.model.regressor import JointTerms
+from pinid.model.robot import RobotModel
+from pinid.simulation.twin import simulate
+from pinid.wearer.prior import draw_wearer
+from pinid.wearer.stage import identify_wearer, stack
+
+
+def _rms(model, datasets) -> np.ndarray:
+    q, dq, ddq, tau = stack(datasets)
+    return np.sqrt(np.mean((tau - model.inverse_dynamics(q, dq, ddq)) ** 2, axis=0))
+
+
+def wearer_experiment(exo_urdf, exo_with_wearer, excitation, validation, reference, *, seconds: float = 60.0,
+                      wearer_torque: float = 5.0, track_seconds: float = 8.0, seed: int = 0) -> dict:
+    """Run the experiment (see the module text) and return its figures.
+
+    ``exo_urdf``: the bare exoskeleton (URDF path or bundled name); ``exo_with_wearer``: its URDF from
+    ``pinid wearer``; ``excitation`` / ``validation``: trajectories (FourierTrajectory) of the
+    identification and validation recordings, ``seconds`` long (validation: half); ``reference``: the
+    tracking reference.  Returns ``{"rms": {model: per-joint validation RMS [N·m]}, "floor": per joint
+    [N·m], "ratio": {model: RMS / floor, joints pooled}, "tracking": {controller: {model: per-joint RMS
+    [rad]}}, "fit": WearerFit}`` with models ``identified``, ``table``, ``exo``.
+    """
+    from pinid.control.controllers import compare_models
+    from pinid.identification.core import identify
+
+    exo = RobotModel.from_urdf(exo_urdf)
+    exo_run, _ = simulate(exo, excitation, seconds=seconds, seed=seed + 1)
+    stage1 = identify(exo, exo_run, methods=["sdp"])["sdp"].model
+    table = RobotModel.from_urdf(exo_with_wearer)
+    plant, _ = draw_wearer(table, np.random.default_rng(np.random.SeedSequence([seed, 2])))
+    train, _ = simulate(plant, excitation, seconds=seconds, seed=seed + 2, wearer_torque=wearer_torque)
+    valid, _ = simulate(plant, validation, seconds=seconds / 2, seed=seed + 3, wearer_torque=wearer_torque)
+    train, valid = prepare_dataset(train), prepare_dataset(valid)
+    fit = identify_wearer(stage1, table, *stack([train]))
+    terms = JointTerms.from_names("fc,fv,passive")
+    truth = IdentifiedModel(plant, terms, np.concatenate(
+        [plant.inertial_parameters(), np.column_stack([plant.coulomb, plant.viscous, np.ones(plant.nv)]).ravel()]))
+    models = {w: fit.model(w) for w in ("identified", "table", "exo")}
+    rms = {w: _rms(m, [valid]) for w, m in models.items()}
+    floor = _rms(truth, [valid])
+    pooled = lambda r: float(np.sqrt(np.mean(r**2) / np.mean(floor**2)))  # noqa: E731
+    runs = compare_models(plant, models, reference, seconds=track_seconds, seed=seed)
+    tracking = {c: {w: np.array([v["rms"] for v in r["metrics"].values()]) for w, r in by.items()}
+                for c, by in runs.items()}
+    return {"rms": rms, "floor": floor, "ratio": {w: pooled(r) for w, r in rms.items()},
+            "tracking": tracking, "fit": fit, "joints": plant.joint_names}

@@ -1,0 +1,62 @@
+"""Benchmark: the wearer in the loop on the twin (issue 18's figures, docs/wearer.md).
+
+    python tests/benchmarks/bench_wearer.py [--seconds 60] [--seed 0]
+
+exo_leg + a 75 kg, 1.78 m male wearer (thigh, shank, foot), the true wearer drawn away from the tables
+(mass ±25 %, CoM ±20 %), passive moments on, the wearer's active torque 5 % of the gravity RMS, default
+sensor noise.  Prints the validation torque RMS of exo + identified wearer, exo + table wearer and exo
+alone against the floor (the true model's RMS), and the tracking RMS of both controllers with each model.
+"""
+
+from __future__ import annotations
+
+import argparse
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from pinid.control.controllers import CONTROLLERS
+from pinid.excitation.trajectory import FourierTrajectory
+from pinid.model.robot import RobotModel
+from pinid.wearer.attach import wearer_urdf
+from pinid.wearer.experiment import wearer_experiment
+
+HERE = Path(__file__).resolve().parents[2]
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--seconds", type=float, default=60.0)
+    ap.add_argument("--seed", type=int, default=0)
+    args = ap.parse_args()
+    from pinid.cli.track import sine_reference
+
+    t0 = time.perf_counter()
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "exo_with_wearer.urdf"
+        wearer_urdf("exo_leg", "hip:thigh,knee:shank,knee:foot", mass=75, height=1.78, sex="male", path=path)
+        exc = FourierTrajectory.load(HERE / "excitation" / "exo_leg.json")
+        val = FourierTrajectory.load(HERE / "excitation" / "seed001_table3.json")
+        ref = sine_reference(RobotModel.from_urdf(path))
+        r = wearer_experiment("exo_leg", path, exc, val, ref, seconds=args.seconds, seed=args.seed)
+    j = r["joints"]
+    print(f"validation torque RMS [N·m] ({args.seconds:g} s identification, {args.seconds / 2:g} s validation, seed {args.seed})")
+    print(f"  {'model':<22}" + "".join(f"{x:>10}" for x in j) + f"{'× floor':>10}")
+    print(f"  {'floor (true model)':<22}" + "".join(f"{x:10.4f}" for x in r["floor"]) + f"{1.0:10.3f}")
+    for w in ("identified", "table", "exo"):
+        print(f"  {'exo + ' + w if w != 'exo' else 'exo alone':<22}" + "".join(f"{x:10.4f}" for x in r["rms"][w])
+              + f"{r['ratio'][w]:10.3f}")
+    print("tracking RMS [mrad] after 2 s")
+    for c in CONTROLLERS:
+        row = r["tracking"][c]
+        print(f"  {c:<16}" + "  ".join(f"{w} " + "/".join(f"{1e3 * x:.3g}" for x in row[w]) for w in row)
+              + f"   table/identified {np.sqrt(np.mean(row['table']**2) / np.mean(row['identified']**2)):.2f}×")
+    print("base parameters (identified | table): " + ", ".join(
+        f"{n} {a:.4g}|{b:.4g}" for n, a, b in zip(r["fit"].base_names, r["fit"].base, r["fit"].base_table)))
+    print(f"{time.perf_counter() - t0:.1f} s")
+
+
+if __name__ == "__main__":
+    main()
