@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -20,20 +21,22 @@ EXCITATION = str(Path(__file__).resolve().parents[1] / "excitation" / "exo_leg.j
 
 @pytest.fixture(scope="module")
 def twin(tmp_path_factory):
-    """Exo model (stage 1: the truth's exo, viscous friction only), exo + wearer URDF, a noise-free twin run
+    """Exo model (stage 1: the truth's exo, viscous friction only), exo + wearer URDF without Coulomb friction, a noise-free twin run
     with a drawn wearer and its exact signals."""
     d = tmp_path_factory.mktemp("s2")
-    wearer_urdf("exo_leg", "hip:thigh,knee:shank,knee:foot", mass=75, height=1.78, sex="male", path=d / "eww.urdf")
+    text = wearer_urdf("exo_leg", "hip:thigh,knee:shank,knee:foot", mass=75, height=1.78, sex="male")
+    (d / "eww.urdf").write_text(re.sub(r'friction="[^"]*"', 'friction="0"', text))  # the plant: no Coulomb friction
     exo = RobotModel.from_urdf("exo_leg")
     terms = JointTerms.from_names("fv")
     IdentifiedModel(exo, terms, standard_parameters(exo, terms)).save(d / "exo.json")
     p = run_cli("simulate", "--urdf", str(d / "eww.urdf"), "--excitation", EXCITATION, "--seconds", "5", "--seed", "4",
-                "--wearer-draw", "--coulomb", "0", "--torque-noise", "0", "--true-signals", str(d / "true.npz"),
+                "--wearer-draw", "--torque-noise", "0", "--true-signals", str(d / "true.npz"),
                 "-o", str(d / "rec.csv"))
     assert p.returncode == 0, p.stderr
     return d
 
 
+@pytest.mark.slow
 def test_noise_free_stage2_recovers_wearer_base_parameters(twin):
     d = twin
     p = run_cli("identify", "--stage", "wearer", "--exo", str(d / "exo.json"), "--urdf", str(d / "eww.urdf"),
@@ -56,6 +59,16 @@ def test_noise_free_stage2_recovers_wearer_base_parameters(twin):
     assert sorted(p.name for p in (d / "out").iterdir()) == ["identification.json", "model_table.json", "model_wearer.json"]
     m = IdentifiedModel.load(d / "out" / "model_wearer.json")
     assert "passive" in m.terms
+    # closed loop on the same true wearer (--wearer-draw, same seed): identified vs table-based model
+    p = run_cli("track", "--urdf-true", str(d / "eww.urdf"), "--wearer-draw", "--seed", "4", "--seconds", "3",
+                "--after", "1", "--model", str(d / "out" / "model_wearer.json"),
+                "--model", str(d / "out" / "model_table.json"), "-o", str(d / "track"))
+    assert p.returncode == 0, p.stderr
+    res = json.loads((d / "track" / "tracking.json").read_text())["results"]
+    for c, by in res.items():
+        ident, table = (by[str(d / "out" / f)] for f in ("model_wearer.json", "model_table.json"))
+        for j in ("hip", "knee"):
+            assert ident[j]["rms"] <= 0.5 * table[j]["rms"], (c, j, ident[j], table[j])
 
 
 def test_stage2_bad_input_writes_nothing(twin, tmp_path):

@@ -78,7 +78,7 @@ def test_cli_wearer_draw_and_torque(worn, tmp_path):
     assert drawn != table and abs(drawn / table - 1) <= 0.25
     p = run_cli("simulate", "--urdf", "exo_leg", "--excitation", "zha2019-2", "--seconds", "0.5", "--wearer-draw",
                 "-o", str(tmp_path / "x.csv"))
-    assert_clean_error(p, "--wearer-draw", "no wearer")
+    assert_clean_error(p, "exo_leg carries no wearer to draw")
     assert not list(tmp_path.glob("x*"))
 
 

@@ -142,13 +142,10 @@ def run(args: argparse.Namespace) -> int:
     model = robot_from_args(args)
     drawn = None
     if args.wearer_draw:
-        from pinid.simulation.twin import _wearer
         from pinid.wearer.prior import draw_wearer
 
-        if not _wearer(model):
-            raise SpecError(f"--wearer-draw: {model.name} carries no wearer (links wearer_*); write it with pinid wearer")
         table = model.inertial_parameters()
-        model, drawn = draw_wearer(model, np.random.default_rng(np.random.SeedSequence([int(args.seed), 2])))
+        model, drawn = draw_wearer(model, args.seed)
     trajectory = load_trajectory(args.excitation, model, flip=args.flip)
     torque_noise, torque_pct = None, 1.0
     text = args.torque_noise.strip()

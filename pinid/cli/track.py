@@ -20,6 +20,8 @@ example:
   pinid track --urdf-true urdf/exo_leg.urdf --model results/identification.json -o results/track
   pinid track --urdf-true exo_leg --model nominal --model results/model_sdp.json --seconds 8
   pinid track --urdf-true exo_leg --model cad:30 --model results/identification.json
+  pinid track --urdf-true exo_with_wearer.urdf --wearer-draw --seed 2 --model results_exo/model_sdp.json \
+      --model results_wearer/model_table.json --model results_wearer/model_wearer.json
 """
 
 
@@ -39,6 +41,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--after", type=float, default=2.0, help="start of the error statistics [s]; default 2")
     p.add_argument("--position-noise", type=nonnegative_float, default=2e-5, help="encoder noise σ [rad]; default 2e-5")
     p.add_argument("--seed", type=seed_int, default=0, help="noise seed (and the cad: perturbation's); default 0")
+    p.add_argument("--wearer-draw", action="store_true",
+                   help="the plant's wearer (a URDF from pinid wearer) drawn away from the tables as pinid simulate "
+                        "--wearer-draw does with the same --seed: the same true wearer")
     p.add_argument("-o", "--output", default=None, metavar="FOLDER", help="write tracking.json and plots here")
 
 
@@ -75,6 +80,10 @@ def run(args: argparse.Namespace) -> int:
         from pinid.model.drives import attach
 
         attach(plant, args.drives)
+    if args.wearer_draw:
+        from pinid.wearer.prior import draw_wearer
+
+        plant, _ = draw_wearer(plant, args.seed)
     reference = sine_reference(plant) if args.reference == "sine" else FourierTrajectory.load(args.reference)
     if reference.joints != plant.joint_names:
         raise SpecError(f"{args.reference}: joints {reference.joints}, expected {plant.joint_names}")

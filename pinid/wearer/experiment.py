@@ -47,7 +47,7 @@ def wearer_experiment(exo_urdf, exo_with_wearer, excitation, validation, referen
     exo_run, _ = simulate(exo, excitation, seconds=seconds, seed=seed + 1)
     stage1 = identify(exo, exo_run, methods=["sdp"])["sdp"].model
     table = RobotModel.from_urdf(exo_with_wearer)
-    plant, _ = draw_wearer(table, np.random.default_rng(np.random.SeedSequence([seed, 2])))
+    plant, _ = draw_wearer(table, seed)
     train, _ = simulate(plant, excitation, seconds=seconds, seed=seed + 2, wearer_torque=wearer_torque)
     valid, _ = simulate(plant, validation, seconds=seconds / 2, seed=seed + 3, wearer_torque=wearer_torque)
     train, valid = prepare_dataset(train), prepare_dataset(valid)

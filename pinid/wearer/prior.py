@@ -14,6 +14,7 @@ the joint that moves its exo link (segments on one link add up).  Bounds:
 
 from __future__ import annotations
 
+import re
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 
@@ -94,9 +95,13 @@ def drawn(theta: np.ndarray, rng: np.random.Generator, mass: float = 0.25, com: 
     return pin.Inertia(m * k, c * kc, Ic * k).toDynamicParameters()
 
 
-def draw_wearer(robot, rng: np.random.Generator, mass: float = 0.25, com: float = 0.20):
+def draw_wearer(robot, seed: int, mass: float = 0.25, com: float = 0.20):
     """``robot`` (exo + wearer) with its wearer's share of each body replaced by :func:`drawn` — the twin's
-    "true" wearer; returns ``(model, {joint: drawn (10,) wearer parameters})``."""
+    "true" wearer, the same for the same ``seed`` (``pinid simulate`` and ``pinid track --wearer-draw``);
+    returns ``(model, {joint: drawn (10,) wearer parameters})``."""
+    if not any(lk.startswith(PREFIX) for lk in re.findall(r'<link\s+name="([^"]*)"', robot.urdf_text or "")):
+        raise SpecError(f"{robot.name} carries no wearer to draw (links {PREFIX}*); expected a URDF from pinid wearer")
+    rng = np.random.default_rng(np.random.SeedSequence([int(seed), 2]))
     theta = robot.inertial_parameters().copy()
     out = {}
     for b in wearer_prior(robot.urdf_text, robot):
