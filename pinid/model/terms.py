@@ -54,6 +54,7 @@ class Term:
     field: str | None = None  # URDF <dynamics> attribute (joint terms) or drives TOML key (motor terms)
     inertia: bool = False  # the column is an acceleration: the plant adds the value to the mass matrix
     plant: Callable[[np.ndarray, Motion, float], np.ndarray] | None = None  # (values, motion, v_s) → torque
+    velocity_step: bool = False  # the column jumps at zero velocity (Coulomb): ∂/∂dq taken as 0 elsewhere
 
     def torque(self, values: np.ndarray, motion: Motion, smoothing: float | None = None) -> np.ndarray:
         """Torque of this term [N·m] in its own space for per-joint/motor ``values``; the plant's law when
@@ -82,16 +83,16 @@ def _coulomb_plant(values: np.ndarray, m: Motion, vs: float) -> np.ndarray:
 
 
 register(Term("fc", "fc", "Coulomb friction", "N·m", lambda m: np.sign(m.dq), nonnegative=True,
-              nominal=lambda r: r.coulomb, field="friction", plant=_coulomb_plant))
+              nominal=lambda r: r.coulomb, field="friction", plant=_coulomb_plant, velocity_step=True))
 register(Term("fv", "fv", "viscous friction", "N·m·s/rad", lambda m: m.dq, nonnegative=True,
               nominal=lambda r: r.viscous, field="damping"))
 register(Term("offset", "offset", "constant torque", "N·m", lambda m: np.ones_like(m.dq)))
 register(Term("armature", "armature", "rotor inertia", "kg·m²", lambda m: m.ddq, nonnegative=True, inertia=True))
 
 register(Term("fc_pos", "fc_pos", "Coulomb friction, positive velocity", "N·m", lambda m: (m.dq > 0).astype(float),
-              nonnegative=True, plant=lambda v, m, vs: v * np.maximum(np.tanh(m.dq / vs), 0.0)))
+              nonnegative=True, plant=lambda v, m, vs: v * np.maximum(np.tanh(m.dq / vs), 0.0), velocity_step=True))
 register(Term("fc_neg", "fc_neg", "Coulomb friction, negative velocity", "N·m", lambda m: -(m.dq < 0).astype(float),
-              nonnegative=True, plant=lambda v, m, vs: v * np.minimum(np.tanh(m.dq / vs), 0.0)))
+              nonnegative=True, plant=lambda v, m, vs: v * np.minimum(np.tanh(m.dq / vs), 0.0), velocity_step=True))
 
 register(Term("passive", "kp", "wearer passive moment (scale of Riener & Edrich 1999)", "1",
               lambda m: passive.column(m.q, m.robot),
@@ -101,7 +102,7 @@ for _base in ("fc", "fv", "offset", "armature", "fc_pos", "fc_neg"):
     _t = TERMS[_base]
     register(Term(f"motor_{_base}", _base, f"motor {_t.label}", _t.unit, _t.column, space="motor",
                   nonnegative=_t.nonnegative, nominal=lambda r, s=_base: r.drives.nominal(s), field=_base,
-                  inertia=_t.inertia, plant=_t.plant))
+                  inertia=_t.inertia, plant=_t.plant, velocity_step=_t.velocity_step))
 
 #: The classic joint terms (``JointTerms``' keyword arguments), in column order.
 JOINT_TERM_NAMES: tuple[str, ...] = ("fc", "fv", "offset", "armature")
@@ -270,14 +271,18 @@ def values(robot, terms: JointTerms, theta_terms: np.ndarray) -> dict[str, np.nd
     return out
 
 
-def torque(robot, terms: JointTerms, theta_terms: np.ndarray, q, dq, ddq, *, smoothing: float | None = None) -> np.ndarray:
-    """Joint torque (N, nv) [N·m] of the terms with values ``theta_terms``: joint terms plus ``Gᵀ·``(motor
-    terms); with ``smoothing`` [rad/s] each term's plant law (e.g. Coulomb ``fc·tanh(dq/v_s)``)."""
+def torque(robot, terms: JointTerms, theta_terms: np.ndarray | dict[str, np.ndarray], q, dq, ddq, *,
+           smoothing: float | None = None) -> np.ndarray:
+    """Joint torque (N, nv) [N·m] of the terms with values ``theta_terms`` (the term block, or its
+    :func:`values` dict): joint terms plus ``Gᵀ·``(motor terms); with ``smoothing`` [rad/s] each term's
+    plant law (e.g. Coulomb ``fc·tanh(dq/v_s)``)."""
     q, dq, ddq = (np.atleast_2d(np.asarray(x, dtype=float)) for x in (q, dq, ddq))
-    vals = values(robot, terms, theta_terms)
+    vals = theta_terms if isinstance(theta_terms, dict) else values(robot, terms, theta_terms)
     tau = np.zeros_like(q)
-    for t in terms.joint:
-        tau += t.torque(vals[t.name], motion(robot, q, dq, ddq), smoothing)
+    if terms.joint:
+        mj = motion(robot, q, dq, ddq)
+        for t in terms.joint:
+            tau += t.torque(vals[t.name], mj, smoothing)
     if terms.motor:
         mm = motion(robot, q, dq, ddq, "motor")
         tau_m = sum(t.torque(vals[t.name], mm, smoothing) for t in terms.motor)
