@@ -57,6 +57,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--wls-iterations", type=positive_int, default=None, help="wls: reweighting passes (default 1)")
     p.add_argument("--force-export", action="store_true",
                    help="also write identified URDFs of physically inconsistent results")
+    g = p.add_argument_group("drive gains (the recordings hold currents: docs/drives.md#drive-gains-from-currents)")
+    g.add_argument("--payload", default=None, metavar="TOML",
+                   help="the known payload (link, mass [kg], com [m], inertia [kg·m²]) fixed for --payload-data")
+    g.add_argument("--payload-data", action="append", default=None, metavar="FILE",
+                   help="recording with the payload; with --payload, the drive gains are identified first and "
+                        "the currents of every recording turned into torques; repeatable")
     p.add_argument("--no-report", action="store_true", help="do not write report.md and the figures")
     p.add_argument("--no-figures", action="store_true",
                    help="write report.md without its figures (faster: matplotlib is not loaded)")
@@ -125,8 +131,13 @@ def run(args: argparse.Namespace) -> int:
         model, args.data, methods=methods, validate=args.validate or None, terms=terms, mapping=args.mapping,
         preprocess=preprocess_from_args(args), rest_velocity=rest_velocity_from_args(args.rest_velocity),
         options=options_from_args(args, _options(args, methods)), show_progress=None,
+        payload=args.payload, payload_data=args.payload_data,
     )
     d = ident.data
+    if "drive_gains" in d:
+        g = d["drive_gains"]
+        print("drive gains [N·m per unit of the recorded channel]: " + ", ".join(
+            f"{j} {k:.6g} ± {s:.2g}" for j, k, s in zip(g["joints"], g["gains"], g["std"])))
     print(f"training: {d['samples']} samples from {len(d['sources'])} recording(s), {d['rows']} torque rows used"
           + (f"; validation: {len(ident.validation_sources)} recording(s)" if ident.validation_sources else ""))
     for r in ident:

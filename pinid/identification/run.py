@@ -182,6 +182,8 @@ def identify(
     options: Mapping[str, Mapping] | None = None,
     complete: bool = True,
     show_progress: bool | None = False,
+    payload=None,
+    payload_data: Dataset | str | os.PathLike | Iterable | None = None,
 ) -> Identification:
     """Identify ``model``'s dynamic parameters from recordings with several methods; validate; compare.
 
@@ -194,6 +196,10 @@ def identify(
     ``rest_fraction``: rows at rest dropped for Coulomb friction (:mod:`pinid.identification.problem`).
     ``options``: settings per method, e.g. ``{"sdp": {"regularization": 1e-2, "mass_bounds": (0.1, 20)}}``.
     ``complete``: look for a consistent standard set behind base-only results (one small SDP each).
+    ``payload`` (a :class:`~pinid.identification.gains.Payload` or its TOML) with ``payload_data``: the
+    recordings hold currents, not torques; the drive gains are identified from them and the payload
+    recordings first (:mod:`pinid.identification.gains`), the currents turned into torques, and the
+    gains reported in ``data["drive_gains"]``.
 
     Returns an :class:`~pinid.identification.result.Identification`; ``result.model`` is the best
     result's :class:`~pinid.identification.identified.IdentifiedModel`, ``result["sdp"]`` one method's result.
@@ -205,6 +211,11 @@ def identify(
     options = check_options(options, methods)
     for m in methods:  # bad settings fail before any recording is read
         make_estimator(m, **options.get(m, {}))
+    gains = None
+    if payload is not None or payload_data is not None:
+        gains, data, validate = _currents_to_torques(model, terms, data, validate, payload, payload_data, mapping,
+                                                     preprocess, rest_velocity)
+        preprocess = False
     s = setup(model, data, validate, terms=terms, mapping=mapping, preprocess=preprocess,
               rest_velocity=rest_velocity, rest_fraction=rest_fraction, show_progress=show_progress)
     fits = run_jobs(s, [(m, None, options.get(m, {})) for m in methods], complete=complete,
@@ -225,9 +236,36 @@ def identify(
         ds = check_dataset(s.train[0], model)
         curves = {"kind": "training", "source": ds.source, "t": ds.t, "measured": ds.tau,
                   "predicted": predict_torque(model, terms, s.base, ds, values)}
+    summary = s.problem.summary()
+    if gains is not None:
+        summary["drive_gains"] = gains.summary()
     return Identification(
-        robot=robot_to_dict(model, terms), results=results, data=s.problem.summary(),
+        robot=robot_to_dict(model, terms), results=results, data=summary,
         base={"names": s.base.names, "expressions": s.base.expressions(),
               "nominal": s.base.from_standard(s.problem.nominal).tolist()},
         validation_sources=[ds.source for ds in val_sets], seconds=time.perf_counter() - t_start, curves=curves,
     )
+
+
+def _currents_to_torques(model, terms, data, validate, payload, payload_data, mapping, preprocess, rest_velocity):
+    """``(gains, training, validation)``: drive gains from the recordings with and without the payload, and
+    the recordings' currents turned into torques (see :mod:`pinid.identification.gains`)."""
+    from pinid.identification.gains import Payload, identify_gains
+
+    if payload is None or payload_data is None:
+        raise SpecError("drive gains need both the payload (--payload FILE) and a recording with it "
+                        "(--payload-data FILE)")
+    payload = payload if isinstance(payload, Payload) else Payload.load(payload)
+    train = load_datasets(data, model, mapping, preprocess, "training")
+    loaded = load_datasets(payload_data, model, mapping, preprocess, "payload")
+    gains = identify_gains(model, train, loaded, payload, terms=terms, rest_velocity=rest_velocity)
+
+    def torques(items, what):
+        return [gains.apply(ds) for ds in load_datasets(items, model, mapping, preprocess, what)]
+
+    if isinstance(validate, Mapping):
+        validate = {k: torques(v, f"validation ({k})") for k, v in validate.items()}
+    elif validate is not None:
+        validate = torques(validate, "validation")
+    return gains, [gains.apply(ds) for ds in train], validate
+
