@@ -253,6 +253,15 @@ def test_bad_urdf_is_refused(tmp_path, case):
     assert _files(tmp_path) == ["robot.urdf"]
 
 
+def test_urdf_joint_limit_boundary_and_deep_elements(tmp_path):
+    p = tmp_path / "chain.urdf"
+    p.write_text(_chain(MAX_URDF_JOINTS - 1))  # 1000 joints in all: loads (in about 0.04 s)
+    assert RobotModel.from_urdf(p).joint_names == ["q"]
+    deep = tmp_path / "deep.urdf"  # deeply nested elements (not joints): the XML parser's own limit
+    deep.write_text(EXO.replace("</robot>", "<a>" * 200000 + "</a>" * 200000 + "</robot>"))
+    assert_clean_error(run_cli("info", "--urdf", str(deep)), "nesting is too deep")
+
+
 def test_inertia_tolerance_accepts_rounding_and_thin_rods(tmp_path):
     p = tmp_path / "robot.urdf"
     # a thin rod (Izz = 0, Ixx = Iyy: the triangle inequality holds with equality) and a CAD rounding below 1e-6
