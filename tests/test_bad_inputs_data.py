@@ -306,6 +306,19 @@ def test_simulate_maps_trajectory_joints_by_name(tmp_path):
     assert np.ptp(d["q_hip"]) < 0.01 < np.ptp(d["q_knee"])  # the knee carries the 0.3 rad harmonic
 
 
+def test_excite_evaluate_maps_trajectory_joints_by_name(tmp_path):
+    ordered = _trajectory(tmp_path / "hk.json", ["hip", "knee"])
+    d = json.loads(ordered.read_text())
+    swapped = tmp_path / "kh.json"
+    swapped.write_text(json.dumps({**d, "joints": ["knee", "hip"], "q0": d["q0"][::-1], "a": d["a"][::-1],
+                                   "b": d["b"][::-1]}))
+    said = [run_cli("excite", "--urdf", "exo_leg", "--evaluate", str(p)) for p in (ordered, swapped)]
+    assert [p.returncode for p in said] == [0, 0], said[1].stderr
+    cond = [next(ln.split("condition number ")[1].split()[0] for ln in p.stdout.splitlines() if "condition number" in ln)
+            for p in said]
+    assert cond[0] == cond[1]
+
+
 def test_simulate_unknown_trajectory_joint(tmp_path):
     tr = _trajectory(tmp_path / "tr.json", ["knee", "foo"])
     proc = run_cli("simulate", "--urdf", "exo_leg", "--excitation", str(tr), "--seconds", "1", "-o", str(tmp_path / "o.csv"))
