@@ -117,6 +117,15 @@ def test_a_file_that_is_not_a_recording_is_not_echoed(tmp_path, rec, header):
     assert SECRET not in str(info.value)
 
 
+def test_an_npz_that_is_not_a_recording_is_not_echoed(rec):
+    np.savez(rec.parent / "other.npz", **{SECRET: np.zeros(3)})
+    for column in ("k_hip", 0):
+        spec = _spec("other.npz", column=column)
+        with pytest.raises(SpecError) as info:
+            read_recording(rec, mapping=spec)
+        assert SECRET not in str(info.value)
+
+
 # ------------------------------------------------------------------ 2. only the documented placeholders, literally
 @pytest.mark.parametrize("path, fragment", [
     ("{foo}.csv", "unknown placeholder {foo}"),

@@ -519,12 +519,13 @@ def _read_npz(file: Path, src: SourceSpec, wanted, origin: str) -> Table:
         raise DataError(f"{file}: holds a single array, expected an NPZ archive of named arrays")
     names = list(npz.files)
     tab = Table(file, names, {}, 0, None)
+    tab.recognised = any(isinstance(c, str) and c in names for c, _, _ in wanted)
     lengths: dict[str, int] = {}
     with npz:
         for col, index, where in wanted:
             if isinstance(col, int):
                 raise SpecError(f"{origin}: {where} column {col}: NPZ arrays have names, not indices; "
-                                f"expected one of {', '.join(names)}")
+                                + (f"expected one of {', '.join(names)}" if tab.recognised else "expected a name"))
             tab.key(col, where, origin)
             try:
                 a = np.asarray(npz[col])
