@@ -66,6 +66,22 @@ def terms_from_args(args: argparse.Namespace) -> JointTerms:
         raise SpecError(f"--terms: {exc}") from None
 
 
+def add_mapping_arguments(p: argparse.ArgumentParser) -> None:
+    """--mapping and --allow-outside-paths: how to read recordings not in pinid's dataset format."""
+    p.add_argument("--mapping", default=None, metavar="SPEC", help="TOML mapping of the recordings' columns to joints")
+    p.add_argument("--allow-outside-paths", action="store_true",
+                   help="let the mapping spec's [sources.*] paths leave the recording's folder (docs/checks.md)")
+
+
+def mapping_from_args(args: argparse.Namespace):
+    """The MappingSpec of --mapping (None without it), with the --allow-outside-paths choice."""
+    if args.mapping is None:
+        return None
+    from pinid.data.mapping import MappingSpec
+
+    return MappingSpec.load(args.mapping, allow_outside_paths=args.allow_outside_paths)
+
+
 def add_recording_arguments(p: argparse.ArgumentParser) -> None:
     """--data, --validate: the recordings of the commands that identify (identify, compare)."""
     p.add_argument("--data", action="append", required=True, metavar="FILE",

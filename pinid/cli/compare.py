@@ -8,9 +8,9 @@ import sys
 from pathlib import Path
 
 from pinid.estimators import ESTIMATORS
-from pinid.cli.common import (add_method_arguments, add_preprocessing_arguments, add_recording_arguments,
+from pinid.cli.common import (add_mapping_arguments, add_method_arguments, add_preprocessing_arguments, add_recording_arguments,
                               add_robot_arguments, add_terms_argument, methods_from_args, options_from_args,
-                              preprocess_from_args, rest_velocity_from_args, robot_from_args, terms_from_args)
+                              preprocess_from_args, rest_velocity_from_args, mapping_from_args, robot_from_args, terms_from_args)
 
 HELP = f"compare estimators ({', '.join(ESTIMATORS)}) on the same data, several seeds"
 DESCRIPTION = f"""\
@@ -50,7 +50,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--seeds", type=int, default=5, help="seeds per metaheuristic (0 … N−1); default 5")
     p.add_argument("--truth", default=None, metavar="FILE",
                    help="truth JSON of pinid simulate: report the error against the true base parameters")
-    p.add_argument("--mapping", default=None, metavar="SPEC", help="TOML mapping of the recordings' columns to joints")
+    add_mapping_arguments(p)
     p.add_argument("-o", "--output", default="results", metavar="FOLDER", help="output folder; default results/")
     p.add_argument("--no-plots", action="store_true", help="do not write the figures")
     g = p.add_argument_group(f"metaheuristics ({', '.join(m for m, c in ESTIMATORS.items() if not c.deterministic)})")
@@ -119,7 +119,7 @@ def run(args: argparse.Namespace) -> int:
     print(f"comparing on {model.name} ({', '.join(model.joint_names)}): {args.methods}; seeds {args.seeds}"
           + ("; segmental" if segmental else ""))
     comp = compare(model, args.data, validate or None, methods=methods, seeds=args.seeds, truth=args.truth,
-                   terms=terms, options=options, metaheuristic=meta, segmental=segmental, mapping=args.mapping,
+                   terms=terms, options=options, metaheuristic=meta, segmental=segmental, mapping=mapping_from_args(args),
                    preprocess=preprocess_from_args(args), rest_velocity=rest_velocity_from_args(args.rest_velocity),
                    show_progress=None)
     table, values = comp.table(), comp.values_table()

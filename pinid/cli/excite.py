@@ -175,7 +175,7 @@ def run(args: argparse.Namespace) -> int:
         f"offsets {'optimised' if spec.optimize_offsets else 'fixed'}, terms {','.join(spec.terms.names) or 'none'}"
         + (f", margin {spec.margin:g}" if spec.margin else ""))
     if args.evaluate:
-        traj = FourierTrajectory.load(args.evaluate)
+        traj = FourierTrajectory.load(args.evaluate).for_joints(model.joint_names, model.name)
         spec.validate(model)
         started = time.perf_counter()
         ev = evaluate_trajectory(model, traj, spec)

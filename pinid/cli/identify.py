@@ -7,10 +7,10 @@ from pathlib import Path
 
 import numpy as np
 
-from pinid.cli.common import (add_method_arguments, add_preprocessing_arguments, add_recording_arguments,
+from pinid.cli.common import (add_mapping_arguments, add_method_arguments, add_preprocessing_arguments, add_recording_arguments,
                               add_robot_arguments, add_terms_argument, methods_from_args, nonnegative_float,
                               options_from_args, positive_int, preprocess_from_args, rest_velocity_from_args,
-                              robot_from_args, terms_from_args)
+                              mapping_from_args, robot_from_args, terms_from_args)
 
 HELP = "identify dynamic parameters from recordings (OLS, WLS, physically consistent LMI), validate, export"
 DESCRIPTION = """\
@@ -45,7 +45,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     add_terms_argument(p)
     add_recording_arguments(p)
     add_method_arguments(p, "ols,wls,sdp")
-    p.add_argument("--mapping", default=None, metavar="SPEC", help="TOML mapping of the recordings' columns to joints")
+    add_mapping_arguments(p)
     p.add_argument("-o", "--output", default="results", metavar="FOLDER", help="output folder; default results/")
     add_preprocessing_arguments(p)
     g = p.add_argument_group("estimation")
@@ -128,7 +128,7 @@ def run(args: argparse.Namespace) -> int:
     print(f"identifying {model.name} ({', '.join(model.joint_names)}) with {', '.join(methods)}; "
           f"terms {', '.join(terms.names) or 'none'}")
     ident = identify(
-        model, args.data, methods=methods, validate=args.validate or None, terms=terms, mapping=args.mapping,
+        model, args.data, methods=methods, validate=args.validate or None, terms=terms, mapping=mapping_from_args(args),
         preprocess=preprocess_from_args(args), rest_velocity=rest_velocity_from_args(args.rest_velocity),
         options=options_from_args(args, _options(args, methods)), show_progress=None,
         payload=args.payload, payload_data=args.payload_data,

@@ -76,8 +76,7 @@ def run(args: argparse.Namespace) -> int:
 
         attach(plant, args.drives)
     reference = sine_reference(plant) if args.reference == "sine" else FourierTrajectory.load(args.reference)
-    if reference.joints != plant.joint_names:
-        raise SpecError(f"{args.reference}: joints {reference.joints}, expected {plant.joint_names}")
+    reference = reference.for_joints(plant.joint_names, plant.name)
     specs = args.model or ["nominal"]
     models = {s: load_controller_model(s, plant, friction=not args.no_friction, seed=args.seed) for s in specs}
     controllers = tuple(c.strip() for c in args.controller.split(",") if c.strip())

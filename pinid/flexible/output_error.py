@@ -371,16 +371,9 @@ def load_flex_spec(path: str | os.PathLike, *, robot: RobotModel | None = None) 
     p = Path(path)
     if not p.is_file():
         raise SpecError(f"{p}: file not found, expected a flexible-joint spec (.toml)")
-    try:
-        import tomllib
-    except ModuleNotFoundError:  # Python 3.10
-        import tomli as tomllib  # type: ignore
-    try:
-        data = tomllib.loads(p.read_bytes().decode("utf-8"))
-    except UnicodeDecodeError:
-        raise SpecError(f"{p}: not UTF-8 text, expected a TOML spec") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise SpecError(f"{p}: not valid TOML ({str(exc).splitlines()[0]})") from None
+    from pinid.io import read_toml
+
+    data = read_toml(p, "flexible-joint spec (TOML)")
     return spec_from_dict(data, source=str(p), robot=robot, spec_path=p)
 
 

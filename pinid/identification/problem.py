@@ -426,17 +426,23 @@ def load_datasets(items, model: RobotModel, mapping=None, preprocess: Mapping | 
     out = []
     for item in items:
         ds = item if isinstance(item, Dataset) else read_recording(item, mapping=mapping, model=model)
-        out.append(prepare_dataset(ds, preprocess))
+        out.append(prepare_dataset(ds, preprocess, unwrap=free_angles(model)))
     if not out:
         raise DataError(f"no {what} recording given")
     return out
 
 
-def prepare_dataset(ds: Dataset, preprocess: Mapping | bool | None = None) -> Dataset:
+def free_angles(model: RobotModel) -> list[str]:
+    """Joints whose angle has no limits (continuous, or revolute without URDF limits): unwrapped in preprocessing."""
+    return [j.name for j in model.joints if j.kind != "prismatic" and np.isinf(j.lower) and np.isinf(j.upper)]
+
+
+def prepare_dataset(ds: Dataset, preprocess: Mapping | bool | None = None, *, unwrap=()) -> Dataset:
     """Fill ``dq`` and ``ddq`` when missing (pinid.data.preprocess.prepare with defaults from the sample rate).
 
     ``preprocess``: None — prepare only recordings without ``dq`` or ``ddq``; a dict — always prepare,
     with these options (``cutoff``, ``preset``, ``differentiation``, ``trim`` …); False — never.
+    ``unwrap``: joints whose angles are unwrapped when the recording is prepared (:func:`free_angles`).
     """
     needs = ds.dq is None or ds.ddq is None
     if preprocess is False or (preprocess is None and not needs):
@@ -444,7 +450,7 @@ def prepare_dataset(ds: Dataset, preprocess: Mapping | bool | None = None) -> Da
     # scipy.signal is heavy: imported only when a recording is actually filtered
     from pinid.data.preprocess import prepare
 
-    return prepare(ds, **dict(preprocess or {}))
+    return prepare(ds, **{"unwrap": list(unwrap), **dict(preprocess or {})})
 
 
 def predict_torque(model: RobotModel, terms: JointTerms, base: BaseParameters, ds: Dataset,

@@ -29,6 +29,10 @@ from pinid.model.bundled import resolve_robot
 INERTIAL_NAMES: tuple[str, ...] = ("m", "mx", "my", "mz", "Ixx", "Ixy", "Iyy", "Ixz", "Iyz", "Izz")
 
 _MAX_URDF_BYTES = 50 * 1024 * 1024
+#: Most joints accepted in a URDF (fixed ones included); deeper chains crash urdfdom's recursive parser.
+MAX_URDF_JOINTS = 1000
+#: Tolerance of the inertia checks, relative to the body's trace of inertia [kg·m²] (CAD rounding).
+INERTIA_TOL = 1e-6
 _UNBOUNDED = 1e10  # |limit| above this is treated as no limit
 
 
@@ -58,6 +62,7 @@ def _read_urdf_text(path: Path) -> str:
         raise ModelError(f"{path}: not well-formed XML ({exc}), expected a URDF") from None
     if root.tag != "robot":
         raise ModelError(f"{path}: root element is <{root.tag}>, expected <robot> (a URDF)")
+    _check_joint_elements(root, path)
     declared = {link.get("name") for link in root.findall("link")}
     parents = {j.find("parent").get("link") for j in root.findall("joint") if j.find("parent") is not None}
     children = {j.find("child").get("link") for j in root.findall("joint") if j.find("child") is not None}
@@ -71,6 +76,51 @@ def _read_urdf_text(path: Path) -> str:
         extra = "".join(f'<link name="{name}"/>' for name in missing_roots)
         text = re.sub(r"(<robot\b[^>]*>)", lambda m: m.group(1) + extra, text, count=1)
     return text
+
+
+def _check_joint_elements(root: ET.Element, path: Path) -> None:
+    """What urdfdom and Pinocchio would crash on, ignore or accept silently: too many joints, a link
+    with two parent joints, a zero axis, lower limit above the upper one (mimic joints: :func:`_check_mimics`)."""
+    joints = root.findall("joint")
+    if len(joints) > MAX_URDF_JOINTS:
+        raise ModelError(f"{path}: {len(joints)} joints, more than pinid accepts ({MAX_URDF_JOINTS}); expected a robot URDF")
+    parent_of: dict[str, str] = {}
+    for j in joints:
+        name = j.get("name", "?")
+        child = j.find("child")
+        if child is not None and child.get("link") in parent_of:
+            raise ModelError(f"{path}: link '{child.get('link')}' is the child of joints '{parent_of[child.get('link')]}' "
+                             f"and '{name}'; expected a tree (one parent joint per link, no closed loops)")
+        if child is not None:
+            parent_of[child.get("link")] = name
+        if j.get("type") in ("fixed", "floating", "planar"):
+            continue
+        axis = j.find("axis")
+        if axis is not None and axis.get("xyz") is not None:
+            try:
+                xyz = [float(x) for x in axis.get("xyz").split()]
+            except ValueError:
+                xyz = []  # urdfdom says what is wrong with it
+            if len(xyz) == 3 and not np.linalg.norm(xyz) > 1e-12:
+                raise ModelError(f"{path}: joint '{name}' has axis xyz=\"{axis.get('xyz')}\"; expected a non-zero direction")
+        limit = j.find("limit")
+        if limit is not None and j.get("type") != "continuous":
+            try:
+                lo, hi = float(limit.get("lower", 0)), float(limit.get("upper", 0))
+            except ValueError:
+                continue  # urdfdom says what is wrong with it
+            if lo > hi:
+                raise ModelError(f"{path}: joint '{name}' has lower limit {lo:g} above its upper limit {hi:g}; "
+                                 "expected lower <= upper")
+
+
+def _check_mimics(text: str, active: Sequence[str], path: Path) -> None:
+    """Refuse an active joint that mimics another (Pinocchio would treat it as independent); a locked one is fine."""
+    for j in ET.fromstring(text).findall("joint"):
+        mimic = j.find("mimic")
+        if mimic is not None and j.get("name") in active:
+            raise ModelError(f"{path}: mimic joints are not supported: joint '{j.get('name')}' mimics "
+                             f"'{mimic.get('joint')}'; expected independent joints (lock it with --lock)")
 
 
 @contextlib.contextmanager
@@ -189,6 +239,7 @@ class RobotModel:
         for n in active:
             if n in lock:
                 raise ModelError(f"joint '{n}' is both active and locked, expected one or the other")
+        _check_mimics(text, active, path)
         infos_full = {n: _joint_info(full, full.getJointId(n)) for n in names}
         q_ref = pin.neutral(full)
         to_lock = []
@@ -343,7 +394,9 @@ MAX_BODY_MASS = 1e6
 
 
 def _check_inertias(model: pin.Model, path: Path) -> None:
-    """Refuse inertial values that are not numbers, negative masses, and absurdly large ones."""
+    """Refuse inertial values that are not numbers, negative masses, absurdly large ones, and rotational
+    inertias that no body has: principal moments (about the centre of mass) below zero, or one larger than
+    the sum of the other two (triangle inequality), both beyond :data:`INERTIA_TOL` × trace."""
     for jid in range(1, model.njoints):
         p = model.inertias[jid].toDynamicParameters()
         name = model.names[jid]
@@ -352,6 +405,13 @@ def _check_inertias(model: pin.Model, path: Path) -> None:
         if p[0] < 0 or p[0] > MAX_BODY_MASS:
             raise ModelError(f"{path}: the body moved by joint '{name}' has mass {p[0]:.3g} kg; "
                              f"expected 0 to {MAX_BODY_MASS:.0e} kg")
+        e = np.linalg.eigvalsh(model.inertias[jid].inertia)
+        tol = INERTIA_TOL * abs(e).sum() + 1e-12
+        if e[0] < -tol or e[0] + e[1] < e[2] - tol:
+            why = "a negative principal moment" if e[0] < -tol else "one moment larger than the sum of the other two"
+            raise ModelError(f"{path}: the body moved by joint '{name}' has principal moments of inertia "
+                             f"{e[0]:.3g}, {e[1]:.3g}, {e[2]:.3g} kg·m² ({why}); expected a physical inertia "
+                             "(moments >= 0, each at most the sum of the other two)")
 
 
 def _joint_info(model: pin.Model, jid: int) -> JointInfo:

@@ -147,14 +147,6 @@ def load_trajectory(spec: str, model: RobotModel, *, flip: Sequence[str] = ()) -
     return tr
 
 
-def _reorder(tr: FourierTrajectory, model: RobotModel) -> FourierTrajectory:
-    names = model.joint_names
-    if sorted(tr.joints) != sorted(names):
-        raise SpecError(f"trajectory joints {tr.joints} do not match {model.name}'s active joints {names}")
-    idx = [tr.joints.index(j) for j in names]
-    return FourierTrajectory(list(names), tr.base_frequency, tr.q0[idx], tr.a[idx], tr.b[idx], meta=dict(tr.meta))
-
-
 # ---------------------------------------------------------------------------------------------- perturbation
 def perturb(model: RobotModel, percent: float, rng: np.random.Generator) -> RobotModel:
     """A copy of ``model`` whose inertial parameters differ by about ``percent`` % — a "CAD" model.
@@ -330,7 +322,7 @@ def simulate(
     n_steps = int(round(seconds * grid))
     if n_steps < 2 * n_s:
         raise SpecError(f"duration {seconds:g} s is shorter than two samples at {smp} Hz")
-    tr = _reorder(trajectory, model)
+    tr = trajectory.for_joints(model.joint_names, model.name)
     nv = model.nv
     fc = _per_joint(model.coulomb if coulomb is None else coulomb, model, "Coulomb friction")
     fv = _per_joint(model.viscous if viscous is None else viscous, model, "viscous friction")
