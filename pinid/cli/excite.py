@@ -209,9 +209,7 @@ def run(args: argparse.Namespace) -> int:
 
 def _plan(args, output, traj, spec, say, report):
     """The outputs of one run as one :class:`~pinid.io.Artefacts` (plot, CSV, JSON: all or nothing)."""
-    import json
-
-    from pinid.io import Artefacts, jsonable
+    from pinid.io import Artefacts, json_text
 
     arts = Artefacts()
     if args.plot:
@@ -227,7 +225,7 @@ def _plan(args, output, traj, spec, say, report):
     if args.csv:
         arts.add(args.csv, lambda p: traj.to_csv(p, args.rate, args.periods * traj.period))
     if output:
-        arts.add(output, lambda p: p.write_text(json.dumps(jsonable(report), indent=2, allow_nan=False) + "\n"))
+        arts.add(output, json_text(report))
     return arts
 
 

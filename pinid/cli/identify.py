@@ -149,12 +149,7 @@ def run(args: argparse.Namespace) -> int:
         figs = {} if args.no_figures else make_figures(ident)
         names = figure_names(ident)
         report = report_markdown(ident, {k: names[k] for k in figs})
-    import json
-
-    from pinid.io import jsonable
-
-    def as_json(obj):
-        return json.dumps(jsonable(obj), indent=2, allow_nan=False) + "\n"
+    from pinid.io import json_text as as_json
 
     arts = Artefacts()  # all or nothing: checked, written to a temporary folder, moved into place
     arts.add(out / "identification.json", as_json(ident.to_dict()))

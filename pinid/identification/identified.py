@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
+from pinid.checks import as_floats, as_state, as_states, same_length
 from pinid.errors import ModelError, SpecError
 from pinid.io import read_json, write_json
 from pinid.model import terms as _terms
@@ -47,7 +48,7 @@ class IdentifiedModel:
     def __init__(self, robot: RobotModel, terms: JointTerms | None, theta: np.ndarray, *,
                  physically_consistent: bool | None = None, meta: dict | None = None) -> None:
         terms = JointTerms() if terms is None else terms
-        theta = np.asarray(theta, dtype=float).reshape(-1)
+        theta = as_floats(theta, "theta", finite=False).reshape(-1)
         nv, nt = robot.nv, _terms.count(robot, terms)
         _terms.robot_layout(robot, terms)  # motor terms need drives
         if theta.shape != (10 * nv + nt,):
@@ -89,9 +90,7 @@ class IdentifiedModel:
         return dict(zip(parameter_names(self.robot, self.terms), map(float, self.theta)))
 
     def _q(self, q):
-        q = np.asarray(q, dtype=float)
-        if q.shape != (self.nv,):
-            raise ValueError(f"q has shape {q.shape}, expected ({self.nv},) for joints {self.joint_names}")
+        q = as_state(q, "q", self.joint_names)
         return q if self._plain else self.robot.configuration(q)
 
     # ---------------------------------------------------------------- dynamics
@@ -104,16 +103,17 @@ class IdentifiedModel:
     def friction(self, dq: np.ndarray) -> np.ndarray:
         """Friction torque [N·m] at joint velocities ``dq`` (one sample or a batch): the velocity-dependent
         terms, joint side (fc·sign(dq) + fv·dq) plus ``Gᵀ·`` motor side."""
-        dq = np.asarray(dq, dtype=float)
-        zero = np.zeros_like(np.atleast_2d(dq))
-        tau = self._term_torque(zero, np.atleast_2d(dq), zero, lambda t: not t.inertia and t.suffix != "offset")
-        return tau[0] if dq.ndim == 1 else tau
+        dq = as_floats(dq, "dq")
+        one, dq = dq.ndim == 1, as_states(dq, "dq", self.joint_names)
+        zero = np.zeros_like(dq)
+        tau = self._term_torque(zero, dq, zero, lambda t: not t.inertia and t.suffix != "offset")
+        return tau[0] if one else tau
 
     def gravity(self, q: np.ndarray) -> np.ndarray:
         """Gravity torque g(q) [N·m] (one sample or a batch)."""
-        q = np.asarray(q, dtype=float)
+        q = as_floats(q, "q")
         if q.ndim == 2:
-            return np.array([self.gravity(x) for x in q])
+            return np.array([self.gravity(x) for x in as_states(q, "q", self.joint_names)])
         return pin.computeGeneralizedGravity(self.pin_model, self.pin_data, self._q(q)).copy()
 
     def mass_matrix(self, q: np.ndarray) -> np.ndarray:
@@ -136,20 +136,22 @@ class IdentifiedModel:
 
     def coriolis(self, q: np.ndarray, dq: np.ndarray) -> np.ndarray:
         """Coriolis/centrifugal matrix C(q, dq) (nv, nv), with Ṁ − 2C skew-symmetric; C·dq is the torque."""
-        dq = np.asarray(dq, dtype=float)
+        dq = as_state(dq, "dq", self.joint_names)
         return pin.computeCoriolisMatrix(self.pin_model, self.pin_data, self._q(q), dq).copy()
 
     def inverse_dynamics(self, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray) -> np.ndarray:
         """Joint torque τ [N·m] for the motion (q, dq, ddq): rigid body + armature + friction + offset."""
-        q, dq, ddq = (np.asarray(x, dtype=float) for x in (q, dq, ddq))
+        q, dq, ddq = (as_floats(x, n) for n, x in (("q", q), ("dq", dq), ("ddq", ddq)))
         if q.ndim == 2:
+            same_length(q=q, dq=dq, ddq=ddq)
             return np.array([self.inverse_dynamics(a, b, c) for a, b, c in zip(q, dq, ddq)])
+        dq, ddq = as_state(dq, "dq", self.joint_names), as_state(ddq, "ddq", self.joint_names)
         tau = pin.rnea(self.pin_model, self.pin_data, self._q(q), dq, ddq).copy()
         return tau + _terms.torque(self.robot, self.terms, self.theta[10 * self.nv:], q[None], dq[None], ddq[None])[0]
 
     def forward_dynamics(self, q: np.ndarray, dq: np.ndarray, tau: np.ndarray) -> np.ndarray:
         """Joint acceleration ddq [rad/s²] under torque ``tau`` (solves the equation of motion)."""
-        q, dq, tau = (np.asarray(x, dtype=float) for x in (q, dq, tau))
+        q, dq, tau = (as_state(x, n, self.joint_names) for n, x in (("q", q), ("dq", dq), ("tau", tau)))
         h = self.inverse_dynamics(q, dq, np.zeros(self.nv))
         return np.linalg.solve(self.mass_matrix(q), tau - h)
 
@@ -170,16 +172,36 @@ class IdentifiedModel:
     @classmethod
     def from_dict(cls, d: dict) -> "IdentifiedModel":
         """Inverse of :meth:`to_dict`."""
+        if not isinstance(d, dict):
+            raise SpecError(f"identified model: a {type(d).__name__}, expected a JSON object")
         if d.get("format") != _FORMAT:
-            raise SpecError(f"not an identified model (format {d.get('format')!r}, expected {_FORMAT!r})")
+            hint = (" — this is an identification (pinid identify's identification.json): read it with "
+                    "pinid.Identification.load(path), its .model is the best method's IdentifiedModel"
+                    if "methods" in d and "robot" in d else "")
+            raise SpecError(f"not an identified model (format {d.get('format')!r}, expected {_FORMAT!r}){hint}")
+        for key, kind in (("robot", dict), ("standard_parameters", dict), ("meta", (dict, type(None)))):
+            if not isinstance(d.get(key), kind):
+                raise SpecError(f"identified model: '{key}' is {type(d.get(key)).__name__}, expected "
+                                f"{'a JSON object' if key != 'meta' else 'a JSON object or null'}")
+        flag = d.get("physically_consistent")
+        if flag is not None and not isinstance(flag, bool):
+            raise SpecError(f"identified model: 'physically_consistent' is {flag!r}, expected true or false")
         robot, terms = robot_from_dict(d["robot"])
         names = parameter_names(robot, terms)
         values = d["standard_parameters"]
         missing = [n for n in names if n not in values]
         if missing:
             raise SpecError(f"identified model: missing parameter(s) {missing[:5]}")
+        bad = [n for n in names if isinstance(values[n], bool) or not isinstance(values[n], (int, float))
+               or not np.isfinite(values[n])]
+        if bad:
+            raise SpecError(f"identified model: parameter {bad[0]} is {values[bad[0]]!r}, expected a finite number")
         theta = np.array([float(values[n]) for n in names])
-        return cls(robot, terms, theta, physically_consistent=d.get("physically_consistent"), meta=d.get("meta"))
+        # the stored flag is never trusted: consistency is checked again on the parameters themselves (a
+        # stored false stays false: the run may have found the standard set off its base parameters)
+        consistent = flag is not False and check_consistency(theta, robot.joint_names, terms.names,
+                                                             robot.motor_names).consistent
+        return cls(robot, terms, theta, physically_consistent=consistent, meta=d.get("meta"))
 
     def save(self, path: str | os.PathLike) -> Path:
         """Write as JSON (atomically)."""

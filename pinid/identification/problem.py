@@ -425,6 +425,8 @@ def load_datasets(items, model: RobotModel, mapping=None, preprocess: Mapping | 
         items = [items]
     out = []
     for item in items:
+        if not isinstance(item, (Dataset, str, os.PathLike)):
+            raise DataError(f"{what} recording: got {type(item).__name__}, expected a Dataset or a recording's path")
         ds = item if isinstance(item, Dataset) else read_recording(item, mapping=mapping, model=model)
         out.append(prepare_dataset(ds, preprocess))
     if not out:

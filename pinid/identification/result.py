@@ -96,7 +96,8 @@ class IdentificationResult:
         if self._model_cache is None:
             terms = JointTerms.from_names(self.robot["terms"]) if self.robot else None
             self._model_cache = IdentifiedModel(
-                self.robot_model, terms, self.standard, physically_consistent=self.physically_consistent,
+                self.robot_model, terms, self.standard,
+                physically_consistent=None if self.physically_consistent else False,  # None: checked again
                 meta={"method": self.method, "standard_source": self.standard_source})
         return self._model_cache
 
@@ -135,6 +136,9 @@ class IdentificationResult:
     @classmethod
     def from_dict(cls, d: dict, *, robot: dict | None = None) -> "IdentificationResult":
         """Inverse of :meth:`to_dict` (``robot``: the description when stored separately)."""
+        if not isinstance(d.get("physically_consistent"), bool):
+            raise SpecError(f"result {d.get('method')!r}: 'physically_consistent' is {d.get('physically_consistent')!r}, "
+                            "expected true or false")
         base_names = list(d["base_parameters"])
         std_names = list(d["standard_parameters"])
         num = (lambda v: float("nan") if v is None else float(v))

@@ -1,0 +1,241 @@
+"""Issue 14 (public API, identify and outputs): wrong inputs to pinid's public functions and commands give a
+PinidError subclass (from Python) or one line and exit status 2 (from the CLI), and no file is left or replaced.
+
+The property-style test at the end drives the public API with generated wrong inputs (wrong shapes, NaN,
+infinities, lists, strings, None, empty) from a seeded generator and asserts that only PinidError
+subclasses come out."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from conftest import assert_clean_error, load, run_cli
+from pinid import (IdentifiedModel, JointTerms, PinidError, base_parameters, identify, joint_torque,
+                   regressor, standard_parameters)
+from pinid.data.dataset import Dataset
+from pinid.data.preprocess import prepare
+from pinid.errors import SpecError
+
+
+# ------------------------------------------------------------------ case 8: tampered model JSON
+
+
+@pytest.fixture(scope="module")
+def model_json(tmp_path_factory):
+    leg = load("exo_leg")
+    path = tmp_path_factory.mktemp("model") / "model_sdp.json"
+    IdentifiedModel(leg, None, standard_parameters(leg)).save(path)
+    return json.loads(path.read_text())
+
+
+def _tampered(tmp_path, d, change):
+    d = json.loads(json.dumps(d))
+    change(d)
+    path = tmp_path / "model.json"
+    path.write_text(json.dumps(d))
+    return path
+
+
+def _set(key, value):
+    def change(d):
+        d[key] = value
+    return change
+
+
+def _param(value):
+    def change(d):
+        d["standard_parameters"]["knee.m"] = value
+    return change
+
+
+@pytest.mark.parametrize("change, fragment", [
+    (lambda d: d.pop("robot"), "'robot'"),
+    (_set("robot", [1, 2]), "'robot' is list"),
+    (_set("meta", [1]), "'meta' is list"),
+    (lambda d: d["robot"].__setitem__("terms", "fc,fv"), "'terms' is str"),
+    (lambda d: d["robot"].pop("terms"), "'terms'"),
+    (lambda d: d["robot"].__setitem__("joints", "hip"), "'joints' is str"),
+    (_param("abc"), "knee.m is 'abc'"),
+    (_param(None), "knee.m is None"),
+    (_param(True), "knee.m is True"),
+    (_set("standard_parameters", [1.0]), "'standard_parameters' is list"),
+    (_set("physically_consistent", "no"), "'physically_consistent' is 'no'"),
+])
+def test_tampered_model_json(tmp_path, model_json, change, fragment):
+    with pytest.raises(SpecError) as info:
+        IdentifiedModel.load(_tampered(tmp_path, model_json, change))
+    assert fragment in str(info.value)
+
+
+def test_model_json_not_an_object(tmp_path):
+    path = tmp_path / "m.json"
+    path.write_text("[1, 2]")
+    with pytest.raises(SpecError, match="expected a JSON object"):
+        IdentifiedModel.load(path)
+    with pytest.raises(SpecError, match="expected a JSON object"):
+        IdentifiedModel.from_dict([1, 2])
+
+
+def test_identification_json_points_to_identification_load(tmp_path, model_json):
+    """Case 26: the message names Identification.load."""
+    path = tmp_path / "identification.json"
+    path.write_text(json.dumps({"robot": model_json["robot"], "methods": {}}))
+    with pytest.raises(SpecError, match=r"Identification\.load"):
+        IdentifiedModel.load(path)
+
+
+# ------------------------------------------------------------------ case 9: consistency checked on load
+
+
+def test_stored_consistency_flag_not_trusted(tmp_path, model_json):
+    """Case 9: a knee mass of −50 with the flag true loads as NOT consistent; a true model stays true."""
+    assert IdentifiedModel.from_dict(model_json).physically_consistent
+    path = _tampered(tmp_path, model_json, _param(-50.0))
+    assert json.loads(path.read_text())["physically_consistent"] is True
+    assert not IdentifiedModel.load(path).physically_consistent
+    stored_false = _tampered(tmp_path, model_json, _set("physically_consistent", False))
+    assert not IdentifiedModel.load(stored_false).physically_consistent
+
+
+def test_track_refuses_inconsistent_model(tmp_path, model_json):
+    """Case 9: track refuses a model with a negative mass (its closed loop errs by 15-25 rad otherwise)."""
+    path = _tampered(tmp_path, model_json, _param(-50.0))
+    out = tmp_path / "track"
+    proc = run_cli("track", "--model", str(path), "--seconds", "3", "-o", str(out))
+    assert_clean_error(proc, "not physically consistent")
+    assert not out.exists()
+
+
+# ------------------------------------------------------------------ case 8: the API's named cases
+
+
+@pytest.fixture(scope="module")
+def leg():
+    return load("exo_leg")
+
+
+@pytest.fixture(scope="module")
+def identified(leg):
+    return IdentifiedModel(leg, None, standard_parameters(leg))
+
+
+def test_named_api_cases(leg, identified):
+    z2 = np.zeros(2)
+    cases = {
+        "regressor with strings": lambda: regressor(leg, ["a", "b"], z2, z2),
+        "joint_torque with a short theta": lambda: joint_torque(leg, z2, z2, z2, np.zeros(3)),
+        "rnea(zeros(3))": lambda: leg.rnea(np.zeros(3), z2, z2),
+        "with_inertial_parameters(zeros(3))": lambda: leg.with_inertial_parameters(np.zeros(3)),
+        "with_inertial_parameters(NaN)": lambda: leg.with_inertial_parameters(np.full(20, np.nan)),
+        "tol=-1": lambda: base_parameters(leg, tol=-1),
+        "tol=nan": lambda: base_parameters(leg, tol=float("nan")),
+        "JointTerms.from_names('foo')": lambda: JointTerms.from_names("foo"),
+        "prepare([1, 2, 3])": lambda: prepare([1, 2, 3]),
+        "IdentifiedModel.mass_matrix(zeros(3))": lambda: identified.mass_matrix(np.zeros(3)),
+        "identify(leg, [ndarray])": lambda: identify(leg, [np.zeros((10, 5))]),
+        "configuration(zeros(5))": lambda: leg.configuration(np.zeros(5)),
+    }
+    cases.update({f"base_parameters(samples={n})": (lambda n=n: base_parameters(leg, samples=n)) for n in range(0, 6)})
+    for name, call in cases.items():
+        with pytest.raises(PinidError):
+            call()
+            pytest.fail(f"{name} was accepted")
+
+
+def test_base_parameters_few_samples_message(leg):
+    with pytest.raises(SpecError, match="expected at least 12 samples"):
+        base_parameters(leg, samples=5)
+    assert base_parameters(leg, samples=12).count == base_parameters(leg).count  # the minimum still works
+
+
+# ------------------------------------------------------------------ property-style: generated wrong inputs
+
+
+def _wrong_values(rng: np.random.Generator, nv: int) -> list:
+    """Wrong inputs for an argument that expects ``nv`` joint values: shapes, NaN, inf, lists, strings …"""
+    bad_len = int(rng.choice([0, 1, nv + 1, nv + 3]))
+    nan_at = np.zeros(nv)
+    nan_at[int(rng.integers(nv))] = rng.choice([np.nan, np.inf, -np.inf])
+    return [
+        np.zeros(bad_len), rng.normal(size=(bad_len, nv + 1)), rng.normal(size=(2, 3, nv)), nan_at,
+        np.tile(nan_at, (3, 1)), ["a"] * nv, "q", None, [], {}, [[1.0] * nv, [1.0]], object(), b"\x00",
+        np.array(["1"] * nv, dtype=object) if rng.random() < 0.5 else [None] * nv, np.zeros((0, nv)),
+    ]
+
+
+def _wrong_numbers(rng: np.random.Generator) -> list:
+    """Wrong values for a number that must be finite and positive."""
+    return [float("nan"), float("inf"), -float("inf"), -1.0, -float(rng.integers(1, 100)), "3", [3], True, b"1"]
+
+
+def _only_pinid_errors(calls: dict) -> list[str]:
+    """Run every call; return the names of those that raised anything but a PinidError (or nothing)."""
+    bad = []
+    for name, call in calls.items():
+        try:
+            call()
+        except PinidError:
+            continue
+        except Exception as exc:  # noqa: BLE001 - that is what the test looks for
+            bad.append(f"{name}: {type(exc).__name__}: {str(exc).splitlines()[0][:120] if str(exc) else ''}")
+        else:
+            bad.append(f"{name}: accepted")
+    return bad
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_generated_wrong_inputs_give_pinid_errors(leg, identified, seed):
+    rng = np.random.default_rng(seed)
+    nv = leg.nv
+    good = np.zeros(nv)
+    p = len(standard_parameters(leg))
+    ds = Dataset(t=np.arange(200) / 100.0, q=np.zeros((200, nv)), joints=leg.joint_names, tau=np.ones((200, nv)))
+    calls = {}
+    for k, w in enumerate(_wrong_values(rng, nv)):
+        calls.update({
+            f"regressor q #{k}": lambda w=w: regressor(leg, w, good, good),
+            f"regressor ddq #{k}": lambda w=w: regressor(leg, good, good, w),
+            f"joint_torque theta #{k}": lambda w=w: joint_torque(leg, good, good, good, w),
+            f"rnea dq #{k}": lambda w=w: leg.rnea(good, w, good),
+            f"configuration #{k}": lambda w=w: leg.configuration(w),
+            f"with_inertial_parameters #{k}": lambda w=w: leg.with_inertial_parameters(w),
+            f"with_inertial_parameters coulomb #{k}": lambda w=w: leg.with_inertial_parameters(
+                leg.inertial_parameters(), coulomb=w if w is not None else "x"),
+            f"from_standard #{k}": lambda w=w: base_parameters(leg).from_standard(w),
+            f"JointTerms.from_names #{k}": lambda w=w: JointTerms.from_names(w) if not (
+                isinstance(w, list) and not w) else JointTerms.from_names(3),
+            f"prepare #{k}": lambda w=w: prepare(w),
+            f"identify #{k}": lambda w=w: identify(leg, [w]) if not isinstance(w, str) else identify(leg, [3]),
+            f"IdentifiedModel(theta) #{k}": lambda w=w: IdentifiedModel(leg, None, w),
+            f"mass_matrix #{k}": lambda w=w: identified.mass_matrix(w),
+            f"gravity #{k}": lambda w=w: identified.gravity(w),
+            f"coriolis dq #{k}": lambda w=w: identified.coriolis(good, w),
+            f"inverse_dynamics ddq #{k}": lambda w=w: identified.inverse_dynamics(good, good, w),
+            f"forward_dynamics tau #{k}": lambda w=w: identified.forward_dynamics(good, good, w),
+            f"friction #{k}": lambda w=w: identified.friction(w),
+        })
+        holds_nan = isinstance(w, np.ndarray) and w.dtype.kind == "f" and not np.all(np.isfinite(w))
+        if not holds_nan:  # a Dataset holds NaN as given (the readers and check_dataset refuse them)
+            calls[f"Dataset q #{k}"] = lambda w=w: Dataset(t=np.arange(3.0), q=w, joints=leg.joint_names)
+    for k, s in enumerate(_wrong_numbers(rng)):
+        calls.update({
+            f"base_parameters tol #{k}": lambda s=s: base_parameters(leg, tol=s),
+            f"prepare cutoff #{k}": lambda s=s: prepare(ds, cutoff=s),
+            f"prepare trim #{k}": lambda s=s: prepare(ds, trim=s),
+        })
+    for k, s in enumerate(_wrong_numbers(rng) + [2.5]):  # counts
+        calls.update({
+            f"base_parameters samples #{k}": lambda s=s: base_parameters(leg, samples=s),
+            f"base_parameters seed #{k}": lambda s=s: base_parameters(leg, seed=s),
+            f"random_states n #{k}": lambda s=s: leg.random_states(s, rng),
+        })
+    for _ in range(5):  # random wrong sizes
+        n = int(rng.integers(1, 3 * p))
+        if n != p:
+            calls[f"joint_torque theta size {n}"] = lambda n=n: joint_torque(leg, good, good, good, np.ones(n))
+    assert len(calls) > 250
+    bad = _only_pinid_errors(calls)
+    assert not bad, "\n".join(bad)
