@@ -92,4 +92,25 @@ def number(value, name: str, *, low: float | None = None, low_open: bool = False
     return float(value)
 
 
-__all__ = ["as_floats", "as_state", "as_states", "as_vector", "count", "number", "same_length"]
+def option_numbers(options, where: str) -> None:
+    """Check the numeric fields of the options dataclass ``options`` (annotated ``int`` or ``float``, maybe
+    ``| None``): each must hold a finite number (an integer for ``int``); SpecError naming ``where`` and the
+    option (``--option w_min=abc`` or ``nan`` fails here, not deep inside the optimiser)."""
+    import dataclasses
+
+    for f in dataclasses.fields(options):
+        kind = (f.type if isinstance(f.type, str) else getattr(f.type, "__name__", str(f.type))).replace(" ", "")
+        optional = kind.endswith("|None")
+        kind = kind.removesuffix("|None")
+        if kind not in ("int", "float"):
+            continue
+        v = getattr(options, f.name)
+        if v is None and optional:
+            continue
+        if isinstance(v, bool) or not isinstance(v, numbers.Real) or not math.isfinite(v) \
+                or (kind == "int" and not float(v).is_integer()):
+            raise SpecError(f"{where}: option {f.name}={v!r}, expected {'an integer' if kind == 'int' else 'a finite number'}"
+                            + (" or none" if optional else ""))
+
+
+__all__ = ["as_floats", "as_state", "as_states", "as_vector", "count", "number", "option_numbers", "same_length"]

@@ -17,7 +17,7 @@ from pinid import (IdentifiedModel, JointTerms, PinidError, base_parameters, ide
                    regressor, standard_parameters)
 from pinid.data.dataset import Dataset
 from pinid.data.preprocess import prepare
-from pinid.errors import SpecError
+from pinid.errors import DataError, SpecError
 
 
 # ------------------------------------------------------------------ case 8: tampered model JSON
@@ -239,3 +239,229 @@ def test_generated_wrong_inputs_give_pinid_errors(leg, identified, seed):
     assert len(calls) > 250
     bad = _only_pinid_errors(calls)
     assert not bad, "\n".join(bad)
+
+
+# ------------------------------------------------------------------ the CLI: numbers, options, outputs
+
+
+@pytest.fixture(scope="module")
+def recording(tmp_path_factory):
+    """A short two-joint recording of exo_leg (CSV, 3 s at 500 Hz, torques with signal)."""
+    folder = tmp_path_factory.mktemp("rec")
+    t = np.arange(1500) / 500.0
+    q = np.c_[0.6 + 0.4 * np.sin(2 * t), -0.9 + 0.4 * np.sin(3 * t)]
+    tau = np.c_[5 + np.sin(2 * t), 1 + np.cos(3 * t)]
+    path = folder / "r.csv"
+    rows = ["t,q_hip,q_knee,tau_hip,tau_knee"] + [",".join(f"{v:.9g}" for v in (a, *b, *c))
+                                                 for a, b, c in zip(t, q, tau)]
+    path.write_text("\n".join(rows) + "\n")
+    return path
+
+
+@pytest.mark.parametrize("argv", [
+    ["flex", "twin", "-o", "t.csv", "--seed", "-1"],
+    ["flex", "fit", "-o", "f.json", "--seed", "-1"],
+    ["flex", "compare", "-o", "c.json", "--seed", "-1"],
+])
+def test_flex_seed_checked_at_parse(tmp_path, argv):
+    """Case 5: --seed -1 on every command, flex included."""
+    assert_clean_error(run_cli(*argv, cwd=tmp_path), "--seed")
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("value", ["abc", "nan", "inf", "true"])
+def test_excite_option_value_checked(tmp_path, value):
+    """Case 6: --option w_min=abc|nan is one line naming the option, before any work."""
+    proc = run_cli("excite", "--urdf", "exo_leg", "--optimizer", "pso", "--option", f"w_min={value}", "-o", "e.json",
+                   cwd=tmp_path)
+    assert_clean_error(proc, "w_min")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_excite_unknown_option_names_only_unknown(tmp_path):
+    """Case 20: --starts 2 --option foo=bar names foo as unknown, not starts."""
+    proc = run_cli("excite", "--urdf", "exo_leg", "--starts", "2", "--option", "foo=bar", "-o", "e.json", cwd=tmp_path)
+    assert_clean_error(proc, "unknown option(s) foo (")
+    assert "starts, foo" not in proc.stderr
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("extra", [["--optimizer", "pso"], ["--optimizer", "slsqp"], ["--starts", "3"],
+                                   ["--seed", "2"], ["--option", "polish=1"]])
+def test_excite_evaluate_refuses_optimizer_options(tmp_path, extra):
+    """Case 25: an optimiser option has no effect with --evaluate: refused, not silently ignored."""
+    from pinid.resources import EXCITATION_DIR
+
+    traj = EXCITATION_DIR / "seed001_table3.json"
+    proc = run_cli("excite", "--urdf", "exo_leg", "--evaluate", str(traj), *extra, cwd=tmp_path)
+    assert_clean_error(proc, extra[0], "no effect with --evaluate")
+
+
+def test_estimator_settings_checked_when_made(tmp_path):
+    """Case 6: a bad setting is a SpecError naming it when the estimator is made, before any data is read."""
+    from pinid.estimators import make_estimator
+
+    for method, setting in (("wls", {"iterations": 0}), ("wls", {"iterations": -1}), ("sdp", {"regularization": -1}),
+                            ("sdp", {"regularization": float("nan")}), ("pso", {"population": "many"})):
+        key = next(iter(setting))
+        with pytest.raises(SpecError, match=f"setting {key}="):
+            make_estimator(method, **setting)
+        with pytest.raises(SpecError, match=f"setting {key}="):  # identify: before the (missing) recording
+            identify(load("exo_leg"), tmp_path / "missing.csv", methods=method, options={method: setting})
+
+
+def test_duplicate_training_data_refused(tmp_path, recording):
+    """Case 14: --data X --data X is an error (the std would shrink by √2 without a word)."""
+    out = tmp_path / "run"
+    proc = run_cli("identify", "--urdf", "exo_leg", "--data", str(recording), "--data", str(recording), "-o", str(out))
+    assert_clean_error(proc, "given twice as training data")
+    assert not out.exists()
+    with pytest.raises(DataError, match="given twice"):  # the same through another spelling of the path
+        identify(load("exo_leg"), [recording, recording.parent / "." / recording.name])
+
+
+def test_validation_equal_to_training_warns(recording):
+    """Case 14: --validate equal to a --data file: a clear warning (its error is a training error)."""
+    from pinid.errors import DataWarning
+    from pinid.identification.run import check_distinct
+
+    with pytest.warns(DataWarning, match="also a training recording"):
+        check_distinct([recording], [str(recording)])
+    with pytest.warns(DataWarning, match="also a training recording"):
+        check_distinct([recording], {"validation": [recording]})
+
+
+def test_zero_torques_refused(tmp_path, recording):
+    """Case 11: a recording without torque signal is refused, nothing is written."""
+    text = recording.read_text().splitlines()
+    zero = [text[0]] + [",".join(line.split(",")[:3] + ["0", "0"]) for line in text[1:]]
+    path = tmp_path / "zero.csv"
+    path.write_text("\n".join(zero) + "\n")
+    out = tmp_path / "run"
+    proc = run_cli("identify", "--urdf", "exo_leg", "--data", str(path), "--methods", "ols", "-o", str(out))
+    assert_clean_error(proc, "zero.csv", "no torque signal")
+    assert not out.exists()
+
+
+def test_export_refuses_urdf_pinid_cannot_read(leg):
+    """Case 11: a parameter set that passes the consistency tolerance but gives a URDF pinid refuses
+    (mass −1e-12 kg) is not exported."""
+    from pinid.errors import ModelError
+    from pinid.model.export import identified_urdf
+    from pinid.model.physical import check_consistency
+
+    theta = standard_parameters(leg).copy()
+    theta[10:20] = [-1e-12, 0, 0, 0, 0.01, 0, 0.01, 0, 0, 0.01]  # knee mass −1e-12 kg as OLS gave on zero torques
+    assert check_consistency(theta, leg.joint_names, ["fc", "fv"]).consistent  # within the tolerance
+    with pytest.raises(ModelError, match="would not load back"):
+        identified_urdf(leg, theta, JointTerms())
+
+
+def _flex_spec(tmp_path, f_max: str):
+    from pinid.model.bundled import BUNDLED_URDF_DIR
+
+    src = BUNDLED_URDF_DIR.parent / "excitation" / "tracker_flex_spec.toml"
+    text = src.read_text().replace("f_max = 12.0", f"f_max = {f_max}")
+    assert f"f_max = {f_max}" in text
+    path = tmp_path / "spec.toml"
+    path.write_text(text.replace('urdf = "', f'urdf = "{src.parent}/') if 'urdf = "../' in text else text)
+    return path
+
+
+def test_flex_f_max_above_nyquist_refused(tmp_path):
+    """Case 25: f_max at or above half the input rate (500 Hz) is refused."""
+    for f_max in ("1e9", "250.0"):
+        spec = _flex_spec(tmp_path, f_max)
+        proc = run_cli("flex", "check", "--spec", str(spec), cwd=tmp_path)
+        assert_clean_error(proc, "f_max", "Nyquist")
+
+
+@pytest.mark.parametrize("argv, folder", [
+    (["simulate", "--urdf", "exo_leg", "--excitation", "missing.json", "-o", "new/run.csv"], "new"),
+    (["compare", "--urdf", "exo_leg", "--data", "missing.csv", "-o", "new"], "new"),
+    (["track", "--model", "missing.json", "-o", "new"], "new"),
+    (["wearer", "--urdf", "exo_leg", "--mass", "10", "--height", "1.8", "--sex", "male", "-o", "new/w.urdf"], "new"),
+    (["flex", "twin", "--spec", "missing.toml", "-o", "new/t.csv"], "new"),
+    (["flex", "fit", "--spec", "missing.toml", "-o", "new/f.json"], "new"),
+    (["flex", "compare", "--spec", "missing.toml", "-o", "new/c.json"], "new"),
+    (["flex", "check", "--spec", "missing.toml", "--json", "new/c.json"], "new"),
+])
+def test_failed_runs_leave_no_folder(tmp_path, argv, folder):
+    """Case 24: a failed run of any command that writes leaves no (empty) output folder."""
+    proc = run_cli(*argv, cwd=tmp_path)
+    assert proc.returncode == 2, proc.stderr
+    assert not (tmp_path / folder).exists()
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("argv", [
+    ["simulate", "--urdf", "exo_leg", "--excitation", "zha2019-1", "-o", "x.csv", "--truth", "x.csv"],
+    ["simulate", "--urdf", "exo_leg", "--excitation", "zha2019-1", "-o", "x.csv", "--true-signals", "./x.csv"],
+    ["flex", "fit", "-o", "x.png", "--plot", "x.png"],
+    ["flex", "compare", "-o", "x.png", "--plot", "x.png"],
+])
+def test_outputs_on_one_path_refused(tmp_path, argv):
+    """Case 18 for the other commands: two outputs on one path are refused before the work."""
+    assert_clean_error(run_cli(*argv, cwd=tmp_path), "same file")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_flex_output_option_and_out_alias(tmp_path):
+    """flex uses -o/--output like every command; --out still works; the recording and its truth are one set."""
+    for flag, name in (("-o", "a.csv"), ("--output", "b.csv"), ("--out", "c.csv")):
+        proc = run_cli("flex", "twin", flag, name, cwd=tmp_path)
+        assert proc.returncode == 0, proc.stderr
+        assert (tmp_path / name).is_file() and (tmp_path / f"{name}.json").is_file()
+    before = (tmp_path / "a.csv.json").read_bytes()
+    (tmp_path / "a.csv").unlink()  # the truth alone is in the way: refused, kept
+    assert_clean_error(run_cli("flex", "twin", "-o", "a.csv", cwd=tmp_path), "already exists")
+    assert not (tmp_path / "a.csv").exists() and (tmp_path / "a.csv.json").read_bytes() == before
+
+
+@pytest.mark.slow
+def test_demo_interrupted_leaves_nothing(tmp_path):
+    """Cases 5 and 17: Ctrl-C during the demo's second step leaves no excitation file, no folder."""
+    import os
+    import signal
+    import subprocess
+    import sys
+
+    out = tmp_path / "demo"
+    proc = subprocess.Popen([sys.executable, "-m", "pinid.cli", "demo", "-o", str(out), "--methods", "ols"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            env={**os.environ, "PYTHONUNBUFFERED": "1"})
+    for line in proc.stdout:
+        if line.startswith("[2/5]"):
+            break
+    assert (out / "excitation.json").is_file()  # the first step's outputs exist now
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 2, err
+    assert "interrupted" in err and len(err.strip().splitlines()) == 1, err
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.slow
+def test_demo_force_failure_restores_earlier_run(tmp_path):
+    """The demo's folder is all or nothing: a --force run stopped by Ctrl-C puts the earlier files back."""
+    import os
+    import signal
+    import subprocess
+    import sys
+
+    out = tmp_path / "demo"
+    out.mkdir()
+    (out / "excitation.json").write_text("earlier run")
+    (out / "notes.txt").write_text("mine")
+    proc = subprocess.Popen([sys.executable, "-m", "pinid.cli", "demo", "-o", str(out), "--methods", "ols", "--force"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            env={**os.environ, "PYTHONUNBUFFERED": "1"})
+    for line in proc.stdout:
+        if line.startswith("[2/5]"):
+            break
+    proc.send_signal(signal.SIGINT)
+    proc.communicate(timeout=120)
+    assert proc.returncode == 2
+    assert sorted(p.name for p in out.iterdir()) == ["excitation.json", "notes.txt"]
+    assert (out / "excitation.json").read_text() == "earlier run"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["demo"]  # no staging folder left

@@ -109,6 +109,9 @@ def print_result(r) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    import sys
+
+    from pinid.errors import ModelError
     from pinid.identification.core import identify
     from pinid.io import Artefacts
 
@@ -135,7 +138,12 @@ def run(args: argparse.Namespace) -> int:
     urdfs, drives, refused = {}, {}, []
     for m, r in ident.results.items():
         if r.physically_consistent or args.force_export:
-            urdfs[m] = r.export_urdf(force=args.force_export)
+            try:
+                urdfs[m] = r.export_urdf(force=args.force_export)
+            except ModelError as exc:  # consistent within tolerance, yet not a URDF pinid reads back
+                print(f"pinid identify: warning: no URDF for {m}: {exc}", file=sys.stderr)
+                refused.append(m)
+                continue
             text = r.model.export_drives()
             if text is not None:
                 drives[m] = text

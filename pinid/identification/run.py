@@ -21,7 +21,7 @@ from collections.abc import Iterable, Mapping, Sequence
 import numpy as np
 
 from pinid.data.dataset import Dataset
-from pinid.errors import SpecError
+from pinid.errors import DataError, SpecError
 from pinid.estimators import ESTIMATORS, Estimator, make_estimator
 from pinid.identification.metrics import torque_metrics
 from pinid.identification.problem import (REST_FRACTION, IdentificationProblem, check_dataset, load_datasets,
@@ -105,6 +105,7 @@ def setup(model: RobotModel, data, validate=None, *, terms: JointTerms = JointTe
           segmental: Mapping | None = None, show_progress: bool | None = False) -> Setup:
     """Load and stack the recordings.  ``validate``: recordings, or ``{label: recordings}``;
     ``segmental``: ``{"first": recordings, "joints": first joints}`` (seed 000's two stages)."""
+    check_distinct(data, validate)
     train = load_datasets(data, model, mapping, preprocess, "training")
     if validate is None:
         val = {}
@@ -128,6 +129,39 @@ def setup(model: RobotModel, data, validate=None, *, terms: JointTerms = JointTe
                                                       rest_velocity=rest_velocity, rest_fraction=rest_fraction,
                                                       show_progress=show_progress)
     return Setup(model, terms, base, problem, train, val, seg)
+
+
+def _items(recordings) -> list:
+    """The recordings given as one or several (Datasets, paths)."""
+    if recordings is None:
+        return []
+    if isinstance(recordings, (Dataset, str, os.PathLike)):
+        return [recordings]
+    return list(recordings) if isinstance(recordings, Iterable) else [recordings]
+
+
+def _key(item):
+    """What makes two recordings the same one: the resolved path, or the Dataset object."""
+    return os.path.realpath(item) if isinstance(item, (str, os.PathLike)) else id(item)
+
+
+def check_distinct(data, validate=None) -> None:
+    """DataError for a training recording given twice (its rows would count twice: the standard deviations
+    shrink by √2 with no new information); a DataWarning for a validation recording that is also a
+    training one (then the validation error is a training error)."""
+    from pinid.data.formats import warn
+
+    seen: dict = {}
+    for item in _items(data):
+        k = _key(item)
+        if k in seen:
+            raise DataError(f"{item}: given twice as training data (also {seen[k]}); expected each recording once")
+        seen[k] = item
+    groups = validate.values() if isinstance(validate, Mapping) else [validate]
+    for item in (i for g in groups for i in _items(g)):
+        if _key(item) in seen:
+            warn(None, f"{item}: the validation recording is also a training recording, so its error is a "
+                       "training error, not a validation; expected a different trajectory")
 
 
 @dataclass
