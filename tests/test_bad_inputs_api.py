@@ -244,20 +244,6 @@ def test_generated_wrong_inputs_give_pinid_errors(leg, identified, seed):
 # ------------------------------------------------------------------ the CLI: numbers, options, outputs
 
 
-@pytest.fixture(scope="module")
-def recording(tmp_path_factory):
-    """A short two-joint recording of exo_leg (CSV, 3 s at 500 Hz, torques with signal)."""
-    folder = tmp_path_factory.mktemp("rec")
-    t = np.arange(1500) / 500.0
-    q = np.c_[0.6 + 0.4 * np.sin(2 * t), -0.9 + 0.4 * np.sin(3 * t)]
-    tau = np.c_[5 + np.sin(2 * t), 1 + np.cos(3 * t)]
-    path = folder / "r.csv"
-    rows = ["t,q_hip,q_knee,tau_hip,tau_knee"] + [",".join(f"{v:.9g}" for v in (a, *b, *c))
-                                                 for a, b, c in zip(t, q, tau)]
-    path.write_text("\n".join(rows) + "\n")
-    return path
-
-
 @pytest.mark.parametrize("argv", [
     ["flex", "twin", "-o", "t.csv", "--seed", "-1"],
     ["flex", "fit", "-o", "f.json", "--seed", "-1"],
@@ -465,3 +451,15 @@ def test_demo_force_failure_restores_earlier_run(tmp_path):
     assert sorted(p.name for p in out.iterdir()) == ["excitation.json", "notes.txt"]
     assert (out / "excitation.json").read_text() == "earlier run"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["demo"]  # no staging folder left
+
+
+def test_tampered_identification_json(tmp_path, model_json):
+    """Identification.load on a tampered file: a SpecError naming the file, never a bare KeyError/TypeError."""
+    from pinid import Identification
+
+    path = tmp_path / "identification.json"
+    for methods in ({"ols": {"method": "ols"}}, {"ols": {"method": "ols", "physically_consistent": True}},
+                    {"ols": {"physically_consistent": True, "base_parameters": {"a": "abc"}}}, [1], "x", {}):
+        path.write_text(json.dumps({"robot": model_json["robot"], "methods": methods}))
+        with pytest.raises(SpecError):
+            Identification.load(path)

@@ -245,7 +245,15 @@ class Identification:
         d = read_json(path, "identification")
         if "methods" not in d or "robot" not in d:
             raise SpecError(f"{path}: not an identification file (no 'methods' or 'robot')")
-        return cls.from_dict(d)
+        if not isinstance(d["methods"], dict) or not d["methods"]:
+            raise SpecError(f"{path}: 'methods' is {d['methods']!r}, expected an object of one result per method")
+        try:
+            return cls.from_dict(d)
+        except PinidError:
+            raise
+        except (KeyError, TypeError, ValueError, AttributeError) as exc:  # a field missing or of the wrong type
+            raise SpecError(f"{path}: not a valid identification file ({type(exc).__name__}: {exc}); expected "
+                            "one written by pinid identify") from None
 
 
 
