@@ -109,6 +109,8 @@ def display_path(path: str | os.PathLike) -> str:
 
 def read_json(path: str | os.PathLike, what: str) -> dict:
     """The JSON object in ``path``; SpecError naming ``what`` was expected if it is missing or not one."""
+    if not isinstance(path, (str, os.PathLike)):
+        raise SpecError(f"path: got {type(path).__name__}, expected the path of a JSON file ({what})")
     p = Path(path)
     if not p.is_file():
         raise SpecError(f"{p}: file not found, expected a {what} JSON file")

@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 from conftest import assert_clean_error, load, run_cli
-from pinid import (IdentifiedModel, JointTerms, PinidError, base_parameters, identify, joint_torque,
-                   regressor, standard_parameters)
+from pinid import (Identification, IdentifiedModel, JointTerms, PinidError, base_parameters, identify, joint_torque,
+                   parameter_names, regressor, standard_parameters)
 from pinid.data.dataset import Dataset
 from pinid.data.preprocess import prepare
 from pinid.errors import DataError, SpecError
@@ -232,6 +232,27 @@ def test_generated_wrong_inputs_give_pinid_errors(leg, identified, seed):
             f"base_parameters seed #{k}": lambda s=s: base_parameters(leg, seed=s),
             f"random_states n #{k}": lambda s=s: leg.random_states(s, rng),
         })
+    for k, w in enumerate(["exo_leg", None, 3, [leg], {"model": leg}]):  # not a RobotModel
+        calls.update({
+            f"regressor model #{k}": lambda w=w: regressor(w, good, good, good),
+            f"parameter_names model #{k}": lambda w=w: parameter_names(w),
+            f"base_parameters model #{k}": lambda w=w: base_parameters(w),
+            f"IdentifiedModel model #{k}": lambda w=w: IdentifiedModel(w, None, np.zeros(p)),
+        })
+    for k, w in enumerate([3, 2.5, {"fc": 1}, object(), ["fc", 3], "foo", ("fc", "nope")]):  # not joint terms
+        calls.update({
+            f"regressor terms #{k}": lambda w=w: regressor(leg, good, good, good, w),
+            f"standard_parameters terms #{k}": lambda w=w: standard_parameters(leg, w),
+            f"identify terms #{k}": lambda w=w: identify(leg, "missing.csv", terms=w),
+        })
+    for k, w in enumerate([3, object(), [3], "nope", ""]):
+        calls[f"identify methods #{k}"] = lambda w=w: identify(leg, "missing.csv", methods=w)
+    for k, w in enumerate([[1], "ols", {"ols": 3}, {"ols": [1]}, 3]):
+        calls[f"identify options #{k}"] = lambda w=w: identify(leg, "missing.csv", methods="ols", options=w)
+    for k, w in enumerate([3, None, 2.5, ["a.json"], b"\x00", "missing.json"]):
+        calls[f"IdentifiedModel.load #{k}"] = lambda w=w: IdentifiedModel.load(w)
+        calls[f"Identification.load #{k}"] = lambda w=w: Identification.load(w)
+        calls[f"RobotModel.from_urdf #{k}"] = lambda w=w: type(leg).from_urdf(w)
     for _ in range(5):  # random wrong sizes
         n = int(rng.integers(1, 3 * p))
         if n != p:

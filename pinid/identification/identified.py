@@ -32,7 +32,8 @@ from pinid.model import terms as _terms
 from pinid.model.export import identified_urdf
 from pinid.model.physical import check_consistency
 from pinid.model.regressor import JointTerms, parameter_names
-from pinid.model.robot import RobotModel
+from pinid.model.robot import RobotModel, as_robot
+from pinid.model.terms import as_terms
 from pinid.model.serialize import robot_from_dict, robot_to_dict
 
 _FORMAT = "pinid.identified_model"
@@ -47,7 +48,7 @@ class IdentifiedModel:
 
     def __init__(self, robot: RobotModel, terms: JointTerms | None, theta: np.ndarray, *,
                  physically_consistent: bool | None = None, meta: dict | None = None) -> None:
-        terms = JointTerms() if terms is None else terms
+        robot, terms = as_robot(robot), as_terms(terms)
         theta = as_floats(theta, "theta", finite=False).reshape(-1)
         nv, nt = robot.nv, _terms.count(robot, terms)
         _terms.robot_layout(robot, terms)  # motor terms need drives

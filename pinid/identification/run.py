@@ -1,8 +1,8 @@
 """One way through: recordings → problem → methods × seeds → results, behind :func:`identify` and
 :func:`pinid.identification.compare.compare`.
 
-* :func:`parse_methods`, :func:`parse_terms`, :func:`check_options` — the one place where method names,
-  joint terms and per-method settings are read (the CLI passes its strings straight through);
+* :func:`parse_methods`, :func:`check_options` (and :func:`pinid.model.terms.as_terms`) — the one place
+  where method names, joint terms and per-method settings are read (the CLI passes its strings straight through);
 * :func:`setup` — the model, the training problem (or the segmental stages) and the validation sets;
 * :func:`run_jobs` — fits one estimator per ``(method, seed, settings)`` job on the setup, times each
   fit and wraps it as an :class:`~pinid.identification.result.IdentificationResult`.
@@ -31,6 +31,7 @@ from pinid.identification.segmental import Segmental, SegmentalProblem
 from pinid.model.base import BaseParameters, base_parameters
 from pinid.model.regressor import JointTerms
 from pinid.model.robot import RobotModel
+from pinid.model.terms import as_terms
 from pinid.model.serialize import robot_to_dict
 from pinid.progress import progress
 
@@ -46,6 +47,8 @@ def parse_methods(methods: Sequence[str] | str | None, default: Sequence[str] = 
     """
     if methods is None:
         methods = list(default)
+    elif not isinstance(methods, (str, list, tuple)):
+        raise SpecError(f"methods {methods!r}: expected \"ols,sdp\", a list of names or \"all\"")
     elif isinstance(methods, str):
         if methods.strip().lower() == "all":
             methods = list(ESTIMATORS)
@@ -62,18 +65,11 @@ def parse_methods(methods: Sequence[str] | str | None, default: Sequence[str] = 
     return names
 
 
-def parse_terms(terms: JointTerms | str | Sequence[str]) -> JointTerms:
-    """Joint terms from a :class:`JointTerms`, ``"fc,fv"`` or a list of names (SpecError for unknown ones)."""
-    if isinstance(terms, JointTerms):
-        return terms
-    try:
-        return JointTerms.from_names(terms)
-    except ValueError as exc:
-        raise SpecError(str(exc)) from None
-
-
 def check_options(options: Mapping[str, Mapping] | None, methods: Sequence[str]) -> dict[str, dict]:
     """Per-method settings with lower-case keys; SpecError for settings of a method that is not run."""
+    if options is not None and (not isinstance(options, Mapping)
+                                or not all(isinstance(v, Mapping) for v in options.values())):
+        raise SpecError(f"options {options!r}: expected {{method: {{setting: value}}}}")
     options = {str(k).strip().lower(): dict(v) for k, v in dict(options or {}).items()}
     bad = [k for k in options if k not in methods]
     if bad:
@@ -234,7 +230,7 @@ def identify(
     """
     t_start = time.perf_counter()
     model = as_model(model)
-    terms = parse_terms(terms)
+    terms = as_terms(terms)
     methods = parse_methods(methods)
     options = check_options(options, methods)
     for m in methods:  # bad settings fail before any recording is read

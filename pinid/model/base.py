@@ -20,7 +20,8 @@ import scipy.linalg
 
 from pinid.checks import as_floats, count, number
 from pinid.errors import DataError, SpecError
-from pinid.model.robot import RobotModel
+from pinid.model.robot import RobotModel, as_robot
+from pinid.model.terms import as_terms
 from pinid.model.regressor import JointTerms, parameter_names, regressor
 from pinid.io import write_json
 
@@ -57,6 +58,9 @@ class BaseParameters:
 
     def columns(self, W: np.ndarray) -> np.ndarray:
         """The base regressor: the independent columns of a stacked standard regressor ``W``."""
+        W = as_floats(W, "W")
+        if W.ndim != 2 or W.shape[1] != len(self.standard_names):
+            raise DataError(f"W: shape {W.shape}, expected (rows, {len(self.standard_names)}) standard regressor columns")
         return W[:, self.independent]
 
     def expressions(self, digits: int = 6) -> list[str]:
@@ -110,6 +114,7 @@ def base_parameters(
     tol: float = 1e-8,
 ) -> BaseParameters:
     """Compute the base parameters of ``model`` with joint ``terms`` from random states (seeded)."""
+    model, terms = as_robot(model), as_terms(terms)
     names = parameter_names(model, terms)
     p = len(names)
     tol = number(tol, "tol", low=0, low_open=True, high=0.01)

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import contextlib
 import io
+import numbers
 import os
 import re
 import sys
@@ -155,6 +156,13 @@ class RobotModel:
         the middle of their range when 0 is outside it).  The URDF's ``<transmission>`` elements become
         ``drives`` (:mod:`pinid.model.drives`).
         """
+        if not isinstance(urdf, (str, os.PathLike)):
+            raise ModelError(f"urdf: got {type(urdf).__name__}, expected a URDF path or a robot name")
+        if joints is not None and (isinstance(joints, str) or not all(isinstance(j, str) for j in joints)):
+            raise JointError(f"joints {joints!r}: expected a list of joint names")
+        if locked is not None and (not isinstance(locked, Mapping) or not all(
+                isinstance(v, numbers.Real) and not isinstance(v, bool) for v in locked.values())):
+            raise JointError(f"locked {locked!r}: expected {{joint name: value [rad or m]}}")
         path, preset_locked = resolve_robot(urdf)
         text = _read_urdf_text(path)
         with _captured_stderr() as printed:
@@ -342,6 +350,14 @@ class RobotModel:
 
     def __repr__(self) -> str:
         return f"RobotModel({self.name!r}, joints={self.joint_names})"
+
+
+def as_robot(model) -> RobotModel:
+    """``model`` if it is a RobotModel; ModelError naming what was expected otherwise."""
+    if not isinstance(model, RobotModel):
+        raise ModelError(f"model: got {type(model).__name__}, expected a pinid RobotModel "
+                         "(pinid.RobotModel.from_urdf(path or robot name))")
+    return model
 
 
 #: Largest body mass [kg] accepted from a URDF; anything heavier is a unit or typing error.

@@ -175,6 +175,14 @@ class JointTerms:
         return f"JointTerms.from_names({','.join(self._names)!r})"
 
 
+def as_terms(terms) -> JointTerms:
+    """Joint terms from a :class:`JointTerms`, ``"fc,fv"``, a list of names or None (the default: Coulomb and
+    viscous friction); SpecError for anything else or an unknown name."""
+    if isinstance(terms, JointTerms):
+        return terms
+    return JointTerms() if terms is None else JointTerms.from_names(terms)
+
+
 class TermParameter(NamedTuple):
     """One term parameter: its name, its term, and the index of its joint (or motor) in its space."""
 
