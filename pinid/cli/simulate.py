@@ -3,8 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import sys
-import warnings
 from pathlib import Path
 
 from pinid.cli.common import add_robot_arguments, nonnegative_float, robot_from_args, seed_int
@@ -144,11 +142,7 @@ def run(args: argparse.Namespace) -> int:
     if args.perturb is not None:
         rng = np.random.default_rng(np.random.SeedSequence([int(args.seed), 1]))
         cad = perturb(model, args.perturb, rng)
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        ds, truth = _simulate(args, model, trajectory, cad, torque_noise, torque_pct)
-    for w in caught:
-        print(f"pinid simulate: warning: {w.message}", file=sys.stderr)
+    ds, truth = _simulate(args, model, trajectory, cad, torque_noise, torque_pct)  # warnings: one line each (main)
     if cad is not None:
         from pinid.model.base import base_parameters
         from pinid.model.regressor import JointTerms, standard_parameters
