@@ -491,5 +491,7 @@ def test_tampered_identification_json(tmp_path, model_json):
     for methods in ({"ols": {"method": "ols"}}, {"ols": {"method": "ols", "physically_consistent": True}},
                     {"ols": {"physically_consistent": True, "base_parameters": {"a": "abc"}}}, [1], "x", {}):
         path.write_text(json.dumps({"robot": model_json["robot"], "methods": methods}))
-        with pytest.raises(SpecError):
+        with pytest.raises(SpecError, match="identification.json"):
             Identification.load(path)
+    with pytest.raises(SpecError, match="not a valid identification"):
+        Identification.from_dict({"robot": model_json["robot"], "methods": {"ols": 3}})

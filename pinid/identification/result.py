@@ -229,11 +229,18 @@ class Identification:
 
     @classmethod
     def from_dict(cls, d: dict) -> "Identification":
-        """Rebuild from :meth:`to_dict`'s output (a loaded ``identification.json``)."""
-        robot = d["robot"]
-        results = {m: IdentificationResult.from_dict(r, robot=robot) for m, r in d["methods"].items()}
-        return cls(robot, results, d.get("data") or {}, d.get("base") or {}, list(d.get("validation_sources") or []),
-                   float(d.get("seconds") or 0.0))
+        """Rebuild from :meth:`to_dict`'s output (a loaded ``identification.json``); SpecError for a field
+        missing or of the wrong type."""
+        try:
+            robot = d["robot"]
+            results = {m: IdentificationResult.from_dict(r, robot=robot) for m, r in d["methods"].items()}
+            return cls(robot, results, d.get("data") or {}, d.get("base") or {},
+                       list(d.get("validation_sources") or []), float(d.get("seconds") or 0.0))
+        except PinidError:
+            raise
+        except (KeyError, TypeError, ValueError, AttributeError) as exc:  # a field missing or of the wrong type
+            raise SpecError(f"not a valid identification ({type(exc).__name__}: {exc}); expected one written by "
+                            "pinid identify") from None
 
     def save(self, path: str | os.PathLike) -> Path:
         """Write ``identification.json`` (atomically)."""
@@ -249,11 +256,8 @@ class Identification:
             raise SpecError(f"{path}: 'methods' is {d['methods']!r}, expected an object of one result per method")
         try:
             return cls.from_dict(d)
-        except PinidError:
-            raise
-        except (KeyError, TypeError, ValueError, AttributeError) as exc:  # a field missing or of the wrong type
-            raise SpecError(f"{path}: not a valid identification file ({type(exc).__name__}: {exc}); expected "
-                            "one written by pinid identify") from None
+        except SpecError as exc:
+            raise SpecError(f"{path}: {exc}") from None
 
 
 
