@@ -109,6 +109,8 @@ def display_path(path: str | os.PathLike) -> str:
 
 def read_json(path: str | os.PathLike, what: str) -> dict:
     """The JSON object in ``path``; SpecError naming ``what`` was expected if it is missing or not one."""
+    if not isinstance(path, (str, os.PathLike)):
+        raise SpecError(f"path: got {type(path).__name__}, expected the path of a JSON file ({what})")
     p = Path(path)
     if not p.is_file():
         raise SpecError(f"{p}: file not found, expected a {what} JSON file")
@@ -159,9 +161,14 @@ def _check_depth(data: Any, origin: str, what: str) -> None:
     raise SpecError(f"{origin}: nested deeper than {MAX_SPEC_DEPTH} levels, expected a {what}")
 
 
+def json_text(obj: Any) -> str:
+    """``obj`` as indented JSON text (through :func:`jsonable`: NaN is written null), ending in a newline."""
+    return json.dumps(jsonable(obj), indent=2, sort_keys=False, allow_nan=False) + "\n"
+
+
 def write_json(path: str | os.PathLike, obj: Any) -> Path:
-    """Write ``obj`` as indented JSON atomically to ``path`` (through :func:`jsonable`: NaN is written null)."""
-    return write_text(path, json.dumps(jsonable(obj), indent=2, sort_keys=False, allow_nan=False) + "\n")
+    """Write ``obj`` as indented JSON atomically to ``path`` (:func:`json_text`)."""
+    return write_text(path, json_text(obj))
 
 
 class Artefacts:
@@ -279,6 +286,15 @@ class Artefacts:
                         with contextlib.suppress(OSError):
                             old.unlink()
         return self.paths
+
+
+def check_outputs(*paths: str | os.PathLike) -> None:
+    """Check a run's output paths before the work, creating nothing (:meth:`Artefacts.check`: no two on
+    one path, none exists unless ``--force``, every folder can be created and written)."""
+    arts = Artefacts()
+    for p in paths:
+        arts.add(p, "")
+    arts.check()
 
 
 def _existing_ancestor(folder: Path) -> Path:

@@ -92,10 +92,10 @@ def _settings(args) -> tuple[dict, dict]:
 def run(args: argparse.Namespace) -> int:
     from pinid.identification.compare import compare
     from pinid.errors import SpecError
-    from pinid.io import check_all_writable, check_writable, write_text
+    from pinid.io import Artefacts, check_outputs
 
     out = Path(args.output)
-    check_writable(out / "comparison.json")
+    check_outputs(out / "comparison.json", out / "comparison.md")  # before the work, creating nothing
     if args.seeds < 1:
         raise SpecError(f"--seeds {args.seeds}: expected at least 1")
     methods = methods_from_args(args)
@@ -135,13 +135,15 @@ def run(args: argparse.Namespace) -> int:
     md = (f"# Comparison on {model.name}\n\n```\n{command}\n```\n\n```\n{table}\n```\n\nIdentified base parameters "
           f"(mean ± spread over the seeds):\n\n```\n{values}\n```\n"
           + "".join(f"\n![{name}]({name})\n" for name in figs))
-    check_all_writable([out / name for name in ["comparison.json", "comparison.md", *figs]])  # before any write
-    written = [comp.save(out / "comparison.json"), write_text(out / "comparison.md", md)]
+    arts = Artefacts()  # all or nothing
+    arts.add(out / "comparison.json", lambda p: comp.save(p))
+    arts.add(out / "comparison.md", md)
     if figs:
         from pinid.report.figures import save_figure
 
         for name, fig in figs.items():
-            save_figure(fig, out / name)
-            written.append(out / name)
+            arts.add(out / name, lambda p, fig=fig: save_figure(fig, p))
+    arts.clean(out, ["comparison.json", "comparison.md", "compare_*.png"])  # an earlier run's, with --force
+    written = arts.write()
     print(f"\nwrote {len(written)} files to {out}/: " + ", ".join(Path(p).name for p in written))
     return 0

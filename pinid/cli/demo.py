@@ -3,9 +3,15 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
+import os
+import shutil
+import tempfile
+import time
+from collections.abc import Iterator
+from pathlib import Path
 
 from pinid.cli.common import seed_int
-import time
 
 HELP = "run the whole loop on the bundled exoskeleton leg: excite, simulate, identify, validate, track"
 DESCRIPTION = """\
@@ -63,22 +69,61 @@ def steps(out: str, seed: int, methods: str) -> list[tuple[str, list[str]]]:
 
 
 def run(args: argparse.Namespace) -> int:
+    from pinid.cli.common import methods_from_args
     from pinid.cli.main import build_parser
     from pinid.estimators import ESTIMATORS
-    from pinid.io import check_writable
+    from pinid.io import check_outputs
 
-    check_writable(f"{args.output}/excitation.json")
-    methods = args.methods or ",".join(ESTIMATORS)
+    check_outputs(f"{args.output}/excitation.json")  # before the work, creating nothing
+    methods = ",".join(methods_from_args(args)) if args.methods else ",".join(ESTIMATORS)
     parser = build_parser()
     started = time.perf_counter()
     plan = steps(args.output, args.seed, methods)
-    for i, (title, argv) in enumerate(plan, 1):
-        print(f"\n[{i}/{len(plan)}] {title}: pinid {' '.join(argv)}", flush=True)
-        sub = parser.parse_args(argv)
-        sub._run(sub)  # errors propagate: the demo stops at the first failing step
+    with all_or_nothing(Path(args.output), replace=args.force):
+        for i, (title, argv) in enumerate(plan, 1):
+            print(f"\n[{i}/{len(plan)}] {title}: pinid {' '.join(argv)}", flush=True)
+            sub = parser.parse_args(argv)
+            sub._run(sub)  # errors propagate: the demo stops at the first failing step
     print(f"\ndemo finished in {time.perf_counter() - started:.0f} s; everything is in {args.output}/:\n"
           f"  {args.output}/excitation.json, excitation.png   the designed excitation\n"
           f"  {args.output}/train.csv, validate.csv           the twin's recordings (+ .truth.json)\n"
           f"  {args.output}/identification/report.md          identification report, figures, identified URDFs\n"
           f"  {args.output}/track/tracking.json               closed-loop tracking, figures")
     return 0
+
+
+#: What the demo writes in its folder (with --force, an earlier run's copies are replaced as one set).
+OUTPUTS = ("excitation.json", "excitation.png", "excitation.csv", "train.csv", "train.truth.json", "validate.csv",
+           "validate.truth.json", "identification", "track")
+
+
+@contextlib.contextmanager
+def all_or_nothing(out: Path, *, replace: bool) -> Iterator[None]:
+    """The demo's folder all or nothing: after an error or an interrupt (SIGINT, SIGTERM) inside the block,
+    ``out`` is as it was before — no new file, no empty folder, and with ``replace`` (--force) the earlier
+    run's outputs back in place.  On success, files of ``out`` that are not demo outputs are kept."""
+    existed = out.is_dir()
+    backup = None
+    if replace and existed:  # the earlier run's folder is set aside whole, and put back on failure
+        backup = Path(tempfile.mkdtemp(prefix=".pinid-demo-", dir=out.parent))
+        os.replace(out, backup / "old")
+        out.mkdir()
+    before = set(out.rglob("*")) if out.is_dir() else set()
+    try:
+        yield
+    except BaseException:
+        if backup is not None or not existed:
+            shutil.rmtree(out, ignore_errors=True)
+        else:
+            for p in sorted(set(out.rglob("*")) - before, key=lambda p: len(p.parts), reverse=True):
+                with contextlib.suppress(OSError):
+                    p.rmdir() if p.is_dir() else p.unlink()
+        if backup is not None:
+            os.replace(backup / "old", out)
+            shutil.rmtree(backup, ignore_errors=True)
+        raise
+    if backup is not None:  # keep what the user had there that is not a demo output
+        for p in (backup / "old").iterdir():
+            if p.name not in OUTPUTS and not (out / p.name).exists():
+                os.replace(p, out / p.name)
+        shutil.rmtree(backup, ignore_errors=True)

@@ -12,6 +12,7 @@ re-raises it with its traceback).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
 import os
 import sys
@@ -76,7 +77,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     _sigterm_as_interrupt()
     try:
-        with cli_blas_threads():  # one BLAS thread unless the user set a count (pinid/blas.py)
+        with cli_blas_threads(), _one_line_warnings(args.command):
             return int(args._run(args) or 0)
     except PinidError as exc:
         print(f"pinid {args.command}: error: {exc}", file=sys.stderr)
@@ -98,6 +99,19 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"pinid {args.command}: internal error: {type(exc).__name__}: {message}{at} "
               "(a bug: please report it; PINID_DEBUG=1 shows the traceback)", file=sys.stderr)
         return 1
+
+
+@contextlib.contextmanager
+def _one_line_warnings(command: str):
+    """Warnings as one line each on stderr, ``pinid COMMAND: warning: …`` (not Python's file:line form)."""
+    import warnings
+
+    def show(message, category, filename, lineno, file=None, line=None):
+        print(f"pinid {command}: warning: {' '.join(str(message).split())}", file=sys.stderr)
+
+    with warnings.catch_warnings():
+        warnings.showwarning = show
+        yield
 
 
 def _sigterm_as_interrupt() -> None:

@@ -256,6 +256,10 @@ def load_controller_model(spec: str, plant: RobotModel, *, friction: bool = True
     d = read_json(p, "controller model")
     model = Identification.from_dict(d).model if "methods" in d else IdentifiedModel.from_dict(d)
     _check_same_joints(spec, model.robot, plant)
+    if not model.physically_consistent:
+        raise SpecError(f"{spec}: the model is not physically consistent (a body's pseudo-inertia or a friction "
+                        "value is negative: its mass matrix can be indefinite and the controller diverge); "
+                        "expected a consistent model, e.g. the sdp result")
     return model
 
 

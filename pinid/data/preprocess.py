@@ -42,6 +42,7 @@ import numpy as np
 
 from dataclasses import replace
 
+from pinid.checks import number
 from pinid.data.dataset import Dataset
 from pinid.errors import DataError, SpecError
 from pinid.data.formats import warn
@@ -158,6 +159,10 @@ def prepare(
     the options left at their defaults.  The options used are recorded in ``meta["preprocess"]``.
     Raises DataError when there is no torque, too few samples, or a cut-off the sample rate cannot carry.
     """
+    if not isinstance(ds, Dataset):
+        raise DataError(f"prepare: got {type(ds).__name__}, expected a pinid Dataset (pinid.data.read_recording)")
+    cutoff, trim, rate = (None if v is None else number(v, name) for name, v in
+                          (("cutoff", cutoff), ("trim", trim), ("rate", rate)))
     given = {"cutoff": cutoff, "order": order, "differentiation": differentiation, "trim": trim,
              "decimate": decimate, "rate": rate}
     if preset in DEPRECATED_PRESETS:

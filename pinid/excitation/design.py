@@ -65,6 +65,7 @@ import pinocchio as pin
 
 from pinid.model.base import BaseParameters, base_parameters
 from pinid.blas import single_threaded_blas
+from pinid.checks import option_numbers
 from pinid.errors import SpecError
 from pinid.io import display_path, parse_spec_text
 from pinid.resources import EXCITATION_DIR as BUNDLED_EXCITATION_DIR
@@ -1063,11 +1064,13 @@ def _design(model, spec, optimizer, options, seed, progress, x0) -> ExcitationRe
     options = dict(options or {})
     name = optimizer.lower()
     if name == "slsqp":
-        try:
-            opts = MultistartOptions(**options).resolved(model.nv)
-        except TypeError:
-            known = ", ".join(f.name for f in MultistartOptions.__dataclass_fields__.values())
-            raise SpecError(f"slsqp: unknown option(s) {', '.join(options)} (options: {known})") from None
+        known = list(MultistartOptions.__dataclass_fields__)
+        unknown = [k for k in options if k not in known]
+        if unknown:
+            raise SpecError(f"slsqp: unknown option(s) {', '.join(unknown)} (options: {', '.join(known)})")
+        opts = MultistartOptions(**options)
+        option_numbers(opts, "slsqp")
+        opts = opts.resolved(model.nv)
         x, history, extra = _multistart(problem, opts, rng, progress, x0)
         used_options = asdict(opts)
     elif name in OPTIMIZERS:

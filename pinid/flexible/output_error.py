@@ -538,6 +538,11 @@ def _read_input(table, robot, source) -> InputSignal:
                             f"joints: {', '.join(robot.joint_names)})")
     if out.rest >= out.duration:
         raise SpecError(f"{where}: rest {out.rest:g} s ≥ duration {out.duration:g} s")
+    for key, value in out.joints.items():  # after the loop: rate may come after the joints' tables
+        ms = value.get("multisine")
+        if ms is not None and float(ms["f_max"]) >= out.rate / 2:
+            raise SpecError(f"{where}.{key}.multisine: f_max {float(ms['f_max']):g} Hz is at or above the Nyquist "
+                            f"frequency of the input rate {out.rate:g} Hz, expected f_max < {out.rate / 2:g} Hz")
     return out
 
 

@@ -38,10 +38,11 @@ from pinid.estimators.metaheuristic import (cached_lad, least_absolute_deviation
                                             training_costs)
 from pinid.identification.metrics import torque_metrics
 from pinid.identification.problem import base_regressor, check_dataset
-from pinid.identification.run import Fit, as_model, check_options, parse_methods, parse_terms, run_jobs, setup
+from pinid.identification.run import Fit, as_model, check_options, parse_methods, run_jobs, setup
 from pinid.io import jsonable, read_json, write_json
 from pinid.model.regressor import JointTerms
 from pinid.model.robot import RobotModel
+from pinid.model.terms import as_terms
 from pinid.model.serialize import robot_to_dict
 
 #: Methods that give the same result whatever the seed (run once): the registry's ``deterministic`` ones.
@@ -357,7 +358,7 @@ def compare(
     """
     t_start = time.perf_counter()
     model = as_model(model)
-    terms = parse_terms(terms)
+    terms = as_terms(terms)
     methods = parse_methods(methods, default=list(ESTIMATORS))
     seed_list = list(range(int(seeds))) if np.ndim(seeds) == 0 else [int(s) for s in seeds]
     if not seed_list:

@@ -28,13 +28,15 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
+from pinid.checks import as_floats
 from pinid.errors import DataError, ModelError, SpecError
 from pinid.io import read_json, write_json
 from pinid.model import terms as _terms
 from pinid.model.export import identified_urdf
 from pinid.model.physical import check_consistency
 from pinid.model.regressor import JointTerms, parameter_names
-from pinid.model.robot import RobotModel
+from pinid.model.robot import RobotModel, as_robot
+from pinid.model.terms import as_terms
 from pinid.model.serialize import robot_from_dict, robot_to_dict
 
 _FORMAT = "pinid.identified_model"
@@ -49,8 +51,8 @@ class IdentifiedModel:
 
     def __init__(self, robot: RobotModel, terms: JointTerms | None, theta: np.ndarray, *,
                  physically_consistent: bool | None = None, meta: dict | None = None) -> None:
-        terms = JointTerms() if terms is None else terms
-        theta = np.asarray(theta, dtype=float).reshape(-1)
+        robot, terms = as_robot(robot), as_terms(terms)
+        theta = as_floats(theta, "theta", finite=False).reshape(-1)
         nv, nt = robot.nv, _terms.count(robot, terms)
         _terms.robot_layout(robot, terms)  # motor terms need drives
         if theta.shape != (10 * nv + nt,):
@@ -101,16 +103,11 @@ class IdentifiedModel:
         """
         out, nv = [], self._nv
         for name, x in arrays:
-            try:
-                a = np.asarray(x, dtype=float)
-            except (TypeError, ValueError):
-                raise DataError(f"{name}: expected numbers, shape ({nv},) or (N, {nv}), got {type(x).__name__}") from None
+            a = as_floats(x, name)
             if a.ndim not in (1, 2) or a.shape[-1] != nv:
                 raise DataError(f"{name} has shape {a.shape}, expected ({nv},) or (N, {nv}) for joints {self.joint_names}")
             if out and a.shape != out[0].shape:
                 raise DataError(f"{name} has shape {a.shape}, expected {out[0].shape} like {arrays[0][0]}")
-            if not np.isfinite(a).all():
-                raise DataError(f"{name} contains NaN or infinite values")
             out.append(a)
         single = out[0].ndim == 1
         return [a.reshape(-1, nv) for a in out], single
@@ -185,7 +182,11 @@ class IdentifiedModel:
         :meth:`mass_matrix`), (nv,) or (N, nv)."""
         (q, dq, tau), single = self._states(("q", q), ("dq", dq), ("tau", tau))
         h = self.inverse_dynamics(q, dq, np.zeros_like(q))
-        ddq = np.linalg.solve(self.mass_matrix(q), (tau - h)[..., None])[..., 0]
+        try:
+            ddq = np.linalg.solve(self.mass_matrix(q), (tau - h)[..., None])[..., 0]
+        except np.linalg.LinAlgError:
+            raise ModelError("forward dynamics: the mass matrix is singular (a physically inconsistent model?), "
+                             "expected a consistent model") from None
         return ddq[0] if single else ddq
 
     def derivatives(self, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -244,16 +245,36 @@ class IdentifiedModel:
     @classmethod
     def from_dict(cls, d: dict) -> "IdentifiedModel":
         """Inverse of :meth:`to_dict`."""
+        if not isinstance(d, dict):
+            raise SpecError(f"identified model: a {type(d).__name__}, expected a JSON object")
         if d.get("format") != _FORMAT:
-            raise SpecError(f"not an identified model (format {d.get('format')!r}, expected {_FORMAT!r})")
+            hint = (" — this is an identification (pinid identify's identification.json): read it with "
+                    "pinid.Identification.load(path), its .model is the best method's IdentifiedModel"
+                    if "methods" in d and "robot" in d else "")
+            raise SpecError(f"not an identified model (format {d.get('format')!r}, expected {_FORMAT!r}){hint}")
+        for key, kind in (("robot", dict), ("standard_parameters", dict), ("meta", (dict, type(None)))):
+            if not isinstance(d.get(key), kind):
+                raise SpecError(f"identified model: '{key}' is {type(d.get(key)).__name__}, expected "
+                                f"{'a JSON object' if key != 'meta' else 'a JSON object or null'}")
+        flag = d.get("physically_consistent")
+        if flag is not None and not isinstance(flag, bool):
+            raise SpecError(f"identified model: 'physically_consistent' is {flag!r}, expected true or false")
         robot, terms = robot_from_dict(d["robot"])
         names = parameter_names(robot, terms)
         values = d["standard_parameters"]
         missing = [n for n in names if n not in values]
         if missing:
             raise SpecError(f"identified model: missing parameter(s) {missing[:5]}")
+        bad = [n for n in names if isinstance(values[n], bool) or not isinstance(values[n], (int, float))
+               or not np.isfinite(values[n])]
+        if bad:
+            raise SpecError(f"identified model: parameter {bad[0]} is {values[bad[0]]!r}, expected a finite number")
         theta = np.array([float(values[n]) for n in names])
-        return cls(robot, terms, theta, physically_consistent=d.get("physically_consistent"), meta=d.get("meta"))
+        # the stored flag is never trusted: consistency is checked again on the parameters themselves (a
+        # stored false stays false: the run may have found the standard set off its base parameters)
+        consistent = flag is not False and check_consistency(theta, robot.joint_names, terms.names,
+                                                             robot.motor_names).consistent
+        return cls(robot, terms, theta, physically_consistent=consistent, meta=d.get("meta"))
 
     def save(self, path: str | os.PathLike) -> Path:
         """Write as JSON (atomically)."""

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import contextlib
 import io
+import numbers
 import os
 import re
 import sys
@@ -22,6 +23,7 @@ from collections.abc import Iterator, Mapping, Sequence
 import numpy as np
 import pinocchio as pin
 
+from pinid.checks import as_state, as_states, as_vector, count, number, same_length
 from pinid.errors import JointError, ModelError
 from pinid.model.bundled import resolve_robot
 
@@ -204,6 +206,13 @@ class RobotModel:
         the middle of their range when 0 is outside it).  The URDF's ``<transmission>`` elements become
         ``drives`` (:mod:`pinid.model.drives`).
         """
+        if not isinstance(urdf, (str, os.PathLike)):
+            raise ModelError(f"urdf: got {type(urdf).__name__}, expected a URDF path or a robot name")
+        if joints is not None and (isinstance(joints, str) or not all(isinstance(j, str) for j in joints)):
+            raise JointError(f"joints {joints!r}: expected a list of joint names")
+        if locked is not None and (not isinstance(locked, Mapping) or not all(
+                isinstance(v, numbers.Real) and not isinstance(v, bool) for v in locked.values())):
+            raise JointError(f"locked {locked!r}: expected {{joint name: value [rad or m]}}")
         path, preset_locked = resolve_robot(urdf)
         text = _read_urdf_text(path)
         with _captured_stderr() as printed:
@@ -342,9 +351,9 @@ class RobotModel:
 
     def with_inertial_parameters(self, theta: np.ndarray, *, coulomb=None, viscous=None) -> "RobotModel":
         """A copy of this model with other inertial parameters (and optionally friction)."""
-        theta = np.asarray(theta, dtype=float)
-        if theta.shape != (10 * self.nv,):
-            raise ValueError(f"expected {10 * self.nv} inertial parameters, got shape {theta.shape}")
+        theta = as_vector(theta, "theta", 10 * self.nv, f"inertial parameters (10 per joint of {self.joint_names})")
+        coulomb, viscous = (None if v is None else as_state(v, name, self.joint_names)
+                            for name, v in (("coulomb", coulomb), ("viscous", viscous)))
         model = pin.Model(self.pin_model)
         for i in range(self.nv):
             model.inertias[i + 1] = pin.Inertia.FromDynamicParameters(theta[10 * i : 10 * i + 10])
@@ -360,8 +369,9 @@ class RobotModel:
     # ------------------------------------------------------------------ kinematics helpers
     def configuration(self, q: np.ndarray) -> np.ndarray:
         """Pinocchio configuration vector for joint coordinates ``q`` (nv,) [rad or m]."""
+        q = as_state(q, "q", self.joint_names)
         if not self._continuous:
-            return np.asarray(q, dtype=float)
+            return q
         out = np.empty(self.pin_model.nq)
         for i, j in enumerate(self.joints):
             _set_coordinate(out, self.pin_model.joints[i + 1], j.kind, q[i])
@@ -369,14 +379,18 @@ class RobotModel:
 
     def rnea(self, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray) -> np.ndarray:
         """Rigid-body inverse dynamics [N·m] for one sample (nv,) or many (N, nv); no friction."""
-        q, dq, ddq = (np.asarray(x, dtype=float) for x in (q, dq, ddq))
-        if q.ndim == 1:
-            return pin.rnea(self.pin_model, self._data, self.configuration(q), dq, ddq).copy()
+        one = np.ndim(q) == 1
+        q, dq, ddq = (as_states(x, n, self.joint_names) for n, x in (("q", q), ("dq", dq), ("ddq", ddq)))
+        same_length(q=q, dq=dq, ddq=ddq)
+        if one:
+            return pin.rnea(self.pin_model, self._data, self.configuration(q[0]), dq[0], ddq[0]).copy()
         return np.array([pin.rnea(self.pin_model, self._data, self.configuration(a), b, c).copy()
                          for a, b, c in zip(q, dq, ddq)])
 
     def random_states(self, n: int, rng: np.random.Generator, *, acceleration: float = 5.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``n`` random (q, dq, ddq) inside the position and velocity limits; |ddq| ≤ ``acceleration``."""
+        n = count(n, "n", low=1)
+        acceleration = number(acceleration, "acceleration", low=0)
         lo = np.where(np.isfinite(self.lower), self.lower, -np.pi)
         hi = np.where(np.isfinite(self.upper), self.upper, np.pi)
         vmax = np.where(np.isfinite(self.velocity_limit) & (self.velocity_limit > 0), self.velocity_limit, 2.0)
@@ -387,6 +401,14 @@ class RobotModel:
 
     def __repr__(self) -> str:
         return f"RobotModel({self.name!r}, joints={self.joint_names})"
+
+
+def as_robot(model) -> RobotModel:
+    """``model`` if it is a RobotModel; ModelError naming what was expected otherwise."""
+    if not isinstance(model, RobotModel):
+        raise ModelError(f"model: got {type(model).__name__}, expected a pinid RobotModel "
+                         "(pinid.RobotModel.from_urdf(path or robot name))")
+    return model
 
 
 #: Largest body mass [kg] accepted from a URDF; anything heavier is a unit or typing error.

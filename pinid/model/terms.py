@@ -25,7 +25,7 @@ from typing import NamedTuple
 from collections.abc import Callable, Iterable, Sequence
 
 import numpy as np
-from pinid.errors import ModelError
+from pinid.errors import ModelError, SpecError
 from pinid.wearer import passive
 
 
@@ -123,10 +123,12 @@ class JointTerms:
         if names is None:
             flags = (coulomb, viscous, offset, armature)
             names = [n for n, on in zip(JOINT_TERM_NAMES, flags) if on]
+        if isinstance(names, str) or not isinstance(names, Iterable):
+            raise SpecError(f"terms {names!r}: expected a list of term names, some of {list(TERMS)}")
         names = list(names)
-        unknown = [n for n in names if n not in TERMS]
+        unknown = [n for n in names if not isinstance(n, str) or n not in TERMS]
         if unknown:
-            raise ValueError(f"unknown term(s) {unknown}, expected some of {list(TERMS)}")
+            raise SpecError(f"unknown term(s) {unknown}, expected some of {list(TERMS)}")
         self._names = tuple(n for n in TERMS if n in names)
 
     @classmethod
@@ -134,6 +136,8 @@ class JointTerms:
         """Build from ``"fc,fv,offset"`` or a list of term names; ``""`` or ``"none"`` for no term."""
         if isinstance(names, str):
             names = [n.strip() for n in names.split(",") if n.strip() and n.strip() != "none"]
+        elif not isinstance(names, (list, tuple)):
+            raise SpecError(f"terms {names!r}: expected \"fc,fv\" or a list of term names, some of {list(TERMS)}")
         return cls(names=names)
 
     @property
@@ -170,6 +174,14 @@ class JointTerms:
 
     def __repr__(self) -> str:
         return f"JointTerms.from_names({','.join(self._names)!r})"
+
+
+def as_terms(terms) -> JointTerms:
+    """Joint terms from a :class:`JointTerms`, ``"fc,fv"``, a list of names or None (the default: Coulomb and
+    viscous friction); SpecError for anything else or an unknown name."""
+    if isinstance(terms, JointTerms):
+        return terms
+    return JointTerms() if terms is None else JointTerms.from_names(terms)
 
 
 class TermParameter(NamedTuple):
