@@ -27,7 +27,10 @@ into the output folder (-o, default results/):
                            unless --force-export)
   identified_<method>_drives.toml  with motor terms: the drives with the identified motor friction,
                            offset and rotor inertia (URDF has no field for them; read back with --drives)
-  report.md, *.png         a readable report with the figures
+  report.md, report.html   a readable report: summary table, robot and data, the excitation (training
+                           motion), per-method sections, base and link parameters; the HTML page is
+                           the same text with its figures embedded (one file, opens without a server)
+  errors.png, training_motion.png, torque_<method>.png   the report's figures
 
 Rows where a joint is nearly at rest are left out of the fit when Coulomb friction is in the model
 (--rest-velocity).  Methods: ols (least squares), wls (each joint weighted by 1/its residual
@@ -57,9 +60,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--wls-iterations", type=positive_int, default=None, help="wls: reweighting passes (default 1)")
     p.add_argument("--force-export", action="store_true",
                    help="also write identified URDFs of physically inconsistent results")
-    p.add_argument("--no-report", action="store_true", help="do not write report.md and the figures")
+    p.add_argument("--no-report", action="store_true", help="do not write report.md, report.html and the figures")
     p.add_argument("--no-figures", action="store_true",
-                   help="write report.md without its figures (faster: matplotlib is not loaded)")
+                   help="write report.md and report.html without figures (faster: matplotlib is not loaded)")
 
 
 def _options(args, methods) -> dict:
@@ -111,6 +114,7 @@ def print_result(r) -> None:
 def run(args: argparse.Namespace) -> int:
     from pinid.identification.core import identify
     from pinid.io import Artefacts
+    from pinid.report.markdown import REPORT_FILES
 
     out = Path(args.output)
     early = Artefacts()
@@ -142,13 +146,11 @@ def run(args: argparse.Namespace) -> int:
         else:
             refused.append(m)
     models = {m: r.model.to_dict() for m, r in ident.results.items()}
-    figs = None
+    report = {}
     if not args.no_report:
-        from pinid.report.markdown import figure_names, make_figures, report_markdown
+        from pinid.report.markdown import report_files
 
-        figs = {} if args.no_figures else make_figures(ident)
-        names = figure_names(ident)
-        report = report_markdown(ident, {k: names[k] for k in figs})
+        report = report_files(ident, figures=not args.no_figures)
     import json
 
     from pinid.io import jsonable
@@ -164,15 +166,11 @@ def run(args: argparse.Namespace) -> int:
         arts.add(out / f"identified_{m}.urdf", text)
     for m, text in drives.items():
         arts.add(out / f"identified_{m}_drives.toml", text)
-    if figs is not None:
-        from pinid.report.figures import save_figure
-
-        for key, fig in figs.items():
-            arts.add(out / names[key], lambda p, fig=fig: save_figure(fig, p))
-        arts.add(out / "report.md", report)
+    for name, content in report.items():
+        arts.add(out / name, content)
     # a --force re-run into an earlier run's folder leaves none of that run's outputs behind
     arts.clean(out, ["identification.json", "model_*.json", "identified_*.urdf", "identified_*_drives.toml",
-                     "report.md", "report.html", "torque_*.png", "errors.png"])
+                     *REPORT_FILES])
     written = arts.write()
     print(f"\nbest: {ident.best}" + (f"; no URDF for inconsistent result(s) {', '.join(refused)} "
                                        "(--force-export writes them)" if refused else ""))

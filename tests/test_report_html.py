@@ -1,0 +1,113 @@
+"""report.html: the report's text as one self-contained page, checked with the standard library's HTML parser
+(no browser can be downloaded here: only package registries are reachable, and playwright/selenium need a
+browser build of their own)."""
+
+from __future__ import annotations
+
+import base64
+from html.parser import HTMLParser
+
+import numpy as np
+import pytest
+
+from pinid.report.html import markdown_to_html
+from tests.conftest import load
+
+PNG = b"\x89PNG\r\n\x1a\n" + b"\x00" * 8
+
+
+class Page(HTMLParser):
+    """Collects tags, attributes, table rows and text; fails on unbalanced tags."""
+
+    VOID = {"meta", "img", "br", "hr", "link"}
+
+    def __init__(self, text: str) -> None:
+        super().__init__()
+        self.stack, self.tags, self.attrs, self.tables, self.text = [], [], [], [], []
+        self.feed(text)
+        self.close()
+        assert not self.stack, f"unclosed tags {self.stack}"
+
+    def handle_starttag(self, tag, attrs):
+        self.tags.append(tag)
+        self.attrs.append((tag, dict(attrs)))
+        if tag == "table":
+            self.tables.append([])
+        elif tag == "tr":
+            self.tables[-1].append([])
+        elif tag in ("td", "th"):
+            self.tables[-1][-1].append("")
+        if tag not in self.VOID:
+            self.stack.append(tag)
+
+    def handle_endtag(self, tag):
+        assert self.stack and self.stack[-1] == tag, f"</{tag}> closes {self.stack[-1:]}"
+        self.stack.pop()
+
+    def handle_data(self, data):
+        self.text.append(data)
+        if "td" in self.stack or "th" in self.stack:
+            self.tables[-1][-1][-1] += data
+
+
+def external_resources(page: Page) -> list[str]:
+    """Every reference to something outside the page (scripts, style sheets, non-data images, links)."""
+    bad = [f"<{t}>" for t in page.tags if t in ("script", "link", "iframe", "object", "embed")]
+    for tag, attrs in page.attrs:
+        for key in ("src", "href"):
+            if key in attrs and not attrs[key].startswith("data:"):
+                bad.append(f"<{tag} {key}={attrs[key][:40]}>")
+    return bad
+
+
+def test_renderer_subset():
+    text = ("# Title `x<y>`\n\nA paragraph with **bold** and `code`,\ncontinued.\n\n- one\n- two & three\n\n"
+            "| a | b |\n|---|---|\n| 1 | **2** |\n| 3 | 4 |\n\n![a [p5, p95] figure](fig.png)\n\n```python\nif a < b:\n```\n")
+    page = Page(markdown_to_html(text, {"fig.png": PNG}, title="t"))
+    assert page.tags.count("h1") == 1 and page.tags.count("li") == 2 and page.tags.count("strong") == 2
+    assert page.tables == [[["a", "b"], ["1", "2"], ["3", "4"]]]
+    assert "if a < b:" in "".join(page.text) and "x<y>" in "".join(page.text)  # escaped, shown as text
+    (img,) = [a for t, a in page.attrs if t == "img"]
+    assert img["alt"] == "a [p5, p95] figure" and base64.b64decode(img["src"].split(",", 1)[1]) == PNG
+    assert external_resources(page) == []
+    with pytest.raises(KeyError, match="missing.png"):
+        markdown_to_html("![x](missing.png)", {})
+
+
+@pytest.mark.slow
+def test_identify_writes_self_contained_html(tmp_path):
+    """pinid identify's report.html: summary table first with one row per method, a section per method,
+    the excitation and every figure embedded as a data: URI — the same figures as the PNG files."""
+    from pinid.cli.main import main
+    from pinid.data.formats import write_recording
+    from pinid.excitation.trajectory import FourierTrajectory
+    from pinid.simulation.twin import simulate
+
+    model = load("exo_leg")
+    files = []
+    for seed, w in ((0, 0.2), (1, 0.25)):
+        traj = FourierTrajectory(["hip", "knee"], w * np.pi, [0.6, -0.9], [[0.25, 0.1], [0.25, -0.1]],
+                                 [[0.1, 0.05], [-0.1, 0.05]])
+        ds, _ = simulate(model, traj, seconds=10.0, seed=seed)
+        files.append(write_recording(tmp_path / f"run{seed}.csv", ds))
+    out = tmp_path / "out"
+    methods = ["ols", "wls", "pso"]
+    assert main(["identify", "--data", str(files[0]), "--validate", str(files[1]), "--methods", ",".join(methods),
+                 "--option", "pso.iterations=20", "-o", str(out)]) == 0
+    page = Page((out / "report.html").read_text())
+    assert external_resources(page) == []
+    summary = page.tables[0]
+    assert summary[0][0] == "method" and [r[0] for r in summary[1:]] == methods
+    assert all(f"### {m}" in (out / "report.md").read_text() for m in methods)  # a section per method
+    imgs = [a["src"] for t, a in page.attrs if t == "img"]
+    assert all(src.startswith("data:image/png;base64,") for src in imgs)
+    embedded = {base64.b64decode(src.split(",", 1)[1]) for src in imgs}
+    pngs = {p.name: p.read_bytes() for p in out.glob("*.png")}
+    assert set(pngs) == {"errors.png", "training_motion.png", *(f"torque_{m}.png" for m in methods)}
+    assert embedded == set(pngs.values())
+    assert page.tags.index("table") < page.tags.index("img")  # the summary table comes before any figure
+    # the HTML is the Markdown's text: every heading of report.md is a heading of the page
+    md = (out / "report.md").read_text()
+    for line in md.splitlines():
+        if line.startswith("#"):
+            assert line.lstrip("# ").replace("`", "") in "".join(page.text), line
