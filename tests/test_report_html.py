@@ -111,3 +111,29 @@ def test_identify_writes_self_contained_html(tmp_path):
     for line in md.splitlines():
         if line.startswith("#"):
             assert line.lstrip("# ").replace("`", "") in "".join(page.text), line
+
+
+def test_errors_figure_fits_a_page_and_stays_above_zero():
+    """errors.png: one panel per joint (+ all joints) in a grid at most 1600 px wide at the saved resolution;
+    the [p5, p95] band of |e| and the x axis start at or above zero even where mean − std would not."""
+    from pinid.identification.metrics import torque_metrics
+    from pinid.report.figures import DPI
+    from pinid.report.plot_identification import error_bars
+
+    rng = np.random.default_rng(0)
+    joints = [f"panda_joint{k}" for k in range(1, 8)]
+    tau = rng.normal(size=(500, 7))
+    methods = [f"m{k}" for k in range(10)]
+    # heavy-tailed errors: mean − std of |e| is far below zero
+    metrics = {m: torque_metrics(tau, tau + 0.1 * rng.standard_cauchy((500, 7)), joints) for m in methods}
+    for d in metrics.values():
+        assert d.all["mean_abs"] - d.all["std_abs"] < 0
+    fig = error_bars(metrics, title="t")
+    width, height = fig.get_size_inches() * DPI
+    assert width <= 1600 and height <= 1600, (width, height)
+    panels = [ax for ax in fig.axes if ax.get_visible()]
+    assert sorted(ax.get_title() for ax in panels) == sorted(joints + ["all joints"])
+    for ax in panels:
+        assert ax.get_xlim()[0] == 0
+        for line in ax.lines:
+            assert min(line.get_xdata()) >= 0

@@ -1,5 +1,6 @@
-"""Identification figures: measured vs predicted torque with the error underneath (seed 000 Figs. 9, 12)
-and the mean ± std of the absolute torque error per method (seed 000 Figs. 10, 13)."""
+"""Identification figures: measured vs predicted torque with the error underneath (seed 000 Figs. 9, 12),
+the absolute torque error per joint and method as mean and [p5, p95] band (seed 000 Figs. 10, 13 draw
+mean ± std, which goes below zero), and the recorded excitation."""
 
 from __future__ import annotations
 
