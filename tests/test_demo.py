@@ -30,6 +30,11 @@ def test_demo_runs_the_whole_loop(tmp_path):
         ident = next(v for k, v in per_model.items() if k.endswith("identification.json"))
         for joint in ("hip", "knee"):
             assert ident[joint]["rms"] < 0.5 * cad[joint]["rms"], (controller, joint, ident, cad)
+    # a summary per step, the detail in the report; the real file names, not a placeholder
+    assert (out / "identification" / "report.html").is_file()
+    assert "== sdp" not in proc.stdout and "tracking_<controller>" not in proc.stdout
+    assert "tracking_backstepping.png" in proc.stdout and "tracking_computed-torque.png" in proc.stdout
+    assert len(proc.stdout.splitlines()) < 80, proc.stdout
     # a second run refuses to replace the files
     again = run_cli("demo", "-o", str(out), "--methods", "ols")
     assert again.returncode == 2 and "already exists" in again.stderr

@@ -75,7 +75,7 @@ def test_renderer_subset():
 
 
 @pytest.mark.slow
-def test_identify_writes_self_contained_html(tmp_path):
+def test_identify_writes_self_contained_html(tmp_path, capsys):
     """pinid identify's report.html: summary table first with one row per method, a section per method,
     the excitation and every figure embedded as a data: URI — the same figures as the PNG files."""
     from pinid.cli.main import main
@@ -94,6 +94,9 @@ def test_identify_writes_self_contained_html(tmp_path):
     methods = ["ols", "wls", "pso"]
     assert main(["identify", "--data", str(files[0]), "--validate", str(files[1]), "--methods", ",".join(methods),
                  "--option", "pso.iterations=20", "-o", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "== ols" not in printed and "valid. RMS [N·m]" in printed  # the summary; the detail is in the report
+    assert max(map(len, printed.splitlines())) <= 120
     page = Page((out / "report.html").read_text())
     assert external_resources(page) == []
     summary = page.tables[0]

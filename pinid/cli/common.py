@@ -194,3 +194,13 @@ positive_int = _number(int, lambda v: v > 0, "an integer > 0")
 nonnegative_int = _number(int, lambda v: v >= 0, "an integer ≥ 0")
 positive_float = _number(float, lambda v: math.isfinite(v) and v > 0, "a finite number > 0")
 nonnegative_float = _number(float, lambda v: math.isfinite(v) and v >= 0, "a finite number ≥ 0")
+
+
+def wrote_line(paths, folder) -> str:
+    """``wrote N files to FOLDER/: a, b, …`` wrapped to 120 columns (continuation lines indented)."""
+    import textwrap
+    from pathlib import Path
+
+    names = ", ".join(Path(p).name for p in paths)
+    return "\n".join(textwrap.wrap(f"wrote {len(paths)} files to {folder}/: {names}", 120, subsequent_indent="  ",
+                                    break_on_hyphens=False, break_long_words=False))

@@ -35,9 +35,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--seed", type=seed_int, default=1, help="random seed of the recordings; default 1")
     p.add_argument("--methods", default=None,
                    help="estimators to run (default: every registered one, see pinid identify --help)")
+    p.add_argument("-v", "--verbose", action="store_true",
+                   help="print every method's detail in the identify step (pinid identify --verbose)")
 
 
-def steps(out: str, seed: int, methods: str) -> list[tuple[str, list[str]]]:
+def steps(out: str, seed: int, methods: str, verbose: bool = False) -> list[tuple[str, list[str]]]:
     """The demo as a list of (title, pinid command line)."""
     from pinid.excitation.design import bundled_spec_path  # noqa: F401 - the spec ships with pinid
     from pinid.model.bundled import BUNDLED_URDF_DIR
@@ -55,7 +57,7 @@ def steps(out: str, seed: int, methods: str) -> list[tuple[str, list[str]]]:
           "-o", f"{out}/validate.csv"]),
         ("identify with every estimator, validate, export", [
             "identify", "--urdf", "exo_leg", "--data", f"{out}/train.csv", "--validate", f"{out}/validate.csv",
-            "--methods", methods, "-o", f"{out}/identification"]),
+            "--methods", methods, "-o", f"{out}/identification"] + (["--verbose"] if verbose else [])),
         ("track with a CAD model (inertia 30 % off, no friction) and with the identified model", [
             "track", "--urdf-true", "exo_leg", "--model", "cad:30",
             "--model", f"{out}/identification/identification.json", "--seconds", "6", "-o", f"{out}/track"]),
@@ -71,14 +73,15 @@ def run(args: argparse.Namespace) -> int:
     methods = args.methods or ",".join(ESTIMATORS)
     parser = build_parser()
     started = time.perf_counter()
-    plan = steps(args.output, args.seed, methods)
+    plan = steps(args.output, args.seed, methods, args.verbose)
     for i, (title, argv) in enumerate(plan, 1):
-        print(f"\n[{i}/{len(plan)}] {title}: pinid {' '.join(argv)}", flush=True)
+        print(f"\n[{i}/{len(plan)}] {title}\n$ pinid {' '.join(argv)}", flush=True)
         sub = parser.parse_args(argv)
         sub._run(sub)  # errors propagate: the demo stops at the first failing step
     print(f"\ndemo finished in {time.perf_counter() - started:.0f} s; everything is in {args.output}/:\n"
           f"  {args.output}/excitation.json, excitation.png   the designed excitation\n"
           f"  {args.output}/train.csv, validate.csv           the twin's recordings (+ .truth.json)\n"
-          f"  {args.output}/identification/report.md          identification report, figures, identified URDFs\n"
+          f"  {args.output}/identification/report.html        identification report (also report.md), figures,\n"
+          f"                                                  identified URDFs\n"
           f"  {args.output}/track/tracking.json               closed-loop tracking, figures")
     return 0

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pinid.cli.common import (add_method_arguments, add_preprocessing_arguments, add_recording_arguments,
+from pinid.cli.common import (add_method_arguments, wrote_line, add_preprocessing_arguments, add_recording_arguments,
                               add_robot_arguments, add_terms_argument, methods_from_args, nonnegative_float,
                               options_from_args, positive_int, preprocess_from_args, rest_velocity_from_args,
                               robot_from_args, terms_from_args)
@@ -58,6 +58,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--sdp-weighting", choices=("none", "joint"), default=None,
                    help="sdp: row weighting (none: as OLS, default; joint: as WLS)")
     g.add_argument("--wls-iterations", type=positive_int, default=None, help="wls: reweighting passes (default 1)")
+    p.add_argument("-v", "--verbose", action="store_true",
+                   help="also print every method's base parameters (value, std, std %%) and torque error per joint "
+                        "(without it: the summary table; the detail is in report.md/report.html)")
     p.add_argument("--force-export", action="store_true",
                    help="also write identified URDFs of physically inconsistent results")
     p.add_argument("--no-report", action="store_true", help="do not write report.md, report.html and the figures")
@@ -114,7 +117,8 @@ def print_result(r) -> None:
 def run(args: argparse.Namespace) -> int:
     from pinid.identification.core import identify
     from pinid.io import Artefacts
-    from pinid.report.markdown import REPORT_FILES
+    from pinid.report.markdown import REPORT_FILES, summary_table
+    from pinid.report.text import text_table
 
     out = Path(args.output)
     early = Artefacts()
@@ -133,8 +137,12 @@ def run(args: argparse.Namespace) -> int:
     d = ident.data
     print(f"training: {d['samples']} samples from {len(d['sources'])} recording(s), {d['rows']} torque rows used"
           + (f"; validation: {len(ident.validation_sources)} recording(s)" if ident.validation_sources else ""))
-    for r in ident:
-        print_result(r)
+    if args.verbose:
+        for r in ident:
+            print_result(r)
+        print()
+    header, rows = summary_table(ident, bold=lambda text: text)
+    print(text_table(header, rows))
     # everything is computed before any file is written
     urdfs, drives, refused = {}, {}, []
     for m, r in ident.results.items():
@@ -174,5 +182,5 @@ def run(args: argparse.Namespace) -> int:
     written = arts.write()
     print(f"\nbest: {ident.best}" + (f"; no URDF for inconsistent result(s) {', '.join(refused)} "
                                        "(--force-export writes them)" if refused else ""))
-    print(f"wrote {len(written)} files to {out}/: " + ", ".join(p.name for p in written))
+    print(wrote_line(written, out))
     return 0

@@ -73,6 +73,23 @@ def make_figures(ident) -> dict[str, object]:
     return figs
 
 
+def summary_table(ident, bold=lambda text: f"**{text}**") -> tuple[list[str], list[list[str]]]:
+    """The summary: header and one row per method (consistency, cond(W_b), training and validation error,
+    time, status); ``bold`` marks the best method and inconsistent results (Markdown by default)."""
+    rows = []
+    for m, r in ident.results.items():
+        v = r.validation
+        rows.append([
+            bold(m) if m == ident.best else m, "yes" if r.physically_consistent else bold("no"),
+            _f(r.condition_number, ".3g"), _f(r.train.all["rms"]),
+            "–" if v is None else _f(v.all["rms"]), "–" if v is None else _f(v.all["rel_rms_percent"], ".3g"),
+            "–" if v is None else f"{_f(v.all['mean_abs'])} ± {_f(v.all['std_abs'])}",
+            _f(r.seconds, ".3g"), r.status,
+        ])
+    return (["method", "consistent", "cond(W_b)", "train RMS [N·m]", "valid. RMS [N·m]", "valid. RMS %",
+             "valid. |e| [N·m]", "time [s]", "status"], rows)
+
+
 def report_markdown(ident, figures: dict[str, str] | None = None) -> str:
     """The report text; ``figures`` maps figure keys to the file names to link (missing keys are skipped)."""
     from pinid import __version__
@@ -85,18 +102,8 @@ def report_markdown(ident, figures: dict[str, str] | None = None) -> str:
                  f"total time {ident.seconds:.2f} s.")
 
     lines += ["", "## Summary", ""]
-    rows = []
-    for m, r in ident.results.items():
-        v = r.validation
-        rows.append([
-            f"**{m}**" if m == ident.best else m, "yes" if r.physically_consistent else "**no**",
-            _f(r.condition_number, ".3g"), _f(r.train.all["rms"]),
-            "–" if v is None else _f(v.all["rms"]), "–" if v is None else _f(v.all["rel_rms_percent"], ".3g"),
-            "–" if v is None else f"{_f(v.all['mean_abs'])} ± {_f(v.all['std_abs'])}",
-            _f(r.seconds, ".3g"), r.status,
-        ])
-    lines.append(_table(["method", "consistent", "cond(W_b)", "train RMS [N·m]", "valid. RMS [N·m]",
-                         "valid. RMS [%]", "valid. mean ± std abs [N·m]", "time [s]", "status"], rows))
+    lines.append(_table(*summary_table(ident)))
+    lines += ["", "valid. |e|: mean ± std of the absolute validation torque error over all joints."]
     lines.append("")
     lines.append(f"Best (bold): **{ident.best}** — the physically consistent result with the lowest "
                  f"{'validation' if ident.validation_sources else 'training'} RMS; its model is saved as "
