@@ -62,10 +62,10 @@ def external_resources(page: Page) -> list[str]:
 
 def test_renderer_subset():
     text = ("# Title `x<y>`\n\nA paragraph with **bold** and `code`,\ncontinued.\n\n- one\n- two & three\n\n"
-            "| a | b |\n|---|---|\n| 1 | **2** |\n| 3 | 4 |\n\n![a [p5, p95] figure](fig.png)\n\n```python\nif a < b:\n```\n")
+            "| a | b |\n|---|---|\n| 1 | **2** |\n| 3 \\| x | 4 |\n\n![a [p5, p95] figure](fig.png)\n\n```python\nif a < b:\n```\n")
     page = Page(markdown_to_html(text, {"fig.png": PNG}, title="t"))
     assert page.tags.count("h1") == 1 and page.tags.count("li") == 2 and page.tags.count("strong") == 2
-    assert page.tables == [[["a", "b"], ["1", "2"], ["3", "4"]]]
+    assert page.tables == [[["a", "b"], ["1", "2"], ["3 | x", "4"]]]
     assert "if a < b:" in "".join(page.text) and "x<y>" in "".join(page.text)  # escaped, shown as text
     (img,) = [a for t, a in page.attrs if t == "img"]
     assert img["alt"] == "a [p5, p95] figure" and base64.b64decode(img["src"].split(",", 1)[1]) == PNG
@@ -99,6 +99,8 @@ def test_identify_writes_self_contained_html(tmp_path, capsys):
     assert max(map(len, printed.splitlines())) <= 120
     page = Page((out / "report.html").read_text())
     assert external_resources(page) == []
+    for table in page.tables:  # a "|" in a cell (|e|) must not split it
+        assert all(len(row) == len(table[0]) for row in table), table
     summary = page.tables[0]
     assert summary[0][0] == "method" and [r[0] for r in summary[1:]] == methods
     assert all(f"### {m}" in (out / "report.md").read_text() for m in methods)  # a section per method

@@ -2,7 +2,7 @@
 from one text.
 
 Renders the small subset of Markdown the reports use — ``#``/``##``/``###`` headings, paragraphs,
-``- `` lists, pipe tables, fenced code, a paragraph that is one image ``![alt](file)``, and inline
+``- `` lists, pipe tables (``\\|`` for a ``|`` in a cell), fenced code, a paragraph that is one image ``![alt](file)``, and inline
 `` `code` `` and ``**bold**`` — and embeds every image as a ``data:`` URI: the page needs no server, no
 other file and no network (no external style sheet, font or script).
 """
@@ -43,7 +43,10 @@ def _inline(text: str) -> str:
 
 
 def _cells(line: str) -> list[str]:
-    return [c.strip() for c in line.strip().strip("|").split("|")]
+    """The cells of a table row; ``\\|`` is a literal ``|`` inside a cell (GitHub Markdown)."""
+    inner = line.strip()[1:]
+    inner = inner[:-1] if inner.endswith("|") and not inner.endswith("\\|") else inner
+    return [c.strip().replace("\\|", "|") for c in re.split(r"(?<!\\)\|", inner)]
 
 
 def _image(alt: str, src: str, images: Mapping[str, bytes]) -> str:
