@@ -94,24 +94,22 @@ def _options(args, methods) -> dict:
 
 
 def print_result(r) -> None:
-    """One method's table: base parameters with standard deviations, then torque metrics."""
+    """One method's detail (``--verbose``): base parameters with standard deviations, then torque metrics."""
+    from pinid.report.text import text_table
+
     flag = "physically consistent" if r.physically_consistent else "NOT physically consistent"
     print(f"\n== {r.method}: {r.description}")
     print(f"   {flag} ({r.standard_source}); cond(W_b) {r.condition_number:.4g}; {r.seconds:.3f} s; status {r.status}")
     if not r.physically_consistent:
         for prob in (r.consistency.get("problems") or [])[:4]:
             print(f"   - {prob}")
-    width = max(len(n) for n in r.base_names)
-    print(f"   {'parameter':<{width}} {'value':>13} {'std':>11} {'std %':>9}")
-    for n, v, s, sp in zip(r.base_names, r.base, r.std, r.std_percent):
-        sp_text = f"{sp:9.3g}" if np.isfinite(sp) else f"{'inf':>9}"
-        print(f"   {n:<{width}} {v:13.6g} {s:11.3g} {sp_text}")
+    rows = [[n, f"{v:.6g}", f"{s:.3g}", f"{sp:.3g}" if np.isfinite(sp) else "inf"]
+            for n, v, s, sp in zip(r.base_names, r.base, r.std, r.std_percent)]
+    print(text_table(["parameter", "value", "std", "std %"], rows, indent="   "))
     for kind, m in (("train", r.train), ("validation", r.validation)):
-        if m is None:
-            continue
-        print(f"   {kind}: {'joint':<18}{'RMS':>10}{'RMS %':>9}{'mean ± std |e|':>24}{'max |e|':>10}")
-        for row in m.table():
-            print(f"   {'':<{len(kind) + 2}}{row[0]:<18}{row[1]:>10}{row[2]:>9}{row[3]:>24}{row[4]:>10}")
+        if m is not None:
+            print(f"   {kind}:")
+            print(text_table(["joint", "RMS", "RMS %", "mean ± std |e|", "max |e|"], m.table(), indent="   "))
 
 
 def run(args: argparse.Namespace) -> int:
