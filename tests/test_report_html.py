@@ -104,7 +104,6 @@ def report(tmp_path_factory):
     return out, printed.getvalue()
 
 
-@pytest.mark.slow
 def test_identify_writes_self_contained_html(report):
     """pinid identify's report.html: summary table first with one row per method, a section per method,
     the excitation and every figure embedded as a data: URI — the same figures as the PNG files."""
@@ -159,7 +158,6 @@ def _browser():
         return None, f"Chromium did not start: {type(exc).__name__}: {str(exc).splitlines()[0]}"
 
 
-@pytest.mark.slow
 def test_report_opens_in_a_headless_browser(report):
     """A real browser (headless Chromium through selenium) opens report.html from disk: every image decodes,
     nothing is fetched (no resource entries at all), the summary table has one row per method and comes first.
