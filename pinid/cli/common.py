@@ -10,9 +10,12 @@ from pinid.model.regressor import JointTerms
 
 def add_robot_arguments(p: argparse.ArgumentParser, *, default: str | None = "exo_leg") -> None:
     """The options every command uses to choose a robot: --urdf, --joints, --lock."""
+    from pinid.model.bundled import EXAMPLE_ROBOTS
+    from pinid.resources import bundled_robots
+
     p.add_argument("--urdf", default=default, required=default is None,
-                   help="URDF file, bundled robot (exo_leg, apal_leg) or example-robot-data name (panda, ur5, "
-                        f"double_pendulum){'' if default is None else f'; default {default}'}")
+                   help=f"URDF file, bundled robot ({', '.join(bundled_robots())}) or example-robot-data name "
+                        f"({', '.join(EXAMPLE_ROBOTS)}){'' if default is None else f'; default {default}'}")
     p.add_argument("--joints", default=None, help="comma-separated active joints (default: all movable, unlocked)")
     p.add_argument("--lock", action="append", default=[], metavar="JOINT=VALUE",
                    help="hold a joint fixed at VALUE [rad or m]; repeatable")
@@ -210,3 +213,13 @@ positive_int = _number(int, lambda v: v > 0, "an integer > 0")
 nonnegative_int = _number(int, lambda v: v >= 0, "an integer ≥ 0")
 positive_float = _number(float, lambda v: math.isfinite(v) and v > 0, "a finite number > 0")
 nonnegative_float = _number(float, lambda v: math.isfinite(v) and v >= 0, "a finite number ≥ 0")
+
+
+def wrote_line(paths, folder) -> str:
+    """``wrote N files to FOLDER/: a, b, …`` wrapped to 120 columns (continuation lines indented)."""
+    import textwrap
+    from pathlib import Path
+
+    names = ", ".join(Path(p).name for p in paths)
+    return "\n".join(textwrap.wrap(f"wrote {len(paths)} files to {folder}/: {names}", 120, subsequent_indent="  ",
+                                    break_on_hyphens=False, break_long_words=False))

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pinid.cli.common import (add_mapping_arguments, add_method_arguments, add_preprocessing_arguments, add_recording_arguments,
+from pinid.cli.common import (add_mapping_arguments, add_method_arguments, wrote_line, add_preprocessing_arguments, add_recording_arguments,
                               add_robot_arguments, add_terms_argument, methods_from_args, nonnegative_float,
                               options_from_args, positive_int, preprocess_from_args, rest_velocity_from_args,
                               mapping_from_args, robot_from_args, terms_from_args)
@@ -27,7 +27,10 @@ into the output folder (-o, default results/):
                            unless --force-export)
   identified_<method>_drives.toml  with motor terms: the drives with the identified motor friction,
                            offset and rotor inertia (URDF has no field for them; read back with --drives)
-  report.md, *.png         a readable report with the figures
+  report.md, report.html   a readable report: summary table, robot and data, the excitation (training
+                           motion), per-method sections, base and link parameters; the HTML page is
+                           the same text with its figures embedded (one file, opens without a server)
+  errors.png, training_motion.png, torque_<method>.png   the report's figures
 
 Rows where a joint is nearly at rest are left out of the fit when Coulomb friction is in the model
 (--rest-velocity).  Methods: ols (least squares), wls (each joint weighted by 1/its residual
@@ -55,6 +58,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--sdp-weighting", choices=("none", "joint"), default=None,
                    help="sdp: row weighting (none: as OLS, default; joint: as WLS)")
     g.add_argument("--wls-iterations", type=positive_int, default=None, help="wls: reweighting passes (default 1)")
+    p.add_argument("-v", "--verbose", action="store_true",
+                   help="also print every method's base parameters (value, std, std %%) and torque error per joint "
+                        "(without it: the summary table; the detail is in report.md/report.html)")
     p.add_argument("--force-export", action="store_true",
                    help="also write identified URDFs of physically inconsistent results")
     g = p.add_argument_group("drive gains (the recordings hold currents: docs/drives.md#drive-gains-from-currents)")
@@ -63,9 +69,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--payload-data", action="append", default=None, metavar="FILE",
                    help="recording with the payload; with --payload, the drive gains are identified first and "
                         "the currents of every recording turned into torques; repeatable")
-    p.add_argument("--no-report", action="store_true", help="do not write report.md and the figures")
+    p.add_argument("--no-report", action="store_true", help="do not write report.md, report.html and the figures")
     p.add_argument("--no-figures", action="store_true",
-                   help="write report.md without its figures (faster: matplotlib is not loaded)")
+                   help="write report.md and report.html without figures (faster: matplotlib is not loaded)")
 
 
 def _options(args, methods) -> dict:
@@ -94,24 +100,22 @@ def _options(args, methods) -> dict:
 
 
 def print_result(r) -> None:
-    """One method's table: base parameters with standard deviations, then torque metrics."""
+    """One method's detail (``--verbose``): base parameters with standard deviations, then torque metrics."""
+    from pinid.report.text import text_table
+
     flag = "physically consistent" if r.physically_consistent else "NOT physically consistent"
     print(f"\n== {r.method}: {r.description}")
     print(f"   {flag} ({r.standard_source}); cond(W_b) {r.condition_number:.4g}; {r.seconds:.3f} s; status {r.status}")
     if not r.physically_consistent:
         for prob in (r.consistency.get("problems") or [])[:4]:
             print(f"   - {prob}")
-    width = max(len(n) for n in r.base_names)
-    print(f"   {'parameter':<{width}} {'value':>13} {'std':>11} {'std %':>9}")
-    for n, v, s, sp in zip(r.base_names, r.base, r.std, r.std_percent):
-        sp_text = f"{sp:9.3g}" if np.isfinite(sp) else f"{'inf':>9}"
-        print(f"   {n:<{width}} {v:13.6g} {s:11.3g} {sp_text}")
+    rows = [[n, f"{v:.6g}", f"{s:.3g}", f"{sp:.3g}" if np.isfinite(sp) else "inf"]
+            for n, v, s, sp in zip(r.base_names, r.base, r.std, r.std_percent)]
+    print(text_table(["parameter", "value", "std", "std %"], rows, indent="   "))
     for kind, m in (("train", r.train), ("validation", r.validation)):
-        if m is None:
-            continue
-        print(f"   {kind}: {'joint':<18}{'RMS':>10}{'RMS %':>9}{'mean ± std |e|':>24}{'max |e|':>10}")
-        for row in m.table():
-            print(f"   {'':<{len(kind) + 2}}{row[0]:<18}{row[1]:>10}{row[2]:>9}{row[3]:>24}{row[4]:>10}")
+        if m is not None:
+            print(f"   {kind}:")
+            print(text_table(["joint", "RMS", "RMS %", "mean ± std |e|", "max |e|"], m.table(), indent="   "))
 
 
 def run(args: argparse.Namespace) -> int:
@@ -120,6 +124,8 @@ def run(args: argparse.Namespace) -> int:
     from pinid.errors import ModelError
     from pinid.identification.core import identify
     from pinid.io import Artefacts
+    from pinid.report.markdown import REPORT_FILES, summary_table
+    from pinid.report.text import text_table
 
     out = Path(args.output)
     early = Artefacts()
@@ -143,8 +149,12 @@ def run(args: argparse.Namespace) -> int:
             f"{j} {k:.6g} ± {s:.2g}" for j, k, s in zip(g["joints"], g["gains"], g["std"])))
     print(f"training: {d['samples']} samples from {len(d['sources'])} recording(s), {d['rows']} torque rows used"
           + (f"; validation: {len(ident.validation_sources)} recording(s)" if ident.validation_sources else ""))
-    for r in ident:
-        print_result(r)
+    if args.verbose:
+        for r in ident:
+            print_result(r)
+        print()
+    header, rows = summary_table(ident, bold=lambda text: text)
+    print(text_table(header, rows))
     # everything is computed before any file is written
     urdfs, drives, refused = {}, {}, []
     for m, r in ident.results.items():
@@ -161,13 +171,11 @@ def run(args: argparse.Namespace) -> int:
         else:
             refused.append(m)
     models = {m: r.model.to_dict() for m, r in ident.results.items()}
-    figs = None
+    report = {}
     if not args.no_report:
-        from pinid.report.markdown import figure_names, make_figures, report_markdown
+        from pinid.report.markdown import report_files
 
-        figs = {} if args.no_figures else make_figures(ident)
-        names = figure_names(ident)
-        report = report_markdown(ident, {k: names[k] for k in figs})
+        report = report_files(ident, figures=not args.no_figures)
     from pinid.io import json_text as as_json
 
     arts = Artefacts()  # all or nothing: checked, written to a temporary folder, moved into place
@@ -178,17 +186,13 @@ def run(args: argparse.Namespace) -> int:
         arts.add(out / f"identified_{m}.urdf", text)
     for m, text in drives.items():
         arts.add(out / f"identified_{m}_drives.toml", text)
-    if figs is not None:
-        from pinid.report.figures import save_figure
-
-        for key, fig in figs.items():
-            arts.add(out / names[key], lambda p, fig=fig: save_figure(fig, p))
-        arts.add(out / "report.md", report)
+    for name, content in report.items():
+        arts.add(out / name, content)
     # a --force re-run into an earlier run's folder leaves none of that run's outputs behind
     arts.clean(out, ["identification.json", "model_*.json", "identified_*.urdf", "identified_*_drives.toml",
-                     "report.md", "report.html", "torque_*.png", "errors.png"])
+                     *REPORT_FILES])
     written = arts.write()
     print(f"\nbest: {ident.best}" + (f"; no URDF for inconsistent result(s) {', '.join(refused)} "
                                        "(--force-export writes them)" if refused else ""))
-    print(f"wrote {len(written)} files to {out}/: " + ", ".join(p.name for p in written))
+    print(wrote_line(written, out))
     return 0

@@ -45,6 +45,11 @@ def build_parser() -> argparse.ArgumentParser:
         prog="pinid",
         description="Identify the rigid-body dynamics of a robot from its URDF and measured data.",
         formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog="Every command takes --force (replace existing outputs) and --progress/--no-progress: long work\n"
+               "(excitation design, metaheuristics, compare, flex) shows a progress bar on stderr when it is a\n"
+               "terminal, and otherwise (CI, logs, pipes) a line every 5 s and one at the end; --no-progress shows\n"
+               "none.  PINID_PROGRESS=1 or 0 overrides both, from Python too (where the default is a bar on a\n"
+               "terminal only).",
     )
     from pinid import __version__
 
@@ -59,8 +64,21 @@ def build_parser() -> argparse.ArgumentParser:
         mod.add_arguments(p)
         if not any("--force" in a.option_strings for a in p._actions):
             p.add_argument("--force", action="store_true", help="overwrite output files that already exist")
+        _add_progress_argument(p)
         p.set_defaults(_run=mod.run)
     return parser
+
+
+def _add_progress_argument(p: argparse.ArgumentParser) -> None:
+    """--progress/--no-progress on a command, or on each action of a command that has actions (pinid flex)."""
+    actions = [a for a in p._actions if isinstance(a, argparse._SubParsersAction)]
+    if actions:
+        for child in actions[0].choices.values():
+            _add_progress_argument(child)
+        return
+    p.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
+                   help="progress of long work on stderr: a bar on a terminal, otherwise a line every few seconds "
+                        "(default); --no-progress: none")
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -73,6 +91,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     from pinid.io import OVERWRITE
 
     OVERWRITE.set(bool(getattr(args, "force", False)))  # the CLI never replaces a file unless told to
+    from pinid.progress import MODE
+
+    token = MODE.set("auto" if getattr(args, "progress", None) is None else args.progress)
     from pinid.blas import cli_blas_threads
 
     _sigterm_as_interrupt()
@@ -99,6 +120,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"pinid {args.command}: internal error: {type(exc).__name__}: {message}{at} "
               "(a bug: please report it; PINID_DEBUG=1 shows the traceback)", file=sys.stderr)
         return 1
+    finally:
+        MODE.reset(token)  # main() called from Python leaves no command-line setting behind
 
 
 @contextlib.contextmanager

@@ -33,8 +33,11 @@ example:
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     add_robot_arguments(p)
-    p.add_argument("--excitation", required=True, metavar="FILE|PRESET",
-                   help="trajectory JSON (from pinid excite) or a preset: zha2019-1 .. zha2019-4")
+    from pinid.resources import bundled_trajectories
+
+    p.add_argument("--excitation", required=True, metavar="FILE|NAME|PRESET",
+                   help="trajectory JSON (from pinid excite), a bundled one "
+                        f"({', '.join(bundled_trajectories())}) or a preset: zha2019-1 .. zha2019-4")
     p.add_argument("--flip", action="append", default=[], metavar="JOINT",
                    help="negate a preset's angle for JOINT (robot axis opposite to the paper's); repeatable")
     p.add_argument("--seconds", type=float, default=60.0, help="duration [s]; default 60")

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from pinid.cli.common import nonnegative_float, seed_int
+from pinid.cli.common import nonnegative_float, seed_int, wrote_line
 
 HELP = "track a reference on the twin with backstepping / computed torque built on a model"
 DESCRIPTION = """\
@@ -64,6 +64,7 @@ def run(args: argparse.Namespace) -> int:
     from pinid.io import Artefacts, check_outputs, json_text
     from pinid.model.robot import RobotModel
     from pinid.excitation.trajectory import FourierTrajectory
+    from pinid.report.text import text_table
 
     out = Path(args.output) if args.output else None
     controllers = tuple(c.strip() for c in args.controller.split(",") if c.strip())
@@ -82,14 +83,14 @@ def run(args: argparse.Namespace) -> int:
     models = {s: load_controller_model(s, plant, friction=not args.no_friction, seed=args.seed) for s in specs}
     table = compare_models(plant, models, reference, controllers=controllers, seconds=args.seconds,
                            after=args.after, position_noise=args.position_noise, seed=args.seed)
-    print(f"{'controller':<17}{'model':<34}{'joint':<10}{'RMS [mrad]':>11}{'max [mrad]':>11}{'settle [s]':>11}")
+    rows = []
     for c, per_model in table.items():
         for name, entry in per_model.items():
             label = name if name == "nominal" else Path(name).name
             for joint, m in entry["metrics"].items():
                 settle = "never" if not np.isfinite(m["settling_time"]) else f"{m['settling_time']:.2f}"
-                print(f"{c:<17}{label[:33]:<34}{joint:<10}{1e3 * m['rms']:>11.3f}{1e3 * m['max_abs']:>11.3f}"
-                      f"{settle:>11}")
+                rows.append([c, label, joint, f"{1e3 * m['rms']:.3f}", f"{1e3 * m['max_abs']:.3f}", settle])
+    print(text_table(["controller", "model", "joint", "RMS [mrad]", "max [mrad]", "settle [s]"], rows, keys=3))
     if out is not None:
         from pinid.report.figures import save_figure
         from pinid.report.plot_control import tracking_figure
@@ -103,6 +104,5 @@ def run(args: argparse.Namespace) -> int:
         for c, pm in table.items():
             fig = tracking_figure({n: e["result"] for n, e in pm.items()}, title=c)
             arts.add(out / f"tracking_{c}.png", lambda p, fig=fig: save_figure(fig, p))
-        arts.write()
-        print(f"wrote {out / 'tracking.json'} and tracking_<controller>.png")
+        print(wrote_line(arts.write(), out))
     return 0

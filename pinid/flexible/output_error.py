@@ -892,7 +892,7 @@ def fit_output_error(
     nsim0 = problem.nsim
     history: list[list[float]] = []
     if method == LEAST_SQUARES:
-        x, message, extra = _least_squares(problem, x0, history, f_scale, max_nfev, options or {})
+        x, message, extra = _least_squares(problem, x0, history, f_scale, max_nfev, options or {}, progress)
     else:
         opt = get_optimizer(method, **dict(options or {}))
 
@@ -922,8 +922,10 @@ def fit_output_error(
                              problem.step, metrics, truth, extra)
 
 
-def _least_squares(problem: OutputErrorProblem, x0, history, f_scale, max_nfev, options):
+def _least_squares(problem: OutputErrorProblem, x0, history, f_scale, max_nfev, options, progress=None):
     from scipy.optimize import least_squares
+
+    from pinid.progress import progress as progress_bar
 
     lo, hi = problem.lower, problem.upper
     width = hi - lo
@@ -939,6 +941,8 @@ def _least_squares(problem: OutputErrorProblem, x0, history, f_scale, max_nfev, 
         c = float(problem.cost_of_errors(e)[0])
         best["cost"] = min(best["cost"], c)
         history.append([problem.nsim - nsim0, best["cost"]])
+        bar.update(1)
+        bar.set_postfix_str(f"best {best['cost']:.6g}", refresh=False)
         r = e[0].reshape(-1)
         if not np.all(np.isfinite(r)):
             return np.full(r.shape, 1e3)  # diverged: a large, finite residual
@@ -957,7 +961,11 @@ def _least_squares(problem: OutputErrorProblem, x0, history, f_scale, max_nfev, 
               gtol=float(options.get("gtol", 1e-12)), max_nfev=int(options.get("max_nfev", max_nfev)))
     if problem.cost_kind == "abs":
         kw.update(loss="soft_l1", f_scale=float(f_scale))
-    res = least_squares(residuals, z0, **kw)
+    bar = progress_bar(kw["max_nfev"], "least_squares", enabled=progress)
+    try:
+        res = least_squares(residuals, z0, **kw)
+    finally:
+        bar.close()
     return lo + res.x * width, str(res.message), {"njev": int(res.njev or 0), "status": int(res.status),
                                                    "f_scale": float(f_scale) if problem.cost_kind == "abs" else None}
 
@@ -1051,7 +1059,7 @@ def compare_rigid_flexible(
         res = fit_output_error(prob, method, rng=rng, options=None if method == LEAST_SQUARES else opts,
                                progress=progress, f_scale=spec.fit.f_scale)
         if polish and method != LEAST_SQUARES:
-            ls = fit_output_error(prob, LEAST_SQUARES, x0=res.x, f_scale=spec.fit.f_scale)
+            ls = fit_output_error(prob, LEAST_SQUARES, x0=res.x, f_scale=spec.fit.f_scale, progress=progress)
             if ls.cost <= res.cost:
                 ls.history = res.history + [[res.nfev + h[0], min(h[1], res.cost)] for h in ls.history]
                 ls.extra["global"] = {"method": method, "cost": res.cost, "nfev": res.nfev, "seconds": res.seconds}

@@ -266,6 +266,9 @@ def identify(
         ds = check_dataset(s.train[0], model)
         curves = {"kind": "training", "source": ds.source, "t": ds.t, "measured": ds.tau,
                   "predicted": predict_torque(model, terms, s.base, ds, values)}
+    if s.train:  # the training motion, drawn as the report's "excitation" figure
+        ds = s.train[0]
+        curves["motion"] = {"source": ds.source, "t": ds.t, "q": ds.q, "dq": ds.dq}
     summary = s.problem.summary()
     if gains is not None:
         summary["drive_gains"] = gains.summary()
