@@ -106,6 +106,8 @@ class IdentifiedModel:
             a = as_floats(x, name)
             if a.ndim not in (1, 2) or a.shape[-1] != nv:
                 raise DataError(f"{name} has shape {a.shape}, expected ({nv},) or (N, {nv}) for joints {self.joint_names}")
+            if a.size == 0:
+                raise DataError(f"{name} is empty, expected at least one sample of {nv} joint values")
             if out and a.shape != out[0].shape:
                 raise DataError(f"{name} has shape {a.shape}, expected {out[0].shape} like {arrays[0][0]}")
             out.append(a)
