@@ -109,21 +109,66 @@ def display_path(path: str | os.PathLike) -> str:
 
 def read_json(path: str | os.PathLike, what: str) -> dict:
     """The JSON object in ``path``; SpecError naming ``what`` was expected if it is missing or not one."""
+    if not isinstance(path, (str, os.PathLike)):
+        raise SpecError(f"path: got {type(path).__name__}, expected the path of a JSON file ({what})")
     p = Path(path)
     if not p.is_file():
         raise SpecError(f"{p}: file not found, expected a {what} JSON file")
-    try:
-        d = json.loads(p.read_text(encoding="utf-8"))
-    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise SpecError(f"{p}: not valid JSON ({exc}), expected a {what} file") from None
+    d = parse_spec_text(p.read_bytes(), str(p), f"{what} file", kind="JSON")
     if not isinstance(d, dict):
         raise SpecError(f"{p}: expected a JSON object ({what})")
     return d
 
 
+#: Deepest nesting of tables and arrays accepted in a spec file (TOML or JSON); real specs use 3 or 4.
+MAX_SPEC_DEPTH = 64
+
+
+def parse_spec_text(text: bytes | str, origin: str, what: str, *, kind: str = "TOML") -> Any:
+    """The value in a spec file's ``text`` (``kind`` "TOML" or "JSON"); SpecError (one line, naming
+    ``origin`` and ``what`` was expected) if it is not UTF-8, not valid, or nested deeper than
+    :data:`MAX_SPEC_DEPTH` levels.  The one place pinid parses a user's TOML."""
+    import tomllib
+
+    try:
+        if isinstance(text, bytes):
+            text = text.decode("utf-8")
+        data = json.loads(text) if kind == "JSON" else tomllib.loads(text)
+    except UnicodeDecodeError:
+        raise SpecError(f"{origin}: not UTF-8 text, expected a {what}") from None
+    except RecursionError:
+        raise SpecError(f"{origin}: nested deeper than {MAX_SPEC_DEPTH} levels, expected a {what}") from None
+    except ValueError as exc:  # JSONDecodeError and TOMLDecodeError are ValueErrors
+        raise SpecError(f"{origin}: not valid {kind} ({str(exc).splitlines()[0]}), expected a {what}") from None
+    _check_depth(data, origin, what)
+    return data
+
+
+def read_toml(path: str | os.PathLike, what: str) -> dict:
+    """The table in the TOML file ``path`` (see :func:`parse_spec_text`); SpecError if it is missing."""
+    p = Path(path)
+    if not p.is_file():
+        raise SpecError(f"{p}: file not found, expected a {what} (TOML)")
+    return parse_spec_text(p.read_bytes(), str(p), what)
+
+
+def _check_depth(data: Any, origin: str, what: str) -> None:
+    level = [data]
+    for _ in range(MAX_SPEC_DEPTH + 1):
+        level = [v for x in level for v in (x.values() if isinstance(x, dict) else x if isinstance(x, list) else ())]
+        if not level:
+            return
+    raise SpecError(f"{origin}: nested deeper than {MAX_SPEC_DEPTH} levels, expected a {what}")
+
+
+def json_text(obj: Any) -> str:
+    """``obj`` as indented JSON text (through :func:`jsonable`: NaN is written null), ending in a newline."""
+    return json.dumps(jsonable(obj), indent=2, sort_keys=False, allow_nan=False) + "\n"
+
+
 def write_json(path: str | os.PathLike, obj: Any) -> Path:
-    """Write ``obj`` as indented JSON atomically to ``path`` (through :func:`jsonable`: NaN is written null)."""
-    return write_text(path, json.dumps(jsonable(obj), indent=2, sort_keys=False, allow_nan=False) + "\n")
+    """Write ``obj`` as indented JSON atomically to ``path`` (:func:`json_text`)."""
+    return write_text(path, json_text(obj))
 
 
 class Artefacts:
@@ -241,6 +286,15 @@ class Artefacts:
                         with contextlib.suppress(OSError):
                             old.unlink()
         return self.paths
+
+
+def check_outputs(*paths: str | os.PathLike) -> None:
+    """Check a run's output paths before the work, creating nothing (:meth:`Artefacts.check`: no two on
+    one path, none exists unless ``--force``, every folder can be created and written)."""
+    arts = Artefacts()
+    for p in paths:
+        arts.add(p, "")
+    arts.check()
 
 
 def _existing_ancestor(folder: Path) -> Path:

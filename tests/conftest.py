@@ -56,3 +56,17 @@ def assert_clean_error(proc: subprocess.CompletedProcess, *fragments: str) -> No
     assert len(err.splitlines()) == 1, err
     for f in fragments:
         assert f in err, (f, err)
+
+
+@pytest.fixture(scope="session")
+def recording(tmp_path_factory) -> Path:
+    """A short exo_leg recording (CSV, 3 s at 500 Hz: t, q_hip, q_knee, tau_hip, tau_knee; torques with signal)."""
+    import numpy as np
+
+    t = np.arange(1500) / 500.0
+    q = np.c_[0.6 + 0.4 * np.sin(2 * t), -0.9 + 0.4 * np.sin(3 * t)]
+    tau = np.c_[5 + np.sin(2 * t), 1 + np.cos(3 * t)]
+    path = tmp_path_factory.mktemp("rec") / "r.csv"
+    rows = ["t,q_hip,q_knee,tau_hip,tau_knee"] + [",".join(f"{v:.9g}" for v in (a, *b, *c)) for a, b, c in zip(t, q, tau)]
+    path.write_text("\n".join(rows) + "\n")
+    return path

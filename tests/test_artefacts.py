@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import os
 
-import numpy as np
 import pytest
 
 from conftest import assert_clean_error, run_cli
@@ -81,18 +80,6 @@ def test_output_error_is_pinid_error():
 
 
 # ------------------------------------------------------------------ through the CLI
-
-
-@pytest.fixture(scope="module")
-def recording(tmp_path_factory):
-    folder = tmp_path_factory.mktemp("rec")
-    t = np.arange(1500) / 500.0
-    q = np.c_[0.6 + 0.4 * np.sin(2 * t), -0.9 + 0.4 * np.sin(3 * t)]
-    tau = np.c_[5 + np.sin(2 * t), 1 + np.cos(3 * t)]
-    path = folder / "r.csv"
-    rows = ["t,q_hip,q_knee,tau_hip,tau_knee"] + [",".join(f"{v:.9g}" for v in (a, *b, *c)) for a, b, c in zip(t, q, tau)]
-    path.write_text("\n".join(rows) + "\n")
-    return path
 
 
 @pytest.mark.slow

@@ -73,9 +73,32 @@ def test_validation_truth_errors_and_tables(comparison, setting):
     table = comparison.table()
     for m in comparison.runs:
         assert f"\n{m} " in table
-    assert "above min %" in table and "param err max %" in table
+    assert "above min %" in table and "max err % (truth≠0)" in table and "(truth=0)" not in table
     values = comparison.values_table()
     assert "truth" in values and "hip.mzR" in values
+    assert max(len(line) for line in (table + "\n" + values).splitlines()) <= 120
+
+
+def test_zero_truth_gets_an_absolute_error(setting):
+    """A relative error where the truth is 0 is meaningless (it was 7.77e+03 % there): such a parameter gets
+    the absolute error |x| instead, in its own column, and the relative columns leave it out."""
+    truth, cad, train, valid = setting
+    _, xt = true_base(truth)
+    xt = xt.copy()
+    xt[0] = 0.0
+    comp = compare(cad, train, valid, methods=["ols"], seeds=1, truth=xt)
+    r = comp.runs["ols"][0]
+    name = comp.base_names[0]
+    assert comp.zero_truth() == [name] and name not in r.parameter_error
+    assert r.parameter_error_abs[name] == pytest.approx(abs(r.base[0]))
+    assert max(r.parameter_error.values()) < 50
+    s = comp.summary()["ols"]
+    assert s["parameter_error_abs_max_zero_truth"][0] == pytest.approx(abs(r.base[0]))
+    table = comp.table()
+    assert "max |err| (truth=0)" in table and f"({name})" in table
+    assert max(len(line) for line in table.splitlines()) <= 120
+    again = Comparison.from_dict(json.loads(json.dumps(comp.to_dict())))
+    assert again.runs["ols"][0].parameter_error_abs == r.parameter_error_abs
 
 
 def test_save_load_roundtrip(comparison, tmp_path):

@@ -30,9 +30,34 @@ def test_demo_runs_the_whole_loop(tmp_path):
         ident = next(v for k, v in per_model.items() if k.endswith("identification.json"))
         for joint in ("hip", "knee"):
             assert ident[joint]["rms"] < 0.5 * cad[joint]["rms"], (controller, joint, ident, cad)
+    # a summary per step, the detail in the report; the real file names, not a placeholder
+    assert (out / "identification" / "report.html").is_file()
+    assert "== sdp" not in proc.stdout and "tracking_<controller>" not in proc.stdout
+    assert "tracking_backstepping.png" in proc.stdout and "tracking_computed-torque.png" in proc.stdout
+    assert len(proc.stdout.splitlines()) < 80, proc.stdout
+    # `pinid demo --help` lists exactly the steps the run prints, in order
+    import re
+
+    printed = [(int(i), int(n), title) for i, n, title in re.findall(r"^\[(\d+)/(\d+)\] (.*)$", proc.stdout, re.M)]
+    listed = re.findall(r"^  (\d+)\. (.*)$", run_cli("demo", "--help").stdout, re.M)
+    assert [(i, t) for i, _, t in printed] == [(int(i), t) for i, t in listed] and len(listed) == printed[0][1]
     # a second run refuses to replace the files
     again = run_cli("demo", "-o", str(out), "--methods", "ols")
     assert again.returncode == 2 and "already exists" in again.stderr
+
+
+def test_help_lists_every_bundled_robot():
+    """The robot options' help takes the bundled robots from pinid.resources, not from a literal list."""
+    from pinid.cli.main import build_parser
+    from pinid.resources import bundled_robots
+
+    robots = bundled_robots()
+    assert {"exo_leg", "apal_leg", "tracker_2dof"} <= set(robots)
+    parser = build_parser()
+    sub = next(a for a in parser._actions if a.__class__.__name__ == "_SubParsersAction")
+    for name in ("info", "excite", "identify", "compare"):
+        (urdf,) = [a for a in sub.choices[name]._actions if "--urdf" in a.option_strings]
+        assert f"({', '.join(robots)})" in urdf.help, (name, urdf.help)
 
 
 def _generated_doc(name: str) -> str:

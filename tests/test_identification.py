@@ -319,9 +319,10 @@ def _simulated_csv(tmp_path, seed: int, seconds: float = 12.0) -> Path:
 def test_cli_identify_on_simulated_recordings(tmp_path):
     train, valid = _simulated_csv(tmp_path, 0), _simulated_csv(tmp_path, 1)
     out = tmp_path / "results"
-    proc = run_cli("identify", "--urdf", "exo_leg", "--data", str(train), "--validate", str(valid), "-o", str(out))
+    proc = run_cli("identify", "--urdf", "exo_leg", "--data", str(train), "--validate", str(valid), "-o", str(out),
+                   "--verbose")
     assert proc.returncode == 0, proc.stderr
-    assert "== sdp" in proc.stdout and "validation" in proc.stdout
+    assert "== sdp" in proc.stdout and "validation" in proc.stdout  # --verbose: every method's detail
     d = json.loads((out / "identification.json").read_text())
     for m in ("ols", "wls", "sdp"):
         r = d["methods"][m]

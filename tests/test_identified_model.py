@@ -107,3 +107,85 @@ def test_computed_torque_example_tracks():
         q = q + dt * dq
         errors.append(q - ref((k + 1) * dt)[0])
     assert np.abs(np.array(errors[1000:])).max() < 5e-3
+
+
+# ---------------------------------------------------------------- batches and derivatives (issue 15)
+def coupled_model(seed=0):
+    """UR5 with a wrist differential and every smooth joint and motor term at random positive values."""
+    from test_drives import coupled
+
+    robot = coupled("ur5")
+    terms = JointTerms.from_names("fc,fv,offset,armature,motor_fc,motor_fv,motor_armature")
+    theta = standard_parameters(robot, terms)
+    theta[10 * robot.nv:] = np.random.default_rng(seed).uniform(0.05, 0.5, theta.size - 10 * robot.nv)
+    return IdentifiedModel(robot, terms, theta)
+
+
+@pytest.mark.parametrize("make", [model_with_terms, coupled_model])
+def test_every_dynamics_method_takes_batches(make):
+    m = make()
+    q, dq, ddq = m.robot.random_states(7, np.random.default_rng(2))
+    tau = m.inverse_dynamics(q, dq, ddq)
+    for method, args in [("mass_matrix", (q,)), ("coriolis", (q, dq)), ("gravity", (q,)), ("friction", (dq,)),
+                         ("inverse_dynamics", (q, dq, ddq)), ("forward_dynamics", (q, dq, tau)),
+                         ("derivatives", (q, dq, ddq)), ("forward_derivatives", (q, dq, tau))]:
+        batch = getattr(m, method)(*args)
+        one = [getattr(m, method)(*x) for x in zip(*args)]
+        if isinstance(batch, tuple):  # derivatives: the terms' central differences round at ~1e-16/1e-6
+            for b, part in zip(batch, zip(*one)):
+                np.testing.assert_allclose(b, np.array(part), rtol=1e-7, atol=1e-8, err_msg=method)
+        else:
+            assert batch.shape == (7,) + one[0].shape, method
+            np.testing.assert_allclose(batch, np.array(one), rtol=1e-12, atol=1e-12, err_msg=method)
+    np.testing.assert_allclose(m.forward_dynamics(q, dq, tau), ddq, atol=1e-8)
+
+
+def _numeric_jacobian(f, args, k, h=1e-6):
+    """Central-difference Jacobian of ``f(*args)`` with respect to ``args[k]``."""
+    def at(step):
+        moved = list(args)
+        moved[k] = args[k] + step
+        return f(*moved)
+    return np.stack([(at(h * e) - at(-h * e)) / (2 * h) for e in np.eye(args[k].size)], axis=1)
+
+
+@pytest.mark.parametrize("make", [model_with_terms, coupled_model])
+def test_derivatives_match_finite_differences(make):
+    m = make()
+    q, dq, ddq = m.robot.random_states(3, np.random.default_rng(3))
+    dq += np.sign(dq) * 0.1  # away from the Coulomb step
+    for a, b, c in zip(q, dq, ddq):
+        dtau_dq, dtau_dv = m.derivatives(a, b, c)
+        np.testing.assert_allclose(dtau_dq, _numeric_jacobian(m.inverse_dynamics, (a, b, c), 0), atol=2e-6)
+        np.testing.assert_allclose(dtau_dv, _numeric_jacobian(m.inverse_dynamics, (a, b, c), 1), atol=2e-6)
+        tau = m.inverse_dynamics(a, b, c)
+        fq, fv, ft = m.forward_derivatives(a, b, tau)
+        np.testing.assert_allclose(fq, _numeric_jacobian(m.forward_dynamics, (a, b, tau), 0), atol=1e-5)
+        np.testing.assert_allclose(fv, _numeric_jacobian(m.forward_dynamics, (a, b, tau), 1), atol=1e-5)
+        np.testing.assert_allclose(ft, _numeric_jacobian(m.forward_dynamics, (a, b, tau), 2), atol=1e-5)
+
+
+def test_passive_term_enters_the_position_derivative():
+    robot = load("exo_leg")
+    terms = JointTerms.from_names("fv,passive")
+    theta = standard_parameters(robot, terms)
+    m = IdentifiedModel(robot, terms, theta)
+    q, dq, ddq = robot.random_states(2, np.random.default_rng(4))
+    for a, b, c in zip(q, dq, ddq):
+        np.testing.assert_allclose(m.derivatives(a, b, c)[0],
+                                   _numeric_jacobian(m.inverse_dynamics, (a, b, c), 0), rtol=1e-5, atol=1e-5)
+
+
+@pytest.mark.parametrize("call", [
+    lambda m: m.mass_matrix(np.zeros(3)),
+    lambda m: m.inverse_dynamics(np.zeros((4, 6)), np.zeros((5, 6)), np.zeros((4, 6))),
+    lambda m: m.inverse_dynamics(np.zeros(6), np.zeros((1, 6)), np.zeros(6)),
+    lambda m: m.gravity(np.full(6, np.nan)),
+    lambda m: m.coriolis("abc", np.zeros(6)),
+    lambda m: m.derivatives(np.zeros((2, 2, 6)), np.zeros(6), np.zeros(6)),
+])
+def test_wrong_shapes_are_data_errors(call):
+    from pinid.errors import DataError
+
+    with pytest.raises(DataError):
+        call(model_with_terms())

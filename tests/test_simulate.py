@@ -167,7 +167,7 @@ def test_presets_follow_each_robots_convention():
     np.testing.assert_allclose(np.degrees(tr.q0), [-10.0, -60.0])
     with pytest.raises(SpecError, match="--flip knee: not a joint of the preset"):
         load_trajectory("seed000-2", dp, flip=["knee"])
-    with pytest.raises(SpecError, match="not a trajectory preset"):
+    with pytest.raises(SpecError, match="not a bundled trajectory"):
         load_trajectory("seed000-9", dp)
 
 
@@ -269,7 +269,7 @@ def test_cli_cad_urdf_is_the_perturbed_model(tmp_path):
 
 
 @pytest.mark.parametrize("args, message", [
-    (["--excitation", "seed000-7"], "seed000-7: no such excitation file, and not a trajectory preset"),
+    (["--excitation", "seed000-7"], "seed000-7: no such excitation file, and not a bundled trajectory"),
     (["--urdf", "exo_leg", "--excitation", "seed000-3"], "trajectory takes joint 'knee' to -1.66 rad at t = 0.617 s, outside its URDF limits"),
     (["--excitation", "seed000-1", "-o", "x.txt"], "unknown suffix '.txt', expected .csv or .npz"),
     (["--excitation", "seed000-1", "--coulomb", "1,2,3"], "--coulomb '1,2,3': 3 values for 2 joints"),

@@ -10,9 +10,12 @@ from pinid.model.regressor import JointTerms
 
 def add_robot_arguments(p: argparse.ArgumentParser, *, default: str | None = "exo_leg") -> None:
     """The options every command uses to choose a robot: --urdf, --joints, --lock."""
+    from pinid.model.bundled import EXAMPLE_ROBOTS
+    from pinid.resources import bundled_robots
+
     p.add_argument("--urdf", default=default, required=default is None,
-                   help="URDF file, bundled robot (exo_leg, apal_leg) or example-robot-data name (panda, ur5, "
-                        f"double_pendulum){'' if default is None else f'; default {default}'}")
+                   help=f"URDF file, bundled robot ({', '.join(bundled_robots())}) or example-robot-data name "
+                        f"({', '.join(EXAMPLE_ROBOTS)}){'' if default is None else f'; default {default}'}")
     p.add_argument("--joints", default=None, help="comma-separated active joints (default: all movable, unlocked)")
     p.add_argument("--lock", action="append", default=[], metavar="JOINT=VALUE",
                    help="hold a joint fixed at VALUE [rad or m]; repeatable")
@@ -64,6 +67,22 @@ def terms_from_args(args: argparse.Namespace) -> JointTerms:
         return JointTerms.from_names(args.terms)
     except ValueError as exc:
         raise SpecError(f"--terms: {exc}") from None
+
+
+def add_mapping_arguments(p: argparse.ArgumentParser) -> None:
+    """--mapping and --allow-outside-paths: how to read recordings not in pinid's dataset format."""
+    p.add_argument("--mapping", default=None, metavar="SPEC", help="TOML mapping of the recordings' columns to joints")
+    p.add_argument("--allow-outside-paths", action="store_true",
+                   help="let the mapping spec's [sources.*] paths leave the recording's folder (docs/checks.md)")
+
+
+def mapping_from_args(args: argparse.Namespace):
+    """The MappingSpec of --mapping (None without it), with the --allow-outside-paths choice."""
+    if args.mapping is None:
+        return None
+    from pinid.data.mapping import MappingSpec
+
+    return MappingSpec.load(args.mapping, allow_outside_paths=args.allow_outside_paths)
 
 
 def add_recording_arguments(p: argparse.ArgumentParser) -> None:
@@ -194,3 +213,13 @@ positive_int = _number(int, lambda v: v > 0, "an integer > 0")
 nonnegative_int = _number(int, lambda v: v >= 0, "an integer ≥ 0")
 positive_float = _number(float, lambda v: math.isfinite(v) and v > 0, "a finite number > 0")
 nonnegative_float = _number(float, lambda v: math.isfinite(v) and v >= 0, "a finite number ≥ 0")
+
+
+def wrote_line(paths, folder) -> str:
+    """``wrote N files to FOLDER/: a, b, …`` wrapped to 120 columns (continuation lines indented)."""
+    import textwrap
+    from pathlib import Path
+
+    names = ", ".join(Path(p).name for p in paths)
+    return "\n".join(textwrap.wrap(f"wrote {len(paths)} files to {folder}/: {names}", 120, subsequent_indent="  ",
+                                    break_on_hyphens=False, break_long_words=False))

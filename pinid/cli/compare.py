@@ -8,9 +8,9 @@ import sys
 from pathlib import Path
 
 from pinid.estimators import ESTIMATORS
-from pinid.cli.common import (add_method_arguments, add_preprocessing_arguments, add_recording_arguments,
+from pinid.cli.common import (add_mapping_arguments, add_method_arguments, add_preprocessing_arguments, add_recording_arguments,
                               add_robot_arguments, add_terms_argument, methods_from_args, options_from_args,
-                              preprocess_from_args, rest_velocity_from_args, robot_from_args, terms_from_args)
+                              preprocess_from_args, rest_velocity_from_args, mapping_from_args, robot_from_args, terms_from_args)
 
 HELP = f"compare estimators ({', '.join(ESTIMATORS)}) on the same data, several seeds"
 DESCRIPTION = f"""\
@@ -50,7 +50,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--seeds", type=int, default=5, help="seeds per metaheuristic (0 … N−1); default 5")
     p.add_argument("--truth", default=None, metavar="FILE",
                    help="truth JSON of pinid simulate: report the error against the true base parameters")
-    p.add_argument("--mapping", default=None, metavar="SPEC", help="TOML mapping of the recordings' columns to joints")
+    add_mapping_arguments(p)
     p.add_argument("-o", "--output", default="results", metavar="FOLDER", help="output folder; default results/")
     p.add_argument("--no-plots", action="store_true", help="do not write the figures")
     g = p.add_argument_group(f"metaheuristics ({', '.join(m for m, c in ESTIMATORS.items() if not c.deterministic)})")
@@ -92,10 +92,10 @@ def _settings(args) -> tuple[dict, dict]:
 def run(args: argparse.Namespace) -> int:
     from pinid.identification.compare import compare
     from pinid.errors import SpecError
-    from pinid.io import check_all_writable, check_writable, write_text
+    from pinid.io import Artefacts, check_outputs
 
     out = Path(args.output)
-    check_writable(out / "comparison.json")
+    check_outputs(out / "comparison.json", out / "comparison.md")  # before the work, creating nothing
     if args.seeds < 1:
         raise SpecError(f"--seeds {args.seeds}: expected at least 1")
     methods = methods_from_args(args)
@@ -119,7 +119,7 @@ def run(args: argparse.Namespace) -> int:
     print(f"comparing on {model.name} ({', '.join(model.joint_names)}): {args.methods}; seeds {args.seeds}"
           + ("; segmental" if segmental else ""))
     comp = compare(model, args.data, validate or None, methods=methods, seeds=args.seeds, truth=args.truth,
-                   terms=terms, options=options, metaheuristic=meta, segmental=segmental, mapping=args.mapping,
+                   terms=terms, options=options, metaheuristic=meta, segmental=segmental, mapping=mapping_from_args(args),
                    preprocess=preprocess_from_args(args), rest_velocity=rest_velocity_from_args(args.rest_velocity),
                    show_progress=None)
     table, values = comp.table(), comp.values_table()
@@ -135,13 +135,15 @@ def run(args: argparse.Namespace) -> int:
     md = (f"# Comparison on {model.name}\n\n```\n{command}\n```\n\n```\n{table}\n```\n\nIdentified base parameters "
           f"(mean ± spread over the seeds):\n\n```\n{values}\n```\n"
           + "".join(f"\n![{name}]({name})\n" for name in figs))
-    check_all_writable([out / name for name in ["comparison.json", "comparison.md", *figs]])  # before any write
-    written = [comp.save(out / "comparison.json"), write_text(out / "comparison.md", md)]
+    arts = Artefacts()  # all or nothing
+    arts.add(out / "comparison.json", lambda p: comp.save(p))
+    arts.add(out / "comparison.md", md)
     if figs:
         from pinid.report.figures import save_figure
 
         for name, fig in figs.items():
-            save_figure(fig, out / name)
-            written.append(out / name)
+            arts.add(out / name, lambda p, fig=fig: save_figure(fig, p))
+    arts.clean(out, ["comparison.json", "comparison.md", "compare_*.png"])  # an earlier run's, with --force
+    written = arts.write()
     print(f"\nwrote {len(written)} files to {out}/: " + ", ".join(Path(p).name for p in written))
     return 0

@@ -3,26 +3,49 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
+import os
+import shutil
+import tempfile
+import time
+from collections.abc import Iterator
+from pathlib import Path
 
 from pinid.cli.common import seed_int
-import time
 
 HELP = "run the whole loop on the bundled exoskeleton leg: excite, simulate, identify, validate, track"
-DESCRIPTION = """\
-Runs every step of pinid on urdf/exo_leg.urdf with its embedded defaults, exactly as the separate
-commands would (each step prints what it does):
 
-  1. pinid excite    design the Fourier excitation under seed 001's Table 2 limits (a short
-                     search, --starts 8 --option polish=1; the default search takes half a minute)
-  2. pinid simulate  record 60 s of the twin following it (training) and 30 s of the twin following
-                     a DIFFERENT trajectory — seed 001's published Table 3 excitation (validation)
-  3. pinid identify  every registered estimator, validated on the second recording; identified URDF,
-                     report
-  4. pinid track     backstepping and computed torque on a CAD model (30 % off) vs the identified model
+#: The demo's steps: (title, what it does in the help), in the order run; :func:`steps` gives their commands.
+STEPS: tuple[tuple[str, str], ...] = (
+    ("design the excitation (a short search: 8 starts, 1 polished)",
+     "pinid excite: the Fourier excitation under seed 001's Table 2 limits (the default search of\n"
+     "pinid excite takes half a minute)"),
+    ("record the training run on the twin",
+     "pinid simulate: 60 s of the twin following the designed excitation"),
+    ("record the validation run (seed 001's Table 3 trajectory)",
+     "pinid simulate: 30 s of the twin following a DIFFERENT trajectory, seed 001's published\n"
+     "Table 3 excitation"),
+    ("identify with every estimator, validate, export",
+     "pinid identify: every registered estimator, validated on the second recording; identified\n"
+     "URDFs, report.md and report.html (-v prints every method's detail)"),
+    ("track with a CAD model (inertia 30 % off, no friction) and with the identified model",
+     "pinid track: backstepping and computed torque on a CAD model (30 % off) vs the identified model"),
+)
+
+
+def _description() -> str:
+    listed = "\n".join(f"  {i}. {title}\n" + "\n".join(f"       {line}" for line in detail.splitlines())
+                       for i, (title, detail) in enumerate(STEPS, 1))
+    return f"""\
+Runs every step of pinid on urdf/exo_leg.urdf with its embedded defaults, exactly as the separate
+commands would; each step prints its number, its title and its command:
+
+{listed}
 
 Reads only what ships with pinid.  Writes into FOLDER (default demo/): excitation.json / .png / .csv,
 train.csv, validate.csv (+ .truth.json each), identification/ (identification.json, model_*.json,
-identified_*.urdf, report.md, figures), track/ (tracking.json, figures).  Takes about a minute.
+identified_*.urdf, report.md, report.html, figures), track/ (tracking.json, figures).  Takes about
+half a minute.
 
 example:
   pinid demo
@@ -30,55 +53,95 @@ example:
 """
 
 
+DESCRIPTION = _description()
+
+
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("-o", "--output", default="demo", metavar="FOLDER", help="output folder; default demo/")
     p.add_argument("--seed", type=seed_int, default=1, help="random seed of the recordings; default 1")
     p.add_argument("--methods", default=None,
                    help="estimators to run (default: every registered one, see pinid identify --help)")
+    p.add_argument("-v", "--verbose", action="store_true",
+                   help="print every method's detail in the identify step (pinid identify --verbose)")
 
 
-def steps(out: str, seed: int, methods: str) -> list[tuple[str, list[str]]]:
+def steps(out: str, seed: int, methods: str, verbose: bool = False) -> list[tuple[str, list[str]]]:
     """The demo as a list of (title, pinid command line)."""
-    from pinid.excitation.design import bundled_spec_path  # noqa: F401 - the spec ships with pinid
-    from pinid.model.bundled import BUNDLED_URDF_DIR
-
-    table3 = str(BUNDLED_URDF_DIR.parent / "excitation" / "seed001_table3.json")
-    return [
-        ("design the excitation (a short search: 8 starts, 1 polished)", [
+    table3 = "seed001_table3"  # ships with pinid (pinid.resources.bundled_trajectories)
+    commands = [
+        [
             "excite", "--urdf", "exo_leg", "--starts", "8", "--option", "polish=1", "-o", f"{out}/excitation.json",
-            "--plot", f"{out}/excitation.png", "--csv", f"{out}/excitation.csv"]),
-        ("record the training run on the twin", ["simulate", "--urdf", "exo_leg", "--excitation",
-                                                 f"{out}/excitation.json", "--seconds", "60", "--seed", str(seed),
-                                                 "-o", f"{out}/train.csv"]),
-        ("record the validation run (seed 001's Table 3 trajectory)",
-         ["simulate", "--urdf", "exo_leg", "--excitation", table3, "--seconds", "30", "--seed", str(seed + 1),
-          "-o", f"{out}/validate.csv"]),
-        ("identify with every estimator, validate, export", [
+            "--plot", f"{out}/excitation.png", "--csv", f"{out}/excitation.csv"],
+        ["simulate", "--urdf", "exo_leg", "--excitation", f"{out}/excitation.json", "--seconds", "60", "--seed",
+         str(seed), "-o", f"{out}/train.csv"],
+        ["simulate", "--urdf", "exo_leg", "--excitation", table3, "--seconds", "30", "--seed", str(seed + 1),
+         "-o", f"{out}/validate.csv"],
+        [
             "identify", "--urdf", "exo_leg", "--data", f"{out}/train.csv", "--validate", f"{out}/validate.csv",
-            "--methods", methods, "-o", f"{out}/identification"]),
-        ("track with a CAD model (inertia 30 % off, no friction) and with the identified model", [
-            "track", "--urdf-true", "exo_leg", "--model", "cad:30",
-            "--model", f"{out}/identification/identification.json", "--seconds", "6", "-o", f"{out}/track"]),
+            "--methods", methods, "-o", f"{out}/identification"] + (["--verbose"] if verbose else []),
+        ["track", "--urdf-true", "exo_leg", "--model", "cad:30", "--model", f"{out}/identification/identification.json",
+         "--seconds", "6", "-o", f"{out}/track"],
     ]
+    return [(title, argv) for (title, _), argv in zip(STEPS, commands, strict=True)]
 
 
 def run(args: argparse.Namespace) -> int:
+    from pinid.cli.common import methods_from_args
     from pinid.cli.main import build_parser
     from pinid.estimators import ESTIMATORS
-    from pinid.io import check_writable
+    from pinid.io import check_outputs
 
-    check_writable(f"{args.output}/excitation.json")
-    methods = args.methods or ",".join(ESTIMATORS)
+    check_outputs(f"{args.output}/excitation.json")  # before the work, creating nothing
+    methods = ",".join(methods_from_args(args)) if args.methods else ",".join(ESTIMATORS)
     parser = build_parser()
     started = time.perf_counter()
-    plan = steps(args.output, args.seed, methods)
-    for i, (title, argv) in enumerate(plan, 1):
-        print(f"\n[{i}/{len(plan)}] {title}: pinid {' '.join(argv)}", flush=True)
-        sub = parser.parse_args(argv)
-        sub._run(sub)  # errors propagate: the demo stops at the first failing step
+    plan = steps(args.output, args.seed, methods, args.verbose)
+    with all_or_nothing(Path(args.output), replace=args.force):
+        for i, (title, argv) in enumerate(plan, 1):
+            print(f"\n[{i}/{len(plan)}] {title}\n$ pinid {' '.join(argv)}", flush=True)
+            sub = parser.parse_args(argv)
+            sub._run(sub)  # errors propagate: the demo stops at the first failing step
     print(f"\ndemo finished in {time.perf_counter() - started:.0f} s; everything is in {args.output}/:\n"
           f"  {args.output}/excitation.json, excitation.png   the designed excitation\n"
           f"  {args.output}/train.csv, validate.csv           the twin's recordings (+ .truth.json)\n"
-          f"  {args.output}/identification/report.md          identification report, figures, identified URDFs\n"
+          f"  {args.output}/identification/report.html        identification report (also report.md), figures,\n"
+          f"                                                  identified URDFs\n"
           f"  {args.output}/track/tracking.json               closed-loop tracking, figures")
     return 0
+
+
+#: What the demo writes in its folder (with --force, an earlier run's copies are replaced as one set).
+OUTPUTS = ("excitation.json", "excitation.png", "excitation.csv", "train.csv", "train.truth.json", "validate.csv",
+           "validate.truth.json", "identification", "track")
+
+
+@contextlib.contextmanager
+def all_or_nothing(out: Path, *, replace: bool) -> Iterator[None]:
+    """The demo's folder all or nothing: after an error or an interrupt (SIGINT, SIGTERM) inside the block,
+    ``out`` is as it was before — no new file, no empty folder, and with ``replace`` (--force) the earlier
+    run's outputs back in place.  On success, files of ``out`` that are not demo outputs are kept."""
+    existed = out.is_dir()
+    backup = None
+    if replace and existed:  # the earlier run's folder is set aside whole, and put back on failure
+        backup = Path(tempfile.mkdtemp(prefix=".pinid-demo-", dir=out.parent))
+        os.replace(out, backup / "old")
+        out.mkdir()
+    before = set(out.rglob("*")) if out.is_dir() else set()
+    try:
+        yield
+    except BaseException:
+        if backup is not None or not existed:
+            shutil.rmtree(out, ignore_errors=True)
+        else:
+            for p in sorted(set(out.rglob("*")) - before, key=lambda p: len(p.parts), reverse=True):
+                with contextlib.suppress(OSError):
+                    p.rmdir() if p.is_dir() else p.unlink()
+        if backup is not None:
+            os.replace(backup / "old", out)
+            shutil.rmtree(backup, ignore_errors=True)
+        raise
+    if backup is not None:  # keep what the user had there that is not a demo output
+        for p in (backup / "old").iterdir():
+            if p.name not in OUTPUTS and not (out / p.name).exists():
+                os.replace(p, out / p.name)
+        shutil.rmtree(backup, ignore_errors=True)

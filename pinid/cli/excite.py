@@ -57,12 +57,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--torque-limits", action="store_true",
                    help="also keep |torque| (nominal URDF parameters) within the URDF's effort limits")
     o = p.add_argument_group("optimiser")
-    o.add_argument("--optimizer", default="slsqp",
+    o.add_argument("--optimizer", default=None,
                    help="slsqp (gradient-based multistart, default), pso, woa, ewoa or de")
-    o.add_argument("--seed", type=seed_int, default=0, help="random seed (default 0): the same seed gives the same result")
-    o.add_argument("--population", type=int, help="population of pso/woa/ewoa/de (default 100)")
-    o.add_argument("--iterations", type=int, help="iterations of pso/woa/ewoa/de (default 200)")
-    o.add_argument("--starts", type=int, help="local searches of slsqp (default 128 up to 4 joints, 12 above)")
+    o.add_argument("--seed", type=seed_int, default=None, help="random seed (default 0): the same seed gives the same result")
+    o.add_argument("--population", type=positive_int, help="population of pso/woa/ewoa/de (default 100)")
+    o.add_argument("--iterations", type=positive_int, help="iterations of pso/woa/ewoa/de (default 200)")
+    o.add_argument("--starts", type=positive_int, help="local searches of slsqp (default 128 up to 4 joints, 12 above)")
     o.add_argument("--option", action="append", default=[], metavar="KEY=VALUE",
                    help="any other optimiser setting, e.g. --option w_min=0.3; repeatable")
     out = p.add_argument_group("output")
@@ -143,6 +143,15 @@ def run(args: argparse.Namespace) -> int:
     from pinid.model.regressor import JointTerms
     from pinid.excitation.trajectory import FourierTrajectory
 
+    if args.evaluate:  # it designs nothing: an optimiser's option would silently do nothing
+        given = [flag for flag, v in (("--optimizer", args.optimizer), ("--seed", args.seed),
+                                      ("--population", args.population), ("--iterations", args.iterations),
+                                      ("--starts", args.starts), ("--option", args.option or None)) if v is not None]
+        if given:
+            raise SpecError(f"{', '.join(given)}: no effect with --evaluate (it designs nothing, it evaluates "
+                            f"{args.evaluate}); expected none of the optimiser's options")
+    args.optimizer = args.optimizer or "slsqp"
+    args.seed = 0 if args.seed is None else args.seed
     name = args.optimizer.lower()
     if name not in design_optimizers():
         raise SpecError(f"--optimizer {args.optimizer!r}: expected one of {', '.join(design_optimizers())}")
@@ -182,7 +191,7 @@ def run(args: argparse.Namespace) -> int:
         f"offsets {'optimised' if spec.optimize_offsets else 'fixed'}, terms {','.join(spec.terms.names) or 'none'}"
         + (f", margin {spec.margin:g}" if spec.margin else ""))
     if args.evaluate:
-        traj = FourierTrajectory.load(args.evaluate)
+        traj = FourierTrajectory.load(args.evaluate).for_joints(model.joint_names, model.name)
         spec.validate(model)
         started = time.perf_counter()
         ev = evaluate_trajectory(model, traj, spec)
@@ -216,9 +225,7 @@ def run(args: argparse.Namespace) -> int:
 
 def _plan(args, output, traj, spec, say, report):
     """The outputs of one run as one :class:`~pinid.io.Artefacts` (plot, CSV, JSON: all or nothing)."""
-    import json
-
-    from pinid.io import Artefacts, jsonable
+    from pinid.io import Artefacts, json_text
 
     arts = Artefacts()
     if args.plot:
@@ -234,7 +241,7 @@ def _plan(args, output, traj, spec, say, report):
     if args.csv:
         arts.add(args.csv, lambda p: traj.to_csv(p, args.rate, args.periods * traj.period))
     if output:
-        arts.add(output, lambda p: p.write_text(json.dumps(jsonable(report), indent=2, allow_nan=False) + "\n"))
+        arts.add(output, json_text(report))
     return arts
 
 

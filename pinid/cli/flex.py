@@ -204,12 +204,11 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _check(args) -> int:
-    from pinid.io import check_writable, write_json
-    from pinid.io import jsonable
+    from pinid.io import Artefacts, check_outputs, json_text
     from pinid.flexible.output_error import classify, problem_from_spec, sensitivity
 
     if args.json:
-        check_writable(args.json)
+        check_outputs(args.json)
     spec = _spec(args)
     rec = _recording(args, spec)
     prob = problem_from_spec(spec, rec)
@@ -229,18 +228,24 @@ def _check(args) -> int:
         flag = classify(rs)
         print(f"  {n:<16} [{lo:>9.4g}, {hi:>9.4g}]  rel. std {100 * rs:>10.3g} %  {flag}")
     if args.json:
-        write_json(args.json, jsonable({"spec": spec.to_dict(), "step": prob.step, "sensitivity": sens}))
+        arts = Artefacts()
+        arts.add(args.json, json_text({"spec": spec.to_dict(), "step": prob.step, "sensitivity": sens}))
+        arts.write()
         print(f"wrote {args.json}")
     return 0
 
 
 def _twin(args) -> int:
     from pinid.errors import SpecError
-    from pinid.io import check_writable
+    from dataclasses import replace
+
+    from pinid.io import Artefacts, json_text
     from pinid.flexible.output_error import make_twin
 
-    check_writable(args.out, overwrite=args.force)
-    check_writable(str(args.out) + ".json", overwrite=True)
+    arts = Artefacts()  # the recording and its truth, all or nothing; checked before the work
+    arts.add(args.out, lambda p: replace(rec, meta={}).save(p))
+    arts.add(str(args.out) + ".json", lambda p: p.write_text(json_text(rec.meta), encoding="utf-8"))
+    arts.check()
     spec = _spec(args)
     noise = spec.fit.noise if args.noise is None else args.noise
     if noise < 0:
@@ -249,19 +254,17 @@ def _twin(args) -> int:
     rec = make_twin(spec.model(), spec.input, noise=noise, rng=seed, motor=not args.no_motor)
     rec.meta["spec"] = str(spec.source)
     rec.meta["seed"] = seed
-    rec.save(args.out)
+    arts.write()
     print(f"wrote {args.out} ({rec.n} samples at {1 / rec.dt:g} Hz, noise {noise:g} rad, seed {seed}) "
           f"and {args.out}.json (truth)")
     return 0
 
 
 def _fit(args) -> int:
-    from pinid.io import check_writable
+    from pinid.io import Artefacts, check_outputs
     from pinid.flexible.output_error import LEAST_SQUARES, fit_output_error, problem_from_spec
 
-    check_writable(args.out, overwrite=args.force)
-    if args.plot:
-        check_writable(args.plot, overwrite=args.force)
+    check_outputs(args.out, *([args.plot] if args.plot else []))  # before the work, creating nothing
     spec = _spec(args)
     method, options, seed = _fit_options(args, spec)
     rec = _recording(args, spec)
@@ -273,8 +276,8 @@ def _fit(args) -> int:
     res.extra["recording"] = rec.source
     res.extra["spec"] = spec.source
     _print_result(res)
-    res.save(args.out)
-    print(f"wrote {args.out}")
+    arts = Artefacts()
+    arts.add(args.out, lambda p: res.save(p))
     if args.plot:
         from pinid.report.figures import save_figure
         from pinid.report.plot_flexible import plot_angles
@@ -282,18 +285,16 @@ def _fit(args) -> int:
         sim = prob.simulate(res.x).q[0]
         fig = plot_angles(rec.t, prob.recording.q, {prob.label: sim}, prob.model.joint_names,
                           title=f"{prob.label} model, {method}")
-        save_figure(fig, args.plot)
-        print(f"wrote {args.plot}")
+        arts.add(args.plot, lambda p: save_figure(fig, p))
+    print("wrote " + " and ".join(map(str, arts.write())))
     return 0
 
 
 def _compare(args) -> int:
-    from pinid.io import check_writable, write_json
+    from pinid.io import Artefacts, check_outputs, json_text
     from pinid.flexible.output_error import compare_rigid_flexible
 
-    check_writable(args.out, overwrite=args.force)
-    if args.plot:
-        check_writable(args.plot, overwrite=args.force)
+    check_outputs(args.out, *([args.plot] if args.plot else []))  # before the work, creating nothing
     spec = _spec(args)
     method, options, seed = _fit_options(args, spec)
     if args.cost or args.outputs:
@@ -308,15 +309,15 @@ def _compare(args) -> int:
     f, r = out["flexible"], out["rigid"]
     print("RMS angle error [mrad]: " + "; ".join(
         f"{j}: flexible {1e3 * f.metrics[j]['rms']:.4g}, rigid {1e3 * r.metrics[j]['rms']:.4g}" for j in f.metrics))
-    write_json(args.out, {"recording": rec.source, "spec": spec.source,
-                          "flexible": f.to_dict(), "rigid": r.to_dict()})
-    print(f"wrote {args.out}")
+    arts = Artefacts()
+    arts.add(args.out, json_text({"recording": rec.source, "spec": spec.source,
+                                  "flexible": f.to_dict(), "rigid": r.to_dict()}))
     if args.plot:
         from pinid.report.figures import save_figure
         from pinid.report.plot_flexible import plot_angles
 
         fig = plot_angles(out["t"], out["measured"], out["simulated"], spec.robot.joint_names,
                           title="rigid vs flexible joints (seed 003 Figs. 6-7)")
-        save_figure(fig, args.plot)
-        print(f"wrote {args.plot}")
+        arts.add(args.plot, lambda p: save_figure(fig, p))
+    print("wrote " + " and ".join(map(str, arts.write())))
     return 0

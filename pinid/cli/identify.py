@@ -7,10 +7,10 @@ from pathlib import Path
 
 import numpy as np
 
-from pinid.cli.common import (add_method_arguments, add_preprocessing_arguments, add_recording_arguments,
+from pinid.cli.common import (add_mapping_arguments, add_method_arguments, wrote_line, add_preprocessing_arguments, add_recording_arguments,
                               add_robot_arguments, add_terms_argument, methods_from_args, nonnegative_float,
                               options_from_args, positive_int, preprocess_from_args, rest_velocity_from_args,
-                              robot_from_args, terms_from_args)
+                              mapping_from_args, robot_from_args, terms_from_args)
 
 HELP = "identify dynamic parameters from recordings (OLS, WLS, physically consistent LMI), validate, export"
 DESCRIPTION = """\
@@ -27,7 +27,10 @@ into the output folder (-o, default results/):
                            unless --force-export)
   identified_<method>_drives.toml  with motor terms: the drives with the identified motor friction,
                            offset and rotor inertia (URDF has no field for them; read back with --drives)
-  report.md, *.png         a readable report with the figures
+  report.md, report.html   a readable report: summary table, robot and data, the excitation (training
+                           motion), per-method sections, base and link parameters; the HTML page is
+                           the same text with its figures embedded (one file, opens without a server)
+  errors.png, training_motion.png, torque_<method>.png   the report's figures
 
 Rows where a joint is nearly at rest are left out of the fit when Coulomb friction is in the model
 (--rest-velocity).  Methods: ols (least squares), wls (each joint weighted by 1/its residual
@@ -45,7 +48,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     add_terms_argument(p)
     add_recording_arguments(p)
     add_method_arguments(p, "ols,wls,sdp")
-    p.add_argument("--mapping", default=None, metavar="SPEC", help="TOML mapping of the recordings' columns to joints")
+    add_mapping_arguments(p)
     p.add_argument("-o", "--output", default="results", metavar="FOLDER", help="output folder; default results/")
     add_preprocessing_arguments(p)
     g = p.add_argument_group("estimation")
@@ -68,11 +71,20 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                         "(the tables decide only what the data cannot see)")
     g.add_argument("--no-passive", action="store_true",
                    help="--stage wearer: do not identify the passive-moment scale factors (keep none)")
+    p.add_argument("-v", "--verbose", action="store_true",
+                   help="also print every method's base parameters (value, std, std %%) and torque error per joint "
+                        "(without it: the summary table; the detail is in report.md/report.html)")
     p.add_argument("--force-export", action="store_true",
                    help="also write identified URDFs of physically inconsistent results")
-    p.add_argument("--no-report", action="store_true", help="do not write report.md and the figures")
+    g = p.add_argument_group("drive gains (the recordings hold currents: docs/drives.md#drive-gains-from-currents)")
+    g.add_argument("--payload", default=None, metavar="TOML",
+                   help="the known payload (link, mass [kg], com [m], inertia [kg·m²]) fixed for --payload-data")
+    g.add_argument("--payload-data", action="append", default=None, metavar="FILE",
+                   help="recording with the payload; with --payload, the drive gains are identified first and "
+                        "the currents of every recording turned into torques; repeatable")
+    p.add_argument("--no-report", action="store_true", help="do not write report.md, report.html and the figures")
     p.add_argument("--no-figures", action="store_true",
-                   help="write report.md without its figures (faster: matplotlib is not loaded)")
+                   help="write report.md and report.html without figures (faster: matplotlib is not loaded)")
 
 
 def _options(args, methods) -> dict:
@@ -101,30 +113,32 @@ def _options(args, methods) -> dict:
 
 
 def print_result(r) -> None:
-    """One method's table: base parameters with standard deviations, then torque metrics."""
+    """One method's detail (``--verbose``): base parameters with standard deviations, then torque metrics."""
+    from pinid.report.text import text_table
+
     flag = "physically consistent" if r.physically_consistent else "NOT physically consistent"
     print(f"\n== {r.method}: {r.description}")
     print(f"   {flag} ({r.standard_source}); cond(W_b) {r.condition_number:.4g}; {r.seconds:.3f} s; status {r.status}")
     if not r.physically_consistent:
         for prob in (r.consistency.get("problems") or [])[:4]:
             print(f"   - {prob}")
-    width = max(len(n) for n in r.base_names)
-    print(f"   {'parameter':<{width}} {'value':>13} {'std':>11} {'std %':>9}")
-    for n, v, s, sp in zip(r.base_names, r.base, r.std, r.std_percent):
-        sp_text = f"{sp:9.3g}" if np.isfinite(sp) else f"{'inf':>9}"
-        print(f"   {n:<{width}} {v:13.6g} {s:11.3g} {sp_text}")
+    rows = [[n, f"{v:.6g}", f"{s:.3g}", f"{sp:.3g}" if np.isfinite(sp) else "inf"]
+            for n, v, s, sp in zip(r.base_names, r.base, r.std, r.std_percent)]
+    print(text_table(["parameter", "value", "std", "std %"], rows, indent="   "))
     for kind, m in (("train", r.train), ("validation", r.validation)):
-        if m is None:
-            continue
-        print(f"   {kind}: {'joint':<18}{'RMS':>10}{'RMS %':>9}{'mean ± std |e|':>24}{'max |e|':>10}")
-        for row in m.table():
-            print(f"   {'':<{len(kind) + 2}}{row[0]:<18}{row[1]:>10}{row[2]:>9}{row[3]:>24}{row[4]:>10}")
+        if m is not None:
+            print(f"   {kind}:")
+            print(text_table(["joint", "RMS", "RMS %", "mean ± std |e|", "max |e|"], m.table(), indent="   "))
 
 
 def run(args: argparse.Namespace) -> int:
-    from pinid.errors import SpecError
+    import sys
+
+    from pinid.errors import ModelError, SpecError
     from pinid.identification.core import identify
     from pinid.io import Artefacts
+    from pinid.report.markdown import REPORT_FILES, summary_table
+    from pinid.report.text import text_table
 
     out = Path(args.output)
     early = Artefacts()
@@ -140,34 +154,47 @@ def run(args: argparse.Namespace) -> int:
     print(f"identifying {model.name} ({', '.join(model.joint_names)}) with {', '.join(methods)}; "
           f"terms {', '.join(terms.names) or 'none'}")
     ident = identify(
-        model, args.data, methods=methods, validate=args.validate or None, terms=terms, mapping=args.mapping,
+        model, args.data, methods=methods, validate=args.validate or None, terms=terms, mapping=mapping_from_args(args),
         preprocess=preprocess_from_args(args), rest_velocity=rest_velocity_from_args(args.rest_velocity),
         options=options_from_args(args, _options(args, methods)), show_progress=None,
+        payload=args.payload, payload_data=args.payload_data,
     )
     d = ident.data
+    if "drive_gains" in d:
+        g = d["drive_gains"]
+        print("drive gains [N·m per unit of the recorded channel]: " + ", ".join(
+            f"{j} {k:.6g} ± {s:.2g}" for j, k, s in zip(g["joints"], g["gains"], g["std"])))
     print(f"training: {d['samples']} samples from {len(d['sources'])} recording(s), {d['rows']} torque rows used"
           + (f"; validation: {len(ident.validation_sources)} recording(s)" if ident.validation_sources else ""))
-    for r in ident:
-        print_result(r)
+    if args.verbose:
+        for r in ident:
+            print_result(r)
+        print()
+    header, rows = summary_table(ident, bold=lambda text: text)
+    print(text_table(header, rows))
     # everything is computed before any file is written
     urdfs, drives, refused = {}, {}, []
     for m, r in ident.results.items():
         if r.physically_consistent or args.force_export:
-            urdfs[m] = r.export_urdf(force=args.force_export)
+            try:
+                urdfs[m] = r.export_urdf(force=args.force_export)
+            except ModelError as exc:  # consistent within tolerance, yet not a URDF pinid reads back
+                print(f"pinid identify: warning: no URDF for {m}: {exc}", file=sys.stderr)
+                refused.append(m)
+                continue
             text = r.model.export_drives()
             if text is not None:
                 drives[m] = text
         else:
             refused.append(m)
     models = {m: r.model.to_dict() for m, r in ident.results.items()}
-    figs = None
+    report = {}
     if not args.no_report:
-        from pinid.report.markdown import figure_names, make_figures, report_markdown
+        from pinid.report.markdown import report_files
 
-        figs = {} if args.no_figures else make_figures(ident)
-        names = figure_names(ident)
-        report = report_markdown(ident, {k: names[k] for k in figs})
-    as_json = _as_json
+        report = report_files(ident, figures=not args.no_figures)
+    from pinid.io import json_text as as_json
+
     arts = Artefacts()  # all or nothing: checked, written to a temporary folder, moved into place
     arts.add(out / "identification.json", as_json(ident.to_dict()))
     for m, dm in models.items():
@@ -176,41 +203,30 @@ def run(args: argparse.Namespace) -> int:
         arts.add(out / f"identified_{m}.urdf", text)
     for m, text in drives.items():
         arts.add(out / f"identified_{m}_drives.toml", text)
-    if figs is not None:
-        from pinid.report.figures import save_figure
-
-        for key, fig in figs.items():
-            arts.add(out / names[key], lambda p, fig=fig: save_figure(fig, p))
-        arts.add(out / "report.md", report)
+    for name, content in report.items():
+        arts.add(out / name, content)
     # a --force re-run into an earlier run's folder leaves none of that run's outputs behind
     arts.clean(out, ["identification.json", "model_*.json", "identified_*.urdf", "identified_*_drives.toml",
-                     "report.md", "report.html", "torque_*.png", "errors.png"])
+                     *REPORT_FILES])
     written = arts.write()
     print(f"\nbest: {ident.best}" + (f"; no URDF for inconsistent result(s) {', '.join(refused)} "
                                        "(--force-export writes them)" if refused else ""))
-    print(f"wrote {len(written)} files to {out}/: " + ", ".join(p.name for p in written))
+    print(wrote_line(written, out))
     return 0
-
-
-def _as_json(obj) -> str:
-    import json
-
-    from pinid.io import jsonable
-
-    return json.dumps(jsonable(obj), indent=2, allow_nan=False) + "\n"
 
 
 def _run_wearer(args: argparse.Namespace, out: Path) -> int:
     """Stage 2: the wearer of ``--urdf`` identified with the exoskeleton fixed to ``--exo``."""
     from pinid.identification.problem import load_datasets
-    from pinid.io import Artefacts
+    from pinid.io import Artefacts, json_text
     from pinid.wearer.prior import MASS_RANGE
     from pinid.wearer.stage import identify_wearer, stack
 
     robot = robot_from_args(args)
     pre = preprocess_from_args(args)
-    train = load_datasets(args.data, robot, args.mapping, pre, "training")
-    val = load_datasets(args.validate or None, robot, args.mapping, pre, "validation")
+    mapping = mapping_from_args(args)
+    train = load_datasets(args.data, robot, mapping, pre, "training")
+    val = load_datasets(args.validate or None, robot, mapping, pre, "validation")
     fit = identify_wearer(args.exo, robot, *stack(train), passive=not args.no_passive,
                           mass_range=MASS_RANGE if args.mass_range is None else args.mass_range,
                           prior_weight=args.prior_weight)
@@ -226,9 +242,9 @@ def _run_wearer(args: argparse.Namespace, out: Path) -> int:
             print(f"   {kind.replace('_', ' ')} [N·m]: " + "; ".join(
                 f"{w} " + ", ".join(f"{j} {v:.4g}" for j, v in r.items()) for w, r in result[kind].items()))
     arts = Artefacts()
-    arts.add(out / "identification.json", _as_json(result))
-    arts.add(out / "model_wearer.json", _as_json(fit.model("identified").to_dict()))
-    arts.add(out / "model_table.json", _as_json(fit.model("table").to_dict()))
+    arts.add(out / "identification.json", json_text(result))
+    arts.add(out / "model_wearer.json", json_text(fit.model("identified").to_dict()))
+    arts.add(out / "model_table.json", json_text(fit.model("table").to_dict()))
     written = arts.write()
-    print(f"wrote {len(written)} files to {out}/: " + ", ".join(p.name for p in written))
+    print(wrote_line(written, out))
     return 0

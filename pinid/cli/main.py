@@ -12,6 +12,7 @@ re-raises it with its traceback).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
 import os
 import sys
@@ -44,6 +45,11 @@ def build_parser() -> argparse.ArgumentParser:
         prog="pinid",
         description="Identify the rigid-body dynamics of a robot from its URDF and measured data.",
         formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog="Every command takes --force (replace existing outputs) and --progress/--no-progress: long work\n"
+               "(excitation design, metaheuristics, compare, flex) shows a progress bar on stderr when it is a\n"
+               "terminal, and otherwise (CI, logs, pipes) a line every 5 s and one at the end; --no-progress shows\n"
+               "none.  PINID_PROGRESS=1 or 0 overrides both, from Python too (where the default is a bar on a\n"
+               "terminal only).",
     )
     from pinid import __version__
 
@@ -58,8 +64,21 @@ def build_parser() -> argparse.ArgumentParser:
         mod.add_arguments(p)
         if not any("--force" in a.option_strings for a in p._actions):
             p.add_argument("--force", action="store_true", help="overwrite output files that already exist")
+        _add_progress_argument(p)
         p.set_defaults(_run=mod.run)
     return parser
+
+
+def _add_progress_argument(p: argparse.ArgumentParser) -> None:
+    """--progress/--no-progress on a command, or on each action of a command that has actions (pinid flex)."""
+    actions = [a for a in p._actions if isinstance(a, argparse._SubParsersAction)]
+    if actions:
+        for child in actions[0].choices.values():
+            _add_progress_argument(child)
+        return
+    p.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
+                   help="progress of long work on stderr: a bar on a terminal, otherwise a line every few seconds "
+                        "(default); --no-progress: none")
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -72,11 +91,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     from pinid.io import OVERWRITE
 
     OVERWRITE.set(bool(getattr(args, "force", False)))  # the CLI never replaces a file unless told to
+    from pinid.progress import MODE
+
+    token = MODE.set("auto" if getattr(args, "progress", None) is None else args.progress)
     from pinid.blas import cli_blas_threads
 
     _sigterm_as_interrupt()
     try:
-        with cli_blas_threads():  # one BLAS thread unless the user set a count (pinid/blas.py)
+        with cli_blas_threads(), _one_line_warnings(args.command):
             return int(args._run(args) or 0)
     except PinidError as exc:
         print(f"pinid {args.command}: error: {exc}", file=sys.stderr)
@@ -98,6 +120,21 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"pinid {args.command}: internal error: {type(exc).__name__}: {message}{at} "
               "(a bug: please report it; PINID_DEBUG=1 shows the traceback)", file=sys.stderr)
         return 1
+    finally:
+        MODE.reset(token)  # main() called from Python leaves no command-line setting behind
+
+
+@contextlib.contextmanager
+def _one_line_warnings(command: str):
+    """Warnings as one line each on stderr, ``pinid COMMAND: warning: …`` (not Python's file:line form)."""
+    import warnings
+
+    def show(message, category, filename, lineno, file=None, line=None):
+        print(f"pinid {command}: warning: {' '.join(str(message).split())}", file=sys.stderr)
+
+    with warnings.catch_warnings():
+        warnings.showwarning = show
+        yield
 
 
 def _sigterm_as_interrupt() -> None:

@@ -3,8 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import sys
-import warnings
 from pathlib import Path
 
 from pinid.cli.common import add_robot_arguments, nonnegative_float, robot_from_args, seed_int
@@ -35,8 +33,11 @@ example:
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     add_robot_arguments(p)
-    p.add_argument("--excitation", required=True, metavar="FILE|PRESET",
-                   help="trajectory JSON (from pinid excite) or a preset: zha2019-1 .. zha2019-4")
+    from pinid.resources import bundled_trajectories
+
+    p.add_argument("--excitation", required=True, metavar="FILE|NAME|PRESET",
+                   help="trajectory JSON (from pinid excite), a bundled one "
+                        f"({', '.join(bundled_trajectories())}) or a preset: zha2019-1 .. zha2019-4")
     p.add_argument("--flip", action="append", default=[], metavar="JOINT",
                    help="negate a preset's angle for JOINT (robot axis opposite to the paper's); repeatable")
     p.add_argument("--seconds", type=float, default=60.0, help="duration [s]; default 60")
@@ -120,7 +121,7 @@ def run(args: argparse.Namespace) -> int:
 
     from pinid.data.formats import write_recording
     from pinid.errors import SpecError
-    from pinid.io import check_writable
+    from pinid.io import Artefacts, check_outputs
     from pinid.simulation.twin import load_trajectory, perturb, save_truth
 
     out = Path(args.output)
@@ -133,10 +134,7 @@ def run(args: argparse.Namespace) -> int:
                + ([Path(args.cad_urdf)] if args.cad_urdf else []))
     if args.true_signals and Path(args.true_signals).suffix.lower() not in (".csv", ".npz"):
         raise SpecError(f"{args.true_signals}: unknown suffix, expected .csv or .npz for --true-signals")
-    if len({p.resolve() for p in targets}) != len(targets):
-        raise SpecError("the recording, truth, true-signals and CAD URDF files must be different paths")
-    for p in targets:
-        check_writable(p)
+    check_outputs(*targets)  # no two on one path, none exists unless --force; creates nothing
     if args.encoder_bits < 0 or args.encoder_bits > 40:
         raise SpecError(f"--encoder-bits {args.encoder_bits}, expected 0 (no quantisation) to 40")
     model = robot_from_args(args)
@@ -160,11 +158,7 @@ def run(args: argparse.Namespace) -> int:
     if args.perturb is not None:
         rng = np.random.default_rng(np.random.SeedSequence([int(args.seed), 1]))
         cad = perturb(model, args.perturb, rng)
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        ds, truth = _simulate(args, model, trajectory, cad, torque_noise, torque_pct)
-    for w in caught:
-        print(f"pinid simulate: warning: {w.message}", file=sys.stderr)
+    ds, truth = _simulate(args, model, trajectory, cad, torque_noise, torque_pct)  # warnings: one line each (main)
     if cad is not None:
         from pinid.model.base import base_parameters
         from pinid.model.regressor import JointTerms, standard_parameters
@@ -179,26 +173,18 @@ def run(args: argparse.Namespace) -> int:
                                     "wearer_standard": {j: w.tolist() for j, w in drawn.items()},
                                     "table_standard": table.tolist()}
     truth["command"] = "pinid simulate " + " ".join(_argv_of(args))
-    written: list[Path] = []
-    try:
-        write_recording(out, ds)
-        written.append(out)
-        save_truth(truth_path, truth)
-        written.append(truth_path)
-        if args.true_signals:
-            write_recording(args.true_signals, truth["signals"])
-            written.append(Path(args.true_signals))
-        if args.cad_urdf:
-            from pinid.model.export import identified_urdf
+    arts = Artefacts()  # all or nothing: written to a temporary folder, moved into place
+    arts.add(out, lambda p: write_recording(p, ds))
+    arts.add(truth_path, lambda p: save_truth(p, truth))
+    if args.true_signals:
+        arts.add(args.true_signals, lambda p: write_recording(p, truth["signals"]))
+    if args.cad_urdf:
+        from pinid.model.export import identified_urdf
 
-            identified_urdf(cad, theta_cad, terms, args.cad_urdf, origin="a CAD model written by pinid simulate",
-                            comment=f"the truth's inertial parameters perturbed by about {args.perturb:g} %, "
-                                    f"seed {args.seed}")
-            written.append(Path(args.cad_urdf))
-    except BaseException:
-        for p in written:
-            p.unlink(missing_ok=True)
-        raise
+        arts.add(args.cad_urdf, lambda p: identified_urdf(
+            cad, theta_cad, terms, p, origin="a CAD model written by pinid simulate",
+            comment=f"the truth's inertial parameters perturbed by about {args.perturb:g} %, seed {args.seed}"))
+    arts.write()
     track = ", ".join(f"{j} {v:.2g}" for j, v in truth["tracking"]["rms_error"].items())
     print(f"wrote {out} ({ds.n} samples at {truth['rates']['sample']} Hz, joints {', '.join(ds.joints)}; "
           f"tracking error rms [rad]: {track})")

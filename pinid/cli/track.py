@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from pinid.cli.common import nonnegative_float, seed_int
+from pinid.cli.common import nonnegative_float, seed_int, wrote_line
 
 HELP = "track a reference on the twin with backstepping / computed torque built on a model"
 DESCRIPTION = """\
@@ -66,13 +66,15 @@ def run(args: argparse.Namespace) -> int:
 
     from pinid.control.controllers import compare_models, load_controller_model
     from pinid.errors import SpecError
-    from pinid.io import check_writable, write_json
+    from pinid.io import Artefacts, check_outputs, json_text
     from pinid.model.robot import RobotModel
     from pinid.excitation.trajectory import FourierTrajectory
+    from pinid.report.text import text_table
 
     out = Path(args.output) if args.output else None
-    if out is not None:
-        check_writable(out / "tracking.json")
+    controllers = tuple(c.strip() for c in args.controller.split(",") if c.strip())
+    if out is not None:  # fail before the work, creating nothing
+        check_outputs(out / "tracking.json", *(out / f"tracking_{c}.png" for c in controllers))
     if not (args.seconds > args.after >= 0):
         raise SpecError(f"--seconds {args.seconds} and --after {args.after}: expected seconds > after >= 0")
     plant = RobotModel.from_urdf(args.urdf_true)
@@ -85,31 +87,31 @@ def run(args: argparse.Namespace) -> int:
 
         plant, _ = draw_wearer(plant, args.seed)
     reference = sine_reference(plant) if args.reference == "sine" else FourierTrajectory.load(args.reference)
-    if reference.joints != plant.joint_names:
-        raise SpecError(f"{args.reference}: joints {reference.joints}, expected {plant.joint_names}")
+    reference = reference.for_joints(plant.joint_names, plant.name)
     specs = args.model or ["nominal"]
     models = {s: load_controller_model(s, plant, friction=not args.no_friction, seed=args.seed) for s in specs}
-    controllers = tuple(c.strip() for c in args.controller.split(",") if c.strip())
     table = compare_models(plant, models, reference, controllers=controllers, seconds=args.seconds,
                            after=args.after, position_noise=args.position_noise, seed=args.seed)
-    print(f"{'controller':<17}{'model':<34}{'joint':<10}{'RMS [mrad]':>11}{'max [mrad]':>11}{'settle [s]':>11}")
+    rows = []
     for c, per_model in table.items():
         for name, entry in per_model.items():
             label = name if name == "nominal" else Path(name).name
             for joint, m in entry["metrics"].items():
                 settle = "never" if not np.isfinite(m["settling_time"]) else f"{m['settling_time']:.2f}"
-                print(f"{c:<17}{label[:33]:<34}{joint:<10}{1e3 * m['rms']:>11.3f}{1e3 * m['max_abs']:>11.3f}"
-                      f"{settle:>11}")
+                rows.append([c, label, joint, f"{1e3 * m['rms']:.3f}", f"{1e3 * m['max_abs']:.3f}", settle])
+    print(text_table(["controller", "model", "joint", "RMS [mrad]", "max [mrad]", "settle [s]"], rows, keys=3))
     if out is not None:
         from pinid.report.figures import save_figure
         from pinid.report.plot_control import tracking_figure
 
-        write_json(out / "tracking.json", {
+        arts = Artefacts()  # all or nothing
+        arts.add(out / "tracking.json", json_text({
             "plant": str(plant.urdf_path), "reference": args.reference, "seconds": args.seconds,
             "after": args.after, "seed": args.seed,
             "results": {c: {n: e["metrics"] for n, e in pm.items()} for c, pm in table.items()},
-        })
+        }))
         for c, pm in table.items():
-            save_figure(tracking_figure({n: e["result"] for n, e in pm.items()}, title=c), out / f"tracking_{c}.png")
-        print(f"wrote {out / 'tracking.json'} and tracking_<controller>.png")
+            fig = tracking_figure({n: e["result"] for n, e in pm.items()}, title=c)
+            arts.add(out / f"tracking_{c}.png", lambda p, fig=fig: save_figure(fig, p))
+        print(wrote_line(arts.write(), out))
     return 0

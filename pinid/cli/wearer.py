@@ -35,11 +35,14 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from pinid.io import check_writable, display_path
+    from pinid.io import Artefacts, display_path
     from pinid.wearer.attach import wearer_links, wearer_urdf
 
-    check_writable(args.output)
-    text = wearer_urdf(args.urdf, args.attach, mass=args.mass, height=args.height, sex=args.sex, path=args.output)
+    arts = Artefacts()  # checked before the work, written all or nothing
+    arts.add(args.output, lambda p: p.write_text(text, encoding="utf-8"))
+    arts.check()
+    text = wearer_urdf(args.urdf, args.attach, mass=args.mass, height=args.height, sex=args.sex)
+    arts.write()
     for seg, (link, m, c, _) in wearer_links(text).items():
         print(f"{seg:6s} on {link}: {m:.2f} kg, CoM ({c[0]:+.3f}, {c[1]:+.3f}, {c[2]:+.3f}) m")
     print(f"wrote {display_path(args.output)}")

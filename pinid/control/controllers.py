@@ -257,12 +257,27 @@ def load_controller_model(spec: str, plant: RobotModel, *, friction: bool = True
         raise SpecError(f"{spec}: no such file; expected 'nominal', a URDF, model_<method>.json or identification.json")
     if p.suffix.lower() == ".urdf":
         robot = RobotModel.from_urdf(p, joints=plant.joint_names, locked=plant.locked or None)
+        _check_same_joints(spec, robot, plant)
         return nominal_model(robot, friction=friction)
     d = read_json(p, "controller model")
     model = Identification.from_dict(d).model if "methods" in d else IdentifiedModel.from_dict(d)
-    if model.joint_names != plant.joint_names:
-        raise SpecError(f"{spec}: model joints {model.joint_names}, expected the plant's {plant.joint_names}")
+    _check_same_joints(spec, model.robot, plant)
+    if not model.physically_consistent:
+        raise SpecError(f"{spec}: the model is not physically consistent (a body's pseudo-inertia or a friction "
+                        "value is negative: its mass matrix can be indefinite and the controller diverge); "
+                        "expected a consistent model, e.g. the sdp result")
     return model
+
+
+def _check_same_joints(spec: str, robot: RobotModel, plant: RobotModel) -> None:
+    """SpecError unless ``robot`` has the plant's joints, in its order, each of the same kind (a prismatic
+    joint is not a revolute one; continuous and revolute joints both rotate)."""
+    if robot.joint_names != plant.joint_names:
+        raise SpecError(f"{spec}: model joints {robot.joint_names}, expected the plant's {plant.joint_names}")
+    for a, b in zip(robot.joints, plant.joints):
+        if (a.kind == "prismatic") != (b.kind == "prismatic"):
+            raise SpecError(f"{spec}: joint '{a.name}' is {a.kind} in the model but {b.kind} in the plant; "
+                            "expected a model of the same robot")
 
 
 def compare_models(

@@ -11,6 +11,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from pinid.checks import as_floats
 from pinid.errors import DataError
 
 
@@ -28,7 +29,10 @@ class Dataset:
     meta: dict = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        self.t = np.asarray(self.t, dtype=float).reshape(-1)
+        self.t = as_floats(self.t, f"{self.source}: t", finite=False).reshape(-1)
+        if isinstance(self.joints, str) or not all(isinstance(j, str) for j in self.joints):
+            raise DataError(f"{self.source}: joints {self.joints!r}, expected a list of joint names")
+        self.joints = list(self.joints)
         self.q = _as2d(self.q, "q", self)
         for name in ("dq", "ddq", "tau"):
             value = getattr(self, name)
@@ -83,7 +87,7 @@ class Dataset:
 
 
 def _as2d(a, name: str, ds: Dataset) -> np.ndarray:
-    a = np.asarray(a, dtype=float)
+    a = as_floats(a, f"{ds.source}: {name}", finite=False)
     if a.ndim == 1:
         a = a[:, None]
     if a.ndim != 2:

@@ -59,6 +59,10 @@ def format_spec(names: list[str], source: str = "recording") -> tuple[dict, list
     if names and all(FLOAT_RE.match(n) for n in names):
         raise DataError(f"{source}: the first line is numbers, not column names; pinid's dataset format needs a header "
                         "(t, q_<joint>, ...), and a file without one needs a mapping spec with header = false")
+    dup = sorted({n for n in names if names.count(n) > 1})
+    if dup:
+        raise DataError(f"{source}: column {dup[0]!r} appears {names.count(dup[0])} times in the header; "
+                        "expected each column once")
     if "t" not in names:
         hint = " (it has 'time': use a mapping spec with time = \"time\")" if "time" in names else ""
         raise DataError(f"{source}: no column 't'{hint}; expected pinid's dataset format (t, q_<joint>, "
@@ -102,6 +106,7 @@ def read_recording(
     model=None,
     limits: str | None = None,
     degrees: str | None = None,
+    allow_outside_paths: bool = False,
 ) -> Dataset:
     """Read a recording into a :class:`~pinid.data.dataset.Dataset` and check it.
 
@@ -110,7 +115,8 @@ def read_recording(
     ``model``: a :class:`~pinid.model.robot.RobotModel`; when given, the columns are put in the order of
     ``model.joint_names`` and checked against the URDF (missing or unknown joints, degrees, limits).
     ``limits`` / ``degrees``: "error" (default), "warn" or "off" for those two checks; a mapping spec's
-    ``[checks]`` table sets them too (the keyword wins).
+    ``[checks]`` table sets them too (the keyword wins).  ``allow_outside_paths``: let the mapping spec's
+    ``[sources.*]`` paths leave the recording's folder (refused by default, ``docs/checks.md``).
     Raises DataError (bad data) or SpecError (bad mapping spec), one-line messages.
     """
     path = Path(path)
@@ -119,7 +125,7 @@ def read_recording(
         spec_dict, ignored = format_spec(names, str(path))
         spec = MappingSpec.from_dict(spec_dict, origin=f"{path} (dataset format)")
     else:
-        spec = MappingSpec.load(mapping)
+        spec = MappingSpec.load(mapping, allow_outside_paths=allow_outside_paths)
         ignored = []
     ds = spec.read(path)
     if ignored:

@@ -18,8 +18,8 @@ reference with worked examples is ``docs/data.md``; in short::
     q = { column = 3, scale = "deg", sign = -1 }
     tau = { source = "torques", column = "knee", scale = 2.5 }
 
-    [sources.torques]             # another file (path relative to the main file's folder)
-    path = "{stem}_torque.csv"    # {stem}: the main file's name without suffix; {name}: with it
+    [sources.torques]             # another file, relative to the main file's folder and inside it
+    path = "{stem}_torque.csv"    # {stem}: the main file's name without suffix; {name}: with it; {suffix}
     time = { column = "t_ms", scale = "ms" }   # own time stamps: interpolated onto the main time
 
 Motor-side measurements through a transmission (possibly coupled, as on wrists)::
@@ -44,7 +44,7 @@ import os
 import re
 import warnings
 import zipfile
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -52,6 +52,7 @@ import numpy as np
 
 from pinid.data.registry import READERS, Reader, Table, reader_for, register_reader
 from pinid.errors import DataError, DataWarning, SpecError
+from pinid.io import read_toml
 from pinid.model.drives import Transmission, transmission_from_table
 from pinid.data.dataset import Dataset
 
@@ -70,6 +71,9 @@ _TIME_KEYS = {"column", "index", "scale", "offset", "rate"}
 _CHECK_VALUES = ("error", "warn", "off")
 _CHECK_KEYS = {"limits", "degrees"}
 MAIN = "main"
+#: The placeholders of a ``[sources.x] path``, substituted literally (nothing else in braces is allowed).
+PLACEHOLDERS: tuple[str, ...] = ("stem", "name", "suffix")
+_BRACES = re.compile(r"\{([^{}]*)\}")
 
 
 # ---------------------------------------------------------------------------------------------- spec objects
@@ -125,29 +129,25 @@ class MappingSpec:
     transmission: Transmission | None = None
     checks: dict[str, str] = field(default_factory=dict)
     origin: str = "<mapping>"
+    allow_outside_paths: bool = False  # True: [sources.*] paths may leave the main file's folder
 
     # ------------------------------------------------------------------ construction
     @classmethod
-    def load(cls, spec: "str | os.PathLike | dict | MappingSpec") -> "MappingSpec":
-        """A spec from a TOML file, a dict of the same structure, or an existing spec."""
+    def load(cls, spec: "str | os.PathLike | dict | MappingSpec", *, allow_outside_paths: bool = False) -> "MappingSpec":
+        """A spec from a TOML file, a dict of the same structure, or an existing spec.
+
+        ``allow_outside_paths``: let ``[sources.*]`` paths leave the main file's folder (refused by default:
+        a spec from elsewhere must not read, or show in a message, files such as ``/etc/shadow``).
+        """
         if isinstance(spec, MappingSpec):
-            return spec
+            return replace(spec, allow_outside_paths=True) if allow_outside_paths else spec
         if isinstance(spec, dict):
-            return cls.from_dict(spec, origin="mapping spec")
+            return replace(cls.from_dict(spec, origin="mapping spec"), allow_outside_paths=allow_outside_paths)
         p = Path(spec)
         if not p.is_file():
             raise SpecError(f"{p}: mapping spec not found, expected a TOML file")
-        try:
-            import tomllib  # type: ignore[import-not-found]
-        except ModuleNotFoundError:  # Python 3.10
-            import tomli as tomllib  # type: ignore[no-redef]
-        try:
-            d = tomllib.loads(p.read_text(encoding="utf-8"))
-        except UnicodeDecodeError:
-            raise SpecError(f"{p}: not UTF-8 text, expected a TOML mapping spec") from None
-        except tomllib.TOMLDecodeError as exc:
-            raise SpecError(f"{p}: not valid TOML ({exc})") from None
-        return cls.from_dict(d, origin=str(p))
+        d = read_toml(p, "TOML mapping spec")
+        return replace(cls.from_dict(d, origin=str(p)), allow_outside_paths=allow_outside_paths)
 
     @classmethod
     def from_dict(cls, d: dict, *, origin: str = "mapping spec") -> "MappingSpec":
@@ -222,7 +222,7 @@ class MappingSpec:
             refs = refs_by_source.get(name, [])
             if not refs:
                 continue
-            file = path.parent / src.path.format(stem=path.stem, name=path.name, suffix=path.suffix)
+            file = _source_file(src, path, self.origin, self.allow_outside_paths)
             tab = _open_source(src, file, path, refs, self.origin)
             if src.time is None:
                 if tab.nrows != len(t):
@@ -296,6 +296,32 @@ def _unknown(d: dict, allowed: set[str], origin: str, where: str) -> None:
             raise SpecError(f"{origin}: unknown key '{k}' in {where}{hint}; expected some of {', '.join(sorted(allowed))}")
 
 
+def _source_path(v: Any, origin: str, where: str) -> str:
+    """A ``[sources.x] path`` checked: text whose braces hold only :data:`PLACEHOLDERS`."""
+    if not isinstance(v, str) or not v:
+        raise SpecError(f"{origin}: path = {v!r} in {where}, expected a file name such as \"{{stem}}_torque.csv\"")
+    for m in _BRACES.finditer(v):
+        if m.group(1) not in PLACEHOLDERS:
+            raise SpecError(f"{origin}: path = {v!r} in {where}: unknown placeholder {{{m.group(1)}}}, expected "
+                            f"{', '.join('{' + p + '}' for p in PLACEHOLDERS)} (a brace is not allowed otherwise)")
+    if "{" in _BRACES.sub("", v) or "}" in _BRACES.sub("", v):
+        raise SpecError(f"{origin}: path = {v!r} in {where} has an unmatched brace, expected "
+                        f"{', '.join('{' + p + '}' for p in PLACEHOLDERS)} as the only text in braces")
+    return v
+
+
+def _source_file(src: SourceSpec, main: Path, origin: str, allow_outside: bool) -> Path:
+    """The file of source ``src`` for the main file ``main``: placeholders substituted literally, and
+    (unless ``allow_outside``) inside ``main``'s folder once symbolic links are resolved."""
+    values = {"stem": main.stem, "name": main.name, "suffix": main.suffix}
+    file = main.parent / _BRACES.sub(lambda m: values[m.group(1)], src.path)
+    if not allow_outside and not file.resolve().is_relative_to(main.parent.resolve()):
+        raise SpecError(f"{origin}: [sources.{src.name}] path = {src.path!r} leads outside {main.parent.resolve()} "
+                        "(the recording's folder); expected a file in that folder or below it "
+                        "(--allow-outside-paths, or allow_outside_paths=True from Python, allows it)")
+    return file
+
+
 def _number(v: Any, origin: str, where: str, *, words: dict[str, float] | None = None) -> float:
     if isinstance(v, str) and words is not None and v in words:
         return words[v]
@@ -314,9 +340,17 @@ def _rows(v: Any, origin: str, where: str) -> tuple[int | None, int | None]:
     return v[0], v[1]
 
 
+def _column_key(col: Any, origin: str, where: str) -> str | int:
+    """A column name or a 0-based index >= 0: one rule for the shorthand (``q = 3``) and the table form."""
+    if isinstance(col, bool) or not isinstance(col, (str, int)) or (isinstance(col, int) and col < 0):
+        raise SpecError(f"{origin}: {where} = {col!r}, expected a column name or a 0-based index >= 0 "
+                        "(negative indices are not accepted)")
+    return col
+
+
 def _time(v: Any, origin: str, where: str) -> TimeSpec:
     if isinstance(v, (str, int)) and not isinstance(v, bool):
-        return TimeSpec(column=v)
+        return TimeSpec(column=_column_key(v, origin, where))
     if not isinstance(v, dict):
         raise SpecError(f"{origin}: {where} = {v!r}, expected a column name or index, or a table with column or rate")
     _unknown(v, _TIME_KEYS, origin, where)
@@ -327,9 +361,7 @@ def _time(v: Any, origin: str, where: str) -> TimeSpec:
         if rate <= 0:
             raise SpecError(f"{origin}: {where}.rate = {rate:g}, expected a sample rate > 0 [Hz]")
         return TimeSpec(rate=rate)
-    col = v["column"]
-    if isinstance(col, bool) or not isinstance(col, (str, int)):
-        raise SpecError(f"{origin}: {where}.column = {col!r}, expected a column name or a 0-based index")
+    col = _column_key(v["column"], origin, f"{where}.column")
     index = v.get("index")
     return TimeSpec(column=col, index=index, scale=_number(v.get("scale", 1.0), origin, f"{where}.scale", words=TIME_WORDS),
                     offset=_number(v.get("offset", 0.0), origin, f"{where}.offset"))
@@ -337,7 +369,7 @@ def _time(v: Any, origin: str, where: str) -> TimeSpec:
 
 def _source(name: str, d: dict, origin: str, *, main: bool = False) -> SourceSpec:
     where = "the top level" if main else f"[sources.{name}]"
-    s = SourceSpec(name=name, path=None if main else str(d["path"]))
+    s = SourceSpec(name=name, path=None if main else _source_path(d["path"], origin, where))
     fmt = d.get("format", "auto")
     if fmt != "auto" and fmt not in READERS:
         raise SpecError(f"{origin}: format = {fmt!r} in {where}, expected {', '.join(repr(r) for r in READERS)} "
@@ -378,15 +410,13 @@ def _source(name: str, d: dict, origin: str, *, main: bool = False) -> SourceSpe
 
 def _column(v: Any, origin: str, where: str, sources: set[str]) -> ColumnRef:
     if isinstance(v, (str, int)) and not isinstance(v, bool):
-        return ColumnRef(MAIN, v, where=where)
+        return ColumnRef(MAIN, _column_key(v, origin, where), where=where)
     if not isinstance(v, dict):
         raise SpecError(f"{origin}: {where} = {v!r}, expected a column name, a 0-based index or a table with column = ...")
     _unknown(v, _COLUMN_KEYS, origin, where)
     if "column" not in v:
         raise SpecError(f"{origin}: {where} has no column, expected column = \"name\" or a 0-based index")
-    col = v["column"]
-    if isinstance(col, bool) or not isinstance(col, (str, int)) or (isinstance(col, int) and col < 0):
-        raise SpecError(f"{origin}: {where}.column = {col!r}, expected a column name or a 0-based index >= 0")
+    col = _column_key(v["column"], origin, f"{where}.column")
     source = v.get("source", MAIN)
     if source not in sources:
         raise SpecError(f"{origin}: {where}.source = {source!r} is not defined; expected '{MAIN}' or one of "
@@ -489,12 +519,13 @@ def _read_npz(file: Path, src: SourceSpec, wanted, origin: str) -> Table:
         raise DataError(f"{file}: holds a single array, expected an NPZ archive of named arrays")
     names = list(npz.files)
     tab = Table(file, names, {}, 0, None)
+    tab.recognised = any(isinstance(c, str) and c in names for c, _, _ in wanted)
     lengths: dict[str, int] = {}
     with npz:
         for col, index, where in wanted:
             if isinstance(col, int):
                 raise SpecError(f"{origin}: {where} column {col}: NPZ arrays have names, not indices; "
-                                f"expected one of {', '.join(names)}")
+                                + (f"expected one of {', '.join(names)}" if tab.recognised else "expected a name"))
             tab.key(col, where, origin)
             try:
                 a = np.asarray(npz[col])
@@ -577,7 +608,7 @@ def _read_csv(file: Path, src: SourceSpec, wanted, origin: str) -> Table:
             raise DataError(f"{file}: the header has {len(names)} columns but the first data row {ncols} "
                             "(columns of different lengths); expected the same number")
         if all(FLOAT_RE.match(x) for x in names):
-            raise DataError(f"{file}: the first row ({header_names[:60]}) is numbers, not column names; "
+            raise DataError(f"{file}: the first row is numbers, not column names; "
                             "for a file without a header set header = false in a mapping spec")
         dup = sorted({n for n in names if names.count(n) > 1 and n})
         if dup:
@@ -591,6 +622,7 @@ def _read_csv(file: Path, src: SourceSpec, wanted, origin: str) -> Table:
     tab = Table(file, names, {}, 0, lines_consumed + 1)
     if src.header and src.names is not None:
         raise SpecError(f"{origin}: names = [...] is for files without a header; set header = false or drop names")
+    tab.recognised = names is not None and any(isinstance(c, str) and c in names for c, _, _ in wanted)
     keys = []
     for col, index, where in wanted:
         if index is not None:
@@ -607,7 +639,7 @@ def _read_csv(file: Path, src: SourceSpec, wanted, origin: str) -> Table:
         arr = np.loadtxt(file, delimiter=delim, skiprows=lines_consumed, usecols=usecols, comments=src.comment,
                          ndmin=2, dtype=float, encoding="utf-8-sig", quotechar='"')
     except ValueError:
-        raise DataError(f"{file}: {_bad_line_message(file, delim, lines_consumed, src.comment, ncols, names, usecols)}") from None
+        raise DataError(f"{file}: {_bad_line_message(file, delim, lines_consumed, src.comment, ncols, names, usecols, tab.recognised)}") from None
     # a row shorter than the first one in a column we do not read is still a sign of a cut file
     _check_ragged_tail(file, delim, ncols, lines_consumed)
     col_of = {c: i for i, c in enumerate(usecols)}
@@ -632,8 +664,10 @@ def _check_ragged_tail(file: Path, delim: str | None, ncols: int, lines_consumed
                         "(columns of different lengths: was the file cut short?)")
 
 
-def _bad_line_message(file: Path, delim: str | None, skip: int, comment: str, ncols: int, names, usecols) -> str:
-    """Find the first line that loadtxt could not read (slow path, only on error) and say what is wrong."""
+def _bad_line_message(file: Path, delim: str | None, skip: int, comment: str, ncols: int, names, usecols,
+                      show: bool) -> str:
+    """Find the first line that loadtxt could not read (slow path, only on error) and say what is wrong
+    (``show``: quote the bad field, only for a file recognised as a recording)."""
     with open(file, encoding="utf-8-sig", errors="replace") as f:
         for lineno, line in enumerate(f, start=1):
             if lineno <= skip:
@@ -650,8 +684,8 @@ def _bad_line_message(file: Path, delim: str | None, skip: int, comment: str, nc
                 try:
                     float(text)
                 except ValueError:
-                    col = names[c] if names is not None else str(c)
-                    what = "an empty field" if not text else f"'{text[:30]}'"
+                    col = names[c] if names is not None and show else str(c)
+                    what = "an empty field" if not text else f"'{text[:30]}'" if show else "the field"
                     return f"line {lineno}, column '{col}': {what} is not a number, expected numeric data"
     return "cannot be read as CSV numbers"
 

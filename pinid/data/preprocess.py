@@ -2,6 +2,11 @@
 
 :func:`prepare` does, in this order:
 
+0. **Unwrapping.**  Joints named in ``unwrap`` (angles without limits: continuous joints, and revolute
+   joints whose URDF gives no limits; :func:`~pinid.identification.problem.load_datasets` passes them)
+   are unwrapped first (``numpy.unwrap``): a logger that wraps them to [−π, π) makes a 2π jump that
+   the filter and the derivatives would otherwise turn into a huge spike.  The joints changed are
+   recorded in ``meta["preprocess"]["unwrapped"]``.
 1. **Uniform grid.**  If the time stamps jitter — any step differs from the median step by more than
    1 % — every signal is resampled onto a uniform grid at the median rate (cubic spline through the
    samples; gaps longer than 5 median steps are reported).  ``rate=`` resamples to another rate (after
@@ -35,6 +40,9 @@ import warnings
 
 import numpy as np
 
+from dataclasses import replace
+
+from pinid.checks import number
 from pinid.data.dataset import Dataset
 from pinid.errors import DataError, SpecError
 from pinid.data.formats import warn
@@ -138,6 +146,7 @@ def prepare(
     trim: float | None = None,
     decimate: int | None = None,
     rate: float | None = None,
+    unwrap: tuple[str, ...] | list[str] = (),
 ) -> Dataset:
     """Filter, differentiate, trim and decimate a recording; return a dataset with q, dq, ddq, tau filled.
 
@@ -145,10 +154,15 @@ def prepare(
     backward; ``differentiation`` "savgol" or "central"; ``trim`` [s] dropped at each end (default
     the filter's settling time plus the derivative window); ``decimate`` keep every n-th sample (default: down to
     ``max(1 kHz, 20·cutoff)``); ``rate`` [Hz] resample to this uniform rate first (by default only
-    jittered recordings are resampled, at their median rate).  ``preset`` ("zha2019", "shi2024"; the old "seed000", "seed001" are deprecated) fills
+    jittered recordings are resampled, at their median rate).  ``unwrap``: joints whose angles are
+    unwrapped first (2π jumps removed; angles without limits).  ``preset`` ("zha2019", "shi2024"; the old "seed000", "seed001" are deprecated) fills
     the options left at their defaults.  The options used are recorded in ``meta["preprocess"]``.
     Raises DataError when there is no torque, too few samples, or a cut-off the sample rate cannot carry.
     """
+    if not isinstance(ds, Dataset):
+        raise DataError(f"prepare: got {type(ds).__name__}, expected a pinid Dataset (pinid.data.read_recording)")
+    cutoff, trim, rate = (None if v is None else number(v, name) for name, v in
+                          (("cutoff", cutoff), ("trim", trim), ("rate", rate)))
     given = {"cutoff": cutoff, "order": order, "differentiation": differentiation, "trim": trim,
              "decimate": decimate, "rate": rate}
     if preset in DEPRECATED_PRESETS:
@@ -174,6 +188,7 @@ def prepare(
         raise DataError(f"{src}: {ds.n} samples, expected at least 10 to filter and differentiate")
     if rate is not None and (not np.isfinite(rate) or rate <= 0):
         raise SpecError(f"resampling rate {rate!r}, expected a rate > 0 [Hz]")
+    ds, unwrapped = _unwrap(ds, unwrap)
     ds, grid = uniform_grid(ds, rate)
     fs = float(f"{1.0 / float(np.median(np.diff(ds.t))):.9g}")  # 1000 Hz, not 999.9999999999991 Hz
     nyquist = fs / 2
@@ -250,18 +265,37 @@ def prepare(
         "cutoff": float(cutoff), "order": int(order), "filter": "butterworth, zero-phase (sosfiltfilt)",
         "differentiation": differentiation, "savgol_window": 2 * M + 1 if differentiation == "savgol" else None,
         "measured_velocity": bool(measured_v), "measured_acceleration": bool(measured_a),
-        "trim": float(trim), "decimate": int(decimate), "output_rate": fs / decimate,
+        "trim": float(trim), "decimate": int(decimate), "output_rate": fs / decimate, "unwrapped": unwrapped,
     }
     _warn_content_above_cutoff(ds, q, fs, cutoff)
     return Dataset(t=ds.t[keep], q=q[keep], joints=list(ds.joints), dq=dq[keep], ddq=ddq[keep], tau=tau[keep],
                    source=ds.source, meta=meta)
 
 
+def _unwrap(ds: Dataset, joints) -> tuple[Dataset, list[str]]:
+    """``ds`` with the positions of ``joints`` unwrapped (2π jumps removed), and the joints that changed."""
+    unknown = [j for j in joints if j not in ds.joints]
+    if unknown:
+        raise SpecError(f"unwrap: joint(s) {unknown} not in {ds.source} (its joints: {', '.join(ds.joints)})")
+    cols = [ds.joints.index(j) for j in joints]
+    if not cols:
+        return ds, []
+    q = ds.q.copy()
+    q[:, cols] = np.unwrap(q[:, cols], axis=0)
+    changed = [ds.joints[c] for c in cols if not np.array_equal(q[:, c], ds.q[:, c])]
+    return (replace(ds, q=q) if changed else ds), changed
+
+
+#: A joint whose recorded range is below this [rad or m] is held still: what a low-pass removes there is noise.
+STILL_RANGE = 0.01
+
+
 def _warn_content_above_cutoff(ds: Dataset, q_filtered: np.ndarray, fs: float, cutoff: float) -> None:
-    """Warn when the low-pass removes more than 1 % of the position signal's (detrended) variance."""
+    """Warn when the low-pass removes more than 1 % of the position signal's (detrended) variance of a
+    joint that moves (range at least :data:`STILL_RANGE`; on a joint held still that is only noise)."""
     raw = ds.q - ds.q.mean(axis=0)
     removed = ds.q - q_filtered
-    var = raw.var(axis=0)
+    var = np.where(np.ptp(ds.q, axis=0) >= STILL_RANGE, raw.var(axis=0), 0.0)
     frac = np.divide(removed.var(axis=0), var, out=np.zeros_like(var), where=var > 0)
     j = int(np.argmax(frac))
     if frac[j] > 0.01:

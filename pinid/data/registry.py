@@ -31,6 +31,7 @@ class Table:
     def __init__(self, path: Path, names: list[str] | None, data: dict, nrows: int, line0: int | None) -> None:
         self.path, self.names, self.data, self.nrows, self.line0 = path, names, data, nrows, line0
         self.row0 = 0
+        self.recognised = True  # False: none of the spec's column names is in the file, whose names are then not shown
 
     def key(self, column: str | int, where: str, origin: str) -> str | int:
         """``column`` checked against the file's columns (SpecError naming the closest one)."""
@@ -45,6 +46,9 @@ class Table:
             if self.names is None:
                 raise SpecError(f"{origin}: {where} column {column!r}: {self.path.name} has no header "
                                 "(header = false); give a 0-based index or name the columns with names = [...]")
+            if not self.recognised:
+                raise SpecError(f"{origin}: {where} column {column!r} is not in {self.path.name}, nor is any other "
+                                "column the spec names; expected a recording with those columns (its contents are not shown)")
             close = difflib.get_close_matches(column, self.names, n=1)
             hint = f" (did you mean '{close[0]}'?)" if close else ""
             raise SpecError(f"{origin}: {where} column {column!r} is not in {self.path.name}{hint}; "

@@ -54,7 +54,6 @@ number reported is then recomputed with :func:`condition_number` on the ``sample
 
 from __future__ import annotations
 
-import json
 import math
 import os
 import time
@@ -66,8 +65,9 @@ import pinocchio as pin
 
 from pinid.model.base import BaseParameters, base_parameters
 from pinid.blas import single_threaded_blas
+from pinid.checks import option_numbers
 from pinid.errors import SpecError
-from pinid.io import display_path
+from pinid.io import display_path, parse_spec_text
 from pinid.resources import EXCITATION_DIR as BUNDLED_EXCITATION_DIR
 from pinid.model.robot import RobotModel
 from pinid.model.regressor import JointTerms, regressor, standard_parameters
@@ -304,21 +304,8 @@ def load_spec(path: str | os.PathLike, model: RobotModel) -> ExcitationSpec:
     p = Path(path)
     if not p.is_file():
         raise SpecError(f"{p}: file not found, expected an excitation spec (.toml or .json)")
-    text = p.read_bytes()
-    try:
-        if p.suffix.lower() == ".json":
-            data = json.loads(text.decode("utf-8"))
-        else:
-            try:
-                import tomllib
-            except ModuleNotFoundError:  # Python 3.10
-                import tomli as tomllib  # type: ignore
-            data = tomllib.loads(text.decode("utf-8"))
-    except UnicodeDecodeError:
-        raise SpecError(f"{p}: not UTF-8 text, expected an excitation spec") from None
-    except ValueError as exc:  # JSONDecodeError and TOMLDecodeError are ValueErrors
-        kind = "JSON" if p.suffix.lower() == ".json" else "TOML"
-        raise SpecError(f"{p}: not valid {kind} ({str(exc).splitlines()[0]})") from None
+    kind = "JSON" if p.suffix.lower() == ".json" else "TOML"
+    data = parse_spec_text(p.read_bytes(), str(p), "excitation spec", kind=kind)
     if not isinstance(data, dict):
         raise SpecError(f"{p}: expected a table of settings at the top level")
     return spec_from_dict(data, model, source=display_path(p))
@@ -1077,11 +1064,13 @@ def _design(model, spec, optimizer, options, seed, progress, x0) -> ExcitationRe
     options = dict(options or {})
     name = optimizer.lower()
     if name == "slsqp":
-        try:
-            opts = MultistartOptions(**options).resolved(model.nv)
-        except TypeError:
-            known = ", ".join(f.name for f in MultistartOptions.__dataclass_fields__.values())
-            raise SpecError(f"slsqp: unknown option(s) {', '.join(options)} (options: {known})") from None
+        known = list(MultistartOptions.__dataclass_fields__)
+        unknown = [k for k in options if k not in known]
+        if unknown:
+            raise SpecError(f"slsqp: unknown option(s) {', '.join(unknown)} (options: {', '.join(known)})")
+        opts = MultistartOptions(**options)
+        option_numbers(opts, "slsqp")
+        opts = opts.resolved(model.nv)
         x, history, extra = _multistart(problem, opts, rng, progress, x0)
         used_options = asdict(opts)
     elif name in OPTIMIZERS:

@@ -89,6 +89,15 @@ class FourierTrajectory:
         out = (np.sin(phase) * kw**order) @ self.a.T + (np.cos(phase) * kw**order) @ self.b.T
         return out + self.q0 if order == 0 else out
 
+    def for_joints(self, names: list[str], robot: str = "the model") -> "FourierTrajectory":
+        """This trajectory with its joints in the order ``names`` (matched by name, never by position);
+        SpecError naming both lists unless it has exactly those joints."""
+        if sorted(self.joints) != sorted(names) or len(set(self.joints)) != len(self.joints):
+            raise SpecError(f"trajectory joints {list(self.joints)} do not match {robot}'s active joints {list(names)}")
+        idx = [self.joints.index(j) for j in names]
+        return FourierTrajectory(list(names), self.base_frequency, self.q0[idx], self.a[idx], self.b[idx],
+                                 meta=dict(self.meta))
+
     def starts_at_rest(self, tol: float = 1e-9) -> bool:
         """Whether dq and ddq are zero at t = 0 (and so at the end of every period), to ``tol``."""
         _, dq, ddq = self.evaluate(0.0)

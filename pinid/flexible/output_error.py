@@ -371,16 +371,9 @@ def load_flex_spec(path: str | os.PathLike, *, robot: RobotModel | None = None) 
     p = Path(path)
     if not p.is_file():
         raise SpecError(f"{p}: file not found, expected a flexible-joint spec (.toml)")
-    try:
-        import tomllib
-    except ModuleNotFoundError:  # Python 3.10
-        import tomli as tomllib  # type: ignore
-    try:
-        data = tomllib.loads(p.read_bytes().decode("utf-8"))
-    except UnicodeDecodeError:
-        raise SpecError(f"{p}: not UTF-8 text, expected a TOML spec") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise SpecError(f"{p}: not valid TOML ({str(exc).splitlines()[0]})") from None
+    from pinid.io import read_toml
+
+    data = read_toml(p, "flexible-joint spec (TOML)")
     return spec_from_dict(data, source=str(p), robot=robot, spec_path=p)
 
 
@@ -545,6 +538,11 @@ def _read_input(table, robot, source) -> InputSignal:
                             f"joints: {', '.join(robot.joint_names)})")
     if out.rest >= out.duration:
         raise SpecError(f"{where}: rest {out.rest:g} s ≥ duration {out.duration:g} s")
+    for key, value in out.joints.items():  # after the loop: rate may come after the joints' tables
+        ms = value.get("multisine")
+        if ms is not None and float(ms["f_max"]) >= out.rate / 2:
+            raise SpecError(f"{where}.{key}.multisine: f_max {float(ms['f_max']):g} Hz is at or above the Nyquist "
+                            f"frequency of the input rate {out.rate:g} Hz, expected f_max < {out.rate / 2:g} Hz")
     return out
 
 
@@ -894,7 +892,7 @@ def fit_output_error(
     nsim0 = problem.nsim
     history: list[list[float]] = []
     if method == LEAST_SQUARES:
-        x, message, extra = _least_squares(problem, x0, history, f_scale, max_nfev, options or {})
+        x, message, extra = _least_squares(problem, x0, history, f_scale, max_nfev, options or {}, progress)
     else:
         opt = get_optimizer(method, **dict(options or {}))
 
@@ -924,8 +922,10 @@ def fit_output_error(
                              problem.step, metrics, truth, extra)
 
 
-def _least_squares(problem: OutputErrorProblem, x0, history, f_scale, max_nfev, options):
+def _least_squares(problem: OutputErrorProblem, x0, history, f_scale, max_nfev, options, progress=None):
     from scipy.optimize import least_squares
+
+    from pinid.progress import progress as progress_bar
 
     lo, hi = problem.lower, problem.upper
     width = hi - lo
@@ -941,6 +941,8 @@ def _least_squares(problem: OutputErrorProblem, x0, history, f_scale, max_nfev, 
         c = float(problem.cost_of_errors(e)[0])
         best["cost"] = min(best["cost"], c)
         history.append([problem.nsim - nsim0, best["cost"]])
+        bar.update(1)
+        bar.set_postfix_str(f"best {best['cost']:.6g}", refresh=False)
         r = e[0].reshape(-1)
         if not np.all(np.isfinite(r)):
             return np.full(r.shape, 1e3)  # diverged: a large, finite residual
@@ -959,7 +961,11 @@ def _least_squares(problem: OutputErrorProblem, x0, history, f_scale, max_nfev, 
               gtol=float(options.get("gtol", 1e-12)), max_nfev=int(options.get("max_nfev", max_nfev)))
     if problem.cost_kind == "abs":
         kw.update(loss="soft_l1", f_scale=float(f_scale))
-    res = least_squares(residuals, z0, **kw)
+    bar = progress_bar(kw["max_nfev"], "least_squares", enabled=progress)
+    try:
+        res = least_squares(residuals, z0, **kw)
+    finally:
+        bar.close()
     return lo + res.x * width, str(res.message), {"njev": int(res.njev or 0), "status": int(res.status),
                                                    "f_scale": float(f_scale) if problem.cost_kind == "abs" else None}
 
@@ -1053,7 +1059,7 @@ def compare_rigid_flexible(
         res = fit_output_error(prob, method, rng=rng, options=None if method == LEAST_SQUARES else opts,
                                progress=progress, f_scale=spec.fit.f_scale)
         if polish and method != LEAST_SQUARES:
-            ls = fit_output_error(prob, LEAST_SQUARES, x0=res.x, f_scale=spec.fit.f_scale)
+            ls = fit_output_error(prob, LEAST_SQUARES, x0=res.x, f_scale=spec.fit.f_scale, progress=progress)
             if ls.cost <= res.cost:
                 ls.history = res.history + [[res.nfev + h[0], min(h[1], res.cost)] for h in ls.history]
                 ls.extra["global"] = {"method": method, "cost": res.cost, "nfev": res.nfev, "seconds": res.seconds}

@@ -38,10 +38,11 @@ from pinid.estimators.metaheuristic import (cached_lad, least_absolute_deviation
                                             training_costs)
 from pinid.identification.metrics import torque_metrics
 from pinid.identification.problem import base_regressor, check_dataset
-from pinid.identification.run import Fit, as_model, check_options, parse_methods, parse_terms, run_jobs, setup
+from pinid.identification.run import Fit, as_model, check_options, parse_methods, run_jobs, setup
 from pinid.io import jsonable, read_json, write_json
 from pinid.model.regressor import JointTerms
 from pinid.model.robot import RobotModel
+from pinid.model.terms import as_terms
 from pinid.model.serialize import robot_to_dict
 
 #: Methods that give the same result whatever the seed (run once): the registry's ``deterministic`` ones.
@@ -84,13 +85,15 @@ class Run:
     physically_consistent: bool
     standard_source: str
     info: dict = field(default_factory=dict)
+    parameter_error_abs: dict | None = None
 
     def to_dict(self, names: list[str]) -> dict:
         """Plain-JSON form, parameters named by ``names``."""
         return {
             "method": self.method, "seed": self.seed, "base": dict(zip(names, map(float, self.base))),
             "seconds": float(self.seconds), "train": self.train, "costs": self.costs, "validation": self.validation,
-            "parameter_error_percent": self.parameter_error, "history": self.history,
+            "parameter_error_percent": self.parameter_error, "parameter_error_abs": self.parameter_error_abs,
+            "history": self.history,
             "history_first": self.history_first, "physically_consistent": bool(self.physically_consistent),
             "standard_source": self.standard_source, "info": self.info,
         }
@@ -101,7 +104,7 @@ class Run:
         return cls(d["method"], d["seed"], np.array([float(d["base"][n]) for n in names]), float(d["seconds"]),
                    d["train"], d["costs"], d["validation"], d.get("parameter_error_percent"), d.get("history"),
                    d.get("history_first"), bool(d["physically_consistent"]), d.get("standard_source", ""),
-                   d.get("info") or {})
+                   d.get("info") or {}, d.get("parameter_error_abs"))
 
 
 def _mean_std(values) -> tuple[float, float]:
@@ -165,86 +168,96 @@ class Comparison:
             s["base"] = {n: _mean_std(r.base[i] for r in runs) for i, n in enumerate(self.base_names)}
             if self.truth is not None:
                 s["parameter_error_percent"] = {
-                    n: _mean_std(r.parameter_error[n] for r in runs) for n in self.base_names}
-                s["parameter_error_max_percent"] = _mean_std(max(r.parameter_error.values()) for r in runs)
+                    n: _mean_std(r.parameter_error.get(n) for r in runs) for n in self.base_names}
+                s["parameter_error_max_percent"] = _mean_std(max(r.parameter_error.values(), default=None)
+                                                             for r in runs)
                 s["parameter_error_median_percent"] = _mean_std(
-                    float(np.median(list(r.parameter_error.values()))) for r in runs)
+                    float(np.median(list(r.parameter_error.values()))) if r.parameter_error else None for r in runs)
+                zero = self.zero_truth()
+                s["parameter_error_abs_max_zero_truth"] = (_mean_std(
+                    max(r.parameter_error_abs[n] for n in zero) for r in runs) if zero else None)
             out[m] = s
         return out
 
+    def zero_truth(self) -> list[str]:
+        """The base parameters whose true value is 0 (their errors are absolute, not relative)."""
+        if self.truth is None or not self.runs:
+            return []
+        run = next(r for runs in self.runs.values() for r in runs)
+        return [n for n in self.base_names if n not in (run.parameter_error or {})]
+
     def table(self) -> str:
-        """A text table: training costs, validation error per joint, parameter error, time."""
+        """Text tables (each ≤ 120 characters wide, split by columns when needed): the fit (training costs,
+        error against the truth, consistency, time), then the validation error per joint."""
+        from pinid.report.text import text_table
+
         summ = self.summary()
-        lines = []
         ref = self.reference.get("main", {})
-        lines.append(f"training cost minima on the same rows: ½Σr² (least squares) {ref.get('sse', float('nan')):.6g}, "
-                     f"Σ|r| (least absolute deviations) {ref.get('sae', float('nan')):.6g}")
-        head = ["method", "runs", "train ½Σr² above min %", "train Σ|r| above min %"]
-        labels = list(self.validation_sources)
-        for label in labels:
-            for j in self.joints:
-                head.append(f"{label}: {j} |e| [N·m]")
-            head.append(f"{label}: rel RMS %")
-        if self.truth is not None:
-            head += ["param err max %", "param err median %"]
-        head += ["consistent", "time [s]"]
-        rows = [head]
 
         def ms(v, fmt=".4g"):
-            m, s = v
-            if not np.isfinite(m):
+            if v is None or not np.isfinite(v[0]):
                 return "—"
+            m, s = v
             return f"{m:{fmt}}" if s == 0 else f"{m:{fmt}} ± {s:.2g}"
 
+        zero = self.zero_truth()
+        head = ["method", "runs", "½Σr² above min %", "Σ|r| above min %"]
+        if self.truth is not None:
+            head += ["max err % (truth≠0)", "median %"] + (["max |err| (truth=0)"] if zero else [])
+        head += ["consistent", "time [s]"]
+        rows = []
         for m, s in summ.items():
             row = [m, str(s["runs"])]
             for cost in ("sse", "sae"):
                 lo = ref.get(cost)
                 mean, sd = s[f"train_{cost}"]
-                if lo and np.isfinite(mean):
-                    row.append(ms((100.0 * (mean / lo - 1.0), 100.0 * sd / lo), ".3g"))
-                else:
-                    row.append(ms((mean, sd)))
-            for label in labels:
-                for j in self.joints:
-                    v = s["validation"][label][j]
-                    # the seeds' format: mean ± std of |e| (of the first run's ... averaged over runs)
-                    row.append(f"{v['mean_abs'][0]:.4g} ± {v['std_abs'][0]:.3g}"
-                               + (f" (sd {v['mean_abs'][1]:.2g})" if v["mean_abs"][1] > 0 else ""))
-                row.append(ms(s["validation"][label]["all"]["rel_rms_percent"], ".3g"))
+                row.append(ms((100.0 * (mean / lo - 1.0), 100.0 * sd / lo), ".3g") if lo and np.isfinite(mean)
+                           else ms((mean, sd)))
             if self.truth is not None:
                 row += [ms(s["parameter_error_max_percent"], ".3g"), ms(s["parameter_error_median_percent"], ".3g")]
+                if zero:
+                    row.append(ms(s["parameter_error_abs_max_zero_truth"], ".3g"))
             row += [f"{s['consistent']}/{s['runs']}", ms(s["seconds"], ".3g")]
             rows.append(row)
-        widths = [max(len(r[i]) for r in rows) for i in range(len(head))]
-        for k, r in enumerate(rows):
-            lines.append("  ".join(c.ljust(w) for c, w in zip(r, widths)).rstrip())
-            if k == 0:
-                lines.append("  ".join("-" * w for w in widths))
-        lines.append("train … above min %: how far the fit's training cost is above the global minimum of that cost on "
-                     "the same rows (0 for least squares on ½Σr²: nothing can be below it)")
-        lines.append("|e| columns: mean ± std of the absolute validation torque error within a run (seed 000's "
-                     "format), averaged over the runs; (sd …): spread of the mean over the seeds")
+        lines = [f"training cost minima on the same rows: ½Σr² (least squares) {ref.get('sse', float('nan')):.6g}, "
+                 f"Σ|r| (least absolute deviations) {ref.get('sae', float('nan')):.6g}", "", text_table(head, rows)]
+        for label in self.validation_sources:
+            head = ["method", "rel RMS %"] + [f"{j} |e| [N·m]" for j in self.joints]
+            rows = []
+            for m, s in summ.items():
+                v = s["validation"][label]
+                rows.append([m, ms(v["all"]["rel_rms_percent"], ".3g")]
+                            + [f"{v[j]['mean_abs'][0]:.4g} ± {v[j]['std_abs'][0]:.3g}" for j in self.joints])
+            lines += ["", f"{label}: relative RMS, and mean ± std of |e| per joint", text_table(head, rows)]
+        notes = ["… above min %: how far the fit's training cost (½Σr² or Σ|r|) is above the global minimum of that "
+                 "cost on the same rows (0 for least squares on ½Σr²: nothing can be below it).",
+                 "|e|: mean ± std of the absolute validation torque error within a run (seed 000's format), averaged "
+                 "over the runs; the spread over the seeds is in comparison.json."]
+        if self.truth is not None:
+            notes.append("err %: |x − x_true| / |x_true| [%] over the base parameters whose truth is not 0"
+                         + (f"; where it is 0 ({', '.join(zero)}) the absolute error |x| in the parameter's unit."
+                            if zero else "."))
+        import textwrap
+
+        lines.append("")
+        lines += [w for n in notes for w in textwrap.wrap(n, 118, subsequent_indent="  ")]
         return "\n".join(lines)
 
     def values_table(self) -> str:
-        """Identified base parameters (mean over runs) per method, with the truth and the URDF's values."""
+        """Identified base parameters (mean over runs) per method, with the truth and the URDF's values;
+        split by columns to fit 120 characters."""
+        from pinid.report.text import text_table
+
         summ = self.summary()
         head = ["parameter", "URDF"] + (["truth"] if self.truth is not None else []) + list(summ)
-        rows = [head]
+        rows = []
         for i, n in enumerate(self.base_names):
             row = [n, f"{self.nominal[i]:.5g}"] + ([f"{self.truth[i]:.5g}"] if self.truth is not None else [])
             for s in summ.values():
                 mean, sd = s["base"][n]
                 row.append(f"{mean:.5g}" + (f" ± {sd:.2g}" if sd > 0 else ""))
             rows.append(row)
-        widths = [max(len(r[i]) for r in rows) for i in range(len(head))]
-        out = []
-        for k, r in enumerate(rows):
-            out.append("  ".join(c.ljust(w) for c, w in zip(r, widths)).rstrip())
-            if k == 0:
-                out.append("  ".join("-" * w for w in widths))
-        return "\n".join(out)
+        return text_table(head, rows)
 
     # ---------------------------------------------------------------- JSON
     def to_dict(self) -> dict:
@@ -316,10 +329,17 @@ def _truth_vector(truth, names: list[str]) -> np.ndarray | None:
     return a
 
 
-def parameter_errors(x: np.ndarray, truth: np.ndarray, scale: np.ndarray, names: list[str]) -> dict:
-    """``{name: 100·|x − x_true| / max(|x_true|, 0.01·scale)}`` [%]."""
-    den = np.maximum(np.abs(truth), 0.01 * scale)
-    return dict(zip(names, map(float, 100.0 * np.abs(x - truth) / den)))
+def parameter_errors(x: np.ndarray, truth: np.ndarray, scale: np.ndarray, names: list[str]) -> tuple[dict, dict]:
+    """Errors against the truth: ``({name: 100·|x − x_true| / max(|x_true|, 0.01·scale)} [%] for the
+    parameters whose truth is not zero, {name: |x − x_true|} [the parameter's unit] for all})``.
+
+    A relative error is meaningless where the truth is 0 (|x_true| ≤ 1e-9·scale): there only the absolute
+    error is reported.
+    """
+    err = np.abs(x - truth)
+    nonzero = np.abs(truth) > 1e-9 * scale
+    rel = 100.0 * err / np.maximum(np.abs(truth), 0.01 * scale)
+    return ({n: float(e) for n, e, nz in zip(names, rel, nonzero) if nz}, dict(zip(names, map(float, err))))
 
 
 def compare(
@@ -357,7 +377,7 @@ def compare(
     """
     t_start = time.perf_counter()
     model = as_model(model)
-    terms = parse_terms(terms)
+    terms = as_terms(terms)
     methods = parse_methods(methods, default=list(ESTIMATORS))
     seed_list = list(range(int(seeds))) if np.ndim(seeds) == 0 else [int(s) for s in seeds]
     if not seed_list:
@@ -434,10 +454,11 @@ def _run_of(fit: Fit, problem, val_W: dict, truth_x, scale, segmental: bool) -> 
     if "not_realisable" in res.info:
         info["not_realisable"] = res.info["not_realisable"]
     names = problem.names
+    errors = (None, None) if truth_x is None else parameter_errors(res.base, truth_x, scale, names)
     return Run(
         method=fit.method, seed=fit.seed, base=res.base.copy(), seconds=fit.seconds, train=res.train.to_dict(),
         costs=training_costs(problem, res.base), validation=validation,
-        parameter_error=None if truth_x is None else parameter_errors(res.base, truth_x, scale, names),
+        parameter_error=errors[0], parameter_error_abs=errors[1],
         history=None if res.history is None else [float(h) for h in res.history],
         history_first=None if hist_first is None else [float(h) for h in hist_first],
         physically_consistent=res.physically_consistent, standard_source=res.standard_source or "", info=info)

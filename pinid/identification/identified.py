@@ -9,9 +9,12 @@ motor side) are added on top.  With the classic joint terms the equation of moti
 
 and a motor term adds ``Gᵀ·τ_motor(G·q, G·dq, G·ddq)`` (rotor inertia ``Gᵀ·diag(Im)·G`` in ``M``).
 
-All methods take one sample (``(nv,)`` arrays) or, for ``inverse_dynamics``, ``gravity`` and
-``friction``, also ``(N, nv)`` batches.  Units: q [rad or m], dq [rad/s], ddq [rad/s²], τ [N·m].
-Terms not in the identified model are zero.
+Every dynamics method takes one sample (``(nv,)`` arrays, returning (nv,) or (nv, nv)) or a batch
+(``(N, nv)`` arrays, returning (N, nv) or (N, nv, nv)).  Units: q [rad or m], dq [rad/s], ddq [rad/s²],
+τ [N·m].  Terms not in the identified model are zero.  :meth:`IdentifiedModel.derivatives` gives ∂τ/∂q and
+∂τ/∂dq (RNEA derivatives plus the terms), :meth:`IdentifiedModel.forward_derivatives` those of ddq for
+MPC; ``pin_model`` / ``pin_data`` reach the rest of Pinocchio (with the identified inertias; the terms
+are pinid's own).
 
 Any standard parameter set with the identified base parameters gives exactly the same τ, M, C and g;
 ``physically_consistent`` says whether this one is consistent (then M(q) is positive definite).
@@ -25,13 +28,15 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from pinid.errors import ModelError, SpecError
+from pinid.checks import as_floats
+from pinid.errors import DataError, ModelError, SpecError
 from pinid.io import read_json, write_json
 from pinid.model import terms as _terms
 from pinid.model.export import identified_urdf
 from pinid.model.physical import check_consistency
 from pinid.model.regressor import JointTerms, parameter_names
-from pinid.model.robot import RobotModel
+from pinid.model.robot import RobotModel, as_robot
+from pinid.model.terms import as_terms
 from pinid.model.serialize import robot_from_dict, robot_to_dict
 
 _FORMAT = "pinid.identified_model"
@@ -46,8 +51,8 @@ class IdentifiedModel:
 
     def __init__(self, robot: RobotModel, terms: JointTerms | None, theta: np.ndarray, *,
                  physically_consistent: bool | None = None, meta: dict | None = None) -> None:
-        terms = JointTerms() if terms is None else terms
-        theta = np.asarray(theta, dtype=float).reshape(-1)
+        robot, terms = as_robot(robot), as_terms(terms)
+        theta = as_floats(theta, "theta", finite=False).reshape(-1)
         nv, nt = robot.nv, _terms.count(robot, terms)
         _terms.robot_layout(robot, terms)  # motor terms need drives
         if theta.shape != (10 * nv + nt,):
@@ -71,6 +76,9 @@ class IdentifiedModel:
         self.physically_consistent = bool(physically_consistent)
         self.meta = dict(meta or {})
         self._plain = not robot._continuous
+        self._nv = robot.nv
+        self._upper = np.triu_indices(robot.nv, 1)
+        self._term_inertia = self._inertia_of_terms()
 
     # ---------------------------------------------------------------- description
     @property
@@ -88,50 +96,69 @@ class IdentifiedModel:
         """``{name: value}`` of the standard parameters."""
         return dict(zip(parameter_names(self.robot, self.terms), map(float, self.theta)))
 
-    def _q(self, q):
-        q = np.asarray(q, dtype=float)
-        if q.shape != (self.nv,):
-            raise ValueError(f"q has shape {q.shape}, expected ({self.nv},) for joints {self.joint_names}")
+    def _states(self, *arrays: tuple[str, object]) -> tuple[list[np.ndarray], bool]:
+        """The named arrays as (N, nv) float batches, and whether they were one sample each (nv,).
+
+        DataError when a shape is not (nv,) or (N, nv), the arrays disagree in N, or a value is not finite.
+        """
+        out, nv = [], self._nv
+        for name, x in arrays:
+            a = as_floats(x, name)
+            if a.ndim not in (1, 2) or a.shape[-1] != nv:
+                raise DataError(f"{name} has shape {a.shape}, expected ({nv},) or (N, {nv}) for joints {self.joint_names}")
+            if a.size == 0:
+                raise DataError(f"{name} is empty, expected at least one sample of {nv} joint values")
+            if out and a.shape != out[0].shape:
+                raise DataError(f"{name} has shape {a.shape}, expected {out[0].shape} like {arrays[0][0]}")
+            out.append(a)
+        single = out[0].ndim == 1
+        return [a.reshape(-1, nv) for a in out], single
+
+    def _config(self, q: np.ndarray) -> np.ndarray:
         return q if self._plain else self.robot.configuration(q)
 
     # ---------------------------------------------------------------- dynamics
-    def _term_torque(self, q, dq, ddq, keep) -> np.ndarray:
+    def _term_torque(self, q, dq, ddq, keep=lambda t: True) -> np.ndarray:
         """Torque (N, nv) of the selected terms for which ``keep(term)`` holds."""
         sel = JointTerms(names=[t.name for t in self.terms.joint + self.terms.motor if keep(t)])
         theta = np.array([self._values[p.term.name][p.index] for p in _terms.robot_layout(self.robot, sel)])
         return _terms.torque(self.robot, sel, theta, q, dq, ddq)
 
     def friction(self, dq: np.ndarray) -> np.ndarray:
-        """Friction torque [N·m] at joint velocities ``dq`` (one sample or a batch): the velocity-dependent
+        """Friction torque [N·m] at joint velocities ``dq`` (nv,) or (N, nv): the velocity-dependent
         terms, joint side (fc·sign(dq) + fv·dq) plus ``Gᵀ·`` motor side."""
-        dq = np.asarray(dq, dtype=float)
-        zero = np.zeros_like(np.atleast_2d(dq))
-        tau = self._term_torque(zero, np.atleast_2d(dq), zero,
-                                lambda t: not t.inertia and not t.static and t.suffix != "offset")
-        return tau[0] if dq.ndim == 1 else tau
+        (dq,), single = self._states(("dq", dq))
+        zero = np.zeros_like(dq)
+        tau = self._term_torque(zero, dq, zero, lambda t: not t.inertia and not t.static and t.suffix != "offset")
+        return tau[0] if single else tau
 
     def gravity(self, q: np.ndarray) -> np.ndarray:
-        """Static torque g(q) [N·m] (one sample or a batch): gravity, plus the terms that depend on q only
-        (the wearer's passive moments)."""
-        q = np.asarray(q, dtype=float)
-        if q.ndim == 2:
-            return np.array([self.gravity(x) for x in q])
-        g = pin.computeGeneralizedGravity(self.pin_model, self.pin_data, self._q(q)).copy()
+        """Static torque g(q) [N·m], (nv,) or (N, nv): gravity, plus the terms that depend on q only (the
+        wearer's passive moments)."""
+        (q,), single = self._states(("q", q))
+        g = np.array([pin.computeGeneralizedGravity(self.pin_model, self.pin_data, self._config(x)) for x in q])
         if any(t.static for t in self.terms.joint):
-            zero = np.zeros((1, self.nv))
-            g += self._term_torque(q[None], zero, zero, lambda t: t.static)[0]
-        return g
+            zero = np.zeros_like(q)
+            g += self._term_torque(q, zero, zero, lambda t: t.static)
+        return g[0] if single else g
 
     def mass_matrix(self, q: np.ndarray) -> np.ndarray:
-        """Joint-space mass matrix M(q) + diag(armature) [kg·m²], symmetric (nv, nv)."""
-        M = pin.crba(self.pin_model, self.pin_data, self._q(q)).copy()
-        M = np.triu(M) + np.triu(M, 1).T
-        M += self.term_inertia
-        return M
+        """Joint-space mass matrix M(q) + the terms' inertia [kg·m²]: symmetric (nv, nv), or (N, nv, nv)."""
+        (q,), single = self._states(("q", q))
+        M = np.empty((len(q), self.nv, self.nv))
+        for i, x in enumerate(q):
+            M[i] = pin.crba(self.pin_model, self.pin_data, self._config(x))
+        i, j = self._upper
+        M[:, j, i] = M[:, i, j]  # crba fills the upper triangle
+        M += self._term_inertia
+        return M[0] if single else M
 
     @property
     def term_inertia(self) -> np.ndarray:
         """Constant inertia of the terms (nv, nv) [kg·m²]: diag(armature) + Gᵀ·diag(motor armature)·G."""
+        return self._term_inertia.copy()
+
+    def _inertia_of_terms(self) -> np.ndarray:
         out = np.zeros((self.nv, self.nv))
         for t in self.terms.joint + self.terms.motor:
             if t.inertia:
@@ -141,23 +168,71 @@ class IdentifiedModel:
         return out
 
     def coriolis(self, q: np.ndarray, dq: np.ndarray) -> np.ndarray:
-        """Coriolis/centrifugal matrix C(q, dq) (nv, nv), with Ṁ − 2C skew-symmetric; C·dq is the torque."""
-        dq = np.asarray(dq, dtype=float)
-        return pin.computeCoriolisMatrix(self.pin_model, self.pin_data, self._q(q), dq).copy()
+        """Coriolis/centrifugal matrix C(q, dq) (nv, nv) or (N, nv, nv), with Ṁ − 2C skew-symmetric; C·dq
+        is the torque [N·m]."""
+        (q, dq), single = self._states(("q", q), ("dq", dq))
+        C = np.array([pin.computeCoriolisMatrix(self.pin_model, self.pin_data, self._config(a), b) for a, b in zip(q, dq)])
+        return C[0] if single else C
 
     def inverse_dynamics(self, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray) -> np.ndarray:
-        """Joint torque τ [N·m] for the motion (q, dq, ddq): rigid body + armature + friction + offset."""
-        q, dq, ddq = (np.asarray(x, dtype=float) for x in (q, dq, ddq))
-        if q.ndim == 2:
-            return np.array([self.inverse_dynamics(a, b, c) for a, b, c in zip(q, dq, ddq)])
-        tau = pin.rnea(self.pin_model, self.pin_data, self._q(q), dq, ddq).copy()
-        return tau + _terms.torque(self.robot, self.terms, self.theta[10 * self.nv:], q[None], dq[None], ddq[None])[0]
+        """Joint torque τ [N·m] for the motion (q, dq, ddq), (nv,) or (N, nv): rigid body + every term
+        (friction, armature, offset, passive moments, motor side)."""
+        (q, dq, ddq), single = self._states(("q", q), ("dq", dq), ("ddq", ddq))
+        tau = np.array([pin.rnea(self.pin_model, self.pin_data, self._config(a), b, c) for a, b, c in zip(q, dq, ddq)])
+        if len(self.terms):
+            tau += _terms.torque(self.robot, self.terms, self._values, q, dq, ddq)
+        return tau[0] if single else tau
 
     def forward_dynamics(self, q: np.ndarray, dq: np.ndarray, tau: np.ndarray) -> np.ndarray:
-        """Joint acceleration ddq [rad/s²] under torque ``tau`` (solves the equation of motion)."""
-        q, dq, tau = (np.asarray(x, dtype=float) for x in (q, dq, tau))
-        h = self.inverse_dynamics(q, dq, np.zeros(self.nv))
-        return np.linalg.solve(self.mass_matrix(q), tau - h)
+        """Joint acceleration ddq [rad/s²] under torque ``tau`` [N·m] (solves the equation of motion with
+        :meth:`mass_matrix`), (nv,) or (N, nv)."""
+        (q, dq, tau), single = self._states(("q", q), ("dq", dq), ("tau", tau))
+        h = self.inverse_dynamics(q, dq, np.zeros_like(q))
+        try:
+            ddq = np.linalg.solve(self.mass_matrix(q), (tau - h)[..., None])[..., 0]
+        except np.linalg.LinAlgError:
+            raise ModelError("forward dynamics: the mass matrix is singular (a physically inconsistent model?), "
+                             "expected a consistent model") from None
+        return ddq[0] if single else ddq
+
+    def derivatives(self, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Partial derivatives of :meth:`inverse_dynamics`: ``(∂τ/∂q [N·m/rad], ∂τ/∂dq [N·m·s/rad])``, each
+        (nv, nv) or (N, nv, nv), row = torque, column = joint; ``∂τ/∂ddq`` is :meth:`mass_matrix`.
+
+        Rigid body from Pinocchio's RNEA derivatives (exact); the terms by central differences (step
+        1e-6, exact for linear columns); Coulomb-type terms (``velocity_step``) add 0 to ∂τ/∂dq, their
+        derivative away from dq = 0.
+        """
+        (q, dq, ddq), single = self._states(("q", q), ("dq", dq), ("ddq", ddq))
+        n, nv = q.shape
+        dtau_dq, dtau_dv = np.empty((n, nv, nv)), np.empty((n, nv, nv))
+        for i in range(n):
+            pin.computeRNEADerivatives(self.pin_model, self.pin_data, self._config(q[i]), dq[i], ddq[i])
+            dtau_dq[i], dtau_dv[i] = self.pin_data.dtau_dq, self.pin_data.dtau_dv
+        if len(self.terms):
+            dtau_dq += self._term_jacobian(q, dq, ddq, "q", lambda t: True)
+            dtau_dv += self._term_jacobian(q, dq, ddq, "dq", lambda t: not t.velocity_step)
+        return (dtau_dq[0], dtau_dv[0]) if single else (dtau_dq, dtau_dv)
+
+    def forward_derivatives(self, q: np.ndarray, dq: np.ndarray, tau: np.ndarray) -> tuple[np.ndarray, ...]:
+        """Partial derivatives of :meth:`forward_dynamics` for MPC: ``(∂ddq/∂q, ∂ddq/∂dq, ∂ddq/∂τ)``, each
+        (nv, nv) or (N, nv, nv): ``−M⁻¹·∂τ/∂q``, ``−M⁻¹·∂τ/∂dq`` at ``ddq = forward_dynamics(q, dq, τ)``, and
+        ``M⁻¹`` [1/(kg·m²)]."""
+        ddq = self.forward_dynamics(q, dq, tau)
+        Minv = np.linalg.inv(self.mass_matrix(q))
+        dq_, dv_ = self.derivatives(q, dq, ddq)
+        return -Minv @ dq_, -Minv @ dv_, Minv
+
+    def _term_jacobian(self, q, dq, ddq, wrt: str, keep) -> np.ndarray:
+        """∂(term torque)/∂``wrt`` (N, nv, nv) by central differences, all joints in one vectorised call."""
+        n, nv = q.shape
+        h = 1e-6
+        step = np.concatenate([np.eye(nv), -np.eye(nv)]) * h  # (2nv, nv)
+        args = {"q": q, "dq": dq, "ddq": ddq}
+        stacked = {k: np.repeat(v[None], 2 * nv, axis=0) for k, v in args.items()}  # (2nv, N, nv)
+        stacked[wrt] = stacked[wrt] + step[:, None, :]
+        tau = self._term_torque(*(stacked[k].reshape(-1, nv) for k in ("q", "dq", "ddq")), keep).reshape(2 * nv, n, nv)
+        return np.moveaxis((tau[:nv] - tau[nv:]) / (2 * h), 0, 2)  # (N, torque row, joint column)
 
     # ---------------------------------------------------------------- files
     def to_dict(self) -> dict:
@@ -176,16 +251,36 @@ class IdentifiedModel:
     @classmethod
     def from_dict(cls, d: dict) -> "IdentifiedModel":
         """Inverse of :meth:`to_dict`."""
+        if not isinstance(d, dict):
+            raise SpecError(f"identified model: a {type(d).__name__}, expected a JSON object")
         if d.get("format") != _FORMAT:
-            raise SpecError(f"not an identified model (format {d.get('format')!r}, expected {_FORMAT!r})")
+            hint = (" — this is an identification (pinid identify's identification.json): read it with "
+                    "pinid.Identification.load(path), its .model is the best method's IdentifiedModel"
+                    if "methods" in d and "robot" in d else "")
+            raise SpecError(f"not an identified model (format {d.get('format')!r}, expected {_FORMAT!r}){hint}")
+        for key, kind in (("robot", dict), ("standard_parameters", dict), ("meta", (dict, type(None)))):
+            if not isinstance(d.get(key), kind):
+                raise SpecError(f"identified model: '{key}' is {type(d.get(key)).__name__}, expected "
+                                f"{'a JSON object' if key != 'meta' else 'a JSON object or null'}")
+        flag = d.get("physically_consistent")
+        if flag is not None and not isinstance(flag, bool):
+            raise SpecError(f"identified model: 'physically_consistent' is {flag!r}, expected true or false")
         robot, terms = robot_from_dict(d["robot"])
         names = parameter_names(robot, terms)
         values = d["standard_parameters"]
         missing = [n for n in names if n not in values]
         if missing:
             raise SpecError(f"identified model: missing parameter(s) {missing[:5]}")
+        bad = [n for n in names if isinstance(values[n], bool) or not isinstance(values[n], (int, float))
+               or not np.isfinite(values[n])]
+        if bad:
+            raise SpecError(f"identified model: parameter {bad[0]} is {values[bad[0]]!r}, expected a finite number")
         theta = np.array([float(values[n]) for n in names])
-        return cls(robot, terms, theta, physically_consistent=d.get("physically_consistent"), meta=d.get("meta"))
+        # the stored flag is never trusted: consistency is checked again on the parameters themselves (a
+        # stored false stays false: the run may have found the standard set off its base parameters)
+        consistent = flag is not False and check_consistency(theta, robot.joint_names, terms.names,
+                                                             robot.motor_names).consistent
+        return cls(robot, terms, theta, physically_consistent=consistent, meta=d.get("meta"))
 
     def save(self, path: str | os.PathLike) -> Path:
         """Write as JSON (atomically)."""

@@ -266,6 +266,11 @@ class IdentificationProblem:
         return cache[1]
 
 
+#: Smallest RMS [N·m] of a recording's torques (all joints together) that counts as a torque signal: below
+#: it (all-zero or numerically zero torques) there is nothing to identify from.
+TORQUE_SIGNAL_MIN = 1e-9
+
+
 def check_dataset(ds: Dataset, model: RobotModel) -> Dataset:
     """The recording in the model's joint order, checked: torques, dq, ddq present and finite."""
     if not isinstance(ds, Dataset):
@@ -289,6 +294,10 @@ def check_dataset(ds: Dataset, model: RobotModel) -> Dataset:
             k, j = (int(x) for x in np.argwhere(bad)[0])
             raise DataError(f"{ds.source}: {name} of joint '{ds.joints[j]}' has {int(bad[:, j].sum())} NaN or "
                             f"infinite value(s) (first at sample {k}, t = {ds.t[k]:.6g} s); clean or trim the recording")
+    rms = float(np.sqrt(np.mean(ds.tau ** 2)))
+    if rms < TORQUE_SIGNAL_MIN:
+        raise DataError(f"{ds.source}: no torque signal (RMS of tau {rms:.3g} N·m over every joint, below "
+                        f"{TORQUE_SIGNAL_MIN:g} N·m); expected measured joint torques")
     return ds
 
 
@@ -425,18 +434,26 @@ def load_datasets(items, model: RobotModel, mapping=None, preprocess: Mapping | 
         items = [items]
     out = []
     for item in items:
+        if not isinstance(item, (Dataset, str, os.PathLike)):
+            raise DataError(f"{what} recording: got {type(item).__name__}, expected a Dataset or a recording's path")
         ds = item if isinstance(item, Dataset) else read_recording(item, mapping=mapping, model=model)
-        out.append(prepare_dataset(ds, preprocess))
+        out.append(prepare_dataset(ds, preprocess, unwrap=free_angles(model)))
     if not out:
         raise DataError(f"no {what} recording given")
     return out
 
 
-def prepare_dataset(ds: Dataset, preprocess: Mapping | bool | None = None) -> Dataset:
+def free_angles(model: RobotModel) -> list[str]:
+    """Joints whose angle has no limits (continuous, or revolute without URDF limits): unwrapped in preprocessing."""
+    return [j.name for j in model.joints if j.kind != "prismatic" and np.isinf(j.lower) and np.isinf(j.upper)]
+
+
+def prepare_dataset(ds: Dataset, preprocess: Mapping | bool | None = None, *, unwrap=()) -> Dataset:
     """Fill ``dq`` and ``ddq`` when missing (pinid.data.preprocess.prepare with defaults from the sample rate).
 
     ``preprocess``: None — prepare only recordings without ``dq`` or ``ddq``; a dict — always prepare,
     with these options (``cutoff``, ``preset``, ``differentiation``, ``trim`` …); False — never.
+    ``unwrap``: joints whose angles are unwrapped when the recording is prepared (:func:`free_angles`).
     """
     needs = ds.dq is None or ds.ddq is None
     if preprocess is False or (preprocess is None and not needs):
@@ -444,7 +461,7 @@ def prepare_dataset(ds: Dataset, preprocess: Mapping | bool | None = None) -> Da
     # scipy.signal is heavy: imported only when a recording is actually filtered
     from pinid.data.preprocess import prepare
 
-    return prepare(ds, **dict(preprocess or {}))
+    return prepare(ds, **{"unwrap": list(unwrap), **dict(preprocess or {})})
 
 
 def predict_torque(model: RobotModel, terms: JointTerms, base: BaseParameters, ds: Dataset,

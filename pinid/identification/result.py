@@ -96,7 +96,8 @@ class IdentificationResult:
         if self._model_cache is None:
             terms = JointTerms.from_names(self.robot["terms"]) if self.robot else None
             self._model_cache = IdentifiedModel(
-                self.robot_model, terms, self.standard, physically_consistent=self.physically_consistent,
+                self.robot_model, terms, self.standard,
+                physically_consistent=None if self.physically_consistent else False,  # None: checked again
                 meta={"method": self.method, "standard_source": self.standard_source})
         return self._model_cache
 
@@ -135,6 +136,9 @@ class IdentificationResult:
     @classmethod
     def from_dict(cls, d: dict, *, robot: dict | None = None) -> "IdentificationResult":
         """Inverse of :meth:`to_dict` (``robot``: the description when stored separately)."""
+        if not isinstance(d.get("physically_consistent"), bool):
+            raise SpecError(f"result {d.get('method')!r}: 'physically_consistent' is {d.get('physically_consistent')!r}, "
+                            "expected true or false")
         base_names = list(d["base_parameters"])
         std_names = list(d["standard_parameters"])
         num = (lambda v: float("nan") if v is None else float(v))
@@ -225,11 +229,18 @@ class Identification:
 
     @classmethod
     def from_dict(cls, d: dict) -> "Identification":
-        """Rebuild from :meth:`to_dict`'s output (a loaded ``identification.json``)."""
-        robot = d["robot"]
-        results = {m: IdentificationResult.from_dict(r, robot=robot) for m, r in d["methods"].items()}
-        return cls(robot, results, d.get("data") or {}, d.get("base") or {}, list(d.get("validation_sources") or []),
-                   float(d.get("seconds") or 0.0))
+        """Rebuild from :meth:`to_dict`'s output (a loaded ``identification.json``); SpecError for a field
+        missing or of the wrong type."""
+        try:
+            robot = d["robot"]
+            results = {m: IdentificationResult.from_dict(r, robot=robot) for m, r in d["methods"].items()}
+            return cls(robot, results, d.get("data") or {}, d.get("base") or {},
+                       list(d.get("validation_sources") or []), float(d.get("seconds") or 0.0))
+        except PinidError:
+            raise
+        except (KeyError, TypeError, ValueError, AttributeError) as exc:  # a field missing or of the wrong type
+            raise SpecError(f"not a valid identification ({type(exc).__name__}: {exc}); expected one written by "
+                            "pinid identify") from None
 
     def save(self, path: str | os.PathLike) -> Path:
         """Write ``identification.json`` (atomically)."""
@@ -241,7 +252,12 @@ class Identification:
         d = read_json(path, "identification")
         if "methods" not in d or "robot" not in d:
             raise SpecError(f"{path}: not an identification file (no 'methods' or 'robot')")
-        return cls.from_dict(d)
+        if not isinstance(d["methods"], dict) or not d["methods"]:
+            raise SpecError(f"{path}: 'methods' is {d['methods']!r}, expected an object of one result per method")
+        try:
+            return cls.from_dict(d)
+        except SpecError as exc:
+            raise SpecError(f"{path}: {exc}") from None
 
 
 

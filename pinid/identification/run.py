@@ -1,8 +1,8 @@
 """One way through: recordings → problem → methods × seeds → results, behind :func:`identify` and
 :func:`pinid.identification.compare.compare`.
 
-* :func:`parse_methods`, :func:`parse_terms`, :func:`check_options` — the one place where method names,
-  joint terms and per-method settings are read (the CLI passes its strings straight through);
+* :func:`parse_methods`, :func:`check_options` (and :func:`pinid.model.terms.as_terms`) — the one place
+  where method names, joint terms and per-method settings are read (the CLI passes its strings straight through);
 * :func:`setup` — the model, the training problem (or the segmental stages) and the validation sets;
 * :func:`run_jobs` — fits one estimator per ``(method, seed, settings)`` job on the setup, times each
   fit and wraps it as an :class:`~pinid.identification.result.IdentificationResult`.
@@ -21,7 +21,7 @@ from collections.abc import Iterable, Mapping, Sequence
 import numpy as np
 
 from pinid.data.dataset import Dataset
-from pinid.errors import SpecError
+from pinid.errors import DataError, SpecError
 from pinid.estimators import ESTIMATORS, Estimator, make_estimator
 from pinid.identification.metrics import torque_metrics
 from pinid.identification.problem import (REST_FRACTION, IdentificationProblem, check_dataset, load_datasets,
@@ -31,6 +31,7 @@ from pinid.identification.segmental import Segmental, SegmentalProblem
 from pinid.model.base import BaseParameters, base_parameters
 from pinid.model.regressor import JointTerms
 from pinid.model.robot import RobotModel
+from pinid.model.terms import as_terms
 from pinid.model.serialize import robot_to_dict
 from pinid.progress import progress
 
@@ -46,6 +47,8 @@ def parse_methods(methods: Sequence[str] | str | None, default: Sequence[str] = 
     """
     if methods is None:
         methods = list(default)
+    elif not isinstance(methods, (str, list, tuple)):
+        raise SpecError(f"methods {methods!r}: expected \"ols,sdp\", a list of names or \"all\"")
     elif isinstance(methods, str):
         if methods.strip().lower() == "all":
             methods = list(ESTIMATORS)
@@ -62,18 +65,11 @@ def parse_methods(methods: Sequence[str] | str | None, default: Sequence[str] = 
     return names
 
 
-def parse_terms(terms: JointTerms | str | Sequence[str]) -> JointTerms:
-    """Joint terms from a :class:`JointTerms`, ``"fc,fv"`` or a list of names (SpecError for unknown ones)."""
-    if isinstance(terms, JointTerms):
-        return terms
-    try:
-        return JointTerms.from_names(terms)
-    except ValueError as exc:
-        raise SpecError(str(exc)) from None
-
-
 def check_options(options: Mapping[str, Mapping] | None, methods: Sequence[str]) -> dict[str, dict]:
     """Per-method settings with lower-case keys; SpecError for settings of a method that is not run."""
+    if options is not None and (not isinstance(options, Mapping)
+                                or not all(isinstance(v, Mapping) for v in options.values())):
+        raise SpecError(f"options {options!r}: expected {{method: {{setting: value}}}}")
     options = {str(k).strip().lower(): dict(v) for k, v in dict(options or {}).items()}
     bad = [k for k in options if k not in methods]
     if bad:
@@ -105,6 +101,7 @@ def setup(model: RobotModel, data, validate=None, *, terms: JointTerms = JointTe
           segmental: Mapping | None = None, show_progress: bool | None = False) -> Setup:
     """Load and stack the recordings.  ``validate``: recordings, or ``{label: recordings}``;
     ``segmental``: ``{"first": recordings, "joints": first joints}`` (seed 000's two stages)."""
+    check_distinct(data, validate)
     train = load_datasets(data, model, mapping, preprocess, "training")
     if validate is None:
         val = {}
@@ -128,6 +125,39 @@ def setup(model: RobotModel, data, validate=None, *, terms: JointTerms = JointTe
                                                       rest_velocity=rest_velocity, rest_fraction=rest_fraction,
                                                       show_progress=show_progress)
     return Setup(model, terms, base, problem, train, val, seg)
+
+
+def _items(recordings) -> list:
+    """The recordings given as one or several (Datasets, paths)."""
+    if recordings is None:
+        return []
+    if isinstance(recordings, (Dataset, str, os.PathLike)):
+        return [recordings]
+    return list(recordings) if isinstance(recordings, Iterable) else [recordings]
+
+
+def _key(item):
+    """What makes two recordings the same one: the resolved path, or the Dataset object."""
+    return os.path.realpath(item) if isinstance(item, (str, os.PathLike)) else id(item)
+
+
+def check_distinct(data, validate=None) -> None:
+    """DataError for a training recording given twice (its rows would count twice: the standard deviations
+    shrink by √2 with no new information); a DataWarning for a validation recording that is also a
+    training one (then the validation error is a training error)."""
+    from pinid.data.formats import warn
+
+    seen: dict = {}
+    for item in _items(data):
+        k = _key(item)
+        if k in seen:
+            raise DataError(f"{item}: given twice as training data (also {seen[k]}); expected each recording once")
+        seen[k] = item
+    groups = validate.values() if isinstance(validate, Mapping) else [validate]
+    for item in (i for g in groups for i in _items(g)):
+        if _key(item) in seen:
+            warn(None, f"{item}: the validation recording is also a training recording, so its error is a "
+                       "training error, not a validation; expected a different trajectory")
 
 
 @dataclass
@@ -182,6 +212,8 @@ def identify(
     options: Mapping[str, Mapping] | None = None,
     complete: bool = True,
     show_progress: bool | None = False,
+    payload=None,
+    payload_data: Dataset | str | os.PathLike | Iterable | None = None,
 ) -> Identification:
     """Identify ``model``'s dynamic parameters from recordings with several methods; validate; compare.
 
@@ -194,17 +226,26 @@ def identify(
     ``rest_fraction``: rows at rest dropped for Coulomb friction (:mod:`pinid.identification.problem`).
     ``options``: settings per method, e.g. ``{"sdp": {"regularization": 1e-2, "mass_bounds": (0.1, 20)}}``.
     ``complete``: look for a consistent standard set behind base-only results (one small SDP each).
+    ``payload`` (a :class:`~pinid.identification.gains.Payload` or its TOML) with ``payload_data``: the
+    recordings hold currents, not torques; the drive gains are identified from them and the payload
+    recordings first (:mod:`pinid.identification.gains`), the currents turned into torques, and the
+    gains reported in ``data["drive_gains"]``.
 
     Returns an :class:`~pinid.identification.result.Identification`; ``result.model`` is the best
     result's :class:`~pinid.identification.identified.IdentifiedModel`, ``result["sdp"]`` one method's result.
     """
     t_start = time.perf_counter()
     model = as_model(model)
-    terms = parse_terms(terms)
+    terms = as_terms(terms)
     methods = parse_methods(methods)
     options = check_options(options, methods)
     for m in methods:  # bad settings fail before any recording is read
         make_estimator(m, **options.get(m, {}))
+    gains = None
+    if payload is not None or payload_data is not None:
+        gains, data, validate = _currents_to_torques(model, terms, data, validate, payload, payload_data, mapping,
+                                                     preprocess, rest_velocity)
+        preprocess = False
     s = setup(model, data, validate, terms=terms, mapping=mapping, preprocess=preprocess,
               rest_velocity=rest_velocity, rest_fraction=rest_fraction, show_progress=show_progress)
     fits = run_jobs(s, [(m, None, options.get(m, {})) for m in methods], complete=complete,
@@ -225,9 +266,39 @@ def identify(
         ds = check_dataset(s.train[0], model)
         curves = {"kind": "training", "source": ds.source, "t": ds.t, "measured": ds.tau,
                   "predicted": predict_torque(model, terms, s.base, ds, values)}
+    if s.train:  # the training motion, drawn as the report's "excitation" figure
+        ds = s.train[0]
+        curves["motion"] = {"source": ds.source, "t": ds.t, "q": ds.q, "dq": ds.dq}
+    summary = s.problem.summary()
+    if gains is not None:
+        summary["drive_gains"] = gains.summary()
     return Identification(
-        robot=robot_to_dict(model, terms), results=results, data=s.problem.summary(),
+        robot=robot_to_dict(model, terms), results=results, data=summary,
         base={"names": s.base.names, "expressions": s.base.expressions(),
               "nominal": s.base.from_standard(s.problem.nominal).tolist()},
         validation_sources=[ds.source for ds in val_sets], seconds=time.perf_counter() - t_start, curves=curves,
     )
+
+
+def _currents_to_torques(model, terms, data, validate, payload, payload_data, mapping, preprocess, rest_velocity):
+    """``(gains, training, validation)``: drive gains from the recordings with and without the payload, and
+    the recordings' currents turned into torques (see :mod:`pinid.identification.gains`)."""
+    from pinid.identification.gains import Payload, identify_gains
+
+    if payload is None or payload_data is None:
+        raise SpecError("drive gains need both the payload (--payload FILE) and a recording with it "
+                        "(--payload-data FILE)")
+    payload = payload if isinstance(payload, Payload) else Payload.load(payload)
+    train = load_datasets(data, model, mapping, preprocess, "training")
+    loaded = load_datasets(payload_data, model, mapping, preprocess, "payload")
+    gains = identify_gains(model, train, loaded, payload, terms=terms, rest_velocity=rest_velocity)
+
+    def torques(items, what):
+        return [gains.apply(ds) for ds in load_datasets(items, model, mapping, preprocess, what)]
+
+    if isinstance(validate, Mapping):
+        validate = {k: torques(v, f"validation ({k})") for k, v in validate.items()}
+    elif validate is not None:
+        validate = torques(validate, "validation")
+    return gains, [gains.apply(ds) for ds in train], validate
+

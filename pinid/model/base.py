@@ -18,7 +18,10 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.linalg
 
-from pinid.model.robot import RobotModel
+from pinid.checks import as_floats, count, number
+from pinid.errors import DataError, SpecError
+from pinid.model.robot import RobotModel, as_robot
+from pinid.model.terms import as_terms
 from pinid.model.regressor import JointTerms, parameter_names, regressor
 from pinid.io import write_json
 
@@ -48,10 +51,16 @@ class BaseParameters:
 
     def from_standard(self, theta: np.ndarray) -> np.ndarray:
         """Base parameters of the standard parameters ``theta``."""
-        return self.P @ np.asarray(theta, dtype=float)
+        theta = as_floats(theta, "theta")
+        if theta.ndim not in (1, 2) or theta.shape[0] != len(self.standard_names):
+            raise DataError(f"theta: shape {theta.shape}, expected ({len(self.standard_names)},) standard parameters")
+        return self.P @ theta
 
     def columns(self, W: np.ndarray) -> np.ndarray:
         """The base regressor: the independent columns of a stacked standard regressor ``W``."""
+        W = as_floats(W, "W")
+        if W.ndim != 2 or W.shape[1] != len(self.standard_names):
+            raise DataError(f"W: shape {W.shape}, expected (rows, {len(self.standard_names)}) standard regressor columns")
         return W[:, self.independent]
 
     def expressions(self, digits: int = 6) -> list[str]:
@@ -105,9 +114,15 @@ def base_parameters(
     tol: float = 1e-8,
 ) -> BaseParameters:
     """Compute the base parameters of ``model`` with joint ``terms`` from random states (seeded)."""
+    model, terms = as_robot(model), as_terms(terms)
     names = parameter_names(model, terms)
     p = len(names)
-    n = samples or max(60, 4 * p)
+    tol = number(tol, "tol", low=0, low_open=True, high=0.01)
+    n = max(60, 4 * p) if samples is None else count(samples, "samples", low=1)
+    if n * model.nv < p:
+        raise SpecError(f"samples={samples!r}: {n * model.nv} regressor rows for {p} standard parameters, expected "
+                        f"at least {-(-p // model.nv)} samples (default {max(60, 4 * p)})")
+    seed = count(seed, "seed")
     q, dq, ddq = model.random_states(n, np.random.default_rng(seed))
     W = regressor(model, q, dq, ddq, terms)
     norms = np.linalg.norm(W, axis=0)

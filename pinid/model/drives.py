@@ -177,15 +177,12 @@ class Drives:
 
 def load_drives(path: str | os.PathLike, joints: Sequence[str]) -> Drives:
     """Read a drives TOML file for a robot with active ``joints``; SpecError (one line) when it is wrong."""
-    import tomllib
+    from pinid.io import read_toml
 
     p = Path(path)
     if not p.is_file():
         raise SpecError(f"{p}: drives file not found, expected a TOML file with a [transmission] table")
-    try:
-        d = tomllib.loads(p.read_text(encoding="utf-8"))
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-        raise SpecError(f"{p}: not a valid TOML file ({str(exc).splitlines()[0]})") from None
+    d = read_toml(p, "drives file with a [transmission] table")
     return Drives.from_dict(d, joints, str(p))
 
 

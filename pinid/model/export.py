@@ -136,9 +136,27 @@ def identified_urdf(model: RobotModel, theta: np.ndarray, terms: JointTerms, pat
     root.insert(0, _comment(head))
     ET.indent(root, space="  ")
     text = '<?xml version="1.0" encoding="utf-8"?>\n' + ET.tostring(root, encoding="unicode") + "\n"
+    if not force:
+        _check_loads(text, model)
     if path is not None:
         write_text(path, text)
     return text
+
+
+def _check_loads(text: str, model: RobotModel) -> None:
+    """ModelError unless pinid reads ``text`` back as a model of the same joints (a URDF pinid wrote but
+    cannot load — a mass of −1e-12 kg — is never written)."""
+    import tempfile
+    from pathlib import Path
+
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "identified.urdf"
+        path.write_text(text, encoding="utf-8")
+        try:
+            RobotModel.from_urdf(path, joints=model.joint_names, locked=model.locked or None)
+        except ModelError as exc:
+            raise ModelError(f"the identified URDF would not load back in pinid ({str(exc).replace(str(path), 'URDF')}); "
+                             "not written") from None
 
 
 def _set_inertial(link: ET.Element, m: float, c: np.ndarray, I: np.ndarray) -> None:

@@ -21,31 +21,24 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from pinid.errors import DataError
+from pinid.checks import as_states, as_vector, same_length
 from pinid.model import terms as _terms
-from pinid.model.robot import RobotModel
-from pinid.model.terms import JOINT_TERM_NAMES, JointTerms
+from pinid.model.robot import RobotModel, as_robot
+from pinid.model.terms import JOINT_TERM_NAMES, JointTerms, as_terms
 
 __all__ = ["JOINT_TERM_NAMES", "JointTerms", "parameter_names", "standard_parameters", "regressor", "joint_torque"]
 
 
 def parameter_names(model: RobotModel, terms: JointTerms = JointTerms()) -> list[str]:
     """Names of all standard parameters: inertial block, then the term parameters (``hip.fc``, ``m6.fc``)."""
+    model, terms = as_robot(model), as_terms(terms)
     return model.inertial_names + _terms.parameter_names(model, terms)
 
 
 def standard_parameters(model: RobotModel, terms: JointTerms = JointTerms()) -> np.ndarray:
     """The model's nominal standard parameters (URDF inertias, ``<dynamics>`` friction, drives' values)."""
+    model, terms = as_robot(model), as_terms(terms)
     return np.concatenate([model.inertial_parameters(), _terms.nominal(model, terms)])
-
-
-def _as_samples(model: RobotModel, name: str, x: np.ndarray) -> np.ndarray:
-    x = np.asarray(x, dtype=float)
-    if x.ndim == 1:
-        x = x[None, :]
-    if x.ndim != 2 or x.shape[1] != model.nv:
-        raise DataError(f"{name}: shape {x.shape}, expected (N, {model.nv}) for joints {model.joint_names}")
-    return x
 
 
 def regressor(
@@ -60,9 +53,9 @@ def regressor(
     ``q`` [rad], ``dq`` [rad/s], ``ddq`` [rad/s²] are ``(N, nv)`` arrays (or one ``(nv,)`` sample).
     ``W @ standard_parameters(model, terms)`` is the joint torque [N·m], rigid body plus terms (joint terms + Gᵀ·motor terms).
     """
-    q, dq, ddq = (_as_samples(model, n, x) for n, x in (("q", q), ("dq", dq), ("ddq", ddq)))
-    if not (len(q) == len(dq) == len(ddq)):
-        raise DataError(f"q, dq, ddq have {len(q)}, {len(dq)}, {len(ddq)} samples, expected the same number")
+    model, terms = as_robot(model), as_terms(terms)
+    q, dq, ddq = (as_states(x, n, model.joint_names) for n, x in (("q", q), ("dq", dq), ("ddq", ddq)))
+    same_length(q=q, dq=dq, ddq=ddq)
     n, nv = q.shape
     ni = 10 * nv
     nt = _terms.count(model, terms)
@@ -83,5 +76,7 @@ def regressor(
 
 def joint_torque(model: RobotModel, q, dq, ddq, theta: np.ndarray, terms: JointTerms = JointTerms()) -> np.ndarray:
     """Torque ``(N, nv)`` [N·m] of the standard parameters ``theta`` (regressor times parameters)."""
-    q = _as_samples(model, "q", q)
+    model, terms = as_robot(model), as_terms(terms)
+    q = as_states(q, "q", model.joint_names)
+    theta = as_vector(theta, "theta", len(parameter_names(model, terms)), f"standard parameters (terms {terms.names})")
     return (regressor(model, q, dq, ddq, terms) @ theta).reshape(len(q), model.nv)

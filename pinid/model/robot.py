@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import contextlib
 import io
+import numbers
 import os
 import re
 import sys
@@ -22,6 +23,7 @@ from collections.abc import Iterator, Mapping, Sequence
 import numpy as np
 import pinocchio as pin
 
+from pinid.checks import as_state, as_states, as_vector, count, number, same_length
 from pinid.errors import JointError, ModelError
 from pinid.model.bundled import resolve_robot
 
@@ -29,6 +31,10 @@ from pinid.model.bundled import resolve_robot
 INERTIAL_NAMES: tuple[str, ...] = ("m", "mx", "my", "mz", "Ixx", "Ixy", "Iyy", "Ixz", "Iyz", "Izz")
 
 _MAX_URDF_BYTES = 50 * 1024 * 1024
+#: Most joints accepted in a URDF (fixed ones included); deeper chains crash urdfdom's recursive parser.
+MAX_URDF_JOINTS = 1000
+#: Tolerance of the inertia checks, relative to the body's trace of inertia [kg·m²] (CAD rounding).
+INERTIA_TOL = 1e-6
 _UNBOUNDED = 1e10  # |limit| above this is treated as no limit
 
 
@@ -58,6 +64,7 @@ def _read_urdf_text(path: Path) -> str:
         raise ModelError(f"{path}: not well-formed XML ({exc}), expected a URDF") from None
     if root.tag != "robot":
         raise ModelError(f"{path}: root element is <{root.tag}>, expected <robot> (a URDF)")
+    _check_joint_elements(root, path)
     declared = {link.get("name") for link in root.findall("link")}
     parents = {j.find("parent").get("link") for j in root.findall("joint") if j.find("parent") is not None}
     children = {j.find("child").get("link") for j in root.findall("joint") if j.find("child") is not None}
@@ -71,6 +78,51 @@ def _read_urdf_text(path: Path) -> str:
         extra = "".join(f'<link name="{name}"/>' for name in missing_roots)
         text = re.sub(r"(<robot\b[^>]*>)", lambda m: m.group(1) + extra, text, count=1)
     return text
+
+
+def _check_joint_elements(root: ET.Element, path: Path) -> None:
+    """What urdfdom and Pinocchio would crash on, ignore or accept silently: too many joints, a link
+    with two parent joints, a zero axis, lower limit above the upper one (mimic joints: :func:`_check_mimics`)."""
+    joints = root.findall("joint")
+    if len(joints) > MAX_URDF_JOINTS:
+        raise ModelError(f"{path}: {len(joints)} joints, more than pinid accepts ({MAX_URDF_JOINTS}); expected a robot URDF")
+    parent_of: dict[str, str] = {}
+    for j in joints:
+        name = j.get("name", "?")
+        child = j.find("child")
+        if child is not None and child.get("link") in parent_of:
+            raise ModelError(f"{path}: link '{child.get('link')}' is the child of joints '{parent_of[child.get('link')]}' "
+                             f"and '{name}'; expected a tree (one parent joint per link, no closed loops)")
+        if child is not None:
+            parent_of[child.get("link")] = name
+        if j.get("type") in ("fixed", "floating", "planar"):
+            continue
+        axis = j.find("axis")
+        if axis is not None and axis.get("xyz") is not None:
+            try:
+                xyz = [float(x) for x in axis.get("xyz").split()]
+            except ValueError:
+                xyz = []  # urdfdom says what is wrong with it
+            if len(xyz) == 3 and not np.linalg.norm(xyz) > 1e-12:
+                raise ModelError(f"{path}: joint '{name}' has axis xyz=\"{axis.get('xyz')}\"; expected a non-zero direction")
+        limit = j.find("limit")
+        if limit is not None and j.get("type") != "continuous":
+            try:
+                lo, hi = float(limit.get("lower", 0)), float(limit.get("upper", 0))
+            except ValueError:
+                continue  # urdfdom says what is wrong with it
+            if lo > hi:
+                raise ModelError(f"{path}: joint '{name}' has lower limit {lo:g} above its upper limit {hi:g}; "
+                                 "expected lower <= upper")
+
+
+def _check_mimics(text: str, active: Sequence[str], path: Path) -> None:
+    """Refuse an active joint that mimics another (Pinocchio would treat it as independent); a locked one is fine."""
+    for j in ET.fromstring(text).findall("joint"):
+        mimic = j.find("mimic")
+        if mimic is not None and j.get("name") in active:
+            raise ModelError(f"{path}: mimic joints are not supported: joint '{j.get('name')}' mimics "
+                             f"'{mimic.get('joint')}'; expected independent joints (lock it with --lock)")
 
 
 @contextlib.contextmanager
@@ -154,6 +206,13 @@ class RobotModel:
         the middle of their range when 0 is outside it).  The URDF's ``<transmission>`` elements become
         ``drives`` (:mod:`pinid.model.drives`).
         """
+        if not isinstance(urdf, (str, os.PathLike)):
+            raise ModelError(f"urdf: got {type(urdf).__name__}, expected a URDF path or a robot name")
+        if joints is not None and (isinstance(joints, str) or not all(isinstance(j, str) for j in joints)):
+            raise JointError(f"joints {joints!r}: expected a list of joint names")
+        if locked is not None and (not isinstance(locked, Mapping) or not all(
+                isinstance(v, numbers.Real) and not isinstance(v, bool) for v in locked.values())):
+            raise JointError(f"locked {locked!r}: expected {{joint name: value [rad or m]}}")
         path, preset_locked = resolve_robot(urdf)
         text = _read_urdf_text(path)
         with _captured_stderr() as printed:
@@ -189,6 +248,7 @@ class RobotModel:
         for n in active:
             if n in lock:
                 raise ModelError(f"joint '{n}' is both active and locked, expected one or the other")
+        _check_mimics(text, active, path)
         infos_full = {n: _joint_info(full, full.getJointId(n)) for n in names}
         q_ref = pin.neutral(full)
         to_lock = []
@@ -291,9 +351,9 @@ class RobotModel:
 
     def with_inertial_parameters(self, theta: np.ndarray, *, coulomb=None, viscous=None) -> "RobotModel":
         """A copy of this model with other inertial parameters (and optionally friction)."""
-        theta = np.asarray(theta, dtype=float)
-        if theta.shape != (10 * self.nv,):
-            raise ValueError(f"expected {10 * self.nv} inertial parameters, got shape {theta.shape}")
+        theta = as_vector(theta, "theta", 10 * self.nv, f"inertial parameters (10 per joint of {self.joint_names})")
+        coulomb, viscous = (None if v is None else as_state(v, name, self.joint_names)
+                            for name, v in (("coulomb", coulomb), ("viscous", viscous)))
         model = pin.Model(self.pin_model)
         for i in range(self.nv):
             model.inertias[i + 1] = pin.Inertia.FromDynamicParameters(theta[10 * i : 10 * i + 10])
@@ -309,8 +369,9 @@ class RobotModel:
     # ------------------------------------------------------------------ kinematics helpers
     def configuration(self, q: np.ndarray) -> np.ndarray:
         """Pinocchio configuration vector for joint coordinates ``q`` (nv,) [rad or m]."""
+        q = as_state(q, "q", self.joint_names)
         if not self._continuous:
-            return np.asarray(q, dtype=float)
+            return q
         out = np.empty(self.pin_model.nq)
         for i, j in enumerate(self.joints):
             _set_coordinate(out, self.pin_model.joints[i + 1], j.kind, q[i])
@@ -318,14 +379,18 @@ class RobotModel:
 
     def rnea(self, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray) -> np.ndarray:
         """Rigid-body inverse dynamics [N·m] for one sample (nv,) or many (N, nv); no friction."""
-        q, dq, ddq = (np.asarray(x, dtype=float) for x in (q, dq, ddq))
-        if q.ndim == 1:
-            return pin.rnea(self.pin_model, self._data, self.configuration(q), dq, ddq).copy()
+        one = np.ndim(q) == 1
+        q, dq, ddq = (as_states(x, n, self.joint_names) for n, x in (("q", q), ("dq", dq), ("ddq", ddq)))
+        same_length(q=q, dq=dq, ddq=ddq)
+        if one:
+            return pin.rnea(self.pin_model, self._data, self.configuration(q[0]), dq[0], ddq[0]).copy()
         return np.array([pin.rnea(self.pin_model, self._data, self.configuration(a), b, c).copy()
                          for a, b, c in zip(q, dq, ddq)])
 
     def random_states(self, n: int, rng: np.random.Generator, *, acceleration: float = 5.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``n`` random (q, dq, ddq) inside the position and velocity limits; |ddq| ≤ ``acceleration``."""
+        n = count(n, "n", low=1)
+        acceleration = number(acceleration, "acceleration", low=0)
         lo = np.where(np.isfinite(self.lower), self.lower, -np.pi)
         hi = np.where(np.isfinite(self.upper), self.upper, np.pi)
         vmax = np.where(np.isfinite(self.velocity_limit) & (self.velocity_limit > 0), self.velocity_limit, 2.0)
@@ -338,12 +403,22 @@ class RobotModel:
         return f"RobotModel({self.name!r}, joints={self.joint_names})"
 
 
+def as_robot(model) -> RobotModel:
+    """``model`` if it is a RobotModel; ModelError naming what was expected otherwise."""
+    if not isinstance(model, RobotModel):
+        raise ModelError(f"model: got {type(model).__name__}, expected a pinid RobotModel "
+                         "(pinid.RobotModel.from_urdf(path or robot name))")
+    return model
+
+
 #: Largest body mass [kg] accepted from a URDF; anything heavier is a unit or typing error.
 MAX_BODY_MASS = 1e6
 
 
 def _check_inertias(model: pin.Model, path: Path) -> None:
-    """Refuse inertial values that are not numbers, negative masses, and absurdly large ones."""
+    """Refuse inertial values that are not numbers, negative masses, absurdly large ones, and rotational
+    inertias that no body has: principal moments (about the centre of mass) below zero, or one larger than
+    the sum of the other two (triangle inequality), both beyond :data:`INERTIA_TOL` × trace."""
     for jid in range(1, model.njoints):
         p = model.inertias[jid].toDynamicParameters()
         name = model.names[jid]
@@ -352,6 +427,13 @@ def _check_inertias(model: pin.Model, path: Path) -> None:
         if p[0] < 0 or p[0] > MAX_BODY_MASS:
             raise ModelError(f"{path}: the body moved by joint '{name}' has mass {p[0]:.3g} kg; "
                              f"expected 0 to {MAX_BODY_MASS:.0e} kg")
+        e = np.linalg.eigvalsh(model.inertias[jid].inertia)
+        tol = INERTIA_TOL * abs(e).sum() + 1e-12
+        if e[0] < -tol or e[0] + e[1] < e[2] - tol:
+            why = "a negative principal moment" if e[0] < -tol else "one moment larger than the sum of the other two"
+            raise ModelError(f"{path}: the body moved by joint '{name}' has principal moments of inertia "
+                             f"{e[0]:.3g}, {e[1]:.3g}, {e[2]:.3g} kg·m² ({why}); expected a physical inertia "
+                             "(moments >= 0, each at most the sum of the other two)")
 
 
 def _joint_info(model: pin.Model, jid: int) -> JointInfo:

@@ -21,17 +21,30 @@ def robot_to_dict(model: RobotModel, terms: JointTerms) -> dict:
 
 
 def robot_from_dict(d: dict) -> tuple[RobotModel, JointTerms]:
-    """Inverse of :func:`robot_to_dict` (from the URDF text when present, else the URDF path)."""
+    """Inverse of :func:`robot_to_dict` (from the URDF text when present, else the URDF path); SpecError
+    naming the field that is missing or of the wrong type."""
+    if not isinstance(d, dict):
+        raise SpecError(f"saved robot: 'robot' is {type(d).__name__}, expected a JSON object")
+    for key, kinds, expected in (("terms", (list,), "a list of term names"),
+                                 ("joints", (list, type(None)), "a list of joint names or null"),
+                                 ("locked", (dict, type(None)), "an object JOINT: value or null"),
+                                 ("urdf_text", (str, type(None)), "the URDF text or null"),
+                                 ("urdf", (str, type(None)), "a URDF path or null"),
+                                 ("drives", (dict, type(None)), "an object or null")):
+        if key == "terms" and key not in d:
+            raise SpecError("saved robot: no 'terms', expected a list of term names")
+        if not isinstance(d.get(key), kinds):
+            raise SpecError(f"saved robot: '{key}' is {type(d.get(key)).__name__}, expected {expected}")
     terms = JointTerms.from_names(list(d["terms"]))
     text = d.get("urdf_text")
     if text:
         with tempfile.TemporaryDirectory() as tmp:
             path = Path(tmp) / "robot.urdf"
             path.write_text(text, encoding="utf-8")
-            model = RobotModel.from_urdf(path, joints=d["joints"], locked=d.get("locked") or {})
+            model = RobotModel.from_urdf(path, joints=d.get("joints"), locked=d.get("locked") or {})
         model.urdf_path = Path(d["urdf"]) if d.get("urdf") else None
     elif d.get("urdf"):
-        model = RobotModel.from_urdf(d["urdf"], joints=d["joints"], locked=d.get("locked") or {})
+        model = RobotModel.from_urdf(d["urdf"], joints=d.get("joints"), locked=d.get("locked") or {})
     else:
         raise SpecError("saved result has no URDF (neither text nor path); cannot rebuild the robot model")
     if d.get("drives") is not None:

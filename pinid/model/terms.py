@@ -25,7 +25,7 @@ from typing import NamedTuple
 from collections.abc import Callable, Iterable, Sequence
 
 import numpy as np
-from pinid.errors import ModelError
+from pinid.errors import ModelError, SpecError
 from pinid.wearer import passive
 
 
@@ -55,6 +55,7 @@ class Term:
     inertia: bool = False  # the column is an acceleration: the plant adds the value to the mass matrix
     plant: Callable[[np.ndarray, Motion, float], np.ndarray] | None = None  # (values, motion, v_s) → torque
     static: bool = False  # the column depends on q only (like gravity): a model's gravity(q) includes it
+    velocity_step: bool = False  # the column jumps at zero velocity (Coulomb): ∂/∂dq taken as 0 elsewhere
 
     def torque(self, values: np.ndarray, motion: Motion, smoothing: float | None = None) -> np.ndarray:
         """Torque of this term [N·m] in its own space for per-joint/motor ``values``; the plant's law when
@@ -83,16 +84,16 @@ def _coulomb_plant(values: np.ndarray, m: Motion, vs: float) -> np.ndarray:
 
 
 register(Term("fc", "fc", "Coulomb friction", "N·m", lambda m: np.sign(m.dq), nonnegative=True,
-              nominal=lambda r: r.coulomb, field="friction", plant=_coulomb_plant))
+              nominal=lambda r: r.coulomb, field="friction", plant=_coulomb_plant, velocity_step=True))
 register(Term("fv", "fv", "viscous friction", "N·m·s/rad", lambda m: m.dq, nonnegative=True,
               nominal=lambda r: r.viscous, field="damping"))
 register(Term("offset", "offset", "constant torque", "N·m", lambda m: np.ones_like(m.dq)))
 register(Term("armature", "armature", "rotor inertia", "kg·m²", lambda m: m.ddq, nonnegative=True, inertia=True))
 
 register(Term("fc_pos", "fc_pos", "Coulomb friction, positive velocity", "N·m", lambda m: (m.dq > 0).astype(float),
-              nonnegative=True, plant=lambda v, m, vs: v * np.maximum(np.tanh(m.dq / vs), 0.0)))
+              nonnegative=True, plant=lambda v, m, vs: v * np.maximum(np.tanh(m.dq / vs), 0.0), velocity_step=True))
 register(Term("fc_neg", "fc_neg", "Coulomb friction, negative velocity", "N·m", lambda m: -(m.dq < 0).astype(float),
-              nonnegative=True, plant=lambda v, m, vs: v * np.minimum(np.tanh(m.dq / vs), 0.0)))
+              nonnegative=True, plant=lambda v, m, vs: v * np.minimum(np.tanh(m.dq / vs), 0.0), velocity_step=True))
 
 register(Term("passive", "kp", "wearer passive moment (scale of Riener & Edrich 1999)", "1",
               lambda m: passive.column(m.q, m.robot), static=True,
@@ -102,7 +103,7 @@ for _base in ("fc", "fv", "offset", "armature", "fc_pos", "fc_neg"):
     _t = TERMS[_base]
     register(Term(f"motor_{_base}", _base, f"motor {_t.label}", _t.unit, _t.column, space="motor",
                   nonnegative=_t.nonnegative, nominal=lambda r, s=_base: r.drives.nominal(s), field=_base,
-                  inertia=_t.inertia, plant=_t.plant))
+                  inertia=_t.inertia, plant=_t.plant, velocity_step=_t.velocity_step))
 
 #: The classic joint terms (``JointTerms``' keyword arguments), in column order.
 JOINT_TERM_NAMES: tuple[str, ...] = ("fc", "fv", "offset", "armature")
@@ -123,10 +124,12 @@ class JointTerms:
         if names is None:
             flags = (coulomb, viscous, offset, armature)
             names = [n for n, on in zip(JOINT_TERM_NAMES, flags) if on]
+        if isinstance(names, str) or not isinstance(names, Iterable):
+            raise SpecError(f"terms {names!r}: expected a list of term names, some of {list(TERMS)}")
         names = list(names)
-        unknown = [n for n in names if n not in TERMS]
+        unknown = [n for n in names if not isinstance(n, str) or n not in TERMS]
         if unknown:
-            raise ValueError(f"unknown term(s) {unknown}, expected some of {list(TERMS)}")
+            raise SpecError(f"unknown term(s) {unknown}, expected some of {list(TERMS)}")
         self._names = tuple(n for n in TERMS if n in names)
 
     @classmethod
@@ -134,6 +137,8 @@ class JointTerms:
         """Build from ``"fc,fv,offset"`` or a list of term names; ``""`` or ``"none"`` for no term."""
         if isinstance(names, str):
             names = [n.strip() for n in names.split(",") if n.strip() and n.strip() != "none"]
+        elif not isinstance(names, (list, tuple)):
+            raise SpecError(f"terms {names!r}: expected \"fc,fv\" or a list of term names, some of {list(TERMS)}")
         return cls(names=names)
 
     @property
@@ -170,6 +175,14 @@ class JointTerms:
 
     def __repr__(self) -> str:
         return f"JointTerms.from_names({','.join(self._names)!r})"
+
+
+def as_terms(terms) -> JointTerms:
+    """Joint terms from a :class:`JointTerms`, ``"fc,fv"``, a list of names or None (the default: Coulomb and
+    viscous friction); SpecError for anything else or an unknown name."""
+    if isinstance(terms, JointTerms):
+        return terms
+    return JointTerms() if terms is None else JointTerms.from_names(terms)
 
 
 class TermParameter(NamedTuple):
@@ -271,14 +284,18 @@ def values(robot, terms: JointTerms, theta_terms: np.ndarray) -> dict[str, np.nd
     return out
 
 
-def torque(robot, terms: JointTerms, theta_terms: np.ndarray, q, dq, ddq, *, smoothing: float | None = None) -> np.ndarray:
-    """Joint torque (N, nv) [N·m] of the terms with values ``theta_terms``: joint terms plus ``Gᵀ·``(motor
-    terms); with ``smoothing`` [rad/s] each term's plant law (e.g. Coulomb ``fc·tanh(dq/v_s)``)."""
+def torque(robot, terms: JointTerms, theta_terms: np.ndarray | dict[str, np.ndarray], q, dq, ddq, *,
+           smoothing: float | None = None) -> np.ndarray:
+    """Joint torque (N, nv) [N·m] of the terms with values ``theta_terms`` (the term block, or its
+    :func:`values` dict): joint terms plus ``Gᵀ·``(motor terms); with ``smoothing`` [rad/s] each term's
+    plant law (e.g. Coulomb ``fc·tanh(dq/v_s)``)."""
     q, dq, ddq = (np.atleast_2d(np.asarray(x, dtype=float)) for x in (q, dq, ddq))
-    vals = values(robot, terms, theta_terms)
+    vals = theta_terms if isinstance(theta_terms, dict) else values(robot, terms, theta_terms)
     tau = np.zeros_like(q)
-    for t in terms.joint:
-        tau += t.torque(vals[t.name], motion(robot, q, dq, ddq), smoothing)
+    if terms.joint:
+        mj = motion(robot, q, dq, ddq)
+        for t in terms.joint:
+            tau += t.torque(vals[t.name], mj, smoothing)
     if terms.motor:
         mm = motion(robot, q, dq, ddq, "motor")
         tau_m = sum(t.torque(vals[t.name], mm, smoothing) for t in terms.motor)

@@ -24,6 +24,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from pinid.checks import option_numbers
 from pinid.errors import SolverError, SpecError
 
 #: ``fun_batch(X) -> values``: X is ``(P, d)``, values ``(P,)``.
@@ -107,6 +108,7 @@ class Optimizer(ABC):
     def _check_options(self) -> None:
         """Raise SpecError for settings that cannot work (override to add checks)."""
         o = self.options
+        option_numbers(o, self.name)
         for key in ("population", "iterations"):
             value = getattr(o, key, None)
             if value is not None and (int(value) != value or value < 1):

@@ -16,11 +16,27 @@ def new_figure(*args, **kwargs):
     return plt.subplots(*args, **kwargs)
 
 
+#: Resolution of every saved figure [dots per inch]; a 10-inch-wide figure is 1200 px.
+DPI = 120
+
+
+def figure_png(fig) -> bytes:
+    """``fig`` as PNG bytes (at :data:`DPI`), and close it: one rendering for a file and an HTML page."""
+    import io
+
+    import matplotlib.pyplot as plt
+
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=DPI)
+    plt.close(fig)
+    return buf.getvalue()
+
+
 def save_figure(fig, path) -> None:
     """Save ``fig`` atomically to ``path`` (format from the suffix) and close it."""
     import matplotlib.pyplot as plt
 
     # No bbox_inches="tight": it renders the figure twice; every plot lays itself out (tight_layout).
     with atomic_path(path) as tmp:
-        fig.savefig(tmp, format=str(path).rsplit(".", 1)[-1], dpi=120)
+        fig.savefig(tmp, format=str(path).rsplit(".", 1)[-1], dpi=DPI)
     plt.close(fig)

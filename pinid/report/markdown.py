@@ -1,10 +1,11 @@
-"""A readable Markdown report of an identification, with its figures, for a lab notebook.
+"""A readable report of an identification, with its figures, for a lab notebook: ``report.md`` and the same
+text as one self-contained page, ``report.html`` (figures embedded; :mod:`pinid.report.html`).
 
-``write_report(identification, folder)`` writes ``report.md`` and the PNG figures it shows
-(``torque_<method>.png``: measured vs predicted torque with the error underneath, seed 000 Figs. 9/12;
-``errors.png``: the absolute torque error per joint and method, mean and [p5, p95] band — seed 000
-Figs. 10/13 draw mean ± std, which goes below zero for an absolute error).  Every file is
-written atomically.
+The figures: ``errors.png``, the absolute torque error per joint and method, mean and [p5, p95] band
+(seed 000 Figs. 10/13 draw mean ± std, which goes below zero for an absolute error);
+``training_motion.png``, the excitation as recorded (q and dq of the first training recording);
+``torque_<method>.png``, measured vs predicted torque with the error underneath (seed 000 Figs. 9/12).
+:func:`report_files` renders them once; :func:`write_report` writes everything atomically.
 """
 
 from __future__ import annotations
@@ -15,12 +16,13 @@ from pathlib import Path
 
 import numpy as np
 
-from pinid.io import display_path
+from pinid.io import Artefacts, display_path
 from pinid.model.physical import com_inertia
 from pinid.model.terms import JointTerms
-from pinid.io import write_text
-from pinid.report.figures import save_figure
-from pinid.report.plot_identification import error_bars, torque_comparison
+from pinid.report.plot_identification import error_bars, recorded_motion, torque_comparison
+
+#: Every file a report writes (patterns): what ``pinid identify --force`` removes of an earlier run's report.
+REPORT_FILES = ("report.md", "report.html", "errors.png", "training_motion.png", "torque_*.png")
 
 
 def _f(x, fmt: str = ".4g") -> str:
@@ -30,9 +32,11 @@ def _f(x, fmt: str = ".4g") -> str:
 
 
 def _table(header: list[str], rows: list[list[str]]) -> str:
-    out = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
-    out += ["| " + " | ".join(str(c) for c in r) + " |" for r in rows]
-    return "\n".join(out)
+    """A Markdown table; a ``|`` inside a cell is escaped (``\\|``)."""
+    def line(cells) -> str:
+        return "| " + " | ".join(str(c).replace("|", "\\|") for c in cells) + " |"
+
+    return "\n".join([line(header), "|" + "|".join("---" for _ in header) + "|"] + [line(r) for r in rows])
 
 
 #: Seconds of the torque traces drawn in the report (from the start of the recording).
@@ -40,9 +44,9 @@ WINDOW = 30.0
 
 
 def figure_names(ident) -> dict[str, str]:
-    """File names of the report's figures: ``{"errors": …, "torque_<method>": …}``."""
-    names = {f"torque_{m}": f"torque_{m}.png" for m in ident.results}
-    names["errors"] = "errors.png"
+    """File names of the report's figures: ``{"errors": …, "motion": …, "torque_<method>": …}``."""
+    names = {"errors": "errors.png", "motion": "training_motion.png"}
+    names.update({f"torque_{m}": f"torque_{m}.png" for m in ident.results})
     return names
 
 
@@ -62,7 +66,30 @@ def make_figures(ident) -> dict[str, object]:
     if metrics:
         kind = "validation" if all(r.validation is not None for r in ident.results.values()) else "training"
         figs["errors"] = error_bars(metrics, title=f"absolute torque error ({kind}): mean (dot) and [p5, p95] band")
+    motion = c.get("motion")
+    if motion is not None and len(motion["t"]):
+        t = np.asarray(motion["t"])
+        span = f", first {WINDOW:g} s" if t[-1] - t[0] > WINDOW else ""
+        figs["motion"] = recorded_motion(t, motion["q"], motion["dq"], joints, window=WINDOW,
+                                         title=f"training motion ({Path(str(motion['source'])).name}{span})")
     return figs
+
+
+def summary_table(ident, bold=lambda text: f"**{text}**") -> tuple[list[str], list[list[str]]]:
+    """The summary: header and one row per method (consistency, cond(W_b), training and validation error,
+    time, status); ``bold`` marks the best method and inconsistent results (Markdown by default)."""
+    rows = []
+    for m, r in ident.results.items():
+        v = r.validation
+        rows.append([
+            bold(m) if m == ident.best else m, "yes" if r.physically_consistent else bold("no"),
+            _f(r.condition_number, ".3g"), _f(r.train.all["rms"]),
+            "–" if v is None else _f(v.all["rms"]), "–" if v is None else _f(v.all["rel_rms_percent"], ".3g"),
+            "–" if v is None else f"{_f(v.all['mean_abs'])} ± {_f(v.all['std_abs'])}",
+            _f(r.seconds, ".3g"), r.status,
+        ])
+    return (["method", "consistent", "cond(W_b)", "train RMS [N·m]", "valid. RMS [N·m]", "valid. RMS %",
+             "valid. |e| [N·m]", "time [s]", "status"], rows)
 
 
 def report_markdown(ident, figures: dict[str, str] | None = None) -> str:
@@ -75,6 +102,17 @@ def report_markdown(ident, figures: dict[str, str] | None = None) -> str:
     lines = [f"# Identification of `{robot['name']}`", ""]
     lines.append(f"pinid {__version__}, {_dt.datetime.now().strftime('%Y-%m-%d %H:%M')}; "
                  f"total time {ident.seconds:.2f} s.")
+
+    lines += ["", "## Summary", ""]
+    lines.append(_table(*summary_table(ident)))
+    lines += ["", "valid. |e|: mean ± std of the absolute validation torque error over all joints."]
+    lines.append("")
+    lines.append(f"Best (bold): **{ident.best}** — the physically consistent result with the lowest "
+                 f"{'validation' if ident.validation_sources else 'training'} RMS; its model is saved as "
+                 f"`model_{ident.best}.json`.")
+    if "errors" in figures:
+        lines += ["", f"![absolute torque error: mean and [p5, p95] per joint and method]({figures['errors']})"]
+
     lines += ["", "## Robot and data", ""]
     urdf = robot.get("urdf")
     lines.append(f"- URDF: `{display_path(urdf) if urdf else None}`; joints {', '.join(f'`{j}`' for j in robot['joints'])}"
@@ -91,44 +129,29 @@ def report_markdown(ident, figures: dict[str, str] | None = None) -> str:
                          for j, n in data["rows_dropped_at_rest"].items())
         lines.append(f"- rows dropped at rest (Coulomb friction undefined there): {rest}")
     lines.append(f"- validation: {', '.join(f'`{s}`' for s in ident.validation_sources) or 'none (metrics are on the training data)'}")
+    if "motion" in figures:
+        lines += ["", "### The excitation", "",
+                  "The training motion as recorded (after preprocessing): it decides how well each parameter is "
+                  "excited.", "", f"![training motion: q and dq per joint]({figures['motion']})"]
 
-    lines += ["", "## Summary", ""]
-    rows = []
+    lines += ["", "## Methods", ""]
     for m, r in ident.results.items():
-        v = r.validation
-        rows.append([
-            f"**{m}**" if m == ident.best else m, "yes" if r.physically_consistent else "**no**",
-            _f(r.condition_number, ".3g"), _f(r.train.all["rms"]),
-            "–" if v is None else _f(v.all["rms"]), "–" if v is None else _f(v.all["rel_rms_percent"], ".3g"),
-            "–" if v is None else f"{_f(v.all['mean_abs'])} ± {_f(v.all['std_abs'])}",
-            _f(r.seconds, ".3g"), r.status,
-        ])
-    lines.append(_table(["method", "consistent", "cond(W_b)", "train RMS [N·m]", "valid. RMS [N·m]",
-                         "valid. RMS [%]", "valid. mean ± std abs [N·m]", "time [s]", "status"], rows))
-    lines.append("")
-    lines.append(f"Best (bold): **{ident.best}** — the physically consistent result with the lowest "
-                 f"{'validation' if ident.validation_sources else 'training'} RMS; its model is saved as "
-                 f"`model_{ident.best}.json`.")
-    for m, r in ident.results.items():
-        if not r.physically_consistent:
-            probs = r.consistency.get("problems") or []
-            lines.append(f"- `{m}` is not physically consistent: {'; '.join(probs[:4])}"
-                         + (" …" if len(probs) > 4 else ""))
-
-    if "errors" in figures:
-        lines += ["", f"![absolute torque error: mean and [p5, p95] per joint and method]({figures['errors']})"]
-
-    lines += ["", "## Torque error per joint", ""]
-    for m, r in ident.results.items():
-        metrics = r.validation if r.validation is not None else r.train
-        kind = "validation" if r.validation is not None else "training"
-        lines += [f"### {m} ({kind})", ""]
-        lines.append(_table(["joint", "RMS [N·m]", "RMS [%]", "mean ± std abs [N·m]", "max abs [N·m]"],
-                            metrics.table()))
+        lines += [f"### {m}" + (" (best)" if m == ident.best else ""), "", f"{r.description}.", ""]
+        flag = "physically consistent" if r.physically_consistent else "**not physically consistent**"
+        lines.append(f"- {flag} ({r.standard_source}); cond(W_b) {_f(r.condition_number, '.4g')}; "
+                     f"{_f(r.seconds, '.3g')} s; status {r.status}")
+        for prob in (r.consistency.get("problems") or [])[:4]:
+            lines.append(f"- problem: {prob}")
+        lines.append("")
+        for kind, metrics in (("training", r.train), ("validation", r.validation)):
+            if metrics is not None:
+                lines += [f"Torque error per joint, {kind}:", ""]
+                lines.append(_table(["joint", "RMS [N·m]", "RMS [%]", "mean ± std abs [N·m]", "max abs [N·m]"],
+                                    metrics.table()))
+                lines.append("")
         key = f"torque_{m}"
         if key in figures:
-            lines += ["", f"![{m}: measured and predicted torque]({figures[key]})"]
-        lines.append("")
+            lines += [f"![{m}: measured and predicted torque]({figures[key]})", ""]
 
     lines += ["## Base parameters", "",
               "Value and relative standard deviation σ% (from the residual variance); large σ% marks poorly "
@@ -168,18 +191,30 @@ def report_markdown(ident, figures: dict[str, str] | None = None) -> str:
     return "\n".join(lines)
 
 
-def write_report(ident, folder: str | os.PathLike, *, name: str = "report.md", figures: bool = True) -> list[Path]:
-    """Write ``report.md`` and its figures into ``folder``; return the paths written."""
-    folder = Path(folder)
-    written = []
-    names = {}
+def report_files(ident, *, figures: bool = True) -> dict[str, str | bytes]:
+    """The report's files by name: ``report.md``, ``report.html`` (the same text, figures embedded) and the
+    PNG figures (rendered once; none with ``figures=False``, which does not load matplotlib)."""
+    from pinid.report.html import markdown_to_html
+
+    pngs = {}
     if figures:
-        figs = make_figures(ident)
-        all_names = figure_names(ident)
-        for key, fig in figs.items():
-            path = folder / all_names[key]
-            save_figure(fig, path)
-            names[key] = all_names[key]
-            written.append(path)
-    written.append(write_text(folder / name, report_markdown(ident, names)))
-    return written
+        from pinid.report.figures import figure_png
+
+        names = figure_names(ident)
+        pngs = {names[key]: figure_png(fig) for key, fig in make_figures(ident).items()}
+        text = report_markdown(ident, {k: n for k, n in names.items() if n in pngs})
+    else:
+        text = report_markdown(ident)
+    page = markdown_to_html(text, pngs, title=f"pinid: identification of {ident.robot['name']}")
+    return {"report.md": text, "report.html": page, **pngs}
+
+
+def write_report(ident, folder: str | os.PathLike, *, figures: bool = True) -> list[Path]:
+    """Write ``report.md``, ``report.html`` and the figures into ``folder`` (all or nothing, replacing an
+    earlier report there unless the :data:`pinid.io.OVERWRITE` policy forbids it); return the paths written."""
+    folder = Path(folder)
+    arts = Artefacts()
+    for name, content in report_files(ident, figures=figures).items():
+        arts.add(folder / name, content)
+    arts.clean(folder, list(REPORT_FILES))
+    return arts.write()

@@ -120,7 +120,8 @@ def parameter_errors(comparison, *, ax=None, title: str | None = None):
     min and max), log scale.  Returns the figure."""
     if comparison.truth is None:
         raise ValueError("the comparison has no true parameters (truth=None)")
-    names = comparison.base_names
+    zero = set(comparison.zero_truth())  # no relative error where the truth is 0
+    names = [n for n in comparison.base_names if n not in zero]
     methods = list(comparison.runs)
     if ax is None:
         fig, ax = new_figure(figsize=(min(12.0, max(7.0, 0.12 * len(names) * max(1, len(methods)) + 2)), 4))

@@ -11,3 +11,13 @@ from pathlib import Path
 URDF_DIR = Path(str(resources.files(__name__) / "urdf"))
 #: Folder of the bundled excitation specs and designed trajectories.
 EXCITATION_DIR = Path(str(resources.files(__name__) / "excitation"))
+
+
+def bundled_robots() -> list[str]:
+    """Names of the robots whose URDF ships with pinid (``exo_leg``, …), sorted."""
+    return sorted(f.stem for f in URDF_DIR.glob("*.urdf"))
+
+
+def bundled_trajectories() -> list[str]:
+    """Names of the designed trajectories that ship with pinid (``seed001_table3``, …), sorted."""
+    return sorted(f.stem for f in EXCITATION_DIR.glob("*.json"))

@@ -64,6 +64,7 @@ from pinid.model import terms as _terms
 from pinid.model.base import base_parameters
 from pinid.model.regressor import JointTerms, parameter_names, standard_parameters
 from pinid.progress import progress as _progress
+from pinid.resources import EXCITATION_DIR, bundled_trajectories
 
 #: Seed 000 (Zha et al. 2019) Table 1, degrees: (hip offset, hip sin amplitude, knee offset, knee sin
 #: amplitude) of q = offset + amplitude·sin(2π t); q = 0 hanging down, counter-clockwise positive.
@@ -110,7 +111,8 @@ def zha2019_trajectory(number: int, joints: Sequence[str] = ("hip", "knee"), sig
 
 
 def load_trajectory(spec: str, model: RobotModel, *, flip: Sequence[str] = ()) -> FourierTrajectory:
-    """A trajectory for ``model`` from a JSON file (``pinid excite``) or a preset name (``zha2019-3``).
+    """A trajectory for ``model`` from a JSON file (``pinid excite``), the name of one that ships with pinid
+    (``seed001_table3``, :func:`pinid.resources.bundled_trajectories`) or a preset name (``zha2019-3``).
 
     Presets are mapped onto the model's joints named ``hip`` and ``knee`` (or, failing that, its two
     joints in order) with the signs of :data:`PAPER_CONVENTIONS` for that robot; ``flip`` negates more
@@ -142,21 +144,15 @@ def load_trajectory(spec: str, model: RobotModel, *, flip: Sequence[str] = ()) -
                             f"({', '.join(names)}); lock the others with --lock")
         return zha2019_trajectory(number, joints, signs)
     p = Path(spec)
+    if not p.exists() and spec in bundled_trajectories():
+        p = EXCITATION_DIR / f"{spec}.json"
     if not p.exists():
-        raise SpecError(f"{spec}: no such excitation file, and not a trajectory preset "
-                        f"(presets: {', '.join(trajectory_presets())})")
+        raise SpecError(f"{spec}: no such excitation file, and not a bundled trajectory "
+                        f"({', '.join(bundled_trajectories())}) or a preset ({', '.join(trajectory_presets())})")
     tr = FourierTrajectory.load(p)
     if flip:
         raise SpecError("--flip applies to trajectory presets only; an excitation file is in the URDF's convention")
     return tr
-
-
-def _reorder(tr: FourierTrajectory, model: RobotModel) -> FourierTrajectory:
-    names = model.joint_names
-    if sorted(tr.joints) != sorted(names):
-        raise SpecError(f"trajectory joints {tr.joints} do not match {model.name}'s active joints {names}")
-    idx = [tr.joints.index(j) for j in names]
-    return FourierTrajectory(list(names), tr.base_frequency, tr.q0[idx], tr.a[idx], tr.b[idx], meta=dict(tr.meta))
 
 
 # ---------------------------------------------------------------------------------------------- perturbation
@@ -373,7 +369,7 @@ def simulate(
     n_steps = int(round(seconds * grid))
     if n_steps < 2 * n_s:
         raise SpecError(f"duration {seconds:g} s is shorter than two samples at {smp} Hz")
-    tr = _reorder(trajectory, model)
+    tr = trajectory.for_joints(model.joint_names, model.name)
     nv = model.nv
     fc = _per_joint(model.coulomb if coulomb is None else coulomb, model, "Coulomb friction")
     fv = _per_joint(model.viscous if viscous is None else viscous, model, "viscous friction")

@@ -1,0 +1,106 @@
+"""A self-contained HTML page from pinid's report Markdown, so that ``report.md`` and ``report.html`` come
+from one text.
+
+Renders the small subset of Markdown the reports use — ``#``/``##``/``###`` headings, paragraphs,
+``- `` lists, pipe tables (``\\|`` for a ``|`` in a cell), fenced code, a paragraph that is one image ``![alt](file)``, and inline
+`` `code` `` and ``**bold**`` — and embeds every image as a ``data:`` URI: the page needs no server, no
+other file and no network (no external style sheet, font or script).
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import re
+from collections.abc import Mapping
+
+_IMAGE = re.compile(r"^!\[(?P<alt>.*)\]\((?P<src>[^)\s]+)\)$")
+_INLINE = re.compile(r"`([^`]+)`|\*\*(.+?)\*\*")
+
+STYLE = """\
+body { font-family: system-ui, sans-serif; max-width: 1250px; margin: 1.5em auto; padding: 0 1em; color: #222; }
+h1 { border-bottom: 2px solid #ccc; } h2 { border-bottom: 1px solid #ddd; margin-top: 1.6em; }
+table { border-collapse: collapse; margin: 0.6em 0; font-size: 0.92em; }
+th, td { border: 1px solid #ccc; padding: 0.2em 0.55em; text-align: right; }
+th { background: #f2f2f2; } td:first-child, th:first-child { text-align: left; }
+code { background: #f4f4f4; padding: 0 0.2em; } pre { background: #f4f4f4; padding: 0.7em; overflow-x: auto; }
+img { max-width: 100%; height: auto; display: block; margin: 0.6em 0; }
+"""
+
+
+def _inline(text: str) -> str:
+    """Escape ``text`` and render its `` `code` `` and ``**bold**`` spans."""
+    out, pos = [], 0
+    for m in _INLINE.finditer(text):
+        out.append(html.escape(text[pos:m.start()]))
+        if m.group(1) is not None:
+            out.append(f"<code>{html.escape(m.group(1))}</code>")
+        else:
+            out.append(f"<strong>{_inline(m.group(2))}</strong>")
+        pos = m.end()
+    out.append(html.escape(text[pos:]))
+    return "".join(out)
+
+
+def _cells(line: str) -> list[str]:
+    """The cells of a table row; ``\\|`` is a literal ``|`` inside a cell (GitHub Markdown)."""
+    inner = line.strip()[1:]
+    inner = inner[:-1] if inner.endswith("|") and not inner.endswith("\\|") else inner
+    return [c.strip().replace("\\|", "|") for c in re.split(r"(?<!\\)\|", inner)]
+
+
+def _image(alt: str, src: str, images: Mapping[str, bytes]) -> str:
+    if src not in images:
+        raise KeyError(f"report.html: no image data for {src!r} (have {sorted(images)})")
+    data = base64.b64encode(images[src]).decode("ascii")
+    return f'<figure><img alt="{html.escape(alt)}" src="data:image/png;base64,{data}"></figure>'
+
+
+def markdown_to_html(text: str, images: Mapping[str, bytes] | None = None, *, title: str = "pinid report") -> str:
+    """One HTML page from ``text``; ``images`` maps the file names the text links to their PNG bytes."""
+    images = images or {}
+    body: list[str] = []
+    lines = text.splitlines()
+    i = 0
+    while i < len(lines):
+        line = lines[i]
+        if not line.strip():
+            i += 1
+        elif line.startswith("```"):
+            j = i + 1
+            while j < len(lines) and not lines[j].startswith("```"):
+                j += 1
+            body.append("<pre><code>" + html.escape("\n".join(lines[i + 1:j])) + "</code></pre>")
+            i = j + 1
+        elif m := re.match(r"^(#{1,3}) (.*)$", line):
+            n = len(m.group(1))
+            body.append(f"<h{n}>{_inline(m.group(2))}</h{n}>")
+            i += 1
+        elif line.startswith("|"):
+            j = i
+            while j < len(lines) and lines[j].startswith("|"):
+                j += 1
+            rows = [_cells(r) for r in lines[i:j]]
+            head, rest = rows[0], [r for r in rows[1:] if not all(set(c) <= set("-: ") for c in r)]
+            body.append("<table><thead><tr>" + "".join(f"<th>{_inline(c)}</th>" for c in head) + "</tr></thead><tbody>"
+                        + "".join("<tr>" + "".join(f"<td>{_inline(c)}</td>" for c in r) + "</tr>" for r in rest)
+                        + "</tbody></table>")
+            i = j
+        elif line.startswith("- "):
+            j = i
+            while j < len(lines) and lines[j].startswith("- "):
+                j += 1
+            body.append("<ul>" + "".join(f"<li>{_inline(r[2:])}</li>" for r in lines[i:j]) + "</ul>")
+            i = j
+        elif m := _IMAGE.match(line.strip()):
+            body.append(_image(m.group("alt"), m.group("src"), images))
+            i += 1
+        else:
+            j = i + 1
+            while j < len(lines) and lines[j].strip() and not re.match(r"^(#|\||- |```|!\[)", lines[j]):
+                j += 1
+            body.append("<p>" + " ".join(_inline(r) for r in lines[i:j]) + "</p>")
+            i = j
+    return ("<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n"
+            f"<title>{html.escape(title)}</title>\n<style>\n{STYLE}</style>\n</head>\n<body>\n"
+            + "\n".join(body) + "\n</body>\n</html>\n")
