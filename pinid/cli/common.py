@@ -32,7 +32,8 @@ def add_terms_argument(p: argparse.ArgumentParser) -> None:
                         "offset (constant torque), armature (rotor inertia), fc_pos/fc_neg (asymmetric Coulomb, "
                         "instead of fc), passive (wearer's passive joint moments, scale of Riener & Edrich 1999; "
                         "docs/wearer.md); motor side (needs drives: URDF <transmission> or --drives) motor_fc, "
-                        "motor_fv, motor_offset, motor_armature, motor_fc_pos, motor_fc_neg; "
+                        "motor_fv, motor_offset, motor_armature, motor_fc_pos, motor_fc_neg; Stribeck fs, motor_fs "
+                        "(fs·sign(v)·exp(−(|v|/v_s)^δ), on top of fc); "
                         "'none' for none; default fc,fv")
 
 

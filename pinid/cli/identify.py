@@ -69,6 +69,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--payload-data", action="append", default=None, metavar="FILE",
                    help="recording with the payload; with --payload, the drive gains are identified first and "
                         "the currents of every recording turned into torques; repeatable")
+    g = p.add_argument_group("Stribeck friction (--terms fs, motor_fs: docs/drives.md#stribeck-friction)")
+    g.add_argument("--stribeck-velocity", default=None, metavar="V|auto",
+                   help="Stribeck velocity [rad/s in the term's space, > 0] of every Stribeck term, 'auto' (fitted "
+                        "by a 1-D search) or per term, e.g. fs=0.05,motor_fs=auto; default 0.1")
+    g.add_argument("--stribeck-shape", default=None, metavar="D",
+                   help="Stribeck shape exponent (> 0; 2 Gaussian, 1 exponential) or per term fs=2,motor_fs=1; default 2")
     p.add_argument("--no-report", action="store_true", help="do not write report.md, report.html and the figures")
     p.add_argument("--no-figures", action="store_true",
                    help="write report.md and report.html without figures (faster: matplotlib is not loaded)")
@@ -141,12 +147,15 @@ def run(args: argparse.Namespace) -> int:
         preprocess=preprocess_from_args(args), rest_velocity=rest_velocity_from_args(args.rest_velocity),
         options=options_from_args(args, _options(args, methods)), show_progress=None,
         payload=args.payload, payload_data=args.payload_data,
+        stribeck_velocity=args.stribeck_velocity, stribeck_shape=args.stribeck_shape,
     )
     d = ident.data
     if "drive_gains" in d:
         g = d["drive_gains"]
         print("drive gains [N·m per unit of the recorded channel]: " + ", ".join(
             f"{j} {k:.6g} ± {s:.2g}" for j, k, s in zip(g["joints"], g["gains"], g["std"])))
+    for name, v in d.get("stribeck", {}).items():
+        print(f"Stribeck {name}: velocity {v['velocity']:.6g} rad/s{' (fitted)' if v['fitted'] else ''}, shape {v['shape']:g}")
     print(f"training: {d['samples']} samples from {len(d['sources'])} recording(s), {d['rows']} torque rows used"
           + (f"; validation: {len(ident.validation_sources)} recording(s)" if ident.validation_sources else ""))
     if args.verbose:

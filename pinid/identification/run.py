@@ -28,10 +28,11 @@ from pinid.identification.problem import (REST_FRACTION, IdentificationProblem, 
                                           predict_torque)
 from pinid.identification.result import Identification, IdentificationResult, make_result
 from pinid.identification.segmental import Segmental, SegmentalProblem
+from pinid.identification.stribeck import fit_velocity, with_stribeck
 from pinid.model.base import BaseParameters, base_parameters
 from pinid.model.regressor import JointTerms
 from pinid.model.robot import RobotModel
-from pinid.model.terms import as_terms
+from pinid.model.terms import Stribeck, as_terms, stribeck_settings
 from pinid.model.serialize import robot_to_dict
 from pinid.progress import progress
 
@@ -214,6 +215,8 @@ def identify(
     show_progress: bool | None = False,
     payload=None,
     payload_data: Dataset | str | os.PathLike | Iterable | None = None,
+    stribeck_velocity: float | str | Mapping | None = None,
+    stribeck_shape: float | str | Mapping | None = None,
 ) -> Identification:
     """Identify ``model``'s dynamic parameters from recordings with several methods; validate; compare.
 
@@ -230,6 +233,10 @@ def identify(
     recordings hold currents, not torques; the drive gains are identified from them and the payload
     recordings first (:mod:`pinid.identification.gains`), the currents turned into torques, and the
     gains reported in ``data["drive_gains"]``.
+    ``stribeck_velocity`` [rad/s], ``stribeck_shape``: the shape of the Stribeck terms (``fs``,
+    ``motor_fs``; :func:`pinid.model.terms.stribeck_settings`), default the model's (``model.stribeck``)
+    or 0.1 rad/s and 2; ``"auto"`` fits the velocity (:mod:`pinid.identification.stribeck`).  The shapes
+    used are in ``data["stribeck"]`` and in the saved robot.
 
     Returns an :class:`~pinid.identification.result.Identification`; ``result.model`` is the best
     result's :class:`~pinid.identification.identified.IdentifiedModel`, ``result["sdp"]`` one method's result.
@@ -241,13 +248,27 @@ def identify(
     options = check_options(options, methods)
     for m in methods:  # bad settings fail before any recording is read
         make_estimator(m, **options.get(m, {}))
+    settings, auto = stribeck_settings(model, terms, stribeck_velocity, stribeck_shape)
+    if auto and payload is not None:
+        raise SpecError("Stribeck velocity 'auto' with drive gains (--payload): give the velocity instead")
+    model = with_stribeck(model, settings) if settings else model
     gains = None
     if payload is not None or payload_data is not None:
         gains, data, validate = _currents_to_torques(model, terms, data, validate, payload, payload_data, mapping,
                                                      preprocess, rest_velocity)
         preprocess = False
-    s = setup(model, data, validate, terms=terms, mapping=mapping, preprocess=preprocess,
-              rest_velocity=rest_velocity, rest_fraction=rest_fraction, show_progress=show_progress)
+    s = setup(model, data, validate, terms=JointTerms(names=[n for n in terms.names if n not in auto]),
+              mapping=mapping, preprocess=preprocess, rest_velocity=rest_velocity, rest_fraction=rest_fraction,
+              show_progress=show_progress)
+    shapes = {n: {"velocity": v.velocity, "shape": v.shape, "fitted": False} for n, v in settings.items()}
+    for k, name in enumerate(auto):  # one 1-D search per term, around the linear fit without it
+        fit = fit_velocity(s.problem, s.train, name)
+        model.stribeck[name] = Stribeck(fit.velocity, fit.shape)
+        shapes[name] = fit.summary()
+        s.terms = JointTerms(names=[n for n in terms.names if n not in auto[k + 1:]])
+        s.base = base_parameters(model, s.terms)
+        s.problem = IdentificationProblem.from_datasets(model, s.train, terms=s.terms, base=s.base,
+                                                        rest_velocity=rest_velocity, rest_fraction=rest_fraction)
     fits = run_jobs(s, [(m, None, options.get(m, {})) for m in methods], complete=complete,
                     show_progress=show_progress)
     results = {f.method: f.result for f in fits}
@@ -272,6 +293,8 @@ def identify(
     summary = s.problem.summary()
     if gains is not None:
         summary["drive_gains"] = gains.summary()
+    if shapes:
+        summary["stribeck"] = shapes
     return Identification(
         robot=robot_to_dict(model, terms), results=results, data=summary,
         base={"names": s.base.names, "expressions": s.base.expressions(),
