@@ -69,7 +69,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--payload-data", action="append", default=None, metavar="FILE",
                    help="recording with the payload; with --payload, the drive gains are identified first and "
                         "the currents of every recording turned into torques; repeatable")
-    g = p.add_argument_group("Stribeck friction (--terms fs, motor_fs: docs/drives.md#stribeck-friction)")
+    g = p.add_argument_group("Stribeck friction (--terms fs, motor_fs; docs/drives.md, Stribeck friction)")
     g.add_argument("--stribeck-velocity", default=None, metavar="V|auto",
                    help="Stribeck velocity [rad/s in the term's space, > 0] of every Stribeck term, 'auto' (fitted "
                         "by a 1-D search) or per term, e.g. fs=0.05,motor_fs=auto; default 0.1")
