@@ -144,3 +144,20 @@ def test_cli_identify_fits_the_velocity(tmp_path):
     d = json.loads((out / "identification.json").read_text())
     assert abs(d["data"]["stribeck"]["fs"]["velocity"] / VS - 1) <= 0.02  # written CSV, filtered derivatives
     assert d["robot"]["stribeck"]["fs"]["velocity"] == d["data"]["stribeck"]["fs"]["velocity"]
+
+
+def test_plant_law_and_nominal_motor_value_from_the_drives_file():
+    from pinid.model import terms as T
+    from pinid.model.drives import Drives, attach
+
+    m = exo_motor()
+    m.stribeck = {"fs": Stribeck(VS, SHAPE), "motor_fs": Stribeck(MVS, 1.0)}
+    attach(m, Drives(m.joint_names, m.drives.transmissions, {"m_knee": {"fs": 0.03}}, "test"))
+    sel = JointTerms.from_names("fs,motor_fs")
+    assert np.array_equal(T.nominal(m, sel), [0, 0, 0, 0.03])
+    ds, _ = twin(m, MOTOR, seconds=2)
+    vals = np.array([0.5, 0.4, 0.02, 0.03])
+    G, smooth = m.drives.matrix, 0.01
+    want = (vals[:2] * np.tanh(ds.dq / smooth) * np.exp(-(np.abs(ds.dq) / VS) ** SHAPE)
+            + (vals[2:] * np.tanh(ds.dq @ G.T / smooth) * np.exp(-np.abs(ds.dq @ G.T) / MVS)) @ G)
+    assert np.allclose(T.torque(m, sel, vals, ds.q, ds.dq, ds.ddq, smoothing=smooth), want, rtol=1e-12, atol=1e-12)
