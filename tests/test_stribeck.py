@@ -34,15 +34,15 @@ def stribeck(x, vs, shape):
     return np.sign(x) * np.exp(-(np.abs(x) / vs) ** shape)
 
 
-def twin(m, terms: JointTerms, seconds=30.0, rate=200.0, seed=0) -> tuple[Dataset, np.ndarray]:
+def twin(m, terms: JointTerms, seconds=30.0, rate=200.0, seed=0, shape=SHAPE) -> tuple[Dataset, np.ndarray]:
     """Noise-free recording of ``m`` with joint fc, fv (the model's), motor fc (its drives') and the Stribeck
-    terms of ``terms`` (FS, VS; MFS, MVS); and the true standard parameters."""
+    terms of ``terms`` (FS, VS, ``shape``; MFS, MVS, SHAPE); and the true standard parameters."""
     t, q, dq, ddq = fourier_motion(m, seconds, rate, seed)
     tau = m.rnea(q, dq, ddq) + m.coulomb * np.sign(dq) + m.viscous * dq
     theta = standard_parameters(m, terms)
     names = m.inertial_names + parameter_names(m, terms)
     if "fs" in terms:
-        tau += FS * stribeck(dq, VS, SHAPE)
+        tau += FS * stribeck(dq, VS, shape)
         theta[[i for i, n in enumerate(names) if n in [f"{j}.fs" for j in m.joint_names]]] = FS
     if "motor_fs" in terms:
         G = m.drives.matrix
@@ -93,18 +93,29 @@ def test_noise_free_twin_velocity_given_and_fitted(make, terms, key, vs):
     assert np.allclose(again.model.inverse_dynamics(ds.q[:50], ds.dq[:50], ds.ddq[:50]), ds.tau[:50], atol=1e-3)
 
 
+def test_noise_free_twin_shape_fitted_with_the_velocity():
+    m = exo_joint()
+    ds, theta = twin(m, JOINT, shape=1.5)
+    fitted = identify(m, ds, methods=["ols"], terms=JOINT, stribeck_velocity="auto", stribeck_shape="auto")
+    found = fitted.data["stribeck"]["fs"]
+    assert found["shape_fitted"] and abs(found["shape"] / 1.5 - 1) <= 0.01 and abs(found["velocity"] / VS - 1) <= 0.01
+    truth = base_parameters(m, JOINT).from_standard(theta)
+    assert _relative(fitted["ols"].base, truth) <= 1e-3
+
+
 def test_settings_from_the_robot_python_and_defaults():
     m = exo_joint()
-    assert stribeck_settings(m, JOINT) == ({"fs": Stribeck(0.1, 2.0)}, [])  # the documented default
+    assert stribeck_settings(m, JOINT) == ({"fs": Stribeck(0.1, 2.0)}, {})  # the documented default
     m.stribeck = {"fs": Stribeck(0.2, 1.0)}
-    assert stribeck_settings(m, JOINT, shape=3) == ({"fs": Stribeck(0.2, 3.0)}, [])
-    assert stribeck_settings(m, JOINT, "fs=auto") == ({"fs": Stribeck(0.2, 1.0)}, ["fs"])
+    assert stribeck_settings(m, JOINT, shape=3) == ({"fs": Stribeck(0.2, 3.0)}, {})
+    assert stribeck_settings(m, JOINT, "fs=auto") == ({"fs": Stribeck(0.2, 1.0)}, {"fs": False})
+    assert stribeck_settings(m, JOINT, "auto", "auto") == ({"fs": Stribeck(0.2, 1.0)}, {"fs": True})
 
 
 @pytest.mark.parametrize("velocity,shape,message", [
     (0, None, "velocity of fs 0, expected a number > 0"), (-0.1, None, "expected a number > 0"),
     (float("nan"), None, "expected a number > 0"), ("fast", None, "expected a number > 0 [rad/s] or 'auto'"),
-    (None, 0, "shape of fs 0"), (None, "auto", "shape of fs 'auto'"),
+    (None, 0, "shape of fs 0"), (None, "auto", "fitted only with the velocity 'auto'"),
     ("motor_fs=1", None, "expected Stribeck term(s) selected"),
 ])
 def test_bad_settings(velocity, shape, message):

@@ -74,7 +74,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="Stribeck velocity [rad/s in the term's space, > 0] of every Stribeck term, 'auto' (fitted "
                         "by a 1-D search) or per term, e.g. fs=0.05,motor_fs=auto; default 0.1")
     g.add_argument("--stribeck-shape", default=None, metavar="D",
-                   help="Stribeck shape exponent (> 0; 2 Gaussian, 1 exponential) or per term fs=2,motor_fs=1; default 2")
+                   help="Stribeck shape exponent (> 0; 2 Gaussian, 1 exponential), 'auto' (fitted with the velocity) "
+                        "or per term fs=2,motor_fs=1; default 2")
     p.add_argument("--no-report", action="store_true", help="do not write report.md, report.html and the figures")
     p.add_argument("--no-figures", action="store_true",
                    help="write report.md and report.html without figures (faster: matplotlib is not loaded)")
@@ -155,7 +156,8 @@ def run(args: argparse.Namespace) -> int:
         print("drive gains [N·m per unit of the recorded channel]: " + ", ".join(
             f"{j} {k:.6g} ± {s:.2g}" for j, k, s in zip(g["joints"], g["gains"], g["std"])))
     for name, v in d.get("stribeck", {}).items():
-        print(f"Stribeck {name}: velocity {v['velocity']:.6g} rad/s{' (fitted)' if v['fitted'] else ''}, shape {v['shape']:g}")
+        print(f"Stribeck {name}: velocity {v['velocity']:.6g} rad/s{' (fitted)' if v['fitted'] else ''}, "
+              f"shape {v['shape']:.4g}{' (fitted)' if v.get('shape_fitted') else ''}")
     print(f"training: {d['samples']} samples from {len(d['sources'])} recording(s), {d['rows']} torque rows used"
           + (f"; validation: {len(ident.validation_sources)} recording(s)" if ident.validation_sources else ""))
     if args.verbose:

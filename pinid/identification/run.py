@@ -235,7 +235,7 @@ def identify(
     gains reported in ``data["drive_gains"]``.
     ``stribeck_velocity`` [rad/s], ``stribeck_shape``: the shape of the Stribeck terms (``fs``,
     ``motor_fs``; :func:`pinid.model.terms.stribeck_settings`), default the model's (``model.stribeck``)
-    or 0.1 rad/s and 2; ``"auto"`` fits the velocity (:mod:`pinid.identification.stribeck`).  The shapes
+    or 0.1 rad/s and 2; ``"auto"`` fits the velocity (and the shape: :mod:`pinid.identification.stribeck`).  The shapes
     used are in ``data["stribeck"]`` and in the saved robot.
 
     Returns an :class:`~pinid.identification.result.Identification`; ``result.model`` is the best
@@ -262,10 +262,10 @@ def identify(
               show_progress=show_progress)
     shapes = {n: {"velocity": v.velocity, "shape": v.shape, "fitted": False} for n, v in settings.items()}
     for k, name in enumerate(auto):  # one 1-D search per term, around the linear fit without it
-        fit = fit_velocity(s.problem, s.train, name)
+        fit = fit_velocity(s.problem, s.train, name, fit_shape=auto[name])
         model.stribeck[name] = Stribeck(fit.velocity, fit.shape)
         shapes[name] = fit.summary()
-        s.terms = JointTerms(names=[n for n in terms.names if n not in auto[k + 1:]])
+        s.terms = JointTerms(names=[n for n in terms.names if n not in list(auto)[k + 1:]])
         s.base = base_parameters(model, s.terms)
         s.problem = IdentificationProblem.from_datasets(model, s.train, terms=s.terms, base=s.base,
                                                         rest_velocity=rest_velocity, rest_fraction=rest_fraction)

@@ -13,6 +13,10 @@ least-squares residual over ``log v_s``:
 3. bounded Brent (``scipy.optimize.minimize_scalar``) refines ``log v_s`` between its grid neighbours
    (relative tolerance :data:`XTOL`).
 
+With ``fit_shape`` the shape δ is searched the same way (:data:`SHAPE_GRID` candidates over
+:data:`SHAPES`, then Brent on ``log δ``), each candidate δ with its own velocity search (nested 1-D
+searches: about 20 × the velocity search's cost).
+
 Above the largest speed the Stribeck column tends to the Coulomb column sign(v) (collinear with ``fc``),
 below ``LOW·`` of it the column is zero but near rest: the search stays between.
 """
@@ -35,11 +39,13 @@ from pinid.model.robot import RobotModel
 GRID = 25  # log-spaced candidates of the coarse search
 LOW, HIGH = 1e-3, 1.0  # search range: fractions of the largest speed of the term's space
 XTOL = 1e-4  # Brent's tolerance on log v_s (≈ 0.01 % relative)
+SHAPES = (0.5, 4.0)  # range of the shape search (``shape="auto"``)
+SHAPE_GRID, SHAPE_XTOL = 7, 1e-3  # its coarse candidates and Brent's tolerance on log δ
 
 
 @dataclass
 class VelocityFit:
-    """The fitted Stribeck velocity of one term and how it was found."""
+    """The fitted Stribeck velocity (and shape) of one term and how they were found."""
 
     term: str
     velocity: float  # [rad/s] (or m/s) in the term's space
@@ -47,19 +53,34 @@ class VelocityFit:
     residual: float  # weighted sum of squared torque residuals at the optimum [N²·m²]
     bounds: tuple[float, float]  # searched range [rad/s]
     evaluations: int
+    shape_fitted: bool = False
 
     def summary(self) -> dict:
         """Plain dict for the results JSON."""
-        return {"velocity": self.velocity, "shape": self.shape, "fitted": True, "residual": self.residual,
-                "bounds": list(self.bounds), "evaluations": self.evaluations}
+        return {"velocity": self.velocity, "shape": self.shape, "fitted": True, "shape_fitted": self.shape_fitted,
+                "residual": self.residual, "bounds": list(self.bounds), "evaluations": self.evaluations}
 
 
-def fit_velocity(problem: IdentificationProblem, datasets: Sequence[Dataset], term: str) -> VelocityFit:
-    """Stribeck velocity of ``term`` (``fs`` or ``motor_fs``, shape from ``problem.model``) minimising the
-    least-squares residual of ``problem`` (built from ``datasets`` without the term) with the term's
-    columns added; see the module text.  DataError when the data do not move."""
+def _search(cost, lo: float, hi: float, grid: int, xtol: float) -> tuple[float, float, int]:
+    """``(x, cost(x), evaluations)``: the best of ``grid`` points in [lo, hi], refined by bounded Brent
+    between its neighbours."""
     from scipy.optimize import minimize_scalar  # scipy.optimize: only for this search
 
+    xs = np.linspace(lo, hi, grid)
+    costs = np.array([cost(x) for x in xs])
+    k = int(np.argmin(costs))
+    opt = minimize_scalar(cost, bounds=(xs[max(k - 1, 0)], xs[min(k + 1, grid - 1)]), method="bounded",
+                          options={"xatol": xtol})
+    best = (float(opt.x), float(opt.fun)) if opt.fun <= costs[k] else (float(xs[k]), float(costs[k]))
+    return best[0], best[1], grid + int(opt.nfev)
+
+
+def fit_velocity(problem: IdentificationProblem, datasets: Sequence[Dataset], term: str, *,
+                 fit_shape: bool = False) -> VelocityFit:
+    """Stribeck velocity of ``term`` (``fs`` or ``motor_fs``; shape from ``problem.model``, or fitted too
+    with ``fit_shape``) minimising the least-squares residual of ``problem`` (built from ``datasets``
+    without the term) with the term's columns added; see the module text.  DataError when the data do not
+    move."""
     model = problem.model
     # the motion of every row (its sample in the concatenated recordings)
     checked = [check_dataset(ds, model) for ds in datasets]
@@ -76,10 +97,9 @@ def fit_velocity(problem: IdentificationProblem, datasets: Sequence[Dataset], te
     y -= Q @ (Q.T @ y)
     trial = copy.copy(model)
     trial.stribeck = dict(model.stribeck)
-    shape = _terms.stribeck(model, term).shape
     sel = _terms.JointTerms(names=[term])
 
-    def residual(log_v: float) -> float:
+    def residual(log_v: float, shape: float) -> float:
         trial.stribeck[term] = _terms.Stribeck(float(np.exp(log_v)), shape)
         S = _terms.columns(trial, sel, q, dq, ddq)[rows, problem.joint] * sw[:, None]
         S -= Q @ (Q.T @ S)
@@ -88,14 +108,25 @@ def fit_velocity(problem: IdentificationProblem, datasets: Sequence[Dataset], te
         return float(r @ r)
 
     lo, hi = np.log(LOW * speed), np.log(HIGH * speed)
-    grid = np.linspace(lo, hi, GRID)
-    costs = np.array([residual(x) for x in grid])
-    k = int(np.argmin(costs))
-    a, b = grid[max(k - 1, 0)], grid[min(k + 1, GRID - 1)]
-    opt = minimize_scalar(residual, bounds=(a, b), method="bounded", options={"xatol": XTOL})
-    best, cost = (opt.x, opt.fun) if opt.fun <= costs[k] else (grid[k], costs[k])
-    return VelocityFit(term, float(np.exp(best)), shape, float(cost), (float(np.exp(lo)), float(np.exp(hi))),
-                       GRID + int(opt.nfev))
+
+    def velocity(shape: float) -> tuple[float, float, int]:
+        return _search(lambda x: residual(x, shape), lo, hi, GRID, XTOL)
+
+    bounds = (float(np.exp(lo)), float(np.exp(hi)))
+    if not fit_shape:
+        shape = _terms.stribeck(model, term).shape
+        x, cost, n = velocity(shape)
+        return VelocityFit(term, float(np.exp(x)), shape, cost, bounds, n)
+    inner: dict[float, tuple[float, float, int]] = {}
+
+    def by_shape(log_d: float) -> float:
+        inner[log_d] = velocity(float(np.exp(log_d)))
+        return inner[log_d][1]
+
+    log_d, cost, _ = _search(by_shape, *np.log(SHAPES), SHAPE_GRID, SHAPE_XTOL)
+    x = inner[log_d][0] if log_d in inner else velocity(float(np.exp(log_d)))[0]
+    return VelocityFit(term, float(np.exp(x)), float(np.exp(log_d)), cost, bounds,
+                       sum(v[2] for v in inner.values()), shape_fitted=True)
 
 
 def with_stribeck(model: RobotModel, settings: dict[str, _terms.Stribeck]) -> RobotModel:

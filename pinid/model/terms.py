@@ -371,22 +371,26 @@ def _spec_items(spec, names: Sequence[str], what: str) -> dict[str, object]:
     return items
 
 
-def stribeck_settings(robot, terms: JointTerms, velocity=None, shape=None) -> tuple[dict[str, Stribeck], list[str]]:
-    """``({term: Stribeck}, [terms whose velocity is to be fitted])`` for the selected Stribeck terms.
+def stribeck_settings(robot, terms: JointTerms, velocity=None, shape=None) -> tuple[dict[str, Stribeck], dict[str, bool]]:
+    """``({term: Stribeck}, {term whose velocity is fitted: its shape is fitted too})`` for the selected
+    Stribeck terms.
 
     ``velocity`` [rad/s, in the term's space]: a number for every selected Stribeck term, ``"auto"`` (fitted:
     :mod:`pinid.identification.stribeck`), ``"fs=0.05,motor_fs=auto"`` or ``{"fs": 0.05}``; ``shape`` the
-    same without ``"auto"``.  Unset values keep the robot's (:func:`stribeck`).  SpecError for a value that
-    is not a number > 0 or a term that is not a selected Stribeck term."""
+    same (``"auto"`` only with the velocity ``"auto"``).  Unset values keep the robot's (:func:`stribeck`).
+    SpecError for a value that is not a number > 0 or a term that is not a selected Stribeck term."""
     names = [n for n in terms.names if n in STRIBECK_TERMS]
     out = {n: stribeck(robot, n) for n in names}
-    auto: list[str] = []
+    auto: dict[str, bool] = {}
     for what, spec in (("velocity", velocity), ("shape", shape)):
         if spec is None:
             continue
         for name, value in _spec_items(spec, names, what).items():
-            if what == "velocity" and isinstance(value, str) and value.strip() == "auto":
-                auto.append(name)
+            if isinstance(value, str) and value.strip() == "auto":
+                if what == "shape" and name not in auto:
+                    raise SpecError(f"Stribeck shape of {name} 'auto': fitted only with the velocity 'auto' "
+                                    "(--stribeck-velocity auto), else expected a number > 0")
+                auto[name] = what == "shape"
                 continue
             try:
                 number = float(value)
@@ -394,6 +398,6 @@ def stribeck_settings(robot, terms: JointTerms, velocity=None, shape=None) -> tu
                 number = None
             if number is None or not np.isfinite(number) or number <= 0:
                 raise SpecError(f"Stribeck {what} of {name} {value!r}, expected a number > 0"
-                                + (" [rad/s] or 'auto'" if what == "velocity" else ""))
+                                + (" [rad/s]" if what == "velocity" else "") + " or 'auto'")
             out[name] = Stribeck(**{**out[name].__dict__, what: number})
     return out, auto
