@@ -93,6 +93,15 @@ def test_noise_free_twin_velocity_given_and_fitted(make, terms, key, vs):
     assert np.allclose(again.model.inverse_dynamics(ds.q[:50], ds.dq[:50], ds.ddq[:50]), ds.tau[:50], atol=1e-3)
 
 
+def test_noisy_twin_velocity_found():
+    m = exo_joint()
+    ds, _ = twin(m, JOINT, seed=1)
+    noisy = Dataset(ds.t, ds.q, ds.joints, dq=ds.dq, ddq=ds.ddq, source="noisy",
+                    tau=ds.tau + np.random.default_rng(7).normal(size=ds.tau.shape) * 0.1)  # σ = fs / 6
+    found = identify(m, noisy, methods=["ols"], terms=JOINT, stribeck_velocity="auto").data["stribeck"]["fs"]
+    assert abs(found["velocity"] / VS - 1) <= 0.02
+
+
 def test_noise_free_twin_shape_fitted_with_the_velocity():
     m = exo_joint()
     ds, theta = twin(m, JOINT, shape=1.5)
@@ -125,7 +134,7 @@ def test_bad_settings(velocity, shape, message):
 
 
 def test_setting_without_a_stribeck_term():
-    with pytest.raises(SpecError, match="none selected"):
+    with pytest.raises(SpecError, match="no Stribeck term is selected"):
         identify(exo_joint(), twin(exo_joint(), JOINT, seconds=5)[0], methods=["ols"], terms="fc,fv",
                  stribeck_velocity=0.1)
     with pytest.raises(SpecError, match="velocity"):

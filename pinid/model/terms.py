@@ -364,10 +364,12 @@ def _spec_items(spec, names: Sequence[str], what: str) -> dict[str, object]:
         items = dict(spec)
     else:
         items = {n: spec for n in names}
+    if not names:
+        raise SpecError(f"Stribeck {what} given, but no Stribeck term is selected: add one of "
+                        f"{list(STRIBECK_TERMS)} to the terms")
     bad = [k for k in items if k not in names]
-    if bad or not names:
-        raise SpecError(f"Stribeck {what} for {bad or list(items)}: expected Stribeck term(s) selected in the terms "
-                        f"({', '.join(names) or f'none selected; add one of {list(STRIBECK_TERMS)}'})")
+    if bad:
+        raise SpecError(f"Stribeck {what} for {bad}: expected Stribeck term(s) selected in the terms ({', '.join(names)})")
     return items
 
 
