@@ -181,3 +181,15 @@ def test_plant_law_and_nominal_motor_value_from_the_drives_file():
     want = (vals[:2] * np.tanh(ds.dq / smooth) * np.exp(-(np.abs(ds.dq) / VS) ** SHAPE)
             + (vals[2:] * np.tanh(ds.dq @ G.T / smooth) * np.exp(-np.abs(ds.dq @ G.T) / MVS)) @ G)
     assert np.allclose(T.torque(m, sel, vals, ds.q, ds.dq, ds.ddq, smoothing=smooth), want, rtol=1e-12, atol=1e-12)
+
+
+def test_compare_fits_the_velocity_too():
+    from pinid.identification.compare import compare
+
+    m = exo_joint()
+    ds, _ = twin(m, JOINT, seconds=20)
+    comp = compare(m, ds, methods="ols", terms=JOINT, stribeck_velocity="auto")
+    assert abs(comp.data["stribeck"]["fs"]["velocity"] / VS - 1) <= 0.01
+    assert comp.robot["stribeck"]["fs"]["velocity"] == comp.data["stribeck"]["fs"]["velocity"]
+    given = identify(m, ds, methods=["ols"], terms=JOINT)  # no setting: the default is used and reported
+    assert given.data["stribeck"] == {"fs": {"velocity": 0.1, "shape": 2.0, "fitted": False}}

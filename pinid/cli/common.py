@@ -37,6 +37,17 @@ def add_terms_argument(p: argparse.ArgumentParser) -> None:
                         "'none' for none; default fc,fv")
 
 
+def add_stribeck_arguments(p: argparse.ArgumentParser) -> None:
+    """--stribeck-velocity and --stribeck-shape: the shape of the Stribeck terms (fs, motor_fs)."""
+    g = p.add_argument_group("Stribeck friction (--terms fs, motor_fs; docs/drives.md, Stribeck friction)")
+    g.add_argument("--stribeck-velocity", default=None, metavar="V|auto",
+                   help="Stribeck velocity [rad/s in the term's space, > 0] of every Stribeck term, 'auto' (fitted "
+                        "by a 1-D search) or per term, e.g. fs=0.05,motor_fs=auto; default 0.1")
+    g.add_argument("--stribeck-shape", default=None, metavar="D",
+                   help="Stribeck shape exponent (> 0; 2 Gaussian, 1 exponential), 'auto' (fitted with the velocity) "
+                        "or per term fs=2,motor_fs=1; default 2")
+
+
 def robot_from_args(args: argparse.Namespace):
     """Load the RobotModel the robot options describe."""
     from pinid.errors import SpecError

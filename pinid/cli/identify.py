@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from pinid.cli.common import (add_mapping_arguments, add_method_arguments, wrote_line, add_preprocessing_arguments, add_recording_arguments,
-                              add_robot_arguments, add_terms_argument, methods_from_args, nonnegative_float,
+                              add_robot_arguments, add_stribeck_arguments, add_terms_argument, methods_from_args, nonnegative_float,
                               options_from_args, positive_int, preprocess_from_args, rest_velocity_from_args,
                               mapping_from_args, robot_from_args, terms_from_args)
 
@@ -69,13 +69,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--payload-data", action="append", default=None, metavar="FILE",
                    help="recording with the payload; with --payload, the drive gains are identified first and "
                         "the currents of every recording turned into torques; repeatable")
-    g = p.add_argument_group("Stribeck friction (--terms fs, motor_fs; docs/drives.md, Stribeck friction)")
-    g.add_argument("--stribeck-velocity", default=None, metavar="V|auto",
-                   help="Stribeck velocity [rad/s in the term's space, > 0] of every Stribeck term, 'auto' (fitted "
-                        "by a 1-D search) or per term, e.g. fs=0.05,motor_fs=auto; default 0.1")
-    g.add_argument("--stribeck-shape", default=None, metavar="D",
-                   help="Stribeck shape exponent (> 0; 2 Gaussian, 1 exponential), 'auto' (fitted with the velocity) "
-                        "or per term fs=2,motor_fs=1; default 2")
+    add_stribeck_arguments(p)
     p.add_argument("--no-report", action="store_true", help="do not write report.md, report.html and the figures")
     p.add_argument("--no-figures", action="store_true",
                    help="write report.md and report.html without figures (faster: matplotlib is not loaded)")

@@ -32,7 +32,7 @@ from pinid.identification.stribeck import fit_velocity, with_stribeck
 from pinid.model.base import BaseParameters, base_parameters
 from pinid.model.regressor import JointTerms
 from pinid.model.robot import RobotModel
-from pinid.model.terms import Stribeck, as_terms, stribeck_settings
+from pinid.model.terms import STRIBECK_TERMS, Stribeck, as_terms, stribeck, stribeck_settings
 from pinid.model.serialize import robot_to_dict
 from pinid.progress import progress
 
@@ -95,13 +95,22 @@ class Setup:
     train: list[Dataset]
     validation: dict[str, list[Dataset]] = field(default_factory=dict)
     segmental: SegmentalProblem | None = None
+    stribeck: dict[str, dict] = field(default_factory=dict)  # the Stribeck shapes used (data["stribeck"])
 
 
 def setup(model: RobotModel, data, validate=None, *, terms: JointTerms = JointTerms(), mapping=None,
           preprocess: Mapping | bool | None = None, rest_velocity="auto", rest_fraction: float = REST_FRACTION,
-          segmental: Mapping | None = None, show_progress: bool | None = False) -> Setup:
+          segmental: Mapping | None = None, show_progress: bool | None = False,
+          stribeck_auto: Mapping[str, bool] | None = None) -> Setup:
     """Load and stack the recordings.  ``validate``: recordings, or ``{label: recordings}``;
-    ``segmental``: ``{"first": recordings, "joints": first joints}`` (seed 000's two stages)."""
+    ``segmental``: ``{"first": recordings, "joints": first joints}`` (seed 000's two stages);
+    ``stribeck_auto``: ``{Stribeck term: fit its shape too}`` — their velocities are fitted
+    (:mod:`pinid.identification.stribeck`) and set in ``model.stribeck`` (a model of the caller's own:
+    :func:`~pinid.identification.stribeck.with_stribeck`)."""
+    auto = dict(stribeck_auto or {})
+    if auto and segmental:
+        raise SpecError("Stribeck velocity 'auto' with the segmental strategy: give the velocity instead")
+    final_terms, terms = terms, JointTerms(names=[n for n in terms.names if n not in auto])
     check_distinct(data, validate)
     train = load_datasets(data, model, mapping, preprocess, "training")
     if validate is None:
@@ -125,7 +134,17 @@ def setup(model: RobotModel, data, validate=None, *, terms: JointTerms = JointTe
         problem = IdentificationProblem.from_datasets(model, train, terms=terms, base=base,
                                                       rest_velocity=rest_velocity, rest_fraction=rest_fraction,
                                                       show_progress=show_progress)
-    return Setup(model, terms, base, problem, train, val, seg)
+    shapes = {n: {"velocity": v.velocity, "shape": v.shape, "fitted": False}
+              for n in final_terms.names if n in STRIBECK_TERMS for v in [stribeck(model, n)]}
+    for k, name in enumerate(auto):  # one 1-D search per term, around the linear fit without it
+        fit = fit_velocity(problem, train, name, fit_shape=auto[name])
+        model.stribeck[name] = Stribeck(fit.velocity, fit.shape)
+        shapes[name] = fit.summary()
+        terms = JointTerms(names=[n for n in final_terms.names if n not in list(auto)[k + 1:]])
+        base = base_parameters(model, terms)
+        problem = IdentificationProblem.from_datasets(model, train, terms=terms, base=base,
+                                                      rest_velocity=rest_velocity, rest_fraction=rest_fraction)
+    return Setup(model, terms, base, problem, train, val, seg, shapes)
 
 
 def _items(recordings) -> list:
@@ -257,18 +276,8 @@ def identify(
         gains, data, validate = _currents_to_torques(model, terms, data, validate, payload, payload_data, mapping,
                                                      preprocess, rest_velocity)
         preprocess = False
-    s = setup(model, data, validate, terms=JointTerms(names=[n for n in terms.names if n not in auto]),
-              mapping=mapping, preprocess=preprocess, rest_velocity=rest_velocity, rest_fraction=rest_fraction,
-              show_progress=show_progress)
-    shapes = {n: {"velocity": v.velocity, "shape": v.shape, "fitted": False} for n, v in settings.items()}
-    for k, name in enumerate(auto):  # one 1-D search per term, around the linear fit without it
-        fit = fit_velocity(s.problem, s.train, name, fit_shape=auto[name])
-        model.stribeck[name] = Stribeck(fit.velocity, fit.shape)
-        shapes[name] = fit.summary()
-        s.terms = JointTerms(names=[n for n in terms.names if n not in list(auto)[k + 1:]])
-        s.base = base_parameters(model, s.terms)
-        s.problem = IdentificationProblem.from_datasets(model, s.train, terms=s.terms, base=s.base,
-                                                        rest_velocity=rest_velocity, rest_fraction=rest_fraction)
+    s = setup(model, data, validate, terms=terms, mapping=mapping, preprocess=preprocess, rest_velocity=rest_velocity,
+              rest_fraction=rest_fraction, show_progress=show_progress, stribeck_auto=auto)
     fits = run_jobs(s, [(m, None, options.get(m, {})) for m in methods], complete=complete,
                     show_progress=show_progress)
     results = {f.method: f.result for f in fits}
@@ -293,8 +302,8 @@ def identify(
     summary = s.problem.summary()
     if gains is not None:
         summary["drive_gains"] = gains.summary()
-    if shapes:
-        summary["stribeck"] = shapes
+    if s.stribeck:
+        summary["stribeck"] = s.stribeck
     return Identification(
         robot=robot_to_dict(model, terms), results=results, data=summary,
         base={"names": s.base.names, "expressions": s.base.expressions(),
