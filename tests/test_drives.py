@@ -18,12 +18,14 @@ from pinid.identification.core import identify
 from pinid.identification.identified import IdentifiedModel
 from pinid.model.drives import Drives, Transmission, attach, load_drives
 from pinid.model.robot import RobotModel
+from pinid.model.terms import Stribeck
 
 from conftest import assert_clean_error, load, run_cli
 from test_identification import fourier_motion, truth_model
 
-ALL_TERMS = JointTerms.from_names("fc,fv,offset,armature,fc_pos,fc_neg,"
-                                  "motor_fc,motor_fv,motor_offset,motor_armature,motor_fc_pos,motor_fc_neg")
+ALL_TERMS = JointTerms.from_names("fc,fv,offset,armature,fc_pos,fc_neg,fs,"
+                                  "motor_fc,motor_fv,motor_offset,motor_armature,motor_fc_pos,motor_fc_neg,motor_fs")
+STRIBECK = {"fs": (0.3, 1.5), "motor_fs": (40.0, 2.0)}  # (velocity [rad/s], shape) of coupled()'s robots
 MOTOR_TERMS = JointTerms.from_names("fc,fv,motor_fc,motor_fv,motor_offset,motor_armature")
 EXO_G = [[30.0, 0.0], [12.0, 25.0]]  # cable: the knee motor turns with the hip too
 WRIST_G = [[50.0, 0.0], [50.0, 50.0]]  # differential wrist: motor 6 turns with q5 + q6
@@ -42,6 +44,7 @@ def coupled(name: str) -> RobotModel:
         tr = [Transmission([x], [f"m{i + 1}"], np.array([[50.0]])) for i, x in enumerate(j[:-2])]
         tr.append(Transmission(j[-2:], [f"m{len(j) - 1}", f"m{len(j)}"], np.array(WRIST_G)))
         vals = {f"m{i + 1}": {"fc": 0.01 + 0.002 * i, "fv": 1e-3, "armature": 1e-5, "offset": 1e-3} for i in range(len(j))}
+    m.stribeck = {k: Stribeck(*v) for k, v in STRIBECK.items()}
     return attach(m, Drives(j, tr, vals, "test drives"))
 
 
@@ -54,12 +57,14 @@ def expected_torque(m: RobotModel, q, dq, ddq, theta_terms, terms: JointTerms) -
     M = theta_terms[nv * nj:].reshape(nm, nmt)
     formula = {"fc": np.sign, "fv": lambda x: x, "offset": np.ones_like,
                "fc_pos": lambda x: (x > 0) * 1.0, "fc_neg": lambda x: -1.0 * (x < 0)}
+    for name, (vs, shape) in STRIBECK.items():  # fs·sign(v)·exp(−(|v|/v_s)^δ)
+        formula[name] = lambda x, vs=vs, shape=shape: np.sign(x) * np.exp(-(np.abs(x) / vs) ** shape)
     tau = m.rnea(q, dq, ddq)
     for k, t in enumerate(terms.joint):
         tau += J[:, k] * (ddq if t.name == "armature" else formula[t.name](dq))
     dqm, ddqm = dq @ G.T, ddq @ G.T
     for k, t in enumerate(terms.motor):
-        col = ddqm if t.suffix == "armature" else formula[t.suffix](dqm)
+        col = ddqm if t.suffix == "armature" else formula[t.name if t.name == "motor_fs" else t.suffix](dqm)
         tau += (M[:, k] * col) @ G
     return tau
 

@@ -32,8 +32,20 @@ def add_terms_argument(p: argparse.ArgumentParser) -> None:
                         "offset (constant torque), armature (rotor inertia), fc_pos/fc_neg (asymmetric Coulomb, "
                         "instead of fc), passive (wearer's passive joint moments, scale of Riener & Edrich 1999; "
                         "docs/wearer.md); motor side (needs drives: URDF <transmission> or --drives) motor_fc, "
-                        "motor_fv, motor_offset, motor_armature, motor_fc_pos, motor_fc_neg; "
+                        "motor_fv, motor_offset, motor_armature, motor_fc_pos, motor_fc_neg; Stribeck fs, motor_fs "
+                        "(fs·sign(v)·exp(−(|v|/v_s)^δ), on top of fc); "
                         "'none' for none; default fc,fv")
+
+
+def add_stribeck_arguments(p: argparse.ArgumentParser) -> None:
+    """--stribeck-velocity and --stribeck-shape: the shape of the Stribeck terms (fs, motor_fs)."""
+    g = p.add_argument_group("Stribeck friction (--terms fs, motor_fs; docs/drives.md, Stribeck friction)")
+    g.add_argument("--stribeck-velocity", default=None, metavar="V|auto",
+                   help="Stribeck velocity [rad/s in the term's space, > 0] of every Stribeck term, 'auto' (fitted "
+                        "by a 1-D search) or per term, e.g. fs=0.05,motor_fs=auto; default 0.1")
+    g.add_argument("--stribeck-shape", default=None, metavar="D",
+                   help="Stribeck shape exponent (> 0; 2 Gaussian, 1 exponential), 'auto' (fitted with the velocity) "
+                        "or per term fs=2,motor_fs=1; default 2")
 
 
 def robot_from_args(args: argparse.Namespace):

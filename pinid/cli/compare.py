@@ -9,7 +9,7 @@ from pathlib import Path
 
 from pinid.estimators import ESTIMATORS
 from pinid.cli.common import (add_mapping_arguments, add_method_arguments, add_preprocessing_arguments, add_recording_arguments,
-                              add_robot_arguments, add_terms_argument, methods_from_args, options_from_args,
+                              add_robot_arguments, add_stribeck_arguments, add_terms_argument, methods_from_args, options_from_args,
                               preprocess_from_args, rest_velocity_from_args, mapping_from_args, robot_from_args, terms_from_args)
 
 HELP = f"compare estimators ({', '.join(ESTIMATORS)}) on the same data, several seeds"
@@ -45,6 +45,7 @@ example:
 def add_arguments(p: argparse.ArgumentParser) -> None:
     add_robot_arguments(p)
     add_terms_argument(p)
+    add_stribeck_arguments(p)
     add_recording_arguments(p)
     add_method_arguments(p, "all")
     p.add_argument("--seeds", type=int, default=5, help="seeds per metaheuristic (0 … N−1); default 5")
@@ -121,7 +122,8 @@ def run(args: argparse.Namespace) -> int:
     comp = compare(model, args.data, validate or None, methods=methods, seeds=args.seeds, truth=args.truth,
                    terms=terms, options=options, metaheuristic=meta, segmental=segmental, mapping=mapping_from_args(args),
                    preprocess=preprocess_from_args(args), rest_velocity=rest_velocity_from_args(args.rest_velocity),
-                   show_progress=None)
+                   show_progress=None,
+                   stribeck_velocity=args.stribeck_velocity, stribeck_shape=args.stribeck_shape)
     table, values = comp.table(), comp.values_table()
     print(table)
     print()

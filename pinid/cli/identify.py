@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from pinid.cli.common import (add_mapping_arguments, add_method_arguments, wrote_line, add_preprocessing_arguments, add_recording_arguments,
-                              add_robot_arguments, add_terms_argument, methods_from_args, nonnegative_float,
+                              add_robot_arguments, add_stribeck_arguments, add_terms_argument, methods_from_args, nonnegative_float,
                               options_from_args, positive_int, preprocess_from_args, rest_velocity_from_args,
                               mapping_from_args, robot_from_args, terms_from_args)
 
@@ -82,6 +82,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--payload-data", action="append", default=None, metavar="FILE",
                    help="recording with the payload; with --payload, the drive gains are identified first and "
                         "the currents of every recording turned into torques; repeatable")
+    add_stribeck_arguments(p)
     p.add_argument("--no-report", action="store_true", help="do not write report.md, report.html and the figures")
     p.add_argument("--no-figures", action="store_true",
                    help="write report.md and report.html without figures (faster: matplotlib is not loaded)")
@@ -158,12 +159,16 @@ def run(args: argparse.Namespace) -> int:
         preprocess=preprocess_from_args(args), rest_velocity=rest_velocity_from_args(args.rest_velocity),
         options=options_from_args(args, _options(args, methods)), show_progress=None,
         payload=args.payload, payload_data=args.payload_data,
+        stribeck_velocity=args.stribeck_velocity, stribeck_shape=args.stribeck_shape,
     )
     d = ident.data
     if "drive_gains" in d:
         g = d["drive_gains"]
         print("drive gains [N·m per unit of the recorded channel]: " + ", ".join(
             f"{j} {k:.6g} ± {s:.2g}" for j, k, s in zip(g["joints"], g["gains"], g["std"])))
+    for name, v in d.get("stribeck", {}).items():
+        print(f"Stribeck {name}: velocity {v['velocity']:.6g} rad/s{' (fitted)' if v['fitted'] else ''}, "
+              f"shape {v['shape']:.4g}{' (fitted)' if v.get('shape_fitted') else ''}")
     print(f"training: {d['samples']} samples from {len(d['sources'])} recording(s), {d['rows']} torque rows used"
           + (f"; validation: {len(ident.validation_sources)} recording(s)" if ident.validation_sources else ""))
     if args.verbose:

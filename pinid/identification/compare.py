@@ -39,10 +39,11 @@ from pinid.estimators.metaheuristic import (cached_lad, least_absolute_deviation
 from pinid.identification.metrics import torque_metrics
 from pinid.identification.problem import base_regressor, check_dataset
 from pinid.identification.run import Fit, as_model, check_options, parse_methods, run_jobs, setup
+from pinid.identification.stribeck import with_stribeck
 from pinid.io import jsonable, read_json, write_json
 from pinid.model.regressor import JointTerms
 from pinid.model.robot import RobotModel
-from pinid.model.terms import as_terms
+from pinid.model.terms import as_terms, stribeck_settings
 from pinid.model.serialize import robot_to_dict
 
 #: Methods that give the same result whatever the seed (run once): the registry's ``deterministic`` ones.
@@ -359,6 +360,8 @@ def compare(
     rest_velocity="auto",
     complete: bool = True,
     show_progress: bool | None = False,
+    stribeck_velocity=None,
+    stribeck_shape=None,
 ) -> Comparison:
     """Run ``methods`` on the same recordings with several seeds; validate; compare (module text).
 
@@ -373,7 +376,7 @@ def compare(
     ``iterations``, ``fitness``, ``box`` …; ``options`` override them).  ``segmental``:
     ``{"first": recordings, "joints": ("knee",)}`` runs seed 000's segmental strategy (``data`` is then
     the recording with every joint moving).  ``mapping``, ``preprocess``, ``rest_velocity``,
-    ``complete``: as in :func:`pinid.identification.run.identify`.
+    ``complete``, ``stribeck_velocity``, ``stribeck_shape``: as in :func:`pinid.identification.run.identify`.
     """
     t_start = time.perf_counter()
     model = as_model(model)
@@ -396,8 +399,10 @@ def compare(
         s.update(options.get(m, {}))
         return s
 
+    shapes, auto = stribeck_settings(model, terms, stribeck_velocity, stribeck_shape)
+    model = with_stribeck(model, shapes) if shapes else model
     st = setup(model, data, validate, terms=terms, mapping=mapping, preprocess=preprocess,
-               rest_velocity=rest_velocity, segmental=segmental)
+               rest_velocity=rest_velocity, segmental=segmental, stribeck_auto=auto)
     problem, seg, base = st.problem, st.segmental, st.base
     names = problem.names
     truth_x = _truth_vector(truth, names)
@@ -418,7 +423,8 @@ def compare(
                     "rest_velocity": rest_velocity if isinstance(rest_velocity, str) else np.asarray(rest_velocity).tolist()}
     return Comparison(
         robot=robot_to_dict(model, terms), base_names=names, nominal=problem.nominal_base.copy(), truth=truth_x,
-        methods=methods, seeds=seed_list, runs=runs, reference=reference, data=problem.summary(),
+        methods=methods, seeds=seed_list, runs=runs, reference=reference,
+        data={**problem.summary(), **({"stribeck": st.stribeck} if st.stribeck else {})},
         validation_sources={label: [ds.source for ds in sets] for label, sets in st.validation.items()},
         settings=settings_out,
         segmental=None if seg is None else {"first_joints": seg.first_joints, "first_sources": seg.first_problem.sources,

@@ -28,10 +28,11 @@ from pinid.identification.problem import (REST_FRACTION, IdentificationProblem, 
                                           predict_torque)
 from pinid.identification.result import Identification, IdentificationResult, make_result
 from pinid.identification.segmental import Segmental, SegmentalProblem
+from pinid.identification.stribeck import fit_velocity, with_stribeck
 from pinid.model.base import BaseParameters, base_parameters
 from pinid.model.regressor import JointTerms
 from pinid.model.robot import RobotModel
-from pinid.model.terms import as_terms
+from pinid.model.terms import STRIBECK_TERMS, Stribeck, as_terms, stribeck, stribeck_settings
 from pinid.model.serialize import robot_to_dict
 from pinid.progress import progress
 
@@ -94,13 +95,22 @@ class Setup:
     train: list[Dataset]
     validation: dict[str, list[Dataset]] = field(default_factory=dict)
     segmental: SegmentalProblem | None = None
+    stribeck: dict[str, dict] = field(default_factory=dict)  # the Stribeck shapes used (data["stribeck"])
 
 
 def setup(model: RobotModel, data, validate=None, *, terms: JointTerms = JointTerms(), mapping=None,
           preprocess: Mapping | bool | None = None, rest_velocity="auto", rest_fraction: float = REST_FRACTION,
-          segmental: Mapping | None = None, show_progress: bool | None = False) -> Setup:
+          segmental: Mapping | None = None, show_progress: bool | None = False,
+          stribeck_auto: Mapping[str, bool] | None = None) -> Setup:
     """Load and stack the recordings.  ``validate``: recordings, or ``{label: recordings}``;
-    ``segmental``: ``{"first": recordings, "joints": first joints}`` (seed 000's two stages)."""
+    ``segmental``: ``{"first": recordings, "joints": first joints}`` (seed 000's two stages);
+    ``stribeck_auto``: ``{Stribeck term: fit its shape too}`` — their velocities are fitted
+    (:mod:`pinid.identification.stribeck`) and set in ``model.stribeck`` (a model of the caller's own:
+    :func:`~pinid.identification.stribeck.with_stribeck`)."""
+    auto = dict(stribeck_auto or {})
+    if auto and segmental:
+        raise SpecError("Stribeck velocity 'auto' with the segmental strategy: give the velocity instead")
+    final_terms, terms = terms, JointTerms(names=[n for n in terms.names if n not in auto])
     check_distinct(data, validate)
     train = load_datasets(data, model, mapping, preprocess, "training")
     if validate is None:
@@ -124,7 +134,17 @@ def setup(model: RobotModel, data, validate=None, *, terms: JointTerms = JointTe
         problem = IdentificationProblem.from_datasets(model, train, terms=terms, base=base,
                                                       rest_velocity=rest_velocity, rest_fraction=rest_fraction,
                                                       show_progress=show_progress)
-    return Setup(model, terms, base, problem, train, val, seg)
+    shapes = {n: {"velocity": v.velocity, "shape": v.shape, "fitted": False}
+              for n in final_terms.names if n in STRIBECK_TERMS for v in [stribeck(model, n)]}
+    for k, name in enumerate(auto):  # one 1-D search per term, around the linear fit without it
+        fit = fit_velocity(problem, train, name, fit_shape=auto[name])
+        model.stribeck[name] = Stribeck(fit.velocity, fit.shape)
+        shapes[name] = fit.summary()
+        terms = JointTerms(names=[n for n in final_terms.names if n not in list(auto)[k + 1:]])
+        base = base_parameters(model, terms)
+        problem = IdentificationProblem.from_datasets(model, train, terms=terms, base=base,
+                                                      rest_velocity=rest_velocity, rest_fraction=rest_fraction)
+    return Setup(model, terms, base, problem, train, val, seg, shapes)
 
 
 def _items(recordings) -> list:
@@ -214,6 +234,8 @@ def identify(
     show_progress: bool | None = False,
     payload=None,
     payload_data: Dataset | str | os.PathLike | Iterable | None = None,
+    stribeck_velocity: float | str | Mapping | None = None,
+    stribeck_shape: float | str | Mapping | None = None,
 ) -> Identification:
     """Identify ``model``'s dynamic parameters from recordings with several methods; validate; compare.
 
@@ -230,6 +252,10 @@ def identify(
     recordings hold currents, not torques; the drive gains are identified from them and the payload
     recordings first (:mod:`pinid.identification.gains`), the currents turned into torques, and the
     gains reported in ``data["drive_gains"]``.
+    ``stribeck_velocity`` [rad/s], ``stribeck_shape``: the shape of the Stribeck terms (``fs``,
+    ``motor_fs``; :func:`pinid.model.terms.stribeck_settings`), default the model's (``model.stribeck``)
+    or 0.1 rad/s and 2; ``"auto"`` fits the velocity (and the shape: :mod:`pinid.identification.stribeck`).  The shapes
+    used are in ``data["stribeck"]`` and in the saved robot.
 
     Returns an :class:`~pinid.identification.result.Identification`; ``result.model`` is the best
     result's :class:`~pinid.identification.identified.IdentifiedModel`, ``result["sdp"]`` one method's result.
@@ -241,13 +267,17 @@ def identify(
     options = check_options(options, methods)
     for m in methods:  # bad settings fail before any recording is read
         make_estimator(m, **options.get(m, {}))
+    settings, auto = stribeck_settings(model, terms, stribeck_velocity, stribeck_shape)
+    if auto and payload is not None:
+        raise SpecError("Stribeck velocity 'auto' with drive gains (--payload): give the velocity instead")
+    model = with_stribeck(model, settings) if settings else model
     gains = None
     if payload is not None or payload_data is not None:
         gains, data, validate = _currents_to_torques(model, terms, data, validate, payload, payload_data, mapping,
                                                      preprocess, rest_velocity)
         preprocess = False
-    s = setup(model, data, validate, terms=terms, mapping=mapping, preprocess=preprocess,
-              rest_velocity=rest_velocity, rest_fraction=rest_fraction, show_progress=show_progress)
+    s = setup(model, data, validate, terms=terms, mapping=mapping, preprocess=preprocess, rest_velocity=rest_velocity,
+              rest_fraction=rest_fraction, show_progress=show_progress, stribeck_auto=auto)
     fits = run_jobs(s, [(m, None, options.get(m, {})) for m in methods], complete=complete,
                     show_progress=show_progress)
     results = {f.method: f.result for f in fits}
@@ -272,6 +302,8 @@ def identify(
     summary = s.problem.summary()
     if gains is not None:
         summary["drive_gains"] = gains.summary()
+    if s.stribeck:
+        summary["stribeck"] = s.stribeck
     return Identification(
         robot=robot_to_dict(model, terms), results=results, data=summary,
         base={"names": s.base.names, "expressions": s.base.expressions(),

@@ -21,7 +21,7 @@ import scipy.linalg
 from pinid.checks import as_floats, count, number
 from pinid.errors import DataError, SpecError
 from pinid.model.robot import RobotModel, as_robot
-from pinid.model.terms import as_terms
+from pinid.model.terms import STRIBECK_TERMS, as_terms
 from pinid.model.regressor import JointTerms, parameter_names, regressor
 from pinid.io import write_json
 
@@ -124,6 +124,8 @@ def base_parameters(
                         f"at least {-(-p // model.nv)} samples (default {max(60, 4 * p)})")
     seed = count(seed, "seed")
     q, dq, ddq = model.random_states(n, np.random.default_rng(seed))
+    if any(t in STRIBECK_TERMS for t in terms.names):  # Stribeck columns vanish at speed: slow samples too
+        dq = dq * np.logspace(-4, 0, n)[np.random.default_rng(seed).permutation(n)][:, None]
     W = regressor(model, q, dq, ddq, terms)
     norms = np.linalg.norm(W, axis=0)
     nonzero = np.flatnonzero(norms > tol * norms.max())

@@ -45,7 +45,7 @@ import numpy as np
 from pinid.errors import ModelError, SpecError
 
 #: Keys of a ``[motors.<name>]`` table of a drives file: the motor terms' parameter suffixes.
-MOTOR_VALUE_KEYS: tuple[str, ...] = ("fc", "fv", "armature", "offset", "fc_pos", "fc_neg")
+MOTOR_VALUE_KEYS: tuple[str, ...] = ("fc", "fv", "armature", "offset", "fc_pos", "fc_neg", "fs")
 
 
 @dataclass(frozen=True)

@@ -186,6 +186,7 @@ class RobotModel:
         self.urdf_text = urdf_text
         self.locked = dict(locked or {})
         self.drives = None  # the robot's transmissions (pinid.model.drives.Drives) when it has any
+        self.stribeck = {}  # term name → pinid.model.terms.Stribeck (velocity, shape); default when absent
         self._data = pin_model.createData()
         self._continuous = [i for i, j in enumerate(self.joints) if j.kind == "continuous"]
         self._idx_q = [pin_model.joints[i + 1].idx_q for i in range(len(self.joints))]
@@ -364,6 +365,7 @@ class RobotModel:
             urdf_path=self.urdf_path, urdf_text=self.urdf_text, locked=self.locked,
         )
         out.drives = self.drives
+        out.stribeck = dict(self.stribeck)
         return out
 
     # ------------------------------------------------------------------ kinematics helpers

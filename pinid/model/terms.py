@@ -105,6 +105,57 @@ for _base in ("fc", "fv", "offset", "armature", "fc_pos", "fc_neg"):
                   nonnegative=_t.nonnegative, nominal=lambda r, s=_base: r.drives.nominal(s), field=_base,
                   inertia=_t.inertia, plant=_t.plant, velocity_step=_t.velocity_step))
 
+
+# ---------------------------------------------------------------------------------------------- Stribeck
+#: Default Stribeck velocity [rad/s or m/s, in the term's own space] and shape when the robot sets none.
+STRIBECK_VELOCITY, STRIBECK_SHAPE = 0.1, 2.0
+
+
+@dataclass(frozen=True)
+class Stribeck:
+    """Shape of a Stribeck term ``fs·sign(v)·exp(−(|v|/velocity)^shape)`` (on top of Coulomb ``fc·sign(v)``:
+    the static friction is fc + fs).  ``velocity`` [rad/s or m/s] > 0 in the term's own space (joint or
+    motor velocity), ``shape`` > 0 (2: Gaussian, 1: exponential)."""
+
+    velocity: float = STRIBECK_VELOCITY
+    shape: float = STRIBECK_SHAPE
+
+    def __post_init__(self) -> None:
+        for key, v, unit in (("velocity", self.velocity, " [rad/s]"), ("shape", self.shape, "")):
+            if isinstance(v, bool) or not isinstance(v, (int, float, np.floating)) or not np.isfinite(v) or v <= 0:
+                raise SpecError(f"Stribeck {key} {v!r}, expected a finite number > 0{unit}")
+            object.__setattr__(self, key, float(v))
+
+    def factor(self, v: np.ndarray) -> np.ndarray:
+        """``exp(−(|v|/velocity)^shape)``: 1 at rest, → 0 at speed."""
+        return np.exp(-(np.abs(v) / self.velocity) ** self.shape)
+
+
+def stribeck(robot, name: str) -> Stribeck:
+    """The Stribeck shape of term ``name`` (``fs``, ``motor_fs``) on ``robot`` (its ``stribeck`` dict),
+    else the default (:data:`STRIBECK_VELOCITY`, :data:`STRIBECK_SHAPE`)."""
+    return (getattr(robot, "stribeck", None) or {}).get(name) or Stribeck()
+
+
+def _stribeck_term(name: str, space: str) -> Term:
+    """The Stribeck term ``name`` of ``space``: column sign(v)·exp(−(|v|/v_s)^δ), plant tanh(v/smoothing)·(…)."""
+    def column(m: Motion) -> np.ndarray:
+        return np.sign(m.dq) * stribeck(m.robot, name).factor(m.dq)
+
+    def plant(values: np.ndarray, m: Motion, vs: float) -> np.ndarray:
+        return values * np.tanh(m.dq / vs) * stribeck(m.robot, name).factor(m.dq)
+
+    motor = space == "motor"
+    return Term(name, "fs", "motor Stribeck friction" if motor else "Stribeck friction", "N·m", column, space=space,
+                nonnegative=True, nominal=(lambda r: r.drives.nominal("fs")) if motor else None,
+                field="fs" if motor else None, plant=plant)
+
+
+register(_stribeck_term("fs", "joint"))
+register(_stribeck_term("motor_fs", "motor"))
+#: Names of the Stribeck terms (their shape is a robot setting: :func:`stribeck`, ``robot.stribeck``).
+STRIBECK_TERMS: tuple[str, ...] = ("fs", "motor_fs")
+
 #: The classic joint terms (``JointTerms``' keyword arguments), in column order.
 JOINT_TERM_NAMES: tuple[str, ...] = ("fc", "fv", "offset", "armature")
 _FLAGS = dict(zip(("coulomb", "viscous", "offset", "armature"), JOINT_TERM_NAMES))
@@ -301,3 +352,55 @@ def torque(robot, terms: JointTerms, theta_terms: np.ndarray | dict[str, np.ndar
         tau_m = sum(t.torque(vals[t.name], mm, smoothing) for t in terms.motor)
         tau += tau_m @ robot.drives.matrix
     return tau
+
+
+def _spec_items(spec, names: Sequence[str], what: str) -> dict[str, object]:
+    """``{term: value}`` of a Stribeck setting: one value for every name, ``"fs=0.05,motor_fs=auto"`` or a dict."""
+    if isinstance(spec, str) and "=" in spec:
+        items = {}
+        for part in (p.strip() for p in spec.split(",") if p.strip()):
+            key, _, value = part.partition("=")
+            items[key.strip()] = value.strip()
+    elif isinstance(spec, dict):
+        items = dict(spec)
+    else:
+        items = {n: spec for n in names}
+    if not names:
+        raise SpecError(f"Stribeck {what} given, but no Stribeck term is selected: add one of "
+                        f"{list(STRIBECK_TERMS)} to the terms")
+    bad = [k for k in items if k not in names]
+    if bad:
+        raise SpecError(f"Stribeck {what} for {bad}: expected Stribeck term(s) selected in the terms ({', '.join(names)})")
+    return items
+
+
+def stribeck_settings(robot, terms: JointTerms, velocity=None, shape=None) -> tuple[dict[str, Stribeck], dict[str, bool]]:
+    """``({term: Stribeck}, {term whose velocity is fitted: its shape is fitted too})`` for the selected
+    Stribeck terms.
+
+    ``velocity`` [rad/s, in the term's space]: a number for every selected Stribeck term, ``"auto"`` (fitted:
+    :mod:`pinid.identification.stribeck`), ``"fs=0.05,motor_fs=auto"`` or ``{"fs": 0.05}``; ``shape`` the
+    same (``"auto"`` only with the velocity ``"auto"``).  Unset values keep the robot's (:func:`stribeck`).
+    SpecError for a value that is not a number > 0 or a term that is not a selected Stribeck term."""
+    names = [n for n in terms.names if n in STRIBECK_TERMS]
+    out = {n: stribeck(robot, n) for n in names}
+    auto: dict[str, bool] = {}
+    for what, spec in (("velocity", velocity), ("shape", shape)):
+        if spec is None:
+            continue
+        for name, value in _spec_items(spec, names, what).items():
+            if isinstance(value, str) and value.strip() == "auto":
+                if what == "shape" and name not in auto:
+                    raise SpecError(f"Stribeck shape of {name} 'auto': fitted only with the velocity 'auto' "
+                                    "(--stribeck-velocity auto), else expected a number > 0")
+                auto[name] = what == "shape"
+                continue
+            try:
+                number = float(value)
+            except (TypeError, ValueError):
+                number = None
+            if number is None or not np.isfinite(number) or number <= 0:
+                raise SpecError(f"Stribeck {what} of {name} {value!r}, expected a number > 0"
+                                + (" [rad/s]" if what == "velocity" else "") + " or 'auto'")
+            out[name] = Stribeck(**{**out[name].__dict__, what: number})
+    return out, auto
