@@ -34,7 +34,7 @@ def demo(tree: Path) -> tuple[float, list[tuple[str, float]]]:
             if line.startswith("[") and "/" in line[:6]:
                 now = time.perf_counter()
                 steps.append((title, now - last))
-                last, title = now, line.split(": pinid ", 1)[0]
+                last, title = now, line.split(": pinid ", 1)[0].strip()  # "[i/n] title: pinid …" or "[i/n] title"
         proc.wait()
         end = time.perf_counter()
         steps.append((title, end - last))
