@@ -75,6 +75,7 @@ API_MODULES: tuple[tuple[str, str], ...] = (
     ("pinid.wearer.passive", "Wearer: passive joint moments"),
     ("pinid.wearer.prior", "Wearer: table values as a prior"),
     ("pinid.wearer.stage", "Wearer: stage-2 identification"),
+    ("pinid.wearer.exponents", "Wearer: passive-moment exponents by nonlinear least squares"),
     ("pinid.flexible.model", "Flexible joints"),
     ("pinid.flexible.output_error", "Output-error identification"),
     ("pinid.errors", "Errors"),

@@ -71,6 +71,39 @@ def test_noise_free_stage2_recovers_wearer_base_parameters(twin):
             assert ident[j]["rms"] <= 0.5 * table[j]["rms"], (c, j, ident[j], table[j])
 
 
+@pytest.mark.slow
+def test_stage2_passive_exponents_from_the_command_line(twin):
+    import copy
+    import dataclasses
+
+    from pinid.data.formats import read_recording, write_recording
+    from test_wearer_stage import _true_exponents
+    from pinid.wearer import passive
+
+    d = twin
+    robot = RobotModel.from_urdf(d / "eww.urdf")
+    true_robot = copy.copy(robot)
+    true_robot.passive_exponents = _true_exponents(robot)
+    ds = read_recording(d / "true.npz")  # kp = 1: the twin's passive moments at the published exponents
+    tau = ds.tau + passive.column(ds.q, true_robot) - passive.column(ds.q, robot)
+    write_recording(d / "true_exp.npz", dataclasses.replace(ds, tau=tau))
+    outs = {}
+    for flag in ([], ["--passive-exponents"]):
+        out = d / ("exp" if flag else "scale")
+        p = run_cli("identify", "--stage", "wearer", "--exo", str(d / "exo.json"), "--urdf", str(d / "eww.urdf"),
+                    "--data", str(d / "true_exp.npz"), "--preprocess", "never", *flag, "-o", str(out))
+        assert p.returncode == 0, p.stderr
+        outs[bool(flag)] = json.loads((out / "identification.json").read_text())
+    assert "passive_exponents" not in outs[False] and max(outs[False]["train_rms"]["identified"].values()) > 0.05
+    exp = outs[True]["passive_exponents"]
+    assert exp["rms_fitted"] < 1e-6 < 0.05 < exp["rms_published"]
+    for kind, rows in true_robot.passive_exponents.items():
+        np.testing.assert_allclose(exp["fitted"][kind], rows, rtol=1e-4)
+    assert max(outs[True]["train_rms"]["identified"].values()) < 1e-6
+    model = IdentifiedModel.load(d / "exp" / "model_wearer.json")
+    np.testing.assert_allclose(model.robot.passive_exponents["knee"], true_robot.passive_exponents["knee"], rtol=1e-4)
+
+
 def test_stage2_bad_input_writes_nothing(twin, tmp_path):
     d = twin
     p = run_cli("identify", "--stage", "wearer", "--urdf", str(d / "eww.urdf"), "--data", str(d / "true.npz"),
@@ -79,4 +112,7 @@ def test_stage2_bad_input_writes_nothing(twin, tmp_path):
     p = run_cli("identify", "--stage", "wearer", "--exo", str(d / "exo.json"), "--urdf", "exo_leg",
                 "--data", str(d / "true.npz"), "-o", str(tmp_path / "b"))
     assert_clean_error(p, "no wearer segment")
+    p = run_cli("identify", "--stage", "wearer", "--exo", str(d / "exo.json"), "--urdf", str(d / "eww.urdf"),
+                "--data", str(d / "true.npz"), "--no-passive", "--passive-exponents", "-o", str(tmp_path / "c"))
+    assert_clean_error(p, "passive_exponents", "passive")
     assert not list(tmp_path.iterdir())

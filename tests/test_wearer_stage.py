@@ -50,3 +50,65 @@ def test_noise_free_wearer_recovered(setup):
     # the combined model reproduces the torque
     tau = fit.model().inverse_dynamics(*data[:3])
     np.testing.assert_allclose(tau, data[3], atol=1e-6)
+
+
+def _true_exponents(robot, factor: float = 0.2) -> dict:
+    """The published exponent coefficients, each refined one ×(1 + factor) or ×(1 − factor) in turn."""
+    from pinid.wearer import passive
+    from pinid.wearer.exponents import free_coefficients
+
+    out = {kind: passive.published(kind) for kind, _ in passive.anatomy(robot) if kind}
+    for n, (kind, k, a) in enumerate(free_coefficients(robot)):
+        out[kind][k, a] *= 1 + factor if n % 2 == 0 else 1 - factor
+    return out
+
+
+def test_passive_exponents_recovered_by_nonlinear_least_squares(setup, tmp_path):
+    import copy
+
+    from pinid.model.base import base_parameters
+    from pinid.wearer import passive
+    from pinid.wearer.exponents import free_coefficients
+
+    stage1, path, robot, truth, (q, dq, ddq, tau) = setup
+    true_robot = copy.copy(robot)
+    true_robot.passive_exponents = _true_exponents(robot)
+    # the true torque: the passive module's own formula at the true exponents (kp of the truth)
+    tau = tau + (passive.column(q, true_robot) - passive.column(q, robot)) * truth[20:]
+    data = (q, dq, ddq, tau)
+    scale_only = identify_wearer(stage1, path, *data)
+    fit = identify_wearer(stage1, path, *data, passive_exponents=True)
+
+    def rms(f) -> float:
+        return max(np.sqrt(np.mean((f.model().inverse_dynamics(q, dq, ddq) - tau) ** 2, axis=0)))
+
+    assert rms(scale_only) > 0.1  # the published shapes cannot explain the torque, whatever their scale
+    assert fit.exponents.rms_published > 0.1 and fit.exponents.rms_fitted < 1e-9
+    free = free_coefficients(robot)
+    assert len(free) == len(fit.exponents.free) == 9  # hip 2 terms × (cH, cK), knee 2 × (cH, cK) + the stop's cK
+    for kind, k, a in free:
+        want = true_robot.passive_exponents[kind][k, a]
+        assert abs(fit.exponents.fitted[kind][k, a] - want) <= 1e-4 * abs(want), (kind, k, a)
+        published = fit.exponents.published[kind][k, a]
+        assert abs(published - want) >= 0.19 * abs(published)
+    want = base_parameters(robot, fit.terms).from_standard(truth)
+    rel = np.abs(fit.base - want) / np.maximum(np.abs(want), 1e-3)
+    assert rel.max() <= 1e-6, dict(zip(fit.base_names, rel))
+    # the model carries its exponents, also through its JSON
+    model = fit.model()
+    assert rms(fit) < 1e-6
+    model.save(tmp_path / "m.json")
+    back = IdentifiedModel.load(tmp_path / "m.json")
+    np.testing.assert_allclose(back.inverse_dynamics(q, dq, ddq), tau, atol=1e-6)
+    assert fit.to_dict()["passive_exponents"]["free"] == fit.exponents.free
+    # the caller's robot keeps the published exponents
+    assert not robot.passive_exponents
+    assert not fit.model("table").robot.passive_exponents  # the table wearer: published shapes
+
+
+def test_passive_exponents_need_the_passive_term(setup):
+    from pinid.errors import SpecError
+
+    stage1, path, robot, truth, data = setup
+    with pytest.raises(SpecError, match="passive"):
+        identify_wearer(stage1, path, *data, passive=False, passive_exponents=True)

@@ -71,6 +71,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                         "(the tables decide only what the data cannot see)")
     g.add_argument("--no-passive", action="store_true",
                    help="--stage wearer: do not identify the passive-moment scale factors (keep none)")
+    g.add_argument("--passive-exponents", action="store_true",
+                   help="--stage wearer: also fit the passive moments' exponents (nonlinear least squares from "
+                        "the published values, within 0.5-2x of them; docs/wearer.md)")
     p.add_argument("-v", "--verbose", action="store_true",
                    help="also print every method's base parameters (value, std, std %%) and torque error per joint "
                         "(without it: the summary table; the detail is in report.md/report.html)")
@@ -234,10 +237,14 @@ def _run_wearer(args: argparse.Namespace, out: Path) -> int:
     val = load_datasets(args.validate or None, robot, mapping, pre, "validation")
     fit = identify_wearer(args.exo, robot, *stack(train), passive=not args.no_passive,
                           mass_range=MASS_RANGE if args.mass_range is None else args.mass_range,
-                          prior_weight=args.prior_weight)
+                          prior_weight=args.prior_weight, passive_exponents=args.passive_exponents)
     result = {"stage": "wearer", "exo": args.exo, "urdf": str(robot.urdf_path), **fit.to_dict(),
               "train_rms": fit.rms(train), "validation_rms": fit.rms(val) if val else None}
     print(f"stage 2 (wearer) of {robot.name}: status {fit.status}, {fit.seconds:.2f} s")
+    if fit.exponents is not None:
+        e = fit.exponents
+        print(f"   passive exponents: {len(e.free)} fitted in {e.evaluations} evaluations ({e.seconds:.2f} s); "
+              f"torque RMS {e.rms_published:.4g} N·m at the published, {e.rms_fitted:.4g} at the fitted")
     width = max(len(n) for n in fit.base_names)
     print(f"   {'base parameter':<{width}} {'identified':>13} {'table':>13}")
     for n, v, t in zip(fit.base_names, fit.base, fit.base_table):

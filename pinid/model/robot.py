@@ -187,6 +187,7 @@ class RobotModel:
         self.locked = dict(locked or {})
         self.drives = None  # the robot's transmissions (pinid.model.drives.Drives) when it has any
         self.stribeck = {}  # term name → pinid.model.terms.Stribeck (velocity, shape); default when absent
+        self.passive_exponents = {}  # anatomical joint → (terms, 4) exponent coefficients (pinid.wearer.passive)
         self._data = pin_model.createData()
         self._continuous = [i for i, j in enumerate(self.joints) if j.kind == "continuous"]
         self._idx_q = [pin_model.joints[i + 1].idx_q for i in range(len(self.joints))]
@@ -366,6 +367,7 @@ class RobotModel:
         )
         out.drives = self.drives
         out.stribeck = dict(self.stribeck)
+        out.passive_exponents = dict(self.passive_exponents)
         return out
 
     # ------------------------------------------------------------------ kinematics helpers

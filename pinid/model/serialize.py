@@ -8,20 +8,26 @@ from __future__ import annotations
 import tempfile
 from pathlib import Path
 
+import numpy as np
+
 from pinid.errors import SpecError
 from pinid.model.regressor import JointTerms
 from pinid.model.robot import RobotModel
 from pinid.model.terms import STRIBECK_TERMS, Stribeck
+from pinid.wearer.passive import check_exponents
 
 
 def robot_to_dict(model: RobotModel, terms: JointTerms) -> dict:
     """``{"name", "urdf", "joints", "locked", "terms", "urdf_text", "drives"}`` of a model and its terms, and
-    ``"stribeck"`` ``{term: {"velocity", "shape"}}`` when the model sets Stribeck shapes."""
+    ``"stribeck"`` ``{term: {"velocity", "shape"}}`` when the model sets Stribeck shapes, ``"passive_exponents"``
+    ``{anatomical joint: (terms, 4) list}`` when it sets the wearer's passive-moment exponents."""
     return {"name": model.name, "urdf": None if model.urdf_path is None else str(model.urdf_path),
             "joints": model.joint_names, "locked": dict(model.locked), "terms": terms.names,
             "urdf_text": model.urdf_text, "drives": None if model.drives is None else model.drives.to_dict(),
             **({"stribeck": {k: {"velocity": s.velocity, "shape": s.shape} for k, s in model.stribeck.items()}}
-               if model.stribeck else {})}
+               if model.stribeck else {}),
+            **({"passive_exponents": {k: np.asarray(c).tolist() for k, c in model.passive_exponents.items()}}
+               if model.passive_exponents else {})}
 
 
 def robot_from_dict(d: dict) -> tuple[RobotModel, JointTerms]:
@@ -35,7 +41,8 @@ def robot_from_dict(d: dict) -> tuple[RobotModel, JointTerms]:
                                  ("urdf_text", (str, type(None)), "the URDF text or null"),
                                  ("urdf", (str, type(None)), "a URDF path or null"),
                                  ("drives", (dict, type(None)), "an object or null"),
-                                 ("stribeck", (dict, type(None)), "an object TERM: {velocity, shape} or null")):
+                                 ("stribeck", (dict, type(None)), "an object TERM: {velocity, shape} or null"),
+                                 ("passive_exponents", (dict, type(None)), "an object JOINT: exponent rows or null")):
         if key == "terms" and key not in d:
             raise SpecError("saved robot: no 'terms', expected a list of term names")
         if not isinstance(d.get(key), kinds):
@@ -57,6 +64,7 @@ def robot_from_dict(d: dict) -> tuple[RobotModel, JointTerms]:
 
         model.drives = Drives.from_dict(d["drives"], model.joint_names, "saved drives")
     model.stribeck = stribeck_from_dict(d.get("stribeck") or {}, "saved robot: 'stribeck'")
+    model.passive_exponents = check_exponents(d.get("passive_exponents") or {}, "saved robot: 'passive_exponents'")
     return model, terms
 
 

@@ -30,13 +30,15 @@ def _rms(model, datasets) -> np.ndarray:
 
 
 def wearer_experiment(exo_urdf, exo_with_wearer, excitation, validation, reference, *, seconds: float = 60.0,
-                      wearer_torque: float = 5.0, track_seconds: float = 8.0, seed: int = 0) -> dict:
+                      wearer_torque: float = 5.0, track_seconds: float = 8.0, seed: int = 0,
+                      true_exponents: dict | None = None, passive_exponents: bool = False) -> dict:
     """Run the experiment (see the module text) and return its figures.
 
     ``exo_urdf``: the bare exoskeleton (URDF path or bundled name); ``exo_with_wearer``: its URDF from
     ``pinid wearer``; ``excitation`` / ``validation``: trajectories (FourierTrajectory) of the
     identification and validation recordings, ``seconds`` long (validation: half); ``reference``: the
-    tracking reference.  Returns ``{"rms": {model: per-joint validation RMS [N·m]}, "floor": per joint
+    tracking reference; ``true_exponents`` the true wearer's passive-moment exponents ``{anatomical joint:
+    (terms, 4)}`` (default the published); ``passive_exponents``: stage 2 fits them.  Returns ``{"rms": {model: per-joint validation RMS [N·m]}, "floor": per joint
     [N·m], "ratio": {model: RMS / floor, joints pooled}, "tracking": {controller: {model: per-joint RMS
     [rad]}}, "fit": WearerFit}`` with models ``identified``, ``table``, ``exo``.
     """
@@ -48,10 +50,11 @@ def wearer_experiment(exo_urdf, exo_with_wearer, excitation, validation, referen
     stage1 = identify(exo, exo_run, methods=["sdp"])["sdp"].model
     table = RobotModel.from_urdf(exo_with_wearer)
     plant, _ = draw_wearer(table, seed)
+    plant.passive_exponents = dict(true_exponents or {})
     train, _ = simulate(plant, excitation, seconds=seconds, seed=seed + 2, wearer_torque=wearer_torque)
     valid, _ = simulate(plant, validation, seconds=seconds / 2, seed=seed + 3, wearer_torque=wearer_torque)
     train, valid = prepare_dataset(train), prepare_dataset(valid)
-    fit = identify_wearer(stage1, table, *stack([train]))
+    fit = identify_wearer(stage1, table, *stack([train]), passive_exponents=passive_exponents)
     terms = JointTerms.from_names("fc,fv,passive")
     truth = IdentifiedModel(plant, terms, np.concatenate(
         [plant.inertial_parameters(), np.column_stack([plant.coulomb, plant.viscous, np.ones(plant.nv)]).ravel()]))

@@ -13,6 +13,10 @@ excursion is flexion for hip and knee, plantarflexion for the ankle.  exo_leg: h
 In the dynamic model the passive moment is a joint term (``--terms passive``, parameter ``<joint>.kp``,
 a dimensionless scale factor of the published shape, nominal 1): the motors supply
 ``τ = ID(q, dq, ddq) + … − kp·s·M(φ)``, so the term's regressor column is ``−s·M``.
+
+The exponents' coefficients ``c`` are the published ones unless the robot carries its own
+(``robot.passive_exponents``, ``{anatomical joint: (terms, 4) array}``, saved with a model): what
+:mod:`pinid.wearer.exponents` fits.
 """
 
 from __future__ import annotations
@@ -22,6 +26,8 @@ from functools import cache
 from importlib import resources
 
 import numpy as np
+
+from pinid.errors import SpecError
 
 #: Anatomical joints, in the order of the exponent coefficients (after the constant).
 ANATOMICAL: tuple[str, ...] = ("hip", "knee", "ankle")
@@ -34,14 +40,39 @@ def coefficients() -> dict:
     return tomllib.loads(text)
 
 
-def moment(joint: str, hip: np.ndarray, knee: np.ndarray, ankle: np.ndarray) -> np.ndarray:
-    """Passive moment [N·m] of anatomical ``joint`` at hip, knee and ankle angles [deg] (R&E convention)."""
+def published(joint: str) -> np.ndarray:
+    """The published exponent coefficients of anatomical ``joint``: (terms, 4) ``[c0, cH, cK, cA]`` [1, 1/deg]."""
+    return np.array([t["c"] for t in coefficients()[joint]["terms"]], dtype=float)
+
+
+def exponents(robot, joint: str) -> np.ndarray:
+    """The exponent coefficients ``robot`` uses for anatomical ``joint``: its own, else the published."""
+    own = (getattr(robot, "passive_exponents", None) or {}).get(joint)
+    return published(joint) if own is None else np.asarray(own, dtype=float)
+
+
+def check_exponents(d: dict, origin: str) -> dict[str, np.ndarray]:
+    """``{anatomical joint: (terms, 4) array}`` from a plain dict (a saved model); SpecError naming what is wrong."""
+    out = {}
+    for joint, c in (d or {}).items():
+        want = published(joint).shape if joint in ANATOMICAL else None
+        arr = np.asarray(c, dtype=float) if isinstance(c, list) else None
+        if want is None or arr is None or arr.shape != want or not np.all(np.isfinite(arr)):
+            raise SpecError(f"{origin}: {joint!r}: {c!r}, expected one of {list(ANATOMICAL)}: "
+                            f"{want[0] if want else 'its number of'} rows of 4 finite exponent coefficients")
+        out[joint] = arr
+    return out
+
+
+def moment(joint: str, hip: np.ndarray, knee: np.ndarray, ankle: np.ndarray, c: np.ndarray | None = None) -> np.ndarray:
+    """Passive moment [N·m] of anatomical ``joint`` at hip, knee and ankle angles [deg] (R&E convention),
+    with exponent coefficients ``c`` ((terms, 4); default the published)."""
     row = coefficients()[joint]
+    c = published(joint) if c is None else np.asarray(c, dtype=float)
     angles = np.stack(np.broadcast_arrays(np.asarray(hip, float), np.asarray(knee, float), np.asarray(ankle, float)))
     out = np.full(angles.shape[1:], float(row["constant"]))
-    for t in row["terms"]:
-        c = np.asarray(t["c"], dtype=float)
-        out = out + t["sign"] * np.exp(c[0] + np.tensordot(c[1:], angles, axes=1))
+    for t, ck in zip(row["terms"], c):
+        out = out + t["sign"] * np.exp(ck[0] + np.tensordot(ck[1:], angles, axes=1))
     return out
 
 
@@ -56,9 +87,11 @@ def anatomy(robot) -> list[tuple[str | None, float]]:
     return out
 
 
-def column(q: np.ndarray, robot) -> np.ndarray:
-    """Regressor column (N, nv) of the passive scale factors: ``−s·M`` per mapped joint [N·m], 0 elsewhere."""
+def column(q: np.ndarray, robot, exps: dict[str, np.ndarray] | None = None) -> np.ndarray:
+    """Regressor column (N, nv) of the passive scale factors: ``−s·M`` per mapped joint [N·m], 0 elsewhere;
+    exponent coefficients from ``exps`` ``{anatomical joint: (terms, 4)}``, else :func:`exponents`."""
     q = np.atleast_2d(np.asarray(q, dtype=float))
+    exps = exps or {}
     amap = anatomy(robot)
     deg = {a: np.zeros(q.shape[0]) for a in ANATOMICAL}
     for i, (kind, s) in enumerate(amap):
@@ -67,7 +100,7 @@ def column(q: np.ndarray, robot) -> np.ndarray:
     out = np.zeros_like(q)
     for i, (kind, s) in enumerate(amap):
         if kind is not None:
-            out[:, i] = -s * moment(kind, deg["hip"], deg["knee"], deg["ankle"])
+            out[:, i] = -s * moment(kind, deg["hip"], deg["knee"], deg["ankle"], exps.get(kind, exponents(robot, kind)))
     return out
 
 

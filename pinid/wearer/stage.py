@@ -21,6 +21,7 @@ parameters (per body: table mass, mass × segment length, mass × length²; ``kp
 
 from __future__ import annotations
 
+import copy
 import time
 from dataclasses import dataclass
 
@@ -52,6 +53,7 @@ class WearerFit:
     base_table: np.ndarray
     status: str
     seconds: float
+    exponents: object = None  # the pinid.wearer.exponents.ExponentFit when the exponents were refined
 
     @property
     def names(self) -> list[str]:
@@ -59,7 +61,8 @@ class WearerFit:
         return parameter_names(self.robot, self.terms)
 
     def model(self, which: str = "identified"):
-        """The exo + wearer IdentifiedModel: ``"identified"`` wearer, ``"table"`` wearer, or ``"exo"`` alone."""
+        """The exo + wearer IdentifiedModel: ``"identified"`` wearer (with the fitted passive exponents, if
+        any), ``"table"`` wearer (published exponents, kp = 1), or ``"exo"`` alone."""
         from pinid.identification.identified import IdentifiedModel
         from pinid.model import terms as _terms
 
@@ -74,7 +77,11 @@ class WearerFit:
             vals["passive"] = wv["passive"]
         block = [vals[p.term.name][p.index] for p in _terms.robot_layout(self.robot, terms)]
         theta = np.concatenate([exo.theta[:10 * nv] + w[:10 * nv], block])
-        return IdentifiedModel(self.robot, terms, theta, meta={"wearer": which})
+        robot = self.robot
+        if which == "table" and robot.passive_exponents:  # the table wearer: the published exponents
+            robot = copy.copy(robot)
+            robot.passive_exponents = {}
+        return IdentifiedModel(robot, terms, theta, meta={"wearer": which})
 
     def rms(self, datasets) -> dict[str, dict[str, float]]:
         """Torque RMS error [N·m] per joint on ``datasets`` (with q, dq, ddq, tau) of the three models:
@@ -91,7 +98,8 @@ class WearerFit:
                 "base": dict(zip(self.base_names, self.base.tolist())),
                 "base_table": dict(zip(self.base_names, self.base_table.tolist())),
                 "bodies": {b.joint: b.segments for b in self.priors},
-                "status": self.status, "seconds": self.seconds}
+                "status": self.status, "seconds": self.seconds,
+                **({"passive_exponents": self.exponents.to_dict()} if self.exponents is not None else {})}
 
 
 def _scale(priors: list[BodyPrior], nv: int, nt: int) -> np.ndarray:
@@ -114,11 +122,13 @@ def compress(W: np.ndarray, y: np.ndarray, block: int = 20000) -> tuple[np.ndarr
 
 def identify_wearer(exo, prior_urdf, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray, tau: np.ndarray, *,
                     passive: bool = True, mass_range: float = MASS_RANGE, prior_weight: float = 0.0,
-                    solver: str = "CLARABEL") -> WearerFit:
+                    passive_exponents: bool = False, solver: str = "CLARABEL") -> WearerFit:
     """Stage 2: the wearer's parameters from (N, nv) arrays ``q`` [rad], ``dq``, ``ddq``, ``tau`` [N·m].
 
     ``exo``: the stage-1 IdentifiedModel (or its JSON path); ``prior_urdf``: the URDF of
-    ``pinid wearer`` (the table values, the bounds); ``mass_range`` ρ; ``prior_weight`` λ (see the module text).
+    ``pinid wearer`` (the table values, the bounds); ``mass_range`` ρ; ``prior_weight`` λ (see the module text);
+    ``passive_exponents``: first fit the passive moments' exponents (:mod:`pinid.wearer.exponents`), then
+    solve the SDP with them (the returned model carries them).
     """
     import cvxpy as cp  # heavy optional dependency: imported only when the problem is built
 
@@ -129,6 +139,8 @@ def identify_wearer(exo, prior_urdf, q: np.ndarray, dq: np.ndarray, ddq: np.ndar
     robot = prior_urdf if isinstance(prior_urdf, RobotModel) else RobotModel.from_urdf(prior_urdf)
     if robot.joint_names != exo.joint_names:
         raise SpecError(f"prior URDF joints {robot.joint_names} differ from the stage-1 model's {exo.joint_names}")
+    if passive_exponents and not passive:
+        raise SpecError("passive_exponents needs the passive moments (passive=True): the exponents are theirs")
     if not 0 < mass_range < 1 or prior_weight < 0:
         raise SpecError(f"mass_range {mass_range:g} must be in (0, 1) and prior_weight {prior_weight:g} ≥ 0")
     priors = wearer_prior(robot.urdf_text or robot.urdf_path.read_text(encoding="utf-8"), robot)
@@ -147,6 +159,14 @@ def identify_wearer(exo, prior_urdf, q: np.ndarray, dq: np.ndarray, ddq: np.ndar
     free = [10 * b.index + k for b in priors for k in range(10)] + [10 * nv + i for i in mapped]
     W = regressor(robot, q, dq, ddq, terms)[:, free]
     y = (tau - exo.inverse_dynamics(q, dq, ddq)).reshape(-1)
+    refined = None
+    if passive_exponents:
+        from pinid.wearer.exponents import fit_exponents
+
+        refined = fit_exponents(robot, W[:, :-len(mapped)] if mapped else W, y, q)
+        robot = copy.copy(robot)  # the caller's model keeps the published exponents
+        robot.passive_exponents = refined.fitted
+        W = regressor(robot, q, dq, ddq, terms)[:, free]
     S = _scale(priors, nv, nt)[free]
     R, z = compress(W * S, y)
     z0 = table[free] / S
@@ -180,7 +200,7 @@ def identify_wearer(exo, prior_urdf, q: np.ndarray, dq: np.ndarray, ddq: np.ndar
     theta[free] = S * np.asarray(x.value).reshape(-1)
     bp = base_parameters(robot, terms)
     return WearerFit(robot, exo, priors, terms, theta, table, bp.names, bp.from_standard(theta),
-                     bp.from_standard(table), status, time.perf_counter() - t0)
+                     bp.from_standard(table), status, time.perf_counter() - t0, refined)
 
 
 

@@ -1,0 +1,105 @@
+"""The passive moments' exponents by nonlinear least squares (variable projection), from the published values.
+
+Stage 2's default passive model is linear: a scale factor ``kp`` per joint of Riener & Edrich's
+published shape.  A wearer's tissues differ in stiffness *growth* as well as in size; this refinement
+also fits the exponents' angle coefficients (``cH``, ``cK``, ``cA`` of each exponential, 1/deg) — those
+that are non-zero in the table and whose angle is a joint of the robot (the others have no effect on
+the data).  The constants ``c0`` stay published: with ``kp`` they would only trade amplitude.
+
+Variable projection (Golub & Pereyra): for an exponent vector ``p`` the model is linear in the
+wearer's inertial parameters ``θ_w`` and the scale factors ``kp``, so those are eliminated by linear
+least squares and ``scipy.optimize.least_squares`` (trust region, bounds) sees only ``p``::
+
+    r(p) = P⊥ (y − A(p)·kp(p)),   kp(p) = argmin ‖P⊥ (y − A(p)·kp)‖,   P⊥ = 1 − U·Uᵀ
+
+with ``U`` an orthonormal basis of the inertial columns' range and ``A(p)`` the passive columns.
+Nine exponents instead of nine plus the wearer's base parameters plus ``kp``; no starting values
+needed for the linear ones, and every step uses their exact optimum.  Bounds: each coefficient
+between 0.5× and 2× its published value (its sign kept).  The inner fit is unconstrained; stage 2
+then solves its SDP (bounds, LMI, table prior) once at the fitted exponents.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from pinid.linalg import RANK_TOL
+from pinid.wearer.passive import ANATOMICAL, anatomy, column, exponents
+
+#: Bounds of a refined coefficient, as factors of its published value.
+BOUNDS: tuple[float, float] = (0.5, 2.0)
+
+
+@dataclass
+class ExponentFit:
+    """Fitted exponent coefficients ``{anatomical joint: (terms, 4)}``, the published ones, the names of
+    the free coefficients (``knee[2].cK``), the unconstrained fit's torque RMS [N·m] at the published and
+    the fitted exponents, the solver's evaluations, message and time [s]."""
+
+    fitted: dict[str, np.ndarray]
+    published: dict[str, np.ndarray]
+    free: list[str]
+    rms_published: float
+    rms_fitted: float
+    evaluations: int
+    message: str
+    seconds: float
+
+    def to_dict(self) -> dict:
+        """Plain-dict form (for JSON)."""
+        return {"fitted": {k: v.tolist() for k, v in self.fitted.items()},
+                "published": {k: v.tolist() for k, v in self.published.items()},
+                "free": self.free, "rms_published": self.rms_published, "rms_fitted": self.rms_fitted,
+                "evaluations": self.evaluations, "message": self.message, "seconds": self.seconds}
+
+
+def free_coefficients(robot) -> list[tuple[str, int, int]]:
+    """The refined coefficients ``(anatomical joint, term, column 1..3)``: non-zero, on a joint the robot has."""
+    have = [kind for kind, _ in anatomy(robot) if kind is not None]
+    return [(kind, k, 1 + a) for kind in have for k, c in enumerate(exponents(robot, kind))
+            for a in range(3) if ANATOMICAL[a] in have and c[1 + a] != 0]
+
+
+def fit_exponents(robot, inertial: np.ndarray, y: np.ndarray, q: np.ndarray, *, tol: float = 1e-12) -> ExponentFit:
+    """Exponents of ``robot``'s passive moments fitted to the torque ``y`` (N·nv,) [N·m] left by the exo,
+    with the wearer's inertial columns ``inertial`` (N·nv, k) and joint positions ``q`` (N, nv) [rad]."""
+    from scipy.optimize import least_squares  # scipy.optimize: imported only for this refinement
+
+    t0 = time.perf_counter()
+    have = sorted({kind for kind, _ in anatomy(robot) if kind is not None}, key=ANATOMICAL.index)
+    start = {kind: exponents(robot, kind) for kind in have}
+    free = free_coefficients(robot)
+    p0 = np.array([start[kind][k, a] for kind, k, a in free])
+    lo, hi = np.minimum(BOUNDS[0] * p0, BOUNDS[1] * p0), np.maximum(BOUNDS[0] * p0, BOUNDS[1] * p0)
+    U, s, _ = np.linalg.svd(inertial, full_matrices=False)
+    U = U[:, s > RANK_TOL * s[0]] if s.size and s[0] > 0 else U[:, :0]
+    n, nv = q.shape
+    mapped = [i for i, (kind, _) in enumerate(anatomy(robot)) if kind is not None]
+
+    def perp(x: np.ndarray) -> np.ndarray:
+        return x - U @ (U.T @ x)
+
+    def exps(p: np.ndarray) -> dict[str, np.ndarray]:
+        out = {kind: c.copy() for kind, c in start.items()}
+        for (kind, k, a), v in zip(free, p):
+            out[kind][k, a] = v
+        return out
+
+    b = perp(y)
+
+    def residual(p: np.ndarray) -> np.ndarray:
+        col = column(q, robot, exps(p))
+        A = np.zeros((n, nv, len(mapped)))
+        for m, i in enumerate(mapped):
+            A[:, i, m] = col[:, i]
+        A = perp(A.reshape(n * nv, len(mapped)))
+        kp, *_ = np.linalg.lstsq(A, b, rcond=None)
+        return b - A @ kp
+
+    sol = least_squares(residual, p0, bounds=(lo, hi), x_scale=np.abs(p0), method="trf", xtol=tol, ftol=tol, gtol=tol)
+    rms0, rms1 = (float(np.sqrt(np.mean(residual(p) ** 2))) for p in (p0, sol.x))
+    return ExponentFit(exps(sol.x), start, [f"{kind}[{k}].c{'HKA'[a - 1]}" for kind, k, a in free], rms0, rms1,
+                       int(sol.nfev), str(sol.message), time.perf_counter() - t0)
