@@ -43,6 +43,7 @@ def test_noise_free_stage2_recovers_wearer_base_parameters(twin):
                 "--data", str(d / "true.npz"), "--preprocess", "never", "-o", str(d / "out"))
     assert p.returncode == 0, p.stderr
     res = json.loads((d / "out" / "identification.json").read_text())
+    whole = res
     drawn = json.loads((d / "rec.truth.json").read_text())["wearer"]["drawn"]["wearer_standard"]
     robot = RobotModel.from_urdf(d / "eww.urdf")
     truth = np.zeros(22)
@@ -56,7 +57,9 @@ def test_noise_free_stage2_recovers_wearer_base_parameters(twin):
     for n, v in expected.items():
         assert abs(got[n] - v) <= 1e-6 * max(abs(v), 1e-2 * scale), (n, got[n], v)
     assert abs(res["parameters"]["knee.kp"] - 1) < 1e-6 and abs(res["parameters"]["hip.kp"] - 1) < 1e-6
-    assert sorted(p.name for p in (d / "out").iterdir()) == ["identification.json", "model_table.json", "model_wearer.json"]
+    assert sorted(p.name for p in (d / "out").iterdir()) == ["identification.json", "model_table.json", "model_wearer.json",
+                                                             "report.html", "report.md", "torque_wearer.png"]
+    _check_report(d / "out", whole)
     m = IdentifiedModel.load(d / "out" / "model_wearer.json")
     assert "passive" in m.terms
     # closed loop on the same true wearer (--wearer-draw, same seed): identified vs table-based model
@@ -69,6 +72,40 @@ def test_noise_free_stage2_recovers_wearer_base_parameters(twin):
         ident, table = (by[str(d / "out" / f)] for f in ("model_wearer.json", "model_table.json"))
         for j in ("hip", "knee"):
             assert ident[j]["rms"] <= 0.5 * table[j]["rms"], (c, j, ident[j], table[j])
+
+
+def _check_report(out: Path, res: dict) -> None:
+    """report.md holds identification.json's figures; report.html is the same text with the figure embedded."""
+    md = (out / "report.md").read_text()
+    for w, label in (("identified", "exo + identified wearer"), ("table", "exo + table wearer"), ("exo", "exo alone")):
+        r = res["train_rms"][w]
+        assert f"| {label} | {r['hip']:.4g} | {r['knee']:.4g} |" in md, (label, r)
+    for n, v in res["base"].items():
+        assert f"| `{n}` | {v:.6g} | {res['base_table'][n]:.6g} |" in md, n
+    assert "](torque_wearer.png)" in md and "Validation:" not in md  # no --validate: training figures only
+    page = (out / "report.html").read_text()
+    assert "data:image/png;base64," in page and "exo + identified wearer" in page
+    assert (out / "torque_wearer.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_stage2_report_options(twin, tmp_path):
+    d = twin
+    base = ("identify", "--stage", "wearer", "--exo", str(d / "exo.json"), "--urdf", str(d / "eww.urdf"),
+            "--data", str(d / "true.npz"), "--preprocess", "never")
+    p = run_cli(*base, "--validate", str(d / "true.npz"), "--no-figures", "-o", str(tmp_path / "a"))
+    assert p.returncode == 0, p.stderr
+    assert sorted(f.name for f in (tmp_path / "a").iterdir()) == [
+        "identification.json", "model_table.json", "model_wearer.json", "report.html", "report.md"]
+    md = (tmp_path / "a" / "report.md").read_text()
+    res = json.loads((tmp_path / "a" / "identification.json").read_text())
+    r = res["validation_rms"]["identified"]
+    assert "Validation:" in md and f"| exo + identified wearer | {r['hip']:.4g} | {r['knee']:.4g} |" in md
+    assert ".png" not in md
+    # --no-report into the same folder (--force): the earlier report goes, nothing stale stays
+    p = run_cli(*base, "--no-report", "--force", "-o", str(tmp_path / "a"))
+    assert p.returncode == 0, p.stderr
+    assert sorted(f.name for f in (tmp_path / "a").iterdir()) == [
+        "identification.json", "model_table.json", "model_wearer.json"]
 
 
 @pytest.mark.slow
@@ -100,6 +137,10 @@ def test_stage2_passive_exponents_from_the_command_line(twin):
     for kind, rows in true_robot.passive_exponents.items():
         np.testing.assert_allclose(exp["fitted"][kind], rows, rtol=1e-4)
     assert max(outs[True]["train_rms"]["identified"].values()) < 1e-6
+    md = (d / "exp" / "report.md").read_text()
+    assert "## Passive-moment exponents" in md and "## Passive-moment exponents" not in (d / "scale" / "report.md").read_text()
+    fitted = exp["fitted"]["knee"][2][2]
+    assert f"| `knee[2].cK` | {exp['published']['knee'][2][2]:.6g} | {fitted:.6g} |" in md
     model = IdentifiedModel.load(d / "exp" / "model_wearer.json")
     np.testing.assert_allclose(model.robot.passive_exponents["knee"], true_robot.passive_exponents["knee"], rtol=1e-4)
 

@@ -228,6 +228,7 @@ def _run_wearer(args: argparse.Namespace, out: Path) -> int:
     from pinid.identification.problem import load_datasets
     from pinid.io import Artefacts, json_text
     from pinid.wearer.prior import MASS_RANGE
+    from pinid.report.wearer import WEARER_REPORT_FILES
     from pinid.wearer.stage import identify_wearer, stack
 
     robot = robot_from_args(args)
@@ -253,10 +254,23 @@ def _run_wearer(args: argparse.Namespace, out: Path) -> int:
         if result[kind]:
             print(f"   {kind.replace('_', ' ')} [N·m]: " + "; ".join(
                 f"{w} " + ", ".join(f"{j} {v:.4g}" for j, v in r.items()) for w, r in result[kind].items()))
-    arts = Artefacts()
+    report = {}
+    if not args.no_report:
+        from pinid.report.wearer import wearer_report_files
+
+        shown, kind = (val, "validation") if val else (train, "training")
+        q, dq, ddq, tau = stack(shown[:1])
+        curves = {"t": shown[0].t, "measured": tau, "joints": robot.joint_names, "kind": kind,
+                  "source": Path(str(shown[0].source)).name,
+                  "predicted": {w: fit.model(w).inverse_dynamics(q, dq, ddq) for w in ("identified", "table", "exo")}}
+        report = wearer_report_files(result, curves, figures=not args.no_figures)
+    arts = Artefacts()  # all or nothing
     arts.add(out / "identification.json", json_text(result))
     arts.add(out / "model_wearer.json", json_text(fit.model("identified").to_dict()))
     arts.add(out / "model_table.json", json_text(fit.model("table").to_dict()))
+    for name, content in report.items():
+        arts.add(out / name, content)
+    arts.clean(out, WEARER_REPORT_FILES)  # a --force re-run leaves no stale report or figure
     written = arts.write()
     print(wrote_line(written, out))
     return 0

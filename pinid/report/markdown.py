@@ -25,13 +25,14 @@ from pinid.report.plot_identification import error_bars, recorded_motion, torque
 REPORT_FILES = ("report.md", "report.html", "errors.png", "training_motion.png", "torque_*.png")
 
 
-def _f(x, fmt: str = ".4g") -> str:
+def number(x, fmt: str = ".4g") -> str:
+    """``x`` formatted with ``fmt``; ``–`` for None or a non-finite float."""
     if x is None or (isinstance(x, float) and not np.isfinite(x)):
         return "–"
     return format(x, fmt)
 
 
-def _table(header: list[str], rows: list[list[str]]) -> str:
+def markdown_table(header: list[str], rows: list[list[str]]) -> str:
     """A Markdown table; a ``|`` inside a cell is escaped (``\\|``)."""
     def line(cells) -> str:
         return "| " + " | ".join(str(c).replace("|", "\\|") for c in cells) + " |"
@@ -83,10 +84,10 @@ def summary_table(ident, bold=lambda text: f"**{text}**") -> tuple[list[str], li
         v = r.validation
         rows.append([
             bold(m) if m == ident.best else m, "yes" if r.physically_consistent else bold("no"),
-            _f(r.condition_number, ".3g"), _f(r.train.all["rms"]),
-            "–" if v is None else _f(v.all["rms"]), "–" if v is None else _f(v.all["rel_rms_percent"], ".3g"),
-            "–" if v is None else f"{_f(v.all['mean_abs'])} ± {_f(v.all['std_abs'])}",
-            _f(r.seconds, ".3g"), r.status,
+            number(r.condition_number, ".3g"), number(r.train.all["rms"]),
+            "–" if v is None else number(v.all["rms"]), "–" if v is None else number(v.all["rel_rms_percent"], ".3g"),
+            "–" if v is None else f"{number(v.all['mean_abs'])} ± {number(v.all['std_abs'])}",
+            number(r.seconds, ".3g"), r.status,
         ])
     return (["method", "consistent", "cond(W_b)", "train RMS [N·m]", "valid. RMS [N·m]", "valid. RMS %",
              "valid. |e| [N·m]", "time [s]", "status"], rows)
@@ -104,7 +105,7 @@ def report_markdown(ident, figures: dict[str, str] | None = None) -> str:
                  f"total time {ident.seconds:.2f} s.")
 
     lines += ["", "## Summary", ""]
-    lines.append(_table(*summary_table(ident)))
+    lines.append(markdown_table(*summary_table(ident)))
     lines += ["", "valid. |e|: mean ± std of the absolute validation torque error over all joints."]
     lines.append("")
     lines.append(f"Best (bold): **{ident.best}** — the physically consistent result with the lowest "
@@ -125,7 +126,7 @@ def report_markdown(ident, figures: dict[str, str] | None = None) -> str:
     if rates:
         lines.append(f"- sample rate(s): {', '.join(f'{r:.4g} Hz' for r in rates)}")
     if data.get("rows_dropped_at_rest") and any(data["rows_dropped_at_rest"].values()):
-        rest = ", ".join(f"`{j}` {n} (|dq| < {_f(data['rest_velocity'][j], '.3g')} rad/s)"
+        rest = ", ".join(f"`{j}` {n} (|dq| < {number(data['rest_velocity'][j], '.3g')} rad/s)"
                          for j, n in data["rows_dropped_at_rest"].items())
         lines.append(f"- rows dropped at rest (Coulomb friction undefined there): {rest}")
     lines.append(f"- validation: {', '.join(f'`{s}`' for s in ident.validation_sources) or 'none (metrics are on the training data)'}")
@@ -138,15 +139,15 @@ def report_markdown(ident, figures: dict[str, str] | None = None) -> str:
     for m, r in ident.results.items():
         lines += [f"### {m}" + (" (best)" if m == ident.best else ""), "", f"{r.description}.", ""]
         flag = "physically consistent" if r.physically_consistent else "**not physically consistent**"
-        lines.append(f"- {flag} ({r.standard_source}); cond(W_b) {_f(r.condition_number, '.4g')}; "
-                     f"{_f(r.seconds, '.3g')} s; status {r.status}")
+        lines.append(f"- {flag} ({r.standard_source}); cond(W_b) {number(r.condition_number, '.4g')}; "
+                     f"{number(r.seconds, '.3g')} s; status {r.status}")
         for prob in (r.consistency.get("problems") or [])[:4]:
             lines.append(f"- problem: {prob}")
         lines.append("")
         for kind, metrics in (("training", r.train), ("validation", r.validation)):
             if metrics is not None:
                 lines += [f"Torque error per joint, {kind}:", ""]
-                lines.append(_table(["joint", "RMS [N·m]", "RMS [%]", "mean ± std abs [N·m]", "max abs [N·m]"],
+                lines.append(markdown_table(["joint", "RMS [N·m]", "RMS [%]", "mean ± std abs [N·m]", "max abs [N·m]"],
                                     metrics.table()))
                 lines.append("")
         key = f"torque_{m}"
@@ -162,11 +163,11 @@ def report_markdown(ident, figures: dict[str, str] | None = None) -> str:
     header = ["parameter", "combination", "URDF"] + [f"{m} (σ%)" for m in ident.results]
     rows = []
     for i, n in enumerate(names):
-        cells = [f"`{n}`", exprs[i] if len(exprs[i]) < 70 else exprs[i][:67] + "…", _f(nominal[i])]
+        cells = [f"`{n}`", exprs[i] if len(exprs[i]) < 70 else exprs[i][:67] + "…", number(nominal[i])]
         for r in ident.results.values():
-            cells.append(f"{_f(r.base[i])} ({_f(r.std_percent[i], '.2g')})")
+            cells.append(f"{number(r.base[i])} ({number(r.std_percent[i], '.2g')})")
         rows.append(cells)
-    lines.append(_table(header, rows))
+    lines.append(markdown_table(header, rows))
 
     best = ident.results.get(ident.best)
     if best is not None:
@@ -180,9 +181,9 @@ def report_markdown(ident, figures: dict[str, str] | None = None) -> str:
         for i, j in enumerate(robot["joints"]):
             m, c, I = com_inertia(best.standard[10 * i: 10 * i + 10])
             ev = np.linalg.eigvalsh(0.5 * (I + I.T))
-            rows.append([f"`{j}`", _f(m), " ".join(_f(x, ".3g") for x in c), " ".join(_f(x, ".3g") for x in ev)]
-                        + [_f(jt[i, k]) for k in range(len(terms))])
-        lines.append(_table(["joint", "mass [kg]", "c [m]", "principal I_c [kg·m²]"] + terms, rows))
+            rows.append([f"`{j}`", number(m), " ".join(number(x, ".3g") for x in c), " ".join(number(x, ".3g") for x in ev)]
+                        + [number(jt[i, k]) for k in range(len(terms))])
+        lines.append(markdown_table(["joint", "mass [kg]", "c [m]", "principal I_c [kg·m²]"] + terms, rows))
 
     lines += ["", "## Using the result", "", "```python", "from pinid.identification.identified import IdentifiedModel", "",
               f"model = IdentifiedModel.load(\"model_{ident.best}.json\")",

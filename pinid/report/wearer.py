@@ -1,0 +1,105 @@
+"""The stage-2 (wearer) report: ``report.md`` and ``report.html`` next to stage 2's identification.json.
+
+From the stage-2 result (the identification.json dict of ``pinid identify --stage wearer``): the torque
+RMS of exo + identified wearer, exo + table wearer and exo alone on the training and validation
+recordings, the wearer's base parameters (identified vs table), its standard parameters per body, the
+passive moments' scale factors and, when fitted, their exponents; and ``torque_wearer.png``, measured vs
+predicted torque of the three models (:func:`pinid.report.plot_identification.torque_comparison`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+
+from pinid.io import display_path
+from pinid.report.markdown import WINDOW, markdown_table, number
+
+#: Every file the stage-2 report writes (``pinid identify --stage wearer`` removes an earlier run's).
+WEARER_REPORT_FILES = ("report.md", "report.html", "torque_wearer.png")
+
+#: The three models of stage 2, in the report's order, and what to call them.
+MODELS = {"identified": "exo + identified wearer", "table": "exo + table wearer", "exo": "exo alone"}
+
+
+def _rms_table(rms: Mapping[str, Mapping[str, float]]) -> str:
+    joints = list(next(iter(rms.values())))
+    rows = [[MODELS[w]] + [number(rms[w][j]) for j in joints]
+            + [number(float(np.sqrt(np.mean(np.square(list(rms[w].values()))))))] for w in MODELS if w in rms]
+    return markdown_table(["model"] + [f"{j} [N·m]" for j in joints] + ["all joints [N·m]"], rows)
+
+
+def wearer_markdown(result: Mapping, figures: Mapping[str, str] | None = None) -> str:
+    """The report text of stage-2 ``result``; ``figures`` maps ``"torque"`` to the file name to link."""
+    from pinid import __version__
+
+    figures = figures or {}
+    lines = [f"# Stage 2: the wearer of `{display_path(result['urdf'])}`", "",
+             f"pinid {__version__}; the exoskeleton fixed to `{display_path(result['exo'])}` (stage 1); "
+             f"solver status {result['status']}, {result['seconds']:.2f} s.", "",
+             "Bodies carrying wearer segments: " + ", ".join(
+                 f"`{j}` ({', '.join(s)})" for j, s in result["bodies"].items()) + ".", "",
+             "## Torque RMS", ""]
+    for kind, title in (("train_rms", "Training"), ("validation_rms", "Validation")):
+        if result.get(kind):
+            lines += [f"{title}:", "", _rms_table(result[kind]), ""]
+    if not result.get("validation_rms"):
+        lines += ["No validation recording (`--validate`): the training figures favour the identified wearer.", ""]
+    if "torque" in figures:
+        lines += [f"![measured and predicted torque of the three models]({figures['torque']})", ""]
+    base, table = result["base"], result["base_table"]
+    lines += ["## The wearer's base parameters", "",
+              "What the data determine (identified) against the anthropometric tables; the rest of the "
+              "standard parameters follow the tables (stage 2's null-space pull).", "",
+              markdown_table(["base parameter", "identified", "table", "difference %"],
+                     [[f"`{n}`", number(v, ".6g"), number(table[n], ".6g"),
+                       number(100 * (v - table[n]) / table[n], "+.3g") if table[n] else "–"] for n, v in base.items()]),
+              "", "## The wearer's standard parameters", "",
+              "Per body (about the joint frame: m [kg], m·c [kg·m], inertia [kg·m²]; kp: scale of the "
+              "published passive moment).", "",
+              markdown_table(["parameter", "identified", "table"],
+                     [[f"`{n}`", number(v, ".6g"), number(result["table"][n], ".6g")]
+                      for n, v in result["parameters"].items() if v or result["table"][n]])]
+    exp = result.get("passive_exponents")
+    if exp:
+        rows = []
+        for name in exp["free"]:
+            joint, rest = name.split("[", 1)
+            k, col = int(rest.split("]")[0]), " HKA".index(name[-1])
+            pub, fit = exp["published"][joint][k][col], exp["fitted"][joint][k][col]
+            rows.append([f"`{name}`", number(pub, ".6g"), number(fit, ".6g"), number(fit / pub, ".4g")])
+        lines += ["", "## Passive-moment exponents", "",
+                  f"Fitted by nonlinear least squares from the published values (Riener & Edrich 1999), within "
+                  f"0.5–2× of them: {len(exp['free'])} coefficients [1/deg], {exp['evaluations']} evaluations, "
+                  f"{exp['seconds']:.2f} s. Torque RMS of the unconstrained fit: {number(exp['rms_published'])} N·m "
+                  f"at the published exponents, {number(exp['rms_fitted'])} N·m at the fitted ones.", "",
+                  markdown_table(["coefficient", "published", "fitted", "fitted / published"], rows)]
+    lines += ["", "## Using the result", "", "```python", "from pinid.identification.identified import IdentifiedModel", "",
+              "model = IdentifiedModel.load(\"model_wearer.json\")   # exo + identified wearer (model_table.json: the tables)",
+              "tau = model.inverse_dynamics(q, dq, ddq)", "g = model.gravity(q)                               # passive moments included",
+              "```", ""]
+    return "\n".join(lines)
+
+
+def wearer_report_files(result: Mapping, curves: Mapping | None = None, *, figures: bool = True) -> dict[str, str | bytes]:
+    """``report.md``, ``report.html`` (figures embedded) and ``torque_wearer.png`` of stage-2 ``result``.
+
+    ``curves``: ``{"t" (N,) [s], "measured" (N, nv) [N·m], "predicted": {model: (N, nv)}, "joints",
+    "source", "kind"}`` for the torque figure (none without them or with ``figures=False``, which does
+    not load matplotlib)."""
+    from pinid.report.html import markdown_to_html
+
+    pngs = {}
+    if figures and curves:
+        from pinid.report.figures import figure_png
+        from pinid.report.plot_identification import torque_comparison
+
+        t = np.asarray(curves["t"], dtype=float)
+        span = f", first {WINDOW:g} s" if len(t) and t[-1] - t[0] > WINDOW else ""
+        fig = torque_comparison(t, curves["measured"], {MODELS[w]: p for w, p in curves["predicted"].items()},
+                                list(curves["joints"]), window=WINDOW,
+                                title=f"measured and predicted torque ({curves['kind']}, {curves['source']}{span})")
+        pngs["torque_wearer.png"] = figure_png(fig)
+    text = wearer_markdown(result, {"torque": "torque_wearer.png"} if pngs else None)
+    return {"report.md": text, "report.html": markdown_to_html(text, pngs, title="pinid: stage 2, the wearer"), **pngs}
