@@ -52,27 +52,16 @@ def test_noise_free_wearer_recovered(setup):
     np.testing.assert_allclose(tau, data[3], atol=1e-6)
 
 
-def _true_exponents(robot, factor: float = 0.2) -> dict:
-    """The published exponent coefficients, each refined one ×(1 + factor) or ×(1 − factor) in turn."""
-    from pinid.wearer import passive
-    from pinid.wearer.exponents import free_coefficients
-
-    out = {kind: passive.published(kind) for kind, _ in passive.anatomy(robot) if kind}
-    for n, (kind, k, a) in enumerate(free_coefficients(robot)):
-        out[kind][k, a] *= 1 + factor if n % 2 == 0 else 1 - factor
-    return out
-
-
 def test_passive_exponents_recovered_by_nonlinear_least_squares(setup, tmp_path):
     import copy
 
     from pinid.model.base import base_parameters
     from pinid.wearer import passive
-    from pinid.wearer.exponents import free_coefficients
+    from pinid.wearer.exponents import free_coefficients, perturbed
 
     stage1, path, robot, truth, (q, dq, ddq, tau) = setup
     true_robot = copy.copy(robot)
-    true_robot.passive_exponents = _true_exponents(robot)
+    true_robot.passive_exponents = perturbed(robot, 0.2)
     # the true torque: the passive module's own formula at the true exponents (kp of the truth)
     tau = tau + (passive.column(q, true_robot) - passive.column(q, robot)) * truth[20:]
     data = (q, dq, ddq, tau)
@@ -101,6 +90,15 @@ def test_passive_exponents_recovered_by_nonlinear_least_squares(setup, tmp_path)
     back = IdentifiedModel.load(tmp_path / "m.json")
     np.testing.assert_allclose(back.inverse_dynamics(q, dq, ddq), tau, atol=1e-6)
     assert fit.to_dict()["passive_exponents"]["free"] == fit.exponents.free
+    import json
+
+    from pinid.errors import SpecError
+
+    bad = json.loads((tmp_path / "m.json").read_text())
+    bad["robot"]["passive_exponents"]["knee"] = [[1.0, 2.0]]
+    (tmp_path / "bad.json").write_text(json.dumps(bad))
+    with pytest.raises(SpecError, match="passive_exponents.*knee.*3 rows of 4"):
+        IdentifiedModel.load(tmp_path / "bad.json")
     # the caller's robot keeps the published exponents
     assert not robot.passive_exponents
     assert not fit.model("table").robot.passive_exponents  # the table wearer: published shapes

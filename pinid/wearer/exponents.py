@@ -63,6 +63,15 @@ def free_coefficients(robot) -> list[tuple[str, int, int]]:
             for a in range(3) if ANATOMICAL[a] in have and c[1 + a] != 0]
 
 
+def perturbed(robot, fraction: float = 0.2) -> dict[str, np.ndarray]:
+    """Published exponent coefficients with each refined one (:func:`free_coefficients`) × (1 + fraction)
+    and × (1 − fraction) in turn — a twin's wearer whose tissues differ from the published ones."""
+    out = {kind: exponents(robot, kind).copy() for kind, _ in anatomy(robot) if kind is not None}
+    for n, (kind, k, a) in enumerate(free_coefficients(robot)):
+        out[kind][k, a] *= 1 + fraction if n % 2 == 0 else 1 - fraction
+    return out
+
+
 def fit_exponents(robot, inertial: np.ndarray, y: np.ndarray, q: np.ndarray, *, tol: float = 1e-12) -> ExponentFit:
     """Exponents of ``robot``'s passive moments fitted to the torque ``y`` (N·nv,) [N·m] left by the exo,
     with the wearer's inertial columns ``inertial`` (N·nv, k) and joint positions ``q`` (N, nv) [rad]."""

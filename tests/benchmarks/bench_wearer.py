@@ -1,6 +1,7 @@
 """Benchmark: the wearer in the loop on the twin (issue 18's figures, docs/wearer.md).
 
-    python tests/benchmarks/bench_wearer.py [--seconds 60] [--seed 0]
+    python tests/benchmarks/bench_wearer.py [--seconds 60] [--seed 0] [--wearer-torque 5]
+        [--exponents-off 0.2] [--passive-exponents]
 
 exo_leg + a 75 kg, 1.78 m male wearer (thigh, shank, foot), the true wearer drawn away from the tables
 (mass ±25 %, CoM ±20 %), passive moments on, the wearer's active torque 5 % of the gravity RMS, default
@@ -22,6 +23,7 @@ from pinid.excitation.trajectory import FourierTrajectory
 from pinid.model.robot import RobotModel
 from pinid.wearer.attach import wearer_urdf
 from pinid.wearer.experiment import wearer_experiment
+from pinid.wearer.exponents import perturbed
 
 HERE = Path(__file__).resolve().parents[2]
 
@@ -30,6 +32,10 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seconds", type=float, default=60.0)
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--exponents-off", type=float, default=0.0, metavar="FRACTION",
+                    help="the true wearer's passive exponents ×(1 ± FRACTION) of the published (default 0)")
+    ap.add_argument("--passive-exponents", action="store_true", help="stage 2 also fits the passive exponents")
+    ap.add_argument("--wearer-torque", type=float, default=5.0, metavar="PCT", help="active torque, %% of gravity RMS")
     args = ap.parse_args()
     from pinid.cli.track import sine_reference
 
@@ -40,7 +46,10 @@ def main() -> None:
         exc = FourierTrajectory.load(HERE / "excitation" / "exo_leg.json")
         val = FourierTrajectory.load(HERE / "excitation" / "seed001_table3.json")
         ref = sine_reference(RobotModel.from_urdf(path))
-        r = wearer_experiment("exo_leg", path, exc, val, ref, seconds=args.seconds, seed=args.seed)
+        true = perturbed(RobotModel.from_urdf(path), args.exponents_off) if args.exponents_off else None
+        r = wearer_experiment("exo_leg", path, exc, val, ref, seconds=args.seconds, seed=args.seed,
+                              wearer_torque=args.wearer_torque, true_exponents=true,
+                              passive_exponents=args.passive_exponents)
     j = r["joints"]
     print(f"validation torque RMS [N·m] ({args.seconds:g} s identification, {args.seconds / 2:g} s validation, seed {args.seed})")
     print(f"  {'model':<22}" + "".join(f"{x:>10}" for x in j) + f"{'× floor':>10}")
@@ -55,6 +64,10 @@ def main() -> None:
               + f"   table/identified {np.sqrt(np.mean(row['table']**2) / np.mean(row['identified']**2)):.2f}×")
     print("base parameters (identified | table): " + ", ".join(
         f"{n} {a:.4g}|{b:.4g}" for n, a, b in zip(r["fit"].base_names, r["fit"].base, r["fit"].base_table)))
+    e = r["fit"].exponents
+    if e is not None:
+        print(f"passive exponents: {e.evaluations} evaluations, {e.seconds:.2f} s; training RMS {e.rms_published:.4g} -> "
+              f"{e.rms_fitted:.4g} N·m; stage 2 {r['fit'].seconds:.2f} s")
     print(f"{time.perf_counter() - t0:.1f} s")
 
 
