@@ -99,8 +99,10 @@ def _signature(obj) -> str:
         sig = inspect.signature(obj)
     except (TypeError, ValueError):
         return "(…)"
-    plain = [p.replace(annotation=_Annotation(p.annotation)) if isinstance(p.annotation, str) else p
-             for p in sig.parameters.values()]
+    plain = [
+        p.replace(annotation=_Annotation(p.annotation)) if isinstance(p.annotation, str) else p
+        for p in sig.parameters.values()
+    ]
     ret = sig.return_annotation
     sig = sig.replace(parameters=plain, return_annotation=_Annotation(ret) if isinstance(ret, str) else ret)
     return re.sub(r" at 0x[0-9a-f]+", "", str(sig))
@@ -109,9 +111,13 @@ def _signature(obj) -> str:
 def _public(module) -> list[str]:
     names = getattr(module, "__all__", None)
     if names is None:
-        names = [n for n, o in vars(module).items()
-                 if not n.startswith("_") and (inspect.isfunction(o) or inspect.isclass(o))
-                 and getattr(o, "__module__", "") == module.__name__]
+        names = [
+            n
+            for n, o in vars(module).items()
+            if not n.startswith("_")
+            and (inspect.isfunction(o) or inspect.isclass(o))
+            and getattr(o, "__module__", "") == module.__name__
+        ]
     return list(names)
 
 
@@ -147,9 +153,9 @@ def api_reference() -> str:
         "import pinid",
         "from pinid.excitation.design import design_excitation",
         "",
-        "leg = pinid.RobotModel.from_urdf(\"exo_leg\")                    # or a path to any serial URDF",
+        'leg = pinid.RobotModel.from_urdf("exo_leg")                    # or a path to any serial URDF',
         "design = design_excitation(leg)                                # Table 2 limits for exo_leg",
-        "result = pinid.identify(leg, [\"run1.csv\"], validate=\"run2.csv\", methods=[\"ols\", \"sdp\"])",
+        'result = pinid.identify(leg, ["run1.csv"], validate="run2.csv", methods=["ols", "sdp"])',
         "model = result.model                                           # IdentifiedModel: M, C, g, friction",
         "```",
     ]
