@@ -12,7 +12,6 @@ from pinid.cli.common import (add_mapping_arguments, add_method_arguments, add_p
                               preprocess_from_args, rest_velocity_from_args, mapping_from_args, robot_from_args, terms_from_args)
 from pinid.errors import SpecError
 from pinid.estimators import ESTIMATORS
-from pinid.identification.outputs import COMPARISON_FILES, write_comparison
 from pinid.io import check_outputs
 
 HELP = f"compare estimators ({', '.join(ESTIMATORS)}) on the same data, several seeds"
@@ -112,7 +111,9 @@ def _arguments(args: argparse.Namespace) -> dict:
 
 
 def run(args: argparse.Namespace) -> int:
-    from pinid.identification.compare import compare  # deferred: not needed by pinid --help (start-up time)
+    # deferred: pinid --help does not load these (~7 ms)
+    from pinid.identification.compare import compare
+    from pinid.identification.outputs import COMPARISON_FILES, write_comparison
 
     out = Path(args.output)
     check_outputs(*(out / name for name in COMPARISON_FILES[:2]))  # before the work, creating nothing

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import warnings
 from pathlib import Path
 
 from pinid.cli.common import nonnegative_float, seed_int, wrote_line
@@ -54,9 +55,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def sine_reference(plant):
     """Deprecated here (kept for one release): :func:`pinid.control.tracking.sine_reference`."""
-    import warnings
-
-    from pinid.control.tracking import sine_reference as reference  # deferred: pinid --help start-up time
+    from pinid.control.tracking import sine_reference as reference  # deferred: as in run()
 
     warnings.warn("pinid.cli.track.sine_reference moved to pinid.control.tracking.sine_reference",
                   DeprecationWarning, stacklevel=2)
@@ -64,7 +63,7 @@ def sine_reference(plant):
 
 
 def run(args: argparse.Namespace) -> int:
-    # deferred: the controllers load the twin and the identification (~15 ms of pinid --help start-up)
+    # deferred: pinid.control loads the twin (~15 ms that pinid --help would pay)
     from pinid.control.controllers import compare_models, load_controller_model
     from pinid.control.tracking import load_reference, tracking_paths, tracking_table, write_tracking
 
