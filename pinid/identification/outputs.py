@@ -44,14 +44,18 @@ def result_text(r) -> str:
 
 
 def identification_text(ident, *, verbose: bool = False) -> str:
-    """What ``pinid identify`` prints after the work: the drive gains (when identified), the data used,
-    every method's detail with ``verbose`` (:func:`result_text`), and the summary table."""
+    """What ``pinid identify`` prints after the work: the drive gains and the Stribeck velocities and shapes
+    (when identified), the data used, every method's detail with ``verbose`` (:func:`result_text`), and the
+    summary table."""
     d = ident.data
     lines = []
     if "drive_gains" in d:
         g = d["drive_gains"]
         lines.append("drive gains [N·m per unit of the recorded channel]: " + ", ".join(
             f"{j} {k:.6g} ± {s:.2g}" for j, k, s in zip(g["joints"], g["gains"], g["std"])))
+    lines += [f"Stribeck {name}: velocity {v['velocity']:.6g} rad/s{' (fitted)' if v['fitted'] else ''}, "
+              f"shape {v['shape']:.4g}{' (fitted)' if v.get('shape_fitted') else ''}"
+              for name, v in d.get("stribeck", {}).items()]
     lines.append(f"training: {d['samples']} samples from {len(d['sources'])} recording(s), {d['rows']} torque rows used"
                  + (f"; validation: {len(ident.validation_sources)} recording(s)" if ident.validation_sources else ""))
     if verbose:

@@ -31,7 +31,7 @@ def main() -> None:
     ap.add_argument("--seconds", type=float, default=60.0)
     ap.add_argument("--seed", type=int, default=0)
     args = ap.parse_args()
-    from pinid.cli.track import sine_reference
+    from pinid.control.tracking import sine_reference
 
     t0 = time.perf_counter()
     with tempfile.TemporaryDirectory() as tmp:
