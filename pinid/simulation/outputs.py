@@ -35,6 +35,14 @@ def cad_truth(truth: dict, model: RobotModel, cad: RobotModel, percent: float) -
             "base": {"names": bp.names, "values": bp.from_standard(theta).tolist()}}
 
 
+def drawn_wearer_truth(table: np.ndarray, drawn: dict) -> dict:
+    """The ``wearer["drawn"]`` entry of a twin's truth when its wearer was drawn away from the tables
+    (:func:`pinid.wearer.prior.draw_wearer`'s defaults: mass ±25 %, centre of mass ±20 %): the drawn
+    wearer's standard parameters per joint and the robot's table (URDF) standard parameters."""
+    return {"mass_percent": 25.0, "com_percent": 20.0, "wearer_standard": {j: w.tolist() for j, w in drawn.items()},
+            "table_standard": table.tolist()}
+
+
 def truth_path_for(path: str | os.PathLike) -> Path:
     """Where a recording's truth goes by default: ``run.csv`` → ``run.truth.json``."""
     p = Path(path)
@@ -66,3 +74,19 @@ def write_simulation(recording: Dataset, truth: dict, path: str | os.PathLike, *
             comment=f"the truth's inertial parameters perturbed by about {truth['cad']['percent']:g} %, "
                     f"seed {truth['seed']}"))
     return arts.write()
+
+
+def simulation_text(recording: Dataset, truth: dict, path, *, truth_path=None, true_signals=None,
+                    cad_urdf=None) -> str:
+    """What ``pinid simulate`` prints after :func:`write_simulation`: each file written, with the samples,
+    rate, joints and tracking error [rad] of the recording and the parameter counts of the truth."""
+    track = ", ".join(f"{j} {v:.2g}" for j, v in truth["tracking"]["rms_error"].items())
+    lines = [f"wrote {path} ({recording.n} samples at {truth['rates']['sample']} Hz, joints "
+             f"{', '.join(recording.joints)}; tracking error rms [rad]: {track})",
+             f"wrote {truth_path or truth_path_for(path)} ({len(truth['standard']['names'])} standard, "
+             f"{len(truth['base']['names'])} base parameters)"]
+    if true_signals:
+        lines.append(f"wrote {true_signals} (noise-free signals)")
+    if cad_urdf:
+        lines.append(f"wrote {cad_urdf} (CAD model: inertia perturbed by about {truth['cad']['percent']:g} %)")
+    return "\n".join(lines)
