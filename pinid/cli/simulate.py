@@ -192,16 +192,15 @@ def _argv_of(args: argparse.Namespace) -> list[str]:
 
 
 def _simulate(args, model, trajectory, cad, torque_noise, torque_pct):
-    from pinid.simulation.twin import simulate  # deferred (see above)
+    from pinid.simulation.twin import Controller, Friction, Rates, Sensors, simulate  # deferred (see above)
 
     return simulate(
         model, trajectory, seconds=args.seconds, seed=args.seed,
-        control_rate=args.control_rate, sample_rate=args.sample_rate, integration_rate=args.integration_rate,
-        controller=args.controller, bandwidth=args.bandwidth, feedforward=args.feedforward, feedforward_model=cad,
-        coulomb=_values(args.coulomb, model, "--coulomb"), viscous=_values(args.viscous, model, "--viscous"),
-        coulomb_velocity=args.coulomb_velocity, position_noise=args.position_noise,
-        encoder_resolution=(2 * np.pi / 2**args.encoder_bits) if args.encoder_bits else 0.0,
-        torque_noise=torque_noise, torque_noise_percent=torque_pct,
-        record_velocity=args.record_velocity, velocity_noise=args.velocity_noise,
+        rates=Rates(args.control_rate, args.sample_rate, args.integration_rate),
+        controller=Controller(args.controller, args.bandwidth, feedforward=args.feedforward, feedforward_model=cad),
+        friction=Friction(_values(args.coulomb, model, "--coulomb"), _values(args.viscous, model, "--viscous"),
+                          args.coulomb_velocity),
+        sensors=Sensors(args.position_noise, (2 * np.pi / 2**args.encoder_bits) if args.encoder_bits else 0.0,
+                        torque_noise, torque_pct, args.record_velocity, args.velocity_noise),
         wearer_torque=args.wearer_torque, progress=None,
     )
