@@ -475,7 +475,7 @@ def _simulate(model: RobotModel, trajectory: FourierTrajectory, *, seconds: floa
     if over.size:
         j = int(over[0])
         warnings.warn(f"trajectory reaches {np.max(np.abs(dqd[:, j])):.3g} rad/s on joint '{model.joint_names[j]}', "
-                      f"above its URDF velocity limit {vmax[j]:.3g} rad/s (simulated anyway)", DataWarning, stacklevel=2)
+                      f"above its URDF velocity limit {vmax[j]:.3g} rad/s (simulated anyway)", DataWarning, stacklevel=3)
     pm, pdata = model.pin_model, model.pin_model.createData()
     cont = bool(model._continuous)
     conf = model.configuration if cont else (lambda x: x)
