@@ -12,7 +12,7 @@ from pinid.cli.common import (add_mapping_arguments, add_method_arguments, wrote
 from pinid.errors import SpecError
 from pinid.identification.problem import load_datasets
 from pinid.identification.run import identify
-from pinid.io import Artefacts, check_outputs, json_text
+from pinid.io import check_outputs
 
 HELP = "identify dynamic parameters from recordings (OLS, WLS, physically consistent LMI), validate, export"
 DESCRIPTION = """\
@@ -149,7 +149,7 @@ def run(args: argparse.Namespace) -> int:
 def _run_wearer(args: argparse.Namespace, out: Path) -> int:
     """Stage 2: the wearer of ``--urdf`` identified with the exoskeleton fixed to ``--exo``."""
     from pinid.wearer.prior import MASS_RANGE  # deferred: pinid --help does not load the wearer's stage 2
-    from pinid.wearer.stage import identify_wearer, stack
+    from pinid.wearer.stage import identify_wearer, stack, stage_summary, stage_text, write_stage
 
     robot = robot_from_args(args)
     pre = preprocess_from_args(args)
@@ -159,21 +159,7 @@ def _run_wearer(args: argparse.Namespace, out: Path) -> int:
     fit = identify_wearer(args.exo, robot, *stack(train), passive=not args.no_passive,
                           mass_range=MASS_RANGE if args.mass_range is None else args.mass_range,
                           prior_weight=args.prior_weight)
-    result = {"stage": "wearer", "exo": args.exo, "urdf": str(robot.urdf_path), **fit.to_dict(),
-              "train_rms": fit.rms(train), "validation_rms": fit.rms(val) if val else None}
-    print(f"stage 2 (wearer) of {robot.name}: status {fit.status}, {fit.seconds:.2f} s")
-    width = max(len(n) for n in fit.base_names)
-    print(f"   {'base parameter':<{width}} {'identified':>13} {'table':>13}")
-    for n, v, t in zip(fit.base_names, fit.base, fit.base_table):
-        print(f"   {n:<{width}} {v:13.6g} {t:13.6g}")
-    for kind in ("train_rms", "validation_rms"):
-        if result[kind]:
-            print(f"   {kind.replace('_', ' ')} [N·m]: " + "; ".join(
-                f"{w} " + ", ".join(f"{j} {v:.4g}" for j, v in r.items()) for w, r in result[kind].items()))
-    arts = Artefacts()
-    arts.add(out / "identification.json", json_text(result))
-    arts.add(out / "model_wearer.json", json_text(fit.model("identified").to_dict()))
-    arts.add(out / "model_table.json", json_text(fit.model("table").to_dict()))
-    written = arts.write()
-    print(wrote_line(written, out))
+    summary = stage_summary(fit, args.exo, train, val)
+    print(stage_text(fit, summary))
+    print(wrote_line(write_stage(fit, summary, out), out))
     return 0
