@@ -53,17 +53,24 @@ def tracking_paths(folder: str | os.PathLike, controllers) -> list[Path]:
     return [out / "tracking.json", *(out / f"tracking_{c}.png" for c in controllers)]
 
 
-def write_tracking(table: dict, folder: str | os.PathLike, *, plant: RobotModel, settings: dict,
-                   overwrite: bool | None = None) -> list[Path]:
+def write_tracking(
+    table: dict, folder: str | os.PathLike, *, plant: RobotModel, settings: dict, overwrite: bool | None = None
+) -> list[Path]:
     """Write ``tracking.json`` (the plant's URDF, ``settings`` such as the reference, seconds, after,
     seed, and every metric) and one figure ``tracking_<controller>.png`` per controller into ``folder``,
     all or nothing.  ``overwrite``: replace existing files (None: the :data:`pinid.io.OVERWRITE` policy)."""
     out = Path(folder)
     arts = Artefacts(overwrite=overwrite)
-    arts.add(out / "tracking.json", json_text({
-        "plant": str(plant.urdf_path), **settings,
-        "results": {c: {n: e["metrics"] for n, e in pm.items()} for c, pm in table.items()},
-    }))
+    arts.add(
+        out / "tracking.json",
+        json_text(
+            {
+                "plant": str(plant.urdf_path),
+                **settings,
+                "results": {c: {n: e["metrics"] for n, e in pm.items()} for c, pm in table.items()},
+            }
+        ),
+    )
     for c, pm in table.items():
         fig = tracking_figure({n: e["result"] for n, e in pm.items()}, title=c)
         arts.add(out / f"tracking_{c}.png", lambda p, fig=fig: save_figure(fig, p))

@@ -7,8 +7,15 @@ import os
 from dataclasses import replace
 from pathlib import Path
 
-from pinid.flexible.output_error import (FlexRecording, FlexSpec, OutputErrorProblem, OutputErrorResult, classify,
-                                         problem_from_spec, sensitivity)
+from pinid.flexible.output_error import (
+    FlexRecording,
+    FlexSpec,
+    OutputErrorProblem,
+    OutputErrorResult,
+    classify,
+    problem_from_spec,
+    sensitivity,
+)
 from pinid.io import Artefacts, json_text
 from pinid.report.figures import save_figure
 from pinid.report.plot_flexible import plot_angles
@@ -20,15 +27,21 @@ def check_spec(spec: FlexSpec, recording: FlexRecording) -> tuple[str, dict]:
     noise, at least 0.1 mrad).  Returns the text and its JSON form ``{"spec", "step", "sensitivity"}``."""
     prob = problem_from_spec(spec, recording)
     model, rec = prob.model, recording
-    lines = [f"robot {spec.robot.name} ({spec.robot.urdf_path}); backend: {model.backends}; "
-             f"Coulomb smoothing {model.coulomb_speed:g} rad/s"]
+    lines = [
+        f"robot {spec.robot.name} ({spec.robot.urdf_path}); backend: {model.backends}; "
+        f"Coulomb smoothing {model.coulomb_speed:g} rad/s"
+    ]
     lines += [f"  {d.joint:<12} {'flexible' if d.flexible else 'rigid':<9} ratio {d.ratio:g}" for d in model.drives]
-    lines.append(f"recording: {rec.source}, {rec.n} samples at {1 / rec.dt:g} Hz, input {rec.input}; "
-                 f"RK4 step {1e3 * prob.step:.3g} ms ({int(round(rec.dt / prob.step))} per sample)")
+    lines.append(
+        f"recording: {rec.source}, {rec.n} samples at {1 / rec.dt:g} Hz, input {rec.input}; "
+        f"RK4 step {1e3 * prob.step:.3g} ms ({int(round(rec.dt / prob.step))} per sample)"
+    )
     noise = max(spec.fit.noise, 1e-4)
     sens = sensitivity(prob, noise=noise)
-    lines.append(f"observability at {'the truth' if prob.truth else 'the nominal values'} "
-                 f"(relative std for {1e3 * noise:g} mrad angle noise; condition {sens['condition']:.3g}):")
+    lines.append(
+        f"observability at {'the truth' if prob.truth else 'the nominal values'} "
+        f"(relative std for {1e3 * noise:g} mrad angle noise; condition {sens['condition']:.3g}):"
+    )
     for n, lo, hi in zip(prob.free, prob.lower, prob.upper):
         rs = sens["rel_std"][n]
         lines.append(f"  {n:<16} [{lo:>9.4g}, {hi:>9.4g}]  rel. std {100 * rs:>10.3g} %  {classify(rs)}")
@@ -41,10 +54,12 @@ def result_text(res: OutputErrorResult) -> str:
     rows = [["parameter", "fitted", "truth", "error %", "lower", "upper"]] + res.table()
     w = [max(len(r[i]) for r in rows) for i in range(6)]
     lines = ["  " + "  ".join(c.rjust(w[i]) if i else c.ljust(w[i]) for i, c in enumerate(r)) for r in rows]
-    lines.append(f"  cost ({res.cost_kind}) {res.cost:.6g}; "
-                 + "; ".join(f"{j}: RMS {1e3 * m['rms']:.4g} mrad" for j, m in res.metrics.items())
-                 + f"; {res.nfev} simulations in {res.seconds:.1f} s (RK4 step {1e3 * res.step:.3g} ms, integrator "
-                 f"tolerance {res.extra.get('integrator_error', float('nan')):.2g} rad)")
+    lines.append(
+        f"  cost ({res.cost_kind}) {res.cost:.6g}; "
+        + "; ".join(f"{j}: RMS {1e3 * m['rms']:.4g} mrad" for j, m in res.metrics.items())
+        + f"; {res.nfev} simulations in {res.seconds:.1f} s (RK4 step {1e3 * res.step:.3g} ms, integrator "
+        f"tolerance {res.extra.get('integrator_error', float('nan')):.2g} rad)"
+    )
     return "\n".join(lines)
 
 
@@ -63,29 +78,61 @@ def write_twin(recording: FlexRecording, path: str | os.PathLike, *, overwrite: 
     return arts.write()
 
 
-def write_fit(res: OutputErrorResult, path: str | os.PathLike, *, problem: OutputErrorProblem | None = None,
-              plot: str | os.PathLike | None = None, overwrite: bool | None = None) -> list[Path]:
+def write_fit(
+    res: OutputErrorResult,
+    path: str | os.PathLike,
+    *,
+    problem: OutputErrorProblem | None = None,
+    plot: str | os.PathLike | None = None,
+    overwrite: bool | None = None,
+) -> list[Path]:
     """Write a fit's JSON (:meth:`OutputErrorResult.save`) and, with ``plot`` (needs its ``problem``), a
     figure of the measured and simulated angles; both or neither."""
     arts = Artefacts(overwrite=overwrite)
     arts.add(path, lambda p: res.save(p))
     if plot:
-        fig = plot_angles(problem.recording.t, problem.recording.q, {problem.label: problem.simulate(res.x).q[0]},
-                          problem.model.joint_names, title=f"{problem.label} model, {res.method}")
+        fig = plot_angles(
+            problem.recording.t,
+            problem.recording.q,
+            {problem.label: problem.simulate(res.x).q[0]},
+            problem.model.joint_names,
+            title=f"{problem.label} model, {res.method}",
+        )
         arts.add(plot, lambda p: save_figure(fig, p))
     return arts.write()
 
 
-def write_comparison(comparison: dict, path: str | os.PathLike, *, spec: FlexSpec, recording: FlexRecording,
-                     plot: str | os.PathLike | None = None, overwrite: bool | None = None) -> list[Path]:
+def write_comparison(
+    comparison: dict,
+    path: str | os.PathLike,
+    *,
+    spec: FlexSpec,
+    recording: FlexRecording,
+    plot: str | os.PathLike | None = None,
+    overwrite: bool | None = None,
+) -> list[Path]:
     """Write what :func:`~pinid.flexible.output_error.compare_rigid_flexible` returned as JSON (the
     recording, the spec, both fits) and, with ``plot``, a figure of the measured and simulated angles;
     both or neither."""
     arts = Artefacts(overwrite=overwrite)
-    arts.add(path, json_text({"recording": recording.source, "spec": spec.source,
-                              "flexible": comparison["flexible"].to_dict(), "rigid": comparison["rigid"].to_dict()}))
+    arts.add(
+        path,
+        json_text(
+            {
+                "recording": recording.source,
+                "spec": spec.source,
+                "flexible": comparison["flexible"].to_dict(),
+                "rigid": comparison["rigid"].to_dict(),
+            }
+        ),
+    )
     if plot:
-        fig = plot_angles(comparison["t"], comparison["measured"], comparison["simulated"], spec.robot.joint_names,
-                          title="rigid vs flexible joints (seed 003 Figs. 6-7)")
+        fig = plot_angles(
+            comparison["t"],
+            comparison["measured"],
+            comparison["simulated"],
+            spec.robot.joint_names,
+            title="rigid vs flexible joints (seed 003 Figs. 6-7)",
+        )
         arts.add(plot, lambda p: save_figure(fig, p))
     return arts.write()
