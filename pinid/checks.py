@@ -24,14 +24,15 @@ def as_floats(x, name: str, *, finite: bool = True) -> np.ndarray:
         raise DataError(f"{name}: got {type(x).__name__}, expected an array of numbers")
     try:
         raw = np.asarray(x)
-        numeric = raw.dtype.kind in "iuf" or (raw.dtype.kind == "O" and all(
-            isinstance(v, numbers.Real) and not isinstance(v, (bool, np.bool_)) for v in raw.reshape(-1)))
+        numeric = raw.dtype.kind in "iuf" or (
+            raw.dtype.kind == "O"
+            and all(isinstance(v, numbers.Real) and not isinstance(v, (bool, np.bool_)) for v in raw.reshape(-1))
+        )
         a = raw.astype(float, copy=False) if numeric else None
     except (TypeError, ValueError):
         a = None
     if a is None:  # strings, booleans, None inside, ragged nesting, objects
-        raise DataError(f"{name}: got {type(x).__name__} that is not an array of numbers, "
-                        "expected an array of numbers")
+        raise DataError(f"{name}: got {type(x).__name__} that is not an array of numbers, expected an array of numbers")
     if finite and a.size and not np.all(np.isfinite(a)):
         raise DataError(f"{name}: contains NaN or infinite values, expected finite numbers")
     return a
@@ -56,8 +57,9 @@ def as_states(x, name: str, joints: Sequence[str]) -> np.ndarray:
     if a.ndim == 1:
         a = a.reshape(1, -1)
     if a.ndim != 2 or a.shape[1] != len(joints) or a.shape[0] == 0:
-        raise DataError(f"{name}: shape {np.shape(x)}, expected (N, {len(joints)}) or ({len(joints)},) "
-                        f"for joints {list(joints)}")
+        raise DataError(
+            f"{name}: shape {np.shape(x)}, expected (N, {len(joints)}) or ({len(joints)},) for joints {list(joints)}"
+        )
     return a
 
 
@@ -65,20 +67,19 @@ def same_length(**arrays: np.ndarray) -> None:
     """DataError unless every array has the same number of samples (first axis)."""
     lengths = {k: len(v) for k, v in arrays.items()}
     if len(set(lengths.values())) > 1:
-        raise DataError(f"{', '.join(lengths)} have {', '.join(map(str, lengths.values()))} samples, "
-                        "expected the same number")
+        raise DataError(
+            f"{', '.join(lengths)} have {', '.join(map(str, lengths.values()))} samples, expected the same number"
+        )
 
 
 def count(value, name: str, *, low: int = 0) -> int:
     """An integer ≥ ``low`` (bools and non-integral numbers refused); SpecError naming ``name``."""
-    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not float(value).is_integer() \
-            or value < low:
+    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not float(value).is_integer() or value < low:
         raise SpecError(f"{name}={value!r}, expected an integer ≥ {low}")
     return int(value)
 
 
-def number(value, name: str, *, low: float | None = None, low_open: bool = False,
-           high: float | None = None) -> float:
+def number(value, name: str, *, low: float | None = None, low_open: bool = False, high: float | None = None) -> float:
     """A finite number in the given range (``low_open``: strictly above ``low``); SpecError naming ``name``."""
     ok = isinstance(value, numbers.Real) and not isinstance(value, bool) and math.isfinite(value)
     ok = ok and (low is None or (value > low if low_open else value >= low)) and (high is None or value <= high)
@@ -107,10 +108,16 @@ def option_numbers(options, where: str) -> None:
         v = getattr(options, f.name)
         if v is None and optional:
             continue
-        if isinstance(v, bool) or not isinstance(v, numbers.Real) or not math.isfinite(v) \
-                or (kind == "int" and not float(v).is_integer()):
-            raise SpecError(f"{where}: option {f.name}={v!r}, expected {'an integer' if kind == 'int' else 'a finite number'}"
-                            + (" or none" if optional else ""))
+        if (
+            isinstance(v, bool)
+            or not isinstance(v, numbers.Real)
+            or not math.isfinite(v)
+            or (kind == "int" and not float(v).is_integer())
+        ):
+            raise SpecError(
+                f"{where}: option {f.name}={v!r}, expected {'an integer' if kind == 'int' else 'a finite number'}"
+                + (" or none" if optional else "")
+            )
 
 
 __all__ = ["as_floats", "as_state", "as_states", "as_vector", "count", "number", "option_numbers", "same_length"]

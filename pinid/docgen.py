@@ -47,17 +47,21 @@ API_MODULES: tuple[tuple[str, str], ...] = (
     ("pinid.model.robot", "Robot models"),
     ("pinid.model.regressor", "Standard parameters and the regressor"),
     ("pinid.model.base", "Base parameters"),
+    ("pinid.model.describe", "Describing a robot (pinid info)"),
     ("pinid.excitation.trajectory", "Fourier trajectories"),
     ("pinid.excitation.design", "Excitation design"),
+    ("pinid.excitation.outputs", "Excitation: text and files (pinid excite)"),
     ("pinid.data.dataset", "Recordings in memory"),
     ("pinid.data.formats", "Reading and checking recordings"),
     ("pinid.data.mapping", "Mapping specs"),
     ("pinid.data.registry", "File formats (reader and writer registry)"),
     ("pinid.data.preprocess", "Preprocessing"),
     ("pinid.simulation.twin", "The digital twin"),
+    ("pinid.simulation.outputs", "The twin's files and CAD model (pinid simulate)"),
     ("pinid.identification.run", "Identification"),
     ("pinid.identification.problem", "The identification problem"),
     ("pinid.identification.result", "Identification results"),
+    ("pinid.identification.outputs", "Identification and comparison: text and files (pinid identify, compare)"),
     ("pinid.estimators", "Estimators"),
     ("pinid.optimizers", "Optimisers"),
     ("pinid.model.physical", "Physical consistency"),
@@ -68,6 +72,7 @@ API_MODULES: tuple[tuple[str, str], ...] = (
     ("pinid.identification.identified", "The identified model for controllers"),
     ("pinid.model.export", "Identified URDF"),
     ("pinid.control.controllers", "Model-based control"),
+    ("pinid.control.tracking", "Tracking studies: reference, table, files (pinid track)"),
     ("pinid.identification.compare", "Comparing estimators"),
     ("pinid.identification.segmental", "Seed 000's segmental identification"),
     ("pinid.wearer.anthropometry", "Wearer: anthropometric segments"),
@@ -78,6 +83,7 @@ API_MODULES: tuple[tuple[str, str], ...] = (
     ("pinid.wearer.exponents", "Wearer: passive-moment exponents by nonlinear least squares"),
     ("pinid.flexible.model", "Flexible joints"),
     ("pinid.flexible.output_error", "Output-error identification"),
+    ("pinid.flexible.outputs", "Flexible joints: text and files (pinid flex)"),
     ("pinid.errors", "Errors"),
     ("pinid.blas", "BLAS threads"),
 )
@@ -100,8 +106,10 @@ def _signature(obj) -> str:
         sig = inspect.signature(obj)
     except (TypeError, ValueError):
         return "(…)"
-    plain = [p.replace(annotation=_Annotation(p.annotation)) if isinstance(p.annotation, str) else p
-             for p in sig.parameters.values()]
+    plain = [
+        p.replace(annotation=_Annotation(p.annotation)) if isinstance(p.annotation, str) else p
+        for p in sig.parameters.values()
+    ]
     ret = sig.return_annotation
     sig = sig.replace(parameters=plain, return_annotation=_Annotation(ret) if isinstance(ret, str) else ret)
     return re.sub(r" at 0x[0-9a-f]+", "", str(sig))
@@ -110,9 +118,13 @@ def _signature(obj) -> str:
 def _public(module) -> list[str]:
     names = getattr(module, "__all__", None)
     if names is None:
-        names = [n for n, o in vars(module).items()
-                 if not n.startswith("_") and (inspect.isfunction(o) or inspect.isclass(o))
-                 and getattr(o, "__module__", "") == module.__name__]
+        names = [
+            n
+            for n, o in vars(module).items()
+            if not n.startswith("_")
+            and (inspect.isfunction(o) or inspect.isclass(o))
+            and getattr(o, "__module__", "") == module.__name__
+        ]
     return list(names)
 
 
@@ -148,9 +160,9 @@ def api_reference() -> str:
         "import pinid",
         "from pinid.excitation.design import design_excitation",
         "",
-        "leg = pinid.RobotModel.from_urdf(\"exo_leg\")                    # or a path to any serial URDF",
+        'leg = pinid.RobotModel.from_urdf("exo_leg")                    # or a path to any serial URDF',
         "design = design_excitation(leg)                                # Table 2 limits for exo_leg",
-        "result = pinid.identify(leg, [\"run1.csv\"], validate=\"run2.csv\", methods=[\"ols\", \"sdp\"])",
+        'result = pinid.identify(leg, ["run1.csv"], validate="run2.csv", methods=["ols", "sdp"])',
         "model = result.model                                           # IdentifiedModel: M, C, g, friction",
         "```",
     ]

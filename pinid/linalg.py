@@ -19,7 +19,9 @@ RANK_TOL = 1e-10
 SOLVE_TOL = 1e-13
 
 
-def augmented_r(W: np.ndarray, tau: np.ndarray, weights: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, float, np.ndarray]:
+def augmented_r(
+    W: np.ndarray, tau: np.ndarray, weights: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray, float, np.ndarray]:
     """Compress a weighted least-squares problem: ``(R, c, rho, scale)``.
 
     With ``A = diag(√w)·W·diag(1/scale)`` (columns scaled to unit norm) and ``y = √w·τ``,

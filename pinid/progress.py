@@ -59,8 +59,9 @@ class Lines:
     def line(self) -> str:
         """The current state as one line."""
         done = f"{self.n}/{self.total} ({100 * self.n / self.total:.0f} %)" if self.total else f"{self.n} steps"
-        return (f"pinid: {self.desc} {done}, {time.monotonic() - self.start:.0f} s"
-                + (f", {self.postfix}" if self.postfix else ""))
+        return f"pinid: {self.desc} {done}, {time.monotonic() - self.start:.0f} s" + (
+            f", {self.postfix}" if self.postfix else ""
+        )
 
     def _print(self) -> None:
         print(self.line(), file=sys.stderr, flush=True)

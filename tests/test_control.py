@@ -63,7 +63,7 @@ EXCITATION = FourierTrajectory(["hip", "knee"], 0.2 * np.pi, [0.61, -0.87],
 @pytest.mark.slow
 def test_identified_model_halves_tracking_error_of_both_controllers(exo):
     """Issue 7: CAD model 30 % off without friction vs the model identified from twin recordings."""
-    from pinid.cli.track import sine_reference
+    from pinid.control.tracking import sine_reference
     from pinid.control.controllers import identified_vs_cad
 
     r = identified_vs_cad(exo, EXCITATION, sine_reference(exo), record_seconds=20, track_seconds=5)

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pinid.cli.track import sine_reference
+from pinid.control.tracking import sine_reference
 from pinid.excitation.trajectory import FourierTrajectory
 from pinid.model.robot import RobotModel
 from pinid.wearer.attach import wearer_urdf

@@ -101,7 +101,7 @@ def test_model_with_passive_terms_for_control(worn):
 
 def test_track_plant_carries_the_wearer(worn):
     """pinid.control's plant applies the passive moments: a model without them tracks worse than with them."""
-    from pinid.cli.track import sine_reference
+    from pinid.control.tracking import sine_reference
     from pinid.control.controllers import ComputedTorque, nominal_model, track
     from pinid.identification.identified import IdentifiedModel
     from pinid.model.regressor import standard_parameters

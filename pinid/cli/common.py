@@ -3,16 +3,24 @@
 from __future__ import annotations
 
 import argparse
+import json
 import math
+import textwrap
+from pathlib import Path
 
+from pinid.data.mapping import MappingSpec
+from pinid.errors import SpecError
+from pinid.estimators import ESTIMATORS
+from pinid.identification.run import parse_methods
+from pinid.model.bundled import EXAMPLE_ROBOTS
+from pinid.model.drives import attach
 from pinid.model.regressor import JointTerms
+from pinid.model.robot import RobotModel
+from pinid.resources import bundled_robots
 
 
 def add_robot_arguments(p: argparse.ArgumentParser, *, default: str | None = "exo_leg") -> None:
     """The options every command uses to choose a robot: --urdf, --joints, --lock."""
-    from pinid.model.bundled import EXAMPLE_ROBOTS
-    from pinid.resources import bundled_robots
-
     p.add_argument("--urdf", default=default, required=default is None,
                    help=f"URDF file, bundled robot ({', '.join(bundled_robots())}) or example-robot-data name "
                         f"({', '.join(EXAMPLE_ROBOTS)}){'' if default is None else f'; default {default}'}")
@@ -50,9 +58,6 @@ def add_stribeck_arguments(p: argparse.ArgumentParser) -> None:
 
 def robot_from_args(args: argparse.Namespace):
     """Load the RobotModel the robot options describe."""
-    from pinid.errors import SpecError
-    from pinid.model.robot import RobotModel
-
     locked = {}
     for item in args.lock:
         name, sep, value = item.partition("=")
@@ -65,16 +70,12 @@ def robot_from_args(args: argparse.Namespace):
     joints = [j.strip() for j in args.joints.split(",") if j.strip()] if args.joints else None
     robot = RobotModel.from_urdf(args.urdf, joints=joints, locked=locked)
     if getattr(args, "drives", None):
-        from pinid.model.drives import attach
-
         attach(robot, args.drives)
     return robot
 
 
 def terms_from_args(args: argparse.Namespace) -> JointTerms:
     """The JointTerms the --terms option describes."""
-    from pinid.errors import SpecError
-
     try:
         return JointTerms.from_names(args.terms)
     except ValueError as exc:
@@ -92,8 +93,6 @@ def mapping_from_args(args: argparse.Namespace):
     """The MappingSpec of --mapping (None without it), with the --allow-outside-paths choice."""
     if args.mapping is None:
         return None
-    from pinid.data.mapping import MappingSpec
-
     return MappingSpec.load(args.mapping, allow_outside_paths=args.allow_outside_paths)
 
 
@@ -127,8 +126,6 @@ def add_preprocessing_arguments(p: argparse.ArgumentParser) -> None:
 
 def preprocess_from_args(args: argparse.Namespace) -> dict | bool | None:
     """The ``preprocess`` argument of :func:`pinid.identify` the preprocessing options describe."""
-    from pinid.errors import SpecError
-
     opts = {}
     for key in ("preset", "cutoff", "order", "differentiation", "trim", "decimate"):
         value = getattr(args, key)
@@ -147,8 +144,6 @@ def preprocess_from_args(args: argparse.Namespace) -> dict | bool | None:
 
 def rest_velocity_from_args(text: str):
     """The ``rest_velocity`` of :func:`pinid.identify` from the --rest-velocity option's text."""
-    from pinid.errors import SpecError
-
     if text.strip().lower() == "auto":
         return "auto"
     try:
@@ -162,8 +157,6 @@ def rest_velocity_from_args(text: str):
 
 def add_method_arguments(p: argparse.ArgumentParser, default: str) -> None:
     """--methods (names of the estimator registry) and the generic, repeatable --option METHOD.KEY=VALUE."""
-    from pinid.estimators import ESTIMATORS
-
     p.add_argument("--methods", default=default,
                    help=f"comma-separated methods of the estimator registry: {', '.join(ESTIMATORS)}, or all; "
                         f"default {default}")
@@ -174,9 +167,6 @@ def add_method_arguments(p: argparse.ArgumentParser, default: str) -> None:
 
 def methods_from_args(args: argparse.Namespace) -> list[str]:
     """The --methods list (:func:`pinid.identification.run.parse_methods`; SpecError naming --methods)."""
-    from pinid.errors import SpecError
-    from pinid.identification.run import parse_methods
-
     try:
         return parse_methods(args.methods)
     except SpecError as exc:
@@ -185,10 +175,6 @@ def methods_from_args(args: argparse.Namespace) -> list[str]:
 
 def options_from_args(args: argparse.Namespace, options: dict | None = None) -> dict:
     """Per-method settings from --option METHOD.KEY=VALUE, on top of ``options`` (the per-method flags)."""
-    import json
-
-    from pinid.errors import SpecError
-
     out = {m: dict(v) for m, v in (options or {}).items()}
     for item in args.option:
         lhs, sep, text = item.partition("=")
@@ -229,9 +215,6 @@ nonnegative_float = _number(float, lambda v: math.isfinite(v) and v >= 0, "a fin
 
 def wrote_line(paths, folder) -> str:
     """``wrote N files to FOLDER/: a, b, …`` wrapped to 120 columns (continuation lines indented)."""
-    import textwrap
-    from pathlib import Path
-
     names = ", ".join(Path(p).name for p in paths)
     return "\n".join(textwrap.wrap(f"wrote {len(paths)} files to {folder}/: {names}", 120, subsequent_indent="  ",
                                     break_on_hyphens=False, break_long_words=False))

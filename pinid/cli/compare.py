@@ -7,10 +7,12 @@ import shlex
 import sys
 from pathlib import Path
 
-from pinid.estimators import ESTIMATORS
 from pinid.cli.common import (add_mapping_arguments, add_method_arguments, add_preprocessing_arguments, add_recording_arguments,
                               add_robot_arguments, add_stribeck_arguments, add_terms_argument, methods_from_args, options_from_args,
                               preprocess_from_args, rest_velocity_from_args, mapping_from_args, robot_from_args, terms_from_args)
+from pinid.errors import SpecError
+from pinid.estimators import ESTIMATORS
+from pinid.io import check_outputs
 
 HELP = f"compare estimators ({', '.join(ESTIMATORS)}) on the same data, several seeds"
 DESCRIPTION = f"""\
@@ -77,37 +79,20 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     add_preprocessing_arguments(p)
 
 
-def _settings(args) -> tuple[dict, dict]:
-    meta = {}
-    for key in ("population", "iterations", "fitness", "box", "box_width", "box_floor"):
-        value = getattr(args, key)
-        if value is not None:
-            meta[key] = value
-    options: dict = {}
-    if args.forgetting is not None:
-        meta["rls"] = {"forgetting": args.forgetting}
-        options["rls"] = {"forgetting": args.forgetting}
-    return meta, options
-
-
-def run(args: argparse.Namespace) -> int:
-    from pinid.identification.compare import compare
-    from pinid.errors import SpecError
-    from pinid.io import Artefacts, check_outputs
-
-    out = Path(args.output)
-    check_outputs(out / "comparison.json", out / "comparison.md")  # before the work, creating nothing
+def _arguments(args: argparse.Namespace) -> dict:
+    """The keyword arguments of :func:`pinid.identification.compare.compare` the options describe."""
     if args.seeds < 1:
         raise SpecError(f"--seeds {args.seeds}: expected at least 1")
     methods = methods_from_args(args)
     if args.first_validate and not args.first_data:
         raise SpecError("--first-validate needs --first-data (the segmental strategy)")
-    model = robot_from_args(args)
-    terms = terms_from_args(args)
-    meta, options = _settings(args)
-    options = options_from_args(args, {k: v for k, v in options.items() if k in methods})
-    if "rls-pso" not in methods and args.box != "rls" and "rls" in meta:
-        meta.pop("rls")  # the RLS settings matter only where an RLS box is built
+    meta = {key: getattr(args, key) for key in ("population", "iterations", "fitness", "box", "box_width", "box_floor")
+            if getattr(args, key) is not None}
+    options: dict = {}
+    if args.forgetting is not None:
+        options["rls"] = {"forgetting": args.forgetting}
+        if "rls-pso" in methods or args.box == "rls":  # the RLS settings matter only where an RLS box is built
+            meta["rls"] = {"forgetting": args.forgetting}
     validate = {}
     if args.validate:
         validate["validation"] = args.validate
@@ -116,36 +101,30 @@ def run(args: argparse.Namespace) -> int:
     segmental = None
     if args.first_data:
         segmental = {"first": args.first_data,
-                      "joints": tuple(j.strip() for j in args.first_joints.split(",") if j.strip())}
+                     "joints": tuple(j.strip() for j in args.first_joints.split(",") if j.strip())}
+    return dict(validate=validate or None, methods=methods, seeds=args.seeds, truth=args.truth,
+                terms=terms_from_args(args), options=options_from_args(args, {k: v for k, v in options.items()
+                                                                               if k in methods}),
+                metaheuristic=meta, segmental=segmental, mapping=mapping_from_args(args),
+                preprocess=preprocess_from_args(args), rest_velocity=rest_velocity_from_args(args.rest_velocity),
+                show_progress=None, stribeck_velocity=args.stribeck_velocity, stribeck_shape=args.stribeck_shape)
+
+
+def run(args: argparse.Namespace) -> int:
+    # deferred: pinid --help does not load these (~7 ms)
+    from pinid.identification.compare import compare
+    from pinid.identification.outputs import COMPARISON_FILES, write_comparison
+
+    out = Path(args.output)
+    check_outputs(*(out / name for name in COMPARISON_FILES[:2]))  # before the work, creating nothing
+    kwargs = _arguments(args)
+    model = robot_from_args(args)
     print(f"comparing on {model.name} ({', '.join(model.joint_names)}): {args.methods}; seeds {args.seeds}"
-          + ("; segmental" if segmental else ""))
-    comp = compare(model, args.data, validate or None, methods=methods, seeds=args.seeds, truth=args.truth,
-                   terms=terms, options=options, metaheuristic=meta, segmental=segmental, mapping=mapping_from_args(args),
-                   preprocess=preprocess_from_args(args), rest_velocity=rest_velocity_from_args(args.rest_velocity),
-                   show_progress=None,
-                   stribeck_velocity=args.stribeck_velocity, stribeck_shape=args.stribeck_shape)
-    table, values = comp.table(), comp.values_table()
-    print(table)
+          + ("; segmental" if kwargs["segmental"] else ""))
+    comp = compare(model, args.data, **kwargs)
+    print(comp.table())
     print()
-    print(values)
-    figs = {}
-    if not args.no_plots:
-        from pinid.report.plot_compare import comparison_figures
-
-        figs = comparison_figures(comp)
-    command = "pinid " + shlex.join(sys.argv[1:])
-    md = (f"# Comparison on {model.name}\n\n```\n{command}\n```\n\n```\n{table}\n```\n\nIdentified base parameters "
-          f"(mean ± spread over the seeds):\n\n```\n{values}\n```\n"
-          + "".join(f"\n![{name}]({name})\n" for name in figs))
-    arts = Artefacts()  # all or nothing
-    arts.add(out / "comparison.json", lambda p: comp.save(p))
-    arts.add(out / "comparison.md", md)
-    if figs:
-        from pinid.report.figures import save_figure
-
-        for name, fig in figs.items():
-            arts.add(out / name, lambda p, fig=fig: save_figure(fig, p))
-    arts.clean(out, ["comparison.json", "comparison.md", "compare_*.png"])  # an earlier run's, with --force
-    written = arts.write()
+    print(comp.values_table())
+    written = write_comparison(comp, out, command="pinid " + shlex.join(sys.argv[1:]), figures=not args.no_plots)
     print(f"\nwrote {len(written)} files to {out}/: " + ", ".join(Path(p).name for p in written))
     return 0

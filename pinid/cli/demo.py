@@ -11,7 +11,9 @@ import time
 from collections.abc import Iterator
 from pathlib import Path
 
-from pinid.cli.common import seed_int
+from pinid.cli.common import methods_from_args, seed_int
+from pinid.estimators import ESTIMATORS
+from pinid.io import check_outputs
 
 HELP = "run the whole loop on the bundled exoskeleton leg: excite, simulate, identify, validate, track"
 
@@ -86,10 +88,7 @@ def steps(out: str, seed: int, methods: str, verbose: bool = False) -> list[tupl
 
 
 def run(args: argparse.Namespace) -> int:
-    from pinid.cli.common import methods_from_args
-    from pinid.cli.main import build_parser
-    from pinid.estimators import ESTIMATORS
-    from pinid.io import check_outputs
+    from pinid.cli.main import build_parser  # deferred: pinid.cli.main loads this module (no circle at import)
 
     check_outputs(f"{args.output}/excitation.json")  # before the work, creating nothing
     methods = ",".join(methods_from_args(args)) if args.methods else ",".join(ESTIMATORS)

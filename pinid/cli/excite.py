@@ -4,12 +4,14 @@ from __future__ import annotations
 
 import argparse
 import math
-import time
 
 import numpy as np
 
 from pinid.cli.common import (add_robot_arguments, add_terms_argument, positive_float, positive_int, robot_from_args,
                               seed_int)
+from pinid.errors import SolverError, SpecError
+from pinid.io import check_outputs
+from pinid.model.regressor import JointTerms
 
 HELP = "design an excitation trajectory (Fourier series) that conditions the identification best"
 DESCRIPTION = """\
@@ -77,8 +79,6 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def _options(args: argparse.Namespace) -> dict:
-    from pinid.errors import SpecError
-
     opts: dict = {}
     name = args.optimizer.lower()
     if name == "slsqp":
@@ -115,33 +115,13 @@ def _parse_value(text: str):
     return text
 
 
-def _fmt_usage(spec, extremes, usage, q0) -> list[str]:
-    """A table of how much of each limit the trajectory uses."""
-    has_tau = any("tau" in u for u in usage.values())
-    w = max(8, max(len(j) for j in spec.joints) + 2)
-    head = (f"  {'joint':<{w}}{'q reached [rad]':>20}{'q limits [rad]':>20}{'range':>7}{'toward lo/hi':>14}"
-            f"{'|dq| max':>10}{'use':>6}{'|ddq| max':>11}{'use':>6}" + (f"{'|tau| max':>11}{'use':>6}" if has_tau else ""))
-    lines = [head]
-    for i, j in enumerate(spec.joints):
-        e, u = extremes[j], usage[j]
-        toward = f"{100 * u['q_low']:.0f}%/{100 * u['q_high']:.0f}%"
-        row = (f"  {j:<{w}}{e['q_min']:>9.4f} / {e['q_max']:<8.4f}{spec.q_min[i]:>9.4g} / {spec.q_max[i]:<8.4g}"
-               f"{100 * u['q_range']:>6.0f}%{toward:>14}{e['dq_abs_max']:>10.3f}{100 * u['dq']:>5.0f}%"
-               f"{e['ddq_abs_max']:>11.3f}{100 * u['ddq']:>5.0f}%")
-        if "tau" in u:
-            row += f"{e.get('tau_abs_max', float('nan')):>11.2f}{100 * u['tau']:>5.0f}%"
-        lines.append(row)
-    lines.append("  (q limits as given; 'toward lo/hi': how far the motion goes from q0 = "
-                 + ", ".join(f"{q:.4f}" for q in q0) + " towards each position limit; dq [rad/s], ddq [rad/s²])")
-    return lines
+# pinid.excitation.design takes about 17 ms to import: the functions below import it when they run
+# (deferred), so that pinid --help starts fast.
 
 
-def run(args: argparse.Namespace) -> int:
-    from pinid.errors import SolverError, SpecError
-    from pinid.excitation.design import (design_excitation, design_optimizers, evaluate_trajectory, limit_violations,
-                              spec_for)
-    from pinid.model.regressor import JointTerms
-    from pinid.excitation.trajectory import FourierTrajectory
+def _check(args: argparse.Namespace) -> dict:
+    """Check the options that need no robot; returns the optimiser's settings (:func:`_options`)."""
+    from pinid.excitation.design import design_optimizers  # deferred (see above)
 
     if args.evaluate:  # it designs nothing: an optimiser's option would silently do nothing
         given = [flag for flag, v in (("--optimizer", args.optimizer), ("--seed", args.seed),
@@ -152,19 +132,19 @@ def run(args: argparse.Namespace) -> int:
                             f"{args.evaluate}); expected none of the optimiser's options")
     args.optimizer = args.optimizer or "slsqp"
     args.seed = 0 if args.seed is None else args.seed
-    name = args.optimizer.lower()
-    if name not in design_optimizers():
+    if args.optimizer.lower() not in design_optimizers():
         raise SpecError(f"--optimizer {args.optimizer!r}: expected one of {', '.join(design_optimizers())}")
     if not (math.isfinite(args.rate) and args.rate > 0):
         raise SpecError(f"--rate {args.rate}: expected a sample rate > 0 [Hz]")
     if not (math.isfinite(args.periods) and args.periods > 0):
         raise SpecError(f"--periods {args.periods}: expected a number of periods > 0")
-    opts = _options(args)
-    model = robot_from_args(args)
-    output = args.output
-    if output is None and not args.evaluate:
-        output = f"{model.name}_excitation.json"
-    _plan(args, output, None, None, None, None).check()  # fail before the work (no collision, nothing exists)
+    return _options(args)
+
+
+def _spec(args: argparse.Namespace, model):
+    """The ExcitationSpec of --spec and the spec options, within --comfort and --torque-limits."""
+    from pinid.excitation.design import spec_for  # deferred (see above)
+
     terms = None
     if args.terms is not None:
         try:
@@ -175,7 +155,7 @@ def run(args: argparse.Namespace) -> int:
                     samples=args.samples, rest_start=args.rest_start, optimize_offsets=args.optimize_offsets,
                     criterion=args.criterion, margin=args.margin, terms=terms)
     if args.comfort is not None:
-        from pinid.wearer.comfort import within_comfort
+        from pinid.wearer.comfort import within_comfort  # deferred: pinid --help does not load it
 
         spec = within_comfort(spec, model, args.comfort or None)
     if args.torque_limits:
@@ -183,73 +163,43 @@ def run(args: argparse.Namespace) -> int:
         if not np.any(np.isfinite(effort)):
             raise SpecError(f"--torque-limits: the URDF {model.urdf_path} gives no effort limit for any joint")
         spec = spec.replace(tau_max=np.minimum(spec.tau_max, effort))
+    return spec
+
+
+def run(args: argparse.Namespace) -> int:
+    # deferred (see above)
+    from pinid.excitation.design import design_excitation
+    from pinid.excitation.outputs import (design_text, evaluate_excitation, evaluation_text, excitation_paths, spec_text,
+                                          write_excitation)
+    from pinid.excitation.trajectory import FourierTrajectory
+
+    opts = _check(args)
+    model = robot_from_args(args)
+    output = args.output
+    if output is None and not args.evaluate:
+        output = f"{model.name}_excitation.json"
+    check_outputs(*excitation_paths(json=output, plot=args.plot, csv=args.csv))  # before the work, creating nothing
+    spec = _spec(args, model)
     say = (lambda *a: None) if args.quiet else print
-    period = spec.period
-    say(f"robot {model.name} ({model.urdf_path}), joints {', '.join(model.joint_names)}")
-    say(f"spec {spec.source}: {spec.harmonics} harmonics, ωf = {spec.base_frequency:.6g} rad/s (period {period:.4g} s), "
-        f"{spec.samples} samples, {'start at rest' if spec.rest_start else 'no rest start'}, "
-        f"offsets {'optimised' if spec.optimize_offsets else 'fixed'}, terms {','.join(spec.terms.names) or 'none'}"
-        + (f", margin {spec.margin:g}" if spec.margin else ""))
+    say(spec_text(model, spec))
     if args.evaluate:
-        traj = FourierTrajectory.load(args.evaluate).for_joints(model.joint_names, model.name)
-        spec.validate(model)
-        started = time.perf_counter()
-        ev = evaluate_trajectory(model, traj, spec)
-        print(f"{args.evaluate}: condition number {ev['condition_number']:.6g} (base regressor, {spec.samples} samples), "
-              f"log det {ev['log_det']:.6g}, {'inside' if ev['feasible'] else 'OUTSIDE'} the limits"
-              + (", starts at rest" if ev["rest_start"] else ""))
-        for line in _fmt_usage(spec, ev["extremes"], ev["usage"], traj.q0):
-            say(line)
-        for line in limit_violations(ev["extremes"], spec):
-            print(f"  outside: {line}")
-        report = dict(traj.meta)
-        report.update(condition_number=ev["condition_number"], criterion="cond", log_det=ev["log_det"],
-                      feasible=ev["feasible"], limits=spec.limits_dict(), extremes=ev["extremes"], usage=ev["usage"],
-                      optimizer=None, seconds=round(time.perf_counter() - started, 3), spec=spec.source,
-                      samples=spec.samples, terms=spec.terms.names)
-        traj = FourierTrajectory(traj.joints, traj.base_frequency, traj.q0, traj.a, traj.b, meta=report)
-        _write_outputs(args, output, traj, spec, say, traj.to_dict())
-        return 0
-    say(f"optimizer {name}" + (f" {opts}" if opts else "") + f", seed {args.seed}")
-    result = design_excitation(model, spec, optimizer=name, options=opts, seed=args.seed)
-    if not result.feasible:
-        raise SolverError(f"{name} found no trajectory within the limits (torque limits too tight?); nothing written")
-    crit = "" if spec.criterion == "cond" else f", log det(WᵀW) {result.log_det:.6g} (criterion logdet)"
-    print(f"condition number {result.condition_number:.6g}{crit} in {result.seconds:.1f} s "
-          f"({result.nfev} criterion evaluations, {result.details['regressor_samples']} regressor samples)")
-    for line in _fmt_usage(spec, result.extremes, result.usage, result.trajectory.q0):
-        say(line)
-    _write_outputs(args, output, result.trajectory, spec, say, result.to_dict())
-    return 0
-
-
-def _plan(args, output, traj, spec, say, report):
-    """The outputs of one run as one :class:`~pinid.io.Artefacts` (plot, CSV, JSON: all or nothing)."""
-    from pinid.io import Artefacts, json_text
-
-    arts = Artefacts()
-    if args.plot:
-        def plot(p):
-            from pinid.report.figures import save_figure
-            from pinid.report.plot_excitation import plot_excitation
-
-            cond = report.get("condition_number")
-            title = f"{len(traj.joints)}-joint excitation, condition number {cond:.4g}" if cond else None
-            save_figure(plot_excitation(traj, spec, title=title), p)
-
-        arts.add(args.plot, plot)
-    if args.csv:
-        arts.add(args.csv, lambda p: traj.to_csv(p, args.rate, args.periods * traj.period))
-    if output:
-        arts.add(output, json_text(report))
-    return arts
-
-
-def _write_outputs(args, output, traj, spec, say, report: dict) -> None:
-    _plan(args, output, traj, spec, say, report).write()
+        given = FourierTrajectory.load(args.evaluate).for_joints(model.joint_names, model.name)
+        traj, ev = evaluate_excitation(model, given, spec)
+        print(evaluation_text(args.evaluate, spec, ev, traj.q0, usage=not args.quiet))
+        report = traj.to_dict()
+    else:
+        name = args.optimizer.lower()
+        say(f"optimizer {name}" + (f" {opts}" if opts else "") + f", seed {args.seed}")
+        result = design_excitation(model, spec, optimizer=name, options=opts, seed=args.seed)
+        if not result.feasible:
+            raise SolverError(f"{name} found no trajectory within the limits (torque limits too tight?); nothing written")
+        print(design_text(result, spec, usage=not args.quiet))
+        traj, report = result.trajectory, result.to_dict()
+    write_excitation(traj, spec, report, json=output, plot=args.plot, csv=args.csv, rate=args.rate, periods=args.periods)
     if args.plot:
         say(f"wrote {args.plot}")
     if args.csv:
         say(f"wrote {args.csv} ({args.rate:g} Hz, {args.periods:g} period{'s' if args.periods != 1 else ''})")
     if output:
         print(f"wrote {output}")
+    return 0

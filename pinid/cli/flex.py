@@ -3,10 +3,15 @@
 from __future__ import annotations
 
 import argparse
-
-from pinid.cli.common import seed_int
+import warnings
+from dataclasses import replace
 
 import numpy as np
+
+from pinid.cli.common import seed_int
+from pinid.errors import SpecError
+from pinid.io import Artefacts, check_outputs, json_text
+from pinid.model.bundled import BUNDLED_URDF_DIR
 
 HELP = "flexible joints: simulate a twin, fit spring/damper/motor parameters by output error, rigid vs flexible"
 DESCRIPTION = """\
@@ -100,8 +105,6 @@ class _DeprecatedOut(argparse.Action):
     """``--out``: the old spelling of ``-o/--output`` (as every other command has it), kept for one release."""
 
     def __call__(self, parser, namespace, values, option_string=None):
-        import warnings
-
         warnings.warn("pinid flex --out is deprecated, use -o/--output", DeprecationWarning, stacklevel=1)
         setattr(namespace, self.dest, values)
 
@@ -113,10 +116,12 @@ def _output(p: argparse.ArgumentParser, metavar: str, text: str) -> None:
     g.add_argument("--out", dest="out", metavar=metavar, action=_DeprecatedOut, help="deprecated alias of -o/--output")
 
 
+# pinid.flexible takes about 30 ms to import: the functions below import it when they run (deferred),
+# so that pinid --help starts fast.
+
+
 def _spec(args):
-    from pinid.errors import SpecError
-    from pinid.flexible.output_error import load_flex_spec
-    from pinid.model.bundled import BUNDLED_URDF_DIR
+    from pinid.flexible.output_error import load_flex_spec  # deferred (see above)
 
     path = args.spec
     if path is None:
@@ -126,9 +131,9 @@ def _spec(args):
     return load_flex_spec(path)
 
 
-def _recording(args, spec):
-    from pinid.errors import SpecError
-    from pinid.flexible.output_error import FlexRecording, make_twin
+def _recording(args, spec, *, motor: bool = True):
+    """--data, or a twin of the spec with --noise and --seed (default: the spec's [fit] noise and seed)."""
+    from pinid.flexible.output_error import FlexRecording, make_twin  # deferred (see above)
 
     if getattr(args, "data", None):
         return FlexRecording.load(args.data)
@@ -136,13 +141,13 @@ def _recording(args, spec):
     if noise < 0:
         raise SpecError(f"--noise {noise:g}, expected ≥ 0 [rad]")
     seed = spec.fit.seed if getattr(args, "seed", None) is None else args.seed
-    return make_twin(spec.model(), spec.input, noise=noise, rng=seed)
+    rec = make_twin(spec.model(), spec.input, noise=noise, rng=seed, motor=motor)
+    rec.meta.update(spec=str(spec.source), seed=seed)
+    return rec
 
 
 def _fit_options(args, spec) -> tuple[str, dict, int]:
-    from pinid.errors import SpecError
-
-    from pinid.flexible.output_error import methods
+    from pinid.flexible.output_error import methods  # deferred (see above)
 
     method = args.method or spec.fit.method
     if method not in methods():
@@ -157,8 +162,7 @@ def _fit_options(args, spec) -> tuple[str, dict, int]:
 
 
 def _outputs(args, spec):
-    from pinid.errors import SpecError
-    from pinid.flexible.output_error import OUTPUTS
+    from pinid.flexible.output_error import OUTPUTS  # deferred (see above)
 
     if args.outputs is None:
         return spec.fit.outputs
@@ -169,8 +173,7 @@ def _outputs(args, spec):
 
 
 def _x0(args, spec, problem):
-    from pinid.errors import SpecError
-    from pinid.flexible.output_error import OutputErrorResult
+    from pinid.flexible.output_error import OutputErrorResult  # deferred (see above)
 
     if args.x0 is None:
         return None
@@ -187,82 +190,43 @@ def _x0(args, spec, problem):
     return np.array([vals.get(n, 0.5 * (lo + hi)) for n, lo, hi in zip(problem.free, problem.lower, problem.upper)])
 
 
-def _print_result(res) -> None:
-    rows = [["parameter", "fitted", "truth", "error %", "lower", "upper"]] + res.table()
-    w = [max(len(r[i]) for r in rows) for i in range(6)]
-    for r in rows:
-        print("  " + "  ".join(c.rjust(w[i]) if i else c.ljust(w[i]) for i, c in enumerate(r)))
-    print(f"  cost ({res.cost_kind}) {res.cost:.6g}; "
-          + "; ".join(f"{j}: RMS {1e3 * m['rms']:.4g} mrad" for j, m in res.metrics.items())
-          + f"; {res.nfev} simulations in {res.seconds:.1f} s (RK4 step {1e3 * res.step:.3g} ms, integrator "
-          f"tolerance {res.extra.get('integrator_error', float('nan')):.2g} rad)")
-
-
 # ---------------------------------------------------------------------------------------------- actions
 def run(args: argparse.Namespace) -> int:
     return {"check": _check, "twin": _twin, "fit": _fit, "compare": _compare}[args.action](args)
 
 
 def _check(args) -> int:
-    from pinid.io import Artefacts, check_outputs, json_text
-    from pinid.flexible.output_error import classify, problem_from_spec, sensitivity
+    from pinid.flexible.outputs import check_spec  # deferred (see above)
 
     if args.json:
         check_outputs(args.json)
     spec = _spec(args)
-    rec = _recording(args, spec)
-    prob = problem_from_spec(spec, rec)
-    model = prob.model
-    print(f"robot {spec.robot.name} ({spec.robot.urdf_path}); backend: {model.backends}; "
-          f"Coulomb smoothing {model.coulomb_speed:g} rad/s")
-    for d in model.drives:
-        print(f"  {d.joint:<12} {'flexible' if d.flexible else 'rigid':<9} ratio {d.ratio:g}")
-    print(f"recording: {rec.source}, {rec.n} samples at {1 / rec.dt:g} Hz, input {rec.input}; "
-          f"RK4 step {1e3 * prob.step:.3g} ms ({int(round(rec.dt / prob.step))} per sample)")
-    noise = max(spec.fit.noise, 1e-4)
-    sens = sensitivity(prob, noise=noise)
-    print(f"observability at {'the truth' if prob.truth else 'the nominal values'} "
-          f"(relative std for {1e3 * noise:g} mrad angle noise; condition {sens['condition']:.3g}):")
-    for n, lo, hi in zip(prob.free, prob.lower, prob.upper):
-        rs = sens["rel_std"][n]
-        flag = classify(rs)
-        print(f"  {n:<16} [{lo:>9.4g}, {hi:>9.4g}]  rel. std {100 * rs:>10.3g} %  {flag}")
+    text, description = check_spec(spec, _recording(args, spec))
+    print(text)
     if args.json:
         arts = Artefacts()
-        arts.add(args.json, json_text({"spec": spec.to_dict(), "step": prob.step, "sensitivity": sens}))
+        arts.add(args.json, json_text(description))
         arts.write()
         print(f"wrote {args.json}")
     return 0
 
 
 def _twin(args) -> int:
-    from pinid.errors import SpecError
-    from dataclasses import replace
+    from pinid.flexible.outputs import twin_paths, write_twin  # deferred (see above)
 
-    from pinid.io import Artefacts, json_text
-    from pinid.flexible.output_error import make_twin
-
-    arts = Artefacts()  # the recording and its truth, all or nothing; checked before the work
-    arts.add(args.out, lambda p: replace(rec, meta={}).save(p))
-    arts.add(str(args.out) + ".json", lambda p: p.write_text(json_text(rec.meta), encoding="utf-8"))
-    arts.check()
+    check_outputs(*twin_paths(args.out))  # the recording and its truth, checked before the work
     spec = _spec(args)
-    noise = spec.fit.noise if args.noise is None else args.noise
-    if noise < 0:
-        raise SpecError(f"--noise {noise:g}, expected ≥ 0 [rad]")
-    seed = spec.fit.seed if args.seed is None else args.seed
-    rec = make_twin(spec.model(), spec.input, noise=noise, rng=seed, motor=not args.no_motor)
-    rec.meta["spec"] = str(spec.source)
-    rec.meta["seed"] = seed
-    arts.write()
-    print(f"wrote {args.out} ({rec.n} samples at {1 / rec.dt:g} Hz, noise {noise:g} rad, seed {seed}) "
-          f"and {args.out}.json (truth)")
+    rec = _recording(args, spec, motor=not args.no_motor)
+    write_twin(rec, args.out)
+    print(f"wrote {args.out} ({rec.n} samples at {1 / rec.dt:g} Hz, noise {rec.meta['noise']:g} rad, seed "
+          f"{rec.meta['seed']}) and {args.out}.json (truth)")
     return 0
 
 
 def _fit(args) -> int:
-    from pinid.io import Artefacts, check_outputs
+    # deferred (see above)
     from pinid.flexible.output_error import LEAST_SQUARES, fit_output_error, problem_from_spec
+    from pinid.flexible.outputs import result_text, write_fit
 
     check_outputs(args.out, *([args.plot] if args.plot else []))  # before the work, creating nothing
     spec = _spec(args)
@@ -273,51 +237,30 @@ def _fit(args) -> int:
     print(f"fitting {prob.d} parameters of the {prob.label} model to {rec.source} ({rec.n} samples) with {method}")
     res = fit_output_error(prob, method, rng=seed, x0=x0, options=None if method == LEAST_SQUARES else options,
                            f_scale=spec.fit.f_scale, max_nfev=args.max_nfev)
-    res.extra["recording"] = rec.source
-    res.extra["spec"] = spec.source
-    _print_result(res)
-    arts = Artefacts()
-    arts.add(args.out, lambda p: res.save(p))
-    if args.plot:
-        from pinid.report.figures import save_figure
-        from pinid.report.plot_flexible import plot_angles
-
-        sim = prob.simulate(res.x).q[0]
-        fig = plot_angles(rec.t, prob.recording.q, {prob.label: sim}, prob.model.joint_names,
-                          title=f"{prob.label} model, {method}")
-        arts.add(args.plot, lambda p: save_figure(fig, p))
-    print("wrote " + " and ".join(map(str, arts.write())))
+    res.extra.update(recording=rec.source, spec=spec.source)
+    print(result_text(res))
+    print("wrote " + " and ".join(map(str, write_fit(res, args.out, problem=prob, plot=args.plot))))
     return 0
 
 
 def _compare(args) -> int:
-    from pinid.io import Artefacts, check_outputs, json_text
+    # deferred (see above)
     from pinid.flexible.output_error import compare_rigid_flexible
+    from pinid.flexible.outputs import result_text, write_comparison
 
     check_outputs(args.out, *([args.plot] if args.plot else []))  # before the work, creating nothing
     spec = _spec(args)
     method, options, seed = _fit_options(args, spec)
     if args.cost or args.outputs:
-        from dataclasses import replace
-
         spec = replace(spec, fit=replace(spec.fit, cost=args.cost or spec.fit.cost, outputs=_outputs(args, spec)))
     rec = _recording(args, spec)
     out = compare_rigid_flexible(spec, rec, method=method, options=options, rng=seed, polish=not args.no_polish)
     for label in ("flexible", "rigid"):
         print(f"{label} model ({out[label].method}):")
-        _print_result(out[label])
+        print(result_text(out[label]))
     f, r = out["flexible"], out["rigid"]
     print("RMS angle error [mrad]: " + "; ".join(
         f"{j}: flexible {1e3 * f.metrics[j]['rms']:.4g}, rigid {1e3 * r.metrics[j]['rms']:.4g}" for j in f.metrics))
-    arts = Artefacts()
-    arts.add(args.out, json_text({"recording": rec.source, "spec": spec.source,
-                                  "flexible": f.to_dict(), "rigid": r.to_dict()}))
-    if args.plot:
-        from pinid.report.figures import save_figure
-        from pinid.report.plot_flexible import plot_angles
-
-        fig = plot_angles(out["t"], out["measured"], out["simulated"], spec.robot.joint_names,
-                          title="rigid vs flexible joints (seed 003 Figs. 6-7)")
-        arts.add(args.plot, lambda p: save_figure(fig, p))
-    print("wrote " + " and ".join(map(str, arts.write())))
+    written = write_comparison(out, args.out, spec=spec, recording=rec, plot=args.plot)
+    print("wrote " + " and ".join(map(str, written)))
     return 0

@@ -5,12 +5,14 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-import numpy as np
-
 from pinid.cli.common import (add_mapping_arguments, add_method_arguments, wrote_line, add_preprocessing_arguments, add_recording_arguments,
                               add_robot_arguments, add_stribeck_arguments, add_terms_argument, methods_from_args, nonnegative_float,
                               options_from_args, positive_int, preprocess_from_args, rest_velocity_from_args,
                               mapping_from_args, robot_from_args, terms_from_args)
+from pinid.errors import SpecError
+from pinid.identification.problem import load_datasets
+from pinid.identification.run import identify
+from pinid.io import check_outputs
 
 HELP = "identify dynamic parameters from recordings (OLS, WLS, physically consistent LMI), validate, export"
 DESCRIPTION = """\
@@ -92,7 +94,6 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def _options(args, methods) -> dict:
-    from pinid.errors import SpecError
 
     opts: dict = {}
     if "sdp" in methods:
@@ -116,38 +117,12 @@ def _options(args, methods) -> dict:
     return opts
 
 
-def print_result(r) -> None:
-    """One method's detail (``--verbose``): base parameters with standard deviations, then torque metrics."""
-    from pinid.report.text import text_table
-
-    flag = "physically consistent" if r.physically_consistent else "NOT physically consistent"
-    print(f"\n== {r.method}: {r.description}")
-    print(f"   {flag} ({r.standard_source}); cond(W_b) {r.condition_number:.4g}; {r.seconds:.3f} s; status {r.status}")
-    if not r.physically_consistent:
-        for prob in (r.consistency.get("problems") or [])[:4]:
-            print(f"   - {prob}")
-    rows = [[n, f"{v:.6g}", f"{s:.3g}", f"{sp:.3g}" if np.isfinite(sp) else "inf"]
-            for n, v, s, sp in zip(r.base_names, r.base, r.std, r.std_percent)]
-    print(text_table(["parameter", "value", "std", "std %"], rows, indent="   "))
-    for kind, m in (("train", r.train), ("validation", r.validation)):
-        if m is not None:
-            print(f"   {kind}:")
-            print(text_table(["joint", "RMS", "RMS %", "mean ± std |e|", "max |e|"], m.table(), indent="   "))
-
-
 def run(args: argparse.Namespace) -> int:
-    import sys
-
-    from pinid.errors import ModelError, SpecError
-    from pinid.identification.core import identify
-    from pinid.io import Artefacts
-    from pinid.report.markdown import REPORT_FILES, summary_table
-    from pinid.report.text import text_table
+    # deferred: the report modules, ~8 ms that pinid --help would pay
+    from pinid.identification.outputs import identification_text, write_identification
 
     out = Path(args.output)
-    early = Artefacts()
-    early.add(out / "identification.json", "")
-    early.check()  # fail before the work (creates nothing)
+    check_outputs(out / "identification.json")  # fail before the work (creates nothing)
     if (args.stage == "wearer") != (args.exo is not None):
         raise SpecError("--stage wearer and --exo MODEL_JSON go together (stage 2: the wearer, the exo fixed)")
     if args.stage == "wearer":
@@ -164,59 +139,10 @@ def run(args: argparse.Namespace) -> int:
         payload=args.payload, payload_data=args.payload_data,
         stribeck_velocity=args.stribeck_velocity, stribeck_shape=args.stribeck_shape,
     )
-    d = ident.data
-    if "drive_gains" in d:
-        g = d["drive_gains"]
-        print("drive gains [N·m per unit of the recorded channel]: " + ", ".join(
-            f"{j} {k:.6g} ± {s:.2g}" for j, k, s in zip(g["joints"], g["gains"], g["std"])))
-    for name, v in d.get("stribeck", {}).items():
-        print(f"Stribeck {name}: velocity {v['velocity']:.6g} rad/s{' (fitted)' if v['fitted'] else ''}, "
-              f"shape {v['shape']:.4g}{' (fitted)' if v.get('shape_fitted') else ''}")
-    print(f"training: {d['samples']} samples from {len(d['sources'])} recording(s), {d['rows']} torque rows used"
-          + (f"; validation: {len(ident.validation_sources)} recording(s)" if ident.validation_sources else ""))
-    if args.verbose:
-        for r in ident:
-            print_result(r)
-        print()
-    header, rows = summary_table(ident, bold=lambda text: text)
-    print(text_table(header, rows))
-    # everything is computed before any file is written
-    urdfs, drives, refused = {}, {}, []
-    for m, r in ident.results.items():
-        if r.physically_consistent or args.force_export:
-            try:
-                urdfs[m] = r.export_urdf(force=args.force_export)
-            except ModelError as exc:  # consistent within tolerance, yet not a URDF pinid reads back
-                print(f"pinid identify: warning: no URDF for {m}: {exc}", file=sys.stderr)
-                refused.append(m)
-                continue
-            text = r.model.export_drives()
-            if text is not None:
-                drives[m] = text
-        else:
-            refused.append(m)
-    models = {m: r.model.to_dict() for m, r in ident.results.items()}
-    report = {}
-    if not args.no_report:
-        from pinid.report.markdown import report_files
-
-        report = report_files(ident, figures=not args.no_figures)
-    from pinid.io import json_text as as_json
-
-    arts = Artefacts()  # all or nothing: checked, written to a temporary folder, moved into place
-    arts.add(out / "identification.json", as_json(ident.to_dict()))
-    for m, dm in models.items():
-        arts.add(out / f"model_{m}.json", as_json(dm))
-    for m, text in urdfs.items():
-        arts.add(out / f"identified_{m}.urdf", text)
-    for m, text in drives.items():
-        arts.add(out / f"identified_{m}_drives.toml", text)
-    for name, content in report.items():
-        arts.add(out / name, content)
-    # a --force re-run into an earlier run's folder leaves none of that run's outputs behind
-    arts.clean(out, ["identification.json", "model_*.json", "identified_*.urdf", "identified_*_drives.toml",
-                     *REPORT_FILES])
-    written = arts.write()
+    print(identification_text(ident, verbose=args.verbose))
+    written = write_identification(ident, out, report=not args.no_report, figures=not args.no_figures,
+                                   force_export=args.force_export)
+    refused = [m for m in ident.results if out / f"identified_{m}.urdf" not in written]
     print(f"\nbest: {ident.best}" + (f"; no URDF for inconsistent result(s) {', '.join(refused)} "
                                        "(--force-export writes them)" if refused else ""))
     print(wrote_line(written, out))
@@ -225,11 +151,8 @@ def run(args: argparse.Namespace) -> int:
 
 def _run_wearer(args: argparse.Namespace, out: Path) -> int:
     """Stage 2: the wearer of ``--urdf`` identified with the exoskeleton fixed to ``--exo``."""
-    from pinid.identification.problem import load_datasets
-    from pinid.io import Artefacts, json_text
-    from pinid.wearer.prior import MASS_RANGE
-    from pinid.report.wearer import WEARER_REPORT_FILES
-    from pinid.wearer.stage import identify_wearer, stack
+    from pinid.wearer.prior import MASS_RANGE  # deferred: pinid --help does not load the wearer's stage 2
+    from pinid.wearer.stage import identify_wearer, stack, stage_summary, stage_text, write_stage
 
     robot = robot_from_args(args)
     pre = preprocess_from_args(args)
@@ -239,38 +162,9 @@ def _run_wearer(args: argparse.Namespace, out: Path) -> int:
     fit = identify_wearer(args.exo, robot, *stack(train), passive=not args.no_passive,
                           mass_range=MASS_RANGE if args.mass_range is None else args.mass_range,
                           prior_weight=args.prior_weight, passive_exponents=args.passive_exponents)
-    result = {"stage": "wearer", "exo": args.exo, "urdf": str(robot.urdf_path), **fit.to_dict(),
-              "train_rms": fit.rms(train), "validation_rms": fit.rms(val) if val else None}
-    print(f"stage 2 (wearer) of {robot.name}: status {fit.status}, {fit.seconds:.2f} s")
-    if fit.exponents is not None:
-        e = fit.exponents
-        print(f"   passive exponents: {len(e.free)} fitted in {e.evaluations} evaluations ({e.seconds:.2f} s); "
-              f"torque RMS {e.rms_published:.4g} N·m at the published, {e.rms_fitted:.4g} at the fitted")
-    width = max(len(n) for n in fit.base_names)
-    print(f"   {'base parameter':<{width}} {'identified':>13} {'table':>13}")
-    for n, v, t in zip(fit.base_names, fit.base, fit.base_table):
-        print(f"   {n:<{width}} {v:13.6g} {t:13.6g}")
-    for kind in ("train_rms", "validation_rms"):
-        if result[kind]:
-            print(f"   {kind.replace('_', ' ')} [N·m]: " + "; ".join(
-                f"{w} " + ", ".join(f"{j} {v:.4g}" for j, v in r.items()) for w, r in result[kind].items()))
-    report = {}
-    if not args.no_report:
-        from pinid.report.wearer import wearer_report_files
-
-        shown, kind = (val, "validation") if val else (train, "training")
-        q, dq, ddq, tau = stack(shown[:1])
-        curves = {"t": shown[0].t, "measured": tau, "joints": robot.joint_names, "kind": kind,
-                  "source": Path(str(shown[0].source)).name,
-                  "predicted": {w: fit.model(w).inverse_dynamics(q, dq, ddq) for w in ("identified", "table", "exo")}}
-        report = wearer_report_files(result, curves, figures=not args.no_figures)
-    arts = Artefacts()  # all or nothing
-    arts.add(out / "identification.json", json_text(result))
-    arts.add(out / "model_wearer.json", json_text(fit.model("identified").to_dict()))
-    arts.add(out / "model_table.json", json_text(fit.model("table").to_dict()))
-    for name, content in report.items():
-        arts.add(out / name, content)
-    arts.clean(out, WEARER_REPORT_FILES)  # a --force re-run leaves no stale report or figure
-    written = arts.write()
-    print(wrote_line(written, out))
+    summary = stage_summary(fit, args.exo, train, val)
+    print(stage_text(fit, summary))
+    shown = ("validation", val) if val else ("training", train)
+    print(wrote_line(write_stage(fit, summary, out, shown=shown, report=not args.no_report,
+                                 figures=not args.no_figures), out))
     return 0

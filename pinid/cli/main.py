@@ -15,11 +15,17 @@ import argparse
 import contextlib
 import importlib
 import os
+import signal
 import sys
-from pathlib import Path
+import threading
+import warnings
 from collections.abc import Sequence
+from pathlib import Path
 
+from pinid import __version__
 from pinid.errors import PinidError
+from pinid.io import OVERWRITE
+from pinid.progress import MODE
 
 #: Subcommands in the order ``pinid --help`` lists them.
 COMMANDS: tuple[str, ...] = ("info", "wearer", "excite", "simulate", "identify", "compare", "track", "flex", "demo")
@@ -51,8 +57,6 @@ def build_parser() -> argparse.ArgumentParser:
                "none.  PINID_PROGRESS=1 or 0 overrides both, from Python too (where the default is a bar on a\n"
                "terminal only).",
     )
-    from pinid import __version__
-
     parser.add_argument("--version", action="version", version=f"pinid {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     for name in COMMANDS:
@@ -88,13 +92,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     if not getattr(args, "_run", None):
         parser.print_help()
         return 2
-    from pinid.io import OVERWRITE
-
     OVERWRITE.set(bool(getattr(args, "force", False)))  # the CLI never replaces a file unless told to
-    from pinid.progress import MODE
-
     token = MODE.set("auto" if getattr(args, "progress", None) is None else args.progress)
-    from pinid.blas import cli_blas_threads
+    from pinid.blas import cli_blas_threads  # deferred: pinid --help does not load it
 
     _sigterm_as_interrupt()
     try:
@@ -127,8 +127,6 @@ def main(argv: Sequence[str] | None = None) -> int:
 @contextlib.contextmanager
 def _one_line_warnings(command: str):
     """Warnings as one line each on stderr, ``pinid COMMAND: warning: …`` (not Python's file:line form)."""
-    import warnings
-
     def show(message, category, filename, lineno, file=None, line=None):
         print(f"pinid {command}: warning: {' '.join(str(message).split())}", file=sys.stderr)
 
@@ -140,9 +138,6 @@ def _one_line_warnings(command: str):
 def _sigterm_as_interrupt() -> None:
     """Handle SIGTERM like SIGINT (KeyboardInterrupt), so the all-or-nothing output writer
     (:class:`pinid.io.Artefacts`) cleans up after ``kill`` as it does after Ctrl-C."""
-    import signal
-    import threading
-
     def handler(signum, frame):
         raise KeyboardInterrupt
 

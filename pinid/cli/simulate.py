@@ -5,7 +5,12 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+import numpy as np
+
 from pinid.cli.common import add_robot_arguments, nonnegative_float, robot_from_args, seed_int
+from pinid.errors import SpecError
+from pinid.io import check_outputs
+from pinid.resources import bundled_trajectories
 
 HELP = "simulate a robot tracking a trajectory and write a recording plus its true parameters"
 DESCRIPTION = """\
@@ -33,8 +38,6 @@ example:
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     add_robot_arguments(p)
-    from pinid.resources import bundled_trajectories
-
     p.add_argument("--excitation", required=True, metavar="FILE|NAME|PRESET",
                    help="trajectory JSON (from pinid excite), a bundled one "
                         f"({', '.join(bundled_trajectories())}) or a preset: zha2019-1 .. zha2019-4")
@@ -86,8 +89,6 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def _values(text: str | None, model, option: str):
     """Parse '0.5', '0.5,0.3' or 'hip=0.5,knee=0.3' into a per-joint list (or None)."""
-    from pinid.errors import SpecError
-
     if text is None:
         return None
     parts = [s.strip() for s in text.split(",") if s.strip()]
@@ -116,83 +117,61 @@ def _values(text: str | None, model, option: str):
     return vals
 
 
-def run(args: argparse.Namespace) -> int:
-    import numpy as np
+# pinid.simulation takes about 8 ms to import: the functions below import it when they run (deferred),
+# so that pinid --help starts fast.
 
-    from pinid.data.formats import write_recording
-    from pinid.errors import SpecError
-    from pinid.io import Artefacts, check_outputs
-    from pinid.simulation.twin import load_trajectory, perturb, save_truth
 
+def _files(args: argparse.Namespace) -> dict:
+    """The files of the run (:func:`pinid.simulation.outputs.write_simulation`'s arguments), checked."""
     out = Path(args.output)
     if out.suffix.lower() not in (".csv", ".npz"):
         raise SpecError(f"{out}: unknown suffix '{out.suffix}', expected .csv or .npz for the recording")
-    truth_path = Path(args.truth) if args.truth else out.with_name(out.stem + ".truth.json")
     if args.cad_urdf and args.perturb is None:
         raise SpecError("--cad-urdf needs --perturb PERCENT (the CAD model is the truth perturbed)")
-    targets = ([out, truth_path] + ([Path(args.true_signals)] if args.true_signals else [])
-               + ([Path(args.cad_urdf)] if args.cad_urdf else []))
     if args.true_signals and Path(args.true_signals).suffix.lower() not in (".csv", ".npz"):
         raise SpecError(f"{args.true_signals}: unknown suffix, expected .csv or .npz for --true-signals")
-    check_outputs(*targets)  # no two on one path, none exists unless --force; creates nothing
+    return {"path": out, "truth_path": Path(args.truth) if args.truth else None, "true_signals": args.true_signals, "cad_urdf": args.cad_urdf}
+
+
+def _torque_noise(args: argparse.Namespace, model) -> tuple:
+    """--torque-noise as ``(torque_noise [N·m] or None, torque_noise_percent)`` of the twin."""
+    text = args.torque_noise.strip()
+    if not text.endswith("%"):
+        return _values(text, model, "--torque-noise"), 1.0
+    try:
+        return None, float(text[:-1])
+    except ValueError:
+        raise SpecError(f"--torque-noise {text!r}: expected a percentage like 1% or values in N·m") from None
+
+
+def run(args: argparse.Namespace) -> int:
+    # deferred (see above)
+    from pinid.simulation.outputs import (cad_model, cad_truth, drawn_wearer_truth, simulation_paths, simulation_text,
+                                          write_simulation)
+    from pinid.simulation.twin import load_trajectory
+
+    files = _files(args)
+    check_outputs(*simulation_paths(**files))  # no two on one path, none exists unless --force; creates nothing
     if args.encoder_bits < 0 or args.encoder_bits > 40:
         raise SpecError(f"--encoder-bits {args.encoder_bits}, expected 0 (no quantisation) to 40")
     model = robot_from_args(args)
     drawn = None
     if args.wearer_draw:
-        from pinid.wearer.prior import draw_wearer
+        from pinid.wearer.prior import draw_wearer  # deferred: pinid --help does not load it
 
         table = model.inertial_parameters()
         model, drawn = draw_wearer(model, args.seed)
     trajectory = load_trajectory(args.excitation, model, flip=args.flip)
-    torque_noise, torque_pct = None, 1.0
-    text = args.torque_noise.strip()
-    if text.endswith("%"):
-        try:
-            torque_pct = float(text[:-1])
-        except ValueError:
-            raise SpecError(f"--torque-noise {text!r}: expected a percentage like 1% or values in N·m") from None
-    else:
-        torque_noise = _values(text, model, "--torque-noise")
-    cad = None
-    if args.perturb is not None:
-        rng = np.random.default_rng(np.random.SeedSequence([int(args.seed), 1]))
-        cad = perturb(model, args.perturb, rng)
-    ds, truth = _simulate(args, model, trajectory, cad, torque_noise, torque_pct)  # warnings: one line each (main)
+    torque_noise = _torque_noise(args, model)
+    cad = None if args.perturb is None else cad_model(model, args.perturb, args.seed)
+    ds, truth = _simulate(args, model, trajectory, cad, *torque_noise)  # warnings: one line each (main)
     if cad is not None:
-        from pinid.model.base import base_parameters
-        from pinid.model.regressor import JointTerms, standard_parameters
-
-        terms = JointTerms()
-        theta_cad = standard_parameters(cad, terms)
-        bp = base_parameters(model, terms)
-        truth["cad"] = {"percent": float(args.perturb), "standard": {"names": truth["standard"]["names"],
-                        "values": theta_cad.tolist()}, "base": {"names": bp.names, "values": bp.from_standard(theta_cad).tolist()}}
+        truth["cad"] = cad_truth(truth, model, cad, args.perturb)
     if drawn is not None:
-        truth["wearer"]["drawn"] = {"mass_percent": 25.0, "com_percent": 20.0,
-                                    "wearer_standard": {j: w.tolist() for j, w in drawn.items()},
-                                    "table_standard": table.tolist()}
+        truth["wearer"]["drawn"] = drawn_wearer_truth(table, drawn)
     truth["command"] = "pinid simulate " + " ".join(_argv_of(args))
-    arts = Artefacts()  # all or nothing: written to a temporary folder, moved into place
-    arts.add(out, lambda p: write_recording(p, ds))
-    arts.add(truth_path, lambda p: save_truth(p, truth))
-    if args.true_signals:
-        arts.add(args.true_signals, lambda p: write_recording(p, truth["signals"]))
-    if args.cad_urdf:
-        from pinid.model.export import identified_urdf
-
-        arts.add(args.cad_urdf, lambda p: identified_urdf(
-            cad, theta_cad, terms, p, origin="a CAD model written by pinid simulate",
-            comment=f"the truth's inertial parameters perturbed by about {args.perturb:g} %, seed {args.seed}"))
-    arts.write()
-    track = ", ".join(f"{j} {v:.2g}" for j, v in truth["tracking"]["rms_error"].items())
-    print(f"wrote {out} ({ds.n} samples at {truth['rates']['sample']} Hz, joints {', '.join(ds.joints)}; "
-          f"tracking error rms [rad]: {track})")
-    print(f"wrote {truth_path} ({len(truth['standard']['names'])} standard, {len(truth['base']['names'])} base parameters)")
-    if args.true_signals:
-        print(f"wrote {args.true_signals} (noise-free signals)")
-    if args.cad_urdf:
-        print(f"wrote {args.cad_urdf} (CAD model: inertia perturbed by about {args.perturb:g} %)")
+    write_simulation(ds, truth, cad=cad, **files)
+    print(simulation_text(ds, truth, **files))
     return 0
 
 
@@ -213,18 +192,15 @@ def _argv_of(args: argparse.Namespace) -> list[str]:
 
 
 def _simulate(args, model, trajectory, cad, torque_noise, torque_pct):
-    import numpy as np
-
-    from pinid.simulation.twin import simulate
+    from pinid.simulation.twin import Controller, Friction, Rates, Sensors, simulate  # deferred (see above)
 
     return simulate(
         model, trajectory, seconds=args.seconds, seed=args.seed,
-        control_rate=args.control_rate, sample_rate=args.sample_rate, integration_rate=args.integration_rate,
-        controller=args.controller, bandwidth=args.bandwidth, feedforward=args.feedforward, feedforward_model=cad,
-        coulomb=_values(args.coulomb, model, "--coulomb"), viscous=_values(args.viscous, model, "--viscous"),
-        coulomb_velocity=args.coulomb_velocity, position_noise=args.position_noise,
-        encoder_resolution=(2 * np.pi / 2**args.encoder_bits) if args.encoder_bits else 0.0,
-        torque_noise=torque_noise, torque_noise_percent=torque_pct,
-        record_velocity=args.record_velocity, velocity_noise=args.velocity_noise,
+        rates=Rates(args.control_rate, args.sample_rate, args.integration_rate),
+        controller=Controller(args.controller, args.bandwidth, feedforward=args.feedforward, feedforward_model=cad),
+        friction=Friction(_values(args.coulomb, model, "--coulomb"), _values(args.viscous, model, "--viscous"),
+                          args.coulomb_velocity),
+        sensors=Sensors(args.position_noise, (2 * np.pi / 2**args.encoder_bits) if args.encoder_bits else 0.0,
+                        torque_noise, torque_pct, args.record_velocity, args.velocity_noise),
         wearer_torque=args.wearer_torque, progress=None,
     )

@@ -3,8 +3,14 @@
 from __future__ import annotations
 
 import argparse
+import warnings
+from pathlib import Path
 
 from pinid.cli.common import nonnegative_float, seed_int, wrote_line
+from pinid.errors import SpecError
+from pinid.io import check_outputs
+from pinid.model.drives import attach
+from pinid.model.robot import RobotModel
 
 HELP = "track a reference on the twin with backstepping / computed torque built on a model"
 DESCRIPTION = """\
@@ -48,70 +54,38 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def sine_reference(plant):
-    """Seed 001's reference, x_d = sin(0.5πt), scaled into the middle of each joint's range."""
-    import numpy as np
+    """Deprecated here (kept for one release): :func:`pinid.control.tracking.sine_reference`."""
+    from pinid.control.tracking import sine_reference as reference  # deferred: as in run()
 
-    from pinid.excitation.trajectory import FourierTrajectory
-
-    lo = np.where(np.isfinite(plant.lower), plant.lower, -1.0)
-    hi = np.where(np.isfinite(plant.upper), plant.upper, 1.0)
-    centre, amp = 0.5 * (lo + hi), np.minimum(0.35 * (hi - lo), 0.6)
-    return FourierTrajectory(plant.joint_names, 0.5 * np.pi, centre, amp[:, None], np.zeros((plant.nv, 1)))
+    warnings.warn("pinid.cli.track.sine_reference moved to pinid.control.tracking.sine_reference",
+                  DeprecationWarning, stacklevel=2)
+    return reference(plant)
 
 
 def run(args: argparse.Namespace) -> int:
-    from pathlib import Path
-
-    import numpy as np
-
+    # deferred: pinid.control loads the twin (~15 ms that pinid --help would pay)
     from pinid.control.controllers import compare_models, load_controller_model
-    from pinid.errors import SpecError
-    from pinid.io import Artefacts, check_outputs, json_text
-    from pinid.model.robot import RobotModel
-    from pinid.excitation.trajectory import FourierTrajectory
-    from pinid.report.text import text_table
+    from pinid.control.tracking import load_reference, tracking_paths, tracking_table, write_tracking
 
-    out = Path(args.output) if args.output else None
     controllers = tuple(c.strip() for c in args.controller.split(",") if c.strip())
-    if out is not None:  # fail before the work, creating nothing
-        check_outputs(out / "tracking.json", *(out / f"tracking_{c}.png" for c in controllers))
+    if args.output is not None:  # fail before the work, creating nothing
+        check_outputs(*tracking_paths(args.output, controllers))
     if not (args.seconds > args.after >= 0):
         raise SpecError(f"--seconds {args.seconds} and --after {args.after}: expected seconds > after >= 0")
     plant = RobotModel.from_urdf(args.urdf_true)
     if args.drives:
-        from pinid.model.drives import attach
-
         attach(plant, args.drives)
     if args.wearer_draw:
-        from pinid.wearer.prior import draw_wearer
+        from pinid.wearer.prior import draw_wearer  # deferred: pinid --help does not load it
 
         plant, _ = draw_wearer(plant, args.seed)
-    reference = sine_reference(plant) if args.reference == "sine" else FourierTrajectory.load(args.reference)
-    reference = reference.for_joints(plant.joint_names, plant.name)
-    specs = args.model or ["nominal"]
-    models = {s: load_controller_model(s, plant, friction=not args.no_friction, seed=args.seed) for s in specs}
+    reference = load_reference(args.reference, plant)
+    models = {s: load_controller_model(s, plant, friction=not args.no_friction, seed=args.seed)
+              for s in args.model or ["nominal"]}
     table = compare_models(plant, models, reference, controllers=controllers, seconds=args.seconds,
                            after=args.after, position_noise=args.position_noise, seed=args.seed)
-    rows = []
-    for c, per_model in table.items():
-        for name, entry in per_model.items():
-            label = name if name == "nominal" else Path(name).name
-            for joint, m in entry["metrics"].items():
-                settle = "never" if not np.isfinite(m["settling_time"]) else f"{m['settling_time']:.2f}"
-                rows.append([c, label, joint, f"{1e3 * m['rms']:.3f}", f"{1e3 * m['max_abs']:.3f}", settle])
-    print(text_table(["controller", "model", "joint", "RMS [mrad]", "max [mrad]", "settle [s]"], rows, keys=3))
-    if out is not None:
-        from pinid.report.figures import save_figure
-        from pinid.report.plot_control import tracking_figure
-
-        arts = Artefacts()  # all or nothing
-        arts.add(out / "tracking.json", json_text({
-            "plant": str(plant.urdf_path), "reference": args.reference, "seconds": args.seconds,
-            "after": args.after, "seed": args.seed,
-            "results": {c: {n: e["metrics"] for n, e in pm.items()} for c, pm in table.items()},
-        }))
-        for c, pm in table.items():
-            fig = tracking_figure({n: e["result"] for n, e in pm.items()}, title=c)
-            arts.add(out / f"tracking_{c}.png", lambda p, fig=fig: save_figure(fig, p))
-        print(wrote_line(arts.write(), out))
+    print(tracking_table(table))
+    if args.output is not None:
+        settings = {"reference": args.reference, "seconds": args.seconds, "after": args.after, "seed": args.seed}
+        print(wrote_line(write_tracking(table, args.output, plant=plant, settings=settings), Path(args.output)))
     return 0

@@ -45,10 +45,13 @@ class DynamicsModel(Protocol):
 
     def mass_matrix(self, q: np.ndarray) -> np.ndarray:
         """Joint-space mass matrix M(q) (nv, nv) [kg·m²]."""
+
     def coriolis(self, q: np.ndarray, dq: np.ndarray) -> np.ndarray:
         """Coriolis matrix C(q, dq) (nv, nv) with C·dq the velocity torques [N·m]."""
+
     def gravity(self, q: np.ndarray) -> np.ndarray:
         """Gravity torque g(q) (nv,) [N·m]."""
+
     def friction(self, dq: np.ndarray) -> np.ndarray:
         """Friction torque f(dq) (nv,) [N·m]."""
 
@@ -96,14 +99,14 @@ class Backstepping:
         alpha = -self.K1 @ d1 + dq_d
         return d1, dq - alpha, alpha
 
-    def __call__(self, t: float, q: np.ndarray, dq: np.ndarray, q_d: np.ndarray, dq_d: np.ndarray,
-                 ddq_d: np.ndarray) -> np.ndarray:
+    def __call__(
+        self, t: float, q: np.ndarray, dq: np.ndarray, q_d: np.ndarray, dq_d: np.ndarray, ddq_d: np.ndarray
+    ) -> np.ndarray:
         d1, d2, alpha = self.errors(q, dq, q_d, dq_d)
         alpha_dot = -self.K1 @ (dq - dq_d) + ddq_d
         m = self.model
         f = m.friction(dq_d if self.friction_from == "desired" else dq)
-        return (-d1 - self.K2 @ d2 + m.gravity(q) + m.coriolis(q, dq) @ alpha + f
-                + m.mass_matrix(q) @ alpha_dot)
+        return -d1 - self.K2 @ d2 + m.gravity(q) + m.coriolis(q, dq) @ alpha + f + m.mass_matrix(q) @ alpha_dot
 
     def lyapunov(self, q, dq, q_d, dq_d) -> float:
         """V = ½δ1ᵀδ1 + ½δ2ᵀHδ2 (seed 001 Eq. (28)) with this controller's model."""
@@ -173,8 +176,12 @@ class TrackingResult:
                 settle = float("nan")
             else:
                 settle = float(self.t[outside[-1] + 1] - self.t[0])
-            out[name] = {"rms": float(np.sqrt(np.mean(e[keep] ** 2))), "max_abs": float(np.abs(e[keep]).max()),
-                         "settling_time": settle, "band": float(b)}
+            out[name] = {
+                "rms": float(np.sqrt(np.mean(e[keep] ** 2))),
+                "max_abs": float(np.abs(e[keep]).max()),
+                "settling_time": settle,
+                "band": float(b),
+            }
         return out
 
 
@@ -233,8 +240,16 @@ def track(
             _, q, dq = dynamics.step(q, dq, applied, h)
         if not (np.all(np.isfinite(q)) and np.all(np.isfinite(dq))):
             raise SolverError(f"closed loop diverged at t = {t[k]:.3f} s; lower the gains or raise the rate")
-    return TrackingResult(t, q_d, Q, DQ, TAU, plant.joint_names, V,
-                          meta={"rate": rate, "substeps": substeps, "seconds": seconds, "seed": seed})
+    return TrackingResult(
+        t,
+        q_d,
+        Q,
+        DQ,
+        TAU,
+        plant.joint_names,
+        V,
+        meta={"rate": rate, "substeps": substeps, "seconds": seconds, "seed": seed},
+    )
 
 
 def load_controller_model(spec: str, plant: RobotModel, *, friction: bool = True, seed: int = 0):
@@ -263,9 +278,11 @@ def load_controller_model(spec: str, plant: RobotModel, *, friction: bool = True
     model = Identification.from_dict(d).model if "methods" in d else IdentifiedModel.from_dict(d)
     _check_same_joints(spec, model.robot, plant)
     if not model.physically_consistent:
-        raise SpecError(f"{spec}: the model is not physically consistent (a body's pseudo-inertia or a friction "
-                        "value is negative: its mass matrix can be indefinite and the controller diverge); "
-                        "expected a consistent model, e.g. the sdp result")
+        raise SpecError(
+            f"{spec}: the model is not physically consistent (a body's pseudo-inertia or a friction "
+            "value is negative: its mass matrix can be indefinite and the controller diverge); "
+            "expected a consistent model, e.g. the sdp result"
+        )
     return model
 
 
@@ -276,8 +293,10 @@ def _check_same_joints(spec: str, robot: RobotModel, plant: RobotModel) -> None:
         raise SpecError(f"{spec}: model joints {robot.joint_names}, expected the plant's {plant.joint_names}")
     for a, b in zip(robot.joints, plant.joints):
         if (a.kind == "prismatic") != (b.kind == "prismatic"):
-            raise SpecError(f"{spec}: joint '{a.name}' is {a.kind} in the model but {b.kind} in the plant; "
-                            "expected a model of the same robot")
+            raise SpecError(
+                f"{spec}: joint '{a.name}' is {a.kind} in the model but {b.kind} in the plant; "
+                "expected a model of the same robot"
+            )
 
 
 def compare_models(
@@ -301,7 +320,9 @@ def compare_models(
             raise SpecError(f"controller {c!r}, expected one of {sorted(CONTROLLERS)}")
         out[c] = {}
         for name, model in models.items():
-            r = track(plant, CONTROLLERS[c](model), reference, seconds=seconds, position_noise=position_noise, seed=seed)
+            r = track(
+                plant, CONTROLLERS[c](model), reference, seconds=seconds, position_noise=position_noise, seed=seed
+            )
             out[c][name] = {"metrics": r.metrics(after=after), "result": r}
     return out
 
@@ -336,9 +357,16 @@ def identified_vs_cad(
     terms = JointTerms()
     bp = base_parameters(plant, terms)
     truth = bp.from_standard(standard_parameters(plant, terms))
-    cad_base = bp.from_standard(standard_parameters(cad_robot, JointTerms()) * np.r_[np.ones(10 * plant.nv), np.zeros(2 * plant.nv)])
+    cad_base = bp.from_standard(
+        standard_parameters(cad_robot, JointTerms()) * np.r_[np.ones(10 * plant.nv), np.zeros(2 * plant.nv)]
+    )
     rel = lambda x: (100 * np.abs(x - truth) / np.maximum(np.abs(truth), 1e-9)).tolist()  # noqa: E731
     models = {f"CAD ({percent:g} % off, no friction)": cad, f"identified ({method})": ident[method].model}
     table = compare_models(plant, models, reference, seconds=track_seconds, seed=seed)
-    return {"table": table, "identification": ident, "base_names": bp.names,
-            "cad_base_error_percent": rel(cad_base), "identified_base_error_percent": rel(ident[method].base)}
+    return {
+        "table": table,
+        "identification": ident,
+        "base_names": bp.names,
+        "cad_base_error_percent": rel(cad_base),
+        "identified_base_error_percent": rel(ident[method].base),
+    }

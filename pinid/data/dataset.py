@@ -71,9 +71,16 @@ class Dataset:
 
     def select(self, index) -> "Dataset":
         """A dataset of the samples ``index`` (slice, boolean mask or indices)."""
-        pick = (lambda a: None if a is None else a[index])
-        return replace(self, t=self.t[index], q=self.q[index], dq=pick(self.dq), ddq=pick(self.ddq),
-                       tau=pick(self.tau), meta=dict(self.meta))
+        pick = lambda a: None if a is None else a[index]
+        return replace(
+            self,
+            t=self.t[index],
+            q=self.q[index],
+            dq=pick(self.dq),
+            ddq=pick(self.ddq),
+            tau=pick(self.tau),
+            meta=dict(self.meta),
+        )
 
     def reorder(self, joints: list[str]) -> "Dataset":
         """The same data with columns in the order of ``joints`` (a model's joint names)."""
@@ -81,9 +88,16 @@ class Dataset:
         if missing:
             raise DataError(f"{self.source}: no data for joint(s) {missing}; the recording has {self.joints}")
         idx = [self.joints.index(j) for j in joints]
-        pick = (lambda a: None if a is None else a[:, idx])
-        return replace(self, q=self.q[:, idx], dq=pick(self.dq), ddq=pick(self.ddq), tau=pick(self.tau),
-                       joints=list(joints), meta=dict(self.meta))
+        pick = lambda a: None if a is None else a[:, idx]
+        return replace(
+            self,
+            q=self.q[:, idx],
+            dq=pick(self.dq),
+            ddq=pick(self.ddq),
+            tau=pick(self.tau),
+            joints=list(joints),
+            meta=dict(self.meta),
+        )
 
 
 def _as2d(a, name: str, ds: Dataset) -> np.ndarray:

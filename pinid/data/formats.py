@@ -57,16 +57,21 @@ def format_spec(names: list[str], source: str = "recording") -> tuple[dict, list
     Returns ``(spec, ignored_columns)``.
     """
     if names and all(FLOAT_RE.match(n) for n in names):
-        raise DataError(f"{source}: the first line is numbers, not column names; pinid's dataset format needs a header "
-                        "(t, q_<joint>, ...), and a file without one needs a mapping spec with header = false")
+        raise DataError(
+            f"{source}: the first line is numbers, not column names; pinid's dataset format needs a header "
+            "(t, q_<joint>, ...), and a file without one needs a mapping spec with header = false"
+        )
     dup = sorted({n for n in names if names.count(n) > 1})
     if dup:
-        raise DataError(f"{source}: column {dup[0]!r} appears {names.count(dup[0])} times in the header; "
-                        "expected each column once")
+        raise DataError(
+            f"{source}: column {dup[0]!r} appears {names.count(dup[0])} times in the header; expected each column once"
+        )
     if "t" not in names:
         hint = " (it has 'time': use a mapping spec with time = \"time\")" if "time" in names else ""
-        raise DataError(f"{source}: no column 't'{hint}; expected pinid's dataset format (t, q_<joint>, "
-                        "dq_<joint>, ddq_<joint>, tau_<joint>) or a mapping spec (--mapping) that says how to read it")
+        raise DataError(
+            f"{source}: no column 't'{hint}; expected pinid's dataset format (t, q_<joint>, "
+            "dq_<joint>, ddq_<joint>, tau_<joint>) or a mapping spec (--mapping) that says how to read it"
+        )
     joints: dict[str, dict] = {}
     order: list[str] = []
     ignored: list[str] = []
@@ -74,26 +79,32 @@ def format_spec(names: list[str], source: str = "recording") -> tuple[dict, list
     for n in names:
         for qty, pre in PREFIXES.items():
             if n.startswith(pre) and len(n) > len(pre):
-                by_qty[qty].append(n[len(pre):])
+                by_qty[qty].append(n[len(pre) :])
                 break
         else:
             if n != "t":
                 ignored.append(n)
     order = list(by_qty["q"])
     if not order:
-        raise DataError(f"{source}: no position column q_<joint>; expected one q_<joint> per joint "
-                        f"(columns: {', '.join(names[:20])})")
+        raise DataError(
+            f"{source}: no position column q_<joint>; expected one q_<joint> per joint "
+            f"(columns: {', '.join(names[:20])})"
+        )
     for qty in ("dq", "ddq", "tau"):
         extra = [j for j in by_qty[qty] if j not in order]
         if extra:
-            raise DataError(f"{source}: column '{PREFIXES[qty]}{extra[0]}' has no position column 'q_{extra[0]}'; "
-                            "expected every joint to have q_<joint>")
+            raise DataError(
+                f"{source}: column '{PREFIXES[qty]}{extra[0]}' has no position column 'q_{extra[0]}'; "
+                "expected every joint to have q_<joint>"
+            )
     for qty in ("dq", "ddq", "tau"):
         have = by_qty[qty]
         if have and len(have) != len(order):
             missing = [j for j in order if j not in have]
-            raise DataError(f"{source}: {qty} given for joints {have} but not for {missing}; expected a "
-                            f"{PREFIXES[qty]}<joint> column for every joint or for none")
+            raise DataError(
+                f"{source}: {qty} given for joints {have} but not for {missing}; expected a "
+                f"{PREFIXES[qty]}<joint> column for every joint or for none"
+            )
     for j in order:
         joints[j] = {qty: f"{PREFIXES[qty]}{j}" for qty in QUANTITIES if j in by_qty[qty]}
     return {"time": "t", "joints": joints}, ignored
@@ -171,10 +182,14 @@ def check_recording(ds: Dataset, model=None, *, limits: str = "error", degrees: 
     if bad.size:
         k = int(bad[0])
         if d[k] == 0:
-            raise DataError(f"{src}: duplicate time stamp t = {t[k]:.9g} s at {_at(ds, k)} and {_at(ds, k + 1)} "
-                            f"({bad.size} non-increasing step{'s' if bad.size > 1 else ''}); expected strictly increasing time")
-        raise DataError(f"{src}: time goes backwards at {_at(ds, k + 1)} (t = {t[k]:.9g} s then {t[k + 1]:.9g} s); "
-                        "expected strictly increasing time stamps")
+            raise DataError(
+                f"{src}: duplicate time stamp t = {t[k]:.9g} s at {_at(ds, k)} and {_at(ds, k + 1)} "
+                f"({bad.size} non-increasing step{'s' if bad.size > 1 else ''}); expected strictly increasing time"
+            )
+        raise DataError(
+            f"{src}: time goes backwards at {_at(ds, k + 1)} (t = {t[k]:.9g} s then {t[k + 1]:.9g} s); "
+            "expected strictly increasing time stamps"
+        )
     for qty in QUANTITIES:
         a = getattr(ds, qty)
         if a is None:
@@ -182,12 +197,16 @@ def check_recording(ds: Dataset, model=None, *, limits: str = "error", degrees: 
         finite = np.isfinite(a)
         if not finite.all():
             k, j = (int(x[0]) for x in np.nonzero(~finite))
-            raise DataError(f"{src}: {qty} of joint '{ds.joints[j]}' is not finite at {_at(ds, k)}; expected finite numbers")
+            raise DataError(
+                f"{src}: {qty} of joint '{ds.joints[j]}' is not finite at {_at(ds, k)}; expected finite numbers"
+            )
         huge = np.abs(a) > MAX_ABS_VALUE
         if huge.any():
             k, j = (int(x[0]) for x in np.nonzero(huge))
-            raise DataError(f"{src}: {qty} of joint '{ds.joints[j]}' is {a[k, j]:.3g} at {_at(ds, k)}; expected "
-                            f"|value| below {MAX_ABS_VALUE:.0e} (a unit or scale error?)")
+            raise DataError(
+                f"{src}: {qty} of joint '{ds.joints[j]}' is {a[k, j]:.3g} at {_at(ds, k)}; expected "
+                f"|value| below {MAX_ABS_VALUE:.0e} (a unit or scale error?)"
+            )
     if model is None:
         return ds
     return _check_against_model(ds, model, limits, degrees)
@@ -198,19 +217,26 @@ def _check_against_model(ds: Dataset, model, limits: str, degrees: str) -> Datas
     names = model.joint_names
     unknown = [j for j in ds.joints if j not in names and j not in model.locked]
     if unknown:
-        raise DataError(f"{src}: joint '{unknown[0]}' of the recording is not a joint of {model.name} "
-                        f"(its active joints: {', '.join(names)}); expected the URDF's joint names")
+        raise DataError(
+            f"{src}: joint '{unknown[0]}' of the recording is not a joint of {model.name} "
+            f"(its active joints: {', '.join(names)}); expected the URDF's joint names"
+        )
     missing = [j for j in names if j not in ds.joints]
     if missing:
-        raise DataError(f"{src}: no data for joint '{missing[0]}' of {model.name}"
-                        f"{f' (nor {missing[1:]})' if len(missing) > 1 else ''}; the recording has {', '.join(ds.joints)}")
+        raise DataError(
+            f"{src}: no data for joint '{missing[0]}' of {model.name}"
+            f"{f' (nor {missing[1:]})' if len(missing) > 1 else ''}; the recording has {', '.join(ds.joints)}"
+        )
     for j in ds.joints:
         if j in model.locked:
             q = ds.q[:, ds.joints.index(j)]
             moved = float(np.max(np.abs(q - model.locked[j])))
             if moved > 0.01:
-                warn(ds, f"{src}: joint '{j}' is locked at {model.locked[j]:g} in the model but moves by up to "
-                         f"{moved:.3g} in the recording; its data are dropped")
+                warn(
+                    ds,
+                    f"{src}: joint '{j}' is locked at {model.locked[j]:g} in the model but moves by up to "
+                    f"{moved:.3g} in the recording; its data are dropped",
+                )
     out = ds.reorder(names)
     out.meta.setdefault("warnings", list(ds.meta.get("warnings", [])))
     for i, info in enumerate(model.joints):
@@ -219,9 +245,11 @@ def _check_against_model(ds: Dataset, model, limits: str, degrees: str) -> Datas
         if info.kind == "revolute" and degrees != "off":
             peak = max(abs(qmin), abs(qmax))
             if peak > 2 * np.pi * 1.05:
-                msg = (f"{src}: positions of joint '{info.name}' reach {peak:.4g}, more than a full turn for a revolute "
-                       "joint: they look like degrees; expected radians (a mapping spec converts with scale = \"deg\"; "
-                           "a joint that really turns that far needs degrees = \"off\" in its [checks])")
+                msg = (
+                    f"{src}: positions of joint '{info.name}' reach {peak:.4g}, more than a full turn for a revolute "
+                    'joint: they look like degrees; expected radians (a mapping spec converts with scale = "deg"; '
+                    'a joint that really turns that far needs degrees = "off" in its [checks])'
+                )
                 if degrees == "error":
                     raise DataError(msg)
                 warn(out, msg)
@@ -234,12 +262,18 @@ def _check_against_model(ds: Dataset, model, limits: str, degrees: str) -> Datas
             k = int(np.argmin(q) if low else np.argmax(q))
             value = qmin if low else qmax
             hint = ""
-            if info.kind != "prismatic" and info.lower - tol <= qmin * np.pi / 180 and qmax * np.pi / 180 <= info.upper + tol:
-                hint = "; in degrees they would fit (a mapping spec converts with scale = \"deg\")"
+            if (
+                info.kind != "prismatic"
+                and info.lower - tol <= qmin * np.pi / 180
+                and qmax * np.pi / 180 <= info.upper + tol
+            ):
+                hint = '; in degrees they would fit (a mapping spec converts with scale = "deg")'
             elif info.lower - tol <= -qmax and -qmin <= info.upper + tol:
                 hint = "; with the opposite sign they would fit (sign = -1 in a mapping spec)"
-            msg = (f"{src}: joint '{info.name}' reaches {value:.4g} at {_at(out, k)}, outside its URDF limits "
-                   f"[{info.lower:.4g}, {info.upper:.4g}]{hint}")
+            msg = (
+                f"{src}: joint '{info.name}' reaches {value:.4g} at {_at(out, k)}, outside its URDF limits "
+                f"[{info.lower:.4g}, {info.upper:.4g}]{hint}"
+            )
             if limits == "error":
                 raise DataError(msg)
             warn(out, msg)
@@ -269,8 +303,10 @@ def write_recording(path: str | os.PathLike, ds: Dataset, *, digits: int = 12) -
     path = Path(path)
     writer = writer_for(path)
     for j in ds.joints:
-        if not j or any(c in j for c in ",;\t\n\"") or j != j.strip():
-            raise DataError(f"{path}: joint name {j!r} cannot be a column name, expected no commas, quotes or spaces at the ends")
+        if not j or any(c in j for c in ',;\t\n"') or j != j.strip():
+            raise DataError(
+                f"{path}: joint name {j!r} cannot be a column name, expected no commas, quotes or spaces at the ends"
+            )
     names, data = _columns(ds)
     if not np.all(np.isfinite(data)):
         raise DataError(f"{path}: the dataset holds NaN or infinite values, refusing to write them")

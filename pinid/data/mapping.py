@@ -59,8 +59,16 @@ from pinid.data.dataset import Dataset
 QUANTITIES: tuple[str, ...] = ("q", "dq", "ddq", "tau")
 
 #: Unit words accepted as ``scale`` of joint quantities (factor to SI).
-SCALE_WORDS: dict[str, float] = {"rad": 1.0, "deg": np.pi / 180.0, "mrad": 1e-3, "m": 1.0, "mm": 1e-3,
-                                 "N·m": 1.0, "Nm": 1.0, "mNm": 1e-3}
+SCALE_WORDS: dict[str, float] = {
+    "rad": 1.0,
+    "deg": np.pi / 180.0,
+    "mrad": 1e-3,
+    "m": 1.0,
+    "mm": 1e-3,
+    "N·m": 1.0,
+    "Nm": 1.0,
+    "mNm": 1e-3,
+}
 #: Unit words accepted as ``scale`` of the time column (factor to seconds).
 TIME_WORDS: dict[str, float] = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "µs": 1e-6, "ns": 1e-9}
 
@@ -133,7 +141,9 @@ class MappingSpec:
 
     # ------------------------------------------------------------------ construction
     @classmethod
-    def load(cls, spec: "str | os.PathLike | dict | MappingSpec", *, allow_outside_paths: bool = False) -> "MappingSpec":
+    def load(
+        cls, spec: "str | os.PathLike | dict | MappingSpec", *, allow_outside_paths: bool = False
+    ) -> "MappingSpec":
         """A spec from a TOML file, a dict of the same structure, or an existing spec.
 
         ``allow_outside_paths``: let ``[sources.*]`` paths leave the main file's folder (refused by default:
@@ -159,8 +169,10 @@ class MappingSpec:
         if main.time is None and main.ros is not None:
             main.time = TimeSpec(column="t")  # a ROS 2 bag's own clock
         if main.time is None:
-            raise SpecError(f"{origin}: no time: give time = {{ column = \"...\" }} (a time column) or "
-                            "time = { rate = ... } (a constant sample rate in Hz)")
+            raise SpecError(
+                f'{origin}: no time: give time = {{ column = "..." }} (a time column) or '
+                "time = { rate = ... } (a constant sample rate in Hz)"
+            )
         sources = {}
         raw_sources = d.get("sources", {})
         if not isinstance(raw_sources, dict):
@@ -169,10 +181,10 @@ class MappingSpec:
             if name == MAIN:
                 raise SpecError(f"{origin}: [sources.{MAIN}] is reserved for the main file; choose another name")
             if not isinstance(sd, dict):
-                raise SpecError(f"{origin}: [sources.{name}] must be a table with at least path = \"...\"")
+                raise SpecError(f'{origin}: [sources.{name}] must be a table with at least path = "..."')
             _unknown(sd, _SOURCE_KEYS, origin, f"[sources.{name}]")
             if "path" not in sd:
-                raise SpecError(f"{origin}: [sources.{name}] has no path, expected path = \"file.csv\"")
+                raise SpecError(f'{origin}: [sources.{name}] has no path, expected path = "file.csv"')
             sources[name] = _source(name, sd, origin)
         known_sources = {MAIN, *sources}
         joints = _signal_tables(d.get("joints", {}), "joints", origin, known_sources)
@@ -186,7 +198,7 @@ class MappingSpec:
             raise SpecError(f"{origin}: no joints, expected [joints.<name>] tables (or a [transmission])")
         checks = d.get("checks", {})
         if not isinstance(checks, dict):
-            raise SpecError(f"{origin}: [checks] must be a table, e.g. limits = \"warn\"")
+            raise SpecError(f'{origin}: [checks] must be a table, e.g. limits = "warn"')
         _unknown(checks, _CHECK_KEYS, origin, "[checks]")
         for k, v in checks.items():
             if v not in _CHECK_VALUES:
@@ -236,8 +248,10 @@ class MappingSpec:
                 ts = _time_of(tab, src, self.origin)
                 inside = (t >= ts[0]) & (t <= ts[-1])
                 if not inside.any():
-                    raise DataError(f"{file}: its time [{ts[0]:g}, {ts[-1]:g}] s does not overlap "
-                                    f"{path.name}'s [{t[0]:g}, {t[-1]:g}] s, expected recordings of the same run")
+                    raise DataError(
+                        f"{file}: its time [{ts[0]:g}, {ts[-1]:g}] s does not overlap "
+                        f"{path.name}'s [{t[0]:g}, {t[-1]:g}] s, expected recordings of the same run"
+                    )
                 keep &= inside
                 for ref in refs:
                     values[ref] = np.interp(t, ts, tab.values(ref, self.origin))
@@ -256,8 +270,10 @@ class MappingSpec:
                     continue
                 if len(have) != len(tr.motors):
                     missing = [m for m in tr.motors if m not in have]
-                    raise SpecError(f"{self.origin}: {qty} given for motors {have} but not {missing}; "
-                                    "a transmission needs every motor's value to compute the joints'")
+                    raise SpecError(
+                        f"{self.origin}: {qty} given for motors {have} but not {missing}; "
+                        "a transmission needs every motor's value to compute the joints'"
+                    )
                 motor = np.column_stack([_convert(values[self.motors[m][qty]], self.motors[m][qty]) for m in tr.motors])
                 joint_vals = motor @ tr.matrix if qty == "tau" else np.linalg.solve(tr.matrix, motor.T).T
                 for i, j in enumerate(tr.joints):
@@ -271,20 +287,33 @@ class MappingSpec:
             have = [j for j in joint_names if qty in signals[j]]
             if have and len(have) != len(joint_names):
                 missing = [j for j in joint_names if j not in have]
-                raise SpecError(f"{self.origin}: {qty} given for joints {have} but not for {missing}; "
-                                f"expected {qty} for every joint or for none")
+                raise SpecError(
+                    f"{self.origin}: {qty} given for joints {have} but not for {missing}; "
+                    f"expected {qty} for every joint or for none"
+                )
             arrays[qty] = np.column_stack([signals[j][qty] for j in joint_names]) if have else None
         idx = np.flatnonzero(keep)
         if idx.size < n:
-            warnings.warn(f"{path}: kept {idx.size} of {n} samples, those inside every source's time span",
-                          DataWarning, stacklevel=3)
+            warnings.warn(
+                f"{path}: kept {idx.size} of {n} samples, those inside every source's time span",
+                DataWarning,
+                stacklevel=3,
+            )
             t = t[idx]
             arrays = {k: (None if v is None else v[idx]) for k, v in arrays.items()}
         meta = {"mapping": self.origin, "columns": columns_desc, "checks": dict(self.checks)}
         if main_tab.line0 is not None and idx.size == n:
             meta["line0"] = main_tab.line0 + main_tab.row0  # file line of sample 0, for messages
-        return Dataset(t=t, q=arrays["q"], joints=joint_names, dq=arrays["dq"], ddq=arrays["ddq"],
-                       tau=arrays["tau"], source=str(path), meta=meta)
+        return Dataset(
+            t=t,
+            q=arrays["q"],
+            joints=joint_names,
+            dq=arrays["dq"],
+            ddq=arrays["ddq"],
+            tau=arrays["tau"],
+            source=str(path),
+            meta=meta,
+        )
 
 
 # ---------------------------------------------------------------------------------------------- parsing
@@ -293,20 +322,26 @@ def _unknown(d: dict, allowed: set[str], origin: str, where: str) -> None:
         if k not in allowed:
             close = difflib.get_close_matches(str(k), sorted(allowed), n=1)
             hint = f" (did you mean '{close[0]}'?)" if close else ""
-            raise SpecError(f"{origin}: unknown key '{k}' in {where}{hint}; expected some of {', '.join(sorted(allowed))}")
+            raise SpecError(
+                f"{origin}: unknown key '{k}' in {where}{hint}; expected some of {', '.join(sorted(allowed))}"
+            )
 
 
 def _source_path(v: Any, origin: str, where: str) -> str:
     """A ``[sources.x] path`` checked: text whose braces hold only :data:`PLACEHOLDERS`."""
     if not isinstance(v, str) or not v:
-        raise SpecError(f"{origin}: path = {v!r} in {where}, expected a file name such as \"{{stem}}_torque.csv\"")
+        raise SpecError(f'{origin}: path = {v!r} in {where}, expected a file name such as "{{stem}}_torque.csv"')
     for m in _BRACES.finditer(v):
         if m.group(1) not in PLACEHOLDERS:
-            raise SpecError(f"{origin}: path = {v!r} in {where}: unknown placeholder {{{m.group(1)}}}, expected "
-                            f"{', '.join('{' + p + '}' for p in PLACEHOLDERS)} (a brace is not allowed otherwise)")
+            raise SpecError(
+                f"{origin}: path = {v!r} in {where}: unknown placeholder {{{m.group(1)}}}, expected "
+                f"{', '.join('{' + p + '}' for p in PLACEHOLDERS)} (a brace is not allowed otherwise)"
+            )
     if "{" in _BRACES.sub("", v) or "}" in _BRACES.sub("", v):
-        raise SpecError(f"{origin}: path = {v!r} in {where} has an unmatched brace, expected "
-                        f"{', '.join('{' + p + '}' for p in PLACEHOLDERS)} as the only text in braces")
+        raise SpecError(
+            f"{origin}: path = {v!r} in {where} has an unmatched brace, expected "
+            f"{', '.join('{' + p + '}' for p in PLACEHOLDERS)} as the only text in braces"
+        )
     return v
 
 
@@ -316,9 +351,11 @@ def _source_file(src: SourceSpec, main: Path, origin: str, allow_outside: bool) 
     values = {"stem": main.stem, "name": main.name, "suffix": main.suffix}
     file = main.parent / _BRACES.sub(lambda m: values[m.group(1)], src.path)
     if not allow_outside and not file.resolve().is_relative_to(main.parent.resolve()):
-        raise SpecError(f"{origin}: [sources.{src.name}] path = {src.path!r} leads outside {main.parent.resolve()} "
-                        "(the recording's folder); expected a file in that folder or below it "
-                        "(--allow-outside-paths, or allow_outside_paths=True from Python, allows it)")
+        raise SpecError(
+            f"{origin}: [sources.{src.name}] path = {src.path!r} leads outside {main.parent.resolve()} "
+            "(the recording's folder); expected a file in that folder or below it "
+            "(--allow-outside-paths, or allow_outside_paths=True from Python, allows it)"
+        )
     return file
 
 
@@ -335,16 +372,24 @@ def _rows(v: Any, origin: str, where: str) -> tuple[int | None, int | None]:
     if isinstance(v, dict):
         _unknown(v, {"start", "stop"}, origin, where)
         v = [v.get("start"), v.get("stop")]
-    if not isinstance(v, list) or len(v) != 2 or not all(x is None or (isinstance(x, int) and not isinstance(x, bool)) for x in v):
-        raise SpecError(f"{origin}: {where} = {v!r}, expected [start, stop] (0-based, stop excluded, negative from the end)")
+    if (
+        not isinstance(v, list)
+        or len(v) != 2
+        or not all(x is None or (isinstance(x, int) and not isinstance(x, bool)) for x in v)
+    ):
+        raise SpecError(
+            f"{origin}: {where} = {v!r}, expected [start, stop] (0-based, stop excluded, negative from the end)"
+        )
     return v[0], v[1]
 
 
 def _column_key(col: Any, origin: str, where: str) -> str | int:
     """A column name or a 0-based index >= 0: one rule for the shorthand (``q = 3``) and the table form."""
     if isinstance(col, bool) or not isinstance(col, (str, int)) or (isinstance(col, int) and col < 0):
-        raise SpecError(f"{origin}: {where} = {col!r}, expected a column name or a 0-based index >= 0 "
-                        "(negative indices are not accepted)")
+        raise SpecError(
+            f"{origin}: {where} = {col!r}, expected a column name or a 0-based index >= 0 "
+            "(negative indices are not accepted)"
+        )
     return col
 
 
@@ -363,8 +408,12 @@ def _time(v: Any, origin: str, where: str) -> TimeSpec:
         return TimeSpec(rate=rate)
     col = _column_key(v["column"], origin, f"{where}.column")
     index = v.get("index")
-    return TimeSpec(column=col, index=index, scale=_number(v.get("scale", 1.0), origin, f"{where}.scale", words=TIME_WORDS),
-                    offset=_number(v.get("offset", 0.0), origin, f"{where}.offset"))
+    return TimeSpec(
+        column=col,
+        index=index,
+        scale=_number(v.get("scale", 1.0), origin, f"{where}.scale", words=TIME_WORDS),
+        offset=_number(v.get("offset", 0.0), origin, f"{where}.offset"),
+    )
 
 
 def _source(name: str, d: dict, origin: str, *, main: bool = False) -> SourceSpec:
@@ -372,8 +421,10 @@ def _source(name: str, d: dict, origin: str, *, main: bool = False) -> SourceSpe
     s = SourceSpec(name=name, path=None if main else _source_path(d["path"], origin, where))
     fmt = d.get("format", "auto")
     if fmt != "auto" and fmt not in READERS:
-        raise SpecError(f"{origin}: format = {fmt!r} in {where}, expected {', '.join(repr(r) for r in READERS)} "
-                        "or 'auto' (by suffix)")
+        raise SpecError(
+            f"{origin}: format = {fmt!r} in {where}, expected {', '.join(repr(r) for r in READERS)} "
+            "or 'auto' (by suffix)"
+        )
     s.format = fmt
     if "delimiter" in d:
         delim = d["delimiter"]
@@ -403,7 +454,7 @@ def _source(name: str, d: dict, origin: str, *, main: bool = False) -> SourceSpe
         s.time = _time(d["time"], origin, f"time in {where}")
     if "ros" in d:
         if not isinstance(d["ros"], dict):
-            raise SpecError(f"{origin}: ros in {where} must be a table, e.g. [ros] topic = \"/joint_states\"")
+            raise SpecError(f'{origin}: ros in {where} must be a table, e.g. [ros] topic = "/joint_states"')
         s.ros = dict(d["ros"])  # its keys are checked by the ROS 2 bag reader (pinid.data.rosbag.options)
     return s
 
@@ -412,15 +463,19 @@ def _column(v: Any, origin: str, where: str, sources: set[str]) -> ColumnRef:
     if isinstance(v, (str, int)) and not isinstance(v, bool):
         return ColumnRef(MAIN, _column_key(v, origin, where), where=where)
     if not isinstance(v, dict):
-        raise SpecError(f"{origin}: {where} = {v!r}, expected a column name, a 0-based index or a table with column = ...")
+        raise SpecError(
+            f"{origin}: {where} = {v!r}, expected a column name, a 0-based index or a table with column = ..."
+        )
     _unknown(v, _COLUMN_KEYS, origin, where)
     if "column" not in v:
-        raise SpecError(f"{origin}: {where} has no column, expected column = \"name\" or a 0-based index")
+        raise SpecError(f'{origin}: {where} has no column, expected column = "name" or a 0-based index')
     col = _column_key(v["column"], origin, f"{where}.column")
     source = v.get("source", MAIN)
     if source not in sources:
-        raise SpecError(f"{origin}: {where}.source = {source!r} is not defined; expected '{MAIN}' or one of "
-                        f"[sources.*] ({', '.join(sorted(sources - {MAIN})) or 'none defined'})")
+        raise SpecError(
+            f"{origin}: {where}.source = {source!r} is not defined; expected '{MAIN}' or one of "
+            f"[sources.*] ({', '.join(sorted(sources - {MAIN})) or 'none defined'})"
+        )
     index = v.get("index")
     if index is not None and (isinstance(index, bool) or not isinstance(index, int) or index < 0):
         raise SpecError(f"{origin}: {where}.index = {index!r}, expected a 0-based column of a 2-D array")
@@ -456,8 +511,10 @@ def _transmission(d: Any, origin: str, motors: dict, joints: dict) -> Transmissi
             raise SpecError(f"{origin}: [motors.{m}] is not listed in [transmission] motors {tm}")
     for j in tj:
         if j in joints:
-            raise SpecError(f"{origin}: joint '{j}' has data both in [joints.{j}] and through [transmission]; "
-                            "expected one or the other")
+            raise SpecError(
+                f"{origin}: joint '{j}' has data both in [joints.{j}] and through [transmission]; "
+                "expected one or the other"
+            )
     return t
 
 
@@ -474,7 +531,13 @@ def _open_source(src: SourceSpec, file: Path, main_path: Path, refs: list[Column
         _check_file(file)
     wanted: list[tuple[str | int, int | None, str]] = [(r.column, r.index, r.where) for r in refs]
     if src.time is not None and src.time.column is not None:
-        wanted.append((src.time.column, src.time.index, f"time of {'the main file' if src.name == MAIN else f'[sources.{src.name}]'}"))
+        wanted.append(
+            (
+                src.time.column,
+                src.time.index,
+                f"time of {'the main file' if src.name == MAIN else f'[sources.{src.name}]'}",
+            )
+        )
     tab = reader.read(file, src, wanted, origin)
     start, stop = src.rows
     if start is not None or stop is not None:
@@ -487,17 +550,19 @@ def _open_source(src: SourceSpec, file: Path, main_path: Path, refs: list[Column
         tab.row0 = kept.start
     else:
         tab.row0 = 0
-    for (col, index, where) in wanted:
+    for col, index, where in wanted:
         a = tab.data[(col, index)]
         bad = np.flatnonzero(~np.isfinite(a))
         if bad.size:
             i = int(bad[0])
             kind = "NaN" if np.isnan(a[i]) else "an infinite value"
-            at = (f"line {tab.line0 + tab.row0 + i}" if tab.line0 is not None else f"index {tab.row0 + i}")
+            at = f"line {tab.line0 + tab.row0 + i}" if tab.line0 is not None else f"index {tab.row0 + i}"
             name = f"{col}" + ("" if index is None else f"[:, {index}]")
-            raise DataError(f"{file}: column '{name}' ({where.strip('[]')}) has {kind} at {at} "
-                            f"({bad.size} non-finite value{'s' if bad.size > 1 else ''} in all); expected finite numbers "
-                            "(drop those rows with rows = [start, stop] in a mapping spec)")
+            raise DataError(
+                f"{file}: column '{name}' ({where.strip('[]')}) has {kind} at {at} "
+                f"({bad.size} non-finite value{'s' if bad.size > 1 else ''} in all); expected finite numbers "
+                "(drop those rows with rows = [start, stop] in a mapping spec)"
+            )
     return tab
 
 
@@ -524,8 +589,10 @@ def _read_npz(file: Path, src: SourceSpec, wanted, origin: str) -> Table:
     with npz:
         for col, index, where in wanted:
             if isinstance(col, int):
-                raise SpecError(f"{origin}: {where} column {col}: NPZ arrays have names, not indices; "
-                                + (f"expected one of {', '.join(names)}" if tab.recognised else "expected a name"))
+                raise SpecError(
+                    f"{origin}: {where} column {col}: NPZ arrays have names, not indices; "
+                    + (f"expected one of {', '.join(names)}" if tab.recognised else "expected a name")
+                )
             tab.key(col, where, origin)
             try:
                 a = np.asarray(npz[col])
@@ -535,12 +602,16 @@ def _read_npz(file: Path, src: SourceSpec, wanted, origin: str) -> Table:
                 raise DataError(f"{file}: array '{col}' has type {a.dtype}, expected numbers")
             if index is not None:
                 if a.ndim != 2 or index >= a.shape[1]:
-                    raise SpecError(f"{origin}: {where} index {index}: array '{col}' has shape {a.shape}, "
-                                    "expected a 2-D (samples, columns) array with that column")
+                    raise SpecError(
+                        f"{origin}: {where} index {index}: array '{col}' has shape {a.shape}, "
+                        "expected a 2-D (samples, columns) array with that column"
+                    )
                 a = a[:, index]
             elif a.ndim != 1:
-                raise DataError(f"{file}: array '{col}' has shape {a.shape}, expected one value per sample "
-                                "(1-D); for a 2-D array give index = ... in the mapping spec")
+                raise DataError(
+                    f"{file}: array '{col}' has shape {a.shape}, expected one value per sample "
+                    "(1-D); for a 2-D array give index = ... in the mapping spec"
+                )
             tab.data[(col, index)] = a.astype(float)
             lengths[f"{col}" + ("" if index is None else f"[:, {index}]")] = len(a)
     if len(set(lengths.values())) > 1:
@@ -590,8 +661,11 @@ def _read_csv(file: Path, src: SourceSpec, wanted, origin: str) -> Table:
     except UnicodeDecodeError:
         raise DataError(f"{file}: not UTF-8 text, expected a CSV recording") from None
     if first_data is None:
-        raise DataError(f"{file}: no data rows" + (" after the header" if header_names is not None else "")
-                        + ", expected at least one row of numbers")
+        raise DataError(
+            f"{file}: no data rows"
+            + (" after the header" if header_names is not None else "")
+            + ", expected at least one row of numbers"
+        )
     delim = src.delimiter
     if delim == "whitespace":
         delim = None
@@ -603,13 +677,20 @@ def _read_csv(file: Path, src: SourceSpec, wanted, origin: str) -> Table:
     first_fields = _split(first_data.strip() if delim is None else first_data, delim)
     ncols = len(first_fields)
     if header_names is not None:
-        names = [h.strip().strip('"').strip("'").strip() for h in _split(header_names.strip() if delim is None else header_names, delim)]
+        names = [
+            h.strip().strip('"').strip("'").strip()
+            for h in _split(header_names.strip() if delim is None else header_names, delim)
+        ]
         if len(names) != ncols:
-            raise DataError(f"{file}: the header has {len(names)} columns but the first data row {ncols} "
-                            "(columns of different lengths); expected the same number")
+            raise DataError(
+                f"{file}: the header has {len(names)} columns but the first data row {ncols} "
+                "(columns of different lengths); expected the same number"
+            )
         if all(FLOAT_RE.match(x) for x in names):
-            raise DataError(f"{file}: the first row is numbers, not column names; "
-                            "for a file without a header set header = false in a mapping spec")
+            raise DataError(
+                f"{file}: the first row is numbers, not column names; "
+                "for a file without a header set header = false in a mapping spec"
+            )
         dup = sorted({n for n in names if names.count(n) > 1 and n})
         if dup:
             raise DataError(f"{file}: column name(s) {dup} appear more than once in the header, expected unique names")
@@ -636,10 +717,21 @@ def _read_csv(file: Path, src: SourceSpec, wanted, origin: str) -> Table:
         tab.nrows = 0
         return tab
     try:
-        arr = np.loadtxt(file, delimiter=delim, skiprows=lines_consumed, usecols=usecols, comments=src.comment,
-                         ndmin=2, dtype=float, encoding="utf-8-sig", quotechar='"')
+        arr = np.loadtxt(
+            file,
+            delimiter=delim,
+            skiprows=lines_consumed,
+            usecols=usecols,
+            comments=src.comment,
+            ndmin=2,
+            dtype=float,
+            encoding="utf-8-sig",
+            quotechar='"',
+        )
     except ValueError:
-        raise DataError(f"{file}: {_bad_line_message(file, delim, lines_consumed, src.comment, ncols, names, usecols, tab.recognised)}") from None
+        raise DataError(
+            f"{file}: {_bad_line_message(file, delim, lines_consumed, src.comment, ncols, names, usecols, tab.recognised)}"
+        ) from None
     # a row shorter than the first one in a column we do not read is still a sign of a cut file
     _check_ragged_tail(file, delim, ncols, lines_consumed)
     col_of = {c: i for i, c in enumerate(usecols)}
@@ -660,12 +752,15 @@ def _check_ragged_tail(file: Path, delim: str | None, ncols: int, lines_consumed
         return
     n = len(_split(last.strip() if delim is None else last, delim))
     if n != ncols:
-        raise DataError(f"{file}: the last line has {n} fields, the first data line {ncols} "
-                        "(columns of different lengths: was the file cut short?)")
+        raise DataError(
+            f"{file}: the last line has {n} fields, the first data line {ncols} "
+            "(columns of different lengths: was the file cut short?)"
+        )
 
 
-def _bad_line_message(file: Path, delim: str | None, skip: int, comment: str, ncols: int, names, usecols,
-                      show: bool) -> str:
+def _bad_line_message(
+    file: Path, delim: str | None, skip: int, comment: str, ncols: int, names, usecols, show: bool
+) -> str:
     """Find the first line that loadtxt could not read (slow path, only on error) and say what is wrong
     (``show``: quote the bad field, only for a file recognised as a recording)."""
     with open(file, encoding="utf-8-sig", errors="replace") as f:
@@ -677,8 +772,10 @@ def _bad_line_message(file: Path, delim: str | None, skip: int, comment: str, nc
                 continue
             fields = _split(body.strip() if delim is None else body.rstrip("\r\n"), delim)
             if len(fields) < max(usecols) + 1 or len(fields) != ncols:
-                return (f"line {lineno} has {len(fields)} fields, the first data line {ncols} "
-                        "(columns of different lengths), expected the same number in every row")
+                return (
+                    f"line {lineno} has {len(fields)} fields, the first data line {ncols} "
+                    "(columns of different lengths), expected the same number in every row"
+                )
             for c in usecols:
                 text = fields[c].strip().strip('"')
                 try:
@@ -716,8 +813,10 @@ def peek_columns(path: str | os.PathLike) -> tuple[str, list[str]]:
         _check_file(file)
     if reader is None or reader.columns is None:
         known = " or ".join(r.suffixes[0] for r in READERS.values() if r.columns and r.suffixes)
-        raise DataError(f"{file}: unknown file type '{file.suffix}', expected {known} in pinid's dataset "
-                        "format, or a mapping spec (--mapping) that says how to read it")
+        raise DataError(
+            f"{file}: unknown file type '{file.suffix}', expected {known} in pinid's dataset "
+            "format, or a mapping spec (--mapping) that says how to read it"
+        )
     return reader.name, reader.columns(file)
 
 

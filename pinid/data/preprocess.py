@@ -53,10 +53,19 @@ from pinid.data.formats import warn
 #: paper gives neither order nor cut-off: order 4 and 5 Hz here, ten times its highest trajectory
 #: harmonic of 0.4 Hz and above the torque's own harmonics).
 PRESETS: dict[str, dict] = {
-    "zha2019": {"cutoff": 10.0, "order": 4, "differentiation": "central", "rate": 1000.0,
-                "description": "Zha et al. 2019 (seed 000): 1 kHz, zero-phase 10 Hz Butterworth low-pass"},
-    "shi2024": {"cutoff": 5.0, "order": 4, "differentiation": "central",
-                "description": "Shi et al. 2024 (seed 001): Butterworth low-pass, forward and reverse (5 Hz, order 4)"},
+    "zha2019": {
+        "cutoff": 10.0,
+        "order": 4,
+        "differentiation": "central",
+        "rate": 1000.0,
+        "description": "Zha et al. 2019 (seed 000): 1 kHz, zero-phase 10 Hz Butterworth low-pass",
+    },
+    "shi2024": {
+        "cutoff": 5.0,
+        "order": 4,
+        "differentiation": "central",
+        "description": "Shi et al. 2024 (seed 001): Butterworth low-pass, forward and reverse (5 Hz, order 4)",
+    },
 }
 #: Old preset names (the seed papers' numbers), accepted with a DeprecationWarning for one release.
 DEPRECATED_PRESETS: dict[str, str] = {"seed000": "zha2019", "seed001": "shi2024"}
@@ -103,8 +112,11 @@ def uniform_grid(ds: Dataset, rate: float | None = None) -> tuple[Dataset, dict]
     report = {"median_step": step, "jitter": jitter, "resampled": False}
     if gaps.size:
         k = int(gaps[0])
-        warn(ds, f"{ds.source}: {gaps.size} gap(s) in the time stamps, the first of {dt[k]:.4g} s at t = {t[k]:.6g} s "
-                 f"(median step {step:.4g} s); interpolated across")
+        warn(
+            ds,
+            f"{ds.source}: {gaps.size} gap(s) in the time stamps, the first of {dt[k]:.4g} s at t = {t[k]:.6g} s "
+            f"(median step {step:.4g} s); interpolated across",
+        )
     if jitter <= JITTER_TOLERANCE and (rate is None or abs(rate * step - 1.0) <= 1e-9):
         return ds, report
     new_step = 1.0 / rate if rate else step
@@ -128,8 +140,16 @@ def uniform_grid(ds: Dataset, rate: float | None = None) -> tuple[Dataset, dict]
             a = signal.sosfiltfilt(anti_alias, a, axis=0)
         return CubicSpline(t, a, axis=0)(tn)
 
-    out = Dataset(t=tn, q=interp(ds.q), joints=list(ds.joints), dq=interp(ds.dq), ddq=interp(ds.ddq),
-                  tau=interp(ds.tau), source=ds.source, meta=dict(ds.meta))
+    out = Dataset(
+        t=tn,
+        q=interp(ds.q),
+        joints=list(ds.joints),
+        dq=interp(ds.dq),
+        ddq=interp(ds.ddq),
+        tau=interp(ds.tau),
+        source=ds.source,
+        meta=dict(ds.meta),
+    )
     report.update(resampled=True, rate=1.0 / new_step)
     return out, report
 
@@ -161,13 +181,23 @@ def prepare(
     """
     if not isinstance(ds, Dataset):
         raise DataError(f"prepare: got {type(ds).__name__}, expected a pinid Dataset (pinid.data.read_recording)")
-    cutoff, trim, rate = (None if v is None else number(v, name) for name, v in
-                          (("cutoff", cutoff), ("trim", trim), ("rate", rate)))
-    given = {"cutoff": cutoff, "order": order, "differentiation": differentiation, "trim": trim,
-             "decimate": decimate, "rate": rate}
+    cutoff, trim, rate = (
+        None if v is None else number(v, name) for name, v in (("cutoff", cutoff), ("trim", trim), ("rate", rate))
+    )
+    given = {
+        "cutoff": cutoff,
+        "order": order,
+        "differentiation": differentiation,
+        "trim": trim,
+        "decimate": decimate,
+        "rate": rate,
+    }
     if preset in DEPRECATED_PRESETS:
-        warnings.warn(f"preprocessing preset {preset!r} is deprecated, use {DEPRECATED_PRESETS[preset]!r}",
-                      DeprecationWarning, stacklevel=2)
+        warnings.warn(
+            f"preprocessing preset {preset!r} is deprecated, use {DEPRECATED_PRESETS[preset]!r}",
+            DeprecationWarning,
+            stacklevel=2,
+        )
         preset = DEPRECATED_PRESETS[preset]
     if preset is not None:
         if preset not in PRESETS:
@@ -194,15 +224,19 @@ def prepare(
     nyquist = fs / 2
     if cutoff is None:
         if fs < 10.0:
-            raise DataError(f"{src}: sample rate {fs:.3g} Hz is too low for the default low-pass "
-                            "(needs at least 10 Hz); expected a recording sampled at 10 Hz or faster")
+            raise DataError(
+                f"{src}: sample rate {fs:.3g} Hz is too low for the default low-pass "
+                "(needs at least 10 Hz); expected a recording sampled at 10 Hz or faster"
+            )
         cutoff = default_cutoff(fs)
     elif not np.isfinite(cutoff) or cutoff <= 0:
         raise SpecError(f"cut-off {cutoff!r}, expected a frequency > 0 [Hz]")
     if cutoff >= 0.8 * nyquist:
-        raise DataError(f"{src}: sample rate {fs:.4g} Hz is too low for a {cutoff:g} Hz low-pass: the cut-off must be "
-                        f"below 0.8 × Nyquist = {0.8 * nyquist:.4g} Hz; expected a sample rate above {2.5 * cutoff:.4g} Hz "
-                        "or a lower cut-off")
+        raise DataError(
+            f"{src}: sample rate {fs:.4g} Hz is too low for a {cutoff:g} Hz low-pass: the cut-off must be "
+            f"below 0.8 × Nyquist = {0.8 * nyquist:.4g} Hz; expected a sample rate above {2.5 * cutoff:.4g} Hz "
+            "or a lower cut-off"
+        )
     from scipy import signal  # deliberately deferred: scipy.signal takes ~1 s to import
 
     sos = signal.butter(order, cutoff, btype="low", fs=fs, output="sos")
@@ -214,8 +248,10 @@ def prepare(
         raise SpecError(f"trim {trim!r}, expected a duration >= 0 [s]")
     n_trim = int(np.ceil(trim * fs - 1e-9))
     if ds.n <= max(padlen, 2 * n_trim + 10):
-        raise DataError(f"{src}: {ds.n} samples ({ds.duration:.3g} s) are too few for a {cutoff:g} Hz order-{order} "
-                        f"low-pass trimmed by {trim:.3g} s at each end; expected more than {max(padlen, 2 * n_trim + 10)} samples")
+        raise DataError(
+            f"{src}: {ds.n} samples ({ds.duration:.3g} s) are too few for a {cutoff:g} Hz order-{order} "
+            f"low-pass trimmed by {trim:.3g} s at each end; expected more than {max(padlen, 2 * n_trim + 10)} samples"
+        )
 
     # pad (odd extension) over the filter's settling time, so that its start-up transient dies out
     # before it reaches the data (scipy's default of 3·(2·sections+1) samples is too short at high rates)
@@ -256,20 +292,40 @@ def prepare(
     elif isinstance(decimate, bool) or not isinstance(decimate, (int, np.integer)) or decimate < 1:
         raise SpecError(f"decimate {decimate!r}, expected an integer >= 1")
     elif cutoff >= 0.8 * (fs / decimate) / 2:
-        raise DataError(f"{src}: decimating {fs:.4g} Hz by {decimate} leaves {fs / decimate:.4g} Hz, too low for the "
-                        f"{cutoff:g} Hz low-pass (needs above {2.5 * cutoff:.4g} Hz); expected a smaller factor")
+        raise DataError(
+            f"{src}: decimating {fs:.4g} Hz by {decimate} leaves {fs / decimate:.4g} Hz, too low for the "
+            f"{cutoff:g} Hz low-pass (needs above {2.5 * cutoff:.4g} Hz); expected a smaller factor"
+        )
     keep = slice(n_trim, ds.n - n_trim if n_trim else None, decimate)
     meta = dict(ds.meta)
     meta["preprocess"] = {
-        "preset": preset, "sample_rate": fs, "resampled": grid["resampled"], "jitter": grid["jitter"],
-        "cutoff": float(cutoff), "order": int(order), "filter": "butterworth, zero-phase (sosfiltfilt)",
-        "differentiation": differentiation, "savgol_window": 2 * M + 1 if differentiation == "savgol" else None,
-        "measured_velocity": bool(measured_v), "measured_acceleration": bool(measured_a),
-        "trim": float(trim), "decimate": int(decimate), "output_rate": fs / decimate, "unwrapped": unwrapped,
+        "preset": preset,
+        "sample_rate": fs,
+        "resampled": grid["resampled"],
+        "jitter": grid["jitter"],
+        "cutoff": float(cutoff),
+        "order": int(order),
+        "filter": "butterworth, zero-phase (sosfiltfilt)",
+        "differentiation": differentiation,
+        "savgol_window": 2 * M + 1 if differentiation == "savgol" else None,
+        "measured_velocity": bool(measured_v),
+        "measured_acceleration": bool(measured_a),
+        "trim": float(trim),
+        "decimate": int(decimate),
+        "output_rate": fs / decimate,
+        "unwrapped": unwrapped,
     }
     _warn_content_above_cutoff(ds, q, fs, cutoff)
-    return Dataset(t=ds.t[keep], q=q[keep], joints=list(ds.joints), dq=dq[keep], ddq=ddq[keep], tau=tau[keep],
-                   source=ds.source, meta=meta)
+    return Dataset(
+        t=ds.t[keep],
+        q=q[keep],
+        joints=list(ds.joints),
+        dq=dq[keep],
+        ddq=ddq[keep],
+        tau=tau[keep],
+        source=ds.source,
+        meta=meta,
+    )
 
 
 def _unwrap(ds: Dataset, joints) -> tuple[Dataset, list[str]]:
@@ -299,5 +355,8 @@ def _warn_content_above_cutoff(ds: Dataset, q_filtered: np.ndarray, fs: float, c
     frac = np.divide(removed.var(axis=0), var, out=np.zeros_like(var), where=var > 0)
     j = int(np.argmax(frac))
     if frac[j] > 0.01:
-        warn(ds, f"{ds.source}: the {cutoff:g} Hz low-pass removes {100 * frac[j]:.2g} % of the position variance of "
-                 f"joint '{ds.joints[j]}': the motion may be faster than the cut-off (pass a higher cut-off)")
+        warn(
+            ds,
+            f"{ds.source}: the {cutoff:g} Hz low-pass removes {100 * frac[j]:.2g} % of the position variance of "
+            f"joint '{ds.joints[j]}': the motion may be faster than the cut-off (pass a higher cut-off)",
+        )

@@ -39,20 +39,28 @@ class Table:
 
         if isinstance(column, int):
             if self.names is not None and column >= len(self.names):
-                raise SpecError(f"{origin}: {where} column {column} is out of range, {self.path.name} has "
-                                f"{len(self.names)} columns (0-based index)")
+                raise SpecError(
+                    f"{origin}: {where} column {column} is out of range, {self.path.name} has "
+                    f"{len(self.names)} columns (0-based index)"
+                )
             return column
         if self.names is None or column not in self.names:
             if self.names is None:
-                raise SpecError(f"{origin}: {where} column {column!r}: {self.path.name} has no header "
-                                "(header = false); give a 0-based index or name the columns with names = [...]")
+                raise SpecError(
+                    f"{origin}: {where} column {column!r}: {self.path.name} has no header "
+                    "(header = false); give a 0-based index or name the columns with names = [...]"
+                )
             if not self.recognised:
-                raise SpecError(f"{origin}: {where} column {column!r} is not in {self.path.name}, nor is any other "
-                                "column the spec names; expected a recording with those columns (its contents are not shown)")
+                raise SpecError(
+                    f"{origin}: {where} column {column!r} is not in {self.path.name}, nor is any other "
+                    "column the spec names; expected a recording with those columns (its contents are not shown)"
+                )
             close = difflib.get_close_matches(column, self.names, n=1)
             hint = f" (did you mean '{close[0]}'?)" if close else ""
-            raise SpecError(f"{origin}: {where} column {column!r} is not in {self.path.name}{hint}; "
-                            f"its columns: {', '.join(self.names[:40])}")
+            raise SpecError(
+                f"{origin}: {where} column {column!r} is not in {self.path.name}{hint}; "
+                f"its columns: {', '.join(self.names[:40])}"
+            )
         return column
 
     def values(self, ref, origin: str) -> np.ndarray:
@@ -128,8 +136,10 @@ def reader_for(file: Path, fmt: str = "auto") -> Reader:
     for r in READERS.values():
         if suffix in r.suffixes:
             return r
-    raise DataError(f"{file}: unknown file type '{file.suffix}', expected one of {_suffixes(READERS)}; "
-                    "or set format = \"csv\" in the mapping spec")
+    raise DataError(
+        f"{file}: unknown file type '{file.suffix}', expected one of {_suffixes(READERS)}; "
+        'or set format = "csv" in the mapping spec'
+    )
 
 
 def writer_for(path: Path) -> Writer:

@@ -41,5 +41,20 @@ def make_estimator(name: str, **settings) -> Estimator:
     return ESTIMATORS[key].create(**settings)
 
 
-__all__ = ["DEEstimator", "ESTIMATORS", "EWOAEstimator", "Estimator", "Metaheuristic", "OLS", "PSOEstimator",
-           "PhysicalLS", "RLS", "RLSPSO", "Ridge", "Setting", "WLS", "WOAEstimator", "make_estimator"]
+__all__ = [
+    "DEEstimator",
+    "ESTIMATORS",
+    "EWOAEstimator",
+    "Estimator",
+    "Metaheuristic",
+    "OLS",
+    "PSOEstimator",
+    "PhysicalLS",
+    "RLS",
+    "RLSPSO",
+    "Ridge",
+    "Setting",
+    "WLS",
+    "WOAEstimator",
+    "make_estimator",
+]

@@ -61,18 +61,26 @@ class Setting:
                 return None
             raise SpecError(f"{where}, expected {self.expected()}")
         kinds = {"int": numbers.Integral, "float": numbers.Real, "bool": (bool, np.bool_), "str": str, "dict": dict}
-        if self.kind == "int" and isinstance(value, numbers.Real) and not isinstance(value, bool) \
-                and float(value).is_integer():
+        if (
+            self.kind == "int"
+            and isinstance(value, numbers.Real)
+            and not isinstance(value, bool)
+            and float(value).is_integer()
+        ):
             value = int(value)
-        if self.kind in kinds and (not isinstance(value, kinds[self.kind])
-                                   or (self.kind in ("int", "float") and isinstance(value, bool))):
+        if self.kind in kinds and (
+            not isinstance(value, kinds[self.kind]) or (self.kind in ("int", "float") and isinstance(value, bool))
+        ):
             raise SpecError(f"{where}, expected {self.expected()}")
         if self.choices is not None and value not in self.choices:
             raise SpecError(f"{where}, expected {self.expected()}")
         if self.kind in ("int", "float"):
             v = float(value)
-            if not np.isfinite(v) or (self.low is not None and (v < self.low or (self.low_open and v == self.low))) \
-                    or (self.high is not None and v > self.high):
+            if (
+                not np.isfinite(v)
+                or (self.low is not None and (v < self.low or (self.low_open and v == self.low)))
+                or (self.high is not None and v > self.high)
+            ):
                 raise SpecError(f"{where}, expected {self.expected()}")
         return value
 
@@ -81,8 +89,14 @@ class Setting:
         if self.choices is not None:
             text = "one of " + ", ".join(map(str, self.choices))
         else:
-            text = {"int": "an integer", "float": "a number", "bool": "true or false", "str": "a string",
-                    "dict": "a table of settings", "any": "a value"}[self.kind]
+            text = {
+                "int": "an integer",
+                "float": "a number",
+                "bool": "true or false",
+                "str": "a string",
+                "dict": "a table of settings",
+                "any": "a value",
+            }[self.kind]
             if self.low is not None and self.high is not None:
                 text += f" in {'(' if self.low_open else '['}{self.low:g}, {self.high:g}]"
             elif self.low is not None:
@@ -127,8 +141,10 @@ class Estimator:
         known = [k for k in inspect.signature(cls.__init__).parameters if k != "self"]
         unknown = sorted(k for k in settings if k not in known)
         if unknown:
-            raise SpecError(f"method '{cls.name}': bad settings {sorted(settings)} (unknown {', '.join(unknown)}; "
-                            f"expected some of {', '.join(known) or 'none'})")
+            raise SpecError(
+                f"method '{cls.name}': bad settings {sorted(settings)} (unknown {', '.join(unknown)}; "
+                f"expected some of {', '.join(known) or 'none'})"
+            )
         checked = {k: (cls.settings[k].check(cls.name, k, v) if k in cls.settings else v) for k, v in settings.items()}
         return cls(**checked)
 

@@ -63,7 +63,9 @@ from pinid.optimizers import get_optimizer
 
 #: Fitness functions: name -> description.
 FITNESS = {"sse": "½·Σ r² (seed 001 Eq. (22))", "sae": "Σ |r| (seed 000)"}
-_CHUNK_ELEMENTS = 500_000  # particles × rows per block of the "sae" product (4 MB: stays in cache; 2.5× faster than 16 MB)
+_CHUNK_ELEMENTS = (
+    500_000  # particles × rows per block of the "sae" product (4 MB: stays in cache; 2.5× faster than 16 MB)
+)
 
 
 # ------------------------------------------------------------------------------------------- helpers
@@ -176,8 +178,11 @@ def search_box(problem, box="nominal", *, width: float = 1.0, floor: float = 0.5
         elif kind == "rls":
             est = RLS.create(**dict(rls or {})).fit(problem)  # bad settings: SpecError
             lower, upper = est.box_
-            info["rls"] = {"final": dict(zip(names, map(float, est.base_))), "burn_in_rows": est.info_["burn_in_rows"],
-                           "forgetting": est.info_["forgetting"]}
+            info["rls"] = {
+                "final": dict(zip(names, map(float, est.base_))),
+                "burn_in_rows": est.info_["burn_in_rows"],
+                "forgetting": est.info_["forgetting"],
+            }
         elif kind == "ls":
             x = least_squares(problem)
             std = base_statistics(problem, x)[0]  # works on a segmental SubProblem too
@@ -246,9 +251,21 @@ class Metaheuristic(Estimator):
         "progress": Setting("bool", optional=True, help="progress bar"),
     }
 
-    def __init__(self, population: int = 100, iterations: int = 200, fitness: str = "sse", box=None,
-                 box_width: float = 1.0, box_floor: float = 0.5, seed: int = 0, tol: float | None = None,
-                 options: dict | None = None, rls: dict | None = None, x0=None, progress: bool | None = None) -> None:
+    def __init__(
+        self,
+        population: int = 100,
+        iterations: int = 200,
+        fitness: str = "sse",
+        box=None,
+        box_width: float = 1.0,
+        box_floor: float = 0.5,
+        seed: int = 0,
+        tol: float | None = None,
+        options: dict | None = None,
+        rls: dict | None = None,
+        x0=None,
+        progress: bool | None = None,
+    ) -> None:
         self.population = population
         self.iterations = iterations
         self.fitness = fitness
@@ -311,14 +328,25 @@ class Metaheuristic(Estimator):
         self.weights_ = None
         self.history_ = history
         self.status_ = "ok"
-        at_bound = [n for n, v, lo, hi in zip(problem.names, x, lower, upper)
-                    if min(v - lo, hi - v) <= 1e-6 * (hi - lo)]
+        at_bound = [
+            n for n, v, lo, hi in zip(problem.names, x, lower, upper) if min(v - lo, hi - v) <= 1e-6 * (hi - lo)
+        ]
         self.info_ = {
-            "optimizer": self.optimizer, "optimizer_options": _plain(opt.options), "seed": self.seed,
-            "fitness": self.fitness, "fitness_value": float(res.fun), "ls_fitness": float(ls_costs[self.fitness]),
+            "optimizer": self.optimizer,
+            "optimizer_options": _plain(opt.options),
+            "seed": self.seed,
+            "fitness": self.fitness,
+            "fitness_value": float(res.fun),
+            "ls_fitness": float(ls_costs[self.fitness]),
             "min_fitness": float(best),
-            "train_costs": costs, "ls_train_costs": ls_costs, "nfev": int(res.nfev), "iterations": int(res.nit),
-            "message": message, "optimizer_seconds": seconds, "box": box_info, "at_bound": at_bound,
+            "train_costs": costs,
+            "ls_train_costs": ls_costs,
+            "nfev": int(res.nfev),
+            "iterations": int(res.nit),
+            "message": message,
+            "optimizer_seconds": seconds,
+            "box": box_info,
+            "at_bound": at_bound,
         }
         return self
 

@@ -65,8 +65,15 @@ class RLS(Estimator):
         "widen": Setting("float", low=0.0, help="widen the box by this fraction of its width on each side"),
     }
 
-    def __init__(self, forgetting: float = 1.0, init: str = "exact", p0: float = 1e6, x0="zero",
-                 burn_in: float = 0.1, widen: float = 0.0) -> None:
+    def __init__(
+        self,
+        forgetting: float = 1.0,
+        init: str = "exact",
+        p0: float = 1e6,
+        x0="zero",
+        burn_in: float = 0.1,
+        widen: float = 0.0,
+    ) -> None:
         self.forgetting = forgetting
         self.init = init
         self.p0 = p0
@@ -158,7 +165,9 @@ class RLS(Estimator):
         self.status_ = "ok"
         names = list(problem.names)
         self.info_ = {
-            "forgetting": lam, "rows": int(rows), "burn_in_rows": int(skip),
+            "forgetting": lam,
+            "rows": int(rows),
+            "burn_in_rows": int(skip),
             "box": {"lower": dict(zip(names, map(float, lower))), "upper": dict(zip(names, map(float, upper)))},
             "a_priori_error_rms_per_tenth": self.history_,
         }

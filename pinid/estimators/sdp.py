@@ -39,8 +39,15 @@ from pinid.errors import SolverError, SpecError
 from pinid.estimators.base import Estimator, Setting, joint_weights
 from pinid.identification.problem import IdentificationProblem, Problem
 from pinid.linalg import augmented_r, solve_r
-from pinid.model.lmi import (CLARABEL_OPTIONS, clip_terms, consistency_constraints, consistent_completion, null_projector,
-                             solve, solve_time)
+from pinid.model.lmi import (
+    CLARABEL_OPTIONS,
+    clip_terms,
+    consistency_constraints,
+    consistent_completion,
+    null_projector,
+    solve,
+    solve_time,
+)
 from pinid.model.physical import check_consistency, parameter_scale
 
 
@@ -60,15 +67,24 @@ class PhysicalLS(Estimator):
     colour = "tab:green"
     settings = {
         "weighting": Setting("str", choices=("none", "joint"), help="row weighting: none (as OLS) or joint (as WLS)"),
-        "regularization": Setting("float", low=0.0, help="weight of the pull toward the URDF in unidentifiable directions"),
+        "regularization": Setting(
+            "float", low=0.0, help="weight of the pull toward the URDF in unidentifiable directions"
+        ),
         "mass_bounds": Setting("any", optional=True, help="(lo, hi) [kg] for every body, or {joint: (lo, hi)}"),
         "margin": Setting("float", low=0.0, help="ε of the strict pseudo-inertia LMI"),
         "solver": Setting("str", help="a cvxpy solver name"),
         "solver_options": Setting("dict", optional=True, help="passed to the solver"),
     }
 
-    def __init__(self, weighting: str = "none", regularization: float = 1e-3, mass_bounds=None,
-                 margin: float = 1e-8, solver: str = "CLARABEL", solver_options: dict | None = None) -> None:
+    def __init__(
+        self,
+        weighting: str = "none",
+        regularization: float = 1e-3,
+        mass_bounds=None,
+        margin: float = 1e-8,
+        solver: str = "CLARABEL",
+        solver_options: dict | None = None,
+    ) -> None:
         self.weighting = weighting
         self.regularization = regularization
         self.mass_bounds = mass_bounds
@@ -119,8 +135,10 @@ class PhysicalLS(Estimator):
         theta = clip_terms(theta, problem)
         report = check_consistency(theta, problem.model.joint_names, problem.terms.names, problem.model.motor_names)
         if not report.consistent:
-            raise SolverError(f"sdp: solver {self.solver} status '{status}', but the result is not physically "
-                              f"consistent ({'; '.join(report.problems)}); not returned")
+            raise SolverError(
+                f"sdp: solver {self.solver} status '{status}', but the result is not physically "
+                f"consistent ({'; '.join(report.problems)}); not returned"
+            )
         self.standard_ = theta
         self.base_ = P @ theta
         self.weights_ = w
@@ -128,15 +146,23 @@ class PhysicalLS(Estimator):
         self.status_ = status
         excess = float(np.linalg.norm(G @ (theta / S) - g))
         self.info_ = {
-            "solver": self.solver, "status": status,
+            "solver": self.solver,
+            "status": status,
             "solve_seconds": solve_time(prob),
             "excess_residual_relative": excess,
             "regularizer": None if reg is None else float(reg.value),
         }
         return self
 
-    def fit_stage(self, problem: IdentificationProblem, sub: Problem, cols: np.ndarray, *,
-                  fixed: tuple[np.ndarray, np.ndarray] | None = None, what: str = "sdp stage") -> tuple[np.ndarray, dict]:
+    def fit_stage(
+        self,
+        problem: IdentificationProblem,
+        sub: Problem,
+        cols: np.ndarray,
+        *,
+        fixed: tuple[np.ndarray, np.ndarray] | None = None,
+        what: str = "sdp stage",
+    ) -> tuple[np.ndarray, dict]:
         """One stage of a staged fit (seed 000's segmental strategy): a physically consistent θ of ``problem``
         whose base parameters ``cols`` fit ``sub``'s rows (``sub.W``'s columns are those base parameters),
         and whose base parameters ``fixed[0]`` equal ``fixed[1]``.  Returns ``(θ, {"status", "rows"})``."""
@@ -170,8 +196,9 @@ class PhysicalLS(Estimator):
         theta = clip_terms(np.asarray(z.value, float) * S, problem)
         report = check_consistency(theta, problem.model.joint_names, problem.terms.names, problem.model.motor_names)
         if not report.consistent:
-            raise SolverError(f"{what}: status '{status}' but the result is not physically "
-                              f"consistent ({'; '.join(report.problems)})")
+            raise SolverError(
+                f"{what}: status '{status}' but the result is not physically consistent ({'; '.join(report.problems)})"
+            )
         return theta, {"status": status, "rows": sub.rows}
 
 

@@ -26,8 +26,10 @@ class WLS(Estimator):
     description = "least squares, each joint weighted by 1/(its residual variance)"
     colour = "grey"
     history = "passes"
-    settings = {"iterations": Setting("int", low=1, help="reweighting passes"),
-                "tol": Setting("float", low=0.0, help="stop when the parameters change less than this, relatively")}
+    settings = {
+        "iterations": Setting("int", low=1, help="reweighting passes"),
+        "tol": Setting("float", low=0.0, help="stop when the parameters change less than this, relatively"),
+    }
 
     def __init__(self, iterations: int = 1, tol: float = 1e-10) -> None:
         self.iterations = iterations

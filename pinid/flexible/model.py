@@ -88,10 +88,26 @@ FLEX_PARAMS: tuple[str, ...] = ("K1", "K2", "C", "Jm", "Bm", "fv", "fc", "b", "f
 RIGID_PARAMS: tuple[str, ...] = ("Jm", "Bm", "fv", "fc", "b", "fcl", "kv")
 #: Units of the drive parameters, for reports.
 PARAM_UNITS: dict[str, str] = {
-    "K1": "N·m/rad", "K2": "N·m/rad³", "C": "N·m·s/rad", "Jm": "kg·m²", "Bm": "N·m·s/rad",
-    "fv": "N·m·s/rad", "fc": "N·m", "b": "N·m·s/rad", "fcl": "N·m", "kv": "N·m/V",
-    "m": "kg", "mx": "kg·m", "my": "kg·m", "mz": "kg·m", "Ixx": "kg·m²", "Ixy": "kg·m²", "Iyy": "kg·m²",
-    "Ixz": "kg·m²", "Iyz": "kg·m²", "Izz": "kg·m²",
+    "K1": "N·m/rad",
+    "K2": "N·m/rad³",
+    "C": "N·m·s/rad",
+    "Jm": "kg·m²",
+    "Bm": "N·m·s/rad",
+    "fv": "N·m·s/rad",
+    "fc": "N·m",
+    "b": "N·m·s/rad",
+    "fcl": "N·m",
+    "kv": "N·m/V",
+    "m": "kg",
+    "mx": "kg·m",
+    "my": "kg·m",
+    "mz": "kg·m",
+    "Ixx": "kg·m²",
+    "Ixy": "kg·m²",
+    "Iyy": "kg·m²",
+    "Ixz": "kg·m²",
+    "Iyz": "kg·m²",
+    "Izz": "kg·m²",
 }
 #: Deflection [rad] used to bound the cubic spring's stiffness when choosing the step.
 _DEFLECTION_REF = 0.2
@@ -163,8 +179,18 @@ class FlexSimulation:
     def single(self, i: int = 0) -> "FlexSimulation":
         """The ``i``-th parameter set as a population of one."""
         s = slice(i, i + 1)
-        return FlexSimulation(self.t, self.q[s], self.dq[s], self.qm[s], self.dqm[s], self.joints, self.step,
-                              self.substeps, self.diverged[s], self.seconds)
+        return FlexSimulation(
+            self.t,
+            self.q[s],
+            self.dq[s],
+            self.qm[s],
+            self.dqm[s],
+            self.joints,
+            self.step,
+            self.substeps,
+            self.diverged[s],
+            self.seconds,
+        )
 
 
 # ---------------------------------------------------------------------------------------------- link dynamics
@@ -220,7 +246,7 @@ class TrigDynamics:
         # gravity: all variables, 3 harmonics each
         grid3 = 2 * np.pi * np.arange(3) / 3
         inv3 = np.linalg.inv(_harmonics(grid3, 1))
-        ng = 3 ** nv
+        ng = 3**nv
         gvals = np.empty((ng, nv, p))
         for n, angles in enumerate(itertools.product(grid3, repeat=nv)):
             q = robot.configuration(np.array(angles))
@@ -271,7 +297,7 @@ class TrigDynamics:
             return out
 
         phi = kron_rows(per)
-        dphi = [kron_rows(per[:l] + [dper[l]] + per[l + 1:]) for l in range(nv - 1)]
+        dphi = [kron_rows(per[:l] + [dper[l]] + per[l + 1 :]) for l in range(nv - 1)]
         psi = kron_rows(g1)
         return phi, dphi, psi
 
@@ -309,7 +335,6 @@ class TrigDynamics:
             det = a * d - b * c
             return np.stack([(d * rhs[:, 0] - b * rhs[:, 1]) / det, (a * rhs[:, 1] - c * rhs[:, 0]) / det], axis=1)
         return np.linalg.solve(M, rhs[:, :, None])[:, :, 0]
-
 
     def _forward2(self, Mc, Gc, q, dq, tau):
         """Two joints, written out: one batched matmul gives M and ∂M/∂q2, then a 2×2 solve."""
@@ -418,14 +443,17 @@ class FlexibleModel:
         by_joint: dict[str, Drive] = {}
         for d in drives:
             if d.joint not in robot.joint_names:
-                raise JointError(f"joint '{d.joint}' is not an active joint of {robot.name} "
-                                 f"(active joints: {', '.join(robot.joint_names)})")
+                raise JointError(
+                    f"joint '{d.joint}' is not an active joint of {robot.name} "
+                    f"(active joints: {', '.join(robot.joint_names)})"
+                )
             if d.joint in by_joint:
                 raise SpecError(f"joint '{d.joint}': two drives, expected one")
             by_joint[d.joint] = d
         self._declared = set(by_joint)
         self.drives: tuple[Drive, ...] = tuple(
-            by_joint.get(j, Drive(j, 1.0, flexible=False)) for j in robot.joint_names)
+            by_joint.get(j, Drive(j, 1.0, flexible=False)) for j in robot.joint_names
+        )
         if not (coulomb_speed > 0 and math.isfinite(coulomb_speed)):
             raise SpecError(f"coulomb_speed {coulomb_speed!r}, expected a positive number [rad/s]")
         if not (max_step > 0 and math.isfinite(max_step)):
@@ -436,8 +464,10 @@ class FlexibleModel:
             raise SpecError(f"backend {backend!r}, expected auto, trig or pinocchio")
         trig_ok = robot.nv <= TrigDynamics.MAX_JOINTS and all(j.kind != "prismatic" for j in robot.joints)
         if backend == "trig" and not trig_ok:
-            raise SpecError(f"backend 'trig' needs ≤ {TrigDynamics.MAX_JOINTS} revolute joints; {robot.name} has "
-                            f"{robot.nv} ({', '.join(j.kind for j in robot.joints)}); use 'pinocchio'")
+            raise SpecError(
+                f"backend 'trig' needs ≤ {TrigDynamics.MAX_JOINTS} revolute joints; {robot.name} has "
+                f"{robot.nv} ({', '.join(j.kind for j in robot.joints)}); use 'pinocchio'"
+            )
         self.backend = backend
         self._trig = TrigDynamics(robot) if (backend == "trig" or (backend == "auto" and trig_ok)) else None
         # parameter vector: drives, then inertial
@@ -503,13 +533,17 @@ class FlexibleModel:
             pass
         joint, _, par = name.rpartition(".")
         if joint not in self.robot.joint_names:
-            raise JointError(f"parameter '{name}': joint '{joint}' is not an active joint of {self.robot.name} "
-                             f"(active joints: {', '.join(self.robot.joint_names)})")
+            raise JointError(
+                f"parameter '{name}': joint '{joint}' is not an active joint of {self.robot.name} "
+                f"(active joints: {', '.join(self.robot.joint_names)})"
+            )
         d = self.drives[self.robot.joint_index(joint)]
         known = list(d.param_names) + list(INERTIAL_NAMES)
         kind = "flexible" if d.flexible else "rigid"
-        raise SpecError(f"parameter '{name}': '{par}' is not a parameter of the {kind} joint '{joint}' "
-                        f"(expected one of {', '.join(known)})")
+        raise SpecError(
+            f"parameter '{name}': '{par}' is not a parameter of the {kind} joint '{joint}' "
+            f"(expected one of {', '.join(known)})"
+        )
 
     def value(self, name: str) -> float:
         """A parameter by name ``<joint>.<K1|K2|C|Jm|…>`` [SI]."""
@@ -536,8 +570,9 @@ class FlexibleModel:
         Drive parameters other than K1, K2, C keep their values."""
         drives = [Drive(d.joint, d.ratio, flexible=False) for d in self.drives if d.joint in self._declared]
         values = {n: v for n, v in zip(self.names, self.values) if n.rsplit(".", 1)[-1] not in ("K1", "K2", "C")}
-        return FlexibleModel(self.robot, drives, values, coulomb_speed=self.coulomb_speed, max_step=self.max_step,
-                             backend=self.backend)
+        return FlexibleModel(
+            self.robot, drives, values, coulomb_speed=self.coulomb_speed, max_step=self.max_step, backend=self.backend
+        )
 
     def describe(self) -> dict:
         """Plain-dict description: drives and parameter values."""
@@ -598,7 +633,9 @@ class FlexibleModel:
         arm = np.where(rigid, r**2 * u["Jm"], 0.0)
         J = np.maximum(self._link_inertia(params, q0, arm), 1e-12)  # (P, nv)
         omega = [np.zeros(len(params))]
-        lam = [((u["b"] + u["fcl"] / vs + np.where(rigid, r**2 * (u["Bm"] + u["fv"] + u["fc"] / vs), 0.0)) / J).max(axis=1)]
+        lam = [
+            ((u["b"] + u["fcl"] / vs + np.where(rigid, r**2 * (u["Bm"] + u["fv"] + u["fc"] / vs), 0.0)) / J).max(axis=1)
+        ]
         F = self._nflex
         if F:
             rF = r[F]
@@ -629,8 +666,9 @@ class FlexibleModel:
         with np.errstate(all="ignore"):
             return 1.0 / np.diagonal(np.linalg.inv(M), axis1=1, axis2=2)
 
-    def choose_step(self, dt: float, params: np.ndarray, q0: np.ndarray, *,
-                    accuracy: np.ndarray | None = None) -> tuple[float, int]:
+    def choose_step(
+        self, dt: float, params: np.ndarray, q0: np.ndarray, *, accuracy: np.ndarray | None = None
+    ) -> tuple[float, int]:
         """``(h, substeps)``: the RK4 step for sample period ``dt`` and a population ``(P, D)``.
 
         Stability for every parameter set of ``params``: ``h·ω ≤ 2`` and ``h·λ ≤ 2`` (RK4 is stable up to 2.83
@@ -743,12 +781,12 @@ class FlexibleModel:
         no_fcl = not np.any(fcl)
 
         def rhs(y, T):
-            q, dq = y[:, :nv], y[:, nv:2 * nv]
+            q, dq = y[:, :nv], y[:, nv : 2 * nv]
             tau = -b * dq
             if not no_fcl:
                 tau = tau - fcl * np.tanh(dq / vs)
             if nF:
-                qm, dqm = y[:, 2 * nv:2 * nv + nF], y[:, 2 * nv + nF:]
+                qm, dqm = y[:, 2 * nv : 2 * nv + nF], y[:, 2 * nv + nF :]
                 qF = q if all_flex else q[:, F]
                 dqF = dq if all_flex else dq[:, F]
                 d = qm / rF - qF
@@ -779,7 +817,7 @@ class FlexibleModel:
                     fp = K1 + 3 * K2 * d0**2
                     step_ = (K1 * d0 + K2 * d0**3 - gF) / np.where(np.abs(fp) > 1e-12, fp, 1e-12)
                     d0 = d0 - step_
-            y[:, 2 * nv:2 * nv + nF] = rF * (q0[F] + d0)
+            y[:, 2 * nv : 2 * nv + nF] = rF * (q0[F] + d0)
 
         out = np.empty((N, P, y.shape[1]))
         out[0] = y
@@ -797,15 +835,14 @@ class FlexibleModel:
         out = np.moveaxis(out, 0, 1)  # (P, N, ns)
         diverged = ~np.all(np.isfinite(out), axis=(1, 2))
         out[diverged] = np.nan
-        q, dq = out[:, :, :nv], out[:, :, nv:2 * nv]
+        q, dq = out[:, :, :nv], out[:, :, nv : 2 * nv]
         qm = r * q
         dqm = r * dq
         if nF:
-            qm[:, :, F] = out[:, :, 2 * nv:2 * nv + nF]
-            dqm[:, :, F] = out[:, :, 2 * nv + nF:]
+            qm[:, :, F] = out[:, :, 2 * nv : 2 * nv + nF]
+            dqm[:, :, F] = out[:, :, 2 * nv + nF :]
         t = np.arange(N) * dt
-        return FlexSimulation(t, q, dq, qm, dqm, list(self.joint_names), h, sub, diverged,
-                              time.perf_counter() - start)
+        return FlexSimulation(t, q, dq, qm, dqm, list(self.joint_names), h, sub, diverged, time.perf_counter() - start)
 
 
 def flexible_model(

@@ -136,7 +136,9 @@ class FlexRecording:
             if a.ndim == 1 and nv == 1:
                 a = a[:, None]
             if a.shape != (n, nv):
-                raise DataError(f"{self.source}: {name} has shape {a.shape}, expected ({n}, {nv}) for joints {self.joints}")
+                raise DataError(
+                    f"{self.source}: {name} has shape {a.shape}, expected ({n}, {nv}) for joints {self.joints}"
+                )
             if not np.all(np.isfinite(a)):
                 raise DataError(f"{self.source}: {name} holds NaN or infinite values")
             setattr(self, name, a)
@@ -153,8 +155,10 @@ class FlexRecording:
         dt = float(np.median(d))
         if np.max(np.abs(d - dt)) > 1e-3 * dt:
             k = int(np.argmax(np.abs(d - dt))) + 1
-            raise DataError(f"{self.source}: time step {d[k - 1]:g} s at sample {k} differs from {dt:g} s; output-error "
-                            "fitting needs uniform sampling (resample first)")
+            raise DataError(
+                f"{self.source}: time step {d[k - 1]:g} s at sample {k} differs from {dt:g} s; output-error "
+                "fitting needs uniform sampling (resample first)"
+            )
 
     @property
     def dt(self) -> float:
@@ -175,15 +179,23 @@ class FlexRecording:
         """The same recording with columns in the order of ``joints`` (a model's joint names)."""
         missing = [j for j in joints if j not in self.joints]
         if missing:
-            raise DataError(f"{self.source}: no data for joint(s) {', '.join(missing)}; the recording has "
-                            f"{', '.join(self.joints)}")
+            raise DataError(
+                f"{self.source}: no data for joint(s) {', '.join(missing)}; the recording has {', '.join(self.joints)}"
+            )
         extra = [j for j in self.joints if j not in joints]
         if extra:
-            raise DataError(f"{self.source}: joint(s) {', '.join(extra)} are not active joints of the model "
-                            f"({', '.join(joints)})")
+            raise DataError(
+                f"{self.source}: joint(s) {', '.join(extra)} are not active joints of the model ({', '.join(joints)})"
+            )
         idx = [self.joints.index(j) for j in joints]
-        return replace(self, u=self.u[:, idx], q=self.q[:, idx], qm=None if self.qm is None else self.qm[:, idx],
-                       joints=list(joints), meta=dict(self.meta))
+        return replace(
+            self,
+            u=self.u[:, idx],
+            q=self.q[:, idx],
+            qm=None if self.qm is None else self.qm[:, idx],
+            joints=list(joints),
+            meta=dict(self.meta),
+        )
 
     def save(self, path: str | os.PathLike, *, digits: int = 12) -> Path:
         """Write ``t, T_<j>|V_<j>, q_<j>, [qm_<j>]`` atomically with the recording writers of
@@ -221,8 +233,10 @@ class FlexRecording:
             raise DataError(f"{p}: no link-angle column q_<joint>")
         kinds = {"torque" if n.startswith("T_") else "voltage" for n in names if n[:2] in ("T_", "V_")}
         if len(kinds) != 1:
-            raise DataError(f"{p}: expected input columns T_<joint> (motor torque, N·m) or V_<joint> (voltage, V), "
-                            f"one kind for every joint")
+            raise DataError(
+                f"{p}: expected input columns T_<joint> (motor torque, N·m) or V_<joint> (voltage, V), "
+                f"one kind for every joint"
+            )
         kind = kinds.pop()
         pre = "T_" if kind == "torque" else "V_"
         for j in joints:
@@ -234,7 +248,9 @@ class FlexRecording:
         known = {"t"} | {f"{x}{j}" for j in joints for x in (pre, "q_", "qm_")}
         unknown = [n for n in names if n not in known]
         if unknown:
-            raise DataError(f"{p}: unknown column(s) {', '.join(unknown)} (expected t, {pre}<joint>, q_<joint>, qm_<joint>)")
+            raise DataError(
+                f"{p}: unknown column(s) {', '.join(unknown)} (expected t, {pre}<joint>, q_<joint>, qm_<joint>)"
+            )
         meta = {}
         side = p.with_suffix(p.suffix + ".json")
         if side.is_file():
@@ -242,10 +258,16 @@ class FlexRecording:
                 meta = json.loads(side.read_text(encoding="utf-8"))
             except (ValueError, UnicodeDecodeError):
                 meta = {}
-        return cls(col["t"], np.column_stack([col[f"{pre}{j}"] for j in joints]),
-                   np.column_stack([col[f"q_{j}"] for j in joints]), joints,
-                   np.column_stack([col[f"qm_{j}"] for j in joints]) if all(has_qm) else None,
-                   kind, str(p), meta)
+        return cls(
+            col["t"],
+            np.column_stack([col[f"{pre}{j}"] for j in joints]),
+            np.column_stack([col[f"q_{j}"] for j in joints]),
+            joints,
+            np.column_stack([col[f"qm_{j}"] for j in joints]) if all(has_qm) else None,
+            kind,
+            str(p),
+            meta,
+        )
 
 
 # ====================================================================== spec
@@ -296,26 +318,43 @@ class FlexSpec:
 
     def model(self) -> FlexibleModel:
         """The model with the fixed values and the nominal values of the free parameters (the truth of a twin)."""
-        return FlexibleModel(self.robot, self.drives, {**self.fixed, **(self.truth or {}), **self.nominal},
-                             coulomb_speed=self.coulomb_speed, max_step=self.max_step, backend=self.backend)
+        return FlexibleModel(
+            self.robot,
+            self.drives,
+            {**self.fixed, **(self.truth or {}), **self.nominal},
+            coulomb_speed=self.coulomb_speed,
+            max_step=self.max_step,
+            backend=self.backend,
+        )
 
     def rigid(self) -> "FlexSpec":
         """The same spec with every drive rigid: K1, K2, C dropped (seed 003's rigid model)."""
         keep = [i for i, n in enumerate(self.free) if n.rsplit(".", 1)[-1] not in ("K1", "K2", "C")]
         drop = lambda d: {n: v for n, v in d.items() if n.rsplit(".", 1)[-1] not in ("K1", "K2", "C")}  # noqa: E731
-        return replace(self, drives=[Drive(d.joint, d.ratio, flexible=False) for d in self.drives],
-                       fixed=drop(self.fixed), free=[self.free[i] for i in keep], lower=self.lower[keep],
-                       upper=self.upper[keep], truth=None if self.truth is None else drop(self.truth))
+        return replace(
+            self,
+            drives=[Drive(d.joint, d.ratio, flexible=False) for d in self.drives],
+            fixed=drop(self.fixed),
+            free=[self.free[i] for i in keep],
+            lower=self.lower[keep],
+            upper=self.upper[keep],
+            truth=None if self.truth is None else drop(self.truth),
+        )
 
     def to_dict(self) -> dict:
         """Plain-JSON form of the spec."""
         return {
-            "source": self.source, "urdf": str(self.robot.urdf_path), "description": self.description,
+            "source": self.source,
+            "urdf": str(self.robot.urdf_path),
+            "description": self.description,
             "drives": [{"joint": d.joint, "ratio": d.ratio, "flexible": d.flexible} for d in self.drives],
             "fixed": self.fixed,
             "free": {n: [float(lo), float(hi)] for n, lo, hi in zip(self.free, self.lower, self.upper)},
-            "truth": self.truth, "fit": {**self.fit.__dict__, "outputs": list(self.fit.outputs)},
-            "coulomb_speed": self.coulomb_speed, "max_step": self.max_step, "backend": self.backend,
+            "truth": self.truth,
+            "fit": {**self.fit.__dict__, "outputs": list(self.fit.outputs)},
+            "coulomb_speed": self.coulomb_speed,
+            "max_step": self.max_step,
+            "backend": self.backend,
         }
 
 
@@ -325,8 +364,9 @@ _INPUT_KEYS = {"kind", "duration", "rate", "rest"}
 _SIGNAL_KEYS = {"bias", "multisine", "square"}
 
 
-def _number(value, what: str, source: str, *, integer: bool = False, positive: bool = False,
-            nonneg: bool = False) -> float:
+def _number(
+    value, what: str, source: str, *, integer: bool = False, positive: bool = False, nonneg: bool = False
+) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
         raise SpecError(f"{source}: {what} = {value!r}, expected a finite number")
     if integer and int(value) != value:
@@ -360,7 +400,7 @@ def _check_bounds(name: str, lo: float, hi: float, *, flexible: bool, source: st
 
 def _resolve_urdf(value: str, spec_path: Path | None) -> str:
     if spec_path is not None:
-        cand = (spec_path.parent / value)
+        cand = spec_path.parent / value
         if cand.is_file():
             return str(cand)
     return value
@@ -377,8 +417,9 @@ def load_flex_spec(path: str | os.PathLike, *, robot: RobotModel | None = None) 
     return spec_from_dict(data, source=str(p), robot=robot, spec_path=p)
 
 
-def spec_from_dict(data: Mapping, *, source: str = "<spec>", robot: RobotModel | None = None,
-                   spec_path: Path | None = None) -> FlexSpec:
+def spec_from_dict(
+    data: Mapping, *, source: str = "<spec>", robot: RobotModel | None = None, spec_path: Path | None = None
+) -> FlexSpec:
     """Build a :class:`FlexSpec` from the plain-dict form of a spec file."""
     unknown = sorted(set(data) - _TOP_KEYS)
     if unknown:
@@ -408,8 +449,10 @@ def spec_from_dict(data: Mapping, *, source: str = "<spec>", robot: RobotModel |
     for jname, table in joints.items():
         where = f"{source}: [joints.{jname}]"
         if jname not in robot.joint_names:
-            raise SpecError(f"{where}: unknown joint '{jname}', expected an active joint of {robot.name} "
-                            f"({', '.join(robot.joint_names)})")
+            raise SpecError(
+                f"{where}: unknown joint '{jname}', expected an active joint of {robot.name} "
+                f"({', '.join(robot.joint_names)})"
+            )
         if not isinstance(table, dict):
             raise SpecError(f"{where}: expected a table of settings")
         flexible = table.get("flexible", True)
@@ -421,13 +464,15 @@ def spec_from_dict(data: Mapping, *, source: str = "<spec>", robot: RobotModel |
         if isinstance(ratio, bool) or not isinstance(ratio, (int, float)) or not math.isfinite(ratio) or ratio <= 0:
             raise SpecError(f"{where}: ratio = {ratio!r}, expected a positive number (motor angle / link angle)")
         drives.append(Drive(jname, float(ratio), flexible))
-        allowed = (FLEX_PARAMS if flexible else RIGID_PARAMS)
+        allowed = FLEX_PARAMS if flexible else RIGID_PARAMS
         for key, value in table.items():
             if key in ("ratio", "flexible"):
                 continue
             if key not in allowed and key not in INERTIAL_NAMES:
-                raise SpecError(f"{where}: unknown parameter '{key}' of a {'flexible' if flexible else 'rigid'} joint "
-                                f"(expected {', '.join(allowed)}, or an inertial parameter {', '.join(INERTIAL_NAMES)})")
+                raise SpecError(
+                    f"{where}: unknown parameter '{key}' of a {'flexible' if flexible else 'rigid'} joint "
+                    f"(expected {', '.join(allowed)}, or an inertial parameter {', '.join(INERTIAL_NAMES)})"
+                )
             name = f"{jname}.{key}"
             if isinstance(value, list):
                 if len(value) != 2:
@@ -448,8 +493,22 @@ def spec_from_dict(data: Mapping, *, source: str = "<spec>", robot: RobotModel |
     truth = _read_truth(data.get("truth"), robot, drives, fixed, free, lower, upper, source)
     inp = _read_input(data.get("input", {}), robot, source)
     fit = _read_fit(data.get("fit", {}), source)
-    spec = FlexSpec(source, robot, drives, fixed, free, np.array(lower), np.array(upper), truth, inp, fit,
-                    coulomb_speed, max_step, backend, str(data.get("description", "")))
+    spec = FlexSpec(
+        source,
+        robot,
+        drives,
+        fixed,
+        free,
+        np.array(lower),
+        np.array(upper),
+        truth,
+        inp,
+        fit,
+        coulomb_speed,
+        max_step,
+        backend,
+        str(data.get("description", "")),
+    )
     try:  # every name and value the model will see, checked once here
         spec.model()
     except SpecError as exc:
@@ -469,8 +528,10 @@ def _read_truth(table, robot, drives, fixed, free, lower, upper, source) -> dict
     for jname, t in table.items():
         where = f"{source}: [truth.{jname}]"
         if jname not in robot.joint_names:
-            raise SpecError(f"{where}: unknown joint '{jname}', expected an active joint of {robot.name} "
-                            f"({', '.join(robot.joint_names)})")
+            raise SpecError(
+                f"{where}: unknown joint '{jname}', expected an active joint of {robot.name} "
+                f"({', '.join(robot.joint_names)})"
+            )
         if not isinstance(t, dict):
             raise SpecError(f"{where}: expected a table of parameter values")
         d = by_joint.get(jname)
@@ -534,15 +595,19 @@ def _read_input(table, robot, source) -> InputSignal:
                 _number(sq.get("delay", 0.0), "delay", w, nonneg=True)
             out.joints[key] = value
         else:
-            raise SpecError(f"{where}: unknown setting or joint '{key}' (settings: {', '.join(sorted(_INPUT_KEYS))}; "
-                            f"joints: {', '.join(robot.joint_names)})")
+            raise SpecError(
+                f"{where}: unknown setting or joint '{key}' (settings: {', '.join(sorted(_INPUT_KEYS))}; "
+                f"joints: {', '.join(robot.joint_names)})"
+            )
     if out.rest >= out.duration:
         raise SpecError(f"{where}: rest {out.rest:g} s ≥ duration {out.duration:g} s")
     for key, value in out.joints.items():  # after the loop: rate may come after the joints' tables
         ms = value.get("multisine")
         if ms is not None and float(ms["f_max"]) >= out.rate / 2:
-            raise SpecError(f"{where}.{key}.multisine: f_max {float(ms['f_max']):g} Hz is at or above the Nyquist "
-                            f"frequency of the input rate {out.rate:g} Hz, expected f_max < {out.rate / 2:g} Hz")
+            raise SpecError(
+                f"{where}.{key}.multisine: f_max {float(ms['f_max']):g} Hz is at or above the Nyquist "
+                f"frequency of the input rate {out.rate:g} Hz, expected f_max < {out.rate / 2:g} Hz"
+            )
     return out
 
 
@@ -614,8 +679,13 @@ def make_twin(
     qm = None
     if motor:
         qm = sim.qm[0] + (noise * rng.standard_normal(sim.qm[0].shape) if noise > 0 else 0.0)
-    meta = {"twin": True, "noise": float(noise), "step": float(sim.step), "truth": dict(zip(model.names, map(float, model.values))),
-            "drives": [{"joint": d.joint, "ratio": d.ratio, "flexible": d.flexible} for d in model.drives]}
+    meta = {
+        "twin": True,
+        "noise": float(noise),
+        "step": float(sim.step),
+        "truth": dict(zip(model.names, map(float, model.values))),
+        "drives": [{"joint": d.joint, "ratio": d.ratio, "flexible": d.flexible} for d in model.drives],
+    }
     return FlexRecording(t, u, q, list(model.joint_names), qm, kind, "<twin>", meta)
 
 
@@ -654,8 +724,10 @@ class OutputErrorProblem:
         self.model = model
         self.recording = recording.reorder(model.joint_names)
         if "motor" in outputs and self.recording.qm is None:
-            raise DataError(f"{recording.source}: no motor angles qm_<joint>, but the fit compares motor angles "
-                            "(outputs = ['link', 'motor']); use outputs = ['link']")
+            raise DataError(
+                f"{recording.source}: no motor angles qm_<joint>, but the fit compares motor angles "
+                "(outputs = ['link', 'motor']); use outputs = ['link']"
+            )
         self.free = list(free)
         self.idx = np.array([model.index(n) for n in self.free], dtype=int)
         self.lower = np.asarray(lower, dtype=float).reshape(-1)
@@ -711,8 +783,11 @@ class OutputErrorProblem:
                 worst[i] = np.nan
         inert = np.isnan(worst)
         rng = np.random.default_rng(12345)
-        probes = [np.where(inert, lo, worst), np.where(inert, hi, worst),
-                  np.where(inert, self.model.values[self.idx], worst)]
+        probes = [
+            np.where(inert, lo, worst),
+            np.where(inert, hi, worst),
+            np.where(inert, self.model.values[self.idx], worst),
+        ]
         rnd = lo + rng.random((64, self.d)) * (hi - lo)
         rnd[:, ~inert] = worst[~inert]
         X = np.vstack(probes + [rnd])
@@ -723,8 +798,9 @@ class OutputErrorProblem:
     def simulate(self, X) -> FlexSimulation:
         """Simulate free parameter vectors ``(P, d)`` (or one ``(d,)``) under the recording's input."""
         start = time.perf_counter()
-        sim = self.model.simulate(self.recording.u, self.dt, self.full(X), q0=self.q0, input=self.recording.input,
-                                  step=self.step)
+        sim = self.model.simulate(
+            self.recording.u, self.dt, self.full(X), q0=self.q0, input=self.recording.input, step=self.step
+        )
         self.nsim += sim.q.shape[0]
         self.seconds += time.perf_counter() - start
         return sim
@@ -756,8 +832,9 @@ class OutputErrorProblem:
         smaller one: the integrator's tolerance at that point."""
         full = self.full(np.atleast_2d(x))
         a = self.model.simulate(self.recording.u, self.dt, full, q0=self.q0, input=self.recording.input, step=self.step)
-        b = self.model.simulate(self.recording.u, self.dt, full, q0=self.q0, input=self.recording.input,
-                                step=self.step / refine)
+        b = self.model.simulate(
+            self.recording.u, self.dt, full, q0=self.q0, input=self.recording.input, step=self.step / refine
+        )
         return float(np.max(np.abs(a.q - b.q)))
 
     def metrics(self, x) -> dict:
@@ -769,8 +846,11 @@ class OutputErrorProblem:
         out = {}
         for k, n in enumerate(names):
             ek = e[:, k]
-            out[n] = {"rms": float(np.sqrt(np.mean(ek**2))), "mean_abs": float(np.mean(np.abs(ek))),
-                      "max_abs": float(np.max(np.abs(ek)))}
+            out[n] = {
+                "rms": float(np.sqrt(np.mean(ek**2))),
+                "mean_abs": float(np.mean(np.abs(ek))),
+                "max_abs": float(np.max(np.abs(ek))),
+            }
         return out
 
 
@@ -824,13 +904,26 @@ class OutputErrorResult:
 
     def to_dict(self) -> dict:
         """Plain-JSON form (the file ``pinid flex fit`` writes)."""
-        return jsonable({
-            "method": self.method, "model": self.model_kind, "cost_kind": self.cost_kind, "cost": self.cost,
-            "values": self.values, "bounds": {n: [float(a), float(b)] for n, a, b in zip(self.names, self.lower, self.upper)},
-            "truth": self.truth, "rel_error": self.rel_error, "metrics": self.metrics, "rms": self.rms,
-            "history": self.history, "nfev": self.nfev, "seconds": self.seconds, "message": self.message,
-            "step": self.step, **self.extra,
-        })
+        return jsonable(
+            {
+                "method": self.method,
+                "model": self.model_kind,
+                "cost_kind": self.cost_kind,
+                "cost": self.cost,
+                "values": self.values,
+                "bounds": {n: [float(a), float(b)] for n, a, b in zip(self.names, self.lower, self.upper)},
+                "truth": self.truth,
+                "rel_error": self.rel_error,
+                "metrics": self.metrics,
+                "rms": self.rms,
+                "history": self.history,
+                "nfev": self.nfev,
+                "seconds": self.seconds,
+                "message": self.message,
+                "step": self.step,
+                **self.extra,
+            }
+        )
 
     def save(self, path: str | os.PathLike) -> Path:
         """Write :meth:`to_dict` as JSON (atomically)."""
@@ -840,12 +933,41 @@ class OutputErrorResult:
     def from_dict(cls, d: dict) -> "OutputErrorResult":
         """Rebuild from :meth:`to_dict`'s output."""
         names = list(d["values"])
-        known = {"method", "model", "cost_kind", "cost", "values", "bounds", "truth", "rel_error", "metrics", "rms",
-                 "history", "nfev", "seconds", "message", "step"}
-        return cls(d["method"], d["model"], d["cost_kind"], names, np.array([d["values"][n] for n in names]),
-                   np.array([d["bounds"][n][0] for n in names]), np.array([d["bounds"][n][1] for n in names]),
-                   float(d["cost"]), d["history"], int(d["nfev"]), float(d["seconds"]), d["message"],
-                   float(d["step"]), d["metrics"], d.get("truth"), {k: v for k, v in d.items() if k not in known})
+        known = {
+            "method",
+            "model",
+            "cost_kind",
+            "cost",
+            "values",
+            "bounds",
+            "truth",
+            "rel_error",
+            "metrics",
+            "rms",
+            "history",
+            "nfev",
+            "seconds",
+            "message",
+            "step",
+        }
+        return cls(
+            d["method"],
+            d["model"],
+            d["cost_kind"],
+            names,
+            np.array([d["values"][n] for n in names]),
+            np.array([d["bounds"][n][0] for n in names]),
+            np.array([d["bounds"][n][1] for n in names]),
+            float(d["cost"]),
+            d["history"],
+            int(d["nfev"]),
+            float(d["seconds"]),
+            d["message"],
+            float(d["step"]),
+            d["metrics"],
+            d.get("truth"),
+            {k: v for k, v in d.items() if k not in known},
+        )
 
     @classmethod
     def load(cls, path: str | os.PathLike) -> "OutputErrorResult":
@@ -862,8 +984,16 @@ class OutputErrorResult:
         rows = []
         for n, v, lo, hi in zip(self.names, self.x, self.lower, self.upper):
             t = (self.truth or {}).get(n)
-            rows.append([n, f"{v:.6g}", "-" if t is None else f"{t:.6g}",
-                         "-" if n not in rel else f"{100 * rel[n]:+.3f}", f"{lo:.4g}", f"{hi:.4g}"])
+            rows.append(
+                [
+                    n,
+                    f"{v:.6g}",
+                    "-" if t is None else f"{t:.6g}",
+                    "-" if n not in rel else f"{100 * rel[n]:+.3f}",
+                    f"{lo:.4g}",
+                    f"{hi:.4g}",
+                ]
+            )
         return rows
 
 
@@ -917,9 +1047,24 @@ def fit_output_error(
     truth = None
     if problem.truth:
         truth = {n: float(problem.truth[n]) for n in problem.free if n in problem.truth}
-    return OutputErrorResult(method, kind, problem.cost_kind, list(problem.free), np.asarray(x, float),
-                             problem.lower.copy(), problem.upper.copy(), cost, history, nfev, seconds, message,
-                             problem.step, metrics, truth, extra)
+    return OutputErrorResult(
+        method,
+        kind,
+        problem.cost_kind,
+        list(problem.free),
+        np.asarray(x, float),
+        problem.lower.copy(),
+        problem.upper.copy(),
+        cost,
+        history,
+        nfev,
+        seconds,
+        message,
+        problem.step,
+        metrics,
+        truth,
+        extra,
+    )
 
 
 def _least_squares(problem: OutputErrorProblem, x0, history, f_scale, max_nfev, options, progress=None):
@@ -956,9 +1101,16 @@ def _least_squares(problem: OutputErrorProblem, x0, history, f_scale, max_nfev, 
         J[~np.isfinite(J)] = 0.0
         return J.T
 
-    kw = dict(method="trf", jac=jacobian, bounds=(np.zeros(problem.d), np.ones(problem.d)), x_scale=1.0,
-              ftol=float(options.get("ftol", 1e-12)), xtol=float(options.get("xtol", 1e-12)),
-              gtol=float(options.get("gtol", 1e-12)), max_nfev=int(options.get("max_nfev", max_nfev)))
+    kw = dict(
+        method="trf",
+        jac=jacobian,
+        bounds=(np.zeros(problem.d), np.ones(problem.d)),
+        x_scale=1.0,
+        ftol=float(options.get("ftol", 1e-12)),
+        xtol=float(options.get("xtol", 1e-12)),
+        gtol=float(options.get("gtol", 1e-12)),
+        max_nfev=int(options.get("max_nfev", max_nfev)),
+    )
     if problem.cost_kind == "abs":
         kw.update(loss="soft_l1", f_scale=float(f_scale))
     bar = progress_bar(kw["max_nfev"], "least_squares", enabled=progress)
@@ -966,8 +1118,15 @@ def _least_squares(problem: OutputErrorProblem, x0, history, f_scale, max_nfev, 
         res = least_squares(residuals, z0, **kw)
     finally:
         bar.close()
-    return lo + res.x * width, str(res.message), {"njev": int(res.njev or 0), "status": int(res.status),
-                                                   "f_scale": float(f_scale) if problem.cost_kind == "abs" else None}
+    return (
+        lo + res.x * width,
+        str(res.message),
+        {
+            "njev": int(res.njev or 0),
+            "status": int(res.status),
+            "f_scale": float(f_scale) if problem.cost_kind == "abs" else None,
+        },
+    )
 
 
 # ====================================================================== observability
@@ -1022,17 +1181,32 @@ def classify(rel_std: float) -> str:
 
 
 # ====================================================================== spec-level helpers
-def problem_from_spec(spec: FlexSpec, recording: FlexRecording, *, rigid: bool = False, cost: str | None = None,
-                      outputs: Sequence[str] | None = None) -> OutputErrorProblem:
+def problem_from_spec(
+    spec: FlexSpec,
+    recording: FlexRecording,
+    *,
+    rigid: bool = False,
+    cost: str | None = None,
+    outputs: Sequence[str] | None = None,
+) -> OutputErrorProblem:
     """The problem a spec describes for ``recording`` (``rigid``: the rigid-joint model of the same spec)."""
     s = spec.rigid() if rigid else spec
     model = s.model()
     truth = None  # the rigid model has no truth: the twin is flexible
     if not rigid and (s.truth is not None or recording.meta.get("truth")):
         truth = {**(s.truth or {}), **(recording.meta.get("truth") or {})}  # what made the recording wins
-    return OutputErrorProblem(model, recording, s.free, s.lower, s.upper, cost=cost or s.fit.cost,
-                              outputs=outputs or s.fit.outputs, rest_time=s.fit.rest_time, truth=truth,
-                              label="rigid" if rigid else "flexible")
+    return OutputErrorProblem(
+        model,
+        recording,
+        s.free,
+        s.lower,
+        s.upper,
+        cost=cost or s.fit.cost,
+        outputs=outputs or s.fit.outputs,
+        rest_time=s.fit.rest_time,
+        truth=truth,
+        label="rigid" if rigid else "flexible",
+    )
 
 
 def compare_rigid_flexible(
@@ -1056,8 +1230,14 @@ def compare_rigid_flexible(
     out: dict = {"t": recording.t, "measured": recording.reorder(spec.robot.joint_names).q, "simulated": {}}
     for label, rigid in (("flexible", False), ("rigid", True)):
         prob = problem_from_spec(spec, recording, rigid=rigid)
-        res = fit_output_error(prob, method, rng=rng, options=None if method == LEAST_SQUARES else opts,
-                               progress=progress, f_scale=spec.fit.f_scale)
+        res = fit_output_error(
+            prob,
+            method,
+            rng=rng,
+            options=None if method == LEAST_SQUARES else opts,
+            progress=progress,
+            f_scale=spec.fit.f_scale,
+        )
         if polish and method != LEAST_SQUARES:
             ls = fit_output_error(prob, LEAST_SQUARES, x0=res.x, f_scale=spec.fit.f_scale, progress=progress)
             if ls.cost <= res.cost:

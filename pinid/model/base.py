@@ -60,7 +60,9 @@ class BaseParameters:
         """The base regressor: the independent columns of a stacked standard regressor ``W``."""
         W = as_floats(W, "W")
         if W.ndim != 2 or W.shape[1] != len(self.standard_names):
-            raise DataError(f"W: shape {W.shape}, expected (rows, {len(self.standard_names)}) standard regressor columns")
+            raise DataError(
+                f"W: shape {W.shape}, expected (rows, {len(self.standard_names)}) standard regressor columns"
+            )
         return W[:, self.independent]
 
     def expressions(self, digits: int = 6) -> list[str]:
@@ -95,8 +97,12 @@ class BaseParameters:
     def from_dict(cls, d: dict) -> "BaseParameters":
         """Inverse of :meth:`to_dict`."""
         names = d["standard_names"]
-        return cls(names, np.array([names.index(n) for n in d["independent"]], dtype=int),
-                   np.array(d["P"], dtype=float), list(d["names"]))
+        return cls(
+            names,
+            np.array([names.index(n) for n in d["independent"]], dtype=int),
+            np.array(d["P"], dtype=float),
+            list(d["names"]),
+        )
 
     @classmethod
     def load(cls, path) -> "BaseParameters":
@@ -120,8 +126,10 @@ def base_parameters(
     tol = number(tol, "tol", low=0, low_open=True, high=0.01)
     n = max(60, 4 * p) if samples is None else count(samples, "samples", low=1)
     if n * model.nv < p:
-        raise SpecError(f"samples={samples!r}: {n * model.nv} regressor rows for {p} standard parameters, expected "
-                        f"at least {-(-p // model.nv)} samples (default {max(60, 4 * p)})")
+        raise SpecError(
+            f"samples={samples!r}: {n * model.nv} regressor rows for {p} standard parameters, expected "
+            f"at least {-(-p // model.nv)} samples (default {max(60, 4 * p)})"
+        )
     seed = count(seed, "seed")
     q, dq, ddq = model.random_states(n, np.random.default_rng(seed))
     if any(t in STRIBECK_TERMS for t in terms.names):  # Stribeck columns vanish at speed: slow samples too
@@ -138,7 +146,7 @@ def base_parameters(
     # parameters as in the classic hand derivations.  Fall back to the pivots if that set is not of
     # full rank numerically.
     r_natural = np.abs(np.diag(scipy.linalg.qr(Wn, mode="r")[0]))
-    independent = nonzero[r_natural > tol ** 0.5 * 1e-2]  # tol^0.5·1e-2 = 1e-6: clear gap from 1e-14 noise
+    independent = nonzero[r_natural > tol**0.5 * 1e-2]  # tol^0.5·1e-2 = 1e-6: clear gap from 1e-14 noise
     if independent.size != rank:
         independent = np.sort(nonzero[piv[:rank]])
     dependent = np.setdiff1d(nonzero, independent)

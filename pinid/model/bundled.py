@@ -29,9 +29,7 @@ class RobotPreset:
 
 #: Robots of example-robot-data known by a short name.
 EXAMPLE_ROBOTS: dict[str, RobotPreset] = {
-    "panda": RobotPreset(
-        "panda_description/urdf/panda.urdf", {"panda_finger_joint1": 0.0, "panda_finger_joint2": 0.0}
-    ),
+    "panda": RobotPreset("panda_description/urdf/panda.urdf", {"panda_finger_joint1": 0.0, "panda_finger_joint2": 0.0}),
     "ur3": RobotPreset("ur_description/urdf/ur3_robot.urdf"),
     "ur5": RobotPreset("ur_description/urdf/ur5_robot.urdf"),
     "ur10": RobotPreset("ur_description/urdf/ur10_robot.urdf"),

@@ -84,11 +84,15 @@ def checked(t: Transmission, origin: str, error: type = SpecError) -> Transmissi
     """``t`` if its matrix is square (motors × joints) and invertible, else a one-line ``error``."""
     R = t.matrix
     if R.shape != (len(t.motors), len(t.joints)) or len(t.motors) != len(t.joints) or not t.joints:
-        raise error(f"{origin}: transmission of {t.joints}: matrix has shape {R.shape}, expected a square "
-                    f"({len(t.motors)} motors × {len(t.joints)} joints) matrix with q_motor = matrix · q_joint")
+        raise error(
+            f"{origin}: transmission of {t.joints}: matrix has shape {R.shape}, expected a square "
+            f"({len(t.motors)} motors × {len(t.joints)} joints) matrix with q_motor = matrix · q_joint"
+        )
     if not np.all(np.isfinite(R)) or abs(np.linalg.det(R)) < 1e-12 * max(1.0, np.abs(R).max()) ** len(t.joints):
-        raise error(f"{origin}: transmission of {t.joints}: matrix is singular or not finite ({R.tolist()}), "
-                    "expected an invertible matrix")
+        raise error(
+            f"{origin}: transmission of {t.joints}: matrix is singular or not finite ({R.tolist()}), "
+            "expected an invertible matrix"
+        )
     return t
 
 
@@ -107,8 +111,10 @@ class Drives:
         for t in self.transmissions:
             for j in t.joints:
                 if j not in self.joints:
-                    raise SpecError(f"{self.origin}: transmission names joint '{j}', which is not an active joint "
-                                    f"(active joints: {', '.join(self.joints)})")
+                    raise SpecError(
+                        f"{self.origin}: transmission names joint '{j}', which is not an active joint "
+                        f"(active joints: {', '.join(self.joints)})"
+                    )
                 if j in seen_j:
                     raise SpecError(f"{self.origin}: joint '{j}' is in two transmissions, expected one")
                 seen_j[j] = t.motors[0]
@@ -118,12 +124,15 @@ class Drives:
                 seen_m.add(m)
         for m, vals in self.values.items():
             if m not in seen_m:
-                raise SpecError(f"{self.origin}: [motors.{m}] is not a motor of any transmission "
-                                f"(motors: {', '.join(self.motor_names)})")
+                raise SpecError(
+                    f"{self.origin}: [motors.{m}] is not a motor of any transmission "
+                    f"(motors: {', '.join(self.motor_names)})"
+                )
             for k, v in vals.items():
                 if k not in MOTOR_VALUE_KEYS:
-                    raise SpecError(f"{self.origin}: [motors.{m}] has unknown key '{k}', expected some of "
-                                    f"{list(MOTOR_VALUE_KEYS)}")
+                    raise SpecError(
+                        f"{self.origin}: [motors.{m}] has unknown key '{k}', expected some of {list(MOTOR_VALUE_KEYS)}"
+                    )
                 if not isinstance(v, (int, float)) or isinstance(v, bool) or not np.isfinite(v):
                     raise SpecError(f"{self.origin}: [motors.{m}] {k} = {v!r}, expected a finite number")
                 if k != "offset" and v < 0:
@@ -132,7 +141,7 @@ class Drives:
         r = 0
         for t in self.transmissions:
             cols = [self.joints.index(j) for j in t.joints]
-            G[r: r + len(t.motors), cols] = t.matrix
+            G[r : r + len(t.motors), cols] = t.matrix
             r += len(t.motors)
         self.matrix = G
 
@@ -147,8 +156,16 @@ class Drives:
 
     def to_dict(self) -> dict:
         """The drives TOML as a dict (``[[transmission]]`` tables and ``[motors.<m>]`` values)."""
-        out: dict = {"transmission": [{"joints": list(t.joints), "motors": list(t.motors),
-                                       "matrix": np.asarray(t.matrix, dtype=float).tolist()} for t in self.transmissions]}
+        out: dict = {
+            "transmission": [
+                {
+                    "joints": list(t.joints),
+                    "motors": list(t.motors),
+                    "matrix": np.asarray(t.matrix, dtype=float).tolist(),
+                }
+                for t in self.transmissions
+            ]
+        }
         if self.values:
             out["motors"] = {m: dict(v) for m, v in self.values.items()}
         return out
@@ -221,8 +238,10 @@ def urdf_transmissions(urdf_text: str, joints: Sequence[str], origin: str = "URD
         if not active:
             continue
         if len(active) != len(jnames):
-            raise ModelError(f"{where} couples active joint(s) {active} with inactive ones "
-                             f"{[j for j in jnames if j not in joints]}; expected all of them active")
+            raise ModelError(
+                f"{where} couples active joint(s) {active} with inactive ones "
+                f"{[j for j in jnames if j not in joints]}; expected all of them active"
+            )
         if kind == "SimpleTransmission":
             if len(jels) != 1 or len(aels) != 1:
                 raise ModelError(f"{where}: SimpleTransmission needs one joint and one actuator")

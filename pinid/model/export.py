@@ -35,12 +35,12 @@ from pinid.model.regressor import JointTerms
 from pinid.io import write_text
 
 
-
 def _comment(text: str) -> ET.Element:
     """An XML comment; "--" may not appear inside one (the file would not parse), so it is spaced out."""
     while "--" in text:
         text = text.replace("--", "- -")
     return ET.Comment(text if not text.endswith("-") else text + " ")
+
 
 def _num(x: float) -> str:
     x = float(x)
@@ -74,8 +74,16 @@ def _link_owners(root: ET.Element, active: list[str]) -> tuple[dict[str, str | N
     return owners, child_of
 
 
-def identified_urdf(model: RobotModel, theta: np.ndarray, terms: JointTerms, path: str | os.PathLike | None = None,
-                    *, force: bool = False, comment: str | None = None, origin: str = "identified by pinid") -> str:
+def identified_urdf(
+    model: RobotModel,
+    theta: np.ndarray,
+    terms: JointTerms,
+    path: str | os.PathLike | None = None,
+    *,
+    force: bool = False,
+    comment: str | None = None,
+    origin: str = "identified by pinid",
+) -> str:
     """The URDF text of ``model`` with the standard parameters ``theta`` (see the module text).
 
     Written atomically to ``path`` when given.  The file's first comment reads ``origin (comment)``.  Raises
@@ -87,8 +95,11 @@ def identified_urdf(model: RobotModel, theta: np.ndarray, terms: JointTerms, pat
         raise ModelError(f"expected {10 * nv + nt} standard parameters, got {theta.size}")
     report = check_consistency(theta, model.joint_names, terms.names, model.motor_names)
     if not report.consistent and not force:
-        raise ModelError("refusing to export physically inconsistent parameters ("
-                         + "; ".join(report.problems[:3]) + "); force the export to write them anyway")
+        raise ModelError(
+            "refusing to export physically inconsistent parameters ("
+            + "; ".join(report.problems[:3])
+            + "); force the export to write them anyway"
+        )
     if not model.urdf_text:
         raise ModelError(f"{model.name}: no URDF text to edit")
     parser = ET.XMLParser(target=ET.TreeBuilder(insert_comments=True))
@@ -102,12 +113,16 @@ def identified_urdf(model: RobotModel, theta: np.ndarray, terms: JointTerms, pat
         raise ModelError(f"{model.name}: joint(s) {missing} not found in the URDF text")
     for i, jname in enumerate(active):
         link = links[child_of[jname]]
-        m, c, I = com_inertia(theta[10 * i: 10 * i + 10])
+        m, c, I = com_inertia(theta[10 * i : 10 * i + 10])
         _set_inertial(link, m, c, I)
         merged = sorted(n for n, o in owners.items() if o == jname and n != child_of[jname])
         if merged:
-            link.insert(0, _comment(f" pinid: identified inertia of body '{jname}', including merged link(s) "
-                                      f"{', '.join(merged)} "))
+            link.insert(
+                0,
+                _comment(
+                    f" pinid: identified inertia of body '{jname}', including merged link(s) {', '.join(merged)} "
+                ),
+            )
     for name, link in links.items():
         owner = owners.get(name)
         if owner is None or name == child_of.get(owner):
@@ -129,10 +144,12 @@ def identified_urdf(model: RobotModel, theta: np.ndarray, terms: JointTerms, pat
         extra = [f"{t.suffix} {_num(v)} {t.unit}" for t, v in mine if not t.field]
         if extra:
             jel.append(_comment(f" pinid: {', '.join(extra)} (no URDF field) "))
-    head = (f" {origin}{' (' + comment + ')' if comment else ''}: inertials of the moving links and "
-            f"joint friction replaced; physically consistent: {'yes' if report.consistent else 'NO (forced)'}"
-            + (f"; locked joints: {', '.join(f'{k}={v:g}' for k, v in model.locked.items())}" if model.locked else "")
-            + " ")
+    head = (
+        f" {origin}{' (' + comment + ')' if comment else ''}: inertials of the moving links and "
+        f"joint friction replaced; physically consistent: {'yes' if report.consistent else 'NO (forced)'}"
+        + (f"; locked joints: {', '.join(f'{k}={v:g}' for k, v in model.locked.items())}" if model.locked else "")
+        + " "
+    )
     root.insert(0, _comment(head))
     ET.indent(root, space="  ")
     text = '<?xml version="1.0" encoding="utf-8"?>\n' + ET.tostring(root, encoding="unicode") + "\n"
@@ -155,8 +172,9 @@ def _check_loads(text: str, model: RobotModel) -> None:
         try:
             RobotModel.from_urdf(path, joints=model.joint_names, locked=model.locked or None)
         except ModelError as exc:
-            raise ModelError(f"the identified URDF would not load back in pinid ({str(exc).replace(str(path), 'URDF')}); "
-                             "not written") from None
+            raise ModelError(
+                f"the identified URDF would not load back in pinid ({str(exc).replace(str(path), 'URDF')}); not written"
+            ) from None
 
 
 def _set_inertial(link: ET.Element, m: float, c: np.ndarray, I: np.ndarray) -> None:
@@ -165,26 +183,46 @@ def _set_inertial(link: ET.Element, m: float, c: np.ndarray, I: np.ndarray) -> N
     inertial = ET.Element("inertial")
     ET.SubElement(inertial, "origin", xyz=" ".join(_num(x) for x in c), rpy="0 0 0")
     ET.SubElement(inertial, "mass", value=_num(m))
-    ET.SubElement(inertial, "inertia", ixx=_num(I[0, 0]), ixy=_num(I[0, 1]), ixz=_num(I[0, 2]),
-                  iyy=_num(I[1, 1]), iyz=_num(I[1, 2]), izz=_num(I[2, 2]))
+    ET.SubElement(
+        inertial,
+        "inertia",
+        ixx=_num(I[0, 0]),
+        ixy=_num(I[0, 1]),
+        ixz=_num(I[0, 2]),
+        iyy=_num(I[1, 1]),
+        iyz=_num(I[1, 2]),
+        izz=_num(I[2, 2]),
+    )
     link.insert(0, inertial)
 
 
-def identified_drives(model: RobotModel, theta: np.ndarray, terms: JointTerms, path: str | os.PathLike | None = None,
-                      *, comment: str | None = None) -> str | None:
+def identified_drives(
+    model: RobotModel,
+    theta: np.ndarray,
+    terms: JointTerms,
+    path: str | os.PathLike | None = None,
+    *,
+    comment: str | None = None,
+) -> str | None:
     """The drives TOML of ``model`` with the motor-term values of the standard parameters ``theta``
     (``[motors.<name>]`` fc, fv, offset, armature; URDF has no field for them); None without motor terms.
     Written atomically to ``path`` when given.  Read it back with ``--drives``."""
     if not terms.motor or model.drives is None:
         return None
     theta = np.asarray(theta, dtype=float)
-    values = _terms.values(model, terms, theta[10 * model.nv:])
-    lines = [f"# drives identified by pinid{' (' + comment + ')' if comment else ''}: q_motor = matrix · q_joint; "
-             "motor terms in SI units (N·m, N·m·s/rad, kg·m²)"]
+    values = _terms.values(model, terms, theta[10 * model.nv :])
+    lines = [
+        f"# drives identified by pinid{' (' + comment + ')' if comment else ''}: q_motor = matrix · q_joint; "
+        "motor terms in SI units (N·m, N·m·s/rad, kg·m²)"
+    ]
     for t in model.drives.transmissions:
-        lines += ["", "[[transmission]]", f"joints = [{', '.join(_q(j) for j in t.joints)}]",
-                  f"motors = [{', '.join(_q(m) for m in t.motors)}]",
-                  "matrix = [" + ", ".join("[" + ", ".join(_num(x) for x in row) + "]" for row in t.matrix) + "]"]
+        lines += [
+            "",
+            "[[transmission]]",
+            f"joints = [{', '.join(_q(j) for j in t.joints)}]",
+            f"motors = [{', '.join(_q(m) for m in t.motors)}]",
+            "matrix = [" + ", ".join("[" + ", ".join(_num(x) for x in row) + "]" for row in t.matrix) + "]",
+        ]
     for i, m in enumerate(model.motor_names):
         lines += ["", f"[motors.{_q(m)}]"] + [f"{t.suffix} = {_num(values[t.name][i])}" for t in terms.motor]
     text = "\n".join(lines) + "\n"

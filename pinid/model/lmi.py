@@ -78,8 +78,9 @@ def solve(prob, solver: str, options: dict | None, what: str) -> str:
         raise SolverError(f"{what}: solver {solver} failed ({str(exc).strip().splitlines()[0]})") from None
     status = prob.status
     if status in (cp.INFEASIBLE, cp.INFEASIBLE_INACCURATE):
-        raise SolverError(f"{what}: solver {solver} says the constraints are infeasible (status '{status}'); "
-                          "check the mass bounds")
+        raise SolverError(
+            f"{what}: solver {solver} says the constraints are infeasible (status '{status}'); check the mass bounds"
+        )
     if status in (cp.UNBOUNDED, cp.UNBOUNDED_INACCURATE):
         raise SolverError(f"{what}: solver {solver} says the problem is unbounded (status '{status}')")
     if status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
@@ -102,8 +103,7 @@ def clip_terms(theta: np.ndarray, problem) -> np.ndarray:
     for name in {p.term.name for p in params if p.term.nonnegative}:
         idx = [10 * problem.nv + k for k, p in enumerate(params) if p.term.name == name]
         if idx:
-            out[idx] = np.where((out[idx] < 0) & (out[idx] > -1e-9 * max(1.0, np.abs(out[idx]).max())), 0.0,
-                                out[idx])
+            out[idx] = np.where((out[idx] < 0) & (out[idx] > -1e-9 * max(1.0, np.abs(out[idx]).max())), 0.0, out[idx])
     return out
 
 

@@ -60,8 +60,20 @@ def from_pseudo_inertia(J: np.ndarray) -> np.ndarray:
     S = J[:3, :3]
     tr = np.trace(S)
     inertia = tr * np.eye(3) - S  # I = tr(Σ)·1 − Σ
-    return np.array([J[3, 3], J[0, 3], J[1, 3], J[2, 3], inertia[0, 0], inertia[0, 1], inertia[1, 1],
-                     inertia[0, 2], inertia[1, 2], inertia[2, 2]])
+    return np.array(
+        [
+            J[3, 3],
+            J[0, 3],
+            J[1, 3],
+            J[2, 3],
+            inertia[0, 0],
+            inertia[0, 1],
+            inertia[1, 1],
+            inertia[0, 2],
+            inertia[1, 2],
+            inertia[2, 2],
+        ]
+    )
 
 
 def com_inertia(pi: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
@@ -110,8 +122,12 @@ class ConsistencyReport:
     @property
     def problems(self) -> list[str]:
         """Readable list of what is inconsistent (empty when consistent)."""
-        out = [f"{b.joint}: pseudo-inertia has eigenvalue {b.min_eigenvalue:.3g} < 0"
-               + (f" (mass {b.mass:.3g} kg)" if b.mass < 0 else "") for b in self.bodies if not b.consistent]
+        out = [
+            f"{b.joint}: pseudo-inertia has eigenvalue {b.min_eigenvalue:.3g} < 0"
+            + (f" (mass {b.mass:.3g} kg)" if b.mass < 0 else "")
+            for b in self.bodies
+            if not b.consistent
+        ]
         out += [f"{n} = {v:.3g} < 0" for n, v in self.negative_terms.items()]
         return out
 
@@ -120,8 +136,10 @@ class ConsistencyReport:
         return {
             "consistent": self.consistent,
             "problems": self.problems,
-            "bodies": {b.joint: {"mass": b.mass, "min_eigenvalue": b.min_eigenvalue,
-                                 "relative_min_eigenvalue": b.relative} for b in self.bodies},
+            "bodies": {
+                b.joint: {"mass": b.mass, "min_eigenvalue": b.min_eigenvalue, "relative_min_eigenvalue": b.relative}
+                for b in self.bodies
+            },
             "negative_terms": dict(self.negative_terms),
         }
 
@@ -130,8 +148,9 @@ class ConsistencyReport:
 NONNEGATIVE_TERMS: tuple[str, ...] = tuple(n for n, t in TERMS.items() if t.nonnegative)
 
 
-def check_consistency(theta: np.ndarray, joints: list[str], term_names: list[str],
-                      motors: Sequence[str] = ()) -> ConsistencyReport:
+def check_consistency(
+    theta: np.ndarray, joints: list[str], term_names: list[str], motors: Sequence[str] = ()
+) -> ConsistencyReport:
     """Check a full standard vector (inertial block for ``joints``, then the terms ``term_names`` laid out
     per joint, then per motor of ``motors``; see :mod:`pinid.model.terms`).
 
@@ -146,12 +165,12 @@ def check_consistency(theta: np.ndarray, joints: list[str], term_names: list[str
         raise ValueError(f"expected {10 * nv + len(params)} standard parameters, got shape {theta.shape}")
     bodies = []
     for i, j in enumerate(joints):
-        J = pseudo_inertia(theta[10 * i: 10 * i + 10])
+        J = pseudo_inertia(theta[10 * i : 10 * i + 10])
         ev = np.linalg.eigvalsh(J)
         norm = max(np.abs(ev).max(), 1e-300)
         bodies.append(BodyCheck(j, float(J[3, 3]), float(ev[0]), float(ev[0] / norm)))
     negative = {}
-    values = theta[10 * nv:]
+    values = theta[10 * nv :]
     scale = {}  # per term name; the report lists parameters in column order (not a set's hash order)
     for name in dict.fromkeys(p.term.name for p in params if p.term.nonnegative):
         idx = [k for k, p in enumerate(params) if p.term.name == name]
@@ -173,7 +192,7 @@ def parameter_scale(theta_nominal: np.ndarray, nv: int, nt: int) -> np.ndarray:
     masses = np.array([abs(theta_nominal[10 * i]) for i in range(nv)])
     lengths = []
     for i in range(nv):
-        m, c, _ = com_inertia(theta_nominal[10 * i: 10 * i + 10])
+        m, c, _ = com_inertia(theta_nominal[10 * i : 10 * i + 10])
         lengths.append(float(np.linalg.norm(c)) if m > 0 else 0.0)
     lengths = np.array(lengths) if nv else np.zeros(0)
     big_m = masses.max() if nv else 1.0
@@ -183,6 +202,6 @@ def parameter_scale(theta_nominal: np.ndarray, nv: int, nt: int) -> np.ndarray:
         M = max(masses[i], 0.01 * big_m, 1e-3)
         L = max(lengths[i], 0.05, 0.1 * big_l)
         scale[10 * i] = M
-        scale[10 * i + 1: 10 * i + 4] = M * L
-        scale[10 * i + 4: 10 * i + 10] = M * L * L
+        scale[10 * i + 1 : 10 * i + 4] = M * L
+        scale[10 * i + 4 : 10 * i + 10] = M * L * L
     return scale

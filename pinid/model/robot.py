@@ -85,14 +85,18 @@ def _check_joint_elements(root: ET.Element, path: Path) -> None:
     with two parent joints, a zero axis, lower limit above the upper one (mimic joints: :func:`_check_mimics`)."""
     joints = root.findall("joint")
     if len(joints) > MAX_URDF_JOINTS:
-        raise ModelError(f"{path}: {len(joints)} joints, more than pinid accepts ({MAX_URDF_JOINTS}); expected a robot URDF")
+        raise ModelError(
+            f"{path}: {len(joints)} joints, more than pinid accepts ({MAX_URDF_JOINTS}); expected a robot URDF"
+        )
     parent_of: dict[str, str] = {}
     for j in joints:
         name = j.get("name", "?")
         child = j.find("child")
         if child is not None and child.get("link") in parent_of:
-            raise ModelError(f"{path}: link '{child.get('link')}' is the child of joints '{parent_of[child.get('link')]}' "
-                             f"and '{name}'; expected a tree (one parent joint per link, no closed loops)")
+            raise ModelError(
+                f"{path}: link '{child.get('link')}' is the child of joints '{parent_of[child.get('link')]}' "
+                f"and '{name}'; expected a tree (one parent joint per link, no closed loops)"
+            )
         if child is not None:
             parent_of[child.get("link")] = name
         if j.get("type") in ("fixed", "floating", "planar"):
@@ -104,7 +108,9 @@ def _check_joint_elements(root: ET.Element, path: Path) -> None:
             except ValueError:
                 xyz = []  # urdfdom says what is wrong with it
             if len(xyz) == 3 and not np.linalg.norm(xyz) > 1e-12:
-                raise ModelError(f"{path}: joint '{name}' has axis xyz=\"{axis.get('xyz')}\"; expected a non-zero direction")
+                raise ModelError(
+                    f"{path}: joint '{name}' has axis xyz=\"{axis.get('xyz')}\"; expected a non-zero direction"
+                )
         limit = j.find("limit")
         if limit is not None and j.get("type") != "continuous":
             try:
@@ -112,8 +118,10 @@ def _check_joint_elements(root: ET.Element, path: Path) -> None:
             except ValueError:
                 continue  # urdfdom says what is wrong with it
             if lo > hi:
-                raise ModelError(f"{path}: joint '{name}' has lower limit {lo:g} above its upper limit {hi:g}; "
-                                 "expected lower <= upper")
+                raise ModelError(
+                    f"{path}: joint '{name}' has lower limit {lo:g} above its upper limit {hi:g}; "
+                    "expected lower <= upper"
+                )
 
 
 def _check_mimics(text: str, active: Sequence[str], path: Path) -> None:
@@ -121,8 +129,10 @@ def _check_mimics(text: str, active: Sequence[str], path: Path) -> None:
     for j in ET.fromstring(text).findall("joint"):
         mimic = j.find("mimic")
         if mimic is not None and j.get("name") in active:
-            raise ModelError(f"{path}: mimic joints are not supported: joint '{j.get('name')}' mimics "
-                             f"'{mimic.get('joint')}'; expected independent joints (lock it with --lock)")
+            raise ModelError(
+                f"{path}: mimic joints are not supported: joint '{j.get('name')}' mimics "
+                f"'{mimic.get('joint')}'; expected independent joints (lock it with --lock)"
+            )
 
 
 @contextlib.contextmanager
@@ -212,8 +222,10 @@ class RobotModel:
             raise ModelError(f"urdf: got {type(urdf).__name__}, expected a URDF path or a robot name")
         if joints is not None and (isinstance(joints, str) or not all(isinstance(j, str) for j in joints)):
             raise JointError(f"joints {joints!r}: expected a list of joint names")
-        if locked is not None and (not isinstance(locked, Mapping) or not all(
-                isinstance(v, numbers.Real) and not isinstance(v, bool) for v in locked.values())):
+        if locked is not None and (
+            not isinstance(locked, Mapping)
+            or not all(isinstance(v, numbers.Real) and not isinstance(v, bool) for v in locked.values())
+        ):
             raise JointError(f"locked {locked!r}: expected {{joint name: value [rad or m]}}")
         path, preset_locked = resolve_robot(urdf)
         text = _read_urdf_text(path)
@@ -225,9 +237,9 @@ class RobotModel:
                 failure = exc
         said = [ln.strip() for ln in printed.getvalue().splitlines() if ln.strip().startswith("Error:")]
         if failure is None and said:  # urdfdom drops what it cannot parse (e.g. a NaN mass) and says so
-            raise ModelError(f"{path}: not a valid URDF ({said[0][len('Error:'):].strip()})")
+            raise ModelError(f"{path}: not a valid URDF ({said[0][len('Error:') :].strip()})")
         if failure is not None:
-            msg = said[0][len("Error:"):].strip() if said else (str(failure).strip().splitlines() or [""])[0]
+            msg = said[0][len("Error:") :].strip() if said else (str(failure).strip().splitlines() or [""])[0]
             raise ModelError(f"{path}: not a valid URDF ({msg or type(failure).__name__})") from None
         lock = {k: v for k, v in preset_locked.items() if k not in (joints or ())}
         lock.update(locked or {})
@@ -283,8 +295,15 @@ class RobotModel:
         model.damping[:] = 0.0
         model.friction[:] = 0.0
         infos = [_joint_info(model, model.getJointId(n)) for n in active]
-        robot = cls(model, infos, coulomb=coul, viscous=visc, urdf_path=path, urdf_text=text,
-                    locked={k: v for k, v in lock.items() if k not in active})
+        robot = cls(
+            model,
+            infos,
+            coulomb=coul,
+            viscous=visc,
+            urdf_path=path,
+            urdf_text=text,
+            locked={k: v for k, v in lock.items() if k not in active},
+        )
         from pinid.model.drives import Drives, urdf_transmissions
 
         transmissions = urdf_transmissions(text, active, path.name)
@@ -338,7 +357,9 @@ class RobotModel:
         try:
             return self.joint_names.index(name)
         except ValueError:
-            raise JointError(f"joint '{name}' is not an active joint (active joints: {', '.join(self.joint_names)})") from None
+            raise JointError(
+                f"joint '{name}' is not an active joint (active joints: {', '.join(self.joint_names)})"
+            ) from None
 
     @property
     def inertial_names(self) -> list[str]:
@@ -354,16 +375,21 @@ class RobotModel:
     def with_inertial_parameters(self, theta: np.ndarray, *, coulomb=None, viscous=None) -> "RobotModel":
         """A copy of this model with other inertial parameters (and optionally friction)."""
         theta = as_vector(theta, "theta", 10 * self.nv, f"inertial parameters (10 per joint of {self.joint_names})")
-        coulomb, viscous = (None if v is None else as_state(v, name, self.joint_names)
-                            for name, v in (("coulomb", coulomb), ("viscous", viscous)))
+        coulomb, viscous = (
+            None if v is None else as_state(v, name, self.joint_names)
+            for name, v in (("coulomb", coulomb), ("viscous", viscous))
+        )
         model = pin.Model(self.pin_model)
         for i in range(self.nv):
             model.inertias[i + 1] = pin.Inertia.FromDynamicParameters(theta[10 * i : 10 * i + 10])
         out = RobotModel(
-            model, self.joints,
+            model,
+            self.joints,
             coulomb=self.coulomb if coulomb is None else coulomb,
             viscous=self.viscous if viscous is None else viscous,
-            urdf_path=self.urdf_path, urdf_text=self.urdf_text, locked=self.locked,
+            urdf_path=self.urdf_path,
+            urdf_text=self.urdf_text,
+            locked=self.locked,
         )
         out.drives = self.drives
         out.stribeck = dict(self.stribeck)
@@ -388,10 +414,13 @@ class RobotModel:
         same_length(q=q, dq=dq, ddq=ddq)
         if one:
             return pin.rnea(self.pin_model, self._data, self.configuration(q[0]), dq[0], ddq[0]).copy()
-        return np.array([pin.rnea(self.pin_model, self._data, self.configuration(a), b, c).copy()
-                         for a, b, c in zip(q, dq, ddq)])
+        return np.array(
+            [pin.rnea(self.pin_model, self._data, self.configuration(a), b, c).copy() for a, b, c in zip(q, dq, ddq)]
+        )
 
-    def random_states(self, n: int, rng: np.random.Generator, *, acceleration: float = 5.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def random_states(
+        self, n: int, rng: np.random.Generator, *, acceleration: float = 5.0
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``n`` random (q, dq, ddq) inside the position and velocity limits; |ddq| ≤ ``acceleration``."""
         n = count(n, "n", low=1)
         acceleration = number(acceleration, "acceleration", low=0)
@@ -410,8 +439,10 @@ class RobotModel:
 def as_robot(model) -> RobotModel:
     """``model`` if it is a RobotModel; ModelError naming what was expected otherwise."""
     if not isinstance(model, RobotModel):
-        raise ModelError(f"model: got {type(model).__name__}, expected a pinid RobotModel "
-                         "(pinid.RobotModel.from_urdf(path or robot name))")
+        raise ModelError(
+            f"model: got {type(model).__name__}, expected a pinid RobotModel "
+            "(pinid.RobotModel.from_urdf(path or robot name))"
+        )
     return model
 
 
@@ -429,15 +460,18 @@ def _check_inertias(model: pin.Model, path: Path) -> None:
         if not np.all(np.isfinite(p)):
             raise ModelError(f"{path}: the body moved by joint '{name}' has a NaN or infinite <inertial> value")
         if p[0] < 0 or p[0] > MAX_BODY_MASS:
-            raise ModelError(f"{path}: the body moved by joint '{name}' has mass {p[0]:.3g} kg; "
-                             f"expected 0 to {MAX_BODY_MASS:.0e} kg")
+            raise ModelError(
+                f"{path}: the body moved by joint '{name}' has mass {p[0]:.3g} kg; expected 0 to {MAX_BODY_MASS:.0e} kg"
+            )
         e = np.linalg.eigvalsh(model.inertias[jid].inertia)
         tol = INERTIA_TOL * abs(e).sum() + 1e-12
         if e[0] < -tol or e[0] + e[1] < e[2] - tol:
             why = "a negative principal moment" if e[0] < -tol else "one moment larger than the sum of the other two"
-            raise ModelError(f"{path}: the body moved by joint '{name}' has principal moments of inertia "
-                             f"{e[0]:.3g}, {e[1]:.3g}, {e[2]:.3g} kg·m² ({why}); expected a physical inertia "
-                             "(moments >= 0, each at most the sum of the other two)")
+            raise ModelError(
+                f"{path}: the body moved by joint '{name}' has principal moments of inertia "
+                f"{e[0]:.3g}, {e[1]:.3g}, {e[2]:.3g} kg·m² ({why}); expected a physical inertia "
+                "(moments >= 0, each at most the sum of the other two)"
+            )
 
 
 def _joint_info(model: pin.Model, jid: int) -> JointInfo:
@@ -455,7 +489,10 @@ def _joint_info(model: pin.Model, jid: int) -> JointInfo:
     vel = float(model.velocityLimit[j.idx_v])
     eff = float(model.effortLimit[j.idx_v])
     return JointInfo(  # a zero velocity or effort limit is read as "not given" too
-        name=model.names[jid], kind=kind, lower=lo, upper=hi,
+        name=model.names[jid],
+        kind=kind,
+        lower=lo,
+        upper=hi,
         velocity=np.inf if (vel > _UNBOUNDED or vel <= 0) else vel,
         effort=np.inf if (eff > _UNBOUNDED or eff <= 0) else eff,
     )

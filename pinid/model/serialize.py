@@ -21,13 +21,25 @@ def robot_to_dict(model: RobotModel, terms: JointTerms) -> dict:
     """``{"name", "urdf", "joints", "locked", "terms", "urdf_text", "drives"}`` of a model and its terms, and
     ``"stribeck"`` ``{term: {"velocity", "shape"}}`` when the model sets Stribeck shapes, ``"passive_exponents"``
     ``{anatomical joint: (terms, 4) list}`` when it sets the wearer's passive-moment exponents."""
-    return {"name": model.name, "urdf": None if model.urdf_path is None else str(model.urdf_path),
-            "joints": model.joint_names, "locked": dict(model.locked), "terms": terms.names,
-            "urdf_text": model.urdf_text, "drives": None if model.drives is None else model.drives.to_dict(),
-            **({"stribeck": {k: {"velocity": s.velocity, "shape": s.shape} for k, s in model.stribeck.items()}}
-               if model.stribeck else {}),
-            **({"passive_exponents": {k: np.asarray(c).tolist() for k, c in model.passive_exponents.items()}}
-               if model.passive_exponents else {})}
+    return {
+        "name": model.name,
+        "urdf": None if model.urdf_path is None else str(model.urdf_path),
+        "joints": model.joint_names,
+        "locked": dict(model.locked),
+        "terms": terms.names,
+        "urdf_text": model.urdf_text,
+        "drives": None if model.drives is None else model.drives.to_dict(),
+        **(
+            {"stribeck": {k: {"velocity": s.velocity, "shape": s.shape} for k, s in model.stribeck.items()}}
+            if model.stribeck
+            else {}
+        ),
+        **(
+            {"passive_exponents": {k: np.asarray(c).tolist() for k, c in model.passive_exponents.items()}}
+            if model.passive_exponents
+            else {}
+        ),
+    }
 
 
 def robot_from_dict(d: dict) -> tuple[RobotModel, JointTerms]:
@@ -35,14 +47,16 @@ def robot_from_dict(d: dict) -> tuple[RobotModel, JointTerms]:
     naming the field that is missing or of the wrong type."""
     if not isinstance(d, dict):
         raise SpecError(f"saved robot: 'robot' is {type(d).__name__}, expected a JSON object")
-    for key, kinds, expected in (("terms", (list,), "a list of term names"),
-                                 ("joints", (list, type(None)), "a list of joint names or null"),
-                                 ("locked", (dict, type(None)), "an object JOINT: value or null"),
-                                 ("urdf_text", (str, type(None)), "the URDF text or null"),
-                                 ("urdf", (str, type(None)), "a URDF path or null"),
-                                 ("drives", (dict, type(None)), "an object or null"),
-                                 ("stribeck", (dict, type(None)), "an object TERM: {velocity, shape} or null"),
-                                 ("passive_exponents", (dict, type(None)), "an object JOINT: exponent rows or null")):
+    for key, kinds, expected in (
+        ("terms", (list,), "a list of term names"),
+        ("joints", (list, type(None)), "a list of joint names or null"),
+        ("locked", (dict, type(None)), "an object JOINT: value or null"),
+        ("urdf_text", (str, type(None)), "the URDF text or null"),
+        ("urdf", (str, type(None)), "a URDF path or null"),
+        ("drives", (dict, type(None)), "an object or null"),
+        ("stribeck", (dict, type(None)), "an object TERM: {velocity, shape} or null"),
+        ("passive_exponents", (dict, type(None)), "an object JOINT: exponent rows or null"),
+    ):
         if key == "terms" and key not in d:
             raise SpecError("saved robot: no 'terms', expected a list of term names")
         if not isinstance(d.get(key), kinds):
@@ -73,8 +87,10 @@ def stribeck_from_dict(d: dict, origin: str) -> dict[str, Stribeck]:
     out = {}
     for name, v in d.items():
         if name not in STRIBECK_TERMS or not isinstance(v, dict) or set(v) - {"velocity", "shape"}:
-            raise SpecError(f"{origin}: {name!r}: {v!r}, expected one of {list(STRIBECK_TERMS)}: "
-                            "{velocity: number > 0, shape: number > 0}")
+            raise SpecError(
+                f"{origin}: {name!r}: {v!r}, expected one of {list(STRIBECK_TERMS)}: "
+                "{velocity: number > 0, shape: number > 0}"
+            )
         try:
             out[name] = Stribeck(**v)
         except SpecError as exc:

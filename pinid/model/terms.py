@@ -83,27 +83,90 @@ def _coulomb_plant(values: np.ndarray, m: Motion, vs: float) -> np.ndarray:
     return values * np.tanh(m.dq / vs)
 
 
-register(Term("fc", "fc", "Coulomb friction", "N·m", lambda m: np.sign(m.dq), nonnegative=True,
-              nominal=lambda r: r.coulomb, field="friction", plant=_coulomb_plant, velocity_step=True))
-register(Term("fv", "fv", "viscous friction", "N·m·s/rad", lambda m: m.dq, nonnegative=True,
-              nominal=lambda r: r.viscous, field="damping"))
+register(
+    Term(
+        "fc",
+        "fc",
+        "Coulomb friction",
+        "N·m",
+        lambda m: np.sign(m.dq),
+        nonnegative=True,
+        nominal=lambda r: r.coulomb,
+        field="friction",
+        plant=_coulomb_plant,
+        velocity_step=True,
+    )
+)
+register(
+    Term(
+        "fv",
+        "fv",
+        "viscous friction",
+        "N·m·s/rad",
+        lambda m: m.dq,
+        nonnegative=True,
+        nominal=lambda r: r.viscous,
+        field="damping",
+    )
+)
 register(Term("offset", "offset", "constant torque", "N·m", lambda m: np.ones_like(m.dq)))
 register(Term("armature", "armature", "rotor inertia", "kg·m²", lambda m: m.ddq, nonnegative=True, inertia=True))
 
-register(Term("fc_pos", "fc_pos", "Coulomb friction, positive velocity", "N·m", lambda m: (m.dq > 0).astype(float),
-              nonnegative=True, plant=lambda v, m, vs: v * np.maximum(np.tanh(m.dq / vs), 0.0), velocity_step=True))
-register(Term("fc_neg", "fc_neg", "Coulomb friction, negative velocity", "N·m", lambda m: -(m.dq < 0).astype(float),
-              nonnegative=True, plant=lambda v, m, vs: v * np.minimum(np.tanh(m.dq / vs), 0.0), velocity_step=True))
+register(
+    Term(
+        "fc_pos",
+        "fc_pos",
+        "Coulomb friction, positive velocity",
+        "N·m",
+        lambda m: (m.dq > 0).astype(float),
+        nonnegative=True,
+        plant=lambda v, m, vs: v * np.maximum(np.tanh(m.dq / vs), 0.0),
+        velocity_step=True,
+    )
+)
+register(
+    Term(
+        "fc_neg",
+        "fc_neg",
+        "Coulomb friction, negative velocity",
+        "N·m",
+        lambda m: -(m.dq < 0).astype(float),
+        nonnegative=True,
+        plant=lambda v, m, vs: v * np.minimum(np.tanh(m.dq / vs), 0.0),
+        velocity_step=True,
+    )
+)
 
-register(Term("passive", "kp", "wearer passive moment (scale of Riener & Edrich 1999)", "1",
-              lambda m: passive.column(m.q, m.robot), static=True,
-              nominal=lambda r: np.array([1.0 if kind else 0.0 for kind, _ in passive.anatomy(r)])))
+register(
+    Term(
+        "passive",
+        "kp",
+        "wearer passive moment (scale of Riener & Edrich 1999)",
+        "1",
+        lambda m: passive.column(m.q, m.robot),
+        static=True,
+        nominal=lambda r: np.array([1.0 if kind else 0.0 for kind, _ in passive.anatomy(r)]),
+    )
+)
 
 for _base in ("fc", "fv", "offset", "armature", "fc_pos", "fc_neg"):
     _t = TERMS[_base]
-    register(Term(f"motor_{_base}", _base, f"motor {_t.label}", _t.unit, _t.column, space="motor",
-                  nonnegative=_t.nonnegative, nominal=lambda r, s=_base: r.drives.nominal(s), field=_base,
-                  inertia=_t.inertia, plant=_t.plant, velocity_step=_t.velocity_step))
+    register(
+        Term(
+            f"motor_{_base}",
+            _base,
+            f"motor {_t.label}",
+            _t.unit,
+            _t.column,
+            space="motor",
+            nonnegative=_t.nonnegative,
+            nominal=lambda r, s=_base: r.drives.nominal(s),
+            field=_base,
+            inertia=_t.inertia,
+            plant=_t.plant,
+            velocity_step=_t.velocity_step,
+        )
+    )
 
 
 # ---------------------------------------------------------------------------------------------- Stribeck
@@ -128,7 +191,7 @@ class Stribeck:
 
     def factor(self, v: np.ndarray) -> np.ndarray:
         """``exp(−(|v|/velocity)^shape)``: 1 at rest, → 0 at speed."""
-        return np.exp(-(np.abs(v) / self.velocity) ** self.shape)
+        return np.exp(-((np.abs(v) / self.velocity) ** self.shape))
 
 
 def stribeck(robot, name: str) -> Stribeck:
@@ -139,6 +202,7 @@ def stribeck(robot, name: str) -> Stribeck:
 
 def _stribeck_term(name: str, space: str) -> Term:
     """The Stribeck term ``name`` of ``space``: column sign(v)·exp(−(|v|/v_s)^δ), plant tanh(v/smoothing)·(…)."""
+
     def column(m: Motion) -> np.ndarray:
         return np.sign(m.dq) * stribeck(m.robot, name).factor(m.dq)
 
@@ -146,9 +210,18 @@ def _stribeck_term(name: str, space: str) -> Term:
         return values * np.tanh(m.dq / vs) * stribeck(m.robot, name).factor(m.dq)
 
     motor = space == "motor"
-    return Term(name, "fs", "motor Stribeck friction" if motor else "Stribeck friction", "N·m", column, space=space,
-                nonnegative=True, nominal=(lambda r: r.drives.nominal("fs")) if motor else None,
-                field="fs" if motor else None, plant=plant)
+    return Term(
+        name,
+        "fs",
+        "motor Stribeck friction" if motor else "Stribeck friction",
+        "N·m",
+        column,
+        space=space,
+        nonnegative=True,
+        nominal=(lambda r: r.drives.nominal("fs")) if motor else None,
+        field="fs" if motor else None,
+        plant=plant,
+    )
 
 
 register(_stribeck_term("fs", "joint"))
@@ -170,8 +243,15 @@ class JointTerms:
 
     __slots__ = ("_names",)
 
-    def __init__(self, coulomb: bool = True, viscous: bool = True, offset: bool = False, armature: bool = False,
-                 *, names: Iterable[str] | None = None) -> None:
+    def __init__(
+        self,
+        coulomb: bool = True,
+        viscous: bool = True,
+        offset: bool = False,
+        armature: bool = False,
+        *,
+        names: Iterable[str] | None = None,
+    ) -> None:
         if names is None:
             flags = (coulomb, viscous, offset, armature)
             names = [n for n, on in zip(JOINT_TERM_NAMES, flags) if on]
@@ -189,7 +269,7 @@ class JointTerms:
         if isinstance(names, str):
             names = [n.strip() for n in names.split(",") if n.strip() and n.strip() != "none"]
         elif not isinstance(names, (list, tuple)):
-            raise SpecError(f"terms {names!r}: expected \"fc,fv\" or a list of term names, some of {list(TERMS)}")
+            raise SpecError(f'terms {names!r}: expected "fc,fv" or a list of term names, some of {list(TERMS)}')
         return cls(names=names)
 
     @property
@@ -264,7 +344,9 @@ def robot_layout(robot, terms: JointTerms) -> list[TermParameter]:
     try:
         return layout(robot.joint_names, _motors(robot), terms)
     except ValueError as exc:
-        raise ModelError(f"{robot.name}: {exc}; give the robot's transmissions (URDF <transmission> or --drives FILE)") from None
+        raise ModelError(
+            f"{robot.name}: {exc}; give the robot's transmissions (URDF <transmission> or --drives FILE)"
+        ) from None
 
 
 def count(robot, terms: JointTerms) -> int:
@@ -280,7 +362,9 @@ def parameter_names(robot, terms: JointTerms) -> list[str]:
 def nominal(robot, terms: JointTerms) -> np.ndarray:
     """Nominal term values: the robot's own (URDF ``<dynamics>``, drives file) where it has them, else 0."""
     layout_ = robot_layout(robot, terms)
-    cache = {t.name: (np.asarray(t.nominal(robot), dtype=float) if t.nominal else None) for t in {p.term for p in layout_}}
+    cache = {
+        t.name: (np.asarray(t.nominal(robot), dtype=float) if t.nominal else None) for t in {p.term for p in layout_}
+    }
     return np.array([0.0 if cache[p.term.name] is None else cache[p.term.name][p.index] for p in layout_])
 
 
@@ -297,8 +381,9 @@ def motion(robot, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray, space: str = "
     return Motion(q @ G.T, dq @ G.T, ddq @ G.T, robot.drives.motor_names, robot)
 
 
-def columns(robot, terms: JointTerms, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray,
-            out: np.ndarray | None = None) -> np.ndarray:
+def columns(
+    robot, terms: JointTerms, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray, out: np.ndarray | None = None
+) -> np.ndarray:
     """Regressor columns of the terms, (N, nv, count) for (N, nv) joint motion (vectorised over samples);
     written into ``out`` (a zeroed (N, nv, count) array or view) when given."""
     n, nv = q.shape
@@ -335,8 +420,16 @@ def values(robot, terms: JointTerms, theta_terms: np.ndarray) -> dict[str, np.nd
     return out
 
 
-def torque(robot, terms: JointTerms, theta_terms: np.ndarray | dict[str, np.ndarray], q, dq, ddq, *,
-           smoothing: float | None = None) -> np.ndarray:
+def torque(
+    robot,
+    terms: JointTerms,
+    theta_terms: np.ndarray | dict[str, np.ndarray],
+    q,
+    dq,
+    ddq,
+    *,
+    smoothing: float | None = None,
+) -> np.ndarray:
     """Joint torque (N, nv) [N·m] of the terms with values ``theta_terms`` (the term block, or its
     :func:`values` dict): joint terms plus ``Gᵀ·``(motor terms); with ``smoothing`` [rad/s] each term's
     plant law (e.g. Coulomb ``fc·tanh(dq/v_s)``)."""
@@ -366,15 +459,20 @@ def _spec_items(spec, names: Sequence[str], what: str) -> dict[str, object]:
     else:
         items = {n: spec for n in names}
     if not names:
-        raise SpecError(f"Stribeck {what} given, but no Stribeck term is selected: add one of "
-                        f"{list(STRIBECK_TERMS)} to the terms")
+        raise SpecError(
+            f"Stribeck {what} given, but no Stribeck term is selected: add one of {list(STRIBECK_TERMS)} to the terms"
+        )
     bad = [k for k in items if k not in names]
     if bad:
-        raise SpecError(f"Stribeck {what} for {bad}: expected Stribeck term(s) selected in the terms ({', '.join(names)})")
+        raise SpecError(
+            f"Stribeck {what} for {bad}: expected Stribeck term(s) selected in the terms ({', '.join(names)})"
+        )
     return items
 
 
-def stribeck_settings(robot, terms: JointTerms, velocity=None, shape=None) -> tuple[dict[str, Stribeck], dict[str, bool]]:
+def stribeck_settings(
+    robot, terms: JointTerms, velocity=None, shape=None
+) -> tuple[dict[str, Stribeck], dict[str, bool]]:
     """``({term: Stribeck}, {term whose velocity is fitted: its shape is fitted too})`` for the selected
     Stribeck terms.
 
@@ -391,8 +489,10 @@ def stribeck_settings(robot, terms: JointTerms, velocity=None, shape=None) -> tu
         for name, value in _spec_items(spec, names, what).items():
             if isinstance(value, str) and value.strip() == "auto":
                 if what == "shape" and name not in auto:
-                    raise SpecError(f"Stribeck shape of {name} 'auto': fitted only with the velocity 'auto' "
-                                    "(--stribeck-velocity auto), else expected a number > 0")
+                    raise SpecError(
+                        f"Stribeck shape of {name} 'auto': fitted only with the velocity 'auto' "
+                        "(--stribeck-velocity auto), else expected a number > 0"
+                    )
                 auto[name] = what == "shape"
                 continue
             try:
@@ -400,7 +500,10 @@ def stribeck_settings(robot, terms: JointTerms, velocity=None, shape=None) -> tu
             except (TypeError, ValueError):
                 number = None
             if number is None or not np.isfinite(number) or number <= 0:
-                raise SpecError(f"Stribeck {what} of {name} {value!r}, expected a number > 0"
-                                + (" [rad/s]" if what == "velocity" else "") + " or 'auto'")
+                raise SpecError(
+                    f"Stribeck {what} of {name} {value!r}, expected a number > 0"
+                    + (" [rad/s]" if what == "velocity" else "")
+                    + " or 'auto'"
+                )
             out[name] = Stribeck(**{**out[name].__dict__, what: number})
     return out, auto

@@ -44,5 +44,17 @@ def get_optimizer(name: str, options=None, **kw) -> Optimizer:
     return cls(options, **kw)
 
 
-__all__ = ["DEOptions", "DifferentialEvolution", "EWOA", "EWOAOptions", "OPTIMIZERS", "OptimizeResult",
-           "Optimizer", "PSO", "PSOOptions", "WOA", "WOAOptions", "get_optimizer"]
+__all__ = [
+    "DEOptions",
+    "DifferentialEvolution",
+    "EWOA",
+    "EWOAOptions",
+    "OPTIMIZERS",
+    "OptimizeResult",
+    "Optimizer",
+    "PSO",
+    "PSOOptions",
+    "WOA",
+    "WOAOptions",
+    "get_optimizer",
+]

@@ -54,9 +54,16 @@ class OptimizeResult:
 
     def to_dict(self) -> dict:
         """Plain-dict form (JSON-serialisable)."""
-        return {"x": self.x.tolist(), "fun": float(self.fun), "history": [float(h) for h in self.history],
-                "nfev": int(self.nfev), "nit": int(self.nit), "seconds": float(self.seconds),
-                "message": self.message, **self.extra}
+        return {
+            "x": self.x.tolist(),
+            "fun": float(self.fun),
+            "history": [float(h) for h in self.history],
+            "nfev": int(self.nfev),
+            "nit": int(self.nit),
+            "seconds": float(self.seconds),
+            "message": self.message,
+            **self.extra,
+        }
 
 
 class _Counted:
@@ -69,8 +76,9 @@ class _Counted:
         X = np.ascontiguousarray(X, dtype=float)
         values = np.asarray(self.fun(X), dtype=float).reshape(-1)
         if values.shape != (len(X),):
-            raise SolverError(f"objective returned shape {values.shape} for a population of {len(X)}, "
-                              f"expected ({len(X)},)")
+            raise SolverError(
+                f"objective returned shape {values.shape} for a population of {len(X)}, expected ({len(X)},)"
+            )
         self.nfev += len(X)
         return np.where(np.isnan(values), np.inf, values)
 
@@ -90,7 +98,9 @@ class Optimizer(ABC):
             except TypeError:
                 known = [f.name for f in dataclasses.fields(self.Options)]
                 bad = [k for k in kw if k not in known]
-                raise SpecError(f"{self.name}: unknown option(s) {', '.join(bad)} (options: {', '.join(known)})") from None
+                raise SpecError(
+                    f"{self.name}: unknown option(s) {', '.join(bad)} (options: {', '.join(known)})"
+                ) from None
         elif kw:
             options = self._replace(options, kw)
         if not isinstance(options, self.Options):
@@ -154,16 +164,25 @@ class Optimizer(ABC):
         f = _Counted(fun_batch, lower.size)
         start = time.perf_counter()
         x, fun, history, nit, message, extra = self._minimize(f, lower, upper, rng, x0, callback, progress)
-        return OptimizeResult(np.asarray(x, float).copy(), float(fun), np.asarray(history, float), f.nfev, nit,
-                              time.perf_counter() - start, message, extra)
+        return OptimizeResult(
+            np.asarray(x, float).copy(),
+            float(fun),
+            np.asarray(history, float),
+            f.nfev,
+            nit,
+            time.perf_counter() - start,
+            message,
+            extra,
+        )
 
     @abstractmethod
     def _minimize(self, f, lower, upper, rng, x0, callback, progress):
         """Run the method; return ``(x, fun, history, nit, message, extra)``."""
 
 
-def initial_population(rng: np.random.Generator, n: int, lower: np.ndarray, upper: np.ndarray,
-                       x0: np.ndarray | None) -> np.ndarray:
+def initial_population(
+    rng: np.random.Generator, n: int, lower: np.ndarray, upper: np.ndarray, x0: np.ndarray | None
+) -> np.ndarray:
     """``n`` points uniform in the box (seed 000 Eq. (7)), the first rows replaced by ``x0`` if given."""
     X = lower + rng.random((n, lower.size)) * (upper - lower)
     if x0 is not None:

@@ -78,9 +78,21 @@ class DifferentialEvolution(Optimizer):
         kwargs = {seed_kw: np.random.default_rng(rng.integers(2**63))}
         try:
             res = differential_evolution(
-                batch, list(zip(lower, upper)), strategy=o.strategy, maxiter=G, popsize=1, tol=o.tol, atol=0.0,
-                mutation=o.mutation, recombination=o.recombination, polish=o.polish, init=init, callback=cb,
-                vectorized=True, updating="deferred", **kwargs,
+                batch,
+                list(zip(lower, upper)),
+                strategy=o.strategy,
+                maxiter=G,
+                popsize=1,
+                tol=o.tol,
+                atol=0.0,
+                mutation=o.mutation,
+                recombination=o.recombination,
+                polish=o.polish,
+                init=init,
+                callback=cb,
+                vectorized=True,
+                updating="deferred",
+                **kwargs,
             )
         finally:
             bar.close()

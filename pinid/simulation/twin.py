@@ -49,6 +49,7 @@ from __future__ import annotations
 
 import math
 import warnings
+from dataclasses import dataclass, replace
 from pathlib import Path
 from collections.abc import Sequence
 
@@ -306,49 +307,126 @@ class Plant:
         return a, q + (0.5 * h) * (v + v_new), v_new
 
 
+@dataclass(frozen=True)
+class Rates:
+    """The twin's clocks [Hz]: the controller's ``control`` rate, the recording's ``sample`` rate (default
+    the control rate) and the ``integration`` grid (default the smallest common multiple of both ≥ 2 kHz)."""
+
+    control: float = 1000.0
+    sample: float | None = None
+    integration: float | None = None
+
+
+@dataclass(frozen=True)
+class Controller:
+    """The twin's joint controller (module text): ``kind`` "pd" or "pid" with every pole at −2π·``bandwidth``
+    [Hz], or the gains ``kp`` [N·m/rad], ``kd`` [N·m·s/rad], ``ki`` [N·m/(rad·s)] (scalar or per joint);
+    ``feedforward`` "model" (inverse dynamics of ``feedforward_model``, default the truth), "gravity" or
+    "none"; ``velocity_cutoff`` [Hz] of the low-pass on the differentiated positions."""
+
+    kind: str = "pd"
+    bandwidth: float = 4.0
+    kp: float | Sequence[float] | None = None
+    kd: float | Sequence[float] | None = None
+    ki: float | Sequence[float] | None = None
+    feedforward: str = "model"
+    feedforward_model: RobotModel | None = None
+    velocity_cutoff: float = 30.0
+
+
+@dataclass(frozen=True)
+class Friction:
+    """The plant's joint friction: ``coulomb`` [N·m] and ``viscous`` [N·m·s/rad] per joint (default the
+    URDF's ``<dynamics>``), Coulomb smoothed as ``fc·tanh(dq/coulomb_velocity)`` [rad/s]."""
+
+    coulomb: float | Sequence[float] | None = None
+    viscous: float | Sequence[float] | None = None
+    coulomb_velocity: float = 0.01
+
+
+@dataclass(frozen=True)
+class Sensors:
+    """What the rig measures: positions with Gaussian ``position_noise`` [rad] quantised to
+    ``encoder_resolution`` [rad]; torques with Gaussian ``torque_noise`` [N·m] per joint (default
+    ``torque_noise_percent`` % of each joint's peak torque); with ``record_velocity``, velocities with
+    Gaussian ``velocity_noise`` [rad/s]."""
+
+    position_noise: float = 2e-5
+    encoder_resolution: float = 2 * np.pi / 2**16
+    torque_noise: float | Sequence[float] | None = None
+    torque_noise_percent: float = 1.0
+    record_velocity: bool = False
+    velocity_noise: float = 0.01
+
+
+#: The flat keywords :func:`simulate` also takes: which option group and field each one sets.
+_FLAT = {"control_rate": ("rates", "control"), "sample_rate": ("rates", "sample"),
+         "integration_rate": ("rates", "integration"), "bandwidth": ("controller", "bandwidth"),
+         "kp": ("controller", "kp"), "kd": ("controller", "kd"), "ki": ("controller", "ki"),
+         "feedforward": ("controller", "feedforward"), "feedforward_model": ("controller", "feedforward_model"),
+         "velocity_cutoff": ("controller", "velocity_cutoff"),
+         **{k: ("friction", k) for k in ("coulomb", "viscous", "coulomb_velocity")},
+         **{k: ("sensors", k) for k in ("position_noise", "encoder_resolution", "torque_noise", "torque_noise_percent",
+                                         "record_velocity", "velocity_noise")}}
+
+
 def simulate(
     model: RobotModel,
     trajectory: FourierTrajectory,
     *,
     seconds: float,
     seed: int = 0,
-    control_rate: float = 1000.0,
-    sample_rate: float | None = None,
-    integration_rate: float | None = None,
-    controller: str = "pd",
-    bandwidth: float = 4.0,
-    kp=None,
-    kd=None,
-    ki=None,
-    feedforward: str = "model",
-    feedforward_model: RobotModel | None = None,
-    coulomb=None,
-    viscous=None,
-    coulomb_velocity: float = 0.01,
-    position_noise: float = 2e-5,
-    encoder_resolution: float = 2 * np.pi / 2**16,
-    torque_noise=None,
-    torque_noise_percent: float = 1.0,
-    record_velocity: bool = False,
-    velocity_noise: float = 0.01,
-    velocity_cutoff: float = 30.0,
+    rates: Rates | None = None,
+    controller: Controller | str | None = None,
+    friction: Friction | None = None,
+    sensors: Sensors | None = None,
     terms: dict[str, Sequence[float]] | None = None,
     wearer_torque: float = 0.0,
     progress: bool | None = False,
+    **options,
 ) -> tuple[Dataset, dict]:
     """Simulate ``model`` (the truth) tracking ``trajectory`` for ``seconds``; return ``(recording, truth)``.
 
     The recording has t [s], q (measured) [rad], tau (applied plus noise) [N·m], and dq [rad/s] when
-    ``record_velocity``.  ``truth`` is JSON-ready except ``truth["signals"]``, a Dataset of the true
+    recording velocities.  ``truth`` is JSON-ready except ``truth["signals"]``, a Dataset of the true
     q, dq, ddq (instantaneous) and applied torque at the sample times (see :func:`truth_json`).
-    ``coulomb`` / ``viscous`` [N·m, N·m·s/rad]: true friction per joint (default the URDF's
-    ``<dynamics>``, ``model.coulomb`` / ``model.viscous``).  ``terms``: more true joint terms for the plant,
-    ``{term name: per-joint values}`` (see :class:`Plant`; default: the wearer's passive moments at their
-    nominal scale 1 when the URDF carries a wearer, else none).  ``wearer_torque`` [%]: the wearer's
-    involuntary active torque, per joint that percentage of the RMS gravity torque along the trajectory
-    (:func:`wearer_disturbance`); it acts on the plant but is not in the recorded (motor) torque.
-    Other options: see the module docstring.
+    The options come in groups: :class:`Rates`, :class:`Controller` (or its kind, "pd" or "pid"),
+    :class:`Friction` (default the URDF's ``<dynamics>``) and :class:`Sensors`; each field can also be
+    given as a keyword (``bandwidth=8``, ``position_noise=0``, ``control_rate=500``, ``coulomb=…``; the
+    rates as ``control_rate``, ``sample_rate``, ``integration_rate``), which overrides the group's.
+    ``terms``: more true joint terms for the plant, ``{term name: per-joint values}`` (see :class:`Plant`;
+    default: the wearer's passive moments at their nominal scale 1 when the URDF carries a wearer, else
+    none).  ``wearer_torque`` [%]: the wearer's involuntary active torque, per joint that percentage of
+    the RMS gravity torque along the trajectory (:func:`wearer_disturbance`); it acts on the plant but is
+    not in the recorded (motor) torque.  Everything random comes from ``seed``; more in the module text.
     """
+    groups = {"rates": rates or Rates(), "friction": friction or Friction(), "sensors": sensors or Sensors(),
+              "controller": Controller(kind=controller) if isinstance(controller, str) else controller or Controller()}
+    changes: dict[str, dict] = {}
+    for key, value in options.items():
+        if key not in _FLAT:
+            raise TypeError(f"simulate() got an unexpected keyword argument {key!r}")
+        group, name = _FLAT[key]
+        changes.setdefault(group, {})[name] = value
+    r, c, f, s = (replace(groups[g], **changes.get(g, {})) for g in ("rates", "controller", "friction", "sensors"))
+    return _simulate(model, trajectory, seconds=seconds, seed=seed, control_rate=r.control, sample_rate=r.sample,
+                     integration_rate=r.integration, controller=c.kind, bandwidth=c.bandwidth, kp=c.kp, kd=c.kd,
+                     ki=c.ki, feedforward=c.feedforward, feedforward_model=c.feedforward_model,
+                     velocity_cutoff=c.velocity_cutoff, coulomb=f.coulomb, viscous=f.viscous,
+                     coulomb_velocity=f.coulomb_velocity, position_noise=s.position_noise,
+                     encoder_resolution=s.encoder_resolution, torque_noise=s.torque_noise,
+                     torque_noise_percent=s.torque_noise_percent, record_velocity=s.record_velocity,
+                     velocity_noise=s.velocity_noise, terms=terms, wearer_torque=wearer_torque, progress=progress)
+
+
+def _simulate(model: RobotModel, trajectory: FourierTrajectory, *, seconds: float, seed: int, control_rate: float,
+              sample_rate: float | None, integration_rate: float | None, controller: str, bandwidth: float, kp, kd,
+              ki, feedforward: str, feedforward_model: RobotModel | None, velocity_cutoff: float, coulomb, viscous,
+              coulomb_velocity: float, position_noise: float, encoder_resolution: float, torque_noise,
+              torque_noise_percent: float, record_velocity: bool, velocity_noise: float,
+              terms: dict[str, Sequence[float]] | None, wearer_torque: float,
+              progress: bool | None) -> tuple[Dataset, dict]:
+    """:func:`simulate` with every option resolved (one keyword each, as the body uses them)."""
     if not np.isfinite(seconds) or seconds <= 0:
         raise SpecError(f"duration {seconds!r} s, expected a duration > 0")
     if controller not in ("pd", "pid"):
@@ -397,7 +475,7 @@ def simulate(
     if over.size:
         j = int(over[0])
         warnings.warn(f"trajectory reaches {np.max(np.abs(dqd[:, j])):.3g} rad/s on joint '{model.joint_names[j]}', "
-                      f"above its URDF velocity limit {vmax[j]:.3g} rad/s (simulated anyway)", DataWarning, stacklevel=2)
+                      f"above its URDF velocity limit {vmax[j]:.3g} rad/s (simulated anyway)", DataWarning, stacklevel=3)
     pm, pdata = model.pin_model, model.pin_model.createData()
     cont = bool(model._continuous)
     conf = model.configuration if cont else (lambda x: x)

@@ -22,12 +22,15 @@ parameters (per body: table mass, mass × segment length, mass × length²; ``kp
 from __future__ import annotations
 
 import copy
+import os
 import time
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
 from pinid.errors import DataError, SpecError
+from pinid.io import Artefacts, json_text
 from pinid.model.base import base_parameters
 from pinid.model.physical import PSEUDO_INERTIA_BASIS
 from pinid.model.regressor import JointTerms, parameter_names, regressor
@@ -207,3 +210,54 @@ def identify_wearer(exo, prior_urdf, q: np.ndarray, dq: np.ndarray, ddq: np.ndar
 def stack(datasets) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """``(q, dq, ddq, tau)`` of recordings (Datasets with all four), their samples stacked, (N, nv) each."""
     return tuple(np.vstack([getattr(d, k) for d in datasets]) for k in ("q", "dq", "ddq", "tau"))
+
+
+def stage_summary(fit: WearerFit, exo: str | os.PathLike, train, validation=None) -> dict:
+    """What ``pinid identify --stage wearer`` writes as ``identification.json``: the stage, the stage-1
+    model's path ``exo``, the URDF, :meth:`WearerFit.to_dict` and the torque RMS errors [N·m] of the three
+    models on the ``train`` and ``validation`` datasets (None without)."""
+    return {"stage": "wearer", "exo": exo, "urdf": str(fit.robot.urdf_path), **fit.to_dict(),
+            "train_rms": fit.rms(train), "validation_rms": fit.rms(validation) if validation else None}
+
+
+def stage_text(fit: WearerFit, summary: dict) -> str:
+    """A stage-2 fit as text: status and time, each base parameter identified and from the table, and the
+    RMS errors of :func:`stage_summary`."""
+    width = max(len(n) for n in fit.base_names)
+    lines = [f"stage 2 (wearer) of {fit.robot.name}: status {fit.status}, {fit.seconds:.2f} s",
+             f"   {'base parameter':<{width}} {'identified':>13} {'table':>13}"]
+    if fit.exponents is not None:
+        e = fit.exponents
+        lines.insert(1, f"   passive exponents: {len(e.free)} fitted in {e.evaluations} evaluations ({e.seconds:.2f} s); "
+                        f"torque RMS {e.rms_published:.4g} N·m at the published, {e.rms_fitted:.4g} at the fitted")
+    lines += [f"   {n:<{width}} {v:13.6g} {t:13.6g}" for n, v, t in zip(fit.base_names, fit.base, fit.base_table)]
+    for kind in ("train_rms", "validation_rms"):
+        if summary[kind]:
+            lines.append(f"   {kind.replace('_', ' ')} [N·m]: " + "; ".join(
+                f"{w} " + ", ".join(f"{j} {v:.4g}" for j, v in r.items()) for w, r in summary[kind].items()))
+    return "\n".join(lines)
+
+
+def write_stage(fit: WearerFit, summary: dict, folder: str | os.PathLike, *, shown=None, report: bool = True,
+                figures: bool = True, overwrite: bool | None = None) -> list[Path]:
+    """Write ``identification.json`` (``summary``), ``model_wearer.json`` and ``model_table.json`` (the exo +
+    identified / table wearer as IdentifiedModels) and, with ``report``, report.md, report.html and the
+    torque figure on the first of the ``shown`` datasets ((kind, datasets): validation, else training)
+    into ``folder``, all or nothing; a ``--force`` re-run leaves no stale report; returns the paths."""
+    from pinid.report.wearer import WEARER_REPORT_FILES, wearer_report_files
+
+    out = Path(folder)
+    arts = Artefacts(overwrite=overwrite)
+    arts.add(out / "identification.json", json_text(summary))
+    arts.add(out / "model_wearer.json", json_text(fit.model("identified").to_dict()))
+    arts.add(out / "model_table.json", json_text(fit.model("table").to_dict()))
+    if report and shown:
+        kind, datasets = shown
+        q, dq, ddq, tau = stack(datasets[:1])
+        curves = {"t": datasets[0].t, "measured": tau, "joints": fit.robot.joint_names, "kind": kind,
+                  "source": Path(str(datasets[0].source)).name,
+                  "predicted": {w: fit.model(w).inverse_dynamics(q, dq, ddq) for w in ("identified", "table", "exo")}}
+        for name, content in wearer_report_files(summary, curves, figures=figures).items():
+            arts.add(out / name, content)
+    arts.clean(out, WEARER_REPORT_FILES)
+    return arts.write()

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from pinid import RobotModel
-from pinid.cli.track import sine_reference
+from pinid.control.tracking import sine_reference
 from pinid.control.controllers import identified_vs_cad
 from pinid.excitation.trajectory import FourierTrajectory
 

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import argparse
 import platform
-import time
 
 import numpy as np
 import pinocchio as pin
@@ -20,17 +19,9 @@ import pinocchio as pin
 from pinid import JointTerms, RobotModel, standard_parameters
 from pinid.identification.identified import IdentifiedModel
 
+from bench_regressor import best_time  # noqa: E402 - the script's own folder is on the path
+
 TERMS = JointTerms(coulomb=True, viscous=True, armature=True)
-
-
-def best_time(fn, repeats: int = 3) -> float:
-    """Best wall time of ``repeats`` calls [s]."""
-    best = np.inf
-    for _ in range(repeats):
-        t = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t)
-    return best
 
 
 def main() -> None:

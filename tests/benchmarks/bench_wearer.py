@@ -37,7 +37,7 @@ def main() -> None:
     ap.add_argument("--passive-exponents", action="store_true", help="stage 2 also fits the passive exponents")
     ap.add_argument("--wearer-torque", type=float, default=5.0, metavar="PCT", help="active torque, %% of gravity RMS")
     args = ap.parse_args()
-    from pinid.cli.track import sine_reference
+    from pinid.control.tracking import sine_reference
 
     t0 = time.perf_counter()
     with tempfile.TemporaryDirectory() as tmp:

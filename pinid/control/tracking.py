@@ -1,0 +1,77 @@
+"""A tracking study's reference, table and files: what ``pinid track`` prints and writes, from Python.
+
+The study itself is :func:`pinid.control.controllers.compare_models` (every controller on every model,
+the same noise); its result ``{controller: {model: {"metrics", "result"}}}`` is what these functions take.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+
+from pinid.excitation.trajectory import FourierTrajectory
+from pinid.io import Artefacts, json_text
+from pinid.model.robot import RobotModel
+from pinid.report.figures import save_figure
+from pinid.report.plot_control import tracking_figure
+from pinid.report.text import text_table
+
+
+def sine_reference(plant: RobotModel) -> FourierTrajectory:
+    """Seed 001's reference, x_d = sin(0.5πt), scaled into the middle of each joint's range [rad]."""
+    lo = np.where(np.isfinite(plant.lower), plant.lower, -1.0)
+    hi = np.where(np.isfinite(plant.upper), plant.upper, 1.0)
+    centre, amp = 0.5 * (lo + hi), np.minimum(0.35 * (hi - lo), 0.6)
+    return FourierTrajectory(plant.joint_names, 0.5 * np.pi, centre, amp[:, None], np.zeros((plant.nv, 1)))
+
+
+def load_reference(spec: str, plant: RobotModel) -> FourierTrajectory:
+    """The reference ``spec`` names, for ``plant``'s joints: ``"sine"`` (:func:`sine_reference`) or the path
+    of a trajectory JSON of ``pinid excite`` (its joints mapped by name)."""
+    reference = sine_reference(plant) if spec == "sine" else FourierTrajectory.load(spec)
+    return reference.for_joints(plant.joint_names, plant.name)
+
+
+def tracking_table(table: dict) -> str:
+    """The tracking errors as a text table: per controller, model (a file's name) and joint, the RMS and
+    maximum error [mrad] after the start-up and the settling time [s]."""
+    rows = []
+    for c, per_model in table.items():
+        for name, entry in per_model.items():
+            label = name if name == "nominal" else Path(name).name
+            for joint, m in entry["metrics"].items():
+                settle = "never" if not np.isfinite(m["settling_time"]) else f"{m['settling_time']:.2f}"
+                rows.append([c, label, joint, f"{1e3 * m['rms']:.3f}", f"{1e3 * m['max_abs']:.3f}", settle])
+    return text_table(["controller", "model", "joint", "RMS [mrad]", "max [mrad]", "settle [s]"], rows, keys=3)
+
+
+def tracking_paths(folder: str | os.PathLike, controllers) -> list[Path]:
+    """The files :func:`write_tracking` writes into ``folder`` for ``controllers`` (to check them early)."""
+    out = Path(folder)
+    return [out / "tracking.json", *(out / f"tracking_{c}.png" for c in controllers)]
+
+
+def write_tracking(
+    table: dict, folder: str | os.PathLike, *, plant: RobotModel, settings: dict, overwrite: bool | None = None
+) -> list[Path]:
+    """Write ``tracking.json`` (the plant's URDF, ``settings`` such as the reference, seconds, after,
+    seed, and every metric) and one figure ``tracking_<controller>.png`` per controller into ``folder``,
+    all or nothing.  ``overwrite``: replace existing files (None: the :data:`pinid.io.OVERWRITE` policy)."""
+    out = Path(folder)
+    arts = Artefacts(overwrite=overwrite)
+    arts.add(
+        out / "tracking.json",
+        json_text(
+            {
+                "plant": str(plant.urdf_path),
+                **settings,
+                "results": {c: {n: e["metrics"] for n, e in pm.items()} for c, pm in table.items()},
+            }
+        ),
+    )
+    for c, pm in table.items():
+        fig = tracking_figure({n: e["result"] for n, e in pm.items()}, title=c)
+        arts.add(out / f"tracking_{c}.png", lambda p, fig=fig: save_figure(fig, p))
+    return arts.write()

@@ -1,0 +1,131 @@
+"""What ``pinid identify`` and ``pinid compare`` print and write, reachable from Python: an identification's
+terminal summary and its files, a comparison's files.  Each set of files is planned as one
+:class:`pinid.io.Artefacts` and written all or nothing (matplotlib loads only when figures are drawn)."""
+
+from __future__ import annotations
+
+import os
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from pinid.errors import ModelError
+from pinid.io import Artefacts, json_text
+from pinid.report.figures import save_figure
+from pinid.report.markdown import REPORT_FILES, report_files, summary_table
+from pinid.report.plot_compare import comparison_figures
+from pinid.report.text import text_table
+
+#: Every file an identification writes (patterns): what a ``--force`` re-run removes of an earlier run's.
+IDENTIFICATION_FILES = ("identification.json", "model_*.json", "identified_*.urdf", "identified_*_drives.toml",
+                        *REPORT_FILES)
+#: Every file a comparison writes (patterns), likewise.
+COMPARISON_FILES = ("comparison.json", "comparison.md", "compare_*.png")
+
+
+# ============================================================================================ identify
+def result_text(r) -> str:
+    """One method's detail (``pinid identify --verbose``): consistency, cond(W_b), time, status; the base
+    parameters with standard deviations; the training and validation torque metrics."""
+    flag = "physically consistent" if r.physically_consistent else "NOT physically consistent"
+    lines = [f"\n== {r.method}: {r.description}",
+             f"   {flag} ({r.standard_source}); cond(W_b) {r.condition_number:.4g}; {r.seconds:.3f} s; status {r.status}"]
+    if not r.physically_consistent:
+        lines += [f"   - {prob}" for prob in (r.consistency.get("problems") or [])[:4]]
+    rows = [[n, f"{v:.6g}", f"{s:.3g}", f"{sp:.3g}" if np.isfinite(sp) else "inf"]
+            for n, v, s, sp in zip(r.base_names, r.base, r.std, r.std_percent)]
+    lines.append(text_table(["parameter", "value", "std", "std %"], rows, indent="   "))
+    for kind, m in (("train", r.train), ("validation", r.validation)):
+        if m is not None:
+            lines += [f"   {kind}:", text_table(["joint", "RMS", "RMS %", "mean ± std |e|", "max |e|"], m.table(),
+                                                 indent="   ")]
+    return "\n".join(lines)
+
+
+def identification_text(ident, *, verbose: bool = False) -> str:
+    """What ``pinid identify`` prints after the work: the drive gains and the Stribeck velocities and shapes
+    (when identified), the data used, every method's detail with ``verbose`` (:func:`result_text`), and the
+    summary table."""
+    d = ident.data
+    lines = []
+    if "drive_gains" in d:
+        g = d["drive_gains"]
+        lines.append("drive gains [N·m per unit of the recorded channel]: " + ", ".join(
+            f"{j} {k:.6g} ± {s:.2g}" for j, k, s in zip(g["joints"], g["gains"], g["std"])))
+    lines += [f"Stribeck {name}: velocity {v['velocity']:.6g} rad/s{' (fitted)' if v['fitted'] else ''}, "
+              f"shape {v['shape']:.4g}{' (fitted)' if v.get('shape_fitted') else ''}"
+              for name, v in d.get("stribeck", {}).items()]
+    lines.append(f"training: {d['samples']} samples from {len(d['sources'])} recording(s), {d['rows']} torque rows used"
+                 + (f"; validation: {len(ident.validation_sources)} recording(s)" if ident.validation_sources else ""))
+    if verbose:
+        lines += [result_text(r) for r in ident] + [""]
+    header, rows = summary_table(ident, bold=lambda text: text)
+    lines.append(text_table(header, rows))
+    return "\n".join(lines)
+
+
+def write_identification(ident, folder: str | os.PathLike, *, report: bool = True, figures: bool = True,
+                         force_export: bool = False, overwrite: bool | None = None) -> list[Path]:
+    """Write an :class:`~pinid.identification.result.Identification` into ``folder``, all or nothing:
+    ``identification.json``; ``model_<method>.json`` (:class:`~pinid.identification.identified.IdentifiedModel`)
+    per method; ``identified_<method>.urdf`` (and ``identified_<method>_drives.toml`` with motor terms) per
+    physically consistent method, or every method with ``force_export``; with ``report`` the report
+    (``report.md``, ``report.html`` and, with ``figures``, the figures).  An earlier run's files in
+    ``folder`` are removed.  A consistent result pinid cannot read back as a URDF gets none, with a
+    warning.  ``overwrite``: replace existing files (None: the :data:`pinid.io.OVERWRITE` policy, which the
+    CLI's ``--force`` sets).  Returns the paths written."""
+    urdfs, drives = {}, {}
+    for m, r in ident.results.items():  # everything is computed before any file is written
+        if not (r.physically_consistent or force_export):
+            continue
+        try:
+            urdfs[m] = r.export_urdf(force=force_export)
+        except ModelError as exc:  # consistent within tolerance, yet not a URDF pinid reads back
+            warnings.warn(f"no URDF for {m}: {exc}", stacklevel=2)
+            continue
+        text = r.model.export_drives()
+        if text is not None:
+            drives[m] = text
+    models = {m: r.model.to_dict() for m, r in ident.results.items()}
+    files = report_files(ident, figures=figures) if report else {}
+    out = Path(folder)
+    arts = Artefacts(overwrite=overwrite)
+    arts.add(out / "identification.json", json_text(ident.to_dict()))
+    for m, dm in models.items():
+        arts.add(out / f"model_{m}.json", json_text(dm))
+    for m, text in urdfs.items():
+        arts.add(out / f"identified_{m}.urdf", text)
+    for m, text in drives.items():
+        arts.add(out / f"identified_{m}_drives.toml", text)
+    for name, content in files.items():
+        arts.add(out / name, content)
+    arts.clean(out, IDENTIFICATION_FILES)  # a --force re-run leaves none of an earlier run's outputs behind
+    return arts.write()
+
+
+# ============================================================================================ compare
+def comparison_markdown(comp, *, command: str | None = None, figures=()) -> str:
+    """``comparison.md``: the command line (when given), the comparison table, the identified values
+    (mean ± spread over the seeds) and links to the ``figures`` (file names)."""
+    block = f"```\n{command}\n```\n\n" if command else ""
+    return (f"# Comparison on {comp.robot['name']}\n\n{block}```\n{comp.table()}\n```\n\nIdentified base parameters "
+            f"(mean ± spread over the seeds):\n\n```\n{comp.values_table()}\n```\n"
+            + "".join(f"\n![{name}]({name})\n" for name in figures))
+
+
+def write_comparison(comp, folder: str | os.PathLike, *, command: str | None = None, figures: bool = True,
+                     overwrite: bool | None = None) -> list[Path]:
+    """Write a :class:`~pinid.identification.compare.Comparison` into ``folder``: ``comparison.json``,
+    ``comparison.md`` (:func:`comparison_markdown`) and, with ``figures``, the ``compare_*.png`` figures;
+    all or nothing, an earlier comparison's files there removed.  ``overwrite``: as in
+    :func:`write_identification`.  Returns the paths written."""
+    out = Path(folder)
+    figs = comparison_figures(comp) if figures else {}
+    arts = Artefacts(overwrite=overwrite)
+    arts.add(out / "comparison.json", lambda p: comp.save(p))
+    arts.add(out / "comparison.md", comparison_markdown(comp, command=command, figures=figs))
+    for name, fig in figs.items():
+        arts.add(out / name, lambda p, fig=fig: save_figure(fig, p))
+    arts.clean(out, COMPARISON_FILES)
+    return arts.write()
