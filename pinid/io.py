@@ -219,8 +219,10 @@ class Artefacts:
         for p, _ in self._planned:
             key = Path(os.path.abspath(p))
             if key in seen:
-                raise OutputError(f"{p}: two outputs of this run would be written to the same file "
-                                  f"(also {seen[key]}); give them different paths")
+                raise OutputError(
+                    f"{p}: two outputs of this run would be written to the same file "
+                    f"(also {seen[key]}); give them different paths"
+                )
             seen[key] = p
             if p.is_dir():
                 raise OutputError(f"{p}: is a folder, expected a file path")

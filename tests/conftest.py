@@ -23,8 +23,11 @@ def shared_data() -> Path:
     """The project's shared recordings: ``$PINID_SHARED_DATA``, else ``../shared/data`` beside the clone,
     else ``/work/shared/data`` (where a clone elsewhere on the project's machine finds them).  Tests that
     need them skip when none exists."""
-    candidates = [os.environ.get("PINID_SHARED_DATA"), Path(__file__).resolve().parents[2] / "shared" / "data",
-                  "/work/shared/data"]
+    candidates = [
+        os.environ.get("PINID_SHARED_DATA"),
+        Path(__file__).resolve().parents[2] / "shared" / "data",
+        "/work/shared/data",
+    ]
     for c in candidates:
         if c and (Path(c) / "double_pendulum").is_dir():
             return Path(c)
@@ -44,8 +47,9 @@ def exo() -> RobotModel:
 
 def run_cli(*args: str, cwd=None) -> subprocess.CompletedProcess:
     """Run ``pinid ARGS`` in a subprocess; return the completed process (text mode)."""
-    return subprocess.run([sys.executable, "-m", "pinid.cli", *args], capture_output=True, text=True, cwd=cwd,
-                          timeout=600)
+    return subprocess.run(
+        [sys.executable, "-m", "pinid.cli", *args], capture_output=True, text=True, cwd=cwd, timeout=600
+    )
 
 
 def assert_clean_error(proc: subprocess.CompletedProcess, *fragments: str) -> None:
@@ -67,6 +71,8 @@ def recording(tmp_path_factory) -> Path:
     q = np.c_[0.6 + 0.4 * np.sin(2 * t), -0.9 + 0.4 * np.sin(3 * t)]
     tau = np.c_[5 + np.sin(2 * t), 1 + np.cos(3 * t)]
     path = tmp_path_factory.mktemp("rec") / "r.csv"
-    rows = ["t,q_hip,q_knee,tau_hip,tau_knee"] + [",".join(f"{v:.9g}" for v in (a, *b, *c)) for a, b, c in zip(t, q, tau)]
+    rows = ["t,q_hip,q_knee,tau_hip,tau_knee"] + [
+        ",".join(f"{v:.9g}" for v in (a, *b, *c)) for a, b, c in zip(t, q, tau)
+    ]
     path.write_text("\n".join(rows) + "\n")
     return path

@@ -118,9 +118,12 @@ def test_no_import_cycles():
 
 def test_no_private_names_imported_across_modules():
     known = modules()
-    bad = [f"{m}:{line} imports {name} from {target}"
-           for m, path in known.items() for target, name, line in imports(m, path, known)
-           if name is not None and name.startswith("_") and not name.startswith("__") and target != m]
+    bad = [
+        f"{m}:{line} imports {name} from {target}"
+        for m, path in known.items()
+        for target, name, line in imports(m, path, known)
+        if name is not None and name.startswith("_") and not name.startswith("__") and target != m
+    ]
     assert not bad, "\n".join(bad)
 
 

@@ -113,10 +113,26 @@ def test_sigterm_like_sigint(tmp_path, recording):
     import sys
 
     out = tmp_path / "run"
-    proc = subprocess.Popen([sys.executable, "-m", "pinid.cli", "identify", "--urdf", "exo_leg", "--data",
-                             str(recording), "--methods", "sdp", "-o", str(out)],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            env={**os.environ, "PYTHONUNBUFFERED": "1"})
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "pinid.cli",
+            "identify",
+            "--urdf",
+            "exo_leg",
+            "--data",
+            str(recording),
+            "--methods",
+            "sdp",
+            "-o",
+            str(out),
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env={**os.environ, "PYTHONUNBUFFERED": "1"},
+    )
     # the first line is printed after the handler is in place (a fixed sleep raced the imports under load)
     proc.stdout.readline()
     proc.terminate()
@@ -129,22 +145,29 @@ def test_sigterm_like_sigint(tmp_path, recording):
     assert not any(p.name.startswith(".pinid-") for p in tmp_path.iterdir())
 
 
-@pytest.mark.parametrize("argv, fragment", [
-    (["excite", "--urdf", "exo_leg", "--seed", "-1"], "--seed"),
-    (["simulate", "--urdf", "exo_leg", "--seed", "-1"], "--seed"),
-    (["track", "--seed", "-1"], "--seed"),
-    (["demo", "--seed", "-1"], "--seed"),
-    (["excite", "--urdf", "exo_leg", "--base-frequency", "0"], "--base-frequency"),
-    (["excite", "--urdf", "exo_leg", "--base-frequency", "nan"], "--base-frequency"),
-    (["identify", "--urdf", "exo_leg", "--data", "x.csv", "--regularization", "-1"], "--regularization"),
-    (["identify", "--urdf", "exo_leg", "--data", "x.csv", "--regularization", "nan"], "--regularization"),
-    (["identify", "--urdf", "exo_leg", "--data", "x.csv", "--methods", "wls", "--wls-iterations", "0"],
-     "--wls-iterations"),
-    (["identify", "--urdf", "exo_leg", "--data", "x.csv", "--methods", "wls", "--wls-iterations", "-1"],
-     "--wls-iterations"),
-    (["track", "--position-noise", "-1"], "--position-noise"),
-    (["track", "--position-noise", "nan"], "--position-noise"),
-])
+@pytest.mark.parametrize(
+    "argv, fragment",
+    [
+        (["excite", "--urdf", "exo_leg", "--seed", "-1"], "--seed"),
+        (["simulate", "--urdf", "exo_leg", "--seed", "-1"], "--seed"),
+        (["track", "--seed", "-1"], "--seed"),
+        (["demo", "--seed", "-1"], "--seed"),
+        (["excite", "--urdf", "exo_leg", "--base-frequency", "0"], "--base-frequency"),
+        (["excite", "--urdf", "exo_leg", "--base-frequency", "nan"], "--base-frequency"),
+        (["identify", "--urdf", "exo_leg", "--data", "x.csv", "--regularization", "-1"], "--regularization"),
+        (["identify", "--urdf", "exo_leg", "--data", "x.csv", "--regularization", "nan"], "--regularization"),
+        (
+            ["identify", "--urdf", "exo_leg", "--data", "x.csv", "--methods", "wls", "--wls-iterations", "0"],
+            "--wls-iterations",
+        ),
+        (
+            ["identify", "--urdf", "exo_leg", "--data", "x.csv", "--methods", "wls", "--wls-iterations", "-1"],
+            "--wls-iterations",
+        ),
+        (["track", "--position-noise", "-1"], "--position-noise"),
+        (["track", "--position-noise", "nan"], "--position-noise"),
+    ],
+)
 def test_numbers_checked_at_parse(tmp_path, argv, fragment):
     """Issue 14 cases 5, 6 and 21: numbers no run can use are refused before any work, leaving no file."""
     proc = run_cli(*argv, cwd=tmp_path)

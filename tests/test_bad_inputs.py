@@ -27,7 +27,9 @@ def good_csv(tmp_path_factory) -> Path:
     q = np.c_[0.6 + 0.4 * np.sin(2 * t), -0.9 + 0.4 * np.sin(3 * t)]
     tau = np.c_[5 + np.sin(2 * t), 1 + np.cos(3 * t)]
     path = folder / "good.csv"
-    rows = ["t,q_hip,q_knee,tau_hip,tau_knee"] + [",".join(f"{v:.9g}" for v in (ti, *qi, *ti_)) for ti, qi, ti_ in zip(t, q, tau)]
+    rows = ["t,q_hip,q_knee,tau_hip,tau_knee"] + [
+        ",".join(f"{v:.9g}" for v in (ti, *qi, *ti_)) for ti, qi, ti_ in zip(t, q, tau)
+    ]
     path.write_text("\n".join(rows) + "\n")
     return path
 
@@ -41,10 +43,12 @@ def _no_files(folder: Path) -> None:
 URDF_CASES = {
     "truncated": EXO[: len(EXO) // 2],
     "malformed": "<robot name='x'><link name='a'></robot>",
-    "entity-expansion": ("<?xml version='1.0'?><!DOCTYPE lolz [<!ENTITY lol 'lol'>"
-                         "<!ENTITY lol2 '&lol;&lol;&lol;&lol;&lol;&lol;&lol;&lol;&lol;&lol;'>"
-                         "<!ENTITY lol3 '&lol2;&lol2;&lol2;&lol2;&lol2;&lol2;&lol2;&lol2;&lol2;&lol2;'>]>"
-                         "<robot name='&lol3;'/>"),
+    "entity-expansion": (
+        "<?xml version='1.0'?><!DOCTYPE lolz [<!ENTITY lol 'lol'>"
+        "<!ENTITY lol2 '&lol;&lol;&lol;&lol;&lol;&lol;&lol;&lol;&lol;&lol;'>"
+        "<!ENTITY lol3 '&lol2;&lol2;&lol2;&lol2;&lol2;&lol2;&lol2;&lol2;&lol2;&lol2;'>]>"
+        "<robot name='&lol3;'/>"
+    ),
     "empty": "",
     "not-a-robot": "<html><body>hello</body></html>",
     "no-movable-joint": "<robot name='r'><link name='a'/></robot>",
@@ -62,8 +66,11 @@ def test_bad_urdf_text(tmp_path, case):
     assert not out.exists() or not any(out.iterdir())
 
 
-@pytest.mark.parametrize("payload", [b"\x7fELF\x02\x01\x01\x00" + os.urandom(256), "<robot name='é'/>".encode("utf-16")],
-                         ids=["binary", "utf-16"])
+@pytest.mark.parametrize(
+    "payload",
+    [b"\x7fELF\x02\x01\x01\x00" + os.urandom(256), "<robot name='é'/>".encode("utf-16")],
+    ids=["binary", "utf-16"],
+)
 def test_bad_urdf_bytes(tmp_path, payload):
     p = tmp_path / "robot.urdf"
     p.write_bytes(payload)
@@ -98,14 +105,37 @@ CSV_CASES = {
     "truncated-row": (lambda g: _edit(g, lambda L: L[:-1] + [L[-1].rsplit(",", 2)[0]]), "row"),
     "nan": (lambda g: _edit(g, lambda L: L[:100] + [L[100].replace(L[100].split(",")[1], "nan", 1)] + L[101:]), "NaN"),
     "infinity": (lambda g: _edit(g, lambda L: L[:50] + [L[50].rsplit(",", 1)[0] + ",inf"] + L[51:]), "inf"),
-    "unknown-joint": (lambda g: g.read_text().replace("q_knee", "q_ankle", 1).replace("tau_knee", "tau_ankle", 1), "knee"),
-    "missing-joint": (lambda g: "\n".join(",".join(r.split(",")[i] for i in (0, 1, 3)) for r in g.read_text().splitlines()) + "\n", "knee"),
+    "unknown-joint": (
+        lambda g: g.read_text().replace("q_knee", "q_ankle", 1).replace("tau_knee", "tau_ankle", 1),
+        "knee",
+    ),
+    "missing-joint": (
+        lambda g: "\n".join(",".join(r.split(",")[i] for i in (0, 1, 3)) for r in g.read_text().splitlines()) + "\n",
+        "knee",
+    ),
     "time-goes-back": (lambda g: _edit(g, lambda L: L[:10] + [L[12], L[11], L[10]] + L[13:]), "time"),
     "duplicate-time": (lambda g: _edit(g, lambda L: L[:10] + [L[10], L[10]] + L[11:]), "time"),
-    "degrees": (lambda g: _edit(g, lambda L: [L[0]] + [",".join([r.split(",")[0]] + [f"{float(x) * 57.29578:.6g}" for x in r.split(",")[1:3]] + r.split(",")[3:]) for r in L[1:]]), "degree"),
+    "degrees": (
+        lambda g: _edit(
+            g,
+            lambda L: (
+                [L[0]]
+                + [
+                    ",".join(
+                        [r.split(",")[0]] + [f"{float(x) * 57.29578:.6g}" for x in r.split(",")[1:3]] + r.split(",")[3:]
+                    )
+                    for r in L[1:]
+                ]
+            ),
+        ),
+        "degree",
+    ),
     "huge-values": (lambda g: _edit(g, lambda L: L[:30] + [L[30].rsplit(",", 1)[0] + ",1e300"] + L[31:]), "tau"),
     "too-few-samples": (lambda g: _edit(g, lambda L: L[:4]), "sample"),
-    "text-in-numbers": (lambda g: _edit(g, lambda L: L[:20] + [L[20].replace(L[20].split(",")[2], "abc", 1)] + L[21:]), "abc"),
+    "text-in-numbers": (
+        lambda g: _edit(g, lambda L: L[:20] + [L[20].replace(L[20].split(",")[2], "abc", 1)] + L[21:]),
+        "abc",
+    ),
 }
 
 
@@ -119,8 +149,11 @@ def test_bad_recording(tmp_path, good_csv, case):
     assert not out.exists() or not any(out.rglob("*.*"))
 
 
-@pytest.mark.parametrize("payload", [os.urandom(2000), "t,q_hip,q_knee,tau_hip,tau_knee\n0,1,2,3,4\n".encode("utf-16")],
-                         ids=["binary", "utf-16"])
+@pytest.mark.parametrize(
+    "payload",
+    [os.urandom(2000), "t,q_hip,q_knee,tau_hip,tau_knee\n0,1,2,3,4\n".encode("utf-16")],
+    ids=["binary", "utf-16"],
+)
 def test_recording_bytes(tmp_path, payload):
     proc, out = _identify(tmp_path, _write(tmp_path, payload))
     assert_clean_error(proc, "rec.csv")
@@ -144,8 +177,9 @@ def test_malformed_mapping_spec(tmp_path, good_csv):
 def test_output_folder_not_writable(tmp_path, good_csv):
     blocker = tmp_path / "file"
     blocker.write_text("I am a file")
-    proc = run_cli("simulate", "--excitation", "seed000-1", "--urdf", "apal_leg", "--seconds", "1",
-                   "-o", str(blocker / "run.csv"))
+    proc = run_cli(
+        "simulate", "--excitation", "seed000-1", "--urdf", "apal_leg", "--seconds", "1", "-o", str(blocker / "run.csv")
+    )
     assert_clean_error(proc, "file")
     assert blocker.read_text() == "I am a file"
 
@@ -155,11 +189,14 @@ def test_output_path_is_a_folder(tmp_path):
     assert_clean_error(proc, "folder")
 
 
-@pytest.mark.parametrize("name, command", [
-    ("run.csv", ["simulate", "--excitation", "seed000-1", "--urdf", "apal_leg", "--seconds", "1", "-o", "{out}"]),
-    ("info.json", ["info", "--urdf", "exo_leg", "--json", "{out}"]),
-    ("tracking.json", ["track", "--seconds", "1", "--after", "0", "-o", "{folder}"]),
-])
+@pytest.mark.parametrize(
+    "name, command",
+    [
+        ("run.csv", ["simulate", "--excitation", "seed000-1", "--urdf", "apal_leg", "--seconds", "1", "-o", "{out}"]),
+        ("info.json", ["info", "--urdf", "exo_leg", "--json", "{out}"]),
+        ("tracking.json", ["track", "--seconds", "1", "--after", "0", "-o", "{folder}"]),
+    ],
+)
 def test_existing_output_is_not_replaced(tmp_path, name, command):
     out = tmp_path / name
     out.write_text("precious")
@@ -179,15 +216,18 @@ def test_existing_identification_is_not_replaced(tmp_path, good_csv):
 
 
 # ------------------------------------------------------------------ other arguments
-@pytest.mark.parametrize("args, fragment", [
-    (["simulate", "--excitation", "seed000-1", "--urdf", "apal_leg", "--seconds", "-1"], "duration"),
-    (["simulate", "--excitation", "nowhere.json", "--seconds", "1"], "nowhere.json"),
-    (["simulate", "--excitation", "seed000-9", "--urdf", "apal_leg", "--seconds", "1"], "seed000-9"),
-    (["track", "--reference", "nowhere.json", "--seconds", "1", "--after", "0"], "nowhere.json"),
-    (["identify", "--urdf", "exo_leg", "--data", "nowhere.csv"], "nowhere.csv"),
-    (["identify", "--urdf", "exo_leg", "--data", "x.csv", "--methods", "magic"], "magic"),
-    (["info", "--urdf", "exo_leg", "--joints", "hip,ankle"], "ankle"),
-])
+@pytest.mark.parametrize(
+    "args, fragment",
+    [
+        (["simulate", "--excitation", "seed000-1", "--urdf", "apal_leg", "--seconds", "-1"], "duration"),
+        (["simulate", "--excitation", "nowhere.json", "--seconds", "1"], "nowhere.json"),
+        (["simulate", "--excitation", "seed000-9", "--urdf", "apal_leg", "--seconds", "1"], "seed000-9"),
+        (["track", "--reference", "nowhere.json", "--seconds", "1", "--after", "0"], "nowhere.json"),
+        (["identify", "--urdf", "exo_leg", "--data", "nowhere.csv"], "nowhere.csv"),
+        (["identify", "--urdf", "exo_leg", "--data", "x.csv", "--methods", "magic"], "magic"),
+        (["info", "--urdf", "exo_leg", "--joints", "hip,ankle"], "ankle"),
+    ],
+)
 def test_bad_arguments(tmp_path, args, fragment):
     proc = run_cli(*args, "-o", str(tmp_path / "o.csv")) if args[0] == "simulate" else run_cli(*args)
     assert_clean_error(proc, fragment)
@@ -195,7 +235,7 @@ def test_bad_arguments(tmp_path, args, fragment):
 
 
 def test_malformed_trajectory_json(tmp_path):
-    bad = _write(tmp_path, "{\"joints\": [\"hip\", \"knee\"], \"q0\": [0.6]", "traj.json")
+    bad = _write(tmp_path, '{"joints": ["hip", "knee"], "q0": [0.6]', "traj.json")
     proc = run_cli("simulate", "--excitation", str(bad), "--seconds", "1", "-o", str(tmp_path / "o.csv"))
     assert_clean_error(proc, "traj.json")
     assert not (tmp_path / "o.csv").exists()
@@ -204,12 +244,28 @@ def test_malformed_trajectory_json(tmp_path):
 def test_interrupted_run_leaves_nothing(tmp_path):
     """Ctrl-C in the middle of a long simulation: status 2, one line, no file."""
     out = tmp_path / "long.csv"
-    proc = subprocess.Popen([sys.executable, "-m", "pinid.cli", "simulate", "--excitation", "seed000-1", "--urdf",
-                             "apal_leg", "--seconds", "600", "-o", str(out)],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            # a test runner started in the background inherits SIGINT ignored, and Python
-                            # then installs no KeyboardInterrupt handler: give the child the default back
-                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "pinid.cli",
+            "simulate",
+            "--excitation",
+            "seed000-1",
+            "--urdf",
+            "apal_leg",
+            "--seconds",
+            "600",
+            "-o",
+            str(out),
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        # a test runner started in the background inherits SIGINT ignored, and Python
+        # then installs no KeyboardInterrupt handler: give the child the default back
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+    )
     time.sleep(4.0)
     proc.send_signal(signal.SIGINT)
     _, err = proc.communicate(timeout=60)

@@ -13,8 +13,18 @@ import numpy as np
 import pytest
 
 from conftest import assert_clean_error, load, run_cli
-from pinid import (Identification, IdentifiedModel, JointTerms, PinidError, base_parameters, identify, joint_torque,
-                   parameter_names, regressor, standard_parameters)
+from pinid import (
+    Identification,
+    IdentifiedModel,
+    JointTerms,
+    PinidError,
+    base_parameters,
+    identify,
+    joint_torque,
+    parameter_names,
+    regressor,
+    standard_parameters,
+)
 from pinid.data.dataset import Dataset
 from pinid.data.preprocess import prepare
 from pinid.errors import DataError, SpecError
@@ -42,28 +52,33 @@ def _tampered(tmp_path, d, change):
 def _set(key, value):
     def change(d):
         d[key] = value
+
     return change
 
 
 def _param(value):
     def change(d):
         d["standard_parameters"]["knee.m"] = value
+
     return change
 
 
-@pytest.mark.parametrize("change, fragment", [
-    (lambda d: d.pop("robot"), "'robot'"),
-    (_set("robot", [1, 2]), "'robot' is list"),
-    (_set("meta", [1]), "'meta' is list"),
-    (lambda d: d["robot"].__setitem__("terms", "fc,fv"), "'terms' is str"),
-    (lambda d: d["robot"].pop("terms"), "'terms'"),
-    (lambda d: d["robot"].__setitem__("joints", "hip"), "'joints' is str"),
-    (_param("abc"), "knee.m is 'abc'"),
-    (_param(None), "knee.m is None"),
-    (_param(True), "knee.m is True"),
-    (_set("standard_parameters", [1.0]), "'standard_parameters' is list"),
-    (_set("physically_consistent", "no"), "'physically_consistent' is 'no'"),
-])
+@pytest.mark.parametrize(
+    "change, fragment",
+    [
+        (lambda d: d.pop("robot"), "'robot'"),
+        (_set("robot", [1, 2]), "'robot' is list"),
+        (_set("meta", [1]), "'meta' is list"),
+        (lambda d: d["robot"].__setitem__("terms", "fc,fv"), "'terms' is str"),
+        (lambda d: d["robot"].pop("terms"), "'terms'"),
+        (lambda d: d["robot"].__setitem__("joints", "hip"), "'joints' is str"),
+        (_param("abc"), "knee.m is 'abc'"),
+        (_param(None), "knee.m is None"),
+        (_param(True), "knee.m is True"),
+        (_set("standard_parameters", [1.0]), "'standard_parameters' is list"),
+        (_set("physically_consistent", "no"), "'physically_consistent' is 'no'"),
+    ],
+)
 def test_tampered_model_json(tmp_path, model_json, change, fragment):
     with pytest.raises(SpecError) as info:
         IdentifiedModel.load(_tampered(tmp_path, model_json, change))
@@ -160,9 +175,21 @@ def _wrong_values(rng: np.random.Generator, nv: int) -> list:
     nan_at = np.zeros(nv)
     nan_at[int(rng.integers(nv))] = rng.choice([np.nan, np.inf, -np.inf])
     return [
-        np.zeros(bad_len), rng.normal(size=(bad_len, nv + 1)), rng.normal(size=(2, 3, nv)), nan_at,
-        np.tile(nan_at, (3, 1)), ["a"] * nv, "q", None, [], {}, [[1.0] * nv, [1.0]], object(), b"\x00",
-        np.array(["1"] * nv, dtype=object) if rng.random() < 0.5 else [None] * nv, np.zeros((0, nv)),
+        np.zeros(bad_len),
+        rng.normal(size=(bad_len, nv + 1)),
+        rng.normal(size=(2, 3, nv)),
+        nan_at,
+        np.tile(nan_at, (3, 1)),
+        ["a"] * nv,
+        "q",
+        None,
+        [],
+        {},
+        [[1.0] * nv, [1.0]],
+        object(),
+        b"\x00",
+        np.array(["1"] * nv, dtype=object) if rng.random() < 0.5 else [None] * nv,
+        np.zeros((0, nv)),
     ]
 
 
@@ -195,56 +222,68 @@ def test_generated_wrong_inputs_give_pinid_errors(leg, identified, seed):
     ds = Dataset(t=np.arange(200) / 100.0, q=np.zeros((200, nv)), joints=leg.joint_names, tau=np.ones((200, nv)))
     calls = {}
     for k, w in enumerate(_wrong_values(rng, nv)):
-        calls.update({
-            f"regressor q #{k}": lambda w=w: regressor(leg, w, good, good),
-            f"regressor ddq #{k}": lambda w=w: regressor(leg, good, good, w),
-            f"joint_torque theta #{k}": lambda w=w: joint_torque(leg, good, good, good, w),
-            f"rnea dq #{k}": lambda w=w: leg.rnea(good, w, good),
-            f"configuration #{k}": lambda w=w: leg.configuration(w),
-            f"with_inertial_parameters #{k}": lambda w=w: leg.with_inertial_parameters(w),
-            f"with_inertial_parameters coulomb #{k}": lambda w=w: leg.with_inertial_parameters(
-                leg.inertial_parameters(), coulomb=w if w is not None else "x"),
-            f"from_standard #{k}": lambda w=w: base_parameters(leg).from_standard(w),
-            f"JointTerms.from_names #{k}": lambda w=w: JointTerms.from_names(w) if not (
-                isinstance(w, list) and not w) else JointTerms.from_names(3),
-            f"prepare #{k}": lambda w=w: prepare(w),
-            f"identify #{k}": lambda w=w: identify(leg, [w]) if not isinstance(w, str) else identify(leg, [3]),
-            f"IdentifiedModel(theta) #{k}": lambda w=w: IdentifiedModel(leg, None, w),
-            f"mass_matrix #{k}": lambda w=w: identified.mass_matrix(w),
-            f"gravity #{k}": lambda w=w: identified.gravity(w),
-            f"coriolis dq #{k}": lambda w=w: identified.coriolis(good, w),
-            f"inverse_dynamics ddq #{k}": lambda w=w: identified.inverse_dynamics(good, good, w),
-            f"forward_dynamics tau #{k}": lambda w=w: identified.forward_dynamics(good, good, w),
-            f"friction #{k}": lambda w=w: identified.friction(w),
-        })
+        calls.update(
+            {
+                f"regressor q #{k}": lambda w=w: regressor(leg, w, good, good),
+                f"regressor ddq #{k}": lambda w=w: regressor(leg, good, good, w),
+                f"joint_torque theta #{k}": lambda w=w: joint_torque(leg, good, good, good, w),
+                f"rnea dq #{k}": lambda w=w: leg.rnea(good, w, good),
+                f"configuration #{k}": lambda w=w: leg.configuration(w),
+                f"with_inertial_parameters #{k}": lambda w=w: leg.with_inertial_parameters(w),
+                f"with_inertial_parameters coulomb #{k}": lambda w=w: leg.with_inertial_parameters(
+                    leg.inertial_parameters(), coulomb=w if w is not None else "x"
+                ),
+                f"from_standard #{k}": lambda w=w: base_parameters(leg).from_standard(w),
+                f"JointTerms.from_names #{k}": lambda w=w: (
+                    JointTerms.from_names(w) if not (isinstance(w, list) and not w) else JointTerms.from_names(3)
+                ),
+                f"prepare #{k}": lambda w=w: prepare(w),
+                f"identify #{k}": lambda w=w: identify(leg, [w]) if not isinstance(w, str) else identify(leg, [3]),
+                f"IdentifiedModel(theta) #{k}": lambda w=w: IdentifiedModel(leg, None, w),
+                f"mass_matrix #{k}": lambda w=w: identified.mass_matrix(w),
+                f"gravity #{k}": lambda w=w: identified.gravity(w),
+                f"coriolis dq #{k}": lambda w=w: identified.coriolis(good, w),
+                f"inverse_dynamics ddq #{k}": lambda w=w: identified.inverse_dynamics(good, good, w),
+                f"forward_dynamics tau #{k}": lambda w=w: identified.forward_dynamics(good, good, w),
+                f"friction #{k}": lambda w=w: identified.friction(w),
+            }
+        )
         holds_nan = isinstance(w, np.ndarray) and w.dtype.kind == "f" and not np.all(np.isfinite(w))
         if not holds_nan:  # a Dataset holds NaN as given (the readers and check_dataset refuse them)
             calls[f"Dataset q #{k}"] = lambda w=w: Dataset(t=np.arange(3.0), q=w, joints=leg.joint_names)
     for k, s in enumerate(_wrong_numbers(rng)):
-        calls.update({
-            f"base_parameters tol #{k}": lambda s=s: base_parameters(leg, tol=s),
-            f"prepare cutoff #{k}": lambda s=s: prepare(ds, cutoff=s),
-            f"prepare trim #{k}": lambda s=s: prepare(ds, trim=s),
-        })
+        calls.update(
+            {
+                f"base_parameters tol #{k}": lambda s=s: base_parameters(leg, tol=s),
+                f"prepare cutoff #{k}": lambda s=s: prepare(ds, cutoff=s),
+                f"prepare trim #{k}": lambda s=s: prepare(ds, trim=s),
+            }
+        )
     for k, s in enumerate(_wrong_numbers(rng) + [2.5]):  # counts
-        calls.update({
-            f"base_parameters samples #{k}": lambda s=s: base_parameters(leg, samples=s),
-            f"base_parameters seed #{k}": lambda s=s: base_parameters(leg, seed=s),
-            f"random_states n #{k}": lambda s=s: leg.random_states(s, rng),
-        })
+        calls.update(
+            {
+                f"base_parameters samples #{k}": lambda s=s: base_parameters(leg, samples=s),
+                f"base_parameters seed #{k}": lambda s=s: base_parameters(leg, seed=s),
+                f"random_states n #{k}": lambda s=s: leg.random_states(s, rng),
+            }
+        )
     for k, w in enumerate(["exo_leg", None, 3, [leg], {"model": leg}]):  # not a RobotModel
-        calls.update({
-            f"regressor model #{k}": lambda w=w: regressor(w, good, good, good),
-            f"parameter_names model #{k}": lambda w=w: parameter_names(w),
-            f"base_parameters model #{k}": lambda w=w: base_parameters(w),
-            f"IdentifiedModel model #{k}": lambda w=w: IdentifiedModel(w, None, np.zeros(p)),
-        })
+        calls.update(
+            {
+                f"regressor model #{k}": lambda w=w: regressor(w, good, good, good),
+                f"parameter_names model #{k}": lambda w=w: parameter_names(w),
+                f"base_parameters model #{k}": lambda w=w: base_parameters(w),
+                f"IdentifiedModel model #{k}": lambda w=w: IdentifiedModel(w, None, np.zeros(p)),
+            }
+        )
     for k, w in enumerate([3, 2.5, {"fc": 1}, object(), ["fc", 3], "foo", ("fc", "nope")]):  # not joint terms
-        calls.update({
-            f"regressor terms #{k}": lambda w=w: regressor(leg, good, good, good, w),
-            f"standard_parameters terms #{k}": lambda w=w: standard_parameters(leg, w),
-            f"identify terms #{k}": lambda w=w: identify(leg, "missing.csv", terms=w),
-        })
+        calls.update(
+            {
+                f"regressor terms #{k}": lambda w=w: regressor(leg, good, good, good, w),
+                f"standard_parameters terms #{k}": lambda w=w: standard_parameters(leg, w),
+                f"identify terms #{k}": lambda w=w: identify(leg, "missing.csv", terms=w),
+            }
+        )
     for k, w in enumerate([3, object(), [3], "nope", ""]):
         calls[f"identify methods #{k}"] = lambda w=w: identify(leg, "missing.csv", methods=w)
     for k, w in enumerate([[1], "ols", {"ols": 3}, {"ols": [1]}, 3]):
@@ -265,11 +304,14 @@ def test_generated_wrong_inputs_give_pinid_errors(leg, identified, seed):
 # ------------------------------------------------------------------ the CLI: numbers, options, outputs
 
 
-@pytest.mark.parametrize("argv", [
-    ["flex", "twin", "-o", "t.csv", "--seed", "-1"],
-    ["flex", "fit", "-o", "f.json", "--seed", "-1"],
-    ["flex", "compare", "-o", "c.json", "--seed", "-1"],
-])
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["flex", "twin", "-o", "t.csv", "--seed", "-1"],
+        ["flex", "fit", "-o", "f.json", "--seed", "-1"],
+        ["flex", "compare", "-o", "c.json", "--seed", "-1"],
+    ],
+)
 def test_flex_seed_checked_at_parse(tmp_path, argv):
     """Case 5: --seed -1 on every command, flex included."""
     assert_clean_error(run_cli(*argv, cwd=tmp_path), "--seed")
@@ -279,8 +321,9 @@ def test_flex_seed_checked_at_parse(tmp_path, argv):
 @pytest.mark.parametrize("value", ["abc", "nan", "inf", "true"])
 def test_excite_option_value_checked(tmp_path, value):
     """Case 6: --option w_min=abc|nan is one line naming the option, before any work."""
-    proc = run_cli("excite", "--urdf", "exo_leg", "--optimizer", "pso", "--option", f"w_min={value}", "-o", "e.json",
-                   cwd=tmp_path)
+    proc = run_cli(
+        "excite", "--urdf", "exo_leg", "--optimizer", "pso", "--option", f"w_min={value}", "-o", "e.json", cwd=tmp_path
+    )
     assert_clean_error(proc, "w_min")
     assert list(tmp_path.iterdir()) == []
 
@@ -293,8 +336,10 @@ def test_excite_unknown_option_names_only_unknown(tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
-@pytest.mark.parametrize("extra", [["--optimizer", "pso"], ["--optimizer", "slsqp"], ["--starts", "3"],
-                                   ["--seed", "2"], ["--option", "polish=1"]])
+@pytest.mark.parametrize(
+    "extra",
+    [["--optimizer", "pso"], ["--optimizer", "slsqp"], ["--starts", "3"], ["--seed", "2"], ["--option", "polish=1"]],
+)
 def test_excite_evaluate_refuses_optimizer_options(tmp_path, extra):
     """Case 25: an optimiser option has no effect with --evaluate: refused, not silently ignored."""
     from pinid.resources import EXCITATION_DIR
@@ -308,8 +353,13 @@ def test_estimator_settings_checked_when_made(tmp_path):
     """Case 6: a bad setting is a SpecError naming it when the estimator is made, before any data is read."""
     from pinid.estimators import make_estimator
 
-    for method, setting in (("wls", {"iterations": 0}), ("wls", {"iterations": -1}), ("sdp", {"regularization": -1}),
-                            ("sdp", {"regularization": float("nan")}), ("pso", {"population": "many"})):
+    for method, setting in (
+        ("wls", {"iterations": 0}),
+        ("wls", {"iterations": -1}),
+        ("sdp", {"regularization": -1}),
+        ("sdp", {"regularization": float("nan")}),
+        ("pso", {"population": "many"}),
+    ):
         key = next(iter(setting))
         with pytest.raises(SpecError, match=f"setting {key}="):
             make_estimator(method, **setting)
@@ -340,8 +390,20 @@ def test_validation_equal_to_training_warns(recording):
 
 def test_validation_equal_to_training_warns_in_one_line(tmp_path, recording):
     """Case 14 through the CLI: the run goes on, the warning is one line naming the file."""
-    proc = run_cli("identify", "--urdf", "exo_leg", "--data", str(recording), "--validate", str(recording),
-                   "--methods", "ols", "--no-report", "-o", str(tmp_path / "run"))
+    proc = run_cli(
+        "identify",
+        "--urdf",
+        "exo_leg",
+        "--data",
+        str(recording),
+        "--validate",
+        str(recording),
+        "--methods",
+        "ols",
+        "--no-report",
+        "-o",
+        str(tmp_path / "run"),
+    )
     assert proc.returncode == 0, proc.stderr
     lines = [ln for ln in proc.stderr.splitlines() if "also a training recording" in ln]
     assert len(lines) == 1 and lines[0].startswith("pinid identify: warning: ") and recording.name in lines[0]
@@ -392,16 +454,22 @@ def test_flex_f_max_above_nyquist_refused(tmp_path):
         assert_clean_error(proc, "f_max", "Nyquist")
 
 
-@pytest.mark.parametrize("argv, folder", [
-    (["simulate", "--urdf", "exo_leg", "--excitation", "missing.json", "-o", "new/run.csv"], "new"),
-    (["compare", "--urdf", "exo_leg", "--data", "missing.csv", "-o", "new"], "new"),
-    (["track", "--model", "missing.json", "-o", "new"], "new"),
-    (["wearer", "--urdf", "exo_leg", "--mass", "10", "--height", "1.8", "--sex", "male", "-o", "new/w.urdf"], "new"),
-    (["flex", "twin", "--spec", "missing.toml", "-o", "new/t.csv"], "new"),
-    (["flex", "fit", "--spec", "missing.toml", "-o", "new/f.json"], "new"),
-    (["flex", "compare", "--spec", "missing.toml", "-o", "new/c.json"], "new"),
-    (["flex", "check", "--spec", "missing.toml", "--json", "new/c.json"], "new"),
-])
+@pytest.mark.parametrize(
+    "argv, folder",
+    [
+        (["simulate", "--urdf", "exo_leg", "--excitation", "missing.json", "-o", "new/run.csv"], "new"),
+        (["compare", "--urdf", "exo_leg", "--data", "missing.csv", "-o", "new"], "new"),
+        (["track", "--model", "missing.json", "-o", "new"], "new"),
+        (
+            ["wearer", "--urdf", "exo_leg", "--mass", "10", "--height", "1.8", "--sex", "male", "-o", "new/w.urdf"],
+            "new",
+        ),
+        (["flex", "twin", "--spec", "missing.toml", "-o", "new/t.csv"], "new"),
+        (["flex", "fit", "--spec", "missing.toml", "-o", "new/f.json"], "new"),
+        (["flex", "compare", "--spec", "missing.toml", "-o", "new/c.json"], "new"),
+        (["flex", "check", "--spec", "missing.toml", "--json", "new/c.json"], "new"),
+    ],
+)
 def test_failed_runs_leave_no_folder(tmp_path, argv, folder):
     """Case 24: a failed run of any command that writes leaves no (empty) output folder."""
     proc = run_cli(*argv, cwd=tmp_path)
@@ -410,12 +478,15 @@ def test_failed_runs_leave_no_folder(tmp_path, argv, folder):
     assert list(tmp_path.iterdir()) == []
 
 
-@pytest.mark.parametrize("argv", [
-    ["simulate", "--urdf", "exo_leg", "--excitation", "zha2019-1", "-o", "x.csv", "--truth", "x.csv"],
-    ["simulate", "--urdf", "exo_leg", "--excitation", "zha2019-1", "-o", "x.csv", "--true-signals", "./x.csv"],
-    ["flex", "fit", "-o", "x.png", "--plot", "x.png"],
-    ["flex", "compare", "-o", "x.png", "--plot", "x.png"],
-])
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["simulate", "--urdf", "exo_leg", "--excitation", "zha2019-1", "-o", "x.csv", "--truth", "x.csv"],
+        ["simulate", "--urdf", "exo_leg", "--excitation", "zha2019-1", "-o", "x.csv", "--true-signals", "./x.csv"],
+        ["flex", "fit", "-o", "x.png", "--plot", "x.png"],
+        ["flex", "compare", "-o", "x.png", "--plot", "x.png"],
+    ],
+)
 def test_outputs_on_one_path_refused(tmp_path, argv):
     """Case 18 for the other commands: two outputs on one path are refused before the work."""
     assert_clean_error(run_cli(*argv, cwd=tmp_path), "same file")
@@ -443,9 +514,13 @@ def test_demo_interrupted_leaves_nothing(tmp_path):
     import sys
 
     out = tmp_path / "demo"
-    proc = subprocess.Popen([sys.executable, "-m", "pinid.cli", "demo", "-o", str(out), "--methods", "ols"],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            env={**os.environ, "PYTHONUNBUFFERED": "1"})
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "pinid.cli", "demo", "-o", str(out), "--methods", "ols"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env={**os.environ, "PYTHONUNBUFFERED": "1"},
+    )
     for line in proc.stdout:
         if line.startswith("[2/5]"):
             break
@@ -469,9 +544,13 @@ def test_demo_force_failure_restores_earlier_run(tmp_path):
     out.mkdir()
     (out / "excitation.json").write_text("earlier run")
     (out / "notes.txt").write_text("mine")
-    proc = subprocess.Popen([sys.executable, "-m", "pinid.cli", "demo", "-o", str(out), "--methods", "ols", "--force"],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            env={**os.environ, "PYTHONUNBUFFERED": "1"})
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "pinid.cli", "demo", "-o", str(out), "--methods", "ols", "--force"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env={**os.environ, "PYTHONUNBUFFERED": "1"},
+    )
     for line in proc.stdout:
         if line.startswith("[2/5]"):
             break
@@ -488,8 +567,14 @@ def test_tampered_identification_json(tmp_path, model_json):
     from pinid import Identification
 
     path = tmp_path / "identification.json"
-    for methods in ({"ols": {"method": "ols"}}, {"ols": {"method": "ols", "physically_consistent": True}},
-                    {"ols": {"physically_consistent": True, "base_parameters": {"a": "abc"}}}, [1], "x", {}):
+    for methods in (
+        {"ols": {"method": "ols"}},
+        {"ols": {"method": "ols", "physically_consistent": True}},
+        {"ols": {"physically_consistent": True, "base_parameters": {"a": "abc"}}},
+        [1],
+        "x",
+        {},
+    ):
         path.write_text(json.dumps({"robot": model_json["robot"], "methods": methods}))
         with pytest.raises(SpecError, match="identification.json"):
             Identification.load(path)

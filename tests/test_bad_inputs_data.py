@@ -35,25 +35,34 @@ def rec(tmp_path_factory) -> Path:
     t = np.arange(2000) / 1000.0
     q = np.c_[0.6 + 0.4 * np.sin(2 * t), -0.9 + 0.4 * np.sin(3 * t)]
     tau = np.c_[5 + np.sin(2 * t), 1 + np.cos(3 * t)]
-    rows = ["t,q_hip,q_knee,tau_hip,tau_knee"] + [",".join(f"{v:.9g}" for v in (a, *b, *c)) for a, b, c in zip(t, q, tau)]
+    rows = ["t,q_hip,q_knee,tau_hip,tau_knee"] + [
+        ",".join(f"{v:.9g}" for v in (a, *b, *c)) for a, b, c in zip(t, q, tau)
+    ]
     (folder / "run.csv").write_text("\n".join(rows) + "\n")
     (folder / "run_torque.csv").write_text("\n".join(["k_hip,k_knee"] + [f"{a:.9g},{b:.9g}" for a, b in tau]) + "\n")
     return folder / "run.csv"
 
 
 def _spec(torque_path: str, column="k_hip") -> dict:
-    return {"time": "t", "joints": {"hip": {"q": "q_hip", "tau": {"source": "x", "column": column}},
-                                    "knee": {"q": "q_knee", "tau": {"source": "x", "column": "k_knee"}}},
-            "sources": {"x": {"path": torque_path}}}
+    return {
+        "time": "t",
+        "joints": {
+            "hip": {"q": "q_hip", "tau": {"source": "x", "column": column}},
+            "knee": {"q": "q_knee", "tau": {"source": "x", "column": "k_knee"}},
+        },
+        "sources": {"x": {"path": torque_path}},
+    }
 
 
 def _toml(d: dict) -> str:
     x = d["sources"]["x"]["path"]
     col = d["joints"]["hip"]["tau"]["column"]
     col = f'"{col}"' if isinstance(col, str) else col
-    return (f'time = "t"\n[joints.hip]\nq = "q_hip"\ntau = {{ source = "x", column = {col} }}\n'
-            f'[joints.knee]\nq = "q_knee"\ntau = {{ source = "x", column = "k_knee" }}\n'
-            f'[sources.x]\npath = "{x}"\n')
+    return (
+        f'time = "t"\n[joints.hip]\nq = "q_hip"\ntau = {{ source = "x", column = {col} }}\n'
+        f'[joints.knee]\nq = "q_knee"\ntau = {{ source = "x", column = "k_knee" }}\n'
+        f'[sources.x]\npath = "{x}"\n'
+    )
 
 
 def _identify(tmp_path: Path, *args: str):
@@ -67,7 +76,9 @@ def test_source_path_outside_the_folder_is_refused(tmp_path, rec, where):
     outside = tmp_path / "outside"
     outside.mkdir()
     (outside / "secret.csv").write_text(f"{SECRET},x\n1,2\n")
-    path = {"absolute": str(outside / "secret.csv"), "climbing": "../../outside/secret.csv", "symlink": "link.csv"}[where]
+    path = {"absolute": str(outside / "secret.csv"), "climbing": "../../outside/secret.csv", "symlink": "link.csv"}[
+        where
+    ]
     if where == "symlink":
         link = rec.parent / "link.csv"
         if not link.exists():
@@ -127,14 +138,17 @@ def test_an_npz_that_is_not_a_recording_is_not_echoed(rec):
 
 
 # ------------------------------------------------------------------ 2. only the documented placeholders, literally
-@pytest.mark.parametrize("path, fragment", [
-    ("{foo}.csv", "unknown placeholder {foo}"),
-    ("{0}.csv", "unknown placeholder {0}"),
-    ("{stem.__class__.__doc__}", "unknown placeholder {stem.__class__.__doc__}"),
-    ("{stem!r}.csv", "unknown placeholder"),
-    ("run{.csv", "unmatched brace"),
-    ("run}.csv", "unmatched brace"),
-])
+@pytest.mark.parametrize(
+    "path, fragment",
+    [
+        ("{foo}.csv", "unknown placeholder {foo}"),
+        ("{0}.csv", "unknown placeholder {0}"),
+        ("{stem.__class__.__doc__}", "unknown placeholder {stem.__class__.__doc__}"),
+        ("{stem!r}.csv", "unknown placeholder"),
+        ("run{.csv", "unmatched brace"),
+        ("run}.csv", "unmatched brace"),
+    ],
+)
 def test_source_path_placeholders(tmp_path, rec, path, fragment):
     with pytest.raises(SpecError, match="expected {stem}, {name}, {suffix}") as info:
         MappingSpec.load(_spec(path))
@@ -165,8 +179,11 @@ def test_negative_column_index_is_refused_in_both_forms(tmp_path, rec, q):
     with pytest.raises(SpecError, match="0-based index >= 0"):
         MappingSpec.load(spec)
     toml = tmp_path / "m.toml"
-    toml.write_text('time = "t"\n[joints.hip]\nq = ' + ("-4" if q == -4 else "{ column = -4 }")
-                    + '\ntau = "tau_hip"\n[joints.knee]\nq = "q_knee"\ntau = "tau_knee"\n')
+    toml.write_text(
+        'time = "t"\n[joints.hip]\nq = '
+        + ("-4" if q == -4 else "{ column = -4 }")
+        + '\ntau = "tau_hip"\n[joints.knee]\nq = "q_knee"\ntau = "tau_knee"\n'
+    )
     proc, out = _identify(tmp_path, "--data", str(rec), "--mapping", str(toml))
     assert_clean_error(proc, "-4", "0-based index >= 0")
     assert not out.exists()
@@ -176,9 +193,11 @@ def test_negative_column_index_is_refused_in_both_forms(tmp_path, rec, q):
 @pytest.mark.parametrize("kind", ["arrays", "inline tables", "dotted tables"])
 def test_deeply_nested_toml_is_one_line(tmp_path, rec, kind):
     n = 5000
-    body = {"arrays": "x = " + "[" * n + "]" * n,
-            "inline tables": "x = " + "{a = " * n + "1" + "}" * n,
-            "dotted tables": "[" + ".".join(["a"] * n) + "]\nb = 1"}[kind]
+    body = {
+        "arrays": "x = " + "[" * n + "]" * n,
+        "inline tables": "x = " + "{a = " * n + "1" + "}" * n,
+        "dotted tables": "[" + ".".join(["a"] * n) + "]\nb = 1",
+    }[kind]
     spec = tmp_path / "deep.toml"
     spec.write_text(body + "\n")
     with pytest.raises(SpecError, match="nested deeper than 64 levels|not valid TOML"):
@@ -186,9 +205,11 @@ def test_deeply_nested_toml_is_one_line(tmp_path, rec, kind):
     proc, out = _identify(tmp_path, "--data", str(rec), "--mapping", str(spec))
     assert_clean_error(proc, str(spec))
     assert not out.exists()
-    for args in (["info", "--urdf", "exo_leg", "--drives", str(spec)],
-                 ["excite", "--urdf", "exo_leg", "--spec", str(spec), "-o", str(tmp_path / "e.json")],
-                 ["flex", "check", "--spec", str(spec)]):
+    for args in (
+        ["info", "--urdf", "exo_leg", "--drives", str(spec)],
+        ["excite", "--urdf", "exo_leg", "--spec", str(spec), "-o", str(tmp_path / "e.json")],
+        ["flex", "check", "--spec", str(spec)],
+    ):
         proc = run_cli(*args)
         assert proc.returncode == 2 and "RecursionError" not in proc.stderr, (args, proc.stderr)
         assert len(proc.stderr.strip().splitlines()) == 1, proc.stderr
@@ -206,11 +227,14 @@ def test_deeply_nested_json_spec(tmp_path):
 # ------------------------------------------------------------------ URDFs: 3, 4, 10
 def _chain(n: int) -> str:
     links = "".join(f'<link name="l{i}"/>' for i in range(n + 1))
-    joints = "".join(f'<joint name="j{i}" type="fixed"><parent link="l{i}"/><child link="l{i + 1}"/></joint>'
-                     for i in range(n))
-    movable = ('<link name="tip"><inertial><mass value="1"/><inertia ixx="0.1" ixy="0" ixz="0" iyy="0.1" iyz="0" '
-               f'izz="0.1"/></inertial></link><joint name="q" type="revolute"><parent link="l{n}"/><child link="tip"/>'
-               '<axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="10" velocity="1"/></joint>')
+    joints = "".join(
+        f'<joint name="j{i}" type="fixed"><parent link="l{i}"/><child link="l{i + 1}"/></joint>' for i in range(n)
+    )
+    movable = (
+        '<link name="tip"><inertial><mass value="1"/><inertia ixx="0.1" ixy="0" ixz="0" iyy="0.1" iyz="0" '
+        f'izz="0.1"/></inertial></link><joint name="q" type="revolute"><parent link="l{n}"/><child link="tip"/>'
+        '<axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="10" velocity="1"/></joint>'
+    )
     return f'<robot name="chain">{links}{joints}{movable}</robot>'
 
 
@@ -224,15 +248,24 @@ URDF_CASES = {
     # 3: urdfdom recurses once per joint and crashes (segfault) on thousands of them
     "6000 fixed joints": (_chain(6000), f"more than pinid accepts ({MAX_URDF_JOINTS})"),
     # 4
-    "lower above upper": (_exo_with('lower="-0.087" upper="1.309"', 'lower="1.309" upper="-0.087"'),
-                          "joint 'hip' has lower limit 1.309 above its upper limit -0.087"),
+    "lower above upper": (
+        _exo_with('lower="-0.087" upper="1.309"', 'lower="1.309" upper="-0.087"'),
+        "joint 'hip' has lower limit 1.309 above its upper limit -0.087",
+    ),
     # 10
-    "mimic joint": (_exo_with(_KNEE_JOINT, _KNEE_JOINT + '<mimic joint="hip" multiplier="1"/>'),
-                    "mimic joints are not supported: joint 'knee' mimics 'hip'"),
-    "two parent joints": (_exo_with("</robot>", '<joint name="loop" type="revolute"><parent link="trunk"/>'
-                                    '<child link="shank"/><axis xyz="0 1 0"/>'
-                                    '<limit lower="-1" upper="1" effort="1" velocity="1"/></joint></robot>'),
-                          "link 'shank' is the child of joints 'knee' and 'loop'"),
+    "mimic joint": (
+        _exo_with(_KNEE_JOINT, _KNEE_JOINT + '<mimic joint="hip" multiplier="1"/>'),
+        "mimic joints are not supported: joint 'knee' mimics 'hip'",
+    ),
+    "two parent joints": (
+        _exo_with(
+            "</robot>",
+            '<joint name="loop" type="revolute"><parent link="trunk"/>'
+            '<child link="shank"/><axis xyz="0 1 0"/>'
+            '<limit lower="-1" upper="1" effort="1" velocity="1"/></joint></robot>',
+        ),
+        "link 'shank' is the child of joints 'knee' and 'loop'",
+    ),
     "zero axis": (_exo_with('<axis xyz="0 -1 0"/>', '<axis xyz="0 0 0"/>'), "joint 'hip' has axis xyz=\"0 0 0\""),
 }
 
@@ -240,12 +273,16 @@ URDF_CASES = {
 def _bad_inertia(text: str, ixx: str, iyy: str, izz: str) -> str:
     import re
 
-    return re.sub(r'<inertia [^>]*/>', f'<inertia ixx="{ixx}" ixy="0" ixz="0" iyy="{iyy}" iyz="0" izz="{izz}"/>', text, count=2)
+    return re.sub(
+        r"<inertia [^>]*/>", f'<inertia ixx="{ixx}" ixy="0" ixz="0" iyy="{iyy}" iyz="0" izz="{izz}"/>', text, count=2
+    )
 
 
 URDF_CASES["negative moment"] = (_bad_inertia(EXO, "-0.1", "0.1", "0.1"), "a negative principal moment")
-URDF_CASES["triangle inequality"] = (_bad_inertia(EXO, "0.01", "0.01", "0.5"),
-                                     "one moment larger than the sum of the other two")
+URDF_CASES["triangle inequality"] = (
+    _bad_inertia(EXO, "0.01", "0.01", "0.5"),
+    "one moment larger than the sum of the other two",
+)
 
 
 @pytest.mark.parametrize("case", sorted(URDF_CASES))
@@ -257,8 +294,12 @@ def test_bad_urdf_is_refused(tmp_path, case):
         RobotModel.from_urdf(p)
     assert fragment in str(info.value)
     assert_clean_error(run_cli("info", "--urdf", str(p), "--json", str(tmp_path / "i.json")), fragment)
-    assert_clean_error(run_cli("simulate", "--urdf", str(p), "--excitation", "zha2019-1", "--seconds", "1",
-                               "-o", str(tmp_path / "s.csv")), fragment)
+    assert_clean_error(
+        run_cli(
+            "simulate", "--urdf", str(p), "--excitation", "zha2019-1", "--seconds", "1", "-o", str(tmp_path / "s.csv")
+        ),
+        fragment,
+    )
     assert _files(tmp_path) == ["robot.urdf"]
 
 
@@ -299,8 +340,18 @@ def test_ok_urdf_through_identify_refused_when_inertia_bad(tmp_path, rec):
 
 # ------------------------------------------------------------------ 12. simulate maps trajectory joints by name
 def _trajectory(path: Path, joints: list[str]) -> Path:
-    path.write_text(json.dumps({"joints": joints, "base_frequency": 0.5, "harmonics": 1, "q0": [-0.9, 0.6],
-                                "a": [[0.3], [0.0]], "b": [[0.0], [0.0]]}))
+    path.write_text(
+        json.dumps(
+            {
+                "joints": joints,
+                "base_frequency": 0.5,
+                "harmonics": 1,
+                "q0": [-0.9, 0.6],
+                "a": [[0.3], [0.0]],
+                "b": [[0.0], [0.0]],
+            }
+        )
+    )
     return path
 
 
@@ -319,18 +370,23 @@ def test_excite_evaluate_maps_trajectory_joints_by_name(tmp_path):
     ordered = _trajectory(tmp_path / "hk.json", ["hip", "knee"])
     d = json.loads(ordered.read_text())
     swapped = tmp_path / "kh.json"
-    swapped.write_text(json.dumps({**d, "joints": ["knee", "hip"], "q0": d["q0"][::-1], "a": d["a"][::-1],
-                                   "b": d["b"][::-1]}))
+    swapped.write_text(
+        json.dumps({**d, "joints": ["knee", "hip"], "q0": d["q0"][::-1], "a": d["a"][::-1], "b": d["b"][::-1]})
+    )
     said = [run_cli("excite", "--urdf", "exo_leg", "--evaluate", str(p)) for p in (ordered, swapped)]
     assert [p.returncode for p in said] == [0, 0], said[1].stderr
-    cond = [next(ln.split("condition number ")[1].split()[0] for ln in p.stdout.splitlines() if "condition number" in ln)
-            for p in said]
+    cond = [
+        next(ln.split("condition number ")[1].split()[0] for ln in p.stdout.splitlines() if "condition number" in ln)
+        for p in said
+    ]
     assert cond[0] == cond[1]
 
 
 def test_simulate_unknown_trajectory_joint(tmp_path):
     tr = _trajectory(tmp_path / "tr.json", ["knee", "foo"])
-    proc = run_cli("simulate", "--urdf", "exo_leg", "--excitation", str(tr), "--seconds", "1", "-o", str(tmp_path / "o.csv"))
+    proc = run_cli(
+        "simulate", "--urdf", "exo_leg", "--excitation", str(tr), "--seconds", "1", "-o", str(tmp_path / "o.csv")
+    )
     assert_clean_error(proc, "['knee', 'foo']", "['hip', 'knee']")
     assert _files(tmp_path) == ["tr.json"]
 
@@ -403,7 +459,12 @@ def test_no_lowpass_warning_on_a_still_joint():
     with warnings.catch_warnings():
         warnings.simplefilter("error", DataWarning)
         prepare(ds)
-    moving = Dataset(t=t, q=np.c_[0.05 * np.sin(2 * np.pi * 40 * t), q[:, 1]], joints=["hip", "knee"],
-                     tau=np.ones_like(q), source="fast")
+    moving = Dataset(
+        t=t,
+        q=np.c_[0.05 * np.sin(2 * np.pi * 40 * t), q[:, 1]],
+        joints=["hip", "knee"],
+        tau=np.ones_like(q),
+        source="fast",
+    )
     with pytest.warns(DataWarning, match="removes .* of joint 'hip'"):
         prepare(moving)

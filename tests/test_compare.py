@@ -33,8 +33,15 @@ def setting():
 def comparison(setting):
     truth, cad, train, valid = setting
     _, xt = true_base(truth)
-    return compare(cad, train, valid, methods=["ols", "sdp", "rls", "pso", "rls-pso", "woa", "ewoa", "de"],
-                   seeds=2, truth=xt, metaheuristic=SMALL)
+    return compare(
+        cad,
+        train,
+        valid,
+        methods=["ols", "sdp", "rls", "pso", "rls-pso", "woa", "ewoa", "de"],
+        seeds=2,
+        truth=xt,
+        metaheuristic=SMALL,
+    )
 
 
 def test_runs_deterministic_methods_once_and_metaheuristics_per_seed(comparison):
@@ -137,9 +144,16 @@ def test_lad_is_the_minimum_of_the_absolute_error(setting):
 def test_segmental_comparison_and_truth_from_a_truth_dict(setting):
     truth, cad, train, valid = setting
     bp, xt = true_base(truth)
-    c = compare(cad, train, {"both": valid, "knee only": hip_fixed(truth, seed=4)}, methods=["ols", "sdp", "pso"],
-                seeds=[7], truth={"base": {"names": bp.names, "values": xt.tolist()}},
-                segmental={"first": hip_fixed(truth, seed=3, noise=0.2)}, metaheuristic=SMALL)
+    c = compare(
+        cad,
+        train,
+        {"both": valid, "knee only": hip_fixed(truth, seed=4)},
+        methods=["ols", "sdp", "pso"],
+        seeds=[7],
+        truth={"base": {"names": bp.names, "values": xt.tolist()}},
+        segmental={"first": hip_fixed(truth, seed=3, noise=0.2)},
+        metaheuristic=SMALL,
+    )
     assert c.segmental["first_joints"] == ["knee"] and set(c.validation_sources) == {"both", "knee only"}
     assert c.runs["pso"][0].seed == 7 and c.runs["pso"][0].history_first
     assert c.runs["sdp"][0].physically_consistent
@@ -169,9 +183,29 @@ def test_cli_compare(tmp_path, setting):
     write_recording(tmp_path / "train.csv", train)
     write_recording(tmp_path / "valid.csv", valid)
     out = tmp_path / "out"
-    proc = run_cli("compare", "--urdf", "exo_leg", "--data", str(tmp_path / "train.csv"), "--validate",
-                   str(tmp_path / "valid.csv"), "--methods", "ols,pso,ewoa", "--seeds", "2", "--population", "15",
-                   "--iterations", "10", "--fitness", "sae", "-o", str(out), "--preprocess", "never")
+    proc = run_cli(
+        "compare",
+        "--urdf",
+        "exo_leg",
+        "--data",
+        str(tmp_path / "train.csv"),
+        "--validate",
+        str(tmp_path / "valid.csv"),
+        "--methods",
+        "ols,pso,ewoa",
+        "--seeds",
+        "2",
+        "--population",
+        "15",
+        "--iterations",
+        "10",
+        "--fitness",
+        "sae",
+        "-o",
+        str(out),
+        "--preprocess",
+        "never",
+    )
     assert proc.returncode == 0, proc.stderr
     assert "above min %" in proc.stdout
     d = json.loads((out / "comparison.json").read_text())
@@ -179,11 +213,29 @@ def test_cli_compare(tmp_path, setting):
     assert d["runs"]["pso"][0]["info"]["fitness"] == "sae"
     for name in ("comparison.md", "compare_convergence.png", "compare_errors_validation.png"):
         assert (out / name).is_file(), name
-    proc = run_cli("compare", "--urdf", "exo_leg", "--data", str(tmp_path / "train.csv"), "--methods", "ols,magic",
-                   "-o", str(tmp_path / "o2"))
+    proc = run_cli(
+        "compare",
+        "--urdf",
+        "exo_leg",
+        "--data",
+        str(tmp_path / "train.csv"),
+        "--methods",
+        "ols,magic",
+        "-o",
+        str(tmp_path / "o2"),
+    )
     assert_clean_error(proc, "magic")
-    proc = run_cli("compare", "--urdf", "exo_leg", "--data", str(tmp_path / "train.csv"), "--first-validate",
-                   str(tmp_path / "valid.csv"), "-o", str(tmp_path / "o3"))
+    proc = run_cli(
+        "compare",
+        "--urdf",
+        "exo_leg",
+        "--data",
+        str(tmp_path / "train.csv"),
+        "--first-validate",
+        str(tmp_path / "valid.csv"),
+        "-o",
+        str(tmp_path / "o3"),
+    )
     assert_clean_error(proc, "--first-data")
     assert not (tmp_path / "o2").exists() or not any((tmp_path / "o2").iterdir())
 
@@ -197,8 +249,23 @@ def test_cli_compare_does_not_replace_files_without_force(tmp_path, setting):
     out = tmp_path / "out"
     out.mkdir()
     (out / "compare_convergence.png").write_text("old")
-    args = ["compare", "--urdf", "exo_leg", "--data", str(tmp_path / "train.csv"), "--methods", "ols,pso",
-            "--seeds", "1", "--population", "10", "--iterations", "5", "-o", str(out)]
+    args = [
+        "compare",
+        "--urdf",
+        "exo_leg",
+        "--data",
+        str(tmp_path / "train.csv"),
+        "--methods",
+        "ols,pso",
+        "--seeds",
+        "1",
+        "--population",
+        "10",
+        "--iterations",
+        "5",
+        "-o",
+        str(out),
+    ]
     proc = run_cli(*args)
     assert_clean_error(proc, "compare_convergence.png", "--force")
     assert sorted(p.name for p in out.iterdir()) == ["compare_convergence.png"]
@@ -210,12 +277,19 @@ def test_cli_compare_does_not_replace_files_without_force(tmp_path, setting):
 def test_box_choice_leaves_rls_pso_in_its_rls_box_and_keeps_forgetting(setting):
     """--box applies to pso/woa/ewoa/de only; the RLS settings reach an RLS box whoever asks for it."""
     truth, cad, train, valid = setting
-    c = compare(cad, train, methods=["pso", "rls-pso"], seeds=1,
-                metaheuristic={**SMALL, "box": "ls", "rls": {"forgetting": 0.999}})
+    c = compare(
+        cad,
+        train,
+        methods=["pso", "rls-pso"],
+        seeds=1,
+        metaheuristic={**SMALL, "box": "ls", "rls": {"forgetting": 0.999}},
+    )
     assert c.runs["pso"][0].info["box"]["kind"] == "ls"
     assert c.runs["rls-pso"][0].info["box"]["kind"] == "rls"
     assert c.runs["rls-pso"][0].info["box"]["rls"]["forgetting"] == 0.999
-    c = compare(cad, train, methods=["pso"], seeds=1, metaheuristic={**SMALL, "box": "rls", "rls": {"forgetting": 0.99}})
+    c = compare(
+        cad, train, methods=["pso"], seeds=1, metaheuristic={**SMALL, "box": "rls", "rls": {"forgetting": 0.99}}
+    )
     assert c.runs["pso"][0].info["box"]["rls"]["forgetting"] == 0.99
 
 

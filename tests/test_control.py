@@ -56,8 +56,13 @@ def test_gains_must_be_positive_definite(exo):
         ComputedTorque(nominal_model(exo), friction_from="sometimes")
 
 
-EXCITATION = FourierTrajectory(["hip", "knee"], 0.2 * np.pi, [0.61, -0.87],
-                               [[0.3, 0.15, 0.05], [-0.25, 0.12, -0.06]], [[0.1, -0.08, 0.04], [0.1, 0.06, -0.03]])
+EXCITATION = FourierTrajectory(
+    ["hip", "knee"],
+    0.2 * np.pi,
+    [0.61, -0.87],
+    [[0.3, 0.15, 0.05], [-0.25, 0.12, -0.06]],
+    [[0.1, -0.08, 0.04], [0.1, 0.06, -0.03]],
+)
 
 
 @pytest.mark.slow

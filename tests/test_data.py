@@ -103,9 +103,14 @@ def test_mapping_degrees_currents_no_header_rate_rows(tmp_path):
     p = tmp_path / "rig.txt"
     p.write_text("# logged by the rig\n" + "\n".join(" ".join(f"{v:.12g}" for v in r) for r in raw) + "\n")
     spec = {
-        "header": False, "delimiter": "whitespace", "time": {"rate": FS}, "rows": [100, 300],
-        "joints": {"hip": {"q": {"column": 0, "scale": "deg"}, "tau": {"column": 2, "scale": gain}},
-                   "knee": {"q": {"column": 1, "sign": -1}, "tau": 3}},
+        "header": False,
+        "delimiter": "whitespace",
+        "time": {"rate": FS},
+        "rows": [100, 300],
+        "joints": {
+            "hip": {"q": {"column": 0, "scale": "deg"}, "tau": {"column": 2, "scale": gain}},
+            "knee": {"q": {"column": 1, "sign": -1}, "tau": 3},
+        },
     }
     back = read_recording(p, mapping=spec, model=load("exo_leg"))
     np.testing.assert_allclose(back.t, ds.t[100:300], atol=1e-12)
@@ -113,8 +118,10 @@ def test_mapping_degrees_currents_no_header_rate_rows(tmp_path):
     np.testing.assert_allclose(back.tau, ds.tau[100:300], atol=1e-9)
     # named columns of a headerless file, and a TOML file
     toml = tmp_path / "spec.toml"
-    toml.write_text('header = false\ndelimiter = "whitespace"\nnames = ["a", "b", "c", "d"]\ntime = { rate = 200.0 }\n'
-                    '[joints.hip]\nq = { column = "a", scale = "deg" }\n[joints.knee]\nq = { column = "b", sign = -1 }\n')
+    toml.write_text(
+        'header = false\ndelimiter = "whitespace"\nnames = ["a", "b", "c", "d"]\ntime = { rate = 200.0 }\n'
+        '[joints.hip]\nq = { column = "a", scale = "deg" }\n[joints.knee]\nq = { column = "b", sign = -1 }\n'
+    )
     back = read_recording(p, mapping=toml)
     np.testing.assert_allclose(back.q, ds.q, atol=1e-10)
 
@@ -123,10 +130,14 @@ def test_mapping_separate_files_and_own_time(tmp_path):
     ds = leg_data(400)
     write_csv(tmp_path / "run_pos.csv", ["time_ms", "p1", "p2"], np.column_stack([1000 * ds.t, ds.q]))
     write_csv(tmp_path / "run_pos_tau.csv", ["t1", "t2"], ds.tau)
-    spec = {"time": {"column": "time_ms", "scale": "ms"},
-            "sources": {"torque": {"path": "{stem}_tau.csv"}},
-            "joints": {"hip": {"q": "p1", "tau": {"source": "torque", "column": "t1"}},
-                       "knee": {"q": "p2", "tau": {"source": "torque", "column": 1}}}}
+    spec = {
+        "time": {"column": "time_ms", "scale": "ms"},
+        "sources": {"torque": {"path": "{stem}_tau.csv"}},
+        "joints": {
+            "hip": {"q": "p1", "tau": {"source": "torque", "column": "t1"}},
+            "knee": {"q": "p2", "tau": {"source": "torque", "column": 1}},
+        },
+    }
     back = read_recording(tmp_path / "run_pos.csv", mapping=spec)
     np.testing.assert_allclose(back.tau, ds.tau, atol=1e-9)
     # torques at their own (slower) rate, interpolated onto the positions' time
@@ -150,27 +161,56 @@ def test_mapping_motor_side_with_coupling(tmp_path):
     taum = np.linalg.solve(R.T, ds.tau.T).T  # tau_joint = R^T tau_motor
     counts = 2 * np.pi / 4096
     np.savez(tmp_path / "motors.npz", t=ds.t, enc=np.round(qm / counts), cur=taum / 0.1)
-    spec = {"time": "t",
-            "transmission": {"joints": ["hip", "knee"], "motors": ["m1", "m2"], "matrix": R.tolist()},
-            "motors": {"m1": {"q": {"column": "enc", "index": 0, "scale": counts}, "tau": {"column": "cur", "index": 0, "scale": 0.1}},
-                       "m2": {"q": {"column": "enc", "index": 1, "scale": counts}, "tau": {"column": "cur", "index": 1, "scale": 0.1}}}}
+    spec = {
+        "time": "t",
+        "transmission": {"joints": ["hip", "knee"], "motors": ["m1", "m2"], "matrix": R.tolist()},
+        "motors": {
+            "m1": {
+                "q": {"column": "enc", "index": 0, "scale": counts},
+                "tau": {"column": "cur", "index": 0, "scale": 0.1},
+            },
+            "m2": {
+                "q": {"column": "enc", "index": 1, "scale": counts},
+                "tau": {"column": "cur", "index": 1, "scale": 0.1},
+            },
+        },
+    }
     back = read_recording(tmp_path / "motors.npz", mapping=spec, model=load("exo_leg"))
     np.testing.assert_allclose(back.tau, ds.tau, atol=1e-9)
     np.testing.assert_allclose(back.q, ds.q, atol=counts / 25)  # encoder counts divided by the reduction
 
 
-@pytest.mark.parametrize("spec, message", [
-    ({"time": "t", "joints": {"hip": {"q": {"colum": "q_hip"}}}}, "unknown key 'colum' in [joints.hip.q] (did you mean 'column'?)"),
-    ({"time": "t", "joints": {"hip": {"q": "q_hipp"}}}, "column 'q_hipp' is not in x.csv (did you mean 'q_hip'?)"),
-    ({"joints": {"hip": {"q": "q_hip"}}}, "no time"),
-    ({"time": "t", "joints": {"hip": {"q": {"column": "q_hip", "source": "other"}}}}, "source = 'other' is not defined"),
-    ({"time": "t", "joints": {"hip": {"q": {"column": "q_hip", "scale": "furlong"}}}}, "expected a finite number or one of"),
-    ({"time": "t", "joints": {"hip": {"q": {"column": "q_hip", "sign": 2}}}}, "sign = 2, expected 1 or -1"),
-    ({"time": "t", "joints": {"hip": {"tau": "tau_hip"}}}, "joint 'hip' has no position q"),
-    ({"time": "t", "joints": {}, "transmission": {"joints": ["hip"], "motors": ["m"], "matrix": [[0.0]]},
-      "motors": {"m": {"q": "q_hip"}}}, "matrix is singular"),
-    ({"time": "t", "rows": [500, 600], "joints": {"hip": {"q": "q_hip"}}}, "keep no row"),
-])
+@pytest.mark.parametrize(
+    "spec, message",
+    [
+        (
+            {"time": "t", "joints": {"hip": {"q": {"colum": "q_hip"}}}},
+            "unknown key 'colum' in [joints.hip.q] (did you mean 'column'?)",
+        ),
+        ({"time": "t", "joints": {"hip": {"q": "q_hipp"}}}, "column 'q_hipp' is not in x.csv (did you mean 'q_hip'?)"),
+        ({"joints": {"hip": {"q": "q_hip"}}}, "no time"),
+        (
+            {"time": "t", "joints": {"hip": {"q": {"column": "q_hip", "source": "other"}}}},
+            "source = 'other' is not defined",
+        ),
+        (
+            {"time": "t", "joints": {"hip": {"q": {"column": "q_hip", "scale": "furlong"}}}},
+            "expected a finite number or one of",
+        ),
+        ({"time": "t", "joints": {"hip": {"q": {"column": "q_hip", "sign": 2}}}}, "sign = 2, expected 1 or -1"),
+        ({"time": "t", "joints": {"hip": {"tau": "tau_hip"}}}, "joint 'hip' has no position q"),
+        (
+            {
+                "time": "t",
+                "joints": {},
+                "transmission": {"joints": ["hip"], "motors": ["m"], "matrix": [[0.0]]},
+                "motors": {"m": {"q": "q_hip"}},
+            },
+            "matrix is singular",
+        ),
+        ({"time": "t", "rows": [500, 600], "joints": {"hip": {"q": "q_hip"}}}, "keep no row"),
+    ],
+)
 def test_mapping_spec_errors(tmp_path, spec, message):
     write_recording(tmp_path / "x.csv", leg_data(100))
     with pytest.raises(SpecError) as exc:
@@ -204,23 +244,42 @@ def bad_recordings(tmp_path: Path) -> dict[str, tuple[Path, str, dict]]:
     def case(name, r, message, header=header, **kw):
         cases[name] = (write_csv(tmp_path / f"{name}.csv", header, r), message, kw)
 
-    r = rows.copy(); r[300, 0] = r[298, 0]
+    r = rows.copy()
+    r[300, 0] = r[298, 0]
     case("backwards", r, "time goes backwards at line 302 (t = 1.495 s then 1.49 s)")
-    r = rows.copy(); r[300, 0] = r[299, 0]
+    r = rows.copy()
+    r[300, 0] = r[299, 0]
     case("duplicate", r, "duplicate time stamp t = 1.495 s at line 301 and line 302")
-    r = rows.copy(); r[10, 3] = np.nan
+    r = rows.copy()
+    r[10, 3] = np.nan
     case("nan", r, "column 'tau_hip' (joints.hip.tau) has NaN at line 12")
-    r = rows.copy(); r[20, 1] = np.inf
+    r = rows.copy()
+    r[20, 1] = np.inf
     case("inf", r, "column 'q_hip' (joints.hip.q) has an infinite value at line 22")
-    r = rows.copy(); r[:, 1] = np.degrees(r[:, 1]) * 10
-    case("degrees", r, "positions of joint 'hip' reach 515.7, more than a full turn for a revolute joint: they look like degrees")
-    r = rows.copy(); r[:, 1] = np.degrees(0.05 + 0.03 * np.sin(2 * np.pi * ds.t))
-    case("degrees_small", r, "joint 'hip' reaches 4.584 at line 52, outside its URDF limits [-0.087, 1.309]; in degrees they would fit")
-    r = rows.copy(); r[:, 2] = -r[:, 2]
+    r = rows.copy()
+    r[:, 1] = np.degrees(r[:, 1]) * 10
+    case(
+        "degrees",
+        r,
+        "positions of joint 'hip' reach 515.7, more than a full turn for a revolute joint: they look like degrees",
+    )
+    r = rows.copy()
+    r[:, 1] = np.degrees(0.05 + 0.03 * np.sin(2 * np.pi * ds.t))
+    case(
+        "degrees_small",
+        r,
+        "joint 'hip' reaches 4.584 at line 52, outside its URDF limits [-0.087, 1.309]; in degrees they would fit",
+    )
+    r = rows.copy()
+    r[:, 2] = -r[:, 2]
     case("limits", r, "outside its URDF limits [-1.658, -0.087]; with the opposite sign they would fit")
     case("missing", rows[:, [0, 1, 3]], "no data for joint 'knee' of exo_leg", header=["t", "q_hip", "tau_hip"])
-    case("unknown", np.column_stack([rows, rows[:, 1], rows[:, 3]]), "joint 'ankle' of the recording is not a joint of exo_leg",
-         header=header + ["q_ankle", "tau_ankle"])
+    case(
+        "unknown",
+        np.column_stack([rows, rows[:, 1], rows[:, 3]]),
+        "joint 'ankle' of the recording is not a joint of exo_leg",
+        header=header + ["q_ankle", "tau_ankle"],
+    )
     # a cut-off last line: columns of different lengths
     p = write_csv(tmp_path / "cut.csv", header, rows)
     p.write_text(p.read_text() + "3.0,0.5\n")
@@ -235,13 +294,33 @@ def bad_recordings(tmp_path: Path) -> dict[str, tuple[Path, str, dict]]:
     lines[7] = lines[7].replace(lines[7].split(",")[2], "abc", 1)
     p.write_text("\n".join(lines) + "\n")
     cases["text"] = (p, "line 8, column 'q_knee': 'abc' is not a number", {})
-    np.savez(tmp_path / "short.npz", t=ds.t, q_hip=ds.q[:, 0], q_knee=ds.q[:-1, 1], tau_hip=ds.tau[:, 0], tau_knee=ds.tau[:, 1])
+    np.savez(
+        tmp_path / "short.npz",
+        t=ds.t,
+        q_hip=ds.q[:, 0],
+        q_knee=ds.q[:-1, 1],
+        tau_hip=ds.tau[:, 0],
+        tau_knee=ds.tau[:, 1],
+    )
     cases["npz_lengths"] = (tmp_path / "short.npz", "columns of different lengths", {})
     return cases
 
 
-CASES = ["backwards", "duplicate", "nan", "inf", "degrees", "degrees_small", "limits", "missing", "unknown", "cut",
-         "ragged", "text", "npz_lengths"]
+CASES = [
+    "backwards",
+    "duplicate",
+    "nan",
+    "inf",
+    "degrees",
+    "degrees_small",
+    "limits",
+    "missing",
+    "unknown",
+    "cut",
+    "ragged",
+    "text",
+    "npz_lengths",
+]
 
 
 @pytest.mark.parametrize("name", CASES)
@@ -261,8 +340,11 @@ def test_checks_can_be_softened(tmp_path):
     assert any("outside its URDF limits" in w for w in ds.meta["warnings"])
     ds = read_recording(cases["degrees_small"][0], model=load("exo_leg"), limits="off")
     assert ds.n == 600
-    spec = {"time": "t", "checks": {"degrees": "off", "limits": "off"},
-            "joints": {"hip": {"q": "q_hip", "tau": "tau_hip"}, "knee": {"q": "q_knee", "tau": "tau_knee"}}}
+    spec = {
+        "time": "t",
+        "checks": {"degrees": "off", "limits": "off"},
+        "joints": {"hip": {"q": "q_hip", "tau": "tau_hip"}, "knee": {"q": "q_knee", "tau": "tau_knee"}},
+    }
     assert read_recording(cases["degrees"][0], mapping=spec, model=load("exo_leg")).n == 600
     with pytest.raises(SpecError, match="check limits = 'maybe'"):
         read_recording(cases["limits"][0], model=load("exo_leg"), limits="maybe")
@@ -272,9 +354,14 @@ def test_separate_files_of_different_lengths(tmp_path):
     ds = leg_data(100)
     write_csv(tmp_path / "pos.csv", ["t", "a", "b"], np.column_stack([ds.t, ds.q]))
     write_csv(tmp_path / "tau.csv", ["a", "b"], ds.tau[:-3])
-    spec = {"time": "t", "sources": {"tau": {"path": "tau.csv"}},
-            "joints": {"hip": {"q": "a", "tau": {"source": "tau", "column": "a"}},
-                       "knee": {"q": "b", "tau": {"source": "tau", "column": "b"}}}}
+    spec = {
+        "time": "t",
+        "sources": {"tau": {"path": "tau.csv"}},
+        "joints": {
+            "hip": {"q": "a", "tau": {"source": "tau", "column": "a"}},
+            "knee": {"q": "b", "tau": {"source": "tau", "column": "b"}},
+        },
+    }
     with pytest.raises(DataError, match=r"tau.csv: 97 rows, but pos.csv has 100 \(columns of different lengths\)"):
         read_recording(tmp_path / "pos.csv", mapping=spec)
 
@@ -336,7 +423,9 @@ def test_example_separate_files(tmp_path):
     sl = slice(None, None, 4)
     write_csv(tmp_path / "run7_ft.csv", ["stamp", "tau_h", "tau_k"], np.column_stack([ds.t[sl], ds.tau[sl]]))
     with pytest.warns(DataWarning, match="inside every source's time span"):
-        back = read_recording(tmp_path / "run7_enc.csv", mapping=EXAMPLES / "separate_files.toml", model=load("exo_leg"))
+        back = read_recording(
+            tmp_path / "run7_enc.csv", mapping=EXAMPLES / "separate_files.toml", model=load("exo_leg")
+        )
     k = np.searchsorted(ds.t, back.t - 1e-12)
     np.testing.assert_allclose(back.tau, ds.tau[k], atol=1e-3 * np.abs(ds.tau).max())
 

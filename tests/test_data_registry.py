@@ -48,7 +48,10 @@ def test_a_registered_format_reads_and_writes_like_the_built_in_ones(tmp_path, j
     back = read_recording(path, model=exo)
     np.testing.assert_array_equal(back.q, q)
     # and through a mapping spec naming its columns
-    spec = {"time": "t", "joints": {"hip": {"q": "q_hip", "tau": "tau_hip"}, "knee": {"q": "q_knee", "tau": "tau_knee"}}}
+    spec = {
+        "time": "t",
+        "joints": {"hip": {"q": "q_hip", "tau": "tau_hip"}, "knee": {"q": "q_knee", "tau": "tau_knee"}},
+    }
     np.testing.assert_array_equal(read_recording(path, mapping=spec).tau, np.ones((50, 2)))
     assert reader_for(path).name == "json-columns"
 

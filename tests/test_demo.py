@@ -14,9 +14,17 @@ def test_demo_runs_the_whole_loop(tmp_path):
     out = tmp_path / "demo"
     proc = run_cli("demo", "-o", str(out), "--methods", "ols,sdp")
     assert proc.returncode == 0, proc.stderr[-2000:]
-    for name in ("excitation.json", "excitation.png", "train.csv", "validate.csv", "train.truth.json",
-                 "identification/identification.json", "identification/report.md",
-                 "identification/identified_sdp.urdf", "track/tracking.json"):
+    for name in (
+        "excitation.json",
+        "excitation.png",
+        "train.csv",
+        "validate.csv",
+        "train.truth.json",
+        "identification/identification.json",
+        "identification/report.md",
+        "identification/identified_sdp.urdf",
+        "track/tracking.json",
+    ):
         assert (out / name).is_file(), name
     ident = json.loads((out / "identification" / "identification.json").read_text())
     sdp = ident["methods"]["sdp"]

@@ -28,10 +28,10 @@ def recording(m: RobotModel, gains, payload: Payload | None, seed: int, noise: f
     """Currents τ/k of the robot (with the payload fixed to its link when given) on a random motion."""
     t, q, dq, ddq = fourier_motion(m, 20.0, 200.0, seed)
     theta = standard_parameters(m, TERMS)
-    theta[10 * m.nv:] = np.tile([0.3, 0.2], m.nv)
+    theta[10 * m.nv :] = np.tile([0.3, 0.2], m.nv)
     if payload is not None:
         j, phi = payload.body(m)
-        theta[10 * j:10 * j + 10] += phi
+        theta[10 * j : 10 * j + 10] += phi
     tau = regressor(m, q, dq, ddq, TERMS) @ theta
     tau = tau.reshape(-1, m.nv)
     if noise:
@@ -41,11 +41,14 @@ def recording(m: RobotModel, gains, payload: Payload | None, seed: int, noise: f
 
 def test_payload_parameters_match_a_urdf_with_the_payload_as_a_fixed_link(tmp_path):
     exo = load("exo_leg")
-    text = exo.urdf_text.replace("</robot>", """
+    text = exo.urdf_text.replace(
+        "</robot>",
+        """
   <link name="box"><inertial><origin xyz="0.01 0.02 -0.05" rpy="0 0 0"/><mass value="2.5"/>
     <inertia ixx="0.02" iyy="0.03" izz="0.01" ixy="0.002" ixz="-0.001" iyz="0.003"/></inertial></link>
   <joint name="strap" type="fixed"><parent link="shank"/><child link="box"/><origin xyz="0.02 -0.04 -0.07" rpy="0 0 0"/></joint>
-</robot>""")
+</robot>""",
+    )
     path = tmp_path / "loaded.urdf"
     path.write_text(text)
     loaded = RobotModel.from_urdf(path)
@@ -53,7 +56,7 @@ def test_payload_parameters_match_a_urdf_with_the_payload_as_a_fixed_link(tmp_pa
     j, phi = payload.body(exo)
     assert j == exo.nv - 1
     q, dq, ddq = exo.random_states(20, np.random.default_rng(0))
-    y = regressor(exo, q, dq, ddq, JointTerms(names=[]))[:, 10 * j:10 * j + 10] @ phi
+    y = regressor(exo, q, dq, ddq, JointTerms(names=[]))[:, 10 * j : 10 * j + 10] @ phi
     np.testing.assert_allclose(loaded.rnea(q, dq, ddq) - exo.rnea(q, dq, ddq), y.reshape(-1, exo.nv), atol=1e-10)
     # the default link: the last joint's child (the shank)
     shank = Payload.from_dict(PAYLOAD)
@@ -73,8 +76,9 @@ def test_one_percent_noise_gains_within_one_percent():
     m = load("exo_leg")
     gains = np.array([2.0, 3.5])
     payload = Payload.from_dict(PAYLOAD)
-    g = identify_gains(m, [recording(m, gains, None, 1, 0.01)], [recording(m, gains, payload, 2, 0.01)], payload,
-                       terms=TERMS)
+    g = identify_gains(
+        m, [recording(m, gains, None, 1, 0.01)], [recording(m, gains, payload, 2, 0.01)], payload, terms=TERMS
+    )
     assert np.all(np.abs(g.gains / gains - 1) < 0.01), g.gains / gains
     assert np.all(g.std < 0.01 * gains)
 
@@ -91,19 +95,28 @@ def test_identify_turns_currents_into_torques_and_reports_gains():
     m = load("exo_leg")
     gains = np.array([2.0, 3.5])
     payload = Payload.from_dict(PAYLOAD)
-    ident = identify(m, recording(m, gains, None, 1), validate=recording(m, gains, None, 3), methods="ols",
-                     payload=payload, payload_data=recording(m, gains, payload, 2))
+    ident = identify(
+        m,
+        recording(m, gains, None, 1),
+        validate=recording(m, gains, None, 3),
+        methods="ols",
+        payload=payload,
+        payload_data=recording(m, gains, payload, 2),
+    )
     np.testing.assert_allclose(ident.data["drive_gains"]["gains"], gains, rtol=1e-6)
     assert ident["ols"].validation.all["rms"] < 1e-6
 
 
-@pytest.mark.parametrize("table, message", [
-    ({"mass": -1}, "mass"),
-    ({"mass": 1, "com": [0, 0]}, "com"),
-    ({"mass": 1, "inertia": [-1, 0, 0, 0, 0, 0]}, "positive semi-definite"),
-    ({"mass": 1, "colour": "red"}, "unknown key"),
-    ({"mass": 1, "link": "nowhere"}, "not in"),
-])
+@pytest.mark.parametrize(
+    "table, message",
+    [
+        ({"mass": -1}, "mass"),
+        ({"mass": 1, "com": [0, 0]}, "com"),
+        ({"mass": 1, "inertia": [-1, 0, 0, 0, 0, 0]}, "positive semi-definite"),
+        ({"mass": 1, "colour": "red"}, "unknown key"),
+        ({"mass": 1, "link": "nowhere"}, "not in"),
+    ],
+)
 def test_bad_payloads(table, message):
     with pytest.raises(SpecError, match=message):
         Payload.from_dict(table).body(load("exo_leg"))
@@ -120,25 +133,51 @@ def test_cli_identifies_drive_gains(tmp_path):
     write_recording(tmp_path / "run.csv", recording(m, gains, None, 1))
     write_recording(tmp_path / "loaded.csv", recording(m, gains, payload, 2))
     (tmp_path / "payload.toml").write_text(_toml(PAYLOAD))
-    r = run_cli("identify", "--urdf", "exo_leg", "--data", str(tmp_path / "run.csv"), "--methods", "ols",
-                "--payload", str(tmp_path / "payload.toml"), "--payload-data", str(tmp_path / "loaded.csv"),
-                "--no-report", "-o", str(tmp_path / "out"))
+    r = run_cli(
+        "identify",
+        "--urdf",
+        "exo_leg",
+        "--data",
+        str(tmp_path / "run.csv"),
+        "--methods",
+        "ols",
+        "--payload",
+        str(tmp_path / "payload.toml"),
+        "--payload-data",
+        str(tmp_path / "loaded.csv"),
+        "--no-report",
+        "-o",
+        str(tmp_path / "out"),
+    )
     assert r.returncode == 0, r.stderr
     assert "drive gains" in r.stdout
     out = json.loads((tmp_path / "out" / "identification.json").read_text())
     np.testing.assert_allclose(out["data"]["drive_gains"]["gains"], gains, rtol=1e-6)
 
 
-@pytest.mark.parametrize("extra, fragment", [
-    (["--payload-data", "{d}/loaded.csv"], "--payload FILE"),
-    (["--payload", "{d}/bad.toml", "--payload-data", "{d}/loaded.csv"], "mass"),
-])
+@pytest.mark.parametrize(
+    "extra, fragment",
+    [
+        (["--payload-data", "{d}/loaded.csv"], "--payload FILE"),
+        (["--payload", "{d}/bad.toml", "--payload-data", "{d}/loaded.csv"], "mass"),
+    ],
+)
 def test_cli_drive_gain_errors(tmp_path, extra, fragment):
     m = load("exo_leg")
     write_recording(tmp_path / "run.csv", recording(m, np.ones(2), None, 1))
     write_recording(tmp_path / "loaded.csv", recording(m, np.ones(2), Payload.from_dict(PAYLOAD), 2))
     (tmp_path / "bad.toml").write_text("mass = 0\n")
-    r = run_cli("identify", "--urdf", "exo_leg", "--data", str(tmp_path / "run.csv"), "--methods", "ols",
-                *[e.format(d=tmp_path) for e in extra], "-o", str(tmp_path / "out"))
+    r = run_cli(
+        "identify",
+        "--urdf",
+        "exo_leg",
+        "--data",
+        str(tmp_path / "run.csv"),
+        "--methods",
+        "ols",
+        *[e.format(d=tmp_path) for e in extra],
+        "-o",
+        str(tmp_path / "out"),
+    )
     assert_clean_error(r, fragment)
     assert not (tmp_path / "out").exists()

@@ -23,8 +23,10 @@ from pinid.model.terms import Stribeck
 from conftest import assert_clean_error, load, run_cli
 from test_identification import fourier_motion, truth_model
 
-ALL_TERMS = JointTerms.from_names("fc,fv,offset,armature,fc_pos,fc_neg,fs,"
-                                  "motor_fc,motor_fv,motor_offset,motor_armature,motor_fc_pos,motor_fc_neg,motor_fs")
+ALL_TERMS = JointTerms.from_names(
+    "fc,fv,offset,armature,fc_pos,fc_neg,fs,"
+    "motor_fc,motor_fv,motor_offset,motor_armature,motor_fc_pos,motor_fc_neg,motor_fs"
+)
 STRIBECK = {"fs": (0.3, 1.5), "motor_fs": (40.0, 2.0)}  # (velocity [rad/s], shape) of coupled()'s robots
 MOTOR_TERMS = JointTerms.from_names("fc,fv,motor_fc,motor_fv,motor_offset,motor_armature")
 EXO_G = [[30.0, 0.0], [12.0, 25.0]]  # cable: the knee motor turns with the hip too
@@ -38,12 +40,16 @@ def coupled(name: str) -> RobotModel:
     j = m.joint_names
     if name == "exo_leg":
         tr = [Transmission(j, ["m_hip", "m_knee"], np.array(EXO_G))]
-        vals = {"m_hip": {"fc": 0.04, "fv": 0.004, "armature": 2e-5, "offset": 0.003},
-                "m_knee": {"fc": 0.05, "fv": 0.003, "armature": 3e-5, "offset": -0.002}}
+        vals = {
+            "m_hip": {"fc": 0.04, "fv": 0.004, "armature": 2e-5, "offset": 0.003},
+            "m_knee": {"fc": 0.05, "fv": 0.003, "armature": 3e-5, "offset": -0.002},
+        }
     else:
         tr = [Transmission([x], [f"m{i + 1}"], np.array([[50.0]])) for i, x in enumerate(j[:-2])]
         tr.append(Transmission(j[-2:], [f"m{len(j) - 1}", f"m{len(j)}"], np.array(WRIST_G)))
-        vals = {f"m{i + 1}": {"fc": 0.01 + 0.002 * i, "fv": 1e-3, "armature": 1e-5, "offset": 1e-3} for i in range(len(j))}
+        vals = {
+            f"m{i + 1}": {"fc": 0.01 + 0.002 * i, "fv": 1e-3, "armature": 1e-5, "offset": 1e-3} for i in range(len(j))
+        }
     m.stribeck = {k: Stribeck(*v) for k, v in STRIBECK.items()}
     return attach(m, Drives(j, tr, vals, "test drives"))
 
@@ -54,11 +60,16 @@ def expected_torque(m: RobotModel, q, dq, ddq, theta_terms, terms: JointTerms) -
     nm = G.shape[0]
     nj, nmt = len(terms.joint), len(terms.motor)
     J = theta_terms[: nv * nj].reshape(nv, nj)
-    M = theta_terms[nv * nj:].reshape(nm, nmt)
-    formula = {"fc": np.sign, "fv": lambda x: x, "offset": np.ones_like,
-               "fc_pos": lambda x: (x > 0) * 1.0, "fc_neg": lambda x: -1.0 * (x < 0)}
+    M = theta_terms[nv * nj :].reshape(nm, nmt)
+    formula = {
+        "fc": np.sign,
+        "fv": lambda x: x,
+        "offset": np.ones_like,
+        "fc_pos": lambda x: (x > 0) * 1.0,
+        "fc_neg": lambda x: -1.0 * (x < 0),
+    }
     for name, (vs, shape) in STRIBECK.items():  # fs·sign(v)·exp(−(|v|/v_s)^δ)
-        formula[name] = lambda x, vs=vs, shape=shape: np.sign(x) * np.exp(-(np.abs(x) / vs) ** shape)
+        formula[name] = lambda x, vs=vs, shape=shape: np.sign(x) * np.exp(-((np.abs(x) / vs) ** shape))
     tau = m.rnea(q, dq, ddq)
     for k, t in enumerate(terms.joint):
         tau += J[:, k] * (ddq if t.name == "armature" else formula[t.name](dq))
@@ -72,7 +83,7 @@ def expected_torque(m: RobotModel, q, dq, ddq, theta_terms, terms: JointTerms) -
 def twin(m: RobotModel, terms: JointTerms, seconds=20.0, rate=200.0, seed=0, noise=0.0) -> Dataset:
     t, q, dq, ddq = fourier_motion(m, seconds, rate, seed)
     theta = standard_parameters(m, terms)
-    tau = expected_torque(m, q, dq, ddq, theta[10 * m.nv:], terms)
+    tau = expected_torque(m, q, dq, ddq, theta[10 * m.nv :], terms)
     if np.any(np.asarray(noise) > 0):
         tau = tau + np.random.default_rng(1000 + seed).normal(size=tau.shape) * noise
     return Dataset(t, q, m.joint_names, dq=dq, ddq=ddq, tau=tau, source=f"twin{seed}")
@@ -85,9 +96,9 @@ def test_regressor_is_rnea_plus_joint_terms_plus_motor_terms(name):
     rng = np.random.default_rng(3)
     q, dq, ddq = m.random_states(7, rng)
     theta = standard_parameters(m, ALL_TERMS)
-    theta[10 * m.nv:] = rng.uniform(-1, 1, theta.size - 10 * m.nv)  # every term, non-zero, both signs
+    theta[10 * m.nv :] = rng.uniform(-1, 1, theta.size - 10 * m.nv)  # every term, non-zero, both signs
     W = regressor(m, q, dq, ddq, ALL_TERMS)
-    want = expected_torque(m, q, dq, ddq, theta[10 * m.nv:], ALL_TERMS)
+    want = expected_torque(m, q, dq, ddq, theta[10 * m.nv :], ALL_TERMS)
     assert np.allclose((W @ theta).reshape(7, m.nv), want, rtol=1e-10, atol=1e-9)
     ident = IdentifiedModel(m, ALL_TERMS, theta)  # the identified model's inverse dynamics agrees
     assert np.allclose(ident.inverse_dynamics(q, dq, ddq), want, rtol=1e-10, atol=1e-9)
@@ -125,7 +136,7 @@ def test_noisy_coupled_twin_at_noise_floor_and_motor_terms_matter(name, sigma):
     clean = twin(m, MOTOR_TERMS, seconds=10, rate=250, seed=5)
     noise = np.random.default_rng(99).normal(size=clean.tau.shape) * sigma
     valid = Dataset(clean.t, clean.q, clean.joints, dq=clean.dq, ddq=clean.ddq, tau=clean.tau + noise, source="valid")
-    floor = float(np.sqrt(np.mean(noise ** 2)))
+    floor = float(np.sqrt(np.mean(noise**2)))
     res = identify(m, train, validate=valid, methods=["ols", "sdp"], terms=MOTOR_TERMS)
     for method, r in res.results.items():
         assert r.validation.all["rms"] <= 1.05 * floor, (method, r.validation.all["rms"], floor)
@@ -181,13 +192,19 @@ def test_urdf_transmissions_equal_the_drives_toml(tmp_path):
     assert load("ur5").drives.matrix.tolist() == np.eye(6).tolist()
 
 
-@pytest.mark.parametrize("toml, message", [
-    ('[transmission]\njoints = ["hip", "ankle"]\nmotors = ["a", "b"]\nmatrix = [[1, 0], [0, 1]]\n', "joint 'ankle'"),
-    ('[transmission]\njoints = ["hip", "knee"]\nmotors = ["a", "b"]\nmatrix = [[1, 2], [2, 4]]\n', "singular"),
-    ('[transmission]\njoints = ["hip", "knee"]\nmotors = ["a"]\nmatrix = [[1, 2]]\n', "expected a square"),
-    ('[transmission]\njoints = ["hip"]\nmotors = ["a"]\nmatrix = [[1]]\n[motors.b]\nfc = 1\n', "[motors.b]"),
-    ('[transmission]\njoints = ["hip"]\nmotors = ["a"]\nmatrix = [[1]]\n[motors.a]\nfc = -1\n', "expected >= 0"),
-])
+@pytest.mark.parametrize(
+    "toml, message",
+    [
+        (
+            '[transmission]\njoints = ["hip", "ankle"]\nmotors = ["a", "b"]\nmatrix = [[1, 0], [0, 1]]\n',
+            "joint 'ankle'",
+        ),
+        ('[transmission]\njoints = ["hip", "knee"]\nmotors = ["a", "b"]\nmatrix = [[1, 2], [2, 4]]\n', "singular"),
+        ('[transmission]\njoints = ["hip", "knee"]\nmotors = ["a"]\nmatrix = [[1, 2]]\n', "expected a square"),
+        ('[transmission]\njoints = ["hip"]\nmotors = ["a"]\nmatrix = [[1]]\n[motors.b]\nfc = 1\n', "[motors.b]"),
+        ('[transmission]\njoints = ["hip"]\nmotors = ["a"]\nmatrix = [[1]]\n[motors.a]\nfc = -1\n', "expected >= 0"),
+    ],
+)
 def test_bad_drives_files(tmp_path, toml, message):
     p = tmp_path / "d.toml"
     p.write_text(toml)
@@ -201,12 +218,18 @@ def test_motor_terms_need_drives():
         base_parameters(load("exo_leg"), JointTerms.from_names("fc,motor_fc"))
 
 
-@pytest.mark.parametrize("toml, fragment", [
-    ('[transmission]\njoints = ["hip", "ankle"]\nmotors = ["a", "b"]\nmatrix = [[1, 0], [0, 1]]\n', "joint 'ankle'"),
-    ('[transmission]\njoints = ["hip", "knee"]\nmotors = ["a", "b"]\nmatrix = [[1, 2], [2, 4]]\n', "singular"),
-    ('[transmission]\njoints = ["hip", "knee"]\nmotors = ["a"]\nmatrix = [[1, 2]]\n', "square"),
-    (None, "need drives"),
-])
+@pytest.mark.parametrize(
+    "toml, fragment",
+    [
+        (
+            '[transmission]\njoints = ["hip", "ankle"]\nmotors = ["a", "b"]\nmatrix = [[1, 0], [0, 1]]\n',
+            "joint 'ankle'",
+        ),
+        ('[transmission]\njoints = ["hip", "knee"]\nmotors = ["a", "b"]\nmatrix = [[1, 2], [2, 4]]\n', "singular"),
+        ('[transmission]\njoints = ["hip", "knee"]\nmotors = ["a"]\nmatrix = [[1, 2]]\n', "square"),
+        (None, "need drives"),
+    ],
+)
 def test_cli_drive_errors_exit_2_and_write_nothing(tmp_path, toml, fragment):
     args = ["info", "--urdf", "exo_leg", "--terms", "fc,motor_fc", "--json", str(tmp_path / "out.json")]
     if toml is not None:
@@ -217,11 +240,21 @@ def test_cli_drive_errors_exit_2_and_write_nothing(tmp_path, toml, fragment):
 
 
 def test_cli_info_shows_motors_and_merged_expressions(tmp_path):
-    (tmp_path / "d.toml").write_text('[transmission]\njoints = ["hip", "knee"]\nmotors = ["m_hip", "m_knee"]\n'
-                                     'matrix = [[30, 0], [12, 25]]\n')
+    (tmp_path / "d.toml").write_text(
+        '[transmission]\njoints = ["hip", "knee"]\nmotors = ["m_hip", "m_knee"]\nmatrix = [[30, 0], [12, 25]]\n'
+    )
     out = tmp_path / "info.json"
-    proc = run_cli("info", "--urdf", "exo_leg", "--drives", str(tmp_path / "d.toml"), "--terms",
-                   "fc,fv,motor_fc,motor_armature", "--json", str(out))
+    proc = run_cli(
+        "info",
+        "--urdf",
+        "exo_leg",
+        "--drives",
+        str(tmp_path / "d.toml"),
+        "--terms",
+        "fc,fv,motor_fc,motor_armature",
+        "--json",
+        str(out),
+    )
     assert proc.returncode == 0, proc.stderr
     assert "m_knee" in proc.stdout
     d = json.loads(out.read_text())
@@ -236,12 +269,15 @@ def test_simulated_plant_has_motor_friction_and_rotor_inertia():
     from pinid.simulation.twin import simulate
 
     m = coupled("exo_leg")
-    tr = FourierTrajectory(m.joint_names, 0.5 * np.pi, np.array([0.6, -0.9]), np.array([[0.4], [0.5]]), np.zeros((2, 1)))
+    tr = FourierTrajectory(
+        m.joint_names, 0.5 * np.pi, np.array([0.6, -0.9]), np.array([[0.4], [0.5]]), np.zeros((2, 1))
+    )
     rec, truth = simulate(m, tr, seconds=2.0, seed=1)
     s = truth["signals"]
-    theta = standard_parameters(m, MOTOR_TERMS)[10 * m.nv:]
-    want = m.rnea(s.q, s.dq, s.ddq) + T.torque(m, MOTOR_TERMS, theta, s.q, s.dq, s.ddq,
-                                                smoothing=truth["friction"]["coulomb_velocity_scale"])
+    theta = standard_parameters(m, MOTOR_TERMS)[10 * m.nv :]
+    want = m.rnea(s.q, s.dq, s.ddq) + T.torque(
+        m, MOTOR_TERMS, theta, s.q, s.dq, s.ddq, smoothing=truth["friction"]["coulomb_velocity_scale"]
+    )
     assert np.allclose(want, s.tau, atol=1e-8)
     assert "motor_armature" in truth["terms"] and truth["drives"]["transmission"][0]["matrix"] == EXO_G
 
@@ -252,19 +288,36 @@ def test_cli_identify_with_drives_exports_drives_toml_and_motor_names(tmp_path):
     m = coupled("exo_leg")
     write_recording(tmp_path / "train.csv", twin(m, MOTOR_TERMS, seconds=10))
     drives_file = tmp_path / "d.toml"
-    drives_file.write_text('[transmission]\njoints = ["hip", "knee"]\nmotors = ["m_hip", "m_knee"]\n'
-                           f'matrix = {EXO_G}\n[motors.m_knee]\nfc = 0.05\n')
+    drives_file.write_text(
+        '[transmission]\njoints = ["hip", "knee"]\nmotors = ["m_hip", "m_knee"]\n'
+        f"matrix = {EXO_G}\n[motors.m_knee]\nfc = 0.05\n"
+    )
     out = tmp_path / "out"
-    proc = run_cli("identify", "--urdf", "exo_leg", "--drives", str(drives_file), "--data", str(tmp_path / "train.csv"),
-                   "--terms", ",".join(MOTOR_TERMS.names), "--methods", "sdp", "--no-report", "-o", str(out))
+    proc = run_cli(
+        "identify",
+        "--urdf",
+        "exo_leg",
+        "--drives",
+        str(drives_file),
+        "--data",
+        str(tmp_path / "train.csv"),
+        "--terms",
+        ",".join(MOTOR_TERMS.names),
+        "--methods",
+        "sdp",
+        "--no-report",
+        "-o",
+        str(out),
+    )
     assert proc.returncode == 0, proc.stderr
     d = json.loads((out / "identification.json").read_text())
     assert "m_knee.armature" in d["methods"]["sdp"]["base_parameters"] or any(
-        n.startswith("m_knee.") for n in d["methods"]["sdp"]["base_parameters"])
+        n.startswith("m_knee.") for n in d["methods"]["sdp"]["base_parameters"]
+    )
     back = load_drives(out / "identified_sdp_drives.toml", m.joint_names)
     assert np.array_equal(back.matrix, m.drives.matrix)
     ident = IdentifiedModel.load(out / "model_sdp.json")  # the saved model carries its drives
     q, dq, ddq = m.random_states(4, np.random.default_rng(1))
     theta = standard_parameters(m, MOTOR_TERMS)
-    want = expected_torque(m, q, dq, ddq, theta[10 * m.nv:], MOTOR_TERMS)
+    want = expected_torque(m, q, dq, ddq, theta[10 * m.nv :], MOTOR_TERMS)
     assert np.allclose(ident.inverse_dynamics(q, dq, ddq), want, atol=1e-5)

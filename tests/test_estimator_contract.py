@@ -60,8 +60,11 @@ def test_bad_settings_are_spec_errors_at_construction(name):
     with pytest.raises(SpecError, match=f"method '{name}': bad settings"):
         make_estimator(name, no_such_setting=1)
     for key, spec in cls.settings.items():
-        bad = "not a number" if spec.kind in ("int", "float", "bool", "dict") else (
-            "no such choice" if spec.choices else None)
+        bad = (
+            "not a number"
+            if spec.kind in ("int", "float", "bool", "dict")
+            else ("no such choice" if spec.choices else None)
+        )
         if bad is not None:
             with pytest.raises(SpecError, match=f"method '{name}': setting {key}="):
                 make_estimator(name, **{key: bad})
@@ -116,16 +119,29 @@ def test_cli_option_reaches_the_estimator_and_bad_settings_exit_2(tmp_path, clea
     model = truth_model("exo_leg")
     write_recording(tmp_path / "run.csv", twin(model, seconds=4, rate=100, seed=4, noise=0.05))
     args = ["identify", "--urdf", "exo_leg", "--data", str(tmp_path / "run.csv"), "--no-report"]
-    proc = run_cli(*args, "--methods", "ols,wls,ridge", "--option", "wls.iterations=3", "--option",
-                   "ridge.prior=zero", "-o", str(tmp_path / "ok"))
+    proc = run_cli(
+        *args,
+        "--methods",
+        "ols,wls,ridge",
+        "--option",
+        "wls.iterations=3",
+        "--option",
+        "ridge.prior=zero",
+        "-o",
+        str(tmp_path / "ok"),
+    )
     assert proc.returncode == 0, proc.stderr
     import json
 
     d = json.loads((tmp_path / "ok" / "identification.json").read_text())
     assert d["methods"]["wls"]["settings"]["iterations"] == 3 and d["methods"]["ridge"]["settings"]["prior"] == "zero"
-    for option, fragment in (("wls.iterations=0", "iterations=0"), ("ridge.prior=urdf", "prior='urdf'"),
-                             ("sdp.regularization=1", "not run"), ("wls.speed=3", "bad settings"),
-                             ("wls=3", "METHOD.KEY=VALUE")):
+    for option, fragment in (
+        ("wls.iterations=0", "iterations=0"),
+        ("ridge.prior=urdf", "prior='urdf'"),
+        ("sdp.regularization=1", "not run"),
+        ("wls.speed=3", "bad settings"),
+        ("wls=3", "METHOD.KEY=VALUE"),
+    ):
         proc = run_cli(*args, "--methods", "ols,wls,ridge", "--option", option, "-o", str(tmp_path / "bad"))
         assert_clean_error(proc, fragment)
     assert not (tmp_path / "bad").exists() or not any((tmp_path / "bad").iterdir())

@@ -24,8 +24,9 @@ def leg_problem():
 def arm_problem():
     """UR5 moving a little around one posture, with torque noise: poorly excited."""
     model = truth_model("ur5")
-    data = twin(model, seconds=15, rate=200, seed=0, noise=0.05, amplitude=0.05,
-                around=[0.3, -1.0, 1.0, -0.5, 0.8, 0.2])
+    data = twin(
+        model, seconds=15, rate=200, seed=0, noise=0.05, amplitude=0.05, around=[0.3, -1.0, 1.0, -0.5, 0.8, 0.2]
+    )
     return IdentificationProblem.from_datasets(model, data)
 
 
@@ -124,8 +125,11 @@ def test_sdp_solver_failure_is_an_error_not_a_result(leg_problem):
 
 def test_sdp_joint_weighting_and_nonnegative_joint_terms():
     model = truth_model("exo_leg", fc=0.0, fv=0.0)  # true friction zero: OLS estimates scatter around it
-    problem = IdentificationProblem.from_datasets(model, twin(model, seconds=10, rate=200, seed=3, noise=[1.0, 0.1]),
-                                                  terms=JointTerms(coulomb=True, viscous=True, armature=True))
+    problem = IdentificationProblem.from_datasets(
+        model,
+        twin(model, seconds=10, rate=200, seed=3, noise=[1.0, 0.1]),
+        terms=JointTerms(coulomb=True, viscous=True, armature=True),
+    )
     est = PhysicalLS(weighting="joint").fit(problem)
     joint = est.standard_[20:].reshape(2, 3)
     assert np.all(joint >= 0)

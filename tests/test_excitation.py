@@ -12,8 +12,17 @@ from pinid import JointTerms, RobotModel, regressor
 from pinid.model.base import base_parameters
 from pinid.errors import SpecError
 from pinid.excitation.design import (
-    DesignProblem, ExcitationSpec, bundled_spec_path, condition_number, default_spec, design_excitation,
-    evaluate_trajectory, limit_violations, load_spec, spec_for, trajectory_extremes,
+    DesignProblem,
+    ExcitationSpec,
+    bundled_spec_path,
+    condition_number,
+    default_spec,
+    design_excitation,
+    evaluate_trajectory,
+    limit_violations,
+    load_spec,
+    spec_for,
+    trajectory_extremes,
 )
 from pinid.excitation.trajectory import FourierTrajectory
 
@@ -26,8 +35,21 @@ A_DEG = [[1.685, -2.258, 13.828, -15.389], [3.530, -9.949, -15.978, 5.415]]
 B_DEG = [[5.689, 2.904, 14.805, 10.822], [5.205, 4.578, 15.914, 11.738]]
 # a small, fast configuration of the default optimiser for tests
 FAST = {"starts": 2, "screen": 2, "polish": 1, "maxiter": 40, "polish_maxiter": 60}
-KEYS = ["condition_number", "criterion", "harmonics", "base_frequency", "q0", "a", "b", "joints", "limits",
-        "extremes", "feasible", "optimizer", "seconds"]
+KEYS = [
+    "condition_number",
+    "criterion",
+    "harmonics",
+    "base_frequency",
+    "q0",
+    "a",
+    "b",
+    "joints",
+    "limits",
+    "extremes",
+    "feasible",
+    "optimizer",
+    "seconds",
+]
 
 
 def dense_extremes(tr: FourierTrajectory, n: int = 50_000):
@@ -89,7 +111,13 @@ def test_bundled_spec_is_table2_and_used_by_default(exo):
     np.testing.assert_allclose(spec.dq_max, [1.645, 1.645])
     np.testing.assert_allclose(spec.ddq_max, [5.168, 5.168])
     np.testing.assert_allclose(spec.q0, [0.6107, -0.8727])
-    assert (spec.harmonics, spec.samples, spec.rest_start, spec.optimize_offsets, spec.margin) == (4, 200, True, False, 0.0)
+    assert (spec.harmonics, spec.samples, spec.rest_start, spec.optimize_offsets, spec.margin) == (
+        4,
+        200,
+        True,
+        False,
+        0.0,
+    )
     assert spec.base_frequency == pytest.approx(0.2 * np.pi) and spec.terms == JointTerms()
     assert spec_for(exo, rest_start=False, harmonics=None).rest_start is False
 
@@ -117,15 +145,18 @@ def test_default_spec_without_urdf_limits():
     assert bundled_spec_path(model) is None and spec_for(model).source.endswith("pinid defaults)")
 
 
-@pytest.mark.parametrize("text, fragment", [
-    ("harmonics = 'four'", "harmonics = 'four', expected a number"),
-    ("colour = 3", "unknown setting(s) colour"),
-    ("[joints.ankle]\nq_min = 0", "joint 'ankle' is not an active joint"),
-    ("[joints.hip]\nspeed = 1", "joints.hip: unknown key(s) speed"),
-    ("[joints.hip]\nq_max = 2.0", "joints.hip.q_max = 2 is outside the URDF's limit 1.309"),
-    ("[joints.knee]\ndq_max = 3.0", "joints.knee.dq_max = 3 is outside the URDF's limit 1.645"),
-    ("harmonics = [", "not valid TOML"),
-])
+@pytest.mark.parametrize(
+    "text, fragment",
+    [
+        ("harmonics = 'four'", "harmonics = 'four', expected a number"),
+        ("colour = 3", "unknown setting(s) colour"),
+        ("[joints.ankle]\nq_min = 0", "joint 'ankle' is not an active joint"),
+        ("[joints.hip]\nspeed = 1", "joints.hip: unknown key(s) speed"),
+        ("[joints.hip]\nq_max = 2.0", "joints.hip.q_max = 2 is outside the URDF's limit 1.309"),
+        ("[joints.knee]\ndq_max = 3.0", "joints.knee.dq_max = 3 is outside the URDF's limit 1.645"),
+        ("harmonics = [", "not valid TOML"),
+    ],
+)
 def test_malformed_spec_files(tmp_path, exo, text, fragment):
     p = tmp_path / "spec.toml"
     p.write_text(text)
@@ -134,17 +165,23 @@ def test_malformed_spec_files(tmp_path, exo, text, fragment):
     assert fragment in str(info.value) and "\n" not in str(info.value)
 
 
-@pytest.mark.parametrize("changes, fragment", [
-    ({"q0": [1.5, -0.8727]}, "joint 'hip': offset q0 = 1.5 is outside its range"),
-    ({"q_min": [-0.087, -0.5], "q_max": [1.309, -0.5], "q0": [0.6107, -0.5]}, "joint 'knee': position range [-0.5, -0.5] has no width"),
-    ({"ddq_max": [5.168, 1e-6]}, "joint 'knee': ddq_max 1e-06 allows at most 2.53e-06 rad of motion"),
-    ({"ddq_max": [5.168, 0.0]}, "joint 'knee': ddq_max 0, expected a finite limit > 0"),
-    ({"harmonics": 1}, "rest_start needs at least 2 harmonics"),
-    ({"samples": 6}, "samples 6, expected an integer > 2·harmonics = 8"),
-    ({"samples": 4, "harmonics": 1, "rest_start": False}, "4 × 2 joints = 8 rows < 10 base parameters"),
-    ({"margin": 0.6}, "margin 0.6, expected a fraction in [0, 0.5)"),
-    ({"criterion": "trace"}, "criterion 'trace', expected one of cond, logdet"),
-])
+@pytest.mark.parametrize(
+    "changes, fragment",
+    [
+        ({"q0": [1.5, -0.8727]}, "joint 'hip': offset q0 = 1.5 is outside its range"),
+        (
+            {"q_min": [-0.087, -0.5], "q_max": [1.309, -0.5], "q0": [0.6107, -0.5]},
+            "joint 'knee': position range [-0.5, -0.5] has no width",
+        ),
+        ({"ddq_max": [5.168, 1e-6]}, "joint 'knee': ddq_max 1e-06 allows at most 2.53e-06 rad of motion"),
+        ({"ddq_max": [5.168, 0.0]}, "joint 'knee': ddq_max 0, expected a finite limit > 0"),
+        ({"harmonics": 1}, "rest_start needs at least 2 harmonics"),
+        ({"samples": 6}, "samples 6, expected an integer > 2·harmonics = 8"),
+        ({"samples": 4, "harmonics": 1, "rest_start": False}, "4 × 2 joints = 8 rows < 10 base parameters"),
+        ({"margin": 0.6}, "margin 0.6, expected a fraction in [0, 0.5)"),
+        ({"criterion": "trace"}, "criterion 'trace', expected one of cond, logdet"),
+    ],
+)
 def test_infeasible_limits_raise_clear_errors(exo, changes, fragment):
     spec = spec_for(exo).replace(**{k: np.asarray(v) if isinstance(v, list) else v for k, v in changes.items()})
     with pytest.raises(SpecError) as info:
@@ -183,8 +220,12 @@ def test_linear_constraints_are_the_limits_on_the_grid(exo):
     for x in lower + rng.random((10, problem.d)) * (upper - lower):
         q, dq, ddq = (v[0] for v in problem.states(x[None], problem.check_times))
         s = problem.spec
-        expected = np.all(q <= s.upper) & np.all(q >= s.lower) & np.all(np.abs(dq) <= s.velocity) \
+        expected = (
+            np.all(q <= s.upper)
+            & np.all(q >= s.lower)
+            & np.all(np.abs(dq) <= s.velocity)
             & np.all(np.abs(ddq) <= s.acceleration)
+        )
         assert expected == np.all(A @ x <= b)
 
 
@@ -278,9 +319,27 @@ def test_csv_export(tmp_path):
 @pytest.mark.slow
 def test_cli_writes_json_csv_and_plot(tmp_path):
     out, csv, png = tmp_path / "exo.json", tmp_path / "exo.csv", tmp_path / "exo.png"
-    proc = run_cli("excite", "--urdf", str(ROOT / "urdf" / "exo_leg.urdf"), "-o", str(out), "--csv", str(csv),
-                   "--plot", str(png), "--rate", "50", "--starts", "2", "--option", "screen=2", "--option", "polish=1",
-                   "--option", "polish_maxiter=40")
+    proc = run_cli(
+        "excite",
+        "--urdf",
+        str(ROOT / "urdf" / "exo_leg.urdf"),
+        "-o",
+        str(out),
+        "--csv",
+        str(csv),
+        "--plot",
+        str(png),
+        "--rate",
+        "50",
+        "--starts",
+        "2",
+        "--option",
+        "screen=2",
+        "--option",
+        "polish=1",
+        "--option",
+        "polish_maxiter=40",
+    )
     assert proc.returncode == 0, proc.stderr
     assert "condition number" in proc.stdout and "hip" in proc.stdout and "|ddq| max" in proc.stdout
     d = json.loads(out.read_text())
@@ -296,11 +355,14 @@ def test_cli_writes_json_csv_and_plot(tmp_path):
     assert proc.returncode == 0 and f"condition number {d['condition_number']:.6g}" in proc.stdout
 
 
-@pytest.mark.parametrize("spec_text, fragment", [
-    ("[q0]\nhip = 1.5", "offset q0 = 1.5 is outside its range"),
-    ("[joints.knee]\nq_min = -0.5\nq_max = -0.5\n", "position range [-0.5, -0.5] has no width"),
-    ("[joints.knee]\nddq_max = 0.00001", "ddq_max 1e-05 allows at most"),
-])
+@pytest.mark.parametrize(
+    "spec_text, fragment",
+    [
+        ("[q0]\nhip = 1.5", "offset q0 = 1.5 is outside its range"),
+        ("[joints.knee]\nq_min = -0.5\nq_max = -0.5\n", "position range [-0.5, -0.5] has no width"),
+        ("[joints.knee]\nddq_max = 0.00001", "ddq_max 1e-05 allows at most"),
+    ],
+)
 def test_cli_infeasible_spec_is_one_line_and_writes_nothing(tmp_path, spec_text, fragment):
     spec = tmp_path / "bad.toml"
     spec.write_text(spec_text)
@@ -313,8 +375,9 @@ def test_cli_infeasible_spec_is_one_line_and_writes_nothing(tmp_path, spec_text,
 def test_cli_bad_options(tmp_path):
     out = tmp_path / "o.json"
     assert_clean_error(run_cli("excite", "--optimizer", "gradient", "-o", str(out)), "--optimizer 'gradient'")
-    assert_clean_error(run_cli("excite", "--optimizer", "pso", "--option", "swarm=3", "-o", str(out)),
-                       "unknown option(s) swarm")
+    assert_clean_error(
+        run_cli("excite", "--optimizer", "pso", "--option", "swarm=3", "-o", str(out)), "unknown option(s) swarm"
+    )
     assert_clean_error(run_cli("excite", "--starts", "3", "--population", "10", "-o", str(out)), "--population")
     assert not out.exists()
 
@@ -323,8 +386,9 @@ def test_cli_bad_options(tmp_path):
 def test_exact_gradient_and_torque_jacobian_match_central_differences(robot, terms):
     """The cond gradient (RNEA derivatives of a model per singular vector) and the torque Jacobian are exact."""
     model = RobotModel.from_urdf(robot)
-    spec = spec_for(model).replace(samples=max(20, 30 // model.nv * 2), terms=JointTerms.from_names(terms),
-                                   tau_max=np.full(model.nv, 1e3))
+    spec = spec_for(model).replace(
+        samples=max(20, 30 // model.nv * 2), terms=JointTerms.from_names(terms), tau_max=np.full(model.nv, 1e3)
+    )
     problem = DesignProblem(model, spec)
     lower, upper = problem.box()
     x = problem.scale_into_limits(lower + np.random.default_rng(3).random(problem.d) * (upper - lower))[0]

@@ -18,7 +18,7 @@ def perturbed_theta(model, terms, seed=0):
     from pinid.simulation.twin import perturb
 
     theta = standard_parameters(perturb(model, 20.0, np.random.default_rng(seed)), terms)
-    theta[10 * model.nv:] = np.random.default_rng(seed).uniform(0.05, 0.5, model.nv * len(terms))
+    theta[10 * model.nv :] = np.random.default_rng(seed).uniform(0.05, 0.5, model.nv * len(terms))
     return theta
 
 
@@ -72,8 +72,11 @@ def test_nominal_parameters_export_the_urdf_inertials():
         a, b = old.find(f"link[@name='{child}']/inertial"), new.find(f"link[@name='{child}']/inertial")
         assert float(b.find("mass").get("value")) == pytest.approx(float(a.find("mass").get("value")))
         if a.find("origin").get("rpy", "0 0 0").split() == ["0", "0", "0"]:
-            np.testing.assert_allclose([float(x) for x in b.find("origin").get("xyz").split()],
-                                       [float(x) for x in a.find("origin").get("xyz").split()], atol=1e-12)
+            np.testing.assert_allclose(
+                [float(x) for x in b.find("origin").get("xyz").split()],
+                [float(x) for x in a.find("origin").get("xyz").split()],
+                atol=1e-12,
+            )
             for k in ("ixx", "iyy", "izz", "ixy", "ixz", "iyz"):
                 assert float(b.find("inertia").get(k)) == pytest.approx(float(a.find("inertia").get(k)), abs=1e-12)
         dyn = new.find(f"joint[@name='{j}']/dynamics")

@@ -14,9 +14,18 @@ import pytest
 
 from pinid import DataError, JointError, RobotModel, SpecError
 from pinid.flexible.model import Drive, FlexibleModel, TrigDynamics, flexible_model
-from pinid.flexible.output_error import (FlexRecording, OutputErrorProblem, OutputErrorResult, classify,
-                                fit_output_error, load_flex_spec, make_twin, methods, problem_from_spec,
-                                sensitivity)
+from pinid.flexible.output_error import (
+    FlexRecording,
+    OutputErrorProblem,
+    OutputErrorResult,
+    classify,
+    fit_output_error,
+    load_flex_spec,
+    make_twin,
+    methods,
+    problem_from_spec,
+    sensitivity,
+)
 
 from conftest import assert_clean_error, load, run_cli
 
@@ -46,11 +55,11 @@ def short_spec(spec, duration=0.6, **kw):
 def test_tracker_urdf_carries_table1(tracker):
     theta = tracker.inertial_parameters().reshape(2, 10)
     assert tracker.joint_names == ["base", "barrel"]
-    assert theta[0, 9] == pytest.approx(0.095)     # base.Izz = J_theta
-    assert theta[1, 6] == pytest.approx(0.0254)    # barrel.Iyy = J_alpha
+    assert theta[0, 9] == pytest.approx(0.095)  # base.Izz = J_theta
+    assert theta[1, 6] == pytest.approx(0.0254)  # barrel.Iyy = J_alpha
     np.testing.assert_allclose(tracker.viscous, [0.2598, 0.01504])  # b_theta, b_alpha
     g = tracker.rnea(np.zeros(2), np.zeros(2), np.zeros(2))
-    assert g[0] == pytest.approx(0.0, abs=1e-12)   # vertical axis: no gravity on the base
+    assert g[0] == pytest.approx(0.0, abs=1e-12)  # vertical axis: no gravity on the base
     assert g[1] == pytest.approx(1.5 * 9.81 * 0.06, rel=1e-3)  # barrel loaded most when horizontal
 
 
@@ -78,7 +87,7 @@ def test_trig_dynamics_equal_pinocchio(robot, tracker):
     for i in range(P):
         m = pin.Model(model.pin_model)
         for j in range(model.nv):
-            m.inertias[j + 1] = pin.Inertia.FromDynamicParameters(theta[i, 10 * j:10 * j + 10])
+            m.inertias[j + 1] = pin.Inertia.FromDynamicParameters(theta[i, 10 * j : 10 * j + 10])
         m.armature[:] = arm[i]
         d = m.createData()
         c = model.configuration(q[i])
@@ -249,13 +258,16 @@ def test_twin_noise_is_seeded_and_recording_roundtrips(spec, tmp_path):
     assert open(path).readline().strip() == "t,T_base,T_barrel,q_base,q_barrel,qm_base,qm_barrel"
 
 
-@pytest.mark.parametrize("content, fragment", [
-    ("x,T_a,q_a\n0,0,0\n", "expected 't'"),
-    ("t,q_base\n0,0\n0.1,0\n0.2,0\n", "input columns"),
-    ("t,T_base,q_base,T_barrel,q_barrel\n0,0,0,0,0\n0.1,0,0,0,0\n0.25,0,0,0,0\n", "uniform sampling"),
-    ("t,T_base,q_base,T_barrel,q_barrel\n0,0,0,0,0\n0.1,0,nan,0,0\n0.2,0,0,0,0\n", "NaN"),
-    ("t,T_base,q_base,foo\n0,0,0,0\n0.1,0,0,0\n0.2,0,0,0\n", "unknown column"),
-])
+@pytest.mark.parametrize(
+    "content, fragment",
+    [
+        ("x,T_a,q_a\n0,0,0\n", "expected 't'"),
+        ("t,q_base\n0,0\n0.1,0\n0.2,0\n", "input columns"),
+        ("t,T_base,q_base,T_barrel,q_barrel\n0,0,0,0,0\n0.1,0,0,0,0\n0.25,0,0,0,0\n", "uniform sampling"),
+        ("t,T_base,q_base,T_barrel,q_barrel\n0,0,0,0,0\n0.1,0,nan,0,0\n0.2,0,0,0,0\n", "NaN"),
+        ("t,T_base,q_base,foo\n0,0,0,0\n0.1,0,0,0\n0.2,0,0,0\n", "unknown column"),
+    ],
+)
 def test_bad_recordings(tmp_path, content, fragment):
     p = tmp_path / "bad.csv"
     p.write_text(content)
@@ -274,8 +286,8 @@ BAD_SPECS = [
     ("fc = [0.0, 0.3]", "fc = [0.3, 0.1]", "expected lower < upper"),
     ("fc = [0.0, 0.3]", "friction = [0.0, 0.3]", "unknown parameter 'friction'"),
     ("K1 = 91.66", "K1 = 500.0", "outside its bounds"),
-    ("cost = \"abs\"", "cost = \"l1\"", "cost = 'l1'"),
-    ("method = \"pso\"", "method = \"ga\"", "method = 'ga'"),
+    ('cost = "abs"', 'cost = "l1"', "cost = 'l1'"),
+    ('method = "pso"', 'method = "ga"', "method = 'ga'"),
 ]
 
 
@@ -293,12 +305,18 @@ def test_bad_specs_give_clear_errors(tmp_path, old, new, fragment):
 
 def test_cli_bad_spec_is_one_line(tmp_path):
     p = tmp_path / "bad.toml"
-    p.write_text(SPEC.read_text().replace("[joints.barrel]", "[joints.elbow]")
-                 .replace('urdf = "../urdf/', f'urdf = "{ROOT}/urdf/'))
+    p.write_text(
+        SPEC.read_text()
+        .replace("[joints.barrel]", "[joints.elbow]")
+        .replace('urdf = "../urdf/', f'urdf = "{ROOT}/urdf/')
+    )
     assert_clean_error(run_cli("flex", "check", "--spec", str(p)), "unknown joint 'elbow'", "bad.toml")
     q = tmp_path / "neg.toml"
-    q.write_text(SPEC.read_text().replace("K1 = [20.0, 400.0]", "K1 = [-5.0, 400.0]", 1)
-                 .replace('urdf = "../urdf/', f'urdf = "{ROOT}/urdf/'))
+    q.write_text(
+        SPEC.read_text()
+        .replace("K1 = [20.0, 400.0]", "K1 = [-5.0, 400.0]", 1)
+        .replace('urdf = "../urdf/', f'urdf = "{ROOT}/urdf/')
+    )
     out = tmp_path / "fit.json"
     assert_clean_error(run_cli("flex", "fit", "--spec", str(q), "--out", str(out)), "base.K1", "stiffness")
     assert not out.exists()
@@ -362,7 +380,11 @@ def test_problem_checks(spec):
 # ---------------------------------------------------------------------------------------------- CLI
 @pytest.mark.slow
 def test_cli_twin_fit_compare(spec, tmp_path):
-    text = SPEC.read_text().replace("duration = 2.0", "duration = 0.3").replace('urdf = "../urdf/', f'urdf = "{ROOT}/urdf/')
+    text = (
+        SPEC.read_text()
+        .replace("duration = 2.0", "duration = 0.3")
+        .replace('urdf = "../urdf/', f'urdf = "{ROOT}/urdf/')
+    )
     sp = tmp_path / "s.toml"
     sp.write_text(text)
     rec = tmp_path / "rec.csv"
@@ -370,18 +392,64 @@ def test_cli_twin_fit_compare(spec, tmp_path):
     assert p.returncode == 0, p.stderr
     assert rec.exists() and (tmp_path / "rec.csv.json").exists()
     out, fig = tmp_path / "fit.json", tmp_path / "fit.png"
-    p = run_cli("flex", "fit", "--spec", str(sp), "--data", str(rec), "--method", "pso", "--population", "6",
-                "--iterations", "2", "--out", str(out), "--plot", str(fig))
+    p = run_cli(
+        "flex",
+        "fit",
+        "--spec",
+        str(sp),
+        "--data",
+        str(rec),
+        "--method",
+        "pso",
+        "--population",
+        "6",
+        "--iterations",
+        "2",
+        "--out",
+        str(out),
+        "--plot",
+        str(fig),
+    )
     assert p.returncode == 0, p.stderr
     d = json.loads(out.read_text())
     assert d["method"] == "pso" and d["model"] == "flexible" and set(d["values"]) == set(spec.free)
     assert d["truth"]["base.K1"] == 91.66 and fig.stat().st_size > 1000
-    p = run_cli("flex", "fit", "--spec", str(sp), "--data", str(rec), "--method", "least_squares", "--x0", "truth",
-                "--max-nfev", "2", "--rigid", "--out", str(tmp_path / "rigid.json"))
+    p = run_cli(
+        "flex",
+        "fit",
+        "--spec",
+        str(sp),
+        "--data",
+        str(rec),
+        "--method",
+        "least_squares",
+        "--x0",
+        "truth",
+        "--max-nfev",
+        "2",
+        "--rigid",
+        "--out",
+        str(tmp_path / "rigid.json"),
+    )
     assert p.returncode == 2 and "--x0 truth" in p.stderr  # the rigid model has no truth
     cmp_ = tmp_path / "cmp.json"
-    p = run_cli("flex", "compare", "--spec", str(sp), "--method", "de", "--population", "6", "--iterations", "2",
-                "--no-polish", "--out", str(cmp_), "--plot", str(tmp_path / "cmp.png"))
+    p = run_cli(
+        "flex",
+        "compare",
+        "--spec",
+        str(sp),
+        "--method",
+        "de",
+        "--population",
+        "6",
+        "--iterations",
+        "2",
+        "--no-polish",
+        "--out",
+        str(cmp_),
+        "--plot",
+        str(tmp_path / "cmp.png"),
+    )
     assert p.returncode == 0, p.stderr
     d = json.loads(cmp_.read_text())
     assert d["flexible"]["model"] == "flexible" and d["rigid"]["model"] == "rigid"
@@ -394,11 +462,32 @@ def test_flex_output_option_is_o_like_every_command_and_out_still_works(tmp_path
     import sys
 
     sp = tmp_path / "s.toml"
-    sp.write_text(SPEC.read_text().replace("duration = 2.0", "duration = 0.3").replace('urdf = "../urdf/', f'urdf = "{ROOT}/urdf/'))
+    sp.write_text(
+        SPEC.read_text()
+        .replace("duration = 2.0", "duration = 0.3")
+        .replace('urdf = "../urdf/', f'urdf = "{ROOT}/urdf/')
+    )
     a, b = tmp_path / "a.csv", tmp_path / "b.csv"
     assert run_cli("flex", "twin", "--spec", str(sp), "-o", str(a), "--seed", "3").returncode == 0
-    proc = subprocess.run([sys.executable, "-W", "error::DeprecationWarning:pinid.cli.flex", "-m", "pinid.cli", "flex",
-                           "twin", "--spec", str(sp), "--out", str(b), "--seed", "3"], capture_output=True, text=True)
+    proc = subprocess.run(
+        [
+            sys.executable,
+            "-W",
+            "error::DeprecationWarning:pinid.cli.flex",
+            "-m",
+            "pinid.cli",
+            "flex",
+            "twin",
+            "--spec",
+            str(sp),
+            "--out",
+            str(b),
+            "--seed",
+            "3",
+        ],
+        capture_output=True,
+        text=True,
+    )
     assert proc.returncode != 0 and "deprecated" in proc.stderr  # the warning is there (made an error here)
     assert run_cli("flex", "twin", "--spec", str(sp), "--out", str(b), "--seed", "3").returncode == 0
     assert a.read_bytes() == b.read_bytes()

@@ -43,8 +43,14 @@ def shorter(argv: list[str]) -> list[str]:
 
 def test_the_page_has_the_steps():
     cmds = commands()
-    assert [c[:2] for c in cmds] == [["pinid", "info"], ["pinid", "excite"], ["pinid", "simulate"],
-                                     ["pinid", "simulate"], ["pinid", "identify"], ["pinid", "track"]]
+    assert [c[:2] for c in cmds] == [
+        ["pinid", "info"],
+        ["pinid", "excite"],
+        ["pinid", "simulate"],
+        ["pinid", "simulate"],
+        ["pinid", "identify"],
+        ["pinid", "track"],
+    ]
     written = [a for c in cmds for k, a in enumerate(c) if c[k - 1] in ("-o", "--plot", "--csv")]
     assert written and all(a.startswith("steps/") for a in written), written  # never into the demo's demo/
     assert "activate" in DOC.read_text() and ".venv/bin/pinid" in DOC.read_text()
@@ -56,8 +62,14 @@ def test_getting_started_runs_in_a_fresh_folder(tmp_path):
         assert argv[0] == "pinid", argv
         proc = run_cli(*shorter(argv)[1:], cwd=tmp_path)
         assert proc.returncode == 0, (argv, proc.stderr[-2000:])
-    for name in ("excitation.json", "train.csv", "validate.csv", "identification/report.html",
-                 "identification/model_sdp.json", "track/tracking.json"):
+    for name in (
+        "excitation.json",
+        "train.csv",
+        "validate.csv",
+        "identification/report.html",
+        "identification/model_sdp.json",
+        "track/tracking.json",
+    ):
         assert (tmp_path / "steps" / name).is_file(), name
     (python,) = blocks("python")
     proc = subprocess.run([sys.executable, "-c", python], cwd=tmp_path, capture_output=True, text=True, timeout=300)

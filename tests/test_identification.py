@@ -17,8 +17,13 @@ from pinid import JointTerms, base_parameters, standard_parameters
 from pinid.data.dataset import Dataset
 from pinid.errors import DataError, SpecError
 from pinid.identification.metrics import METRIC_NAMES
-from pinid.identification.core import (Identification, IdentificationProblem, IdentificationResult, identify,
-                                  rest_thresholds)
+from pinid.identification.core import (
+    Identification,
+    IdentificationProblem,
+    IdentificationResult,
+    identify,
+    rest_thresholds,
+)
 
 from conftest import assert_clean_error, load, run_cli, shared_data
 
@@ -33,8 +38,18 @@ def truth_model(name: str, fc: float = FRICTION["fc"], fv: float = FRICTION["fv"
     return m.with_inertial_parameters(m.inertial_parameters(), coulomb=np.full(m.nv, fc), viscous=np.full(m.nv, fv))
 
 
-def fourier_motion(model, seconds: float, rate: float, seed: int, *, harmonics: int = 4, frequency: float = 0.2,
-                   fill: float = 0.85, around=None, amplitude=None):
+def fourier_motion(
+    model,
+    seconds: float,
+    rate: float,
+    seed: int,
+    *,
+    harmonics: int = 4,
+    frequency: float = 0.2,
+    fill: float = 0.85,
+    around=None,
+    amplitude=None,
+):
     """(t, q, dq, ddq): a random Fourier series per joint inside the position and velocity limits."""
     rng = np.random.default_rng(seed)
     nv = model.nv
@@ -90,7 +105,7 @@ def test_noise_free_twin_recovers_base_parameters(name):
         err = relative_errors(model, r.base, truth)
         assert err.max() <= 1e-6, (method, r.base_names[int(err.argmax())], err.max())
         assert r.physically_consistent, (method, r.consistency)
-        assert r.validation.all["rms"] < 1e-6 * np.sqrt(np.mean(valid.tau ** 2))
+        assert r.validation.all["rms"] < 1e-6 * np.sqrt(np.mean(valid.tau**2))
     assert res["sdp"].standard_source == "estimator"
     assert res["ols"].standard_source == "consistent completion"  # the truth is consistent: found behind OLS
 
@@ -111,9 +126,16 @@ def test_noisy_twin_validation_rms_is_at_the_noise_floor(name, sigma):
     train = twin(model, seconds=40, rate=250, seed=4, noise=sigma)
     valid_clean = twin(model, seconds=10, rate=250, seed=5)
     noise = np.random.default_rng(99).normal(size=valid_clean.tau.shape) * sigma
-    valid = Dataset(valid_clean.t, valid_clean.q, valid_clean.joints, dq=valid_clean.dq, ddq=valid_clean.ddq,
-                    tau=valid_clean.tau + noise, source="valid")
-    floor = float(np.sqrt(np.mean(noise ** 2)))
+    valid = Dataset(
+        valid_clean.t,
+        valid_clean.q,
+        valid_clean.joints,
+        dq=valid_clean.dq,
+        ddq=valid_clean.ddq,
+        tau=valid_clean.tau + noise,
+        source="valid",
+    )
+    floor = float(np.sqrt(np.mean(noise**2)))
     res = identify(model, train, validate=valid, methods=["ols", "sdp"])
     for method, r in res.results.items():
         assert r.validation.all["rms"] <= 1.05 * floor, (method, r.validation.all["rms"], floor)
@@ -129,10 +151,20 @@ def test_simulated_twin_validation_rms_is_at_the_noise_floor():
     from pinid.excitation.trajectory import FourierTrajectory
 
     model = load("exo_leg")
-    t1 = FourierTrajectory(["hip", "knee"], 0.2 * np.pi, [0.61, -0.87], [[0.25, 0.1, 0.05], [0.25, -0.1, 0.05]],
-                           [[0.1, 0.05, 0.02], [-0.1, 0.05, 0.02]])
-    t2 = FourierTrajectory(["hip", "knee"], 0.25 * np.pi, [0.55, -0.9], [[0.2, -0.1, 0.05], [0.3, 0.1, -0.04]],
-                           [[0.1, 0.05, 0.0], [0.0, -0.05, 0.03]])
+    t1 = FourierTrajectory(
+        ["hip", "knee"],
+        0.2 * np.pi,
+        [0.61, -0.87],
+        [[0.25, 0.1, 0.05], [0.25, -0.1, 0.05]],
+        [[0.1, 0.05, 0.02], [-0.1, 0.05, 0.02]],
+    )
+    t2 = FourierTrajectory(
+        ["hip", "knee"],
+        0.25 * np.pi,
+        [0.55, -0.9],
+        [[0.2, -0.1, 0.05], [0.3, 0.1, -0.04]],
+        [[0.1, 0.05, 0.0], [0.0, -0.05, 0.03]],
+    )
     train, _ = simulate(model, t1, seconds=30, seed=1)
     valid, truth = simulate(model, t2, seconds=16, seed=2)
     floor = float(np.sqrt(np.mean((valid.tau - truth["signals"].tau) ** 2)))
@@ -180,7 +212,9 @@ def test_standard_deviations_and_condition_number_follow_the_formulas():
 def test_poorly_excited_data_ols_is_reported_inconsistent():
     """Small motions around one posture with noise: OLS's links are not consistent, and it says so."""
     model = truth_model("ur5")
-    data = twin(model, seconds=15, rate=200, seed=0, noise=0.05, amplitude=0.05, around=[0.3, -1.0, 1.0, -0.5, 0.8, 0.2])
+    data = twin(
+        model, seconds=15, rate=200, seed=0, noise=0.05, amplitude=0.05, around=[0.3, -1.0, 1.0, -0.5, 0.8, 0.2]
+    )
     res = identify(model, data, methods=["ols", "sdp"])
     assert not res["ols"].physically_consistent
     assert res["ols"].standard_source == "least-norm completion"
@@ -239,8 +273,11 @@ def test_nan_mismatched_joints_few_samples_and_rank_deficiency_are_named():
     p = IdentificationProblem.from_datasets(model, good)
     p.W = p.W.copy()
     p.W[:, 4] = 2.0 * p.W[:, 1]
-    with pytest.raises(DataError, match=r"rank-deficient regressor \(rank 9 < 10 base parameters\), the data do not "
-                                        r"excite (hip\.mzR|knee\.mz) independently"):
+    with pytest.raises(
+        DataError,
+        match=r"rank-deficient regressor \(rank 9 < 10 base parameters\), the data do not "
+        r"excite (hip\.mzR|knee\.mz) independently",
+    ):
         p.check()
     with pytest.raises(DataError, match="no torque"):
         identify(model, Dataset(good.t, good.q, good.joints, dq=good.dq, ddq=good.ddq))
@@ -262,13 +299,24 @@ def test_recordings_without_derivatives_are_prepared():
 # ---------------------------------------------------------------------------------------------- results
 def test_results_round_trip_through_json(tmp_path):
     model = truth_model("exo_leg")
-    res = identify(model, twin(model, seconds=8, rate=100, seed=12, noise=0.1),
-                   validate=twin(model, seconds=4, rate=100, seed=13, noise=0.1))
+    res = identify(
+        model,
+        twin(model, seconds=8, rate=100, seed=12, noise=0.1),
+        validate=twin(model, seconds=4, rate=100, seed=13, noise=0.1),
+    )
     d = res.to_dict()
     assert set(d["methods"]) == {"ols", "wls", "sdp"}
     for r in d["methods"].values():
-        for key in ("base_parameters", "std_percent", "standard_parameters", "physically_consistent", "train",
-                    "validation", "condition_number", "seconds"):
+        for key in (
+            "base_parameters",
+            "std_percent",
+            "standard_parameters",
+            "physically_consistent",
+            "train",
+            "validation",
+            "condition_number",
+            "seconds",
+        ):
             assert key in r, key
         for kind in ("train", "validation"):
             for m in r[kind]["per_joint"].values():
@@ -278,8 +326,9 @@ def test_results_round_trip_through_json(tmp_path):
     back = Identification.load(path)
     assert back.best == res.best
     q, dq, ddq = model.random_states(5, np.random.default_rng(0))
-    np.testing.assert_allclose(back.model.inverse_dynamics(q, dq, ddq), res.model.inverse_dynamics(q, dq, ddq),
-                               rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(
+        back.model.inverse_dynamics(q, dq, ddq), res.model.inverse_dynamics(q, dq, ddq), rtol=1e-12, atol=1e-12
+    )
     one = res["wls"].save(tmp_path / "wls.json")
     r2 = IdentificationResult.load(one)
     np.testing.assert_allclose(r2.base, res["wls"].base)
@@ -291,8 +340,12 @@ def test_results_round_trip_through_json(tmp_path):
 def test_estimator_options_reach_the_estimators():
     model = truth_model("exo_leg")
     data = twin(model, seconds=8, rate=100, seed=14, noise=0.1)
-    res = identify(model, data, methods=["wls", "sdp"],
-                   options={"wls": {"iterations": 3}, "sdp": {"mass_bounds": (0.5, 50.0), "regularization": 0.0}})
+    res = identify(
+        model,
+        data,
+        methods=["wls", "sdp"],
+        options={"wls": {"iterations": 3}, "sdp": {"mass_bounds": (0.5, 50.0), "regularization": 0.0}},
+    )
     assert res["wls"].settings["iterations"] == 3 and len(res["wls"].history) >= 1
     assert res["sdp"].settings["mass_bounds"] == (0.5, 50.0)
     with pytest.raises(SpecError, match="not run"):
@@ -306,11 +359,21 @@ def _simulated_csv(tmp_path, seed: int, seconds: float = 12.0) -> Path:
     from pinid.excitation.trajectory import FourierTrajectory
 
     model = load("exo_leg")
-    traj = FourierTrajectory(["hip", "knee"], 0.2 * np.pi, [0.61, -0.87],
-                             [[0.25, 0.1, 0.05], [0.25, -0.1, 0.05]], [[0.1, 0.05, 0.02], [-0.1, 0.05, 0.02]])
+    traj = FourierTrajectory(
+        ["hip", "knee"],
+        0.2 * np.pi,
+        [0.61, -0.87],
+        [[0.25, 0.1, 0.05], [0.25, -0.1, 0.05]],
+        [[0.1, 0.05, 0.02], [-0.1, 0.05, 0.02]],
+    )
     if seed % 2:
-        traj = FourierTrajectory(["hip", "knee"], 0.25 * np.pi, [0.55, -0.9],
-                                 [[0.2, -0.1, 0.05], [0.3, 0.1, -0.04]], [[0.1, 0.05, 0.0], [0.0, -0.05, 0.03]])
+        traj = FourierTrajectory(
+            ["hip", "knee"],
+            0.25 * np.pi,
+            [0.55, -0.9],
+            [[0.2, -0.1, 0.05], [0.3, 0.1, -0.04]],
+            [[0.1, 0.05, 0.0], [0.0, -0.05, 0.03]],
+        )
     ds, _ = simulate(model, traj, seconds=seconds, seed=seed)
     return write_recording(tmp_path / f"run{seed}.csv", ds)
 
@@ -319,8 +382,9 @@ def _simulated_csv(tmp_path, seed: int, seconds: float = 12.0) -> Path:
 def test_cli_identify_on_simulated_recordings(tmp_path):
     train, valid = _simulated_csv(tmp_path, 0), _simulated_csv(tmp_path, 1)
     out = tmp_path / "results"
-    proc = run_cli("identify", "--urdf", "exo_leg", "--data", str(train), "--validate", str(valid), "-o", str(out),
-                   "--verbose")
+    proc = run_cli(
+        "identify", "--urdf", "exo_leg", "--data", str(train), "--validate", str(valid), "-o", str(out), "--verbose"
+    )
     assert proc.returncode == 0, proc.stderr
     assert "== sdp" in proc.stdout and "validation" in proc.stdout  # --verbose: every method's detail
     d = json.loads((out / "identification.json").read_text())
@@ -356,8 +420,10 @@ def test_cli_errors_are_one_line_and_write_nothing(tmp_path):
 DP = SHARED / "double_pendulum"
 
 
-@pytest.mark.skipif(not (DP / "trajectory_02.csv").is_file(),
-                    reason=f"real recordings not found at {DP} (set PINID_SHARED_DATA to the folder holding double_pendulum/)")
+@pytest.mark.skipif(
+    not (DP / "trajectory_02.csv").is_file(),
+    reason=f"real recordings not found at {DP} (set PINID_SHARED_DATA to the folder holding double_pendulum/)",
+)
 def test_real_double_pendulum_recordings(tmp_path):
     """Train on one real recording, validate on another: an imperfect but sensible fit (see its README)."""
     from pinid.model.robot import RobotModel
@@ -378,8 +444,10 @@ def test_real_double_pendulum_recordings(tmp_path):
     assert res["sdp"].export_urdf(tmp_path / "identified.urdf")
 
 
-@pytest.mark.skipif(not (DP / "trajectory_02.csv").is_file(),
-                    reason=f"real recordings not found at {DP} (set PINID_SHARED_DATA to the folder holding double_pendulum/)")
+@pytest.mark.skipif(
+    not (DP / "trajectory_02.csv").is_file(),
+    reason=f"real recordings not found at {DP} (set PINID_SHARED_DATA to the folder holding double_pendulum/)",
+)
 @pytest.mark.slow
 def test_cli_on_real_recordings(tmp_path):
     """The real-data path from the command line: the rig's own URDF and column names through the documented
@@ -390,9 +458,21 @@ def test_cli_on_real_recordings(tmp_path):
 
     mapping = Path(__file__).resolve().parents[1] / "docs" / "examples" / "double_pendulum.toml"
     out = tmp_path / "dp"
-    proc = run_cli("identify", "--urdf", str(DP / "double_pendulum.urdf"), "--data", str(DP / "trajectory_02.csv"),
-                   "--data", str(DP / "trajectory_00.csv"), "--validate", str(DP / "trajectory_03.csv"),
-                   "--mapping", str(mapping), "-o", str(out))
+    proc = run_cli(
+        "identify",
+        "--urdf",
+        str(DP / "double_pendulum.urdf"),
+        "--data",
+        str(DP / "trajectory_02.csv"),
+        "--data",
+        str(DP / "trajectory_00.csv"),
+        "--validate",
+        str(DP / "trajectory_03.csv"),
+        "--mapping",
+        str(mapping),
+        "-o",
+        str(out),
+    )
     assert proc.returncode == 0, proc.stderr[-2000:]
     ident = json.loads((out / "identification.json").read_text())
     sdp = ident["methods"]["sdp"]
@@ -418,8 +498,13 @@ def test_default_preprocessing_on_a_6dof_arm_at_100_hz_and_5_khz(rate):
     def trajectory(seed):
         rng = np.random.default_rng(seed)
         k = np.arange(1, 5)
-        return FourierTrajectory(model.joint_names, 2 * np.pi * 0.2, [0, -1.2, 1.2, -1.5, 0.5, 0.3],
-                                 rng.normal(size=(6, 4)) * 0.2 / k, rng.normal(size=(6, 4)) * 0.2 / k)
+        return FourierTrajectory(
+            model.joint_names,
+            2 * np.pi * 0.2,
+            [0, -1.2, 1.2, -1.5, 0.5, 0.3],
+            rng.normal(size=(6, 4)) * 0.2 / k,
+            rng.normal(size=(6, 4)) * 0.2 / k,
+        )
 
     opts = dict(sample_rate=rate, control_rate=max(rate, 1000), coulomb=fc, viscous=fv)
     train, _ = simulate(model, trajectory(1), seconds=12 if rate < 1000 else 6, seed=1, **opts)

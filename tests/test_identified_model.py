@@ -19,7 +19,7 @@ ALL = JointTerms(coulomb=True, viscous=True, offset=True, armature=True)
 def model_with_terms(name="ur5", seed=0):
     robot = load(name)
     theta = standard_parameters(robot, ALL)
-    theta[10 * robot.nv:] = np.random.default_rng(seed).uniform(0.05, 0.5, robot.nv * 4)
+    theta[10 * robot.nv :] = np.random.default_rng(seed).uniform(0.05, 0.5, robot.nv * 4)
     return IdentifiedModel(robot, ALL, theta, meta={"method": "test"})
 
 
@@ -38,8 +38,9 @@ def test_equation_of_motion_term_by_term():
     # batch = one by one
     np.testing.assert_allclose(m.inverse_dynamics(q, dq, ddq), [m.inverse_dynamics(*x) for x in zip(q, dq, ddq)])
     np.testing.assert_allclose(m.gravity(q), [m.gravity(x) for x in q])
-    assert m.armature.shape == (6,) and np.all(np.diag(m.mass_matrix(q[0])) - np.diag(
-        pin.crba(m.pin_model, m.pin_data, q[0])) == pytest.approx(m.armature))
+    assert m.armature.shape == (6,) and np.all(
+        np.diag(m.mass_matrix(q[0])) - np.diag(pin.crba(m.pin_model, m.pin_data, q[0])) == pytest.approx(m.armature)
+    )
 
 
 def test_coriolis_matrix_makes_mdot_minus_2c_skew():
@@ -95,8 +96,11 @@ def test_computed_torque_example_tracks():
     # the plant is the truth (exact friction with sign(dq)), integrated at 2 kHz
     plant = IdentifiedModel(truth, JointTerms(), standard_parameters(truth, JointTerms()))
     w, dt = 2 * np.pi * 0.5, 5e-4
-    ref = lambda t: (np.array([0.6, -0.9]) + 0.3 * np.sin(w * t), 0.3 * w * np.cos(w * t) * np.ones(2),
-                     -0.3 * w * w * np.sin(w * t) * np.ones(2))
+    ref = lambda t: (
+        np.array([0.6, -0.9]) + 0.3 * np.sin(w * t),
+        0.3 * w * np.cos(w * t) * np.ones(2),
+        -0.3 * w * w * np.sin(w * t) * np.ones(2),
+    )
     q, dq = ref(0.0)[0].copy(), ref(0.0)[1].copy()
     errors = []
     for k in range(4000):
@@ -117,7 +121,7 @@ def coupled_model(seed=0):
     robot = coupled("ur5")
     terms = JointTerms.from_names("fc,fv,offset,armature,motor_fc,motor_fv,motor_armature")
     theta = standard_parameters(robot, terms)
-    theta[10 * robot.nv:] = np.random.default_rng(seed).uniform(0.05, 0.5, theta.size - 10 * robot.nv)
+    theta[10 * robot.nv :] = np.random.default_rng(seed).uniform(0.05, 0.5, theta.size - 10 * robot.nv)
     return IdentifiedModel(robot, terms, theta)
 
 
@@ -126,9 +130,16 @@ def test_every_dynamics_method_takes_batches(make):
     m = make()
     q, dq, ddq = m.robot.random_states(7, np.random.default_rng(2))
     tau = m.inverse_dynamics(q, dq, ddq)
-    for method, args in [("mass_matrix", (q,)), ("coriolis", (q, dq)), ("gravity", (q,)), ("friction", (dq,)),
-                         ("inverse_dynamics", (q, dq, ddq)), ("forward_dynamics", (q, dq, tau)),
-                         ("derivatives", (q, dq, ddq)), ("forward_derivatives", (q, dq, tau))]:
+    for method, args in [
+        ("mass_matrix", (q,)),
+        ("coriolis", (q, dq)),
+        ("gravity", (q,)),
+        ("friction", (dq,)),
+        ("inverse_dynamics", (q, dq, ddq)),
+        ("forward_dynamics", (q, dq, tau)),
+        ("derivatives", (q, dq, ddq)),
+        ("forward_derivatives", (q, dq, tau)),
+    ]:
         batch = getattr(m, method)(*args)
         one = [getattr(m, method)(*x) for x in zip(*args)]
         if isinstance(batch, tuple):  # derivatives: the terms' central differences round at ~1e-16/1e-6
@@ -142,10 +153,12 @@ def test_every_dynamics_method_takes_batches(make):
 
 def _numeric_jacobian(f, args, k, h=1e-6):
     """Central-difference Jacobian of ``f(*args)`` with respect to ``args[k]``."""
+
     def at(step):
         moved = list(args)
         moved[k] = args[k] + step
         return f(*moved)
+
     return np.stack([(at(h * e) - at(-h * e)) / (2 * h) for e in np.eye(args[k].size)], axis=1)
 
 
@@ -172,18 +185,22 @@ def test_passive_term_enters_the_position_derivative():
     m = IdentifiedModel(robot, terms, theta)
     q, dq, ddq = robot.random_states(2, np.random.default_rng(4))
     for a, b, c in zip(q, dq, ddq):
-        np.testing.assert_allclose(m.derivatives(a, b, c)[0],
-                                   _numeric_jacobian(m.inverse_dynamics, (a, b, c), 0), rtol=1e-5, atol=1e-5)
+        np.testing.assert_allclose(
+            m.derivatives(a, b, c)[0], _numeric_jacobian(m.inverse_dynamics, (a, b, c), 0), rtol=1e-5, atol=1e-5
+        )
 
 
-@pytest.mark.parametrize("call", [
-    lambda m: m.mass_matrix(np.zeros(3)),
-    lambda m: m.inverse_dynamics(np.zeros((4, 6)), np.zeros((5, 6)), np.zeros((4, 6))),
-    lambda m: m.inverse_dynamics(np.zeros(6), np.zeros((1, 6)), np.zeros(6)),
-    lambda m: m.gravity(np.full(6, np.nan)),
-    lambda m: m.coriolis("abc", np.zeros(6)),
-    lambda m: m.derivatives(np.zeros((2, 2, 6)), np.zeros(6), np.zeros(6)),
-])
+@pytest.mark.parametrize(
+    "call",
+    [
+        lambda m: m.mass_matrix(np.zeros(3)),
+        lambda m: m.inverse_dynamics(np.zeros((4, 6)), np.zeros((5, 6)), np.zeros((4, 6))),
+        lambda m: m.inverse_dynamics(np.zeros(6), np.zeros((1, 6)), np.zeros(6)),
+        lambda m: m.gravity(np.full(6, np.nan)),
+        lambda m: m.coriolis("abc", np.zeros(6)),
+        lambda m: m.derivatives(np.zeros((2, 2, 6)), np.zeros(6), np.zeros(6)),
+    ],
+)
 def test_wrong_shapes_are_data_errors(call):
     from pinid.errors import DataError
 

@@ -7,8 +7,7 @@ import pytest
 
 from pinid.errors import SpecError
 from pinid.estimators import ESTIMATORS, OLS, RLS, RLSPSO, Metaheuristic, PSOEstimator, make_estimator
-from pinid.estimators.metaheuristic import (fitness_function, natural_scale, nominal_box, search_box,
-                                            training_costs)
+from pinid.estimators.metaheuristic import fitness_function, natural_scale, nominal_box, search_box, training_costs
 from pinid.identification.core import IdentificationProblem, identify
 
 from test_identification import relative_errors, true_base, truth_model, twin
@@ -62,9 +61,12 @@ def test_same_seed_same_result_history_never_increases(name, noisy):
 def test_fitness_of_a_whole_population_matches_the_direct_sums(noisy, weighted):
     p = noisy
     if weighted:
-        p = IdentificationProblem(**{**{k: getattr(noisy, k) for k in ("model", "terms", "base", "W", "tau", "joint",
-                                                                      "sample", "nominal")},
-                                    "weights": np.random.default_rng(0).uniform(0.5, 2.0, noisy.rows)})
+        p = IdentificationProblem(
+            **{
+                **{k: getattr(noisy, k) for k in ("model", "terms", "base", "W", "tau", "joint", "sample", "nominal")},
+                "weights": np.random.default_rng(0).uniform(0.5, 2.0, noisy.rows),
+            }
+        )
     X = p.nominal_base + np.random.default_rng(1).normal(size=(7, p.nb)) * 0.1
     r = p.tau[None, :] - X @ p.W.T
     w = p.weights
@@ -128,8 +130,14 @@ def test_rls_forgetting_tracks_a_change_that_plain_rls_averages(noisy):
 
 
 def test_rls_settings_are_checked(noisy):
-    for bad in ({"forgetting": 0.0}, {"forgetting": 1.5}, {"p0": -1}, {"burn_in": 10**9}, {"init": "prior", "x0": "mean"},
-                {"init": "warm"}):
+    for bad in (
+        {"forgetting": 0.0},
+        {"forgetting": 1.5},
+        {"p0": -1},
+        {"burn_in": 10**9},
+        {"init": "prior", "x0": "mean"},
+        {"init": "warm"},
+    ):
         with pytest.raises(SpecError, match="rls"):
             RLS(**bad).fit(noisy)
     start = RLS(init="prior", x0="nominal", burn_in=0).fit(noisy)
@@ -185,8 +193,9 @@ def test_identify_runs_the_metaheuristics_through_the_common_result(noisy):
     model = noisy.model
     train = twin(model, seconds=20, rate=100, seed=2, noise=0.5)
     valid = twin(model, seconds=8, rate=100, seed=3, noise=0.5)
-    res = identify(model, train, validate=valid, methods=["ols", "pso", "rls-pso"],
-                   options={"pso": SMALL, "rls-pso": SMALL})
+    res = identify(
+        model, train, validate=valid, methods=["ols", "pso", "rls-pso"], options={"pso": SMALL, "rls-pso": SMALL}
+    )
     for m in ("pso", "rls-pso"):
         r = res[m]
         assert r.history and len(r.history) == SMALL["iterations"] + 1

@@ -60,9 +60,11 @@ def test_continuous_joints_use_angles():
         ("<html><body/></html>", "expected <robot>"),
         ("<robot name='r'><link name='a'/></robot>", "no movable joint"),
         ("<?xml version='1.0'?><!DOCTYPE r [<!ENTITY a 'aaaa'>]><robot name='r'>&a;</robot>", "ENTITY"),
-        ("<robot name='r'><link name='a'/><link name='b'/><joint name='j' type='revolute'><parent link='a'/>"
-         "<child link='zzz'/><axis xyz='0 0 1'/><limit lower='-1' upper='1' effort='1' velocity='1'/></joint></robot>",
-         "not declared"),
+        (
+            "<robot name='r'><link name='a'/><link name='b'/><joint name='j' type='revolute'><parent link='a'/>"
+            "<child link='zzz'/><axis xyz='0 0 1'/><limit lower='-1' upper='1' effort='1' velocity='1'/></joint></robot>",
+            "not declared",
+        ),
     ],
 )
 def test_bad_urdf_gives_model_error(tmp_path, content, fragment):
@@ -123,10 +125,12 @@ def test_cli_info_prints_base_parameters_and_writes_json(tmp_path):
 
 def test_undeclared_world_link_is_declared_for_urdfdom(tmp_path):
     """CAD exporters weld to a 'world' link they never declare; pinid declares it instead of failing."""
-    text = ("<robot name='r'><joint name='weld' type='fixed'><parent link='world'/><child link='a'/></joint>"
-            "<link name='a'/><link name='b'><inertial><mass value='1'/><inertia ixx='1' iyy='1' izz='1' ixy='0' "
-            "ixz='0' iyz='0'/></inertial></link><joint name='j' type='continuous'><parent link='a'/>"
-            "<child link='b'/><axis xyz='0 0 1'/></joint></robot>")
+    text = (
+        "<robot name='r'><joint name='weld' type='fixed'><parent link='world'/><child link='a'/></joint>"
+        "<link name='a'/><link name='b'><inertial><mass value='1'/><inertia ixx='1' iyy='1' izz='1' ixy='0' "
+        "ixz='0' iyz='0'/></inertial></link><joint name='j' type='continuous'><parent link='a'/>"
+        "<child link='b'/><axis xyz='0 0 1'/></joint></robot>"
+    )
     p = tmp_path / "w.urdf"
     p.write_text(text)
     assert RobotModel.from_urdf(p).joint_names == ["j"]
@@ -134,8 +138,10 @@ def test_undeclared_world_link_is_declared_for_urdfdom(tmp_path):
 
 def test_urdfdom_complaints_become_one_line(tmp_path):
     p = tmp_path / "nolimit.urdf"
-    p.write_text("<robot name='r'><link name='a'/><link name='b'/><joint name='j' type='revolute'>"
-                 "<parent link='a'/><child link='b'/><axis xyz='0 0 1'/></joint></robot>")
+    p.write_text(
+        "<robot name='r'><link name='a'/><link name='b'/><joint name='j' type='revolute'>"
+        "<parent link='a'/><child link='b'/><axis xyz='0 0 1'/></joint></robot>"
+    )
     assert_clean_error(run_cli("info", "--urdf", str(p)), "not a valid URDF", "limit")
 
 

@@ -79,9 +79,12 @@ def test_x0_enters_the_initial_population():
 def test_callback_stops_and_tol_stops_pso():
     calls = []
     res = get_optimizer("ewoa", population=10, iterations=50).minimize(
-        sphere, LOWER, UPPER, rng=0, callback=lambda it, x, f: calls.append(it) or it >= 3)
+        sphere, LOWER, UPPER, rng=0, callback=lambda it, x, f: calls.append(it) or it >= 3
+    )
     assert calls == [1, 2, 3] and res.nit == 3 and "callback" in res.message
-    res = get_optimizer("pso", PSOOptions(population=30, iterations=500, tol=1e-3)).minimize(sphere, LOWER, UPPER, rng=0)
+    res = get_optimizer("pso", PSOOptions(population=30, iterations=500, tol=1e-3)).minimize(
+        sphere, LOWER, UPPER, rng=0
+    )
     assert res.fun < 1e-3 and res.nit < 500
 
 

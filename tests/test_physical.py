@@ -7,8 +7,14 @@ import pinocchio as pin
 import pytest
 
 from pinid import JointTerms, standard_parameters
-from pinid.model.physical import (PSEUDO_INERTIA_BASIS, check_consistency, com_inertia, from_pseudo_inertia,
-                            parameter_scale, pseudo_inertia)
+from pinid.model.physical import (
+    PSEUDO_INERTIA_BASIS,
+    check_consistency,
+    com_inertia,
+    from_pseudo_inertia,
+    parameter_scale,
+    pseudo_inertia,
+)
 
 from conftest import load
 

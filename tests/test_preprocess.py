@@ -13,21 +13,31 @@ from pinid.errors import DataError, SpecError
 from pinid.data.preprocess import PRESETS, default_cutoff, prepare
 from pinid.excitation.trajectory import FourierTrajectory
 
-TRAJ = FourierTrajectory(["hip", "knee"], 2 * np.pi * 0.5, [0.3, -0.5],
-                         [[0.3, 0.1, 0.05], [0.2, -0.1, 0.04]], [[0.1, 0.0, 0.02], [0.05, 0.1, -0.03]])
+TRAJ = FourierTrajectory(
+    ["hip", "knee"],
+    2 * np.pi * 0.5,
+    [0.3, -0.5],
+    [[0.3, 0.1, 0.05], [0.2, -0.1, 0.04]],
+    [[0.1, 0.0, 0.02], [0.05, 0.1, -0.03]],
+)
 
 
-def recording(fs: float, seconds: float = 12.0, *, noise: float = 1e-4, jitter: float = 0.0, seed: int = 0,
-              velocity: bool = False) -> Dataset:
+def recording(
+    fs: float, seconds: float = 12.0, *, noise: float = 1e-4, jitter: float = 0.0, seed: int = 0, velocity: bool = False
+) -> Dataset:
     rng = np.random.default_rng(seed)
     t = np.arange(int(seconds * fs)) / fs
     if jitter:
         t = t + rng.uniform(-jitter, jitter, t.shape) / fs
     q, dq, ddq = TRAJ.evaluate(t)
     tau = 2.0 * ddq + 5.0 * np.sin(q) + 0.3 * dq
-    return Dataset(t=t, q=q + rng.normal(0, noise, q.shape), joints=["hip", "knee"],
-                   dq=dq + rng.normal(0, 0.01, q.shape) if velocity else None,
-                   tau=tau + rng.normal(0, 0.02, q.shape))
+    return Dataset(
+        t=t,
+        q=q + rng.normal(0, noise, q.shape),
+        joints=["hip", "knee"],
+        dq=dq + rng.normal(0, 0.01, q.shape) if velocity else None,
+        tau=tau + rng.normal(0, 0.02, q.shape),
+    )
 
 
 def rel_rms(a, b):
@@ -110,7 +120,9 @@ def test_decimate_and_trim_options():
     out = prepare(recording(1000.0), decimate=4, trim=0.5)
     assert out.meta["preprocess"]["output_rate"] == pytest.approx(250.0)
     assert out.t[0] == pytest.approx(0.5) and np.diff(out.t)[0] == pytest.approx(0.004)
-    assert prepare(recording(5000.0, seconds=3.0), decimate=1).meta["preprocess"]["output_rate"] == pytest.approx(5000.0)
+    assert prepare(recording(5000.0, seconds=3.0), decimate=1).meta["preprocess"]["output_rate"] == pytest.approx(
+        5000.0
+    )
 
 
 def test_errors():

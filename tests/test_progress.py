@@ -29,9 +29,17 @@ def test_short_work_prints_nothing(capsys):
     assert capsys.readouterr().err == ""
 
 
-@pytest.mark.parametrize("mode, env, kind", [
-    ("auto", None, Lines), (True, None, Lines), (False, None, "silent"), (None, None, "silent"),
-    ("auto", "0", "silent"), (None, "1", Lines)])
+@pytest.mark.parametrize(
+    "mode, env, kind",
+    [
+        ("auto", None, Lines),
+        (True, None, Lines),
+        (False, None, "silent"),
+        (None, None, "silent"),
+        ("auto", "0", "silent"),
+        (None, "1", Lines),
+    ],
+)
 def test_who_decides(monkeypatch, mode, env, kind):
     """Not a terminal here (pytest captures stderr): the command line prints lines unless --no-progress;
     Python prints nothing; PINID_PROGRESS overrides both."""
@@ -72,7 +80,11 @@ def test_every_command_has_the_flag():
     from pinid.cli.main import build_parser
 
     parser = build_parser()
-    for argv in (["demo", "--no-progress"], ["identify", "--data", "x.csv", "--progress"],
-                 ["flex", "compare", "-o", "c.json", "--no-progress"], ["excite", "--no-progress"]):
+    for argv in (
+        ["demo", "--no-progress"],
+        ["identify", "--data", "x.csv", "--progress"],
+        ["flex", "compare", "-o", "c.json", "--no-progress"],
+        ["excite", "--no-progress"],
+    ):
         args = parser.parse_args(argv)
         assert args.progress is (argv[-1] == "--progress"), argv

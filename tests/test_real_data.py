@@ -25,8 +25,10 @@ SPEC = ROOT / "docs" / "examples" / "double_pendulum.toml"
 GOOD = ["00", "01", "02", "03", "11", "12", "13"]
 SPINNING = ["04", "05"]  # the elbow turns more than a full turn: beyond the URDF's ±π
 
-pytestmark = pytest.mark.skipif(not (DATA / "trajectory_00.csv").is_file(),
-                                reason=f"real recordings not found at {DATA} (set PINID_SHARED_DATA to the folder holding double_pendulum/)")
+pytestmark = pytest.mark.skipif(
+    not (DATA / "trajectory_00.csv").is_file(),
+    reason=f"real recordings not found at {DATA} (set PINID_SHARED_DATA to the folder holding double_pendulum/)",
+)
 
 
 @pytest.fixture(scope="module")
@@ -74,9 +76,16 @@ def test_mapping_signs_match_the_urdf(model):
     nominal = bp.from_standard(standard_parameters(model))
 
     def residual(flip: float):
-        spec = {"time": "time", "joints": {
-            "Joint1": {"q": "pos_meas1", "dq": "vel_meas1", "tau": "tau_meas1"},
-            "Joint2": {q: {"column": c, "sign": flip} for q, c in (("q", "pos_meas2"), ("dq", "vel_meas2"), ("tau", "tau_meas2"))}}}
+        spec = {
+            "time": "time",
+            "joints": {
+                "Joint1": {"q": "pos_meas1", "dq": "vel_meas1", "tau": "tau_meas1"},
+                "Joint2": {
+                    q: {"column": c, "sign": flip}
+                    for q, c in (("q", "pos_meas2"), ("dq", "vel_meas2"), ("tau", "tau_meas2"))
+                },
+            },
+        }
         ds = read_recording(DATA / "trajectory_00.csv", mapping=spec, model=model)
         out = prepare(ds)
         W = bp.columns(regressor(model, out.q, out.dq, out.ddq))

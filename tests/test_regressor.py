@@ -27,9 +27,9 @@ def test_regressor_times_parameters_is_rnea_plus_joint_terms(name, terms):
     rng = np.random.default_rng(1)
     q, dq, ddq = model.random_states(25, rng)
     theta = standard_parameters(model, terms)
-    theta[10 * model.nv:] = rng.uniform(0.1, 2.0, size=model.nv * len(terms))  # non-trivial joint terms
+    theta[10 * model.nv :] = rng.uniform(0.1, 2.0, size=model.nv * len(terms))  # non-trivial joint terms
     tau = joint_torque(model, q, dq, ddq, theta, terms)
-    expected = model.rnea(q, dq, ddq) + _friction(model, dq, ddq, theta[10 * model.nv:], terms)
+    expected = model.rnea(q, dq, ddq) + _friction(model, dq, ddq, theta[10 * model.nv :], terms)
     np.testing.assert_allclose(tau, expected, atol=1e-9, rtol=0)
 
 
@@ -89,8 +89,16 @@ def test_base_parameters_round_trip_json(tmp_path):
 def test_parameter_names_follow_the_documented_order(exo):
     names = parameter_names(exo, ALL_TERMS)
     assert names[:10] == [f"hip.{p}" for p in ("m", "mx", "my", "mz", "Ixx", "Ixy", "Iyy", "Ixz", "Iyz", "Izz")]
-    assert names[20:] == ["hip.fc", "hip.fv", "hip.offset", "hip.armature",
-                          "knee.fc", "knee.fv", "knee.offset", "knee.armature"]
+    assert names[20:] == [
+        "hip.fc",
+        "hip.fv",
+        "hip.offset",
+        "hip.armature",
+        "knee.fc",
+        "knee.fv",
+        "knee.offset",
+        "knee.armature",
+    ]
 
 
 def test_regressor_rejects_wrong_shapes(exo):

@@ -60,8 +60,10 @@ def external_resources(page: Page) -> list[str]:
 
 
 def test_renderer_subset():
-    text = ("# Title `x<y>`\n\nA paragraph with **bold** and `code`,\ncontinued.\n\n- one\n- two & three\n\n"
-            "| a | b |\n|---|---|\n| 1 | **2** |\n| 3 \\| x | 4 |\n\n![a [p5, p95] figure](fig.png)\n\n```python\nif a < b:\n```\n")
+    text = (
+        "# Title `x<y>`\n\nA paragraph with **bold** and `code`,\ncontinued.\n\n- one\n- two & three\n\n"
+        "| a | b |\n|---|---|\n| 1 | **2** |\n| 3 \\| x | 4 |\n\n![a [p5, p95] figure](fig.png)\n\n```python\nif a < b:\n```\n"
+    )
     page = Page(markdown_to_html(text, {"fig.png": PNG}, title="t"))
     assert page.tags.count("h1") == 1 and page.tags.count("li") == 2 and page.tags.count("strong") == 2
     assert page.tables == [[["a", "b"], ["1", "2"], ["3 | x", "4"]]]
@@ -91,15 +93,29 @@ def report(tmp_path_factory):
     model = load("exo_leg")
     files = []
     for seed, w in ((0, 0.2), (1, 0.25)):
-        traj = FourierTrajectory(["hip", "knee"], w * np.pi, [0.6, -0.9], [[0.25, 0.1], [0.25, -0.1]],
-                                 [[0.1, 0.05], [-0.1, 0.05]])
+        traj = FourierTrajectory(
+            ["hip", "knee"], w * np.pi, [0.6, -0.9], [[0.25, 0.1], [0.25, -0.1]], [[0.1, 0.05], [-0.1, 0.05]]
+        )
         ds, _ = simulate(model, traj, seconds=10.0, seed=seed)
         files.append(write_recording(tmp / f"run{seed}.csv", ds))
     out = tmp / "out"
     printed = io.StringIO()
     with contextlib.redirect_stdout(printed):
-        status = main(["identify", "--data", str(files[0]), "--validate", str(files[1]), "--methods",
-                       ",".join(METHODS), "--option", "pso.iterations=20", "-o", str(out)])
+        status = main(
+            [
+                "identify",
+                "--data",
+                str(files[0]),
+                "--validate",
+                str(files[1]),
+                "--methods",
+                ",".join(METHODS),
+                "--option",
+                "pso.iterations=20",
+                "-o",
+                str(out),
+            ]
+        )
     assert status == 0
     return out, printed.getvalue()
 

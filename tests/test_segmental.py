@@ -106,7 +106,6 @@ def test_the_proximal_joint_cannot_go_first(leg):
         Segmental("ols").fit(twin(leg, seed=1))
 
 
-
 def test_stages_are_problems_of_the_estimator_protocol(seg):
     from pinid.identification.problem import Problem
 

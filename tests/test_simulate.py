@@ -70,9 +70,11 @@ def test_round_trip_simulate_write_read_prepare(apal_run, tmp_path):
     ref = {name: lowpass(getattr(s, name), pp["sample_rate"], pp["cutoff"])[k] for name in ("q", "dq", "ddq", "tau")}
 
     def rel(name):
-        return np.max(np.sqrt(np.mean((getattr(out, name) - ref[name]) ** 2, axis=0)) / np.sqrt(np.mean(ref[name] ** 2, axis=0)))
+        return np.max(
+            np.sqrt(np.mean((getattr(out, name) - ref[name]) ** 2, axis=0)) / np.sqrt(np.mean(ref[name] ** 2, axis=0))
+        )
 
-    assert np.max(np.abs(out.q - ref["q"])) < 1e-4   # rad
+    assert np.max(np.abs(out.q - ref["q"])) < 1e-4  # rad
     assert rel("dq") < 1e-3
     assert rel("ddq") < 2e-2
     assert rel("tau") < 5e-3  # the filtered sensor noise: 1 % of the peak, times about 0.15
@@ -134,8 +136,18 @@ def test_reproducible_and_seeded():
 def test_friction_override_velocity_rates_and_pid():
     model = load("apal_leg")
     tr = load_trajectory("seed000-3", model)
-    ds, truth = simulate(model, tr, seconds=1.0, coulomb=[0.5, 0.2], viscous=0.3, controller="pid",
-                         sample_rate=200, control_rate=1000, record_velocity=True, torque_noise=[0.1, 0.05])
+    ds, truth = simulate(
+        model,
+        tr,
+        seconds=1.0,
+        coulomb=[0.5, 0.2],
+        viscous=0.3,
+        controller="pid",
+        sample_rate=200,
+        control_rate=1000,
+        record_velocity=True,
+        torque_noise=[0.1, 0.05],
+    )
     assert ds.n == 200 and ds.sample_rate == pytest.approx(200)
     assert truth["friction"]["coulomb"] == {"hip": 0.5, "knee": 0.2}
     names = truth["standard"]["names"]
@@ -178,7 +190,7 @@ def test_perturb_is_consistent_and_sized():
     for seed in range(5):
         theta = perturb(model, 20.0, np.random.default_rng(seed)).inertial_parameters()
         for b in range(model.nv):
-            p = theta[10 * b: 10 * b + 10]
+            p = theta[10 * b : 10 * b + 10]
             m, h = p[0], p[1:4]
             inertia = np.array([[p[4], p[5], p[7]], [p[5], p[6], p[8]], [p[7], p[8], p[9]]])
             J = np.zeros((4, 4))
@@ -214,10 +226,23 @@ def _md5(p):
 def test_cli_issue_command_line(tmp_path):
     """`pinid simulate --urdf ... --excitation FILE --seconds S --seed 1 -o data/run1.csv` with defaults."""
     exo = load("exo_leg")
-    tr = FourierTrajectory(exo.joint_names, 0.2 * np.pi, [0.6107, -0.8727], [[0.3, 0.05], [-0.3, 0.05]], [[0.0, 0.05], [0.1, 0.0]])
+    tr = FourierTrajectory(
+        exo.joint_names, 0.2 * np.pi, [0.6107, -0.8727], [[0.3, 0.05], [-0.3, 0.05]], [[0.0, 0.05], [0.1, 0.0]]
+    )
     tr.save(tmp_path / "excitation.json")
-    args = ["simulate", "--urdf", "urdf/exo_leg.urdf", "--excitation", "excitation.json", "--seconds", "2",
-            "--seed", "1", "-o", "data/run1.csv"]
+    args = [
+        "simulate",
+        "--urdf",
+        "urdf/exo_leg.urdf",
+        "--excitation",
+        "excitation.json",
+        "--seconds",
+        "2",
+        "--seed",
+        "1",
+        "-o",
+        "data/run1.csv",
+    ]
     from pathlib import Path
 
     root = Path(__file__).resolve().parents[1]
@@ -240,9 +265,26 @@ def test_cli_issue_command_line(tmp_path):
 
 def test_cli_perturb_npz_and_true_signals(tmp_path):
     out = tmp_path / "r.npz"
-    proc = run_cli("simulate", "--urdf", "apal_leg", "--excitation", "seed000-1", "--seconds", "1", "-o", str(out),
-                   "--perturb", "20", "--true-signals", str(tmp_path / "true.csv"), "--torque-noise", "0.2,0.1",
-                   "--coulomb", "hip=1.0,knee=0.5", "--record-velocity")
+    proc = run_cli(
+        "simulate",
+        "--urdf",
+        "apal_leg",
+        "--excitation",
+        "seed000-1",
+        "--seconds",
+        "1",
+        "-o",
+        str(out),
+        "--perturb",
+        "20",
+        "--true-signals",
+        str(tmp_path / "true.csv"),
+        "--torque-noise",
+        "0.2,0.1",
+        "--coulomb",
+        "hip=1.0,knee=0.5",
+        "--record-velocity",
+    )
     assert proc.returncode == 0, proc.stderr
     d = json.loads((tmp_path / "r.truth.json").read_text())
     assert d["cad"]["percent"] == 20.0 and d["cad"]["standard"]["values"] != d["standard"]["values"]
@@ -258,29 +300,49 @@ def test_cli_cad_urdf_is_the_perturbed_model(tmp_path):
     from pinid import JointTerms, RobotModel, standard_parameters
 
     cad = tmp_path / "cad.urdf"
-    proc = run_cli("simulate", "--urdf", "exo_leg", "--excitation", "excitation/exo_leg.json", "--seconds", "1",
-                   "-o", str(tmp_path / "r.csv"), "--perturb", "30", "--cad-urdf", str(cad))
+    proc = run_cli(
+        "simulate",
+        "--urdf",
+        "exo_leg",
+        "--excitation",
+        "excitation/exo_leg.json",
+        "--seconds",
+        "1",
+        "-o",
+        str(tmp_path / "r.csv"),
+        "--perturb",
+        "30",
+        "--cad-urdf",
+        str(cad),
+    )
     assert proc.returncode == 0, proc.stderr
     d = json.loads((tmp_path / "r.truth.json").read_text())
     back = RobotModel.from_urdf(cad)
-    np.testing.assert_allclose(standard_parameters(back, JointTerms()), d["cad"]["standard"]["values"], rtol=1e-9,
-                               atol=1e-12)
+    np.testing.assert_allclose(
+        standard_parameters(back, JointTerms()), d["cad"]["standard"]["values"], rtol=1e-9, atol=1e-12
+    )
     assert d["cad"]["standard"]["values"] != d["standard"]["values"]
 
 
-@pytest.mark.parametrize("args, message", [
-    (["--excitation", "seed000-7"], "seed000-7: no such excitation file, and not a bundled trajectory"),
-    (["--urdf", "exo_leg", "--excitation", "seed000-3"], "trajectory takes joint 'knee' to -1.66 rad at t = 0.617 s, outside its URDF limits"),
-    (["--excitation", "seed000-1", "-o", "x.txt"], "unknown suffix '.txt', expected .csv or .npz"),
-    (["--excitation", "seed000-1", "--coulomb", "1,2,3"], "--coulomb '1,2,3': 3 values for 2 joints"),
-    (["--excitation", "seed000-1", "--coulomb", "ankle=1"], "--coulomb: joint 'ankle' is not an active joint"),
-    (["--excitation", "seed000-1", "--torque-noise", "lots%"], "--torque-noise 'lots%'"),
-    (["--excitation", "seed000-1", "--sample-rate", "300", "--control-rate", "7"], "velocity cut-off 30 Hz"),
-    (["--excitation", "seed000-1", "--perturb", "150"], "perturbation 150.0 %"),
-    (["--excitation", "seed000-1", "--cad-urdf", "cad.urdf"], "--cad-urdf needs --perturb"),
-    (["--excitation", "bad.json"], "not valid JSON"),
-    (["--excitation", "hip.json"], "trajectory joints ['thigh'] do not match apal_leg's active joints"),
-])
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["--excitation", "seed000-7"], "seed000-7: no such excitation file, and not a bundled trajectory"),
+        (
+            ["--urdf", "exo_leg", "--excitation", "seed000-3"],
+            "trajectory takes joint 'knee' to -1.66 rad at t = 0.617 s, outside its URDF limits",
+        ),
+        (["--excitation", "seed000-1", "-o", "x.txt"], "unknown suffix '.txt', expected .csv or .npz"),
+        (["--excitation", "seed000-1", "--coulomb", "1,2,3"], "--coulomb '1,2,3': 3 values for 2 joints"),
+        (["--excitation", "seed000-1", "--coulomb", "ankle=1"], "--coulomb: joint 'ankle' is not an active joint"),
+        (["--excitation", "seed000-1", "--torque-noise", "lots%"], "--torque-noise 'lots%'"),
+        (["--excitation", "seed000-1", "--sample-rate", "300", "--control-rate", "7"], "velocity cut-off 30 Hz"),
+        (["--excitation", "seed000-1", "--perturb", "150"], "perturbation 150.0 %"),
+        (["--excitation", "seed000-1", "--cad-urdf", "cad.urdf"], "--cad-urdf needs --perturb"),
+        (["--excitation", "bad.json"], "not valid JSON"),
+        (["--excitation", "hip.json"], "trajectory joints ['thigh'] do not match apal_leg's active joints"),
+    ],
+)
 def test_cli_errors_leave_nothing(tmp_path, args, message):
     (tmp_path / "bad.json").write_text("{")
     FourierTrajectory(["thigh"], 1.0, [0.0], [[0.1]], [[0.0]]).save(tmp_path / "hip.json")

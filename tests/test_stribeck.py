@@ -31,7 +31,7 @@ MFS, MVS = 0.03, 6.0  # motor Stribeck [N·m at the motor], v_s [rad/s at the mo
 
 
 def stribeck(x, vs, shape):
-    return np.sign(x) * np.exp(-(np.abs(x) / vs) ** shape)
+    return np.sign(x) * np.exp(-((np.abs(x) / vs) ** shape))
 
 
 def twin(m, terms: JointTerms, seconds=30.0, rate=200.0, seed=0, shape=SHAPE) -> tuple[Dataset, np.ndarray]:
@@ -72,8 +72,7 @@ def test_noise_free_twin_velocity_given_and_fitted(make, terms, key, vs):
     m = make()
     ds, theta = twin(m, terms)
     truth = base_parameters(m, terms).from_standard(theta)
-    given = identify(m, ds, methods=["ols", "sdp"], terms=terms, stribeck_velocity={key: vs},
-                     stribeck_shape=SHAPE)
+    given = identify(m, ds, methods=["ols", "sdp"], terms=terms, stribeck_velocity={key: vs}, stribeck_shape=SHAPE)
     for method in ("ols", "sdp"):
         assert _relative(given[method].base, truth) <= 1e-6, method
     assert given.data["stribeck"][key] == {"velocity": vs, "shape": SHAPE, "fitted": False}
@@ -96,8 +95,15 @@ def test_noise_free_twin_velocity_given_and_fitted(make, terms, key, vs):
 def test_noisy_twin_velocity_found():
     m = exo_joint()
     ds, _ = twin(m, JOINT, seed=1)
-    noisy = Dataset(ds.t, ds.q, ds.joints, dq=ds.dq, ddq=ds.ddq, source="noisy",
-                    tau=ds.tau + np.random.default_rng(7).normal(size=ds.tau.shape) * 0.1)  # σ = fs / 6
+    noisy = Dataset(
+        ds.t,
+        ds.q,
+        ds.joints,
+        dq=ds.dq,
+        ddq=ds.ddq,
+        source="noisy",
+        tau=ds.tau + np.random.default_rng(7).normal(size=ds.tau.shape) * 0.1,
+    )  # σ = fs / 6
     found = identify(m, noisy, methods=["ols"], terms=JOINT, stribeck_velocity="auto").data["stribeck"]["fs"]
     assert abs(found["velocity"] / VS - 1) <= 0.02
 
@@ -121,12 +127,18 @@ def test_settings_from_the_robot_python_and_defaults():
     assert stribeck_settings(m, JOINT, "auto", "auto") == ({"fs": Stribeck(0.2, 1.0)}, {"fs": True})
 
 
-@pytest.mark.parametrize("velocity,shape,message", [
-    (0, None, "velocity of fs 0, expected a number > 0"), (-0.1, None, "expected a number > 0"),
-    (float("nan"), None, "expected a number > 0"), ("fast", None, "expected a number > 0 [rad/s] or 'auto'"),
-    (None, 0, "shape of fs 0"), (None, "auto", "fitted only with the velocity 'auto'"),
-    ("motor_fs=1", None, "expected Stribeck term(s) selected"),
-])
+@pytest.mark.parametrize(
+    "velocity,shape,message",
+    [
+        (0, None, "velocity of fs 0, expected a number > 0"),
+        (-0.1, None, "expected a number > 0"),
+        (float("nan"), None, "expected a number > 0"),
+        ("fast", None, "expected a number > 0 [rad/s] or 'auto'"),
+        (None, 0, "shape of fs 0"),
+        (None, "auto", "fitted only with the velocity 'auto'"),
+        ("motor_fs=1", None, "expected Stribeck term(s) selected"),
+    ],
+)
 def test_bad_settings(velocity, shape, message):
     with pytest.raises(SpecError) as err:
         stribeck_settings(exo_joint(), JOINT, velocity, shape)
@@ -135,20 +147,36 @@ def test_bad_settings(velocity, shape, message):
 
 def test_setting_without_a_stribeck_term():
     with pytest.raises(SpecError, match="no Stribeck term is selected"):
-        identify(exo_joint(), twin(exo_joint(), JOINT, seconds=5)[0], methods=["ols"], terms="fc,fv",
-                 stribeck_velocity=0.1)
+        identify(
+            exo_joint(), twin(exo_joint(), JOINT, seconds=5)[0], methods=["ols"], terms="fc,fv", stribeck_velocity=0.1
+        )
     with pytest.raises(SpecError, match="velocity"):
         Stribeck(float("nan"))
 
 
-@pytest.mark.parametrize("value,fragment", [("0", "expected a number > 0"), ("nan", "expected a number > 0"),
-                                            ("-1", "expected a number > 0")])
+@pytest.mark.parametrize(
+    "value,fragment",
+    [("0", "expected a number > 0"), ("nan", "expected a number > 0"), ("-1", "expected a number > 0")],
+)
 def test_cli_bad_velocity_exits_2_and_writes_nothing(tmp_path, value, fragment):
     m = exo_joint()
     write_recording(tmp_path / "train.csv", twin(m, JOINT, seconds=5)[0])
     out = tmp_path / "out"
-    proc = run_cli("identify", "--urdf", "exo_leg", "--data", str(tmp_path / "train.csv"), "--terms", "fc,fv,fs",
-                   "--methods", "ols", "--no-report", f"--stribeck-velocity={value}", "-o", str(out))
+    proc = run_cli(
+        "identify",
+        "--urdf",
+        "exo_leg",
+        "--data",
+        str(tmp_path / "train.csv"),
+        "--terms",
+        "fc,fv,fs",
+        "--methods",
+        "ols",
+        "--no-report",
+        f"--stribeck-velocity={value}",
+        "-o",
+        str(out),
+    )
     assert_clean_error(proc, fragment)
     assert not out.exists()
 
@@ -157,8 +185,22 @@ def test_cli_identify_fits_the_velocity(tmp_path):
     m = truth_model("exo_leg")
     write_recording(tmp_path / "train.csv", twin(m, JOINT, seconds=20)[0])
     out = tmp_path / "out"
-    proc = run_cli("identify", "--urdf", "exo_leg", "--data", str(tmp_path / "train.csv"), "--terms", "fc,fv,fs",
-                   "--methods", "ols", "--no-report", "--stribeck-velocity", "auto", "-o", str(out))
+    proc = run_cli(
+        "identify",
+        "--urdf",
+        "exo_leg",
+        "--data",
+        str(tmp_path / "train.csv"),
+        "--terms",
+        "fc,fv,fs",
+        "--methods",
+        "ols",
+        "--no-report",
+        "--stribeck-velocity",
+        "auto",
+        "-o",
+        str(out),
+    )
     assert proc.returncode == 0, proc.stderr
     assert "Stribeck fs: velocity" in proc.stdout and "(fitted)" in proc.stdout
     d = json.loads((out / "identification.json").read_text())
@@ -178,8 +220,10 @@ def test_plant_law_and_nominal_motor_value_from_the_drives_file():
     ds, _ = twin(m, MOTOR, seconds=2)
     vals = np.array([0.5, 0.4, 0.02, 0.03])
     G, smooth = m.drives.matrix, 0.01
-    want = (vals[:2] * np.tanh(ds.dq / smooth) * np.exp(-(np.abs(ds.dq) / VS) ** SHAPE)
-            + (vals[2:] * np.tanh(ds.dq @ G.T / smooth) * np.exp(-np.abs(ds.dq @ G.T) / MVS)) @ G)
+    want = (
+        vals[:2] * np.tanh(ds.dq / smooth) * np.exp(-((np.abs(ds.dq) / VS) ** SHAPE))
+        + (vals[2:] * np.tanh(ds.dq @ G.T / smooth) * np.exp(-np.abs(ds.dq @ G.T) / MVS)) @ G
+    )
     assert np.allclose(T.torque(m, sel, vals, ds.q, ds.dq, ds.ddq, smoothing=smooth), want, rtol=1e-12, atol=1e-12)
 
 

@@ -14,8 +14,10 @@ def _starts(line: str) -> list[int]:
 
 def test_columns_align_with_long_names():
     """Long joint or model names widen their column instead of pushing the row out of line (pinid track)."""
-    rows = [["backstepping", "cad:30", "hip", "14.891"],
-            ["computed-torque", "identified_model_of_the_left_leg.json", "left_hip_flexion_extension_joint", "0.035"]]
+    rows = [
+        ["backstepping", "cad:30", "hip", "14.891"],
+        ["computed-torque", "identified_model_of_the_left_leg.json", "left_hip_flexion_extension_joint", "0.035"],
+    ]
     text = text_table(["controller", "model", "joint", "RMS [mrad]"], rows, keys=3)
     lines = text.splitlines()
     assert len(lines) == 4 and len({len(line) for line in lines}) == 1  # every line as wide: right edges align
@@ -31,5 +33,8 @@ def test_wide_tables_split_to_fit_repeating_the_key_column():
     assert len(parts) >= 2
     for part in parts:
         assert part.splitlines()[0].startswith("method") and [line.split()[0] for line in part.splitlines()[2:]] == [
-            "ols", "rls-pso", "ewoa"]
+            "ols",
+            "rls-pso",
+            "ewoa",
+        ]
     assert sum(part.splitlines()[0].count("panda_joint") for part in parts) == 7  # every column exactly once

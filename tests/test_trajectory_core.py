@@ -11,7 +11,9 @@ from pinid.excitation.trajectory import FourierTrajectory
 
 def _traj():
     rng = np.random.default_rng(0)
-    return FourierTrajectory(["hip", "knee"], 0.2 * np.pi, [0.6, -0.9], rng.normal(0, 0.1, (2, 4)), rng.normal(0, 0.1, (2, 4)))
+    return FourierTrajectory(
+        ["hip", "knee"], 0.2 * np.pi, [0.6, -0.9], rng.normal(0, 0.1, (2, 4)), rng.normal(0, 0.1, (2, 4))
+    )
 
 
 def test_derivatives_match_finite_differences():

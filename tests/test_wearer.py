@@ -28,11 +28,14 @@ def test_male_75kg_178m_plausible():
     assert 0.15 < thigh.inertia[1] < 0.25 and 0.035 < shank.inertia[1] < 0.07
 
 
-@pytest.mark.parametrize("kw, what", [
-    (dict(mass=20, height=1.78, sex="male"), "body mass 20 kg"),
-    (dict(mass=75, height=2.5, sex="male"), "height 2.5 m"),
-    (dict(mass=75, height=1.78, sex="x"), "sex 'x'"),
-])
+@pytest.mark.parametrize(
+    "kw, what",
+    [
+        (dict(mass=20, height=1.78, sex="male"), "body mass 20 kg"),
+        (dict(mass=75, height=2.5, sex="male"), "height 2.5 m"),
+        (dict(mass=75, height=1.78, sex="x"), "sex 'x'"),
+    ],
+)
 def test_person_out_of_range(kw, what):
     with pytest.raises(SpecError, match=what):
         anth.segment("thigh", **kw)
@@ -49,11 +52,15 @@ def test_wearer_urdf_adds_segment_inertia_to_exo_bodies(tmp_path):
     for i, name in enumerate(("thigh", "shank")):
         link, m, c, Ic = seg[name]
         assert link == name
-        extra = both.pin_model.inertias[i + 1].toDynamicParameters() - exo.pin_model.inertias[i + 1].toDynamicParameters()
+        extra = (
+            both.pin_model.inertias[i + 1].toDynamicParameters() - exo.pin_model.inertias[i + 1].toDynamicParameters()
+        )
         assert extra[0] == pytest.approx(m)
         np.testing.assert_allclose(extra[1:4], m * c, atol=1e-9)
         # segment axis along the exo link (-z here), proximal end at the joint: CoM straight below it
-        assert c[0] == pytest.approx(0) and c[2] == pytest.approx(-anth.segment(name, mass=75, height=1.78, sex="male").com)
+        assert c[0] == pytest.approx(0) and c[2] == pytest.approx(
+            -anth.segment(name, mass=75, height=1.78, sex="male").com
+        )
         # the transverse (joint-axis) radius of gyration is the one about y
         s = anth.segment(name, mass=75, height=1.78, sex="male")
         assert Ic[1, 1] == pytest.approx(s.inertia[1]) and Ic[2, 2] == pytest.approx(s.inertia[2])
@@ -75,19 +82,38 @@ def _cli(*argv):
 
 def test_cli_wearer_writes_urdf(tmp_path, capsys):
     out = tmp_path / "exo_with_wearer.urdf"
-    assert _cli("wearer", "--urdf", "exo_leg", "--mass", "75", "--height", "1.78", "--sex", "male",
-                "--attach", "hip:thigh,knee:shank", "-o", str(out)) == 0
+    assert (
+        _cli(
+            "wearer",
+            "--urdf",
+            "exo_leg",
+            "--mass",
+            "75",
+            "--height",
+            "1.78",
+            "--sex",
+            "male",
+            "--attach",
+            "hip:thigh,knee:shank",
+            "-o",
+            str(out),
+        )
+        == 0
+    )
     assert "wearer_thigh_strap" in out.read_text()
     assert "10.62 kg" in capsys.readouterr().out
 
 
-@pytest.mark.parametrize("extra, words", [
-    (["--mass", "200", "--height", "1.78"], "body mass 200 kg"),
-    (["--mass", "75", "--height", "1.2"], "height 1.2 m"),
-    (["--mass", "75", "--height", "1.78", "--attach", "ankle:foot"], "'ankle' names no joint or link"),
-    (["--mass", "75", "--height", "1.78", "--attach", "hip:arm"], "segment 'arm'"),
-    (["--mass", "75", "--height", "1.78", "--attach", "hip"], "expected POINT:SEGMENT"),
-])
+@pytest.mark.parametrize(
+    "extra, words",
+    [
+        (["--mass", "200", "--height", "1.78"], "body mass 200 kg"),
+        (["--mass", "75", "--height", "1.2"], "height 1.2 m"),
+        (["--mass", "75", "--height", "1.78", "--attach", "ankle:foot"], "'ankle' names no joint or link"),
+        (["--mass", "75", "--height", "1.78", "--attach", "hip:arm"], "segment 'arm'"),
+        (["--mass", "75", "--height", "1.78", "--attach", "hip"], "expected POINT:SEGMENT"),
+    ],
+)
 def test_cli_wearer_bad_input(tmp_path, capsys, extra, words):
     out = tmp_path / "x.urdf"
     assert _cli("wearer", "--sex", "male", "-o", str(out), *extra) == 2

@@ -29,9 +29,24 @@ def twin(tmp_path_factory):
     exo = RobotModel.from_urdf("exo_leg")
     terms = JointTerms.from_names("fv")
     IdentifiedModel(exo, terms, standard_parameters(exo, terms)).save(d / "exo.json")
-    p = run_cli("simulate", "--urdf", str(d / "eww.urdf"), "--excitation", EXCITATION, "--seconds", "5", "--seed", "4",
-                "--wearer-draw", "--torque-noise", "0", "--true-signals", str(d / "true.npz"),
-                "-o", str(d / "rec.csv"))
+    p = run_cli(
+        "simulate",
+        "--urdf",
+        str(d / "eww.urdf"),
+        "--excitation",
+        EXCITATION,
+        "--seconds",
+        "5",
+        "--seed",
+        "4",
+        "--wearer-draw",
+        "--torque-noise",
+        "0",
+        "--true-signals",
+        str(d / "true.npz"),
+        "-o",
+        str(d / "rec.csv"),
+    )
     assert p.returncode == 0, p.stderr
     return d
 
@@ -39,8 +54,21 @@ def twin(tmp_path_factory):
 @pytest.mark.slow
 def test_noise_free_stage2_recovers_wearer_base_parameters(twin):
     d = twin
-    p = run_cli("identify", "--stage", "wearer", "--exo", str(d / "exo.json"), "--urdf", str(d / "eww.urdf"),
-                "--data", str(d / "true.npz"), "--preprocess", "never", "-o", str(d / "out"))
+    p = run_cli(
+        "identify",
+        "--stage",
+        "wearer",
+        "--exo",
+        str(d / "exo.json"),
+        "--urdf",
+        str(d / "eww.urdf"),
+        "--data",
+        str(d / "true.npz"),
+        "--preprocess",
+        "never",
+        "-o",
+        str(d / "out"),
+    )
     assert p.returncode == 0, p.stderr
     res = json.loads((d / "out" / "identification.json").read_text())
     whole = res
@@ -48,7 +76,7 @@ def test_noise_free_stage2_recovers_wearer_base_parameters(twin):
     robot = RobotModel.from_urdf(d / "eww.urdf")
     truth = np.zeros(22)
     for j, w in drawn.items():
-        truth[10 * robot.joint_index(j): 10 * robot.joint_index(j) + 10] = w
+        truth[10 * robot.joint_index(j) : 10 * robot.joint_index(j) + 10] = w
     truth[20:] = 1.0  # passive scale factors of the twin
     bp = base_parameters(robot, JointTerms.from_names("passive"))
     expected = dict(zip(bp.names, bp.from_standard(truth)))
@@ -57,15 +85,36 @@ def test_noise_free_stage2_recovers_wearer_base_parameters(twin):
     for n, v in expected.items():
         assert abs(got[n] - v) <= 1e-6 * max(abs(v), 1e-2 * scale), (n, got[n], v)
     assert abs(res["parameters"]["knee.kp"] - 1) < 1e-6 and abs(res["parameters"]["hip.kp"] - 1) < 1e-6
-    assert sorted(p.name for p in (d / "out").iterdir()) == ["identification.json", "model_table.json", "model_wearer.json",
-                                                             "report.html", "report.md", "torque_wearer.png"]
+    assert sorted(p.name for p in (d / "out").iterdir()) == [
+        "identification.json",
+        "model_table.json",
+        "model_wearer.json",
+        "report.html",
+        "report.md",
+        "torque_wearer.png",
+    ]
     _check_report(d / "out", whole)
     m = IdentifiedModel.load(d / "out" / "model_wearer.json")
     assert "passive" in m.terms
     # closed loop on the same true wearer (--wearer-draw, same seed): identified vs table-based model
-    p = run_cli("track", "--urdf-true", str(d / "eww.urdf"), "--wearer-draw", "--seed", "4", "--seconds", "3",
-                "--after", "1", "--model", str(d / "out" / "model_wearer.json"),
-                "--model", str(d / "out" / "model_table.json"), "-o", str(d / "track"))
+    p = run_cli(
+        "track",
+        "--urdf-true",
+        str(d / "eww.urdf"),
+        "--wearer-draw",
+        "--seed",
+        "4",
+        "--seconds",
+        "3",
+        "--after",
+        "1",
+        "--model",
+        str(d / "out" / "model_wearer.json"),
+        "--model",
+        str(d / "out" / "model_table.json"),
+        "-o",
+        str(d / "track"),
+    )
     assert p.returncode == 0, p.stderr
     res = json.loads((d / "track" / "tracking.json").read_text())["results"]
     for c, by in res.items():
@@ -90,12 +139,28 @@ def _check_report(out: Path, res: dict) -> None:
 
 def test_stage2_report_options(twin, tmp_path):
     d = twin
-    base = ("identify", "--stage", "wearer", "--exo", str(d / "exo.json"), "--urdf", str(d / "eww.urdf"),
-            "--data", str(d / "true.npz"), "--preprocess", "never")
+    base = (
+        "identify",
+        "--stage",
+        "wearer",
+        "--exo",
+        str(d / "exo.json"),
+        "--urdf",
+        str(d / "eww.urdf"),
+        "--data",
+        str(d / "true.npz"),
+        "--preprocess",
+        "never",
+    )
     p = run_cli(*base, "--validate", str(d / "true.npz"), "--no-figures", "-o", str(tmp_path / "a"))
     assert p.returncode == 0, p.stderr
     assert sorted(f.name for f in (tmp_path / "a").iterdir()) == [
-        "identification.json", "model_table.json", "model_wearer.json", "report.html", "report.md"]
+        "identification.json",
+        "model_table.json",
+        "model_wearer.json",
+        "report.html",
+        "report.md",
+    ]
     md = (tmp_path / "a" / "report.md").read_text()
     res = json.loads((tmp_path / "a" / "identification.json").read_text())
     r = res["validation_rms"]["identified"]
@@ -105,7 +170,10 @@ def test_stage2_report_options(twin, tmp_path):
     p = run_cli(*base, "--no-report", "--force", "-o", str(tmp_path / "a"))
     assert p.returncode == 0, p.stderr
     assert sorted(f.name for f in (tmp_path / "a").iterdir()) == [
-        "identification.json", "model_table.json", "model_wearer.json"]
+        "identification.json",
+        "model_table.json",
+        "model_wearer.json",
+    ]
 
 
 @pytest.mark.slow
@@ -127,8 +195,22 @@ def test_stage2_passive_exponents_from_the_command_line(twin):
     outs = {}
     for flag in ([], ["--passive-exponents"]):
         out = d / ("exp" if flag else "scale")
-        p = run_cli("identify", "--stage", "wearer", "--exo", str(d / "exo.json"), "--urdf", str(d / "eww.urdf"),
-                    "--data", str(d / "true_exp.npz"), "--preprocess", "never", *flag, "-o", str(out))
+        p = run_cli(
+            "identify",
+            "--stage",
+            "wearer",
+            "--exo",
+            str(d / "exo.json"),
+            "--urdf",
+            str(d / "eww.urdf"),
+            "--data",
+            str(d / "true_exp.npz"),
+            "--preprocess",
+            "never",
+            *flag,
+            "-o",
+            str(out),
+        )
         assert p.returncode == 0, p.stderr
         outs[bool(flag)] = json.loads((out / "identification.json").read_text())
     assert "passive_exponents" not in outs[False] and max(outs[False]["train_rms"]["identified"].values()) > 0.05
@@ -138,7 +220,10 @@ def test_stage2_passive_exponents_from_the_command_line(twin):
         np.testing.assert_allclose(exp["fitted"][kind], rows, rtol=1e-4)
     assert max(outs[True]["train_rms"]["identified"].values()) < 1e-6
     md = (d / "exp" / "report.md").read_text()
-    assert "## Passive-moment exponents" in md and "## Passive-moment exponents" not in (d / "scale" / "report.md").read_text()
+    assert (
+        "## Passive-moment exponents" in md
+        and "## Passive-moment exponents" not in (d / "scale" / "report.md").read_text()
+    )
     fitted = exp["fitted"]["knee"][2][2]
     assert f"| `knee[2].cK` | {exp['published']['knee'][2][2]:.6g} | {fitted:.6g} |" in md
     model = IdentifiedModel.load(d / "exp" / "model_wearer.json")
@@ -147,13 +232,46 @@ def test_stage2_passive_exponents_from_the_command_line(twin):
 
 def test_stage2_bad_input_writes_nothing(twin, tmp_path):
     d = twin
-    p = run_cli("identify", "--stage", "wearer", "--urdf", str(d / "eww.urdf"), "--data", str(d / "true.npz"),
-                "-o", str(tmp_path / "a"))
+    p = run_cli(
+        "identify",
+        "--stage",
+        "wearer",
+        "--urdf",
+        str(d / "eww.urdf"),
+        "--data",
+        str(d / "true.npz"),
+        "-o",
+        str(tmp_path / "a"),
+    )
     assert_clean_error(p, "--stage wearer", "--exo")
-    p = run_cli("identify", "--stage", "wearer", "--exo", str(d / "exo.json"), "--urdf", "exo_leg",
-                "--data", str(d / "true.npz"), "-o", str(tmp_path / "b"))
+    p = run_cli(
+        "identify",
+        "--stage",
+        "wearer",
+        "--exo",
+        str(d / "exo.json"),
+        "--urdf",
+        "exo_leg",
+        "--data",
+        str(d / "true.npz"),
+        "-o",
+        str(tmp_path / "b"),
+    )
     assert_clean_error(p, "no wearer segment")
-    p = run_cli("identify", "--stage", "wearer", "--exo", str(d / "exo.json"), "--urdf", str(d / "eww.urdf"),
-                "--data", str(d / "true.npz"), "--no-passive", "--passive-exponents", "-o", str(tmp_path / "c"))
+    p = run_cli(
+        "identify",
+        "--stage",
+        "wearer",
+        "--exo",
+        str(d / "exo.json"),
+        "--urdf",
+        str(d / "eww.urdf"),
+        "--data",
+        str(d / "true.npz"),
+        "--no-passive",
+        "--passive-exponents",
+        "-o",
+        str(tmp_path / "c"),
+    )
     assert_clean_error(p, "passive_exponents", "passive")
     assert not list(tmp_path.iterdir())

@@ -40,8 +40,11 @@ def test_comfort_outside_urdf_limits(exo, tmp_path):
     with pytest.raises(SpecError, match="knee comfort range"):
         comfort.within_comfort(default_spec(exo), exo, f)
     out = tmp_path / "x.json"
-    assert_clean_error(run_cli("excite", "--urdf", "exo_leg", "--comfort", str(f), "-o", str(out)),
-                       "comfort range", "outside its limits")
+    assert_clean_error(
+        run_cli("excite", "--urdf", "exo_leg", "--comfort", str(f), "-o", str(out)),
+        "comfort range",
+        "outside its limits",
+    )
     f.write_text("[knee]\nmin = 10.0\nmax = 5.0\nspeed = 30.0\nacceleration = 100.0\n")
     assert_clean_error(run_cli("excite", "--urdf", "exo_leg", "--comfort", str(f), "-o", str(out)), "min < max")
     assert not out.exists()

@@ -21,9 +21,16 @@ HERE = Path(__file__).resolve().parents[1] / "excitation"
 def test_identified_wearer_beats_tables_in_torque_and_tracking(tmp_path, active):
     path = tmp_path / "exo_with_wearer.urdf"
     wearer_urdf("exo_leg", "hip:thigh,knee:shank,knee:foot", mass=75, height=1.78, sex="male", path=path)
-    r = wearer_experiment("exo_leg", path, FourierTrajectory.load(HERE / "exo_leg.json"),
-                          FourierTrajectory.load(HERE / "seed001_table3.json"), sine_reference(RobotModel.from_urdf(path)),
-                          seconds=10.0 if active == 0 else 20.0, wearer_torque=active, track_seconds=4.0)
+    r = wearer_experiment(
+        "exo_leg",
+        path,
+        FourierTrajectory.load(HERE / "exo_leg.json"),
+        FourierTrajectory.load(HERE / "seed001_table3.json"),
+        sine_reference(RobotModel.from_urdf(path)),
+        seconds=10.0 if active == 0 else 20.0,
+        wearer_torque=active,
+        track_seconds=4.0,
+    )
     ratio = r["ratio"]
     if active == 0:  # sensor noise only: the identified wearer is at the floor, the tables far above it
         assert ratio["identified"] <= 1.1 and ratio["table"] >= 3 * ratio["identified"]

@@ -23,7 +23,7 @@ def setup(tmp_path_factory):
     rng = np.random.default_rng(3)
     truth = np.zeros(22)
     for b in wearer_prior(path.read_text(), robot):
-        truth[10 * b.index: 10 * b.index + 10] = _perturbed(b.theta, rng)
+        truth[10 * b.index : 10 * b.index + 10] = _perturbed(b.theta, rng)
     truth[20:] = [0.8, 1.3]
     n = 400
     q = rng.uniform([-0.05, -1.6], [1.3, -0.1], (n, 2))

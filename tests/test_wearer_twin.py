@@ -68,16 +68,38 @@ def test_active_wearer_torque_has_its_rms_and_is_not_recorded(worn):
 def test_cli_wearer_draw_and_torque(worn, tmp_path):
     path, _ = worn
     out = tmp_path / "w.csv"
-    p = run_cli("simulate", "--urdf", str(path), "--excitation", "zha2019-2", "--seconds", "0.5", "--wearer-draw",
-                "--wearer-torque", "5", "-o", str(out))
+    p = run_cli(
+        "simulate",
+        "--urdf",
+        str(path),
+        "--excitation",
+        "zha2019-2",
+        "--seconds",
+        "0.5",
+        "--wearer-draw",
+        "--wearer-torque",
+        "5",
+        "-o",
+        str(out),
+    )
     assert p.returncode == 0, p.stderr
     w = json.loads(out.with_name("w.truth.json").read_text())["wearer"]
     assert w["active_torque"]["percent_of_gravity_rms"] == 5.0
     table = sum(seg["mass"] for seg in w["table_segments"].values() if seg["link"] == "shank")
     drawn = w["drawn"]["wearer_standard"]["knee"][0]
     assert drawn != table and abs(drawn / table - 1) <= 0.25
-    p = run_cli("simulate", "--urdf", "exo_leg", "--excitation", "zha2019-2", "--seconds", "0.5", "--wearer-draw",
-                "-o", str(tmp_path / "x.csv"))
+    p = run_cli(
+        "simulate",
+        "--urdf",
+        "exo_leg",
+        "--excitation",
+        "zha2019-2",
+        "--seconds",
+        "0.5",
+        "--wearer-draw",
+        "-o",
+        str(tmp_path / "x.csv"),
+    )
     assert_clean_error(p, "exo_leg carries no wearer to draw")
     assert not list(tmp_path.glob("x*"))
 
@@ -92,11 +114,16 @@ def test_model_with_passive_terms_for_control(worn):
     model = IdentifiedModel(m, terms, standard_parameters(m, terms))
     q, dq = np.array([0.9, -1.5]), np.array([0.3, -0.2])
     np.testing.assert_allclose(model.friction(dq), m.viscous * dq)
-    expected = m.rnea(q[None], 0 * q[None], 0 * q[None])[0] + T.torque(m, JointTerms.from_names("passive"), np.ones(2),
-                                                                        q[None], 0 * q[None], 0 * q[None])[0]
+    expected = (
+        m.rnea(q[None], 0 * q[None], 0 * q[None])[0]
+        + T.torque(m, JointTerms.from_names("passive"), np.ones(2), q[None], 0 * q[None], 0 * q[None])[0]
+    )
     np.testing.assert_allclose(model.gravity(q), expected, atol=1e-12)
-    np.testing.assert_allclose(model.inverse_dynamics(q, dq, 0 * q),
-                               model.gravity(q) + model.coriolis(q, dq) @ dq + model.friction(dq), atol=1e-10)
+    np.testing.assert_allclose(
+        model.inverse_dynamics(q, dq, 0 * q),
+        model.gravity(q) + model.coriolis(q, dq) @ dq + model.friction(dq),
+        atol=1e-10,
+    )
 
 
 def test_track_plant_carries_the_wearer(worn):

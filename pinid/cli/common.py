@@ -21,39 +21,63 @@ from pinid.resources import bundled_robots
 
 def add_robot_arguments(p: argparse.ArgumentParser, *, default: str | None = "exo_leg") -> None:
     """The options every command uses to choose a robot: --urdf, --joints, --lock."""
-    p.add_argument("--urdf", default=default, required=default is None,
-                   help=f"URDF file, bundled robot ({', '.join(bundled_robots())}) or example-robot-data name "
-                        f"({', '.join(EXAMPLE_ROBOTS)}){'' if default is None else f'; default {default}'}")
+    p.add_argument(
+        "--urdf",
+        default=default,
+        required=default is None,
+        help=f"URDF file, bundled robot ({', '.join(bundled_robots())}) or example-robot-data name "
+        f"({', '.join(EXAMPLE_ROBOTS)}){'' if default is None else f'; default {default}'}",
+    )
     p.add_argument("--joints", default=None, help="comma-separated active joints (default: all movable, unlocked)")
-    p.add_argument("--lock", action="append", default=[], metavar="JOINT=VALUE",
-                   help="hold a joint fixed at VALUE [rad or m]; repeatable")
-    p.add_argument("--drives", default=None, metavar="FILE",
-                   help="drives TOML: [transmission] joints, motors, matrix (q_motor = matrix·q_joint) and "
-                        "optional [motors.NAME] fc, fv, armature, offset; replaces the URDF's <transmission> "
-                        "(see docs/drives.md)")
+    p.add_argument(
+        "--lock",
+        action="append",
+        default=[],
+        metavar="JOINT=VALUE",
+        help="hold a joint fixed at VALUE [rad or m]; repeatable",
+    )
+    p.add_argument(
+        "--drives",
+        default=None,
+        metavar="FILE",
+        help="drives TOML: [transmission] joints, motors, matrix (q_motor = matrix·q_joint) and "
+        "optional [motors.NAME] fc, fv, armature, offset; replaces the URDF's <transmission> "
+        "(see docs/drives.md)",
+    )
 
 
 def add_terms_argument(p: argparse.ArgumentParser) -> None:
     """The --terms option: which joint terms enter the model."""
-    p.add_argument("--terms", default="fc,fv",
-                   help="terms in the model, comma-separated: joint side fc (Coulomb), fv (viscous), "
-                        "offset (constant torque), armature (rotor inertia), fc_pos/fc_neg (asymmetric Coulomb, "
-                        "instead of fc), passive (wearer's passive joint moments, scale of Riener & Edrich 1999; "
-                        "docs/wearer.md); motor side (needs drives: URDF <transmission> or --drives) motor_fc, "
-                        "motor_fv, motor_offset, motor_armature, motor_fc_pos, motor_fc_neg; Stribeck fs, motor_fs "
-                        "(fs·sign(v)·exp(−(|v|/v_s)^δ), on top of fc); "
-                        "'none' for none; default fc,fv")
+    p.add_argument(
+        "--terms",
+        default="fc,fv",
+        help="terms in the model, comma-separated: joint side fc (Coulomb), fv (viscous), "
+        "offset (constant torque), armature (rotor inertia), fc_pos/fc_neg (asymmetric Coulomb, "
+        "instead of fc), passive (wearer's passive joint moments, scale of Riener & Edrich 1999; "
+        "docs/wearer.md); motor side (needs drives: URDF <transmission> or --drives) motor_fc, "
+        "motor_fv, motor_offset, motor_armature, motor_fc_pos, motor_fc_neg; Stribeck fs, motor_fs "
+        "(fs·sign(v)·exp(−(|v|/v_s)^δ), on top of fc); "
+        "'none' for none; default fc,fv",
+    )
 
 
 def add_stribeck_arguments(p: argparse.ArgumentParser) -> None:
     """--stribeck-velocity and --stribeck-shape: the shape of the Stribeck terms (fs, motor_fs)."""
     g = p.add_argument_group("Stribeck friction (--terms fs, motor_fs; docs/drives.md, Stribeck friction)")
-    g.add_argument("--stribeck-velocity", default=None, metavar="V|auto",
-                   help="Stribeck velocity [rad/s in the term's space, > 0] of every Stribeck term, 'auto' (fitted "
-                        "by a 1-D search) or per term, e.g. fs=0.05,motor_fs=auto; default 0.1")
-    g.add_argument("--stribeck-shape", default=None, metavar="D",
-                   help="Stribeck shape exponent (> 0; 2 Gaussian, 1 exponential), 'auto' (fitted with the velocity) "
-                        "or per term fs=2,motor_fs=1; default 2")
+    g.add_argument(
+        "--stribeck-velocity",
+        default=None,
+        metavar="V|auto",
+        help="Stribeck velocity [rad/s in the term's space, > 0] of every Stribeck term, 'auto' (fitted "
+        "by a 1-D search) or per term, e.g. fs=0.05,motor_fs=auto; default 0.1",
+    )
+    g.add_argument(
+        "--stribeck-shape",
+        default=None,
+        metavar="D",
+        help="Stribeck shape exponent (> 0; 2 Gaussian, 1 exponential), 'auto' (fitted with the velocity) "
+        "or per term fs=2,motor_fs=1; default 2",
+    )
 
 
 def robot_from_args(args: argparse.Namespace):
@@ -85,8 +109,11 @@ def terms_from_args(args: argparse.Namespace) -> JointTerms:
 def add_mapping_arguments(p: argparse.ArgumentParser) -> None:
     """--mapping and --allow-outside-paths: how to read recordings not in pinid's dataset format."""
     p.add_argument("--mapping", default=None, metavar="SPEC", help="TOML mapping of the recordings' columns to joints")
-    p.add_argument("--allow-outside-paths", action="store_true",
-                   help="let the mapping spec's [sources.*] paths leave the recording's folder (docs/checks.md)")
+    p.add_argument(
+        "--allow-outside-paths",
+        action="store_true",
+        help="let the mapping spec's [sources.*] paths leave the recording's folder (docs/checks.md)",
+    )
 
 
 def mapping_from_args(args: argparse.Namespace):
@@ -98,30 +125,51 @@ def mapping_from_args(args: argparse.Namespace):
 
 def add_recording_arguments(p: argparse.ArgumentParser) -> None:
     """--data, --validate: the recordings of the commands that identify (identify, compare)."""
-    p.add_argument("--data", action="append", required=True, metavar="FILE",
-                   help="training recording (CSV); repeat for several")
-    p.add_argument("--validate", action="append", default=[], metavar="FILE",
-                   help="validation recording (a different trajectory); repeatable")
+    p.add_argument(
+        "--data", action="append", required=True, metavar="FILE", help="training recording (CSV); repeat for several"
+    )
+    p.add_argument(
+        "--validate",
+        action="append",
+        default=[],
+        metavar="FILE",
+        help="validation recording (a different trajectory); repeatable",
+    )
 
 
 def add_preprocessing_arguments(p: argparse.ArgumentParser) -> None:
     """The preprocessing options of the commands that read recordings (identify, compare)."""
     g = p.add_argument_group("preprocessing (defaults chosen from the sample rate)")
-    g.add_argument("--preprocess", choices=("auto", "always", "never"), default="auto",
-                   help="auto: only recordings without dq/ddq (default); always; never")
-    g.add_argument("--preset", default=None, help="preprocessing preset: zha2019 (Zha et al. 2019: 1 kHz, 10 Hz) or shi2024 (Shi et al. 2024: 5 Hz); "
-                        "the old names seed000, seed001 still work (deprecated)")
+    g.add_argument(
+        "--preprocess",
+        choices=("auto", "always", "never"),
+        default="auto",
+        help="auto: only recordings without dq/ddq (default); always; never",
+    )
+    g.add_argument(
+        "--preset",
+        default=None,
+        help="preprocessing preset: zha2019 (Zha et al. 2019: 1 kHz, 10 Hz) or shi2024 (Shi et al. 2024: 5 Hz); "
+        "the old names seed000, seed001 still work (deprecated)",
+    )
     g.add_argument("--cutoff", type=float, default=None, metavar="HZ", help="low-pass cut-off [Hz]")
     g.add_argument("--order", type=int, default=None, help="filter order (default 4)")
     g.add_argument("--differentiation", default=None, help="differentiation method (default savgol)")
-    g.add_argument("--no-measured-velocity", action="store_true",
-                   help="differentiate q even when the recording has measured velocities")
+    g.add_argument(
+        "--no-measured-velocity",
+        action="store_true",
+        help="differentiate q even when the recording has measured velocities",
+    )
     g.add_argument("--trim", type=float, default=None, metavar="SECONDS", help="seconds trimmed at each end")
     g.add_argument("--decimate", type=int, default=None, metavar="N", help="keep every N-th sample after filtering")
-    g.add_argument("--rest-velocity", default="auto", metavar="V",
-                   help="rows with |dq| below V [rad/s] are left out (Coulomb friction); a number, one per joint "
-                        "(comma-separated), 0 to keep all, or auto (default: max(2%% of the joint's peak speed, "
-                        "3 × its velocity noise))")
+    g.add_argument(
+        "--rest-velocity",
+        default="auto",
+        metavar="V",
+        help="rows with |dq| below V [rad/s] are left out (Coulomb friction); a number, one per joint "
+        "(comma-separated), 0 to keep all, or auto (default: max(2%% of the joint's peak speed, "
+        "3 × its velocity noise))",
+    )
 
 
 def preprocess_from_args(args: argparse.Namespace) -> dict | bool | None:
@@ -149,7 +197,9 @@ def rest_velocity_from_args(text: str):
     try:
         values = [float(x) for x in text.split(",") if x.strip()]
     except ValueError:
-        raise SpecError(f"--rest-velocity {text!r}: expected auto, a number or comma-separated numbers [rad/s]") from None
+        raise SpecError(
+            f"--rest-velocity {text!r}: expected auto, a number or comma-separated numbers [rad/s]"
+        ) from None
     if not values:
         raise SpecError(f"--rest-velocity {text!r}: expected auto, a number or comma-separated numbers [rad/s]")
     return values[0] if len(values) == 1 else values
@@ -157,12 +207,19 @@ def rest_velocity_from_args(text: str):
 
 def add_method_arguments(p: argparse.ArgumentParser, default: str) -> None:
     """--methods (names of the estimator registry) and the generic, repeatable --option METHOD.KEY=VALUE."""
-    p.add_argument("--methods", default=default,
-                   help=f"comma-separated methods of the estimator registry: {', '.join(ESTIMATORS)}, or all; "
-                        f"default {default}")
-    p.add_argument("--option", action="append", default=[], metavar="METHOD.KEY=VALUE",
-                   help="a setting of one method, e.g. sdp.regularization=0.01 or pso.population=50 (VALUE in JSON: "
-                        "numbers, true/false, null, [lists], or plain text); repeatable; see docs/estimators.md")
+    p.add_argument(
+        "--methods",
+        default=default,
+        help=f"comma-separated methods of the estimator registry: {', '.join(ESTIMATORS)}, or all; default {default}",
+    )
+    p.add_argument(
+        "--option",
+        action="append",
+        default=[],
+        metavar="METHOD.KEY=VALUE",
+        help="a setting of one method, e.g. sdp.regularization=0.01 or pso.population=50 (VALUE in JSON: "
+        "numbers, true/false, null, [lists], or plain text); repeatable; see docs/estimators.md",
+    )
 
 
 def methods_from_args(args: argparse.Namespace) -> list[str]:
@@ -216,5 +273,12 @@ nonnegative_float = _number(float, lambda v: math.isfinite(v) and v >= 0, "a fin
 def wrote_line(paths, folder) -> str:
     """``wrote N files to FOLDER/: a, b, …`` wrapped to 120 columns (continuation lines indented)."""
     names = ", ".join(Path(p).name for p in paths)
-    return "\n".join(textwrap.wrap(f"wrote {len(paths)} files to {folder}/: {names}", 120, subsequent_indent="  ",
-                                    break_on_hyphens=False, break_long_words=False))
+    return "\n".join(
+        textwrap.wrap(
+            f"wrote {len(paths)} files to {folder}/: {names}",
+            120,
+            subsequent_indent="  ",
+            break_on_hyphens=False,
+            break_long_words=False,
+        )
+    )

@@ -7,9 +7,22 @@ import shlex
 import sys
 from pathlib import Path
 
-from pinid.cli.common import (add_mapping_arguments, add_method_arguments, add_preprocessing_arguments, add_recording_arguments,
-                              add_robot_arguments, add_stribeck_arguments, add_terms_argument, methods_from_args, options_from_args,
-                              preprocess_from_args, rest_velocity_from_args, mapping_from_args, robot_from_args, terms_from_args)
+from pinid.cli.common import (
+    add_mapping_arguments,
+    add_method_arguments,
+    add_preprocessing_arguments,
+    add_recording_arguments,
+    add_robot_arguments,
+    add_stribeck_arguments,
+    add_terms_argument,
+    methods_from_args,
+    options_from_args,
+    preprocess_from_args,
+    rest_velocity_from_args,
+    mapping_from_args,
+    robot_from_args,
+    terms_from_args,
+)
 from pinid.errors import SpecError
 from pinid.estimators import ESTIMATORS
 from pinid.io import check_outputs
@@ -18,7 +31,7 @@ HELP = f"compare estimators ({', '.join(ESTIMATORS)}) on the same data, several 
 DESCRIPTION = f"""\
 Reads a URDF and training recordings (CSV; --mapping names their columns; missing velocities and
 accelerations are filled as in pinid identify), runs the chosen methods (default: all of the
-estimator registry: {', '.join(ESTIMATORS)}) on the same rows — deterministic methods once, the metaheuristics once
+estimator registry: {", ".join(ESTIMATORS)}) on the same rows — deterministic methods once, the metaheuristics once
 per seed — validates every run on the held-out --validate recordings and writes into the output folder
 (-o, default results/):
 
@@ -51,31 +64,55 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     add_recording_arguments(p)
     add_method_arguments(p, "all")
     p.add_argument("--seeds", type=int, default=5, help="seeds per metaheuristic (0 … N−1); default 5")
-    p.add_argument("--truth", default=None, metavar="FILE",
-                   help="truth JSON of pinid simulate: report the error against the true base parameters")
+    p.add_argument(
+        "--truth",
+        default=None,
+        metavar="FILE",
+        help="truth JSON of pinid simulate: report the error against the true base parameters",
+    )
     add_mapping_arguments(p)
     p.add_argument("-o", "--output", default="results", metavar="FOLDER", help="output folder; default results/")
     p.add_argument("--no-plots", action="store_true", help="do not write the figures")
     g = p.add_argument_group(f"metaheuristics ({', '.join(m for m, c in ESTIMATORS.items() if not c.deterministic)})")
     g.add_argument("--population", type=int, default=None, help="population size (default 100)")
     g.add_argument("--iterations", type=int, default=None, help="iterations (default 200)")
-    g.add_argument("--fitness", choices=("sse", "sae"), default=None,
-                   help="sse: ½Σr² (seed 001, default); sae: Σ|r| (seed 000)")
-    g.add_argument("--box", choices=("nominal", "rls", "ls"), default=None,
-                   help="search box of pso, woa, ewoa, de (rls-pso always searches its RLS box): nominal (default; "
-                        "around the URDF's values), rls (range of an RLS run), ls (around least squares — circular, "
-                        "for experiments)")
+    g.add_argument(
+        "--fitness", choices=("sse", "sae"), default=None, help="sse: ½Σr² (seed 001, default); sae: Σ|r| (seed 000)"
+    )
+    g.add_argument(
+        "--box",
+        choices=("nominal", "rls", "ls"),
+        default=None,
+        help="search box of pso, woa, ewoa, de (rls-pso always searches its RLS box): nominal (default; "
+        "around the URDF's values), rls (range of an RLS run), ls (around least squares — circular, "
+        "for experiments)",
+    )
     g.add_argument("--box-width", type=float, default=None, help="nominal box: ± this fraction of |value| (default 1)")
-    g.add_argument("--box-floor", type=float, default=None,
-                   help="nominal box: at least ± this fraction of the natural magnitude (default 0.5)")
-    g.add_argument("--forgetting", type=float, default=None,
-                   help="rls and rls-pso: forgetting factor λ in (0, 1] (default 1)")
+    g.add_argument(
+        "--box-floor",
+        type=float,
+        default=None,
+        help="nominal box: at least ± this fraction of the natural magnitude (default 0.5)",
+    )
+    g.add_argument(
+        "--forgetting", type=float, default=None, help="rls and rls-pso: forgetting factor λ in (0, 1] (default 1)"
+    )
     g = p.add_argument_group("segmental strategy (seed 000 §3.1)")
-    g.add_argument("--first-data", action="append", default=[], metavar="FILE",
-                   help="recording with only the first joints moving (seed 000: hip fixed); repeatable")
+    g.add_argument(
+        "--first-data",
+        action="append",
+        default=[],
+        metavar="FILE",
+        help="recording with only the first joints moving (seed 000: hip fixed); repeatable",
+    )
     g.add_argument("--first-joints", default="knee", help="joints identified first, comma-separated; default knee")
-    g.add_argument("--first-validate", action="append", default=[], metavar="FILE",
-                   help="validation recording of the first stage (reported as 'first-stage validation')")
+    g.add_argument(
+        "--first-validate",
+        action="append",
+        default=[],
+        metavar="FILE",
+        help="validation recording of the first stage (reported as 'first-stage validation')",
+    )
     add_preprocessing_arguments(p)
 
 
@@ -86,8 +123,11 @@ def _arguments(args: argparse.Namespace) -> dict:
     methods = methods_from_args(args)
     if args.first_validate and not args.first_data:
         raise SpecError("--first-validate needs --first-data (the segmental strategy)")
-    meta = {key: getattr(args, key) for key in ("population", "iterations", "fitness", "box", "box_width", "box_floor")
-            if getattr(args, key) is not None}
+    meta = {
+        key: getattr(args, key)
+        for key in ("population", "iterations", "fitness", "box", "box_width", "box_floor")
+        if getattr(args, key) is not None
+    }
     options: dict = {}
     if args.forgetting is not None:
         options["rls"] = {"forgetting": args.forgetting}
@@ -100,14 +140,26 @@ def _arguments(args: argparse.Namespace) -> dict:
         validate["first-stage validation"] = args.first_validate
     segmental = None
     if args.first_data:
-        segmental = {"first": args.first_data,
-                     "joints": tuple(j.strip() for j in args.first_joints.split(",") if j.strip())}
-    return dict(validate=validate or None, methods=methods, seeds=args.seeds, truth=args.truth,
-                terms=terms_from_args(args), options=options_from_args(args, {k: v for k, v in options.items()
-                                                                               if k in methods}),
-                metaheuristic=meta, segmental=segmental, mapping=mapping_from_args(args),
-                preprocess=preprocess_from_args(args), rest_velocity=rest_velocity_from_args(args.rest_velocity),
-                show_progress=None, stribeck_velocity=args.stribeck_velocity, stribeck_shape=args.stribeck_shape)
+        segmental = {
+            "first": args.first_data,
+            "joints": tuple(j.strip() for j in args.first_joints.split(",") if j.strip()),
+        }
+    return dict(
+        validate=validate or None,
+        methods=methods,
+        seeds=args.seeds,
+        truth=args.truth,
+        terms=terms_from_args(args),
+        options=options_from_args(args, {k: v for k, v in options.items() if k in methods}),
+        metaheuristic=meta,
+        segmental=segmental,
+        mapping=mapping_from_args(args),
+        preprocess=preprocess_from_args(args),
+        rest_velocity=rest_velocity_from_args(args.rest_velocity),
+        show_progress=None,
+        stribeck_velocity=args.stribeck_velocity,
+        stribeck_shape=args.stribeck_shape,
+    )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -119,8 +171,10 @@ def run(args: argparse.Namespace) -> int:
     check_outputs(*(out / name for name in COMPARISON_FILES[:2]))  # before the work, creating nothing
     kwargs = _arguments(args)
     model = robot_from_args(args)
-    print(f"comparing on {model.name} ({', '.join(model.joint_names)}): {args.methods}; seeds {args.seeds}"
-          + ("; segmental" if kwargs["segmental"] else ""))
+    print(
+        f"comparing on {model.name} ({', '.join(model.joint_names)}): {args.methods}; seeds {args.seeds}"
+        + ("; segmental" if kwargs["segmental"] else "")
+    )
     comp = compare(model, args.data, **kwargs)
     print(comp.table())
     print()

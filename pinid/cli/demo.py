@@ -19,25 +19,33 @@ HELP = "run the whole loop on the bundled exoskeleton leg: excite, simulate, ide
 
 #: The demo's steps: (title, what it does in the help), in the order run; :func:`steps` gives their commands.
 STEPS: tuple[tuple[str, str], ...] = (
-    ("design the excitation (a short search: 8 starts, 1 polished)",
-     "pinid excite: the Fourier excitation under seed 001's Table 2 limits (the default search of\n"
-     "pinid excite takes half a minute)"),
-    ("record the training run on the twin",
-     "pinid simulate: 60 s of the twin following the designed excitation"),
-    ("record the validation run (seed 001's Table 3 trajectory)",
-     "pinid simulate: 30 s of the twin following a DIFFERENT trajectory, seed 001's published\n"
-     "Table 3 excitation"),
-    ("identify with every estimator, validate, export",
-     "pinid identify: every registered estimator, validated on the second recording; identified\n"
-     "URDFs, report.md and report.html (-v prints every method's detail)"),
-    ("track with a CAD model (inertia 30 % off, no friction) and with the identified model",
-     "pinid track: backstepping and computed torque on a CAD model (30 % off) vs the identified model"),
+    (
+        "design the excitation (a short search: 8 starts, 1 polished)",
+        "pinid excite: the Fourier excitation under seed 001's Table 2 limits (the default search of\n"
+        "pinid excite takes half a minute)",
+    ),
+    ("record the training run on the twin", "pinid simulate: 60 s of the twin following the designed excitation"),
+    (
+        "record the validation run (seed 001's Table 3 trajectory)",
+        "pinid simulate: 30 s of the twin following a DIFFERENT trajectory, seed 001's published\nTable 3 excitation",
+    ),
+    (
+        "identify with every estimator, validate, export",
+        "pinid identify: every registered estimator, validated on the second recording; identified\n"
+        "URDFs, report.md and report.html (-v prints every method's detail)",
+    ),
+    (
+        "track with a CAD model (inertia 30 % off, no friction) and with the identified model",
+        "pinid track: backstepping and computed torque on a CAD model (30 % off) vs the identified model",
+    ),
 )
 
 
 def _description() -> str:
-    listed = "\n".join(f"  {i}. {title}\n" + "\n".join(f"       {line}" for line in detail.splitlines())
-                       for i, (title, detail) in enumerate(STEPS, 1))
+    listed = "\n".join(
+        f"  {i}. {title}\n" + "\n".join(f"       {line}" for line in detail.splitlines())
+        for i, (title, detail) in enumerate(STEPS, 1)
+    )
     return f"""\
 Runs every step of pinid on urdf/exo_leg.urdf with its embedded defaults, exactly as the separate
 commands would; each step prints its number, its title and its command:
@@ -61,10 +69,15 @@ DESCRIPTION = _description()
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("-o", "--output", default="demo", metavar="FOLDER", help="output folder; default demo/")
     p.add_argument("--seed", type=seed_int, default=1, help="random seed of the recordings; default 1")
-    p.add_argument("--methods", default=None,
-                   help="estimators to run (default: every registered one, see pinid identify --help)")
-    p.add_argument("-v", "--verbose", action="store_true",
-                   help="print every method's detail in the identify step (pinid identify --verbose)")
+    p.add_argument(
+        "--methods", default=None, help="estimators to run (default: every registered one, see pinid identify --help)"
+    )
+    p.add_argument(
+        "-v",
+        "--verbose",
+        action="store_true",
+        help="print every method's detail in the identify step (pinid identify --verbose)",
+    )
 
 
 def steps(out: str, seed: int, methods: str, verbose: bool = False) -> list[tuple[str, list[str]]]:
@@ -72,17 +85,73 @@ def steps(out: str, seed: int, methods: str, verbose: bool = False) -> list[tupl
     table3 = "seed001_table3"  # ships with pinid (pinid.resources.bundled_trajectories)
     commands = [
         [
-            "excite", "--urdf", "exo_leg", "--starts", "8", "--option", "polish=1", "-o", f"{out}/excitation.json",
-            "--plot", f"{out}/excitation.png", "--csv", f"{out}/excitation.csv"],
-        ["simulate", "--urdf", "exo_leg", "--excitation", f"{out}/excitation.json", "--seconds", "60", "--seed",
-         str(seed), "-o", f"{out}/train.csv"],
-        ["simulate", "--urdf", "exo_leg", "--excitation", table3, "--seconds", "30", "--seed", str(seed + 1),
-         "-o", f"{out}/validate.csv"],
+            "excite",
+            "--urdf",
+            "exo_leg",
+            "--starts",
+            "8",
+            "--option",
+            "polish=1",
+            "-o",
+            f"{out}/excitation.json",
+            "--plot",
+            f"{out}/excitation.png",
+            "--csv",
+            f"{out}/excitation.csv",
+        ],
         [
-            "identify", "--urdf", "exo_leg", "--data", f"{out}/train.csv", "--validate", f"{out}/validate.csv",
-            "--methods", methods, "-o", f"{out}/identification"] + (["--verbose"] if verbose else []),
-        ["track", "--urdf-true", "exo_leg", "--model", "cad:30", "--model", f"{out}/identification/identification.json",
-         "--seconds", "6", "-o", f"{out}/track"],
+            "simulate",
+            "--urdf",
+            "exo_leg",
+            "--excitation",
+            f"{out}/excitation.json",
+            "--seconds",
+            "60",
+            "--seed",
+            str(seed),
+            "-o",
+            f"{out}/train.csv",
+        ],
+        [
+            "simulate",
+            "--urdf",
+            "exo_leg",
+            "--excitation",
+            table3,
+            "--seconds",
+            "30",
+            "--seed",
+            str(seed + 1),
+            "-o",
+            f"{out}/validate.csv",
+        ],
+        [
+            "identify",
+            "--urdf",
+            "exo_leg",
+            "--data",
+            f"{out}/train.csv",
+            "--validate",
+            f"{out}/validate.csv",
+            "--methods",
+            methods,
+            "-o",
+            f"{out}/identification",
+        ]
+        + (["--verbose"] if verbose else []),
+        [
+            "track",
+            "--urdf-true",
+            "exo_leg",
+            "--model",
+            "cad:30",
+            "--model",
+            f"{out}/identification/identification.json",
+            "--seconds",
+            "6",
+            "-o",
+            f"{out}/track",
+        ],
     ]
     return [(title, argv) for (title, _), argv in zip(STEPS, commands, strict=True)]
 
@@ -100,18 +169,29 @@ def run(args: argparse.Namespace) -> int:
             print(f"\n[{i}/{len(plan)}] {title}\n$ pinid {' '.join(argv)}", flush=True)
             sub = parser.parse_args(argv)
             sub._run(sub)  # errors propagate: the demo stops at the first failing step
-    print(f"\ndemo finished in {time.perf_counter() - started:.0f} s; everything is in {args.output}/:\n"
-          f"  {args.output}/excitation.json, excitation.png   the designed excitation\n"
-          f"  {args.output}/train.csv, validate.csv           the twin's recordings (+ .truth.json)\n"
-          f"  {args.output}/identification/report.html        identification report (also report.md), figures,\n"
-          f"                                                  identified URDFs\n"
-          f"  {args.output}/track/tracking.json               closed-loop tracking, figures")
+    print(
+        f"\ndemo finished in {time.perf_counter() - started:.0f} s; everything is in {args.output}/:\n"
+        f"  {args.output}/excitation.json, excitation.png   the designed excitation\n"
+        f"  {args.output}/train.csv, validate.csv           the twin's recordings (+ .truth.json)\n"
+        f"  {args.output}/identification/report.html        identification report (also report.md), figures,\n"
+        f"                                                  identified URDFs\n"
+        f"  {args.output}/track/tracking.json               closed-loop tracking, figures"
+    )
     return 0
 
 
 #: What the demo writes in its folder (with --force, an earlier run's copies are replaced as one set).
-OUTPUTS = ("excitation.json", "excitation.png", "excitation.csv", "train.csv", "train.truth.json", "validate.csv",
-           "validate.truth.json", "identification", "track")
+OUTPUTS = (
+    "excitation.json",
+    "excitation.png",
+    "excitation.csv",
+    "train.csv",
+    "train.truth.json",
+    "validate.csv",
+    "validate.truth.json",
+    "identification",
+    "track",
+)
 
 
 @contextlib.contextmanager

@@ -7,8 +7,14 @@ import math
 
 import numpy as np
 
-from pinid.cli.common import (add_robot_arguments, add_terms_argument, positive_float, positive_int, robot_from_args,
-                              seed_int)
+from pinid.cli.common import (
+    add_robot_arguments,
+    add_terms_argument,
+    positive_float,
+    positive_int,
+    robot_from_args,
+    seed_int,
+)
 from pinid.errors import SolverError, SpecError
 from pinid.io import check_outputs
 from pinid.model.regressor import JointTerms
@@ -41,35 +47,65 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     add_terms_argument(p)
     p.set_defaults(terms=None)
     g = p.add_argument_group("limits and trajectory (override the spec)")
-    g.add_argument("--spec", metavar="FILE", help="excitation spec (.toml or .json); default: the bundled one for "
-                   "exo_leg, else URDF limits and pinid's defaults")
+    g.add_argument(
+        "--spec",
+        metavar="FILE",
+        help="excitation spec (.toml or .json); default: the bundled one for "
+        "exo_leg, else URDF limits and pinid's defaults",
+    )
     g.add_argument("--harmonics", type=positive_int, help="number of harmonics N (spec default 4)")
-    g.add_argument("--base-frequency", type=positive_float, metavar="W", help="base frequency ωf [rad/s] (default 0.2π)")
+    g.add_argument(
+        "--base-frequency", type=positive_float, metavar="W", help="base frequency ωf [rad/s] (default 0.2π)"
+    )
     g.add_argument("--samples", type=positive_int, help="samples per period of the regressor (default 200)")
     rest = g.add_mutually_exclusive_group()
-    rest.add_argument("--rest-start", dest="rest_start", action="store_true", default=None,
-                      help="start and end at rest: dq = ddq = 0 at t = 0 (the default)")
+    rest.add_argument(
+        "--rest-start",
+        dest="rest_start",
+        action="store_true",
+        default=None,
+        help="start and end at rest: dq = ddq = 0 at t = 0 (the default)",
+    )
     rest.add_argument("--no-rest-start", dest="rest_start", action="store_false", help="do not force a start at rest")
     g.add_argument("--optimize-offsets", action="store_true", default=None, help="also optimise the offsets q0")
     g.add_argument("--criterion", choices=["cond", "logdet"], help="cond (default) or logdet (D-optimal)")
     g.add_argument("--margin", type=float, help="fraction of every limit kept in reserve (default 0)")
-    g.add_argument("--comfort", nargs="?", const="", default=None, metavar="FILE",
-                   help="design within a wearer's comfort limits (TOML: hip, knee, ankle range [deg], speed, "
-                        "acceleration) intersected with the URDF's; without FILE the shipped defaults (docs/wearer.md)")
-    g.add_argument("--torque-limits", action="store_true",
-                   help="also keep |torque| (nominal URDF parameters) within the URDF's effort limits")
+    g.add_argument(
+        "--comfort",
+        nargs="?",
+        const="",
+        default=None,
+        metavar="FILE",
+        help="design within a wearer's comfort limits (TOML: hip, knee, ankle range [deg], speed, "
+        "acceleration) intersected with the URDF's; without FILE the shipped defaults (docs/wearer.md)",
+    )
+    g.add_argument(
+        "--torque-limits",
+        action="store_true",
+        help="also keep |torque| (nominal URDF parameters) within the URDF's effort limits",
+    )
     o = p.add_argument_group("optimiser")
-    o.add_argument("--optimizer", default=None,
-                   help="slsqp (gradient-based multistart, default), pso, woa, ewoa or de")
-    o.add_argument("--seed", type=seed_int, default=None, help="random seed (default 0): the same seed gives the same result")
+    o.add_argument("--optimizer", default=None, help="slsqp (gradient-based multistart, default), pso, woa, ewoa or de")
+    o.add_argument(
+        "--seed", type=seed_int, default=None, help="random seed (default 0): the same seed gives the same result"
+    )
     o.add_argument("--population", type=positive_int, help="population of pso/woa/ewoa/de (default 100)")
     o.add_argument("--iterations", type=positive_int, help="iterations of pso/woa/ewoa/de (default 200)")
     o.add_argument("--starts", type=positive_int, help="local searches of slsqp (default 128 up to 4 joints, 12 above)")
-    o.add_argument("--option", action="append", default=[], metavar="KEY=VALUE",
-                   help="any other optimiser setting, e.g. --option w_min=0.3; repeatable")
+    o.add_argument(
+        "--option",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="any other optimiser setting, e.g. --option w_min=0.3; repeatable",
+    )
     out = p.add_argument_group("output")
-    out.add_argument("-o", "--output", metavar="FILE", help="trajectory and report as JSON (default <robot>_excitation.json; "
-                     "with --evaluate, only if given)")
+    out.add_argument(
+        "-o",
+        "--output",
+        metavar="FILE",
+        help="trajectory and report as JSON (default <robot>_excitation.json; with --evaluate, only if given)",
+    )
     out.add_argument("--csv", metavar="FILE", help="also write samples as CSV (t, q_*, dq_*, ddq_*)")
     out.add_argument("--rate", type=float, default=1000.0, help="CSV sample rate [Hz] (default 1000)")
     out.add_argument("--periods", type=float, default=1.0, help="CSV duration in periods (default 1)")
@@ -124,12 +160,23 @@ def _check(args: argparse.Namespace) -> dict:
     from pinid.excitation.design import design_optimizers  # deferred (see above)
 
     if args.evaluate:  # it designs nothing: an optimiser's option would silently do nothing
-        given = [flag for flag, v in (("--optimizer", args.optimizer), ("--seed", args.seed),
-                                      ("--population", args.population), ("--iterations", args.iterations),
-                                      ("--starts", args.starts), ("--option", args.option or None)) if v is not None]
+        given = [
+            flag
+            for flag, v in (
+                ("--optimizer", args.optimizer),
+                ("--seed", args.seed),
+                ("--population", args.population),
+                ("--iterations", args.iterations),
+                ("--starts", args.starts),
+                ("--option", args.option or None),
+            )
+            if v is not None
+        ]
         if given:
-            raise SpecError(f"{', '.join(given)}: no effect with --evaluate (it designs nothing, it evaluates "
-                            f"{args.evaluate}); expected none of the optimiser's options")
+            raise SpecError(
+                f"{', '.join(given)}: no effect with --evaluate (it designs nothing, it evaluates "
+                f"{args.evaluate}); expected none of the optimiser's options"
+            )
     args.optimizer = args.optimizer or "slsqp"
     args.seed = 0 if args.seed is None else args.seed
     if args.optimizer.lower() not in design_optimizers():
@@ -151,9 +198,18 @@ def _spec(args: argparse.Namespace, model):
             terms = JointTerms.from_names(args.terms)
         except ValueError as exc:
             raise SpecError(f"--terms: {exc}") from None
-    spec = spec_for(model, args.spec, harmonics=args.harmonics, base_frequency=args.base_frequency,
-                    samples=args.samples, rest_start=args.rest_start, optimize_offsets=args.optimize_offsets,
-                    criterion=args.criterion, margin=args.margin, terms=terms)
+    spec = spec_for(
+        model,
+        args.spec,
+        harmonics=args.harmonics,
+        base_frequency=args.base_frequency,
+        samples=args.samples,
+        rest_start=args.rest_start,
+        optimize_offsets=args.optimize_offsets,
+        criterion=args.criterion,
+        margin=args.margin,
+        terms=terms,
+    )
     if args.comfort is not None:
         from pinid.wearer.comfort import within_comfort  # deferred: pinid --help does not load it
 
@@ -169,8 +225,14 @@ def _spec(args: argparse.Namespace, model):
 def run(args: argparse.Namespace) -> int:
     # deferred (see above)
     from pinid.excitation.design import design_excitation
-    from pinid.excitation.outputs import (design_text, evaluate_excitation, evaluation_text, excitation_paths, spec_text,
-                                          write_excitation)
+    from pinid.excitation.outputs import (
+        design_text,
+        evaluate_excitation,
+        evaluation_text,
+        excitation_paths,
+        spec_text,
+        write_excitation,
+    )
     from pinid.excitation.trajectory import FourierTrajectory
 
     opts = _check(args)
@@ -192,10 +254,14 @@ def run(args: argparse.Namespace) -> int:
         say(f"optimizer {name}" + (f" {opts}" if opts else "") + f", seed {args.seed}")
         result = design_excitation(model, spec, optimizer=name, options=opts, seed=args.seed)
         if not result.feasible:
-            raise SolverError(f"{name} found no trajectory within the limits (torque limits too tight?); nothing written")
+            raise SolverError(
+                f"{name} found no trajectory within the limits (torque limits too tight?); nothing written"
+            )
         print(design_text(result, spec, usage=not args.quiet))
         traj, report = result.trajectory, result.to_dict()
-    write_excitation(traj, spec, report, json=output, plot=args.plot, csv=args.csv, rate=args.rate, periods=args.periods)
+    write_excitation(
+        traj, spec, report, json=output, plot=args.plot, csv=args.csv, rate=args.rate, periods=args.periods
+    )
     if args.plot:
         say(f"wrote {args.plot}")
     if args.csv:

@@ -48,24 +48,40 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         q.add_argument("--spec", default=None, help=f"flexible-joint spec (TOML); default {DEFAULT_SPEC} of pinid")
 
     def data_opts(q: argparse.ArgumentParser) -> None:
-        q.add_argument("--data", default=None, metavar="CSV",
-                       help="recording (t, T_<joint> or V_<joint>, q_<joint>[, qm_<joint>]); default: a twin of the "
-                            "spec made on the fly with its [fit] noise and seed")
-        q.add_argument("--noise", type=float, default=None, help="noise of the on-the-fly twin [rad] (default: the spec's)")
+        q.add_argument(
+            "--data",
+            default=None,
+            metavar="CSV",
+            help="recording (t, T_<joint> or V_<joint>, q_<joint>[, qm_<joint>]); default: a twin of the "
+            "spec made on the fly with its [fit] noise and seed",
+        )
+        q.add_argument(
+            "--noise", type=float, default=None, help="noise of the on-the-fly twin [rad] (default: the spec's)"
+        )
 
     def fit_opts(q: argparse.ArgumentParser) -> None:  # no import here: `pinid --help` stays light
-        q.add_argument("--method", default=None,
-                       help="pso, woa, ewoa, de (pinid.optimizers) or least_squares; default: the spec's [fit] method")
-        q.add_argument("--cost", default=None, choices=("abs", "sq"),
-                       help="abs = seed 003 Eq. (15), Σ|e|; sq = Σe²; default: the spec's")
+        q.add_argument(
+            "--method",
+            default=None,
+            help="pso, woa, ewoa, de (pinid.optimizers) or least_squares; default: the spec's [fit] method",
+        )
+        q.add_argument(
+            "--cost",
+            default=None,
+            choices=("abs", "sq"),
+            help="abs = seed 003 Eq. (15), Σ|e|; sq = Σe²; default: the spec's",
+        )
         q.add_argument("--outputs", default=None, help="compared angles: link, or link,motor; default: the spec's")
         q.add_argument("--population", type=int, default=None, help="metaheuristic population (default: the spec's)")
         q.add_argument("--iterations", type=int, default=None, help="metaheuristic iterations (default: the spec's)")
         q.add_argument("--seed", type=seed_int, default=None, help="random seed (default: the spec's)")
         q.add_argument("--max-nfev", type=int, default=60, help="least_squares: residual evaluations (default 60)")
 
-    c = sub.add_parser("check", help="drives, free parameters, step and observability of a spec",
-                       formatter_class=argparse.RawDescriptionHelpFormatter)
+    c = sub.add_parser(
+        "check",
+        help="drives, free parameters, step and observability of a spec",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     common(c)
     data_opts(c)
     c.add_argument("--json", metavar="FILE", help="also write the description as JSON")
@@ -83,9 +99,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     data_opts(f)
     fit_opts(f)
     f.add_argument("--rigid", action="store_true", help="fit the rigid-joint model of the spec instead")
-    f.add_argument("--x0", default=None, metavar="middle|truth|JSON",
-                   help="start: least_squares' start point, or a member of the initial population (default: middle "
-                        "of the box for least_squares, none otherwise); a JSON result of an earlier fit")
+    f.add_argument(
+        "--x0",
+        default=None,
+        metavar="middle|truth|JSON",
+        help="start: least_squares' start point, or a member of the initial population (default: middle "
+        "of the box for least_squares, none otherwise); a JSON result of an earlier fit",
+    )
     _output(f, "JSON", "result to write")
     f.add_argument("--plot", default=None, metavar="PNG", help="also plot measured and simulated angles")
     f.add_argument("--force", action="store_true", help="overwrite outputs")
@@ -94,7 +114,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     common(m)
     data_opts(m)
     fit_opts(m)
-    m.add_argument("--no-polish", action="store_true", help="do not refine each metaheuristic result with least_squares")
+    m.add_argument(
+        "--no-polish", action="store_true", help="do not refine each metaheuristic result with least_squares"
+    )
     _output(m, "JSON", "result to write")
     m.add_argument("--plot", default=None, metavar="PNG", help="also plot measured and simulated angles")
     m.add_argument("--force", action="store_true", help="overwrite outputs")
@@ -218,8 +240,10 @@ def _twin(args) -> int:
     spec = _spec(args)
     rec = _recording(args, spec, motor=not args.no_motor)
     write_twin(rec, args.out)
-    print(f"wrote {args.out} ({rec.n} samples at {1 / rec.dt:g} Hz, noise {rec.meta['noise']:g} rad, seed "
-          f"{rec.meta['seed']}) and {args.out}.json (truth)")
+    print(
+        f"wrote {args.out} ({rec.n} samples at {1 / rec.dt:g} Hz, noise {rec.meta['noise']:g} rad, seed "
+        f"{rec.meta['seed']}) and {args.out}.json (truth)"
+    )
     return 0
 
 
@@ -235,8 +259,15 @@ def _fit(args) -> int:
     prob = problem_from_spec(spec, rec, rigid=args.rigid, cost=args.cost, outputs=_outputs(args, spec))
     x0 = _x0(args, spec, prob)
     print(f"fitting {prob.d} parameters of the {prob.label} model to {rec.source} ({rec.n} samples) with {method}")
-    res = fit_output_error(prob, method, rng=seed, x0=x0, options=None if method == LEAST_SQUARES else options,
-                           f_scale=spec.fit.f_scale, max_nfev=args.max_nfev)
+    res = fit_output_error(
+        prob,
+        method,
+        rng=seed,
+        x0=x0,
+        options=None if method == LEAST_SQUARES else options,
+        f_scale=spec.fit.f_scale,
+        max_nfev=args.max_nfev,
+    )
     res.extra.update(recording=rec.source, spec=spec.source)
     print(result_text(res))
     print("wrote " + " and ".join(map(str, write_fit(res, args.out, problem=prob, plot=args.plot))))
@@ -259,8 +290,12 @@ def _compare(args) -> int:
         print(f"{label} model ({out[label].method}):")
         print(result_text(out[label]))
     f, r = out["flexible"], out["rigid"]
-    print("RMS angle error [mrad]: " + "; ".join(
-        f"{j}: flexible {1e3 * f.metrics[j]['rms']:.4g}, rigid {1e3 * r.metrics[j]['rms']:.4g}" for j in f.metrics))
+    print(
+        "RMS angle error [mrad]: "
+        + "; ".join(
+            f"{j}: flexible {1e3 * f.metrics[j]['rms']:.4g}, rigid {1e3 * r.metrics[j]['rms']:.4g}" for j in f.metrics
+        )
+    )
     written = write_comparison(out, args.out, spec=spec, recording=rec, plot=args.plot)
     print("wrote " + " and ".join(map(str, written)))
     return 0

@@ -5,10 +5,25 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from pinid.cli.common import (add_mapping_arguments, add_method_arguments, wrote_line, add_preprocessing_arguments, add_recording_arguments,
-                              add_robot_arguments, add_stribeck_arguments, add_terms_argument, methods_from_args, nonnegative_float,
-                              options_from_args, positive_int, preprocess_from_args, rest_velocity_from_args,
-                              mapping_from_args, robot_from_args, terms_from_args)
+from pinid.cli.common import (
+    add_mapping_arguments,
+    add_method_arguments,
+    wrote_line,
+    add_preprocessing_arguments,
+    add_recording_arguments,
+    add_robot_arguments,
+    add_stribeck_arguments,
+    add_terms_argument,
+    methods_from_args,
+    nonnegative_float,
+    options_from_args,
+    positive_int,
+    preprocess_from_args,
+    rest_velocity_from_args,
+    mapping_from_args,
+    robot_from_args,
+    terms_from_args,
+)
 from pinid.errors import SpecError
 from pinid.identification.problem import load_datasets
 from pinid.identification.run import identify
@@ -54,43 +69,91 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("-o", "--output", default="results", metavar="FOLDER", help="output folder; default results/")
     add_preprocessing_arguments(p)
     g = p.add_argument_group("estimation")
-    g.add_argument("--regularization", type=nonnegative_float, default=None,
-                   help="sdp: weight of the pull toward the URDF in unidentifiable directions (default 1e-3)")
+    g.add_argument(
+        "--regularization",
+        type=nonnegative_float,
+        default=None,
+        help="sdp: weight of the pull toward the URDF in unidentifiable directions (default 1e-3)",
+    )
     g.add_argument("--mass-bounds", default=None, metavar="LO,HI", help="sdp: bounds on every body's mass [kg]")
-    g.add_argument("--sdp-weighting", choices=("none", "joint"), default=None,
-                   help="sdp: row weighting (none: as OLS, default; joint: as WLS)")
+    g.add_argument(
+        "--sdp-weighting",
+        choices=("none", "joint"),
+        default=None,
+        help="sdp: row weighting (none: as OLS, default; joint: as WLS)",
+    )
     g.add_argument("--wls-iterations", type=positive_int, default=None, help="wls: reweighting passes (default 1)")
     g = p.add_argument_group("stage 2: the wearer (docs/wearer.md)")
-    g.add_argument("--stage", choices=("robot", "wearer"), default="robot",
-                   help="robot: identify the URDF's robot (default); wearer: identify only the wearer of an "
-                        "exo + wearer URDF (pinid wearer), the exoskeleton fixed to --exo")
-    g.add_argument("--exo", default=None, metavar="MODEL_JSON",
-                   help="--stage wearer: the stage-1 exoskeleton model (model_<method>.json of pinid identify)")
-    g.add_argument("--mass-range", type=float, default=None, metavar="FRACTION",
-                   help="--stage wearer: each body's wearer mass within ±FRACTION of the table's; default 0.3")
-    g.add_argument("--prior-weight", type=nonnegative_float, default=0.0,
-                   help="--stage wearer: pull of the identifiable directions toward the tables; default 0 "
-                        "(the tables decide only what the data cannot see)")
-    g.add_argument("--no-passive", action="store_true",
-                   help="--stage wearer: do not identify the passive-moment scale factors (keep none)")
-    g.add_argument("--passive-exponents", action="store_true",
-                   help="--stage wearer: also fit the passive moments' exponents (nonlinear least squares from "
-                        "the published values, within 0.5-2x of them; docs/wearer.md)")
-    p.add_argument("-v", "--verbose", action="store_true",
-                   help="also print every method's base parameters (value, std, std %%) and torque error per joint "
-                        "(without it: the summary table; the detail is in report.md/report.html)")
-    p.add_argument("--force-export", action="store_true",
-                   help="also write identified URDFs of physically inconsistent results")
+    g.add_argument(
+        "--stage",
+        choices=("robot", "wearer"),
+        default="robot",
+        help="robot: identify the URDF's robot (default); wearer: identify only the wearer of an "
+        "exo + wearer URDF (pinid wearer), the exoskeleton fixed to --exo",
+    )
+    g.add_argument(
+        "--exo",
+        default=None,
+        metavar="MODEL_JSON",
+        help="--stage wearer: the stage-1 exoskeleton model (model_<method>.json of pinid identify)",
+    )
+    g.add_argument(
+        "--mass-range",
+        type=float,
+        default=None,
+        metavar="FRACTION",
+        help="--stage wearer: each body's wearer mass within ±FRACTION of the table's; default 0.3",
+    )
+    g.add_argument(
+        "--prior-weight",
+        type=nonnegative_float,
+        default=0.0,
+        help="--stage wearer: pull of the identifiable directions toward the tables; default 0 "
+        "(the tables decide only what the data cannot see)",
+    )
+    g.add_argument(
+        "--no-passive",
+        action="store_true",
+        help="--stage wearer: do not identify the passive-moment scale factors (keep none)",
+    )
+    g.add_argument(
+        "--passive-exponents",
+        action="store_true",
+        help="--stage wearer: also fit the passive moments' exponents (nonlinear least squares from "
+        "the published values, within 0.5-2x of them; docs/wearer.md)",
+    )
+    p.add_argument(
+        "-v",
+        "--verbose",
+        action="store_true",
+        help="also print every method's base parameters (value, std, std %%) and torque error per joint "
+        "(without it: the summary table; the detail is in report.md/report.html)",
+    )
+    p.add_argument(
+        "--force-export", action="store_true", help="also write identified URDFs of physically inconsistent results"
+    )
     g = p.add_argument_group("drive gains (the recordings hold currents: docs/drives.md#drive-gains-from-currents)")
-    g.add_argument("--payload", default=None, metavar="TOML",
-                   help="the known payload (link, mass [kg], com [m], inertia [kg·m²]) fixed for --payload-data")
-    g.add_argument("--payload-data", action="append", default=None, metavar="FILE",
-                   help="recording with the payload; with --payload, the drive gains are identified first and "
-                        "the currents of every recording turned into torques; repeatable")
+    g.add_argument(
+        "--payload",
+        default=None,
+        metavar="TOML",
+        help="the known payload (link, mass [kg], com [m], inertia [kg·m²]) fixed for --payload-data",
+    )
+    g.add_argument(
+        "--payload-data",
+        action="append",
+        default=None,
+        metavar="FILE",
+        help="recording with the payload; with --payload, the drive gains are identified first and "
+        "the currents of every recording turned into torques; repeatable",
+    )
     add_stribeck_arguments(p)
     p.add_argument("--no-report", action="store_true", help="do not write report.md, report.html and the figures")
-    p.add_argument("--no-figures", action="store_true",
-                   help="write report.md and report.html without figures (faster: matplotlib is not loaded)")
+    p.add_argument(
+        "--no-figures",
+        action="store_true",
+        help="write report.md and report.html without figures (faster: matplotlib is not loaded)",
+    )
 
 
 def _options(args, methods) -> dict:
@@ -130,21 +193,35 @@ def run(args: argparse.Namespace) -> int:
     methods = methods_from_args(args)
     model = robot_from_args(args)
     terms = terms_from_args(args)
-    print(f"identifying {model.name} ({', '.join(model.joint_names)}) with {', '.join(methods)}; "
-          f"terms {', '.join(terms.names) or 'none'}")
+    print(
+        f"identifying {model.name} ({', '.join(model.joint_names)}) with {', '.join(methods)}; "
+        f"terms {', '.join(terms.names) or 'none'}"
+    )
     ident = identify(
-        model, args.data, methods=methods, validate=args.validate or None, terms=terms, mapping=mapping_from_args(args),
-        preprocess=preprocess_from_args(args), rest_velocity=rest_velocity_from_args(args.rest_velocity),
-        options=options_from_args(args, _options(args, methods)), show_progress=None,
-        payload=args.payload, payload_data=args.payload_data,
-        stribeck_velocity=args.stribeck_velocity, stribeck_shape=args.stribeck_shape,
+        model,
+        args.data,
+        methods=methods,
+        validate=args.validate or None,
+        terms=terms,
+        mapping=mapping_from_args(args),
+        preprocess=preprocess_from_args(args),
+        rest_velocity=rest_velocity_from_args(args.rest_velocity),
+        options=options_from_args(args, _options(args, methods)),
+        show_progress=None,
+        payload=args.payload,
+        payload_data=args.payload_data,
+        stribeck_velocity=args.stribeck_velocity,
+        stribeck_shape=args.stribeck_shape,
     )
     print(identification_text(ident, verbose=args.verbose))
-    written = write_identification(ident, out, report=not args.no_report, figures=not args.no_figures,
-                                   force_export=args.force_export)
+    written = write_identification(
+        ident, out, report=not args.no_report, figures=not args.no_figures, force_export=args.force_export
+    )
     refused = [m for m in ident.results if out / f"identified_{m}.urdf" not in written]
-    print(f"\nbest: {ident.best}" + (f"; no URDF for inconsistent result(s) {', '.join(refused)} "
-                                       "(--force-export writes them)" if refused else ""))
+    print(
+        f"\nbest: {ident.best}"
+        + (f"; no URDF for inconsistent result(s) {', '.join(refused)} (--force-export writes them)" if refused else "")
+    )
     print(wrote_line(written, out))
     return 0
 
@@ -159,12 +236,21 @@ def _run_wearer(args: argparse.Namespace, out: Path) -> int:
     mapping = mapping_from_args(args)
     train = load_datasets(args.data, robot, mapping, pre, "training")
     val = load_datasets(args.validate or None, robot, mapping, pre, "validation")
-    fit = identify_wearer(args.exo, robot, *stack(train), passive=not args.no_passive,
-                          mass_range=MASS_RANGE if args.mass_range is None else args.mass_range,
-                          prior_weight=args.prior_weight, passive_exponents=args.passive_exponents)
+    fit = identify_wearer(
+        args.exo,
+        robot,
+        *stack(train),
+        passive=not args.no_passive,
+        mass_range=MASS_RANGE if args.mass_range is None else args.mass_range,
+        prior_weight=args.prior_weight,
+        passive_exponents=args.passive_exponents,
+    )
     summary = stage_summary(fit, args.exo, train, val)
     print(stage_text(fit, summary))
     shown = ("validation", val) if val else ("training", train)
-    print(wrote_line(write_stage(fit, summary, out, shown=shown, report=not args.no_report,
-                                 figures=not args.no_figures), out))
+    print(
+        wrote_line(
+            write_stage(fit, summary, out, shown=shown, report=not args.no_report, figures=not args.no_figures), out
+        )
+    )
     return 0

@@ -52,10 +52,10 @@ def build_parser() -> argparse.ArgumentParser:
         description="Identify the rigid-body dynamics of a robot from its URDF and measured data.",
         formatter_class=argparse.RawDescriptionHelpFormatter,
         epilog="Every command takes --force (replace existing outputs) and --progress/--no-progress: long work\n"
-               "(excitation design, metaheuristics, compare, flex) shows a progress bar on stderr when it is a\n"
-               "terminal, and otherwise (CI, logs, pipes) a line every 5 s and one at the end; --no-progress shows\n"
-               "none.  PINID_PROGRESS=1 or 0 overrides both, from Python too (where the default is a bar on a\n"
-               "terminal only).",
+        "(excitation design, metaheuristics, compare, flex) shows a progress bar on stderr when it is a\n"
+        "terminal, and otherwise (CI, logs, pipes) a line every 5 s and one at the end; --no-progress shows\n"
+        "none.  PINID_PROGRESS=1 or 0 overrides both, from Python too (where the default is a bar on a\n"
+        "terminal only).",
     )
     parser.add_argument("--version", action="version", version=f"pinid {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
@@ -63,8 +63,9 @@ def build_parser() -> argparse.ArgumentParser:
         mod = _load(name)
         if mod is None:
             continue
-        p = sub.add_parser(name, help=mod.HELP, description=mod.DESCRIPTION,
-                           formatter_class=argparse.RawDescriptionHelpFormatter)
+        p = sub.add_parser(
+            name, help=mod.HELP, description=mod.DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter
+        )
         mod.add_arguments(p)
         if not any("--force" in a.option_strings for a in p._actions):
             p.add_argument("--force", action="store_true", help="overwrite output files that already exist")
@@ -80,9 +81,13 @@ def _add_progress_argument(p: argparse.ArgumentParser) -> None:
         for child in actions[0].choices.values():
             _add_progress_argument(child)
         return
-    p.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
-                   help="progress of long work on stderr: a bar on a terminal, otherwise a line every few seconds "
-                        "(default); --no-progress: none")
+    p.add_argument(
+        "--progress",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="progress of long work on stderr: a bar on a terminal, otherwise a line every few seconds "
+        "(default); --no-progress: none",
+    )
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -117,8 +122,11 @@ def main(argv: Sequence[str] | None = None) -> int:
             where = where.tb_next
         at = f" at {Path(where.tb_frame.f_code.co_filename).name}:{where.tb_lineno}" if where is not None else ""
         message = " ".join(str(exc).split())  # one line, whatever the exception's text
-        print(f"pinid {args.command}: internal error: {type(exc).__name__}: {message}{at} "
-              "(a bug: please report it; PINID_DEBUG=1 shows the traceback)", file=sys.stderr)
+        print(
+            f"pinid {args.command}: internal error: {type(exc).__name__}: {message}{at} "
+            "(a bug: please report it; PINID_DEBUG=1 shows the traceback)",
+            file=sys.stderr,
+        )
         return 1
     finally:
         MODE.reset(token)  # main() called from Python leaves no command-line setting behind
@@ -127,6 +135,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 @contextlib.contextmanager
 def _one_line_warnings(command: str):
     """Warnings as one line each on stderr, ``pinid COMMAND: warning: …`` (not Python's file:line form)."""
+
     def show(message, category, filename, lineno, file=None, line=None):
         print(f"pinid {command}: warning: {' '.join(str(message).split())}", file=sys.stderr)
 
@@ -138,6 +147,7 @@ def _one_line_warnings(command: str):
 def _sigterm_as_interrupt() -> None:
     """Handle SIGTERM like SIGINT (KeyboardInterrupt), so the all-or-nothing output writer
     (:class:`pinid.io.Artefacts`) cleans up after ``kill`` as it does after Ctrl-C."""
+
     def handler(signum, frame):
         raise KeyboardInterrupt
 

@@ -38,51 +38,102 @@ example:
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     add_robot_arguments(p)
-    p.add_argument("--excitation", required=True, metavar="FILE|NAME|PRESET",
-                   help="trajectory JSON (from pinid excite), a bundled one "
-                        f"({', '.join(bundled_trajectories())}) or a preset: zha2019-1 .. zha2019-4")
-    p.add_argument("--flip", action="append", default=[], metavar="JOINT",
-                   help="negate a preset's angle for JOINT (robot axis opposite to the paper's); repeatable")
+    p.add_argument(
+        "--excitation",
+        required=True,
+        metavar="FILE|NAME|PRESET",
+        help="trajectory JSON (from pinid excite), a bundled one "
+        f"({', '.join(bundled_trajectories())}) or a preset: zha2019-1 .. zha2019-4",
+    )
+    p.add_argument(
+        "--flip",
+        action="append",
+        default=[],
+        metavar="JOINT",
+        help="negate a preset's angle for JOINT (robot axis opposite to the paper's); repeatable",
+    )
     p.add_argument("--seconds", type=float, default=60.0, help="duration [s]; default 60")
     p.add_argument("--seed", type=seed_int, default=0, help="random seed (noise, perturbation); default 0")
     p.add_argument("-o", "--output", required=True, help="recording to write (.csv or .npz)")
     p.add_argument("--truth", default=None, help="truth JSON to write; default OUTPUT with .truth.json")
-    p.add_argument("--true-signals", default=None, metavar="FILE",
-                   help="also write the noise-free q, dq, ddq and applied torque (.csv or .npz)")
+    p.add_argument(
+        "--true-signals",
+        default=None,
+        metavar="FILE",
+        help="also write the noise-free q, dq, ddq and applied torque (.csv or .npz)",
+    )
     g = p.add_argument_group("rates")
     g.add_argument("--control-rate", type=float, default=1000.0, help="controller rate [Hz]; default 1000")
     g.add_argument("--sample-rate", type=float, default=None, help="recording rate [Hz]; default the control rate")
-    g.add_argument("--integration-rate", type=float, default=None,
-                   help="integration grid [Hz]; default the smallest multiple of both rates >= 2000")
+    g.add_argument(
+        "--integration-rate",
+        type=float,
+        default=None,
+        help="integration grid [Hz]; default the smallest multiple of both rates >= 2000",
+    )
     g = p.add_argument_group("controller")
     g.add_argument("--controller", choices=("pd", "pid"), default="pd", help="feedback law; default pd")
     g.add_argument("--bandwidth", type=float, default=4.0, help="closed-loop bandwidth [Hz]; default 4")
-    g.add_argument("--feedforward", choices=("model", "gravity", "none"), default="model",
-                   help="feed-forward: inverse dynamics of the trajectory (model), gravity only, or none; default model")
-    g.add_argument("--perturb", type=float, default=None, metavar="PERCENT",
-                   help="feed-forward from a 'CAD' model whose inertial parameters differ from the truth by about "
-                        "PERCENT %% (seeded); its parameters go into the truth JSON under 'cad'")
-    g.add_argument("--cad-urdf", default=None, metavar="FILE",
-                   help="with --perturb: also write that CAD model as a URDF (inertia perturbed, friction as the truth's)")
+    g.add_argument(
+        "--feedforward",
+        choices=("model", "gravity", "none"),
+        default="model",
+        help="feed-forward: inverse dynamics of the trajectory (model), gravity only, or none; default model",
+    )
+    g.add_argument(
+        "--perturb",
+        type=float,
+        default=None,
+        metavar="PERCENT",
+        help="feed-forward from a 'CAD' model whose inertial parameters differ from the truth by about "
+        "PERCENT %% (seeded); its parameters go into the truth JSON under 'cad'",
+    )
+    g.add_argument(
+        "--cad-urdf",
+        default=None,
+        metavar="FILE",
+        help="with --perturb: also write that CAD model as a URDF (inertia perturbed, friction as the truth's)",
+    )
     g = p.add_argument_group("friction (true values; default the URDF's <dynamics>)")
-    g.add_argument("--coulomb", default=None, metavar="VALUES",
-                   help="Coulomb friction [N·m]: one value, one per joint (a,b) or JOINT=VALUE,...")
+    g.add_argument(
+        "--coulomb",
+        default=None,
+        metavar="VALUES",
+        help="Coulomb friction [N·m]: one value, one per joint (a,b) or JOINT=VALUE,...",
+    )
     g.add_argument("--viscous", default=None, metavar="VALUES", help="viscous friction [N·m·s/rad], same forms")
-    g.add_argument("--coulomb-velocity", type=float, default=0.01,
-                   help="velocity scale of the simulator's tanh(dq/v_s) Coulomb model [rad/s]; default 0.01")
+    g.add_argument(
+        "--coulomb-velocity",
+        type=float,
+        default=0.01,
+        help="velocity scale of the simulator's tanh(dq/v_s) Coulomb model [rad/s]; default 0.01",
+    )
     g = p.add_argument_group("wearer (a URDF from pinid wearer: its passive joint moments always act)")
-    g.add_argument("--wearer-draw", action="store_true",
-                   help="draw the true wearer away from the tables: each body's segments' mass ±25 %%, CoM ±20 %% "
-                        "(seeded); drawn and table values go into the truth JSON under 'wearer'")
-    g.add_argument("--wearer-torque", type=nonnegative_float, default=0.0, metavar="PERCENT",
-                   help="the wearer's involuntary active torque: smooth random (0.2-2 Hz), per joint PERCENT %% of "
-                        "the RMS gravity torque along the trajectory (seeded); acts on the leg, not in the recorded torque")
+    g.add_argument(
+        "--wearer-draw",
+        action="store_true",
+        help="draw the true wearer away from the tables: each body's segments' mass ±25 %%, CoM ±20 %% "
+        "(seeded); drawn and table values go into the truth JSON under 'wearer'",
+    )
+    g.add_argument(
+        "--wearer-torque",
+        type=nonnegative_float,
+        default=0.0,
+        metavar="PERCENT",
+        help="the wearer's involuntary active torque: smooth random (0.2-2 Hz), per joint PERCENT %% of "
+        "the RMS gravity torque along the trajectory (seeded); acts on the leg, not in the recorded torque",
+    )
     g = p.add_argument_group("sensors")
-    g.add_argument("--position-noise", type=nonnegative_float, default=2e-5, help="position noise std [rad]; default 2e-5")
+    g.add_argument(
+        "--position-noise", type=nonnegative_float, default=2e-5, help="position noise std [rad]; default 2e-5"
+    )
     g.add_argument("--encoder-bits", type=int, default=16, help="encoder counts per turn = 2^BITS; 0: no quantisation")
-    g.add_argument("--torque-noise", default="1%",
-                   help="torque noise std: N·m (one value, per joint, or JOINT=VALUE) or a percentage of each "
-                        "joint's peak torque like 1%%; default 1%%")
+    g.add_argument(
+        "--torque-noise",
+        default="1%",
+        help="torque noise std: N·m (one value, per joint, or JOINT=VALUE) or a percentage of each "
+        "joint's peak torque like 1%%; default 1%%",
+    )
     g.add_argument("--record-velocity", action="store_true", help="also record velocities (true + noise)")
     g.add_argument("--velocity-noise", type=float, default=0.01, help="velocity noise std [rad/s]; default 0.01")
 
@@ -130,7 +181,12 @@ def _files(args: argparse.Namespace) -> dict:
         raise SpecError("--cad-urdf needs --perturb PERCENT (the CAD model is the truth perturbed)")
     if args.true_signals and Path(args.true_signals).suffix.lower() not in (".csv", ".npz"):
         raise SpecError(f"{args.true_signals}: unknown suffix, expected .csv or .npz for --true-signals")
-    return {"path": out, "truth_path": Path(args.truth) if args.truth else None, "true_signals": args.true_signals, "cad_urdf": args.cad_urdf}
+    return {
+        "path": out,
+        "truth_path": Path(args.truth) if args.truth else None,
+        "true_signals": args.true_signals,
+        "cad_urdf": args.cad_urdf,
+    }
 
 
 def _torque_noise(args: argparse.Namespace, model) -> tuple:
@@ -146,8 +202,14 @@ def _torque_noise(args: argparse.Namespace, model) -> tuple:
 
 def run(args: argparse.Namespace) -> int:
     # deferred (see above)
-    from pinid.simulation.outputs import (cad_model, cad_truth, drawn_wearer_truth, simulation_paths, simulation_text,
-                                          write_simulation)
+    from pinid.simulation.outputs import (
+        cad_model,
+        cad_truth,
+        drawn_wearer_truth,
+        simulation_paths,
+        simulation_text,
+        write_simulation,
+    )
     from pinid.simulation.twin import load_trajectory
 
     files = _files(args)
@@ -195,12 +257,23 @@ def _simulate(args, model, trajectory, cad, torque_noise, torque_pct):
     from pinid.simulation.twin import Controller, Friction, Rates, Sensors, simulate  # deferred (see above)
 
     return simulate(
-        model, trajectory, seconds=args.seconds, seed=args.seed,
+        model,
+        trajectory,
+        seconds=args.seconds,
+        seed=args.seed,
         rates=Rates(args.control_rate, args.sample_rate, args.integration_rate),
         controller=Controller(args.controller, args.bandwidth, feedforward=args.feedforward, feedforward_model=cad),
-        friction=Friction(_values(args.coulomb, model, "--coulomb"), _values(args.viscous, model, "--viscous"),
-                          args.coulomb_velocity),
-        sensors=Sensors(args.position_noise, (2 * np.pi / 2**args.encoder_bits) if args.encoder_bits else 0.0,
-                        torque_noise, torque_pct, args.record_velocity, args.velocity_noise),
-        wearer_torque=args.wearer_torque, progress=None,
+        friction=Friction(
+            _values(args.coulomb, model, "--coulomb"), _values(args.viscous, model, "--viscous"), args.coulomb_velocity
+        ),
+        sensors=Sensors(
+            args.position_noise,
+            (2 * np.pi / 2**args.encoder_bits) if args.encoder_bits else 0.0,
+            torque_noise,
+            torque_pct,
+            args.record_velocity,
+            args.velocity_noise,
+        ),
+        wearer_torque=args.wearer_torque,
+        progress=None,
     )

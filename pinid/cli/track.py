@@ -33,23 +33,38 @@ example:
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--urdf-true", default="exo_leg", help="the plant's URDF or robot name; default exo_leg")
-    p.add_argument("--drives", default=None, metavar="FILE",
-                   help="the plant's drives TOML (docs/drives.md): its [motors.NAME] friction and rotor inertia "
-                        "act in the plant; replaces the URDF's <transmission>")
-    p.add_argument("--model", action="append", default=[], metavar="SPEC",
-                   help="controller model: nominal | cad:PERCENT | FILE.urdf | model_<method>.json | identification.json; "
-                        "repeatable")
+    p.add_argument(
+        "--drives",
+        default=None,
+        metavar="FILE",
+        help="the plant's drives TOML (docs/drives.md): its [motors.NAME] friction and rotor inertia "
+        "act in the plant; replaces the URDF's <transmission>",
+    )
+    p.add_argument(
+        "--model",
+        action="append",
+        default=[],
+        metavar="SPEC",
+        help="controller model: nominal | cad:PERCENT | FILE.urdf | model_<method>.json | identification.json; "
+        "repeatable",
+    )
     p.add_argument("--no-friction", action="store_true", help="ignore <dynamics> friction in URDF / nominal models")
     p.add_argument("--reference", default="sine", help="trajectory JSON or 'sine' (default)")
-    p.add_argument("--controller", default="backstepping,computed-torque",
-                   help="comma-separated: backstepping, computed-torque; default both")
+    p.add_argument(
+        "--controller",
+        default="backstepping,computed-torque",
+        help="comma-separated: backstepping, computed-torque; default both",
+    )
     p.add_argument("--seconds", type=float, default=8.0, help="duration [s]; default 8")
     p.add_argument("--after", type=float, default=2.0, help="start of the error statistics [s]; default 2")
     p.add_argument("--position-noise", type=nonnegative_float, default=2e-5, help="encoder noise σ [rad]; default 2e-5")
     p.add_argument("--seed", type=seed_int, default=0, help="noise seed (and the cad: perturbation's); default 0")
-    p.add_argument("--wearer-draw", action="store_true",
-                   help="the plant's wearer (a URDF from pinid wearer) drawn away from the tables as pinid simulate "
-                        "--wearer-draw does with the same --seed: the same true wearer")
+    p.add_argument(
+        "--wearer-draw",
+        action="store_true",
+        help="the plant's wearer (a URDF from pinid wearer) drawn away from the tables as pinid simulate "
+        "--wearer-draw does with the same --seed: the same true wearer",
+    )
     p.add_argument("-o", "--output", default=None, metavar="FOLDER", help="write tracking.json and plots here")
 
 
@@ -57,8 +72,11 @@ def sine_reference(plant):
     """Deprecated here (kept for one release): :func:`pinid.control.tracking.sine_reference`."""
     from pinid.control.tracking import sine_reference as reference  # deferred: as in run()
 
-    warnings.warn("pinid.cli.track.sine_reference moved to pinid.control.tracking.sine_reference",
-                  DeprecationWarning, stacklevel=2)
+    warnings.warn(
+        "pinid.cli.track.sine_reference moved to pinid.control.tracking.sine_reference",
+        DeprecationWarning,
+        stacklevel=2,
+    )
     return reference(plant)
 
 
@@ -80,10 +98,20 @@ def run(args: argparse.Namespace) -> int:
 
         plant, _ = draw_wearer(plant, args.seed)
     reference = load_reference(args.reference, plant)
-    models = {s: load_controller_model(s, plant, friction=not args.no_friction, seed=args.seed)
-              for s in args.model or ["nominal"]}
-    table = compare_models(plant, models, reference, controllers=controllers, seconds=args.seconds,
-                           after=args.after, position_noise=args.position_noise, seed=args.seed)
+    models = {
+        s: load_controller_model(s, plant, friction=not args.no_friction, seed=args.seed)
+        for s in args.model or ["nominal"]
+    }
+    table = compare_models(
+        plant,
+        models,
+        reference,
+        controllers=controllers,
+        seconds=args.seconds,
+        after=args.after,
+        position_noise=args.position_noise,
+        seed=args.seed,
+    )
     print(tracking_table(table))
     if args.output is not None:
         settings = {"reference": args.reference, "seconds": args.seconds, "after": args.after, "seed": args.seed}

@@ -30,9 +30,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--mass", type=float, required=True, help="wearer's body mass [kg]")
     p.add_argument("--height", type=float, required=True, help="wearer's height (stature) [m]")
     p.add_argument("--sex", choices=("male", "female"), required=True, help="which de Leva table to use")
-    p.add_argument("--attach", default="hip:thigh,knee:shank",
-                   help="POINT:SEGMENT pairs, comma-separated: POINT an exo joint (its child link) or link, "
-                        "SEGMENT thigh, shank or foot; default hip:thigh,knee:shank")
+    p.add_argument(
+        "--attach",
+        default="hip:thigh,knee:shank",
+        help="POINT:SEGMENT pairs, comma-separated: POINT an exo joint (its child link) or link, "
+        "SEGMENT thigh, shank or foot; default hip:thigh,knee:shank",
+    )
     p.add_argument("-o", "--output", required=True, metavar="FILE", help="URDF to write")
 
 

@@ -96,16 +96,31 @@ SMALL_ROBOT = 4
 #: Smallest motion [rad or m] a joint's limits must allow at the base frequency.
 MIN_AMPLITUDE = 1e-3
 #: Criteria: name -> description.
-CRITERIA = {"cond": "condition number of the base regressor (seed 001 Eq. (20))",
-            "logdet": "D-optimal: −log det(W_bᵀ W_b)"}
+CRITERIA = {
+    "cond": "condition number of the base regressor (seed 001 Eq. (20))",
+    "logdet": "D-optimal: −log det(W_bᵀ W_b)",
+}
 #: Spec files used by default for bundled robots (in the repository's ``excitation/`` folder).
 DEFAULT_SPECS = {"exo_leg": "exo_leg_table2.toml"}
 #: The repository's ``excitation/`` folder.
 EXCITATION_DIR = BUNDLED_EXCITATION_DIR
 
 _REST_TOL = 1e-10  # |dq| below this at a sample is exact rest (sign(dq) = 0 in the Coulomb column)
-_SPEC_KEYS = {"description", "urdf", "harmonics", "base_frequency", "samples", "rest_start", "optimize_offsets",
-              "margin", "criterion", "terms", "q0", "joints", "torque_limits"}
+_SPEC_KEYS = {
+    "description",
+    "urdf",
+    "harmonics",
+    "base_frequency",
+    "samples",
+    "rest_start",
+    "optimize_offsets",
+    "margin",
+    "criterion",
+    "terms",
+    "q0",
+    "joints",
+    "torque_limits",
+}
 _JOINT_KEYS = {"q_min", "q_max", "dq_max", "ddq_max", "tau_max", "q0"}
 
 
@@ -190,20 +205,36 @@ class ExcitationSpec:
 
     def limits_dict(self) -> dict:
         """Per joint ``{q_min, q_max, dq_max, ddq_max, tau_max}`` as given (before the margin); None = no limit."""
+
         def num(x):
             return float(x) if np.isfinite(x) else None
 
-        return {j: {"q_min": num(self.q_min[i]), "q_max": num(self.q_max[i]), "dq_max": num(self.dq_max[i]),
-                    "ddq_max": num(self.ddq_max[i]), "tau_max": num(self.tau_max[i])}
-                for i, j in enumerate(self.joints)}
+        return {
+            j: {
+                "q_min": num(self.q_min[i]),
+                "q_max": num(self.q_max[i]),
+                "dq_max": num(self.dq_max[i]),
+                "ddq_max": num(self.ddq_max[i]),
+                "tau_max": num(self.tau_max[i]),
+            }
+            for i, j in enumerate(self.joints)
+        }
 
     def to_dict(self) -> dict:
         """Plain-dict form of the settings and limits."""
-        return {"source": self.source, "harmonics": int(self.harmonics), "base_frequency": float(self.base_frequency),
-                "samples": int(self.samples), "rest_start": bool(self.rest_start),
-                "optimize_offsets": bool(self.optimize_offsets), "margin": float(self.margin),
-                "criterion": self.criterion, "terms": self.terms.names, "q0": self.q0.tolist(),
-                "limits": self.limits_dict()}
+        return {
+            "source": self.source,
+            "harmonics": int(self.harmonics),
+            "base_frequency": float(self.base_frequency),
+            "samples": int(self.samples),
+            "rest_start": bool(self.rest_start),
+            "optimize_offsets": bool(self.optimize_offsets),
+            "margin": float(self.margin),
+            "criterion": self.criterion,
+            "terms": self.terms.names,
+            "q0": self.q0.tolist(),
+            "limits": self.limits_dict(),
+        }
 
     # ------------------------------------------------------------------ checks
     def validate(self, model: RobotModel | None = None, base: BaseParameters | None = None) -> None:
@@ -213,12 +244,16 @@ class ExcitationSpec:
         if int(self.harmonics) != self.harmonics or self.harmonics < 1:
             raise SpecError(f"{src}: harmonics {self.harmonics!r}, expected an integer >= 1")
         if self.rest_start and self.harmonics < 2:
-            raise SpecError(f"{src}: rest_start needs at least 2 harmonics (it uses up the first), got {self.harmonics}")
+            raise SpecError(
+                f"{src}: rest_start needs at least 2 harmonics (it uses up the first), got {self.harmonics}"
+            )
         if not (np.isfinite(self.base_frequency) and self.base_frequency > 0):
             raise SpecError(f"{src}: base_frequency {self.base_frequency!r}, expected > 0 [rad/s]")
         if int(self.samples) != self.samples or self.samples <= 2 * self.harmonics:
-            raise SpecError(f"{src}: samples {self.samples!r}, expected an integer > 2·harmonics = {2 * self.harmonics} "
-                            "(the samples must resolve the highest harmonic)")
+            raise SpecError(
+                f"{src}: samples {self.samples!r}, expected an integer > 2·harmonics = {2 * self.harmonics} "
+                "(the samples must resolve the highest harmonic)"
+            )
         if not (0 <= self.margin < 0.5):
             raise SpecError(f"{src}: margin {self.margin!r}, expected a fraction in [0, 0.5)")
         if self.criterion not in CRITERIA:
@@ -229,8 +264,9 @@ class ExcitationSpec:
             if not (np.isfinite(lo) and np.isfinite(hi)):
                 raise SpecError(f"{src}: joint '{j}': position range [{lo:g}, {hi:g}] is not finite")
             if not lo < hi:
-                raise SpecError(f"{src}: joint '{j}': position range [{lo:g}, {hi:g}] has no width, "
-                                "expected q_min < q_max")
+                raise SpecError(
+                    f"{src}: joint '{j}': position range [{lo:g}, {hi:g}] has no width, expected q_min < q_max"
+                )
             for name, value, unit in (("dq_max", self.dq_max[i], "rad/s"), ("ddq_max", self.ddq_max[i], "rad/s²")):
                 if not (np.isfinite(value) and value > 0):
                     raise SpecError(f"{src}: joint '{j}': {name} {value:g}, expected a finite limit > 0 [{unit}]")
@@ -238,27 +274,38 @@ class ExcitationSpec:
                 raise SpecError(f"{src}: joint '{j}': tau_max {self.tau_max[i]:g}, expected > 0 [N·m] (or no limit)")
             if not np.isfinite(q0) or not (self.lower[i] < q0 < self.upper[i]):
                 extra = f" (after the margin {self.margin:g})" if self.margin else ""
-                raise SpecError(f"{src}: joint '{j}': offset q0 = {q0:g} is outside its range "
-                                f"[{self.lower[i]:.6g}, {self.upper[i]:.6g}]{extra}; expected strictly inside")
-            room = {"position": min(q0 - self.lower[i], self.upper[i] - q0),
-                    "dq_max": self.velocity[i] / w, "ddq_max": self.acceleration[i] / w**2}
+                raise SpecError(
+                    f"{src}: joint '{j}': offset q0 = {q0:g} is outside its range "
+                    f"[{self.lower[i]:.6g}, {self.upper[i]:.6g}]{extra}; expected strictly inside"
+                )
+            room = {
+                "position": min(q0 - self.lower[i], self.upper[i] - q0),
+                "dq_max": self.velocity[i] / w,
+                "ddq_max": self.acceleration[i] / w**2,
+            }
             which = min(room, key=room.get)
             if room[which] < MIN_AMPLITUDE:
                 if which == "position":
                     why = f"offset q0 = {q0:g} is only {room[which]:.3g} rad from a position limit"
                 else:
                     value = self.velocity[i] if which == "dq_max" else self.acceleration[i]
-                    why = (f"{which} {value:g} allows at most {room[which]:.3g} rad of motion at base frequency "
-                           f"{w:g} rad/s")
-                raise SpecError(f"{src}: joint '{j}': {why}; expected room for at least {MIN_AMPLITUDE:g} rad "
-                                "(widen the limit or lower base_frequency)")
+                    why = (
+                        f"{which} {value:g} allows at most {room[which]:.3g} rad of motion at base frequency "
+                        f"{w:g} rad/s"
+                    )
+                raise SpecError(
+                    f"{src}: joint '{j}': {why}; expected room for at least {MIN_AMPLITUDE:g} rad "
+                    "(widen the limit or lower base_frequency)"
+                )
         if model is not None:
             if model.joint_names != list(self.joints):
                 raise SpecError(f"{src}: joints {self.joints} do not match the model's {model.joint_names}")
             nb = (base or base_parameters(model, self.terms)).count
             if self.samples * model.nv < nb:
-                raise SpecError(f"{src}: samples {self.samples} × {model.nv} joints = {self.samples * model.nv} rows "
-                                f"< {nb} base parameters; expected more samples")
+                raise SpecError(
+                    f"{src}: samples {self.samples} × {model.nv} joints = {self.samples * model.nv} rows "
+                    f"< {nb} base parameters; expected more samples"
+                )
 
 
 def default_spec(model: RobotModel, **settings) -> ExcitationSpec:
@@ -274,9 +321,16 @@ def default_spec(model: RobotModel, **settings) -> ExcitationSpec:
     lo = np.where(np.isfinite(lo), lo, q0 - DEFAULT_HALF_RANGE)
     hi = np.where(np.isfinite(hi), hi, q0 + DEFAULT_HALF_RANGE)
     vel = np.where(np.isfinite(model.velocity_limit), model.velocity_limit, DEFAULT_VELOCITY)
-    fields_ = dict(joints=model.joint_names, q_min=lo, q_max=hi, dq_max=vel,
-                   ddq_max=np.full(model.nv, DEFAULT_ACCELERATION), q0=q0, tau_max=np.full(model.nv, np.inf),
-                   source=f"{model.urdf_path.name if model.urdf_path else model.name} (URDF limits, pinid defaults)")
+    fields_ = dict(
+        joints=model.joint_names,
+        q_min=lo,
+        q_max=hi,
+        dq_max=vel,
+        ddq_max=np.full(model.nv, DEFAULT_ACCELERATION),
+        q0=q0,
+        tau_max=np.full(model.nv, np.inf),
+        source=f"{model.urdf_path.name if model.urdf_path else model.name} (URDF limits, pinid defaults)",
+    )
     fields_.update(settings)
     return ExcitationSpec(**fields_)
 
@@ -372,16 +426,19 @@ def spec_from_dict(data: dict, model: RobotModel, *, source: str = "<spec>") -> 
             raise SpecError(f"{source}: joints.{jname} must be a table of limits ({', '.join(sorted(_JOINT_KEYS))})")
         bad = sorted(set(table) - _JOINT_KEYS)
         if bad:
-            raise SpecError(f"{source}: joints.{jname}: unknown key(s) {', '.join(bad)} "
-                            f"(known: {', '.join(sorted(_JOINT_KEYS))})")
+            raise SpecError(
+                f"{source}: joints.{jname}: unknown key(s) {', '.join(bad)} (known: {', '.join(sorted(_JOINT_KEYS))})"
+            )
         for key, value in table.items():
             value = number(value, f"joints.{jname}.{key}")
             if key in urdf_limits:  # a spec may tighten the URDF's limits, never widen them
                 urdf = urdf_limits[key][i]
                 wider = value < urdf - 1e-9 if key == "q_min" else value > urdf + 1e-9
                 if np.isfinite(urdf) and wider:
-                    raise SpecError(f"{source}: joints.{jname}.{key} = {value:g} is outside the URDF's limit {urdf:g}; "
-                                    "a spec may tighten the URDF's limits, not widen them")
+                    raise SpecError(
+                        f"{source}: joints.{jname}.{key} = {value:g} is outside the URDF's limit {urdf:g}; "
+                        "a spec may tighten the URDF's limits, not widen them"
+                    )
             if key == "q0":
                 q0_given.add(i)
             arrays[key][i] = value
@@ -395,8 +452,10 @@ def spec_from_dict(data: dict, model: RobotModel, *, source: str = "<spec>") -> 
 
 def _joint(model: RobotModel, name: str, source: str) -> int:
     if name not in model.joint_names:
-        raise SpecError(f"{source}: joint '{name}' is not an active joint of {model.name} "
-                        f"(active joints: {', '.join(model.joint_names)})")
+        raise SpecError(
+            f"{source}: joint '{name}' is not an active joint of {model.name} "
+            f"(active joints: {', '.join(model.joint_names)})"
+        )
     return model.joint_names.index(name)
 
 
@@ -420,8 +479,13 @@ def _clean_rest(dq: np.ndarray) -> np.ndarray:
     return np.where(np.abs(dq) < _REST_TOL, 0.0, dq)
 
 
-def base_regressor(model: RobotModel, trajectory: FourierTrajectory, terms: JointTerms = JointTerms(),
-                   samples: int = DEFAULT_SAMPLES, base: BaseParameters | None = None) -> np.ndarray:
+def base_regressor(
+    model: RobotModel,
+    trajectory: FourierTrajectory,
+    terms: JointTerms = JointTerms(),
+    samples: int = DEFAULT_SAMPLES,
+    base: BaseParameters | None = None,
+) -> np.ndarray:
     """The base regressor ``(samples·nv, nb)`` of a trajectory over one period (unscaled)."""
     _check_joints(model, trajectory)
     base = base or base_parameters(model, terms)
@@ -429,15 +493,25 @@ def base_regressor(model: RobotModel, trajectory: FourierTrajectory, terms: Join
     return base.columns(regressor(model, q, _clean_rest(dq), ddq, terms))
 
 
-def condition_number(model: RobotModel, trajectory: FourierTrajectory, terms: JointTerms = JointTerms(),
-                     samples: int = DEFAULT_SAMPLES, base: BaseParameters | None = None) -> float:
+def condition_number(
+    model: RobotModel,
+    trajectory: FourierTrajectory,
+    terms: JointTerms = JointTerms(),
+    samples: int = DEFAULT_SAMPLES,
+    base: BaseParameters | None = None,
+) -> float:
     """Condition number of the base regressor (friction columns included, unscaled) over one period,
     ``samples`` equally spaced instants from t = 0 — the figure seed 001 minimises (its Eq. (20))."""
     return float(np.linalg.cond(base_regressor(model, trajectory, terms, samples, base)))
 
 
-def log_det_information(model: RobotModel, trajectory: FourierTrajectory, terms: JointTerms = JointTerms(),
-                        samples: int = DEFAULT_SAMPLES, base: BaseParameters | None = None) -> float:
+def log_det_information(
+    model: RobotModel,
+    trajectory: FourierTrajectory,
+    terms: JointTerms = JointTerms(),
+    samples: int = DEFAULT_SAMPLES,
+    base: BaseParameters | None = None,
+) -> float:
     """``log det(W_bᵀ W_b)`` of the base regressor (the D-optimal criterion maximises it)."""
     s = np.linalg.svd(base_regressor(model, trajectory, terms, samples, base), compute_uv=False)
     return float(2 * np.sum(np.log(s))) if s[-1] > 0 else -np.inf
@@ -445,8 +519,9 @@ def log_det_information(model: RobotModel, trajectory: FourierTrajectory, terms:
 
 def _check_joints(model: RobotModel, trajectory: FourierTrajectory) -> None:
     if list(trajectory.joints) != model.joint_names:
-        raise SpecError(f"trajectory joints {list(trajectory.joints)} do not match the model's active joints "
-                        f"{model.joint_names}")
+        raise SpecError(
+            f"trajectory joints {list(trajectory.joints)} do not match the model's active joints {model.joint_names}"
+        )
 
 
 def _refine_extreme(trajectory: FourierTrajectory, t: np.ndarray, order: int, j: int, spacing: float) -> np.ndarray:
@@ -475,22 +550,27 @@ def trajectory_extremes(trajectory: FourierTrajectory, points: int = DENSE_SAMPL
         qr = _refine_extreme(trajectory, cand_t[:2], 0, j, h)
         dqr = _refine_extreme(trajectory, cand_t[2:3], 1, j, h)
         ddqr = _refine_extreme(trajectory, cand_t[3:4], 2, j, h)
-        out[name] = {"q_min": float(min(q.min(), qr[0])), "q_max": float(max(q.max(), qr[1])),
-                     "dq_abs_max": float(max(np.abs(dq).max(), abs(dqr[0]))),
-                     "ddq_abs_max": float(max(np.abs(ddq).max(), abs(ddqr[0])))}
+        out[name] = {
+            "q_min": float(min(q.min(), qr[0])),
+            "q_max": float(max(q.max(), qr[1])),
+            "dq_abs_max": float(max(np.abs(dq).max(), abs(dqr[0]))),
+            "ddq_abs_max": float(max(np.abs(ddq).max(), abs(ddqr[0]))),
+        }
     return out
 
 
-def torque_extremes(model: RobotModel, trajectory: FourierTrajectory, terms: JointTerms = JointTerms(),
-                    points: int = 1000) -> np.ndarray:
+def torque_extremes(
+    model: RobotModel, trajectory: FourierTrajectory, terms: JointTerms = JointTerms(), points: int = 1000
+) -> np.ndarray:
     """Largest |torque| [N·m] per joint over one period, with the nominal URDF parameters (``points`` samples)."""
     q, dq, ddq = trajectory.evaluate(sample_times(trajectory.period, points))
     tau = (regressor(model, q, _clean_rest(dq), ddq, terms) @ standard_parameters(model, terms)).reshape(points, -1)
     return np.abs(tau).max(axis=0)
 
 
-def limit_usage(extremes: dict, spec: ExcitationSpec, tau_abs_max: np.ndarray | None = None,
-                q0: np.ndarray | None = None) -> dict:
+def limit_usage(
+    extremes: dict, spec: ExcitationSpec, tau_abs_max: np.ndarray | None = None, q0: np.ndarray | None = None
+) -> dict:
     """How much of each limit a trajectory uses, per joint, as fractions (1.0 = at the limit).
 
     ``q_low`` / ``q_high``: how far towards each position limit the motion goes from q0 (1 = reaches it);
@@ -501,22 +581,29 @@ def limit_usage(extremes: dict, spec: ExcitationSpec, tau_abs_max: np.ndarray | 
     for i, j in enumerate(spec.joints):
         e = extremes[j]
         q0, lo, hi = q0s[i], spec.q_min[i], spec.q_max[i]
-        u = {"q_low": (q0 - e["q_min"]) / (q0 - lo), "q_high": (e["q_max"] - q0) / (hi - q0),
-             "q_range": (e["q_max"] - e["q_min"]) / (hi - lo),
-             "dq": e["dq_abs_max"] / spec.dq_max[i], "ddq": e["ddq_abs_max"] / spec.ddq_max[i]}
+        u = {
+            "q_low": (q0 - e["q_min"]) / (q0 - lo),
+            "q_high": (e["q_max"] - q0) / (hi - q0),
+            "q_range": (e["q_max"] - e["q_min"]) / (hi - lo),
+            "dq": e["dq_abs_max"] / spec.dq_max[i],
+            "ddq": e["ddq_abs_max"] / spec.ddq_max[i],
+        }
         if tau_abs_max is not None and np.isfinite(spec.tau_max[i]):
             u["tau"] = float(tau_abs_max[i] / spec.tau_max[i])
         out[j] = {k: float(v) for k, v in u.items()}
     return out
 
 
-def is_feasible(extremes: dict, spec: ExcitationSpec, tau_abs_max: np.ndarray | None = None,
-                tol: float = 1e-9) -> bool:
+def is_feasible(extremes: dict, spec: ExcitationSpec, tau_abs_max: np.ndarray | None = None, tol: float = 1e-9) -> bool:
     """Whether the extremes are inside the spec's limits (after the margin), to ``tol``."""
     for i, j in enumerate(spec.joints):
         e = extremes[j]
-        if (e["q_min"] < spec.lower[i] - tol or e["q_max"] > spec.upper[i] + tol
-                or e["dq_abs_max"] > spec.velocity[i] + tol or e["ddq_abs_max"] > spec.acceleration[i] + tol):
+        if (
+            e["q_min"] < spec.lower[i] - tol
+            or e["q_max"] > spec.upper[i] + tol
+            or e["dq_abs_max"] > spec.velocity[i] + tol
+            or e["ddq_abs_max"] > spec.acceleration[i] + tol
+        ):
             return False
         if tau_abs_max is not None and tau_abs_max[i] > spec.torque[i] * (1 + 1e-6):
             return False
@@ -529,9 +616,12 @@ def limit_violations(extremes: dict, spec: ExcitationSpec, tol: float = 1e-9) ->
     out = []
     for i, j in enumerate(spec.joints):
         e = extremes[j]
-        checks = [("q_min", e["q_min"], spec.lower[i], -1, "rad"), ("q_max", e["q_max"], spec.upper[i], 1, "rad"),
-                  ("|dq|", e["dq_abs_max"], spec.velocity[i], 1, "rad/s"),
-                  ("|ddq|", e["ddq_abs_max"], spec.acceleration[i], 1, "rad/s²")]
+        checks = [
+            ("q_min", e["q_min"], spec.lower[i], -1, "rad"),
+            ("q_max", e["q_max"], spec.upper[i], 1, "rad"),
+            ("|dq|", e["dq_abs_max"], spec.velocity[i], 1, "rad/s"),
+            ("|ddq|", e["ddq_abs_max"], spec.acceleration[i], 1, "rad/s²"),
+        ]
         if "tau_abs_max" in e and np.isfinite(spec.torque[i]):
             checks.append(("|tau|", e["tau_abs_max"], spec.torque[i], 1, "N·m"))
         for name, value, limit, side, unit in checks:
@@ -552,8 +642,14 @@ class DesignProblem:
     ``optimize_offsets``.  Coefficients are ``c_j = T z_j`` (T eliminates a_1, b_1 for rest start).
     """
 
-    def __init__(self, model: RobotModel, spec: ExcitationSpec, *, check_samples: int | None = None,
-                 base: BaseParameters | None = None) -> None:
+    def __init__(
+        self,
+        model: RobotModel,
+        spec: ExcitationSpec,
+        *,
+        check_samples: int | None = None,
+        base: BaseParameters | None = None,
+    ) -> None:
         self.model, self.spec = model, spec
         self.base = base or base_parameters(model, spec.terms)
         spec.validate(model, self.base)
@@ -566,8 +662,8 @@ class DesignProblem:
             T = np.zeros((2 * N, m))
             T[1:N, : N - 1] = np.eye(N - 1)
             T[N + 1 :, N - 1 :] = np.eye(N - 1)
-            T[0, : N - 1] = -k[1:]          # a_1 = −Σ k a_k   (dq(0) = 0)
-            T[N, N - 1 :] = -(k[1:] ** 2)   # b_1 = −Σ k² b_k  (ddq(0) = 0)
+            T[0, : N - 1] = -k[1:]  # a_1 = −Σ k a_k   (dq(0) = 0)
+            T[N, N - 1 :] = -(k[1:] ** 2)  # b_1 = −Σ k² b_k  (ddq(0) = 0)
             self.harmonic_of = np.concatenate([k[1:], k[1:]])
         else:
             m = 2 * N
@@ -596,7 +692,9 @@ class DesignProblem:
         """``(Z (P, nv, m), q0 (P, nv))`` of a batch of variables ``X (P, d)``."""
         X = np.atleast_2d(X)
         Z = X[:, : self.nv * self.m].reshape(len(X), self.nv, self.m)
-        q0 = X[:, self.nv * self.m :] if self.spec.optimize_offsets else np.broadcast_to(self.spec.q0, (len(X), self.nv))
+        q0 = (
+            X[:, self.nv * self.m :] if self.spec.optimize_offsets else np.broadcast_to(self.spec.q0, (len(X), self.nv))
+        )
         return Z, q0
 
     def join(self, Z: np.ndarray, q0: np.ndarray | None = None) -> np.ndarray:
@@ -608,8 +706,9 @@ class DesignProblem:
         """The Fourier trajectory of variables ``x (d,)``."""
         Z, q0 = self.split(np.asarray(x, float)[None, :])
         C = Z[0] @ self.T.T  # (nv, 2N)
-        return FourierTrajectory(self.model.joint_names, self.w, q0[0].copy(), C[:, : self.N], C[:, self.N :],
-                                 meta=dict(meta or {}))
+        return FourierTrajectory(
+            self.model.joint_names, self.w, q0[0].copy(), C[:, : self.N], C[:, self.N :], meta=dict(meta or {})
+        )
 
     def variables(self, trajectory: FourierTrajectory) -> np.ndarray:
         """Variables ``x`` of a trajectory of this problem's form (least squares if it is not exactly of it)."""
@@ -640,8 +739,13 @@ class DesignProblem:
         if s.optimize_offsets:
             room = 0.5 * (s.upper - s.lower)
         kw = self.harmonic_of * self.w
-        B = np.minimum.reduce([np.broadcast_to(room[:, None], (self.nv, self.m)),
-                               s.velocity[:, None] / kw[None, :], s.acceleration[:, None] / kw[None, :] ** 2])
+        B = np.minimum.reduce(
+            [
+                np.broadcast_to(room[:, None], (self.nv, self.m)),
+                s.velocity[:, None] / kw[None, :],
+                s.acceleration[:, None] / kw[None, :] ** 2,
+            ]
+        )
         upper = B.reshape(-1)
         lower = -upper
         if s.optimize_offsets:
@@ -658,12 +762,12 @@ class DesignProblem:
         for j in range(self.nv):
             block = np.zeros((6 * n, self.d))
             cols = slice(j * self.m, (j + 1) * self.m)
-            block[0 * n:1 * n, cols], block[1 * n:2 * n, cols] = Bq, -Bq
-            block[2 * n:3 * n, cols], block[3 * n:4 * n, cols] = Bdq, -Bdq
-            block[4 * n:5 * n, cols], block[5 * n:6 * n, cols] = Bddq, -Bddq
+            block[0 * n : 1 * n, cols], block[1 * n : 2 * n, cols] = Bq, -Bq
+            block[2 * n : 3 * n, cols], block[3 * n : 4 * n, cols] = Bdq, -Bdq
+            block[4 * n : 5 * n, cols], block[5 * n : 6 * n, cols] = Bddq, -Bddq
             if s.optimize_offsets:
                 q0col = self.nv * self.m + j
-                block[0:n, q0col], block[n:2 * n, q0col] = 1.0, -1.0
+                block[0:n, q0col], block[n : 2 * n, q0col] = 1.0, -1.0
                 b_pos = np.concatenate([np.full(n, s.upper[j]), np.full(n, -s.lower[j])])
             else:
                 b_pos = np.concatenate([np.full(n, s.upper[j] - s.q0[j]), np.full(n, s.q0[j] - s.lower[j])])
@@ -697,8 +801,9 @@ class DesignProblem:
         """Full stacked regressors ``(P·n·nv, p)`` and base regressors ``(P, n·nv, nb)`` of a batch."""
         P, n, nv = len(X), len(self.times), self.nv
         q, dq, ddq = self.states(X)
-        W = regressor(self.model, q.reshape(-1, nv), _clean_rest(dq.reshape(-1, nv)), ddq.reshape(-1, nv),
-                      self.spec.terms)
+        W = regressor(
+            self.model, q.reshape(-1, nv), _clean_rest(dq.reshape(-1, nv)), ddq.reshape(-1, nv), self.spec.terms
+        )
         self.nfev += P
         self.regressor_samples += P * n
         return W, self.base.columns(W).reshape(P, n * nv, -1)
@@ -759,8 +864,13 @@ class DesignProblem:
 
             if self.spec.criterion == "cond":
                 f = float(np.log(sv[0] / sv[-1]))
-                G = self._contract(q, dq, ddq, [full(Vt[0]), full(Vt[-1])],
-                                   [U[:, 0].reshape(n, nv) / sv[0], -U[:, -1].reshape(n, nv) / sv[-1]])
+                G = self._contract(
+                    q,
+                    dq,
+                    ddq,
+                    [full(Vt[0]), full(Vt[-1])],
+                    [U[:, 0].reshape(n, nv) / sv[0], -U[:, -1].reshape(n, nv) / sv[-1]],
+                )
             else:
                 f = float(-2 * np.sum(np.log(sv)))
                 pinv_t = np.zeros((n * nv, D.shape[-1]))
@@ -816,7 +926,7 @@ class DesignProblem:
                     continue
                 block = nv if term.suffix == "fv" else 2 * nv
                 for m in range(G.shape[0]):
-                    D[block: block + nv, :, nt * nv + m * ntm + t] = np.outer(G[m], G[m])
+                    D[block : block + nv, :, nt * nv + m * ntm + t] = np.outer(G[m], G[m])
         self._term_d = D
         return D
 
@@ -869,7 +979,7 @@ class DesignProblem:
 
     def _set_inertias(self, pin_model, theta: np.ndarray) -> None:
         for i in range(self.nv):
-            pin_model.inertias[i + 1] = pin.Inertia.FromDynamicParameters(theta[10 * i: 10 * i + 10])
+            pin_model.inertias[i + 1] = pin.Inertia.FromDynamicParameters(theta[10 * i : 10 * i + 10])
 
     def _chain(self, G: np.ndarray) -> np.ndarray:
         """d/dx of Σ_s G[type_j, s]·d(state_j(s)): G is (3nv, n) per (q_j, dq_j, ddq_j) and sample."""
@@ -887,8 +997,11 @@ class DesignProblem:
         J = np.zeros((n, nv, self.d))
         for j in range(nv):
             cols = slice(j * m, (j + 1) * m)
-            J[:, :, cols] = (dtau[j][:, :, None] * Bq[:, None, :] + dtau[nv + j][:, :, None] * Bdq[:, None, :]
-                             + dtau[2 * nv + j][:, :, None] * Bddq[:, None, :])
+            J[:, :, cols] = (
+                dtau[j][:, :, None] * Bq[:, None, :]
+                + dtau[nv + j][:, :, None] * Bdq[:, None, :]
+                + dtau[2 * nv + j][:, :, None] * Bddq[:, None, :]
+            )
             if self.spec.optimize_offsets:
                 J[:, :, nv * m + j] = dtau[j]
         return J.reshape(n * nv, self.d)
@@ -931,8 +1044,11 @@ class MultistartOptions:
     def resolved(self, nv: int) -> "MultistartOptions":
         """These options with ``starts`` and ``polish`` filled in for a robot of ``nv`` joints."""
         small = nv <= SMALL_ROBOT
-        return replace(self, starts=(128 if small else 12) if self.starts is None else self.starts,
-                       polish=(4 if small else 1) if self.polish is None else self.polish)
+        return replace(
+            self,
+            starts=(128 if small else 12) if self.starts is None else self.starts,
+            polish=(4 if small else 1) if self.polish is None else self.polish,
+        )
 
 
 #: Names accepted by :func:`design_excitation` (``slsqp`` plus the population-based optimisers).
@@ -990,8 +1106,14 @@ class ExcitationResult:
             "robot": self.details.get("robot"),
         }
         report.update({k: v for k, v in self.details.items() if k not in report})
-        traj = FourierTrajectory(self.trajectory.joints, self.trajectory.base_frequency, self.trajectory.q0,
-                                 self.trajectory.a, self.trajectory.b, meta=report)
+        traj = FourierTrajectory(
+            self.trajectory.joints,
+            self.trajectory.base_frequency,
+            self.trajectory.q0,
+            self.trajectory.a,
+            self.trajectory.b,
+            meta=report,
+        )
         return traj.to_dict()
 
     def save(self, path: str | os.PathLike) -> Path:
@@ -999,8 +1121,9 @@ class ExcitationResult:
         return write_json(path, self.to_dict())
 
 
-def evaluate_trajectory(model: RobotModel, trajectory: FourierTrajectory, spec: ExcitationSpec, *,
-                        base: BaseParameters | None = None) -> dict:
+def evaluate_trajectory(
+    model: RobotModel, trajectory: FourierTrajectory, spec: ExcitationSpec, *, base: BaseParameters | None = None
+) -> dict:
     """Condition number, log det, dense-grid extremes, limit usage and feasibility of a trajectory under a spec."""
     _check_joints(model, trajectory)
     base = base or base_parameters(model, spec.terms)
@@ -1009,10 +1132,15 @@ def evaluate_trajectory(model: RobotModel, trajectory: FourierTrajectory, spec: 
     if tau is not None:
         for j, name in enumerate(trajectory.joints):
             ext[name]["tau_abs_max"] = float(tau[j])
-    return {"condition_number": condition_number(model, trajectory, spec.terms, spec.samples, base),
-            "log_det": log_det_information(model, trajectory, spec.terms, spec.samples, base),
-            "extremes": ext, "usage": limit_usage(ext, spec, tau, trajectory.q0), "feasible": is_feasible(ext, spec, tau),
-            "tau_abs_max": tau, "rest_start": trajectory.starts_at_rest()}
+    return {
+        "condition_number": condition_number(model, trajectory, spec.terms, spec.samples, base),
+        "log_det": log_det_information(model, trajectory, spec.terms, spec.samples, base),
+        "extremes": ext,
+        "usage": limit_usage(ext, spec, tau, trajectory.q0),
+        "feasible": is_feasible(ext, spec, tau),
+        "tau_abs_max": tau,
+        "rest_start": trajectory.starts_at_rest(),
+    }
 
 
 def _final_repair(problem: DesignProblem, x: np.ndarray) -> tuple[np.ndarray, FourierTrajectory]:
@@ -1084,11 +1212,29 @@ def _design(model, spec, optimizer, options, seed, progress, x0) -> ExcitationRe
     seconds = time.perf_counter() - start
     nfev = problem.nfev + int(extra.pop("search_nfev", 0))
     samples = problem.regressor_samples + int(extra.pop("search_regressor_samples", 0))
-    details = {"robot": model.name, "urdf": str(model.urdf_path) if model.urdf_path else None,
-               "regressor_samples": samples, **extra}
-    return ExcitationResult(traj, spec, ev["condition_number"], ev["log_det"], ev["extremes"], ev["usage"],
-                            ev["feasible"], name, used_options, seed, seconds, np.asarray(history, float),
-                            nfev, ev["tau_abs_max"], details)
+    details = {
+        "robot": model.name,
+        "urdf": str(model.urdf_path) if model.urdf_path else None,
+        "regressor_samples": samples,
+        **extra,
+    }
+    return ExcitationResult(
+        traj,
+        spec,
+        ev["condition_number"],
+        ev["log_det"],
+        ev["extremes"],
+        ev["usage"],
+        ev["feasible"],
+        name,
+        used_options,
+        seed,
+        seconds,
+        np.asarray(history, float),
+        nfev,
+        ev["tau_abs_max"],
+        details,
+    )
 
 
 def _local_search(problem: DesignProblem, x: np.ndarray, maxiter: int, ftol: float) -> tuple[np.ndarray, float, int]:
@@ -1130,8 +1276,14 @@ def _local_search(problem: DesignProblem, x: np.ndarray, maxiter: int, ftol: flo
             return np.vstack([-J, J])
 
         constraints.append({"type": "ineq", "fun": tau_con, "jac": tau_jac})
-    res = minimize(fun, x, jac=True, method="SLSQP", constraints=constraints,
-                   options={"maxiter": int(maxiter), "ftol": float(ftol)})
+    res = minimize(
+        fun,
+        x,
+        jac=True,
+        method="SLSQP",
+        constraints=constraints,
+        options={"maxiter": int(maxiter), "ftol": float(ftol)},
+    )
     # SLSQP leaves tolerance-level violations: scale into the limits; and when it stops on a failed line
     # search its last iterate can be worse than where it started: keep the better of the two
     X = problem.scale_into_limits(np.vstack([res.x, x]))
@@ -1145,8 +1297,13 @@ def _local_search(problem: DesignProblem, x: np.ndarray, maxiter: int, ftol: flo
     return X[k], float(values[k]), int(res.nit)
 
 
-def _multistart(problem: DesignProblem, opts: MultistartOptions, rng: np.random.Generator,
-                progress: bool | None, x0: np.ndarray | None):
+def _multistart(
+    problem: DesignProblem,
+    opts: MultistartOptions,
+    rng: np.random.Generator,
+    progress: bool | None,
+    x0: np.ndarray | None,
+):
     """Two-phase SLSQP multistart (see :class:`MultistartOptions`); returns (x, history, extra).
 
     ``history``: best criterion value (on the full problem's samples) after each polished candidate,
@@ -1165,7 +1322,7 @@ def _multistart(problem: DesignProblem, opts: MultistartOptions, rng: np.random.
     lower, upper = search.box()
     n_screen = opts.starts * opts.screen
     X = search.scale_into_limits(lower + rng.random((n_screen, search.d)) * (upper - lower))
-    values = np.concatenate([search.evaluate(X[i:i + 256]) for i in range(0, n_screen, 256)])
+    values = np.concatenate([search.evaluate(X[i : i + 256]) for i in range(0, n_screen, 256)])
     starts = X[np.argsort(values, kind="stable")[: opts.starts]]
     if x0 is not None:
         starts = np.vstack([search.scale_into_limits(np.atleast_2d(x0)), starts])[: opts.starts]
@@ -1192,8 +1349,9 @@ def _multistart(problem: DesignProblem, opts: MultistartOptions, rng: np.random.
         best_x, best_f = None, np.inf
         polished = []
         for x in chosen:
-            x, value, _ = _local_search(problem, problem.scale_into_limits(x[None, :])[0], opts.polish_maxiter,
-                                        opts.polish_ftol)
+            x, value, _ = _local_search(
+                problem, problem.scale_into_limits(x[None, :])[0], opts.polish_maxiter, opts.polish_ftol
+            )
             polished.append(value)
             if value < best_f:
                 best_x, best_f = x, value
@@ -1202,13 +1360,20 @@ def _multistart(problem: DesignProblem, opts: MultistartOptions, rng: np.random.
             bar.set_postfix_str(f"best {best_f:.6g}", refresh=False)
     if best_x is None:
         best_x = problem.scale_into_limits(starts[:1])[0]
-    return best_x, history, {"starts_run": len(found), "search_samples": ns, "search_nfev": search.nfev,
-                             "search_regressor_samples": search.regressor_samples,
-                             "polished_values": polished}
+    return (
+        best_x,
+        history,
+        {
+            "starts_run": len(found),
+            "search_samples": ns,
+            "search_nfev": search.nfev,
+            "search_regressor_samples": search.regressor_samples,
+            "polished_values": polished,
+        },
+    )
 
 
-def _metaheuristic(problem: DesignProblem, opt, rng: np.random.Generator, progress: bool | None,
-                   x0: np.ndarray | None):
+def _metaheuristic(problem: DesignProblem, opt, rng: np.random.Generator, progress: bool | None, x0: np.ndarray | None):
     """A population-based optimiser on the box; limits by scaling (kinematic) and penalty (torque)."""
     lower, upper = problem.box()
     torque = problem.spec.has_torque_limits

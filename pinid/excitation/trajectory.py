@@ -70,7 +70,9 @@ class FourierTrajectory:
         ddq = -(s * kw**2) @ self.a.T - (c * kw**2) @ self.b.T
         return q, dq, ddq
 
-    def sample(self, rate: float, duration: float | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    def sample(
+        self, rate: float, duration: float | None = None
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """``(t, q, dq, ddq)`` sampled at ``rate`` [Hz] over ``duration`` [s] (default one period)."""
         duration = self.period if duration is None else duration
         t = np.arange(int(round(duration * rate))) / rate
@@ -95,8 +97,9 @@ class FourierTrajectory:
         if sorted(self.joints) != sorted(names) or len(set(self.joints)) != len(self.joints):
             raise SpecError(f"trajectory joints {list(self.joints)} do not match {robot}'s active joints {list(names)}")
         idx = [self.joints.index(j) for j in names]
-        return FourierTrajectory(list(names), self.base_frequency, self.q0[idx], self.a[idx], self.b[idx],
-                                 meta=dict(self.meta))
+        return FourierTrajectory(
+            list(names), self.base_frequency, self.q0[idx], self.a[idx], self.b[idx], meta=dict(self.meta)
+        )
 
     def starts_at_rest(self, tol: float = 1e-9) -> bool:
         """Whether dq and ddq are zero at t = 0 (and so at the end of every period), to ``tol``."""
@@ -126,8 +129,14 @@ class FourierTrajectory:
         for name, u in (("unit", unit), ("q0_unit", q0_unit)):
             if u not in scales:
                 raise SpecError(f"Fourier trajectory: {name} {u!r}, expected 'rad' or 'deg'")
-        return cls(list(joints), float(base_frequency), np.asarray(q0, float) * scales[q0_unit],
-                   np.asarray(a, float) * scales[unit], np.asarray(b, float) * scales[unit], meta=dict(meta or {}))
+        return cls(
+            list(joints),
+            float(base_frequency),
+            np.asarray(q0, float) * scales[q0_unit],
+            np.asarray(a, float) * scales[unit],
+            np.asarray(b, float) * scales[unit],
+            meta=dict(meta or {}),
+        )
 
     def to_csv(self, path: str | os.PathLike, rate: float, duration: float | None = None) -> Path:
         """Write samples at ``rate`` [Hz] over ``duration`` [s] (default one period) as CSV, atomically.
@@ -150,8 +159,13 @@ class FourierTrajectory:
         """Plain-dict form (radians); design information in ``meta`` is included."""
         d = dict(self.meta)
         d.update(
-            joints=list(self.joints), base_frequency=float(self.base_frequency), harmonics=self.harmonics,
-            q0=self.q0.tolist(), a=self.a.tolist(), b=self.b.tolist(), unit="rad",
+            joints=list(self.joints),
+            base_frequency=float(self.base_frequency),
+            harmonics=self.harmonics,
+            q0=self.q0.tolist(),
+            a=self.a.tolist(),
+            b=self.b.tolist(),
+            unit="rad",
         )
         return d
 
@@ -163,12 +177,21 @@ class FourierTrajectory:
             if unit not in ("rad", "deg"):
                 raise SpecError(f"{source}: unit {unit!r}, expected 'rad' or 'deg'")
             scale = np.pi / 180 if unit == "deg" else 1.0
-            meta = {k: v for k, v in d.items() if k not in ("joints", "base_frequency", "q0", "a", "b", "unit", "harmonics")}
-            return cls(list(d["joints"]), float(d["base_frequency"]), np.asarray(d["q0"], float) * scale,
-                       np.asarray(d["a"], float) * scale, np.asarray(d["b"], float) * scale, meta=meta)
+            meta = {
+                k: v for k, v in d.items() if k not in ("joints", "base_frequency", "q0", "a", "b", "unit", "harmonics")
+            }
+            return cls(
+                list(d["joints"]),
+                float(d["base_frequency"]),
+                np.asarray(d["q0"], float) * scale,
+                np.asarray(d["a"], float) * scale,
+                np.asarray(d["b"], float) * scale,
+                meta=meta,
+            )
         except KeyError as exc:
-            raise SpecError(f"{source}: missing key {exc.args[0]!r}; a Fourier trajectory needs joints, "
-                            "base_frequency, q0, a, b") from None
+            raise SpecError(
+                f"{source}: missing key {exc.args[0]!r}; a Fourier trajectory needs joints, base_frequency, q0, a, b"
+            ) from None
         except (TypeError, ValueError) as exc:
             if isinstance(exc, SpecError):
                 raise

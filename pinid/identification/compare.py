@@ -34,8 +34,13 @@ import numpy as np
 
 from pinid.errors import SpecError
 from pinid.estimators import ESTIMATORS, Metaheuristic
-from pinid.estimators.metaheuristic import (cached_lad, least_absolute_deviations, least_squares, natural_scale,
-                                            training_costs)
+from pinid.estimators.metaheuristic import (
+    cached_lad,
+    least_absolute_deviations,
+    least_squares,
+    natural_scale,
+    training_costs,
+)
 from pinid.identification.metrics import torque_metrics
 from pinid.identification.problem import base_regressor, check_dataset
 from pinid.identification.run import Fit, as_model, check_options, parse_methods, run_jobs, setup
@@ -91,21 +96,41 @@ class Run:
     def to_dict(self, names: list[str]) -> dict:
         """Plain-JSON form, parameters named by ``names``."""
         return {
-            "method": self.method, "seed": self.seed, "base": dict(zip(names, map(float, self.base))),
-            "seconds": float(self.seconds), "train": self.train, "costs": self.costs, "validation": self.validation,
-            "parameter_error_percent": self.parameter_error, "parameter_error_abs": self.parameter_error_abs,
+            "method": self.method,
+            "seed": self.seed,
+            "base": dict(zip(names, map(float, self.base))),
+            "seconds": float(self.seconds),
+            "train": self.train,
+            "costs": self.costs,
+            "validation": self.validation,
+            "parameter_error_percent": self.parameter_error,
+            "parameter_error_abs": self.parameter_error_abs,
             "history": self.history,
-            "history_first": self.history_first, "physically_consistent": bool(self.physically_consistent),
-            "standard_source": self.standard_source, "info": self.info,
+            "history_first": self.history_first,
+            "physically_consistent": bool(self.physically_consistent),
+            "standard_source": self.standard_source,
+            "info": self.info,
         }
 
     @classmethod
     def from_dict(cls, d: dict, names: list[str]) -> "Run":
         """Rebuild from :meth:`to_dict`'s output."""
-        return cls(d["method"], d["seed"], np.array([float(d["base"][n]) for n in names]), float(d["seconds"]),
-                   d["train"], d["costs"], d["validation"], d.get("parameter_error_percent"), d.get("history"),
-                   d.get("history_first"), bool(d["physically_consistent"]), d.get("standard_source", ""),
-                   d.get("info") or {}, d.get("parameter_error_abs"))
+        return cls(
+            d["method"],
+            d["seed"],
+            np.array([float(d["base"][n]) for n in names]),
+            float(d["seconds"]),
+            d["train"],
+            d["costs"],
+            d["validation"],
+            d.get("parameter_error_percent"),
+            d.get("history"),
+            d.get("history_first"),
+            bool(d["physically_consistent"]),
+            d.get("standard_source", ""),
+            d.get("info") or {},
+            d.get("parameter_error_abs"),
+        )
 
 
 def _mean_std(values) -> tuple[float, float]:
@@ -160,23 +185,30 @@ class Comparison:
             for label in self.validation_sources:
                 per = {}
                 for j in self.joints + ["all"]:
-                    pick = (lambda r, k, label=label, j=j: (r.validation[label]["all"] if j == "all" else
-                                          r.validation[label]["per_joint"][j])[k])
-                    per[j] = {k: _mean_std(pick(r, k) for r in runs)
-                              for k in ("mean_abs", "std_abs", "rms", "rel_rms_percent")}
+                    pick = lambda r, k, label=label, j=j: (
+                        r.validation[label]["all"] if j == "all" else r.validation[label]["per_joint"][j]
+                    )[k]
+                    per[j] = {
+                        k: _mean_std(pick(r, k) for r in runs)
+                        for k in ("mean_abs", "std_abs", "rms", "rel_rms_percent")
+                    }
                 val[label] = per
             s["validation"] = val
             s["base"] = {n: _mean_std(r.base[i] for r in runs) for i, n in enumerate(self.base_names)}
             if self.truth is not None:
                 s["parameter_error_percent"] = {
-                    n: _mean_std(r.parameter_error.get(n) for r in runs) for n in self.base_names}
-                s["parameter_error_max_percent"] = _mean_std(max(r.parameter_error.values(), default=None)
-                                                             for r in runs)
+                    n: _mean_std(r.parameter_error.get(n) for r in runs) for n in self.base_names
+                }
+                s["parameter_error_max_percent"] = _mean_std(
+                    max(r.parameter_error.values(), default=None) for r in runs
+                )
                 s["parameter_error_median_percent"] = _mean_std(
-                    float(np.median(list(r.parameter_error.values()))) if r.parameter_error else None for r in runs)
+                    float(np.median(list(r.parameter_error.values()))) if r.parameter_error else None for r in runs
+                )
                 zero = self.zero_truth()
-                s["parameter_error_abs_max_zero_truth"] = (_mean_std(
-                    max(r.parameter_error_abs[n] for n in zero) for r in runs) if zero else None)
+                s["parameter_error_abs_max_zero_truth"] = (
+                    _mean_std(max(r.parameter_error_abs[n] for n in zero) for r in runs) if zero else None
+                )
             out[m] = s
         return out
 
@@ -212,32 +244,48 @@ class Comparison:
             for cost in ("sse", "sae"):
                 lo = ref.get(cost)
                 mean, sd = s[f"train_{cost}"]
-                row.append(ms((100.0 * (mean / lo - 1.0), 100.0 * sd / lo), ".3g") if lo and np.isfinite(mean)
-                           else ms((mean, sd)))
+                row.append(
+                    ms((100.0 * (mean / lo - 1.0), 100.0 * sd / lo), ".3g")
+                    if lo and np.isfinite(mean)
+                    else ms((mean, sd))
+                )
             if self.truth is not None:
                 row += [ms(s["parameter_error_max_percent"], ".3g"), ms(s["parameter_error_median_percent"], ".3g")]
                 if zero:
                     row.append(ms(s["parameter_error_abs_max_zero_truth"], ".3g"))
             row += [f"{s['consistent']}/{s['runs']}", ms(s["seconds"], ".3g")]
             rows.append(row)
-        lines = [f"training cost minima on the same rows: ½Σr² (least squares) {ref.get('sse', float('nan')):.6g}, "
-                 f"Σ|r| (least absolute deviations) {ref.get('sae', float('nan')):.6g}", "", text_table(head, rows)]
+        lines = [
+            f"training cost minima on the same rows: ½Σr² (least squares) {ref.get('sse', float('nan')):.6g}, "
+            f"Σ|r| (least absolute deviations) {ref.get('sae', float('nan')):.6g}",
+            "",
+            text_table(head, rows),
+        ]
         for label in self.validation_sources:
             head = ["method", "rel RMS %"] + [f"{j} |e| [N·m]" for j in self.joints]
             rows = []
             for m, s in summ.items():
                 v = s["validation"][label]
-                rows.append([m, ms(v["all"]["rel_rms_percent"], ".3g")]
-                            + [f"{v[j]['mean_abs'][0]:.4g} ± {v[j]['std_abs'][0]:.3g}" for j in self.joints])
+                rows.append(
+                    [m, ms(v["all"]["rel_rms_percent"], ".3g")]
+                    + [f"{v[j]['mean_abs'][0]:.4g} ± {v[j]['std_abs'][0]:.3g}" for j in self.joints]
+                )
             lines += ["", f"{label}: relative RMS, and mean ± std of |e| per joint", text_table(head, rows)]
-        notes = ["… above min %: how far the fit's training cost (½Σr² or Σ|r|) is above the global minimum of that "
-                 "cost on the same rows (0 for least squares on ½Σr²: nothing can be below it).",
-                 "|e|: mean ± std of the absolute validation torque error within a run (seed 000's format), averaged "
-                 "over the runs; the spread over the seeds is in comparison.json."]
+        notes = [
+            "… above min %: how far the fit's training cost (½Σr² or Σ|r|) is above the global minimum of that "
+            "cost on the same rows (0 for least squares on ½Σr²: nothing can be below it).",
+            "|e|: mean ± std of the absolute validation torque error within a run (seed 000's format), averaged "
+            "over the runs; the spread over the seeds is in comparison.json.",
+        ]
         if self.truth is not None:
-            notes.append("err %: |x − x_true| / |x_true| [%] over the base parameters whose truth is not 0"
-                         + (f"; where it is 0 ({', '.join(zero)}) the absolute error |x| in the parameter's unit."
-                            if zero else "."))
+            notes.append(
+                "err %: |x − x_true| / |x_true| [%] over the base parameters whose truth is not 0"
+                + (
+                    f"; where it is 0 ({', '.join(zero)}) the absolute error |x| in the parameter's unit."
+                    if zero
+                    else "."
+                )
+            )
         import textwrap
 
         lines.append("")
@@ -265,28 +313,46 @@ class Comparison:
         """Plain-JSON form (``comparison.json``)."""
         from pinid import __version__  # the package's own attribute: set after its submodules load
 
-        return jsonable({
-            "pinid_version": __version__, "robot": self.robot, "base_names": self.base_names,
-            "nominal": self.nominal.tolist(), "truth": None if self.truth is None else self.truth.tolist(),
-            "methods": self.methods, "seeds": self.seeds, "reference": self.reference, "data": self.data,
-            "validation_sources": self.validation_sources, "settings": self.settings, "segmental": self.segmental,
-            "seconds": self.seconds, "summary": self.summary(),
-            "runs": {m: [r.to_dict(self.base_names) for r in runs] for m, runs in self.runs.items()},
-        })
+        return jsonable(
+            {
+                "pinid_version": __version__,
+                "robot": self.robot,
+                "base_names": self.base_names,
+                "nominal": self.nominal.tolist(),
+                "truth": None if self.truth is None else self.truth.tolist(),
+                "methods": self.methods,
+                "seeds": self.seeds,
+                "reference": self.reference,
+                "data": self.data,
+                "validation_sources": self.validation_sources,
+                "settings": self.settings,
+                "segmental": self.segmental,
+                "seconds": self.seconds,
+                "summary": self.summary(),
+                "runs": {m: [r.to_dict(self.base_names) for r in runs] for m, runs in self.runs.items()},
+            }
+        )
 
     @classmethod
     def from_dict(cls, d: dict) -> "Comparison":
         """Rebuild from :meth:`to_dict`'s output."""
         names = list(d["base_names"])
-        nan = (lambda v: float("nan") if v is None else float(v))
+        nan = lambda v: float("nan") if v is None else float(v)
         return cls(
-            robot=d["robot"], base_names=names, nominal=np.array([nan(v) for v in d["nominal"]]),
+            robot=d["robot"],
+            base_names=names,
+            nominal=np.array([nan(v) for v in d["nominal"]]),
             truth=None if d.get("truth") is None else np.array([nan(v) for v in d["truth"]]),
-            methods=list(d["methods"]), seeds=list(d["seeds"]),
+            methods=list(d["methods"]),
+            seeds=list(d["seeds"]),
             runs={m: [Run.from_dict(r, names) for r in runs] for m, runs in d["runs"].items()},
-            reference=d.get("reference") or {}, data=d.get("data") or {},
-            validation_sources=d.get("validation_sources") or {}, settings=d.get("settings") or {},
-            segmental=d.get("segmental"), seconds=float(d.get("seconds") or 0.0))
+            reference=d.get("reference") or {},
+            data=d.get("data") or {},
+            validation_sources=d.get("validation_sources") or {},
+            settings=d.get("settings") or {},
+            segmental=d.get("segmental"),
+            seconds=float(d.get("seconds") or 0.0),
+        )
 
     def save(self, path: str | os.PathLike) -> Path:
         """Write as JSON (atomically)."""
@@ -321,8 +387,10 @@ def _truth_vector(truth, names: list[str]) -> np.ndarray | None:
     if isinstance(truth, Mapping):
         missing = [n for n in names if n not in truth]
         if missing:
-            raise SpecError(f"truth: no value for base parameter(s) {', '.join(missing)} (has {', '.join(truth)}); "
-                            "were the recordings simulated with the same joint terms?")
+            raise SpecError(
+                f"truth: no value for base parameter(s) {', '.join(missing)} (has {', '.join(truth)}); "
+                "were the recordings simulated with the same joint terms?"
+            )
         return np.array([float(truth[n]) for n in names])
     a = np.asarray(truth, dtype=float).reshape(-1)
     if a.shape != (len(names),):
@@ -401,8 +469,17 @@ def compare(
 
     shapes, auto = stribeck_settings(model, terms, stribeck_velocity, stribeck_shape)
     model = with_stribeck(model, shapes) if shapes else model
-    st = setup(model, data, validate, terms=terms, mapping=mapping, preprocess=preprocess,
-               rest_velocity=rest_velocity, segmental=segmental, stribeck_auto=auto)
+    st = setup(
+        model,
+        data,
+        validate,
+        terms=terms,
+        mapping=mapping,
+        preprocess=preprocess,
+        rest_velocity=rest_velocity,
+        segmental=segmental,
+        stribeck_auto=auto,
+    )
     problem, seg, base = st.problem, st.segmental, st.base
     names = problem.names
     truth_x = _truth_vector(truth, names)
@@ -411,29 +488,54 @@ def compare(
     if seg is not None:
         # the second stage's minimum depends on the first stage's values: per run, in run.info
         reference["first"] = references(seg.first_problem)
-    val_W = {label: [(ds, base_regressor(model, terms, base, ds)) for ds in (check_dataset(d, model) for d in sets)]
-             for label, sets in st.validation.items()}
-    jobs = [(m, s, settings_for(m, s)) for m in methods
-            for s in ([None] if ESTIMATORS[m].deterministic else seed_list)]
+    val_W = {
+        label: [(ds, base_regressor(model, terms, base, ds)) for ds in (check_dataset(d, model) for d in sets)]
+        for label, sets in st.validation.items()
+    }
+    jobs = [(m, s, settings_for(m, s)) for m in methods for s in ([None] if ESTIMATORS[m].deterministic else seed_list)]
     runs: dict[str, list[Run]] = {m: [] for m in methods}
     for fit in run_jobs(st, jobs, complete=complete, show_progress=show_progress, label="compare"):
         runs[fit.method].append(_run_of(fit, problem, val_W, truth_x, scale, seg is not None))
-    settings_out = {"metaheuristic": {k: v for k, v in meta.items() if k != "progress"}, "options": options,
-                    "terms": terms.names,
-                    "rest_velocity": rest_velocity if isinstance(rest_velocity, str) else np.asarray(rest_velocity).tolist()}
+    settings_out = {
+        "metaheuristic": {k: v for k, v in meta.items() if k != "progress"},
+        "options": options,
+        "terms": terms.names,
+        "rest_velocity": rest_velocity if isinstance(rest_velocity, str) else np.asarray(rest_velocity).tolist(),
+    }
     return Comparison(
-        robot=robot_to_dict(model, terms), base_names=names, nominal=problem.nominal_base.copy(), truth=truth_x,
-        methods=methods, seeds=seed_list, runs=runs, reference=reference,
+        robot=robot_to_dict(model, terms),
+        base_names=names,
+        nominal=problem.nominal_base.copy(),
+        truth=truth_x,
+        methods=methods,
+        seeds=seed_list,
+        runs=runs,
+        reference=reference,
         data={**problem.summary(), **({"stribeck": st.stribeck} if st.stribeck else {})},
         validation_sources={label: [ds.source for ds in sets] for label, sets in st.validation.items()},
         settings=settings_out,
-        segmental=None if seg is None else {"first_joints": seg.first_joints, "first_sources": seg.first_problem.sources,
-                                            "first_rows": seg.first_problem.rows},
+        segmental=None
+        if seg is None
+        else {
+            "first_joints": seg.first_joints,
+            "first_sources": seg.first_problem.sources,
+            "first_rows": seg.first_problem.rows,
+        },
         seconds=time.perf_counter() - t_start,
     )
 
 
-_INFO_KEYS = ("fitness", "fitness_value", "ls_fitness", "min_fitness", "message", "iterations", "nfev", "box", "at_bound")
+_INFO_KEYS = (
+    "fitness",
+    "fitness_value",
+    "ls_fitness",
+    "min_fitness",
+    "message",
+    "iterations",
+    "nfev",
+    "box",
+    "at_bound",
+)
 
 
 def _run_of(fit: Fit, problem, val_W: dict, truth_x, scale, segmental: bool) -> Run:
@@ -462,9 +564,18 @@ def _run_of(fit: Fit, problem, val_W: dict, truth_x, scale, segmental: bool) -> 
     names = problem.names
     errors = (None, None) if truth_x is None else parameter_errors(res.base, truth_x, scale, names)
     return Run(
-        method=fit.method, seed=fit.seed, base=res.base.copy(), seconds=fit.seconds, train=res.train.to_dict(),
-        costs=training_costs(problem, res.base), validation=validation,
-        parameter_error=errors[0], parameter_error_abs=errors[1],
+        method=fit.method,
+        seed=fit.seed,
+        base=res.base.copy(),
+        seconds=fit.seconds,
+        train=res.train.to_dict(),
+        costs=training_costs(problem, res.base),
+        validation=validation,
+        parameter_error=errors[0],
+        parameter_error_abs=errors[1],
         history=None if res.history is None else [float(h) for h in res.history],
         history_first=None if hist_first is None else [float(h) for h in hist_first],
-        physically_consistent=res.physically_consistent, standard_source=res.standard_source or "", info=info)
+        physically_consistent=res.physically_consistent,
+        standard_source=res.standard_source or "",
+        info=info,
+    )

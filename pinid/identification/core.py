@@ -4,12 +4,37 @@ and its statistics), :mod:`pinid.identification.result` (the results) and :mod:`
 
 from __future__ import annotations
 
-from pinid.identification.problem import (REST_FRACTION, IdentificationProblem, base_regressor, base_statistics,
-                                          check_dataset, least_norm_completion, predict_torque, prepare_dataset,
-                                          rest_threshold, rest_thresholds, stack_rows)
+from pinid.identification.problem import (
+    REST_FRACTION,
+    IdentificationProblem,
+    base_regressor,
+    base_statistics,
+    check_dataset,
+    least_norm_completion,
+    predict_torque,
+    prepare_dataset,
+    rest_threshold,
+    rest_thresholds,
+    stack_rows,
+)
 from pinid.identification.result import Identification, IdentificationResult, make_result
 from pinid.identification.run import DEFAULT_METHODS, identify
 
-__all__ = ["DEFAULT_METHODS", "REST_FRACTION", "Identification", "IdentificationProblem", "IdentificationResult",
-           "base_regressor", "base_statistics", "check_dataset", "identify", "least_norm_completion", "make_result",
-           "predict_torque", "prepare_dataset", "rest_threshold", "rest_thresholds", "stack_rows"]
+__all__ = [
+    "DEFAULT_METHODS",
+    "REST_FRACTION",
+    "Identification",
+    "IdentificationProblem",
+    "IdentificationResult",
+    "base_regressor",
+    "base_statistics",
+    "check_dataset",
+    "identify",
+    "least_norm_completion",
+    "make_result",
+    "predict_torque",
+    "prepare_dataset",
+    "rest_threshold",
+    "rest_thresholds",
+    "stack_rows",
+]

@@ -84,7 +84,9 @@ class Payload:
         try:
             d = tomllib.loads(p.read_text(encoding="utf-8"))
         except (tomllib.TOMLDecodeError, UnicodeDecodeError, RecursionError) as exc:
-            raise SpecError(f"{p}: not a valid TOML file ({str(exc).splitlines()[0] if str(exc) else 'too deeply nested'})") from None
+            raise SpecError(
+                f"{p}: not a valid TOML file ({str(exc).splitlines()[0] if str(exc) else 'too deeply nested'})"
+            ) from None
         return cls.from_dict(d, str(p))
 
     def body(self, model: RobotModel) -> tuple[int, np.ndarray]:
@@ -135,18 +137,39 @@ class DriveGains:
         if ds.tau is None:
             raise DataError(f"{ds.source}: no current (tau) columns, expected currents to scale by the drive gains")
         out = ds.reorder(self.joints) if list(ds.joints) != self.joints else ds
-        return Dataset(out.t, out.q, list(out.joints), out.dq, out.ddq, out.tau * self.gains, out.source,
-                       {**out.meta, "drive_gains": self.gains.tolist()})
+        return Dataset(
+            out.t,
+            out.q,
+            list(out.joints),
+            out.dq,
+            out.ddq,
+            out.tau * self.gains,
+            out.source,
+            {**out.meta, "drive_gains": self.gains.tolist()},
+        )
 
     def summary(self) -> dict:
         """JSON-ready figures."""
-        return {"joints": self.joints, "gains": self.gains.tolist(), "std": self.std.tolist(),
-                "condition": self.condition, "rows": self.rows, "residual_rms": self.residual_rms}
+        return {
+            "joints": self.joints,
+            "gains": self.gains.tolist(),
+            "std": self.std.tolist(),
+            "condition": self.condition,
+            "rows": self.rows,
+            "residual_rms": self.residual_rms,
+        }
 
 
-def identify_gains(model: RobotModel, unloaded: Sequence[Dataset], loaded: Sequence[Dataset], payload: Payload, *,
-                   terms: JointTerms = JointTerms(), base: BaseParameters | None = None,
-                   rest_velocity="auto") -> DriveGains:
+def identify_gains(
+    model: RobotModel,
+    unloaded: Sequence[Dataset],
+    loaded: Sequence[Dataset],
+    payload: Payload,
+    *,
+    terms: JointTerms = JointTerms(),
+    base: BaseParameters | None = None,
+    rest_velocity="auto",
+) -> DriveGains:
     """Drive gains from prepared recordings without and with ``payload`` (see the module text).
 
     The datasets' ``tau`` columns hold the currents.  DataError when the payload recording does not
@@ -163,9 +186,11 @@ def identify_gains(model: RobotModel, unloaded: Sequence[Dataset], loaded: Seque
         base = p.base
         rhs = np.zeros(p.rows)
         if with_payload:
-            q, dq, ddq = (np.concatenate([getattr(ds.reorder(model.joint_names), k) for ds in datasets])
-                          for k in ("q", "dq", "ddq"))
-            y = regressor(model, q, dq, ddq, JointTerms(names=[]))[:, 10 * j_body:10 * j_body + 10] @ phi
+            q, dq, ddq = (
+                np.concatenate([getattr(ds.reorder(model.joint_names), k) for ds in datasets])
+                for k in ("q", "dq", "ddq")
+            )
+            y = regressor(model, q, dq, ddq, JointTerms(names=[]))[:, 10 * j_body : 10 * j_body + 10] @ phi
             rhs = -y[p.sample * model.nv + p.joint]
         currents = np.zeros((p.rows, model.nv))
         currents[np.arange(p.rows), p.joint] = -p.tau
@@ -177,8 +202,10 @@ def identify_gains(model: RobotModel, unloaded: Sequence[Dataset], loaded: Seque
     x, _, rank, sv = np.linalg.lstsq(A / scale, b, rcond=None)
     nb = A.shape[1] - model.nv
     if rank < A.shape[1]:
-        raise DataError(f"drive gains: the recordings leave {A.shape[1] - rank} combination(s) of parameters and "
-                        f"gains undetermined, expected a payload recording that moves every joint it loads")
+        raise DataError(
+            f"drive gains: the recordings leave {A.shape[1] - rank} combination(s) of parameters and "
+            f"gains undetermined, expected a payload recording that moves every joint it loads"
+        )
     x /= scale
     r = A @ x - b
     dof = max(len(b) - A.shape[1], 1)
@@ -187,7 +214,15 @@ def identify_gains(model: RobotModel, unloaded: Sequence[Dataset], loaded: Seque
     gains = x[nb:]
     if np.any(gains <= 0):
         bad = [n for n, g in zip(model.joint_names, gains) if g <= 0]
-        raise DataError(f"drive gains: non-positive gain for joint(s) {bad}, expected currents that push the joint "
-                        f"the way the torque does (check the sign of the current columns)")
-    return DriveGains(list(model.joint_names), gains, np.sqrt(np.diag(cov)[nb:]), float(sv[0] / sv[-1]), len(b),
-                      float(np.sqrt(np.mean(r * r))))
+        raise DataError(
+            f"drive gains: non-positive gain for joint(s) {bad}, expected currents that push the joint "
+            f"the way the torque does (check the sign of the current columns)"
+        )
+    return DriveGains(
+        list(model.joint_names),
+        gains,
+        np.sqrt(np.diag(cov)[nb:]),
+        float(sv[0] / sv[-1]),
+        len(b),
+        float(np.sqrt(np.mean(r * r))),
+    )

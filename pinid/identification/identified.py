@@ -49,18 +49,27 @@ class IdentifiedModel:
     vector (``IdentifiedModel(robot, terms, theta)``), or load a saved one (:meth:`load`).
     """
 
-    def __init__(self, robot: RobotModel, terms: JointTerms | None, theta: np.ndarray, *,
-                 physically_consistent: bool | None = None, meta: dict | None = None) -> None:
+    def __init__(
+        self,
+        robot: RobotModel,
+        terms: JointTerms | None,
+        theta: np.ndarray,
+        *,
+        physically_consistent: bool | None = None,
+        meta: dict | None = None,
+    ) -> None:
         robot, terms = as_robot(robot), as_terms(terms)
         theta = as_floats(theta, "theta", finite=False).reshape(-1)
         nv, nt = robot.nv, _terms.count(robot, terms)
         _terms.robot_layout(robot, terms)  # motor terms need drives
         if theta.shape != (10 * nv + nt,):
-            raise ModelError(f"expected {10 * nv + nt} standard parameters for {robot.name} with terms "
-                             f"{terms.names}, got {theta.size}")
+            raise ModelError(
+                f"expected {10 * nv + nt} standard parameters for {robot.name} with terms "
+                f"{terms.names}, got {theta.size}"
+            )
         if not np.all(np.isfinite(theta)):
             raise ModelError("identified parameters contain NaN or infinite values")
-        self._values = _terms.values(robot, terms, theta[10 * nv:])
+        self._values = _terms.values(robot, terms, theta[10 * nv :])
         self.fc = self._values["fc"]
         self.fv = self._values["fv"]
         self.offset = self._values["offset"]
@@ -72,7 +81,9 @@ class IdentifiedModel:
         self.pin_model: pin.Model = self.robot.pin_model
         self.pin_data = self.pin_model.createData()
         if physically_consistent is None:
-            physically_consistent = check_consistency(theta, robot.joint_names, terms.names, robot.motor_names).consistent
+            physically_consistent = check_consistency(
+                theta, robot.joint_names, terms.names, robot.motor_names
+            ).consistent
         self.physically_consistent = bool(physically_consistent)
         self.meta = dict(meta or {})
         self._plain = not robot._continuous
@@ -105,7 +116,9 @@ class IdentifiedModel:
         for name, x in arrays:
             a = as_floats(x, name)
             if a.ndim not in (1, 2) or a.shape[-1] != nv:
-                raise DataError(f"{name} has shape {a.shape}, expected ({nv},) or (N, {nv}) for joints {self.joint_names}")
+                raise DataError(
+                    f"{name} has shape {a.shape}, expected ({nv},) or (N, {nv}) for joints {self.joint_names}"
+                )
             if a.size == 0:
                 raise DataError(f"{name} is empty, expected at least one sample of {nv} joint values")
             if out and a.shape != out[0].shape:
@@ -171,7 +184,9 @@ class IdentifiedModel:
         """Coriolis/centrifugal matrix C(q, dq) (nv, nv) or (N, nv, nv), with Ṁ − 2C skew-symmetric; C·dq
         is the torque [N·m]."""
         (q, dq), single = self._states(("q", q), ("dq", dq))
-        C = np.array([pin.computeCoriolisMatrix(self.pin_model, self.pin_data, self._config(a), b) for a, b in zip(q, dq)])
+        C = np.array(
+            [pin.computeCoriolisMatrix(self.pin_model, self.pin_data, self._config(a), b) for a, b in zip(q, dq)]
+        )
         return C[0] if single else C
 
     def inverse_dynamics(self, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray) -> np.ndarray:
@@ -191,8 +206,10 @@ class IdentifiedModel:
         try:
             ddq = np.linalg.solve(self.mass_matrix(q), (tau - h)[..., None])[..., 0]
         except np.linalg.LinAlgError:
-            raise ModelError("forward dynamics: the mass matrix is singular (a physically inconsistent model?), "
-                             "expected a consistent model") from None
+            raise ModelError(
+                "forward dynamics: the mass matrix is singular (a physically inconsistent model?), "
+                "expected a consistent model"
+            ) from None
         return ddq[0] if single else ddq
 
     def derivatives(self, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -241,7 +258,9 @@ class IdentifiedModel:
 
         r = self.nominal_robot
         return {
-            "format": _FORMAT, "version": 1, "pinid_version": __version__,
+            "format": _FORMAT,
+            "version": 1,
+            "pinid_version": __version__,
             "robot": robot_to_dict(r, self.terms),
             "standard_parameters": self.standard_parameters,
             "physically_consistent": self.physically_consistent,
@@ -254,14 +273,19 @@ class IdentifiedModel:
         if not isinstance(d, dict):
             raise SpecError(f"identified model: a {type(d).__name__}, expected a JSON object")
         if d.get("format") != _FORMAT:
-            hint = (" — this is an identification (pinid identify's identification.json): read it with "
-                    "pinid.Identification.load(path), its .model is the best method's IdentifiedModel"
-                    if "methods" in d and "robot" in d else "")
+            hint = (
+                " — this is an identification (pinid identify's identification.json): read it with "
+                "pinid.Identification.load(path), its .model is the best method's IdentifiedModel"
+                if "methods" in d and "robot" in d
+                else ""
+            )
             raise SpecError(f"not an identified model (format {d.get('format')!r}, expected {_FORMAT!r}){hint}")
         for key, kind in (("robot", dict), ("standard_parameters", dict), ("meta", (dict, type(None)))):
             if not isinstance(d.get(key), kind):
-                raise SpecError(f"identified model: '{key}' is {type(d.get(key)).__name__}, expected "
-                                f"{'a JSON object' if key != 'meta' else 'a JSON object or null'}")
+                raise SpecError(
+                    f"identified model: '{key}' is {type(d.get(key)).__name__}, expected "
+                    f"{'a JSON object' if key != 'meta' else 'a JSON object or null'}"
+                )
         flag = d.get("physically_consistent")
         if flag is not None and not isinstance(flag, bool):
             raise SpecError(f"identified model: 'physically_consistent' is {flag!r}, expected true or false")
@@ -271,15 +295,19 @@ class IdentifiedModel:
         missing = [n for n in names if n not in values]
         if missing:
             raise SpecError(f"identified model: missing parameter(s) {missing[:5]}")
-        bad = [n for n in names if isinstance(values[n], bool) or not isinstance(values[n], (int, float))
-               or not np.isfinite(values[n])]
+        bad = [
+            n
+            for n in names
+            if isinstance(values[n], bool) or not isinstance(values[n], (int, float)) or not np.isfinite(values[n])
+        ]
         if bad:
             raise SpecError(f"identified model: parameter {bad[0]} is {values[bad[0]]!r}, expected a finite number")
         theta = np.array([float(values[n]) for n in names])
         # the stored flag is never trusted: consistency is checked again on the parameters themselves (a
         # stored false stays false: the run may have found the standard set off its base parameters)
-        consistent = flag is not False and check_consistency(theta, robot.joint_names, terms.names,
-                                                             robot.motor_names).consistent
+        consistent = (
+            flag is not False and check_consistency(theta, robot.joint_names, terms.names, robot.motor_names).consistent
+        )
         return cls(robot, terms, theta, physically_consistent=consistent, meta=d.get("meta"))
 
     def save(self, path: str | os.PathLike) -> Path:
@@ -293,17 +321,26 @@ class IdentifiedModel:
 
     def export_urdf(self, path: str | os.PathLike | None = None, *, force: bool = False) -> str:
         """The identified URDF text (see :func:`pinid.model.export.identified_urdf`); written to ``path`` when given."""
-        return identified_urdf(self.nominal_robot, self.theta, self.terms, path, force=force,
-                               comment=f"method {self.meta.get('method', '?')}")
+        return identified_urdf(
+            self.nominal_robot,
+            self.theta,
+            self.terms,
+            path,
+            force=force,
+            comment=f"method {self.meta.get('method', '?')}",
+        )
 
     def export_drives(self, path: str | os.PathLike | None = None) -> str | None:
         """The drives TOML with the identified motor terms (:func:`pinid.model.export.identified_drives`), None
         without motor terms; written to ``path`` when given (read it back with ``--drives``)."""
         from pinid.model.export import identified_drives
 
-        return identified_drives(self.nominal_robot, self.theta, self.terms, path,
-                                 comment=f"method {self.meta.get('method', '?')}")
+        return identified_drives(
+            self.nominal_robot, self.theta, self.terms, path, comment=f"method {self.meta.get('method', '?')}"
+        )
 
     def __repr__(self) -> str:
-        return (f"IdentifiedModel({self.robot.name!r}, joints={self.joint_names}, terms={self.terms.names}, "
-                f"physically_consistent={self.physically_consistent})")
+        return (
+            f"IdentifiedModel({self.robot.name!r}, joints={self.joint_names}, terms={self.terms.names}, "
+            f"physically_consistent={self.physically_consistent})"
+        )

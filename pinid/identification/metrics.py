@@ -52,27 +52,38 @@ class TorqueMetrics:
 
     def to_dict(self) -> dict:
         """Plain-dict form; NaN becomes None so that it is valid JSON."""
-        clean = (lambda d: {k: (None if not np.isfinite(v) else v) for k, v in d.items()})
-        return {"per_joint": {j: clean(m) for j, m in self.per_joint.items()}, "all": clean(self.all),
-                "samples": self.samples}
+        clean = lambda d: {k: (None if not np.isfinite(v) else v) for k, v in d.items()}
+        return {
+            "per_joint": {j: clean(m) for j, m in self.per_joint.items()},
+            "all": clean(self.all),
+            "samples": self.samples,
+        }
 
     @classmethod
     def from_dict(cls, d: dict) -> "TorqueMetrics":
         """Rebuild from :meth:`to_dict`'s output."""
-        unclean = (lambda m: {k: (float("nan") if v is None else float(v)) for k, v in m.items()})
+        unclean = lambda m: {k: (float("nan") if v is None else float(v)) for k, v in m.items()}
         return cls({j: unclean(m) for j, m in d["per_joint"].items()}, unclean(d["all"]), int(d["samples"]))
 
     def table(self) -> list[list[str]]:
         """Rows ``[joint, rms, rel %, mean ± std, max]`` as text, for printing."""
         rows = []
         for name, m in list(self.per_joint.items()) + [("all", self.all)]:
-            rows.append([name, f"{m['rms']:.4g}", f"{m['rel_rms_percent']:.3g}",
-                         f"{m['mean_abs']:.4g} ± {m['std_abs']:.4g}", f"{m['max_abs']:.4g}"])
+            rows.append(
+                [
+                    name,
+                    f"{m['rms']:.4g}",
+                    f"{m['rel_rms_percent']:.3g}",
+                    f"{m['mean_abs']:.4g} ± {m['std_abs']:.4g}",
+                    f"{m['max_abs']:.4g}",
+                ]
+            )
         return rows
 
 
-def torque_metrics(measured: np.ndarray, predicted: np.ndarray, joints: list[str],
-                   joint_index: np.ndarray | None = None) -> TorqueMetrics:
+def torque_metrics(
+    measured: np.ndarray, predicted: np.ndarray, joints: list[str], joint_index: np.ndarray | None = None
+) -> TorqueMetrics:
     """Metrics of predicted against measured torques [N·m].
 
     Either ``(N, nv)`` arrays in the order of ``joints``, or stacked 1-D rows with ``joint_index`` giving

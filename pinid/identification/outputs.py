@@ -18,8 +18,13 @@ from pinid.report.plot_compare import comparison_figures
 from pinid.report.text import text_table
 
 #: Every file an identification writes (patterns): what a ``--force`` re-run removes of an earlier run's.
-IDENTIFICATION_FILES = ("identification.json", "model_*.json", "identified_*.urdf", "identified_*_drives.toml",
-                        *REPORT_FILES)
+IDENTIFICATION_FILES = (
+    "identification.json",
+    "model_*.json",
+    "identified_*.urdf",
+    "identified_*_drives.toml",
+    *REPORT_FILES,
+)
 #: Every file a comparison writes (patterns), likewise.
 COMPARISON_FILES = ("comparison.json", "comparison.md", "compare_*.png")
 
@@ -29,17 +34,23 @@ def result_text(r) -> str:
     """One method's detail (``pinid identify --verbose``): consistency, cond(W_b), time, status; the base
     parameters with standard deviations; the training and validation torque metrics."""
     flag = "physically consistent" if r.physically_consistent else "NOT physically consistent"
-    lines = [f"\n== {r.method}: {r.description}",
-             f"   {flag} ({r.standard_source}); cond(W_b) {r.condition_number:.4g}; {r.seconds:.3f} s; status {r.status}"]
+    lines = [
+        f"\n== {r.method}: {r.description}",
+        f"   {flag} ({r.standard_source}); cond(W_b) {r.condition_number:.4g}; {r.seconds:.3f} s; status {r.status}",
+    ]
     if not r.physically_consistent:
         lines += [f"   - {prob}" for prob in (r.consistency.get("problems") or [])[:4]]
-    rows = [[n, f"{v:.6g}", f"{s:.3g}", f"{sp:.3g}" if np.isfinite(sp) else "inf"]
-            for n, v, s, sp in zip(r.base_names, r.base, r.std, r.std_percent)]
+    rows = [
+        [n, f"{v:.6g}", f"{s:.3g}", f"{sp:.3g}" if np.isfinite(sp) else "inf"]
+        for n, v, s, sp in zip(r.base_names, r.base, r.std, r.std_percent)
+    ]
     lines.append(text_table(["parameter", "value", "std", "std %"], rows, indent="   "))
     for kind, m in (("train", r.train), ("validation", r.validation)):
         if m is not None:
-            lines += [f"   {kind}:", text_table(["joint", "RMS", "RMS %", "mean ± std |e|", "max |e|"], m.table(),
-                                                 indent="   ")]
+            lines += [
+                f"   {kind}:",
+                text_table(["joint", "RMS", "RMS %", "mean ± std |e|", "max |e|"], m.table(), indent="   "),
+            ]
     return "\n".join(lines)
 
 
@@ -51,13 +62,19 @@ def identification_text(ident, *, verbose: bool = False) -> str:
     lines = []
     if "drive_gains" in d:
         g = d["drive_gains"]
-        lines.append("drive gains [N·m per unit of the recorded channel]: " + ", ".join(
-            f"{j} {k:.6g} ± {s:.2g}" for j, k, s in zip(g["joints"], g["gains"], g["std"])))
-    lines += [f"Stribeck {name}: velocity {v['velocity']:.6g} rad/s{' (fitted)' if v['fitted'] else ''}, "
-              f"shape {v['shape']:.4g}{' (fitted)' if v.get('shape_fitted') else ''}"
-              for name, v in d.get("stribeck", {}).items()]
-    lines.append(f"training: {d['samples']} samples from {len(d['sources'])} recording(s), {d['rows']} torque rows used"
-                 + (f"; validation: {len(ident.validation_sources)} recording(s)" if ident.validation_sources else ""))
+        lines.append(
+            "drive gains [N·m per unit of the recorded channel]: "
+            + ", ".join(f"{j} {k:.6g} ± {s:.2g}" for j, k, s in zip(g["joints"], g["gains"], g["std"]))
+        )
+    lines += [
+        f"Stribeck {name}: velocity {v['velocity']:.6g} rad/s{' (fitted)' if v['fitted'] else ''}, "
+        f"shape {v['shape']:.4g}{' (fitted)' if v.get('shape_fitted') else ''}"
+        for name, v in d.get("stribeck", {}).items()
+    ]
+    lines.append(
+        f"training: {d['samples']} samples from {len(d['sources'])} recording(s), {d['rows']} torque rows used"
+        + (f"; validation: {len(ident.validation_sources)} recording(s)" if ident.validation_sources else "")
+    )
     if verbose:
         lines += [result_text(r) for r in ident] + [""]
     header, rows = summary_table(ident, bold=lambda text: text)
@@ -65,8 +82,15 @@ def identification_text(ident, *, verbose: bool = False) -> str:
     return "\n".join(lines)
 
 
-def write_identification(ident, folder: str | os.PathLike, *, report: bool = True, figures: bool = True,
-                         force_export: bool = False, overwrite: bool | None = None) -> list[Path]:
+def write_identification(
+    ident,
+    folder: str | os.PathLike,
+    *,
+    report: bool = True,
+    figures: bool = True,
+    force_export: bool = False,
+    overwrite: bool | None = None,
+) -> list[Path]:
     """Write an :class:`~pinid.identification.result.Identification` into ``folder``, all or nothing:
     ``identification.json``; ``model_<method>.json`` (:class:`~pinid.identification.identified.IdentifiedModel`)
     per method; ``identified_<method>.urdf`` (and ``identified_<method>_drives.toml`` with motor terms) per
@@ -109,13 +133,16 @@ def comparison_markdown(comp, *, command: str | None = None, figures=()) -> str:
     """``comparison.md``: the command line (when given), the comparison table, the identified values
     (mean ± spread over the seeds) and links to the ``figures`` (file names)."""
     block = f"```\n{command}\n```\n\n" if command else ""
-    return (f"# Comparison on {comp.robot['name']}\n\n{block}```\n{comp.table()}\n```\n\nIdentified base parameters "
-            f"(mean ± spread over the seeds):\n\n```\n{comp.values_table()}\n```\n"
-            + "".join(f"\n![{name}]({name})\n" for name in figures))
+    return (
+        f"# Comparison on {comp.robot['name']}\n\n{block}```\n{comp.table()}\n```\n\nIdentified base parameters "
+        f"(mean ± spread over the seeds):\n\n```\n{comp.values_table()}\n```\n"
+        + "".join(f"\n![{name}]({name})\n" for name in figures)
+    )
 
 
-def write_comparison(comp, folder: str | os.PathLike, *, command: str | None = None, figures: bool = True,
-                     overwrite: bool | None = None) -> list[Path]:
+def write_comparison(
+    comp, folder: str | os.PathLike, *, command: str | None = None, figures: bool = True, overwrite: bool | None = None
+) -> list[Path]:
     """Write a :class:`~pinid.identification.compare.Comparison` into ``folder``: ``comparison.json``,
     ``comparison.md`` (:func:`comparison_markdown`) and, with ``figures``, the ``compare_*.png`` figures;
     all or nothing, an earlier comparison's files there removed.  ``overwrite``: as in

@@ -160,10 +160,10 @@ class IdentificationProblem:
             "samples": int(self.samples),
             "rows": int(self.rows),
             "sample_rates_hz": [None if not np.isfinite(r) else float(r) for r in self.sample_rates],
-            "rest_velocity": None if self.rest_velocity is None else
-            {j: float(v) for j, v in zip(joints, self.rest_velocity)},
-            "rows_dropped_at_rest": None if self.dropped is None else
-            {j: int(v) for j, v in zip(joints, self.dropped)},
+            "rest_velocity": None
+            if self.rest_velocity is None
+            else {j: float(v) for j, v in zip(joints, self.rest_velocity)},
+            "rows_dropped_at_rest": None if self.dropped is None else {j: int(v) for j, v in zip(joints, self.dropped)},
         }
 
     # ---------------------------------------------------------------- construction
@@ -210,10 +210,23 @@ class IdentificationProblem:
             w = w[np.concatenate([(np.abs(ds.dq) >= thr).reshape(-1) for ds, thr in zip(prepared, thresholds)])]
             if np.any(~np.isfinite(w)) or np.any(w < 0):
                 raise DataError("weights: expected finite non-negative numbers")
-        problem = cls(model, terms, base, W, tau, joint, sample, w, standard_parameters(model, terms),
-                      samples=total, rest_velocity=np.max(thresholds, axis=0), dropped=dropped,
-                      sources=[ds.source for ds in prepared], sample_rates=[ds.sample_rate for ds in prepared],
-                      peak_velocity=np.max([np.abs(ds.dq).max(axis=0) for ds in prepared], axis=0))
+        problem = cls(
+            model,
+            terms,
+            base,
+            W,
+            tau,
+            joint,
+            sample,
+            w,
+            standard_parameters(model, terms),
+            samples=total,
+            rest_velocity=np.max(thresholds, axis=0),
+            dropped=dropped,
+            sources=[ds.source for ds in prepared],
+            sample_rates=[ds.sample_rate for ds in prepared],
+            peak_velocity=np.max([np.abs(ds.dq).max(axis=0) for ds in prepared], axis=0),
+        )
         problem.check()
         return problem
 
@@ -227,22 +240,32 @@ class IdentificationProblem:
             if still:
                 hints.append(f"joint(s) {', '.join(still)} at rest in every sample")
         if self.dropped is not None and self.samples:
-            rest = [j for j, d, v in zip(joints, self.dropped, self.peak_velocity if self.peak_velocity is not None
-                                         else np.ones(len(joints))) if d > 0.5 * self.samples and v > 1e-9]
+            rest = [
+                j
+                for j, d, v in zip(
+                    joints, self.dropped, self.peak_velocity if self.peak_velocity is not None else np.ones(len(joints))
+                )
+                if d > 0.5 * self.samples and v > 1e-9
+            ]
             if rest:
-                hints.append(f"joint(s) {', '.join(rest)} at rest in most samples (rows dropped for Coulomb friction, "
-                             "see rest_velocity)")
+                hints.append(
+                    f"joint(s) {', '.join(rest)} at rest in most samples (rows dropped for Coulomb friction, "
+                    "see rest_velocity)"
+                )
         hint = "; " + "; ".join(hints) if hints else ""
         if rows <= nb:
-            raise DataError(f"{', '.join(self.sources)}: {rows} torque rows ({self.samples} samples × {self.nv} joints, "
-                            f"after dropping rows at rest) for {nb} base parameters; need more rows than parameters"
-                            + hint)
+            raise DataError(
+                f"{', '.join(self.sources)}: {rows} torque rows ({self.samples} samples × {self.nv} joints, "
+                f"after dropping rows at rest) for {nb} base parameters; need more rows than parameters" + hint
+            )
         norms = np.sqrt(np.einsum("ij,ij,i->j", self.W, self.W, self.weights))
         zero = np.flatnonzero(norms <= 1e-12 * max(norms.max(), 1e-300))
         if zero.size:
             names = [self.names[i] for i in zero]
-            raise DataError(f"{', '.join(self.sources)}: rank-deficient regressor, the data do not excite "
-                            f"{', '.join(names)} (their columns are zero){hint}")
+            raise DataError(
+                f"{', '.join(self.sources)}: rank-deficient regressor, the data do not excite "
+                f"{', '.join(names)} (their columns are zero){hint}"
+            )
         R = self.compressed()[0]
         # pivoted QR of R reveals the rank of the tall (column-scaled) regressor: RᵀR = AᵀA
         _, R2, piv = scipy.linalg.qr(R, pivoting=True)
@@ -250,8 +273,10 @@ class IdentificationProblem:
         rank = int(np.sum(d > RANK_TOL * d[0]))
         if rank < nb:
             names = [self.names[i] for i in piv[rank:]]
-            raise DataError(f"{', '.join(self.sources)}: rank-deficient regressor (rank {rank} < {nb} base parameters), "
-                            f"the data do not excite {', '.join(names)} independently of the others{hint}")
+            raise DataError(
+                f"{', '.join(self.sources)}: rank-deficient regressor (rank {rank} < {nb} base parameters), "
+                f"the data do not excite {', '.join(names)} independently of the others{hint}"
+            )
 
     def compressed(self, weights: np.ndarray | None = None):
         """``(R, c, rho, scale)`` of :func:`pinid.estimators.base.augmented_r` for ``weights`` (default
@@ -280,8 +305,10 @@ def check_dataset(ds: Dataset, model: RobotModel) -> Dataset:
         raise DataError(f"{ds.source}: no torque (tau) columns; identification needs measured joint torques")
     for name in ("dq", "ddq"):
         if getattr(ds, name) is None:
-            raise DataError(f"{ds.source}: no {name} columns; differentiate q first (pinid.data.preprocess.prepare, "
-                            "which identify() and `pinid identify` call for you)")
+            raise DataError(
+                f"{ds.source}: no {name} columns; differentiate q first (pinid.data.preprocess.prepare, "
+                "which identify() and `pinid identify` call for you)"
+            )
     if ds.n == 0:
         raise DataError(f"{ds.source}: no samples")
     if not np.all(np.isfinite(ds.t)):
@@ -292,12 +319,16 @@ def check_dataset(ds: Dataset, model: RobotModel) -> Dataset:
         bad = ~np.isfinite(a)
         if bad.any():
             k, j = (int(x) for x in np.argwhere(bad)[0])
-            raise DataError(f"{ds.source}: {name} of joint '{ds.joints[j]}' has {int(bad[:, j].sum())} NaN or "
-                            f"infinite value(s) (first at sample {k}, t = {ds.t[k]:.6g} s); clean or trim the recording")
-    rms = float(np.sqrt(np.mean(ds.tau ** 2)))
+            raise DataError(
+                f"{ds.source}: {name} of joint '{ds.joints[j]}' has {int(bad[:, j].sum())} NaN or "
+                f"infinite value(s) (first at sample {k}, t = {ds.t[k]:.6g} s); clean or trim the recording"
+            )
+    rms = float(np.sqrt(np.mean(ds.tau**2)))
     if rms < TORQUE_SIGNAL_MIN:
-        raise DataError(f"{ds.source}: no torque signal (RMS of tau {rms:.3g} N·m over every joint, below "
-                        f"{TORQUE_SIGNAL_MIN:g} N·m); expected measured joint torques")
+        raise DataError(
+            f"{ds.source}: no torque signal (RMS of tau {rms:.3g} N·m over every joint, below "
+            f"{TORQUE_SIGNAL_MIN:g} N·m); expected measured joint torques"
+        )
     return ds
 
 
@@ -314,13 +345,17 @@ def rest_thresholds(dq: np.ndarray, fraction: float = REST_FRACTION) -> np.ndarr
     return np.maximum(fraction * peak, 3.0 * noise)
 
 
-def rest_threshold(ds: Dataset, model: RobotModel, terms: JointTerms, rest_velocity="auto",
-                   rest_fraction: float = REST_FRACTION) -> np.ndarray:
+def rest_threshold(
+    ds: Dataset, model: RobotModel, terms: JointTerms, rest_velocity="auto", rest_fraction: float = REST_FRACTION
+) -> np.ndarray:
     """Per joint, the speed [rad/s] below which a row of ``ds`` counts as at rest and is left out (zeros
     when Coulomb friction is not in the model or ``rest_velocity`` is 0/None; see the module text)."""
     nv = model.nv
-    if not terms.coulomb or rest_velocity is None or (not isinstance(rest_velocity, str) and np.ndim(rest_velocity) == 0
-                                                      and float(rest_velocity) == 0.0):
+    if (
+        not terms.coulomb
+        or rest_velocity is None
+        or (not isinstance(rest_velocity, str) and np.ndim(rest_velocity) == 0 and float(rest_velocity) == 0.0)
+    ):
         return np.zeros(nv)
     if isinstance(rest_velocity, str):
         if rest_velocity != "auto":
@@ -328,30 +363,41 @@ def rest_threshold(ds: Dataset, model: RobotModel, terms: JointTerms, rest_veloc
         return rest_thresholds(ds.dq, rest_fraction)
     v = np.asarray(rest_velocity, dtype=float).reshape(-1)
     if v.size not in (1, nv):
-        raise SpecError(f"rest_velocity={rest_velocity!r}: {v.size} values, expected one or one per joint "
-                        f"({nv}: {', '.join(model.joint_names)})")
+        raise SpecError(
+            f"rest_velocity={rest_velocity!r}: {v.size} values, expected one or one per joint "
+            f"({nv}: {', '.join(model.joint_names)})"
+        )
     v = np.broadcast_to(v, (nv,)).copy()
     if np.any(~np.isfinite(v)) or np.any(v < 0):
         raise SpecError(f"rest_velocity={rest_velocity!r}, expected non-negative numbers [rad/s]")
     return v
 
 
-def stack_rows(model: RobotModel, terms: JointTerms, base: BaseParameters, datasets: Sequence[Dataset],
-               thresholds: Sequence[np.ndarray], *, bar=None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def stack_rows(
+    model: RobotModel,
+    terms: JointTerms,
+    base: BaseParameters,
+    datasets: Sequence[Dataset],
+    thresholds: Sequence[np.ndarray],
+    *,
+    bar=None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """``(W_b, tau, joint, sample)`` of checked recordings stacked row ``k·nv + j``, without the rows whose
     joint speed is below its threshold; ``sample`` counts on across recordings.
 
     ``W_b`` is allocated once with the kept rows only and filled chunk by chunk, so the tall matrix exists
     once (not once whole and once without the rows at rest, nor once per recording and once concatenated)."""
     nv = model.nv
-    keeps = [(np.abs(ds.dq) >= thr).reshape(-1) if np.any(thr > 0) else np.ones(ds.n * nv, bool)
-             for ds, thr in zip(datasets, thresholds)]
+    keeps = [
+        (np.abs(ds.dq) >= thr).reshape(-1) if np.any(thr > 0) else np.ones(ds.n * nv, bool)
+        for ds, thr in zip(datasets, thresholds)
+    ]
     counts = [int(np.count_nonzero(k)) for k in keeps]
     W = np.empty((sum(counts), base.count))
     taus, joints, samples = [], [], []
     row = offset = 0
     for ds, keep, m in zip(datasets, keeps, counts):
-        base_regressor(model, terms, base, ds, bar=bar, keep=keep, out=W[row:row + m])
+        base_regressor(model, terms, base, ds, bar=bar, keep=keep, out=W[row : row + m])
         row += m
         taus.append(ds.tau.reshape(-1)[keep])
         joints.append(np.tile(np.arange(nv), ds.n)[keep])
@@ -362,8 +408,16 @@ def stack_rows(model: RobotModel, terms: JointTerms, base: BaseParameters, datas
     return W, np.concatenate(taus), np.concatenate(joints), np.concatenate(samples)
 
 
-def base_regressor(model: RobotModel, terms: JointTerms, base: BaseParameters, ds: Dataset, *, bar=None,
-                   keep: np.ndarray | None = None, out: np.ndarray | None = None) -> np.ndarray:
+def base_regressor(
+    model: RobotModel,
+    terms: JointTerms,
+    base: BaseParameters,
+    ds: Dataset,
+    *,
+    bar=None,
+    keep: np.ndarray | None = None,
+    out: np.ndarray | None = None,
+) -> np.ndarray:
     """Stacked base regressor ``(N·nv, nb)`` of a checked recording, computed in chunks to bound memory.
 
     ``keep`` (N·nv,) booleans: only those rows, in order; ``out``: the array to fill (kept rows × nb)."""
@@ -378,20 +432,20 @@ def base_regressor(model: RobotModel, terms: JointTerms, base: BaseParameters, d
         stop = min(n, start + _CHUNK)
         W = regressor(model, ds.q[start:stop], ds.dq[start:stop], ds.ddq[start:stop], terms)
         if keep is None:
-            np.take(W, base.independent, axis=1, out=out[start * nv: stop * nv])
+            np.take(W, base.independent, axis=1, out=out[start * nv : stop * nv])
         else:
-            k = np.flatnonzero(keep[start * nv: stop * nv])
-            out[r: r + len(k)] = W[np.ix_(k, base.independent)]
+            k = np.flatnonzero(keep[start * nv : stop * nv])
+            out[r : r + len(k)] = W[np.ix_(k, base.independent)]
             r += len(k)
         if bar is not None:
             bar.update(stop - start)
     return out
 
 
-
 # ====================================================================== statistics
-def base_statistics(problem: Problem, base: np.ndarray, weights: np.ndarray | None = None
-                    ) -> tuple[np.ndarray, float, float]:
+def base_statistics(
+    problem: Problem, base: np.ndarray, weights: np.ndarray | None = None
+) -> tuple[np.ndarray, float, float]:
     """``(std, condition_number, condition_number_scaled)`` of base parameters fitted with row ``weights``.
 
     σ² = Σ w·r² / (rows − nb), cov = σ²·(Wᵀ diag(w) W)⁻¹; the condition numbers are those of
@@ -424,8 +478,9 @@ def least_norm_completion(problem: IdentificationProblem, base: np.ndarray) -> n
 
 
 # ====================================================================== recordings
-def load_datasets(items, model: RobotModel, mapping=None, preprocess: Mapping | bool | None = None,
-                  what: str = "training") -> list[Dataset]:
+def load_datasets(
+    items, model: RobotModel, mapping=None, preprocess: Mapping | bool | None = None, what: str = "training"
+) -> list[Dataset]:
     """Recordings (Datasets or paths, one or several) read with ``mapping`` and prepared
     (:func:`~pinid.identification.problem.prepare_dataset`); DataError when none is given."""
     if items is None:
@@ -464,8 +519,13 @@ def prepare_dataset(ds: Dataset, preprocess: Mapping | bool | None = None, *, un
     return prepare(ds, **{"unwrap": list(unwrap), **dict(preprocess or {})})
 
 
-def predict_torque(model: RobotModel, terms: JointTerms, base: BaseParameters, ds: Dataset,
-                   values: np.ndarray | Mapping[str, np.ndarray]):
+def predict_torque(
+    model: RobotModel,
+    terms: JointTerms,
+    base: BaseParameters,
+    ds: Dataset,
+    values: np.ndarray | Mapping[str, np.ndarray],
+):
     """Predicted torques ``(N, nv)`` [N·m] on a checked recording for base ``values`` (or a dict of them).
 
     Computed chunk by chunk (``_CHUNK`` samples): the recording's tall regressor never exists whole."""
@@ -477,5 +537,5 @@ def predict_torque(model: RobotModel, terms: JointTerms, base: BaseParameters, d
         part = ds.select(slice(start, min(ds.n, start + _CHUNK)))
         Wb = base_regressor(model, terms, base, part)
         for k, v in items.items():
-            out[k][start:start + part.n] = (Wb @ v).reshape(part.n, model.nv)
+            out[k][start : start + part.n] = (Wb @ v).reshape(part.n, model.nv)
     return out[None] if single else out

@@ -96,23 +96,34 @@ class IdentificationResult:
         if self._model_cache is None:
             terms = JointTerms.from_names(self.robot["terms"]) if self.robot else None
             self._model_cache = IdentifiedModel(
-                self.robot_model, terms, self.standard,
+                self.robot_model,
+                terms,
+                self.standard,
                 physically_consistent=None if self.physically_consistent else False,  # None: checked again
-                meta={"method": self.method, "standard_source": self.standard_source})
+                meta={"method": self.method, "standard_source": self.standard_source},
+            )
         return self._model_cache
 
     def export_urdf(self, path: str | os.PathLike | None = None, *, force: bool = False) -> str:
         """The identified URDF (see :func:`pinid.model.export.identified_urdf`); written to ``path`` when given."""
-        return identified_urdf(self.robot_model, self.standard, JointTerms.from_names(self.robot["terms"]), path,
-                               force=force, comment=f"method {self.method}")
+        return identified_urdf(
+            self.robot_model,
+            self.standard,
+            JointTerms.from_names(self.robot["terms"]),
+            path,
+            force=force,
+            comment=f"method {self.method}",
+        )
 
     def to_dict(self, *, include_robot: bool = True) -> dict:
         """Plain-dict form (the entry of ``identification.json`` under ``methods``)."""
         d = {
             "method": self.method,
             "description": self.description,
-            "settings": {k: (v if isinstance(v, (int, float, str, bool, type(None), dict, list, tuple)) else repr(v))
-                         for k, v in self.settings.items()},
+            "settings": {
+                k: (v if isinstance(v, (int, float, str, bool, type(None), dict, list, tuple)) else repr(v))
+                for k, v in self.settings.items()
+            },
             "status": self.status,
             "base_parameters": self.base_parameters,
             "std": dict(zip(self.base_names, map(float, self.std))),
@@ -137,22 +148,33 @@ class IdentificationResult:
     def from_dict(cls, d: dict, *, robot: dict | None = None) -> "IdentificationResult":
         """Inverse of :meth:`to_dict` (``robot``: the description when stored separately)."""
         if not isinstance(d.get("physically_consistent"), bool):
-            raise SpecError(f"result {d.get('method')!r}: 'physically_consistent' is {d.get('physically_consistent')!r}, "
-                            "expected true or false")
+            raise SpecError(
+                f"result {d.get('method')!r}: 'physically_consistent' is {d.get('physically_consistent')!r}, "
+                "expected true or false"
+            )
         base_names = list(d["base_parameters"])
         std_names = list(d["standard_parameters"])
-        num = (lambda v: float("nan") if v is None else float(v))
+        num = lambda v: float("nan") if v is None else float(v)
         return cls(
-            method=d["method"], base_names=base_names,
+            method=d["method"],
+            base_names=base_names,
             base=np.array([num(d["base_parameters"][n]) for n in base_names]),
             std=np.array([num(d["std"][n]) for n in base_names]),
-            standard_names=std_names, standard=np.array([num(d["standard_parameters"][n]) for n in std_names]),
-            standard_source=d["standard_source"], physically_consistent=bool(d["physically_consistent"]),
-            consistency=d.get("consistency") or {}, condition_number=num(d["condition_number"]),
-            train=TorqueMetrics.from_dict(d["train"]), seconds=float(d["seconds"]),
+            standard_names=std_names,
+            standard=np.array([num(d["standard_parameters"][n]) for n in std_names]),
+            standard_source=d["standard_source"],
+            physically_consistent=bool(d["physically_consistent"]),
+            consistency=d.get("consistency") or {},
+            condition_number=num(d["condition_number"]),
+            train=TorqueMetrics.from_dict(d["train"]),
+            seconds=float(d["seconds"]),
             validation=None if d.get("validation") is None else TorqueMetrics.from_dict(d["validation"]),
-            settings=d.get("settings") or {}, description=d.get("description", ""), status=d.get("status", "ok"),
-            info=d.get("info") or {}, history=d.get("history"), robot=robot if robot is not None else d.get("robot"),
+            settings=d.get("settings") or {},
+            description=d.get("description", ""),
+            status=d.get("status", "ok"),
+            info=d.get("info") or {},
+            history=d.get("history"),
+            robot=robot if robot is not None else d.get("robot"),
         )
 
     def save(self, path: str | os.PathLike) -> Path:
@@ -196,6 +218,7 @@ class Identification:
         """Name of the preferred result (see the class text).  Results within 0.1 % of the lowest RMS
         count as equal; among those, one whose standard parameters come from the estimator itself (the
         LMI method) wins, then the first in the order run."""
+
         def score(r: IdentificationResult) -> float:
             m = r.validation if r.validation is not None else r.train
             v = m.all["rms"]
@@ -216,16 +239,18 @@ class Identification:
         """The content of ``identification.json``."""
         from pinid import __version__  # the package's own attribute: set after its submodules load
 
-        return jsonable({
-            "pinid_version": __version__,
-            "robot": self.robot,
-            "data": self.data,
-            "validation_sources": self.validation_sources,
-            "base": self.base,
-            "best": self.best if self.results else None,
-            "seconds": self.seconds,
-            "methods": {m: r.to_dict(include_robot=False) for m, r in self.results.items()},
-        })
+        return jsonable(
+            {
+                "pinid_version": __version__,
+                "robot": self.robot,
+                "data": self.data,
+                "validation_sources": self.validation_sources,
+                "base": self.base,
+                "best": self.best if self.results else None,
+                "seconds": self.seconds,
+                "methods": {m: r.to_dict(include_robot=False) for m, r in self.results.items()},
+            }
+        )
 
     @classmethod
     def from_dict(cls, d: dict) -> "Identification":
@@ -234,13 +259,20 @@ class Identification:
         try:
             robot = d["robot"]
             results = {m: IdentificationResult.from_dict(r, robot=robot) for m, r in d["methods"].items()}
-            return cls(robot, results, d.get("data") or {}, d.get("base") or {},
-                       list(d.get("validation_sources") or []), float(d.get("seconds") or 0.0))
+            return cls(
+                robot,
+                results,
+                d.get("data") or {},
+                d.get("base") or {},
+                list(d.get("validation_sources") or []),
+                float(d.get("seconds") or 0.0),
+            )
         except PinidError:
             raise
         except (KeyError, TypeError, ValueError, AttributeError) as exc:  # a field missing or of the wrong type
-            raise SpecError(f"not a valid identification ({type(exc).__name__}: {exc}); expected one written by "
-                            "pinid identify") from None
+            raise SpecError(
+                f"not a valid identification ({type(exc).__name__}: {exc}); expected one written by pinid identify"
+            ) from None
 
     def save(self, path: str | os.PathLike) -> Path:
         """Write ``identification.json`` (atomically)."""
@@ -260,9 +292,9 @@ class Identification:
             raise SpecError(f"{path}: {exc}") from None
 
 
-
-def make_result(problem: IdentificationProblem, estimator, seconds: float, *, complete: bool = True
-                ) -> IdentificationResult:
+def make_result(
+    problem: IdentificationProblem, estimator, seconds: float, *, complete: bool = True
+) -> IdentificationResult:
     """Check a fitted estimator and wrap it as an :class:`IdentificationResult` (training metrics included)."""
     base = np.asarray(estimator.base_, dtype=float)
     if base.shape != (problem.nb,):
@@ -298,11 +330,23 @@ def make_result(problem: IdentificationProblem, estimator, seconds: float, *, co
     info["condition_number_scaled"] = cond_scaled
     train = torque_metrics(problem.tau, problem.W @ base, problem.model.joint_names, problem.joint)
     return IdentificationResult(
-        method=estimator.name, base_names=problem.names, base=base, std=std, standard_names=std_names,
-        standard=theta, standard_source=source, physically_consistent=bool(consistent),
-        consistency=report.to_dict(), condition_number=cond, train=train, seconds=float(seconds),
-        settings=estimator.get_params(), description=estimator.description,
-        status=str(getattr(estimator, "status_", "ok")), info=info, history=getattr(estimator, "history_", None),
-        robot=robot_to_dict(problem.model, problem.terms), _robot_model=problem.model,
+        method=estimator.name,
+        base_names=problem.names,
+        base=base,
+        std=std,
+        standard_names=std_names,
+        standard=theta,
+        standard_source=source,
+        physically_consistent=bool(consistent),
+        consistency=report.to_dict(),
+        condition_number=cond,
+        train=train,
+        seconds=float(seconds),
+        settings=estimator.get_params(),
+        description=estimator.description,
+        status=str(getattr(estimator, "status_", "ok")),
+        info=info,
+        history=getattr(estimator, "history_", None),
+        robot=robot_to_dict(problem.model, problem.terms),
+        _robot_model=problem.model,
     )
-

@@ -24,8 +24,13 @@ from pinid.data.dataset import Dataset
 from pinid.errors import DataError, SpecError
 from pinid.estimators import ESTIMATORS, Estimator, make_estimator
 from pinid.identification.metrics import torque_metrics
-from pinid.identification.problem import (REST_FRACTION, IdentificationProblem, check_dataset, load_datasets,
-                                          predict_torque)
+from pinid.identification.problem import (
+    REST_FRACTION,
+    IdentificationProblem,
+    check_dataset,
+    load_datasets,
+    predict_torque,
+)
 from pinid.identification.result import Identification, IdentificationResult, make_result
 from pinid.identification.segmental import Segmental, SegmentalProblem
 from pinid.identification.stribeck import fit_velocity, with_stribeck
@@ -49,7 +54,7 @@ def parse_methods(methods: Sequence[str] | str | None, default: Sequence[str] = 
     if methods is None:
         methods = list(default)
     elif not isinstance(methods, (str, list, tuple)):
-        raise SpecError(f"methods {methods!r}: expected \"ols,sdp\", a list of names or \"all\"")
+        raise SpecError(f'methods {methods!r}: expected "ols,sdp", a list of names or "all"')
     elif isinstance(methods, str):
         if methods.strip().lower() == "all":
             methods = list(ESTIMATORS)
@@ -61,15 +66,17 @@ def parse_methods(methods: Sequence[str] | str | None, default: Sequence[str] = 
     unknown = [m for m in names if m not in ESTIMATORS]
     if unknown:
         listed = ", ".join(f"'{m}'" for m in unknown)
-        raise SpecError(f"unknown method{'s' if len(unknown) > 1 else ''} {listed}, expected one of "
-                        f"{', '.join(ESTIMATORS)}")
+        raise SpecError(
+            f"unknown method{'s' if len(unknown) > 1 else ''} {listed}, expected one of {', '.join(ESTIMATORS)}"
+        )
     return names
 
 
 def check_options(options: Mapping[str, Mapping] | None, methods: Sequence[str]) -> dict[str, dict]:
     """Per-method settings with lower-case keys; SpecError for settings of a method that is not run."""
-    if options is not None and (not isinstance(options, Mapping)
-                                or not all(isinstance(v, Mapping) for v in options.values())):
+    if options is not None and (
+        not isinstance(options, Mapping) or not all(isinstance(v, Mapping) for v in options.values())
+    ):
         raise SpecError(f"options {options!r}: expected {{method: {{setting: value}}}}")
     options = {str(k).strip().lower(): dict(v) for k, v in dict(options or {}).items()}
     bad = [k for k in options if k not in methods]
@@ -98,10 +105,20 @@ class Setup:
     stribeck: dict[str, dict] = field(default_factory=dict)  # the Stribeck shapes used (data["stribeck"])
 
 
-def setup(model: RobotModel, data, validate=None, *, terms: JointTerms = JointTerms(), mapping=None,
-          preprocess: Mapping | bool | None = None, rest_velocity="auto", rest_fraction: float = REST_FRACTION,
-          segmental: Mapping | None = None, show_progress: bool | None = False,
-          stribeck_auto: Mapping[str, bool] | None = None) -> Setup:
+def setup(
+    model: RobotModel,
+    data,
+    validate=None,
+    *,
+    terms: JointTerms = JointTerms(),
+    mapping=None,
+    preprocess: Mapping | bool | None = None,
+    rest_velocity="auto",
+    rest_fraction: float = REST_FRACTION,
+    segmental: Mapping | None = None,
+    show_progress: bool | None = False,
+    stribeck_auto: Mapping[str, bool] | None = None,
+) -> Setup:
     """Load and stack the recordings.  ``validate``: recordings, or ``{label: recordings}``;
     ``segmental``: ``{"first": recordings, "joints": first joints}`` (seed 000's two stages);
     ``stribeck_auto``: ``{Stribeck term: fit its shape too}`` — their velocities are fitted
@@ -124,26 +141,47 @@ def setup(model: RobotModel, data, validate=None, *, terms: JointTerms = JointTe
     if segmental:
         unknown_keys = [k for k in segmental if k not in ("first", "joints")]
         if unknown_keys or "first" not in segmental:
-            raise SpecError("segmental: expected {'first': recordings with only the first joints moving, "
-                            "'joints': (first joints, default knee)}")
+            raise SpecError(
+                "segmental: expected {'first': recordings with only the first joints moving, "
+                "'joints': (first joints, default knee)}"
+            )
         first = load_datasets(segmental["first"], model, mapping, preprocess, "first-stage")
-        seg = SegmentalProblem(model, first, train, first_joints=tuple(segmental.get("joints", ("knee",))),
-                               terms=terms, rest_velocity=rest_velocity, rest_fraction=rest_fraction, base=base)
+        seg = SegmentalProblem(
+            model,
+            first,
+            train,
+            first_joints=tuple(segmental.get("joints", ("knee",))),
+            terms=terms,
+            rest_velocity=rest_velocity,
+            rest_fraction=rest_fraction,
+            base=base,
+        )
         problem = seg.problem
     else:
-        problem = IdentificationProblem.from_datasets(model, train, terms=terms, base=base,
-                                                      rest_velocity=rest_velocity, rest_fraction=rest_fraction,
-                                                      show_progress=show_progress)
-    shapes = {n: {"velocity": v.velocity, "shape": v.shape, "fitted": False}
-              for n in final_terms.names if n in STRIBECK_TERMS for v in [stribeck(model, n)]}
+        problem = IdentificationProblem.from_datasets(
+            model,
+            train,
+            terms=terms,
+            base=base,
+            rest_velocity=rest_velocity,
+            rest_fraction=rest_fraction,
+            show_progress=show_progress,
+        )
+    shapes = {
+        n: {"velocity": v.velocity, "shape": v.shape, "fitted": False}
+        for n in final_terms.names
+        if n in STRIBECK_TERMS
+        for v in [stribeck(model, n)]
+    }
     for k, name in enumerate(auto):  # one 1-D search per term, around the linear fit without it
         fit = fit_velocity(problem, train, name, fit_shape=auto[name])
         model.stribeck[name] = Stribeck(fit.velocity, fit.shape)
         shapes[name] = fit.summary()
-        terms = JointTerms(names=[n for n in final_terms.names if n not in list(auto)[k + 1:]])
+        terms = JointTerms(names=[n for n in final_terms.names if n not in list(auto)[k + 1 :]])
         base = base_parameters(model, terms)
-        problem = IdentificationProblem.from_datasets(model, train, terms=terms, base=base,
-                                                      rest_velocity=rest_velocity, rest_fraction=rest_fraction)
+        problem = IdentificationProblem.from_datasets(
+            model, train, terms=terms, base=base, rest_velocity=rest_velocity, rest_fraction=rest_fraction
+        )
     return Setup(model, terms, base, problem, train, val, seg, shapes)
 
 
@@ -176,8 +214,11 @@ def check_distinct(data, validate=None) -> None:
     groups = validate.values() if isinstance(validate, Mapping) else [validate]
     for item in (i for g in groups for i in _items(g)):
         if _key(item) in seen:
-            warn(None, f"{item}: the validation recording is also a training recording, so its error is a "
-                       "training error, not a validation; expected a different trajectory")
+            warn(
+                None,
+                f"{item}: the validation recording is also a training recording, so its error is a "
+                "training error, not a validation; expected a different trajectory",
+            )
 
 
 @dataclass
@@ -192,8 +233,14 @@ class Fit:
     seconds: float
 
 
-def run_jobs(s: Setup, jobs: Iterable[tuple[str, int | None, dict]], *, complete: bool = True,
-             show_progress: bool | None = False, label: str = "methods") -> list[Fit]:
+def run_jobs(
+    s: Setup,
+    jobs: Iterable[tuple[str, int | None, dict]],
+    *,
+    complete: bool = True,
+    show_progress: bool | None = False,
+    label: str = "methods",
+) -> list[Fit]:
     """Fit every ``(method, seed, settings)`` job on the setup's problem (or its segmental stages)."""
     jobs = list(jobs)
     fits = []
@@ -209,8 +256,9 @@ def run_jobs(s: Setup, jobs: Iterable[tuple[str, int | None, dict]], *, complete
             t0 = time.perf_counter()
             est.fit(target)
             seconds = time.perf_counter() - t0
-            fits.append(Fit(method, seed, settings, est, make_result(s.problem, est, seconds, complete=complete),
-                            seconds))
+            fits.append(
+                Fit(method, seed, settings, est, make_result(s.problem, est, seconds, complete=complete), seconds)
+            )
             bar.update(1)
     finally:
         bar.close()
@@ -273,13 +321,23 @@ def identify(
     model = with_stribeck(model, settings) if settings else model
     gains = None
     if payload is not None or payload_data is not None:
-        gains, data, validate = _currents_to_torques(model, terms, data, validate, payload, payload_data, mapping,
-                                                     preprocess, rest_velocity)
+        gains, data, validate = _currents_to_torques(
+            model, terms, data, validate, payload, payload_data, mapping, preprocess, rest_velocity
+        )
         preprocess = False
-    s = setup(model, data, validate, terms=terms, mapping=mapping, preprocess=preprocess, rest_velocity=rest_velocity,
-              rest_fraction=rest_fraction, show_progress=show_progress, stribeck_auto=auto)
-    fits = run_jobs(s, [(m, None, options.get(m, {})) for m in methods], complete=complete,
-                    show_progress=show_progress)
+    s = setup(
+        model,
+        data,
+        validate,
+        terms=terms,
+        mapping=mapping,
+        preprocess=preprocess,
+        rest_velocity=rest_velocity,
+        rest_fraction=rest_fraction,
+        show_progress=show_progress,
+        stribeck_auto=auto,
+    )
+    fits = run_jobs(s, [(m, None, options.get(m, {})) for m in methods], complete=complete, show_progress=show_progress)
     results = {f.method: f.result for f in fits}
     values = {m: r.base for m, r in results.items()}
     val_sets = s.validation.get("validation", [])
@@ -290,12 +348,22 @@ def identify(
         for m, r in results.items():
             r.validation = torque_metrics(tau_all, np.concatenate([p[m] for p in preds]), model.joint_names)
         first = checked[0]
-        curves = {"kind": "validation", "source": first.source, "t": first.t, "measured": first.tau,
-                  "predicted": preds[0]}
+        curves = {
+            "kind": "validation",
+            "source": first.source,
+            "t": first.t,
+            "measured": first.tau,
+            "predicted": preds[0],
+        }
     else:
         ds = check_dataset(s.train[0], model)
-        curves = {"kind": "training", "source": ds.source, "t": ds.t, "measured": ds.tau,
-                  "predicted": predict_torque(model, terms, s.base, ds, values)}
+        curves = {
+            "kind": "training",
+            "source": ds.source,
+            "t": ds.t,
+            "measured": ds.tau,
+            "predicted": predict_torque(model, terms, s.base, ds, values),
+        }
     if s.train:  # the training motion, drawn as the report's "excitation" figure
         ds = s.train[0]
         curves["motion"] = {"source": ds.source, "t": ds.t, "q": ds.q, "dq": ds.dq}
@@ -305,10 +373,17 @@ def identify(
     if s.stribeck:
         summary["stribeck"] = s.stribeck
     return Identification(
-        robot=robot_to_dict(model, terms), results=results, data=summary,
-        base={"names": s.base.names, "expressions": s.base.expressions(),
-              "nominal": s.base.from_standard(s.problem.nominal).tolist()},
-        validation_sources=[ds.source for ds in val_sets], seconds=time.perf_counter() - t_start, curves=curves,
+        robot=robot_to_dict(model, terms),
+        results=results,
+        data=summary,
+        base={
+            "names": s.base.names,
+            "expressions": s.base.expressions(),
+            "nominal": s.base.from_standard(s.problem.nominal).tolist(),
+        },
+        validation_sources=[ds.source for ds in val_sets],
+        seconds=time.perf_counter() - t_start,
+        curves=curves,
     )
 
 
@@ -318,8 +393,9 @@ def _currents_to_torques(model, terms, data, validate, payload, payload_data, ma
     from pinid.identification.gains import Payload, identify_gains
 
     if payload is None or payload_data is None:
-        raise SpecError("drive gains need both the payload (--payload FILE) and a recording with it "
-                        "(--payload-data FILE)")
+        raise SpecError(
+            "drive gains need both the payload (--payload FILE) and a recording with it (--payload-data FILE)"
+        )
     payload = payload if isinstance(payload, Payload) else Payload.load(payload)
     train = load_datasets(data, model, mapping, preprocess, "training")
     loaded = load_datasets(payload_data, model, mapping, preprocess, "payload")
@@ -333,4 +409,3 @@ def _currents_to_torques(model, terms, data, validate, payload, payload_data, ma
     elif validate is not None:
         validate = torques(validate, "validation")
     return gains, [gains.apply(ds) for ds in train], validate
-

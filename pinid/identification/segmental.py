@@ -44,8 +44,14 @@ from pinid.data.dataset import Dataset
 from pinid.errors import DataError, SpecError
 from pinid.estimators import ESTIMATORS, make_estimator
 from pinid.estimators.base import Estimator
-from pinid.identification.problem import (REST_FRACTION, IdentificationProblem, check_dataset, load_datasets,
-                                          rest_threshold, stack_rows)
+from pinid.identification.problem import (
+    REST_FRACTION,
+    IdentificationProblem,
+    check_dataset,
+    load_datasets,
+    rest_threshold,
+    stack_rows,
+)
 from pinid.identification.result import IdentificationResult, make_result
 from pinid.linalg import augmented_r
 from pinid.model.robot import RobotModel
@@ -107,8 +113,15 @@ def _natural_scale(model: RobotModel, terms: JointTerms, base: BaseParameters) -
     return np.abs(base.P) @ parameter_scale(standard_parameters(model, terms), model.nv, len(terms))
 
 
-def stack(model: RobotModel, datasets: Dataset | Sequence[Dataset], terms: JointTerms, base: BaseParameters, *,
-          rest_velocity="auto", rest_fraction: float = REST_FRACTION) -> dict:
+def stack(
+    model: RobotModel,
+    datasets: Dataset | Sequence[Dataset],
+    terms: JointTerms,
+    base: BaseParameters,
+    *,
+    rest_velocity="auto",
+    rest_fraction: float = REST_FRACTION,
+) -> dict:
     """Stacked base regressor of recordings *without* the rank check (a joint held fixed is allowed).
 
     Returns ``{"W", "tau", "joint", "sample", "sources"}``; rows of a joint at rest are dropped when
@@ -134,9 +147,18 @@ class SegmentalProblem:
     result is reported on); ``first_problem`` the first stage's :class:`SubProblem`.
     """
 
-    def __init__(self, model: RobotModel, first, second, *, first_joints: Sequence[str] = ("knee",),
-                 terms: JointTerms = JointTerms(), rest_velocity="auto", rest_fraction: float = REST_FRACTION,
-                 base: BaseParameters | None = None) -> None:
+    def __init__(
+        self,
+        model: RobotModel,
+        first,
+        second,
+        *,
+        first_joints: Sequence[str] = ("knee",),
+        terms: JointTerms = JointTerms(),
+        rest_velocity="auto",
+        rest_fraction: float = REST_FRACTION,
+        base: BaseParameters | None = None,
+    ) -> None:
         self.model, self.terms = model, terms
         self.base = base if base is not None else base_parameters(model, terms)
         self.first_joints = [str(j) for j in first_joints]
@@ -145,33 +167,51 @@ class SegmentalProblem:
         names = self.base.names
         in_first = np.array([n.split(".", 1)[0] in self.first_joints for n in names])
         if not in_first.any():
-            raise SpecError(f"segmental: no base parameter belongs to joint(s) {', '.join(self.first_joints)} "
-                            f"(base parameters: {', '.join(names)})")
+            raise SpecError(
+                f"segmental: no base parameter belongs to joint(s) {', '.join(self.first_joints)} "
+                f"(base parameters: {', '.join(names)})"
+            )
         if in_first.all():
-            raise SpecError("segmental: every base parameter belongs to the first joints; nothing is left for the "
-                            "second stage")
+            raise SpecError(
+                "segmental: every base parameter belongs to the first joints; nothing is left for the second stage"
+            )
         self.first_cols = np.flatnonzero(in_first)
         self.second_cols = np.flatnonzero(~in_first)
         self.first_rows_joints = np.array([model.joint_index(j) for j in self.first_joints])
         self.scale = _natural_scale(model, terms, self.base)
-        self.problem = IdentificationProblem.from_datasets(model, second, terms=terms, base=self.base,
-                                                           rest_velocity=rest_velocity, rest_fraction=rest_fraction)
+        self.problem = IdentificationProblem.from_datasets(
+            model, second, terms=terms, base=self.base, rest_velocity=rest_velocity, rest_fraction=rest_fraction
+        )
         s1 = stack(model, first, terms, self.base, rest_velocity=rest_velocity, rest_fraction=rest_fraction)
         rows1 = np.isin(s1["joint"], self.first_rows_joints)
         W1 = s1["W"][rows1]
         leak = np.linalg.norm(W1[:, self.second_cols]) if self.second_cols.size else 0.0
         if leak > 1e-9 * max(np.linalg.norm(W1[:, self.first_cols]), 1e-300):
-            raise SpecError(f"segmental: the torques of {', '.join(self.first_joints)} depend on parameters of other "
-                            "joints; identify the distal joints first (seed 000: the knee)")
+            raise SpecError(
+                f"segmental: the torques of {', '.join(self.first_joints)} depend on parameters of other "
+                "joints; identify the distal joints first (seed 000: the knee)"
+            )
         nominal_base = self.base.from_standard(standard_parameters(model, terms))
         self.nominal_base = nominal_base
         self.first_problem = SubProblem(
-            model, terms, W1[:, self.first_cols], s1["tau"][rows1], s1["joint"][rows1], s1["sample"][rows1],
-            np.ones(int(rows1.sum())), [names[i] for i in self.first_cols], nominal_base[self.first_cols],
-            self.scale[self.first_cols], self.first_cols, sources=s1["sources"])
+            model,
+            terms,
+            W1[:, self.first_cols],
+            s1["tau"][rows1],
+            s1["joint"][rows1],
+            s1["sample"][rows1],
+            np.ones(int(rows1.sum())),
+            [names[i] for i in self.first_cols],
+            nominal_base[self.first_cols],
+            self.scale[self.first_cols],
+            self.first_cols,
+            sources=s1["sources"],
+        )
         if self.first_problem.rows <= self.first_problem.nb:
-            raise DataError(f"{', '.join(s1['sources'])}: {self.first_problem.rows} torque rows of "
-                            f"{', '.join(self.first_joints)} for {self.first_problem.nb} parameters")
+            raise DataError(
+                f"{', '.join(s1['sources'])}: {self.first_problem.rows} torque rows of "
+                f"{', '.join(self.first_joints)} for {self.first_problem.nb} parameters"
+            )
         p = self.problem
         self._rows2 = ~np.isin(p.joint, self.first_rows_joints)
 
@@ -187,10 +227,20 @@ class SegmentalProblem:
         W = p.W[rows]
         tau = p.tau[rows] - W[:, self.first_cols] @ np.asarray(x_first, float)
         names = self.base.names
-        return SubProblem(self.model, self.terms, np.ascontiguousarray(W[:, self.second_cols]), tau, p.joint[rows],
-                          p.sample[rows], p.weights[rows], [names[i] for i in self.second_cols],
-                          self.nominal_base[self.second_cols], self.scale[self.second_cols], self.second_cols,
-                          sources=list(p.sources))
+        return SubProblem(
+            self.model,
+            self.terms,
+            np.ascontiguousarray(W[:, self.second_cols]),
+            tau,
+            p.joint[rows],
+            p.sample[rows],
+            p.weights[rows],
+            [names[i] for i in self.second_cols],
+            self.nominal_base[self.second_cols],
+            self.scale[self.second_cols],
+            self.second_cols,
+            sources=list(p.sources),
+        )
 
     def combine(self, x_first: np.ndarray, x_second: np.ndarray) -> np.ndarray:
         """The full base vector from the two groups."""
@@ -234,12 +284,16 @@ class Segmental(Estimator):
         t0 = time.perf_counter()
         if ESTIMATORS[self.method].fits_standard:  # stages on the full standard parameters (the LMI method)
             est = make_estimator(self.method, **settings)
-            theta1, info1 = est.fit_stage(seg.problem, seg.first_problem, seg.first_cols,
-                                          what="segmental sdp stage 1")
+            theta1, info1 = est.fit_stage(seg.problem, seg.first_problem, seg.first_cols, what="segmental sdp stage 1")
             x1 = (seg.base.P @ theta1)[seg.first_cols]
             t1 = time.perf_counter()
-            theta, info2 = est.fit_stage(seg.problem, seg.second_problem(x1), seg.second_cols,
-                                         fixed=(seg.first_cols, x1), what="segmental sdp stage 2")
+            theta, info2 = est.fit_stage(
+                seg.problem,
+                seg.second_problem(x1),
+                seg.second_cols,
+                fixed=(seg.first_cols, x1),
+                what="segmental sdp stage 2",
+            )
             x = seg.base.P @ theta
             x[seg.first_cols] = x1  # equal to the solver's precision; keep the first stage's exact values
             self.standard_ = theta
@@ -257,18 +311,24 @@ class Segmental(Estimator):
             self.stages_ = (e1, e2)
             self.history_ = e2.history_
             self.status_ = getattr(e2, "status_", "ok")
-            stage_info = ({"seconds": t1 - t0, "history": e1.history_, **_json_info(e1.info_)},
-                          {"seconds": time.perf_counter() - t1, **_json_info(e2.info_)})
+            stage_info = (
+                {"seconds": t1 - t0, "history": e1.history_, **_json_info(e1.info_)},
+                {"seconds": time.perf_counter() - t1, **_json_info(e2.info_)},
+            )
         self.base_ = x
         self.weights_ = None
-        self.info_ = {"segmental": {
-            "first_joints": seg.first_joints,
-            "first_parameters": [seg.names[i] for i in seg.first_cols],
-            "second_parameters": [seg.names[i] for i in seg.second_cols],
-            "first_sources": seg.first_problem.sources, "first_rows": seg.first_problem.rows,
-            "second_rows": int(seg._rows2.sum()),
-            "first_stage": stage_info[0], "second_stage": stage_info[1],
-        }}
+        self.info_ = {
+            "segmental": {
+                "first_joints": seg.first_joints,
+                "first_parameters": [seg.names[i] for i in seg.first_cols],
+                "second_parameters": [seg.names[i] for i in seg.second_cols],
+                "first_sources": seg.first_problem.sources,
+                "first_rows": seg.first_problem.rows,
+                "second_rows": int(seg._rows2.sum()),
+                "first_stage": stage_info[0],
+                "second_stage": stage_info[1],
+            }
+        }
         return self
 
 
@@ -277,10 +337,19 @@ def _json_info(info: dict | None) -> dict:
 
 
 # ============================================================================================ the API
-def segmental_identify(model: RobotModel | str, first, second, *, method: str = "ols",
-                       first_joints: Sequence[str] = ("knee",), settings: dict | None = None,
-                       terms: JointTerms = JointTerms(), rest_velocity="auto", preprocess=None,
-                       complete: bool = True) -> IdentificationResult:
+def segmental_identify(
+    model: RobotModel | str,
+    first,
+    second,
+    *,
+    method: str = "ols",
+    first_joints: Sequence[str] = ("knee",),
+    settings: dict | None = None,
+    terms: JointTerms = JointTerms(),
+    rest_velocity="auto",
+    preprocess=None,
+    complete: bool = True,
+) -> IdentificationResult:
     """Seed 000's segmental identification with one estimator; returns an :class:`IdentificationResult`.
 
     ``first``: recording(s) with only ``first_joints`` moving (seed 000: trajectory 1, hip fixed);
@@ -292,8 +361,9 @@ def segmental_identify(model: RobotModel | str, first, second, *, method: str = 
         model = RobotModel.from_urdf(model)
     first_sets = load_datasets(first, model, None, preprocess, "first-stage")
     second_sets = load_datasets(second, model, None, preprocess, "second-stage")
-    seg = SegmentalProblem(model, first_sets, second_sets, first_joints=first_joints, terms=terms,
-                           rest_velocity=rest_velocity)
+    seg = SegmentalProblem(
+        model, first_sets, second_sets, first_joints=first_joints, terms=terms, rest_velocity=rest_velocity
+    )
     est = Segmental(method, settings)
     t0 = time.perf_counter()
     est.fit(seg)

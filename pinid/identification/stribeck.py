@@ -57,8 +57,15 @@ class VelocityFit:
 
     def summary(self) -> dict:
         """Plain dict for the results JSON."""
-        return {"velocity": self.velocity, "shape": self.shape, "fitted": True, "shape_fitted": self.shape_fitted,
-                "residual": self.residual, "bounds": list(self.bounds), "evaluations": self.evaluations}
+        return {
+            "velocity": self.velocity,
+            "shape": self.shape,
+            "fitted": True,
+            "shape_fitted": self.shape_fitted,
+            "residual": self.residual,
+            "bounds": list(self.bounds),
+            "evaluations": self.evaluations,
+        }
 
 
 def _search(cost, lo: float, hi: float, grid: int, xtol: float) -> tuple[float, float, int]:
@@ -69,14 +76,16 @@ def _search(cost, lo: float, hi: float, grid: int, xtol: float) -> tuple[float, 
     xs = np.linspace(lo, hi, grid)
     costs = np.array([cost(x) for x in xs])
     k = int(np.argmin(costs))
-    opt = minimize_scalar(cost, bounds=(xs[max(k - 1, 0)], xs[min(k + 1, grid - 1)]), method="bounded",
-                          options={"xatol": xtol})
+    opt = minimize_scalar(
+        cost, bounds=(xs[max(k - 1, 0)], xs[min(k + 1, grid - 1)]), method="bounded", options={"xatol": xtol}
+    )
     best = (float(opt.x), float(opt.fun)) if opt.fun <= costs[k] else (float(xs[k]), float(costs[k]))
     return best[0], best[1], grid + int(opt.nfev)
 
 
-def fit_velocity(problem: IdentificationProblem, datasets: Sequence[Dataset], term: str, *,
-                 fit_shape: bool = False) -> VelocityFit:
+def fit_velocity(
+    problem: IdentificationProblem, datasets: Sequence[Dataset], term: str, *, fit_shape: bool = False
+) -> VelocityFit:
     """Stribeck velocity of ``term`` (``fs`` or ``motor_fs``; shape from ``problem.model``, or fitted too
     with ``fit_shape``) minimising the least-squares residual of ``problem`` (built from ``datasets``
     without the term) with the term's columns added; see the module text.  DataError when the data do not
@@ -125,8 +134,9 @@ def fit_velocity(problem: IdentificationProblem, datasets: Sequence[Dataset], te
 
     log_d, cost, _ = _search(by_shape, *np.log(SHAPES), SHAPE_GRID, SHAPE_XTOL)
     x = inner[log_d][0] if log_d in inner else velocity(float(np.exp(log_d)))[0]
-    return VelocityFit(term, float(np.exp(x)), float(np.exp(log_d)), cost, bounds,
-                       sum(v[2] for v in inner.values()), shape_fitted=True)
+    return VelocityFit(
+        term, float(np.exp(x)), float(np.exp(log_d)), cost, bounds, sum(v[2] for v in inner.values()), shape_fitted=True
+    )
 
 
 def with_stribeck(model: RobotModel, settings: dict[str, _terms.Stribeck]) -> RobotModel:

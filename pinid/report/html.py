@@ -32,7 +32,7 @@ def _inline(text: str) -> str:
     """Escape ``text`` and render its `` `code` `` and ``**bold**`` spans."""
     out, pos = [], 0
     for m in _INLINE.finditer(text):
-        out.append(html.escape(text[pos:m.start()]))
+        out.append(html.escape(text[pos : m.start()]))
         if m.group(1) is not None:
             out.append(f"<code>{html.escape(m.group(1))}</code>")
         else:
@@ -70,7 +70,7 @@ def markdown_to_html(text: str, images: Mapping[str, bytes] | None = None, *, ti
             j = i + 1
             while j < len(lines) and not lines[j].startswith("```"):
                 j += 1
-            body.append("<pre><code>" + html.escape("\n".join(lines[i + 1:j])) + "</code></pre>")
+            body.append("<pre><code>" + html.escape("\n".join(lines[i + 1 : j])) + "</code></pre>")
             i = j + 1
         elif m := re.match(r"^(#{1,3}) (.*)$", line):
             n = len(m.group(1))
@@ -82,9 +82,13 @@ def markdown_to_html(text: str, images: Mapping[str, bytes] | None = None, *, ti
                 j += 1
             rows = [_cells(r) for r in lines[i:j]]
             head, rest = rows[0], [r for r in rows[1:] if not all(set(c) <= set("-: ") for c in r)]
-            body.append("<table><thead><tr>" + "".join(f"<th>{_inline(c)}</th>" for c in head) + "</tr></thead><tbody>"
-                        + "".join("<tr>" + "".join(f"<td>{_inline(c)}</td>" for c in r) + "</tr>" for r in rest)
-                        + "</tbody></table>")
+            body.append(
+                "<table><thead><tr>"
+                + "".join(f"<th>{_inline(c)}</th>" for c in head)
+                + "</tr></thead><tbody>"
+                + "".join("<tr>" + "".join(f"<td>{_inline(c)}</td>" for c in r) + "</tr>" for r in rest)
+                + "</tbody></table>"
+            )
             i = j
         elif line.startswith("- "):
             j = i
@@ -101,6 +105,9 @@ def markdown_to_html(text: str, images: Mapping[str, bytes] | None = None, *, ti
                 j += 1
             body.append("<p>" + " ".join(_inline(r) for r in lines[i:j]) + "</p>")
             i = j
-    return ("<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n"
-            f"<title>{html.escape(title)}</title>\n<style>\n{STYLE}</style>\n</head>\n<body>\n"
-            + "\n".join(body) + "\n</body>\n</html>\n")
+    return (
+        '<!DOCTYPE html>\n<html lang="en">\n<head>\n<meta charset="utf-8">\n'
+        f"<title>{html.escape(title)}</title>\n<style>\n{STYLE}</style>\n</head>\n<body>\n"
+        + "\n".join(body)
+        + "\n</body>\n</html>\n"
+    )

@@ -34,6 +34,7 @@ def number(x, fmt: str = ".4g") -> str:
 
 def markdown_table(header: list[str], rows: list[list[str]]) -> str:
     """A Markdown table; a ``|`` inside a cell is escaped (``\\|``)."""
+
     def line(cells) -> str:
         return "| " + " | ".join(str(c).replace("|", "\\|") for c in cells) + " |"
 
@@ -61,8 +62,13 @@ def make_figures(ident) -> dict[str, object]:
         span = f", first {WINDOW:g} s" if len(t) and t[-1] - t[0] > WINDOW else ""
         for m, pred in c["predicted"].items():
             figs[f"torque_{m}"] = torque_comparison(
-                c["t"], c["measured"], {m: pred}, joints, window=WINDOW,
-                title=f"{m}: measured and predicted torque ({c['kind']}, {Path(str(c['source'])).name}{span})")
+                c["t"],
+                c["measured"],
+                {m: pred},
+                joints,
+                window=WINDOW,
+                title=f"{m}: measured and predicted torque ({c['kind']}, {Path(str(c['source'])).name}{span})",
+            )
     metrics = {m: (r.validation if r.validation is not None else r.train) for m, r in ident.results.items()}
     if metrics:
         kind = "validation" if all(r.validation is not None for r in ident.results.values()) else "training"
@@ -71,8 +77,14 @@ def make_figures(ident) -> dict[str, object]:
     if motion is not None and len(motion["t"]):
         t = np.asarray(motion["t"])
         span = f", first {WINDOW:g} s" if t[-1] - t[0] > WINDOW else ""
-        figs["motion"] = recorded_motion(t, motion["q"], motion["dq"], joints, window=WINDOW,
-                                         title=f"training motion ({Path(str(motion['source'])).name}{span})")
+        figs["motion"] = recorded_motion(
+            t,
+            motion["q"],
+            motion["dq"],
+            joints,
+            window=WINDOW,
+            title=f"training motion ({Path(str(motion['source'])).name}{span})",
+        )
     return figs
 
 
@@ -82,15 +94,33 @@ def summary_table(ident, bold=lambda text: f"**{text}**") -> tuple[list[str], li
     rows = []
     for m, r in ident.results.items():
         v = r.validation
-        rows.append([
-            bold(m) if m == ident.best else m, "yes" if r.physically_consistent else bold("no"),
-            number(r.condition_number, ".3g"), number(r.train.all["rms"]),
-            "–" if v is None else number(v.all["rms"]), "–" if v is None else number(v.all["rel_rms_percent"], ".3g"),
-            "–" if v is None else f"{number(v.all['mean_abs'])} ± {number(v.all['std_abs'])}",
-            number(r.seconds, ".3g"), r.status,
-        ])
-    return (["method", "consistent", "cond(W_b)", "train RMS [N·m]", "valid. RMS [N·m]", "valid. RMS %",
-             "valid. |e| [N·m]", "time [s]", "status"], rows)
+        rows.append(
+            [
+                bold(m) if m == ident.best else m,
+                "yes" if r.physically_consistent else bold("no"),
+                number(r.condition_number, ".3g"),
+                number(r.train.all["rms"]),
+                "–" if v is None else number(v.all["rms"]),
+                "–" if v is None else number(v.all["rel_rms_percent"], ".3g"),
+                "–" if v is None else f"{number(v.all['mean_abs'])} ± {number(v.all['std_abs'])}",
+                number(r.seconds, ".3g"),
+                r.status,
+            ]
+        )
+    return (
+        [
+            "method",
+            "consistent",
+            "cond(W_b)",
+            "train RMS [N·m]",
+            "valid. RMS [N·m]",
+            "valid. RMS %",
+            "valid. |e| [N·m]",
+            "time [s]",
+            "status",
+        ],
+        rows,
+    )
 
 
 def report_markdown(ident, figures: dict[str, str] | None = None) -> str:
@@ -101,62 +131,88 @@ def report_markdown(ident, figures: dict[str, str] | None = None) -> str:
     robot = ident.robot
     data = ident.data
     lines = [f"# Identification of `{robot['name']}`", ""]
-    lines.append(f"pinid {__version__}, {_dt.datetime.now().strftime('%Y-%m-%d %H:%M')}; "
-                 f"total time {ident.seconds:.2f} s.")
+    lines.append(
+        f"pinid {__version__}, {_dt.datetime.now().strftime('%Y-%m-%d %H:%M')}; total time {ident.seconds:.2f} s."
+    )
 
     lines += ["", "## Summary", ""]
     lines.append(markdown_table(*summary_table(ident)))
     lines += ["", "valid. |e|: mean ± std of the absolute validation torque error over all joints."]
     lines.append("")
-    lines.append(f"Best (bold): **{ident.best}** — the physically consistent result with the lowest "
-                 f"{'validation' if ident.validation_sources else 'training'} RMS; its model is saved as "
-                 f"`model_{ident.best}.json`.")
+    lines.append(
+        f"Best (bold): **{ident.best}** — the physically consistent result with the lowest "
+        f"{'validation' if ident.validation_sources else 'training'} RMS; its model is saved as "
+        f"`model_{ident.best}.json`."
+    )
     if "errors" in figures:
         lines += ["", f"![absolute torque error: mean and [p5, p95] per joint and method]({figures['errors']})"]
 
     lines += ["", "## Robot and data", ""]
     urdf = robot.get("urdf")
-    lines.append(f"- URDF: `{display_path(urdf) if urdf else None}`; joints {', '.join(f'`{j}`' for j in robot['joints'])}"
-                 + (f"; locked {', '.join(f'`{k}` = {v:g}' for k, v in robot['locked'].items())}" if robot.get("locked") else ""))
-    lines.append(f"- joint terms: {', '.join(robot['terms']) or 'none'}; "
-                 f"{len(ident.base.get('names', []))} base parameters")
-    lines.append(f"- training: {', '.join(f'`{s}`' for s in data.get('sources', []))} — {data.get('samples')} samples, "
-                 f"{data.get('rows')} torque rows used")
+    lines.append(
+        f"- URDF: `{display_path(urdf) if urdf else None}`; joints {', '.join(f'`{j}`' for j in robot['joints'])}"
+        + (f"; locked {', '.join(f'`{k}` = {v:g}' for k, v in robot['locked'].items())}" if robot.get("locked") else "")
+    )
+    lines.append(
+        f"- joint terms: {', '.join(robot['terms']) or 'none'}; {len(ident.base.get('names', []))} base parameters"
+    )
+    lines.append(
+        f"- training: {', '.join(f'`{s}`' for s in data.get('sources', []))} — {data.get('samples')} samples, "
+        f"{data.get('rows')} torque rows used"
+    )
     rates = [r for r in data.get("sample_rates_hz") or [] if r]
     if rates:
         lines.append(f"- sample rate(s): {', '.join(f'{r:.4g} Hz' for r in rates)}")
     if data.get("rows_dropped_at_rest") and any(data["rows_dropped_at_rest"].values()):
-        rest = ", ".join(f"`{j}` {n} (|dq| < {number(data['rest_velocity'][j], '.3g')} rad/s)"
-                         for j, n in data["rows_dropped_at_rest"].items())
+        rest = ", ".join(
+            f"`{j}` {n} (|dq| < {number(data['rest_velocity'][j], '.3g')} rad/s)"
+            for j, n in data["rows_dropped_at_rest"].items()
+        )
         lines.append(f"- rows dropped at rest (Coulomb friction undefined there): {rest}")
-    lines.append(f"- validation: {', '.join(f'`{s}`' for s in ident.validation_sources) or 'none (metrics are on the training data)'}")
+    lines.append(
+        f"- validation: {', '.join(f'`{s}`' for s in ident.validation_sources) or 'none (metrics are on the training data)'}"
+    )
     if "motion" in figures:
-        lines += ["", "### The excitation", "",
-                  "The training motion as recorded (after preprocessing): it decides how well each parameter is "
-                  "excited.", "", f"![training motion: q and dq per joint]({figures['motion']})"]
+        lines += [
+            "",
+            "### The excitation",
+            "",
+            "The training motion as recorded (after preprocessing): it decides how well each parameter is excited.",
+            "",
+            f"![training motion: q and dq per joint]({figures['motion']})",
+        ]
 
     lines += ["", "## Methods", ""]
     for m, r in ident.results.items():
         lines += [f"### {m}" + (" (best)" if m == ident.best else ""), "", f"{r.description}.", ""]
         flag = "physically consistent" if r.physically_consistent else "**not physically consistent**"
-        lines.append(f"- {flag} ({r.standard_source}); cond(W_b) {number(r.condition_number, '.4g')}; "
-                     f"{number(r.seconds, '.3g')} s; status {r.status}")
+        lines.append(
+            f"- {flag} ({r.standard_source}); cond(W_b) {number(r.condition_number, '.4g')}; "
+            f"{number(r.seconds, '.3g')} s; status {r.status}"
+        )
         for prob in (r.consistency.get("problems") or [])[:4]:
             lines.append(f"- problem: {prob}")
         lines.append("")
         for kind, metrics in (("training", r.train), ("validation", r.validation)):
             if metrics is not None:
                 lines += [f"Torque error per joint, {kind}:", ""]
-                lines.append(markdown_table(["joint", "RMS [N·m]", "RMS [%]", "mean ± std abs [N·m]", "max abs [N·m]"],
-                                    metrics.table()))
+                lines.append(
+                    markdown_table(
+                        ["joint", "RMS [N·m]", "RMS [%]", "mean ± std abs [N·m]", "max abs [N·m]"], metrics.table()
+                    )
+                )
                 lines.append("")
         key = f"torque_{m}"
         if key in figures:
             lines += [f"![{m}: measured and predicted torque]({figures[key]})", ""]
 
-    lines += ["## Base parameters", "",
-              "Value and relative standard deviation σ% (from the residual variance); large σ% marks poorly "
-              "excited parameters.", ""]
+    lines += [
+        "## Base parameters",
+        "",
+        "Value and relative standard deviation σ% (from the residual variance); large σ% marks poorly "
+        "excited parameters.",
+        "",
+    ]
     names = ident.base.get("names", [])
     exprs = ident.base.get("expressions", [""] * len(names))
     nominal = ident.base.get("nominal", [None] * len(names))
@@ -171,24 +227,40 @@ def report_markdown(ident, figures: dict[str, str] | None = None) -> str:
 
     best = ident.results.get(ident.best)
     if best is not None:
-        lines += ["", f"## Link parameters ({ident.best}, {best.standard_source})", "",
-                  "Mass, centre of mass in the joint (child link) frame and principal moments of inertia about "
-                  "the centre of mass; joint friction.", ""]
+        lines += [
+            "",
+            f"## Link parameters ({ident.best}, {best.standard_source})",
+            "",
+            "Mass, centre of mass in the joint (child link) frame and principal moments of inertia about "
+            "the centre of mass; joint friction.",
+            "",
+        ]
         nv = len(robot["joints"])
         rows = []
         terms = [t.name for t in JointTerms.from_names(robot["terms"]).joint]  # the motor block follows
-        jt = best.standard[10 * nv: 10 * nv + nv * len(terms)].reshape(nv, len(terms)) if terms else np.zeros((nv, 0))
+        jt = best.standard[10 * nv : 10 * nv + nv * len(terms)].reshape(nv, len(terms)) if terms else np.zeros((nv, 0))
         for i, j in enumerate(robot["joints"]):
-            m, c, I = com_inertia(best.standard[10 * i: 10 * i + 10])
+            m, c, I = com_inertia(best.standard[10 * i : 10 * i + 10])
             ev = np.linalg.eigvalsh(0.5 * (I + I.T))
-            rows.append([f"`{j}`", number(m), " ".join(number(x, ".3g") for x in c), " ".join(number(x, ".3g") for x in ev)]
-                        + [number(jt[i, k]) for k in range(len(terms))])
+            rows.append(
+                [f"`{j}`", number(m), " ".join(number(x, ".3g") for x in c), " ".join(number(x, ".3g") for x in ev)]
+                + [number(jt[i, k]) for k in range(len(terms))]
+            )
         lines.append(markdown_table(["joint", "mass [kg]", "c [m]", "principal I_c [kg·m²]"] + terms, rows))
 
-    lines += ["", "## Using the result", "", "```python", "from pinid.identification.identified import IdentifiedModel", "",
-              f"model = IdentifiedModel.load(\"model_{ident.best}.json\")",
-              "tau = model.inverse_dynamics(q, dq, ddq)     # M(q) ddq + C(q, dq) dq + g(q) + friction(dq)",
-              "M, C, g = model.mass_matrix(q), model.coriolis(q, dq), model.gravity(q)", "```", ""]
+    lines += [
+        "",
+        "## Using the result",
+        "",
+        "```python",
+        "from pinid.identification.identified import IdentifiedModel",
+        "",
+        f'model = IdentifiedModel.load("model_{ident.best}.json")',
+        "tau = model.inverse_dynamics(q, dq, ddq)     # M(q) ddq + C(q, dq) dq + g(q) + friction(dq)",
+        "M, C, g = model.mass_matrix(q), model.coriolis(q, dq), model.gravity(q)",
+        "```",
+        "",
+    ]
     return "\n".join(lines)
 
 

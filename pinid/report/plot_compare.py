@@ -10,7 +10,6 @@ from pinid.report.figures import new_figure
 from pinid.report.plot_identification import error_bars
 
 
-
 def _color(method: str, k: int) -> str:
     cls = ESTIMATORS.get(method)
     return cls.colour if cls is not None and cls.colour else f"C{k % 10}"
@@ -48,8 +47,11 @@ def convergence(comparison, *, stage: str = "main", ax=None, title: str | None =
             if not c or len(c) <= 2:
                 continue
             c = np.asarray(c, float)
-            src = (r.info.get("first_stage" if stage == "first" else "second_stage") or {}) if comparison.segmental \
+            src = (
+                (r.info.get("first_stage" if stage == "first" else "second_stage") or {})
+                if comparison.segmental
                 else r.info
+            )
             if "fitness" in r.info:
                 fitness_kinds.add(r.info["fitness"])
             if excess:
@@ -110,8 +112,10 @@ def validation_errors(comparison, label: str | None = None, *, title: str | None
             keys = [k for k in ("mean_abs", "p5_abs", "p95_abs") if all(pick(v).get(k) is not None for v in vals)]
             return {k: float(np.mean([pick(v)[k] for v in vals])) for k in keys}
 
-        metrics[m] = {"per_joint": {j: avg(lambda v, j=j: v["per_joint"][j]) for j in vals[0]["per_joint"]},
-                      "all": avg(lambda v: v["all"])}
+        metrics[m] = {
+            "per_joint": {j: avg(lambda v, j=j: v["per_joint"][j]) for j in vals[0]["per_joint"]},
+            "all": avg(lambda v: v["all"]),
+        }
     return error_bars(metrics, title=title or f"validation torque error ({label}): mean and [p5, p95], over runs")
 
 
@@ -133,8 +137,15 @@ def parameter_errors(comparison, *, ax=None, title: str | None = None):
         e = np.array([[r.parameter_error[n] for n in names] for r in comparison.runs[m]])
         mean = e.mean(axis=0)
         lo, hi = mean - e.min(axis=0), e.max(axis=0) - mean
-        ax.bar(x + (k - (len(methods) - 1) / 2) * width, np.maximum(mean, 1e-6), width, yerr=[lo, hi], capsize=1.5,
-               label=m, color=_color(m, k))
+        ax.bar(
+            x + (k - (len(methods) - 1) / 2) * width,
+            np.maximum(mean, 1e-6),
+            width,
+            yerr=[lo, hi],
+            capsize=1.5,
+            label=m,
+            color=_color(m, k),
+        )
     ax.set_yscale("log")
     ax.set_xticks(x, names, rotation=35, ha="right")
     ax.set_ylabel("|x − x_true| / |x_true| [%]")
@@ -149,13 +160,14 @@ def parameter_errors(comparison, *, ax=None, title: str | None = None):
 def comparison_figures(comparison) -> dict:
     """All figures of a comparison, ``{file name: figure}`` (``compare_*.png``)."""
     figs = {}
-    if any(_converges(m) and r.history and len(r.history) > 2
-           for m, runs in comparison.runs.items() for r in runs):
+    if any(_converges(m) and r.history and len(r.history) > 2 for m, runs in comparison.runs.items() for r in runs):
         figs["compare_convergence.png"] = convergence(
-            comparison, title="convergence" + (" (second stage)" if comparison.segmental else ""))
+            comparison, title="convergence" + (" (second stage)" if comparison.segmental else "")
+        )
     if comparison.segmental and any(r.history_first for runs in comparison.runs.values() for r in runs):
-        figs["compare_convergence_first.png"] = convergence(comparison, stage="first",
-                                                            title="convergence (first stage)")
+        figs["compare_convergence_first.png"] = convergence(
+            comparison, stage="first", title="convergence (first stage)"
+        )
     for label in comparison.validation_sources:
         safe = "".join(ch if ch.isalnum() or ch in "-_" else "_" for ch in label)
         figs[f"compare_errors_{safe}.png"] = validation_errors(comparison, label)

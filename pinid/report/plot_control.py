@@ -26,7 +26,7 @@ def tracking_figure(results: dict, *, title: str = ""):
         ax_e.set_ylabel("error [mrad]")
         ax_t.set_ylabel("torque [N·m]")
         ax_t.set_xlabel("t [s]")
-        lim = max(np.percentile(np.abs(1e3 * r.error[len(r.t) // 4:, j]), 99.5) for r in results.values())
+        lim = max(np.percentile(np.abs(1e3 * r.error[len(r.t) // 4 :, j]), 99.5) for r in results.values())
         ax_e.set_ylim(-1.3 * lim, 1.3 * lim)
         for ax in (ax_q, ax_e, ax_t):
             ax.grid(alpha=0.3)

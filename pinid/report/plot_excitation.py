@@ -53,8 +53,9 @@ def plot_excitation(trajectory, spec=None, *, points: int = 1000, title: str | N
     return fig
 
 
-def plot_convergence(histories: dict, ax=None, *, references: dict | None = None, ylabel: str = "condition number",
-                     log: bool = True):
+def plot_convergence(
+    histories: dict, ax=None, *, references: dict | None = None, ylabel: str = "condition number", log: bool = True
+):
     """Best value per iteration of several optimisers (as seed 001 Fig. 3a).
 
     ``histories``: name -> array of best values (index 0 = initial population); ``references``:

@@ -8,12 +8,24 @@ import numpy as np
 
 from pinid.report.figures import new_figure
 
-_STYLES = {"measured": dict(color="0.2", lw=0.8, alpha=0.8), "flexible": dict(color="C0", lw=1.4),
-           "rigid": dict(color="C3", lw=1.2, ls="--")}
+_STYLES = {
+    "measured": dict(color="0.2", lw=0.8, alpha=0.8),
+    "flexible": dict(color="C0", lw=1.4),
+    "rigid": dict(color="C3", lw=1.2, ls="--"),
+}
 
 
-def plot_angles(t: np.ndarray, measured: np.ndarray, simulated: Mapping[str, np.ndarray], joints: Sequence[str],
-                *, title: str | None = None, errors: bool = True, degrees: bool = True, window=None):
+def plot_angles(
+    t: np.ndarray,
+    measured: np.ndarray,
+    simulated: Mapping[str, np.ndarray],
+    joints: Sequence[str],
+    *,
+    title: str | None = None,
+    errors: bool = True,
+    degrees: bool = True,
+    window=None,
+):
     """Measured and simulated link angles per joint (a column each), errors underneath (seed Figs. 6-7).
 
     ``measured`` ``(N, nv)`` [rad]; ``simulated``: label → ``(N, nv)``; ``window``: ``(t0, t1)`` [s] to zoom.
@@ -50,8 +62,9 @@ def plot_angles(t: np.ndarray, measured: np.ndarray, simulated: Mapping[str, np.
     return fig
 
 
-def plot_cost_curves(histories: Mapping[str, Sequence[Sequence[float]]], *, ax=None, title: str | None = None,
-                     ylabel: str = "best cost"):
+def plot_cost_curves(
+    histories: Mapping[str, Sequence[Sequence[float]]], *, ax=None, title: str | None = None, ylabel: str = "best cost"
+):
     """Best cost against the number of simulated parameter sets, one line per method (log scale)."""
     if ax is None:
         fig, ax = new_figure(figsize=(6.4, 4.0))
@@ -75,8 +88,9 @@ def plot_cost_curves(histories: Mapping[str, Sequence[Sequence[float]]], *, ax=N
     return fig
 
 
-def plot_parameter_errors(errors: Mapping[str, Mapping[str, float]], *, ax=None, title: str | None = None,
-                          limit: float = 2.0):
+def plot_parameter_errors(
+    errors: Mapping[str, Mapping[str, float]], *, ax=None, title: str | None = None, limit: float = 2.0
+):
     """Relative error [%] of every fitted parameter, grouped bars per method; a band at ±``limit`` %."""
     if ax is None:
         fig, ax = new_figure(figsize=(10, 4.0))

@@ -17,9 +17,16 @@ def _thin(n: int, max_points: int) -> np.ndarray:
     return np.arange(0, n, step)
 
 
-def torque_comparison(t: np.ndarray, measured: np.ndarray, predicted: np.ndarray | Mapping[str, np.ndarray],
-                      joints: list[str], *, title: str | None = None, window: float | None = 30.0,
-                      max_points: int = 2_000):
+def torque_comparison(
+    t: np.ndarray,
+    measured: np.ndarray,
+    predicted: np.ndarray | Mapping[str, np.ndarray],
+    joints: list[str],
+    *,
+    title: str | None = None,
+    window: float | None = 30.0,
+    max_points: int = 2_000,
+):
     """Per joint: measured and predicted torque [N·m] against time, and the error τ_meas − τ_pred below.
 
     ``predicted`` is one ``(N, nv)`` array or ``{method: array}`` to overlay several methods.  Only the
@@ -33,8 +40,9 @@ def torque_comparison(t: np.ndarray, measured: np.ndarray, predicted: np.ndarray
         t, measured = t[:n], measured[:n]
         preds = {k: np.asarray(v)[:n] for k, v in preds.items()}
     nv = len(joints)
-    fig, axes = new_figure(2 * nv, 1, figsize=(9, 2.6 * 2 * nv), sharex=True, squeeze=False,
-                           gridspec_kw={"height_ratios": [2, 1] * nv})
+    fig, axes = new_figure(
+        2 * nv, 1, figsize=(9, 2.6 * 2 * nv), sharex=True, squeeze=False, gridspec_kw={"height_ratios": [2, 1] * nv}
+    )
     idx = _thin(len(t), max_points)
     for j, name in enumerate(joints):
         top, bottom = axes[2 * j, 0], axes[2 * j + 1, 0]
@@ -56,8 +64,9 @@ def torque_comparison(t: np.ndarray, measured: np.ndarray, predicted: np.ndarray
     # a fixed layout in inches (tight_layout measures every label with an extra draw: slow on long figures)
     width, height = fig.get_size_inches()
     top = 0.55 if title else 0.2
-    fig.subplots_adjust(left=0.95 / width, right=1 - 0.15 / width, bottom=0.5 / height, top=1 - top / height,
-                        hspace=0.35 / 2.6)
+    fig.subplots_adjust(
+        left=0.95 / width, right=1 - 0.15 / width, bottom=0.5 / height, top=1 - top / height, hspace=0.35 / 2.6
+    )
     return fig
 
 
@@ -90,8 +99,9 @@ def error_bars(metrics: Mapping[str, object], *, title: str | None = None):
                 ax.plot([lo, hi], [y[i], y[i]], lw=6, alpha=0.35, color=colours[i], solid_capstyle="butt")
                 top = max(top, hi)
             ax.plot([mean], [y[i]], "o", color=colours[i], ms=5)
-            ax.annotate(f"{mean:.3g}", (mean, y[i]), xytext=(0, 6), textcoords="offset points", ha="center",
-                        fontsize="x-small")
+            ax.annotate(
+                f"{mean:.3g}", (mean, y[i]), xytext=(0, 6), textcoords="offset points", ha="center", fontsize="x-small"
+            )
             top = max(top, mean)
         ax.set_xlim(0, 1.12 * top if top > 0 else 1.0)
         ax.set_ylim(-0.7, len(methods) - 0.3)
@@ -108,20 +118,31 @@ def error_bars(metrics: Mapping[str, object], *, title: str | None = None):
     return fig
 
 
-def recorded_motion(t: np.ndarray, q: np.ndarray, dq: np.ndarray | None, joints: list[str], *,
-                    title: str | None = None, window: float | None = 30.0, max_points: int = 2_000):
+def recorded_motion(
+    t: np.ndarray,
+    q: np.ndarray,
+    dq: np.ndarray | None,
+    joints: list[str],
+    *,
+    title: str | None = None,
+    window: float | None = 30.0,
+    max_points: int = 2_000,
+):
     """The excitation as recorded: q [rad] (top row) and dq [rad/s] (bottom row, when known) against time,
     one column per joint, the first ``window`` seconds (None: all) thinned to ``max_points``.  Returns the figure.
     """
     t = np.asarray(t, dtype=float)
     n = int(np.searchsorted(t, t[0] + window)) if window is not None and len(t) and t[-1] - t[0] > window else len(t)
     idx = _thin(n, max_points)
-    rows = [("q [rad]", np.asarray(q, dtype=float))] + ([] if dq is None else [("dq [rad/s]", np.asarray(dq, dtype=float))])
+    rows = [("q [rad]", np.asarray(q, dtype=float))] + (
+        [] if dq is None else [("dq [rad/s]", np.asarray(dq, dtype=float))]
+    )
     nv = len(joints)
     ncols = min(nv, 3)
     nblocks = -(-nv // ncols)
-    fig, axes = new_figure(len(rows) * nblocks, ncols, figsize=(10, 2.0 * len(rows) * nblocks + 0.5), sharex=True,
-                           squeeze=False)
+    fig, axes = new_figure(
+        len(rows) * nblocks, ncols, figsize=(10, 2.0 * len(rows) * nblocks + 0.5), sharex=True, squeeze=False
+    )
     for j, name in enumerate(joints):
         for r, (label, y) in enumerate(rows):
             ax = axes[(j // ncols) * len(rows) + r, j % ncols]

@@ -9,8 +9,15 @@ from collections.abc import Sequence
 WIDTH = 120
 
 
-def text_table(header: Sequence[str], rows: Sequence[Sequence[str]], *, width: int = WIDTH, keys: int = 1,
-               right: bool = True, indent: str = "") -> str:
+def text_table(
+    header: Sequence[str],
+    rows: Sequence[Sequence[str]],
+    *,
+    width: int = WIDTH,
+    keys: int = 1,
+    right: bool = True,
+    indent: str = "",
+) -> str:
     """``header`` and ``rows`` as aligned text: the first ``keys`` columns left-aligned and repeated in every
     part when the table is split to fit ``width``; the others right-aligned (``right``) or left-aligned."""
     table = [list(map(str, header))] + [list(map(str, r)) for r in rows]

@@ -25,8 +25,13 @@ MODELS = {"identified": "exo + identified wearer", "table": "exo + table wearer"
 
 def _rms_table(rms: Mapping[str, Mapping[str, float]]) -> str:
     joints = list(next(iter(rms.values())))
-    rows = [[MODELS[w]] + [number(rms[w][j]) for j in joints]
-            + [number(float(np.sqrt(np.mean(np.square(list(rms[w].values()))))))] for w in MODELS if w in rms]
+    rows = [
+        [MODELS[w]]
+        + [number(rms[w][j]) for j in joints]
+        + [number(float(np.sqrt(np.mean(np.square(list(rms[w].values()))))))]
+        for w in MODELS
+        if w in rms
+    ]
     return markdown_table(["model"] + [f"{j} [N·m]" for j in joints] + ["all joints [N·m]"], rows)
 
 
@@ -35,12 +40,19 @@ def wearer_markdown(result: Mapping, figures: Mapping[str, str] | None = None) -
     from pinid import __version__
 
     figures = figures or {}
-    lines = [f"# Stage 2: the wearer of `{display_path(result['urdf'])}`", "",
-             f"pinid {__version__}; the exoskeleton fixed to `{display_path(result['exo'])}` (stage 1); "
-             f"solver status {result['status']}, {result['seconds']:.2f} s.", "",
-             "Bodies carrying wearer segments: " + ", ".join(
-                 f"`{j}` ({', '.join(s)})" for j, s in result["bodies"].items()) + ".", "",
-             "## Torque RMS", ""]
+    lines = [
+        f"# Stage 2: the wearer of `{display_path(result['urdf'])}`",
+        "",
+        f"pinid {__version__}; the exoskeleton fixed to `{display_path(result['exo'])}` (stage 1); "
+        f"solver status {result['status']}, {result['seconds']:.2f} s.",
+        "",
+        "Bodies carrying wearer segments: "
+        + ", ".join(f"`{j}` ({', '.join(s)})" for j, s in result["bodies"].items())
+        + ".",
+        "",
+        "## Torque RMS",
+        "",
+    ]
     for kind, title in (("train_rms", "Training"), ("validation_rms", "Validation")):
         if result.get(kind):
             lines += [f"{title}:", "", _rms_table(result[kind]), ""]
@@ -49,18 +61,39 @@ def wearer_markdown(result: Mapping, figures: Mapping[str, str] | None = None) -
     if "torque" in figures:
         lines += [f"![measured and predicted torque of the three models]({figures['torque']})", ""]
     base, table = result["base"], result["base_table"]
-    lines += ["## The wearer's base parameters", "",
-              "What the data determine (identified) against the anthropometric tables; the rest of the "
-              "standard parameters follow the tables (stage 2's null-space pull).", "",
-              markdown_table(["base parameter", "identified", "table", "difference %"],
-                     [[f"`{n}`", number(v, ".6g"), number(table[n], ".6g"),
-                       number(100 * (v - table[n]) / table[n], "+.3g") if table[n] else "–"] for n, v in base.items()]),
-              "", "## The wearer's standard parameters", "",
-              "Per body (about the joint frame: m [kg], m·c [kg·m], inertia [kg·m²]; kp: scale of the "
-              "published passive moment).", "",
-              markdown_table(["parameter", "identified", "table"],
-                     [[f"`{n}`", number(v, ".6g"), number(result["table"][n], ".6g")]
-                      for n, v in result["parameters"].items() if v or result["table"][n]])]
+    lines += [
+        "## The wearer's base parameters",
+        "",
+        "What the data determine (identified) against the anthropometric tables; the rest of the "
+        "standard parameters follow the tables (stage 2's null-space pull).",
+        "",
+        markdown_table(
+            ["base parameter", "identified", "table", "difference %"],
+            [
+                [
+                    f"`{n}`",
+                    number(v, ".6g"),
+                    number(table[n], ".6g"),
+                    number(100 * (v - table[n]) / table[n], "+.3g") if table[n] else "–",
+                ]
+                for n, v in base.items()
+            ],
+        ),
+        "",
+        "## The wearer's standard parameters",
+        "",
+        "Per body (about the joint frame: m [kg], m·c [kg·m], inertia [kg·m²]; kp: scale of the "
+        "published passive moment).",
+        "",
+        markdown_table(
+            ["parameter", "identified", "table"],
+            [
+                [f"`{n}`", number(v, ".6g"), number(result["table"][n], ".6g")]
+                for n, v in result["parameters"].items()
+                if v or result["table"][n]
+            ],
+        ),
+    ]
     exp = result.get("passive_exponents")
     if exp:
         rows = []
@@ -69,20 +102,36 @@ def wearer_markdown(result: Mapping, figures: Mapping[str, str] | None = None) -
             k, col = int(rest.split("]")[0]), " HKA".index(name[-1])
             pub, fit = exp["published"][joint][k][col], exp["fitted"][joint][k][col]
             rows.append([f"`{name}`", number(pub, ".6g"), number(fit, ".6g"), number(fit / pub, ".4g")])
-        lines += ["", "## Passive-moment exponents", "",
-                  f"Fitted by nonlinear least squares from the published values (Riener & Edrich 1999), within "
-                  f"0.5–2× of them: {len(exp['free'])} coefficients [1/deg], {exp['evaluations']} evaluations, "
-                  f"{exp['seconds']:.2f} s. Torque RMS of the unconstrained fit: {number(exp['rms_published'])} N·m "
-                  f"at the published exponents, {number(exp['rms_fitted'])} N·m at the fitted ones.", "",
-                  markdown_table(["coefficient", "published", "fitted", "fitted / published"], rows)]
-    lines += ["", "## Using the result", "", "```python", "from pinid.identification.identified import IdentifiedModel", "",
-              "model = IdentifiedModel.load(\"model_wearer.json\")   # exo + identified wearer (model_table.json: the tables)",
-              "tau = model.inverse_dynamics(q, dq, ddq)", "g = model.gravity(q)                               # passive moments included",
-              "```", ""]
+        lines += [
+            "",
+            "## Passive-moment exponents",
+            "",
+            f"Fitted by nonlinear least squares from the published values (Riener & Edrich 1999), within "
+            f"0.5–2× of them: {len(exp['free'])} coefficients [1/deg], {exp['evaluations']} evaluations, "
+            f"{exp['seconds']:.2f} s. Torque RMS of the unconstrained fit: {number(exp['rms_published'])} N·m "
+            f"at the published exponents, {number(exp['rms_fitted'])} N·m at the fitted ones.",
+            "",
+            markdown_table(["coefficient", "published", "fitted", "fitted / published"], rows),
+        ]
+    lines += [
+        "",
+        "## Using the result",
+        "",
+        "```python",
+        "from pinid.identification.identified import IdentifiedModel",
+        "",
+        'model = IdentifiedModel.load("model_wearer.json")   # exo + identified wearer (model_table.json: the tables)',
+        "tau = model.inverse_dynamics(q, dq, ddq)",
+        "g = model.gravity(q)                               # passive moments included",
+        "```",
+        "",
+    ]
     return "\n".join(lines)
 
 
-def wearer_report_files(result: Mapping, curves: Mapping | None = None, *, figures: bool = True) -> dict[str, str | bytes]:
+def wearer_report_files(
+    result: Mapping, curves: Mapping | None = None, *, figures: bool = True
+) -> dict[str, str | bytes]:
     """``report.md``, ``report.html`` (figures embedded) and ``torque_wearer.png`` of stage-2 ``result``.
 
     ``curves``: ``{"t" (N,) [s], "measured" (N, nv) [N·m], "predicted": {model: (N, nv)}, "joints",
@@ -97,9 +146,14 @@ def wearer_report_files(result: Mapping, curves: Mapping | None = None, *, figur
 
         t = np.asarray(curves["t"], dtype=float)
         span = f", first {WINDOW:g} s" if len(t) and t[-1] - t[0] > WINDOW else ""
-        fig = torque_comparison(t, curves["measured"], {MODELS[w]: p for w, p in curves["predicted"].items()},
-                                list(curves["joints"]), window=WINDOW,
-                                title=f"measured and predicted torque ({curves['kind']}, {curves['source']}{span})")
+        fig = torque_comparison(
+            t,
+            curves["measured"],
+            {MODELS[w]: p for w, p in curves["predicted"].items()},
+            list(curves["joints"]),
+            window=WINDOW,
+            title=f"measured and predicted torque ({curves['kind']}, {curves['source']}{span})",
+        )
         pngs["torque_wearer.png"] = figure_png(fig)
     text = wearer_markdown(result, {"torque": "torque_wearer.png"} if pngs else None)
     return {"report.md": text, "report.html": markdown_to_html(text, pngs, title="pinid: stage 2, the wearer"), **pngs}

@@ -31,16 +31,23 @@ def cad_truth(truth: dict, model: RobotModel, cad: RobotModel, percent: float) -
     terms = JointTerms()
     theta = standard_parameters(cad, terms)
     bp = base_parameters(model, terms)
-    return {"percent": float(percent), "standard": {"names": truth["standard"]["names"], "values": theta.tolist()},
-            "base": {"names": bp.names, "values": bp.from_standard(theta).tolist()}}
+    return {
+        "percent": float(percent),
+        "standard": {"names": truth["standard"]["names"], "values": theta.tolist()},
+        "base": {"names": bp.names, "values": bp.from_standard(theta).tolist()},
+    }
 
 
 def drawn_wearer_truth(table: np.ndarray, drawn: dict) -> dict:
     """The ``wearer["drawn"]`` entry of a twin's truth when its wearer was drawn away from the tables
     (:func:`pinid.wearer.prior.draw_wearer`'s defaults: mass ±25 %, centre of mass ±20 %): the drawn
     wearer's standard parameters per joint and the robot's table (URDF) standard parameters."""
-    return {"mass_percent": 25.0, "com_percent": 20.0, "wearer_standard": {j: w.tolist() for j, w in drawn.items()},
-            "table_standard": table.tolist()}
+    return {
+        "mass_percent": 25.0,
+        "com_percent": 20.0,
+        "wearer_standard": {j: w.tolist() for j, w in drawn.items()},
+        "table_standard": table.tolist(),
+    }
 
 
 def truth_path_for(path: str | os.PathLike) -> Path:
@@ -54,10 +61,17 @@ def simulation_paths(path, *, truth_path=None, true_signals=None, cad_urdf=None)
     return [Path(path), Path(truth_path or truth_path_for(path))] + [Path(p) for p in (true_signals, cad_urdf) if p]
 
 
-def write_simulation(recording: Dataset, truth: dict, path: str | os.PathLike, *,
-                     truth_path: str | os.PathLike | None = None, true_signals: str | os.PathLike | None = None,
-                     cad: RobotModel | None = None, cad_urdf: str | os.PathLike | None = None,
-                     overwrite: bool | None = None) -> list[Path]:
+def write_simulation(
+    recording: Dataset,
+    truth: dict,
+    path: str | os.PathLike,
+    *,
+    truth_path: str | os.PathLike | None = None,
+    true_signals: str | os.PathLike | None = None,
+    cad: RobotModel | None = None,
+    cad_urdf: str | os.PathLike | None = None,
+    overwrite: bool | None = None,
+) -> list[Path]:
     """Write a twin's run, all or nothing: the ``recording`` at ``path`` (CSV or NPZ), the ``truth`` as
     JSON (default :func:`truth_path_for`), with ``true_signals`` the noise-free signals, with ``cad_urdf``
     the URDF of the ``cad`` model (its percent from ``truth["cad"]``).  ``overwrite``: replace existing
@@ -69,22 +83,31 @@ def write_simulation(recording: Dataset, truth: dict, path: str | os.PathLike, *
         arts.add(true_signals, lambda p: write_recording(p, truth["signals"]))
     if cad_urdf:
         terms = JointTerms()
-        arts.add(cad_urdf, lambda p: identified_urdf(
-            cad, standard_parameters(cad, terms), terms, p, origin="a CAD model written by pinid simulate",
-            comment=f"the truth's inertial parameters perturbed by about {truth['cad']['percent']:g} %, "
-                    f"seed {truth['seed']}"))
+        arts.add(
+            cad_urdf,
+            lambda p: identified_urdf(
+                cad,
+                standard_parameters(cad, terms),
+                terms,
+                p,
+                origin="a CAD model written by pinid simulate",
+                comment=f"the truth's inertial parameters perturbed by about {truth['cad']['percent']:g} %, "
+                f"seed {truth['seed']}",
+            ),
+        )
     return arts.write()
 
 
-def simulation_text(recording: Dataset, truth: dict, path, *, truth_path=None, true_signals=None,
-                    cad_urdf=None) -> str:
+def simulation_text(recording: Dataset, truth: dict, path, *, truth_path=None, true_signals=None, cad_urdf=None) -> str:
     """What ``pinid simulate`` prints after :func:`write_simulation`: each file written, with the samples,
     rate, joints and tracking error [rad] of the recording and the parameter counts of the truth."""
     track = ", ".join(f"{j} {v:.2g}" for j, v in truth["tracking"]["rms_error"].items())
-    lines = [f"wrote {path} ({recording.n} samples at {truth['rates']['sample']} Hz, joints "
-             f"{', '.join(recording.joints)}; tracking error rms [rad]: {track})",
-             f"wrote {truth_path or truth_path_for(path)} ({len(truth['standard']['names'])} standard, "
-             f"{len(truth['base']['names'])} base parameters)"]
+    lines = [
+        f"wrote {path} ({recording.n} samples at {truth['rates']['sample']} Hz, joints "
+        f"{', '.join(recording.joints)}; tracking error rms [rad]: {track})",
+        f"wrote {truth_path or truth_path_for(path)} ({len(truth['standard']['names'])} standard, "
+        f"{len(truth['base']['names'])} base parameters)",
+    ]
     if true_signals:
         lines.append(f"wrote {true_signals} (noise-free signals)")
     if cad_urdf:

@@ -93,7 +93,9 @@ def trajectory_presets() -> list[str]:
     return [f"zha2019-{k}" for k in ZHA2019_TABLE1]
 
 
-def zha2019_trajectory(number: int, joints: Sequence[str] = ("hip", "knee"), signs: Sequence[float] = (1.0, 1.0)) -> FourierTrajectory:
+def zha2019_trajectory(
+    number: int, joints: Sequence[str] = ("hip", "knee"), signs: Sequence[float] = (1.0, 1.0)
+) -> FourierTrajectory:
     """Seed 000's Table 1 trajectory ``number`` (1–4) as a Fourier trajectory (ω = 2π rad/s, one harmonic).
 
     ``joints``: names for (hip, knee); ``signs``: +1 or −1 per joint when the robot's axis points the other
@@ -105,9 +107,17 @@ def zha2019_trajectory(number: int, joints: Sequence[str] = ("hip", "knee"), sig
     d = np.pi / 180
     s = np.asarray(signs, dtype=float)
     return FourierTrajectory(
-        list(joints), 2 * np.pi, s * np.array([ho, ko]) * d, (s * np.array([ha, ka]) * d)[:, None], np.zeros((2, 1)),
-        meta={"name": f"zha2019-{number}", "source": "Zha et al. 2019 (seed 000), Table 1",
-              "paper_degrees": {"hip": [ho, ha], "knee": [ko, ka]}, "signs": s.tolist()},
+        list(joints),
+        2 * np.pi,
+        s * np.array([ho, ko]) * d,
+        (s * np.array([ha, ka]) * d)[:, None],
+        np.zeros((2, 1)),
+        meta={
+            "name": f"zha2019-{number}",
+            "source": "Zha et al. 2019 (seed 000), Table 1",
+            "paper_degrees": {"hip": [ho, ha], "knee": [ko, ka]},
+            "signs": s.tolist(),
+        },
     )
 
 
@@ -134,22 +144,28 @@ def load_trajectory(spec: str, model: RobotModel, *, flip: Sequence[str] = ()) -
         elif len(names) == 2:
             joints, signs = list(names), [1.0, 1.0]
         else:
-            raise SpecError(f"trajectory preset {spec} is for a two-joint leg (hip, knee); {model.name} has joints "
-                            f"{', '.join(names)}")
+            raise SpecError(
+                f"trajectory preset {spec} is for a two-joint leg (hip, knee); {model.name} has joints "
+                f"{', '.join(names)}"
+            )
         for f in flip:
             if f not in joints:
                 raise SpecError(f"--flip {f}: not a joint of the preset (its joints: {', '.join(joints)})")
         signs = [-s if j in flip else s for j, s in zip(joints, signs)]
         if len(names) != 2:
-            raise SpecError(f"trajectory preset {spec} moves two joints; {model.name} has {len(names)} active joints "
-                            f"({', '.join(names)}); lock the others with --lock")
+            raise SpecError(
+                f"trajectory preset {spec} moves two joints; {model.name} has {len(names)} active joints "
+                f"({', '.join(names)}); lock the others with --lock"
+            )
         return zha2019_trajectory(number, joints, signs)
     p = Path(spec)
     if not p.exists() and spec in bundled_trajectories():
         p = EXCITATION_DIR / f"{spec}.json"
     if not p.exists():
-        raise SpecError(f"{spec}: no such excitation file, and not a bundled trajectory "
-                        f"({', '.join(bundled_trajectories())}) or a preset ({', '.join(trajectory_presets())})")
+        raise SpecError(
+            f"{spec}: no such excitation file, and not a bundled trajectory "
+            f"({', '.join(bundled_trajectories())}) or a preset ({', '.join(trajectory_presets())})"
+        )
     tr = FourierTrajectory.load(p)
     if flip:
         raise SpecError("--flip applies to trajectory presets only; an excitation file is in the URDF's convention")
@@ -201,21 +217,35 @@ def _rates(control_rate: float, sample_rate: float, integration_rate: float | No
     if integration_rate is None:
         grid = base * max(1, math.ceil(2000 / base))
     else:
-        if not np.isfinite(integration_rate) or integration_rate <= 0 or float(integration_rate) != int(integration_rate) \
-                or int(integration_rate) % base:
-            raise SpecError(f"integration rate {integration_rate!r}, expected a whole multiple of {base} Hz "
-                            f"(the least common multiple of the control and sample rates)")
+        if (
+            not np.isfinite(integration_rate)
+            or integration_rate <= 0
+            or float(integration_rate) != int(integration_rate)
+            or int(integration_rate) % base
+        ):
+            raise SpecError(
+                f"integration rate {integration_rate!r}, expected a whole multiple of {base} Hz "
+                f"(the least common multiple of the control and sample rates)"
+            )
         grid = int(integration_rate)
     if grid > 200_000:
-        raise SpecError(f"control rate {c} Hz and sample rate {s} Hz need a {grid} Hz integration grid; "
-                        "expected rates whose least common multiple is at most 200 kHz")
+        raise SpecError(
+            f"control rate {c} Hz and sample rate {s} Hz need a {grid} Hz integration grid; "
+            "expected rates whose least common multiple is at most 200 kHz"
+        )
     return c, s, grid
 
 
 def _per_joint(value, model: RobotModel, name: str) -> np.ndarray:
-    a = np.broadcast_to(np.asarray(value, dtype=float), (model.nv,)).copy() if np.ndim(value) == 0 else np.asarray(value, float)
+    a = (
+        np.broadcast_to(np.asarray(value, dtype=float), (model.nv,)).copy()
+        if np.ndim(value) == 0
+        else np.asarray(value, float)
+    )
     if a.shape != (model.nv,) or not np.all(np.isfinite(a)):
-        raise SpecError(f"{name}: {value!r}, expected one finite number or one per joint ({model.nv}: {model.joint_names})")
+        raise SpecError(
+            f"{name}: {value!r}, expected one finite number or one per joint ({model.nv}: {model.joint_names})"
+        )
     return a
 
 
@@ -233,8 +263,14 @@ class Plant:
     term with a smoothed law (Coulomb-like, stiff near zero velocity) joins the implicit friction with
     its velocity derivative (central difference)."""
 
-    def __init__(self, model: RobotModel, coulomb: np.ndarray, viscous: np.ndarray, coulomb_velocity: float,
-                 terms: dict[str, np.ndarray] | None = None) -> None:
+    def __init__(
+        self,
+        model: RobotModel,
+        coulomb: np.ndarray,
+        viscous: np.ndarray,
+        coulomb_velocity: float,
+        terms: dict[str, np.ndarray] | None = None,
+    ) -> None:
         self.model = model
         self.fc = np.asarray(coulomb, dtype=float)
         self.fv = np.asarray(viscous, dtype=float)
@@ -258,9 +294,11 @@ class Plant:
 
     def _extra(self, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Torque [N·m] of the extra terms at (q, v), and its velocity derivative (diagonal) [N·m·s/rad]."""
+
         def f(terms, vel):
             m = _terms.Motion(q[None], vel[None], np.zeros((1, q.size)), self.model.joint_names, self.model)
             return sum((t.torque(x, m, self._vs)[0] for t, x in terms), np.zeros(q.size))
+
         stiff = [(t, x) for t, x in self.extra if t.plant is not None]
         D = np.zeros(q.size)
         if stiff:
@@ -268,7 +306,9 @@ class Plant:
             D = (f(stiff, v + dv) - f(stiff, v - dv)) / (2 * dv)
         return f(self.extra, v), D
 
-    def step(self, q: np.ndarray, v: np.ndarray, tau: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def step(
+        self, q: np.ndarray, v: np.ndarray, tau: np.ndarray, h: float
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(ddq, q_next, v_next)``: the acceleration at (q, v) under ``tau`` and the state ``h`` [s] later."""
         pm, pdata = self.model.pin_model, self._data
         qc = self._conf(q)
@@ -360,14 +400,30 @@ class Sensors:
 
 
 #: The flat keywords :func:`simulate` also takes: which option group and field each one sets.
-_FLAT = {"control_rate": ("rates", "control"), "sample_rate": ("rates", "sample"),
-         "integration_rate": ("rates", "integration"), "bandwidth": ("controller", "bandwidth"),
-         "kp": ("controller", "kp"), "kd": ("controller", "kd"), "ki": ("controller", "ki"),
-         "feedforward": ("controller", "feedforward"), "feedforward_model": ("controller", "feedforward_model"),
-         "velocity_cutoff": ("controller", "velocity_cutoff"),
-         **{k: ("friction", k) for k in ("coulomb", "viscous", "coulomb_velocity")},
-         **{k: ("sensors", k) for k in ("position_noise", "encoder_resolution", "torque_noise", "torque_noise_percent",
-                                         "record_velocity", "velocity_noise")}}
+_FLAT = {
+    "control_rate": ("rates", "control"),
+    "sample_rate": ("rates", "sample"),
+    "integration_rate": ("rates", "integration"),
+    "bandwidth": ("controller", "bandwidth"),
+    "kp": ("controller", "kp"),
+    "kd": ("controller", "kd"),
+    "ki": ("controller", "ki"),
+    "feedforward": ("controller", "feedforward"),
+    "feedforward_model": ("controller", "feedforward_model"),
+    "velocity_cutoff": ("controller", "velocity_cutoff"),
+    **{k: ("friction", k) for k in ("coulomb", "viscous", "coulomb_velocity")},
+    **{
+        k: ("sensors", k)
+        for k in (
+            "position_noise",
+            "encoder_resolution",
+            "torque_noise",
+            "torque_noise_percent",
+            "record_velocity",
+            "velocity_noise",
+        )
+    },
+}
 
 
 def simulate(
@@ -400,8 +456,12 @@ def simulate(
     the RMS gravity torque along the trajectory (:func:`wearer_disturbance`); it acts on the plant but is
     not in the recorded (motor) torque.  Everything random comes from ``seed``; more in the module text.
     """
-    groups = {"rates": rates or Rates(), "friction": friction or Friction(), "sensors": sensors or Sensors(),
-              "controller": Controller(kind=controller) if isinstance(controller, str) else controller or Controller()}
+    groups = {
+        "rates": rates or Rates(),
+        "friction": friction or Friction(),
+        "sensors": sensors or Sensors(),
+        "controller": Controller(kind=controller) if isinstance(controller, str) else controller or Controller(),
+    }
     changes: dict[str, dict] = {}
     for key, value in options.items():
         if key not in _FLAT:
@@ -409,23 +469,67 @@ def simulate(
         group, name = _FLAT[key]
         changes.setdefault(group, {})[name] = value
     r, c, f, s = (replace(groups[g], **changes.get(g, {})) for g in ("rates", "controller", "friction", "sensors"))
-    return _simulate(model, trajectory, seconds=seconds, seed=seed, control_rate=r.control, sample_rate=r.sample,
-                     integration_rate=r.integration, controller=c.kind, bandwidth=c.bandwidth, kp=c.kp, kd=c.kd,
-                     ki=c.ki, feedforward=c.feedforward, feedforward_model=c.feedforward_model,
-                     velocity_cutoff=c.velocity_cutoff, coulomb=f.coulomb, viscous=f.viscous,
-                     coulomb_velocity=f.coulomb_velocity, position_noise=s.position_noise,
-                     encoder_resolution=s.encoder_resolution, torque_noise=s.torque_noise,
-                     torque_noise_percent=s.torque_noise_percent, record_velocity=s.record_velocity,
-                     velocity_noise=s.velocity_noise, terms=terms, wearer_torque=wearer_torque, progress=progress)
+    return _simulate(
+        model,
+        trajectory,
+        seconds=seconds,
+        seed=seed,
+        control_rate=r.control,
+        sample_rate=r.sample,
+        integration_rate=r.integration,
+        controller=c.kind,
+        bandwidth=c.bandwidth,
+        kp=c.kp,
+        kd=c.kd,
+        ki=c.ki,
+        feedforward=c.feedforward,
+        feedforward_model=c.feedforward_model,
+        velocity_cutoff=c.velocity_cutoff,
+        coulomb=f.coulomb,
+        viscous=f.viscous,
+        coulomb_velocity=f.coulomb_velocity,
+        position_noise=s.position_noise,
+        encoder_resolution=s.encoder_resolution,
+        torque_noise=s.torque_noise,
+        torque_noise_percent=s.torque_noise_percent,
+        record_velocity=s.record_velocity,
+        velocity_noise=s.velocity_noise,
+        terms=terms,
+        wearer_torque=wearer_torque,
+        progress=progress,
+    )
 
 
-def _simulate(model: RobotModel, trajectory: FourierTrajectory, *, seconds: float, seed: int, control_rate: float,
-              sample_rate: float | None, integration_rate: float | None, controller: str, bandwidth: float, kp, kd,
-              ki, feedforward: str, feedforward_model: RobotModel | None, velocity_cutoff: float, coulomb, viscous,
-              coulomb_velocity: float, position_noise: float, encoder_resolution: float, torque_noise,
-              torque_noise_percent: float, record_velocity: bool, velocity_noise: float,
-              terms: dict[str, Sequence[float]] | None, wearer_torque: float,
-              progress: bool | None) -> tuple[Dataset, dict]:
+def _simulate(
+    model: RobotModel,
+    trajectory: FourierTrajectory,
+    *,
+    seconds: float,
+    seed: int,
+    control_rate: float,
+    sample_rate: float | None,
+    integration_rate: float | None,
+    controller: str,
+    bandwidth: float,
+    kp,
+    kd,
+    ki,
+    feedforward: str,
+    feedforward_model: RobotModel | None,
+    velocity_cutoff: float,
+    coulomb,
+    viscous,
+    coulomb_velocity: float,
+    position_noise: float,
+    encoder_resolution: float,
+    torque_noise,
+    torque_noise_percent: float,
+    record_velocity: bool,
+    velocity_noise: float,
+    terms: dict[str, Sequence[float]] | None,
+    wearer_torque: float,
+    progress: bool | None,
+) -> tuple[Dataset, dict]:
     """:func:`simulate` with every option resolved (one keyword each, as the body uses them)."""
     if not np.isfinite(seconds) or seconds <= 0:
         raise SpecError(f"duration {seconds!r} s, expected a duration > 0")
@@ -433,16 +537,26 @@ def _simulate(model: RobotModel, trajectory: FourierTrajectory, *, seconds: floa
         raise SpecError(f"controller {controller!r}, expected 'pd' or 'pid'")
     if feedforward not in ("model", "gravity", "none"):
         raise SpecError(f"feed-forward {feedforward!r}, expected 'model', 'gravity' or 'none'")
-    for name, v in (("bandwidth", bandwidth), ("coulomb velocity scale", coulomb_velocity), ("velocity cut-off", velocity_cutoff)):
+    for name, v in (
+        ("bandwidth", bandwidth),
+        ("coulomb velocity scale", coulomb_velocity),
+        ("velocity cut-off", velocity_cutoff),
+    ):
         if not np.isfinite(v) or v <= 0:
             raise SpecError(f"{name} {v!r}, expected a value > 0")
-    for name, v in (("position noise", position_noise), ("encoder resolution", encoder_resolution), ("velocity noise", velocity_noise)):
+    for name, v in (
+        ("position noise", position_noise),
+        ("encoder resolution", encoder_resolution),
+        ("velocity noise", velocity_noise),
+    ):
         if not np.isfinite(v) or v < 0:
             raise SpecError(f"{name} {v!r}, expected a value >= 0")
     sample_rate = control_rate if sample_rate is None else sample_rate
     ctrl, smp, grid = _rates(control_rate, sample_rate, integration_rate)
     if velocity_cutoff >= ctrl / 2:
-        raise SpecError(f"velocity cut-off {velocity_cutoff:g} Hz, expected below half the control rate ({ctrl / 2:g} Hz)")
+        raise SpecError(
+            f"velocity cut-off {velocity_cutoff:g} Hz, expected below half the control rate ({ctrl / 2:g} Hz)"
+        )
     n_c, n_s = grid // ctrl, grid // smp
     n_steps = int(round(seconds * grid))
     if n_steps < 2 * n_s:
@@ -467,15 +581,21 @@ def _simulate(model: RobotModel, trajectory: FourierTrajectory, *, seconds: floa
         out = np.flatnonzero((qd[:, j] < lo[j] - tol) | (qd[:, j] > hi[j] + tol))
         if out.size:
             k = int(out[0])
-            raise SpecError(f"trajectory takes joint '{model.joint_names[j]}' to {qd[k, j]:.4g} rad at t = {t_ctrl[k]:.4g} s, "
-                            f"outside its URDF limits [{lo[j]:.4g}, {hi[j]:.4g}]")
+            raise SpecError(
+                f"trajectory takes joint '{model.joint_names[j]}' to {qd[k, j]:.4g} rad at t = {t_ctrl[k]:.4g} s, "
+                f"outside its URDF limits [{lo[j]:.4g}, {hi[j]:.4g}]"
+            )
 
     vmax = model.velocity_limit
     over = np.flatnonzero(np.max(np.abs(dqd), axis=0) > vmax * (1 + 1e-9))
     if over.size:
         j = int(over[0])
-        warnings.warn(f"trajectory reaches {np.max(np.abs(dqd[:, j])):.3g} rad/s on joint '{model.joint_names[j]}', "
-                      f"above its URDF velocity limit {vmax[j]:.3g} rad/s (simulated anyway)", DataWarning, stacklevel=3)
+        warnings.warn(
+            f"trajectory reaches {np.max(np.abs(dqd[:, j])):.3g} rad/s on joint '{model.joint_names[j]}', "
+            f"above its URDF velocity limit {vmax[j]:.3g} rad/s (simulated anyway)",
+            DataWarning,
+            stacklevel=3,
+        )
     pm, pdata = model.pin_model, model.pin_model.createData()
     cont = bool(model._continuous)
     conf = model.configuration if cont else (lambda x: x)
@@ -509,7 +629,11 @@ def _simulate(model: RobotModel, trajectory: FourierTrajectory, *, seconds: floa
     g_rms = np.sqrt(np.mean(model.rnea(qd, np.zeros_like(qd), np.zeros_like(qd)) ** 2, axis=0))
     disturbance = wearer_disturbance(t_ctrl, wearer_torque / 100.0 * g_rms, rng_w) if wearer_torque > 0 else None
     g = math.gcd(n_c, n_s)
-    q_noise = rng_q.normal(0.0, position_noise, (n_steps // g + 1, nv)) if position_noise > 0 else np.zeros((n_steps // g + 1, nv))
+    q_noise = (
+        rng_q.normal(0.0, position_noise, (n_steps // g + 1, nv))
+        if position_noise > 0
+        else np.zeros((n_steps // g + 1, nv))
+    )
     res = float(encoder_resolution)
 
     def measure(i: int, q: np.ndarray) -> np.ndarray:
@@ -564,8 +688,10 @@ def _simulate(model: RobotModel, trajectory: FourierTrajectory, *, seconds: floa
                 s_idx += 1
             q, v = q_new, v_new
             if not np.all(np.isfinite(v)):
-                raise DataError(f"simulation diverged at t = {i * h:.4g} s; expected a stable closed loop "
-                                "(lower --bandwidth or raise the control rate)")
+                raise DataError(
+                    f"simulation diverged at t = {i * h:.4g} s; expected a stable closed loop "
+                    "(lower --bandwidth or raise the control rate)"
+                )
     finally:
         if bar is not None:
             bar.close()
@@ -585,9 +711,18 @@ def _simulate(model: RobotModel, trajectory: FourierTrajectory, *, seconds: floa
     rec_tau = true_tau + rng_tau.normal(0.0, 1.0, true_tau.shape) * sigma_tau
     rec_dq = true_v + rng_v.normal(0.0, velocity_noise, true_v.shape) if record_velocity else None
     joints = model.joint_names
-    recording = Dataset(t=rec_t, q=rec_q, joints=joints, dq=rec_dq, tau=rec_tau, source="pinid simulate",
-                        meta={"simulated": True, "seed": int(seed)})
-    signals = Dataset(t=rec_t, q=true_q, joints=joints, dq=true_v, ddq=true_a, tau=true_tau, source="pinid simulate (truth)")
+    recording = Dataset(
+        t=rec_t,
+        q=rec_q,
+        joints=joints,
+        dq=rec_dq,
+        tau=rec_tau,
+        source="pinid simulate",
+        meta={"simulated": True, "seed": int(seed)},
+    )
+    signals = Dataset(
+        t=rec_t, q=true_q, joints=joints, dq=true_v, ddq=true_a, tau=true_tau, source="pinid simulate (truth)"
+    )
 
     terms = JointTerms(names=["fc", "fv"] + list(extra) + _motor_terms(model).names)
     truth_model = model.with_inertial_parameters(model.inertial_parameters(), coulomb=fc, viscous=fv)
@@ -613,34 +748,47 @@ def _simulate(model: RobotModel, trajectory: FourierTrajectory, *, seconds: floa
         "base": {"names": bp.names, "expressions": bp.expressions(), "values": bp.from_standard(theta).tolist()},
         "friction": {
             "model": "tau = rnea(q, dq, ddq) + fc*sign(dq) + fv*dq (+ G^T*(motor terms at G*dq) with drives); "
-                     "the simulator uses fc*tanh(dq/v_s)",
-            "coulomb": dict(zip(joints, fc.tolist())), "viscous": dict(zip(joints, fv.tolist())),
+            "the simulator uses fc*tanh(dq/v_s)",
+            "coulomb": dict(zip(joints, fc.tolist())),
+            "viscous": dict(zip(joints, fv.tolist())),
             "coulomb_velocity_scale": float(coulomb_velocity),
         },
         "drives": None if model.drives is None else model.drives.to_dict(),
         "noise": {
-            "position_std": float(position_noise), "encoder_resolution": res,
+            "position_std": float(position_noise),
+            "encoder_resolution": res,
             "torque_std": dict(zip(joints, np.asarray(sigma_tau, float).tolist())),
             "velocity_std": float(velocity_noise) if record_velocity else None,
         },
         "controller": {
-            "type": controller, "bandwidth_hz": float(bandwidth), "feedforward": feedforward,
+            "type": controller,
+            "bandwidth_hz": float(bandwidth),
+            "feedforward": feedforward,
             "feedforward_model": "truth" if feedforward_model is None else "given (e.g. perturbed CAD)",
-            "kp": Kp.tolist(), "kd": Kd.tolist(), "ki": Ki.tolist(), "velocity_cutoff_hz": float(velocity_cutoff),
+            "kp": Kp.tolist(),
+            "kd": Kd.tolist(),
+            "ki": Ki.tolist(),
+            "velocity_cutoff_hz": float(velocity_cutoff),
             "saturated_fraction": saturated / max(1, len(k_ctrl) - 1),
         },
-        "tracking": {"rms_error": dict(zip(joints, np.sqrt(np.mean(err**2, axis=0)).tolist())),
-                     "max_error": dict(zip(joints, np.max(np.abs(err), axis=0).tolist()))},
+        "tracking": {
+            "rms_error": dict(zip(joints, np.sqrt(np.mean(err**2, axis=0)).tolist())),
+            "max_error": dict(zip(joints, np.max(np.abs(err), axis=0).tolist())),
+        },
         "signals": signals,
     }
     if extra or disturbance is not None or _wearer(model):
         truth["wearer"] = {
-            "table_segments": {s: {"link": lk, "mass": m, "com": c.tolist(), "inertia_about_com": I.tolist()}
-                         for s, (lk, m, c, I) in _wearer(model).items()},
+            "table_segments": {
+                s: {"link": lk, "mass": m, "com": c.tolist(), "inertia_about_com": I.tolist()}
+                for s, (lk, m, c, I) in _wearer(model).items()
+            },
             "terms": {n: dict(zip(joints, v.tolist())) for n, v in extra.items()},
-            "active_torque": {"percent_of_gravity_rms": float(wearer_torque),
-                              "rms": dict(zip(joints, (wearer_torque / 100.0 * g_rms).tolist())),
-                              "band_hz": list(WEARER_BAND)},
+            "active_torque": {
+                "percent_of_gravity_rms": float(wearer_torque),
+                "rms": dict(zip(joints, (wearer_torque / 100.0 * g_rms).tolist())),
+                "band_hz": list(WEARER_BAND),
+            },
         }
     return recording, truth
 
@@ -674,8 +822,10 @@ def plant_terms(model: RobotModel, terms: dict | None = None) -> dict[str, np.nd
     for name, v in terms.items():
         t = _terms.TERMS.get(name)
         if t is None or t.space != "joint" or name in ("fc", "fv"):
-            raise SpecError(f"plant term {name!r}, expected a joint term other than fc and fv (give those as "
-                            f"coulomb/viscous): {[n for n, x in _terms.TERMS.items() if x.space == 'joint' and n not in ('fc', 'fv')]}")
+            raise SpecError(
+                f"plant term {name!r}, expected a joint term other than fc and fv (give those as "
+                f"coulomb/viscous): {[n for n, x in _terms.TERMS.items() if x.space == 'joint' and n not in ('fc', 'fv')]}"
+            )
         out[name] = _per_joint(v, model, f"term {name}")
     return out
 
@@ -709,7 +859,8 @@ _DEPRECATED = {"SEED000_TABLE1": "ZHA2019_TABLE1", "seed000_trajectory": "zha201
 
 def __getattr__(name: str):
     if name in _DEPRECATED:
-        warnings.warn(f"pinid.simulation.twin.{name} is deprecated, use {_DEPRECATED[name]}", DeprecationWarning,
-                      stacklevel=2)
+        warnings.warn(
+            f"pinid.simulation.twin.{name} is deprecated, use {_DEPRECATED[name]}", DeprecationWarning, stacklevel=2
+        )
         return globals()[_DEPRECATED[name]]
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

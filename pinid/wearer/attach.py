@@ -92,8 +92,10 @@ def place(root: ET.Element, pairs, *, mass: float, height: float, sex: str, sour
         elif point in links:
             link = point
         else:
-            raise SpecError(f"--attach {point}:{seg}: {point!r} names no joint or link of {source} "
-                            f"(joints: {', '.join(joints)}; links: {', '.join(links)})")
+            raise SpecError(
+                f"--attach {point}:{seg}: {point!r} names no joint or link of {source} "
+                f"(joints: {', '.join(joints)}; links: {', '.join(links)})"
+            )
         pj = parent_joint.get(link)
         axis_el = pj.find("axis") if pj is not None else None
         axis = _unit(_vec(axis_el.get("xyz") if axis_el is not None else None, (1.0, 0, 0)))
@@ -128,8 +130,15 @@ def _num(x: float) -> str:
     return "0" if abs(x) < 1e-15 else f"{float(x):.10g}"
 
 
-def wearer_urdf(urdf: str | os.PathLike, attach: str | list[tuple[str, str]], *, mass: float, height: float,
-                sex: str, path: str | os.PathLike | None = None) -> str:
+def wearer_urdf(
+    urdf: str | os.PathLike,
+    attach: str | list[tuple[str, str]],
+    *,
+    mass: float,
+    height: float,
+    sex: str,
+    path: str | os.PathLike | None = None,
+) -> str:
     """The URDF ``urdf`` (file or robot name) with the wearer's segments fixed to it; written to ``path`` if given.
 
     ``attach``: ``"hip:thigh,knee:shank"`` or pairs (exo joint or link, segment); ``mass`` [kg],
@@ -141,35 +150,57 @@ def wearer_urdf(urdf: str | os.PathLike, attach: str | list[tuple[str, str]], *,
     pairs = parse_attach(attach) if isinstance(attach, str) else list(attach)
     file, _ = resolve_robot(urdf)
     try:
-        root = ET.fromstring(file.read_text(encoding="utf-8"),
-                             parser=ET.XMLParser(target=ET.TreeBuilder(insert_comments=True)))
+        root = ET.fromstring(
+            file.read_text(encoding="utf-8"), parser=ET.XMLParser(target=ET.TreeBuilder(insert_comments=True))
+        )
     except ET.ParseError as exc:
         raise SpecError(f"{file}: not a valid URDF ({exc})") from None
     if root.find(f"link[@name='{PREFIX}thigh']") is not None or any(
-            (lk.get("name") or "").startswith(PREFIX) for lk in root.findall("link")):
+        (lk.get("name") or "").startswith(PREFIX) for lk in root.findall("link")
+    ):
         raise SpecError(f"{file}: already carries a wearer (links named {PREFIX}*), expected a bare exoskeleton")
     placements = place(root, pairs, mass=mass, height=height, sex=sex, source=file.name)
-    root.append(ET.Comment(
-        f" pinid wearer: {sex}, {mass:g} kg, {height:g} m, de Leva 1996 (pinid/resources/anthropometry/"
-        "de_leva_1996.toml); segments fixed to the exo links, proximal endpoint at the joint centre "))
+    root.append(
+        ET.Comment(
+            f" pinid wearer: {sex}, {mass:g} kg, {height:g} m, de Leva 1996 (pinid/resources/anthropometry/"
+            "de_leva_1996.toml); segments fixed to the exo links, proximal endpoint at the joint centre "
+        )
+    )
     for p in placements:
         s = p.segment
         name = f"{PREFIX}{s.name}"
         link = ET.SubElement(root, "link", name=name)
-        link.append(ET.Comment(f" {s.source}: mass {s.mass:.4g} kg, length {s.length:.4g} m, CoM {s.com:.4g} m "
-                               f"from the proximal end; inertia about the CoM in the frame of '{p.link}' "))
+        link.append(
+            ET.Comment(
+                f" {s.source}: mass {s.mass:.4g} kg, length {s.length:.4g} m, CoM {s.com:.4g} m "
+                f"from the proximal end; inertia about the CoM in the frame of '{p.link}' "
+            )
+        )
         inertial = ET.SubElement(link, "inertial")
         ET.SubElement(inertial, "origin", xyz=" ".join(_num(x) for x in p.com), rpy="0 0 0")
         ET.SubElement(inertial, "mass", value=_num(s.mass))
         I = p.inertia
-        ET.SubElement(inertial, "inertia", ixx=_num(I[0, 0]), ixy=_num(I[0, 1]), ixz=_num(I[0, 2]),
-                      iyy=_num(I[1, 1]), iyz=_num(I[1, 2]), izz=_num(I[2, 2]))
+        ET.SubElement(
+            inertial,
+            "inertia",
+            ixx=_num(I[0, 0]),
+            ixy=_num(I[0, 1]),
+            ixz=_num(I[0, 2]),
+            iyy=_num(I[1, 1]),
+            iyz=_num(I[1, 2]),
+            izz=_num(I[2, 2]),
+        )
         d = p.frame[:, 2]  # the segment as a cylinder (√2·longitudinal radius of gyration): also what
         visual = ET.SubElement(link, "visual", name="segment")  # wearer_prior reads its extent from
-        ET.SubElement(visual, "origin", xyz=" ".join(_num(x) for x in p.start + 0.5 * s.length * d),
-                      rpy=" ".join(_num(x) for x in pin.rpy.matrixToRpy(p.frame)))
-        ET.SubElement(ET.SubElement(visual, "geometry"), "cylinder", radius=_num(np.sqrt(2.0) * s.radii[2]),
-                      length=_num(s.length))
+        ET.SubElement(
+            visual,
+            "origin",
+            xyz=" ".join(_num(x) for x in p.start + 0.5 * s.length * d),
+            rpy=" ".join(_num(x) for x in pin.rpy.matrixToRpy(p.frame)),
+        )
+        ET.SubElement(
+            ET.SubElement(visual, "geometry"), "cylinder", radius=_num(np.sqrt(2.0) * s.radii[2]), length=_num(s.length)
+        )
         joint = ET.SubElement(root, "joint", name=f"{name}_strap", type="fixed")
         ET.SubElement(joint, "parent", link=p.link)
         ET.SubElement(joint, "child", link=name)
@@ -187,8 +218,11 @@ def wearer_links(urdf_text: str) -> dict[str, tuple[str, float, np.ndarray, np.n
     """The wearer segments of a URDF written by :func:`wearer_urdf`:
     ``{segment: (exo link, mass [kg], CoM [m], inertia about the CoM [kg·m²])}`` in the exo link's frame."""
     root = ET.fromstring(urdf_text)
-    parent = {j.find("child").get("link"): j.find("parent").get("link")
-              for j in root.findall("joint") if j.find("child") is not None}
+    parent = {
+        j.find("child").get("link"): j.find("parent").get("link")
+        for j in root.findall("joint")
+        if j.find("child") is not None
+    }
     out = {}
     for lk in root.findall("link"):
         name = lk.get("name") or ""
@@ -197,5 +231,10 @@ def wearer_links(urdf_text: str) -> dict[str, tuple[str, float, np.ndarray, np.n
         i = lk.find("inertial")
         g = {k: float(i.find("inertia").get(k)) for k in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")}
         I = np.array([[g["ixx"], g["ixy"], g["ixz"]], [g["ixy"], g["iyy"], g["iyz"]], [g["ixz"], g["iyz"], g["izz"]]])
-        out[name[len(PREFIX):]] = (parent[name], float(i.find("mass").get("value")), _vec(i.find("origin").get("xyz")), I)
+        out[name[len(PREFIX) :]] = (
+            parent[name],
+            float(i.find("mass").get("value")),
+            _vec(i.find("origin").get("xyz")),
+            I,
+        )
     return out

@@ -40,10 +40,16 @@ def read(path: str | Path | None = None) -> dict[str, dict[str, float]]:
     out = {}
     for joint, table in data.items():
         if joint not in ANATOMICAL or not isinstance(table, dict) or set(table) != _KEYS:
-            raise SpecError(f"{p}: [{joint}]: expected tables [hip], [knee], [ankle] with keys {', '.join(sorted(_KEYS))}")
+            raise SpecError(
+                f"{p}: [{joint}]: expected tables [hip], [knee], [ankle] with keys {', '.join(sorted(_KEYS))}"
+            )
         v = {k: table[k] for k in _KEYS}
-        if not all(isinstance(x, (int, float)) and math.isfinite(x) for x in v.values()) \
-                or v["min"] >= v["max"] or v["speed"] <= 0 or v["acceleration"] <= 0:
+        if (
+            not all(isinstance(x, (int, float)) and math.isfinite(x) for x in v.values())
+            or v["min"] >= v["max"]
+            or v["speed"] <= 0
+            or v["acceleration"] <= 0
+        ):
             raise SpecError(f"{p}: [{joint}]: expected min < max [deg], speed > 0 [deg/s], acceleration > 0 [deg/s²]")
         out[joint] = {k: float(x) for k, x in v.items()}
     return out
@@ -63,13 +69,21 @@ def within_comfort(spec, model, path: str | Path | None = None):
         a, b = sorted((math.radians(c["min"]) / s, math.radians(c["max"]) / s))
         name = model.joint_names[i]
         if a >= hi[i] or b <= lo[i]:
-            raise SpecError(f"{src}: {kind} comfort range [{c['min']:g}, {c['max']:g}] deg is joint '{name}' "
-                            f"[{a:.4g}, {b:.4g}] rad, outside its limits [{lo[i]:.4g}, {hi[i]:.4g}] rad; "
-                            "expected comfort limits that overlap the URDF's")
+            raise SpecError(
+                f"{src}: {kind} comfort range [{c['min']:g}, {c['max']:g}] deg is joint '{name}' "
+                f"[{a:.4g}, {b:.4g}] rad, outside its limits [{lo[i]:.4g}, {hi[i]:.4g}] rad; "
+                "expected comfort limits that overlap the URDF's"
+            )
         lo[i], hi[i] = max(lo[i], a), min(hi[i], b)
         dq[i] = min(dq[i], math.radians(c["speed"]))
         ddq[i] = min(ddq[i], math.radians(c["acceleration"]))
         if not lo[i] < q0[i] < hi[i]:
             q0[i] = 0.5 * (lo[i] + hi[i])
-    return spec.replace(q_min=lo, q_max=hi, dq_max=dq, ddq_max=ddq, q0=np.asarray(q0),
-                        source=f"{spec.source} within the comfort limits of {src}")
+    return spec.replace(
+        q_min=lo,
+        q_max=hi,
+        dq_max=dq,
+        ddq_max=ddq,
+        q0=np.asarray(q0),
+        source=f"{spec.source} within the comfort limits of {src}",
+    )

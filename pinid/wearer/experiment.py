@@ -29,9 +29,20 @@ def _rms(model, datasets) -> np.ndarray:
     return np.sqrt(np.mean((tau - model.inverse_dynamics(q, dq, ddq)) ** 2, axis=0))
 
 
-def wearer_experiment(exo_urdf, exo_with_wearer, excitation, validation, reference, *, seconds: float = 60.0,
-                      wearer_torque: float = 5.0, track_seconds: float = 8.0, seed: int = 0,
-                      true_exponents: dict | None = None, passive_exponents: bool = False) -> dict:
+def wearer_experiment(
+    exo_urdf,
+    exo_with_wearer,
+    excitation,
+    validation,
+    reference,
+    *,
+    seconds: float = 60.0,
+    wearer_torque: float = 5.0,
+    track_seconds: float = 8.0,
+    seed: int = 0,
+    true_exponents: dict | None = None,
+    passive_exponents: bool = False,
+) -> dict:
     """Run the experiment (see the module text) and return its figures.
 
     ``exo_urdf``: the bare exoskeleton (URDF path or bundled name); ``exo_with_wearer``: its URDF from
@@ -56,14 +67,26 @@ def wearer_experiment(exo_urdf, exo_with_wearer, excitation, validation, referen
     train, valid = prepare_dataset(train), prepare_dataset(valid)
     fit = identify_wearer(stage1, table, *stack([train]), passive_exponents=passive_exponents)
     terms = JointTerms.from_names("fc,fv,passive")
-    truth = IdentifiedModel(plant, terms, np.concatenate(
-        [plant.inertial_parameters(), np.column_stack([plant.coulomb, plant.viscous, np.ones(plant.nv)]).ravel()]))
+    truth = IdentifiedModel(
+        plant,
+        terms,
+        np.concatenate(
+            [plant.inertial_parameters(), np.column_stack([plant.coulomb, plant.viscous, np.ones(plant.nv)]).ravel()]
+        ),
+    )
     models = {w: fit.model(w) for w in ("identified", "table", "exo")}
     rms = {w: _rms(m, [valid]) for w, m in models.items()}
     floor = _rms(truth, [valid])
     pooled = lambda r: float(np.sqrt(np.mean(r**2) / np.mean(floor**2)))  # noqa: E731
     runs = compare_models(plant, models, reference, seconds=track_seconds, seed=seed)
-    tracking = {c: {w: np.array([v["rms"] for v in r["metrics"].values()]) for w, r in by.items()}
-                for c, by in runs.items()}
-    return {"rms": rms, "floor": floor, "ratio": {w: pooled(r) for w, r in rms.items()},
-            "tracking": tracking, "fit": fit, "joints": plant.joint_names}
+    tracking = {
+        c: {w: np.array([v["rms"] for v in r["metrics"].values()]) for w, r in by.items()} for c, by in runs.items()
+    }
+    return {
+        "rms": rms,
+        "floor": floor,
+        "ratio": {w: pooled(r) for w, r in rms.items()},
+        "tracking": tracking,
+        "fit": fit,
+        "joints": plant.joint_names,
+    }

@@ -50,17 +50,28 @@ class ExponentFit:
 
     def to_dict(self) -> dict:
         """Plain-dict form (for JSON)."""
-        return {"fitted": {k: v.tolist() for k, v in self.fitted.items()},
-                "published": {k: v.tolist() for k, v in self.published.items()},
-                "free": self.free, "rms_published": self.rms_published, "rms_fitted": self.rms_fitted,
-                "evaluations": self.evaluations, "message": self.message, "seconds": self.seconds}
+        return {
+            "fitted": {k: v.tolist() for k, v in self.fitted.items()},
+            "published": {k: v.tolist() for k, v in self.published.items()},
+            "free": self.free,
+            "rms_published": self.rms_published,
+            "rms_fitted": self.rms_fitted,
+            "evaluations": self.evaluations,
+            "message": self.message,
+            "seconds": self.seconds,
+        }
 
 
 def free_coefficients(robot) -> list[tuple[str, int, int]]:
     """The refined coefficients ``(anatomical joint, term, column 1..3)``: non-zero, on a joint the robot has."""
     have = [kind for kind, _ in anatomy(robot) if kind is not None]
-    return [(kind, k, 1 + a) for kind in have for k, c in enumerate(exponents(robot, kind))
-            for a in range(3) if ANATOMICAL[a] in have and c[1 + a] != 0]
+    return [
+        (kind, k, 1 + a)
+        for kind in have
+        for k, c in enumerate(exponents(robot, kind))
+        for a in range(3)
+        if ANATOMICAL[a] in have and c[1 + a] != 0
+    ]
 
 
 def perturbed(robot, fraction: float = 0.2) -> dict[str, np.ndarray]:
@@ -110,5 +121,13 @@ def fit_exponents(robot, inertial: np.ndarray, y: np.ndarray, q: np.ndarray, *, 
 
     sol = least_squares(residual, p0, bounds=(lo, hi), x_scale=np.abs(p0), method="trf", xtol=tol, ftol=tol, gtol=tol)
     rms0, rms1 = (float(np.sqrt(np.mean(residual(p) ** 2))) for p in (p0, sol.x))
-    return ExponentFit(exps(sol.x), start, [f"{kind}[{k}].c{'HKA'[a - 1]}" for kind, k, a in free], rms0, rms1,
-                       int(sol.nfev), str(sol.message), time.perf_counter() - t0)
+    return ExponentFit(
+        exps(sol.x),
+        start,
+        [f"{kind}[{k}].c{'HKA'[a - 1]}" for kind, k, a in free],
+        rms0,
+        rms1,
+        int(sol.nfev),
+        str(sol.message),
+        time.perf_counter() - t0,
+    )

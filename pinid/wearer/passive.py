@@ -36,7 +36,9 @@ ANATOMICAL: tuple[str, ...] = ("hip", "knee", "ankle")
 @cache
 def coefficients() -> dict:
     """The Riener & Edrich 1999 table as read from the shipped TOML file."""
-    text = (resources.files("pinid.resources") / "anthropometry" / "riener_edrich_1999.toml").read_text(encoding="utf-8")
+    text = (resources.files("pinid.resources") / "anthropometry" / "riener_edrich_1999.toml").read_text(
+        encoding="utf-8"
+    )
     return tomllib.loads(text)
 
 
@@ -58,8 +60,10 @@ def check_exponents(d: dict, origin: str) -> dict[str, np.ndarray]:
         want = published(joint).shape if joint in ANATOMICAL else None
         arr = np.asarray(c, dtype=float) if isinstance(c, list) else None
         if want is None or arr is None or arr.shape != want or not np.all(np.isfinite(arr)):
-            raise SpecError(f"{origin}: {joint!r}: {c!r}, expected one of {list(ANATOMICAL)}: "
-                            f"{want[0] if want else 'its number of'} rows of 4 finite exponent coefficients")
+            raise SpecError(
+                f"{origin}: {joint!r}: {c!r}, expected one of {list(ANATOMICAL)}: "
+                f"{want[0] if want else 'its number of'} rows of 4 finite exponent coefficients"
+            )
         out[joint] = arr
     return out
 

@@ -49,22 +49,29 @@ def _vec(text):
 def wearer_prior(urdf_text: str, robot) -> list[BodyPrior]:
     """The wearer priors of ``robot`` (the exo + wearer RobotModel) from its URDF text, in joint order."""
     root = ET.fromstring(urdf_text)
-    moved_by = {j.find("child").get("link"): j.get("name") for j in root.findall("joint") if j.find("child") is not None}
-    fixed_to = {j.find("child").get("link"): j.find("parent").get("link")
-                for j in root.findall("joint") if j.find("child") is not None}
+    moved_by = {
+        j.find("child").get("link"): j.get("name") for j in root.findall("joint") if j.find("child") is not None
+    }
+    fixed_to = {
+        j.find("child").get("link"): j.find("parent").get("link")
+        for j in root.findall("joint")
+        if j.find("child") is not None
+    }
     out: dict[str, BodyPrior] = {}
     for lk in root.findall("link"):
         name = lk.get("name") or ""
         if not name.startswith(PREFIX):
             continue
-        seg, link = name[len(PREFIX):], fixed_to.get(name)
+        seg, link = name[len(PREFIX) :], fixed_to.get(name)
         joint = moved_by.get(link)
         if joint not in robot.joint_names:
             raise SpecError(f"wearer segment {seg} sits on link {link!r}, which no active joint of {robot.name} moves")
         i = lk.find("inertial")
         g = {k: float(i.find("inertia").get(k)) for k in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")}
         Ic = np.array([[g["ixx"], g["ixy"], g["ixz"]], [g["ixy"], g["iyy"], g["iyz"]], [g["ixz"], g["iyz"], g["izz"]]])
-        theta = pin.Inertia(float(i.find("mass").get("value")), _vec(i.find("origin").get("xyz")), Ic).toDynamicParameters()
+        theta = pin.Inertia(
+            float(i.find("mass").get("value")), _vec(i.find("origin").get("xyz")), Ic
+        ).toDynamicParameters()
         vis = lk.find("visual/geometry/cylinder")
         if vis is None:
             raise SpecError(f"{name}: no segment cylinder (<visual>); write the prior URDF with pinid wearer")
@@ -82,7 +89,9 @@ def wearer_prior(urdf_text: str, robot) -> list[BodyPrior]:
             b.start, b.end = min(b.start, along), max(b.end, along)
             b.radius = max(b.radius, float(np.linalg.norm(e - along * b.axis)) + radius)
     if not out:
-        raise SpecError(f"{robot.name}: the prior URDF has no wearer segment (links {PREFIX}*); write it with pinid wearer")
+        raise SpecError(
+            f"{robot.name}: the prior URDF has no wearer segment (links {PREFIX}*); write it with pinid wearer"
+        )
     return sorted(out.values(), key=lambda b: b.index)
 
 
@@ -106,6 +115,6 @@ def draw_wearer(robot, seed: int, mass: float = 0.25, com: float = 0.20):
     out = {}
     for b in wearer_prior(robot.urdf_text, robot):
         w = drawn(b.theta, rng, mass, com)
-        theta[10 * b.index: 10 * b.index + 10] += w - b.theta
+        theta[10 * b.index : 10 * b.index + 10] += w - b.theta
         out[b.joint] = w
     return robot.with_inertial_parameters(theta), out

@@ -74,12 +74,12 @@ class WearerFit:
         w = {"identified": self.theta, "table": self.table, "exo": np.zeros_like(self.theta)}[which]
         names = [n for n in exo.terms.names if n != "passive"] + (["passive"] if "passive" in self.terms else [])
         terms = JointTerms.from_names(names)
-        vals = _terms.values(exo.robot, exo.terms, exo.theta[10 * nv:])
-        wv = _terms.values(self.robot, self.terms, w[10 * nv:])
+        vals = _terms.values(exo.robot, exo.terms, exo.theta[10 * nv :])
+        wv = _terms.values(self.robot, self.terms, w[10 * nv :])
         if "passive" in self.terms:
             vals["passive"] = wv["passive"]
         block = [vals[p.term.name][p.index] for p in _terms.robot_layout(self.robot, terms)]
-        theta = np.concatenate([exo.theta[:10 * nv] + w[:10 * nv], block])
+        theta = np.concatenate([exo.theta[: 10 * nv] + w[: 10 * nv], block])
         robot = self.robot
         if which == "table" and robot.passive_exponents:  # the table wearer: the published exponents
             robot = copy.copy(robot)
@@ -90,19 +90,28 @@ class WearerFit:
         """Torque RMS error [N·m] per joint on ``datasets`` (with q, dq, ddq, tau) of the three models:
         ``{"identified" | "table" | "exo": {joint: rms}}``."""
         q, dq, ddq, tau = stack(datasets)
-        return {w: dict(zip(self.robot.joint_names, np.sqrt(np.mean((tau - self.model(w).inverse_dynamics(q, dq, ddq)) ** 2,
-                                                                       axis=0)).tolist()))
-                for w in ("identified", "table", "exo")}
+        return {
+            w: dict(
+                zip(
+                    self.robot.joint_names,
+                    np.sqrt(np.mean((tau - self.model(w).inverse_dynamics(q, dq, ddq)) ** 2, axis=0)).tolist(),
+                )
+            )
+            for w in ("identified", "table", "exo")
+        }
 
     def to_dict(self) -> dict:
         """Plain-dict form (for JSON)."""
-        return {"parameters": dict(zip(self.names, self.theta.tolist())),
-                "table": dict(zip(self.names, self.table.tolist())),
-                "base": dict(zip(self.base_names, self.base.tolist())),
-                "base_table": dict(zip(self.base_names, self.base_table.tolist())),
-                "bodies": {b.joint: b.segments for b in self.priors},
-                "status": self.status, "seconds": self.seconds,
-                **({"passive_exponents": self.exponents.to_dict()} if self.exponents is not None else {})}
+        return {
+            "parameters": dict(zip(self.names, self.theta.tolist())),
+            "table": dict(zip(self.names, self.table.tolist())),
+            "base": dict(zip(self.base_names, self.base.tolist())),
+            "base_table": dict(zip(self.base_names, self.base_table.tolist())),
+            "bodies": {b.joint: b.segments for b in self.priors},
+            "status": self.status,
+            "seconds": self.seconds,
+            **({"passive_exponents": self.exponents.to_dict()} if self.exponents is not None else {}),
+        }
 
 
 def _scale(priors: list[BodyPrior], nv: int, nt: int) -> np.ndarray:
@@ -110,8 +119,8 @@ def _scale(priors: list[BodyPrior], nv: int, nt: int) -> np.ndarray:
     for b in priors:
         M, L = max(b.theta[0], 1e-3), max(b.end - b.start, 0.05)
         s[10 * b.index] = M
-        s[10 * b.index + 1: 10 * b.index + 4] = M * L
-        s[10 * b.index + 4: 10 * b.index + 10] = M * L * L
+        s[10 * b.index + 1 : 10 * b.index + 4] = M * L
+        s[10 * b.index + 4 : 10 * b.index + 10] = M * L * L
     return s
 
 
@@ -119,13 +128,24 @@ def compress(W: np.ndarray, y: np.ndarray, block: int = 20000) -> tuple[np.ndarr
     """``(R, z)`` with ``‖W·x − y‖² = ‖R·x − z‖² + const``, from QR of ``[W y]`` in row blocks."""
     acc = np.zeros((0, W.shape[1] + 1))
     for k in range(0, W.shape[0], block):
-        acc = np.linalg.qr(np.vstack([acc, np.column_stack([W[k:k + block], y[k:k + block]])]), mode="r")
+        acc = np.linalg.qr(np.vstack([acc, np.column_stack([W[k : k + block], y[k : k + block]])]), mode="r")
     return acc[:, :-1], acc[:, -1]
 
 
-def identify_wearer(exo, prior_urdf, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray, tau: np.ndarray, *,
-                    passive: bool = True, mass_range: float = MASS_RANGE, prior_weight: float = 0.0,
-                    passive_exponents: bool = False, solver: str = "CLARABEL") -> WearerFit:
+def identify_wearer(
+    exo,
+    prior_urdf,
+    q: np.ndarray,
+    dq: np.ndarray,
+    ddq: np.ndarray,
+    tau: np.ndarray,
+    *,
+    passive: bool = True,
+    mass_range: float = MASS_RANGE,
+    prior_weight: float = 0.0,
+    passive_exponents: bool = False,
+    solver: str = "CLARABEL",
+) -> WearerFit:
     """Stage 2: the wearer's parameters from (N, nv) arrays ``q`` [rad], ``dq``, ``ddq``, ``tau`` [N·m].
 
     ``exo``: the stage-1 IdentifiedModel (or its JSON path); ``prior_urdf``: the URDF of
@@ -149,14 +169,16 @@ def identify_wearer(exo, prior_urdf, q: np.ndarray, dq: np.ndarray, ddq: np.ndar
     priors = wearer_prior(robot.urdf_text or robot.urdf_path.read_text(encoding="utf-8"), robot)
     q, dq, ddq, tau = (np.atleast_2d(np.asarray(x, dtype=float)) for x in (q, dq, ddq, tau))
     if not (q.shape == dq.shape == ddq.shape == tau.shape) or q.shape[1] != robot.nv:
-        raise DataError(f"q, dq, ddq, tau: shapes {q.shape}, {dq.shape}, {ddq.shape}, {tau.shape}, expected (N, {robot.nv}) each")
+        raise DataError(
+            f"q, dq, ddq, tau: shapes {q.shape}, {dq.shape}, {ddq.shape}, {tau.shape}, expected (N, {robot.nv}) each"
+        )
     t0 = time.perf_counter()
     nv = robot.nv
     terms = JointTerms.from_names("passive" if passive else "none")
     nt = nv if passive else 0
     table = np.zeros(10 * nv + nt)
     for b in priors:
-        table[10 * b.index: 10 * b.index + 10] = b.theta
+        table[10 * b.index : 10 * b.index + 10] = b.theta
     mapped = [i for i, (kind, _) in enumerate(anatomy(robot)) if kind is not None] if passive else []
     table[[10 * nv + i for i in mapped]] = 1.0
     free = [10 * b.index + k for b in priors for k in range(10)] + [10 * nv + i for i in mapped]
@@ -166,7 +188,7 @@ def identify_wearer(exo, prior_urdf, q: np.ndarray, dq: np.ndarray, ddq: np.ndar
     if passive_exponents:
         from pinid.wearer.exponents import fit_exponents
 
-        refined = fit_exponents(robot, W[:, :-len(mapped)] if mapped else W, y, q)
+        refined = fit_exponents(robot, W[:, : -len(mapped)] if mapped else W, y, q)
         robot = copy.copy(robot)  # the caller's model keeps the published exponents
         robot.passive_exponents = refined.fitted
         W = regressor(robot, q, dq, ddq, terms)[:, free]
@@ -202,9 +224,20 @@ def identify_wearer(exo, prior_urdf, q: np.ndarray, dq: np.ndarray, ddq: np.ndar
     theta = np.zeros_like(table)
     theta[free] = S * np.asarray(x.value).reshape(-1)
     bp = base_parameters(robot, terms)
-    return WearerFit(robot, exo, priors, terms, theta, table, bp.names, bp.from_standard(theta),
-                     bp.from_standard(table), status, time.perf_counter() - t0, refined)
-
+    return WearerFit(
+        robot,
+        exo,
+        priors,
+        terms,
+        theta,
+        table,
+        bp.names,
+        bp.from_standard(theta),
+        bp.from_standard(table),
+        status,
+        time.perf_counter() - t0,
+        refined,
+    )
 
 
 def stack(datasets) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -216,30 +249,51 @@ def stage_summary(fit: WearerFit, exo: str | os.PathLike, train, validation=None
     """What ``pinid identify --stage wearer`` writes as ``identification.json``: the stage, the stage-1
     model's path ``exo``, the URDF, :meth:`WearerFit.to_dict` and the torque RMS errors [N·m] of the three
     models on the ``train`` and ``validation`` datasets (None without)."""
-    return {"stage": "wearer", "exo": exo, "urdf": str(fit.robot.urdf_path), **fit.to_dict(),
-            "train_rms": fit.rms(train), "validation_rms": fit.rms(validation) if validation else None}
+    return {
+        "stage": "wearer",
+        "exo": exo,
+        "urdf": str(fit.robot.urdf_path),
+        **fit.to_dict(),
+        "train_rms": fit.rms(train),
+        "validation_rms": fit.rms(validation) if validation else None,
+    }
 
 
 def stage_text(fit: WearerFit, summary: dict) -> str:
     """A stage-2 fit as text: status and time, each base parameter identified and from the table, and the
     RMS errors of :func:`stage_summary`."""
     width = max(len(n) for n in fit.base_names)
-    lines = [f"stage 2 (wearer) of {fit.robot.name}: status {fit.status}, {fit.seconds:.2f} s",
-             f"   {'base parameter':<{width}} {'identified':>13} {'table':>13}"]
+    lines = [
+        f"stage 2 (wearer) of {fit.robot.name}: status {fit.status}, {fit.seconds:.2f} s",
+        f"   {'base parameter':<{width}} {'identified':>13} {'table':>13}",
+    ]
     if fit.exponents is not None:
         e = fit.exponents
-        lines.insert(1, f"   passive exponents: {len(e.free)} fitted in {e.evaluations} evaluations ({e.seconds:.2f} s); "
-                        f"torque RMS {e.rms_published:.4g} N·m at the published, {e.rms_fitted:.4g} at the fitted")
+        lines.insert(
+            1,
+            f"   passive exponents: {len(e.free)} fitted in {e.evaluations} evaluations ({e.seconds:.2f} s); "
+            f"torque RMS {e.rms_published:.4g} N·m at the published, {e.rms_fitted:.4g} at the fitted",
+        )
     lines += [f"   {n:<{width}} {v:13.6g} {t:13.6g}" for n, v, t in zip(fit.base_names, fit.base, fit.base_table)]
     for kind in ("train_rms", "validation_rms"):
         if summary[kind]:
-            lines.append(f"   {kind.replace('_', ' ')} [N·m]: " + "; ".join(
-                f"{w} " + ", ".join(f"{j} {v:.4g}" for j, v in r.items()) for w, r in summary[kind].items()))
+            lines.append(
+                f"   {kind.replace('_', ' ')} [N·m]: "
+                + "; ".join(f"{w} " + ", ".join(f"{j} {v:.4g}" for j, v in r.items()) for w, r in summary[kind].items())
+            )
     return "\n".join(lines)
 
 
-def write_stage(fit: WearerFit, summary: dict, folder: str | os.PathLike, *, shown=None, report: bool = True,
-                figures: bool = True, overwrite: bool | None = None) -> list[Path]:
+def write_stage(
+    fit: WearerFit,
+    summary: dict,
+    folder: str | os.PathLike,
+    *,
+    shown=None,
+    report: bool = True,
+    figures: bool = True,
+    overwrite: bool | None = None,
+) -> list[Path]:
     """Write ``identification.json`` (``summary``), ``model_wearer.json`` and ``model_table.json`` (the exo +
     identified / table wearer as IdentifiedModels) and, with ``report``, report.md, report.html and the
     torque figure on the first of the ``shown`` datasets ((kind, datasets): validation, else training)
@@ -254,9 +308,14 @@ def write_stage(fit: WearerFit, summary: dict, folder: str | os.PathLike, *, sho
     if report and shown:
         kind, datasets = shown
         q, dq, ddq, tau = stack(datasets[:1])
-        curves = {"t": datasets[0].t, "measured": tau, "joints": fit.robot.joint_names, "kind": kind,
-                  "source": Path(str(datasets[0].source)).name,
-                  "predicted": {w: fit.model(w).inverse_dynamics(q, dq, ddq) for w in ("identified", "table", "exo")}}
+        curves = {
+            "t": datasets[0].t,
+            "measured": tau,
+            "joints": fit.robot.joint_names,
+            "kind": kind,
+            "source": Path(str(datasets[0].source)).name,
+            "predicted": {w: fit.model(w).inverse_dynamics(q, dq, ddq) for w in ("identified", "table", "exo")},
+        }
         for name, content in wearer_report_files(summary, curves, figures=figures).items():
             arts.add(out / name, content)
     arts.clean(out, WEARER_REPORT_FILES)

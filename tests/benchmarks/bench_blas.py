@@ -39,9 +39,11 @@ def main(argv=None) -> int:
     ds = data(model, args.samples)
     problem = IdentificationProblem.from_datasets(model, ds)
     threads = os.cpu_count() or 2
-    print(f"exo_leg, {args.samples} samples ({problem.rows} rows × {problem.nb} base parameters); "
-          f"{platform.machine()}, {threads} cores; BLAS: "
-          f"{', '.join(sorted({i.get('internal_api', '?') for i in threadpool_info() if i.get('user_api') == 'blas'}))}\n")
+    print(
+        f"exo_leg, {args.samples} samples ({problem.rows} rows × {problem.nb} base parameters); "
+        f"{platform.machine()}, {threads} cores; BLAS: "
+        f"{', '.join(sorted({i.get('internal_api', '?') for i in threadpool_info() if i.get('user_api') == 'blas'}))}\n"
+    )
     design = DesignProblem(model, spec_for(model))
     lo, up = design.box()
     X = design.scale_into_limits(lo + np.random.default_rng(0).random((100, design.d)) * (up - lo))

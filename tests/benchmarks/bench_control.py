@@ -23,8 +23,13 @@ from pinid.control.controllers import identified_vs_cad
 from pinid.excitation.trajectory import FourierTrajectory
 
 ROOT = Path(__file__).resolve().parents[2]
-FALLBACK = FourierTrajectory(["hip", "knee"], 0.2 * np.pi, [0.61, -0.87],
-                             [[0.3, 0.15, 0.05], [-0.25, 0.12, -0.06]], [[0.1, -0.08, 0.04], [0.1, 0.06, -0.03]])
+FALLBACK = FourierTrajectory(
+    ["hip", "knee"],
+    0.2 * np.pi,
+    [0.61, -0.87],
+    [[0.3, 0.15, 0.05], [-0.25, 0.12, -0.06]],
+    [[0.1, -0.08, 0.04], [0.1, 0.06, -0.03]],
+)
 
 
 def main() -> None:
@@ -41,9 +46,11 @@ def main() -> None:
     for seed in range(args.seeds):
         t0 = time.perf_counter()
         r = identified_vs_cad(plant, excitation, reference, seed=seed)
-        print(f"seed {seed}: {time.perf_counter() - t0:.1f} s; base-parameter error [%] CAD "
-              f"{np.round(r['cad_base_error_percent'][:6], 1).tolist()}, identified "
-              f"{np.round(r['identified_base_error_percent'][:6], 2).tolist()} ({r['base_names'][:6]})")
+        print(
+            f"seed {seed}: {time.perf_counter() - t0:.1f} s; base-parameter error [%] CAD "
+            f"{np.round(r['cad_base_error_percent'][:6], 1).tolist()}, identified "
+            f"{np.round(r['identified_base_error_percent'][:6], 2).tolist()} ({r['base_names'][:6]})"
+        )
         for c, per_model in r["table"].items():
             for name, e in per_model.items():
                 for j, m in e["metrics"].items():
@@ -60,8 +67,10 @@ def main() -> None:
     for c in ("backstepping", "computed-torque"):
         for j in plant.joint_names:
             cad, ident = np.array(rms[(c, "CAD", j)]), np.array(rms[(c, "identified", j)])
-            print(f"| {c} | {j} | {cad.mean():.3f} ± {cad.std():.3f} | {ident.mean():.3f} ± {ident.std():.3f} "
-                  f"| {ident.mean() / cad.mean():.3f} |")
+            print(
+                f"| {c} | {j} | {cad.mean():.3f} ± {cad.std():.3f} | {ident.mean():.3f} ± {ident.std():.3f} "
+                f"| {ident.mean() / cad.mean():.3f} |"
+            )
 
 
 if __name__ == "__main__":

@@ -42,12 +42,22 @@ def recording(model: RobotModel, seconds: float, rate: float, velocity: bool) ->
     lo, hi = model.lower, model.upper
     mid, amp = 0.5 * (lo + hi), 0.2 * (hi - lo)
     t = np.arange(int(seconds * rate)) / rate
-    traj = FourierTrajectory(model.joint_names, 0.2 * np.pi, mid, amp[:, None] * rng.uniform(-0.5, 0.5, (model.nv, 4)),
-                             amp[:, None] * rng.uniform(-0.5, 0.5, (model.nv, 4)))
+    traj = FourierTrajectory(
+        model.joint_names,
+        0.2 * np.pi,
+        mid,
+        amp[:, None] * rng.uniform(-0.5, 0.5, (model.nv, 4)),
+        amp[:, None] * rng.uniform(-0.5, 0.5, (model.nv, 4)),
+    )
     q, dq, ddq = traj.evaluate(t)
     tau = ddq + 5 * np.sin(q) + 0.3 * dq
-    return Dataset(t=t, q=q + rng.normal(0, 1e-4, q.shape), joints=model.joint_names,
-                   dq=dq + rng.normal(0, 1e-2, q.shape) if velocity else None, tau=tau + rng.normal(0, 0.05, q.shape))
+    return Dataset(
+        t=t,
+        q=q + rng.normal(0, 1e-4, q.shape),
+        joints=model.joint_names,
+        dq=dq + rng.normal(0, 1e-2, q.shape) if velocity else None,
+        tau=tau + rng.normal(0, 0.05, q.shape),
+    )
 
 
 def main() -> None:
@@ -67,11 +77,14 @@ def main() -> None:
                     t_prep, _ = best_time(lambda: prepare(back))
                     t_both, _ = best_time(lambda: prepare(read_recording(path, model=panda)))
                 cols = 1 + panda.nv * (3 if velocity else 2)
-                print(f"| {suffix[1:].upper()}, 600 000 × 7 DOF{' + dq' if velocity else ''} | {cols} | "
-                      f"{path.stat().st_size / 1e6:.0f} | {t_read:.2f} | {t_prep:.2f} | {t_both:.2f} |")
+                print(
+                    f"| {suffix[1:].upper()}, 600 000 × 7 DOF{' + dq' if velocity else ''} | {cols} | "
+                    f"{path.stat().st_size / 1e6:.0f} | {t_read:.2f} | {t_prep:.2f} | {t_both:.2f} |"
+                )
     exo = RobotModel.from_urdf("exo_leg")
-    traj = FourierTrajectory(exo.joint_names, 0.2 * np.pi, [0.6107, -0.8727], [[0.3, 0.05], [-0.3, 0.05]],
-                             [[0.0, 0.05], [0.1, 0.0]])
+    traj = FourierTrajectory(
+        exo.joint_names, 0.2 * np.pi, [0.6107, -0.8727], [[0.3, 0.05], [-0.3, 0.05]], [[0.0, 0.05], [0.1, 0.0]]
+    )
     t_sim, (rec, _) = best_time(lambda: simulate(exo, traj, seconds=60.0, seed=1), repeats=1)
     print("\n| twin | samples | integration grid | time [s] |")
     print("|---|---|---|---|")

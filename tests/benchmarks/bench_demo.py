@@ -27,8 +27,14 @@ def demo(tree: Path) -> tuple[float, list[tuple[str, float]]]:
     steps: list[tuple[str, float]] = []
     with tempfile.TemporaryDirectory() as tmp:  # not the tree: `python -m` puts the cwd first on the path
         t0 = time.perf_counter()
-        proc = subprocess.Popen([sys.executable, "-m", "pinid.cli", "demo", "-o", "out"], cwd=tmp, env=env,
-                                stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "pinid.cli", "demo", "-o", "out"],
+            cwd=tmp,
+            env=env,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.DEVNULL,
+            text=True,
+        )
         last, title = t0, "start-up (imports)"
         for line in proc.stdout:
             if line.startswith("[") and "/" in line[:6]:
@@ -47,8 +53,10 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--before", type=Path, help="an older checkout to time next to this tree")
     a = ap.parse_args()
-    print(f"machine: {platform.machine()}, nproc {os.cpu_count()}, python {platform.python_version()}, "
-          f"load {os.getloadavg()[0]:.2f}")
+    print(
+        f"machine: {platform.machine()}, nproc {os.cpu_count()}, python {platform.python_version()}, "
+        f"load {os.getloadavg()[0]:.2f}"
+    )
     trees = ([("before", a.before.resolve())] if a.before else []) + [("this", HERE)]
     for name, tree in trees:
         total, steps = demo(tree)

@@ -45,29 +45,42 @@ def main() -> None:
     valid = twin(model, MOTOR_TERMS, seconds=8.0, rate=250.0, seed=5, noise=0.1)
     rows = []
     times = {}
-    cases = (("without drives (fc,fv)", JointTerms()),
-             ("without drives, as many terms (fc,fv,offset,armature,fc_pos,fc_neg)",
-              JointTerms.from_names("fc,fv,offset,armature,fc_pos,fc_neg")),
-             ("with drives (+ 4 motor terms)", MOTOR_TERMS))
+    cases = (
+        ("without drives (fc,fv)", JointTerms()),
+        (
+            "without drives, as many terms (fc,fv,offset,armature,fc_pos,fc_neg)",
+            JointTerms.from_names("fc,fv,offset,armature,fc_pos,fc_neg"),
+        ),
+        ("with drives (+ 4 motor terms)", MOTOR_TERMS),
+    )
     for label, terms in cases:
         run = lambda: identify(model, train, validate=valid, methods=["ols", "sdp"], terms=terms)  # noqa: E731
         run()  # warm-up (cvxpy import, caches)
         t, res = best_of(run)
         times[label] = t
         rms = {j: res["sdp"].validation.per_joint[j]["rms"] for j in model.joint_names[-2:]}
-        rows.append(f"| {label} | {len(train.t)} | {res['ols'].base.size} | {t:.2f} | "
-                    + ", ".join(f"{j} {v:.3f}" for j, v in rms.items()) + f" | {res['sdp'].validation.all['rms']:.3f} |")
+        rows.append(
+            f"| {label} | {len(train.t)} | {res['ols'].base.size} | {t:.2f} | "
+            + ", ".join(f"{j} {v:.3f}" for j, v in rms.items())
+            + f" | {res['sdp'].validation.all['rms']:.3f} |"
+        )
     t_with = times["with drives (+ 4 motor terms)"]
     ratio = t_with / times["without drives (fc,fv)"]
     ratio_same = t_with / times[cases[1][0]]
-    print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
-          f"OPENBLAS_NUM_THREADS={os.environ.get('OPENBLAS_NUM_THREADS', 'unset')}")
-    print("| run | samples | base parameters | identify ols+sdp [s] | coupled joints' validation RMS [N·m] "
-          "| all joints [N·m] |")
+    print(
+        f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
+        f"OPENBLAS_NUM_THREADS={os.environ.get('OPENBLAS_NUM_THREADS', 'unset')}"
+    )
+    print(
+        "| run | samples | base parameters | identify ols+sdp [s] | coupled joints' validation RMS [N·m] "
+        "| all joints [N·m] |"
+    )
     print("|---|---|---|---|---|---|")
     print("\n".join(rows))
-    print(f"\nratio with drives / fc,fv only: {ratio:.2f}; with drives / joint model with as many terms: "
-          f"{ratio_same:.2f} (target ≤ 1.2); noise floor σ = 0.1 N·m")
+    print(
+        f"\nratio with drives / fc,fv only: {ratio:.2f}; with drives / joint model with as many terms: "
+        f"{ratio_same:.2f} (target ≤ 1.2); noise floor σ = 0.1 N·m"
+    )
 
 
 if __name__ == "__main__":

@@ -49,29 +49,37 @@ def table3(model) -> float:
     spec = spec_for(model)
     tr = FourierTrajectory.load(TABLE3)
     ev = evaluate_trajectory(model, tr, spec)
-    print(f"condition number {ev['condition_number']:.4f}; limits: "
-          + ("; ".join(limit_violations(ev["extremes"], spec)) or "inside"))
+    print(
+        f"condition number {ev['condition_number']:.4f}; limits: "
+        + ("; ".join(limit_violations(ev["extremes"], spec)) or "inside")
+    )
     for j, u in ev["usage"].items():
         e = ev["extremes"][j]
-        print(f"- {j}: q ∈ [{e['q_min']:.4f}, {e['q_max']:.4f}], |dq| ≤ {e['dq_abs_max']:.3f} ({100 * u['dq']:.0f}%), "
-              f"|ddq| ≤ {e['ddq_abs_max']:.3f} ({100 * u['ddq']:.0f}%)")
+        print(
+            f"- {j}: q ∈ [{e['q_min']:.4f}, {e['q_max']:.4f}], |dq| ≤ {e['dq_abs_max']:.3f} ({100 * u['dq']:.0f}%), "
+            f"|ddq| ≤ {e['ddq_abs_max']:.3f} ({100 * u['ddq']:.0f}%)"
+        )
     return ev["condition_number"]
 
 
 def default_designs(model, c3: float) -> dict:
     header("Default design (`pinid excite --urdf urdf/exo_leg.urdf`), seed 0")
-    print("| start at rest | condition number | ratio to Table 3 | target | time [s] | criterion evaluations | "
-          "regressor samples |")
+    print(
+        "| start at rest | condition number | ratio to Table 3 | target | time [s] | criterion evaluations | "
+        "regressor samples |"
+    )
     print("|---|---|---|---|---|---|---|")
     out = {}
     for rest, target in ((True, 0.70), (False, 0.62)):
         res = design_excitation(model, spec_for(model, rest_start=rest), seed=0)
         ratio = res.condition_number / c3
         out[rest] = res
-        print(f"| {'on' if rest else 'off'} | {res.condition_number:.3f} | {ratio:.4f} | ≤ {target} "
-              f"{'✓' if ratio <= target else '✗'} | {res.seconds:.1f} {'✓' if res.seconds <= 30 else '✗'} | {res.nfev} | "
-              f"{res.details['regressor_samples'] / 1e6:.2f} M |",
-              flush=True)
+        print(
+            f"| {'on' if rest else 'off'} | {res.condition_number:.3f} | {ratio:.4f} | ≤ {target} "
+            f"{'✓' if ratio <= target else '✗'} | {res.seconds:.1f} {'✓' if res.seconds <= 30 else '✗'} | {res.nfev} | "
+            f"{res.details['regressor_samples'] / 1e6:.2f} M |",
+            flush=True,
+        )
     return out
 
 
@@ -80,36 +88,50 @@ def deep_search(model, c3: float, defaults: dict) -> None:
     print("| start at rest | offsets | starts | condition number | ratio to Table 3 | default / best | time [s] |")
     print("|---|---|---|---|---|---|---|")
     for rest in (True, False):
-        res = design_excitation(model, spec_for(model, rest_start=rest), seed=1,
-                                options={"starts": 512, "polish": 16})
-        print(f"| {'on' if rest else 'off'} | fixed | 512 | {res.condition_number:.3f} | {res.condition_number / c3:.4f} | "
-              f"{defaults[rest].condition_number / res.condition_number:.4f} | {res.seconds:.0f} |", flush=True)
+        res = design_excitation(model, spec_for(model, rest_start=rest), seed=1, options={"starts": 512, "polish": 16})
+        print(
+            f"| {'on' if rest else 'off'} | fixed | 512 | {res.condition_number:.3f} | {res.condition_number / c3:.4f} | "
+            f"{defaults[rest].condition_number / res.condition_number:.4f} | {res.seconds:.0f} |",
+            flush=True,
+        )
     for rest in (True, False):
         res = design_excitation(model, spec_for(model, rest_start=rest, optimize_offsets=True), seed=0)
-        print(f"| {'on' if rest else 'off'} | optimised | 128 | {res.condition_number:.3f} | "
-              f"{res.condition_number / c3:.4f} | – | {res.seconds:.1f} |", flush=True)
+        print(
+            f"| {'on' if rest else 'off'} | optimised | 128 | {res.condition_number:.3f} | "
+            f"{res.condition_number / c3:.4f} | – | {res.seconds:.1f} |",
+            flush=True,
+        )
 
 
 def optimizers(model, c3: float, default, img_dir: Path | None) -> None:
-    header("Optimisers on the same problem (default spec, start at rest), seed 0; metaheuristics: population 100, "
-           "200 iterations")
+    header(
+        "Optimisers on the same problem (default spec, start at rest), seed 0; metaheuristics: population 100, "
+        "200 iterations"
+    )
     print("| optimiser | condition number | ratio to Table 3 | criterion evaluations | regressor samples | time [s] |")
     print("|---|---|---|---|---|---|")
-    print(f"| slsqp (default) | {default.condition_number:.3f} | {default.condition_number / c3:.4f} | {default.nfev} | "
-          f"{default.details['regressor_samples'] / 1e6:.2f} M | {default.seconds:.1f} |")
+    print(
+        f"| slsqp (default) | {default.condition_number:.3f} | {default.condition_number / c3:.4f} | {default.nfev} | "
+        f"{default.details['regressor_samples'] / 1e6:.2f} M | {default.seconds:.1f} |"
+    )
     histories = {}
     for name in ("pso", "woa", "ewoa", "de"):
-        res = design_excitation(model, spec_for(model), optimizer=name,
-                                options={"population": 100, "iterations": 200}, seed=0)
+        res = design_excitation(
+            model, spec_for(model), optimizer=name, options={"population": 100, "iterations": 200}, seed=0
+        )
         histories[name.upper()] = res.history
-        print(f"| {name} | {res.condition_number:.3f} | {res.condition_number / c3:.4f} | {res.nfev} | "
-              f"{res.details['regressor_samples'] / 1e6:.2f} M | {res.seconds:.1f} |", flush=True)
+        print(
+            f"| {name} | {res.condition_number:.3f} | {res.condition_number / c3:.4f} | {res.nfev} | "
+            f"{res.details['regressor_samples'] / 1e6:.2f} M | {res.seconds:.1f} |",
+            flush=True,
+        )
     if img_dir is not None:
         from pinid.report.figures import save_figure
         from pinid.report.plot_excitation import plot_convergence
 
-        fig = plot_convergence(histories, references={"slsqp (default)": default.condition_number,
-                                                      "seed 001 Table 3": c3}, log=False)
+        fig = plot_convergence(
+            histories, references={"slsqp (default)": default.condition_number, "seed 001 Table 3": c3}, log=False
+        )
         fig.axes[0].set_title("exo_leg, N = 4, ωf = 0.2π, start at rest (population 100, seed 0)")
         save_figure(fig, img_dir / "excitation_convergence.png")
         print(f"\nconvergence curves: {img_dir / 'excitation_convergence.png'}")
@@ -123,14 +145,18 @@ def harmonics(model, c3: float) -> None:
         spec = spec_for(model, harmonics=n)
         res = design_excitation(model, spec, seed=0)
         d = DesignProblem(model, spec).d
-        print(f"| {n} | {d} | {res.condition_number:.3f} | {res.condition_number / c3:.4f} | {res.seconds:.1f} |",
-              flush=True)
+        print(
+            f"| {n} | {d} | {res.condition_number:.3f} | {res.condition_number / c3:.4f} | {res.seconds:.1f} |",
+            flush=True,
+        )
 
 
 def arms() -> None:
     header("Arms of example-robot-data (limits from the URDF, 5 rad/s², offsets at the range centres, start at rest)")
-    print("| robot | DOF | base parameters | variables | random feasible start | default design | "
-          "time [s] | 16 starts | time [s] |")
+    print(
+        "| robot | DOF | base parameters | variables | random feasible start | default design | "
+        "time [s] | 16 starts | time [s] |"
+    )
     print("|---|---|---|---|---|---|---|---|---|")
     for name in ("ur5", "panda"):
         model = RobotModel.from_urdf(name)
@@ -142,9 +168,11 @@ def arms() -> None:
             rand = np.median(problem.evaluate(problem.scale_into_limits(lo + rng.random((16, problem.d)) * (up - lo))))
         full = design_excitation(model, spec, seed=0)
         short = design_excitation(model, spec, seed=0, options={"starts": 16})
-        print(f"| {name} | {model.nv} | {problem.base.count} | {problem.d} | {rand:.1f} (median of 16) | "
-              f"{full.condition_number:.2f} | {full.seconds:.0f} | {short.condition_number:.2f} | {short.seconds:.0f} |",
-              flush=True)
+        print(
+            f"| {name} | {model.nv} | {problem.base.count} | {problem.d} | {rand:.1f} (median of 16) | "
+            f"{full.condition_number:.2f} | {full.seconds:.0f} | {short.condition_number:.2f} | {short.seconds:.0f} |",
+            flush=True,
+        )
 
 
 def main() -> None:
@@ -153,8 +181,10 @@ def main() -> None:
     p.add_argument("--img-dir", default=str(ROOT / "docs" / "img"), help="where the figures go ('' for none)")
     args = p.parse_args()
     img_dir = Path(args.img_dir) if args.img_dir else None
-    print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
-          f"python {platform.python_version()}, numpy {np.__version__}")
+    print(
+        f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
+        f"python {platform.python_version()}, numpy {np.__version__}"
+    )
     print("command: python " + " ".join(sys.argv))
     started = time.perf_counter()
     model = RobotModel.from_urdf(EXO)
@@ -165,13 +195,23 @@ def main() -> None:
         from pinid.report.plot_excitation import plot_excitation
 
         res = defaults[True]
-        save_figure(plot_excitation(res.trajectory, res.spec,
-                                    title=f"exo_leg default design (start at rest): condition number "
-                                          f"{res.condition_number:.2f}, Table 3: {c3:.2f}"),
-                    img_dir / "excitation_exo_leg.png")
-        save_figure(plot_excitation(FourierTrajectory.load(TABLE3), res.spec,
-                                    title=f"seed 001 Table 3 (read in degrees): condition number {c3:.2f}"),
-                    img_dir / "excitation_table3.png")
+        save_figure(
+            plot_excitation(
+                res.trajectory,
+                res.spec,
+                title=f"exo_leg default design (start at rest): condition number "
+                f"{res.condition_number:.2f}, Table 3: {c3:.2f}",
+            ),
+            img_dir / "excitation_exo_leg.png",
+        )
+        save_figure(
+            plot_excitation(
+                FourierTrajectory.load(TABLE3),
+                res.spec,
+                title=f"seed 001 Table 3 (read in degrees): condition number {c3:.2f}",
+            ),
+            img_dir / "excitation_table3.png",
+        )
     if not args.quick:
         deep_search(model, c3, defaults)
     optimizers(model, c3, defaults[True], img_dir)

@@ -29,8 +29,13 @@ def excite(tree: Path, args: list[str]) -> tuple[float, float, float]:
     env = dict(os.environ, PYTHONPATH=str(tree), MPLBACKEND="Agg")
     with tempfile.TemporaryDirectory() as tmp:  # not the tree: `python -m` would put the cwd first on the path
         t = time.perf_counter()
-        proc = subprocess.run([sys.executable, "-m", "pinid.cli", "excite", *args, "-o", "design.json"], cwd=tmp,
-                              env=env, capture_output=True, text=True)
+        proc = subprocess.run(
+            [sys.executable, "-m", "pinid.cli", "excite", *args, "-o", "design.json"],
+            cwd=tmp,
+            env=env,
+            capture_output=True,
+            text=True,
+        )
         wall = time.perf_counter() - t
     if proc.returncode:
         raise SystemExit(f"pinid excite {' '.join(args)} failed ({tree}):\n{proc.stderr}")
@@ -42,8 +47,10 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--before", type=Path, help="checkout of an older pinid to compare `--starts 2` on ur5 with")
     args = ap.parse_args()
-    print(f"machine: {platform.machine()}, nproc {os.cpu_count()}, {platform.processor() or '?'}, "
-          f"python {platform.python_version()}, load {os.getloadavg()[0]:.2f}")
+    print(
+        f"machine: {platform.machine()}, nproc {os.cpu_count()}, {platform.processor() or '?'}, "
+        f"python {platform.python_version()}, load {os.getloadavg()[0]:.2f}"
+    )
     print("\n| tree | command | wall [s] | design [s] | condition number |\n|---|---|---|---|---|")
     cases = []
     if args.before:

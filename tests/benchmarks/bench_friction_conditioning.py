@@ -25,13 +25,34 @@ from pinid.identification.stribeck import with_stribeck  # noqa: E402
 from pinid.model.terms import Stribeck  # noqa: E402
 
 CASES = [
-    ("exo_leg", exo_joint, JOINT, [("fv", None), ("fc,fv", None), ("fc,fv,offset", None), ("fc_pos,fc_neg,fv", None),
-                                   ("fc,fv,armature", None), ("fc,fv,fs", ("fs", 0.05)), ("fc,fv,fs", ("fs", 0.25)),
-                                   ("fc,fv,fs", ("fs", 1.0))]),
-    ("exo_leg, cable", exo_motor, MOTOR, [("fc,fv", None), ("fc,fv,motor_fc", None), ("fc,fv,motor_fc,motor_fv", None),
-                                          ("fc,fv,motor_fc,motor_fs", ("motor_fs", 1.5)),
-                                          ("fc,fv,motor_fc,motor_fs", ("motor_fs", 6.0)),
-                                          ("fc,fv,motor_fc,motor_fs", ("motor_fs", 24.0))]),
+    (
+        "exo_leg",
+        exo_joint,
+        JOINT,
+        [
+            ("fv", None),
+            ("fc,fv", None),
+            ("fc,fv,offset", None),
+            ("fc_pos,fc_neg,fv", None),
+            ("fc,fv,armature", None),
+            ("fc,fv,fs", ("fs", 0.05)),
+            ("fc,fv,fs", ("fs", 0.25)),
+            ("fc,fv,fs", ("fs", 1.0)),
+        ],
+    ),
+    (
+        "exo_leg, cable",
+        exo_motor,
+        MOTOR,
+        [
+            ("fc,fv", None),
+            ("fc,fv,motor_fc", None),
+            ("fc,fv,motor_fc,motor_fv", None),
+            ("fc,fv,motor_fc,motor_fs", ("motor_fs", 1.5)),
+            ("fc,fv,motor_fc,motor_fs", ("motor_fs", 6.0)),
+            ("fc,fv,motor_fc,motor_fs", ("motor_fs", 24.0)),
+        ],
+    ),
 ]
 
 

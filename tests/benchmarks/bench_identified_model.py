@@ -28,14 +28,16 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--samples", type=int, default=2000)
     n = ap.parse_args().samples
-    print(f"machine: {platform.processor() or platform.machine()}, python {platform.python_version()}, "
-          f"pinocchio {pin.__version__}, {n} samples\n")
+    print(
+        f"machine: {platform.processor() or platform.machine()}, python {platform.python_version()}, "
+        f"pinocchio {pin.__version__}, {n} samples\n"
+    )
     print("| robot | method | batch [µs/sample] | one by one [µs/sample] | C++ floor [µs/sample] |")
     print("|---|---|---|---|---|")
     for name in ("exo_leg", "panda"):
         robot = RobotModel.from_urdf(name)
         theta = standard_parameters(robot, TERMS)
-        theta[10 * robot.nv:] = 0.1
+        theta[10 * robot.nv :] = 0.1
         m = IdentifiedModel(robot, TERMS, theta)
         q, dq, ddq = robot.random_states(n, np.random.default_rng(0))
         tau = m.inverse_dynamics(q, dq, ddq)
@@ -48,14 +50,22 @@ def main() -> None:
             "forward_dynamics": lambda: [pin.aba(pm, pd, a, b, c) for a, b, c in zip(q, dq, tau)],
             "derivatives": lambda: [pin.computeRNEADerivatives(pm, pd, a, b, c) for a, b, c in zip(q, dq, ddq)],
         }
-        args = {"inverse_dynamics": (q, dq, ddq), "mass_matrix": (q,), "coriolis": (q, dq), "gravity": (q,),
-                "forward_dynamics": (q, dq, tau), "derivatives": (q, dq, ddq)}
+        args = {
+            "inverse_dynamics": (q, dq, ddq),
+            "mass_matrix": (q,),
+            "coriolis": (q, dq),
+            "gravity": (q,),
+            "forward_dynamics": (q, dq, tau),
+            "derivatives": (q, dq, ddq),
+        }
         for method, floor in floors.items():
             f, a = getattr(m, method), args[method]
             batch = best_time(lambda: f(*a))
             single = best_time(lambda: [f(*x) for x in zip(*a)])
-            print(f"| {name} ({robot.nv} DOF) | `{method}` | {batch / n * 1e6:.1f} | {single / n * 1e6:.1f} | "
-                  f"{best_time(floor) / n * 1e6:.1f} |")
+            print(
+                f"| {name} ({robot.nv} DOF) | `{method}` | {batch / n * 1e6:.1f} | {single / n * 1e6:.1f} | "
+                f"{best_time(floor) / n * 1e6:.1f} |"
+            )
 
 
 if __name__ == "__main__":

@@ -82,9 +82,11 @@ def bench_sdp() -> list[str]:
 
     t_fit, est = best_of(fit_from_scratch)
     t_solve = est.info_.get("solve_seconds") or float("nan")
-    return [f"| sdp on panda (7 DOF), 20 000 samples, {problem.rows} × {problem.nb} base regressor: fit "
-            f"(QR + cvxpy + Clarabel {t_solve:.3f} s) | {t_fit:.3f} | 1.0 | {est.status_} |",
-            f"| — building that problem (regressor, base columns, rank check) | {t_build:.2f} | – | |"]
+    return [
+        f"| sdp on panda (7 DOF), 20 000 samples, {problem.rows} × {problem.nb} base regressor: fit "
+        f"(QR + cvxpy + Clarabel {t_solve:.3f} s) | {t_fit:.3f} | 1.0 | {est.status_} |",
+        f"| — building that problem (regressor, base columns, rank check) | {t_build:.2f} | – | |",
+    ]
 
 
 def bench_cli() -> list[str]:
@@ -96,8 +98,23 @@ def bench_cli() -> list[str]:
         for name, seconds, seed in (("train", 600.0, 1), ("valid", 120.0, 2)):
             ds = recording(model, seconds, 1000.0, seed, noise=0.3)
             write_recording(tmp / f"{name}.csv", Dataset(ds.t, ds.q, ds.joints, tau=ds.tau))
-        cmd = [sys.executable, "-m", "pinid.cli", "identify", "--urdf", "exo_leg", "--data", str(tmp / "train.csv"),
-               "--validate", str(tmp / "valid.csv"), "--methods", "ols,wls,sdp", "-o", str(tmp / "out"), "--force"]  # runs twice
+        cmd = [
+            sys.executable,
+            "-m",
+            "pinid.cli",
+            "identify",
+            "--urdf",
+            "exo_leg",
+            "--data",
+            str(tmp / "train.csv"),
+            "--validate",
+            str(tmp / "valid.csv"),
+            "--methods",
+            "ols,wls,sdp",
+            "-o",
+            str(tmp / "out"),
+            "--force",
+        ]  # runs twice
         times, cpu = [], []
         for _ in range(2):
             r0 = resource.getrusage(resource.RUSAGE_CHILDREN)
@@ -110,8 +127,10 @@ def bench_cli() -> list[str]:
                 raise SystemExit(proc.stderr)
         status = "ok" if (tmp / "out" / "identification.json").is_file() else "no output"
     k = int(np.argmin(times))
-    return [f"| `pinid identify`, exo_leg, 10 min at 1 kHz (+2 min validation), ols,wls,sdp, report: wall "
-            f"(CPU) | {times[k]:.2f} ({cpu[k]:.2f} CPU), best of 2 | 10 | {status} |"]
+    return [
+        f"| `pinid identify`, exo_leg, 10 min at 1 kHz (+2 min validation), ols,wls,sdp, report: wall "
+        f"(CPU) | {times[k]:.2f} ({cpu[k]:.2f} CPU), best of 2 | 10 | {status} |"
+    ]
 
 
 def main() -> None:
@@ -120,8 +139,10 @@ def main() -> None:
     p.add_argument("--cli", action="store_true", help="only the whole pinid identify run")
     args = p.parse_args()
     both = not (args.sdp or args.cli)
-    print(f"machine: {platform.machine()}, {os.cpu_count()} cores, python {platform.python_version()}, "
-          f"OPENBLAS_NUM_THREADS={os.environ.get('OPENBLAS_NUM_THREADS', 'unset')}\n")
+    print(
+        f"machine: {platform.machine()}, {os.cpu_count()} cores, python {platform.python_version()}, "
+        f"OPENBLAS_NUM_THREADS={os.environ.get('OPENBLAS_NUM_THREADS', 'unset')}\n"
+    )
     print("| case | time [s] | target [s] | status |")
     print("|---|---|---|---|")
     if both or args.sdp:

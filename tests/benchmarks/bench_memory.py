@@ -60,9 +60,29 @@ def identify(tree: Path, folder: Path, methods: str) -> tuple[float, float]:
     """(wall [s], peak RSS [MB]) of ``pinid identify`` on ``folder/panda.npz`` with ``tree`` on the path."""
     env = dict(os.environ, PYTHONPATH=str(tree), MPLBACKEND="Agg", OPENBLAS_NUM_THREADS="1")
     t0 = time.perf_counter()
-    proc = subprocess.Popen([sys.executable, "-m", "pinid.cli", "identify", "--urdf", "panda", "--data", "panda.npz",
-                             "--methods", methods, "--no-report", "--force", "-o", "out"], cwd=folder, env=env,
-                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "pinid.cli",
+            "identify",
+            "--urdf",
+            "panda",
+            "--data",
+            "panda.npz",
+            "--methods",
+            methods,
+            "--no-report",
+            "--force",
+            "-o",
+            "out",
+        ],
+        cwd=folder,
+        env=env,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     _, status, usage = os.wait4(proc.pid, 0)
     wall = time.perf_counter() - t0
     err = proc.stderr.read()
@@ -78,8 +98,10 @@ def main() -> None:
     ap.add_argument("--methods", default="ols")
     ap.add_argument("--before", type=Path, help="an older checkout to measure on the same file")
     a = ap.parse_args()
-    print(f"machine: {platform.machine()}, nproc {os.cpu_count()}, python {platform.python_version()}, "
-          f"load {os.getloadavg()[0]:.2f}")
+    print(
+        f"machine: {platform.machine()}, nproc {os.cpu_count()}, python {platform.python_version()}, "
+        f"load {os.getloadavg()[0]:.2f}"
+    )
     with tempfile.TemporaryDirectory() as tmp:
         d = Path(tmp)
         nb = recording(d / "panda.npz", a.samples)
@@ -90,7 +112,9 @@ def main() -> None:
         trees = ([("before", a.before.resolve())] if a.before else []) + [("this", HERE)]
         for name, tree in trees:
             wall, peak = identify(tree, d, a.methods)
-            print(f"{name}: `pinid identify --methods {a.methods} --no-report`: {wall:.1f} s wall, peak RSS {peak:.0f} MB")
+            print(
+                f"{name}: `pinid identify --methods {a.methods} --no-report`: {wall:.1f} s wall, peak RSS {peak:.0f} MB"
+            )
 
 
 if __name__ == "__main__":

@@ -61,8 +61,10 @@ def main(argv=None) -> int:
     args = p.parse_args(argv)
     model = RobotModel.from_urdf("exo_leg")
     problem = IdentificationProblem.from_datasets(model, data(model, args.samples))
-    print(f"exo_leg, {args.samples} samples, {problem.rows} rows × {problem.nb} base parameters; "
-          f"{platform.machine()}, {os.cpu_count()} cores, OPENBLAS_NUM_THREADS={os.environ.get('OPENBLAS_NUM_THREADS')}\n")
+    print(
+        f"exo_leg, {args.samples} samples, {problem.rows} rows × {problem.nb} base parameters; "
+        f"{platform.machine()}, {os.cpu_count()} cores, OPENBLAS_NUM_THREADS={os.environ.get('OPENBLAS_NUM_THREADS')}\n"
+    )
     print("| method | fitness | population × iterations | evaluations | best of 3 [s] | target [s] |")
     print("|---|---|---|---|---|---|")
     for name in ("pso", "rls-pso", "woa", "ewoa", "de"):

@@ -27,8 +27,7 @@ SKIP = {"seconds", "version", "pinid_version", "created", "path", "urdf", "data"
 
 def run(tree: Path, args: list[str], cwd: Path) -> None:
     env = dict(os.environ, PYTHONPATH=str(tree), MPLBACKEND="Agg", OPENBLAS_NUM_THREADS="1", PYTHONHASHSEED="0")
-    subprocess.run([sys.executable, "-m", "pinid.cli", *args], cwd=cwd, env=env, check=True,
-                   stdout=subprocess.DEVNULL)
+    subprocess.run([sys.executable, "-m", "pinid.cli", *args], cwd=cwd, env=env, check=True, stdout=subprocess.DEVNULL)
 
 
 def compare(a, b, where: str, out: dict) -> None:
@@ -66,20 +65,68 @@ def main() -> None:
     a = ap.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         d = Path(tmp)
-        run(HERE, ["simulate", "--urdf", "exo_leg", "--excitation", "zha2019-1", "--seconds", "60", "--seed", "1",
-                   "-o", "train.csv"], d)
-        run(HERE, ["simulate", "--urdf", "exo_leg", "--excitation", "zha2019-2", "--seconds", "30", "--seed", "2",
-                   "-o", "val.csv"], d)
+        run(
+            HERE,
+            [
+                "simulate",
+                "--urdf",
+                "exo_leg",
+                "--excitation",
+                "zha2019-1",
+                "--seconds",
+                "60",
+                "--seed",
+                "1",
+                "-o",
+                "train.csv",
+            ],
+            d,
+        )
+        run(
+            HERE,
+            [
+                "simulate",
+                "--urdf",
+                "exo_leg",
+                "--excitation",
+                "zha2019-2",
+                "--seconds",
+                "30",
+                "--seed",
+                "2",
+                "-o",
+                "val.csv",
+            ],
+            d,
+        )
         result = {}
         for name, tree in (("before", a.before.resolve()), ("this", HERE)):
-            run(tree, ["identify", "--urdf", "exo_leg", "--data", "train.csv", "--validate", "val.csv",
-                       "--methods", a.methods, "--no-figures", "-o", name], d)
+            run(
+                tree,
+                [
+                    "identify",
+                    "--urdf",
+                    "exo_leg",
+                    "--data",
+                    "train.csv",
+                    "--validate",
+                    "val.csv",
+                    "--methods",
+                    a.methods,
+                    "--no-figures",
+                    "-o",
+                    name,
+                ],
+                d,
+            )
             result[name] = json.loads((d / name / "identification.json").read_text())
     out = {"numbers": 0, "numdiff": 0, "max_rel": 0.0, "diff": []}
     compare(result["before"], result["this"], "identification", out)
-    print(f"identification.json ({a.methods}): {out['numbers']} numbers compared, "
-          f"{out['numdiff']} differ at 12 significant digits, largest relative difference {out['max_rel']:.3g}; "
-          f"{len(out['diff']) - out['numdiff']} other differences (text, keys, lengths)")
+    print(
+        f"identification.json ({a.methods}): {out['numbers']} numbers compared, "
+        f"{out['numdiff']} differ at 12 significant digits, largest relative difference {out['max_rel']:.3g}; "
+        f"{len(out['diff']) - out['numdiff']} other differences (text, keys, lengths)"
+    )
     for line in out["diff"][:40]:
         print("  " + line)
     sys.exit(1 if out["diff"] else 0)

@@ -46,8 +46,9 @@ def machine() -> str:
 def run(tree: Path, args: list[str], cwd: Path) -> float:
     env = dict(os.environ, PYTHONPATH=str(tree), MPLBACKEND="Agg", OPENBLAS_NUM_THREADS="1")
     t0 = time.perf_counter()
-    subprocess.run([sys.executable, *args], cwd=cwd, env=env, check=True,
-                   stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    subprocess.run(
+        [sys.executable, *args], cwd=cwd, env=env, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL
+    )
     return time.perf_counter() - t0
 
 
@@ -60,16 +61,61 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         d = Path(tmp)
         cli = ["-m", "pinid.cli"]
-        run(HERE, [*cli, "simulate", "--urdf", "exo_leg", "--excitation", "zha2019-1", "--seconds", "60",
-                   "--seed", "1", "-o", "train.csv"], d)
-        run(HERE, [*cli, "simulate", "--urdf", "exo_leg", "--excitation", "zha2019-2", "--seconds", "30",
-                   "--seed", "2", "-o", "val.csv"], d)
-        ident = [*cli, "identify", "--urdf", "exo_leg", "--data", "train.csv", "--validate", "val.csv",
-                 "--methods", "ols,sdp", "--force"]
-        cases = {"import": ["-c", "import pinid.cli.main"],
-                 "identify (ols,sdp, report + figures)": [*ident, "-o", "out"],
-                 "identify --no-figures": [*ident, "--no-figures", "-o", "out_nf"],
-                 "identify --no-report": [*ident, "--no-report", "-o", "out_nr"]}
+        run(
+            HERE,
+            [
+                *cli,
+                "simulate",
+                "--urdf",
+                "exo_leg",
+                "--excitation",
+                "zha2019-1",
+                "--seconds",
+                "60",
+                "--seed",
+                "1",
+                "-o",
+                "train.csv",
+            ],
+            d,
+        )
+        run(
+            HERE,
+            [
+                *cli,
+                "simulate",
+                "--urdf",
+                "exo_leg",
+                "--excitation",
+                "zha2019-2",
+                "--seconds",
+                "30",
+                "--seed",
+                "2",
+                "-o",
+                "val.csv",
+            ],
+            d,
+        )
+        ident = [
+            *cli,
+            "identify",
+            "--urdf",
+            "exo_leg",
+            "--data",
+            "train.csv",
+            "--validate",
+            "val.csv",
+            "--methods",
+            "ols,sdp",
+            "--force",
+        ]
+        cases = {
+            "import": ["-c", "import pinid.cli.main"],
+            "identify (ols,sdp, report + figures)": [*ident, "-o", "out"],
+            "identify --no-figures": [*ident, "--no-figures", "-o", "out_nf"],
+            "identify --no-report": [*ident, "--no-report", "-o", "out_nr"],
+        }
         best: dict[tuple[str, str], float] = {}
         for _ in range(a.repeat):
             for case, args in cases.items():
@@ -84,8 +130,11 @@ def main() -> None:
     print("|" + "---|" * (head.count("|") - 1))
     for case in cases:
         row = [f"{best[case, n]:.2f}" if (case, n) in best else "–" for n in trees]
-        ratio = (f" | {best[case, 'before'] / best[case, 'this']:.2f}" if (case, "before") in best else " | –") \
-            if a.before else ""
+        ratio = (
+            (f" | {best[case, 'before'] / best[case, 'this']:.2f}" if (case, "before") in best else " | –")
+            if a.before
+            else ""
+        )
         print(f"| {case} | " + " | ".join(row) + ratio + " |")
 
 

@@ -32,8 +32,13 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seconds", type=float, default=60.0)
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--exponents-off", type=float, default=0.0, metavar="FRACTION",
-                    help="the true wearer's passive exponents ×(1 ± FRACTION) of the published (default 0)")
+    ap.add_argument(
+        "--exponents-off",
+        type=float,
+        default=0.0,
+        metavar="FRACTION",
+        help="the true wearer's passive exponents ×(1 ± FRACTION) of the published (default 0)",
+    )
     ap.add_argument("--passive-exponents", action="store_true", help="stage 2 also fits the passive exponents")
     ap.add_argument("--wearer-torque", type=float, default=5.0, metavar="PCT", help="active torque, %% of gravity RMS")
     args = ap.parse_args()
@@ -47,27 +52,48 @@ def main() -> None:
         val = FourierTrajectory.load(HERE / "excitation" / "seed001_table3.json")
         ref = sine_reference(RobotModel.from_urdf(path))
         true = perturbed(RobotModel.from_urdf(path), args.exponents_off) if args.exponents_off else None
-        r = wearer_experiment("exo_leg", path, exc, val, ref, seconds=args.seconds, seed=args.seed,
-                              wearer_torque=args.wearer_torque, true_exponents=true,
-                              passive_exponents=args.passive_exponents)
+        r = wearer_experiment(
+            "exo_leg",
+            path,
+            exc,
+            val,
+            ref,
+            seconds=args.seconds,
+            seed=args.seed,
+            wearer_torque=args.wearer_torque,
+            true_exponents=true,
+            passive_exponents=args.passive_exponents,
+        )
     j = r["joints"]
-    print(f"validation torque RMS [N·m] ({args.seconds:g} s identification, {args.seconds / 2:g} s validation, seed {args.seed})")
+    print(
+        f"validation torque RMS [N·m] ({args.seconds:g} s identification, {args.seconds / 2:g} s validation, seed {args.seed})"
+    )
     print(f"  {'model':<22}" + "".join(f"{x:>10}" for x in j) + f"{'× floor':>10}")
     print(f"  {'floor (true model)':<22}" + "".join(f"{x:10.4f}" for x in r["floor"]) + f"{1.0:10.3f}")
     for w in ("identified", "table", "exo"):
-        print(f"  {'exo + ' + w if w != 'exo' else 'exo alone':<22}" + "".join(f"{x:10.4f}" for x in r["rms"][w])
-              + f"{r['ratio'][w]:10.3f}")
+        print(
+            f"  {'exo + ' + w if w != 'exo' else 'exo alone':<22}"
+            + "".join(f"{x:10.4f}" for x in r["rms"][w])
+            + f"{r['ratio'][w]:10.3f}"
+        )
     print("tracking RMS [mrad] after 2 s")
     for c in CONTROLLERS:
         row = r["tracking"][c]
-        print(f"  {c:<16}" + "  ".join(f"{w} " + "/".join(f"{1e3 * x:.3g}" for x in row[w]) for w in row)
-              + f"   table/identified {np.sqrt(np.mean(row['table']**2) / np.mean(row['identified']**2)):.2f}×")
-    print("base parameters (identified | table): " + ", ".join(
-        f"{n} {a:.4g}|{b:.4g}" for n, a, b in zip(r["fit"].base_names, r["fit"].base, r["fit"].base_table)))
+        print(
+            f"  {c:<16}"
+            + "  ".join(f"{w} " + "/".join(f"{1e3 * x:.3g}" for x in row[w]) for w in row)
+            + f"   table/identified {np.sqrt(np.mean(row['table'] ** 2) / np.mean(row['identified'] ** 2)):.2f}×"
+        )
+    print(
+        "base parameters (identified | table): "
+        + ", ".join(f"{n} {a:.4g}|{b:.4g}" for n, a, b in zip(r["fit"].base_names, r["fit"].base, r["fit"].base_table))
+    )
     e = r["fit"].exponents
     if e is not None:
-        print(f"passive exponents: {e.evaluations} evaluations, {e.seconds:.2f} s; training RMS {e.rms_published:.4g} -> "
-              f"{e.rms_fitted:.4g} N·m; stage 2 {r['fit'].seconds:.2f} s")
+        print(
+            f"passive exponents: {e.evaluations} evaluations, {e.seconds:.2f} s; training RMS {e.rms_published:.4g} -> "
+            f"{e.rms_fitted:.4g} N·m; stage 2 {r['fit'].seconds:.2f} s"
+        )
     print(f"{time.perf_counter() - t0:.1f} s")
 
 

@@ -50,8 +50,10 @@ def main(argv=None) -> int:
     model = RobotModel.from_urdf(data / "double_pendulum.urdf")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        train, valid = (prepare_dataset(read_recording(data / f"trajectory_{n}.csv", model=model, mapping=SPEC))
-                        for n in ("02", "03"))
+        train, valid = (
+            prepare_dataset(read_recording(data / f"trajectory_{n}.csv", model=model, mapping=SPEC))
+            for n in ("02", "03")
+        )
     dt = float(np.median(np.diff(train.t)))
     print(f"\nOLS, train 02, validate 03; torques shifted by L samples of {1e3 * dt:.1f} ms\n")
     print("| L | shift [ms] | validation rel. RMS Joint1 [%] | Joint2 [%] |")

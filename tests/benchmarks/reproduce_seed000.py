@@ -62,31 +62,57 @@ PAPER_BOX = {  # Tables 3 and 5
     "lower": [5.38, 2.34, 2.01, 0.10, 0.01, 0.79, -0.98, 0.39, 0.01, 0.02],
     "upper": [11.64, 5.20, 4.25, 7.88, 1.70, 1.79, 0.18, 0.91, 1.13, 3.15],
 }
-LABELS = {"ols": "LS", "sdp": "LMI (pinid)", "rls": "RLS (λ=1)", "lad": "LAD (IRLS)",
-          "pso/sae": "PSO Σ|r|", "rls-pso/sae": "RLS-PSO Σ|r|", "rls-pso/sae99": "RLS-PSO Σ|r|, λ=0.99", "pso/sse": "PSO ½Σr²", "rls-pso/sse": "RLS-PSO ½Σr²",
-          "pso/sse10k": "PSO ½Σr², G=10⁴", "rls-pso/sse10k": "RLS-PSO ½Σr², G=10⁴"}
+LABELS = {
+    "ols": "LS",
+    "sdp": "LMI (pinid)",
+    "rls": "RLS (λ=1)",
+    "lad": "LAD (IRLS)",
+    "pso/sae": "PSO Σ|r|",
+    "rls-pso/sae": "RLS-PSO Σ|r|",
+    "rls-pso/sae99": "RLS-PSO Σ|r|, λ=0.99",
+    "pso/sse": "PSO ½Σr²",
+    "rls-pso/sse": "RLS-PSO ½Σr²",
+    "pso/sse10k": "PSO ½Σr², G=10⁴",
+    "rls-pso/sse10k": "RLS-PSO ½Σr², G=10⁴",
+}
 
 
 def to_paper_x(base: dict) -> np.ndarray:
     """pinid's base parameters of apal_leg (axes +y, s = −1) -> seed 000's X (docs/robots.md)."""
     b = base
-    return np.array([-b["hip.mzR"], -b["hip.mx"], b["hip.IyyR"] + b["knee.Iyy"], b["hip.fc"], b["hip.fv"],
-                     -b["knee.mz"], -b["knee.mx"], b["knee.Iyy"], b["knee.fc"], b["knee.fv"]])
+    return np.array(
+        [
+            -b["hip.mzR"],
+            -b["hip.mx"],
+            b["hip.IyyR"] + b["knee.Iyy"],
+            b["hip.fc"],
+            b["hip.fv"],
+            -b["knee.mz"],
+            -b["knee.mx"],
+            b["knee.Iyy"],
+            b["knee.fc"],
+            b["knee.fv"],
+        ]
+    )
 
 
 def cad_model(truth: RobotModel, percent: float, seed: int) -> RobotModel:
     """The truth with inertias perturbed by ``percent`` % and friction scaled by a factor in [0.5, 1.5]."""
     rng = np.random.default_rng(seed)
     cad = perturb(truth, percent, rng)
-    return cad.with_inertial_parameters(cad.inertial_parameters(), coulomb=truth.coulomb * rng.uniform(0.5, 1.5, 2),
-                                        viscous=truth.viscous * rng.uniform(0.5, 1.5, 2))
+    return cad.with_inertial_parameters(
+        cad.inertial_parameters(),
+        coulomb=truth.coulomb * rng.uniform(0.5, 1.5, 2),
+        viscous=truth.viscous * rng.uniform(0.5, 1.5, 2),
+    )
 
 
 def recordings(truth: RobotModel, cad: RobotModel, seconds: float, seed: int) -> tuple[dict, dict]:
     recs, truths = {}, {}
     for k in (1, 2, 3, 4):
-        rec, tr = simulate(truth, load_trajectory(f"zha2019-{k}", truth), seconds=seconds, seed=100 * seed + k,
-                           feedforward_model=cad)
+        rec, tr = simulate(
+            truth, load_trajectory(f"zha2019-{k}", truth), seconds=seconds, seed=100 * seed + k, feedforward_model=cad
+        )
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # "the low-pass removes most of the hip's variance" (it is fixed)
             recs[k] = prepare(rec, preset="zha2019")
@@ -108,7 +134,11 @@ def validation_metrics(model, base_values: np.ndarray, ds, joint: str) -> tuple[
     pred = predict_torque(model, model_terms(), bp, ds, base_values)
     j = model.joint_names.index(joint)
     e = ds.tau[:, j] - pred[:, j]
-    return float(np.mean(np.abs(e))), float(np.std(np.abs(e))), float(100 * np.sqrt(np.mean(e**2) / np.mean(ds.tau[:, j]**2)))
+    return (
+        float(np.mean(np.abs(e))),
+        float(np.std(np.abs(e))),
+        float(100 * np.sqrt(np.mean(e**2) / np.mean(ds.tau[:, j] ** 2))),
+    )
 
 
 def model_terms():
@@ -127,16 +157,23 @@ def run(args) -> dict:
         recs, truths = recordings(truth_model, cad, args.seconds, r)
         t_sim = time.perf_counter() - t0
         truth_base = dict(zip(truths[3]["base"]["names"], truths[3]["base"]["values"]))
-        common = dict(validate={"traj2": recs[2], "traj4": recs[4]}, truth=truths[3],
-                      segmental={"first": recs[1], "joints": ("knee",)}, seeds=[r])
+        common = dict(
+            validate={"traj2": recs[2], "traj4": recs[4]},
+            truth=truths[3],
+            segmental={"first": recs[1], "joints": ("knee",)},
+            seeds=[r],
+        )
         runs = {}
         comps = {}
-        for variant, fitness, iterations, rls in (("sae", "sae", args.iterations, None),
-                                                  ("sae99", "sae", args.iterations, {"forgetting": 0.99}),
-                                                  ("sse", "sse", args.iterations, None),
-                                                  ("sse10k", "sse", 10_000, None)):
-            methods = {"sae": ["ols", "sdp", "rls", "pso", "rls-pso"], "sae99": ["rls-pso"]}.get(variant,
-                                                                                              ["pso", "rls-pso"])
+        for variant, fitness, iterations, rls in (
+            ("sae", "sae", args.iterations, None),
+            ("sae99", "sae", args.iterations, {"forgetting": 0.99}),
+            ("sse", "sse", args.iterations, None),
+            ("sse10k", "sse", 10_000, None),
+        ):
+            methods = {"sae": ["ols", "sdp", "rls", "pso", "rls-pso"], "sae99": ["rls-pso"]}.get(
+                variant, ["pso", "rls-pso"]
+            )
             settings = {"fitness": fitness, "population": args.population, "iterations": iterations}
             if rls:
                 settings["rls"] = rls
@@ -155,16 +192,34 @@ def run(args) -> dict:
         rls_hip = make_estimator("rls").fit(seg.second_problem(rls_knee.base_))
         rls99_knee = make_estimator("rls", forgetting=0.99).fit(seg.first_problem)
         rls99_hip = make_estimator("rls", forgetting=0.99).fit(seg.second_problem(rls99_knee.base_))
-        entry = {"seconds_simulation": t_sim, "truth_base": truth_base, "methods": {}, "rls_box": {
-            "knee": {"names": seg.first_problem.names, "lower": rls_knee.box_[0].tolist(),
-                     "upper": rls_knee.box_[1].tolist()},
-            "hip": {"names": seg.second_problem(rls_knee.base_).names, "lower": rls_hip.box_[0].tolist(),
-                    "upper": rls_hip.box_[1].tolist()},
-            "knee99": {"names": seg.first_problem.names, "lower": rls99_knee.box_[0].tolist(),
-                       "upper": rls99_knee.box_[1].tolist()},
-            "hip99": {"names": seg.first_problem.names, "lower": rls99_hip.box_[0].tolist(),
-                      "upper": rls99_hip.box_[1].tolist()}},
-            "reference": comps["sae"].reference}
+        entry = {
+            "seconds_simulation": t_sim,
+            "truth_base": truth_base,
+            "methods": {},
+            "rls_box": {
+                "knee": {
+                    "names": seg.first_problem.names,
+                    "lower": rls_knee.box_[0].tolist(),
+                    "upper": rls_knee.box_[1].tolist(),
+                },
+                "hip": {
+                    "names": seg.second_problem(rls_knee.base_).names,
+                    "lower": rls_hip.box_[0].tolist(),
+                    "upper": rls_hip.box_[1].tolist(),
+                },
+                "knee99": {
+                    "names": seg.first_problem.names,
+                    "lower": rls99_knee.box_[0].tolist(),
+                    "upper": rls99_knee.box_[1].tolist(),
+                },
+                "hip99": {
+                    "names": seg.first_problem.names,
+                    "lower": rls99_hip.box_[0].tolist(),
+                    "upper": rls99_hip.box_[1].tolist(),
+                },
+            },
+            "reference": comps["sae"].reference,
+        }
         names = comps["sae"].base_names
         for key, run_ in list(runs.items()) + [("lad", None)]:
             if run_ is None:
@@ -180,21 +235,26 @@ def run(args) -> dict:
                 hv = (v4["mean_abs"], v4["std_abs"], v4["rel_rms_percent"])
                 secs, hist, hist1 = run_.seconds, run_.history, run_.history_first
                 consistent = run_.physically_consistent
-            entry["methods"][key] = {"base": base, "X": to_paper_x(base).tolist(), "knee_traj2": kv, "hip_traj4": hv,
-                                     "seconds": secs, "history_hip": hist, "history_knee": hist1,
-                                     "consistent": consistent,
-                                     "ls_fitness_hip": None if run_ is None else
-                                     (run_.info.get("second_stage") or {}).get("ls_fitness"),
-                                     "ls_fitness_knee": None if run_ is None else
-                                     (run_.info.get("first_stage") or {}).get("ls_fitness"),
-                                     "min_fitness_hip": None if run_ is None else
-                                     (run_.info.get("second_stage") or {}).get("min_fitness"),
-                                     "min_fitness_knee": None if run_ is None else
-                                     (run_.info.get("first_stage") or {}).get("min_fitness")}
+            entry["methods"][key] = {
+                "base": base,
+                "X": to_paper_x(base).tolist(),
+                "knee_traj2": kv,
+                "hip_traj4": hv,
+                "seconds": secs,
+                "history_hip": hist,
+                "history_knee": hist1,
+                "consistent": consistent,
+                "ls_fitness_hip": None if run_ is None else (run_.info.get("second_stage") or {}).get("ls_fitness"),
+                "ls_fitness_knee": None if run_ is None else (run_.info.get("first_stage") or {}).get("ls_fitness"),
+                "min_fitness_hip": None if run_ is None else (run_.info.get("second_stage") or {}).get("min_fitness"),
+                "min_fitness_knee": None if run_ is None else (run_.info.get("first_stage") or {}).get("min_fitness"),
+            }
         entry["X_truth"] = to_paper_x(truth_base).tolist()
         out["realisations"].append(entry)
-        print(f"realisation {r}: simulated in {t_sim:.1f} s, compared in {time.perf_counter() - t0 - t_sim:.1f} s",
-              file=sys.stderr)
+        print(
+            f"realisation {r}: simulated in {t_sim:.1f} s, compared in {time.perf_counter() - t0 - t_sim:.1f} s",
+            file=sys.stderr,
+        )
     return out
 
 
@@ -207,8 +267,11 @@ def aggregate(out: dict) -> dict:
         a = {}
         for what in ("knee_traj2", "hip_traj4"):
             v = np.array([m[what] for m in ms])
-            a[what] = {"mean_abs": (v[:, 0].mean(), v[:, 0].std()), "std_abs": (v[:, 1].mean(), v[:, 1].std()),
-                       "rel_rms": (v[:, 2].mean(), v[:, 2].std())}
+            a[what] = {
+                "mean_abs": (v[:, 0].mean(), v[:, 0].std()),
+                "std_abs": (v[:, 1].mean(), v[:, 1].std()),
+                "rel_rms": (v[:, 2].mean(), v[:, 2].std()),
+            }
         X = np.array([m["X"] for m in ms])
         a["X"] = (X.mean(axis=0), X.std(axis=0))
         Xt = np.array([e["X_truth"] for e in out["realisations"]])
@@ -222,24 +285,34 @@ def aggregate(out: dict) -> dict:
 def markdown(out: dict, agg: dict) -> str:
     lines = []
     R = len(out["realisations"])
-    lines.append(f"Validation torque error, mean ± std of |e| [N·m] (the paper's format), averaged over {R} noise "
-                 "realisations (± spread of the mean over them); relative RMS [%]:\n")
-    lines.append("| method | knee, trajectory 2 (Fig. 10) | knee rel. RMS % | hip, trajectory 4 (Fig. 13) | "
-                 "hip rel. RMS % | time [s] |")
+    lines.append(
+        f"Validation torque error, mean ± std of |e| [N·m] (the paper's format), averaged over {R} noise "
+        "realisations (± spread of the mean over them); relative RMS [%]:\n"
+    )
+    lines.append(
+        "| method | knee, trajectory 2 (Fig. 10) | knee rel. RMS % | hip, trajectory 4 (Fig. 13) | "
+        "hip rel. RMS % | time [s] |"
+    )
     lines.append("|---|---|---|---|---|---|")
     for k, a in agg.items():
         kn, hp = a["knee_traj2"], a["hip_traj4"]
-        lines.append(f"| {LABELS.get(k, k)} | {kn['mean_abs'][0]:.4f} ± {kn['std_abs'][0]:.4f} (±{kn['mean_abs'][1]:.1g}) "
-                     f"| {kn['rel_rms'][0]:.2f} | {hp['mean_abs'][0]:.4f} ± {hp['std_abs'][0]:.4f} "
-                     f"(±{hp['mean_abs'][1]:.1g}) | {hp['rel_rms'][0]:.2f} | {a['seconds']:.2f} |")
+        lines.append(
+            f"| {LABELS.get(k, k)} | {kn['mean_abs'][0]:.4f} ± {kn['std_abs'][0]:.4f} (±{kn['mean_abs'][1]:.1g}) "
+            f"| {kn['rel_rms'][0]:.2f} | {hp['mean_abs'][0]:.4f} ± {hp['std_abs'][0]:.4f} "
+            f"(±{hp['mean_abs'][1]:.1g}) | {hp['rel_rms'][0]:.2f} | {a['seconds']:.2f} |"
+        )
     for name, v in PAPER_VALIDATION["knee"].items():
         h = PAPER_VALIDATION["hip"][name]
         lines.append(f"| paper: {name} | {v[0]:.4f} ± {v[1]:.4f} | | {h[0]:.4f} ± {h[1]:.4f} | | |")
     lines.append("")
-    lines.append("Identified parameters in the paper's X (mean over realisations), the truth (apal_leg.urdf) "
-                 "and the paper's Tables 4 and 6:\n")
+    lines.append(
+        "Identified parameters in the paper's X (mean over realisations), the truth (apal_leg.urdf) "
+        "and the paper's Tables 4 and 6:\n"
+    )
     keys = list(agg)
-    lines.append("| X | truth | " + " | ".join(LABELS.get(k, k) for k in keys) + " | paper LS | paper PSO | paper RLS-PSO |")
+    lines.append(
+        "| X | truth | " + " | ".join(LABELS.get(k, k) for k in keys) + " | paper LS | paper PSO | paper RLS-PSO |"
+    )
     lines.append("|---" * (len(keys) + 5) + "|")
     Xt = np.mean([e["X_truth"] for e in out["realisations"]], axis=0)
     for i, n in enumerate(X_NAMES):
@@ -254,8 +327,9 @@ def markdown(out: dict, agg: dict) -> str:
         lines.append("| " + " | ".join([n] + [f"{agg[k]['X_err_percent'][i]:.2f}" for k in keys]) + " |")
     lines.append("")
     e0 = out["realisations"][0]
-    lines.append("RLS boxes (λ = 1, first 10 % of the rows left out), realisation 0, in the paper's X, next to "
-                 "Tables 3 and 5:\n")
+    lines.append(
+        "RLS boxes (λ = 1, first 10 % of the rows left out), realisation 0, in the paper's X, next to Tables 3 and 5:\n"
+    )
     lines.append("| X | RLS box, λ = 1 | RLS box, λ = 0.99 | truth | paper's box |")
     lines.append("|---|---|---|---|---|")
     boxes, boxes99 = {}, {}
@@ -266,16 +340,26 @@ def markdown(out: dict, agg: dict) -> str:
             for n, lo, hi in zip(names, b["lower"], b["upper"]):
                 target[n] = (lo, hi)
     # map the boxes of pinid's parameters to X where the map is a sign flip (J_t is a sum: not shown)
-    sign_map = {"M_xt": ("hip.mzR", -1), "M_yt": ("hip.mx", -1), "f_c1": ("hip.fc", 1), "f_v1": ("hip.fv", 1),
-                "M_xs": ("knee.mz", -1), "M_ys": ("knee.mx", -1), "J_s": ("knee.Iyy", 1), "f_c2": ("knee.fc", 1),
-                "f_v2": ("knee.fv", 1)}
+    sign_map = {
+        "M_xt": ("hip.mzR", -1),
+        "M_yt": ("hip.mx", -1),
+        "f_c1": ("hip.fc", 1),
+        "f_v1": ("hip.fv", 1),
+        "M_xs": ("knee.mz", -1),
+        "M_ys": ("knee.mx", -1),
+        "J_s": ("knee.Iyy", 1),
+        "f_c2": ("knee.fc", 1),
+        "f_v2": ("knee.fv", 1),
+    }
     for i, n in enumerate(X_NAMES):
         if n not in sign_map:
             cells = [f"(hip.IyyR {b['hip.IyyR'][0]:.4f}~{b['hip.IyyR'][1]:.4f})" for b in (boxes, boxes99)]
         else:
             p, s = sign_map[n]
             cells = ["{:.4f}~{:.4f}".format(*sorted((s * b[p][0], s * b[p][1]))) for b in (boxes, boxes99)]
-        lines.append(f"| {n} | {cells[0]} | {cells[1]} | {Xt[i]:.4f} | {PAPER_BOX['lower'][i]}~{PAPER_BOX['upper'][i]} |")
+        lines.append(
+            f"| {n} | {cells[0]} | {cells[1]} | {Xt[i]:.4f} | {PAPER_BOX['lower'][i]}~{PAPER_BOX['upper'][i]} |"
+        )
     return "\n".join(lines)
 
 
@@ -294,12 +378,22 @@ def figures(out: dict, agg: dict, folder: Path) -> list[Path]:
         x = np.arange(len(labels))
         bars = ax.bar(x, means, 0.7, yerr=stds, capsize=3, color=colors, edgecolor="black", lw=0.5)
         for b, v in zip(bars, means):
-            ax.annotate(f"{v:.3g}", (b.get_x() + b.get_width() / 2, v), ha="center", va="bottom", fontsize="x-small",
-                        xytext=(0, 1), textcoords="offset points")
+            ax.annotate(
+                f"{v:.3g}",
+                (b.get_x() + b.get_width() / 2, v),
+                ha="center",
+                va="bottom",
+                fontsize="x-small",
+                xytext=(0, 1),
+                textcoords="offset points",
+            )
         ax.set_xticks(x, labels, rotation=30, ha="right", fontsize="small")
         ax.set_ylabel("|τ error|, mean ± std [N·m]")
-        ax.set_title(f"{joint}: validation on trajectory {2 if joint == 'knee' else 4} (format of seed 000 Fig. {fig_no}); "
-                     "grey: the paper", fontsize="small")
+        ax.set_title(
+            f"{joint}: validation on trajectory {2 if joint == 'knee' else 4} (format of seed 000 Fig. {fig_no}); "
+            "grey: the paper",
+            fontsize="small",
+        )
         ax.grid(axis="y", alpha=0.3)
         fig.tight_layout()
         path = folder / f"seed000_errors_{joint}.png"
@@ -309,8 +403,12 @@ def figures(out: dict, agg: dict, folder: Path) -> list[Path]:
         fig, axes = new_figure(1, 2, figsize=(10, 3.8))
         for ax, fitness in zip(axes, ("sae", "sse")):
             ls_excess = []
-            for k, color in ((f"pso/{fitness}", "tab:blue"), (f"rls-pso/{fitness}", "tab:cyan"),
-                             (f"pso/{fitness}10k", "tab:purple"), (f"rls-pso/{fitness}10k", "tab:pink")):
+            for k, color in (
+                (f"pso/{fitness}", "tab:blue"),
+                (f"rls-pso/{fitness}", "tab:cyan"),
+                (f"pso/{fitness}10k", "tab:purple"),
+                (f"rls-pso/{fitness}10k", "tab:pink"),
+            ):
                 if k not in LABELS or k not in out["realisations"][0]["methods"]:
                     continue
                 for e in out["realisations"]:
@@ -327,12 +425,16 @@ def figures(out: dict, agg: dict, folder: Path) -> list[Path]:
             ax.set_xlim(0, None)
             ax.set_xlabel("iteration")
             ax.set_ylabel(("Σ|r|" if fitness == "sae" else "½Σr²") + " of the best particle / its minimum − 1")
-            ax.set_title("minimum: " + ("least absolute deviations" if fitness == "sae" else "least squares"),
-                         fontsize="small")
+            ax.set_title(
+                "minimum: " + ("least absolute deviations" if fitness == "sae" else "least squares"), fontsize="small"
+            )
             ax.grid(alpha=0.3, which="both")
             ax.legend(fontsize="x-small")
-        fig.suptitle(f"{joint} parameters: convergence of the best particle's fitness (cf. seed 000 Fig. {fig_no}); "
-                     "one line per noise realisation", fontsize="small")
+        fig.suptitle(
+            f"{joint} parameters: convergence of the best particle's fitness (cf. seed 000 Fig. {fig_no}); "
+            "one line per noise realisation",
+            fontsize="small",
+        )
         fig.tight_layout()
         path = folder / f"seed000_convergence_{joint}.png"
         save_figure(fig, path)

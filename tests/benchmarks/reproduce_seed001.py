@@ -48,8 +48,11 @@ COLORS = {"pso": "tab:blue", "woa": "tab:orange", "ewoa": "tab:red", "de": "tab:
 def cad_model(truth: RobotModel, percent: float, seed: int) -> RobotModel:
     rng = np.random.default_rng(seed)
     cad = perturb(truth, percent, rng)
-    return cad.with_inertial_parameters(cad.inertial_parameters(), coulomb=truth.coulomb * rng.uniform(0.5, 1.5, 2),
-                                        viscous=truth.viscous * rng.uniform(0.5, 1.5, 2))
+    return cad.with_inertial_parameters(
+        cad.inertial_parameters(),
+        coulomb=truth.coulomb * rng.uniform(0.5, 1.5, 2),
+        viscous=truth.viscous * rng.uniform(0.5, 1.5, 2),
+    )
 
 
 def excitation_part(leg: RobotModel, args) -> dict:
@@ -58,11 +61,25 @@ def excitation_part(leg: RobotModel, args) -> dict:
     for name in OPTIMIZERS:
         runs = []
         for seed in range(args.seeds):
-            r = design_excitation(leg, spec, optimizer=name, seed=seed, progress=False,
-                                  options={"population": args.population, "iterations": args.iterations})
-            runs.append({"seed": seed, "cond": float(r.condition_number), "history": [float(h) for h in r.history],
-                         "seconds": float(r.seconds), "nfev": int(r.nfev), "feasible": bool(r.feasible),
-                         "trajectory": r.trajectory.to_dict()})
+            r = design_excitation(
+                leg,
+                spec,
+                optimizer=name,
+                seed=seed,
+                progress=False,
+                options={"population": args.population, "iterations": args.iterations},
+            )
+            runs.append(
+                {
+                    "seed": seed,
+                    "cond": float(r.condition_number),
+                    "history": [float(h) for h in r.history],
+                    "seconds": float(r.seconds),
+                    "nfev": int(r.nfev),
+                    "feasible": bool(r.feasible),
+                    "trajectory": r.trajectory.to_dict(),
+                }
+            )
             print(f"excitation {name} seed {seed}: cond {r.condition_number:.3f} in {r.seconds:.1f} s", file=sys.stderr)
         out["runs"][name] = runs
     t0 = time.perf_counter()
@@ -80,28 +97,41 @@ def identification_part(leg: RobotModel, train_traj, args) -> dict:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         rec, truth = simulate(leg, train_traj, seconds=args.seconds, seed=11, controller="pid", feedforward_model=cad)
-        val, _ = simulate(leg, val_traj, seconds=min(args.seconds, 30.0), seed=12, controller="pid",
-                          feedforward_model=cad)
+        val, _ = simulate(
+            leg, val_traj, seconds=min(args.seconds, 30.0), seed=12, controller="pid", feedforward_model=cad
+        )
         train = prepare(rec, preset="shi2024")
         valid = prepare(val, preset="shi2024")
-    comp = compare(cad, train, {"Table 3 trajectory": valid}, methods=["ols", "sdp", "pso", "woa", "ewoa", "de"],
-                   seeds=args.seeds, truth=truth,
-                   metaheuristic={"fitness": "sse", "population": args.population, "iterations": args.iterations})
+    comp = compare(
+        cad,
+        train,
+        {"Table 3 trajectory": valid},
+        methods=["ols", "sdp", "pso", "woa", "ewoa", "de"],
+        seeds=args.seeds,
+        truth=truth,
+        metaheuristic={"fitness": "sse", "population": args.population, "iterations": args.iterations},
+    )
     return {"comparison": comp.to_dict(), "table": comp.table(), "values": comp.values_table(), "_comp": comp}
 
 
 def markdown(exc: dict, ident: dict, args) -> str:
     L = []
-    L.append(f"Excitation design, condition number of the base regressor (Eq. (20)), {args.seeds} seeds, population "
-             f"{args.population}, {args.iterations} iterations:\n")
+    L.append(
+        f"Excitation design, condition number of the base regressor (Eq. (20)), {args.seeds} seeds, population "
+        f"{args.population}, {args.iterations} iterations:\n"
+    )
     L.append("| optimiser | cond: mean ± sd | best | worst | evaluations | time [s] |")
     L.append("|---|---|---|---|---|---|")
     for name, runs in exc["runs"].items():
         c = np.array([r["cond"] for r in runs])
-        L.append(f"| {name} | {c.mean():.2f} ± {c.std():.2f} | {c.min():.2f} | {c.max():.2f} | {runs[0]['nfev']} | "
-                 f"{np.mean([r['seconds'] for r in runs]):.1f} |")
-    L.append(f"| slsqp (pinid's default, multistart) | {exc['slsqp']['cond']:.2f} | | | {exc['slsqp']['nfev']} | "
-             f"{exc['slsqp']['seconds']:.1f} |")
+        L.append(
+            f"| {name} | {c.mean():.2f} ± {c.std():.2f} | {c.min():.2f} | {c.max():.2f} | {runs[0]['nfev']} | "
+            f"{np.mean([r['seconds'] for r in runs]):.1f} |"
+        )
+    L.append(
+        f"| slsqp (pinid's default, multistart) | {exc['slsqp']['cond']:.2f} | | | {exc['slsqp']['nfev']} | "
+        f"{exc['slsqp']['seconds']:.1f} |"
+    )
     L.append(f"| the paper's Table 3 trajectory | {exc['paper_table3']['cond']:.2f} | | | | |")
     L.append("")
     L.append("Identification on the twin (fitness ½Σr², Eq. (22)), validation on the paper's Table 3 trajectory:\n")
@@ -112,10 +142,18 @@ def markdown(exc: dict, ident: dict, args) -> str:
     L.append(ident["values"])
     L.append("```")
     comp = ident["_comp"]
-    neg = {m: sum(1 for r in runs if r.base[comp.base_names.index("hip.fv")] < 0 or
-                  r.base[comp.base_names.index("knee.fv")] < 0) for m, runs in comp.runs.items()}
-    L.append("\nRuns with a negative viscous friction coefficient (seed 001 Table 4's Φ6 = −3.1): " +
-             ", ".join(f"{m} {n}/{len(comp.runs[m])}" for m, n in neg.items()))
+    neg = {
+        m: sum(
+            1
+            for r in runs
+            if r.base[comp.base_names.index("hip.fv")] < 0 or r.base[comp.base_names.index("knee.fv")] < 0
+        )
+        for m, runs in comp.runs.items()
+    }
+    L.append(
+        "\nRuns with a negative viscous friction coefficient (seed 001 Table 4's Φ6 = −3.1): "
+        + ", ".join(f"{m} {n}/{len(comp.runs[m])}" for m, n in neg.items())
+    )
     return "\n".join(L)
 
 
@@ -132,9 +170,16 @@ def figures(exc: dict, ident: dict, folder: Path) -> list[Path]:
             ax.plot(r["history"], color=COLORS[name], lw=0.7, alpha=0.5, label=name if k == 0 else None)
         med = np.median(np.vstack([r["history"] for r in runs]), axis=0)
         ax.plot(med, color=COLORS[name], lw=2)
-    ax.axhline(exc["slsqp"]["cond"], color="black", ls="--", lw=1, label=f"slsqp multistart ({exc['slsqp']['cond']:.1f})")
-    ax.axhline(exc["paper_table3"]["cond"], color="grey", ls=":", lw=1.2,
-               label=f"paper's Table 3 trajectory ({exc['paper_table3']['cond']:.1f})")
+    ax.axhline(
+        exc["slsqp"]["cond"], color="black", ls="--", lw=1, label=f"slsqp multistart ({exc['slsqp']['cond']:.1f})"
+    )
+    ax.axhline(
+        exc["paper_table3"]["cond"],
+        color="grey",
+        ls=":",
+        lw=1.2,
+        label=f"paper's Table 3 trajectory ({exc['paper_table3']['cond']:.1f})",
+    )
     ax.set_yscale("log")
     ax.set_xlabel("iteration")
     ax.set_ylabel("best condition number (Eq. (20))")
@@ -176,8 +221,12 @@ def main(argv=None) -> int:
         saved = json.loads((Path(args.out) / "results.json").read_text())
         exc = saved["excitation"]
         comp = Comparison.from_dict(saved["identification"])
-        ident = {"comparison": saved["identification"], "table": comp.table(), "values": comp.values_table(),
-                 "_comp": comp}
+        ident = {
+            "comparison": saved["identification"],
+            "table": comp.table(),
+            "values": comp.values_table(),
+            "_comp": comp,
+        }
     else:
         leg = RobotModel.from_urdf("exo_leg")
         exc = excitation_part(leg, args)
@@ -189,8 +238,9 @@ def main(argv=None) -> int:
     print(md)
     folder = Path(args.out)
     folder.mkdir(parents=True, exist_ok=True)
-    (folder / "results.json").write_text(json.dumps({"excitation": exc, "identification": ident["comparison"]},
-                                                    indent=1, default=float))
+    (folder / "results.json").write_text(
+        json.dumps({"excitation": exc, "identification": ident["comparison"]}, indent=1, default=float)
+    )
     (folder / "results.md").write_text(md + "\n")
     if args.figures:
         for path in figures(exc, ident, Path(args.figures)):
