@@ -180,20 +180,27 @@ def _check_loads(text: str, model: RobotModel) -> None:
 def _set_inertial(link: ET.Element, m: float, c: np.ndarray, I: np.ndarray) -> None:
     for el in link.findall("inertial"):
         link.remove(el)
+    link.insert(0, inertial_element(m, c, I))
+
+
+def inertial_element(mass: float, com, inertia, number=_num) -> ET.Element:
+    """A URDF ``<inertial>``: ``mass`` [kg], ``com`` (3,) [m] in the link frame, ``inertia`` (3, 3) [kg·m²]
+    about the centre of mass in link axes; ``number`` formats each value (default: all 17 digits)."""
+    I = np.asarray(inertia, dtype=float)
     inertial = ET.Element("inertial")
-    ET.SubElement(inertial, "origin", xyz=" ".join(_num(x) for x in c), rpy="0 0 0")
-    ET.SubElement(inertial, "mass", value=_num(m))
+    ET.SubElement(inertial, "origin", xyz=" ".join(number(x) for x in com), rpy="0 0 0")
+    ET.SubElement(inertial, "mass", value=number(mass))
     ET.SubElement(
         inertial,
         "inertia",
-        ixx=_num(I[0, 0]),
-        ixy=_num(I[0, 1]),
-        ixz=_num(I[0, 2]),
-        iyy=_num(I[1, 1]),
-        iyz=_num(I[1, 2]),
-        izz=_num(I[2, 2]),
+        ixx=number(I[0, 0]),
+        ixy=number(I[0, 1]),
+        ixz=number(I[0, 2]),
+        iyy=number(I[1, 1]),
+        iyz=number(I[1, 2]),
+        izz=number(I[2, 2]),
     )
-    link.insert(0, inertial)
+    return inertial
 
 
 def identified_drives(

@@ -28,6 +28,7 @@ import numpy as np
 import pinocchio as pin
 
 from pinid.errors import SpecError
+from pinid.model.export import inertial_element
 from pinid.wearer.anthropometry import LEG_SEGMENTS, Segment, check_person, segment
 
 PREFIX = "wearer_"
@@ -176,20 +177,7 @@ def wearer_urdf(
                 f"from the proximal end; inertia about the CoM in the frame of '{p.link}' "
             )
         )
-        inertial = ET.SubElement(link, "inertial")
-        ET.SubElement(inertial, "origin", xyz=" ".join(_num(x) for x in p.com), rpy="0 0 0")
-        ET.SubElement(inertial, "mass", value=_num(s.mass))
-        I = p.inertia
-        ET.SubElement(
-            inertial,
-            "inertia",
-            ixx=_num(I[0, 0]),
-            ixy=_num(I[0, 1]),
-            ixz=_num(I[0, 2]),
-            iyy=_num(I[1, 1]),
-            iyz=_num(I[1, 2]),
-            izz=_num(I[2, 2]),
-        )
+        link.append(inertial_element(s.mass, p.com, p.inertia, _num))
         d = p.frame[:, 2]  # the segment as a cylinder (√2·longitudinal radius of gyration): also what
         visual = ET.SubElement(link, "visual", name="segment")  # wearer_prior reads its extent from
         ET.SubElement(
