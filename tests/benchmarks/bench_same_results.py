@@ -21,6 +21,8 @@ import sys
 import tempfile
 from pathlib import Path
 
+from bench_startup import twin_recordings  # the script's own folder is on the path
+
 HERE = Path(__file__).resolve().parents[2]
 SKIP = {"seconds", "version", "pinid_version", "created", "path", "urdf", "data", "validate", "output", "files"}
 
@@ -65,40 +67,7 @@ def main() -> None:
     a = ap.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         d = Path(tmp)
-        run(
-            HERE,
-            [
-                "simulate",
-                "--urdf",
-                "exo_leg",
-                "--excitation",
-                "zha2019-1",
-                "--seconds",
-                "60",
-                "--seed",
-                "1",
-                "-o",
-                "train.csv",
-            ],
-            d,
-        )
-        run(
-            HERE,
-            [
-                "simulate",
-                "--urdf",
-                "exo_leg",
-                "--excitation",
-                "zha2019-2",
-                "--seconds",
-                "30",
-                "--seed",
-                "2",
-                "-o",
-                "val.csv",
-            ],
-            d,
-        )
+        twin_recordings(d)
         result = {}
         for name, tree in (("before", a.before.resolve()), ("this", HERE)):
             run(

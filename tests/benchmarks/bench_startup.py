@@ -52,6 +52,17 @@ def run(tree: Path, args: list[str], cwd: Path) -> float:
     return time.perf_counter() - t0
 
 
+#: The exo_leg twin recordings of this benchmark and bench_same_results: (preset, seconds, seed, file).
+TWIN = (("zha2019-1", "60", "1", "train.csv"), ("zha2019-2", "30", "2", "val.csv"))
+
+
+def twin_recordings(folder: Path) -> None:
+    """Write the :data:`TWIN` recordings into ``folder`` with this tree's ``pinid simulate``."""
+    for preset, seconds, seed, name in TWIN:
+        args = ["simulate", "--urdf", "exo_leg", "--excitation", preset, "--seconds", seconds, "--seed", seed]
+        run(HERE, ["-m", "pinid.cli", *args, "-o", name], folder)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--before", type=Path, help="an older checkout to time side by side")
@@ -61,42 +72,7 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         d = Path(tmp)
         cli = ["-m", "pinid.cli"]
-        run(
-            HERE,
-            [
-                *cli,
-                "simulate",
-                "--urdf",
-                "exo_leg",
-                "--excitation",
-                "zha2019-1",
-                "--seconds",
-                "60",
-                "--seed",
-                "1",
-                "-o",
-                "train.csv",
-            ],
-            d,
-        )
-        run(
-            HERE,
-            [
-                *cli,
-                "simulate",
-                "--urdf",
-                "exo_leg",
-                "--excitation",
-                "zha2019-2",
-                "--seconds",
-                "30",
-                "--seed",
-                "2",
-                "-o",
-                "val.csv",
-            ],
-            d,
-        )
+        twin_recordings(d)
         ident = [
             *cli,
             "identify",
