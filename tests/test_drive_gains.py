@@ -126,28 +126,32 @@ def _toml(d: dict) -> str:
     return "\n".join(f"{k} = {json.dumps(v)}" for k, v in d.items()) + "\n"
 
 
-def test_cli_identifies_drive_gains(tmp_path):
+def _write_recordings(folder, gains) -> None:
+    """run.csv (currents without the payload) and loaded.csv (with it) of exo_leg into ``folder``."""
     m = load("exo_leg")
+    write_recording(folder / "run.csv", recording(m, gains, None, 1))
+    write_recording(folder / "loaded.csv", recording(m, gains, Payload.from_dict(PAYLOAD), 2))
+
+
+def _identify(folder, *extra: str):
+    """``pinid identify`` (ols) on run.csv with ``extra`` options, into folder/out."""
+    data = str(folder / "run.csv")
+    return run_cli(
+        "identify", "--urdf", "exo_leg", "--data", data, "--methods", "ols", *extra, "-o", str(folder / "out")
+    )
+
+
+def test_cli_identifies_drive_gains(tmp_path):
     gains = np.array([2.0, 3.5])
-    payload = Payload.from_dict(PAYLOAD)
-    write_recording(tmp_path / "run.csv", recording(m, gains, None, 1))
-    write_recording(tmp_path / "loaded.csv", recording(m, gains, payload, 2))
+    _write_recordings(tmp_path, gains)
     (tmp_path / "payload.toml").write_text(_toml(PAYLOAD))
-    r = run_cli(
-        "identify",
-        "--urdf",
-        "exo_leg",
-        "--data",
-        str(tmp_path / "run.csv"),
-        "--methods",
-        "ols",
+    r = _identify(
+        tmp_path,
         "--payload",
         str(tmp_path / "payload.toml"),
         "--payload-data",
         str(tmp_path / "loaded.csv"),
         "--no-report",
-        "-o",
-        str(tmp_path / "out"),
     )
     assert r.returncode == 0, r.stderr
     assert "drive gains" in r.stdout
@@ -163,21 +167,8 @@ def test_cli_identifies_drive_gains(tmp_path):
     ],
 )
 def test_cli_drive_gain_errors(tmp_path, extra, fragment):
-    m = load("exo_leg")
-    write_recording(tmp_path / "run.csv", recording(m, np.ones(2), None, 1))
-    write_recording(tmp_path / "loaded.csv", recording(m, np.ones(2), Payload.from_dict(PAYLOAD), 2))
+    _write_recordings(tmp_path, np.ones(2))
     (tmp_path / "bad.toml").write_text("mass = 0\n")
-    r = run_cli(
-        "identify",
-        "--urdf",
-        "exo_leg",
-        "--data",
-        str(tmp_path / "run.csv"),
-        "--methods",
-        "ols",
-        *[e.format(d=tmp_path) for e in extra],
-        "-o",
-        str(tmp_path / "out"),
-    )
+    r = _identify(tmp_path, *[e.format(d=tmp_path) for e in extra])
     assert_clean_error(r, fragment)
     assert not (tmp_path / "out").exists()
