@@ -70,7 +70,7 @@ class ConicProblem:
 
     def __init__(self, n: int) -> None:
         self.n = int(n)
-        self.norms: list[tuple[np.ndarray, np.ndarray, float]] = []
+        self.norm_terms: list[tuple[np.ndarray, np.ndarray, float]] = []
         self.equalities: list[tuple[np.ndarray, np.ndarray]] = []
         self.inequalities: list[tuple[np.ndarray, np.ndarray]] = []
         self.psd: list[tuple[np.ndarray, np.ndarray, int]] = []
@@ -86,8 +86,8 @@ class ConicProblem:
         """Add ``weight·‖M·z − m‖`` to the cost; returns its index in :attr:`ConicSolution.norms`."""
         if not weight >= 0:
             raise ValueError(f"norm weight {weight}, expected ≥ 0")
-        self.norms.append((*self._rows(M, m), float(weight)))
-        return len(self.norms) - 1
+        self.norm_terms.append((*self._rows(M, m), float(weight)))
+        return len(self.norm_terms) - 1
 
     def add_equality(self, A, b) -> None:
         """Require ``A·z = b``."""
@@ -119,13 +119,13 @@ class ConicProblem:
         if z is None:
             raise SolverError(f"{what}: solver {solver} returned status '{status}' without a solution")
         z = np.asarray(z, dtype=float).reshape(-1)
-        return ConicSolution(z, status, seconds, [float(np.linalg.norm(M @ z - m)) for M, m, _ in self.norms])
+        return ConicSolution(z, status, seconds, [float(np.linalg.norm(M @ z - m)) for M, m, _ in self.norm_terms])
 
     def _clarabel(self, solver: str, opts: dict, what: str) -> tuple[np.ndarray | None, str, float | None]:
         import clarabel
         import scipy.sparse
 
-        n, k = self.n, len(self.norms)
+        n, k = self.n, len(self.norm_terms)
         rows, rhs, cones = [], [], []
         if self.equalities:  # s = b − A·z = 0
             A, b = (np.concatenate(x) for x in zip(*self.equalities))
@@ -137,7 +137,7 @@ class ConicProblem:
             rows.append(np.hstack([-C, np.zeros((len(d), k))]))
             rhs.append(-d)
             cones.append(clarabel.NonnegativeConeT(len(d)))
-        for i, (M, m, _) in enumerate(self.norms):  # s = (t_i, M·z − m) in the second-order cone
+        for i, (M, m, _) in enumerate(self.norm_terms):  # s = (t_i, M·z − m) in the second-order cone
             block = np.zeros((1 + len(m), n + k))
             block[0, n + i] = -1.0
             block[1:, :n] = -M
@@ -149,7 +149,7 @@ class ConicProblem:
             rows.append(np.hstack([-V @ B, np.zeros((V.shape[0], k))]))
             rhs.append(V @ c)
             cones.append(clarabel.PSDTriangleConeT(d))
-        q = np.concatenate([np.zeros(n), [w for _, _, w in self.norms]])
+        q = np.concatenate([np.zeros(n), [w for _, _, w in self.norm_terms]])
         A = scipy.sparse.csc_matrix(np.vstack(rows) if rows else np.zeros((0, n + k)))
         P = scipy.sparse.csc_matrix((n + k, n + k))
         settings = clarabel.DefaultSettings()
@@ -175,7 +175,7 @@ class ConicProblem:
         import cvxpy as cp  # heavy optional dependency: imported only for a solver other than Clarabel
 
         z = cp.Variable(self.n)
-        cost = sum((w * cp.norm(M @ z - m) for M, m, w in self.norms), cp.Constant(0.0))
+        cost = sum((w * cp.norm(M @ z - m) for M, m, w in self.norm_terms), cp.Constant(0.0))
         cons = [A @ z == b for A, b in self.equalities] + [C @ z >= d for C, d in self.inequalities]
         for B, c, d in self.psd:
             F = cp.reshape(B @ z + c, (d, d), order="F")
