@@ -241,7 +241,6 @@ class IdentificationProblem:
         nv = model.nv
         thresholds = [rest_threshold(ds, model, terms, rest_velocity, rest_fraction) for ds in prepared]
         total = sum(ds.n for ds in prepared)
-        bar = progress(total, "regressor", enabled=show_progress)
         keeps = [kept_rows(ds, thr) for ds, thr in zip(prepared, thresholds)]
         tau, joint, sample = stacked_targets(prepared, keeps, nv)
         rows = RegressorRows(model, terms, base, prepared, keeps)
@@ -273,6 +272,7 @@ class IdentificationProblem:
             peak_velocity=np.max([np.abs(ds.dq).max(axis=0) for ds in prepared], axis=0),
             regressor_rows=rows,
         )
+        bar = progress(total, "regressor", enabled=show_progress)  # the Gram pass of the rank check
         try:
             problem.check(bar=bar)
         finally:
