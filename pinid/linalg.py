@@ -6,6 +6,8 @@ A tall weighted least-squares problem ``min ‖diag(√w)(W x − τ)‖`` is co
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Iterator
+
 import numpy as np
 import scipy.linalg
 
@@ -19,6 +21,73 @@ RANK_TOL = 1e-10
 SOLVE_TOL = 1e-13
 
 
+#: Rows per block when a tall matrix's Gram sums are accumulated (bounds the weighted copy of a block).
+GRAM_BLOCK_ROWS = 100_000
+
+
+def row_blocks(
+    W: np.ndarray, tau: np.ndarray, weights: np.ndarray | None = None, rows: int = GRAM_BLOCK_ROWS
+) -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray | None]]:
+    """``(W_k, τ_k, w_k)`` of consecutive blocks of ``rows`` rows of a whole matrix (``w_k`` None without weights)."""
+    for start in range(0, len(W), rows):
+        stop = start + rows
+        yield W[start:stop], tau[start:stop], None if weights is None else weights[start:stop]
+
+
+def gram_sums(
+    blocks: Iterable[tuple[np.ndarray, np.ndarray, np.ndarray | None]], nb: int
+) -> tuple[np.ndarray, np.ndarray, float]:
+    """``(G, b, yy)`` = (Σ W_kᵀ diag(w_k) W_k, Σ W_kᵀ diag(w_k) τ_k, Σ w_k·τ_k²) over row blocks
+    ``(W_k, τ_k, w_k)`` (``w_k`` None: unit weights): the normal equations of a tall weighted least-squares
+    problem, accumulated without the tall matrix existing whole."""
+    G = np.zeros((nb, nb))
+    b = np.zeros(nb)
+    yy = 0.0
+    for Wk, yk, wk in blocks:
+        Wk = np.asarray(Wk, dtype=float)
+        yk = np.asarray(yk, dtype=float)
+        Ww = Wk if wk is None else Wk * np.asarray(wk, dtype=float)[:, None]
+        G += Ww.T @ Wk
+        b += Ww.T @ yk
+        yy += float(np.dot(yk, yk) if wk is None else np.dot(wk * yk, yk))
+    return G, b, yy
+
+
+def column_scale(G: np.ndarray) -> np.ndarray:
+    """Column norms ``√diag(G)`` of the matrix behind a Gram matrix, zeros replaced by 1 (for scaling)."""
+    scale = np.sqrt(np.maximum(np.diag(G), 0.0))
+    scale[scale == 0] = 1.0
+    return scale
+
+
+def cholesky_r(G: np.ndarray, b: np.ndarray, yy: float) -> tuple[np.ndarray, np.ndarray, float, np.ndarray] | None:
+    """``(R, c, rho, scale)`` of :func:`augmented_r` from the Gram sums of :func:`gram_sums`, or None when the
+    column-scaled Gram matrix is not safely positive definite (condition number above 1/:data:`RANK_TOL`, or
+    not finite): then only a QR factorisation of the tall matrix is accurate enough."""
+    nb = len(G)
+    scale = column_scale(G)
+    Gs = G / np.outer(scale, scale)
+    if not nb or not np.all(np.isfinite(Gs)):
+        return None
+    ev = np.linalg.eigvalsh(Gs)
+    if not ev[0] > RANK_TOL * ev[-1]:
+        return None
+    try:
+        R = scipy.linalg.cholesky(Gs, lower=False)
+        c = scipy.linalg.solve_triangular(R, b / scale, trans="T")
+    except (np.linalg.LinAlgError, ValueError):
+        return None
+    rho = float(np.sqrt(max(yy - float(c @ c), 0.0)))
+    return R, c, rho, scale
+
+
+def unit_weights(weights: np.ndarray | None) -> np.ndarray | None:
+    """``weights`` as floats, or None when absent or all ones (then rows are not multiplied)."""
+    if weights is None or np.all(weights == 1.0):
+        return None
+    return np.asarray(weights, dtype=float)
+
+
 def augmented_r(
     W: np.ndarray, tau: np.ndarray, weights: np.ndarray | None = None
 ) -> tuple[np.ndarray, np.ndarray, float, np.ndarray]:
@@ -27,46 +96,32 @@ def augmented_r(
     With ``A = diag(√w)·W·diag(1/scale)`` (columns scaled to unit norm) and ``y = √w·τ``,
     ``‖A x − y‖² = ‖R x − c‖² + rho²`` for every ``x``: ``R`` is ``(nb, nb)`` upper triangular, ``rho``
     the least-squares residual norm.  One pass over the tall matrix: the Cholesky factor of the
-    column-scaled Gram matrix ``AᵀA`` when its condition number is below 1e10 (then the normal
-    equations lose at most ~1e-6 relative accuracy, far below any noise), else — and for rank
-    deficiency — Householder QR of ``[A | y]``.
+    column-scaled Gram matrix ``AᵀA`` (:func:`gram_sums` in row blocks, :func:`cholesky_r`) when its
+    condition number is below 1e10 (then the normal equations lose at most ~1e-6 relative accuracy, far
+    below any noise), else — and for rank deficiency — Householder QR of ``[A | y]`` (:func:`qr_r`).
     """
     W = np.asarray(W, dtype=float)
     y = np.asarray(tau, dtype=float)
+    w = unit_weights(weights)
+    G, b, yy = gram_sums(row_blocks(W, y, w), W.shape[1])
+    out = cholesky_r(G, b, yy)
+    return out if out is not None else qr_r(W, y, w, column_scale(G))
+
+
+def qr_r(
+    W: np.ndarray, tau: np.ndarray, weights: np.ndarray | None, scale: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, float, np.ndarray]:
+    """``(R, c, rho, scale)`` of :func:`augmented_r` by Householder QR of the scaled, weighted ``[A | y]``
+    (for ill-conditioned or rank-deficient problems; needs the whole tall matrix)."""
     nb = W.shape[1]
-    if weights is not None and not np.all(weights == 1.0):
-        w = np.asarray(weights, dtype=float)
-        Ww = W * w[:, None]
-        G = Ww.T @ W
-        b = Ww.T @ y
-        yy = float(np.dot(w * y, y))
-        del Ww
-    else:
-        w = None
-        G = W.T @ W
-        b = W.T @ y
-        yy = float(np.dot(y, y))
-    scale = np.sqrt(np.maximum(np.diag(G), 0.0))
-    scale[scale == 0] = 1.0
-    Gs = G / np.outer(scale, scale)
-    ev = np.linalg.eigvalsh(Gs) if nb else np.ones(1)
-    if nb and ev[0] > RANK_TOL * ev[-1] and np.all(np.isfinite(Gs)):
-        try:
-            R = scipy.linalg.cholesky(Gs, lower=False)
-            c = scipy.linalg.solve_triangular(R, b / scale, trans="T")
-            rho = float(np.sqrt(max(yy - float(c @ c), 0.0)))
-            return R, c, rho, scale
-        except (np.linalg.LinAlgError, ValueError):
-            pass
-    # ill-conditioned or rank-deficient: Householder QR of the scaled, weighted [A | y]
     aug = np.empty((W.shape[0], nb + 1))
-    if w is not None:
-        sw = np.sqrt(w)
+    if weights is not None:
+        sw = np.sqrt(weights)
         np.multiply(W, (sw[:, None] / scale), out=aug[:, :nb])
-        aug[:, nb] = y * sw
+        aug[:, nb] = tau * sw
     else:
         np.divide(W, scale, out=aug[:, :nb])
-        aug[:, nb] = y
+        aug[:, nb] = tau
     R_aug = np.linalg.qr(aug, mode="r")
     k = min(R_aug.shape[0], nb + 1)
     R_full = np.zeros((nb + 1, nb + 1))

@@ -21,6 +21,14 @@ with ``rest_fraction = 0.02`` and σ̂_v,j the velocity noise estimated from the
 standard deviation of the second difference of dq_j divided by √6, exact for white noise on a smooth
 signal).  ``rest_velocity`` overrides it (a number or one per joint [rad/s]; 0 keeps every row).
 Training metrics are over the rows used in the fit; validation metrics are over every sample.
+
+The tall regressor in blocks
+----------------------------
+A problem made by :meth:`IdentificationProblem.from_datasets` keeps the recordings and the rows kept
+(:class:`RegressorRows`) instead of the tall ``W``: its Gram sums, compressed form, rank check and
+predictions are accumulated ``_CHUNK`` samples at a time, so ``W`` is built (whole, once, cached) only
+when an estimator reads ``problem.W`` (wls, rls, metaheuristics …) or the Gram matrix is too
+ill-conditioned for Cholesky (then the compressed form needs a QR factorisation of the whole matrix).
 """
 
 from __future__ import annotations
@@ -28,7 +36,7 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass, field
 from typing import Protocol, runtime_checkable
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 
 import numpy as np
 import scipy.linalg
@@ -36,7 +44,7 @@ import scipy.linalg
 from pinid.data.dataset import Dataset
 from pinid.data.formats import read_recording
 from pinid.errors import DataError, SpecError
-from pinid.linalg import RANK_TOL, augmented_r
+from pinid.linalg import RANK_TOL, augmented_r, cholesky_r, column_scale, gram_sums, qr_r, row_blocks, unit_weights
 from pinid.model.base import BaseParameters, base_parameters
 from pinid.model.physical import parameter_scale
 from pinid.model.regressor import JointTerms, regressor, standard_parameters
@@ -87,10 +95,47 @@ class Problem(Protocol):
 
 
 @dataclass
+class RegressorRows:
+    """What rebuilds the rows of a stacked base regressor: checked recordings and, per recording, which of
+    its ``N·nv`` rows are kept (rows at rest dropped); see :func:`stack_rows` for the row order."""
+
+    model: RobotModel
+    terms: JointTerms
+    base: BaseParameters
+    datasets: list[Dataset]
+    keeps: list[np.ndarray]
+
+    @property
+    def count(self) -> int:
+        """Number of rows kept."""
+        return sum(int(np.count_nonzero(k)) for k in self.keeps)
+
+    def blocks(self, *, bar=None) -> Iterator[tuple[int, np.ndarray]]:
+        """``(first row, W rows)`` of the stacked base regressor, ``_CHUNK`` samples at a time, in order
+        (``bar``: a progress bar advanced by the samples done)."""
+        nv, row = self.model.nv, 0
+        for ds, keep in zip(self.datasets, self.keeps):
+            for start in range(0, ds.n, _CHUNK):
+                stop = min(ds.n, start + _CHUNK)
+                part = ds.select(slice(start, stop))
+                Wk = base_regressor(self.model, self.terms, self.base, part, bar=bar, keep=keep[start * nv : stop * nv])
+                yield row, Wk
+                row += len(Wk)
+
+    def build(self) -> np.ndarray:
+        """The whole stacked base regressor (rows kept × nb)."""
+        W = np.empty((self.count, self.base.count))
+        for row, Wk in self.blocks():
+            W[row : row + len(Wk)] = Wk
+        return W
+
+
+@dataclass
 class IdentificationProblem:
     """What an estimator is given.  Rows are stacked sample-major (row of joint ``joint[r]`` at ``sample[r]``).
 
-    ``W``        (rows, nb) base regressor: ``W @ base ≈ tau`` [N·m]
+    ``W``        (rows, nb) base regressor: ``W @ base ≈ tau`` [N·m]; built on first reading when the
+                 problem has ``regressor_rows`` (see the module text), else the array given
     ``tau``      (rows,) measured joint torques [N·m]
     ``joint``    (rows,) index of each row's joint in ``model.joint_names``
     ``sample``   (rows,) index of each row's sample in the concatenated recordings
@@ -102,7 +147,7 @@ class IdentificationProblem:
     model: RobotModel
     terms: JointTerms
     base: BaseParameters
-    W: np.ndarray
+    W: np.ndarray | None = field(repr=False, compare=False)  # a property, defined after the class
     tau: np.ndarray
     joint: np.ndarray
     sample: np.ndarray
@@ -114,6 +159,7 @@ class IdentificationProblem:
     sources: list[str] = field(default_factory=list)
     sample_rates: list[float] = field(default_factory=list)
     peak_velocity: np.ndarray | None = None
+    regressor_rows: RegressorRows | None = field(default=None, repr=False, compare=False)
 
     # ---------------------------------------------------------------- sizes and names
     @property
@@ -195,11 +241,9 @@ class IdentificationProblem:
         nv = model.nv
         thresholds = [rest_threshold(ds, model, terms, rest_velocity, rest_fraction) for ds in prepared]
         total = sum(ds.n for ds in prepared)
-        bar = progress(total, "regressor", enabled=show_progress)
-        try:
-            W, tau, joint, sample = stack_rows(model, terms, base, prepared, thresholds, bar=bar)
-        finally:
-            bar.close()
+        keeps = [kept_rows(ds, thr) for ds, thr in zip(prepared, thresholds)]
+        tau, joint, sample = stacked_targets(prepared, keeps, nv)
+        rows = RegressorRows(model, terms, base, prepared, keeps)
         dropped = np.array([total - int(np.sum(joint == j)) for j in range(nv)])
         if weights is None:
             w = np.ones(len(tau))
@@ -207,14 +251,14 @@ class IdentificationProblem:
             w = np.asarray(weights, dtype=float).reshape(-1)
             if w.shape != (total * nv,):
                 raise DataError(f"weights: {w.shape[0]} values, expected one per torque row ({total * nv})")
-            w = w[np.concatenate([(np.abs(ds.dq) >= thr).reshape(-1) for ds, thr in zip(prepared, thresholds)])]
+            w = w[np.concatenate(keeps)]
             if np.any(~np.isfinite(w)) or np.any(w < 0):
                 raise DataError("weights: expected finite non-negative numbers")
         problem = cls(
             model,
             terms,
             base,
-            W,
+            None,
             tau,
             joint,
             sample,
@@ -226,12 +270,18 @@ class IdentificationProblem:
             sources=[ds.source for ds in prepared],
             sample_rates=[ds.sample_rate for ds in prepared],
             peak_velocity=np.max([np.abs(ds.dq).max(axis=0) for ds in prepared], axis=0),
+            regressor_rows=rows,
         )
-        problem.check()
+        bar = progress(total, "regressor", enabled=show_progress)  # the Gram pass of the rank check
+        try:
+            problem.check(bar=bar)
+        finally:
+            bar.close()
         return problem
 
-    def check(self) -> None:
-        """DataError when there are too few rows or the data do not excite every base parameter."""
+    def check(self, *, bar=None) -> None:
+        """DataError when there are too few rows or the data do not excite every base parameter (``bar``:
+        a progress bar advanced by the samples of the Gram pass)."""
         nb, rows = self.nb, self.rows
         joints = self.model.joint_names
         hints = []
@@ -258,7 +308,7 @@ class IdentificationProblem:
                 f"{', '.join(self.sources)}: {rows} torque rows ({self.samples} samples × {self.nv} joints, "
                 f"after dropping rows at rest) for {nb} base parameters; need more rows than parameters" + hint
             )
-        norms = np.sqrt(np.einsum("ij,ij,i->j", self.W, self.W, self.weights))
+        norms = np.sqrt(np.maximum(np.diag(self.gram(bar=bar)[0]), 0.0))
         zero = np.flatnonzero(norms <= 1e-12 * max(norms.max(), 1e-300))
         if zero.size:
             names = [self.names[i] for i in zero]
@@ -278,17 +328,87 @@ class IdentificationProblem:
                 f"the data do not excite {', '.join(names)} independently of the others{hint}"
             )
 
+    # ---------------------------------------------------------------- the tall regressor, in blocks
+    @property
+    def blocked(self) -> bool:
+        """True while ``W`` is not built and its rows come from ``regressor_rows`` block by block."""
+        return self.__dict__.get("_W") is None and self.regressor_rows is not None
+
+    def _source_key(self) -> tuple:
+        source = self.regressor_rows if self.regressor_rows is not None else self.__dict__.get("_W")
+        return (id(source), id(self.tau), id(self.weights))
+
+    def gram(self, weights: np.ndarray | None = None, *, bar=None) -> tuple[np.ndarray, np.ndarray, float]:
+        """``(G, b, yy)`` of :func:`pinid.linalg.gram_sums` for row ``weights`` (default ``self.weights``):
+        over blocks of ``_CHUNK`` samples rebuilt from the recordings while ``W`` is not built (``bar``
+        advanced by their samples), else over row blocks of ``W``.  Cached for the problem's own weights."""
+        own = weights is None or weights is self.weights
+        key = self._source_key()
+        cache = self.__dict__.get("_gram")
+        if own and cache is not None and cache[0] == key:
+            return cache[1]
+        w = unit_weights(self.weights if own else weights)
+        if self.blocked:
+            parts = (
+                (Wk, self.tau[r : r + len(Wk)], None if w is None else w[r : r + len(Wk)])
+                for r, Wk in self.regressor_rows.blocks(bar=bar)
+            )
+        else:
+            parts = row_blocks(self.W, self.tau, w)
+        sums = gram_sums(parts, self.nb)
+        if own:
+            self.__dict__["_gram"] = (key, sums)
+        return sums
+
     def compressed(self, weights: np.ndarray | None = None):
-        """``(R, c, rho, scale)`` of :func:`pinid.estimators.base.augmented_r` for ``weights`` (default
-        ``self.weights``) — one QR pass over the tall regressor, cached for the problem's own weights."""
-        if weights is not None and weights is not self.weights:
+        """``(R, c, rho, scale)`` of :func:`pinid.linalg.augmented_r` for ``weights`` (default
+        ``self.weights``): Cholesky of the Gram matrix accumulated in blocks (:meth:`gram`), without the tall
+        ``W``; QR of the whole ``W`` (built if needed) when the Gram matrix is ill-conditioned.  Cached for
+        the problem's own weights."""
+        own = weights is None or weights is self.weights
+        if not own and not self.blocked:
             return augmented_r(self.W, self.tau, weights)
-        key = (id(self.W), id(self.tau), id(self.weights), self.W.shape)
+        key = self._source_key()
         cache = self.__dict__.get("_compressed")
-        if cache is None or cache[0] != key:
-            cache = (key, augmented_r(self.W, self.tau, self.weights))
-            self.__dict__["_compressed"] = cache
-        return cache[1]
+        if own and cache is not None and cache[0] == key:
+            return cache[1]
+        G, b, yy = self.gram(weights)
+        out = cholesky_r(G, b, yy)
+        if out is None:
+            out = qr_r(self.W, self.tau, unit_weights(self.weights if own else weights), column_scale(G))
+        if own:
+            self.__dict__["_compressed"] = (key, out)
+        return out
+
+    def predict(self, base: np.ndarray) -> np.ndarray:
+        """``W @ base`` (rows,) [N·m]; block by block while ``W`` is not built (see :attr:`blocked`)."""
+        if not self.blocked:
+            return self.W @ base
+        out = np.empty(self.rows)
+        for r, Wk in self.regressor_rows.blocks():
+            out[r : r + len(Wk)] = Wk @ base
+        return out
+
+
+def _get_W(self: IdentificationProblem) -> np.ndarray | None:
+    W = self.__dict__.get("_W")
+    if W is None and self.regressor_rows is not None:
+        W = self.__dict__["_W"] = self.regressor_rows.build()
+    return W
+
+
+def _set_W(self: IdentificationProblem, value: np.ndarray | None) -> None:
+    self.__dict__["_W"] = value
+    if value is not None:  # a given matrix replaces the recordings' rows and what was computed from them
+        self.__dict__["regressor_rows"] = None
+        self.__dict__.pop("_gram", None)
+        self.__dict__.pop("_compressed", None)
+
+
+# ``W`` is a dataclass field (positional, as before) read and written through this property
+IdentificationProblem.W = property(
+    _get_W, _set_W, doc="(rows, nb) base regressor, built whole on first reading from ``regressor_rows``."
+)
 
 
 #: Smallest RMS [N·m] of a recording's torques (all joints together) that counts as a torque signal: below
@@ -388,24 +508,37 @@ def stack_rows(
     ``W_b`` is allocated once with the kept rows only and filled chunk by chunk, so the tall matrix exists
     once (not once whole and once without the rows at rest, nor once per recording and once concatenated)."""
     nv = model.nv
-    keeps = [
-        (np.abs(ds.dq) >= thr).reshape(-1) if np.any(thr > 0) else np.ones(ds.n * nv, bool)
-        for ds, thr in zip(datasets, thresholds)
-    ]
+    keeps = [kept_rows(ds, thr) for ds, thr in zip(datasets, thresholds)]
     counts = [int(np.count_nonzero(k)) for k in keeps]
     W = np.empty((sum(counts), base.count))
-    taus, joints, samples = [], [], []
-    row = offset = 0
+    row = 0
     for ds, keep, m in zip(datasets, keeps, counts):
         base_regressor(model, terms, base, ds, bar=bar, keep=keep, out=W[row : row + m])
         row += m
+    return (W, *stacked_targets(datasets, keeps, nv))
+
+
+def kept_rows(ds: Dataset, threshold: np.ndarray) -> np.ndarray:
+    """(N·nv,) booleans: the rows ``k·nv + j`` of a checked recording whose joint speed reaches its threshold."""
+    if not np.any(threshold > 0):
+        return np.ones(ds.dq.size, bool)
+    return (np.abs(ds.dq) >= threshold).reshape(-1)
+
+
+def stacked_targets(
+    datasets: Sequence[Dataset], keeps: Sequence[np.ndarray], nv: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(tau, joint, sample)`` of the rows ``keeps`` of checked recordings, stacked as in :func:`stack_rows`."""
+    taus, joints, samples = [], [], []
+    offset = 0
+    for ds, keep in zip(datasets, keeps):
         taus.append(ds.tau.reshape(-1)[keep])
         joints.append(np.tile(np.arange(nv), ds.n)[keep])
         samples.append((offset + np.repeat(np.arange(ds.n), nv))[keep])
         offset += ds.n
     if len(taus) == 1:
-        return W, taus[0], joints[0], samples[0]
-    return W, np.concatenate(taus), np.concatenate(joints), np.concatenate(samples)
+        return taus[0], joints[0], samples[0]
+    return np.concatenate(taus), np.concatenate(joints), np.concatenate(samples)
 
 
 def base_regressor(
@@ -444,15 +577,16 @@ def base_regressor(
 
 # ====================================================================== statistics
 def base_statistics(
-    problem: Problem, base: np.ndarray, weights: np.ndarray | None = None
+    problem: Problem, base: np.ndarray, weights: np.ndarray | None = None, *, residual: np.ndarray | None = None
 ) -> tuple[np.ndarray, float, float]:
     """``(std, condition_number, condition_number_scaled)`` of base parameters fitted with row ``weights``.
 
     σ² = Σ w·r² / (rows − nb), cov = σ²·(Wᵀ diag(w) W)⁻¹; the condition numbers are those of
-    diag(√w)·W as it is and with unit-norm columns.
+    diag(√w)·W as it is and with unit-norm columns.  ``residual``: ``tau − W @ base`` when already known
+    (else computed, reading ``problem.W``).
     """
     w = problem.weights if weights is None else weights
-    r = problem.tau - problem.W @ base
+    r = problem.tau - problem.W @ base if residual is None else residual
     dof = max(problem.rows - problem.nb, 1)
     sigma2 = float(np.sum(w * r * r)) / dof
     R, _, _, scale = problem.compressed(weights)

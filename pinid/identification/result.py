@@ -326,9 +326,10 @@ def make_result(
     report = check_consistency(theta, problem.model.joint_names, problem.terms.names, problem.model.motor_names)
     consistent = report.consistent and "standard_base_mismatch" not in info
     w = getattr(estimator, "weights_", None)
-    std, cond, cond_scaled = base_statistics(problem, base, w)
+    predicted = problem.predict(base)  # block by block: the tall regressor need not exist whole
+    std, cond, cond_scaled = base_statistics(problem, base, w, residual=problem.tau - predicted)
     info["condition_number_scaled"] = cond_scaled
-    train = torque_metrics(problem.tau, problem.W @ base, problem.model.joint_names, problem.joint)
+    train = torque_metrics(problem.tau, predicted, problem.model.joint_names, problem.joint)
     return IdentificationResult(
         method=estimator.name,
         base_names=problem.names,
