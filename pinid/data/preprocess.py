@@ -251,6 +251,15 @@ def prepare(
             f"low-pass trimmed by {trim:.3g} s at each end; expected more than {max(padlen, 2 * n_trim + 10)} samples"
         )
 
+    measured_v = ds.dq is not None and use_measured_velocity
+    measured_a = ds.ddq is not None and use_measured_acceleration
+    if differentiation == "savgol" and not (measured_v and measured_a) and ds.n < 2 * M + 1:
+        raise DataError(
+            f"{src}: {ds.n} samples ({ds.duration:.3g} s) are fewer than the {2 * M + 1}-sample Savitzky–Golay "
+            f"window of a {cutoff:g} Hz cut-off; expected a longer recording, a higher cut-off or "
+            "differentiation='central'"
+        )
+
     # pad (odd extension) over the filter's settling time, so that its start-up transient dies out
     # before it reaches the data (scipy's default of 3·(2·sections+1) samples is too short at high rates)
     pad = int(min(ds.n - 1, max(padlen, np.ceil(default_trim(fs, cutoff, order) * fs))))
@@ -261,8 +270,6 @@ def prepare(
     h = 1.0 / fs
     q = filt(ds.q)
     tau = filt(ds.tau)
-    measured_v = ds.dq is not None and use_measured_velocity
-    measured_a = ds.ddq is not None and use_measured_acceleration
     polyorder = SAVGOL_POLYORDER
 
     def d1(a):
