@@ -51,7 +51,7 @@ into the output folder (-o, default results/):
 
 Rows where a joint is nearly at rest are left out of the fit when Coulomb friction is in the model
 (--rest-velocity).  Methods: ols (least squares), wls (each joint weighted by 1/its residual
-variance), sdp (physically consistent least squares, pseudo-inertia LMI, cvxpy + Clarabel).
+variance), sdp (physically consistent least squares, pseudo-inertia LMI, Clarabel).
 
 example:
   pinid identify --urdf urdf/exo_leg.urdf --data run1.csv --data run2.csv --validate run3.csv -o results/

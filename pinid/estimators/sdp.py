@@ -1,4 +1,4 @@
-"""Physically consistent least squares: a semidefinite program (cvxpy + Clarabel).
+"""Physically consistent least squares: a semidefinite program (Clarabel, stated with :mod:`pinid.model.conic`).
 
 Decision variable: the full standard parameter vector θ (10 per body + joint terms), so that physical
 consistency can be imposed on every body.  Problem::
@@ -10,7 +10,7 @@ consistency can be imposed on every body.  Problem::
 
 * The data term is ‖W_b·P·θ − τ‖ (rows weighted), compressed by one pass over the column-scaled
   ``[W_b | τ]`` (:func:`~pinid.estimators.base.augmented_r`): ``‖W_b x − τ‖² = ‖R·C·x − c‖² + ρ²`` with
-  ``R`` only nb × nb, so cvxpy never sees the tall regressor (``../shared/design.md``).  It is the *norm* of the excess
+  ``R`` only nb × nb, so the solver never sees the tall regressor (``../shared/design.md``).  It is the *norm* of the excess
   residual, not its square: the minimiser is the same, but the cost has a kink where the excess is
   zero, so when the least-squares solution is physically realisable it is returned exactly (an exact
   penalty) whatever the small regulariser does; on noise-free data of a consistent robot the base
@@ -39,15 +39,8 @@ from pinid.errors import SolverError, SpecError
 from pinid.estimators.base import Estimator, Setting, joint_weights
 from pinid.identification.problem import IdentificationProblem, Problem
 from pinid.linalg import augmented_r, solve_r
-from pinid.model.lmi import (
-    CLARABEL_OPTIONS,
-    clip_terms,
-    consistency_constraints,
-    consistent_completion,
-    null_projector,
-    solve,
-    solve_time,
-)
+from pinid.model.conic import CLARABEL_OPTIONS, ConicProblem
+from pinid.model.lmi import add_consistency_constraints, clip_terms, consistent_completion, null_projector
 from pinid.model.physical import check_consistency, parameter_scale
 
 
@@ -57,11 +50,11 @@ class PhysicalLS(Estimator):
     Settings: ``weighting`` ("none" or "joint"), ``regularization`` (weight λ of the pull toward the
     nominal parameters in unidentifiable directions, default 1e-3), ``mass_bounds`` (``(lo, hi)`` [kg]
     for every body, or ``{joint: (lo, hi)}``; None for none), ``margin`` (ε, default 1e-8), ``solver``
-    (a cvxpy solver name, default "CLARABEL"), ``solver_options`` (dict passed to the solver).
+    ("CLARABEL", the default, is called directly; any other name is a cvxpy solver, cvxpy then loaded), ``solver_options`` (dict passed to the solver).
     """
 
     name = "sdp"
-    description = "physically consistent least squares (pseudo-inertia LMI, cvxpy + Clarabel)"
+    description = "physically consistent least squares (pseudo-inertia LMI, Clarabel)"
     consistent_by_construction = True
     fits_standard = True
     colour = "tab:green"
@@ -72,7 +65,7 @@ class PhysicalLS(Estimator):
         ),
         "mass_bounds": Setting("any", optional=True, help="(lo, hi) [kg] for every body, or {joint: (lo, hi)}"),
         "margin": Setting("float", low=0.0, help="ε of the strict pseudo-inertia LMI"),
-        "solver": Setting("str", help="a cvxpy solver name"),
+        "solver": Setting("str", help="CLARABEL (called directly) or another cvxpy solver name"),
         "solver_options": Setting("dict", optional=True, help="passed to the solver"),
     }
 
@@ -94,8 +87,6 @@ class PhysicalLS(Estimator):
 
     def fit(self, problem: IdentificationProblem) -> "PhysicalLS":
         """Solve the LMI-constrained least squares; sets ``base_``, ``standard_`` and the solver's ``status_``; SolverError if it fails."""
-        import cvxpy as cp  # heavy optional dependency: loaded when the LMI method runs
-
         if self.weighting not in ("none", "joint"):
             raise ValueError(f"sdp: weighting={self.weighting!r}, expected 'none' or 'joint'")
         if not self.regularization >= 0:
@@ -115,22 +106,17 @@ class PhysicalLS(Estimator):
         S = parameter_scale(problem.nominal, nv, nt)
         G = (R * colscale) @ P * S / norm_y  # z = θ/S  ->  excess residual (relative)
         g = c / norm_y
-        p = P.shape[1]
-        z = cp.Variable(p)
-        cost = cp.norm(G @ z - g)
+        conic = ConicProblem(P.shape[1])
+        conic.add_norm(G, g)
         reg = None
         if self.regularization > 0:
             N = null_projector(P * S)
             if N is not None:
-                z0 = problem.nominal / S
-                reg = cp.norm(N @ (z - z0))
-                cost = cost + float(self.regularization) * reg
-        constraints = consistency_constraints(z, problem, S, self.margin, self.mass_bounds)
-        prob = cp.Problem(cp.Minimize(cost), constraints)
-        status = solve(prob, self.solver, self.solver_options, "sdp")
-        if z.value is None:
-            raise SolverError(f"sdp: solver {self.solver} returned status '{status}' without a solution")
-        theta = np.asarray(z.value, dtype=float) * S
+                reg = conic.add_norm(N, N @ (problem.nominal / S), float(self.regularization))
+        add_consistency_constraints(conic, problem, S, self.margin, self.mass_bounds)
+        solution = conic.solve(self.solver, self.solver_options, "sdp")
+        status = solution.status
+        theta = solution.z * S
         # clip tiny negative joint terms the interior-point solver leaves at −1e-12
         theta = clip_terms(theta, problem)
         report = check_consistency(theta, problem.model.joint_names, problem.terms.names, problem.model.motor_names)
@@ -148,9 +134,9 @@ class PhysicalLS(Estimator):
         self.info_ = {
             "solver": self.solver,
             "status": status,
-            "solve_seconds": solve_time(prob),
+            "solve_seconds": solution.solve_seconds,
             "excess_residual_relative": excess,
-            "regularizer": None if reg is None else float(reg.value),
+            "regularizer": None if reg is None else solution.norms[reg],
         }
         return self
 
@@ -166,8 +152,6 @@ class PhysicalLS(Estimator):
         """One stage of a staged fit (seed 000's segmental strategy): a physically consistent θ of ``problem``
         whose base parameters ``cols`` fit ``sub``'s rows (``sub.W``'s columns are those base parameters),
         and whose base parameters ``fixed[0]`` equal ``fixed[1]``.  Returns ``(θ, {"status", "rows"})``."""
-        import cvxpy as cp  # heavy optional dependency: loaded when the LMI method runs
-
         if self.weighting != "none":
             raise SpecError("segmental sdp: only weighting='none'")
         regularization = self.regularization
@@ -178,22 +162,20 @@ class PhysicalLS(Estimator):
         norm_y = float(np.sqrt(c @ c + rho * rho)) or 1.0
         G = (R * colscale) @ P[cols] * S / norm_y
         g = c / norm_y
-        z = cp.Variable(P.shape[1])
-        cost = cp.norm(G @ z - g)
+        conic = ConicProblem(P.shape[1])
+        conic.add_norm(G, g)
         seen = P[cols] if fixed is None else P
         N = null_projector(seen * S) if regularization > 0 else None
         if N is not None:
-            cost = cost + float(regularization) * cp.norm(N @ (z - problem.nominal / S))
-        cons = consistency_constraints(z, problem, S, self.margin, self.mass_bounds)
+            conic.add_norm(N, N @ (problem.nominal / S), float(regularization))
+        add_consistency_constraints(conic, problem, S, self.margin, self.mass_bounds)
         if fixed is not None:
             A = P[fixed[0]] * S
             rs = np.maximum(np.abs(A).sum(axis=1), 1e-300)
-            cons.append((A / rs[:, None]) @ z == np.asarray(fixed[1], float) / rs)
-        prob = cp.Problem(cp.Minimize(cost), cons)
-        status = solve(prob, self.solver, self.solver_options, what)
-        if z.value is None:
-            raise SolverError(f"{what}: status '{status}' without a solution")
-        theta = clip_terms(np.asarray(z.value, float) * S, problem)
+            conic.add_equality(A / rs[:, None], np.asarray(fixed[1], float) / rs)
+        solution = conic.solve(self.solver, self.solver_options, what)
+        status = solution.status
+        theta = clip_terms(solution.z * S, problem)
         report = check_consistency(theta, problem.model.joint_names, problem.terms.names, problem.model.motor_names)
         if not report.consistent:
             raise SolverError(
@@ -202,4 +184,4 @@ class PhysicalLS(Estimator):
         return theta, {"status": status, "rows": sub.rows}
 
 
-__all__ = ["CLARABEL_OPTIONS", "PhysicalLS", "consistency_constraints", "consistent_completion"]
+__all__ = ["CLARABEL_OPTIONS", "PhysicalLS", "add_consistency_constraints", "consistent_completion"]

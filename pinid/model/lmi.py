@@ -1,19 +1,18 @@
-"""Physical consistency as cvxpy constraints (pseudo-inertia LMI per body), solving, and consistent completion.
+"""Physical consistency as conic constraints (pseudo-inertia LMI per body) and consistent completion.
 
 Used by the LMI estimator (:class:`pinid.estimators.sdp.PhysicalLS`), its segmental stages and the
-completion of base-only results (:func:`consistent_completion`).  cvxpy is imported inside the
-functions that build a problem, so importing this module (or wrapping a least-squares result without
-completion) does not load it.
+completion of base-only results (:func:`consistent_completion`).  The problems are stated with
+:class:`pinid.model.conic.ConicProblem`: Clarabel solves them directly, cvxpy is loaded only for another
+solver.
 """
 
 from __future__ import annotations
-
-import warnings
 
 import numpy as np
 
 from pinid.errors import SolverError
 from pinid.linalg import RANK_TOL
+from pinid.model.conic import ConicProblem
 from pinid.model import terms as _terms
 from pinid.model.physical import PSEUDO_INERTIA_BASIS, check_consistency, parameter_scale
 
@@ -28,14 +27,12 @@ def null_projector(A: np.ndarray, tol: float = RANK_TOL) -> np.ndarray | None:
     return V0 @ V0.T
 
 
-def consistency_constraints(z, problem, S: np.ndarray, margin: float, mass_bounds=None) -> list:
-    """cvxpy constraints making θ = S·z physically consistent (LMI per body, non-negative joint terms)."""
-    import cvxpy as cp  # heavy optional dependency: imported only when an LMI problem is built
-
+def add_consistency_constraints(conic: ConicProblem, problem, S: np.ndarray, margin: float, mass_bounds=None) -> None:
+    """Constrain θ = S·z of ``conic`` to be physically consistent: every pseudo-inertia ⪰ ``margin``·M·diag(L², L², L², 1),
+    non-negative joint terms, masses within ``mass_bounds`` ((lo, hi) [kg] for every body, or {joint: (lo, hi)})."""
     nv = problem.nv
-    p = 10 * nv + _terms.count(problem.model, problem.terms)
+    p = conic.n
     joints = problem.model.joint_names
-    cons = []
     for i in range(nv):
         M = S[10 * i]
         L = np.sqrt(S[10 * i + 4] / M)
@@ -43,57 +40,18 @@ def consistency_constraints(z, problem, S: np.ndarray, margin: float, mass_bound
         B = np.zeros((16, p))
         for k in range(10):
             B[:, 10 * i + k] = (T @ PSEUDO_INERTIA_BASIS[k] @ T).reshape(-1, order="F") * S[10 * i + k]
-        J = cp.reshape(B @ z, (4, 4), order="F")
-        cons.append(0.5 * (J + J.T) >> float(margin) * np.eye(4))
+        conic.add_psd(B, -float(margin) * np.eye(4).reshape(-1))
     idx = 10 * nv + np.flatnonzero(_terms.nonnegative(problem.model, problem.terms))
     if idx.size:
-        cons.append(z[idx] >= 0)
+        conic.add_inequality(np.eye(p)[idx], 0.0)
     if mass_bounds is not None:
         bounds = mass_bounds if isinstance(mass_bounds, dict) else {j: mass_bounds for j in joints}
         for j, (lo, hi) in bounds.items():
-            i = problem.model.joint_index(j)
+            k = 10 * problem.model.joint_index(j)  # the body's mass m = S_k·z_k
             if lo is not None:
-                cons.append(z[10 * i] >= float(lo) / S[10 * i])
+                conic.add_inequality(np.eye(p)[k], float(lo) / S[k])
             if hi is not None:
-                cons.append(z[10 * i] <= float(hi) / S[10 * i])
-    return cons
-
-
-#: Clarabel's tolerances used by default (its own defaults are 1e-8): the data term is a norm with a
-#: kink at the least-squares solution, and 1e-10 brings noise-free base parameters back to ≤ 1e-6.
-CLARABEL_OPTIONS = {"tol_gap_abs": 1e-10, "tol_gap_rel": 1e-10, "tol_feas": 1e-10, "tol_ktratio": 1e-8}
-
-
-def solve(prob, solver: str, options: dict | None, what: str) -> str:
-    """Solve a cvxpy problem; return its status, raise SolverError when it failed outright."""
-    import cvxpy as cp  # heavy optional dependency: imported only when an LMI problem is built
-
-    opts = dict(CLARABEL_OPTIONS) if solver.upper() == "CLARABEL" else {}
-    opts.update(options or {})
-    try:
-        with warnings.catch_warnings():  # the status says it; the result is checked by the caller
-            warnings.simplefilter("ignore")
-            prob.solve(solver=solver, **opts)
-    except cp.error.SolverError as exc:
-        raise SolverError(f"{what}: solver {solver} failed ({str(exc).strip().splitlines()[0]})") from None
-    status = prob.status
-    if status in (cp.INFEASIBLE, cp.INFEASIBLE_INACCURATE):
-        raise SolverError(
-            f"{what}: solver {solver} says the constraints are infeasible (status '{status}'); check the mass bounds"
-        )
-    if status in (cp.UNBOUNDED, cp.UNBOUNDED_INACCURATE):
-        raise SolverError(f"{what}: solver {solver} says the problem is unbounded (status '{status}')")
-    if status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
-        raise SolverError(f"{what}: solver {solver} stopped with status '{status}'")
-    return status
-
-
-def solve_time(prob) -> float | None:
-    """The solver's own time [s] of a solved cvxpy problem (None when it does not say)."""
-    try:
-        return float(prob.solver_stats.solve_time)
-    except (AttributeError, TypeError):
-        return None
+                conic.add_inequality(-np.eye(p)[k], -float(hi) / S[k])
 
 
 def clip_terms(theta: np.ndarray, problem) -> np.ndarray:
@@ -115,26 +73,22 @@ def consistent_completion(problem, base: np.ndarray, *, solver: str = "CLARABEL"
     reproduces these base parameters (the base parameters are not physically realisable).  θ is checked:
     consistent, and ``P·θ`` equal to ``base`` within 1e-6 relatively.
     """
-    import cvxpy as cp  # heavy optional dependency: imported only when an LMI problem is built
-
     P = problem.base.P
     nv, nt = problem.nv, len(problem.terms)
     S = parameter_scale(problem.nominal, nv, nt)
     A = P * S
     bscale = np.maximum(np.abs(A).sum(axis=1), 1e-300)
     base = np.asarray(base, dtype=float)
-    z = cp.Variable(P.shape[1])
-    z0 = problem.nominal / S
-    cons = [(A / bscale[:, None]) @ z == base / bscale]
-    cons += consistency_constraints(z, problem, S, 0.0)
-    prob = cp.Problem(cp.Minimize(cp.norm(z - z0)), cons)
+    conic = ConicProblem(P.shape[1])
+    conic.add_norm(np.eye(P.shape[1]), problem.nominal / S)
+    conic.add_equality(A / bscale[:, None], base / bscale)
+    add_consistency_constraints(conic, problem, S, 0.0)
     try:
-        status = solve(prob, solver, None, "consistent completion")
+        solution = conic.solve(solver, None, "consistent completion")
     except SolverError as exc:
         return None, str(exc)
-    if z.value is None:
-        return None, f"solver status '{status}' without a solution"
-    theta = clip_terms(np.asarray(z.value) * S, problem)
+    status = solution.status
+    theta = clip_terms(solution.z * S, problem)
     mismatch = np.abs(P @ theta - base) / bscale
     if mismatch.max() > 1e-6:
         return None, f"solver status '{status}', base parameters reproduced only to {mismatch.max():.1e}"

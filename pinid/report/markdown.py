@@ -19,6 +19,7 @@ import numpy as np
 from pinid.io import Artefacts, display_path
 from pinid.model.physical import com_inertia
 from pinid.model.terms import JointTerms
+from pinid.report.figures import Recipe
 from pinid.report.plot_identification import error_bars, recorded_motion, torque_comparison
 
 #: Every file a report writes (patterns): what ``pinid identify --force`` removes of an earlier run's report.
@@ -52,8 +53,9 @@ def figure_names(ident) -> dict[str, str]:
     return names
 
 
-def make_figures(ident) -> dict[str, object]:
-    """The report's matplotlib figures by key (see :func:`figure_names`); empty without torque curves."""
+def figure_recipes(ident) -> dict[str, Recipe]:
+    """The report's figures by key (see :func:`figure_names`) as recipes for
+    :func:`pinid.report.figures.render_pngs`, largest first; empty without torque curves."""
     figs = {}
     c = ident.curves or {}
     joints = ident.robot["joints"]
@@ -61,30 +63,23 @@ def make_figures(ident) -> dict[str, object]:
         t = np.asarray(c["t"])
         span = f", first {WINDOW:g} s" if len(t) and t[-1] - t[0] > WINDOW else ""
         for m, pred in c["predicted"].items():
-            figs[f"torque_{m}"] = torque_comparison(
-                c["t"],
-                c["measured"],
-                {m: pred},
-                joints,
-                window=WINDOW,
-                title=f"{m}: measured and predicted torque ({c['kind']}, {Path(str(c['source'])).name}{span})",
+            title = f"{m}: measured and predicted torque ({c['kind']}, {Path(str(c['source'])).name}{span})"
+            figs[f"torque_{m}"] = (
+                torque_comparison,
+                (c["t"], c["measured"], {m: pred}, joints),
+                {"window": WINDOW, "title": title},
             )
-    metrics = {m: (r.validation if r.validation is not None else r.train) for m, r in ident.results.items()}
-    if metrics:
-        kind = "validation" if all(r.validation is not None for r in ident.results.values()) else "training"
-        figs["errors"] = error_bars(metrics, title=f"absolute torque error ({kind}): mean (dot) and [p5, p95] band")
     motion = c.get("motion")
     if motion is not None and len(motion["t"]):
         t = np.asarray(motion["t"])
         span = f", first {WINDOW:g} s" if t[-1] - t[0] > WINDOW else ""
-        figs["motion"] = recorded_motion(
-            t,
-            motion["q"],
-            motion["dq"],
-            joints,
-            window=WINDOW,
-            title=f"training motion ({Path(str(motion['source'])).name}{span})",
-        )
+        title = f"training motion ({Path(str(motion['source'])).name}{span})"
+        figs["motion"] = (recorded_motion, (t, motion["q"], motion["dq"], joints), {"window": WINDOW, "title": title})
+    metrics = {m: (r.validation if r.validation is not None else r.train) for m, r in ident.results.items()}
+    if metrics:
+        kind = "validation" if all(r.validation is not None for r in ident.results.values()) else "training"
+        title = f"absolute torque error ({kind}): mean (dot) and [p5, p95] band"
+        figs["errors"] = (error_bars, (metrics,), {"title": title})
     return figs
 
 
@@ -271,10 +266,10 @@ def report_files(ident, *, figures: bool = True) -> dict[str, str | bytes]:
 
     pngs = {}
     if figures:
-        from pinid.report.figures import figure_png
+        from pinid.report.figures import render_pngs
 
         names = figure_names(ident)
-        pngs = {names[key]: figure_png(fig) for key, fig in make_figures(ident).items()}
+        pngs = {names[key]: png for key, png in render_pngs(figure_recipes(ident)).items()}
         text = report_markdown(ident, {k: n for k, n in names.items() if n in pngs})
     else:
         text = report_markdown(ident)

@@ -8,7 +8,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from pinid.report.figures import new_figure
+from pinid.report.figures import fixed_layout, new_figure
 
 
 def _thin(n: int, max_points: int) -> np.ndarray:
@@ -61,12 +61,7 @@ def torque_comparison(
     axes[-1, 0].set_xlabel("time [s]")
     if title:
         fig.suptitle(title)
-    # a fixed layout in inches (tight_layout measures every label with an extra draw: slow on long figures)
-    width, height = fig.get_size_inches()
-    top = 0.55 if title else 0.2
-    fig.subplots_adjust(
-        left=0.95 / width, right=1 - 0.15 / width, bottom=0.5 / height, top=1 - top / height, hspace=0.35 / 2.6
-    )
+    fixed_layout(fig, left=0.95, right=0.15, bottom=0.5, top=0.55 if title else 0.2, hspace=0.32)
     return fig
 
 
@@ -114,7 +109,9 @@ def error_bars(metrics: Mapping[str, object], *, title: str | None = None):
         axes[k // ncols, k % ncols].set_visible(False)
     if title:
         fig.suptitle(title, fontsize="medium")
-    fig.tight_layout()
+    longest = max((len(m) for m in methods), default=4)
+    left = 0.25 + 0.075 * longest  # the method names label the first column's rows ("small" font)
+    fixed_layout(fig, left=left, right=0.2, bottom=0.5, top=0.65 if title else 0.35, hspace=0.8, wspace=0.3)
     return fig
 
 
@@ -159,5 +156,5 @@ def recorded_motion(
         ax.set_xlabel("time [s]")
     if title:
         fig.suptitle(title, fontsize="medium")
-    fig.tight_layout()
+    fixed_layout(fig, left=0.85, right=0.15, bottom=0.5, top=0.6 if title else 0.3, hspace=0.4, wspace=0.6)
     return fig

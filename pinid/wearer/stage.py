@@ -6,7 +6,7 @@ friction, every term it has), and fits what is left with the wearer's own parame
 standard inertial parameters each exo body gains from its segments (``θ_w``, about the joint frame)
 and, optionally, the scale factors ``kp`` of the passive joint moments (Riener & Edrich 1999).
 
-Problem (cvxpy + Clarabel, on the compressed regressor ``R`` from ``QR([W y])``, never the tall one)::
+Problem (:class:`~pinid.model.conic.ConicProblem`, Clarabel, on the compressed regressor ``R`` from ``QR([W y])``, never the tall one)::
 
     minimise  ‖R·θ − Qᵀy‖ + 10⁻³·‖V₀ᵀ S⁻¹(θ − θ_table)‖ + λ·σ₁·‖S⁻¹(θ − θ_table)‖
     subject to  pseudo-inertia(θ_w,body) ⪰ 0,  (1 − ρ)·m_table ≤ m ≤ (1 + ρ)·m_table,
@@ -32,6 +32,7 @@ import numpy as np
 from pinid.errors import DataError, SpecError
 from pinid.io import Artefacts, json_text
 from pinid.model.base import base_parameters
+from pinid.model.conic import ConicProblem
 from pinid.model.physical import PSEUDO_INERTIA_BASIS
 from pinid.model.regressor import JointTerms, parameter_names, regressor
 from pinid.model.robot import RobotModel
@@ -153,10 +154,7 @@ def identify_wearer(
     ``passive_exponents``: first fit the passive moments' exponents (:mod:`pinid.wearer.exponents`), then
     solve the SDP with them (the returned model carries them).
     """
-    import cvxpy as cp  # heavy optional dependency: imported only when the problem is built
-
     from pinid.identification.identified import IdentifiedModel
-    from pinid.model.lmi import CLARABEL_OPTIONS, solve
 
     exo = exo if isinstance(exo, IdentifiedModel) else IdentifiedModel.load(exo)
     robot = prior_urdf if isinstance(prior_urdf, RobotModel) else RobotModel.from_urdf(prior_urdf)
@@ -198,31 +196,37 @@ def identify_wearer(
     _, sv, Vt = np.linalg.svd(R)
     rank = int(np.sum(sv > 1e-9 * sv[0]))
     V0 = Vt[rank:].T
-    x = cp.Variable(len(free))
-    cost = cp.norm(R @ x - z)  # a norm, not its square: an exact fit, when feasible, is a kink the solver lands on
+    n = len(free)
+    conic = ConicProblem(n)
+    conic.add_norm(R, z)  # a norm, not its square: an exact fit, when feasible, is a kink the solver lands on
     if V0.shape[1]:
-        cost += 1e-3 * cp.norm(V0.T @ (x - z0))
+        conic.add_norm(V0.T, V0.T @ z0, 1e-3)
     if prior_weight:
-        cost += prior_weight * sv[0] * cp.norm(x - z0)
-    cons = []
-    pos = {k: n for n, k in enumerate(free)}
+        conic.add_norm(np.eye(n), z0, prior_weight * sv[0])
+    pos = {k: i for i, k in enumerate(free)}
     for b in priors:
-        th = [S[pos[10 * b.index + k]] * x[pos[10 * b.index + k]] for k in range(10)]
+        cols = [pos[10 * b.index + k] for k in range(10)]
+        th = np.zeros((10, n))  # the body's standard parameters θ = th·x
+        th[range(10), cols] = S[cols]
         m0 = b.theta[0]
-        J = sum(th[k] * (PSEUDO_INERTIA_BASIS[k] / m0) for k in range(10))
-        cons.append(0.5 * (J + J.T) >> 0)
-        cons += [th[0] >= (1 - mass_range) * m0, th[0] <= (1 + mass_range) * m0]
-        h = cp.hstack(th[1:4])
+        conic.add_psd(np.stack([PSEUDO_INERTIA_BASIS[k].reshape(-1, order="F") / m0 for k in range(10)], axis=1) @ th)
+        conic.add_inequality(th[0], (1 - mass_range) * m0)
+        conic.add_inequality(-th[0], -(1 + mass_range) * m0)
+        h = th[1:4]  # m·c [kg·m]
         e1 = np.cross(b.axis, [0.0, 1.0, 0.0]) if abs(b.axis[1]) < 0.9 else np.cross(b.axis, [1.0, 0, 0])
         e1 /= np.linalg.norm(e1)
         e2 = np.cross(b.axis, e1)
-        cons += [b.axis @ h >= b.start * th[0], b.axis @ h <= b.end * th[0]]
-        cons += [cp.abs(e @ h) <= b.radius * th[0] for e in (e1, e2)]
-    cons += [x[pos[10 * nv + i]] >= 0 for i in mapped]
-    prob = cp.Problem(cp.Minimize(cost), cons)
-    status = solve(prob, solver, dict(CLARABEL_OPTIONS) if solver.upper() == "CLARABEL" else None, "wearer stage 2")
+        conic.add_inequality(b.axis @ h - b.start * th[0], 0.0)  # CoM within the segment along the axis
+        conic.add_inequality(b.end * th[0] - b.axis @ h, 0.0)
+        for e in (e1, e2):  # |e·h| ≤ radius·m
+            conic.add_inequality(b.radius * th[0] - e @ h, 0.0)
+            conic.add_inequality(b.radius * th[0] + e @ h, 0.0)
+    if mapped:
+        conic.add_inequality(np.eye(n)[[pos[10 * nv + i] for i in mapped]], 0.0)  # kp ≥ 0
+    solution = conic.solve(solver, None, "wearer stage 2")
+    status = solution.status
     theta = np.zeros_like(table)
-    theta[free] = S * np.asarray(x.value).reshape(-1)
+    theta[free] = S * solution.z
     bp = base_parameters(robot, terms)
     return WearerFit(
         robot,

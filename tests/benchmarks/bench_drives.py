@@ -55,7 +55,7 @@ def main() -> None:
     )
     for label, terms in cases:
         run = lambda: identify(model, train, validate=valid, methods=["ols", "sdp"], terms=terms)  # noqa: E731
-        run()  # warm-up (cvxpy import, caches)
+        run()  # warm-up (imports, caches)
         t, res = best_of(run)
         times[label] = t
         rms = {j: res["sdp"].validation.per_joint[j]["rms"] for j in model.joint_names[-2:]}

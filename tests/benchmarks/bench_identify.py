@@ -4,10 +4,10 @@
     python tests/benchmarks/bench_identify.py --sdp      # only the LMI method on the Panda
     python tests/benchmarks/bench_identify.py --cli      # only the whole `pinid identify` run
 
-1. The physically consistent estimator (``sdp``: pseudo-inertia LMI, cvxpy + Clarabel) on 20 000
+1. The physically consistent estimator (``sdp``: pseudo-inertia LMI, Clarabel) on 20 000
    samples of the 7-DOF Panda (example-robot-data, fingers locked), noisy torques: ``PhysicalLS.fit``
-   (QR compression of the 140 000-row base regressor, cvxpy canonicalisation, Clarabel), best of 3
-   after one warm-up (cvxpy's import, ~1 s, is not counted).  Building the problem (regressor, base
+   (QR compression of the 140 000-row base regressor, the conic problem, Clarabel), best of 3
+   after one warm-up (not counted).  Building the problem (regressor, base
    columns, checks) is timed separately.  Target ≤ 1 s, status optimal.
 2. ``pinid identify`` as a subprocess on 10 minutes of 1 kHz exo_leg data (a CSV with t, q and tau only,
    so the default preprocessing — zero-phase filter, Savitzky–Golay derivatives — runs) plus a
@@ -74,7 +74,7 @@ def bench_sdp() -> list[str]:
     model = RobotModel.from_urdf("panda")
     ds = recording(model, 20.0, 1000.0, 0, noise=0.5)  # 20 000 samples
     t_build, problem = best_of(lambda: IdentificationProblem.from_datasets(model, ds, terms=JointTerms()), 1)
-    PhysicalLS().fit(problem)  # warm-up: imports cvxpy and Clarabel
+    PhysicalLS().fit(problem)  # warm-up: imports Clarabel
 
     def fit_from_scratch():
         problem.__dict__.pop("_compressed", None)  # include the QR compression of the tall regressor
@@ -84,7 +84,7 @@ def bench_sdp() -> list[str]:
     t_solve = est.info_.get("solve_seconds") or float("nan")
     return [
         f"| sdp on panda (7 DOF), 20 000 samples, {problem.rows} × {problem.nb} base regressor: fit "
-        f"(QR + cvxpy + Clarabel {t_solve:.3f} s) | {t_fit:.3f} | 1.0 | {est.status_} |",
+        f"(QR + Clarabel {t_solve:.3f} s) | {t_fit:.3f} | 1.0 | {est.status_} |",
         f"| — building that problem (regressor, base columns, rank check) | {t_build:.2f} | – | |",
     ]
 

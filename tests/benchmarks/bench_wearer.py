@@ -1,12 +1,14 @@
 """Benchmark: the wearer in the loop on the twin (issue 18's figures, docs/wearer.md).
 
-    python tests/benchmarks/bench_wearer.py [--seconds 60] [--seed 0] [--wearer-torque 5]
+    python tests/benchmarks/bench_wearer.py [--seconds 60] [--seed 0] [--seeds 1] [--wearer-torque 5]
         [--exponents-off 0.2] [--passive-exponents]
 
 exo_leg + a 75 kg, 1.78 m male wearer (thigh, shank, foot), the true wearer drawn away from the tables
 (mass ±25 %, CoM ±20 %), passive moments on, the wearer's active torque 5 % of the gravity RMS, default
 sensor noise.  Prints the validation torque RMS of exo + identified wearer, exo + table wearer and exo
 alone against the floor (the true model's RMS), and the tracking RMS of both controllers with each model.
+With ``--seeds K`` (K > 1) the experiment runs for seeds ``seed`` … ``seed + K − 1`` (each its own true
+wearer, noise and active torque) and prints one line per seed and the median.
 """
 
 from __future__ import annotations
@@ -28,10 +30,16 @@ from pinid.wearer.exponents import perturbed
 HERE = Path(__file__).resolve().parents[2]
 
 
+def tracking_ratio(row: dict) -> float:
+    """Tracking RMS with the table wearer over that with the identified one (joints pooled)."""
+    return float(np.sqrt(np.mean(row["table"] ** 2) / np.mean(row["identified"] ** 2)))
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seconds", type=float, default=60.0)
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--seeds", type=int, default=1, metavar="K", help="run K seeds from --seed, one line each")
     ap.add_argument(
         "--exponents-off",
         type=float,
@@ -52,18 +60,41 @@ def main() -> None:
         val = FourierTrajectory.load(HERE / "excitation" / "seed001_table3.json")
         ref = sine_reference(RobotModel.from_urdf(path))
         true = perturbed(RobotModel.from_urdf(path), args.exponents_off) if args.exponents_off else None
-        r = wearer_experiment(
-            "exo_leg",
-            path,
-            exc,
-            val,
-            ref,
-            seconds=args.seconds,
-            seed=args.seed,
-            wearer_torque=args.wearer_torque,
-            true_exponents=true,
-            passive_exponents=args.passive_exponents,
-        )
+
+        def experiment(seed: int) -> dict:
+            return wearer_experiment(
+                "exo_leg",
+                path,
+                exc,
+                val,
+                ref,
+                seconds=args.seconds,
+                seed=seed,
+                wearer_torque=args.wearer_torque,
+                true_exponents=true,
+                passive_exponents=args.passive_exponents,
+            )
+
+        if args.seeds > 1:
+            print(f"{args.seconds:g} s identification, {args.seconds / 2:g} s validation; × floor, joints pooled")
+            print(
+                "| seed | identified | table wearer | exo alone | tracking table/identified ("
+                + ", ".join(CONTROLLERS)
+                + ") |"
+            )
+            print("|---|---|---|---|---|")
+            rows = []
+            for seed in range(args.seed, args.seed + args.seeds):
+                r = experiment(seed)
+                track = [tracking_ratio(r["tracking"][c]) for c in CONTROLLERS]
+                rows.append([r["ratio"]["identified"], r["ratio"]["table"], r["ratio"]["exo"], *track])
+                cells = [f"{x:.2f}×" for x in rows[-1]]
+                print(f"| {seed} | {cells[0]} | {cells[1]} | {cells[2]} | {', '.join(cells[3:])} |", flush=True)
+            med = [f"{x:.2f}×" for x in np.median(rows, axis=0)]
+            print(f"| median | {med[0]} | {med[1]} | {med[2]} | {', '.join(med[3:])} |")
+            print(f"{time.perf_counter() - t0:.1f} s")
+            return
+        r = experiment(args.seed)
     j = r["joints"]
     print(
         f"validation torque RMS [N·m] ({args.seconds:g} s identification, {args.seconds / 2:g} s validation, seed {args.seed})"
@@ -82,7 +113,7 @@ def main() -> None:
         print(
             f"  {c:<16}"
             + "  ".join(f"{w} " + "/".join(f"{1e3 * x:.3g}" for x in row[w]) for w in row)
-            + f"   table/identified {np.sqrt(np.mean(row['table'] ** 2) / np.mean(row['identified'] ** 2)):.2f}×"
+            + f"   table/identified {tracking_ratio(row):.2f}×"
         )
     print(
         "base parameters (identified | table): "

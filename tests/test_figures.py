@@ -1,0 +1,49 @@
+"""The figure helpers: parallel rendering gives the same PNG bytes as one by one; fixed layouts in inches."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pinid.report.figures import fixed_layout, new_figure, render_pngs
+from pinid.report.plot_identification import error_bars, recorded_motion, torque_comparison
+
+
+def _recipes():
+    t = np.arange(3000) / 1000.0
+    q = np.sin(np.outer(t, [1.0, 2.0, 3.0]))
+    joints = ["a", "b", "c"]
+    metrics = {
+        "ols": {"per_joint": {j: {"mean_abs": 0.1, "p5_abs": 0.01, "p95_abs": 0.3} for j in joints},
+                "all": {"mean_abs": 0.1, "p5_abs": 0.01, "p95_abs": 0.3}},
+    }  # fmt: skip
+    return {
+        "torque": (torque_comparison, (t, q, {"m": q + 0.01}, joints), {"title": "torque"}),
+        "motion": (recorded_motion, (t, q, q, joints), {"title": "motion"}),
+        "errors": (error_bars, (metrics,), {"title": "errors"}),
+    }
+
+
+def test_pool_and_one_by_one_give_the_same_bytes():
+    recipes = _recipes()
+    pooled = render_pngs(recipes, workers=2)
+    single = render_pngs(recipes, workers=1)
+    assert list(pooled) == list(recipes)
+    assert pooled == single
+    assert all(png.startswith(b"\x89PNG") for png in pooled.values())
+
+
+@pytest.mark.parametrize("rows, cols", [(1, 1), (3, 2), (5, 3)])
+def test_fixed_layout_margins_and_gaps_are_in_inches(rows, cols):
+    fig, axes = new_figure(rows, cols, figsize=(8.0, 2.0 * rows), squeeze=False)
+    fixed_layout(fig, left=0.9, right=0.2, bottom=0.5, top=0.4, hspace=0.3, wspace=0.6)
+    w, h = fig.get_size_inches()
+    boxes = [[axes[r, c].get_position() for c in range(cols)] for r in range(rows)]
+    assert boxes[0][0].x0 * w == pytest.approx(0.9)
+    assert (1 - boxes[0][-1].x1) * w == pytest.approx(0.2)
+    assert boxes[-1][0].y0 * h == pytest.approx(0.5)
+    assert (1 - boxes[0][0].y1) * h == pytest.approx(0.4)
+    if rows > 1:
+        assert (boxes[0][0].y0 - boxes[1][0].y1) * h == pytest.approx(0.3)
+    if cols > 1:
+        assert (boxes[0][1].x0 - boxes[0][0].x1) * w == pytest.approx(0.6)
