@@ -12,6 +12,7 @@ scipy's (unscaled) lose digits as the window grows (5e-9 relative at 301 samples
 from __future__ import annotations
 
 import numpy as np
+from scipy.linalg.blas import daxpy
 from scipy.linalg.lapack import dtbtrs
 
 
@@ -65,34 +66,47 @@ def sos_initial_state(sos: np.ndarray) -> np.ndarray:
     return zi
 
 
-def _pass(sos: np.ndarray, zi: np.ndarray, v: np.ndarray, spare: np.ndarray, forward: bool) -> np.ndarray:
+def _numerator(b: np.ndarray, v: np.ndarray, out: np.ndarray, forward: bool) -> None:
+    """``out = B·v`` for the numerator ``b = (b0, b1, b2)`` along axis 0 of ``v`` (Fortran order), delayed
+    forward or advanced backward, with the samples before the first (after the last) taken as zero:
+    in-place BLAS axpys over the flattened columns, then the two rows where columns meet set right."""
+    n = len(v)
+    flat_v, flat_out = v.reshape(-1, order="F"), out.reshape(-1, order="F")
+    np.multiply(v, b[0], out=out)
+    for lag in (1, 2):
+        if b[lag] != 0 and n > lag:
+            daxpy(
+                flat_v, flat_out, n=flat_v.size - lag, a=b[lag], offx=0 if forward else lag, offy=lag if forward else 0
+            )
+    edge = [0, 1] if forward else [n - 1, n - 2]
+    step = -1 if forward else 1
+    out[edge[0]] = b[0] * v[edge[0]]
+    if n > 1:
+        out[edge[1]] = b[0] * v[edge[1]] + b[1] * v[edge[1] + step]
+
+
+def _pass(sos: np.ndarray, zi: np.ndarray, v: np.ndarray, spare: np.ndarray, band: np.ndarray, forward: bool):
     """The cascade ``sos`` run over ``v`` (samples × columns, Fortran order) forward, or backward from the
     last sample, each section started from the steady state ``zi · v[first]``.  Each second-order section
     is the banded triangular Toeplitz system ``A·y = B·x + (initial state in the first two rows)``, solved
-    in LAPACK (``dtbtrs``, all columns at once); ``v`` and ``spare`` are overwritten, the result is one of them."""
-    n = len(v)
+    in LAPACK (``dtbtrs``, all columns at once).  ``v``, ``spare`` and ``band`` (3 × samples) are
+    overwritten; the result is ``v`` or ``spare``."""
     first = v[0].copy() if forward else v[-1].copy()
-    rhs, tmp = spare, np.empty_like(v)
-    lower = np.empty((3, n), order="F")  # band of A, lower storage: diagonal, then a1, a2 below it
+    rhs = spare
     for section, state in zip(sos, zi):
         b0, b1, b2, a0, a1, a2 = section / section[3]
-        np.multiply(v, b0, out=rhs)
-        near, far = (slice(1, None), slice(None, -1)) if forward else (slice(None, -1), slice(1, None))
-        np.multiply(v[far], b1, out=tmp[near])
-        rhs[near] += tmp[near]
-        near, far = (slice(2, None), slice(None, -2)) if forward else (slice(None, -2), slice(2, None))
-        np.multiply(v[far], b2, out=tmp[near])
-        rhs[near] += tmp[near]
+        _numerator(np.array([b0, b1, b2]), v, rhs, forward)
         rhs[0 if forward else -1] += state[0] * first
-        if n > 1:
+        if len(v) > 1:
             rhs[1 if forward else -2] += state[1] * first
-        lower[0], lower[1], lower[2] = 1.0, a1, a2
         # dtbtrs's transposed (dot-product) form is ~1.5x faster than its axpy form: forward, A (lower) is
         # solved as the transpose of its upper band; backward, A is upper: the transpose of the lower band
         if forward:
-            y, info = dtbtrs(np.asfortranarray(lower[::-1]), rhs, uplo="U", trans="T", diag="U", overwrite_b=1)
+            band[0], band[1], band[2] = a2, a1, 1.0
+            y, info = dtbtrs(band, rhs, uplo="U", trans="T", diag="U", overwrite_b=1)
         else:
-            y, info = dtbtrs(lower, rhs, uplo="L", trans="T", diag="U", overwrite_b=1)
+            band[0], band[1], band[2] = 1.0, a1, a2
+            y, info = dtbtrs(band, rhs, uplo="L", trans="T", diag="U", overwrite_b=1)
         if info != 0:
             raise np.linalg.LinAlgError(f"dtbtrs: info {info}")
         if y is not rhs:  # solved in place unless the wrapper had to copy
@@ -125,9 +139,9 @@ def filtfilt_sos(sos: np.ndarray, x: np.ndarray, padlen: int) -> np.ndarray:
         ext[:padlen] = 2 * flat[0] - flat[padlen:0:-1]
         ext[padlen + n :] = 2 * flat[-1] - flat[-2 : -(padlen + 2) : -1]
     zi = sos_initial_state(sos)
-    spare = np.empty_like(ext)
-    y = _pass(sos, zi, ext, spare, forward=True)
-    y = _pass(sos, zi, y, spare if y is ext else ext, forward=False)
+    spare, band = np.empty_like(ext), np.empty((3, len(ext)), order="F")
+    y = _pass(sos, zi, ext, spare, band, forward=True)
+    y = _pass(sos, zi, y, spare if y is ext else ext, band, forward=False)
     return np.ascontiguousarray(y[padlen : padlen + n]).reshape(x.shape)
 
 
