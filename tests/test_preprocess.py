@@ -133,6 +133,9 @@ def test_errors():
         prepare(Dataset(t=ds.t, q=ds.q, joints=ds.joints))
     with pytest.raises(DataError, match="too few"):
         prepare(recording(100.0, seconds=0.5))
+    with pytest.raises(DataError, match="500 samples .* fewer than the 1201-sample Savitzky–Golay window"):
+        prepare(recording(1000.0, seconds=0.5), cutoff=0.5, trim=0)
+    assert prepare(recording(1000.0, seconds=0.5), cutoff=0.5, trim=0, differentiation="central").n == 500
     with pytest.raises(DataError, match="decimating 1000 Hz by 60 leaves 16.67 Hz"):
         prepare(recording(1000.0, seconds=3.0), decimate=60)
     with pytest.raises(SpecError, match="differentiation 'spline'"):

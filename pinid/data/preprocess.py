@@ -12,14 +12,15 @@
    samples; gaps longer than 5 median steps are reported).  ``rate=`` resamples to another rate (after
    a zero-phase anti-alias low-pass at 0.4 × the new rate when that is lower).
 2. **Zero-phase low-pass.**  A Butterworth filter of ``order`` (default 4) and ``cutoff`` [Hz], run
-   forward and backward (``scipy.signal.sosfiltfilt``: no phase lag, squared magnitude: −6 dB at the
-   cut-off), applied to the positions, the measured velocities and accelerations if used, and the
-   torques alike, so that torques and motion stay aligned.  Default cut-off: ``min(10 Hz, fs/10)``
-   (10 Hz is seed 000's choice for leg motion; ``fs/10`` = 0.2 × Nyquist keeps slow recordings
-   sensible).  A cut-off at or above 0.8 × Nyquist is refused.
+   forward and backward (:func:`~pinid.data.filters.filtfilt_sos`: scipy's ``sosfiltfilt`` without
+   importing scipy.signal; no phase lag, squared magnitude: −6 dB at the cut-off), applied to the
+   positions, the measured velocities and accelerations if used, and the torques alike, so that
+   torques and motion stay aligned.  Default cut-off: ``min(10 Hz, fs/10)`` (10 Hz is seed 000's
+   choice for leg motion; ``fs/10`` = 0.2 × Nyquist keeps slow recordings sensible).  A cut-off at or above 0.8 × Nyquist is refused.
 3. **Derivatives.**  ``differentiation="savgol"`` (default): Savitzky–Golay, polynomial order 5, window
    ``2M+1`` samples with ``M = max(4, round(0.3·fs/cutoff))`` (its own −3 dB point then sits at about
-   2.8 × the Butterworth cut-off, so it differentiates without filtering the band again); ``"central"``:
+   2.8 × the Butterworth cut-off, so it differentiates without filtering the band again;
+   :func:`~pinid.data.filters.savgol`, scipy's ``savgol_filter(mode="interp")``); ``"central"``:
    second-order central differences (``numpy.gradient``) for dq and the 3-point second difference for ddq.
    Measured velocities (``dq`` columns) are used, filtered, when present and ``use_measured_velocity``
    is true; then ddq is the derivative of the filtered velocity.  Measured accelerations likewise.
@@ -44,6 +45,7 @@ from dataclasses import replace
 
 from pinid.checks import number
 from pinid.data.dataset import Dataset
+from pinid.data.filters import butter_sos, default_padlen, filtfilt_sos, savgol
 from pinid.errors import DataError, SpecError
 from pinid.data.formats import warn
 
@@ -95,11 +97,10 @@ def default_trim(fs: float, cutoff: float, order: int) -> float:
 
 
 def lowpass(x: np.ndarray, fs: float, cutoff: float, order: int = 4) -> np.ndarray:
-    """Zero-phase Butterworth low-pass of ``x`` (samples along axis 0) [same unit as x]."""
-    from scipy import signal  # deliberately deferred: scipy.signal takes ~1 s to import
-
-    sos = signal.butter(order, cutoff, btype="low", fs=fs, output="sos")
-    return signal.sosfiltfilt(sos, x, axis=0)
+    """Zero-phase Butterworth low-pass of ``x`` (samples along axis 0) [same unit as x], padded as
+    scipy.signal.sosfiltfilt by default (:func:`~pinid.data.filters.default_padlen`)."""
+    sos = butter_sos(order, cutoff, fs)
+    return filtfilt_sos(sos, x, default_padlen(sos))
 
 
 def uniform_grid(ds: Dataset, rate: float | None = None) -> tuple[Dataset, dict]:
@@ -124,20 +125,19 @@ def uniform_grid(ds: Dataset, rate: float | None = None) -> tuple[Dataset, dict]
     tn = t[0] + np.arange(n) * new_step
     tn[-1] = min(tn[-1], t[-1])
 
-    # deliberately deferred: scipy.signal and scipy.interpolate take ~1 s to import; only resampling needs them
-    from scipy import signal
+    # deliberately deferred: scipy.interpolate is slow to import; only resampling needs it
     from scipy.interpolate import CubicSpline
 
     anti_alias = None
     if rate and rate < 0.95 / step:
         # downsampling: a zero-phase anti-alias low-pass at 0.4 × the new rate first
-        anti_alias = signal.butter(8, 0.4 * rate, btype="low", fs=1.0 / step, output="sos")
+        anti_alias = butter_sos(8, 0.4 * rate, 1.0 / step)
 
     def interp(a):
         if a is None:
             return None
         if anti_alias is not None:
-            a = signal.sosfiltfilt(anti_alias, a, axis=0)
+            a = filtfilt_sos(anti_alias, a, default_padlen(anti_alias))
         return CubicSpline(t, a, axis=0)(tn)
 
     out = Dataset(
@@ -237,9 +237,7 @@ def prepare(
             f"below 0.8 × Nyquist = {0.8 * nyquist:.4g} Hz; expected a sample rate above {2.5 * cutoff:.4g} Hz "
             "or a lower cut-off"
         )
-    from scipy import signal  # deliberately deferred: scipy.signal takes ~1 s to import
-
-    sos = signal.butter(order, cutoff, btype="low", fs=fs, output="sos")
+    sos = butter_sos(order, cutoff, fs)
     padlen = 3 * (2 * len(sos) + 1)
     M = savgol_half_window(fs, cutoff)
     if trim is None:
@@ -253,28 +251,35 @@ def prepare(
             f"low-pass trimmed by {trim:.3g} s at each end; expected more than {max(padlen, 2 * n_trim + 10)} samples"
         )
 
+    measured_v = ds.dq is not None and use_measured_velocity
+    measured_a = ds.ddq is not None and use_measured_acceleration
+    if differentiation == "savgol" and not (measured_v and measured_a) and ds.n < 2 * M + 1:
+        raise DataError(
+            f"{src}: {ds.n} samples ({ds.duration:.3g} s) are fewer than the {2 * M + 1}-sample Savitzky–Golay "
+            f"window of a {cutoff:g} Hz cut-off; expected a longer recording, a higher cut-off or "
+            "differentiation='central'"
+        )
+
     # pad (odd extension) over the filter's settling time, so that its start-up transient dies out
     # before it reaches the data (scipy's default of 3·(2·sections+1) samples is too short at high rates)
     pad = int(min(ds.n - 1, max(padlen, np.ceil(default_trim(fs, cutoff, order) * fs))))
 
     def filt(a):
-        return signal.sosfiltfilt(sos, a, axis=0, padtype="odd", padlen=pad)
+        return filtfilt_sos(sos, a, pad)
 
     h = 1.0 / fs
     q = filt(ds.q)
     tau = filt(ds.tau)
-    measured_v = ds.dq is not None and use_measured_velocity
-    measured_a = ds.ddq is not None and use_measured_acceleration
     polyorder = SAVGOL_POLYORDER
 
     def d1(a):
         if differentiation == "savgol":
-            return signal.savgol_filter(a, 2 * M + 1, polyorder, deriv=1, delta=h, axis=0, mode="interp")
+            return savgol(a, 2 * M + 1, polyorder, deriv=1, delta=h)
         return np.gradient(a, h, axis=0)
 
     def d2(a):
         if differentiation == "savgol":
-            return signal.savgol_filter(a, 2 * M + 1, polyorder, deriv=2, delta=h, axis=0, mode="interp")
+            return savgol(a, 2 * M + 1, polyorder, deriv=2, delta=h)
         out = np.empty_like(a)
         out[1:-1] = (a[2:] - 2 * a[1:-1] + a[:-2]) / (h * h)
         out[0], out[-1] = out[1], out[-2]

@@ -647,7 +647,7 @@ def prepare_dataset(ds: Dataset, preprocess: Mapping | bool | None = None, *, un
     needs = ds.dq is None or ds.ddq is None
     if preprocess is False or (preprocess is None and not needs):
         return ds
-    # scipy.signal is heavy: imported only when a recording is actually filtered
+    # imported only when a recording is actually filtered
     from pinid.data.preprocess import prepare
 
     return prepare(ds, **{"unwrap": list(unwrap), **dict(preprocess or {})})
