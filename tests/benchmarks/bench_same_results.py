@@ -40,15 +40,16 @@ def run(tree: Path, args: list[str], cwd: Path) -> str:
     return subprocess.run(cmd, cwd=cwd, env=env, check=True, stdout=subprocess.PIPE, text=True).stdout
 
 
-def printed_lines(text: str, folder: str) -> list[str]:
+def printed_lines(text: str, folder: str, tree: Path) -> list[str]:
     """``text``'s lines with what legitimately changes masked: the time column of each table (terminal and
-    Markdown), the report's date and total time, and the output folder's name."""
+    Markdown) and the per-method times, the report's date and total time, the output folder and the tree."""
     out, time_col, md_time_col = [], None, None
-    for line in text.replace(folder, "OUT").splitlines():
+    for line in text.replace(str(tree), "TREE").replace(folder, "OUT").splitlines():
+        line = re.sub(r"; [0-9.e+-]+ s; status", "; … s; status", line)
         if line.startswith("pinid ") and "total time" in line:
             line = "pinid (date, total time masked)"
         elif line.startswith("|"):
-            cells = line.split("|")
+            cells = re.split(r"(?<!\\)\|", line)  # not at an escaped \|
             if "time [s]" in [c.strip() for c in cells]:
                 md_time_col = [c.strip() for c in cells].index("time [s]")
             elif md_time_col is not None and len(cells) > md_time_col and not set(cells[md_time_col]) <= set("-"):
@@ -107,6 +108,7 @@ def main() -> None:
         twin_recordings(d)
         result, printed = {}, {}
         for name, tree in (("before", a.before.resolve()), ("this", HERE)):
+            folder = f"identified_by_{name}_tree"
             stdout = run(
                 tree,
                 [
@@ -121,12 +123,13 @@ def main() -> None:
                     a.methods,
                     "--no-figures",
                     "-o",
-                    name,
+                    folder,
                 ],
                 d,
             )
-            result[name] = json.loads((d / name / "identification.json").read_text())
-            printed[name] = printed_lines(stdout, name) + printed_lines((d / name / "report.md").read_text(), name)
+            result[name] = json.loads((d / folder / "identification.json").read_text())
+            report = (d / folder / "report.md").read_text()
+            printed[name] = printed_lines(stdout, folder, tree) + printed_lines(report, folder, tree)
     lines = [(x, y) for x, y in zip(printed["before"], printed["this"]) if x != y]
     if len(printed["before"]) != len(printed["this"]):
         lines.append((f"{len(printed['before'])} lines", f"{len(printed['this'])} lines"))
