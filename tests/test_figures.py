@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import sys
+
 import numpy as np
 import pytest
 
@@ -47,3 +49,20 @@ def test_fixed_layout_margins_and_gaps_are_in_inches(rows, cols):
         assert (boxes[0][0].y0 - boxes[1][0].y1) * h == pytest.approx(0.3)
     if cols > 1:
         assert (boxes[0][1].x0 - boxes[0][0].x1) * w == pytest.approx(0.6)
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="worker processes are forked on Linux only")
+def test_workers_started_ahead_draw_the_same_bytes_and_are_used_once():
+    import pinid.report.figures as figures
+
+    recipes = _recipes()
+    figures.start_figure_workers(2)
+    started = figures._started
+    assert started is not None
+    pooled = render_pngs(recipes)
+    assert figures._started is None
+    assert pooled == render_pngs(recipes, workers=1)
+    figures.start_figure_workers(2)
+    assert figures._started is not started
+    assert render_pngs(recipes, workers=1) == pooled  # an explicit count shuts the started workers down
+    assert figures._started is None

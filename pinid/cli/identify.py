@@ -28,6 +28,7 @@ from pinid.errors import SpecError
 from pinid.identification.problem import load_datasets
 from pinid.identification.run import identify
 from pinid.io import check_outputs
+from pinid.report.figures import start_figure_workers
 
 HELP = "identify dynamic parameters from recordings (OLS, WLS, physically consistent LMI), validate, export"
 DESCRIPTION = """\
@@ -197,6 +198,8 @@ def run(args: argparse.Namespace) -> int:
         f"identifying {model.name} ({', '.join(model.joint_names)}) with {', '.join(methods)}; "
         f"terms {', '.join(terms.names) or 'none'}"
     )
+    if not (args.no_report or args.no_figures):
+        start_figure_workers()  # they load matplotlib while this process identifies
     ident = identify(
         model,
         args.data,

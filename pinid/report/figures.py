@@ -4,6 +4,7 @@ never call ``plt.show()``, take ``ax=None`` where a single axes fits, and return
 from __future__ import annotations
 
 import os
+import signal
 import sys
 import warnings
 from collections.abc import Callable, Mapping
@@ -75,27 +76,69 @@ def _render(recipe: Recipe) -> bytes:
     return figure_png(fn(*args, **kwargs))
 
 
-def render_pngs(recipes: Mapping[str, Recipe], *, workers: int | None = None) -> dict[str, bytes]:
-    """Draw each recipe and render it to PNG bytes (:func:`figure_png`), keyed as ``recipes``.
-
-    Figures are independent, so on Linux with more than one core they are drawn in a pool of forked
-    worker processes (``workers``, default one per core, at most one per figure), matplotlib imported
-    once before the fork; elsewhere, or with ``workers=1``, one after the other.  Same bytes either way.
-    """
-    import matplotlib  # imported here, before any fork, so that the workers inherit it
+def _import_matplotlib() -> None:
+    import matplotlib
 
     matplotlib.use("Agg", force=False)
     import matplotlib.pyplot  # noqa: F401
 
-    keys = list(recipes)
-    workers = min(len(keys), workers if workers is not None else (os.cpu_count() or 1))
-    if workers <= 1 or not sys.platform.startswith("linux"):
-        return {k: _render(recipes[k]) for k in keys}
+
+def _worker_start() -> None:
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's to handle: no worker traceback
+    _import_matplotlib()
+
+
+def _pool_size(workers: int | None, jobs: int | None = None) -> int:
+    """Worker processes to draw with: 0 (draw in this process) off Linux or on one core."""
+    n = workers if workers is not None else (os.cpu_count() or 1)
+    n = n if jobs is None else min(n, jobs)
+    return n if n > 1 and sys.platform.startswith("linux") else 0
+
+
+def _new_pool(n: int):
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor
 
     with warnings.catch_warnings():  # Python ≥ 3.12 warns about fork with threads (BLAS); workers only draw
         warnings.simplefilter("ignore", DeprecationWarning)
-        with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork")) as pool:
-            pngs = list(pool.map(_render, [recipes[k] for k in keys]))
+        pool = ProcessPoolExecutor(n, mp_context=multiprocessing.get_context("fork"), initializer=_worker_start)
+        pool.submit(int)  # a fork pool starts all its workers at the first task: now
+    return pool
+
+
+#: Workers started ahead by :func:`start_figure_workers`, taken by the next :func:`render_pngs`.
+_started = None
+
+
+def start_figure_workers(workers: int | None = None) -> None:
+    """Start :func:`render_pngs`'s worker processes now, so that they load matplotlib while the caller
+    computes (``pinid identify`` calls it before identifying when it will draw figures).  No-op where
+    figures are drawn in this process, or when workers are already waiting."""
+    global _started
+    n = _pool_size(workers)
+    if _started is None and n:
+        _started = _new_pool(n)
+
+
+def render_pngs(recipes: Mapping[str, Recipe], *, workers: int | None = None) -> dict[str, bytes]:
+    """Draw each recipe and render it to PNG bytes (:func:`figure_png`), keyed as ``recipes``.
+
+    Figures are independent, so on Linux with more than one core they are drawn in a pool of forked
+    worker processes (``workers``, default one per core, at most one per figure): those started by
+    :func:`start_figure_workers`, else new ones forked after matplotlib is loaded here.  Elsewhere, or
+    with ``workers=1``, one after the other.  The same bytes either way.
+    """
+    global _started
+    keys = list(recipes)
+    pool, _started = _started, None
+    if pool is None or workers is not None:
+        if pool is not None:
+            pool.shutdown()
+        n = _pool_size(workers, len(keys))
+        _import_matplotlib()  # before the fork, so that new workers inherit it
+        if not n:
+            return {k: _render(recipes[k]) for k in keys}
+        pool = _new_pool(n)
+    with pool:
+        pngs = list(pool.map(_render, [recipes[k] for k in keys]))
     return dict(zip(keys, pngs))
