@@ -110,3 +110,45 @@ def test_passive_exponents_need_the_passive_term(setup):
     stage1, path, robot, truth, data = setup
     with pytest.raises(SpecError, match="passive"):
         identify_wearer(stage1, path, *data, passive=False, passive_exponents=True)
+
+
+def test_auto_prior_weight_on_noise_free_data_is_zero_and_recovers_the_wearer(setup):
+    from pinid.model.base import base_parameters
+    from pinid.wearer.stage import PRIOR_WEIGHTS
+
+    stage1, path, robot, truth, data = setup
+    fit = identify_wearer(stage1, path, *data, prior_weight="auto")
+    assert fit.prior_weight == 0.0
+    cv = fit.cross_validation
+    assert cv["weights"] == list(PRIOR_WEIGHTS)
+    assert max(cv["heldout_rms"][:4]) < 1e-9 < cv["heldout_rms"][-1]  # exact for small λ (a norm's kink), not for large
+    want = base_parameters(robot, fit.terms).from_standard(truth)
+    assert (np.abs(fit.base - want) / np.maximum(np.abs(want), 1e-3)).max() <= 1e-6
+    assert fit.to_dict()["prior_weight_cross_validation"]["folds"] == 5
+
+
+def test_auto_prior_weight_pulls_toward_tables_that_are_right_when_data_are_noisy(setup):
+    """Ground truth = the tables, few noisy samples: held-out error falls as λ pulls toward the tables,
+    so cross-validation chooses λ > 0 and the fit lands nearer the truth than the data alone."""
+    from pinid.model.base import base_parameters
+
+    stage1, path, robot, _, (q, dq, ddq, _) = setup
+    table = identify_wearer(stage1, path, q, dq, ddq, np.zeros_like(q)).table
+    terms = JointTerms.from_names("passive")
+    clean = (regressor(robot, q, dq, ddq, terms) @ table).reshape(q.shape) + stage1.inverse_dynamics(q, dq, ddq)
+    noisy = clean + np.random.default_rng(7).normal(0.0, 8.0, clean.shape)
+    bp = base_parameters(robot, terms)
+    want = bp.from_standard(table)
+    alone = identify_wearer(stage1, path, q, dq, ddq, noisy)
+    auto = identify_wearer(stage1, path, q, dq, ddq, noisy, prior_weight="auto")
+    assert auto.prior_weight > 0
+    assert np.linalg.norm(auto.base - want) < np.linalg.norm(alone.base - want)
+
+
+@pytest.mark.parametrize("bad", ["often", -0.1, float("nan")])
+def test_prior_weight_must_be_a_number_or_auto(setup, bad):
+    from pinid.errors import SpecError
+
+    stage1, path, _, _, data = setup
+    with pytest.raises(SpecError, match="prior_weight"):
+        identify_wearer(stage1, path, *data, prior_weight=bad)

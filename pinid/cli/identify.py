@@ -107,10 +107,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     g.add_argument(
         "--prior-weight",
-        type=nonnegative_float,
+        type=_prior_weight,
         default=0.0,
+        metavar="LAMBDA|auto",
         help="--stage wearer: pull of the identifiable directions toward the tables; default 0 "
-        "(the tables decide only what the data cannot see)",
+        "(the tables decide only what the data cannot see); auto: chosen by 5-fold blocked cross-validation",
     )
     g.add_argument(
         "--no-passive",
@@ -179,6 +180,11 @@ def _options(args, methods) -> dict:
     if "wls" in methods and args.wls_iterations is not None:
         opts["wls"] = {"iterations": args.wls_iterations}
     return opts
+
+
+def _prior_weight(text: str) -> float | str:
+    """``--prior-weight``: a number ≥ 0 or ``auto``."""
+    return "auto" if text.strip().lower() == "auto" else nonnegative_float(text)
 
 
 def run(args: argparse.Namespace) -> int:

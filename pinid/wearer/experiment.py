@@ -42,6 +42,7 @@ def wearer_experiment(
     seed: int = 0,
     true_exponents: dict | None = None,
     passive_exponents: bool = False,
+    prior_weight: float | str = 0.0,
 ) -> dict:
     """Run the experiment (see the module text) and return its figures.
 
@@ -49,7 +50,8 @@ def wearer_experiment(
     ``pinid wearer``; ``excitation`` / ``validation``: trajectories (FourierTrajectory) of the
     identification and validation recordings, ``seconds`` long (validation: half); ``reference``: the
     tracking reference; ``true_exponents`` the true wearer's passive-moment exponents ``{anatomical joint:
-    (terms, 4)}`` (default the published); ``passive_exponents``: stage 2 fits them.  Returns ``{"rms": {model: per-joint validation RMS [N·m]}, "floor": per joint
+    (terms, 4)}`` (default the published); ``passive_exponents``: stage 2 fits them; ``prior_weight``: stage
+    2's λ (a number or "auto").  Returns ``{"rms": {model: per-joint validation RMS [N·m]}, "floor": per joint
     [N·m], "ratio": {model: RMS / floor, joints pooled}, "tracking": {controller: {model: per-joint RMS
     [rad]}}, "fit": WearerFit}`` with models ``identified``, ``table``, ``exo``.
     """
@@ -65,7 +67,9 @@ def wearer_experiment(
     train, _ = simulate(plant, excitation, seconds=seconds, seed=seed + 2, wearer_torque=wearer_torque)
     valid, _ = simulate(plant, validation, seconds=seconds / 2, seed=seed + 3, wearer_torque=wearer_torque)
     train, valid = prepare_dataset(train), prepare_dataset(valid)
-    fit = identify_wearer(stage1, table, *stack([train]), passive_exponents=passive_exponents)
+    fit = identify_wearer(
+        stage1, table, *stack([train]), passive_exponents=passive_exponents, prior_weight=prior_weight
+    )
     terms = JointTerms.from_names("fc,fv,passive")
     truth = IdentifiedModel(
         plant,

@@ -15,8 +15,10 @@ Problem (:class:`~pinid.model.conic.ConicProblem`, Clarabel, on the compressed r
 ``V₀`` spans the directions the data cannot see (the null space of ``R S``), so the tables decide
 exactly what the data cannot, and with ``λ = 0`` (the default) the data alone decide the rest:
 noise-free, the wearer's base parameters come back exactly.  ``λ > 0`` also pulls the identifiable
-directions toward the table (useful for a short, poorly exciting recording).  ``S`` scales the
-parameters (per body: table mass, mass × segment length, mass × length²; ``kp``: 1).
+directions toward the table (useful for a short, poorly exciting recording); ``λ = "auto"`` chooses it
+from :data:`PRIOR_WEIGHTS` by blocked cross-validation on the recording itself
+(:func:`choose_prior_weight`).  ``S`` scales the parameters (per body: table mass, mass × segment length,
+mass × length²; ``kp``: 1).
 """
 
 from __future__ import annotations
@@ -58,6 +60,8 @@ class WearerFit:
     status: str
     seconds: float
     exponents: object = None  # the pinid.wearer.exponents.ExponentFit when the exponents were refined
+    prior_weight: float = 0.0  # λ used (chosen by cross-validation with prior_weight="auto")
+    cross_validation: dict | None = None  # choose_prior_weight's table, with prior_weight="auto"
 
     @property
     def names(self) -> list[str]:
@@ -112,6 +116,8 @@ class WearerFit:
             "status": self.status,
             "seconds": self.seconds,
             **({"passive_exponents": self.exponents.to_dict()} if self.exponents is not None else {}),
+            "prior_weight": self.prior_weight,
+            **({"prior_weight_cross_validation": self.cross_validation} if self.cross_validation else {}),
         }
 
 
@@ -143,14 +149,15 @@ def identify_wearer(
     *,
     passive: bool = True,
     mass_range: float = MASS_RANGE,
-    prior_weight: float = 0.0,
+    prior_weight: float | str = 0.0,
     passive_exponents: bool = False,
     solver: str = "CLARABEL",
 ) -> WearerFit:
     """Stage 2: the wearer's parameters from (N, nv) arrays ``q`` [rad], ``dq``, ``ddq``, ``tau`` [N·m].
 
     ``exo``: the stage-1 IdentifiedModel (or its JSON path); ``prior_urdf``: the URDF of
-    ``pinid wearer`` (the table values, the bounds); ``mass_range`` ρ; ``prior_weight`` λ (see the module text);
+    ``pinid wearer`` (the table values, the bounds); ``mass_range`` ρ; ``prior_weight`` λ (see the module text), or
+    ``"auto"``: chosen by blocked cross-validation (:func:`choose_prior_weight`);
     ``passive_exponents``: first fit the passive moments' exponents (:mod:`pinid.wearer.exponents`), then
     solve the SDP with them (the returned model carries them).
     """
@@ -162,8 +169,10 @@ def identify_wearer(
         raise SpecError(f"prior URDF joints {robot.joint_names} differ from the stage-1 model's {exo.joint_names}")
     if passive_exponents and not passive:
         raise SpecError("passive_exponents needs the passive moments (passive=True): the exponents are theirs")
-    if not 0 < mass_range < 1 or prior_weight < 0:
-        raise SpecError(f"mass_range {mass_range:g} must be in (0, 1) and prior_weight {prior_weight:g} ≥ 0")
+    if prior_weight != "auto" and (isinstance(prior_weight, str) or not prior_weight >= 0):
+        raise SpecError(f"prior_weight {prior_weight!r}, expected a number ≥ 0 or 'auto'")
+    if not 0 < mass_range < 1:
+        raise SpecError(f"mass_range {mass_range:g}, expected a fraction in (0, 1)")
     priors = wearer_prior(robot.urdf_text or robot.urdf_path.read_text(encoding="utf-8"), robot)
     q, dq, ddq, tau = (np.atleast_2d(np.asarray(x, dtype=float)) for x in (q, dq, ddq, tau))
     if not (q.shape == dq.shape == ddq.shape == tau.shape) or q.shape[1] != robot.nv:
@@ -191,8 +200,39 @@ def identify_wearer(
         robot.passive_exponents = refined.fitted
         W = regressor(robot, q, dq, ddq, terms)[:, free]
     S = _scale(priors, nv, nt)[free]
-    R, z = compress(W * S, y)
     z0 = table[free] / S
+    bodies = (priors, free, S, mass_range, [10 * nv + i for i in mapped])
+    cv = None
+    if prior_weight == "auto":
+        prior_weight, cv = choose_prior_weight(W * S, y, nv, z0, bodies, solver)
+    R, z = compress(W * S, y)
+    solution = _fit(R, z, z0, bodies, float(prior_weight), solver)
+    status = solution.status
+    theta = np.zeros_like(table)
+    theta[free] = S * solution.z
+    bp = base_parameters(robot, terms)
+    return WearerFit(
+        robot,
+        exo,
+        priors,
+        terms,
+        theta,
+        table,
+        bp.names,
+        bp.from_standard(theta),
+        bp.from_standard(table),
+        status,
+        time.perf_counter() - t0,
+        refined,
+        float(prior_weight),
+        cv,
+    )
+
+
+def _fit(R: np.ndarray, z: np.ndarray, z0: np.ndarray, bodies: tuple, prior_weight: float, solver: str):
+    """The stage-2 conic problem (see the module text) on the compressed, scaled regressor ``(R, z)``;
+    ``z0`` the table in the scaled coordinates; ``bodies`` = ``(priors, free, S, mass_range, kp columns)``."""
+    priors, free, S, mass_range, kp = bodies
     _, sv, Vt = np.linalg.svd(R)
     rank = int(np.sum(sv > 1e-9 * sv[0]))
     V0 = Vt[rank:].T
@@ -221,27 +261,44 @@ def identify_wearer(
         for e in (e1, e2):  # |e·h| ≤ radius·m
             conic.add_inequality(b.radius * th[0] - e @ h, 0.0)
             conic.add_inequality(b.radius * th[0] + e @ h, 0.0)
-    if mapped:
-        conic.add_inequality(np.eye(n)[[pos[10 * nv + i] for i in mapped]], 0.0)  # kp ≥ 0
-    solution = conic.solve(solver, None, "wearer stage 2")
-    status = solution.status
-    theta = np.zeros_like(table)
-    theta[free] = S * solution.z
-    bp = base_parameters(robot, terms)
-    return WearerFit(
-        robot,
-        exo,
-        priors,
-        terms,
-        theta,
-        table,
-        bp.names,
-        bp.from_standard(theta),
-        bp.from_standard(table),
-        status,
-        time.perf_counter() - t0,
-        refined,
-    )
+    if kp:
+        conic.add_inequality(np.eye(n)[[pos[k] for k in kp]], 0.0)  # kp ≥ 0
+    return conic.solve(solver, None, "wearer stage 2")
+
+
+#: Candidate weights λ of ``prior_weight="auto"`` (0: the data alone decide what they can see).
+PRIOR_WEIGHTS = (0.0, 1e-4, 1e-3, 1e-2, 1e-1, 1.0)
+#: Contiguous blocks of the recording for ``prior_weight="auto"``.
+FOLDS = 5
+
+
+def choose_prior_weight(
+    A: np.ndarray, y: np.ndarray, nv: int, z0: np.ndarray, bodies: tuple, solver: str = "CLARABEL"
+) -> tuple[float, dict]:
+    """λ of :data:`PRIOR_WEIGHTS` with the least held-out torque residual by blocked cross-validation: the
+    rows (``nv`` per sample, in time order) cut into :data:`FOLDS` contiguous blocks, each left out in turn
+    and predicted by the wearer fitted on the others.  Contiguous blocks, not random rows, because the
+    disturbances of a wearer (slow active torque) are correlated in time: random rows would reward fitting
+    them.  Returns ``(λ, {"weights": [...], "heldout_rms": [...] [N·m], "folds": FOLDS})``; ties (within
+    1e-6 relative, or 1e-9 of the torque RMS) go to the smaller λ."""
+    samples = len(y) // nv
+    if samples < 2 * FOLDS:
+        raise DataError(f"prior_weight='auto': {samples} samples, expected at least {2 * FOLDS} for {FOLDS} folds")
+    cuts = np.linspace(0, samples, FOLDS + 1).round().astype(int) * nv
+    folds = [compress(A[a:b], y[a:b]) for a, b in zip(cuts[:-1], cuts[1:])]
+    sse = np.zeros(len(PRIOR_WEIGHTS))
+    for k, (Rk, zk) in enumerate(folds):
+        others = np.vstack([np.column_stack(f) for j, f in enumerate(folds) if j != k])
+        train = np.linalg.qr(others, mode="r")
+        for i, lam in enumerate(PRIOR_WEIGHTS):
+            x = _fit(train[:, :-1], train[:, -1], z0, bodies, lam, solver).z
+            sse[i] += float(np.sum((Rk @ x - zk) ** 2))
+    rms = np.sqrt(sse / len(y))
+    # near-ties (solver precision: with exact data every small λ fits exactly, the cost being a norm) go
+    # to the smaller λ, the data's side
+    tie = rms.min() * (1 + 1e-6) + 1e-9 * float(np.sqrt(np.mean(y * y)))
+    best = int(np.flatnonzero(rms <= tie)[0])
+    return PRIOR_WEIGHTS[best], {"weights": list(PRIOR_WEIGHTS), "heldout_rms": rms.tolist(), "folds": FOLDS}
 
 
 def stack(datasets) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -271,6 +328,13 @@ def stage_text(fit: WearerFit, summary: dict) -> str:
         f"stage 2 (wearer) of {fit.robot.name}: status {fit.status}, {fit.seconds:.2f} s",
         f"   {'base parameter':<{width}} {'identified':>13} {'table':>13}",
     ]
+    if fit.cross_validation is not None:
+        cv = fit.cross_validation
+        lines.insert(
+            1,
+            f"   prior weight {fit.prior_weight:g}, chosen by {cv['folds']}-fold blocked cross-validation (held-out "
+            "RMS [N·m]: " + ", ".join(f"{w:g} → {r:.4g}" for w, r in zip(cv["weights"], cv["heldout_rms"])) + ")",
+        )
     if fit.exponents is not None:
         e = fit.exponents
         lines.insert(

@@ -1,7 +1,7 @@
 """Benchmark: the wearer in the loop on the twin (issue 18's figures, docs/wearer.md).
 
     python tests/benchmarks/bench_wearer.py [--seconds 60] [--seed 0] [--seeds 1] [--wearer-torque 5]
-        [--exponents-off 0.2] [--passive-exponents]
+        [--exponents-off 0.2] [--passive-exponents] [--prior-weight LAMBDA|auto]
 
 exo_leg + a 75 kg, 1.78 m male wearer (thigh, shank, foot), the true wearer drawn away from the tables
 (mass ±25 %, CoM ±20 %), passive moments on, the wearer's active torque 5 % of the gravity RMS, default
@@ -48,6 +48,7 @@ def main() -> None:
         help="the true wearer's passive exponents ×(1 ± FRACTION) of the published (default 0)",
     )
     ap.add_argument("--passive-exponents", action="store_true", help="stage 2 also fits the passive exponents")
+    ap.add_argument("--prior-weight", default="0", metavar="LAMBDA|auto", help="stage 2's prior weight (default 0)")
     ap.add_argument("--wearer-torque", type=float, default=5.0, metavar="PCT", help="active torque, %% of gravity RMS")
     args = ap.parse_args()
     from pinid.control.tracking import sine_reference
@@ -73,6 +74,7 @@ def main() -> None:
                 wearer_torque=args.wearer_torque,
                 true_exponents=true,
                 passive_exponents=args.passive_exponents,
+                prior_weight="auto" if args.prior_weight == "auto" else float(args.prior_weight),
             )
 
         if args.seeds > 1:
