@@ -108,10 +108,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument(
         "--prior-weight",
         type=_prior_weight,
-        default=0.0,
+        default="auto",
         metavar="LAMBDA|auto",
-        help="--stage wearer: pull of the identifiable directions toward the tables; default 0 "
-        "(the tables decide only what the data cannot see); auto: chosen by 5-fold blocked cross-validation",
+        help="--stage wearer: pull of the identifiable directions toward the tables (0: the tables decide "
+        "only what the data cannot see); default auto: chosen by 5-fold blocked cross-validation",
     )
     g.add_argument(
         "--no-passive",

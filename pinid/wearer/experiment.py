@@ -42,7 +42,7 @@ def wearer_experiment(
     seed: int = 0,
     true_exponents: dict | None = None,
     passive_exponents: bool = False,
-    prior_weight: float | str = 0.0,
+    prior_weight: float | str = "auto",
 ) -> dict:
     """Run the experiment (see the module text) and return its figures.
 
@@ -51,7 +51,7 @@ def wearer_experiment(
     identification and validation recordings, ``seconds`` long (validation: half); ``reference``: the
     tracking reference; ``true_exponents`` the true wearer's passive-moment exponents ``{anatomical joint:
     (terms, 4)}`` (default the published); ``passive_exponents``: stage 2 fits them; ``prior_weight``: stage
-    2's λ (a number or "auto").  Returns ``{"rms": {model: per-joint validation RMS [N·m]}, "floor": per joint
+    2's λ (a number, or "auto": blocked cross-validation).  Returns ``{"rms": {model: per-joint validation RMS [N·m]}, "floor": per joint
     [N·m], "ratio": {model: RMS / floor, joints pooled}, "tracking": {controller: {model: per-joint RMS
     [rad]}}, "fit": WearerFit}`` with models ``identified``, ``table``, ``exo``.
     """

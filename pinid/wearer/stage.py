@@ -13,11 +13,11 @@ Problem (:class:`~pinid.model.conic.ConicProblem`, Clarabel, on the compressed r
                 CoM inside the segment (linear in m and m·c),  kp ≥ 0
 
 ``V₀`` spans the directions the data cannot see (the null space of ``R S``), so the tables decide
-exactly what the data cannot, and with ``λ = 0`` (the default) the data alone decide the rest:
-noise-free, the wearer's base parameters come back exactly.  ``λ > 0`` also pulls the identifiable
-directions toward the table (useful for a short, poorly exciting recording); ``λ = "auto"`` chooses it
-from :data:`PRIOR_WEIGHTS` by blocked cross-validation on the recording itself
-(:func:`choose_prior_weight`).  ``S`` scales the parameters (per body: table mass, mass × segment length,
+exactly what the data cannot; with ``λ = 0`` the data alone decide the rest (noise-free, the wearer's
+base parameters come back exactly).  ``λ > 0`` also pulls the identifiable directions toward the table
+(useful for a short, poorly exciting recording).  The default ``λ = "auto"`` chooses it from
+:data:`PRIOR_WEIGHTS` by blocked cross-validation on the recording itself (:func:`choose_prior_weight`):
+on exact data that is 0.  ``S`` scales the parameters (per body: table mass, mass × segment length,
 mass × length²; ``kp``: 1).
 """
 
@@ -149,7 +149,7 @@ def identify_wearer(
     *,
     passive: bool = True,
     mass_range: float = MASS_RANGE,
-    prior_weight: float | str = 0.0,
+    prior_weight: float | str = "auto",
     passive_exponents: bool = False,
     solver: str = "CLARABEL",
 ) -> WearerFit:
@@ -157,7 +157,7 @@ def identify_wearer(
 
     ``exo``: the stage-1 IdentifiedModel (or its JSON path); ``prior_urdf``: the URDF of
     ``pinid wearer`` (the table values, the bounds); ``mass_range`` ρ; ``prior_weight`` λ (see the module text), or
-    ``"auto"``: chosen by blocked cross-validation (:func:`choose_prior_weight`);
+    ``"auto"`` (the default): chosen by blocked cross-validation (:func:`choose_prior_weight`);
     ``passive_exponents``: first fit the passive moments' exponents (:mod:`pinid.wearer.exponents`), then
     solve the SDP with them (the returned model carries them).
     """
@@ -203,8 +203,9 @@ def identify_wearer(
     z0 = table[free] / S
     bodies = (priors, free, S, mass_range, [10 * nv + i for i in mapped])
     cv = None
-    if prior_weight == "auto":
-        prior_weight, cv = choose_prior_weight(W * S, y, nv, z0, bodies, solver)
+    if prior_weight == "auto":  # too short to cut into folds: the data alone
+        auto = len(q) >= 2 * FOLDS
+        prior_weight, cv = choose_prior_weight(W * S, y, nv, z0, bodies, solver) if auto else (0.0, None)
     R, z = compress(W * S, y)
     solution = _fit(R, z, z0, bodies, float(prior_weight), solver)
     status = solution.status

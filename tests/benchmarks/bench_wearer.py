@@ -48,7 +48,9 @@ def main() -> None:
         help="the true wearer's passive exponents ×(1 ± FRACTION) of the published (default 0)",
     )
     ap.add_argument("--passive-exponents", action="store_true", help="stage 2 also fits the passive exponents")
-    ap.add_argument("--prior-weight", default="0", metavar="LAMBDA|auto", help="stage 2's prior weight (default 0)")
+    ap.add_argument(
+        "--prior-weight", default="auto", metavar="LAMBDA|auto", help="stage 2's prior weight (default auto)"
+    )
     ap.add_argument("--wearer-torque", type=float, default=5.0, metavar="PCT", help="active torque, %% of gravity RMS")
     args = ap.parse_args()
     from pinid.control.tracking import sine_reference
