@@ -35,6 +35,19 @@ def _rms_table(rms: Mapping[str, Mapping[str, float]]) -> str:
     return markdown_table(["model"] + [f"{j} [N·m]" for j in joints] + ["all joints [N·m]"], rows)
 
 
+def _prior_weight_line(result: Mapping) -> str:
+    """How far the identifiable directions were pulled toward the tables, and how λ was chosen."""
+    cv = result.get("prior_weight_cross_validation")
+    lam = result.get("prior_weight", 0.0)
+    if not cv:
+        return f"Prior weight λ = {lam:g} (given)."
+    cells = ", ".join(f"{w:g}: {number(r)}" for w, r in zip(cv["weights"], cv["heldout_rms"]))
+    return (
+        f"Prior weight λ = {lam:g}, chosen by {cv['folds']}-fold blocked cross-validation on the recording "
+        f"(held-out torque RMS [N·m] per λ: {cells})."
+    )
+
+
 def wearer_markdown(result: Mapping, figures: Mapping[str, str] | None = None) -> str:
     """The report text of stage-2 ``result``; ``figures`` maps ``"torque"`` to the file name to link."""
     from pinid import __version__
@@ -45,6 +58,8 @@ def wearer_markdown(result: Mapping, figures: Mapping[str, str] | None = None) -
         "",
         f"pinid {__version__}; the exoskeleton fixed to `{display_path(result['exo'])}` (stage 1); "
         f"solver status {result['status']}, {result['seconds']:.2f} s.",
+        "",
+        _prior_weight_line(result),
         "",
         "Bodies carrying wearer segments: "
         + ", ".join(f"`{j}` ({', '.join(s)})" for j, s in result["bodies"].items())

@@ -333,8 +333,8 @@ def stage_text(fit: WearerFit, summary: dict) -> str:
         cv = fit.cross_validation
         lines.insert(
             1,
-            f"   prior weight {fit.prior_weight:g}, chosen by {cv['folds']}-fold blocked cross-validation (held-out "
-            "RMS [N·m]: " + ", ".join(f"{w:g} → {r:.4g}" for w, r in zip(cv["weights"], cv["heldout_rms"])) + ")",
+            f"   prior weight {fit.prior_weight:g}: held-out RMS {min(cv['heldout_rms']):.4g} N·m, the least of "
+            f"λ = {cv['weights'][0]:g} … {cv['weights'][-1]:g} ({cv['folds']}-fold blocked cross-validation)",
         )
     if fit.exponents is not None:
         e = fit.exponents
