@@ -342,6 +342,8 @@ def test_cli_writes_json_csv_and_plot(tmp_path):
     )
     assert proc.returncode == 0, proc.stderr
     assert "condition number" in proc.stdout and "hip" in proc.stdout and "|ddq| max" in proc.stdout
+    wide = [line for line in proc.stdout.splitlines() if len(line) > 120 and str(ROOT) not in line]
+    assert not wide, wide  # fits 120 columns (a line naming a long path aside)
     d = json.loads(out.read_text())
     for key in KEYS:
         assert key in d, key

@@ -17,12 +17,13 @@ from pinid.report.plot_excitation import plot_excitation
 
 
 def spec_text(model: RobotModel, spec: ExcitationSpec) -> str:
-    """The robot and the spec in two lines: harmonics, base frequency [rad/s] and period [s], samples,
+    """The robot and the spec in three lines: harmonics, base frequency [rad/s] and period [s], samples,
     rest start, offsets, terms, margin."""
     return (
         f"robot {model.name} ({model.urdf_path}), joints {', '.join(model.joint_names)}\n"
-        f"spec {spec.source}: {spec.harmonics} harmonics, ωf = {spec.base_frequency:.6g} rad/s (period "
-        f"{spec.period:.4g} s), {spec.samples} samples, {'start at rest' if spec.rest_start else 'no rest start'}, "
+        f"spec {spec.source}:\n"
+        f"  {spec.harmonics} harmonics, ωf = {spec.base_frequency:.6g} rad/s (period {spec.period:.4g} s), "
+        f"{spec.samples} samples, {'start at rest' if spec.rest_start else 'no rest start'}, "
         f"offsets {'optimised' if spec.optimize_offsets else 'fixed'}, terms {','.join(spec.terms.names) or 'none'}"
         + (f", margin {spec.margin:g}" if spec.margin else "")
     )
@@ -52,7 +53,7 @@ def usage_table(spec: ExcitationSpec, extremes: dict, usage: dict, q0) -> str:
     lines.append(
         "  (q limits as given; 'toward lo/hi': how far the motion goes from q0 = "
         + ", ".join(f"{q:.4f}" for q in q0)
-        + " towards each position limit; dq [rad/s], ddq [rad/s²])"
+        + "\n   towards each position limit; dq [rad/s], ddq [rad/s²])"
     )
     return "\n".join(lines)
 
