@@ -51,24 +51,17 @@ def twin(tmp_path_factory):
     return d
 
 
+def stage2(d: Path, *extra: str, data: str = "true.npz", exo: bool = True, urdf: str | None = None) -> tuple:
+    """``pinid identify --stage wearer`` arguments on the twin's files (stage-1 model, exo + wearer URDF,
+    recording ``data``), then ``extra``."""
+    head = ("identify", "--stage", "wearer") + (("--exo", str(d / "exo.json")) if exo else ())
+    return (*head, "--urdf", urdf or str(d / "eww.urdf"), "--data", str(d / data), *extra)
+
+
 @pytest.mark.slow
 def test_noise_free_stage2_recovers_wearer_base_parameters(twin):
     d = twin
-    p = run_cli(
-        "identify",
-        "--stage",
-        "wearer",
-        "--exo",
-        str(d / "exo.json"),
-        "--urdf",
-        str(d / "eww.urdf"),
-        "--data",
-        str(d / "true.npz"),
-        "--preprocess",
-        "never",
-        "-o",
-        str(d / "out"),
-    )
+    p = run_cli(*stage2(d, "--preprocess", "never", "-o", str(d / "out")))
     assert p.returncode == 0, p.stderr
     res = json.loads((d / "out" / "identification.json").read_text())
     whole = res
@@ -139,19 +132,7 @@ def _check_report(out: Path, res: dict) -> None:
 
 def test_stage2_report_options(twin, tmp_path):
     d = twin
-    base = (
-        "identify",
-        "--stage",
-        "wearer",
-        "--exo",
-        str(d / "exo.json"),
-        "--urdf",
-        str(d / "eww.urdf"),
-        "--data",
-        str(d / "true.npz"),
-        "--preprocess",
-        "never",
-    )
+    base = stage2(d, "--preprocess", "never")
     p = run_cli(*base, "--validate", str(d / "true.npz"), "--no-figures", "-o", str(tmp_path / "a"))
     assert p.returncode == 0, p.stderr
     assert sorted(f.name for f in (tmp_path / "a").iterdir()) == [
@@ -195,22 +176,7 @@ def test_stage2_passive_exponents_from_the_command_line(twin):
     outs = {}
     for flag in ([], ["--passive-exponents"]):
         out = d / ("exp" if flag else "scale")
-        p = run_cli(
-            "identify",
-            "--stage",
-            "wearer",
-            "--exo",
-            str(d / "exo.json"),
-            "--urdf",
-            str(d / "eww.urdf"),
-            "--data",
-            str(d / "true_exp.npz"),
-            "--preprocess",
-            "never",
-            *flag,
-            "-o",
-            str(out),
-        )
+        p = run_cli(*stage2(d, "--preprocess", "never", *flag, "-o", str(out), data="true_exp.npz"))
         assert p.returncode == 0, p.stderr
         outs[bool(flag)] = json.loads((out / "identification.json").read_text())
     assert "passive_exponents" not in outs[False] and max(outs[False]["train_rms"]["identified"].values()) > 0.05
@@ -232,46 +198,10 @@ def test_stage2_passive_exponents_from_the_command_line(twin):
 
 def test_stage2_bad_input_writes_nothing(twin, tmp_path):
     d = twin
-    p = run_cli(
-        "identify",
-        "--stage",
-        "wearer",
-        "--urdf",
-        str(d / "eww.urdf"),
-        "--data",
-        str(d / "true.npz"),
-        "-o",
-        str(tmp_path / "a"),
-    )
+    p = run_cli(*stage2(d, "-o", str(tmp_path / "a"), exo=False))
     assert_clean_error(p, "--stage wearer", "--exo")
-    p = run_cli(
-        "identify",
-        "--stage",
-        "wearer",
-        "--exo",
-        str(d / "exo.json"),
-        "--urdf",
-        "exo_leg",
-        "--data",
-        str(d / "true.npz"),
-        "-o",
-        str(tmp_path / "b"),
-    )
+    p = run_cli(*stage2(d, "-o", str(tmp_path / "b"), urdf="exo_leg"))
     assert_clean_error(p, "no wearer segment")
-    p = run_cli(
-        "identify",
-        "--stage",
-        "wearer",
-        "--exo",
-        str(d / "exo.json"),
-        "--urdf",
-        str(d / "eww.urdf"),
-        "--data",
-        str(d / "true.npz"),
-        "--no-passive",
-        "--passive-exponents",
-        "-o",
-        str(tmp_path / "c"),
-    )
+    p = run_cli(*stage2(d, "--no-passive", "--passive-exponents", "-o", str(tmp_path / "c")))
     assert_clean_error(p, "passive_exponents", "passive")
     assert not list(tmp_path.iterdir())
