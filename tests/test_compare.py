@@ -183,12 +183,9 @@ def test_cli_compare(tmp_path, setting):
     write_recording(tmp_path / "train.csv", train)
     write_recording(tmp_path / "valid.csv", valid)
     out = tmp_path / "out"
+    head = ("compare", "--urdf", "exo_leg", "--data", str(tmp_path / "train.csv"))
     proc = run_cli(
-        "compare",
-        "--urdf",
-        "exo_leg",
-        "--data",
-        str(tmp_path / "train.csv"),
+        *head,
         "--validate",
         str(tmp_path / "valid.csv"),
         "--methods",
@@ -214,11 +211,7 @@ def test_cli_compare(tmp_path, setting):
     for name in ("comparison.md", "compare_convergence.png", "compare_errors_validation.png"):
         assert (out / name).is_file(), name
     proc = run_cli(
-        "compare",
-        "--urdf",
-        "exo_leg",
-        "--data",
-        str(tmp_path / "train.csv"),
+        *head,
         "--methods",
         "ols,magic",
         "-o",
@@ -226,11 +219,7 @@ def test_cli_compare(tmp_path, setting):
     )
     assert_clean_error(proc, "magic")
     proc = run_cli(
-        "compare",
-        "--urdf",
-        "exo_leg",
-        "--data",
-        str(tmp_path / "train.csv"),
+        *head,
         "--first-validate",
         str(tmp_path / "valid.csv"),
         "-o",
