@@ -65,7 +65,7 @@ def save_figure(fig, path) -> None:
     """Save ``fig`` atomically to ``path`` (format from the suffix) and close it."""
     import matplotlib.pyplot as plt
 
-    # No bbox_inches="tight": it renders the figure twice; every plot lays itself out (tight_layout).
+    # No bbox_inches="tight": it renders the figure twice; every plot lays itself out (fixed_layout or tight_layout).
     with atomic_path(path) as tmp:
         fig.savefig(tmp, format=str(path).rsplit(".", 1)[-1], dpi=DPI)
     plt.close(fig)
