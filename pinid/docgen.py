@@ -72,6 +72,7 @@ API_MODULES: tuple[tuple[str, str], ...] = (
     ("pinid.identification.metrics", "Validation metrics"),
     ("pinid.identification.identified", "The identified model for controllers"),
     ("pinid.model.export", "Identified URDF"),
+    ("pinid.model.mjcf", "Identified model as MuJoCo MJCF"),
     ("pinid.control.controllers", "Model-based control"),
     ("pinid.control.tracking", "Tracking studies: reference, table, files (pinid track)"),
     ("pinid.identification.compare", "Comparing estimators"),

@@ -28,7 +28,18 @@ from pinid.io import OVERWRITE
 from pinid.progress import MODE
 
 #: Subcommands in the order ``pinid --help`` lists them.
-COMMANDS: tuple[str, ...] = ("info", "wearer", "excite", "simulate", "identify", "compare", "track", "flex", "demo")
+COMMANDS: tuple[str, ...] = (
+    "info",
+    "wearer",
+    "excite",
+    "simulate",
+    "identify",
+    "compare",
+    "track",
+    "export",
+    "flex",
+    "demo",
+)
 
 
 def _load(name: str):

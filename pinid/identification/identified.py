@@ -330,6 +330,23 @@ class IdentifiedModel:
             comment=f"method {self.meta.get('method', '?')}",
         )
 
+    def export_mjcf(self, path: str | os.PathLike | None = None, *, floating: bool | None = None) -> str:
+        """The identified model as MuJoCo MJCF (:func:`pinid.model.mjcf.identified_mjcf`); written to ``path`` when
+        given.  ``floating``: a free joint on the root link (None: the robot's own base, fixed unless it has a
+        floating one).  ModelError for a set MuJoCo cannot take (physically inconsistent, a massless body)."""
+        from pinid.model.mjcf import identified_mjcf
+
+        if floating is None:
+            floating = getattr(self.nominal_robot, "base", "fixed") == "floating"
+        return identified_mjcf(
+            self.nominal_robot,
+            self.theta,
+            self.terms,
+            path,
+            floating=floating,
+            comment=f"method {self.meta.get('method', '?')}",
+        )
+
     def export_drives(self, path: str | os.PathLike | None = None) -> str | None:
         """The drives TOML with the identified motor terms (:func:`pinid.model.export.identified_drives`), None
         without motor terms; written to ``path`` when given (read it back with ``--drives``)."""

@@ -23,6 +23,7 @@ IDENTIFICATION_FILES = (
     "model_*.json",
     "identified_*.urdf",
     "identified_*_drives.toml",
+    "identified_*.xml",
     *REPORT_FILES,
 )
 #: Every file a comparison writes (patterns), likewise.
@@ -94,12 +95,13 @@ def write_identification(
     """Write an :class:`~pinid.identification.result.Identification` into ``folder``, all or nothing:
     ``identification.json``; ``model_<method>.json`` (:class:`~pinid.identification.identified.IdentifiedModel`)
     per method; ``identified_<method>.urdf`` (and ``identified_<method>_drives.toml`` with motor terms) per
-    physically consistent method, or every method with ``force_export``; with ``report`` the report
+    physically consistent method, or every method with ``force_export``; ``identified_<method>.xml`` (MuJoCo
+    MJCF, :mod:`pinid.model.mjcf`) per physically consistent method MuJoCo accepts (else a warning); with ``report`` the report
     (``report.md``, ``report.html`` and, with ``figures``, the figures).  An earlier run's files in
     ``folder`` are removed.  A consistent result pinid cannot read back as a URDF gets none, with a
     warning.  ``overwrite``: replace existing files (None: the :data:`pinid.io.OVERWRITE` policy, which the
     CLI's ``--force`` sets).  Returns the paths written."""
-    urdfs, drives = {}, {}
+    urdfs, drives, mjcfs = {}, {}, {}
     for m, r in ident.results.items():  # everything is computed before any file is written
         if not (r.physically_consistent or force_export):
             continue
@@ -111,6 +113,11 @@ def write_identification(
         text = r.model.export_drives()
         if text is not None:
             drives[m] = text
+        if r.physically_consistent:
+            try:
+                mjcfs[m] = r.model.export_mjcf()
+            except ModelError as exc:  # consistent, yet a body MuJoCo refuses (massless, a zero moment)
+                warnings.warn(f"no MJCF for {m}: {exc}", stacklevel=2)
     models = {m: r.model.to_dict() for m, r in ident.results.items()}
     files = report_files(ident, figures=figures) if report else {}
     out = Path(folder)
@@ -122,6 +129,8 @@ def write_identification(
         arts.add(out / f"identified_{m}.urdf", text)
     for m, text in drives.items():
         arts.add(out / f"identified_{m}_drives.toml", text)
+    for m, text in mjcfs.items():
+        arts.add(out / f"identified_{m}.xml", text)
     for name, content in files.items():
         arts.add(out / name, content)
     arts.clean(out, IDENTIFICATION_FILES)  # a --force re-run leaves none of an earlier run's outputs behind

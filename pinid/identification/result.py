@@ -351,3 +351,18 @@ def make_result(
         robot=robot_to_dict(problem.model, problem.terms),
         _robot_model=problem.model,
     )
+
+
+def load_identified(path: str | os.PathLike, *, method: str | None = None) -> IdentifiedModel:
+    """The identified model of ``path``: an identification (``identification.json``: its best method, or
+    ``method``) or an identified model (``model_<method>.json``).  SpecError naming the file otherwise."""
+    d = read_json(path, "identified model")
+    if isinstance(d, dict) and "methods" in d and "robot" in d:
+        ident = Identification.from_dict(d)
+        if method is not None and method not in ident.results:
+            raise SpecError(f"{path}: no method '{method}' (methods: {', '.join(ident.results)})")
+        return ident.results[method or ident.best].model
+    meta = d.get("meta") if isinstance(d, dict) else None
+    if method is not None and isinstance(meta, dict) and meta.get("method") not in (None, method):
+        raise SpecError(f"{path}: holds method '{meta['method']}', not '{method}'")
+    return IdentifiedModel.from_dict(d)

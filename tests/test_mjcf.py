@@ -1,0 +1,223 @@
+"""The MuJoCo MJCF export: MuJoCo's dynamics of the exported file are pinid's (Pinocchio's) on the same model."""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from pinid import JointTerms, standard_parameters
+from pinid.errors import ModelError
+from pinid.identification.identified import IdentifiedModel
+from pinid.model.bundled import example_robot_data_dir
+from pinid.model.mjcf import exported_pin_model, identified_mjcf, joint_fields
+from pinid.simulation.twin import perturb
+
+from conftest import assert_clean_error, load, run_cli
+
+mujoco = pytest.importorskip("mujoco")
+
+TERMS = JointTerms(coulomb=True, viscous=True, armature=True)
+
+
+def solo12():
+    return load(str(example_robot_data_dir() / "solo_description" / "robots" / "solo12.urdf"))
+
+
+def identified(model, seed=0, terms=TERMS):
+    """A consistent identified-like model: every body's mass distribution moved (20 %), terms in [0.05, 0.5]."""
+    rng = np.random.default_rng(seed)
+    theta = standard_parameters(perturb(model, 20.0, rng), terms)
+    theta[10 * model.nv :] = rng.uniform(0.05, 0.5, model.nv * len(terms))
+    return IdentifiedModel(model, terms, theta, meta={"method": "sdp"})
+
+
+def compiled(text, *flags):
+    """The MjModel of ``text`` with the disable ``flags`` (e.g. "CONSTRAINT") set, and its MjData."""
+    m = mujoco.MjModel.from_xml_string(text)
+    for f in flags:
+        m.opt.disableflags |= getattr(mujoco.mjtDisableBit, f"mjDSBL_{f}")
+    return m, mujoco.MjData(m)
+
+
+def full_mass_matrix(m, d):
+    M = np.zeros((m.nv, m.nv))
+    mujoco.mj_fullM(m, d, M)
+    return M
+
+
+def rel(a, b):
+    return np.abs(a - b).max() / np.abs(b).max()
+
+
+@pytest.mark.parametrize("name", ["exo_leg", "apal_leg", "ur5", "panda", "solo12"])
+def test_fixed_base_matches_pinid(name):
+    """M(q) (mj_fullM vs crba + armature) and qacc (mj_forward vs pinid's forward dynamics) on 50 random states
+    inside the limits, to 1e-8 relative; MuJoCo's Coulomb friction (frictionloss, a constraint) switched off
+    and added to pinid's torque instead, damping and armature included on both sides."""
+    robot = solo12() if name == "solo12" else load(name)
+    model = identified(robot)
+    m, d = compiled(model.export_mjcf(), "FRICTIONLOSS", "CONTACT")
+    assert (m.nv, m.nu) == (robot.nv, robot.nv)
+    q, dq, _ = robot.random_states(50, np.random.default_rng(1))
+    tau = np.random.default_rng(2).uniform(-5, 5, q.shape)
+    ddq = model.forward_dynamics(q, dq, tau + model.fc * np.sign(dq))
+    M = model.mass_matrix(q)
+    for k in range(len(q)):
+        d.qpos[:], d.qvel[:], d.ctrl[:] = q[k], dq[k], tau[k]
+        mujoco.mj_forward(m, d)
+        assert rel(full_mass_matrix(m, d), M[k]) < 1e-8
+        assert rel(d.qacc, ddq[k]) < 1e-8, (k, d.qacc, ddq[k])
+
+
+@pytest.mark.parametrize("name", ["solo12", "exo_leg"])
+def test_floating_base_matches_pinocchio(name):
+    """A free joint: MuJoCo's qpos is (position, w x y z), its qvel (linear velocity of the root in the WORLD
+    frame, angular velocity in the root frame); Pinocchio's free flyer has both in the root frame.  With
+    v_pin = T·v_mj, T = diag(Rᵀ, 1, 1): M_mj = Tᵀ·M_pin·T and the root's linear qacc = R·(a + ω × v)."""
+    robot = solo12() if name == "solo12" else load(name)
+    model = identified(robot, seed=3)
+    m, d = compiled(model.export_mjcf(floating=True), "FRICTIONLOSS", "CONTACT", "CONSTRAINT")
+    pm = exported_pin_model(robot, model.theta, floating=True)
+    fields, _ = joint_fields(robot, model.theta, TERMS)
+    pm.armature[6:] = fields["armature"]
+    pd = pm.createData()
+    assert (m.nq, m.nv, m.nu) == (pm.nq, pm.nv, robot.nv)
+    rng = np.random.default_rng(4)
+    for _ in range(30):
+        quat = rng.normal(size=4)
+        q = np.r_[rng.normal(size=3), quat / np.linalg.norm(quat), rng.uniform(-1.5, 1.5, robot.nv)]
+        v = rng.normal(size=pm.nv)
+        tau = np.r_[np.zeros(6), rng.uniform(-5, 5, robot.nv)]
+        a = pin.aba(pm, pd, q, v, tau - np.r_[np.zeros(6), fields["damping"] * v[6:]])
+        M = pin.crba(pm, pd, q)
+        M = np.triu(M) + np.triu(M, 1).T
+        R = pin.Quaternion(q[3:7]).toRotationMatrix()
+        T = np.eye(pm.nv)
+        T[:3, :3] = R.T
+        d.qpos[:] = np.r_[q[:3], q[6], q[3:6], q[7:]]
+        d.qvel[:] = np.r_[R @ v[:3], v[3:]]
+        d.ctrl[:] = tau[6:]
+        mujoco.mj_forward(m, d)
+        assert rel(full_mass_matrix(m, d), T.T @ M @ T) < 1e-8
+        expected = np.r_[R @ (a[:3] + np.cross(v[3:6], v[:3])), a[3:]]
+        assert rel(d.qacc, expected) < 1e-8
+
+
+def test_frictionloss_is_coulomb_friction_when_sliding():
+    """MuJoCo's frictionloss is a (soft) constraint; at sliding velocities it saturates at fc, so that MuJoCo's
+    qacc with it on is pinid's forward dynamics with fc·sign(dq) (1e-6: the constraint's softness)."""
+    robot = load("ur5")
+    model = identified(robot, seed=5)
+    m, d = compiled(model.export_mjcf(), "CONTACT", "LIMIT")
+    rng = np.random.default_rng(6)
+    q, _, _ = robot.random_states(20, rng)
+    dq = rng.choice([-1.0, 1.0], q.shape) * rng.uniform(0.5, 2.0, q.shape)
+    tau = rng.uniform(-5, 5, q.shape)
+    ddq = model.forward_dynamics(q, dq, tau)
+    for k in range(len(q)):
+        d.qpos[:], d.qvel[:], d.ctrl[:] = q[k], dq[k], tau[k]
+        mujoco.mj_forward(m, d)
+        np.testing.assert_allclose(d.qfrc_constraint, -model.fc * np.sign(dq[k]), rtol=1e-6, atol=1e-9)
+        assert rel(d.qacc, ddq[k]) < 1e-6
+
+
+def test_exported_fields_are_the_identified_values():
+    robot = load("exo_leg")
+    terms = JointTerms(coulomb=True, viscous=True, armature=True, offset=True)
+    model = identified(robot, seed=7, terms=terms)
+    text = model.export_mjcf()
+    m, _ = compiled(text)
+    np.testing.assert_array_equal(m.dof_armature, model.armature)
+    np.testing.assert_array_equal(m.dof_damping, model.fv)
+    np.testing.assert_array_equal(m.dof_frictionloss, model.fc)
+    np.testing.assert_array_equal(m.jnt_range, np.c_[robot.lower, robot.upper])
+    np.testing.assert_array_equal(m.actuator_ctrlrange, np.c_[-robot.effort_limit, robot.effort_limit])
+    # masses and centres of mass about the joint frames: h = m·c
+    theta = model.theta.reshape(-1)[: 10 * robot.nv].reshape(robot.nv, 10)
+    np.testing.assert_allclose(m.body_mass[2:], theta[:, 0], rtol=1e-15)
+    np.testing.assert_allclose(m.body_ipos[2:] * theta[:, :1], theta[:, 1:4], rtol=1e-14, atol=1e-16)
+    assert "not exported: hip.offset" in text  # no MJCF field for a constant torque, and the file says so
+
+
+def test_rollout_with_pd_control_agrees_with_pinocchio():
+    """1 s of PD control toward a set point on ur5: MuJoCo's RK4 (control held over each 1 ms step) against the
+    same RK4 on pinid's forward dynamics (Coulomb friction off in both: MuJoCo models it as a soft constraint).
+    The same scheme on the same model: they differ only by rounding (1e-9 rad); MuJoCo's default semi-implicit
+    Euler differs by its O(dt) error, ≤ 5e-3 rad at 1 ms."""
+    robot = load("ur5")
+    model = identified(robot, seed=8)
+    dt, steps = 1e-3, 1000
+    q0 = np.zeros(robot.nv)
+    target = np.array([0.5, -0.8, 1.0, -0.5, 0.7, 0.3])
+    kp, kd = 200.0, 20.0
+
+    def control(q, dq):  # clipped to the effort limits, as MuJoCo clips the control to ctrlrange
+        return np.clip(kp * (target - q) - kd * dq, -robot.effort_limit, robot.effort_limit)
+
+    def f(q, dq, tau):
+        return model.forward_dynamics(q, dq, tau + model.fc * np.sign(dq))  # cancel pinid's Coulomb term
+
+    q, dq = q0.copy(), np.zeros(robot.nv)
+    for _ in range(steps):  # classic RK4, zero-order hold on the control, as MuJoCo's mj_RungeKutta
+        tau = control(q, dq)
+        k1q, k1v = dq, f(q, dq, tau)
+        k2q, k2v = dq + 0.5 * dt * k1v, f(q + 0.5 * dt * k1q, dq + 0.5 * dt * k1v, tau)
+        k3q, k3v = dq + 0.5 * dt * k2v, f(q + 0.5 * dt * k2q, dq + 0.5 * dt * k2v, tau)
+        k4q, k4v = dq + dt * k3v, f(q + dt * k3q, dq + dt * k3v, tau)
+        q = q + dt / 6 * (k1q + 2 * k2q + 2 * k3q + k4q)
+        dq = dq + dt / 6 * (k1v + 2 * k2v + 2 * k3v + k4v)
+    finals = {}
+    for integrator in ("RK4", "EULER"):
+        m, d = compiled(model.export_mjcf(), "FRICTIONLOSS", "CONTACT", "LIMIT")
+        m.opt.timestep = dt
+        m.opt.integrator = getattr(mujoco.mjtIntegrator, f"mjINT_{integrator}")
+        for _ in range(steps):
+            d.ctrl[:] = control(d.qpos, d.qvel)
+            mujoco.mj_step(m, d)
+        finals[integrator] = d.qpos.copy()
+    assert np.abs(finals["RK4"] - q).max() < 1e-9
+    assert np.abs(finals["EULER"] - q).max() < 5e-3
+    assert np.abs(q - q0).max() > 0.1  # it moved
+
+
+def test_inconsistent_or_massless_models_are_refused(tmp_path):
+    robot = load("exo_leg")
+    theta = standard_parameters(robot, TERMS)
+    bad = theta.copy()
+    bad[10] = -1.0  # knee mass
+    with pytest.raises(ModelError, match="physically inconsistent.*knee.*MuJoCo needs positive masses"):
+        identified_mjcf(robot, bad, TERMS, tmp_path / "x.xml")
+    massless = theta.copy()
+    massless[10:20] = 0.0  # consistent (a body of nothing), but MuJoCo refuses a massless moving body
+    with pytest.raises(ModelError, match="body of joint 'knee' has mass 0 kg; MuJoCo needs"):
+        identified_mjcf(robot, massless, TERMS, tmp_path / "x.xml")
+    assert not (tmp_path / "x.xml").exists()
+
+
+def test_identify_writes_mjcf_and_export_command(tmp_path, recording):
+    """pinid identify writes identified_<method>.xml beside the URDF for consistent methods; pinid export
+    writes one from identification.json and refuses an inconsistent model in one line, writing nothing."""
+    out = tmp_path / "run"
+    proc = run_cli(
+        "identify", "--urdf", "exo_leg", "--data", str(recording), "--methods", "ols,sdp", "--no-report", "-o", str(out)
+    )
+    assert proc.returncode == 0, proc.stderr
+    names = {p.name for p in out.iterdir()}
+    assert "identified_sdp.xml" in names and "identified_sdp.urdf" in names, names
+    compiled((out / "identified_sdp.xml").read_text())
+    proc = run_cli(
+        "export", "--model", str(out / "identification.json"), "--method", "sdp", "-o", str(tmp_path / "a.xml")
+    )
+    assert proc.returncode == 0, proc.stderr
+    assert (tmp_path / "a.xml").read_text() == (out / "identified_sdp.xml").read_text()
+
+
+def test_export_command_refuses_an_inconsistent_model(tmp_path):
+    robot = load("exo_leg")
+    theta = standard_parameters(robot, TERMS)
+    theta[10] = -1.0  # knee mass
+    IdentifiedModel(robot, TERMS, theta, meta={"method": "ols"}).save(tmp_path / "model_ols.json")
+    proc = run_cli("export", "--model", str(tmp_path / "model_ols.json"), "-o", str(tmp_path / "b.xml"))
+    assert_clean_error(proc, "physically inconsistent", "knee")
+    assert not (tmp_path / "b.xml").exists()
