@@ -252,6 +252,8 @@ def identified_mjcf(
     world = ET.SubElement(mj, "worldbody")
     bodies: dict[int, ET.Element] = {}
     names: dict[int, str] = {}
+    pdata = pm.createData()
+    pin.computeJointJacobians(pm, pdata, pin.neutral(pm))  # each joint's motion subspace: its axis
 
     def body_name(jid: int) -> str:
         if pm.joints[jid].nv == 6 or jid == 0:
@@ -273,7 +275,7 @@ def identified_mjcf(
         if jm.nv == 6:
             ET.SubElement(body, "freejoint", name=jname)
         else:
-            _joint(body, pm, jid, model, active[jname], fields)
+            _joint(body, pm, pdata, jid, model, active[jname], fields)
         inertia = pm.inertias[jid]
         if jname in active:  # the identified values, about the centre of mass
             m, c, I = com_inertia(theta[10 * active[jname] : 10 * active[jname] + 10])
@@ -294,11 +296,9 @@ def identified_mjcf(
     return text
 
 
-def _joint(body: ET.Element, pm: pin.Model, jid: int, model: RobotModel, i: int, fields: dict) -> None:
-    """The MJCF joint of Pinocchio joint ``jid`` (active joint ``i``): type, axis, range, terms."""
-    data = pm.createData()
-    q0 = pin.neutral(pm)
-    pin.computeJointJacobians(pm, data, q0)
+def _joint(body: ET.Element, pm: pin.Model, data: pin.Data, jid: int, model: RobotModel, i: int, fields: dict) -> None:
+    """The MJCF joint of Pinocchio joint ``jid`` (active joint ``i``): type, axis, range, terms; ``data``
+    holds the joint Jacobians (any configuration: a 1-DOF joint's axis is constant in its own frame)."""
     S = pin.getJointJacobian(pm, data, jid, pin.LOCAL)[:, pm.joints[jid].idx_v]  # (linear, angular)
     kind = "slide" if np.linalg.norm(S[:3]) > np.linalg.norm(S[3:]) else "hinge"
     axis = S[:3] if kind == "slide" else S[3:]
