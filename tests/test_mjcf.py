@@ -6,11 +6,12 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from pinid import JointTerms, standard_parameters
+from pinid import JointTerms, RobotModel, standard_parameters
 from pinid.errors import ModelError
 from pinid.identification.identified import IdentifiedModel
 from pinid.model.bundled import example_robot_data_dir
 from pinid.model.mjcf import exported_pin_model, identified_mjcf, joint_fields
+from pinid.model.terms import values as term_values
 from pinid.simulation.twin import perturb
 
 from conftest import assert_clean_error, load, run_cli
@@ -222,3 +223,53 @@ def test_export_command_refuses_an_inconsistent_model(tmp_path):
     proc = run_cli("export", "--model", str(tmp_path / "model_ols.json"), "-o", str(tmp_path / "b.xml"))
     assert_clean_error(proc, "physically inconsistent", "knee")
     assert not (tmp_path / "b.xml").exists()
+
+
+def test_shapes_sit_where_the_urdf_puts_them(tmp_path):
+    """The URDF's collision shapes collide, its visual ones are for display; both at the URDF's placement:
+    MuJoCo's geom pose at random q is Pinocchio's link frame × the shape's <origin>."""
+    text = load("exo_leg").urdf_text.replace("<visual>", "<collision>", 1).replace("</visual>", "</collision>", 1)
+    (tmp_path / "exo.urdf").write_text(text)  # the trunk's box becomes a collision shape
+    robot = RobotModel.from_urdf(tmp_path / "exo.urdf")
+    model = identified(robot)
+    m, d = compiled(model.export_mjcf())
+    names = [m.geom(i).name for i in range(m.ngeom)]
+    assert names == ["trunk_collision_0", "thigh_visual_0", "shank_visual_0", "shank_visual_1"]
+    assert list(m.geom_contype) == [1, 0, 0, 0] and list(m.geom_group) == [0, 1, 1, 1]
+    np.testing.assert_array_equal(m.geom_size[3], [0.12, 0.05, 0.01])  # the foot plate: half of 0.24 0.10 0.02
+    origins = {"trunk_collision_0": (0, 0, 0.05), "thigh_visual_0": (0, 0, -0.21), "shank_visual_0": (0, 0, -0.19)}
+    origins["shank_visual_1"] = (0.05, 0, -0.39)
+    pm, pd = robot.pin_model, robot.pin_model.createData()
+    for q in robot.random_states(5, np.random.default_rng(9))[0]:
+        d.qpos[:] = q
+        mujoco.mj_forward(m, d)
+        pin.framesForwardKinematics(pm, pd, q)
+        for name, xyz in origins.items():
+            M = pd.oMf[pm.getFrameId(name.split("_")[0])] * pin.SE3(np.eye(3), np.array(xyz, dtype=float))
+            np.testing.assert_allclose(d.geom(name).xpos, M.translation, atol=1e-14)
+            np.testing.assert_allclose(d.geom(name).xmat.reshape(3, 3), M.rotation, atol=1e-14)
+
+
+def test_motor_terms_reflect_through_single_joint_motors():
+    """ur5 with 50:1 reductions and a differential wrist (pinid's drives tests): a motor turning one joint
+    reflects G²·Im, G²·fv and |G|·fc onto it; the differential's second motor couples two joints (off-diagonal
+    rotor inertia), has no MJCF field and is listed as not exported — M differs by exactly its Gᵀ·Im·G."""
+    from test_drives import WRIST_G, coupled
+
+    robot = coupled("ur5")
+    terms = JointTerms.from_names("fc,fv,motor_fc,motor_fv,motor_armature")
+    model = identified(robot, seed=10, terms=terms)
+    text = model.export_mjcf()
+    m, d = compiled(text)
+    v = term_values(robot, terms, model.theta[10 * robot.nv :])
+    G = np.full(robot.nv, 50.0)  # motors m1..m5 turn one joint each, 50:1 (m5: the wrist's first row)
+    np.testing.assert_allclose(m.dof_armature, G**2 * np.r_[v["motor_armature"][:5], 0], rtol=1e-14)
+    np.testing.assert_allclose(m.dof_damping, model.fv + G**2 * np.r_[v["motor_fv"][:5], 0], rtol=1e-14)
+    np.testing.assert_allclose(m.dof_frictionloss, model.fc + G * np.r_[v["motor_fc"][:5], 0], rtol=1e-14)
+    assert "m6.armature" in text and "m6.fv" in text and "m6.fc" in text and "coupled to several joints" in text
+    g6 = np.r_[0, 0, 0, 0, WRIST_G[1]]
+    q = robot.random_states(1, np.random.default_rng(11))[0][0]
+    d.qpos[:] = q
+    mujoco.mj_forward(m, d)
+    lost = v["motor_armature"][5] * np.outer(g6, g6)
+    assert rel(full_mass_matrix(m, d) + lost, model.mass_matrix(q)) < 1e-12

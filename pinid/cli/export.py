@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 
+from pinid.errors import SpecError
 from pinid.io import check_writable
 
 HELP = "write an identified model as MuJoCo MJCF (or URDF)"
@@ -34,6 +35,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from pinid.identification.result import load_identified  # deferred: pinid --help does not load it
 
+    if args.floating and args.format != "mjcf":
+        raise SpecError("--floating is for --format mjcf (a URDF has no free joint)")
     out = check_writable(args.output)
     model = load_identified(args.model, method=args.method)
     if args.format == "mjcf":

@@ -13,8 +13,8 @@ at its joint frame relative to the parent body (``pos``, ``quat`` w x y z), with
   ``frictionloss`` (Coulomb friction ``fc``); motor-side terms of drives whose ``G`` has one joint per
   motor are reflected (``G²·Im``, ``G²·fv``, ``|G|·fc``);
 * the URDF's box, cylinder and sphere ``<collision>`` shapes as geoms (contacts; MuJoCo never collides a
-  body with its parent); a body without one gets a thin capsule to its children, for display only
-  (``contype="0" conaffinity="0"``, ``group="1"``).  Meshes are not exported.
+  body with its parent), its ``<visual>`` ones for display only (``contype="0" conaffinity="0"``,
+  ``group="1"``); a body with neither gets a thin display capsule to its children.  Meshes are not exported.
 * one ``<motor>`` per joint (gear 1: the control is the joint torque [N·m]), ``ctrlrange`` ± the URDF
   effort limit when there is one.
 
@@ -52,8 +52,9 @@ CAPSULE_RADIUS = 0.02
 
 
 def _num(x: float) -> str:
+    """The shortest text that reads back as exactly ``x``."""
     x = float(x)
-    return "0" if x == 0 else f"{x:.17g}"
+    return "0" if x == 0 else repr(x)
 
 
 def _vec(v) -> str:
@@ -178,10 +179,15 @@ def _origin(el: ET.Element | None) -> pin.SE3:
     return pin.SE3(pin.rpy.rpyToMatrix(*rpy), xyz)
 
 
-def _collision_geoms(link: ET.Element, M_link: pin.SE3, prefix: str) -> list[ET.Element]:
-    """MJCF geoms of a URDF link's box, cylinder and sphere collision shapes; ``M_link``: the link frame in the body."""
+#: Attributes of the geoms that are for display only (no contact, MuJoCo's group 1).
+_DISPLAY = {"contype": "0", "conaffinity": "0", "group": "1", "rgba": "0.6 0.6 0.6 1"}
+
+
+def _shape_geoms(link: ET.Element, M_link: pin.SE3, prefix: str, kind: str = "collision") -> list[ET.Element]:
+    """MJCF geoms of a URDF link's box, cylinder and sphere shapes of ``kind`` ("collision": they collide;
+    "visual": display only); ``M_link``: the link frame in the body."""
     out = []
-    for k, col in enumerate(link.findall("collision")):
+    for k, col in enumerate(link.findall(kind)):
         geom = col.find("geometry")
         shape = None if geom is None else next(iter(geom), None)
         if shape is None or shape.tag not in ("box", "cylinder", "sphere"):
@@ -197,7 +203,9 @@ def _collision_geoms(link: ET.Element, M_link: pin.SE3, prefix: str) -> list[ET.
             continue  # urdfdom checked what Pinocchio needs; a shape MuJoCo cannot use is left out
         if not all(np.isfinite(size)) or min(size) <= 0:
             continue
-        el = ET.Element("geom", name=f"{prefix}_collision_{k}", type=shape.tag, size=_vec(size))
+        el = ET.Element("geom", name=f"{prefix}_{kind}_{k}", type=shape.tag, size=_vec(size))
+        if kind == "visual":
+            el.attrib.update(_DISPLAY)
         _placement(el, M_link * _origin(col.find("origin")))
         out.append(el)
     return out
@@ -312,12 +320,13 @@ def _joint(body: ET.Element, pm: pin.Model, data: pin.Data, jid: int, model: Rob
 
 
 def _geoms(pm: pin.Model, links: dict, bodies: dict[int, ET.Element], names: dict[int, str]) -> None:
-    """Collision shapes of every URDF link in the body it belongs to; display capsules for bodies without."""
+    """Collision and visual shapes of every URDF link in the body it belongs to; display capsules for bodies
+    with neither."""
     has = set()
     for f in pm.frames:
         if f.type != pin.FrameType.BODY or f.name not in links or f.parentJoint not in bodies:
             continue
-        geoms = _collision_geoms(links[f.name], f.placement, f.name)
+        geoms = [g for kind in ("collision", "visual") for g in _shape_geoms(links[f.name], f.placement, f.name, kind)]
         body = bodies[f.parentJoint]
         pos = next((k for k, el in enumerate(body) if el.tag == "body"), len(body))
         for g in reversed(geoms):
@@ -330,7 +339,7 @@ def _geoms(pm: pin.Model, links: dict, bodies: dict[int, ET.Element], names: dic
         ends = [pm.jointPlacements[k].translation for k in range(1, pm.njoints) if pm.parents[k] == jid]
         ends = [e for e in ends if np.linalg.norm(e) > 1e-6]
         pos = next((k for k, el in enumerate(body) if el.tag == "body"), len(body))
-        extra = {"contype": "0", "conaffinity": "0", "group": "1", "rgba": "0.6 0.6 0.6 1"}
+        extra = _DISPLAY
         if not ends:
             g = ET.Element("geom", name=f"{names[jid]}_display", type="sphere", size=_num(CAPSULE_RADIUS), **extra)
             body.insert(pos, g)
