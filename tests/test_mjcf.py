@@ -273,3 +273,37 @@ def test_motor_terms_reflect_through_single_joint_motors():
     mujoco.mj_forward(m, d)
     lost = v["motor_armature"][5] * np.outer(g6, g6)
     assert rel(full_mass_matrix(m, d) + lost, model.mass_matrix(q)) < 1e-12
+
+
+@pytest.mark.parametrize(
+    "content, extra, fragment",
+    [
+        (None, [], "file not found"),
+        ("nonsense", [], "not valid JSON"),
+        ('{"a": 1}', [], "not an identified model"),
+        ("model", ["--method", "wls"], "holds method 'sdp', not 'wls'"),
+        ("model", ["--format", "urdf", "--floating"], "--floating is for --format mjcf"),
+        ("model", ["--format", "sdf"], "invalid choice"),
+    ],
+)
+def test_export_command_bad_inputs(tmp_path, content, extra, fragment):
+    """One line, exit status 2, nothing written."""
+    src = tmp_path / "in.json"
+    if content == "model":
+        identified(load("exo_leg")).save(src)
+    elif content is not None:
+        src.write_text(content)
+    proc = run_cli("export", "--model", str(src), *extra, "-o", str(tmp_path / "out.xml"))
+    assert_clean_error(proc, fragment)
+    assert not (tmp_path / "out.xml").exists()
+
+
+def test_export_command_does_not_replace_an_existing_file(tmp_path):
+    identified(load("exo_leg")).save(tmp_path / "model_sdp.json")
+    (tmp_path / "out.xml").write_text("precious")
+    proc = run_cli("export", "--model", str(tmp_path / "model_sdp.json"), "-o", str(tmp_path / "out.xml"))
+    assert_clean_error(proc, "already exists")
+    assert (tmp_path / "out.xml").read_text() == "precious"
+    proc = run_cli("export", "--model", str(tmp_path / "model_sdp.json"), "-o", str(tmp_path / "out.xml"), "--force")
+    assert proc.returncode == 0, proc.stderr
+    compiled((tmp_path / "out.xml").read_text())

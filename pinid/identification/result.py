@@ -356,7 +356,7 @@ def make_result(
 def load_identified(path: str | os.PathLike, *, method: str | None = None) -> IdentifiedModel:
     """The identified model of ``path``: an identification (``identification.json``: its best method, or
     ``method``) or an identified model (``model_<method>.json``).  SpecError naming the file otherwise."""
-    d = read_json(path, "identified model")
+    d = read_json(path, "pinid identification or identified model")
     if isinstance(d, dict) and "methods" in d and "robot" in d:
         ident = Identification.from_dict(d)
         if method is not None and method not in ident.results:
@@ -365,4 +365,7 @@ def load_identified(path: str | os.PathLike, *, method: str | None = None) -> Id
     meta = d.get("meta") if isinstance(d, dict) else None
     if method is not None and isinstance(meta, dict) and meta.get("method") not in (None, method):
         raise SpecError(f"{path}: holds method '{meta['method']}', not '{method}'")
-    return IdentifiedModel.from_dict(d)
+    try:
+        return IdentifiedModel.from_dict(d)
+    except SpecError as exc:
+        raise SpecError(f"{path}: {exc}") from None
