@@ -307,3 +307,17 @@ def test_export_command_does_not_replace_an_existing_file(tmp_path):
     proc = run_cli("export", "--model", str(tmp_path / "model_sdp.json"), "-o", str(tmp_path / "out.xml"), "--force")
     assert proc.returncode == 0, proc.stderr
     compiled((tmp_path / "out.xml").read_text())
+
+
+def test_docs_example_runs(tmp_path, monkeypatch, capsys):
+    """docs/mujoco.md's Python block runs and prints the same accelerations from MuJoCo and pinid."""
+    from pathlib import Path
+
+    doc = (Path(__file__).resolve().parents[1] / "docs" / "mujoco.md").read_text()
+    block = doc.split("```python\n", 1)[1].split("```", 1)[0]
+    monkeypatch.chdir(tmp_path)
+    exec(compile(block, "docs/mujoco.md", "exec"), {})
+    lines = capsys.readouterr().out.splitlines()
+    mj, pinid_ = (np.array(line.split("[", 1)[1].split("]", 1)[0].split(), dtype=float) for line in lines[-2:])
+    np.testing.assert_allclose(mj, pinid_, rtol=1e-7)  # as printed (8 digits)
+    assert (tmp_path / "exo_leg.xml").is_file()
