@@ -25,6 +25,17 @@ def solo12():
     return load(str(example_robot_data_dir() / "solo_description" / "robots" / "solo12.urdf"))
 
 
+def robot_named(name):
+    """A test robot: a bundled / example-robot-data name, solo12, or panda_finger (one prismatic finger active,
+    the other, which mimics it, locked open)."""
+    if name == "solo12":
+        return solo12()
+    if name == "panda_finger":
+        joints = [f"panda_joint{i}" for i in range(1, 8)] + ["panda_finger_joint1"]
+        return RobotModel.from_urdf("panda", joints=joints, locked={"panda_finger_joint2": 0.02})
+    return load(name)
+
+
 def identified(model, seed=0, terms=TERMS):
     """A consistent identified-like model: every body's mass distribution moved (20 %), terms in [0.05, 0.5]."""
     rng = np.random.default_rng(seed)
@@ -51,15 +62,19 @@ def rel(a, b):
     return np.abs(a - b).max() / np.abs(b).max()
 
 
-@pytest.mark.parametrize("name", ["exo_leg", "apal_leg", "ur5", "panda", "solo12"])
+@pytest.mark.parametrize("name", ["exo_leg", "apal_leg", "ur5", "panda", "panda_finger", "solo12"])
 def test_fixed_base_matches_pinid(name):
     """M(q) (mj_fullM vs crba + armature) and qacc (mj_forward vs pinid's forward dynamics) on 50 random states
     inside the limits, to 1e-8 relative; MuJoCo's Coulomb friction (frictionloss, a constraint) switched off
     and added to pinid's torque instead, damping and armature included on both sides."""
-    robot = solo12() if name == "solo12" else load(name)
+    robot = robot_named(name)
     model = identified(robot)
     m, d = compiled(model.export_mjcf(), "FRICTIONLOSS", "CONTACT")
     assert (m.nv, m.nu) == (robot.nv, robot.nv)
+    kinds = [
+        mujoco.mjtJoint.mjJNT_SLIDE if j.kind == "prismatic" else mujoco.mjtJoint.mjJNT_HINGE for j in robot.joints
+    ]
+    assert list(m.jnt_type) == kinds
     q, dq, _ = robot.random_states(50, np.random.default_rng(1))
     tau = np.random.default_rng(2).uniform(-5, 5, q.shape)
     ddq = model.forward_dynamics(q, dq, tau + model.fc * np.sign(dq))

@@ -310,6 +310,7 @@ def _joint(body: ET.Element, pm: pin.Model, data: pin.Data, jid: int, model: Rob
     S = pin.getJointJacobian(pm, data, jid, pin.LOCAL)[:, pm.joints[jid].idx_v]  # (linear, angular)
     kind = "slide" if np.linalg.norm(S[:3]) > np.linalg.norm(S[3:]) else "hinge"
     axis = S[:3] if kind == "slide" else S[3:]
+    axis = np.where(np.abs(axis) < 1e-15 * np.abs(axis).max(), 0.0, axis)  # composition leaves 1e-32s
     info = model.joints[i]
     el = ET.SubElement(body, "joint", name=info.name, type=kind, axis=_vec(axis / np.linalg.norm(axis)))
     if info.kind != "continuous" and np.isfinite(info.lower) and np.isfinite(info.upper):
