@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pinocchio as pin
 import pytest
@@ -25,11 +27,18 @@ def solo12():
     return load(str(example_robot_data_dir() / "solo_description" / "robots" / "solo12.urdf"))
 
 
-def robot_named(name):
+def robot_named(name, folder=None):
     """A test robot: a bundled / example-robot-data name, solo12, or panda_finger (one prismatic finger active,
     the other, which mimics it, locked open)."""
     if name == "solo12":
         return solo12()
+    if name == "exo_continuous":  # the knee a continuous joint (Pinocchio: cos, sin; MuJoCo: an unlimited hinge)
+        text = load("exo_leg").urdf_text.replace(
+            '<joint name="knee" type="revolute">', '<joint name="knee" type="continuous">'
+        )
+        path = Path(folder) / "exo_continuous.urdf"
+        path.write_text(text)
+        return RobotModel.from_urdf(path)
     if name == "panda_finger":
         joints = [f"panda_joint{i}" for i in range(1, 8)] + ["panda_finger_joint1"]
         return RobotModel.from_urdf("panda", joints=joints, locked={"panda_finger_joint2": 0.02})
@@ -62,12 +71,12 @@ def rel(a, b):
     return np.abs(a - b).max() / np.abs(b).max()
 
 
-@pytest.mark.parametrize("name", ["exo_leg", "apal_leg", "ur5", "panda", "panda_finger", "solo12"])
-def test_fixed_base_matches_pinid(name):
+@pytest.mark.parametrize("name", ["exo_leg", "exo_continuous", "apal_leg", "ur5", "panda", "panda_finger", "solo12"])
+def test_fixed_base_matches_pinid(name, tmp_path):
     """M(q) (mj_fullM vs crba + armature) and qacc (mj_forward vs pinid's forward dynamics) on 50 random states
     inside the limits, to 1e-8 relative; MuJoCo's Coulomb friction (frictionloss, a constraint) switched off
     and added to pinid's torque instead, damping and armature included on both sides."""
-    robot = robot_named(name)
+    robot = robot_named(name, tmp_path)
     model = identified(robot)
     m, d = compiled(model.export_mjcf(), "FRICTIONLOSS", "CONTACT")
     assert (m.nv, m.nu) == (robot.nv, robot.nv)
@@ -75,6 +84,7 @@ def test_fixed_base_matches_pinid(name):
         mujoco.mjtJoint.mjJNT_SLIDE if j.kind == "prismatic" else mujoco.mjtJoint.mjJNT_HINGE for j in robot.joints
     ]
     assert list(m.jnt_type) == kinds
+    assert list(m.jnt_limited) == [bool(np.isfinite(j.lower)) for j in robot.joints]
     q, dq, _ = robot.random_states(50, np.random.default_rng(1))
     tau = np.random.default_rng(2).uniform(-5, 5, q.shape)
     ddq = model.forward_dynamics(q, dq, tau + model.fc * np.sign(dq))
@@ -326,8 +336,6 @@ def test_export_command_does_not_replace_an_existing_file(tmp_path):
 
 def test_docs_example_runs(tmp_path, monkeypatch, capsys):
     """docs/mujoco.md's Python block runs and prints the same accelerations from MuJoCo and pinid."""
-    from pathlib import Path
-
     doc = (Path(__file__).resolve().parents[1] / "docs" / "mujoco.md").read_text()
     block = doc.split("```python\n", 1)[1].split("```", 1)[0]
     monkeypatch.chdir(tmp_path)
