@@ -19,6 +19,7 @@ from pinid.cli.common import (
     options_from_args,
     positive_int,
     preprocess_from_args,
+    recording_options,
     rest_velocity_from_args,
     mapping_from_args,
     robot_from_args,
@@ -221,6 +222,7 @@ def run(args: argparse.Namespace) -> int:
         payload_data=args.payload_data,
         stribeck_velocity=args.stribeck_velocity,
         stribeck_shape=args.stribeck_shape,
+        **recording_options(args),
     )
     print(identification_text(ident, verbose=args.verbose))
     written = write_identification(
