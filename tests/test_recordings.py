@@ -155,7 +155,7 @@ def test_fit_joints_leaves_out_exactly_those_rows():
 
 def test_fit_joints_unknown_joint_names_the_joints():
     m = truth_model("exo_leg")
-    with pytest.raises(SpecError, match="'ankle' not active joint.*expected some of hip, knee"):
+    with pytest.raises(SpecError, match="'ankle' is not an active joint.*expected some of hip, knee"):
         identify(m, twin(m, seconds=2), methods="ols", fit_joints="knee,ankle")
 
 
@@ -298,3 +298,26 @@ def test_coupled_motor_at_rest_drops_the_rows_of_its_joints(monkeypatch):
     truth = bp.from_standard(standard_parameters(m, MOTOR_TERMS))
     i = bp.names.index("m6.fc")
     assert abs(new["ols"].base[i] - truth[i]) <= 0.02 * truth[i] < abs(old["ols"].base[i] - truth[i])
+
+
+def test_documented_study_manifest_on_the_real_double_pendulum(tmp_path):
+    """docs/examples/study/double_pendulum_study.toml beside the shared recordings, as docs/data.md says."""
+    import shutil
+    from pathlib import Path
+
+    from conftest import shared_data
+
+    data = shared_data()
+    if not (data / "double_pendulum").is_dir():
+        pytest.skip("no shared double-pendulum recordings")
+    docs = Path(__file__).resolve().parents[1] / "docs" / "examples"
+    for name in ("trajectory_00.csv", "trajectory_01.csv", "trajectory_02.csv"):
+        (tmp_path / name).symlink_to(data / "double_pendulum" / name)
+    shutil.copy(docs / "double_pendulum.toml", tmp_path)
+    shutil.copy(docs / "study" / "double_pendulum_study.toml", tmp_path)
+    model = RobotModel.from_urdf(data / "double_pendulum" / "double_pendulum.urdf")
+    study = Manifest.load(tmp_path / "double_pendulum_study.toml").read(model)
+    assert [ds.t[-1] < 7.0 for ds in study.train] == [False, True]
+    assert study.validate[0].t[0] >= 7.0 and len(study.validate) == 2
+    res = identify(model, manifest=tmp_path / "double_pendulum_study.toml", methods="ols", terms="fc,fv,armature")
+    assert res.validation_sources[0].endswith("trajectory_01.csv[t 7–10 s]")

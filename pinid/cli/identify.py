@@ -242,6 +242,8 @@ def _run_wearer(args: argparse.Namespace, out: Path) -> int:
     from pinid.wearer.prior import MASS_RANGE  # deferred: pinid --help does not load the wearer's stage 2
     from pinid.wearer.stage import identify_wearer, stack, stage_summary, stage_text, write_stage
 
+    if not args.data or args.manifest or args.fit_joints or args.delay:
+        raise SpecError("--stage wearer: expected --data FILE (--manifest, --fit-joints and --delay are for the robot)")
     robot = robot_from_args(args)
     pre = preprocess_from_args(args)
     mapping = mapping_from_args(args)

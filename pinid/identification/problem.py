@@ -556,7 +556,7 @@ def fit_mask(model: RobotModel, fit_joints: Sequence[str] | str | None = None) -
     unknown = [j for j in fit_joints if j not in names]
     if unknown:
         raise SpecError(
-            f"fit joints: {', '.join(repr(j) for j in unknown)} not active joint(s) of {model.name}; "
+            f"fit joints: {', '.join(repr(j) for j in unknown)} is not an active joint of {model.name}; "
             f"expected some of {', '.join(names)}"
         )
     if not fit_joints:
