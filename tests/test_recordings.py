@@ -153,6 +153,16 @@ def test_fit_joints_leaves_out_exactly_those_rows():
     assert np.allclose(res["ols"].base, x, rtol=1e-9, atol=1e-10)
 
 
+def test_base_parameters_of_fitted_rows_round_trip():
+    from pinid.model.base import BaseParameters
+
+    m = truth_model("exo_leg")
+    bp = base_parameters(m, joints=["knee"])
+    back = BaseParameters.from_dict(bp.to_dict())
+    assert back.fit_joints == ["knee"] and back.names == bp.names and np.array_equal(back.P, bp.P)
+    assert base_parameters(m, joints=["hip", "knee"]).fit_joints is None  # every joint: the usual set
+
+
 def test_fit_joints_unknown_joint_names_the_joints():
     m = truth_model("exo_leg")
     with pytest.raises(SpecError, match="'ankle' is not an active joint.*expected some of hip, knee"):

@@ -525,14 +525,20 @@ def stack_rows(
     thresholds: Sequence[np.ndarray],
     *,
     bar=None,
+    rest_velocity="auto",
+    rest_fraction: float = REST_FRACTION,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """``(W_b, tau, joint, sample)`` of checked recordings stacked row ``k·nv + j``, without the rows whose
-    joint speed is below its threshold; ``sample`` counts on across recordings.
+    joint speed is below its threshold (and the rows of the joints of a motor at rest: :func:`motor_kept_rows`
+    with ``rest_velocity``, ``rest_fraction``); ``sample`` counts on across recordings.
 
     ``W_b`` is allocated once with the kept rows only and filled chunk by chunk, so the tall matrix exists
     once (not once whole and once without the rows at rest, nor once per recording and once concatenated)."""
     nv = model.nv
-    keeps = [kept_rows(ds, thr) for ds, thr in zip(datasets, thresholds)]
+    keeps = [
+        kept_rows(ds, thr) & motor_kept_rows(ds, model, terms, rest_velocity, rest_fraction)
+        for ds, thr in zip(datasets, thresholds)
+    ]
     counts = [int(np.count_nonzero(k)) for k in keeps]
     W = np.empty((sum(counts), base.count))
     row = 0

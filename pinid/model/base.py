@@ -89,6 +89,7 @@ class BaseParameters:
             "independent": [self.standard_names[i] for i in self.independent],
             "standard_names": self.standard_names,
             "P": self.P.tolist(),
+            **({} if self.fit_joints is None else {"fit_joints": list(self.fit_joints)}),
         }
 
     def save(self, path) -> None:
@@ -104,6 +105,7 @@ class BaseParameters:
             np.array([names.index(n) for n in d["independent"]], dtype=int),
             np.array(d["P"], dtype=float),
             list(d["names"]),
+            None if d.get("fit_joints") is None else list(d["fit_joints"]),
         )
 
     @classmethod
