@@ -123,8 +123,10 @@ def test_cli_manifest_and_its_errors(one_file, tmp_path):
     assert not out.exists()
     good = _write(folder, '[[recording]]\nfile = "run.csv"\nrole = "train"\nrows = [0, 3200]\n', "d.toml")
     both = argparse.Namespace(manifest=str(good), data=["run.csv"], validate=[], fit_joints=None, delay=None)
-    with pytest.raises(SpecError, match="without --data/--validate"):
+    with pytest.raises(SpecError, match="without --data/--validate/--mapping"):
         recording_options(both)
+    with pytest.raises(SpecError, match="and mapping given too"):
+        identify(m, manifest=good, mapping=folder / "x.toml")
     with pytest.raises(SpecError, match="expected --data FILE"):
         recording_options(argparse.Namespace(**{**vars(both), "manifest": None, "data": None}))
     proc = run_cli("identify", "--manifest", str(good), "--methods", "ols", "-o", str(out), "--no-report")

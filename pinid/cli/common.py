@@ -174,8 +174,11 @@ def add_recording_arguments(p: argparse.ArgumentParser) -> None:
 
 def recording_options(args: argparse.Namespace) -> dict:
     """The keyword arguments of identify()/compare() that --manifest, --fit-joints and --delay describe."""
-    if args.manifest is not None and (args.data or args.validate):
-        raise SpecError(f"--manifest {args.manifest} lists the recordings; expected it without --data/--validate")
+    if args.manifest is not None and (args.data or args.validate or getattr(args, "mapping", None)):
+        raise SpecError(
+            f"--manifest {args.manifest} lists the recordings and their mapping specs; "
+            "expected it without --data/--validate/--mapping"
+        )
     if args.manifest is None and not args.data:
         raise SpecError("no training recording: expected --data FILE (repeatable) or --manifest TOML")
     return {"fit_joints": args.fit_joints, "delay": args.delay, "manifest": args.manifest}

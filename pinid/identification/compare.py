@@ -472,7 +472,9 @@ def compare(
         return s
 
     if manifest is not None:
-        got = use_manifest(manifest, model, data=data, validate=validate, fit_joints=fit_joints, delay=delay)
+        got = use_manifest(
+            manifest, model, data=data, validate=validate, fit_joints=fit_joints, delay=delay, mapping=mapping
+        )
         if got["payload"] is not None:
             raise SpecError(f"{got['manifest'].path}: drive gains (payload) are not supported by compare; use identify")
         model, data, validate, fit_joints, delay = (

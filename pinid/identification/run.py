@@ -367,7 +367,7 @@ def identify(
     for m in methods:  # bad settings fail before any recording is read
         make_estimator(m, **options.get(m, {}))
     if manifest is not None:
-        given = dict(data=data, validate=validate, payload=payload, payload_data=payload_data)
+        given = dict(data=data, validate=validate, payload=payload, payload_data=payload_data, mapping=mapping)
         got = use_manifest(manifest, model, **given, fit_joints=fit_joints, delay=delay)
         model, data, validate, fit_joints, delay = (
             got[k] for k in ("model", "data", "validate", "fit_joints", "delay")
@@ -461,16 +461,18 @@ def use_manifest(
     payload_data=None,
     fit_joints=None,
     delay=None,
+    mapping=None,
 ) -> dict:
     """What a dataset manifest (a TOML path or :class:`~pinid.data.manifest.Manifest`) gives :func:`identify`
     and ``compare``: ``{model, data, validate, payload, payload_data, fit_joints, delay, manifest}`` — the
     model with the manifest's drives (a copy), its recordings by role, and its ``fit_joints`` and ``delay``
-    where the caller gives none.  SpecError when recordings are given besides the manifest."""
+    where the caller gives none.  SpecError when recordings (or a mapping spec: each recording of a manifest
+    has its own) are given besides the manifest."""
     from pinid.data.manifest import Manifest
     from pinid.model.drives import attach
 
     m = manifest if isinstance(manifest, Manifest) else Manifest.load(manifest)
-    given = {"data": data, "validate": validate, "payload": payload, "payload data": payload_data}
+    given = {"data": data, "validate": validate, "payload": payload, "payload data": payload_data, "mapping": mapping}
     clash = [k for k, v in given.items() if v is not None and not (isinstance(v, (list, tuple, dict)) and not v)]
     if clash:
         raise SpecError(
