@@ -23,6 +23,7 @@ from pinid.data.manifest import Manifest
 from pinid.errors import DataError, ModelError, ModelWarning, SpecError
 from pinid.identification.delay import estimate_delay
 from pinid.identification.problem import IdentificationProblem, motor_kept_rows, rest_thresholds
+from pinid.identification.outputs import identification_text
 from pinid.identification.run import identify
 from pinid.model.robot import RobotModel, nearest_physical_inertia
 
@@ -184,6 +185,7 @@ def test_left_out_joint_is_predicted_from_the_fitted_rows():
     )
     assert res["ols"].base_names == ["knee.mx", "knee.mz", "knee.Iyy", "knee.fc", "knee.fv"]
     assert res["ols"].validation.per_joint["hip"]["rel_rms_percent"] < 0.1  # the nominal model is the truth here
+    assert "fit joints: knee (torque rows of hip left out; still predicted)" in identification_text(res)
 
 
 # ---------------------------------------------------------------------------------------------- delay
@@ -201,6 +203,7 @@ def test_estimated_delay_recovers_a_known_delay_to_one_sample(name, k, rate):
     assert abs(found - k / rate) <= 1 / rate, (found, k / rate)
     res = identify(m, ds, validate=_lagging(twin(m, seconds=6, rate=rate, seed=5), k), methods="ols", delay="auto")
     assert res.data["delay"]["estimated"] and abs(res.data["delay"]["delay"] - k / rate) <= 1 / rate
+    assert "torque delay behind the positions: " in identification_text(res)
 
 
 def test_given_delay_of_whole_samples_moves_the_samples():
