@@ -42,3 +42,7 @@ class OutputError(PinidError, OSError):
 
 class DataWarning(UserWarning):
     """A finding about a recording that does not stop the work (also kept in ``meta["warnings"]``)."""
+
+
+class ModelWarning(UserWarning):
+    """A finding about a robot model that does not stop the work (e.g. a repaired URDF inertia)."""

@@ -252,11 +252,6 @@ URDF_CASES = {
         _exo_with('lower="-0.087" upper="1.309"', 'lower="1.309" upper="-0.087"'),
         "joint 'hip' has lower limit 1.309 above its upper limit -0.087",
     ),
-    # 10
-    "mimic joint": (
-        _exo_with(_KNEE_JOINT, _KNEE_JOINT + '<mimic joint="hip" multiplier="1"/>'),
-        "mimic joints are not supported: joint 'knee' mimics 'hip'",
-    ),
     "two parent joints": (
         _exo_with(
             "</robot>",
@@ -324,10 +319,17 @@ def test_shipped_and_example_robots_still_load(name):
     assert RobotModel.from_urdf(name).nv >= 2  # panda: its mimic finger joint is locked
 
 
+# 10: a mimic joint is locked (issue 28: without --joints), refused when named active
+MIMIC_KNEE = _exo_with(_KNEE_JOINT, _KNEE_JOINT + '<mimic joint="hip" multiplier="1"/>')
+
+
 def test_locked_mimic_joint_is_fine(tmp_path):
     p = tmp_path / "robot.urdf"
-    p.write_text(URDF_CASES["mimic joint"][0])
+    p.write_text(MIMIC_KNEE)
     assert RobotModel.from_urdf(p, locked={"knee": -0.5}).joint_names == ["hip"]
+    assert RobotModel.from_urdf(p).joint_names == ["hip"]  # locked at its neutral value
+    with pytest.raises(ModelError, match="mimic joints are not supported: joint 'knee' mimics 'hip'"):
+        RobotModel.from_urdf(p, joints=["hip", "knee"])
 
 
 def test_ok_urdf_through_identify_refused_when_inertia_bad(tmp_path, rec):

@@ -44,6 +44,12 @@ def add_robot_arguments(p: argparse.ArgumentParser, *, default: str | None = "ex
         "optional [motors.NAME] fc, fv, armature, offset; replaces the URDF's <transmission> "
         "(see docs/drives.md)",
     )
+    p.add_argument(
+        "--repair-inertia",
+        action="store_true",
+        help="load a URDF whose inertias are not physical (negative principal moment, triangle inequality "
+        "broken), each replaced by the nearest physical one with a warning (docs/robots.md); refused without it",
+    )
 
 
 def add_terms_argument(p: argparse.ArgumentParser) -> None:
@@ -92,7 +98,9 @@ def robot_from_args(args: argparse.Namespace):
         except ValueError:
             raise SpecError(f"--lock {item!r}: expected JOINT=VALUE with a number, e.g. --lock knee=-0.5") from None
     joints = [j.strip() for j in args.joints.split(",") if j.strip()] if args.joints else None
-    robot = RobotModel.from_urdf(args.urdf, joints=joints, locked=locked)
+    robot = RobotModel.from_urdf(
+        args.urdf, joints=joints, locked=locked, repair_inertia=getattr(args, "repair_inertia", False)
+    )
     if getattr(args, "drives", None):
         attach(robot, args.drives)
     return robot
@@ -124,9 +132,14 @@ def mapping_from_args(args: argparse.Namespace):
 
 
 def add_recording_arguments(p: argparse.ArgumentParser) -> None:
-    """--data, --validate: the recordings of the commands that identify (identify, compare)."""
+    """--data, --validate, --manifest, --fit-joints, --delay: the recordings of the commands that identify
+    (identify, compare)."""
     p.add_argument(
-        "--data", action="append", required=True, metavar="FILE", help="training recording (CSV); repeat for several"
+        "--data",
+        action="append",
+        default=None,
+        metavar="FILE",
+        help="training recording (CSV); repeat for several (or --manifest)",
     )
     p.add_argument(
         "--validate",
@@ -135,6 +148,40 @@ def add_recording_arguments(p: argparse.ArgumentParser) -> None:
         metavar="FILE",
         help="validation recording (a different trajectory); repeatable",
     )
+    p.add_argument(
+        "--manifest",
+        default=None,
+        metavar="TOML",
+        help="dataset manifest instead of --data/--validate: recordings each with its own mapping spec, "
+        "time or row range and role (train, validate, payload); see docs/data.md",
+    )
+    p.add_argument(
+        "--fit-joints",
+        default=None,
+        metavar="J1,J2",
+        help="only these joints' torque rows enter the fit (the others still move, are in the model and "
+        "are predicted and validated); default all",
+    )
+    p.add_argument(
+        "--delay",
+        default=None,
+        metavar="tau=SECONDS|auto",
+        help="seconds by which the torque channels lag the positions (tau=0.04, per joint "
+        "tau.knee=0.04), or auto: estimated on the training recordings by a 1-D search in ±0.2 s "
+        "(docs/data.md); applied to every recording",
+    )
+
+
+def recording_options(args: argparse.Namespace) -> dict:
+    """The keyword arguments of identify()/compare() that --manifest, --fit-joints and --delay describe."""
+    if args.manifest is not None and (args.data or args.validate or getattr(args, "mapping", None)):
+        raise SpecError(
+            f"--manifest {args.manifest} lists the recordings and their mapping specs; "
+            "expected it without --data/--validate/--mapping"
+        )
+    if args.manifest is None and not args.data:
+        raise SpecError("no training recording: expected --data FILE (repeatable) or --manifest TOML")
+    return {"fit_joints": args.fit_joints, "delay": args.delay, "manifest": args.manifest}
 
 
 def add_preprocessing_arguments(p: argparse.ArgumentParser) -> None:

@@ -18,6 +18,7 @@ from pinid.cli.common import (
     methods_from_args,
     options_from_args,
     preprocess_from_args,
+    recording_options,
     rest_velocity_from_args,
     mapping_from_args,
     robot_from_args,
@@ -159,6 +160,7 @@ def _arguments(args: argparse.Namespace) -> dict:
         show_progress=None,
         stribeck_velocity=args.stribeck_velocity,
         stribeck_shape=args.stribeck_shape,
+        **recording_options(args),
     )
 
 

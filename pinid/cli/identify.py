@@ -19,6 +19,7 @@ from pinid.cli.common import (
     options_from_args,
     positive_int,
     preprocess_from_args,
+    recording_options,
     rest_velocity_from_args,
     mapping_from_args,
     robot_from_args,
@@ -221,6 +222,7 @@ def run(args: argparse.Namespace) -> int:
         payload_data=args.payload_data,
         stribeck_velocity=args.stribeck_velocity,
         stribeck_shape=args.stribeck_shape,
+        **recording_options(args),
     )
     print(identification_text(ident, verbose=args.verbose))
     written = write_identification(
@@ -240,6 +242,8 @@ def _run_wearer(args: argparse.Namespace, out: Path) -> int:
     from pinid.wearer.prior import MASS_RANGE  # deferred: pinid --help does not load the wearer's stage 2
     from pinid.wearer.stage import identify_wearer, stack, stage_summary, stage_text, write_stage
 
+    if not args.data or args.manifest or args.fit_joints or args.delay:
+        raise SpecError("--stage wearer: expected --data FILE (--manifest, --fit-joints and --delay are for the robot)")
     robot = robot_from_args(args)
     pre = preprocess_from_args(args)
     mapping = mapping_from_args(args)

@@ -43,7 +43,7 @@ from pinid.estimators.metaheuristic import (
 )
 from pinid.identification.metrics import torque_metrics
 from pinid.identification.problem import base_regressor, check_dataset
-from pinid.identification.run import Fit, as_model, check_options, parse_methods, run_jobs, setup
+from pinid.identification.run import Fit, as_model, check_options, parse_methods, run_jobs, setup, use_manifest
 from pinid.identification.stribeck import with_stribeck
 from pinid.io import jsonable, read_json, write_json
 from pinid.model.regressor import JointTerms
@@ -413,7 +413,7 @@ def parameter_errors(x: np.ndarray, truth: np.ndarray, scale: np.ndarray, names:
 
 def compare(
     model: RobotModel | str,
-    data,
+    data=None,
     validate=None,
     *,
     methods: Sequence[str] | str | None = None,
@@ -430,6 +430,9 @@ def compare(
     show_progress: bool | None = False,
     stribeck_velocity=None,
     stribeck_shape=None,
+    fit_joints=None,
+    delay=None,
+    manifest=None,
 ) -> Comparison:
     """Run ``methods`` on the same recordings with several seeds; validate; compare (module text).
 
@@ -444,7 +447,8 @@ def compare(
     ``iterations``, ``fitness``, ``box`` …; ``options`` override them).  ``segmental``:
     ``{"first": recordings, "joints": ("knee",)}`` runs seed 000's segmental strategy (``data`` is then
     the recording with every joint moving).  ``mapping``, ``preprocess``, ``rest_velocity``,
-    ``complete``, ``stribeck_velocity``, ``stribeck_shape``: as in :func:`pinid.identification.run.identify`.
+    ``complete``, ``stribeck_velocity``, ``stribeck_shape``, ``fit_joints``, ``delay``, ``manifest`` (without
+    drive gains): as in :func:`pinid.identification.run.identify`.
     """
     t_start = time.perf_counter()
     model = as_model(model)
@@ -467,6 +471,15 @@ def compare(
         s.update(options.get(m, {}))
         return s
 
+    if manifest is not None:
+        got = use_manifest(
+            manifest, model, data=data, validate=validate, fit_joints=fit_joints, delay=delay, mapping=mapping
+        )
+        if got["payload"] is not None:
+            raise SpecError(f"{got['manifest'].path}: drive gains (payload) are not supported by compare; use identify")
+        model, data, validate, fit_joints, delay = (
+            got[k] for k in ("model", "data", "validate", "fit_joints", "delay")
+        )
     shapes, auto = stribeck_settings(model, terms, stribeck_velocity, stribeck_shape)
     model = with_stribeck(model, shapes) if shapes else model
     st = setup(
@@ -479,6 +492,8 @@ def compare(
         rest_velocity=rest_velocity,
         segmental=segmental,
         stribeck_auto=auto,
+        fit_joints=fit_joints,
+        delay=delay,
     )
     problem, seg, base = st.problem, st.segmental, st.base
     names = problem.names
@@ -511,7 +526,11 @@ def compare(
         seeds=seed_list,
         runs=runs,
         reference=reference,
-        data={**problem.summary(), **({"stribeck": st.stribeck} if st.stribeck else {})},
+        data={
+            **problem.summary(),
+            **({"stribeck": st.stribeck} if st.stribeck else {}),
+            **({"delay": st.delay} if st.delay is not None else {}),
+        },
         validation_sources={label: [ds.source for ds in sets] for label, sets in st.validation.items()},
         settings=settings_out,
         segmental=None

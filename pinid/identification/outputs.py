@@ -72,6 +72,7 @@ def identification_text(ident, *, verbose: bool = False) -> str:
         f"shape {v['shape']:.4g}{' (fitted)' if v.get('shape_fitted') else ''}"
         for name, v in d.get("stribeck", {}).items()
     ]
+    lines += recordings_lines(d, ident.robot.get("joints") or [])
     lines.append(
         f"training: {d['samples']} samples from {len(d['sources'])} recording(s), {d['rows']} torque rows used"
         + (f"; validation: {len(ident.validation_sources)} recording(s)" if ident.validation_sources else "")
@@ -81,6 +82,30 @@ def identification_text(ident, *, verbose: bool = False) -> str:
     header, rows = summary_table(ident, bold=lambda text: text)
     lines.append(text_table(header, rows))
     return "\n".join(lines)
+
+
+def recordings_lines(d: dict, joints: list[str]) -> list[str]:
+    """The torque delay and the joints left out of the fit (issue 28), one line each, when there are any."""
+    lines = []
+    if d.get("delay"):
+        per = d["delay"]["per_joint"]
+        values = sorted(set(per.values()))
+        said = (
+            f"{1e3 * values[0]:.4g} ms"
+            if len(values) == 1
+            else ", ".join(f"{j} {1e3 * v:.4g} ms" for j, v in per.items())
+        )
+        how = (
+            f" (estimated on the training recordings in [{d['delay']['bounds'][0]:g}, {d['delay']['bounds'][1]:g}] s)"
+            if d["delay"].get("estimated")
+            else ""
+        )
+        lines.append(f"torque delay behind the positions: {said}{how}")
+    fit = d.get("fit_joints")
+    if fit is not None and len(fit) < len(joints):
+        left = [j for j in joints if j not in fit]
+        lines.append(f"fit joints: {', '.join(fit)} (torque rows of {', '.join(left)} left out; still predicted)")
+    return lines
 
 
 def write_identification(

@@ -22,6 +22,15 @@ standard deviation of the second difference of dq_j divided by √6, exact for w
 signal).  ``rest_velocity`` overrides it (a number or one per joint [rad/s]; 0 keeps every row).
 Training metrics are over the rows used in the fit; validation metrics are over every sample.
 
+Motor Coulomb friction (``motor_fc``) is the same at the motors: its column sign((G·dq)_m) flips with the
+noise of the motor velocity, so at a sample where motor ``m`` is at rest (by the same rule applied to the
+motor velocities G·dq) the rows of every joint it drives (``G[m, j] ≠ 0``) are dropped
+(:func:`motor_kept_rows`) — whatever the joints' own velocities: a differential's motor stands still when
+dq5 = −dq6 while both joints move.
+
+``fit_joints`` leaves out every row of the other joints (their torque channel is not used; the joints
+still move and are in the regressor's columns of the fitted rows, and are predicted and validated).
+
 The tall regressor in blocks
 ----------------------------
 A problem made by :meth:`IdentificationProblem.from_datasets` keeps the recordings and the rows kept
@@ -160,6 +169,7 @@ class IdentificationProblem:
     sample_rates: list[float] = field(default_factory=list)
     peak_velocity: np.ndarray | None = None
     regressor_rows: RegressorRows | None = field(default=None, repr=False, compare=False)
+    fit_joints: list[str] | None = None  # the joints whose torque rows enter the fit (None: all)
 
     # ---------------------------------------------------------------- sizes and names
     @property
@@ -210,6 +220,7 @@ class IdentificationProblem:
             if self.rest_velocity is None
             else {j: float(v) for j, v in zip(joints, self.rest_velocity)},
             "rows_dropped_at_rest": None if self.dropped is None else {j: int(v) for j, v in zip(joints, self.dropped)},
+            "fit_joints": list(joints if self.fit_joints is None else self.fit_joints),
         }
 
     # ---------------------------------------------------------------- construction
@@ -225,9 +236,12 @@ class IdentificationProblem:
         rest_fraction: float = REST_FRACTION,
         weights: np.ndarray | None = None,
         show_progress: bool | None = False,
+        fit_joints: Sequence[str] | str | None = None,
     ) -> "IdentificationProblem":
         """Stack recordings with ``q, dq, ddq, tau`` into a problem (see the module text on rest).
 
+        ``fit_joints``: the joints whose torque rows enter the fit (default all; see :func:`fit_mask`): the
+        others still move and are in every row's regressor columns, only their own torque rows are left out.
         Raises DataError for missing joints or columns, NaN, too few rows for the number of base
         parameters, and a rank-deficient regressor (naming the parameters the data do not excite).
         """
@@ -236,15 +250,22 @@ class IdentificationProblem:
         datasets = list(datasets)
         if not datasets:
             raise DataError("no recording given, expected at least one training recording")
-        base = base if base is not None else base_parameters(model, terms)
+        fit = fit_mask(model, fit_joints)
+        if base is None:
+            base = base_parameters(model, terms, joints=None if fit.all() else list(np.array(model.joint_names)[fit]))
         prepared = [check_dataset(ds, model) for ds in datasets]
         nv = model.nv
         thresholds = [rest_threshold(ds, model, terms, rest_velocity, rest_fraction) for ds in prepared]
         total = sum(ds.n for ds in prepared)
-        keeps = [kept_rows(ds, thr) for ds, thr in zip(prepared, thresholds)]
+        keeps = [
+            kept_rows(ds, thr) & motor_kept_rows(ds, model, terms, rest_velocity, rest_fraction)
+            for ds, thr in zip(prepared, thresholds)
+        ]
+        dropped = total - np.sum([k.reshape(-1, nv).sum(axis=0) for k in keeps], axis=0)
+        if not fit.all():
+            keeps = [k & np.tile(fit, len(k) // nv) for k in keeps]
         tau, joint, sample = stacked_targets(prepared, keeps, nv)
         rows = RegressorRows(model, terms, base, prepared, keeps)
-        dropped = np.array([total - int(np.sum(joint == j)) for j in range(nv)])
         if weights is None:
             w = np.ones(len(tau))
         else:
@@ -271,6 +292,7 @@ class IdentificationProblem:
             sample_rates=[ds.sample_rate for ds in prepared],
             peak_velocity=np.max([np.abs(ds.dq).max(axis=0) for ds in prepared], axis=0),
             regressor_rows=rows,
+            fit_joints=[j for j, f in zip(model.joint_names, fit) if f],
         )
         bar = progress(total, "regressor", enabled=show_progress)  # the Gram pass of the rank check
         try:
@@ -302,6 +324,8 @@ class IdentificationProblem:
                     f"joint(s) {', '.join(rest)} at rest in most samples (rows dropped for Coulomb friction, "
                     "see rest_velocity)"
                 )
+        if self.fit_joints is not None and len(self.fit_joints) < len(joints):
+            hints.append(f"only the torque rows of {', '.join(self.fit_joints)} are fitted (fit joints)")
         hint = "; " + "; ".join(hints) if hints else ""
         if rows <= nb:
             raise DataError(
@@ -501,14 +525,20 @@ def stack_rows(
     thresholds: Sequence[np.ndarray],
     *,
     bar=None,
+    rest_velocity="auto",
+    rest_fraction: float = REST_FRACTION,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """``(W_b, tau, joint, sample)`` of checked recordings stacked row ``k·nv + j``, without the rows whose
-    joint speed is below its threshold; ``sample`` counts on across recordings.
+    joint speed is below its threshold (and the rows of the joints of a motor at rest: :func:`motor_kept_rows`
+    with ``rest_velocity``, ``rest_fraction``); ``sample`` counts on across recordings.
 
     ``W_b`` is allocated once with the kept rows only and filled chunk by chunk, so the tall matrix exists
     once (not once whole and once without the rows at rest, nor once per recording and once concatenated)."""
     nv = model.nv
-    keeps = [kept_rows(ds, thr) for ds, thr in zip(datasets, thresholds)]
+    keeps = [
+        kept_rows(ds, thr) & motor_kept_rows(ds, model, terms, rest_velocity, rest_fraction)
+        for ds, thr in zip(datasets, thresholds)
+    ]
     counts = [int(np.count_nonzero(k)) for k in keeps]
     W = np.empty((sum(counts), base.count))
     row = 0
@@ -516,6 +546,54 @@ def stack_rows(
         base_regressor(model, terms, base, ds, bar=bar, keep=keep, out=W[row : row + m])
         row += m
     return (W, *stacked_targets(datasets, keeps, nv))
+
+
+def fit_mask(model: RobotModel, fit_joints: Sequence[str] | str | None = None) -> np.ndarray:
+    """(nv,) booleans: the joints whose torque rows enter the fit, from ``"J1,J2"``, a list or None (all).
+
+    SpecError for an empty list or a name that is not an active joint (naming the joints that are)."""
+    names = model.joint_names
+    if fit_joints is None:
+        return np.ones(len(names), bool)
+    if isinstance(fit_joints, str):
+        fit_joints = [j.strip() for j in fit_joints.split(",") if j.strip()]
+    elif not isinstance(fit_joints, Sequence) or not all(isinstance(j, str) for j in fit_joints):
+        raise SpecError(f"fit_joints {fit_joints!r}: expected joint names, some of {', '.join(names)}")
+    unknown = [j for j in fit_joints if j not in names]
+    if unknown:
+        raise SpecError(
+            f"fit joints: {', '.join(repr(j) for j in unknown)} is not an active joint of {model.name}; "
+            f"expected some of {', '.join(names)}"
+        )
+    if not fit_joints:
+        raise SpecError(f"fit joints: none given; expected some of {', '.join(names)}")
+    return np.isin(names, list(fit_joints))
+
+
+def motor_kept_rows(
+    ds: Dataset, model: RobotModel, terms: JointTerms, rest_velocity="auto", rest_fraction: float = REST_FRACTION
+) -> np.ndarray:
+    """(N·nv,) booleans: False at the rows ``k·nv + j`` whose joint ``j`` is driven (``G[m, j] ≠ 0``) by a
+    motor ``m`` at rest at sample ``k`` — when motor Coulomb friction (``motor_fc``) is in the model.
+
+    A motor's Coulomb column is sign((G·dq)_m): it flips with the noise of the *motor* velocity, whatever the
+    joint velocities are (a differential's motor stands still when dq5 = −dq6 while both joints move).  The
+    motor's threshold is :func:`rest_thresholds` of the motor velocities (``"auto"``), or ``|G|·v`` for given
+    joint thresholds ``v``; 0 or None keeps every row."""
+    n, nv = ds.dq.shape
+    drives = getattr(model, "drives", None)
+    if "motor_fc" not in terms or drives is None:
+        return np.ones(n * nv, bool)
+    G = drives.matrix
+    if isinstance(rest_velocity, str):
+        rest_threshold(ds, model, JointTerms(), rest_velocity, rest_fraction)  # the same checks as the joints'
+        thr = rest_thresholds(ds.dq @ G.T, rest_fraction)
+    else:
+        thr = np.abs(G) @ rest_threshold(ds, model, JointTerms(), rest_velocity, rest_fraction)
+    if not np.any(thr > 0):
+        return np.ones(n * nv, bool)
+    still = np.abs(ds.dq @ G.T) < thr  # (N, motors)
+    return ~((still.astype(float) @ (G != 0)) > 0).reshape(-1)
 
 
 def kept_rows(ds: Dataset, threshold: np.ndarray) -> np.ndarray:
@@ -602,6 +680,15 @@ def base_statistics(
     return std, cond, cond_scaled
 
 
+def completed_standard(model: RobotModel, terms: JointTerms, base: BaseParameters, values: np.ndarray) -> np.ndarray:
+    """The standard vector closest to the nominal one (in the scaled norm) with ``base.P·θ = values``."""
+    nominal = standard_parameters(model, terms)
+    S = parameter_scale(nominal, model.nv, len(terms))
+    A = base.P * S
+    dz = np.linalg.lstsq(A, np.asarray(values, dtype=float) - A @ (nominal / S), rcond=None)[0]
+    return (nominal / S + dz) * S
+
+
 def least_norm_completion(problem: IdentificationProblem, base: np.ndarray) -> np.ndarray:
     """The standard vector closest to the nominal one (in the scaled norm) with ``P·θ = base``."""
     S = parameter_scale(problem.nominal, problem.nv, len(problem.terms))
@@ -662,10 +749,22 @@ def predict_torque(
 ):
     """Predicted torques ``(N, nv)`` [N·m] on a checked recording for base ``values`` (or a dict of them).
 
-    Computed chunk by chunk (``_CHUNK`` samples): the recording's tall regressor never exists whole."""
+    Computed chunk by chunk (``_CHUNK`` samples): the recording's tall regressor never exists whole.  Base
+    parameters of some joints' rows only (``base.fit_joints``, ``--fit-joints``) predict every joint through
+    the standard set nearest the nominal one with those base values (:func:`completed_standard`): exact on
+    the fitted joints, the nominal values where their rows identify nothing."""
     ds = check_dataset(ds, model)
     single = not isinstance(values, Mapping)
     items = {None: values} if single else dict(values)
+    if base.fit_joints is not None:
+        theta = {k: completed_standard(model, terms, base, v) for k, v in items.items()}
+        out = {k: np.empty((ds.n, model.nv)) for k in items}
+        for start in range(0, ds.n, _CHUNK):
+            part = ds.select(slice(start, min(ds.n, start + _CHUNK)))
+            W = regressor(model, part.q, part.dq, part.ddq, terms)
+            for k, th in theta.items():
+                out[k][start : start + part.n] = (W @ th).reshape(part.n, model.nv)
+        return out[None] if single else out
     out = {k: np.empty((ds.n, model.nv)) for k in items}
     for start in range(0, ds.n, _CHUNK):
         part = ds.select(slice(start, min(ds.n, start + _CHUNK)))

@@ -21,6 +21,7 @@ from collections.abc import Iterable, Mapping, Sequence
 import numpy as np
 
 from pinid.data.dataset import Dataset
+from pinid.data.delay import parse_delay, shift_torque
 from pinid.errors import DataError, SpecError
 from pinid.estimators import ESTIMATORS, Estimator, make_estimator
 from pinid.identification.metrics import torque_metrics
@@ -28,6 +29,7 @@ from pinid.identification.problem import (
     REST_FRACTION,
     IdentificationProblem,
     check_dataset,
+    fit_mask,
     load_datasets,
     predict_torque,
 )
@@ -103,6 +105,7 @@ class Setup:
     validation: dict[str, list[Dataset]] = field(default_factory=dict)
     segmental: SegmentalProblem | None = None
     stribeck: dict[str, dict] = field(default_factory=dict)  # the Stribeck shapes used (data["stribeck"])
+    delay: dict | None = None  # the torque delay used (data["delay"]): given or estimated
 
 
 def setup(
@@ -118,13 +121,22 @@ def setup(
     segmental: Mapping | None = None,
     show_progress: bool | None = False,
     stribeck_auto: Mapping[str, bool] | None = None,
+    fit_joints: Sequence[str] | str | None = None,
+    delay=None,
 ) -> Setup:
     """Load and stack the recordings.  ``validate``: recordings, or ``{label: recordings}``;
     ``segmental``: ``{"first": recordings, "joints": first joints}`` (seed 000's two stages);
     ``stribeck_auto``: ``{Stribeck term: fit its shape too}`` — their velocities are fitted
     (:mod:`pinid.identification.stribeck`) and set in ``model.stribeck`` (a model of the caller's own:
-    :func:`~pinid.identification.stribeck.with_stribeck`)."""
+    :func:`~pinid.identification.stribeck.with_stribeck`).
+    ``fit_joints``: the joints whose torque rows enter the fit (default all); ``delay``: the torque
+    channels' delay behind the positions (:func:`pinid.data.delay.parse_delay`; ``"auto"`` estimated on the
+    training recordings, :mod:`pinid.identification.delay`), applied to every recording."""
     auto = dict(stribeck_auto or {})
+    fit_mask(model, fit_joints)  # a bad joint name fails before any recording is read
+    delays = parse_delay(delay, model.joint_names)
+    if segmental and (fit_joints is not None or delays is not None):
+        raise SpecError("fit joints and torque delays with the segmental strategy: not supported")
     if auto and segmental:
         raise SpecError("Stribeck velocity 'auto' with the segmental strategy: give the velocity instead")
     final_terms, terms = terms, JointTerms(names=[n for n in terms.names if n not in auto])
@@ -136,7 +148,30 @@ def setup(
         val = {str(k): load_datasets(v, model, mapping, preprocess, f"validation ({k})") for k, v in validate.items()}
     else:
         val = {"validation": load_datasets(validate, model, mapping, preprocess, "validation")}
-    base = base_parameters(model, terms)
+    fit = fit_mask(model, fit_joints)
+    base = base_parameters(model, terms, joints=None if fit.all() else [j for j, f in zip(model.joint_names, fit) if f])
+    used_delay = None
+    if delays is not None:
+        if isinstance(delays, str):
+            from pinid.identification.delay import estimate_delay  # loaded on use (scipy.optimize)
+
+            used_delay = estimate_delay(
+                model,
+                train,
+                terms=terms,
+                base=base,
+                rest_velocity=rest_velocity,
+                rest_fraction=rest_fraction,
+                fit_joints=fit_joints,
+            )
+            delays = np.full(model.nv, used_delay["delay"])
+        used_delay = {
+            **(used_delay or {}),
+            "estimated": used_delay is not None,
+            "per_joint": {j: float(v) for j, v in zip(model.joint_names, delays)},
+        }
+        train = [shift_torque(check_dataset(ds, model), delays) for ds in train]
+        val = {k: [shift_torque(check_dataset(ds, model), delays) for ds in v] for k, v in val.items()}
     seg = None
     if segmental:
         unknown_keys = [k for k in segmental if k not in ("first", "joints")]
@@ -166,6 +201,7 @@ def setup(
             rest_velocity=rest_velocity,
             rest_fraction=rest_fraction,
             show_progress=show_progress,
+            fit_joints=fit_joints,
         )
     shapes = {
         n: {"velocity": v.velocity, "shape": v.shape, "fitted": False}
@@ -178,11 +214,17 @@ def setup(
         model.stribeck[name] = Stribeck(fit.velocity, fit.shape)
         shapes[name] = fit.summary()
         terms = JointTerms(names=[n for n in final_terms.names if n not in list(auto)[k + 1 :]])
-        base = base_parameters(model, terms)
+        base = base_parameters(model, terms, joints=base.fit_joints)
         problem = IdentificationProblem.from_datasets(
-            model, train, terms=terms, base=base, rest_velocity=rest_velocity, rest_fraction=rest_fraction
+            model,
+            train,
+            terms=terms,
+            base=base,
+            rest_velocity=rest_velocity,
+            rest_fraction=rest_fraction,
+            fit_joints=fit_joints,
         )
-    return Setup(model, terms, base, problem, train, val, seg, shapes)
+    return Setup(model, terms, base, problem, train, val, seg, shapes, used_delay)
 
 
 def _items(recordings) -> list:
@@ -268,7 +310,7 @@ def run_jobs(
 # ====================================================================== identify
 def identify(
     model: RobotModel | str | os.PathLike,
-    data: Dataset | str | os.PathLike | Iterable,
+    data: Dataset | str | os.PathLike | Iterable | None = None,
     *,
     methods: Sequence[str] | str = DEFAULT_METHODS,
     validate: Dataset | str | os.PathLike | Iterable | None = None,
@@ -284,6 +326,9 @@ def identify(
     payload_data: Dataset | str | os.PathLike | Iterable | None = None,
     stribeck_velocity: float | str | Mapping | None = None,
     stribeck_shape: float | str | Mapping | None = None,
+    fit_joints: Sequence[str] | str | None = None,
+    delay=None,
+    manifest=None,
 ) -> Identification:
     """Identify ``model``'s dynamic parameters from recordings with several methods; validate; compare.
 
@@ -304,6 +349,12 @@ def identify(
     ``motor_fs``; :func:`pinid.model.terms.stribeck_settings`), default the model's (``model.stribeck``)
     or 0.1 rad/s and 2; ``"auto"`` fits the velocity (and the shape: :mod:`pinid.identification.stribeck`).  The shapes
     used are in ``data["stribeck"]`` and in the saved robot.
+    ``fit_joints``: the joints whose torque rows enter the fit (``"J1,J2"`` or a list; default all): the
+    others still move, are in the regressor's columns and are predicted and validated.  ``delay``: seconds by
+    which the torque channels lag the positions (``0.04``, ``"tau.knee=0.04"``, ``"auto"``:
+    :mod:`pinid.identification.delay`), in ``data["delay"]``.  ``manifest``: a dataset manifest (TOML path or
+    :class:`~pinid.data.manifest.Manifest`) listing the recordings, their ranges and roles instead of
+    ``data``, ``validate``, ``payload`` and ``payload_data`` (:mod:`pinid.data.manifest`).
 
     Returns an :class:`~pinid.identification.result.Identification`; ``result.model`` is the best
     result's :class:`~pinid.identification.identified.IdentifiedModel`, ``result["sdp"]`` one method's result.
@@ -315,6 +366,13 @@ def identify(
     options = check_options(options, methods)
     for m in methods:  # bad settings fail before any recording is read
         make_estimator(m, **options.get(m, {}))
+    if manifest is not None:
+        given = dict(data=data, validate=validate, payload=payload, payload_data=payload_data, mapping=mapping)
+        got = use_manifest(manifest, model, **given, fit_joints=fit_joints, delay=delay)
+        model, data, validate, fit_joints, delay = (
+            got[k] for k in ("model", "data", "validate", "fit_joints", "delay")
+        )
+        payload, payload_data, manifest = got["payload"], got["payload_data"], got["manifest"]
     settings, auto = stribeck_settings(model, terms, stribeck_velocity, stribeck_shape)
     if auto and payload is not None:
         raise SpecError("Stribeck velocity 'auto' with drive gains (--payload): give the velocity instead")
@@ -336,6 +394,8 @@ def identify(
         rest_fraction=rest_fraction,
         show_progress=show_progress,
         stribeck_auto=auto,
+        fit_joints=fit_joints,
+        delay=delay,
     )
     fits = run_jobs(s, [(m, None, options.get(m, {})) for m in methods], complete=complete, show_progress=show_progress)
     results = {f.method: f.result for f in fits}
@@ -372,6 +432,10 @@ def identify(
         summary["drive_gains"] = gains.summary()
     if s.stribeck:
         summary["stribeck"] = s.stribeck
+    if s.delay is not None:
+        summary["delay"] = s.delay
+    if manifest is not None:
+        summary["manifest"] = str(getattr(manifest, "path", manifest))
     return Identification(
         robot=robot_to_dict(model, terms),
         results=results,
@@ -385,6 +449,48 @@ def identify(
         seconds=time.perf_counter() - t_start,
         curves=curves,
     )
+
+
+def use_manifest(
+    manifest,
+    model: RobotModel,
+    *,
+    data=None,
+    validate=None,
+    payload=None,
+    payload_data=None,
+    fit_joints=None,
+    delay=None,
+    mapping=None,
+) -> dict:
+    """What a dataset manifest (a TOML path or :class:`~pinid.data.manifest.Manifest`) gives :func:`identify`
+    and ``compare``: ``{model, data, validate, payload, payload_data, fit_joints, delay, manifest}`` — the
+    model with the manifest's drives (a copy), its recordings by role, and its ``fit_joints`` and ``delay``
+    where the caller gives none.  SpecError when recordings (or a mapping spec: each recording of a manifest
+    has its own) are given besides the manifest."""
+    from pinid.data.manifest import Manifest
+    from pinid.model.drives import attach
+
+    m = manifest if isinstance(manifest, Manifest) else Manifest.load(manifest)
+    given = {"data": data, "validate": validate, "payload": payload, "payload data": payload_data, "mapping": mapping}
+    clash = [k for k, v in given.items() if v is not None and not (isinstance(v, (list, tuple, dict)) and not v)]
+    if clash:
+        raise SpecError(
+            f"{m.path}: the manifest lists the recordings, and {', '.join(clash)} given too; expected one or the other"
+        )
+    if m.drives is not None:  # a copy: the caller's model keeps its own drives
+        model = attach(model.with_inertial_parameters(model.inertial_parameters()), m.drives)
+    study = m.read(model)
+    return {
+        "model": model,
+        "data": study.train,
+        "validate": study.validate,
+        "payload": m.payload,
+        "payload_data": study.payload_data,
+        "fit_joints": m.fit_joints if fit_joints is None else fit_joints,
+        "delay": m.delay if delay is None else delay,
+        "manifest": m,
+    }
 
 
 def _currents_to_torques(model, terms, data, validate, payload, payload_data, mapping, preprocess, rest_velocity):

@@ -133,7 +133,9 @@ def stack(
     if not datasets:
         raise DataError("no recording given for a stage of the segmental identification")
     thresholds = [rest_threshold(ds, model, terms, rest_velocity, rest_fraction) for ds in datasets]
-    W, tau, joint, sample = stack_rows(model, terms, base, datasets, thresholds)
+    W, tau, joint, sample = stack_rows(
+        model, terms, base, datasets, thresholds, rest_velocity=rest_velocity, rest_fraction=rest_fraction
+    )
     return {"W": W, "tau": tau, "joint": joint, "sample": sample, "sources": [ds.source for ds in datasets]}
 
 

@@ -13,6 +13,7 @@ standard parameters are folded into it (``hip.IyyR = hip.Iyy + 0.1764·knee.m + 
 from __future__ import annotations
 
 import json
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -38,6 +39,7 @@ class BaseParameters:
     independent: np.ndarray
     P: np.ndarray
     names: list[str] = field(default_factory=list)
+    fit_joints: list[str] | None = None  # computed from these joints' torque rows only (None: every joint's)
 
     @property
     def count(self) -> int:
@@ -87,6 +89,7 @@ class BaseParameters:
             "independent": [self.standard_names[i] for i in self.independent],
             "standard_names": self.standard_names,
             "P": self.P.tolist(),
+            **({} if self.fit_joints is None else {"fit_joints": list(self.fit_joints)}),
         }
 
     def save(self, path) -> None:
@@ -102,6 +105,7 @@ class BaseParameters:
             np.array([names.index(n) for n in d["independent"]], dtype=int),
             np.array(d["P"], dtype=float),
             list(d["names"]),
+            None if d.get("fit_joints") is None else list(d["fit_joints"]),
         )
 
     @classmethod
@@ -118,8 +122,12 @@ def base_parameters(
     samples: int | None = None,
     seed: int = 0,
     tol: float = 1e-8,
+    joints: Sequence[str] | None = None,
 ) -> BaseParameters:
-    """Compute the base parameters of ``model`` with joint ``terms`` from random states (seeded)."""
+    """Compute the base parameters of ``model`` with joint ``terms`` from random states (seeded).
+
+    ``joints``: only these joints' torque rows are measured (``--fit-joints``): the base parameters are
+    those their rows identify (a left-out joint's own friction, say, is not among them)."""
     model, terms = as_robot(model), as_terms(terms)
     names = parameter_names(model, terms)
     p = len(names)
@@ -135,6 +143,10 @@ def base_parameters(
     if any(t in STRIBECK_TERMS for t in terms.names):  # Stribeck columns vanish at speed: slow samples too
         dq = dq * np.logspace(-4, 0, n)[np.random.default_rng(seed).permutation(n)][:, None]
     W = regressor(model, q, dq, ddq, terms)
+    fit = None
+    if joints is not None and set(joints) != set(model.joint_names):
+        fit = [j for j in model.joint_names if j in set(joints)]
+        W = W.reshape(n, model.nv, p)[:, [model.joint_names.index(j) for j in fit], :].reshape(-1, p)
     norms = np.linalg.norm(W, axis=0)
     nonzero = np.flatnonzero(norms > tol * norms.max())
     Wn = W[:, nonzero] / norms[nonzero]
@@ -157,7 +169,7 @@ def base_parameters(
         K[np.abs(K) < 1e-10 * max(1.0, np.abs(K).max())] = 0.0
         P[:, dependent] = _tidy(K)
     base_names = [names[i] + ("R" if np.count_nonzero(P[r]) > 1 else "") for r, i in enumerate(independent)]
-    return BaseParameters(names, independent, P, base_names)
+    return BaseParameters(names, independent, P, base_names, fit)
 
 
 def _tidy(K: np.ndarray) -> np.ndarray:

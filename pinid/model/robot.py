@@ -15,6 +15,7 @@ import os
 import re
 import sys
 import tempfile
+import warnings
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
@@ -24,7 +25,7 @@ import numpy as np
 import pinocchio as pin
 
 from pinid.checks import as_state, as_states, as_vector, count, number, same_length
-from pinid.errors import JointError, ModelError
+from pinid.errors import JointError, ModelError, ModelWarning
 from pinid.model.bundled import resolve_robot
 
 #: Names of the 10 standard inertial parameters of a body, in Pinocchio's order.
@@ -210,10 +211,17 @@ class RobotModel:
         *,
         joints: Sequence[str] | None = None,
         locked: Mapping[str, float] | None = None,
+        repair_inertia: bool = False,
     ) -> "RobotModel":
         """Load a URDF file, a bundled robot name (``exo_leg``) or an example-robot-data name (``panda``).
 
-        ``joints``: names of the active joints (default: every movable joint not in ``locked``).
+        ``joints``: names of the active joints (default: every movable joint not in ``locked`` and not a
+        mimic joint — a ``<mimic>`` joint, e.g. a gripper's second finger, is locked like an inactive joint
+        unless listed in ``joints``, where it is refused).
+        ``repair_inertia``: a body whose rotational inertia is not physical (a negative principal moment, or
+        one larger than the sum of the other two) is refused by default; with True it is replaced by the
+        nearest physical one (:func:`nearest_physical_inertia`) with a :class:`~pinid.errors.ModelWarning`
+        naming the body, and the repaired values are the model's (nominal, prior) parameters.
         ``locked``: joints held fixed at a value [rad or m]; other inactive joints are held at 0 (or at
         the middle of their range when 0 is outside it).  The URDF's ``<transmission>`` elements become
         ``drives`` (:mod:`pinid.model.drives`).
@@ -256,7 +264,8 @@ class RobotModel:
         for n in list(lock) + list(joints or []):
             if n not in names:
                 raise JointError(f"joint '{n}' is not in {path.name} (its joints: {', '.join(names)})")
-        active = list(joints) if joints is not None else [n for n in names if n not in lock]
+        mimics = _mimic_joints(text) if joints is None else set()
+        active = list(joints) if joints is not None else [n for n in names if n not in lock and n not in mimics]
         if not active:
             raise ModelError(f"{path}: every movable joint is locked, expected at least one active joint")
         for n in active:
@@ -284,7 +293,7 @@ class RobotModel:
         # keep the URDF friction of the active joints before reducing
         coul = np.array([full.friction[full.joints[full.getJointId(n)].idx_v] for n in active])
         visc = np.array([full.damping[full.joints[full.getJointId(n)].idx_v] for n in active])
-        _check_inertias(full, path)
+        _check_inertias(full, path, repair=repair_inertia)
         model = pin.buildReducedModel(full, to_lock, q_ref) if to_lock else full
         # order of the reduced model's joints follows the URDF tree, not the user's list
         order = [model.names[i] for i in range(1, model.njoints)]
@@ -450,10 +459,35 @@ def as_robot(model) -> RobotModel:
 MAX_BODY_MASS = 1e6
 
 
-def _check_inertias(model: pin.Model, path: Path) -> None:
+def _mimic_joints(text: str) -> set[str]:
+    """Names of the URDF's joints with a ``<mimic>`` element."""
+    return {j.get("name") for j in ET.fromstring(text).findall("joint") if j.find("mimic") is not None}
+
+
+def nearest_physical_inertia(inertia: np.ndarray, iterations: int = 200) -> np.ndarray:
+    """The physical rotational inertia [kg·m²] nearest to ``inertia`` (3×3, about the centre of mass) in the
+    Frobenius norm: the same principal axes, the principal moments projected (Euclidean) onto the cone of
+    the triangle inequalities ``e_i ≤ e_j + e_k`` (which imply ``e_i ≥ 0``) by Dykstra's alternating
+    projections onto its three half-spaces.  (For a set of symmetric matrices defined by their eigenvalues
+    only, the nearest matrix keeps the eigenvectors, so this is the nearest physical inertia.)"""
+    e, V = np.linalg.eigh(0.5 * (inertia + inertia.T))
+    normals = [np.array(n, dtype=float) / np.sqrt(3.0) for n in ((1, -1, -1), (-1, 1, -1), (-1, -1, 1))]
+    x, corr = e.copy(), [np.zeros(3) for _ in normals]
+    for _ in range(iterations):
+        for k, n in enumerate(normals):  # half-space n·x ≤ 0
+            y = x + corr[k]
+            x = y - max(float(n @ y), 0.0) * n
+            corr[k] = y - x
+    x = np.maximum(x, 0.0)
+    return (V * x) @ V.T
+
+
+def _check_inertias(model: pin.Model, path: Path, *, repair: bool = False) -> None:
     """Refuse inertial values that are not numbers, negative masses, absurdly large ones, and rotational
     inertias that no body has: principal moments (about the centre of mass) below zero, or one larger than
-    the sum of the other two (triangle inequality), both beyond :data:`INERTIA_TOL` × trace."""
+    the sum of the other two (triangle inequality), both beyond :data:`INERTIA_TOL` × trace.  ``repair``:
+    replace such a rotational inertia by :func:`nearest_physical_inertia` (in ``model``) with a
+    :class:`~pinid.errors.ModelWarning` instead."""
     for jid in range(1, model.njoints):
         p = model.inertias[jid].toDynamicParameters()
         name = model.names[jid]
@@ -467,10 +501,23 @@ def _check_inertias(model: pin.Model, path: Path) -> None:
         tol = INERTIA_TOL * abs(e).sum() + 1e-12
         if e[0] < -tol or e[0] + e[1] < e[2] - tol:
             why = "a negative principal moment" if e[0] < -tol else "one moment larger than the sum of the other two"
+            if repair:
+                body = model.inertias[jid]
+                fixed = nearest_physical_inertia(body.inertia)
+                model.inertias[jid] = pin.Inertia(body.mass, body.lever, fixed)
+                f = np.linalg.eigvalsh(fixed)
+                warnings.warn(
+                    f"{path.name}: the body moved by joint '{name}' has principal moments {e[0]:.4g}, {e[1]:.4g}, "
+                    f"{e[2]:.4g} kg·m² ({why}); repaired to the nearest physical inertia {f[0]:.4g}, {f[1]:.4g}, "
+                    f"{f[2]:.4g} kg·m² (same mass, centre of mass and axes; --repair-inertia)",
+                    ModelWarning,
+                    stacklevel=4,
+                )
+                continue
             raise ModelError(
                 f"{path}: the body moved by joint '{name}' has principal moments of inertia "
                 f"{e[0]:.3g}, {e[1]:.3g}, {e[2]:.3g} kg·m² ({why}); expected a physical inertia "
-                "(moments >= 0, each at most the sum of the other two)"
+                "(moments >= 0, each at most the sum of the other two; --repair-inertia loads the nearest one)"
             )
 
 

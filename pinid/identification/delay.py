@@ -1,0 +1,110 @@
+"""The torque channel's delay estimated on the training recordings (``--delay auto``).
+
+Method: a 1-D search over the delay ``d`` minimising the least-squares residual of the torque model with
+the torque read at ``t + d`` (:mod:`pinid.data.delay`).  The motion (q, dq, ddq) does not move with ``d``,
+so the base regressor ``W`` is built once, on the samples whose shifted time stays inside the recording for
+every ``d`` of the searched range; with ``W = Q·R`` the residual of the least-squares fit is
+``‖τ_d‖² − ‖Qᵀ·τ_d‖²`` — one product per candidate.  Candidates: every sample step in ``[lo, hi]`` (default
+±0.2 s; at most 201 on a coarser grid first, then every step around the best), then bounded Brent
+(``scipy.optimize.minimize_scalar``) within one step of the best one, between samples (linear
+interpolation).  Rows at rest are left out as in the fit (:mod:`pinid.identification.problem`); one delay
+for every torque channel.  Only the training recordings are used; the delay found is then applied to the
+training and the validation recordings.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from pinid.data.dataset import Dataset
+from pinid.data.delay import DELAY_RANGE, shifted
+from pinid.errors import DataError, SpecError
+from pinid.identification.problem import (
+    REST_FRACTION,
+    base_regressor,
+    check_dataset,
+    fit_mask,
+    kept_rows,
+    motor_kept_rows,
+    rest_threshold,
+)
+from pinid.model.base import BaseParameters, base_parameters
+from pinid.model.regressor import JointTerms
+from pinid.model.robot import RobotModel
+
+_COARSE = 201  # most candidates of the first grid
+
+
+def estimate_delay(
+    model: RobotModel,
+    datasets: Sequence[Dataset],
+    *,
+    terms: JointTerms = JointTerms(),
+    base: BaseParameters | None = None,
+    bounds: tuple[float, float] = (-DELAY_RANGE, DELAY_RANGE),
+    rest_velocity="auto",
+    rest_fraction: float = REST_FRACTION,
+    fit_joints=None,
+) -> dict:
+    """The delay [s] of the torque channels behind the positions on prepared recordings (module text).
+
+    Returns ``{"delay": d, "bounds": [lo, hi], "residual": …, "candidates": n, "step": dt}``."""
+    import scipy.optimize  # loaded on use: only --delay auto needs it
+
+    lo, hi = (float(b) for b in bounds)
+    if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
+        raise SpecError(f"delay search range [{lo:g}, {hi:g}] s: expected finite lo < hi")
+    base = base if base is not None else base_parameters(model, terms)
+    checked = [check_dataset(ds, model) for ds in datasets]
+    fit = fit_mask(model, fit_joints)
+    nv = model.nv
+    parts = []  # (t, tau, sample indices inside, kept rows) per recording
+    for ds in checked:
+        t = ds.t
+        inside = np.flatnonzero((t + lo >= t[0]) & (t + hi <= t[-1]))
+        if inside.size == 0:
+            raise DataError(
+                f"{ds.source}: {ds.duration:g} s long, too short to search a torque delay in [{lo:g}, {hi:g}] s"
+            )
+        part = ds.select(inside)
+        thr = rest_threshold(part, model, terms, rest_velocity, rest_fraction)
+        keep = kept_rows(part, thr) & motor_kept_rows(part, model, terms, rest_velocity, rest_fraction)
+        keep &= np.tile(fit, part.n)
+        parts.append((t, ds.tau, part, keep))
+    W = np.concatenate([base_regressor(model, terms, base, p, keep=k) for _, _, p, k in parts])
+    if len(W) <= base.count:
+        raise DataError("too few torque rows to estimate a delay; expected more rows than base parameters")
+    Q = np.linalg.qr(W, mode="reduced")[0]
+
+    def residual(d: float) -> float:
+        y = np.concatenate(
+            [
+                np.column_stack([shifted(t, tau[:, j], p.t + d) for j in range(nv)]).reshape(-1)[k]
+                for t, tau, p, k in parts
+            ]
+        )
+        return float(y @ y - np.sum((Q.T @ y) ** 2))
+
+    step = float(np.median(np.diff(checked[0].t)))
+    steps = np.arange(np.ceil(lo / step - 1e-9), np.floor(hi / step + 1e-9) + 1)
+    stride = max(1, int(np.ceil(len(steps) / _COARSE)))
+    coarse = steps[::stride]
+    values = [residual(k * step) for k in coarse]
+    best = coarse[int(np.argmin(values))]
+    fine = steps[(steps >= best - stride) & (steps <= best + stride)]
+    values = [residual(k * step) for k in fine]
+    count = len(coarse) + len(fine)
+    k = fine[int(np.argmin(values))]
+    a, b = max(lo, (k - 1) * step), min(hi, (k + 1) * step)
+    res = scipy.optimize.minimize_scalar(residual, bounds=(a, b), method="bounded", options={"xatol": 1e-3 * step})
+    d, r = (float(res.x), float(res.fun)) if res.fun <= min(values) else (float(k * step), float(min(values)))
+    return {
+        "delay": d,
+        "bounds": [lo, hi],
+        "residual": r,
+        "candidates": int(count + res.nfev),
+        "step": step,
+        "rows": int(len(W)),
+    }
