@@ -215,9 +215,9 @@ class Artefacts:
 
     def check(self) -> list[Path]:
         """Check every planned output (see the class docstring) without writing or creating anything."""
-        seen: dict[Path, Path] = {}
+        seen: dict[Any, Path] = {}
         for p, _ in self._planned:
-            key = Path(os.path.abspath(p))
+            key = _same_file_key(p)
             if key in seen:
                 raise OutputError(
                     f"{p}: two outputs of this run would be written to the same file "
@@ -280,11 +280,11 @@ class Artefacts:
             raise
         finally:
             shutil.rmtree(stage, ignore_errors=True)
-        written = {Path(os.path.abspath(p)) for p in self.paths}
+        written = {_same_file_key(p) for p in self.paths}
         for folder, patterns in self._stale:
             for pattern in patterns:
                 for old in folder.glob(pattern):
-                    if old.is_file() and Path(os.path.abspath(old)) not in written:
+                    if old.is_file() and _same_file_key(old) not in written:
                         with contextlib.suppress(OSError):
                             old.unlink()
         return self.paths
@@ -297,6 +297,21 @@ def check_outputs(*paths: str | os.PathLike) -> None:
     for p in paths:
         arts.add(p, "")
     arts.check()
+
+
+def _same_file_key(p: Path) -> Any:
+    """What identifies the file ``p`` names: its resolved path (symbolic links in it followed, so
+    ``link/e.json`` and ``target/e.json`` are one file), or, for an existing file, its device and inode
+    (hard links too)."""
+    try:
+        st = os.stat(p)
+        return ("inode", st.st_dev, st.st_ino)
+    except OSError:
+        pass
+    try:
+        return ("path", Path(os.path.realpath(p)))
+    except (OSError, ValueError):
+        return ("path", Path(os.path.abspath(p)))
 
 
 def _existing_ancestor(folder: Path) -> Path:

@@ -21,7 +21,7 @@ from conftest import assert_clean_error, load, run_cli
 from test_identification import fourier_motion
 
 TERMS = JointTerms(coulomb=True, viscous=True)
-PAYLOAD = {"mass": 2.5, "com": [0.03, -0.02, -0.12], "inertia": [0.02, 0.03, 0.01, 0.002, -0.001, 0.003]}
+PAYLOAD = {"mass": 2.5, "com": [0.03, -0.02, -0.12], "inertia": [0.02, 0.03, 0.025, 0.002, -0.001, 0.003]}
 
 
 def recording(m: RobotModel, gains, payload: Payload | None, seed: int, noise: float = 0.0) -> Dataset:
@@ -45,7 +45,7 @@ def test_payload_parameters_match_a_urdf_with_the_payload_as_a_fixed_link(tmp_pa
         "</robot>",
         """
   <link name="box"><inertial><origin xyz="0.01 0.02 -0.05" rpy="0 0 0"/><mass value="2.5"/>
-    <inertia ixx="0.02" iyy="0.03" izz="0.01" ixy="0.002" ixz="-0.001" iyz="0.003"/></inertial></link>
+    <inertia ixx="0.02" iyy="0.03" izz="0.025" ixy="0.002" ixz="-0.001" iyz="0.003"/></inertial></link>
   <joint name="strap" type="fixed"><parent link="shank"/><child link="box"/><origin xyz="0.02 -0.04 -0.07" rpy="0 0 0"/></joint>
 </robot>""",
     )
@@ -112,7 +112,7 @@ def test_identify_turns_currents_into_torques_and_reports_gains():
     [
         ({"mass": -1}, "mass"),
         ({"mass": 1, "com": [0, 0]}, "com"),
-        ({"mass": 1, "inertia": [-1, 0, 0, 0, 0, 0]}, "positive semi-definite"),
+        ({"mass": 1, "inertia": [-1, 0, 0, 0, 0, 0]}, "negative principal moment"),
         ({"mass": 1, "colour": "red"}, "unknown key"),
         ({"mass": 1, "link": "nowhere"}, "not in"),
     ],

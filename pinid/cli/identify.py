@@ -27,7 +27,7 @@ from pinid.cli.common import (
 )
 from pinid.errors import SpecError
 from pinid.identification.problem import load_datasets
-from pinid.identification.run import identify
+from pinid.identification.run import check_distinct, identify
 from pinid.io import check_outputs
 from pinid.report.figures import start_figure_workers
 
@@ -62,11 +62,39 @@ example:
 """
 
 
+#: The default --methods and --terms of stage 1 (None in the namespace: not given, so stage 2 can refuse them).
+DEFAULT_METHODS, DEFAULT_TERMS = "ols,wls,sdp", "fc,fv"
+
+#: Options of stage 1 that stage 2 (--stage wearer) does not use: (dest, option); stage 2 refuses them
+#: rather than ignore them (its terms, method and drives come from the stage-1 model and the wearer URDF).
+STAGE1_ONLY = (
+    ("methods", "--methods"),
+    ("terms", "--terms"),
+    ("option", "--option"),
+    ("payload", "--payload"),
+    ("payload_data", "--payload-data"),
+    ("regularization", "--regularization"),
+    ("mass_bounds", "--mass-bounds"),
+    ("sdp_weighting", "--sdp-weighting"),
+    ("wls_iterations", "--wls-iterations"),
+    ("force_export", "--force-export"),
+    ("stribeck_velocity", "--stribeck-velocity"),
+    ("stribeck_shape", "--stribeck-shape"),
+)
+#: Options of stage 2 that stage 1 does not use.
+STAGE2_ONLY = (
+    ("mass_range", "--mass-range"),
+    ("prior_weight", "--prior-weight"),
+    ("no_passive", "--no-passive"),
+    ("passive_exponents", "--passive-exponents"),
+)
+
+
 def add_arguments(p: argparse.ArgumentParser) -> None:
     add_robot_arguments(p)
     add_terms_argument(p)
     add_recording_arguments(p)
-    add_method_arguments(p, "ols,wls,sdp")
+    add_method_arguments(p, DEFAULT_METHODS)
     add_mapping_arguments(p)
     p.add_argument("-o", "--output", default="results", metavar="FOLDER", help="output folder; default results/")
     add_preprocessing_arguments(p)
@@ -151,6 +179,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "the currents of every recording turned into torques; repeatable",
     )
     add_stribeck_arguments(p)
+    p.set_defaults(methods=None, terms=None, prior_weight=None)  # given or not (STAGE1_ONLY, STAGE2_ONLY)
     p.add_argument("--no-report", action="store_true", help="do not write report.md, report.html and the figures")
     p.add_argument(
         "--no-figures",
@@ -196,8 +225,23 @@ def run(args: argparse.Namespace) -> int:
     check_outputs(out / "identification.json")  # fail before the work (creates nothing)
     if (args.stage == "wearer") != (args.exo is not None):
         raise SpecError("--stage wearer and --exo MODEL_JSON go together (stage 2: the wearer, the exo fixed)")
+    stage = "2 (--stage wearer)" if args.stage == "wearer" else "1 (--stage robot)"
+    for dest, option in STAGE1_ONLY if args.stage == "wearer" else STAGE2_ONLY:
+        value = getattr(args, dest, None)
+        if value is not None and value is not False and value != []:
+            raise SpecError(
+                f"{option} does not apply to stage {stage}"
+                + (
+                    ": the exo is fixed to --exo (its terms, friction, drives) and only the wearer is fitted, "
+                    "from torque recordings"
+                    if args.stage == "wearer"
+                    else ""
+                )
+            )
     if args.stage == "wearer":
         return _run_wearer(args, out)
+    args.methods = DEFAULT_METHODS if args.methods is None else args.methods
+    args.terms = DEFAULT_TERMS if args.terms is None else args.terms
     methods = methods_from_args(args)
     model = robot_from_args(args)
     terms = terms_from_args(args)
@@ -247,6 +291,7 @@ def _run_wearer(args: argparse.Namespace, out: Path) -> int:
     robot = robot_from_args(args)
     pre = preprocess_from_args(args)
     mapping = mapping_from_args(args)
+    check_distinct(args.data, args.validate or None)
     train = load_datasets(args.data, robot, mapping, pre, "training")
     val = load_datasets(args.validate or None, robot, mapping, pre, "validation")
     fit = identify_wearer(
@@ -255,7 +300,7 @@ def _run_wearer(args: argparse.Namespace, out: Path) -> int:
         *stack(train),
         passive=not args.no_passive,
         mass_range=MASS_RANGE if args.mass_range is None else args.mass_range,
-        prior_weight=args.prior_weight,
+        prior_weight="auto" if args.prior_weight is None else args.prior_weight,
         passive_exponents=args.passive_exponents,
     )
     summary = stage_summary(fit, args.exo, train, val)

@@ -297,7 +297,8 @@ def write_recording(path: str | os.PathLike, ds: Dataset, *, digits: int = 12) -
     """Write ``ds`` in the dataset format, atomically, with the writer of ``path``'s suffix (CSV or NPZ;
     :mod:`pinid.data.registry`).
 
-    CSV values carry ``digits`` significant digits; NPZ keeps full precision.  The output depends only on
+    CSV values carry ``digits`` significant digits, the time as many as its steps need
+    (:func:`time_digits`: epoch time stamps keep their milliseconds); NPZ keeps full precision.  The output depends only on
     the data (no time stamp inside), so the same dataset always gives the same bytes.
     """
     path = Path(path)
@@ -324,9 +325,23 @@ def _write_npz(tmp: Path, names: list[str], data: np.ndarray, digits: int) -> No
                 np.lib.format.write_array(f, np.ascontiguousarray(data[:, i]), allow_pickle=False)
 
 
+def time_digits(t: np.ndarray, digits: int) -> int:
+    """Significant digits the time column ``t`` [s] needs: at least ``digits``, and enough that every
+    time step keeps 7 digits of its own (epoch seconds, t = 1.7e9 in 1 ms steps, need 20: all 17 of a
+    float64, which read back exactly); never more than 17."""
+    steps = np.diff(t)
+    steps = steps[steps > 0]
+    if not steps.size:
+        return digits
+    span = float(np.abs(t).max())
+    need = int(np.ceil(np.log10(max(span / float(steps.min()), 1.0)))) + 7
+    return min(17, max(digits, need))
+
+
 def _write_csv(tmp: Path, names: list[str], data: np.ndarray, digits: int) -> None:
-    """CSV with a header line, ``digits`` significant digits."""
-    fmt = ",".join([f"%.{digits}g"] * data.shape[1])
+    """CSV with a header line, ``digits`` significant digits (the time column: :func:`time_digits`)."""
+    first = time_digits(data[:, 0], digits) if names and names[0] == "t" else digits
+    fmt = ",".join([f"%.{first}g"] + [f"%.{digits}g"] * (data.shape[1] - 1))
     with open(tmp, "w", encoding="utf-8", newline="\n") as f:
         f.write(",".join(names) + "\n")
         chunk = 20000

@@ -38,9 +38,15 @@ from pinid.errors import DataError, SpecError
 from pinid.identification.problem import IdentificationProblem
 from pinid.model.base import BaseParameters
 from pinid.model.regressor import JointTerms, regressor
-from pinid.model.robot import RobotModel
+from pinid.model.robot import INERTIA_TOL, RobotModel
 
 _KEYS = ("link", "mass", "com", "inertia")
+#: Payload masses accepted [kg]: from a gram (lighter ones vanish in the noise and cannot fix the gains)
+#: to ten tonnes (heavier is a unit or typing error).
+PAYLOAD_MASS = (1e-3, 1e4)
+#: Largest distance [m] of the payload's centre of mass from its link frame, per coordinate (also its
+#: radius of gyration bound: each principal moment is at most mass × PAYLOAD_DISTANCE²).
+PAYLOAD_DISTANCE = 10.0
 
 
 @dataclass(frozen=True)
@@ -60,14 +66,34 @@ class Payload:
         unknown = [k for k in d if k not in _KEYS]
         if unknown:
             raise SpecError(f"{origin}: unknown key(s) {unknown}, expected some of {list(_KEYS)}")
+        if not isinstance(d, Mapping):
+            raise SpecError(f"{origin}: expected a table with mass, com and inertia")
         mass = _numbers(d, "mass", 1, origin)[0] if "mass" in d else None
-        if mass is None or mass <= 0:
-            raise SpecError(f"{origin}: mass {d.get('mass')!r}, expected a mass > 0 [kg]")
+        if mass is None or not PAYLOAD_MASS[0] <= mass <= PAYLOAD_MASS[1]:
+            raise SpecError(
+                f"{origin}: mass {d.get('mass')!r}, expected a mass from {PAYLOAD_MASS[0]:g} to {PAYLOAD_MASS[1]:g} kg"
+            )
         com = _numbers(d, "com", 3, origin) if "com" in d else np.zeros(3)
+        if np.abs(com).max() > PAYLOAD_DISTANCE:
+            raise SpecError(
+                f"{origin}: com {com.tolist()}, expected each coordinate within ±{PAYLOAD_DISTANCE:g} m of the link frame"
+            )
         i = _numbers(d, "inertia", 6, origin) if "inertia" in d else np.zeros(6)
         inertia = np.array([[i[0], i[3], i[4]], [i[3], i[1], i[5]], [i[4], i[5], i[2]]])
-        if np.linalg.eigvalsh(inertia)[0] < -1e-12 * max(1.0, np.abs(inertia).max()):
-            raise SpecError(f"{origin}: inertia {i.tolist()} is not positive semi-definite")
+        e = np.linalg.eigvalsh(inertia)
+        tol = INERTIA_TOL * np.abs(e).sum() + 1e-12
+        if e[0] < -tol or e[0] + e[1] < e[2] - tol or e[2] > mass * PAYLOAD_DISTANCE**2:
+            why = (
+                "a negative principal moment"
+                if e[0] < -tol
+                else "one moment larger than the sum of the other two"
+                if e[0] + e[1] < e[2] - tol
+                else f"a moment above mass × ({PAYLOAD_DISTANCE:g} m)²"
+            )
+            raise SpecError(
+                f"{origin}: inertia {i.tolist()} has principal moments {e[0]:.3g}, {e[1]:.3g}, {e[2]:.3g} kg·m² "
+                f"({why}); expected a physical inertia (moments >= 0, each at most the sum of the other two)"
+            )
         link = d.get("link")
         if link is not None and not isinstance(link, str):
             raise SpecError(f"{origin}: link {link!r}, expected a link name")
@@ -110,13 +136,13 @@ class Payload:
 
 def _numbers(d: Mapping, key: str, n: int, origin: str) -> np.ndarray:
     v = d[key]
-    v = [v] if n == 1 and isinstance(v, (int, float)) else v
-    try:
-        a = np.asarray(v, dtype=float).reshape(-1)
-    except (TypeError, ValueError):
-        a = np.array([])
+    v = [v] if n == 1 and not isinstance(v, (list, tuple)) else v
+    ok = isinstance(v, (list, tuple)) and all(
+        isinstance(x, (int, float)) and not isinstance(x, bool) for x in v
+    )  # true is not 1 kg, "2" is not a number
+    a = np.asarray(v, dtype=float).reshape(-1) if ok else np.array([])
     if a.size != n or not np.all(np.isfinite(a)):
-        raise SpecError(f"{origin}: {key} = {v!r}, expected {n} finite number{'s' if n > 1 else ''}")
+        raise SpecError(f"{origin}: {key} = {d[key]!r}, expected {n} finite number{'s' if n > 1 else ''}")
     return a
 
 

@@ -236,31 +236,57 @@ def _items(recordings) -> list:
     return list(recordings) if isinstance(recordings, Iterable) else [recordings]
 
 
-def _key(item):
-    """What makes two recordings the same one: the resolved path, or the Dataset object."""
-    return os.path.realpath(item) if isinstance(item, (str, os.PathLike)) else id(item)
+def _keys(item) -> list[tuple]:
+    """What makes two recordings the same one: the resolved path or the contents (SHA-256) of a file,
+    or the Dataset object."""
+    if not isinstance(item, (str, os.PathLike)):
+        return [("object", id(item))]
+    keys: list[tuple] = [("path", os.path.realpath(item))]
+    try:
+        if os.path.isfile(item):
+            import hashlib
+
+            digest = hashlib.sha256()
+            with open(item, "rb") as f:
+                for block in iter(lambda: f.read(1 << 20), b""):
+                    digest.update(block)
+            keys.append(("content", os.path.getsize(item), digest.hexdigest()))
+    except OSError:  # unreadable: the reader says so with the file's name
+        pass
+    return keys
 
 
-def check_distinct(data, validate=None) -> None:
-    """DataError for a training recording given twice (its rows would count twice: the standard deviations
-    shrink by √2 with no new information); a DataWarning for a validation recording that is also a
-    training one (then the validation error is a training error)."""
+def check_distinct(data, validate=None, *, what: str = "training data") -> None:
+    """DataError for a recording given twice as ``what`` (its rows would count twice: the standard
+    deviations shrink by √2 with no new information), by path (symbolic links resolved) or by content (a
+    copy); the same for a validation recording given twice in one group; a DataWarning for a validation
+    recording that is also a training one (then the validation error is a training error)."""
     from pinid.data.formats import warn
 
-    seen: dict = {}
-    for item in _items(data):
-        k = _key(item)
-        if k in seen:
-            raise DataError(f"{item}: given twice as training data (also {seen[k]}); expected each recording once")
-        seen[k] = item
+    seen = _distinct(_items(data), what)
     groups = validate.values() if isinstance(validate, Mapping) else [validate]
+    for g in groups:
+        _distinct(_items(g), "validation data")
     for item in (i for g in groups for i in _items(g)):
-        if _key(item) in seen:
+        if any(k in seen for k in _keys(item)):
             warn(
                 None,
                 f"{item}: the validation recording is also a training recording, so its error is a "
                 "training error, not a validation; expected a different trajectory",
             )
+
+
+def _distinct(items: list, what: str) -> dict:
+    """``{key: item}`` of ``items``; DataError naming both when two are one recording (:func:`_keys`)."""
+    seen: dict = {}
+    for item in items:
+        for k in _keys(item):
+            if k in seen:
+                how = "" if k[0] != "content" else " (same contents)"
+                raise DataError(f"{item}: given twice as {what} (also {seen[k]}{how}); expected each recording once")
+        for k in _keys(item):
+            seen[k] = item
+    return seen
 
 
 @dataclass
@@ -503,6 +529,7 @@ def _currents_to_torques(model, terms, data, validate, payload, payload_data, ma
             "drive gains need both the payload (--payload FILE) and a recording with it (--payload-data FILE)"
         )
     payload = payload if isinstance(payload, Payload) else Payload.load(payload)
+    check_distinct(payload_data, what="payload data")
     train = load_datasets(data, model, mapping, preprocess, "training")
     loaded = load_datasets(payload_data, model, mapping, preprocess, "payload")
     gains = identify_gains(model, train, loaded, payload, terms=terms, rest_velocity=rest_velocity)

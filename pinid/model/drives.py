@@ -34,6 +34,7 @@ Two sources, with the same meaning of ``matrix`` as a mapping spec's ``[transmis
 from __future__ import annotations
 
 import os
+import re
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -78,6 +79,30 @@ def transmission_from_table(d: Any, origin: str, error: type = SpecError) -> Tra
     except (TypeError, ValueError):
         raise error(f"{origin}: {where} matrix must be a list of rows of numbers") from None
     return checked(Transmission(list(tj), list(tm), R), origin, error)
+
+
+#: What a motor name may hold: letters, digits and ``_ - . / :`` (it becomes parameter names ``<motor>.fc``
+#: and a TOML key; a space, quote, newline or other control character would make both ambiguous).
+MOTOR_NAME = re.compile(r"[A-Za-z0-9_./:-]+")
+
+
+def check_motor_names(motors: Sequence[str], joints: Sequence[str], origin: str) -> None:
+    """SpecError (one line, naming the motor) unless every motor name is valid (:data:`MOTOR_NAME`) and no
+    joint's: with motor terms, ``knee.fc`` of a motor named ``knee`` would clash with the joint's.  Checked
+    when motor terms are used (:func:`pinid.model.terms.layout`), so a URDF whose actuators carry the joints'
+    names still loads and serves every joint-side model."""
+    for m in motors:
+        if not isinstance(m, str) or not MOTOR_NAME.fullmatch(m):
+            raise SpecError(
+                f"{origin}: motor name {m!r} is not allowed with motor terms, expected letters, digits and "
+                "_ - . / : only (it becomes parameter names like '<motor>.fc' and a TOML key)"
+            )
+        if m in joints:
+            raise SpecError(
+                f"{origin}: motor '{m}' has the name of a joint, so with motor terms the parameters '{m}.fc' "
+                f"of the joint and of the motor would clash; expected distinct names: rename the motor "
+                f"(URDF <actuator> or drives file), e.g. '{m}_motor'"
+            )
 
 
 def checked(t: Transmission, origin: str, error: type = SpecError) -> Transmission:

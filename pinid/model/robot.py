@@ -108,6 +108,14 @@ def _check_joint_elements(root: ET.Element, path: Path) -> None:
                 xyz = [float(x) for x in axis.get("xyz").split()]
             except ValueError:
                 xyz = []  # urdfdom says what is wrong with it
+            with np.errstate(over="ignore", invalid="ignore"):
+                squared = float(np.sum(np.square(xyz))) if len(xyz) == 3 else 1.0
+            if not np.isfinite(squared):  # urdfdom normalises by sqrt(x² + y² + z²): inf, the axis becomes 0
+                why = "is not finite" if not np.all(np.isfinite(xyz)) else "has a length that overflows"
+                raise ModelError(
+                    f"{path}: joint '{name}' has axis xyz=\"{axis.get('xyz')}\", which {why}; "
+                    'expected a finite direction (it is normalised), e.g. "0 -1 0"'
+                )
             if len(xyz) == 3 and not np.linalg.norm(xyz) > 1e-12:
                 raise ModelError(
                     f"{path}: joint '{name}' has axis xyz=\"{axis.get('xyz')}\"; expected a non-zero direction"

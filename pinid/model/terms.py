@@ -325,10 +325,16 @@ class TermParameter(NamedTuple):
 
 
 def layout(joints: Sequence[str], motors: Sequence[str], terms: JointTerms | Iterable[str]) -> list[TermParameter]:
-    """The term parameters in order (joint block joint-major, then motor block motor-major)."""
+    """The term parameters in order (joint block joint-major, then motor block motor-major).  With motor
+    terms, SpecError for a motor name that is not allowed or is a joint's (their parameters would clash:
+    :func:`pinid.model.drives.check_motor_names`)."""
+    from pinid.model.drives import check_motor_names
+
     terms = terms if isinstance(terms, JointTerms) else JointTerms(names=terms)
     if terms.motor and not motors:
         raise ValueError(f"motor term(s) {[t.name for t in terms.motor]} need drives (none given)")
+    if terms.motor:
+        check_motor_names(motors, joints, "drives")
     out = [TermParameter(f"{j}.{t.suffix}", t, i) for i, j in enumerate(joints) for t in terms.joint]
     out += [TermParameter(f"{m}.{t.suffix}", t, i) for i, m in enumerate(motors) for t in terms.motor]
     return out
@@ -341,6 +347,10 @@ def _motors(robot) -> list[str]:
 
 def robot_layout(robot, terms: JointTerms) -> list[TermParameter]:
     """:func:`layout` for a RobotModel (its joints and its drives' motors); ModelError if motor terms have no drives."""
+    if terms.motor and _motors(robot):
+        from pinid.model.drives import check_motor_names
+
+        check_motor_names(_motors(robot), robot.joint_names, robot.drives.origin)
     try:
         return layout(robot.joint_names, _motors(robot), terms)
     except ValueError as exc:

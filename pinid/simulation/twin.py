@@ -697,6 +697,7 @@ def _simulate(
             bar.close()
     if np.any(np.abs(true_q.ravel()) > 1e6):  # pragma: no cover - diverged without NaN
         raise DataError("simulation diverged; expected a stable closed loop (lower the bandwidth)")
+    check_tracking(model, true_q, tr.evaluate(rec_t)[0])
 
     # sensors
     peak = np.max(np.abs(true_tau), axis=0)
@@ -791,6 +792,47 @@ def _simulate(
             },
         }
     return recording, truth
+
+
+#: How far [rad or m] beyond a joint limit, as a fraction of the limits' range, the plant may go before the
+#: twin calls the run failed (a tracking loop overshoots a little where the trajectory touches a limit).
+LIMIT_OVERSHOOT = 0.25
+#: Largest tracking error [rad, or m for a prismatic joint] of a run the twin accepts (on joints without
+#: limits; half a turn: the controller has lost the trajectory).
+TRACKING_ERROR_MAX = np.pi
+
+
+def check_tracking(model, q: np.ndarray, q_desired: np.ndarray) -> None:
+    """DataError (one line) when the plant's positions ``q`` (N, nv) left a joint's limits by more than
+    :data:`LIMIT_OVERSHOOT` × their range, or left ``q_desired`` by more than :data:`TRACKING_ERROR_MAX`:
+    the recording would not show the trajectory asked for (the model cannot be held by its controller:
+    a link kilometres long, a mass or inertia off by orders of magnitude, effort limits too low)."""
+    lo, hi = model.lower, model.upper
+    bounded = np.isfinite(lo) & np.isfinite(hi) & (hi > lo)
+    margin = np.where(bounded, LIMIT_OVERSHOOT * np.where(bounded, hi - lo, 0.0), np.inf)
+    beyond = np.maximum(lo - q, q - hi)
+    err = np.abs(q - q_desired).max(axis=0)
+    bad = np.flatnonzero(np.any(beyond > margin, axis=0) | (err > TRACKING_ERROR_MAX))
+    if not bad.size:
+        return
+    j = int(bad[np.argmax(err[bad])])
+    name = model.joint_names[j]
+    where = (
+        f"reached {q[np.argmax(beyond[:, j]), j]:.4g}, outside its limits [{lo[j]:.4g}, {hi[j]:.4g}]"
+        if bounded[j] and beyond[:, j].max() > margin[j]
+        else f"is {err[j]:.4g} off the trajectory"
+    )
+    pm = model.pin_model
+    offsets = [float(np.linalg.norm(pm.jointPlacements[i].translation)) for i in range(1, pm.njoints)]
+    k = int(np.argmax(offsets))
+    hint = (
+        f"; joint '{model.joint_names[k]}' sits {offsets[k]:.3g} m from its parent joint" if offsets[k] > 10.0 else ""
+    )
+    raise DataError(
+        f"simulation failed to track the trajectory: joint '{name}' {where} (tracking error up to "
+        f"{err[j]:.3g}){hint}; expected a model its controller can hold: check the URDF's joint origins, "
+        "masses, inertias and effort limits"
+    )
 
 
 #: Frequency band [Hz] of the wearer's involuntary active torque (slow, voluntary-like movement).

@@ -54,6 +54,18 @@ def parse_attach(text: str) -> list[tuple[str, str]]:
         if not item or not sep or not point.strip() or not seg.strip():
             raise SpecError(f"--attach {item!r}: expected POINT:SEGMENT, e.g. hip:thigh,knee:shank")
         pairs.append((point.strip(), seg.strip()))
+    return check_pairs(pairs)
+
+
+def check_pairs(pairs) -> list[tuple[str, str]]:
+    """``pairs`` as a list of (point, segment) name pairs, each segment one of :data:`LEG_SEGMENTS` and
+    attached once (two ``wearer_thigh`` links would make a URDF nothing loads); SpecError otherwise."""
+    try:
+        pairs = [tuple(p) for p in pairs]
+    except TypeError:
+        pairs = []
+    if not pairs or not all(len(p) == 2 and all(isinstance(x, str) for x in p) for p in pairs):
+        raise SpecError(f"--attach {pairs!r}: expected (point, segment) pairs of names, e.g. hip:thigh,knee:shank")
     segs = [s for _, s in pairs]
     for s in segs:
         if s not in LEG_SEGMENTS:
@@ -148,8 +160,11 @@ def wearer_urdf(
     """
     from pinid.model.bundled import resolve_robot
 
-    pairs = parse_attach(attach) if isinstance(attach, str) else list(attach)
+    from pinid.model.robot import RobotModel
+
+    pairs = parse_attach(attach) if isinstance(attach, str) else check_pairs(attach)
     file, _ = resolve_robot(urdf)
+    RobotModel.from_urdf(file)  # the exo must load (no NaN origin, mimic joint, lower > upper …): ModelError
     try:
         root = ET.fromstring(
             file.read_text(encoding="utf-8"), parser=ET.XMLParser(target=ET.TreeBuilder(insert_comments=True))
@@ -195,11 +210,33 @@ def wearer_urdf(
         ET.SubElement(joint, "origin", xyz="0 0 0", rpy="0 0 0")
     ET.indent(root, space="  ")
     text = '<?xml version="1.0"?>\n' + ET.tostring(root, encoding="unicode") + "\n"
+    _check_loads(text, file)
     if path is not None:
         from pinid.io import write_text
 
         write_text(path, text)
     return text
+
+
+def _check_loads(text: str, source) -> None:
+    """ModelError unless pinid loads the exo + wearer URDF ``text`` it is about to return (never write a
+    URDF nothing else loads)."""
+    import tempfile
+    from pathlib import Path
+
+    from pinid.errors import ModelError
+    from pinid.model.robot import RobotModel
+
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "wearer.urdf"
+        path.write_text(text, encoding="utf-8")
+        try:
+            RobotModel.from_urdf(path)
+        except ModelError as exc:
+            raise ModelError(
+                f"{source}: the URDF with the wearer would not load ({str(exc).replace(str(path), 'URDF')}); "
+                "not written"
+            ) from None
 
 
 def wearer_links(urdf_text: str) -> dict[str, tuple[str, float, np.ndarray, np.ndarray]]:

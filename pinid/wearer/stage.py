@@ -139,6 +139,61 @@ def compress(W: np.ndarray, y: np.ndarray, block: int = 20000) -> tuple[np.ndarr
     return acc[:, :-1], acc[:, -1]
 
 
+#: Largest difference [m, or rad for an axis] between a joint's placement or axis in the stage-1 model
+#: and in the exo + wearer URDF for both to describe one exoskeleton (``pinid wearer`` copies them exactly).
+KINEMATICS_TOLERANCE = 1e-9
+
+
+def check_stage1(exo, robot: RobotModel, origin: str = "stage-1 model") -> None:
+    """SpecError (one line) unless the stage-1 model ``exo`` is physically consistent and describes the
+    exoskeleton of ``robot`` (the exo + wearer URDF): same robot name, joints (names, order, kinds),
+    joint placements and axes (within :data:`KINEMATICS_TOLERANCE`).  Stage 2 subtracts the exo's torque
+    as given: an inconsistent or foreign exo would be absorbed, silently, into the wearer's parameters."""
+    if not exo.physically_consistent:
+        from pinid.model.physical import check_consistency
+
+        problems = check_consistency(exo.theta, exo.joint_names, exo.terms.names, exo.robot.motor_names).problems
+        raise SpecError(
+            f"{origin} is not physically consistent ({'; '.join(problems) or 'stored as inconsistent'}); "
+            "stage 2 needs a consistent exoskeleton, e.g. stage 1's model_sdp.json"
+        )
+    if exo.robot.name != robot.name:
+        raise SpecError(
+            f"{origin} is of robot '{exo.robot.name}', the URDF of robot '{robot.name}'; expected the stage-1 "
+            "model of the exoskeleton the wearer URDF was made from (pinid wearer)"
+        )
+    if robot.joint_names != exo.joint_names:
+        raise SpecError(f"{origin}: joints {exo.joint_names} differ from the wearer URDF's {robot.joint_names}")
+    a, b = exo.robot.pin_model, robot.pin_model
+    axes_a, axes_b = _axes(a), _axes(b)
+    for i, name in enumerate(robot.joint_names, start=1):
+        pa, pb = a.jointPlacements[i], b.jointPlacements[i]
+        same = (
+            axes_a[i - 1].shape == axes_b[i - 1].shape
+            and np.abs(axes_a[i - 1] - axes_b[i - 1]).max() <= KINEMATICS_TOLERANCE
+            and np.abs(pa.translation - pb.translation).max() <= KINEMATICS_TOLERANCE
+            and np.abs(pa.rotation - pb.rotation).max() <= KINEMATICS_TOLERANCE
+        )
+        if not same:
+            raise SpecError(
+                f"{origin}: joint '{name}' has another placement or axis than in the wearer URDF; expected the "
+                "stage-1 model of the exoskeleton the wearer URDF was made from (pinid wearer)"
+            )
+
+
+def _axes(model) -> list[np.ndarray]:
+    """Per joint of a Pinocchio model, its motion subspace at the neutral configuration (the axis)."""
+    import pinocchio as pin
+
+    q = pin.neutral(model)
+    out = []
+    for joint in list(model.joints)[1:]:
+        data = joint.createData()
+        joint.calc(data, q)
+        out.append(np.asarray(data.S, dtype=float))
+    return out
+
+
 def identify_wearer(
     exo,
     prior_urdf,
@@ -163,10 +218,10 @@ def identify_wearer(
     """
     from pinid.identification.identified import IdentifiedModel
 
+    origin = "stage-1 model" if isinstance(exo, IdentifiedModel) else f"{exo}: stage-1 model"
     exo = exo if isinstance(exo, IdentifiedModel) else IdentifiedModel.load(exo)
     robot = prior_urdf if isinstance(prior_urdf, RobotModel) else RobotModel.from_urdf(prior_urdf)
-    if robot.joint_names != exo.joint_names:
-        raise SpecError(f"prior URDF joints {robot.joint_names} differ from the stage-1 model's {exo.joint_names}")
+    check_stage1(exo, robot, origin)
     if passive_exponents and not passive:
         raise SpecError("passive_exponents needs the passive moments (passive=True): the exponents are theirs")
     if prior_weight != "auto" and (isinstance(prior_weight, str) or not prior_weight >= 0):
