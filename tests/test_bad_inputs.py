@@ -7,7 +7,6 @@ import os
 import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -265,12 +264,18 @@ def test_interrupted_run_leaves_nothing(tmp_path):
         # a test runner started in the background inherits SIGINT ignored, and Python
         # then installs no KeyboardInterrupt handler: give the child the default back
         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+        # progress lines on: the first one is the marker that the simulation runs (a fixed sleep raced the
+        # imports under load, and a progress line printed before the signal then broke "one line")
+        env={**os.environ, "PINID_PROGRESS": "1", "PYTHONUNBUFFERED": "1"},
     )
-    time.sleep(4.0)
+    first = proc.stderr.readline()
+    assert first.startswith("pinid: simulate"), first
     proc.send_signal(signal.SIGINT)
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 2, err
-    assert "Traceback" not in err and len(err.strip().splitlines()) == 1, err
+    *progress, last = err.strip().splitlines()
+    assert "Traceback" not in err and all(line.startswith("pinid: simulate") for line in progress), err
+    assert last.startswith("pinid simulate: interrupted"), err
     _no_files(tmp_path)
 
 
