@@ -491,3 +491,29 @@ def test_flex_output_option_is_o_like_every_command_and_out_still_works(tmp_path
     assert proc.returncode != 0 and "deprecated" in proc.stderr  # the warning is there (made an error here)
     assert run_cli("flex", "twin", "--spec", str(sp), "--out", str(b), "--seed", "3").returncode == 0
     assert a.read_bytes() == b.read_bytes()
+
+
+@pytest.mark.slow
+def test_flex_help_examples_run_from_any_folder(tmp_path):
+    """--spec takes a bundled spec's name (as --urdf and --excitation take theirs): the help's examples run in
+    an empty folder, not only at the repository's root (the fits shortened by --population/--iterations)."""
+    from pinid.cli.main import build_parser
+    from pinid.resources import bundled_flex_specs
+
+    assert "tracker_flex_spec" in bundled_flex_specs()
+    sub = next(a for a in build_parser()._actions if a.__class__.__name__ == "_SubParsersAction")
+    examples = sub.choices["flex"].format_help().split("\nexamples:\n")[1].split("\n\n")[0].splitlines()
+    short = {"fit": ["--population", "6", "--iterations", "2", "--max-nfev", "3"]}
+    ran = []
+    for line in examples:
+        argv = line.split()[1:]
+        if argv[1] == "compare":
+            continue  # compare runs two fits of the spec's size (minutes): its --spec is the same lookup
+        assert argv[argv.index("--spec") + 1] == "tracker_flex_spec", line
+        proc = run_cli(*argv, *short.get(argv[1], []), cwd=tmp_path)
+        assert proc.returncode == 0, (line, proc.stderr)
+        ran.append(argv[1])
+    assert ran == ["check", "twin", "fit", "fit"]
+    assert {"tracker_twin.csv", "fit.json", "polished.json"} <= {p.name for p in tmp_path.iterdir()}
+    assert_clean_error(run_cli("flex", "check", "--spec", "no_such_spec", cwd=tmp_path), "tracker_flex_spec")
+    assert load_flex_spec("tracker_flex_spec.toml").source == load_flex_spec("tracker_flex_spec").source

@@ -57,7 +57,7 @@ train.csv, validate.csv (+ .truth.json each), identification/ (identification.js
 identified_*.urdf, report.md, report.html, figures), track/ (tracking.json, figures).  Takes about
 half a minute.
 
-example:
+examples:
   pinid demo
   pinid demo -o /tmp/pinid-demo --seed 3
 """

@@ -11,14 +11,14 @@ import numpy as np
 from pinid.cli.common import seed_int
 from pinid.errors import SpecError
 from pinid.io import Artefacts, check_outputs, json_text
-from pinid.model.bundled import BUNDLED_URDF_DIR
 
 HELP = "flexible joints: simulate a twin, fit spring/damper/motor parameters by output error, rigid vs flexible"
 DESCRIPTION = """\
 Joints driven through belts, cables or series-elastic actuators (seed 003): a motor drives the link through
 a nonlinear spring K1·Δ + K2·Δ³ and a damper C, with motor inertia Jm, damping Bm, friction fv, fc.
 Everything is read from a TOML spec (URDF, drives, bounds of the free parameters, truth of the twin, its
-input, fit settings): see excitation/tracker_flex_spec.toml and docs/flexible.md.
+input, fit settings): --spec takes a file or the name of a bundled spec (tracker_flex_spec, the default,
+which documents every key: pinid/resources/excitation/tracker_flex_spec.toml); see docs/flexible.md.
 
 actions:
   check    print the drives, the free parameters, the RK4 step, and which parameters the spec's
@@ -31,21 +31,25 @@ actions:
            JSON result and optionally a figure of measured and simulated angles
 
 examples:
-  pinid flex check --spec excitation/tracker_flex_spec.toml
-  pinid flex twin --spec excitation/tracker_flex_spec.toml -o tracker_twin.csv
-  pinid flex fit --spec excitation/tracker_flex_spec.toml --data tracker_twin.csv --method pso -o fit.json
-  pinid flex fit --spec excitation/tracker_flex_spec.toml --method least_squares --x0 fit.json -o polished.json
-  pinid flex compare --spec excitation/tracker_flex_spec.toml -o cmp.json --plot cmp.png
+  pinid flex check --spec tracker_flex_spec
+  pinid flex twin --spec tracker_flex_spec -o tracker_twin.csv
+  pinid flex fit --spec tracker_flex_spec --data tracker_twin.csv --method pso -o fit.json
+  pinid flex fit --spec tracker_flex_spec --method least_squares --x0 fit.json -o polished.json
+  pinid flex compare --spec tracker_flex_spec -o cmp.json --plot cmp.png
 """
 
-DEFAULT_SPEC = "excitation/tracker_flex_spec.toml"
+DEFAULT_SPEC = "tracker_flex_spec"
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     sub = p.add_subparsers(dest="action", metavar="ACTION", required=True)
 
     def common(q: argparse.ArgumentParser) -> None:
-        q.add_argument("--spec", default=None, help=f"flexible-joint spec (TOML); default {DEFAULT_SPEC} of pinid")
+        q.add_argument(
+            "--spec",
+            default=None,
+            help=f"flexible-joint spec: a TOML file or a bundled spec's name; default {DEFAULT_SPEC} (bundled)",
+        )
 
     def data_opts(q: argparse.ArgumentParser) -> None:
         q.add_argument(
@@ -145,12 +149,7 @@ def _output(p: argparse.ArgumentParser, metavar: str, text: str) -> None:
 def _spec(args):
     from pinid.flexible.output_error import load_flex_spec  # deferred (see above)
 
-    path = args.spec
-    if path is None:
-        path = BUNDLED_URDF_DIR.parent / DEFAULT_SPEC
-        if not path.is_file():
-            raise SpecError(f"no --spec given and the default {DEFAULT_SPEC} is not installed; give --spec")
-    return load_flex_spec(path)
+    return load_flex_spec(DEFAULT_SPEC if args.spec is None else args.spec)
 
 
 def _recording(args, spec, *, motor: bool = True):

@@ -54,7 +54,7 @@ Rows where a joint is nearly at rest are left out of the fit when Coulomb fricti
 (--rest-velocity).  Methods: ols (least squares), wls (each joint weighted by 1/its residual
 variance), sdp (physically consistent least squares, pseudo-inertia LMI, Clarabel).
 
-example:
+examples:
   pinid identify --urdf urdf/exo_leg.urdf --data run1.csv --data run2.csv --validate run3.csv -o results/
   pinid identify --urdf double_pendulum.urdf --mapping docs/examples/double_pendulum.toml \\
       --data trajectory_00.csv --validate trajectory_01.csv --terms fc,fv,armature --methods ols,sdp

@@ -22,11 +22,11 @@ inside the joint limits).  Simulates the closed loop with each controller and pr
 error per joint (RMS and max after the start-up, settling time).  Writes FOLDER/tracking.json and
 FOLDER/tracking_<controller>.png.
 
-example:
+examples:
   pinid track --urdf-true urdf/exo_leg.urdf --model results/identification.json -o results/track
   pinid track --urdf-true exo_leg --model nominal --model results/model_sdp.json --seconds 8
   pinid track --urdf-true exo_leg --model cad:30 --model results/identification.json
-  pinid track --urdf-true exo_with_wearer.urdf --wearer-draw --seed 2 --model results_exo/model_sdp.json \
+  pinid track --urdf-true exo_with_wearer.urdf --wearer-draw --seed 2 --model results_exo/model_sdp.json \\
       --model results_wearer/model_table.json --model results_wearer/model_wearer.json
 """
 
