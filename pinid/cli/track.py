@@ -19,7 +19,8 @@ Reads the "true" leg (--urdf-true: URDF with its friction in <dynamics>), the co
 ignored, as a CAD model would be —, a URDF, results/model_<method>.json or results/identification.json), and a
 reference (--reference: a trajectory JSON from pinid excite, or 'sine' — seed 001's 4 s sinusoid, kept
 inside the joint limits).  Simulates the closed loop with each controller and prints the tracking
-error per joint (RMS and max after the start-up, settling time).  Writes FOLDER/tracking.json and
+error per joint (RMS and max after the start-up, settling time and the band it settles into: 2 % of
+the joint's reference range, at least 1 mrad).  Writes FOLDER/tracking.json and
 FOLDER/tracking_<controller>.png.
 
 examples:
