@@ -96,3 +96,59 @@ def test_track_table_prints_the_settling_band():
     header, _, row = table.splitlines()
     assert "settle [s]" in header and "band [mrad]" in header
     assert row.split()[-2:] == ["0.00", "20"], row
+
+
+def test_identify_checks_its_inputs_before_saying_what_it_identifies(tmp_path):
+    """A bad input gives the one error line on stderr and nothing on stdout: no "identifying …" first."""
+    from conftest import assert_clean_error, run_cli
+
+    bad = tmp_path / "run.csv"
+    bad.write_text("t,q_hip,q_knee,tau_hip\n0,0,0,0\n0.001,0,0,0\n")  # tau_knee missing
+    proc = run_cli("identify", "--data", str(bad), "--methods", "ols", "-o", str(tmp_path / "out"))
+    assert_clean_error(proc, "run.csv")
+    assert proc.stdout == "", proc.stdout
+    assert not (tmp_path / "out").exists()
+
+
+def test_simulate_summary_of_a_six_joint_arm_is_wrapped_and_aligned():
+    """pinid simulate on the UR5: not one 330-column line but labelled blocks within 100 columns, every
+    continuation starting where the first line's items start."""
+    from types import SimpleNamespace
+
+    from pinid.simulation.outputs import simulation_text
+
+    joints = ["shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint", "wrist_2_joint"]
+    joints.append("wrist_3_joint")
+    truth = {
+        "tracking": {"rms_error": {j: 1.234e-4 * (k + 1) for k, j in enumerate(joints)}},
+        "rates": {"sample": 5000},
+        "standard": {"names": ["x"] * 72},
+        "base": {"names": ["x"] * 36},
+    }
+    text = simulation_text(SimpleNamespace(n=26000, joints=joints), truth, "data/ur5_train.csv")
+    lines = text.splitlines()
+    assert max(map(len, lines)) <= 100, text
+    assert lines[0] == "wrote data/ur5_train.csv (26000 samples at 5000 Hz)" and lines[-1].startswith("wrote ")
+    block = lines[1:-1]
+    column = len(block[0]) - len(block[0][2:].split("  ", 1)[1].lstrip())  # where the items start
+    assert all(line[:column].strip() in ("", "joints", "tracking error rms [rad]") for line in block), text
+    assert all(line[column] != " " and line[column - 1] == " " for line in block), text
+    for j in joints:  # every joint named once per block, never split
+        assert sum(line.count(j) for line in block) == 2, (j, text)
+    two = {**truth, "tracking": {"rms_error": {"hip": 1e-4, "knee": 2e-4}}}
+    text = simulation_text(SimpleNamespace(n=6000, joints=["hip", "knee"]), two, "run.csv")
+    assert text.splitlines()[1:3] == [
+        f"  {'joints':<26}hip, knee",
+        f"  {'tracking error rms [rad]':<26}hip 0.0001, knee 0.0002",
+    ]
+
+
+def test_demo_summary_continuation_is_aligned():
+    """The demo's closing list: each description, continuation lines included, starts in one column."""
+    from pinid.cli.demo import summary_text
+
+    for out in ("demo", "/tmp/a/much/longer/folder"):
+        lines = summary_text(out).splitlines()
+        starts = {len(line) - len(line.lstrip()) if line.startswith("   ") else _starts(line)[1] for line in lines}
+        assert len(starts) == 1, summary_text(out)
+        assert any(line.startswith(" " * 10) for line in lines)  # the continuation line is there

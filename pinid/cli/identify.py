@@ -200,12 +200,16 @@ def run(args: argparse.Namespace) -> int:
     methods = methods_from_args(args)
     model = robot_from_args(args)
     terms = terms_from_args(args)
-    print(
-        f"identifying {model.name} ({', '.join(model.joint_names)}) with {', '.join(methods)}; "
-        f"terms {', '.join(terms.names) or 'none'}"
-    )
-    if not (args.no_report or args.no_figures):
-        start_figure_workers()  # they load matplotlib while this process identifies
+
+    def started() -> None:  # the inputs are read and checked: say what runs
+        print(
+            f"identifying {model.name} ({', '.join(model.joint_names)}) with {', '.join(methods)}; "
+            f"terms {', '.join(terms.names) or 'none'}",
+            flush=True,
+        )
+        if not (args.no_report or args.no_figures):
+            start_figure_workers()  # they load matplotlib while this process identifies
+
     ident = identify(
         model,
         args.data,
@@ -221,6 +225,7 @@ def run(args: argparse.Namespace) -> int:
         payload_data=args.payload_data,
         stribeck_velocity=args.stribeck_velocity,
         stribeck_shape=args.stribeck_shape,
+        started=started,
     )
     print(identification_text(ident, verbose=args.verbose))
     written = write_identification(

@@ -16,7 +16,7 @@ from __future__ import annotations
 import os
 import time
 from dataclasses import dataclass, field
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 
 import numpy as np
 
@@ -284,6 +284,7 @@ def identify(
     payload_data: Dataset | str | os.PathLike | Iterable | None = None,
     stribeck_velocity: float | str | Mapping | None = None,
     stribeck_shape: float | str | Mapping | None = None,
+    started: Callable[[], None] | None = None,
 ) -> Identification:
     """Identify ``model``'s dynamic parameters from recordings with several methods; validate; compare.
 
@@ -303,7 +304,9 @@ def identify(
     ``stribeck_velocity`` [rad/s], ``stribeck_shape``: the shape of the Stribeck terms (``fs``,
     ``motor_fs``; :func:`pinid.model.terms.stribeck_settings`), default the model's (``model.stribeck``)
     or 0.1 rad/s and 2; ``"auto"`` fits the velocity (and the shape: :mod:`pinid.identification.stribeck`).  The shapes
-    used are in ``data["stribeck"]`` and in the saved robot.
+    used are in ``data["stribeck"]`` and in the saved robot.  ``started``: called once the inputs are read
+    and checked, before the first method runs (the CLI says what it identifies then, so that a bad input
+    prints only its error).
 
     Returns an :class:`~pinid.identification.result.Identification`; ``result.model`` is the best
     result's :class:`~pinid.identification.identified.IdentifiedModel`, ``result["sdp"]`` one method's result.
@@ -337,6 +340,8 @@ def identify(
         show_progress=show_progress,
         stribeck_auto=auto,
     )
+    if started is not None:
+        started()
     fits = run_jobs(s, [(m, None, options.get(m, {})) for m in methods], complete=complete, show_progress=show_progress)
     results = {f.method: f.result for f in fits}
     values = {m: r.base for m, r in results.items()}
