@@ -318,7 +318,7 @@ def test_cli_bad_spec_is_one_line(tmp_path):
         .replace('urdf = "../urdf/', f'urdf = "{ROOT}/urdf/')
     )
     out = tmp_path / "fit.json"
-    assert_clean_error(run_cli("flex", "fit", "--spec", str(q), "--out", str(out)), "base.K1", "stiffness")
+    assert_clean_error(run_cli("flex", "fit", "--spec", str(q), "-o", str(out)), "base.K1", "stiffness")
     assert not out.exists()
 
 
@@ -388,7 +388,7 @@ def test_cli_twin_fit_compare(spec, tmp_path):
     sp = tmp_path / "s.toml"
     sp.write_text(text)
     rec = tmp_path / "rec.csv"
-    p = run_cli("flex", "twin", "--spec", str(sp), "--out", str(rec), "--seed", "3")
+    p = run_cli("flex", "twin", "--spec", str(sp), "-o", str(rec), "--seed", "3")
     assert p.returncode == 0, p.stderr
     assert rec.exists() and (tmp_path / "rec.csv.json").exists()
     out, fig = tmp_path / "fit.json", tmp_path / "fit.png"
@@ -405,7 +405,7 @@ def test_cli_twin_fit_compare(spec, tmp_path):
         "6",
         "--iterations",
         "2",
-        "--out",
+        "-o",
         str(out),
         "--plot",
         str(fig),
@@ -428,7 +428,7 @@ def test_cli_twin_fit_compare(spec, tmp_path):
         "--max-nfev",
         "2",
         "--rigid",
-        "--out",
+        "-o",
         str(tmp_path / "rigid.json"),
     )
     assert p.returncode == 2 and "--x0 truth" in p.stderr  # the rigid model has no truth
@@ -445,7 +445,7 @@ def test_cli_twin_fit_compare(spec, tmp_path):
         "--iterations",
         "2",
         "--no-polish",
-        "--out",
+        "-o",
         str(cmp_),
         "--plot",
         str(tmp_path / "cmp.png"),
