@@ -517,3 +517,16 @@ def test_flex_help_examples_run_from_any_folder(tmp_path):
     assert {"tracker_twin.csv", "fit.json", "polished.json"} <= {p.name for p in tmp_path.iterdir()}
     assert_clean_error(run_cli("flex", "check", "--spec", "no_such_spec", cwd=tmp_path), "tracker_flex_spec")
     assert load_flex_spec("tracker_flex_spec.toml").source == load_flex_spec("tracker_flex_spec").source
+
+
+def test_flex_force_and_progress_before_or_after_the_action():
+    """pinid flex --force twin … and pinid flex twin --force … both force (the action's default used to undo
+    the command's); the same for --no-progress."""
+    from pinid.cli.main import build_parser
+
+    parser = build_parser()
+    for argv in (["flex", "--force", "--no-progress", "twin"], ["flex", "twin", "--force", "--no-progress"]):
+        args = parser.parse_args([*argv, "-o", "x.csv"])
+        assert args.force is True and args.progress is False, argv
+    args = parser.parse_args(["flex", "twin", "-o", "x.csv"])
+    assert args.force is False and args.progress is None

@@ -96,7 +96,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     t.add_argument("--noise", type=float, default=None, help="noise on every angle [rad] (default: the spec's)")
     t.add_argument("--seed", type=seed_int, default=None, help="noise seed (default: the spec's)")
     t.add_argument("--no-motor", action="store_true", help="do not record motor angles")
-    t.add_argument("--force", action="store_true", help="overwrite the output")
+    # --force before or after the action (pinid flex --force twin): the action's own default is left out
+    t.add_argument("--force", action="store_true", default=argparse.SUPPRESS, help="overwrite the output")
 
     f = sub.add_parser("fit", help="fit the free parameters by output error")
     common(f)
@@ -112,7 +113,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     _output(f, "JSON", "result to write")
     f.add_argument("--plot", default=None, metavar="PNG", help="also plot measured and simulated angles")
-    f.add_argument("--force", action="store_true", help="overwrite outputs")
+    f.add_argument("--force", action="store_true", default=argparse.SUPPRESS, help="overwrite outputs")
 
     m = sub.add_parser("compare", help="rigid vs flexible on one recording (seed 003 Figs. 6-7)")
     common(m)
@@ -123,7 +124,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     _output(m, "JSON", "result to write")
     m.add_argument("--plot", default=None, metavar="PNG", help="also plot measured and simulated angles")
-    m.add_argument("--force", action="store_true", help="overwrite outputs")
+    m.add_argument("--force", action="store_true", default=argparse.SUPPRESS, help="overwrite outputs")
 
 
 # ---------------------------------------------------------------------------------------------- helpers
