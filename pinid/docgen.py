@@ -158,6 +158,7 @@ def api_reference() -> str:
         "",
         "A typical script:",
         "",
+        "<!-- snippet: skip (a sketch: the design takes about 30 s; run1.csv and run2.csv stand for recordings) -->",
         "```python",
         "import pinid",
         "from pinid.excitation.design import design_excitation",

@@ -7,7 +7,6 @@ import os
 import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -178,21 +177,21 @@ def test_output_folder_not_writable(tmp_path, good_csv):
     blocker = tmp_path / "file"
     blocker.write_text("I am a file")
     proc = run_cli(
-        "simulate", "--excitation", "seed000-1", "--urdf", "apal_leg", "--seconds", "1", "-o", str(blocker / "run.csv")
+        "simulate", "--excitation", "zha2019-1", "--urdf", "apal_leg", "--seconds", "1", "-o", str(blocker / "run.csv")
     )
     assert_clean_error(proc, "file")
     assert blocker.read_text() == "I am a file"
 
 
 def test_output_path_is_a_folder(tmp_path):
-    proc = run_cli("simulate", "--excitation", "seed000-1", "--urdf", "apal_leg", "--seconds", "1", "-o", str(tmp_path))
+    proc = run_cli("simulate", "--excitation", "zha2019-1", "--urdf", "apal_leg", "--seconds", "1", "-o", str(tmp_path))
     assert_clean_error(proc, "folder")
 
 
 @pytest.mark.parametrize(
     "name, command",
     [
-        ("run.csv", ["simulate", "--excitation", "seed000-1", "--urdf", "apal_leg", "--seconds", "1", "-o", "{out}"]),
+        ("run.csv", ["simulate", "--excitation", "zha2019-1", "--urdf", "apal_leg", "--seconds", "1", "-o", "{out}"]),
         ("info.json", ["info", "--urdf", "exo_leg", "--json", "{out}"]),
         ("tracking.json", ["track", "--seconds", "1", "--after", "0", "-o", "{folder}"]),
     ],
@@ -219,7 +218,7 @@ def test_existing_identification_is_not_replaced(tmp_path, good_csv):
 @pytest.mark.parametrize(
     "args, fragment",
     [
-        (["simulate", "--excitation", "seed000-1", "--urdf", "apal_leg", "--seconds", "-1"], "duration"),
+        (["simulate", "--excitation", "zha2019-1", "--urdf", "apal_leg", "--seconds", "-1"], "duration"),
         (["simulate", "--excitation", "nowhere.json", "--seconds", "1"], "nowhere.json"),
         (["simulate", "--excitation", "seed000-9", "--urdf", "apal_leg", "--seconds", "1"], "seed000-9"),
         (["track", "--reference", "nowhere.json", "--seconds", "1", "--after", "0"], "nowhere.json"),
@@ -251,7 +250,7 @@ def test_interrupted_run_leaves_nothing(tmp_path):
             "pinid.cli",
             "simulate",
             "--excitation",
-            "seed000-1",
+            "zha2019-1",
             "--urdf",
             "apal_leg",
             "--seconds",
@@ -265,12 +264,18 @@ def test_interrupted_run_leaves_nothing(tmp_path):
         # a test runner started in the background inherits SIGINT ignored, and Python
         # then installs no KeyboardInterrupt handler: give the child the default back
         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+        # progress lines on: the first one is the marker that the simulation runs (a fixed sleep raced the
+        # imports under load, and a progress line printed before the signal then broke "one line")
+        env={**os.environ, "PINID_PROGRESS": "1", "PYTHONUNBUFFERED": "1"},
     )
-    time.sleep(4.0)
+    first = proc.stderr.readline()
+    assert first.startswith("pinid: simulate"), first
     proc.send_signal(signal.SIGINT)
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 2, err
-    assert "Traceback" not in err and len(err.strip().splitlines()) == 1, err
+    *progress, last = err.strip().splitlines()
+    assert "Traceback" not in err and all(line.startswith("pinid: simulate") for line in progress), err
+    assert last.startswith("pinid simulate: interrupted"), err
     _no_files(tmp_path)
 
 

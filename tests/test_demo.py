@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 
 import pytest
 
@@ -103,6 +104,44 @@ def test_every_command_help_says_what_it_reads_writes_and_shows_an_example():
     sub = next(a for a in parser._actions if a.__class__.__name__ == "_SubParsersAction")
     for name, p in sub.choices.items():
         text = p.format_help()
-        assert "example" in text, name
+        assert "\nexamples:\n  pinid " + name in text and "\nexample:\n" not in text, name  # one spelling
         assert "read" in text.lower() or "Reads" in text, name
         assert "writ" in text.lower(), name
+        assert "--progress, --no-progress" in text, name  # as pinid --help says: every command takes it
+        examples = text.split("\nexamples:\n", 1)[1].split("\n\n", 1)[0].splitlines()
+        for k, line in enumerate(examples):  # one command a line, or continued with a backslash
+            assert line.startswith("  pinid " + name) or examples[k - 1].endswith(" \\"), (name, line)
+            assert "   " not in line.strip(), (name, line)  # no collapsed line continuation
+
+
+def _helps() -> dict[str, str]:
+    """Every help text: pinid, each command, each action of a command with actions (pinid flex fit)."""
+    from pinid.cli.main import build_parser
+
+    parser = build_parser()
+    out = {"pinid": parser.format_help()}
+    todo = [("pinid", parser)]
+    while todo:
+        prefix, p = todo.pop()
+        for a in p._actions:
+            if a.__class__.__name__ == "_SubParsersAction":
+                for name, child in a.choices.items():
+                    out[f"{prefix} {name}"] = child.format_help()
+                    todo.append((f"{prefix} {name}", child))
+    return out
+
+
+def test_help_names_the_papers_it_cites():
+    """A help text that cites "seed NNN" (an equation, a table, a preset) names that paper in its sources."""
+    from pinid.cli.main import SOURCES
+
+    helps = _helps()
+    assert len(helps) > 10
+    cited = 0
+    for name, text in helps.items():
+        body, _, sources = text.partition("\nsources:\n")
+        for n in set(re.findall(r"\bseed (\d{3})\b", body)):
+            cited += 1
+            assert f"  seed {n}  " in sources and SOURCES[n].split(",")[0] in sources, (name, n)
+        assert not re.search(r"\bseed \d{3}\b", body) or sources, name
+    assert cited >= 5  # excite, compare, demo, track, flex and its actions cite them

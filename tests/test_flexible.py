@@ -318,7 +318,7 @@ def test_cli_bad_spec_is_one_line(tmp_path):
         .replace('urdf = "../urdf/', f'urdf = "{ROOT}/urdf/')
     )
     out = tmp_path / "fit.json"
-    assert_clean_error(run_cli("flex", "fit", "--spec", str(q), "--out", str(out)), "base.K1", "stiffness")
+    assert_clean_error(run_cli("flex", "fit", "--spec", str(q), "-o", str(out)), "base.K1", "stiffness")
     assert not out.exists()
 
 
@@ -388,7 +388,7 @@ def test_cli_twin_fit_compare(spec, tmp_path):
     sp = tmp_path / "s.toml"
     sp.write_text(text)
     rec = tmp_path / "rec.csv"
-    p = run_cli("flex", "twin", "--spec", str(sp), "--out", str(rec), "--seed", "3")
+    p = run_cli("flex", "twin", "--spec", str(sp), "-o", str(rec), "--seed", "3")
     assert p.returncode == 0, p.stderr
     assert rec.exists() and (tmp_path / "rec.csv.json").exists()
     out, fig = tmp_path / "fit.json", tmp_path / "fit.png"
@@ -405,7 +405,7 @@ def test_cli_twin_fit_compare(spec, tmp_path):
         "6",
         "--iterations",
         "2",
-        "--out",
+        "-o",
         str(out),
         "--plot",
         str(fig),
@@ -428,7 +428,7 @@ def test_cli_twin_fit_compare(spec, tmp_path):
         "--max-nfev",
         "2",
         "--rigid",
-        "--out",
+        "-o",
         str(tmp_path / "rigid.json"),
     )
     assert p.returncode == 2 and "--x0 truth" in p.stderr  # the rigid model has no truth
@@ -445,7 +445,7 @@ def test_cli_twin_fit_compare(spec, tmp_path):
         "--iterations",
         "2",
         "--no-polish",
-        "--out",
+        "-o",
         str(cmp_),
         "--plot",
         str(tmp_path / "cmp.png"),
@@ -491,3 +491,42 @@ def test_flex_output_option_is_o_like_every_command_and_out_still_works(tmp_path
     assert proc.returncode != 0 and "deprecated" in proc.stderr  # the warning is there (made an error here)
     assert run_cli("flex", "twin", "--spec", str(sp), "--out", str(b), "--seed", "3").returncode == 0
     assert a.read_bytes() == b.read_bytes()
+
+
+@pytest.mark.slow
+def test_flex_help_examples_run_from_any_folder(tmp_path):
+    """--spec takes a bundled spec's name (as --urdf and --excitation take theirs): the help's examples run in
+    an empty folder, not only at the repository's root (the fits shortened by --population/--iterations)."""
+    from pinid.cli.main import build_parser
+    from pinid.resources import bundled_flex_specs
+
+    assert "tracker_flex_spec" in bundled_flex_specs()
+    sub = next(a for a in build_parser()._actions if a.__class__.__name__ == "_SubParsersAction")
+    examples = sub.choices["flex"].format_help().split("\nexamples:\n")[1].split("\n\n")[0].splitlines()
+    short = {"fit": ["--population", "6", "--iterations", "2", "--max-nfev", "3"]}
+    ran = []
+    for line in examples:
+        argv = line.split()[1:]
+        if argv[1] == "compare":
+            continue  # compare runs two fits of the spec's size (minutes): its --spec is the same lookup
+        assert argv[argv.index("--spec") + 1] == "tracker_flex_spec", line
+        proc = run_cli(*argv, *short.get(argv[1], []), cwd=tmp_path)
+        assert proc.returncode == 0, (line, proc.stderr)
+        ran.append(argv[1])
+    assert ran == ["check", "twin", "fit", "fit"]
+    assert {"tracker_twin.csv", "fit.json", "polished.json"} <= {p.name for p in tmp_path.iterdir()}
+    assert_clean_error(run_cli("flex", "check", "--spec", "no_such_spec", cwd=tmp_path), "tracker_flex_spec")
+    assert load_flex_spec("tracker_flex_spec.toml").source == load_flex_spec("tracker_flex_spec").source
+
+
+def test_flex_force_and_progress_before_or_after_the_action():
+    """pinid flex --force twin … and pinid flex twin --force … both force (the action's default used to undo
+    the command's); the same for --no-progress."""
+    from pinid.cli.main import build_parser
+
+    parser = build_parser()
+    for argv in (["flex", "--force", "--no-progress", "twin"], ["flex", "twin", "--force", "--no-progress"]):
+        args = parser.parse_args([*argv, "-o", "x.csv"])
+        assert args.force is True and args.progress is False, argv
+    args = parser.parse_args(["flex", "twin", "-o", "x.csv"])
+    assert args.force is False and args.progress is None

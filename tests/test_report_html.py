@@ -234,3 +234,14 @@ def test_errors_figure_fits_a_page_and_stays_above_zero():
         assert ax.get_xlim()[0] == 0
         for line in ax.lines:
             assert min(line.get_xdata()) >= 0
+
+
+def test_link_parameter_table_has_units(report):
+    """The report's link-parameter table: every column has its unit, friction included (issue 24)."""
+    out, _ = report
+    md = (out / "report.md").read_text()
+    section = md.split("## Link parameters", 1)[1].split("\n## ", 1)[0]
+    header = next(line for line in section.splitlines() if line.startswith("| joint"))
+    cells = [c.strip() for c in header.strip("|").split("|")]
+    assert cells[4:] == ["fc [N·m]", "fv [N·m·s/rad]"], cells
+    assert all("[" in c for c in cells[1:]), cells

@@ -14,21 +14,21 @@ from pinid import base_parameters, parameter_names
 from pinid.data.formats import read_recording, write_recording
 from pinid.errors import SpecError
 from pinid.data.preprocess import lowpass, prepare
-from pinid.simulation.twin import SEED000_TABLE1, friction_torque, load_trajectory, perturb, simulate, truth_json
+from pinid.simulation.twin import ZHA2019_TABLE1, friction_torque, load_trajectory, perturb, simulate, truth_json
 from pinid.excitation.trajectory import FourierTrajectory
 
 
 @pytest.fixture(scope="module")
 def apal_run():
     model = load("apal_leg")
-    ds, truth = simulate(model, load_trajectory("seed000-4", model), seconds=6.0, seed=3)
+    ds, truth = simulate(model, load_trajectory("zha2019-4", model), seconds=6.0, seed=3)
     return model, ds, truth
 
 
 @pytest.fixture(scope="module")
 def apal_run3():
     model = load("apal_leg")
-    return simulate(model, load_trajectory("seed000-3", model), seconds=6.0, seed=4)
+    return simulate(model, load_trajectory("zha2019-3", model), seconds=6.0, seed=4)
 
 
 def test_truth_signals_satisfy_the_dynamics_exactly(apal_run):
@@ -122,7 +122,7 @@ def test_truth_dict_contents(apal_run):
 
 def test_reproducible_and_seeded():
     model = load("exo_leg")
-    tr = load_trajectory("seed000-1", model)
+    tr = load_trajectory("zha2019-1", model)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         a, _ = simulate(model, tr, seconds=0.5, seed=7)
@@ -135,7 +135,7 @@ def test_reproducible_and_seeded():
 
 def test_friction_override_velocity_rates_and_pid():
     model = load("apal_leg")
-    tr = load_trajectory("seed000-3", model)
+    tr = load_trajectory("zha2019-3", model)
     ds, truth = simulate(
         model,
         tr,
@@ -160,8 +160,8 @@ def test_friction_override_velocity_rates_and_pid():
 @pytest.mark.parametrize("number", [1, 2, 3, 4])
 def test_seed000_presets(number):
     model = load("apal_leg")
-    tr = load_trajectory(f"seed000-{number}", model)
-    ho, ha, ko, ka = SEED000_TABLE1[number]
+    tr = load_trajectory(f"zha2019-{number}", model)
+    ho, ha, ko, ka = ZHA2019_TABLE1[number]
     q, dq, _ = tr.evaluate([0.25, 0.0])
     np.testing.assert_allclose(np.degrees(q[0]), [ho + ha, ko + ka])  # sin(2π·0.25) = 1
     np.testing.assert_allclose(dq[1], np.radians([ha, ka]) * 2 * np.pi)
@@ -170,15 +170,15 @@ def test_seed000_presets(number):
 
 def test_presets_follow_each_robots_convention():
     exo = load("exo_leg")  # axes -y: both signs flip
-    q, _, _ = load_trajectory("seed000-1", exo).evaluate(0.0)
+    q, _, _ = load_trajectory("zha2019-1", exo).evaluate(0.0)
     np.testing.assert_allclose(np.degrees(q[0]), [10.0, -45.0])
     with pytest.raises(SpecError, match="takes joint 'knee' to -1.66 rad at t = 0.617 s, outside its URDF limits"):
-        simulate(exo, load_trajectory("seed000-3", exo), seconds=1.0)
+        simulate(exo, load_trajectory("zha2019-3", exo), seconds=1.0)
     dp = load("double_pendulum")
-    tr = load_trajectory("seed000-2", dp, flip=["joint2"])
+    tr = load_trajectory("zha2019-2", dp, flip=["joint2"])
     np.testing.assert_allclose(np.degrees(tr.q0), [-10.0, -60.0])
     with pytest.raises(SpecError, match="--flip knee: not a joint of the preset"):
-        load_trajectory("seed000-2", dp, flip=["knee"])
+        load_trajectory("zha2019-2", dp, flip=["knee"])
     with pytest.raises(SpecError, match="not a bundled trajectory"):
         load_trajectory("seed000-9", dp)
 
@@ -205,7 +205,7 @@ def test_perturb_is_consistent_and_sized():
 
 def test_api_errors():
     model = load("apal_leg")
-    tr = load_trajectory("seed000-3", model)
+    tr = load_trajectory("zha2019-3", model)
     with pytest.raises(SpecError, match="trajectory joints"):
         simulate(model, FourierTrajectory(["a", "b"], 1.0, [0, 0], [[0.1], [0.1]], [[0], [0]]), seconds=1)
     with pytest.raises(SpecError, match="sample rate 333.5"):
@@ -270,7 +270,7 @@ def test_cli_perturb_npz_and_true_signals(tmp_path):
         "--urdf",
         "apal_leg",
         "--excitation",
-        "seed000-1",
+        "zha2019-1",
         "--seconds",
         "1",
         "-o",
@@ -329,16 +329,16 @@ def test_cli_cad_urdf_is_the_perturbed_model(tmp_path):
     [
         (["--excitation", "seed000-7"], "seed000-7: no such excitation file, and not a bundled trajectory"),
         (
-            ["--urdf", "exo_leg", "--excitation", "seed000-3"],
+            ["--urdf", "exo_leg", "--excitation", "zha2019-3"],
             "trajectory takes joint 'knee' to -1.66 rad at t = 0.617 s, outside its URDF limits",
         ),
-        (["--excitation", "seed000-1", "-o", "x.txt"], "unknown suffix '.txt', expected .csv or .npz"),
-        (["--excitation", "seed000-1", "--coulomb", "1,2,3"], "--coulomb '1,2,3': 3 values for 2 joints"),
-        (["--excitation", "seed000-1", "--coulomb", "ankle=1"], "--coulomb: joint 'ankle' is not an active joint"),
-        (["--excitation", "seed000-1", "--torque-noise", "lots%"], "--torque-noise 'lots%'"),
-        (["--excitation", "seed000-1", "--sample-rate", "300", "--control-rate", "7"], "velocity cut-off 30 Hz"),
-        (["--excitation", "seed000-1", "--perturb", "150"], "perturbation 150.0 %"),
-        (["--excitation", "seed000-1", "--cad-urdf", "cad.urdf"], "--cad-urdf needs --perturb"),
+        (["--excitation", "zha2019-1", "-o", "x.txt"], "unknown suffix '.txt', expected .csv or .npz"),
+        (["--excitation", "zha2019-1", "--coulomb", "1,2,3"], "--coulomb '1,2,3': 3 values for 2 joints"),
+        (["--excitation", "zha2019-1", "--coulomb", "ankle=1"], "--coulomb: joint 'ankle' is not an active joint"),
+        (["--excitation", "zha2019-1", "--torque-noise", "lots%"], "--torque-noise 'lots%'"),
+        (["--excitation", "zha2019-1", "--sample-rate", "300", "--control-rate", "7"], "velocity cut-off 30 Hz"),
+        (["--excitation", "zha2019-1", "--perturb", "150"], "perturbation 150.0 %"),
+        (["--excitation", "zha2019-1", "--cad-urdf", "cad.urdf"], "--cad-urdf needs --perturb"),
         (["--excitation", "bad.json"], "not valid JSON"),
         (["--excitation", "hip.json"], "trajectory joints ['thigh'] do not match apal_leg's active joints"),
     ],

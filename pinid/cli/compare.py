@@ -51,7 +51,7 @@ least-squares run, seed 000's RLS-PSO).  With --first-data the methods run in se
 strategy: the --first-joints (default knee) from recordings where only they move, then the others
 from --data with the first joints' contribution subtracted.
 
-example:
+examples:
   pinid compare --urdf cad.urdf --data run1.csv --validate run2.csv --truth run1.truth.json --seeds 5
   pinid compare --urdf apal_leg --first-data traj1.csv --first-validate traj2.csv \\
       --data traj3.csv --validate traj4.csv --methods ols,sdp,pso,rls-pso --fitness sae

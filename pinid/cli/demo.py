@@ -57,7 +57,7 @@ train.csv, validate.csv (+ .truth.json each), identification/ (identification.js
 identified_*.urdf, report.md, report.html, figures), track/ (tracking.json, figures).  Takes about
 half a minute.
 
-example:
+examples:
   pinid demo
   pinid demo -o /tmp/pinid-demo --seed 3
 """
@@ -169,15 +169,25 @@ def run(args: argparse.Namespace) -> int:
             print(f"\n[{i}/{len(plan)}] {title}\n$ pinid {' '.join(argv)}", flush=True)
             sub = parser.parse_args(argv)
             sub._run(sub)  # errors propagate: the demo stops at the first failing step
-    print(
-        f"\ndemo finished in {time.perf_counter() - started:.0f} s; everything is in {args.output}/:\n"
-        f"  {args.output}/excitation.json, excitation.png   the designed excitation\n"
-        f"  {args.output}/train.csv, validate.csv           the twin's recordings (+ .truth.json)\n"
-        f"  {args.output}/identification/report.html        identification report (also report.md), figures,\n"
-        f"                                                  identified URDFs\n"
-        f"  {args.output}/track/tracking.json               closed-loop tracking, figures"
-    )
+    print(f"\ndemo finished in {time.perf_counter() - started:.0f} s; everything is in {args.output}/:")
+    print(summary_text(args.output))
     return 0
+
+
+def summary_text(out: str) -> str:
+    """Where the demo put what: one row per output, descriptions (and their continuation lines) aligned."""
+    rows = [
+        ("excitation.json, excitation.png", ["the designed excitation"]),
+        ("train.csv, validate.csv", ["the twin's recordings (+ .truth.json)"]),
+        ("identification/report.html", ["identification report (also report.md), figures,", "identified URDFs"]),
+        ("track/tracking.json", ["closed-loop tracking, figures"]),
+    ]
+    width = max(len(f"{out}/{path}") for path, _ in rows) + 3
+    lines = []
+    for path, text in rows:
+        lines.append(f"  {f'{out}/{path}':<{width}}{text[0]}")
+        lines += [" " * (2 + width) + more for more in text[1:]]
+    return "\n".join(lines)
 
 
 #: What the demo writes in its folder (with --force, an earlier run's copies are replaced as one set).

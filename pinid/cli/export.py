@@ -15,7 +15,7 @@ docs/mujoco.md) or as URDF.  A physically inconsistent model, or one with a body
 a zero principal moment), is refused: one line, exit status 2, nothing written.  pinid identify already
 writes identified_<method>.xml beside identified_<method>.urdf for every consistent method.
 
-example:
+examples:
   pinid export --model results/identification.json -o model.xml
   pinid export --model results/model_sdp.json --format mjcf --floating -o exo_floating.xml
   pinid export --model results/identification.json --method sdp --format urdf -o exo_sdp.urdf

@@ -11,14 +11,14 @@ import numpy as np
 from pinid.cli.common import seed_int
 from pinid.errors import SpecError
 from pinid.io import Artefacts, check_outputs, json_text
-from pinid.model.bundled import BUNDLED_URDF_DIR
 
 HELP = "flexible joints: simulate a twin, fit spring/damper/motor parameters by output error, rigid vs flexible"
 DESCRIPTION = """\
 Joints driven through belts, cables or series-elastic actuators (seed 003): a motor drives the link through
 a nonlinear spring K1·Δ + K2·Δ³ and a damper C, with motor inertia Jm, damping Bm, friction fv, fc.
 Everything is read from a TOML spec (URDF, drives, bounds of the free parameters, truth of the twin, its
-input, fit settings): see excitation/tracker_flex_spec.toml and docs/flexible.md.
+input, fit settings): --spec takes a file or the name of a bundled spec (tracker_flex_spec, the default,
+which documents every key: pinid/resources/excitation/tracker_flex_spec.toml); see docs/flexible.md.
 
 actions:
   check    print the drives, the free parameters, the RK4 step, and which parameters the spec's
@@ -31,21 +31,25 @@ actions:
            JSON result and optionally a figure of measured and simulated angles
 
 examples:
-  pinid flex check --spec excitation/tracker_flex_spec.toml
-  pinid flex twin --spec excitation/tracker_flex_spec.toml -o tracker_twin.csv
-  pinid flex fit --spec excitation/tracker_flex_spec.toml --data tracker_twin.csv --method pso -o fit.json
-  pinid flex fit --spec excitation/tracker_flex_spec.toml --method least_squares --x0 fit.json -o polished.json
-  pinid flex compare --spec excitation/tracker_flex_spec.toml -o cmp.json --plot cmp.png
+  pinid flex check --spec tracker_flex_spec
+  pinid flex twin --spec tracker_flex_spec -o tracker_twin.csv
+  pinid flex fit --spec tracker_flex_spec --data tracker_twin.csv --method pso -o fit.json
+  pinid flex fit --spec tracker_flex_spec --method least_squares --x0 fit.json -o polished.json
+  pinid flex compare --spec tracker_flex_spec -o cmp.json --plot cmp.png
 """
 
-DEFAULT_SPEC = "excitation/tracker_flex_spec.toml"
+DEFAULT_SPEC = "tracker_flex_spec"
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     sub = p.add_subparsers(dest="action", metavar="ACTION", required=True)
 
     def common(q: argparse.ArgumentParser) -> None:
-        q.add_argument("--spec", default=None, help=f"flexible-joint spec (TOML); default {DEFAULT_SPEC} of pinid")
+        q.add_argument(
+            "--spec",
+            default=None,
+            help=f"flexible-joint spec: a TOML file or a bundled spec's name; default {DEFAULT_SPEC} (bundled)",
+        )
 
     def data_opts(q: argparse.ArgumentParser) -> None:
         q.add_argument(
@@ -92,7 +96,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     t.add_argument("--noise", type=float, default=None, help="noise on every angle [rad] (default: the spec's)")
     t.add_argument("--seed", type=seed_int, default=None, help="noise seed (default: the spec's)")
     t.add_argument("--no-motor", action="store_true", help="do not record motor angles")
-    t.add_argument("--force", action="store_true", help="overwrite the output")
+    # --force before or after the action (pinid flex --force twin): the action's own default is left out
+    t.add_argument("--force", action="store_true", default=argparse.SUPPRESS, help="overwrite the output")
 
     f = sub.add_parser("fit", help="fit the free parameters by output error")
     common(f)
@@ -108,7 +113,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     _output(f, "JSON", "result to write")
     f.add_argument("--plot", default=None, metavar="PNG", help="also plot measured and simulated angles")
-    f.add_argument("--force", action="store_true", help="overwrite outputs")
+    f.add_argument("--force", action="store_true", default=argparse.SUPPRESS, help="overwrite outputs")
 
     m = sub.add_parser("compare", help="rigid vs flexible on one recording (seed 003 Figs. 6-7)")
     common(m)
@@ -119,7 +124,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     _output(m, "JSON", "result to write")
     m.add_argument("--plot", default=None, metavar="PNG", help="also plot measured and simulated angles")
-    m.add_argument("--force", action="store_true", help="overwrite outputs")
+    m.add_argument("--force", action="store_true", default=argparse.SUPPRESS, help="overwrite outputs")
 
 
 # ---------------------------------------------------------------------------------------------- helpers
@@ -145,12 +150,7 @@ def _output(p: argparse.ArgumentParser, metavar: str, text: str) -> None:
 def _spec(args):
     from pinid.flexible.output_error import load_flex_spec  # deferred (see above)
 
-    path = args.spec
-    if path is None:
-        path = BUNDLED_URDF_DIR.parent / DEFAULT_SPEC
-        if not path.is_file():
-            raise SpecError(f"no --spec given and the default {DEFAULT_SPEC} is not installed; give --spec")
-    return load_flex_spec(path)
+    return load_flex_spec(DEFAULT_SPEC if args.spec is None else args.spec)
 
 
 def _recording(args, spec, *, motor: bool = True):

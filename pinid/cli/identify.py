@@ -55,7 +55,7 @@ Rows where a joint is nearly at rest are left out of the fit when Coulomb fricti
 (--rest-velocity).  Methods: ols (least squares), wls (each joint weighted by 1/its residual
 variance), sdp (physically consistent least squares, pseudo-inertia LMI, Clarabel).
 
-example:
+examples:
   pinid identify --urdf urdf/exo_leg.urdf --data run1.csv --data run2.csv --validate run3.csv -o results/
   pinid identify --urdf double_pendulum.urdf --mapping docs/examples/double_pendulum.toml \\
       --data trajectory_00.csv --validate trajectory_01.csv --terms fc,fv,armature --methods ols,sdp
@@ -245,12 +245,16 @@ def run(args: argparse.Namespace) -> int:
     methods = methods_from_args(args)
     model = robot_from_args(args)
     terms = terms_from_args(args)
-    print(
-        f"identifying {model.name} ({', '.join(model.joint_names)}) with {', '.join(methods)}; "
-        f"terms {', '.join(terms.names) or 'none'}"
-    )
-    if not (args.no_report or args.no_figures):
-        start_figure_workers()  # they load matplotlib while this process identifies
+
+    def started() -> None:  # the inputs are read and checked: say what runs
+        print(
+            f"identifying {model.name} ({', '.join(model.joint_names)}) with {', '.join(methods)}; "
+            f"terms {', '.join(terms.names) or 'none'}",
+            flush=True,
+        )
+        if not (args.no_report or args.no_figures):
+            start_figure_workers()  # they load matplotlib while this process identifies
+
     ident = identify(
         model,
         args.data,
@@ -267,6 +271,7 @@ def run(args: argparse.Namespace) -> int:
         stribeck_velocity=args.stribeck_velocity,
         stribeck_shape=args.stribeck_shape,
         **recording_options(args),
+        started=started,
     )
     print(identification_text(ident, verbose=args.verbose))
     written = write_identification(

@@ -13,7 +13,7 @@ Reads a URDF (or a bundled / example-robot-data robot name) and prints its activ
 limits, the number of standard and base parameters, and each base parameter as a combination of
 standard parameters.  Writes nothing unless --json is given.
 
-example:
+examples:
   pinid info --urdf urdf/exo_leg.urdf
   pinid info --urdf panda --terms fc,fv,offset --json panda_base.json
 """

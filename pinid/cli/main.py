@@ -42,6 +42,44 @@ COMMANDS: tuple[str, ...] = (
 )
 
 
+#: The papers the help texts cite as "seed NNN" (the project's seed papers, docs/tutorials/).
+SOURCES: dict[str, str] = {
+    "000": "Zha, Sheng, Guo, Qiu, Deng, Wang 2019, Dynamic parameter identification of a lower extremity "
+    "exoskeleton using RLS-PSO, Appl. Sci. 9, 324",
+    "001": "Shi, Kou, Chen, Wang, Guo 2024, Model parameters identification and backstepping control of lower "
+    "limb exoskeleton based on enhanced whale algorithm",
+    "002": "Zha et al. 2019, the RLS-PSO paper of seed 000 (its abstract and introduction)",
+    "003": "Int. J. Eng. 33(9) 2020 (doi 10.5829/ije.2020.33.09c.14), parameter identification of a target "
+    "tracker robot with flexible (belt) joints using PSO",
+}
+
+
+def sources_epilog(text: str) -> str | None:
+    """A "sources:" section naming each paper ``text`` cites as "seed NNN" (None when it cites none)."""
+    import re
+    import textwrap
+
+    cited = sorted(set(re.findall(r"\bseed (\d{3})\b", text)) & set(SOURCES))
+    if not cited:
+        return None
+    lines = ["sources:"]
+    for n in cited:
+        lines += textwrap.wrap(SOURCES[n], 100, initial_indent=f"  seed {n}  ", subsequent_indent=" " * 12)
+    return "\n".join(lines)
+
+
+def _add_sources(p: argparse.ArgumentParser) -> None:
+    """Give ``p`` (and each action of a command with actions) the sources its help cites."""
+    text = (p.description or "") + " ".join(a.help or "" for a in p._actions)
+    for a in p._actions:
+        if isinstance(a, argparse._SubParsersAction):
+            text += " ".join(c.help or "" for c in a._choices_actions)
+            for child in a.choices.values():
+                child.formatter_class = argparse.RawDescriptionHelpFormatter
+                _add_sources(child)
+    p.epilog = sources_epilog(text)
+
+
 def _load(name: str):
     try:
         return importlib.import_module(f"pinid.cli.{name}")
@@ -81,21 +119,22 @@ def build_parser() -> argparse.ArgumentParser:
         if not any("--force" in a.option_strings for a in p._actions):
             p.add_argument("--force", action="store_true", help="overwrite output files that already exist")
         _add_progress_argument(p)
+        _add_sources(p)
         p.set_defaults(_run=mod.run)
     return parser
 
 
-def _add_progress_argument(p: argparse.ArgumentParser) -> None:
+def _add_progress_argument(p: argparse.ArgumentParser, default=None) -> None:
     """--progress/--no-progress on a command, or on each action of a command that has actions (pinid flex)."""
     actions = [a for a in p._actions if isinstance(a, argparse._SubParsersAction)]
-    if actions:
-        for child in actions[0].choices.values():
-            _add_progress_argument(child)
-        return
+    for child in actions[0].choices.values() if actions else ():
+        # before or after the action (pinid flex --no-progress fit, pinid flex fit --no-progress); the
+        # action's own default is left out so that it does not undo the command's
+        _add_progress_argument(child, default=argparse.SUPPRESS)
     p.add_argument(
         "--progress",
         action=argparse.BooleanOptionalAction,
-        default=None,
+        default=default,
         help="progress of long work on stderr: a bar on a terminal, otherwise a line every few seconds "
         "(default); --no-progress: none",
     )

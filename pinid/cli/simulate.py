@@ -29,7 +29,7 @@ adds sensor noise and encoder quantisation, and writes
 The same arguments give the same files.  Defaults: 1 kHz control and sampling, 16-bit encoders plus
 2e-5 rad noise, torque noise 1 % of each joint's peak, the URDF's <dynamics> friction.
 
-example:
+examples:
   pinid simulate --urdf urdf/exo_leg.urdf --excitation excitation/exo_leg.json --seconds 60 --seed 1 -o data/run1.csv
   pinid simulate --urdf apal_leg --excitation zha2019-3 --seconds 20 -o data/apal3.csv --perturb 20
   pinid simulate --urdf exo_leg --excitation excitation/exo_leg.json -o data/run1.csv --perturb 30 --cad-urdf data/cad.urdf

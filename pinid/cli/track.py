@@ -19,14 +19,15 @@ Reads the "true" leg (--urdf-true: URDF with its friction in <dynamics>), the co
 ignored, as a CAD model would be —, a URDF, results/model_<method>.json or results/identification.json), and a
 reference (--reference: a trajectory JSON from pinid excite, or 'sine' — seed 001's 4 s sinusoid, kept
 inside the joint limits).  Simulates the closed loop with each controller and prints the tracking
-error per joint (RMS and max after the start-up, settling time).  Writes FOLDER/tracking.json and
+error per joint (RMS and max after the start-up, settling time and the band it settles into: 2 % of
+the joint's reference range, at least 1 mrad).  Writes FOLDER/tracking.json and
 FOLDER/tracking_<controller>.png.
 
-example:
+examples:
   pinid track --urdf-true urdf/exo_leg.urdf --model results/identification.json -o results/track
   pinid track --urdf-true exo_leg --model nominal --model results/model_sdp.json --seconds 8
   pinid track --urdf-true exo_leg --model cad:30 --model results/identification.json
-  pinid track --urdf-true exo_with_wearer.urdf --wearer-draw --seed 2 --model results_exo/model_sdp.json \
+  pinid track --urdf-true exo_with_wearer.urdf --wearer-draw --seed 2 --model results_exo/model_sdp.json \\
       --model results_wearer/model_table.json --model results_wearer/model_wearer.json
 """
 

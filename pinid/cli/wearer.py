@@ -1,4 +1,4 @@
-"""``pinid wearer``: an exoskeleton URDF with the wearer's thigh, shank and foot strapped to it."""
+"""``pinid wearer``: an exoskeleton URDF with the wearer's thigh and shank (and foot) strapped to it."""
 
 from __future__ import annotations
 
@@ -13,14 +13,15 @@ and radii of gyration of the thigh, shank and foot from de Leva 1996 (pinid/reso
 de_leva_1996.toml; lengths scale with height), and writes the URDF with each human segment as a link
 fixed to the exo link it is strapped to: proximal endpoint at the joint centre, segment axis along the
 exo link, transverse axis along the joint axis (see docs/wearer.md).  A foot strapped to the shank's
-link (no ankle joint) starts at the ankle and points forward.
+link (no ankle joint) starts at the ankle and points forward.  The default --attach adds the thigh and
+shank; add knee:foot for the foot.
 
   OUTPUT    the URDF: the exo's links unchanged, plus links wearer_<segment> and fixed joints
             wearer_<segment>_strap
 
 Body mass 40-150 kg and height 1.40-2.10 m (the range pinid accepts for the table's proportional scaling).
 
-example:
+examples:
   pinid wearer --urdf exo_leg --mass 75 --height 1.78 --sex male --attach hip:thigh,knee:shank -o exo_with_wearer.urdf
 """
 

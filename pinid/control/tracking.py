@@ -36,15 +36,17 @@ def load_reference(spec: str, plant: RobotModel) -> FourierTrajectory:
 
 def tracking_table(table: dict) -> str:
     """The tracking errors as a text table: per controller, model (a file's name) and joint, the RMS and
-    maximum error [mrad] after the start-up and the settling time [s]."""
+    maximum error [mrad] after the start-up, the settling time [s] and the band [mrad] it settles into."""
     rows = []
     for c, per_model in table.items():
         for name, entry in per_model.items():
             label = name if name == "nominal" else Path(name).name
             for joint, m in entry["metrics"].items():
                 settle = "never" if not np.isfinite(m["settling_time"]) else f"{m['settling_time']:.2f}"
-                rows.append([c, label, joint, f"{1e3 * m['rms']:.3f}", f"{1e3 * m['max_abs']:.3f}", settle])
-    return text_table(["controller", "model", "joint", "RMS [mrad]", "max [mrad]", "settle [s]"], rows, keys=3)
+                band = f"{1e3 * m['band']:.3g}" if "band" in m else "-"
+                rows.append([c, label, joint, f"{1e3 * m['rms']:.3f}", f"{1e3 * m['max_abs']:.3f}", settle, band])
+    header = ["controller", "model", "joint", "RMS [mrad]", "max [mrad]", "settle [s]", "band [mrad]"]
+    return text_table(header, rows, keys=3)
 
 
 def tracking_paths(folder: str | os.PathLike, controllers) -> list[Path]:

@@ -1338,7 +1338,9 @@ def _multistart(
             best = min(best, value)
             history.append(best)
             bar.update(1)
-            bar.set_postfix_str(f"best {best:.6g}", refresh=False)
+            # phase 1's values are on the search grid (ns samples per period), not the design's: say so, so
+            # that the polished result (on the design's samples, the value reported) is not read as worse
+            bar.set_postfix_str(f"search best {best:.6g} ({ns} samples/period)", refresh=False)
         found.sort(key=lambda r: r[0])
         chosen: list[np.ndarray] = []
         for value, x in found:  # distinct candidates only
@@ -1352,12 +1354,15 @@ def _multistart(
             x, value, _ = _local_search(
                 problem, problem.scale_into_limits(x[None, :])[0], opts.polish_maxiter, opts.polish_ftol
             )
+            repaired, _ = _final_repair(problem, x)  # as the result will be: within the limits on the dense grid
+            if np.isfinite(value) and not np.array_equal(repaired, x):
+                x, value = repaired, float(problem.evaluate(repaired[None, :])[0])
             polished.append(value)
             if value < best_f:
                 best_x, best_f = x, value
             history.append(best_f)
             bar.update(1)
-            bar.set_postfix_str(f"best {best_f:.6g}", refresh=False)
+            bar.set_postfix_str(f"polished best {best_f:.6g}", refresh=False)  # the design's criterion
     if best_x is None:
         best_x = problem.scale_into_limits(starts[:1])[0]
     return (

@@ -407,10 +407,20 @@ def _resolve_urdf(value: str, spec_path: Path | None) -> str:
 
 
 def load_flex_spec(path: str | os.PathLike, *, robot: RobotModel | None = None) -> FlexSpec:
-    """Read a TOML spec; SpecError (naming the file, the table and the key) if it is malformed or impossible."""
+    """Read a TOML spec: a file, or the name of one that ships with pinid (``tracker_flex_spec``,
+    :func:`pinid.resources.bundled_flex_specs`); SpecError (naming the file, the table and the key) if it is
+    missing, malformed or impossible."""
+    from pinid.resources import EXCITATION_DIR, bundled_flex_specs
+
     p = Path(path)
+    name = p.name.removesuffix(".toml")
+    if not p.is_file() and name == str(path).removesuffix(".toml") and name in bundled_flex_specs():
+        p = EXCITATION_DIR / f"{name}.toml"
     if not p.is_file():
-        raise SpecError(f"{p}: file not found, expected a flexible-joint spec (.toml)")
+        raise SpecError(
+            f"{p}: file not found, expected a flexible-joint spec (.toml) or a bundled one "
+            f"({', '.join(bundled_flex_specs())})"
+        )
     from pinid.io import read_toml
 
     data = read_toml(p, "flexible-joint spec (TOML)")

@@ -16,7 +16,7 @@ from __future__ import annotations
 import os
 import time
 from dataclasses import dataclass, field
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 
 import numpy as np
 
@@ -355,6 +355,7 @@ def identify(
     fit_joints: Sequence[str] | str | None = None,
     delay=None,
     manifest=None,
+    started: Callable[[], None] | None = None,
 ) -> Identification:
     """Identify ``model``'s dynamic parameters from recordings with several methods; validate; compare.
 
@@ -380,7 +381,9 @@ def identify(
     which the torque channels lag the positions (``0.04``, ``"tau.knee=0.04"``, ``"auto"``:
     :mod:`pinid.identification.delay`), in ``data["delay"]``.  ``manifest``: a dataset manifest (TOML path or
     :class:`~pinid.data.manifest.Manifest`) listing the recordings, their ranges and roles instead of
-    ``data``, ``validate``, ``payload`` and ``payload_data`` (:mod:`pinid.data.manifest`).
+    ``data``, ``validate``, ``payload`` and ``payload_data`` (:mod:`pinid.data.manifest`).  ``started``: called
+    once the inputs are read and checked, before the first method runs (the CLI says what it identifies then, so
+    that a bad input prints only its error).
 
     Returns an :class:`~pinid.identification.result.Identification`; ``result.model`` is the best
     result's :class:`~pinid.identification.identified.IdentifiedModel`, ``result["sdp"]`` one method's result.
@@ -423,6 +426,8 @@ def identify(
         fit_joints=fit_joints,
         delay=delay,
     )
+    if started is not None:
+        started()
     fits = run_jobs(s, [(m, None, options.get(m, {})) for m in methods], complete=complete, show_progress=show_progress)
     results = {f.method: f.result for f in fits}
     values = {m: r.base for m, r in results.items()}

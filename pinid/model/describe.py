@@ -3,6 +3,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 
 from pinid.model.base import base_parameters
@@ -12,9 +14,17 @@ from pinid.model.robot import RobotModel
 
 def describe(model: RobotModel, terms: JointTerms) -> dict:
     """Plain-dict description of a model and its base parameters (with their expressions in the standard
-    parameters and their URDF values)."""
+    parameters, their nominal values and where those come from: the URDF, the drives file or both)."""
     bp = base_parameters(model, terms)
     nominal = bp.from_standard(standard_parameters(model, terms))
+    motors = set(model.motor_names)
+    drives = None if model.drives is None else Path(model.drives.origin.split(" <")[0]).name
+
+    def source(row: np.ndarray) -> str:
+        """Where a base parameter's nominal value comes from: the URDF, the drives file, or both."""
+        used = {bp.standard_names[i].split(".")[0] in motors for i in np.flatnonzero(row)}
+        return " + ".join(([] if used == {True} else ["URDF"]) + ([drives] if True in used else []))
+
     return {
         "robot": model.name,
         "urdf": str(model.urdf_path),
@@ -36,10 +46,15 @@ def describe(model: RobotModel, terms: JointTerms) -> dict:
         "terms": terms.names,
         "standard_parameters": len(bp.standard_names),
         "base_parameters": [
-            {"name": n, "expression": e, "nominal": float(v)} for n, e, v in zip(bp.names, bp.expressions(), nominal)
+            {"name": n, "expression": e, "nominal": float(v), "source": source(row)}
+            for n, e, v, row in zip(bp.names, bp.expressions(), nominal, bp.P)
         ],
         "unidentifiable": bp.unidentifiable,
     }
+
+
+#: Units of a joint's limits (position, position, velocity, effort): revolute [0], prismatic [1].
+UNITS = (("rad", "rad", "rad/s", "N·m"), ("m", "m", "m/s", "N"))
 
 
 def _num(x: float):
@@ -47,15 +62,25 @@ def _num(x: float):
 
 
 def description_text(d: dict, terms: JointTerms) -> str:
-    """:func:`describe`'s dict as text: a table of the joints, the locked joints, the drives' matrix, and
-    every base parameter as a combination of standard parameters with its URDF value."""
+    """:func:`describe`'s dict as text: a table of the joints with the units of their limits ([rad, rad/s,
+    N·m], [m, m/s, N] for prismatic joints), the locked joints, the drives' matrix, and every base parameter
+    as a combination of standard parameters with its nominal value and where that comes from."""
+    units = [UNITS[j["type"] == "prismatic"] for j in d["joints"]]
+    same = len(set(units)) == 1  # the units in the header, else in a last column
+    heads = ["lower", "upper", "velocity", "effort"]
+    if same:
+        heads = [f"{h} [{u}]" for h, u in zip(heads, units[0])]
+    widths = [max(10, len(h) + 2) for h in heads]
     out = [
         f"robot {d['robot']}  ({d['urdf']})",
-        f"{'joint':<24}{'type':<12}{'lower':>10}{'upper':>10}{'velocity':>10}{'effort':>10}",
+        f"{'joint':<24}{'type':<12}"
+        + "".join(f"{h:>{w}}" for h, w in zip(heads, widths))
+        + ("" if same else "  units"),
     ]
-    for j in d["joints"]:
+    for j, u in zip(d["joints"], units):
         cells = [("-" if j[k] is None else f"{j[k]:.4g}") for k in ("lower", "upper", "velocity", "effort")]
-        out.append(f"{j['name']:<24}{j['type']:<12}" + "".join(f"{c:>10}" for c in cells))
+        tail = "" if same else f"  {', '.join(u[1:])}"
+        out.append(f"{j['name']:<24}{j['type']:<12}" + "".join(f"{c:>{w}}" for c, w in zip(cells, widths)) + tail)
     if d["locked"]:
         out.append("locked: " + ", ".join(f"{k}={v:g}" for k, v in d["locked"].items()))
     if d["drives"]:
@@ -71,5 +96,5 @@ def description_text(d: dict, terms: JointTerms) -> str:
     )
     width = max(len(b["name"]) for b in d["base_parameters"])
     for b in d["base_parameters"]:
-        out.append(f"  {b['name']:<{width}} = {b['expression']}    (URDF: {b['nominal']:.6g})")
+        out.append(f"  {b['name']:<{width}} = {b['expression']}    ({b.get('source', 'URDF')}: {b['nominal']:.6g})")
     return "\n".join(out)

@@ -232,7 +232,8 @@ def report_markdown(ident, figures: dict[str, str] | None = None) -> str:
         ]
         nv = len(robot["joints"])
         rows = []
-        terms = [t.name for t in JointTerms.from_names(robot["terms"]).joint]  # the motor block follows
+        joint_terms = JointTerms.from_names(robot["terms"]).joint  # the motor block follows
+        terms = [t.name for t in joint_terms]
         jt = best.standard[10 * nv : 10 * nv + nv * len(terms)].reshape(nv, len(terms)) if terms else np.zeros((nv, 0))
         for i, j in enumerate(robot["joints"]):
             m, c, I = com_inertia(best.standard[10 * i : 10 * i + 10])
@@ -241,7 +242,8 @@ def report_markdown(ident, figures: dict[str, str] | None = None) -> str:
                 [f"`{j}`", number(m), " ".join(number(x, ".3g") for x in c), " ".join(number(x, ".3g") for x in ev)]
                 + [number(jt[i, k]) for k in range(len(terms))]
             )
-        lines.append(markdown_table(["joint", "mass [kg]", "c [m]", "principal I_c [kg·m²]"] + terms, rows))
+        units = [f"{t.name} [{t.unit}]" for t in joint_terms]  # revolute joints' units (pinid.model.terms)
+        lines.append(markdown_table(["joint", "mass [kg]", "c [m]", "principal I_c [kg·m²]"] + units, rows))
 
     lines += [
         "",

@@ -21,3 +21,8 @@ def bundled_robots() -> list[str]:
 def bundled_trajectories() -> list[str]:
     """Names of the designed trajectories that ship with pinid (``seed001_table3``, …), sorted."""
     return sorted(f.stem for f in EXCITATION_DIR.glob("*.json"))
+
+
+def bundled_flex_specs() -> list[str]:
+    """Names of the flexible-joint specs that ship with pinid (``tracker_flex_spec``, …), sorted."""
+    return sorted(f.stem for f in EXCITATION_DIR.glob("*flex*.toml"))

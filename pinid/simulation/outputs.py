@@ -98,13 +98,34 @@ def write_simulation(
     return arts.write()
 
 
+#: Width of what ``pinid simulate`` prints [columns].
+WIDTH = 100
+
+
+def _wrapped(label: str, items: list[str], column: int) -> list[str]:
+    """``label`` indented by 2, then ``items`` comma-separated from ``column`` on, wrapped at :data:`WIDTH`
+    between items (never inside one), each continuation aligned at ``column``."""
+    lines, line = [], f"  {label}".ljust(column)
+    for k, item in enumerate(items):
+        text = item + ("," if k < len(items) - 1 else "")
+        if len(line) > column and len(line) + 1 + len(text) > WIDTH:
+            lines.append(line)
+            line = " " * column
+        line += ("" if len(line) == column else " ") + text
+    return lines + [line]
+
+
 def simulation_text(recording: Dataset, truth: dict, path, *, truth_path=None, true_signals=None, cad_urdf=None) -> str:
     """What ``pinid simulate`` prints after :func:`write_simulation`: each file written, with the samples,
     rate, joints and tracking error [rad] of the recording and the parameter counts of the truth."""
-    track = ", ".join(f"{j} {v:.2g}" for j, v in truth["tracking"]["rms_error"].items())
+    track = [f"{j} {v:.2g}" for j, v in truth["tracking"]["rms_error"].items()]
+    first = "\n".join(  # one labelled block each, wrapped at WIDTH and aligned (a UR5's names are long)
+        [f"wrote {path} ({recording.n} samples at {truth['rates']['sample']} Hz)"]
+        + _wrapped("joints", recording.joints, 28)
+        + _wrapped("tracking error rms [rad]", track, 28)
+    )
     lines = [
-        f"wrote {path} ({recording.n} samples at {truth['rates']['sample']} Hz, joints "
-        f"{', '.join(recording.joints)}; tracking error rms [rad]: {track})",
+        first,
         f"wrote {truth_path or truth_path_for(path)} ({len(truth['standard']['names'])} standard, "
         f"{len(truth['base']['names'])} base parameters)",
     ]

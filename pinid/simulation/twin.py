@@ -661,7 +661,7 @@ def _simulate(
     saturated = 0
     s_idx = 0
     bar = None
-    if progress:
+    if progress is not False:  # None: the caller (the CLI) leaves it to pinid.progress
         bar = _progress(n_steps // n_c, "simulate", enabled=None if progress is None else bool(progress))
     try:
         for i in range(n_steps):
