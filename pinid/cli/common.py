@@ -19,8 +19,8 @@ from pinid.model.robot import RobotModel
 from pinid.resources import bundled_robots
 
 
-def add_robot_arguments(p: argparse.ArgumentParser, *, default: str | None = "exo_leg") -> None:
-    """The options every command uses to choose a robot: --urdf, --joints, --lock."""
+def add_robot_arguments(p: argparse.ArgumentParser, *, default: str | None = "exo_leg", base: bool = False) -> None:
+    """The options every command uses to choose a robot: --urdf, --joints, --lock (and --base when ``base``)."""
     p.add_argument(
         "--urdf",
         default=default,
@@ -44,6 +44,14 @@ def add_robot_arguments(p: argparse.ArgumentParser, *, default: str | None = "ex
         "optional [motors.NAME] fc, fv, armature, offset; replaces the URDF's <transmission> "
         "(see docs/drives.md)",
     )
+    if base:
+        p.add_argument(
+            "--base",
+            choices=("fixed", "floating"),
+            default="fixed",
+            help="fixed: the URDF's root link bolted to the world (default); floating: on a free flyer, "
+            "with 6 base rows and contact wrenches (docs/floating-base.md)",
+        )
 
 
 def add_terms_argument(p: argparse.ArgumentParser) -> None:
@@ -92,7 +100,7 @@ def robot_from_args(args: argparse.Namespace):
         except ValueError:
             raise SpecError(f"--lock {item!r}: expected JOINT=VALUE with a number, e.g. --lock knee=-0.5") from None
     joints = [j.strip() for j in args.joints.split(",") if j.strip()] if args.joints else None
-    robot = RobotModel.from_urdf(args.urdf, joints=joints, locked=locked)
+    robot = RobotModel.from_urdf(args.urdf, joints=joints, locked=locked, base=getattr(args, "base", "fixed"))
     if getattr(args, "drives", None):
         attach(robot, args.drives)
     return robot

@@ -43,7 +43,7 @@ examples:
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    add_robot_arguments(p)
+    add_robot_arguments(p, base=True)
     add_terms_argument(p)
     p.set_defaults(terms=None)
     g = p.add_argument_group("limits and trajectory (override the spec)")

@@ -62,7 +62,7 @@ example:
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    add_robot_arguments(p)
+    add_robot_arguments(p, base=True)
     add_terms_argument(p)
     add_recording_arguments(p)
     add_method_arguments(p, "ols,wls,sdp")

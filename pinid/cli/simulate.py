@@ -37,7 +37,7 @@ example:
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    add_robot_arguments(p)
+    add_robot_arguments(p, base=True)
     p.add_argument(
         "--excitation",
         required=True,

@@ -134,7 +134,12 @@ def base_parameters(
     q, dq, ddq = model.random_states(n, np.random.default_rng(seed))
     if any(t in STRIBECK_TERMS for t in terms.names):  # Stribeck columns vanish at speed: slow samples too
         dq = dq * np.logspace(-4, 0, n)[np.random.default_rng(seed).permutation(n)][:, None]
-    W = regressor(model, q, dq, ddq, terms)
+    return base_parameters_of(regressor(model, q, dq, ddq, terms), names, tol)
+
+
+def base_parameters_of(W: np.ndarray, names: list[str], tol: float = 1e-8) -> BaseParameters:
+    """The base parameters of a stacked standard regressor ``W`` (random states) with columns ``names``."""
+    p = len(names)
     norms = np.linalg.norm(W, axis=0)
     nonzero = np.flatnonzero(norms > tol * norms.max())
     Wn = W[:, nonzero] / norms[nonzero]
