@@ -1,0 +1,146 @@
+"""Identification with a floating base and contacts (issue 27): the twin, the data format, the estimators."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pinid import DataError, RobotModel
+from pinid.data.contacts import prepare_floating, read_floating, write_floating
+from pinid.estimators import make_estimator
+from pinid.excitation.trajectory import FourierTrajectory
+from pinid.identification.floating_problem import floating_problem
+from pinid.model.floating import floating_base_parameters
+from pinid.model.terms import JointTerms
+from pinid.simulation.floating_twin import simulate_gait, simulate_suspended
+
+TERMS = JointTerms.from_names("fc,fv")
+
+
+@pytest.fixture(scope="module")
+def exo():
+    return RobotModel.from_urdf("exo_lower_body", base="floating")
+
+
+def excitation(model, seed=0, harmonics=4, scale=0.08) -> FourierTrajectory:
+    rng = np.random.default_rng(seed)
+    span = (model.upper - model.lower)[:, None]
+    a, b = (rng.uniform(-1, 1, (model.nv, harmonics)) * scale * span for _ in range(2))
+    return FourierTrajectory(model.joint_names, 2 * np.pi * 0.2, 0.5 * (model.lower + model.upper), a, b)
+
+
+@pytest.fixture(scope="module")
+def suspended(exo):
+    return simulate_suspended(exo, excitation(exo), seconds=5, rate=200, imu_frame="imu")
+
+
+@pytest.fixture(scope="module")
+def gait(exo):
+    return simulate_gait(exo, seconds=3, rate=200)
+
+
+def error(problem, estimate):
+    """Largest error of the base parameters relative to their natural scale (mass, mass·length, mass·length²)."""
+    return float(np.max(np.abs(estimate - problem.nominal_base) / problem.natural_scale))
+
+
+@pytest.mark.parametrize("method", ["ols", "sdp"])
+@pytest.mark.parametrize("rows", ["all", "base"])
+def test_suspended_twin_recovers_the_base_parameters(exo, suspended, method, rows):
+    """Noise-free suspended twin: joint torques + harness wrench (rows all), or the wrench and motion alone (rows base)."""
+    problem = floating_problem(exo, suspended.exact, terms=TERMS, rows=rows)
+    assert error(problem, make_estimator(method).fit(problem).base_) <= 1e-6
+    if rows == "base":  # Ayusawa et al. 2014: the base rows identify every inertial base parameter
+        assert problem.nb == floating_base_parameters(exo, JointTerms.from_names("none")).count
+        assert problem.names[0] == "base.mR"  # the total mass among them
+
+
+@pytest.mark.parametrize("method", ["ols", "sdp"])
+def test_gait_twin_recovers_the_base_parameters(exo, gait, method):
+    problem = floating_problem(exo, gait.exact, terms=TERMS)
+    assert error(problem, make_estimator(method).fit(problem).base_) <= 1e-6
+    left, right = (gait.recording.contacts[s] for s in ("l_sole", "r_sole"))
+    assert (left & right).any() and (left & ~right).any() and (right & ~left).any()  # double and single support
+
+
+def test_gait_double_support_split_sums_to_the_total_wrench(exo, gait):
+    """The two soles' wrenches carry exactly what the motion needs (the base rows of the RNEA)."""
+    from pinid.identification.floating_problem import floating_targets
+
+    s = gait.exact
+    tau_free = s.data.tau
+    s.data.tau = None
+    try:
+        y = floating_targets(exo, s)
+    finally:
+        s.data.tau = tau_free
+    from pinid.model.floating import floating_rnea
+
+    rnea = floating_rnea(exo, s.base_q, s.base_v, s.base_a, s.data.q, s.data.dq, s.data.ddq)
+    np.testing.assert_allclose(y[:, :6], rnea[:, :6], atol=1e-8 * np.abs(rnea[:, :6]).max())
+
+
+@pytest.mark.parametrize("method", ["wls", "ridge", "rls"])
+def test_other_estimators_take_the_floating_problem(exo, suspended, method):
+    problem = floating_problem(exo, suspended.exact, terms=TERMS)
+    est = make_estimator(method).fit(problem)
+    assert est.base_.shape == (problem.nb,) and np.all(np.isfinite(est.base_))
+    assert error(problem, est.base_) <= 1e-3
+
+
+def test_recording_round_trip_and_imu(exo, suspended, tmp_path):
+    """Written, read back and filtered: the base rows give the total mass to 0.5 %, from an IMU and a load cell."""
+    path = write_floating(tmp_path / "s.csv", suspended.recording)
+    rec = read_floating(path, exo)
+    assert rec.imu_frame == "imu" and list(rec.wrenches) == ["pelvis"]
+    np.testing.assert_allclose(rec.wrenches["pelvis"], suspended.recording.wrenches["pelvis"], rtol=1e-10, atol=1e-9)
+    samples = prepare_floating(rec, exo, {"cutoff": 20.0})
+    problem = floating_problem(exo, samples, rows="base")
+    base = make_estimator("ols").fit(problem).base_
+    assert base[0] == pytest.approx(21.8, rel=5e-3)
+
+
+def _csv(tmp_path, header, row):
+    p = tmp_path / "bad.csv"
+    joints = [f"q_{j}" for j in RobotModel.from_urdf("exo_lower_body").joint_names]
+    lines = [",".join(["t", *joints, *header])]
+    lines += [",".join([str(0.01 * k), *["0.1"] * len(joints), *[str(v) for v in row]]) for k in range(20)]
+    p.write_text("\n".join(lines) + "\n")
+    return p
+
+
+POSE = ["base_x", "base_y", "base_z", "base_qx", "base_qy", "base_qz", "base_qw"]
+
+
+@pytest.mark.parametrize(
+    "header, row, fragment",
+    [
+        (
+            POSE + [f"wrench_nowhere_{c}" for c in ("fx", "fy", "fz", "tx", "ty", "tz")],
+            [0] * 6 + [1] + [0] * 6,
+            "'nowhere' is not a link",
+        ),
+        (
+            ["imu_ghost_" + c for c in ("qx", "qy", "qz", "qw", "wx", "wy", "wz", "ax", "ay", "az")],
+            [0, 0, 0, 1] + [0] * 6,
+            "'ghost' is not a link",
+        ),
+        (
+            ["imu_l_thigh_" + c for c in ("qx", "qy", "qz", "qw", "wx", "wy", "wz", "ax", "ay", "az")],
+            [0, 0, 0, 1] + [0] * 6,
+            "not fixed to the base link",
+        ),
+        (POSE, [0, 0, 0, 0.5, 0, 0, 0.5], "expected a unit quaternion"),
+        (POSE + ["contact_l_sole"], [0] * 6 + [1, 1], "no wrench_l_sole_* or plate_l_sole_*"),
+        (
+            ["imu_imu_" + c for c in ("qx", "qy", "qz", "qw", "wx", "wy", "wz", "ax", "ay", "az")]
+            + [f"plate_l_sole_{c}" for c in ("fx", "fy", "fz", "copx", "copy")],
+            [0, 0, 0, 1] + [0] * 11,
+            "need the base position",
+        ),
+        ([], [], "no base motion"),
+    ],
+)
+def test_bad_floating_recordings(exo, tmp_path, header, row, fragment):
+    with pytest.raises(DataError, match=fragment.replace("*", r"\*")):
+        read_floating(_csv(tmp_path, header, row), exo)
