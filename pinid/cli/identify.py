@@ -84,6 +84,17 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="sdp: row weighting (none: as OLS, default; joint: as WLS)",
     )
     g.add_argument("--wls-iterations", type=positive_int, default=None, help="wls: reweighting passes (default 1)")
+    g = p.add_argument_group("floating base (--base floating; docs/floating-base.md)")
+    g.add_argument(
+        "--rows",
+        choices=("all", "base", "joints"),
+        default="all",
+        help="rows to fit: all (base rows + joint rows, default), base (the 6 base rows: contact wrenches and "
+        "motion, no joint torque needed), joints (joint torques with the wrenches' Jᵀf on the right)",
+    )
+    g.add_argument(
+        "--base-weight", type=float, default=1.0, help="weight of every base row (joint rows weigh 1); default 1"
+    )
     g = p.add_argument_group("stage 2: the wearer (docs/wearer.md)")
     g.add_argument(
         "--stage",
@@ -197,6 +208,8 @@ def run(args: argparse.Namespace) -> int:
         raise SpecError("--stage wearer and --exo MODEL_JSON go together (stage 2: the wearer, the exo fixed)")
     if args.stage == "wearer":
         return _run_wearer(args, out)
+    if args.base == "floating":
+        return _run_floating(args, out)
     methods = methods_from_args(args)
     model = robot_from_args(args)
     terms = terms_from_args(args)
@@ -232,6 +245,29 @@ def run(args: argparse.Namespace) -> int:
         + (f"; no URDF for inconsistent result(s) {', '.join(refused)} (--force-export writes them)" if refused else "")
     )
     print(wrote_line(written, out))
+    return 0
+
+
+def _run_floating(args: argparse.Namespace, out: Path) -> int:
+    """A floating-base robot with contact wrenches (docs/floating-base.md): identification.json only."""
+    from pinid.identification.floating import identify_floating, write_floating_identification  # deferred
+
+    methods = methods_from_args(args)
+    model = robot_from_args(args)
+    print(f"identifying {model.name} on a floating base ({args.rows} rows) with {', '.join(methods)}")
+    ident = identify_floating(
+        model,
+        args.data,
+        methods=methods,
+        validate=args.validate or None,
+        terms=terms_from_args(args),
+        rows=args.rows,
+        base_weight=args.base_weight,
+        preprocess=preprocess_from_args(args),
+        options=options_from_args(args, _options(args, methods)),
+    )
+    print(ident.text())
+    print(wrote_line(write_floating_identification(ident, out), out))
     return 0
 
 

@@ -135,6 +135,17 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "joint's peak torque like 1%%; default 1%%",
     )
     g.add_argument("--record-velocity", action="store_true", help="also record velocities (true + noise)")
+    g = p.add_argument_group("floating base (--base floating; docs/floating-base.md)")
+    g.add_argument(
+        "--imu",
+        default=None,
+        metavar="FRAME",
+        help="record the base motion as an IMU on FRAME (a link fixed to the base) instead of motion capture",
+    )
+    g.add_argument("--wrench-noise", default="2,0.2", metavar="F,M", help="wrench noise std [N, N·m]; default 2,0.2")
+    g.add_argument(
+        "--imu-noise", default="0.005,0.05", metavar="G,A", help="gyro [rad/s] and accelerometer [m/s²] noise std"
+    )
     g.add_argument("--velocity-noise", type=float, default=0.01, help="velocity noise std [rad/s]; default 0.01")
 
 
@@ -217,6 +228,8 @@ def run(args: argparse.Namespace) -> int:
     if args.encoder_bits < 0 or args.encoder_bits > 40:
         raise SpecError(f"--encoder-bits {args.encoder_bits}, expected 0 (no quantisation) to 40")
     model = robot_from_args(args)
+    if model.base == "floating":
+        return _simulate_floating(args, model, files)
     drawn = None
     if args.wearer_draw:
         from pinid.wearer.prior import draw_wearer  # deferred: pinid --help does not load it
@@ -234,6 +247,36 @@ def run(args: argparse.Namespace) -> int:
     truth["command"] = "pinid simulate " + " ".join(_argv_of(args))
     write_simulation(ds, truth, cad=cad, **files)
     print(simulation_text(ds, truth, **files))
+    return 0
+
+
+def _pair(text: str, option: str) -> tuple[float, float]:
+    try:
+        a, b = (float(x) for x in text.split(","))
+    except ValueError:
+        raise SpecError(f"{option} {text!r}: expected two numbers A,B") from None
+    if not (a >= 0 and b >= 0 and np.isfinite(a + b)):
+        raise SpecError(f"{option} {text!r}: expected two numbers >= 0")
+    return a, b
+
+
+def _simulate_floating(args: argparse.Namespace, model, files: dict) -> int:
+    """--base floating: the suspended twin on --excitation, or the gait twin with --excitation gait."""
+    from pinid.simulation.floating_twin import Noise, floating_text, simulate_floating, write_floating_run  # deferred
+
+    torque, pct = _torque_noise(args, model)
+    force, moment = _pair(args.wrench_noise, "--wrench-noise")
+    gyro, accel = _pair(args.imu_noise, "--imu-noise")
+    noise = Noise(
+        args.position_noise, 0.0 if torque is None else torque, force, moment, gyro, accel, None if torque else pct
+    )
+    rate = args.sample_rate or args.control_rate
+    run = simulate_floating(
+        model, args.excitation, seconds=args.seconds, rate=rate, noise=noise, seed=args.seed, imu_frame=args.imu
+    )
+    run.truth["command"] = "pinid simulate " + " ".join(_argv_of(args))
+    written = write_floating_run(run, files["path"], files["truth_path"])
+    print(floating_text(run, written))
     return 0
 
 

@@ -66,6 +66,7 @@ class Noise:
     moment: float = 0.0
     gyro: float = 0.0
     accel: float = 0.0
+    torque_percent: float | None = None  # when given: torque noise this % of each joint's peak torque instead
 
 
 @dataclass
@@ -324,11 +325,14 @@ def _recording(model, s: FloatingSamples, noise: Noise, seed: int, imu_frame, *,
     """The noisy recording of exact samples: joints, motion capture or IMU, load cells or force plates."""
     rng = np.random.default_rng(seed)
     n, ds = s.n, s.data
+    sigma = np.asarray(noise.torque, dtype=float)
+    if noise.torque_percent is not None:
+        sigma = noise.torque_percent / 100 * np.abs(ds.tau).max(axis=0)
     data = Dataset(
         ds.t,
         ds.q + noise.position * rng.standard_normal(ds.q.shape),
         ds.joints,
-        tau=ds.tau + noise.torque * rng.standard_normal(ds.tau.shape),
+        tau=ds.tau + sigma * rng.standard_normal(ds.tau.shape),
         source=ds.source,
     )
     rec = FloatingRecording(data)
@@ -396,7 +400,56 @@ def _truth(model, kind, seconds, rate, noise, seed) -> dict:
         "seconds": seconds,
         "rate_hz": rate,
         "seed": seed,
-        "noise": dict(noise.__dict__),
+        "noise": {k: np.asarray(v).tolist() for k, v in noise.__dict__.items()},
         "standard_names": floating_parameter_names(model),
         "standard": floating_standard_parameters(model).tolist(),
     }
+
+
+# ------------------------------------------------------------------------------------------------- the command
+def simulate_floating(
+    model: FloatingRobotModel,
+    excitation: str,
+    *,
+    seconds: float = 10.0,
+    rate: float = 1000.0,
+    noise: Noise = Noise(),
+    seed: int = 0,
+    imu_frame: str | None = None,
+) -> FloatingRun:
+    """``pinid simulate --base floating``: ``excitation`` "gait" walks (:func:`simulate_gait`); anything else is a
+    trajectory (:func:`pinid.simulation.twin.load_trajectory`) the suspended legs follow (:func:`simulate_suspended`)."""
+    if excitation == "gait":
+        return simulate_gait(model, seconds=seconds, rate=rate, noise=noise, seed=seed, imu_frame=imu_frame)
+    from pinid.simulation.twin import load_trajectory
+
+    trajectory = load_trajectory(excitation, model)
+    return simulate_suspended(
+        model, trajectory, seconds=seconds, rate=rate, noise=noise, seed=seed, imu_frame=imu_frame
+    )
+
+
+def write_floating_run(run: FloatingRun, path, truth_path=None, *, overwrite: bool | None = None) -> list:
+    """Write the recording (CSV or NPZ) and the truth JSON (default ``<path stem>.truth.json``), all or nothing."""
+    from pinid.data.contacts import write_floating
+    from pinid.io import Artefacts, write_json
+    from pinid.simulation.outputs import truth_path_for
+
+    arts = Artefacts(overwrite=overwrite)
+    arts.add(path, lambda p: write_floating(p, run.recording))
+    arts.add(truth_path or truth_path_for(path), lambda p: write_json(p, run.truth))
+    return arts.write()
+
+
+def floating_text(run: FloatingRun, written) -> str:
+    """What ``pinid simulate --base floating`` prints."""
+    rec, s = run.recording, run.exact
+    what = [f"{len(s.data.joints)} joints"]
+    what.append(f"IMU on {rec.imu_frame}" if rec.imu_frame else "base pose (motion capture)")
+    what += [f"wrench on {k} (link frame)" for k in rec.wrenches] + [f"force plate under {k}" for k in rec.plates]
+    if rec.contacts:
+        what.append("contact phases")
+    return (
+        f"simulated {run.truth['kind']} {run.truth['robot']} on a floating base: {s.n} samples, "
+        f"{s.data.duration:.3g} s; recorded {', '.join(what)}\nwrote " + ", ".join(str(p) for p in written)
+    )
