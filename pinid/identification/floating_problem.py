@@ -63,7 +63,6 @@ class FloatingRows:
 
     def blocks(self, *, bar=None) -> Iterator[tuple[int, np.ndarray]]:
         row, per = 0, int(self.mask.sum())
-        p = len(self.base.standard_names)
         for s in self.samples:
             for start in range(0, s.n, _CHUNK):
                 sl = slice(start, min(s.n, start + _CHUNK))
@@ -78,7 +77,11 @@ class FloatingRows:
                     self.terms,
                 )
                 k = sl.stop - sl.start
-                Wk = W.reshape(k, -1, p)[:, self.mask][:, :, self.base.independent].reshape(k * per, -1)
+                if per == len(self.mask):
+                    Wk = np.take(W, self.base.independent, axis=1)
+                else:  # rows and columns picked in one copy
+                    picked = (np.arange(k)[:, None] * len(self.mask) + np.flatnonzero(self.mask)).reshape(-1)
+                    Wk = W[np.ix_(picked, self.base.independent)]
                 yield row, Wk
                 row += len(Wk)
                 if bar is not None:

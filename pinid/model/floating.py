@@ -256,12 +256,9 @@ def floating_regressor(
     inertial = out[:, :, :ni]
     for k in range(n):
         inertial[k] = compute(m, d, Q[k], V[k], A[k])
-    if terms.joint:
+    if terms.joint:  # joint-major term columns: the base's (zero) first, then the joints' in the fixed order
         qj = np.atleast_2d(np.asarray(q, dtype=float))
-        cols = _terms.columns(model, terms, qj, V[:, BASE_NV:], A[:, BASE_NV:])
-        fixed_names = _terms.parameter_names(model, terms)
-        idx = [names.index(p) for p in fixed_names]
-        out[:, BASE_NV:, idx] = cols
+        _terms.columns(model, terms, qj, V[:, BASE_NV:], A[:, BASE_NV:], out=out[:, BASE_NV:, ni + len(terms.joint) :])
     return out.reshape(n * (BASE_NV + nv), len(names))
 
 
@@ -302,12 +299,26 @@ def contact_forces(model: FloatingRobotModel, base_q, q, wrenches: Sequence[Wren
         if w.frame not in ("local", "world"):
             raise DataError(f"wrench on '{w.link}': frame {w.frame!r}, expected 'local' or 'world'")
         items.append((model.frame_id(w.link, "wrench link"), pin.LOCAL if w.frame == "local" else pin.WORLD, vals))
-    out = np.zeros((n, BASE_NV + model.nv))
+    # every wrench in world axes about the world origin, then J_worldᵀ f on the joints that support its body
+    nvf = BASE_NV + model.nv
+    J = np.empty((n, 6, nvf))
+    world = [np.array(vals, copy=True) for _, _, vals in items]
+    local = [i for i, (_, ref, _) in enumerate(items) if ref == pin.LOCAL]
     for k in range(n):
-        pin.computeJointJacobians(m, d, Q[k])
-        pin.updateFramePlacements(m, d)
-        for fid, ref, vals in items:
-            out[k] += pin.getFrameJacobian(m, d, fid, ref).T @ vals[k]
+        J[k] = pin.computeJointJacobians(m, d, Q[k])
+        for i in local:
+            fid = items[i][0]
+            frame = m.frames[fid]
+            X = d.oMi[frame.parentJoint] * frame.placement
+            world[i][k] = X.act(pin.Force(items[i][2][k])).vector
+    out = np.zeros((n, nvf))
+    for (fid, _, _), f in zip(items, world):
+        support = np.zeros(nvf, bool)
+        for jid in m.supports[m.frames[fid].parentJoint]:
+            if jid > 0:
+                j = m.joints[jid]
+                support[j.idx_v : j.idx_v + j.nv] = True
+        out[:, support] += np.einsum("nrc,nr->nc", J[:, :, support], f)
     return out
 
 
