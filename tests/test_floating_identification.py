@@ -148,3 +148,31 @@ POSE = ["base_x", "base_y", "base_z", "base_qx", "base_qy", "base_qz", "base_qw"
 def test_bad_floating_recordings(exo, tmp_path, header, row, fragment):
     with pytest.raises(DataError, match=fragment.replace("*", r"\*")):
         read_floating(_csv(tmp_path, header, row), exo)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("kind", ["suspended", "gait"])
+def test_noisy_twin_validates_at_the_noise_floor(exo, kind, tmp_path):
+    """Noisy twin through files, filtering and differentiation: on a held-out recording the identified model's
+    RMS is within 5 % of the true parameters' own RMS (the noise floor on that data); the SDP is consistent."""
+    from pinid.model.physical import check_consistency
+    from pinid.simulation.floating_twin import Noise
+
+    noise = Noise(2e-5, 0.3, 2.0, 0.2, 0.005, 0.05)
+    if kind == "suspended":
+        runs = [simulate_suspended(exo, excitation(exo, k), seconds=8, rate=250, noise=noise, seed=k) for k in (0, 1)]
+    else:
+        runs = [simulate_gait(exo, seconds=10, rate=500, noise=noise, seed=1)]
+        runs.append(simulate_gait(exo, seconds=6, rate=500, noise=noise, seed=2, pattern={"period": 1.0, "speed": 0.9}))
+    samples = []
+    for k, run in enumerate(runs):
+        path = write_floating(tmp_path / f"{k}.csv", run.recording)
+        samples.append(prepare_floating(read_floating(path, exo), exo))
+    train = floating_problem(exo, samples[0], terms=TERMS)
+    held = floating_problem(exo, samples[1], terms=TERMS, base=train.base)
+    floor = np.sqrt(np.mean((held.tau - held.predict(held.nominal_base)) ** 2))
+    for method in ("ols", "sdp"):
+        est = make_estimator(method).fit(train)
+        rms = np.sqrt(np.mean((held.tau - held.predict(est.base_)) ** 2))
+        assert rms <= 1.05 * floor, (method, rms, floor)
+    assert check_consistency(est.standard_, train.model.joint_names, train.terms.names, []).consistent
