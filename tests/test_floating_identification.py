@@ -176,3 +176,25 @@ def test_noisy_twin_validates_at_the_noise_floor(exo, kind, tmp_path):
         rms = np.sqrt(np.mean((held.tau - held.predict(est.base_)) ** 2))
         assert rms <= 1.05 * floor, (method, rms, floor)
     assert check_consistency(est.standard_, train.model.joint_names, train.terms.names, []).consistent
+
+
+def test_swing_rows_of_a_leg_without_force_sensing(exo, tmp_path):
+    """The right foot's wrench unknown (contact phases only): its contact rows are left out, and the rest still
+    recovers the noise-free walk; from a file, --swing-rows accepts what is otherwise refused."""
+    import dataclasses
+
+    run = simulate_gait(exo, seconds=6, rate=200)
+    right = run.recording.contacts["r_sole"]
+    s = dataclasses.replace(
+        run.exact, wrenches=[w for w in run.exact.wrenches if w.link == "l_sole"], unsensed={"r_sole": right}
+    )
+    problem = floating_problem(exo, s, terms=TERMS)
+    assert problem.rows == s.n * 14 - int(right.sum()) * (6 + 4)  # base rows and the right leg's 4 joints
+    assert error(problem, make_estimator("ols").fit(problem).base_) <= 1e-6
+    rec = run.recording
+    rec.plates.pop("r_sole")
+    path = write_floating(tmp_path / "g.csv", rec)
+    with pytest.raises(DataError, match="--swing-rows"):
+        read_floating(path, exo)
+    samples = prepare_floating(read_floating(path, exo, swing_rows=True), exo)
+    assert set(samples.unsensed) == {"r_sole"} and samples.unsensed["r_sole"].sum() >= right[: samples.n].sum() * 0.9

@@ -95,6 +95,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument(
         "--base-weight", type=float, default=1.0, help="weight of every base row (joint rows weigh 1); default 1"
     )
+    g.add_argument(
+        "--swing-rows",
+        action="store_true",
+        help="accept contact_<link> phases without a wrench (a leg without force sensing): the rows that "
+        "foot's unknown wrench enters (base rows, its leg's joints) are left out while it is in contact",
+    )
     g = p.add_argument_group("stage 2: the wearer (docs/wearer.md)")
     g.add_argument(
         "--stage",
@@ -265,6 +271,7 @@ def _run_floating(args: argparse.Namespace, out: Path) -> int:
         base_weight=args.base_weight,
         preprocess=preprocess_from_args(args),
         options=options_from_args(args, _options(args, methods)),
+        swing_rows=args.swing_rows,
     )
     print(ident.text())
     print(wrote_line(write_floating_identification(ident, out), out))

@@ -125,10 +125,14 @@ def _need(have: dict, wanted, what: str, source: str, optional=()) -> None:
         )
 
 
-def read_floating(path: str | os.PathLike, model: FloatingRobotModel, **kwargs) -> FloatingRecording:
+def read_floating(
+    path: str | os.PathLike, model: FloatingRobotModel, *, swing_rows: bool = False, **kwargs
+) -> FloatingRecording:
     """Read a floating recording in the dataset format (the table in the module text) and check it against
     ``model``: every link and frame named exists, the IMU is fixed to the base link, quaternions are unit,
-    contact phases have a wrench, force plates have the base position.  ``kwargs`` go to
+    contact phases have a wrench (unless ``swing_rows``: then a link with contact phases and no wrench is a
+    leg without force sensing, whose contact rows are left out, see
+    :func:`pinid.identification.floating_problem.floating_problem`), force plates have the base position.  ``kwargs`` go to
     :func:`~pinid.data.formats.read_recording` (the joint columns)."""
     model = as_floating(model)
     path = Path(path)
@@ -187,10 +191,11 @@ def read_floating(path: str | os.PathLike, model: FloatingRobotModel, **kwargs) 
         )
     for link, col in g["contact"].items():
         model.frame_id(link, f"{source}: contact link (column {col})")
-        if link not in rec.wrenches and link not in rec.plates:
+        if link not in rec.wrenches and link not in rec.plates and not swing_rows:
             raise DataError(
                 f"{source}: column {col} gives contact phases of '{link}' but there is no wrench_{link}_* or "
-                f"plate_{link}_* column; expected the contact wrench of a link in contact"
+                f"plate_{link}_* column; expected the contact wrench of a link in contact (or --swing-rows: use only "
+                "the rows that wrench does not enter)"
             )
         c = values[col]
         if not np.all((c == 0) | (c == 1)):
@@ -259,6 +264,7 @@ class FloatingSamples:
     base_v: np.ndarray
     base_a: np.ndarray
     wrenches: list[Wrench]
+    unsensed: dict[str, np.ndarray] = field(default_factory=dict)  # link -> (N,) in contact, wrench unknown
 
     @property
     def n(self) -> int:
@@ -386,7 +392,9 @@ def prepare_floating(
     base_v = np.hstack([np.zeros((m, 3)), omega])
     base_a = np.hstack([acc, domega])
     wrenches = []
-    contact = {link: sig[:, col[f"contact_{link}"]] > 0.5 if rec.contacts else None for link in rec.contacts}
+    # the filter spreads a phase's step over a few samples: a measured wrench is zeroed below 0.5, a link
+    # without a measured wrench counts as in contact above 0.05 (its rows are left out: conservative)
+    contact = {link: sig[:, col[f"contact_{link}"]] > 0.5 for link in rec.contacts}
     for link in rec.wrenches:
         w = block(f"wrench_{link}_", WRENCH)
         wrenches.append(Wrench(link, _gate(w, contact.get(link), threshold), "local"))
@@ -394,7 +402,12 @@ def prepare_floating(
         w = block(f"plate_{link}_", WRENCH)  # world wrench about the origin (converted above)
         wrenches.append(Wrench(link, _gate(w, contact.get(link), threshold), "world"))
     data = Dataset(t, jq, list(model.joint_names), dq=jdq, ddq=jddq, tau=jtau, source=ds.source, meta=dict(ds.meta))
-    return FloatingSamples(data, base_q, base_v, base_a, wrenches)
+    unsensed = {
+        link: sig[:, col[f"contact_{link}"]] > 0.05
+        for link in rec.contacts
+        if link not in rec.wrenches and link not in rec.plates
+    }
+    return FloatingSamples(data, base_q, base_v, base_a, wrenches, unsensed)
 
 
 def _gate(w: np.ndarray, contact: np.ndarray | None, threshold: float) -> np.ndarray:

@@ -54,8 +54,11 @@ class FloatingIdentification:
         return "\n".join(out)
 
 
-def load_floating(items, model: FloatingRobotModel, preprocess=None, what: str = "training") -> list[FloatingSamples]:
-    """Floating recordings (paths or prepared :class:`FloatingSamples`) read, checked and prepared."""
+def load_floating(
+    items, model: FloatingRobotModel, preprocess=None, what: str = "training", *, swing_rows: bool = False
+) -> list[FloatingSamples]:
+    """Floating recordings (paths or prepared :class:`FloatingSamples`) read, checked and prepared
+    (``swing_rows``: accept contact phases without a wrench, :func:`pinid.data.contacts.read_floating`)."""
     if items is None:
         return []
     if isinstance(items, (FloatingSamples, str, os.PathLike)):
@@ -65,7 +68,7 @@ def load_floating(items, model: FloatingRobotModel, preprocess=None, what: str =
         if isinstance(item, FloatingSamples):
             out.append(item)
         elif isinstance(item, (str, os.PathLike)):
-            out.append(prepare_floating(read_floating(item, model), model, preprocess))
+            out.append(prepare_floating(read_floating(item, model, swing_rows=swing_rows), model, preprocess))
         else:
             raise DataError(f"{what} recording: got {type(item).__name__}, expected a path or FloatingSamples")
     if not out:
@@ -84,15 +87,18 @@ def identify_floating(
     base_weight: float = 1.0,
     preprocess: Mapping | bool | None = None,
     options: Mapping[str, Mapping] | None = None,
+    swing_rows: bool = False,
 ) -> FloatingIdentification:
-    """Fit every method on the training recordings and score it on the validation ones (RMS over the rows used)."""
+    """Fit every method on the training recordings and score it on the validation ones (RMS over the rows used).
+    ``swing_rows``: links with contact phases but no wrench are legs without force sensing; the rows their
+    unknown wrench enters are left out while they are in contact."""
     model = as_floating(model)
     terms = as_terms(terms)
-    train = load_floating(data, model, preprocess)
+    train = load_floating(data, model, preprocess, swing_rows=swing_rows)
     problem = floating_problem(model, train, terms=terms, rows=rows, base_weight=base_weight)
     val_problem = None
     if validate:
-        val = load_floating(validate, model, preprocess, "validation")
+        val = load_floating(validate, model, preprocess, "validation", swing_rows=swing_rows)
         val_problem = floating_problem(
             model, val, terms=problem.terms, rows=rows, base_weight=base_weight, base=problem.base
         )

@@ -18,6 +18,11 @@ The result is an ordinary :class:`~pinid.identification.problem.IdentificationPr
 robot's body view (:func:`pinid.model.floating.body_view`: ``base`` then the joints), so every estimator,
 the SDP with its pseudo-inertia LMI on every body (the base link included) among them, takes it unchanged.
 Its rows are rebuilt block by block (:class:`FloatingRows`); Coulomb rows at rest are not dropped.
+
+Legs without force sensing (contact phases, no wrench: :func:`swing_rows`): while such a foot is in contact
+its unknown wrench enters the base rows and the rows of its leg's joints; those rows are left out at those
+samples, so the leg's joint rows come from its swing phases and the base rows from the samples where every
+foot in contact is measured.
 """
 
 from __future__ import annotations
@@ -55,15 +60,15 @@ class FloatingRows:
     terms: JointTerms
     base: BaseParameters
     samples: list[FloatingSamples]
-    mask: np.ndarray
+    keeps: list[np.ndarray]  # per recording (N, 6 + n) booleans: the rows used
 
     @property
     def count(self) -> int:
-        return sum(s.n for s in self.samples) * int(self.mask.sum())
+        return sum(int(k.sum()) for k in self.keeps)
 
     def blocks(self, *, bar=None) -> Iterator[tuple[int, np.ndarray]]:
-        row, per = 0, int(self.mask.sum())
-        for s in self.samples:
+        row = 0
+        for s, keep in zip(self.samples, self.keeps):
             for start in range(0, s.n, _CHUNK):
                 sl = slice(start, min(s.n, start + _CHUNK))
                 W = floating_regressor(
@@ -77,11 +82,11 @@ class FloatingRows:
                     self.terms,
                 )
                 k = sl.stop - sl.start
-                if per == len(self.mask):
+                rows = keep[sl].reshape(-1)
+                if rows.all():
                     Wk = np.take(W, self.base.independent, axis=1)
                 else:  # rows and columns picked in one copy
-                    picked = (np.arange(k)[:, None] * len(self.mask) + np.flatnonzero(self.mask)).reshape(-1)
-                    Wk = W[np.ix_(picked, self.base.independent)]
+                    Wk = W[np.ix_(np.flatnonzero(rows), self.base.independent)]
                 yield row, Wk
                 row += len(Wk)
                 if bar is not None:
@@ -102,6 +107,22 @@ def floating_targets(model: FloatingRobotModel, s: FloatingSamples) -> np.ndarra
     if s.wrenches:
         y += contact_forces(model, s.base_q, s.data.q, s.wrenches)
     return y
+
+
+def swing_rows(model: FloatingRobotModel, s: FloatingSamples, mask: np.ndarray) -> np.ndarray:
+    """(N, 6 + n) booleans: the rows of ``mask`` (one sample's row set) that no unknown wrench enters.  A link
+    in contact without a measured wrench (``s.unsensed``: a leg without force sensing) takes out, at those
+    samples, the 6 base rows and the rows of the joints that support it; its leg's rows stay in swing."""
+    keep = np.broadcast_to(mask, (s.n, len(mask))).copy()
+    m = model.ff_model
+    for link, contact in s.unsensed.items():
+        rows = np.zeros(len(mask), bool)
+        for jid in m.supports[m.frames[model.frame_id(link)].parentJoint]:
+            if jid > 0:
+                j = m.joints[jid]
+                rows[j.idx_v : j.idx_v + j.nv] = True
+        keep[np.ix_(contact, rows)] = False
+    return keep
 
 
 def floating_problem(
@@ -136,15 +157,18 @@ def floating_problem(
                 "(rows='base', --rows base: contact wrenches and motion)"
             )
     base = base if base is not None else floating_base_parameters(model, terms, rows=rows)
-    per = int(mask.sum())
-    body = np.r_[np.zeros(BASE_NV, int), np.arange(1, model.nv + 1)][mask]
-    weight_row = np.r_[np.full(BASE_NV, float(base_weight)), np.ones(model.nv)][mask]
-    ys, joints, sample_idx = [], [], []
+    width = BASE_NV + model.nv
+    body = np.r_[np.zeros(BASE_NV, int), np.arange(1, model.nv + 1)]
+    weight_row = np.r_[np.full(BASE_NV, float(base_weight)), np.ones(model.nv)]
+    ys, joints, sample_idx, weights, keeps = [], [], [], [], []
     offset = 0
     for s in samples:
-        ys.append(floating_targets(model, s)[:, mask].reshape(-1))
-        joints.append(np.tile(body, s.n))
-        sample_idx.append(offset + np.repeat(np.arange(s.n), per))
+        keep = swing_rows(model, s, mask)
+        ys.append(floating_targets(model, s)[keep])
+        joints.append(np.broadcast_to(body, (s.n, width))[keep])
+        sample_idx.append(offset + np.broadcast_to(np.arange(s.n)[:, None], (s.n, width))[keep])
+        weights.append(np.broadcast_to(weight_row, (s.n, width))[keep])
+        keeps.append(keep)
         offset += s.n
     y = np.concatenate(ys)
     peak = np.r_[
@@ -159,13 +183,13 @@ def floating_problem(
         y,
         np.concatenate(joints),
         np.concatenate(sample_idx),
-        np.tile(weight_row, offset),
+        np.concatenate(weights),
         floating_standard_parameters(model, terms),
         samples=offset,
         sources=[s.source for s in samples],
         sample_rates=[s.data.sample_rate for s in samples],
         peak_velocity=peak,
-        regressor_rows=FloatingRows(model, terms, base, samples, mask),
+        regressor_rows=FloatingRows(model, terms, base, samples, keeps),
     )
     problem.check()
     return problem
