@@ -118,3 +118,27 @@ def test_cli_info_floating_shows_the_base_parameters(tmp_path):
     d = json.loads((tmp_path / "i.json").read_text())
     assert d["base"] == "floating" and d["base_rows"]["count"] == len(d["base_parameters"])  # Ayusawa et al. 2014
     assert d["base_parameters"][0]["nominal"] == pytest.approx(21.8)
+
+
+def test_self_collision_between_the_legs(exo):
+    """16 pairs (4 bodies per leg); hips adducted make the thighs overlap; a motion that swings them together
+    is shrunk toward its clear offsets until the legs stay 2 cm apart."""
+    from pinid import SpecError
+    from pinid.excitation.collision import check_self_collision, leg_pairs, shrink_to_clear
+    from pinid.excitation.trajectory import FourierTrajectory
+
+    _, pairs = leg_pairs(exo)
+    assert len(pairs) == 16
+    zeros = np.zeros((8, 1))
+    adducted = np.zeros(8)
+    adducted[[0, 4]] = -0.35
+    crossed = FourierTrajectory(exo.joint_names, 1.0, adducted, zeros, zeros)
+    assert check_self_collision(exo, crossed).distance < 0
+    with pytest.raises(SpecError, match="at the offsets q0"):
+        shrink_to_clear(exo, crossed)
+    a = zeros.copy()
+    a[[0, 4], 0] = -0.34  # both hips adduct together once per period
+    swing = FourierTrajectory(exo.joint_names, 1.0, np.zeros(8), a, zeros)
+    shrunk, factor, check = shrink_to_clear(exo, swing)
+    assert 0 < factor < 1 and check.ok and check.distance < 0.021
+    assert not check_self_collision(exo, swing).ok

@@ -51,6 +51,8 @@ def test_excite_simulate_identify_floating(tmp_path):
     for args in steps:
         proc = run_cli(*args, cwd=tmp_path)
         assert proc.returncode == 0, (args, proc.stderr)
+    clear = json.loads((tmp_path / "exc.json").read_text())["self_collision"]
+    assert clear["pairs"] == 16 and clear["distance"] >= clear["margin"] == 0.02
     truth = json.loads((tmp_path / "s.truth.json").read_text())
     assert truth["base"] == "floating" and truth["standard_names"][0] == "base.m"
     for folder in ("r", "rb", "rg"):
