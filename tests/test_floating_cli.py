@@ -65,6 +65,7 @@ def test_excite_simulate_identify_floating(tmp_path):
     assert d["results"]["sdp"]["standard"] is not None
 
 
+@pytest.mark.slow
 def test_bad_floating_inputs_are_one_line_and_write_nothing(tmp_path):
     (tmp_path / "bad.csv").write_text(
         "t,q_l_hip_abduction,q_l_hip_flexion,q_l_knee,q_l_ankle,q_r_hip_abduction,q_r_hip_flexion,q_r_knee,q_r_ankle,"

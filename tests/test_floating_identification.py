@@ -198,3 +198,17 @@ def test_swing_rows_of_a_leg_without_force_sensing(exo, tmp_path):
         read_floating(path, exo)
     samples = prepare_floating(read_floating(path, exo, swing_rows=True), exo)
     assert set(samples.unsensed) == {"r_sole"} and samples.unsensed["r_sole"].sum() >= right[: samples.n].sum() * 0.9
+
+
+def test_no_joint_torque_uses_the_base_rows_only(exo, suspended, tmp_path):
+    """The wearer's case: no tau_ columns; --rows base identifies from the harness wrench and the IMU, joint rows
+    are refused with a one-line reason."""
+    import dataclasses
+
+    rec = dataclasses.replace(suspended.recording, data=dataclasses.replace(suspended.recording.data, tau=None))
+    samples = prepare_floating(read_floating(write_floating(tmp_path / "w.csv", rec), exo), exo, {"cutoff": 20.0})
+    assert samples.data.tau is None
+    base = make_estimator("ols").fit(floating_problem(exo, samples, rows="base")).base_
+    assert base[0] == pytest.approx(21.8, rel=5e-3)
+    with pytest.raises(DataError, match="only the base rows can be used"):
+        floating_problem(exo, samples, rows="all")
