@@ -142,3 +142,22 @@ def test_self_collision_between_the_legs(exo):
     shrunk, factor, check = shrink_to_clear(exo, swing)
     assert 0 < factor < 1 and check.ok and check.distance < 0.021
     assert not check_self_collision(exo, swing).ok
+
+
+@pytest.mark.parametrize("name", ["exo_lower_body", "talos_legs"])
+def test_floating_urdf_round_trip(name, tmp_path):
+    """The exported URDF loads back (floating) with the given parameters, the base link's included."""
+    from pinid.model.floating import floating_urdf
+
+    model = RobotModel.from_urdf(name, base="floating")
+    terms = JointTerms.from_names("fc,fv")
+    theta = floating_standard_parameters(model, terms)
+    theta[0] *= 1.1  # a heavier base (first moments unchanged: its centre of mass moves in)
+    theta[10 + 10 * 2] *= 1.2  # and a heavier third body
+    path = tmp_path / "id.urdf"
+    floating_urdf(model, theta, terms, path)
+    back = RobotModel.from_urdf(path, base="floating", locked=model.locked or None)
+    np.testing.assert_allclose(floating_standard_parameters(back, terms), theta, atol=1e-12)
+    theta[0] = -1.0
+    with pytest.raises(ModelError, match="inconsistent"):
+        floating_urdf(model, theta, terms)

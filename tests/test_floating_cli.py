@@ -8,6 +8,8 @@ import pytest
 
 from conftest import assert_clean_error, run_cli
 
+from pinid import RobotModel
+
 EXO = ["--urdf", "exo_lower_body", "--base", "floating"]
 
 
@@ -63,6 +65,8 @@ def test_excite_simulate_identify_floating(tmp_path):
     d = json.loads((tmp_path / "r" / "identification.json").read_text())
     assert all(r["validation_rms"] < 1.0 for r in d["results"].values())
     assert d["results"]["sdp"]["standard"] is not None
+    back = RobotModel.from_urdf(tmp_path / "r" / "identified_sdp.urdf", base="floating")
+    assert sum(i.mass for i in back.ff_model.inertias) == pytest.approx(d["results"]["sdp"]["base"][0])
 
 
 @pytest.mark.slow

@@ -255,18 +255,22 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _run_floating(args: argparse.Namespace, out: Path) -> int:
-    """A floating-base robot with contact wrenches (docs/floating-base.md): identification.json only."""
+    """A floating-base robot with contact wrenches (docs/floating-base.md): identification.json and the
+    identified URDFs of consistent results."""
     from pinid.identification.floating import identify_floating, write_floating_identification  # deferred
 
     methods = methods_from_args(args)
     model = robot_from_args(args)
+    terms = terms_from_args(args)
+    if args.rows == "base":
+        terms = type(terms).from_names("none")  # no joint term enters the base rows
     print(f"identifying {model.name} on a floating base ({args.rows} rows) with {', '.join(methods)}")
     ident = identify_floating(
         model,
         args.data,
         methods=methods,
         validate=args.validate or None,
-        terms=terms_from_args(args),
+        terms=terms,
         rows=args.rows,
         base_weight=args.base_weight,
         preprocess=preprocess_from_args(args),
@@ -274,7 +278,7 @@ def _run_floating(args: argparse.Namespace, out: Path) -> int:
         swing_rows=args.swing_rows,
     )
     print(ident.text())
-    print(wrote_line(write_floating_identification(ident, out), out))
+    print(wrote_line(write_floating_identification(ident, out, model, terms), out))
     return 0
 
 

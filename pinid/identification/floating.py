@@ -1,6 +1,6 @@
 """Identify a floating-base robot from recordings with base motion and contact wrenches (``pinid identify
 --base floating``): read, prepare, stack (:mod:`pinid.identification.floating_problem`), fit every method,
-validate, and write ``identification.json``."""
+validate, and write ``identification.json`` and the identified URDFs of consistent results."""
 
 from __future__ import annotations
 
@@ -16,8 +16,8 @@ from pinid.data.contacts import FloatingSamples, prepare_floating, read_floating
 from pinid.errors import DataError
 from pinid.estimators import make_estimator
 from pinid.identification.floating_problem import floating_problem
-from pinid.io import write_json
-from pinid.model.floating import FloatingRobotModel, as_floating
+from pinid.io import Artefacts, write_json
+from pinid.model.floating import FloatingRobotModel, as_floating, floating_urdf
 from pinid.model.terms import JointTerms, as_terms
 
 
@@ -132,8 +132,31 @@ def _by_row(problem, r: np.ndarray) -> dict[str, float]:
     return {names[j]: float(np.sqrt(np.mean(r[problem.joint == j] ** 2))) for j in np.unique(problem.joint)}
 
 
-def write_floating_identification(ident: FloatingIdentification, folder: str | os.PathLike) -> list[Path]:
-    """Write ``identification.json`` into ``folder`` (created), atomically."""
+def write_floating_identification(
+    ident: FloatingIdentification,
+    folder: str | os.PathLike,
+    model: FloatingRobotModel | None = None,
+    terms: JointTerms = JointTerms(),
+) -> list[Path]:
+    """Write ``identification.json`` into ``folder`` and, with ``model``, ``identified_<method>.urdf`` for every
+    method that fits physically consistent standard parameters (sdp): all or nothing
+    (:class:`pinid.io.Artefacts`).  ``terms``: those of the identification."""
+    from pinid.model.physical import check_consistency
+
     folder = Path(folder)
-    folder.mkdir(parents=True, exist_ok=True)
-    return [write_json(folder / "identification.json", ident.to_dict())]
+    arts = Artefacts()
+    arts.add(folder / "identification.json", lambda p: write_json(p, ident.to_dict()))
+    if model is not None:
+        terms = as_terms(terms)
+        for method, r in ident.results.items():
+            theta = r.get("standard")
+            if theta is None or len(theta) != len(r["standard_names"]):
+                continue
+            theta = np.asarray(theta)
+            if not check_consistency(theta, model.body_names, terms.names, []).consistent:
+                continue
+            arts.add(
+                folder / f"identified_{method}.urdf",
+                lambda p, th=theta, m=method: floating_urdf(model, th, terms, p, comment=m),
+            )
+    return arts.write()

@@ -373,3 +373,67 @@ def floating_base_parameters(
 
 
 BASE_BUILDERS["floating"] = build_floating
+
+
+def floating_urdf(
+    model: FloatingRobotModel,
+    theta: np.ndarray,
+    terms: JointTerms = JointTerms(),
+    path=None,
+    *,
+    force: bool = False,
+    comment: str | None = None,
+) -> str:
+    """The URDF text of ``model`` with the floating standard parameters ``theta`` (base link first, as
+    :func:`floating_parameter_names`): the joints' bodies and friction as
+    :func:`pinid.model.export.identified_urdf` writes them, and the base link's ``<inertial>`` from ``theta[:10]``
+    (the links welded to it — fixed joints, locked joints — lose theirs: they are part of that body).  ModelError
+    for a physically inconsistent set unless ``force``.  Written atomically to ``path`` when given."""
+    import xml.etree.ElementTree as ET
+
+    from pinid.io import write_text
+    from pinid.model.export import identified_urdf, inertial_element
+    from pinid.model.physical import check_consistency, com_inertia
+
+    model = as_floating(model)
+    terms = _check_terms(model, terms)
+    theta = as_floats(theta, "theta").reshape(-1)
+    names = floating_parameter_names(model, terms)
+    if theta.shape != (len(names),):
+        raise ModelError(f"expected {len(names)} floating standard parameters, got {theta.size}")
+    report = check_consistency(theta, model.body_names, terms.names, [])
+    if not report.consistent and not force:
+        raise ModelError(
+            "refusing to export physically inconsistent parameters (" + "; ".join(report.problems[:3]) + ")"
+        )
+    k = len(terms.joint)
+    fixed = np.r_[theta[10 : 10 * (model.nv + 1)], theta[10 * (model.nv + 1) + k :]]
+    text = identified_urdf(
+        model, fixed, terms, force=True, comment=comment, origin="identified by pinid (floating base)"
+    )
+    root = ET.fromstring(text, parser=ET.XMLParser(target=ET.TreeBuilder(insert_comments=True)))
+    links = {link.get("name"): link for link in root.findall("link")}
+    welded, changed = {model.base_link}, True
+    while changed:  # links reached from the base link through joints that are not active
+        changed = False
+        for j in root.findall("joint"):
+            parent, child = j.find("parent").get("link"), j.find("child").get("link")
+            if parent in welded and child not in welded and j.get("name") not in model.joint_names:
+                welded.add(child)
+                changed = True
+    for name in welded:
+        for el in links[name].findall("inertial"):
+            links[name].remove(el)
+    m, c, I = com_inertia(theta[:10])
+    links[model.base_link].insert(0, inertial_element(m, c, I))
+    links[model.base_link].insert(
+        0,
+        ET.Comment(
+            f" pinid: identified inertia of the floating base, links welded to it: {', '.join(sorted(welded))} "
+        ),
+    )
+    ET.indent(root, space="  ")
+    out = '<?xml version="1.0" encoding="utf-8"?>\n' + ET.tostring(root, encoding="unicode") + "\n"
+    if path is not None:
+        write_text(path, out)
+    return out
