@@ -50,6 +50,10 @@ into the output folder (-o, default results/):
                            the same text with its figures embedded (one file, opens without a server)
   errors.png, training_motion.png, torque_<method>.png   the report's figures
 
+With --base floating (docs/floating-base.md) the recordings also hold the base motion (motion capture or
+an IMU), contact wrenches (link-frame sensors or force plates) and contact phases; the fit uses the 6 base
+rows and the joint rows (--rows), and the folder gets identification.json and identified_<method>.urdf.
+
 Rows where a joint is nearly at rest are left out of the fit when Coulomb friction is in the model
 (--rest-velocity).  Methods: ols (least squares), wls (each joint weighted by 1/its residual
 variance), sdp (physically consistent least squares, pseudo-inertia LMI, Clarabel).

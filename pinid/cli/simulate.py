@@ -26,6 +26,10 @@ adds sensor noise and encoder quantisation, and writes
   --cad-urdf FILE          with --perturb: the 'CAD' model as a URDF (the truth's kinematics and
                            friction, its inertial parameters perturbed), to identify or control with
 
+With --base floating (docs/floating-base.md): the legs follow the excitation exactly while the pelvis hangs
+in a spring-damper harness (its load cell recorded as wrench_<base link>_*), or, with --excitation gait, a
+prescribed walk with force plates under the soles; the base motion is recorded as motion capture or --imu.
+
 The same arguments give the same files.  Defaults: 1 kHz control and sampling, 16-bit encoders plus
 2e-5 rad noise, torque noise 1 % of each joint's peak, the URDF's <dynamics> friction.
 
@@ -33,6 +37,7 @@ example:
   pinid simulate --urdf urdf/exo_leg.urdf --excitation excitation/exo_leg.json --seconds 60 --seed 1 -o data/run1.csv
   pinid simulate --urdf apal_leg --excitation zha2019-3 --seconds 20 -o data/apal3.csv --perturb 20
   pinid simulate --urdf exo_leg --excitation excitation/exo_leg.json -o data/run1.csv --perturb 30 --cad-urdf data/cad.urdf
+  pinid simulate --urdf exo_lower_body --base floating --excitation gait --seconds 20 -o data/walk.csv
 """
 
 
