@@ -212,3 +212,10 @@ def test_no_joint_torque_uses_the_base_rows_only(exo, suspended, tmp_path):
     assert base[0] == pytest.approx(21.8, rel=5e-3)
     with pytest.raises(DataError, match="only the base rows can be used"):
         floating_problem(exo, samples, rows="all")
+
+
+def test_rest_rows_left_out_on_request(exo, gait):
+    problem = floating_problem(exo, gait.exact, terms=TERMS, rest_velocity=0.05)
+    slow = int((np.abs(gait.exact.data.dq) < 0.05).sum())
+    assert slow > 0 and problem.rows == gait.exact.n * 14 - slow
+    assert error(problem, make_estimator("ols").fit(problem).base_) <= 1e-6
