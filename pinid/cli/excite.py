@@ -50,8 +50,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         default=0.02,
         metavar="M",
         help="--base floating: smallest distance [m] kept between the legs' collision shapes (URDF <collision>; "
-        "pairs of bodies on different branches of the base); a design closer than that is shrunk toward q0; "
-        "default 0.02",
+        "pairs of bodies on different branches of the base); a design closer than that is shrunk toward q0 "
+        "(--evaluate: checked and reported only); default 0.02",
     )
     add_terms_argument(p)
     p.set_defaults(terms=None)
@@ -232,11 +232,16 @@ def _spec(args: argparse.Namespace, model):
 
 
 def _clear_of_collision(args: argparse.Namespace, model, spec, traj, report: dict):
-    """--base floating: the legs kept --collision-margin apart (the design shrunk toward q0 if needed)."""
-    from pinid.excitation.collision import shrink_to_clear  # deferred (see above)
+    """--base floating: the legs kept --collision-margin apart (a design shrunk toward q0 if needed; a trajectory
+    given to --evaluate is only checked)."""
+    from pinid.excitation.collision import check_self_collision, shrink_to_clear  # deferred (see above)
     from pinid.excitation.outputs import evaluate_excitation  # deferred (see above)
 
-    clear, factor, check = shrink_to_clear(model, traj, margin=args.collision_margin)
+    if args.evaluate:
+        clear, factor = traj, 1.0
+        check = check_self_collision(model, traj, margin=args.collision_margin)
+    else:
+        clear, factor, check = shrink_to_clear(model, traj, margin=args.collision_margin)
     if factor < 1.0:
         clear, ev = evaluate_excitation(model, clear, spec)
         report = clear.to_dict()
