@@ -80,5 +80,12 @@ def test_bad_floating_inputs_are_one_line_and_write_nothing(tmp_path):
     proc = run_cli("identify", *EXO, "--data", "bad.csv", "--no-report", "-o", "out", cwd=tmp_path)
     assert_clean_error(proc, "'nowhere' is not a link")
     assert not (tmp_path / "out").exists()
+    proc = run_cli("simulate", *EXO, "--excitation", "gait", "--perturb", "10", "-o", "x.csv", cwd=tmp_path)
+    assert_clean_error(proc, "--perturb: not available with --base floating")
+    assert not (tmp_path / "x.csv").exists()
+    proc = run_cli(
+        "identify", *EXO, "--data", "bad.csv", "--mapping", "m.toml", "--no-report", "-o", "out", cwd=tmp_path
+    )
+    assert_clean_error(proc, "--mapping: not available with --base floating")
     proc = run_cli("info", "--urdf", "exo_leg", "--base", "flying", cwd=tmp_path)
     assert proc.returncode == 2 and "invalid choice" in proc.stderr

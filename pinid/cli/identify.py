@@ -263,6 +263,13 @@ def _run_floating(args: argparse.Namespace, out: Path) -> int:
     identified URDFs of consistent results."""
     from pinid.identification.floating import identify_floating, write_floating_identification  # deferred
 
+    unused = [
+        f"--{k.replace('_', '-')}"
+        for k in ("mapping", "payload", "payload_data", "stribeck_velocity", "stribeck_shape", "force_export")
+        if getattr(args, k)
+    ]
+    if unused:
+        raise SpecError(f"{', '.join(unused)}: not available with --base floating (docs/floating-base.md)")
     methods = methods_from_args(args)
     model = robot_from_args(args)
     terms = terms_from_args(args)

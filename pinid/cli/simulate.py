@@ -265,10 +265,26 @@ def _pair(text: str, option: str) -> tuple[float, float]:
     return a, b
 
 
+#: Options of the fixed-base twin that the floating twin does not take (refused rather than ignored).
+_FIXED_ONLY = (
+    "perturb",
+    "cad_urdf",
+    "true_signals",
+    "wearer_draw",
+    "wearer_torque",
+    "coulomb",
+    "viscous",
+    "record_velocity",
+)
+
+
 def _simulate_floating(args: argparse.Namespace, model, files: dict) -> int:
     """--base floating: the suspended twin on --excitation, or the gait twin with --excitation gait."""
     from pinid.simulation.floating_twin import Noise, floating_text, simulate_floating, write_floating_run  # deferred
 
+    unused = [f"--{k.replace('_', '-')}" for k in _FIXED_ONLY if getattr(args, k) not in (None, False, 0.0)]
+    if unused:
+        raise SpecError(f"{', '.join(unused)}: not available with --base floating (docs/floating-base.md)")
     torque, pct = _torque_noise(args, model)
     force, moment = _pair(args.wrench_noise, "--wrench-noise")
     gyro, accel = _pair(args.imu_noise, "--imu-noise")
