@@ -216,6 +216,8 @@ def run(args: argparse.Namespace) -> int:
     check_outputs(out / "identification.json")  # fail before the work (creates nothing)
     if (args.stage == "wearer") != (args.exo is not None):
         raise SpecError("--stage wearer and --exo MODEL_JSON go together (stage 2: the wearer, the exo fixed)")
+    if args.stage == "wearer" and args.base == "floating":
+        raise SpecError("--stage wearer with --base floating is not available (docs/floating-base.md)")
     if args.stage == "wearer":
         return _run_wearer(args, out)
     if args.base == "floating":
