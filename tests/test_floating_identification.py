@@ -219,3 +219,67 @@ def test_rest_rows_left_out_on_request(exo, gait):
     slow = int((np.abs(gait.exact.data.dq) < 0.05).sum())
     assert slow > 0 and problem.rows == gait.exact.n * 14 - slow
     assert error(problem, make_estimator("ols").fit(problem).base_) <= 1e-6
+
+
+def test_ros2_bag_with_imu_and_wrench_messages(exo, suspended, tmp_path):
+    """JointState + sensor_msgs/Imu (frame "imu") + geometry_msgs/WrenchStamped (frame "pelvis") in a rosbag2
+    folder read as the same floating recording as the CSV (Imu and wrench interpolated onto the joint stamps)."""
+    pytest.importorskip("rosbags")
+    from rosbags.rosbag2 import StoragePlugin, Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.LATEST)
+    T = store.types
+    rec = suspended.recording
+    ds = rec.data
+    t0 = 1_700_000_000_000_000_000
+
+    def header(ns, frame=""):
+        return T["std_msgs/msg/Header"](
+            stamp=T["builtin_interfaces/msg/Time"](sec=ns // 10**9, nanosec=ns % 10**9), frame_id=frame
+        )
+
+    def vec(x):
+        return T["geometry_msgs/msg/Vector3"](x=float(x[0]), y=float(x[1]), z=float(x[2]))
+
+    path = tmp_path / "bag"
+    js, imu, wr = "sensor_msgs/msg/JointState", "sensor_msgs/msg/Imu", "geometry_msgs/msg/WrenchStamped"
+    with Writer(path, version=9, storage_plugin=StoragePlugin.MCAP) as w:
+        cj, ci, cw = (
+            w.add_connection(t, m, typestore=store) for t, m in (("/joint_states", js), ("/imu", imu), ("/harness", wr))
+        )
+        for k, tk in enumerate(ds.t):
+            ns = t0 + int(round(tk * 1e9))
+            w.write(
+                cj,
+                ns,
+                store.serialize_cdr(
+                    T[js](header=header(ns), name=ds.joints, position=ds.q[k], velocity=np.zeros(0), effort=ds.tau[k]),
+                    js,
+                ),
+            )
+            q, g, a = rec.imu["q"][k], rec.imu["w"][k], rec.imu["a"][k]
+            orient = T["geometry_msgs/msg/Quaternion"](x=q[0], y=q[1], z=q[2], w=q[3])
+            zero9 = np.zeros(9)
+            msg = T[imu](
+                header=header(ns, "imu"),
+                orientation=orient,
+                orientation_covariance=zero9,
+                angular_velocity=vec(g),
+                angular_velocity_covariance=zero9,
+                linear_acceleration=vec(a),
+                linear_acceleration_covariance=zero9,
+            )
+            w.write(ci, ns, store.serialize_cdr(msg, imu))
+            f = rec.wrenches["pelvis"][k]
+            msg = T[wr](
+                header=header(ns, "pelvis"), wrench=T["geometry_msgs/msg/Wrench"](force=vec(f[:3]), torque=vec(f[3:]))
+            )
+            w.write(cw, ns, store.serialize_cdr(msg, wr))
+    from_bag = read_floating(path, exo)
+    from_csv = read_floating(write_floating(tmp_path / "s.csv", rec), exo)
+    assert from_bag.imu_frame == "imu" and list(from_bag.wrenches) == ["pelvis"]
+    for key in ("q", "w", "a"):
+        np.testing.assert_allclose(from_bag.imu[key], from_csv.imu[key], atol=1e-9)
+    np.testing.assert_allclose(from_bag.wrenches["pelvis"], from_csv.wrenches["pelvis"], atol=1e-9)
+    np.testing.assert_allclose(from_bag.data.tau, from_csv.data.tau, atol=1e-9)
