@@ -289,6 +289,8 @@ def _run_floating(args: argparse.Namespace, out: Path) -> int:
         preprocess=preprocess_from_args(args),
         options=options_from_args(args, _options(args, methods)),
         swing_rows=args.swing_rows,
+        # the fixed base's default "auto" keeps every row here (docs/floating-base.md); a speed applies
+        rest_velocity=None if args.rest_velocity == "auto" else rest_velocity_from_args(args.rest_velocity),
     )
     print(ident.text())
     print(wrote_line(write_floating_identification(ident, out, model, terms), out))

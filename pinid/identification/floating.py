@@ -88,19 +88,29 @@ def identify_floating(
     preprocess: Mapping | bool | None = None,
     options: Mapping[str, Mapping] | None = None,
     swing_rows: bool = False,
+    rest_velocity=None,
 ) -> FloatingIdentification:
     """Fit every method on the training recordings and score it on the validation ones (RMS over the rows used).
     ``swing_rows``: links with contact phases but no wrench are legs without force sensing; the rows their
-    unknown wrench enters are left out while they are in contact."""
+    unknown wrench enters are left out while they are in contact.  ``rest_velocity``: as
+    :func:`~pinid.identification.floating_problem.floating_problem` (None keeps every row)."""
     model = as_floating(model)
     terms = as_terms(terms)
     train = load_floating(data, model, preprocess, swing_rows=swing_rows)
-    problem = floating_problem(model, train, terms=terms, rows=rows, base_weight=base_weight)
+    problem = floating_problem(
+        model, train, terms=terms, rows=rows, base_weight=base_weight, rest_velocity=rest_velocity
+    )
     val_problem = None
     if validate:
         val = load_floating(validate, model, preprocess, "validation", swing_rows=swing_rows)
         val_problem = floating_problem(
-            model, val, terms=problem.terms, rows=rows, base_weight=base_weight, base=problem.base
+            model,
+            val,
+            terms=problem.terms,
+            rows=rows,
+            base_weight=base_weight,
+            base=problem.base,
+            rest_velocity=rest_velocity,
         )
     ident = FloatingIdentification(model.name, rows, problem.names, problem.nominal_base)
     ident.data = problem.summary() | {"rows_per_sample": int(problem.rows // max(problem.samples, 1))}

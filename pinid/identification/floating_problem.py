@@ -134,13 +134,13 @@ def floating_problem(
     rows: str = "all",
     base_weight: float = 1.0,
     base: BaseParameters | None = None,
-    rest_velocity: float | str | None = None,
+    rest_velocity: float | Sequence[float] | str | None = None,
 ) -> IdentificationProblem:
     """Stack prepared floating recordings into an identification problem (see the module text).
 
     DataError when joint rows are asked for and a recording has no joint torque, or when the data do not
     excite every base parameter (:meth:`IdentificationProblem.check`).  ``rest_velocity``: None (default) keeps
-    every row; "auto" or a number [rad/s] leaves out, with Coulomb friction in the model, a joint's row where
+    every row; "auto", a number or one per joint [rad/s] leaves out, with Coulomb friction in the model, a joint's row where
     its speed is below max(2 % of its peak, 3 σ of its velocity noise) or that number, as for a fixed base (the
     base rows never).  On the twin, whose Coulomb friction switches exactly at zero speed, "auto" validated
     worse (1.07 × the noise floor instead of 1.00), so it is not the default here."""
@@ -171,7 +171,10 @@ def floating_problem(
     for s in samples:
         keep = swing_rows(model, s, mask)
         if terms.coulomb and rest_velocity is not None and rest_velocity != 0:
-            v = rest_thresholds(s.data.dq) if rest_velocity == "auto" else np.full(model.nv, float(rest_velocity))
+            if isinstance(rest_velocity, str):
+                v = rest_thresholds(s.data.dq)
+            else:
+                v = np.broadcast_to(np.asarray(rest_velocity, dtype=float), (model.nv,))
             keep[:, BASE_NV:] &= np.abs(s.data.dq) >= v
         ys.append(floating_targets(model, s)[keep])
         joints.append(np.broadcast_to(body, (s.n, width))[keep])
