@@ -8,6 +8,7 @@ from pinid.identification.result import Identification, IdentificationResult
 from pinid.identification.run import identify
 from pinid.identification.identified import IdentifiedModel
 from pinid.model.robot import INERTIAL_NAMES, RobotModel
+from pinid.model.floating import FloatingRobotModel
 from pinid.model.regressor import JointTerms, joint_torque, parameter_names, regressor, standard_parameters
 
 __version__ = "0.1.0"
@@ -16,6 +17,7 @@ __all__ = [
     "BaseParameters",
     "DataError",
     "ESTIMATORS",
+    "FloatingRobotModel",
     "Identification",
     "IdentificationProblem",
     "IdentificationResult",

@@ -154,3 +154,19 @@ def test_written_files_have_usual_permissions(tmp_path):
     umask = os.umask(0)
     os.umask(umask)
     assert (tmp_path / "x.txt").stat().st_mode & 0o777 == 0o666 & ~umask
+
+
+def test_exo_lower_body_is_a_pelvis_with_two_four_joint_legs():
+    """The bundled lower-body exoskeleton: 8 revolute joints, 21.8 kg, inertias of its boxes and cylinders."""
+    import pinocchio as pin
+
+    model = RobotModel.from_urdf("exo_lower_body")
+    sides = [f"{s}_{j}" for s in "lr" for j in ("hip_abduction", "hip_flexion", "knee", "ankle")]
+    assert model.joint_names == sides
+    assert all(j.kind == "revolute" and np.isfinite([j.lower, j.upper, j.effort]).all() for j in model.joints)
+    full = pin.buildModelFromUrdf(str(model.urdf_path))
+    assert sum(i.mass for i in full.inertias) == pytest.approx(21.8)
+    thigh = full.inertias[full.getJointId("l_hip_flexion")]  # cylinder r 0.04, L 0.42, 3.5 kg
+    assert np.diag(thigh.inertia) == pytest.approx(
+        [3.5 * (3 * 0.04**2 + 0.42**2) / 12] * 2 + [3.5 * 0.04**2 / 2], rel=1e-5
+    )

@@ -19,8 +19,8 @@ from pinid.model.robot import RobotModel
 from pinid.resources import bundled_robots
 
 
-def add_robot_arguments(p: argparse.ArgumentParser, *, default: str | None = "exo_leg") -> None:
-    """The options every command uses to choose a robot: --urdf, --joints, --lock."""
+def add_robot_arguments(p: argparse.ArgumentParser, *, default: str | None = "exo_leg", base: bool = False) -> None:
+    """The options every command uses to choose a robot: --urdf, --joints, --lock (and --base when ``base``)."""
     p.add_argument(
         "--urdf",
         default=default,
@@ -50,6 +50,14 @@ def add_robot_arguments(p: argparse.ArgumentParser, *, default: str | None = "ex
         help="load a URDF whose inertias are not physical (negative principal moment, triangle inequality "
         "broken), each replaced by the nearest physical one with a warning (docs/robots.md); refused without it",
     )
+    if base:
+        p.add_argument(
+            "--base",
+            choices=("fixed", "floating"),
+            default="fixed",
+            help="fixed: the URDF's root link bolted to the world (default); floating: on a free flyer, "
+            "with 6 base rows and contact wrenches (docs/floating-base.md)",
+        )
 
 
 def add_terms_argument(p: argparse.ArgumentParser) -> None:
@@ -99,7 +107,11 @@ def robot_from_args(args: argparse.Namespace):
             raise SpecError(f"--lock {item!r}: expected JOINT=VALUE with a number, e.g. --lock knee=-0.5") from None
     joints = [j.strip() for j in args.joints.split(",") if j.strip()] if args.joints else None
     robot = RobotModel.from_urdf(
-        args.urdf, joints=joints, locked=locked, repair_inertia=getattr(args, "repair_inertia", False)
+        args.urdf,
+        joints=joints,
+        locked=locked,
+        repair_inertia=getattr(args, "repair_inertia", False),
+        base=getattr(args, "base", "fixed"),
     )
     if getattr(args, "drives", None):
         attach(robot, args.drives)

@@ -43,7 +43,16 @@ examples:
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    add_robot_arguments(p)
+    add_robot_arguments(p, base=True)
+    p.add_argument(
+        "--collision-margin",
+        type=float,
+        default=0.02,
+        metavar="M",
+        help="--base floating: smallest distance [m] kept between the legs' collision shapes (URDF <collision>; "
+        "pairs of bodies on different branches of the base); a design closer than that is shrunk toward q0 "
+        "(--evaluate: checked and reported only); default 0.02",
+    )
     add_terms_argument(p)
     p.set_defaults(terms=None)
     g = p.add_argument_group("limits and trajectory (override the spec)")
@@ -222,6 +231,36 @@ def _spec(args: argparse.Namespace, model):
     return spec
 
 
+def _clear_of_collision(args: argparse.Namespace, model, spec, traj, report: dict):
+    """--base floating: the legs kept --collision-margin apart (a design shrunk toward q0 if needed; a trajectory
+    given to --evaluate is only checked)."""
+    from pinid.excitation.collision import check_self_collision, shrink_to_clear  # deferred (see above)
+    from pinid.excitation.outputs import evaluate_excitation  # deferred (see above)
+
+    if args.evaluate:
+        clear, factor = traj, 1.0
+        check = check_self_collision(model, traj, margin=args.collision_margin)
+    else:
+        clear, factor, check = shrink_to_clear(model, traj, margin=args.collision_margin)
+    if factor < 1.0:
+        clear, ev = evaluate_excitation(model, clear, spec)
+        report = clear.to_dict()
+        print(
+            f"the design brings the legs closer than the margin: amplitudes shrunk by {factor:.3f} toward q0, "
+            f"condition number now {ev['condition_number']:.4g}"
+        )
+    print(check.text())
+    report["self_collision"] = {
+        "distance": check.distance,
+        "pair": list(check.pair),
+        "time": check.time,
+        "margin": check.margin,
+        "pairs": check.pairs,
+        "shrink": factor,
+    }
+    return clear, report
+
+
 def run(args: argparse.Namespace) -> int:
     # deferred (see above)
     from pinid.excitation.design import design_excitation
@@ -259,6 +298,8 @@ def run(args: argparse.Namespace) -> int:
             )
         print(design_text(result, spec, usage=not args.quiet))
         traj, report = result.trajectory, result.to_dict()
+    if model.base == "floating":
+        traj, report = _clear_of_collision(args, model, spec, traj, report)
     write_excitation(
         traj, spec, report, json=output, plot=args.plot, csv=args.csv, rate=args.rate, periods=args.periods
     )

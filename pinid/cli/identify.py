@@ -51,6 +51,10 @@ into the output folder (-o, default results/):
                            the same text with its figures embedded (one file, opens without a server)
   errors.png, training_motion.png, torque_<method>.png   the report's figures
 
+With --base floating (docs/floating-base.md) the recordings also hold the base motion (motion capture or
+an IMU), contact wrenches (link-frame sensors or force plates) and contact phases; the fit uses the 6 base
+rows and the joint rows (--rows), and the folder gets identification.json and identified_<method>.urdf.
+
 Rows where a joint is nearly at rest are left out of the fit when Coulomb friction is in the model
 (--rest-velocity).  Methods: ols (least squares), wls (each joint weighted by 1/its residual
 variance), sdp (physically consistent least squares, pseudo-inertia LMI, Clarabel).
@@ -91,7 +95,7 @@ STAGE2_ONLY = (
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    add_robot_arguments(p)
+    add_robot_arguments(p, base=True)
     add_terms_argument(p)
     add_recording_arguments(p)
     add_method_arguments(p, DEFAULT_METHODS)
@@ -113,6 +117,23 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="sdp: row weighting (none: as OLS, default; joint: as WLS)",
     )
     g.add_argument("--wls-iterations", type=positive_int, default=None, help="wls: reweighting passes (default 1)")
+    g = p.add_argument_group("floating base (--base floating; docs/floating-base.md)")
+    g.add_argument(
+        "--rows",
+        choices=("all", "base", "joints"),
+        default="all",
+        help="rows to fit: all (base rows + joint rows, default), base (the 6 base rows: contact wrenches and "
+        "motion, no joint torque needed), joints (joint torques with the wrenches' Jᵀf on the right)",
+    )
+    g.add_argument(
+        "--base-weight", type=float, default=1.0, help="weight of every base row (joint rows weigh 1); default 1"
+    )
+    g.add_argument(
+        "--swing-rows",
+        action="store_true",
+        help="accept contact_<link> phases without a wrench (a leg without force sensing): the rows that "
+        "foot's unknown wrench enters (base rows, its leg's joints) are left out while it is in contact",
+    )
     g = p.add_argument_group("stage 2: the wearer (docs/wearer.md)")
     g.add_argument(
         "--stage",
@@ -238,10 +259,14 @@ def run(args: argparse.Namespace) -> int:
                     else ""
                 )
             )
+    if args.stage == "wearer" and args.base == "floating":
+        raise SpecError("--stage wearer with --base floating is not available (docs/floating-base.md)")
     if args.stage == "wearer":
         return _run_wearer(args, out)
     args.methods = DEFAULT_METHODS if args.methods is None else args.methods
     args.terms = DEFAULT_TERMS if args.terms is None else args.terms
+    if args.base == "floating":
+        return _run_floating(args, out)
     methods = methods_from_args(args)
     model = robot_from_args(args)
     terms = terms_from_args(args)
@@ -283,6 +308,43 @@ def run(args: argparse.Namespace) -> int:
         + (f"; no URDF for inconsistent result(s) {', '.join(refused)} (--force-export writes them)" if refused else "")
     )
     print(wrote_line(written, out))
+    return 0
+
+
+def _run_floating(args: argparse.Namespace, out: Path) -> int:
+    """A floating-base robot with contact wrenches (docs/floating-base.md): identification.json and the
+    identified URDFs of consistent results."""
+    from pinid.identification.floating import identify_floating, write_floating_identification  # deferred
+
+    unused = [
+        f"--{k.replace('_', '-')}"
+        for k in ("mapping", "payload", "payload_data", "stribeck_velocity", "stribeck_shape", "force_export")
+        if getattr(args, k)
+    ]
+    if unused:
+        raise SpecError(f"{', '.join(unused)}: not available with --base floating (docs/floating-base.md)")
+    methods = methods_from_args(args)
+    model = robot_from_args(args)
+    terms = terms_from_args(args)
+    if args.rows == "base":
+        terms = type(terms).from_names("none")  # no joint term enters the base rows
+    print(f"identifying {model.name} on a floating base ({args.rows} rows) with {', '.join(methods)}")
+    ident = identify_floating(
+        model,
+        args.data,
+        methods=methods,
+        validate=args.validate or None,
+        terms=terms,
+        rows=args.rows,
+        base_weight=args.base_weight,
+        preprocess=preprocess_from_args(args),
+        options=options_from_args(args, _options(args, methods)),
+        swing_rows=args.swing_rows,
+        # the fixed base's default "auto" keeps every row here (docs/floating-base.md); a speed applies
+        rest_velocity=None if args.rest_velocity == "auto" else rest_velocity_from_args(args.rest_velocity),
+    )
+    print(ident.text())
+    print(wrote_line(write_floating_identification(ident, out, model, terms), out))
     return 0
 
 

@@ -20,7 +20,7 @@ examples:
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    add_robot_arguments(p)
+    add_robot_arguments(p, base=True)
     add_terms_argument(p)
     p.add_argument("--json", metavar="FILE", help="also write the description as JSON to FILE")
 

@@ -26,6 +26,10 @@ adds sensor noise and encoder quantisation, and writes
   --cad-urdf FILE          with --perturb: the 'CAD' model as a URDF (the truth's kinematics and
                            friction, its inertial parameters perturbed), to identify or control with
 
+With --base floating (docs/floating-base.md): the legs follow the excitation exactly while the pelvis hangs
+in a spring-damper harness (its load cell recorded as wrench_<base link>_*), or, with --excitation gait, a
+prescribed walk with force plates under the soles; the base motion is recorded as motion capture or --imu.
+
 The same arguments give the same files.  Defaults: 1 kHz control and sampling, 16-bit encoders plus
 2e-5 rad noise, torque noise 1 % of each joint's peak, the URDF's <dynamics> friction.
 
@@ -33,11 +37,12 @@ examples:
   pinid simulate --urdf urdf/exo_leg.urdf --excitation excitation/exo_leg.json --seconds 60 --seed 1 -o data/run1.csv
   pinid simulate --urdf apal_leg --excitation zha2019-3 --seconds 20 -o data/apal3.csv --perturb 20
   pinid simulate --urdf exo_leg --excitation excitation/exo_leg.json -o data/run1.csv --perturb 30 --cad-urdf data/cad.urdf
+  pinid simulate --urdf exo_lower_body --base floating --excitation gait --seconds 20 -o data/walk.csv
 """
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    add_robot_arguments(p)
+    add_robot_arguments(p, base=True)
     p.add_argument(
         "--excitation",
         required=True,
@@ -135,6 +140,17 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "joint's peak torque like 1%%; default 1%%",
     )
     g.add_argument("--record-velocity", action="store_true", help="also record velocities (true + noise)")
+    g = p.add_argument_group("floating base (--base floating; docs/floating-base.md)")
+    g.add_argument(
+        "--imu",
+        default=None,
+        metavar="FRAME",
+        help="record the base motion as an IMU on FRAME (a link fixed to the base) instead of motion capture",
+    )
+    g.add_argument("--wrench-noise", default="2,0.2", metavar="F,M", help="wrench noise std [N, N·m]; default 2,0.2")
+    g.add_argument(
+        "--imu-noise", default="0.005,0.05", metavar="G,A", help="gyro [rad/s] and accelerometer [m/s²] noise std"
+    )
     g.add_argument("--velocity-noise", type=float, default=0.01, help="velocity noise std [rad/s]; default 0.01")
 
 
@@ -217,6 +233,8 @@ def run(args: argparse.Namespace) -> int:
     if args.encoder_bits < 0 or args.encoder_bits > 40:
         raise SpecError(f"--encoder-bits {args.encoder_bits}, expected 0 (no quantisation) to 40")
     model = robot_from_args(args)
+    if model.base == "floating":
+        return _simulate_floating(args, model, files)
     drawn = None
     if args.wearer_draw:
         from pinid.wearer.prior import draw_wearer  # deferred: pinid --help does not load it
@@ -234,6 +252,52 @@ def run(args: argparse.Namespace) -> int:
     truth["command"] = "pinid simulate " + " ".join(_argv_of(args))
     write_simulation(ds, truth, cad=cad, **files)
     print(simulation_text(ds, truth, **files))
+    return 0
+
+
+def _pair(text: str, option: str) -> tuple[float, float]:
+    try:
+        a, b = (float(x) for x in text.split(","))
+    except ValueError:
+        raise SpecError(f"{option} {text!r}: expected two numbers A,B") from None
+    if not (a >= 0 and b >= 0 and np.isfinite(a + b)):
+        raise SpecError(f"{option} {text!r}: expected two numbers >= 0")
+    return a, b
+
+
+#: Options of the fixed-base twin that the floating twin does not take (refused rather than ignored).
+_FIXED_ONLY = (
+    "perturb",
+    "cad_urdf",
+    "true_signals",
+    "wearer_draw",
+    "wearer_torque",
+    "coulomb",
+    "viscous",
+    "record_velocity",
+)
+
+
+def _simulate_floating(args: argparse.Namespace, model, files: dict) -> int:
+    """--base floating: the suspended twin on --excitation, or the gait twin with --excitation gait."""
+    from pinid.simulation.floating_twin import Noise, floating_text, simulate_floating, write_floating_run  # deferred
+
+    unused = [f"--{k.replace('_', '-')}" for k in _FIXED_ONLY if getattr(args, k) not in (None, False, 0.0)]
+    if unused:
+        raise SpecError(f"{', '.join(unused)}: not available with --base floating (docs/floating-base.md)")
+    torque, pct = _torque_noise(args, model)
+    force, moment = _pair(args.wrench_noise, "--wrench-noise")
+    gyro, accel = _pair(args.imu_noise, "--imu-noise")
+    noise = Noise(
+        args.position_noise, 0.0 if torque is None else torque, force, moment, gyro, accel, None if torque else pct
+    )
+    rate = args.sample_rate or args.control_rate
+    run = simulate_floating(
+        model, args.excitation, seconds=args.seconds, rate=rate, noise=noise, seed=args.seed, imu_frame=args.imu
+    )
+    run.truth["command"] = "pinid simulate " + " ".join(_argv_of(args))
+    written = write_floating_run(run, files["path"], files["truth_path"])
+    print(floating_text(run, written))
     return 0
 
 

@@ -14,6 +14,12 @@ chooses the topics and the clock, and renames, scales or flips joints as for any
     q = "q_left_hip_joint"
     tau = { column = "tau_left_hip_joint", sign = -1 }
 
+Floating base (docs/floating-base.md): every ``sensor_msgs/msg/Imu`` topic also gives the columns
+``imu_<frame>_qx … _qw`` (orientation), ``_wx, _wy, _wz`` (angular velocity) and ``_ax, _ay, _az`` (linear
+acceleration, the specific force an accelerometer measures), and every ``geometry_msgs/msg/WrenchStamped``
+topic ``wrench_<frame>_fx … _tz``, ``<frame>`` being the messages' ``header.frame_id`` (a URDF link), linearly
+interpolated onto the JointState samples (which they must cover).
+
 ``t`` is in seconds from the first message of ``topic``.  When the messages of a topic name different
 joints (several publishers on one topic), the samples are the messages that hold every joint asked for.
 Read with ``rosbags`` (pure Python, no ROS installation needed).
@@ -29,6 +35,58 @@ from pinid.data.registry import Reader, Table, register_reader
 from pinid.errors import DataError, PinidError, SpecError
 
 JOINT_STATE = "sensor_msgs/msg/JointState"
+IMU = "sensor_msgs/msg/Imu"
+WRENCH = "geometry_msgs/msg/WrenchStamped"
+#: column suffixes of the side messages and how to read them from a message
+SIDE = {
+    IMU: ("imu_", ("qx", "qy", "qz", "qw", "wx", "wy", "wz", "ax", "ay", "az")),
+    WRENCH: ("wrench_", ("fx", "fy", "fz", "tx", "ty", "tz")),
+}
+
+
+def _side_values(msg, msgtype: str) -> list[float]:
+    if msgtype == IMU:
+        o, w, a = msg.orientation, msg.angular_velocity, msg.linear_acceleration
+        return [o.x, o.y, o.z, o.w, w.x, w.y, w.z, a.x, a.y, a.z]
+    f, t = msg.wrench.force, msg.wrench.torque
+    return [f.x, f.y, f.z, t.x, t.y, t.z]
+
+
+def _read_side(file: Path, clock: str) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Every Imu and WrenchStamped topic of a bag: ``{column prefix "imu_<frame>_": (stamps [ns], (N, k) values)}``."""
+    from rosbags.rosbag2 import Reader as BagReader
+    from rosbags.typesys import Stores, get_typestore
+
+    bag = BagReader(file)
+    bag.open()
+    try:
+        conns = [c for c in bag.connections if c.msgtype in SIDE]
+        if not conns:
+            return {}
+        store = get_typestore(Stores.LATEST)
+        raw: dict[str, tuple[list, list]] = {}
+        for conn, received, data in bag.messages(connections=conns):
+            msg = store.deserialize_cdr(data, conn.msgtype)
+            frame = msg.header.frame_id or conn.topic.strip("/").replace("/", "_")
+            stamp = msg.header.stamp
+            ns = int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec) if clock == "header" else int(received)
+            stamps, values = raw.setdefault(f"{SIDE[conn.msgtype][0]}{frame}_", ([], []))
+            stamps.append(ns)
+            values.append(_side_values(msg, conn.msgtype))
+    finally:
+        bag.close()
+    out = {}
+    for prefix, (stamps, values) in raw.items():
+        st = np.asarray(stamps, dtype=np.int64)
+        order = np.argsort(st, kind="stable")
+        out[prefix] = (st[order], np.asarray(values, dtype=float)[order])
+    return out
+
+
+def _side_columns(prefix: str) -> list[str]:
+    return [prefix + c for c in _suffixes(prefix)]
+
+
 DEFAULT_TOPIC = "/joint_states"
 #: dataset-format prefix → JointState field
 FIELDS = {"q_": "position", "dq_": "velocity", "tau_": "effort"}
@@ -180,6 +238,8 @@ def columns(file: Path) -> list[str]:
     for prefix, field in FIELDS.items():
         if prefix == "q_" or topic.has(field):
             names += [prefix + j for j in topic.joints()]
+    for prefix in _read_side(file, "header"):
+        names += _side_columns(prefix)
     return names
 
 
@@ -192,8 +252,9 @@ def read(file: Path, source, wanted, origin: str) -> Table:
     main = topics[names[0]]
     effort = topics[names[-1]]
     asked: dict[str, list[str]] = {}  # field -> joints
+    side_cols = [c for c, _i, _w in wanted if isinstance(c, str) and c.startswith(("imu_", "wrench_"))]
     for col, _index, where in wanted:
-        if col == "t":
+        if col == "t" or col in side_cols:
             continue
         prefix = next((p for p in FIELDS if isinstance(col, str) and col.startswith(p) and len(col) > len(p)), None)
         if prefix is None:
@@ -219,14 +280,46 @@ def read(file: Path, source, wanted, origin: str) -> Table:
         values = {k: v[inside] for k, v in values.items()}
         for j in asked["effort"]:
             values[("effort", j)] = np.interp(tm, te, e_values[("effort", j)])
-    tab = Table(file, ["t"] + [p + j for p, f in FIELDS.items() for j in asked.get(f, [])], {}, len(stamps), None)
+    side = _side_samples(file, side_cols, stamps, opts["time"], origin) if side_cols else {}
+    tab = Table(
+        file, ["t"] + [p + j for p, f in FIELDS.items() for j in asked.get(f, [])] + side_cols, {}, len(stamps), None
+    )
     for col, index, _where in wanted:
         if col == "t":
             tab.data[(col, index)] = (stamps - t0) * 1e-9
+        elif col in side:
+            tab.data[(col, index)] = side[col]
         else:
             prefix = next(p for p in FIELDS if col.startswith(p))
             tab.data[(col, index)] = values[(FIELDS[prefix], col[len(prefix) :])]
     return tab
+
+
+def _side_samples(file: Path, cols: list[str], stamps: np.ndarray, clock: str, origin: str) -> dict[str, np.ndarray]:
+    """The Imu / WrenchStamped columns ``cols`` interpolated onto the JointState ``stamps`` [ns]."""
+    side = _read_side(file, clock)
+    out = {}
+    for col in cols:
+        prefix = next((p for p in side if col.startswith(p) and col[len(p) :] in _suffixes(p)), None)
+        if prefix is None:
+            have = ", ".join(c for p in side for c in _side_columns(p)[:1]) or "none"
+            raise SpecError(
+                f"{origin}: column {col!r} is not in {file.name}: no Imu or WrenchStamped messages with that "
+                f"header.frame_id (first columns of its Imu/WrenchStamped topics: {have})"
+            )
+        st, values = side[prefix]
+        if st[0] > stamps[0] or st[-1] < stamps[-1]:
+            raise DataError(
+                f"{file}: the {prefix[:-1]} messages [{(st[0] - stamps[0]) * 1e-9:g}, {(st[-1] - stamps[0]) * 1e-9:g}] s "
+                f"do not cover the joint states [0, {(stamps[-1] - stamps[0]) * 1e-9:g}] s; expected the same run"
+            )
+        k = _suffixes(prefix).index(col[len(prefix) :])
+        out[col] = np.interp(stamps.astype(float), st.astype(float), values[:, k])
+    return out
+
+
+def _suffixes(prefix: str) -> tuple[str, ...]:
+    return next(sfx for pre, sfx in SIDE.values() if prefix.startswith(pre))
 
 
 register_reader(Reader("ros2bag", read, suffixes=(".mcap", ".db3"), columns=columns, match=is_bag_folder, folder=True))

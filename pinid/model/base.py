@@ -147,6 +147,15 @@ def base_parameters(
     if joints is not None and set(joints) != set(model.joint_names):
         fit = [j for j in model.joint_names if j in set(joints)]
         W = W.reshape(n, model.nv, p)[:, [model.joint_names.index(j) for j in fit], :].reshape(-1, p)
+    return base_parameters_of(W, names, tol, fit)
+
+
+def base_parameters_of(
+    W: np.ndarray, names: list[str], tol: float = 1e-8, fit: list[str] | None = None
+) -> BaseParameters:
+    """The base parameters of a stacked standard regressor ``W`` (random states) with columns ``names``;
+    ``fit``: the joints whose rows ``W`` holds, when not all (``--fit-joints``)."""
+    p = len(names)
     norms = np.linalg.norm(W, axis=0)
     nonzero = np.flatnonzero(norms > tol * norms.max())
     Wn = W[:, nonzero] / norms[nonzero]

@@ -21,10 +21,11 @@ BUNDLED_URDF_DIR = URDF_DIR
 
 @dataclass(frozen=True)
 class RobotPreset:
-    """A named robot: a URDF path inside example-robot-data and the joints to lock [rad or m]."""
+    """A named robot: a URDF path inside example-robot-data and the joints to lock [rad or m]; None holds a
+    joint at 0, or at the middle of its range when 0 is outside it."""
 
     subpath: str
-    locked: dict[str, float] = field(default_factory=dict)
+    locked: dict[str, float | None] = field(default_factory=dict)
 
 
 #: Robots of example-robot-data known by a short name.
@@ -35,6 +36,18 @@ EXAMPLE_ROBOTS: dict[str, RobotPreset] = {
     "ur10": RobotPreset("ur_description/urdf/ur10_robot.urdf"),
     "double_pendulum": RobotPreset("double_pendulum_description/urdf/double_pendulum.urdf"),
     "z1": RobotPreset("z1_description/urdf/z1.urdf"),
+    # legged robots, meant for --base floating (docs/floating-base.md)
+    "talos_legs": RobotPreset(
+        "talos_data/robots/talos_reduced.urdf",
+        {
+            n: None
+            for n in ["torso_1_joint", "torso_2_joint", "head_1_joint", "head_2_joint"]
+            + [f"arm_{s}_{i}_joint" for s in ("left", "right") for i in range(1, 8)]
+            + [f"gripper_{s}_joint" for s in ("left", "right")]
+        },
+    ),
+    "solo12": RobotPreset("solo_description/robots/solo12.urdf"),
+    "anymal": RobotPreset("anymal_b_simple_description/robots/anymal.urdf"),
 }
 
 

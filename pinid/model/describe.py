@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from pinid.model.base import base_parameters
+from pinid.model.floating import floating_base_parameters, floating_standard_parameters
 from pinid.model.regressor import JointTerms, standard_parameters
 from pinid.model.robot import RobotModel
 
@@ -15,8 +16,14 @@ from pinid.model.robot import RobotModel
 def describe(model: RobotModel, terms: JointTerms) -> dict:
     """Plain-dict description of a model and its base parameters (with their expressions in the standard
     parameters, their nominal values and where those come from: the URDF, the drives file or both)."""
-    bp = base_parameters(model, terms)
-    nominal = bp.from_standard(standard_parameters(model, terms))
+    floating = getattr(model, "base", "fixed") == "floating"
+    if floating:
+        bp = floating_base_parameters(model, terms)
+        nominal = bp.from_standard(floating_standard_parameters(model, terms))
+        from_base_rows = floating_base_parameters(model, terms, rows="base")
+    else:
+        bp = base_parameters(model, terms)
+        nominal = bp.from_standard(standard_parameters(model, terms))
     motors = set(model.motor_names)
     drives = None if model.drives is None else Path(model.drives.origin.split(" <")[0]).name
 
@@ -25,9 +32,10 @@ def describe(model: RobotModel, terms: JointTerms) -> dict:
         used = {bp.standard_names[i].split(".")[0] in motors for i in np.flatnonzero(row)}
         return " + ".join(([] if used == {True} else ["URDF"]) + ([drives] if True in used else []))
 
-    return {
+    out = {
         "robot": model.name,
         "urdf": str(model.urdf_path),
+        "base": "floating" if floating else "fixed",
         "joints": [
             {
                 "name": j.name,
@@ -51,6 +59,14 @@ def describe(model: RobotModel, terms: JointTerms) -> dict:
         ],
         "unidentifiable": bp.unidentifiable,
     }
+    if floating:
+        out["base_link"] = model.base_link
+        out["base_rows"] = {
+            "count": from_base_rows.count,
+            "names": from_base_rows.names,
+            "expressions": from_base_rows.expressions(),
+        }
+    return out
 
 
 #: Units of a joint's limits (position, position, velocity, effort): revolute [0], prismatic [1].
@@ -87,6 +103,11 @@ def description_text(d: dict, terms: JointTerms) -> str:
         out.append(f"drives ({d['drives']['source']}): q_motor = G·q_joint, rows {', '.join(d['drives']['motors'])}")
         for m, row in zip(d["drives"]["motors"], d["drives"]["matrix"]):
             out.append(f"  {m:<22}" + "".join(f"{x:>10.4g}" for x in row))
+    if d.get("base") == "floating":
+        out.append(
+            f"base: floating (free flyer under link '{d['base_link']}'; parameters 'base.*' are that link's, "
+            "6 base rows per sample before the joint rows)"
+        )
     nb = len(d["base_parameters"])
     per = [f"{', '.join(t.name for t in terms.joint)} per joint"] if terms.joint else []
     per += [f"{', '.join(t.name for t in terms.motor)} per motor"] if terms.motor else []
@@ -97,4 +118,12 @@ def description_text(d: dict, terms: JointTerms) -> str:
     width = max(len(b["name"]) for b in d["base_parameters"])
     for b in d["base_parameters"]:
         out.append(f"  {b['name']:<{width}} = {b['expression']}    ({b.get('source', 'URDF')}: {b['nominal']:.6g})")
+    if d.get("base_rows"):
+        rows = d["base_rows"]
+        out.append(
+            f"\nfrom the 6 base rows alone (contact wrenches and motion, no joint torque): {rows['count']} of "
+            f"these combinations are identifiable:"
+        )
+        width = max(len(n) for n in rows["names"])
+        out.extend(f"  {n:<{width}} = {e}" for n, e in zip(rows["names"], rows["expressions"]))
     return "\n".join(out)

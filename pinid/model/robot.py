@@ -19,7 +19,7 @@ import warnings
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 
 import numpy as np
 import pinocchio as pin
@@ -37,6 +37,9 @@ MAX_URDF_JOINTS = 1000
 #: Tolerance of the inertia checks, relative to the body's trace of inertia [kg·m²] (CAD rounding).
 INERTIA_TOL = 1e-6
 _UNBOUNDED = 1e10  # |limit| above this is treated as no limit
+#: Builders of the bases other than "fixed", by name: ``(fixed model, URDF text, path) -> model``.
+#: :mod:`pinid.model.floating` registers "floating" (pinid imports it).
+BASE_BUILDERS: dict[str, Callable] = {}
 
 
 def _read_urdf_text(path: Path) -> str:
@@ -184,7 +187,10 @@ class RobotModel:
     Build it with :meth:`from_urdf`.  ``pin_model`` is the (reduced) Pinocchio model; its armature,
     damping and friction are zero so that ``rnea`` is the rigid-body torque only; the joint friction
     read from the URDF ``<dynamics>`` tags is kept in ``coulomb`` [N·m] and ``viscous`` [N·m·s/rad].
+    ``base`` is "fixed" (a floating base is :class:`pinid.model.floating.FloatingRobotModel`).
     """
+
+    base = "fixed"
 
     def __init__(
         self,
@@ -220,6 +226,7 @@ class RobotModel:
         joints: Sequence[str] | None = None,
         locked: Mapping[str, float] | None = None,
         repair_inertia: bool = False,
+        base: str = "fixed",
     ) -> "RobotModel":
         """Load a URDF file, a bundled robot name (``exo_leg``) or an example-robot-data name (``panda``).
 
@@ -232,8 +239,11 @@ class RobotModel:
         naming the body, and the repaired values are the model's (nominal, prior) parameters.
         ``locked``: joints held fixed at a value [rad or m]; other inactive joints are held at 0 (or at
         the middle of their range when 0 is outside it).  The URDF's ``<transmission>`` elements become
-        ``drives`` (:mod:`pinid.model.drives`).
+        ``drives`` (:mod:`pinid.model.drives`).  ``base``: "fixed" (the root link bolted to the world) or
+        "floating" (on a free flyer: :class:`pinid.model.floating.FloatingRobotModel`, docs/floating-base.md).
         """
+        if base != "fixed" and base not in BASE_BUILDERS:
+            raise ModelError(f"base={base!r}, expected one of: fixed, {', '.join(BASE_BUILDERS)}")
         if not isinstance(urdf, (str, os.PathLike)):
             raise ModelError(f"urdf: got {type(urdf).__name__}, expected a URDF path or a robot name")
         if joints is not None and (isinstance(joints, str) or not all(isinstance(j, str) for j in joints)):
@@ -326,6 +336,8 @@ class RobotModel:
         transmissions = urdf_transmissions(text, active, path.name)
         if transmissions:
             robot.drives = Drives(list(active), transmissions, {}, f"{path.name} <transmission>")
+        if base != "fixed":
+            return BASE_BUILDERS[base](robot, text, path)
         return robot
 
     # ------------------------------------------------------------------ description

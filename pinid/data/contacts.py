@@ -1,0 +1,418 @@
+"""Recordings of a floating-base robot: base motion (motion capture or an IMU), external wrenches, contacts.
+
+A floating recording is a file in pinid's dataset format (``t``, ``q_<joint>``, optional ``dq_``, ``ddq_``,
+``tau_`` per joint; ``docs/data.md``) with more columns (``docs/floating-base.md``):
+
+====================================================  ==============================================  ========
+columns                                               what                                            unit
+====================================================  ==============================================  ========
+``base_x, base_y, base_z``                            base-link origin in the world (motion capture)  m
+``base_qx, base_qy, base_qz, base_qw``                base-link orientation, unit quaternion           –
+                                                      (base → world)
+``imu_<frame>_qx … _qw``                              IMU orientation (IMU frame → world)              –
+``imu_<frame>_wx, _wy, _wz``                          gyro: angular velocity, IMU frame                rad/s
+``imu_<frame>_ax, _ay, _az``                          accelerometer: specific force (acceleration      m/s²
+                                                      minus gravity), IMU frame
+``wrench_<link>_fx, _fy, _fz, _tx, _ty, _tz``         wrench on ``link`` in its frame, moment about   N, N·m
+                                                      its origin (foot F/T sensor, insole)
+``plate_<link>_fx, _fy, _fz``                         force-plate force on ``link``, world frame       N
+``plate_<link>_copx, _copy`` (``_copz``, ``_tz``)     centre of pressure (world; copz default 0) and  m, N·m
+                                                      free moment about the vertical (default 0)
+``contact_<link>``                                    contact phase: 1 in contact, 0 not (the         –
+                                                      link's wrench is zeroed where 0)
+====================================================  ==============================================  ========
+
+The base motion comes from one source: motion capture (``base_*``, differentiated like the joints) or one
+IMU on the base link or a frame fixed to it (its placement is the URDF frame's: add a fixed link for an IMU
+the URDF does not have).  Force plates need the base position (motion capture), since their centre of
+pressure is in the world.  Every check raises :class:`~pinid.errors.DataError` naming the column.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from pinid.data.dataset import Dataset
+from pinid.data.formats import read_recording
+from pinid.data.mapping import MappingSpec, peek_columns
+from pinid.data.registry import writer_for
+from pinid.errors import DataError
+from pinid.io import atomic_path
+from pinid.model.floating import FloatingRobotModel, Wrench, as_floating
+
+POSE = ("x", "y", "z", "qx", "qy", "qz", "qw")
+QUAT = ("qx", "qy", "qz", "qw")
+GYRO = ("wx", "wy", "wz")
+ACC = ("ax", "ay", "az")
+WRENCH = ("fx", "fy", "fz", "tx", "ty", "tz")
+PLATE = ("fx", "fy", "fz", "copx", "copy", "copz", "tz")
+PLATE_OPTIONAL = ("copz", "tz")
+#: Tolerance on the norm of a recorded quaternion (1 ± this).
+QUATERNION_TOL = 1e-3
+
+
+@dataclass
+class FloatingRecording:
+    """A floating-base recording: the joints (``data``, a Dataset; ``tau`` None when no joint torque is
+    measured), the base motion (``base_pose`` (N, 7) or ``imu``), wrenches and contact phases, (N, ·) arrays."""
+
+    data: Dataset
+    base_pose: np.ndarray | None = None
+    imu_frame: str | None = None
+    imu: dict[str, np.ndarray] = field(default_factory=dict)  # "q" (N, 4) optional, "w" (N, 3), "a" (N, 3)
+    wrenches: dict[str, np.ndarray] = field(default_factory=dict)  # link -> (N, 6), link frame
+    plates: dict[str, np.ndarray] = field(default_factory=dict)  # link -> (N, 7) fx fy fz copx copy copz tz
+    contacts: dict[str, np.ndarray] = field(default_factory=dict)  # link -> (N,) booleans
+
+    @property
+    def source(self) -> str:
+        return self.data.source
+
+    def columns(self) -> dict[str, np.ndarray]:
+        """The extra columns by name (the dataset-format names of the table above)."""
+        out: dict[str, np.ndarray] = {}
+        if self.base_pose is not None:
+            out.update({f"base_{c}": self.base_pose[:, i] for i, c in enumerate(POSE)})
+        if self.imu_frame is not None:
+            for key, names in (("q", QUAT), ("w", GYRO), ("a", ACC)):
+                if key in self.imu:
+                    out.update({f"imu_{self.imu_frame}_{c}": self.imu[key][:, i] for i, c in enumerate(names)})
+        for link, w in self.wrenches.items():
+            out.update({f"wrench_{link}_{c}": w[:, i] for i, c in enumerate(WRENCH)})
+        for link, w in self.plates.items():
+            out.update({f"plate_{link}_{c}": w[:, i] for i, c in enumerate(PLATE)})
+        for link, c in self.contacts.items():
+            out[f"contact_{link}"] = c.astype(float)
+        return out
+
+
+def _groups(names: list[str], source: str) -> dict:
+    """The extra columns grouped: {"base": {...}, "imu": {frame: {...}}, "wrench"/"plate": {link: {...}}, "contact": {link: col}}."""
+    out: dict = {"base": {}, "imu": {}, "wrench": {}, "plate": {}, "contact": {}}
+    for n in names:
+        if n.startswith("base_") and n[5:] in POSE:
+            out["base"][n[5:]] = n
+            continue
+        m = re.fullmatch(r"imu_(.+)_(qx|qy|qz|qw|wx|wy|wz|ax|ay|az)", n)
+        if m:
+            out["imu"].setdefault(m.group(1), {})[m.group(2)] = n
+            continue
+        m = re.fullmatch(r"wrench_(.+)_(fx|fy|fz|tx|ty|tz)", n)
+        if m:
+            out["wrench"].setdefault(m.group(1), {})[m.group(2)] = n
+            continue
+        m = re.fullmatch(r"plate_(.+)_(fx|fy|fz|copx|copy|copz|tz)", n)
+        if m:
+            out["plate"].setdefault(m.group(1), {})[m.group(2)] = n
+            continue
+        if n.startswith("contact_") and len(n) > 8:
+            out["contact"][n[8:]] = n
+    return out
+
+
+def _need(have: dict, wanted, what: str, source: str, optional=()) -> None:
+    missing = [c for c in wanted if c not in have and c not in optional]
+    if missing:
+        raise DataError(
+            f"{source}: {what} has columns {', '.join(sorted(have.values()))} but not {', '.join(missing)}; "
+            f"expected all of {', '.join(c for c in wanted if c not in optional)}"
+        )
+
+
+def read_floating(
+    path: str | os.PathLike, model: FloatingRobotModel, *, swing_rows: bool = False, **kwargs
+) -> FloatingRecording:
+    """Read a floating recording in the dataset format (the table in the module text) and check it against
+    ``model``: every link and frame named exists, the IMU is fixed to the base link, quaternions are unit,
+    contact phases have a wrench (unless ``swing_rows``: then a link with contact phases and no wrench is a
+    leg without force sensing, whose contact rows are left out, see
+    :func:`pinid.identification.floating_problem.floating_problem`), force plates have the base position.  ``kwargs`` go to
+    :func:`~pinid.data.formats.read_recording` (the joint columns)."""
+    model = as_floating(model)
+    path = Path(path)
+    source = str(path)
+    _, names = peek_columns(path)
+    g = _groups(names, source)
+    data = read_recording(path, model=model, **kwargs)
+    extra = [c for grp in ("base",) for c in g[grp].values()]
+    extra += [c for d in (*g["imu"].values(), *g["wrench"].values(), *g["plate"].values()) for c in d.values()]
+    extra += list(g["contact"].values())
+    values = _read_columns(path, extra, data.n) if extra else {}
+    rec = FloatingRecording(data)
+    if g["base"]:
+        _need(g["base"], POSE, "the base pose", source)
+        rec.base_pose = np.column_stack([values[g["base"][c]] for c in POSE])
+        _check_unit(rec.base_pose[:, 3:], "base_qx..base_qw", source)
+    if len(g["imu"]) > 1:
+        raise DataError(f"{source}: IMUs on {', '.join(g['imu'])}; expected one IMU (imu_<frame>_...)")
+    for frame, cols in g["imu"].items():
+        fid = model.frame_id(frame, f"{source}: IMU frame (column {next(iter(cols.values()))})")
+        if model.ff_model.frames[fid].parentJoint != 1:
+            raise DataError(
+                f"{source}: IMU frame '{frame}' is not fixed to the base link '{model.base_link}'; expected the "
+                "base link or a frame fixed to it"
+            )
+        _need(cols, GYRO + ACC, f"the IMU on '{frame}'", source)
+        rec.imu_frame = frame
+        rec.imu = {
+            "w": np.column_stack([values[cols[c]] for c in GYRO]),
+            "a": np.column_stack([values[cols[c]] for c in ACC]),
+        }
+        if any(c in cols for c in QUAT):
+            _need(cols, QUAT, f"the IMU orientation on '{frame}'", source)
+            rec.imu["q"] = np.column_stack([values[cols[c]] for c in QUAT])
+            _check_unit(rec.imu["q"], f"imu_{frame}_qx..qw", source)
+    if rec.base_pose is None and rec.imu_frame is None:
+        raise DataError(f"{source}: no base motion; expected base_x..base_qw (motion capture) or imu_<frame>_* columns")
+    if rec.base_pose is not None and rec.imu_frame is not None:
+        raise DataError(f"{source}: both base_* and imu_* columns; expected one source of base motion")
+    if rec.imu_frame is not None and "q" not in rec.imu:
+        raise DataError(f"{source}: the IMU on '{rec.imu_frame}' has no orientation columns imu_{rec.imu_frame}_qx..qw")
+    for link, cols in g["wrench"].items():
+        model.frame_id(link, f"{source}: wrench frame (column {next(iter(cols.values()))})")
+        _need(cols, WRENCH, f"the wrench on '{link}'", source)
+        rec.wrenches[link] = np.column_stack([values[cols[c]] for c in WRENCH])
+    for link, cols in g["plate"].items():
+        model.frame_id(link, f"{source}: force-plate link (column {next(iter(cols.values()))})")
+        _need(cols, PLATE, f"the force plate under '{link}'", source, PLATE_OPTIONAL)
+        rec.plates[link] = np.column_stack([values[cols[c]] if c in cols else np.zeros(data.n) for c in PLATE])
+        if link in rec.wrenches:
+            raise DataError(f"{source}: link '{link}' has both wrench_ and plate_ columns; expected one")
+    if rec.plates and rec.base_pose is None:
+        raise DataError(
+            f"{source}: force plates ({', '.join(rec.plates)}) need the base position in the world "
+            "(base_x..base_qw columns, motion capture); an IMU alone does not give it"
+        )
+    for link, col in g["contact"].items():
+        model.frame_id(link, f"{source}: contact link (column {col})")
+        if link not in rec.wrenches and link not in rec.plates and not swing_rows:
+            raise DataError(
+                f"{source}: column {col} gives contact phases of '{link}' but there is no wrench_{link}_* or "
+                f"plate_{link}_* column; expected the contact wrench of a link in contact (or --swing-rows: use only "
+                "the rows that wrench does not enter)"
+            )
+        c = values[col]
+        if not np.all((c == 0) | (c == 1)):
+            raise DataError(f"{source}: column {col} has values other than 0 and 1; expected contact phases")
+        rec.contacts[link] = c.astype(bool)
+    return rec
+
+
+def _check_unit(quat: np.ndarray, what: str, source: str) -> None:
+    norms = np.linalg.norm(quat, axis=1)
+    bad = np.flatnonzero(np.abs(norms - 1.0) > QUATERNION_TOL)
+    if bad.size:
+        k = int(bad[0])
+        raise DataError(
+            f"{source}: quaternion {what} at sample {k} has norm {norms[k]:.6g}; expected a unit quaternion "
+            f"(x, y, z, w; norm 1 ± {QUATERNION_TOL:g})"
+        )
+
+
+def _read_columns(path: Path, columns: list[str], n: int) -> dict[str, np.ndarray]:
+    """Raw values of ``columns`` of a dataset-format file (through a mapping spec of pseudo-joints)."""
+    spec = MappingSpec.from_dict(
+        {"time": "t", "joints": {f"c{i}": {"q": c} for i, c in enumerate(columns)}}, origin=f"{path} (floating columns)"
+    )
+    ds = spec.read(path)
+    if ds.n != n:
+        raise DataError(f"{path}: {ds.n} rows of base and wrench columns for {n} samples; expected equal lengths")
+    bad = ~np.isfinite(ds.q)
+    if bad.any():
+        k, j = (int(x) for x in np.argwhere(bad)[0])
+        raise DataError(f"{path}: column {columns[j]} has NaN or infinite values (first at sample {k})")
+    return {c: ds.q[:, i] for i, c in enumerate(columns)}
+
+
+def write_floating(path: str | os.PathLike, rec: FloatingRecording, *, digits: int = 12) -> Path:
+    """Write a floating recording in the dataset format (CSV or NPZ by suffix), atomically."""
+    path = Path(path)
+    ds = rec.data
+    names, blocks = ["t"], [ds.t[:, None]]
+    for qty, pre in (("q", "q_"), ("dq", "dq_"), ("ddq", "ddq_"), ("tau", "tau_")):
+        a = getattr(ds, qty)
+        if a is not None:
+            names += [f"{pre}{j}" for j in ds.joints]
+            blocks.append(a)
+    extra = rec.columns()
+    names += list(extra)
+    blocks += [np.column_stack(list(extra.values()))] if extra else []
+    data = np.hstack(blocks)
+    if not np.all(np.isfinite(data)):
+        raise DataError(f"{path}: the recording holds NaN or infinite values, refusing to write them")
+    with atomic_path(path) as tmp:
+        writer_for(path).write(tmp, names, data, digits)
+    return path
+
+
+# ---------------------------------------------------------------------------------------------- prepared
+@dataclass
+class FloatingSamples:
+    """A floating recording ready for the regressor: joints (``data`` with q, dq, ddq; tau or None), the base
+    state (Pinocchio's free-flyer ``base_q`` (N, 7), ``base_v``, ``base_a`` (N, 6), base frame, linear part of
+    ``base_v`` zero and of ``base_a`` the classical acceleration of the base origin: see
+    :mod:`pinid.model.floating`), and the external wrenches."""
+
+    data: Dataset
+    base_q: np.ndarray
+    base_v: np.ndarray
+    base_a: np.ndarray
+    wrenches: list[Wrench]
+    unsensed: dict[str, np.ndarray] = field(default_factory=dict)  # link -> (N,) in contact, wrench unknown
+
+    @property
+    def n(self) -> int:
+        return self.data.n
+
+    @property
+    def source(self) -> str:
+        return self.data.source
+
+
+def quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Hamilton products of (N, 4) quaternions ``x, y, z, w``."""
+    ax, ay, az, aw = a.T
+    bx, by, bz, bw = b.T
+    return np.column_stack(
+        [
+            aw * bx + ax * bw + ay * bz - az * by,
+            aw * by - ax * bz + ay * bw + az * bx,
+            aw * bz + ax * by - ay * bx + az * bw,
+            aw * bw - ax * bx - ay * by - az * bz,
+        ]
+    )
+
+
+def quat_matrix(q: np.ndarray) -> np.ndarray:
+    """(N, 3, 3) rotation matrices of (N, 4) unit quaternions ``x, y, z, w``."""
+    x, y, z, w = (q / np.linalg.norm(q, axis=1, keepdims=True)).T
+    return np.stack(
+        [
+            np.column_stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)]),
+            np.column_stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)]),
+            np.column_stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]),
+        ],
+        axis=1,
+    )
+
+
+def matrix_quat(R: np.ndarray) -> np.ndarray:
+    """(N, 4) quaternions ``x, y, z, w`` (w ≥ 0) of (N, 3, 3) rotation matrices."""
+    import pinocchio as pin  # the model layer loads it anyway
+
+    out = np.array([pin.Quaternion(r).coeffs() for r in R])
+    return out * np.where(out[:, 3:] < 0, -1.0, 1.0)
+
+
+def prepare_floating(
+    rec: FloatingRecording, model: FloatingRobotModel, preprocess: dict | bool | None = None, *, threshold: float = 0.0
+) -> FloatingSamples:
+    """Filter and differentiate joints and base motion together, zero the wrenches out of contact (phases, or
+    force norm below ``threshold`` [N]), and give the base state in Pinocchio's free-flyer convention.
+
+    ``preprocess``: as :func:`pinid.identification.problem.prepare_dataset` (None: filter only when ``dq`` or
+    ``ddq`` are missing; False: use the recording as it is, which then needs ``dq_`` and ``ddq_`` columns and
+    takes the base derivatives from central differences)."""
+    model = as_floating(model)
+    ds = rec.data.reorder(model.joint_names)
+    extra = rec.columns()
+    for link, p7 in rec.plates.items():  # force plates as world wrenches before filtering (linear in the signals)
+        for c in PLATE:
+            extra.pop(f"plate_{link}_{c}")
+        moment = np.cross(p7[:, 3:6], p7[:, :3]) + np.column_stack([np.zeros((len(p7), 2)), p7[:, 6]])
+        extra.update({f"plate_{link}_{c}": v for c, v in zip(WRENCH, np.hstack([p7[:, :3], moment]).T)})
+    # every signal goes through the same filter, differentiation and trimming as the joints
+    names = list(extra)
+    n, nv = ds.n, model.nv
+    q = np.hstack([ds.q, np.column_stack([extra[c] for c in names])]) if names else ds.q
+    width = q.shape[1]
+
+    def widen(a):
+        return None if a is None else np.hstack([a, np.zeros((n, width - nv))])
+
+    tau = ds.tau if ds.tau is not None else np.zeros((n, nv))
+    big = Dataset(ds.t, q, [*ds.joints, *names], dq=widen(ds.dq), ddq=widen(ds.ddq), tau=widen(tau), source=ds.source)
+    needs = ds.dq is None or ds.ddq is None
+    if preprocess is False or (preprocess is None and not needs):
+        if needs:
+            raise DataError(f"{ds.source}: no dq_/ddq_ columns and preprocessing off; expected both or preprocessing")
+        sig_dq = np.gradient(q[:, nv:], ds.t, axis=0)
+        sig_ddq = np.gradient(sig_dq, ds.t, axis=0)
+        t, jq, jdq, jddq, jtau, sig = ds.t, ds.q, ds.dq, ds.ddq, ds.tau, q[:, nv:]
+    else:
+        from pinid.data.preprocess import prepare  # only when a recording is filtered
+
+        opts = {} if preprocess in (None, True) else dict(preprocess)
+        opts = {"use_measured_velocity": False, "use_measured_acceleration": False, **opts}
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            p = prepare(big, **opts)
+        for w in caught:  # the filter's warnings about the joints, not about the base and wrench signals
+            if not any(f"'{c}'" in str(w.message) for c in names):
+                warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+        t, jq, jdq, jddq = p.t, p.q[:, :nv], p.dq[:, :nv], p.ddq[:, :nv]
+        jtau = None if ds.tau is None else p.tau[:, :nv]
+        sig, sig_dq, sig_ddq = p.q[:, nv:], p.dq[:, nv:], p.ddq[:, nv:]
+    col = {c: i for i, c in enumerate(names)}
+
+    def block(prefix, keys, arr=sig):
+        return np.column_stack([arr[:, col[f"{prefix}{k}"]] for k in keys])
+
+    m = len(t)
+    if rec.base_pose is not None:
+        pos = block("base_", ("x", "y", "z"))
+        quat = block("base_", QUAT)
+        quat /= np.linalg.norm(quat, axis=1, keepdims=True)
+        conj = quat * np.array([-1, -1, -1, 1.0])
+        omega = 2 * quat_mul(conj, block("base_", QUAT, sig_dq))[:, :3]
+        domega = 2 * quat_mul(conj, block("base_", QUAT, sig_ddq))[:, :3]
+        R = quat_matrix(quat)
+        acc = np.einsum("nji,nj->ni", R, block("base_", ("x", "y", "z"), sig_ddq))  # Rᵀ p̈
+    else:
+        f = rec.imu_frame
+        frame = model.ff_model.frames[model.frame_id(f)]
+        R_bi, r = frame.placement.rotation, frame.placement.translation
+        q_i = block(f"imu_{f}_", QUAT)
+        q_i /= np.linalg.norm(q_i, axis=1, keepdims=True)
+        R_wb = quat_matrix(q_i) @ R_bi.T
+        quat, pos = matrix_quat(R_wb), np.zeros((m, 3))
+        omega = block(f"imu_{f}_", GYRO) @ R_bi.T
+        domega = block(f"imu_{f}_", GYRO, sig_dq) @ R_bi.T
+        s_b = block(f"imu_{f}_", ACC) @ R_bi.T
+        g = np.asarray(model.ff_model.gravity.linear)
+        a_imu = s_b + np.einsum("nji,j->ni", R_wb, g)
+        acc = a_imu - np.cross(domega, r) - np.cross(omega, np.cross(omega, r))
+    base_q = np.hstack([pos, quat])
+    base_v = np.hstack([np.zeros((m, 3)), omega])
+    base_a = np.hstack([acc, domega])
+    wrenches = []
+    # the filter spreads a phase's step over a few samples: a measured wrench is zeroed below 0.5, a link
+    # without a measured wrench counts as in contact above 0.05 (its rows are left out: conservative)
+    contact = {link: sig[:, col[f"contact_{link}"]] > 0.5 for link in rec.contacts}
+    for link in rec.wrenches:
+        w = block(f"wrench_{link}_", WRENCH)
+        wrenches.append(Wrench(link, _gate(w, contact.get(link), threshold), "local"))
+    for link in rec.plates:
+        w = block(f"plate_{link}_", WRENCH)  # world wrench about the origin (converted above)
+        wrenches.append(Wrench(link, _gate(w, contact.get(link), threshold), "world"))
+    data = Dataset(t, jq, list(model.joint_names), dq=jdq, ddq=jddq, tau=jtau, source=ds.source, meta=dict(ds.meta))
+    unsensed = {
+        link: sig[:, col[f"contact_{link}"]] > 0.05
+        for link in rec.contacts
+        if link not in rec.wrenches and link not in rec.plates
+    }
+    return FloatingSamples(data, base_q, base_v, base_a, wrenches, unsensed)
+
+
+def _gate(w: np.ndarray, contact: np.ndarray | None, threshold: float) -> np.ndarray:
+    """The wrench with zeros out of contact (phase 0, or force norm below ``threshold`` [N])."""
+    off = np.zeros(len(w), bool) if contact is None else ~contact
+    if threshold > 0:
+        off |= np.linalg.norm(w[:, :3], axis=1) < threshold
+    return np.where(off[:, None], 0.0, w)

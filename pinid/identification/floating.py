@@ -1,0 +1,172 @@
+"""Identify a floating-base robot from recordings with base motion and contact wrenches (``pinid identify
+--base floating``): read, prepare, stack (:mod:`pinid.identification.floating_problem`), fit every method,
+validate, and write ``identification.json`` and the identified URDFs of consistent results."""
+
+from __future__ import annotations
+
+import os
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from pinid.data.contacts import FloatingSamples, prepare_floating, read_floating
+from pinid.errors import DataError
+from pinid.estimators import make_estimator
+from pinid.identification.floating_problem import floating_problem
+from pinid.io import Artefacts, write_json
+from pinid.model.floating import FloatingRobotModel, as_floating, floating_urdf
+from pinid.model.terms import JointTerms, as_terms
+
+
+@dataclass
+class FloatingIdentification:
+    """Every method's base (and, when it fits them, standard) parameters, training and validation RMS per row
+    (base rows by force/moment component, joint rows by joint) [N, N·m]."""
+
+    robot: str
+    rows: str
+    names: list[str]
+    nominal: np.ndarray
+    results: dict[str, dict] = field(default_factory=dict)
+    data: dict = field(default_factory=dict)
+
+    def to_dict(self) -> dict:
+        return {
+            "robot": self.robot,
+            "base": "floating",
+            "rows": self.rows,
+            "base_parameter_names": self.names,
+            "nominal_base": self.nominal.tolist(),
+            "data": self.data,
+            "results": self.results,
+        }
+
+    def text(self) -> str:
+        """A table of each method's RMS and the first base parameters."""
+        out = [f"{'method':<8}{'train RMS':>12}{'valid. RMS':>12}{'seconds':>10}   total mass [kg]"]
+        for m, r in self.results.items():
+            val = "-" if r["validation_rms"] is None else f"{r['validation_rms']:.4g}"
+            mass = r["base"][0] if self.names[0].startswith("base.m") else float("nan")
+            out.append(f"{m:<8}{r['train_rms']:>12.4g}{val:>12}{r['seconds']:>10.3f}   {mass:.6g}")
+        return "\n".join(out)
+
+
+def load_floating(
+    items, model: FloatingRobotModel, preprocess=None, what: str = "training", *, swing_rows: bool = False
+) -> list[FloatingSamples]:
+    """Floating recordings (paths or prepared :class:`FloatingSamples`) read, checked and prepared
+    (``swing_rows``: accept contact phases without a wrench, :func:`pinid.data.contacts.read_floating`)."""
+    if items is None:
+        return []
+    if isinstance(items, (FloatingSamples, str, os.PathLike)):
+        items = [items]
+    out = []
+    for item in items:
+        if isinstance(item, FloatingSamples):
+            out.append(item)
+        elif isinstance(item, (str, os.PathLike)):
+            out.append(prepare_floating(read_floating(item, model, swing_rows=swing_rows), model, preprocess))
+        else:
+            raise DataError(f"{what} recording: got {type(item).__name__}, expected a path or FloatingSamples")
+    if not out:
+        raise DataError(f"no {what} recording given")
+    return out
+
+
+def identify_floating(
+    model: FloatingRobotModel,
+    data,
+    *,
+    methods: Sequence[str] = ("ols", "sdp"),
+    validate=None,
+    terms: JointTerms = JointTerms(),
+    rows: str = "all",
+    base_weight: float = 1.0,
+    preprocess: Mapping | bool | None = None,
+    options: Mapping[str, Mapping] | None = None,
+    swing_rows: bool = False,
+    rest_velocity=None,
+) -> FloatingIdentification:
+    """Fit every method on the training recordings and score it on the validation ones (RMS over the rows used).
+    ``swing_rows``: links with contact phases but no wrench are legs without force sensing; the rows their
+    unknown wrench enters are left out while they are in contact.  ``rest_velocity``: as
+    :func:`~pinid.identification.floating_problem.floating_problem` (None keeps every row)."""
+    model = as_floating(model)
+    terms = as_terms(terms)
+    train = load_floating(data, model, preprocess, swing_rows=swing_rows)
+    problem = floating_problem(
+        model, train, terms=terms, rows=rows, base_weight=base_weight, rest_velocity=rest_velocity
+    )
+    val_problem = None
+    if validate:
+        val = load_floating(validate, model, preprocess, "validation", swing_rows=swing_rows)
+        val_problem = floating_problem(
+            model,
+            val,
+            terms=problem.terms,
+            rows=rows,
+            base_weight=base_weight,
+            base=problem.base,
+            rest_velocity=rest_velocity,
+        )
+    ident = FloatingIdentification(model.name, rows, problem.names, problem.nominal_base)
+    ident.data = problem.summary() | {"rows_per_sample": int(problem.rows // max(problem.samples, 1))}
+    for method in methods:
+        start = time.perf_counter()
+        est = make_estimator(method, **dict((options or {}).get(method, {}))).fit(problem)
+        seconds = time.perf_counter() - start
+        r = problem.tau - problem.predict(est.base_)
+        entry = {
+            "base": est.base_.tolist(),
+            "standard": None if getattr(est, "standard_", None) is None else np.asarray(est.standard_).tolist(),
+            "standard_names": problem.standard_names,
+            "train_rms": float(np.sqrt(np.mean(r * r))),
+            "train_rms_by_row": _by_row(problem, r),
+            "validation_rms": None,
+            "seconds": seconds,
+        }
+        if val_problem is not None:
+            rv = val_problem.tau - val_problem.predict(est.base_)
+            entry["validation_rms"] = float(np.sqrt(np.mean(rv * rv)))
+            entry["validation_rms_by_row"] = _by_row(val_problem, rv)
+        ident.results[method] = entry
+    return ident
+
+
+def _by_row(problem, r: np.ndarray) -> dict[str, float]:
+    """RMS of the residual per body (the 6 base rows together as ``base``) [N·m, or N and N·m mixed for base]."""
+    names = problem.model.joint_names
+    return {names[j]: float(np.sqrt(np.mean(r[problem.joint == j] ** 2))) for j in np.unique(problem.joint)}
+
+
+def write_floating_identification(
+    ident: FloatingIdentification,
+    folder: str | os.PathLike,
+    model: FloatingRobotModel | None = None,
+    terms: JointTerms = JointTerms(),
+) -> list[Path]:
+    """Write ``identification.json`` into ``folder`` and, with ``model``, ``identified_<method>.urdf`` for every
+    method that fits physically consistent standard parameters (sdp): all or nothing
+    (:class:`pinid.io.Artefacts`).  ``terms``: those of the identification."""
+    from pinid.model.physical import check_consistency
+
+    folder = Path(folder)
+    arts = Artefacts()
+    arts.add(folder / "identification.json", lambda p: write_json(p, ident.to_dict()))
+    if model is not None:
+        terms = as_terms(terms)
+        for method, r in ident.results.items():
+            theta = r.get("standard")
+            if theta is None or len(theta) != len(r["standard_names"]):
+                continue
+            theta = np.asarray(theta)
+            if not check_consistency(theta, model.body_names, terms.names, []).consistent:
+                continue
+            arts.add(
+                folder / f"identified_{method}.urdf",
+                lambda p, th=theta, m=method: floating_urdf(model, th, terms, p, comment=m),
+            )
+    return arts.write()

@@ -1,0 +1,439 @@
+"""Floating base: the robot's root link on a free flyer (Pinocchio's ``JointModelFreeFlyer``).
+
+A :class:`FloatingRobotModel` is a :class:`~pinid.model.robot.RobotModel` of the actuated joints (so limits,
+joint names, recordings and excitation work as for a fixed base: its ``pin_model`` is the robot with the base
+link held still) that also carries ``ff_model``, the same robot on a free flyer.  Build it with
+``RobotModel.from_urdf(path, base="floating")``.
+
+Base state, one sample (the conventions of Pinocchio's free flyer):
+
+==============  =====  ===================================================================================
+``base_q``      (7,)   position of the base-link origin in the world [m], then its orientation as a unit
+                       quaternion ``x, y, z, w`` (base frame → world)
+``base_v``      (6,)   spatial velocity in the **base frame**, linear part first [m/s, rad/s]
+``base_a``      (6,)   its time derivative [m/s², rad/s²] (``base_v`` differentiated as a vector)
+==============  =====  ===================================================================================
+
+Galilean invariance: the joint torques and contact wrenches depend on the base's linear motion only through
+the *classical* acceleration of its origin ``a_o = a_lin + ω × v_lin`` (base frame), so ``base_v`` with a zero
+linear part and ``base_a`` with ``a_o`` as linear part give the same regressor; that is how base motion known
+from an IMU alone (no linear velocity) enters (:mod:`pinid.data.contacts`).
+
+Parameters.  The standard parameter vector of a floating robot is that of its *body view*
+(:func:`body_view`): the base link first, as a pseudo-joint named ``base`` (``base.m`` … ``base.Izz``, about
+the base-link frame), then 10 per actuated joint's body, then the joint terms per joint of the body view.  The
+terms' ``base.*`` columns are zero (a free flyer has no friction): they are listed as unidentifiable.
+
+Rows.  Per sample ``6 + n``: the 6 base rows (the base link's Newton–Euler equations in the base frame,
+force first: the sum of the external wrenches on the robot, expressed at the base) and the ``n`` joint rows,
+``W θ = [0₆; τ] + Σ_c J_cᵀ f_c`` with the contact wrenches ``f_c`` (:func:`contact_forces`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import pinocchio as pin
+
+from pinid.checks import as_floats, count
+from pinid.errors import DataError, ModelError, SpecError
+from pinid.model.base import BaseParameters, base_parameters_of
+from pinid.model import terms as _terms
+from pinid.model.robot import BASE_BUILDERS, JointInfo, RobotModel
+from pinid.model.terms import JointTerms, as_terms
+
+#: Name of the free flyer in parameter names (``base.m``, ``base.mx`` …).
+BASE_NAME = "base"
+#: Number of configuration coordinates of the free flyer (position, unit quaternion x y z w).
+BASE_NQ = 7
+#: Number of velocity coordinates of the free flyer (linear, angular; base frame).
+BASE_NV = 6
+#: Names of the 6 base rows (force then moment on the base link, base frame).
+BASE_ROWS = ("fx", "fy", "fz", "tx", "ty", "tz")
+
+
+class FloatingRobotModel(RobotModel):
+    """A robot whose base link floats (free flyer).  ``pin_model`` / ``rnea`` / ``nv`` are those of the actuated
+    joints with the base held still (as for a fixed base); ``ff_model`` is the free-flyer model (``nq = 7 + n``,
+    ``nv = 6 + n``); ``base_link`` names the root link."""
+
+    base = "floating"
+
+    def __init__(self, fixed: RobotModel, ff_model: pin.Model, base_link: str) -> None:
+        super().__init__(
+            fixed.pin_model,
+            fixed.joints,
+            coulomb=fixed.coulomb,
+            viscous=fixed.viscous,
+            urdf_path=fixed.urdf_path,
+            urdf_text=fixed.urdf_text,
+            locked=fixed.locked,
+        )
+        self.drives = fixed.drives
+        self.stribeck = dict(fixed.stribeck)
+        self.passive_exponents = dict(fixed.passive_exponents)
+        self.ff_model = ff_model
+        self.ff_data = ff_model.createData()
+        self.base_link = base_link
+        self._bodies: RobotModel | None = None
+
+    @property
+    def bodies(self) -> RobotModel:
+        """The body view (:func:`body_view`), built once."""
+        if self._bodies is None:
+            self._bodies = body_view(self)
+        return self._bodies
+
+    @property
+    def body_names(self) -> list[str]:
+        """``base`` then the actuated joints: one name per moving body."""
+        return [BASE_NAME, *self.joint_names]
+
+    def frame_id(self, name: str, what: str = "frame") -> int:
+        """Pinocchio frame id of a link (or any URDF frame) of ``ff_model``; DataError naming the links if unknown."""
+        if isinstance(name, str) and self.ff_model.existFrame(name):
+            fid = self.ff_model.getFrameId(name)
+            if self.ff_model.frames[fid].type in (
+                pin.FrameType.BODY,
+                pin.FrameType.FIXED_JOINT,
+                pin.FrameType.OP_FRAME,
+            ):
+                return fid
+        links = [f.name for f in self.ff_model.frames if f.type == pin.FrameType.BODY]
+        raise DataError(f"{what} '{name}' is not a link of {self.name} (its links: {', '.join(links)})")
+
+    def floating_parameters(self) -> np.ndarray:
+        """Standard inertial parameters of every moving body, base first (10·(n + 1))."""
+        return np.concatenate(
+            [self.ff_model.inertias[i].toDynamicParameters() for i in range(1, self.ff_model.njoints)]
+        )
+
+    def with_floating_parameters(self, theta: np.ndarray) -> "FloatingRobotModel":
+        """A copy with other inertial parameters for every body (``theta``: 10·(n + 1), base first)."""
+        theta = as_floats(theta, "theta").reshape(-1)
+        if theta.shape != (10 * (self.nv + 1),):
+            raise DataError(f"theta: {theta.size} values, expected {10 * (self.nv + 1)} (10 per body, base first)")
+        fixed = self.with_inertial_parameters(theta[10:])
+        ff = pin.Model(self.ff_model)
+        for i in range(self.nv + 1):
+            ff.inertias[i + 1] = pin.Inertia.FromDynamicParameters(theta[10 * i : 10 * i + 10])
+        return FloatingRobotModel(fixed, ff, self.base_link)
+
+    def full_state(self, base_q, base_v, base_a, q, dq, ddq) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Pinocchio's ``(N, 7 + nq_joints)``, ``(N, 6 + n)``, ``(N, 6 + n)`` of base and joint states (checked)."""
+        q = np.atleast_2d(as_floats(q, "q"))
+        n = len(q)
+        arrays = {}
+        for name, x, width in (
+            ("base_q", base_q, BASE_NQ),
+            ("base_v", base_v, BASE_NV),
+            ("base_a", base_a, BASE_NV),
+            ("dq", dq, self.nv),
+            ("ddq", ddq, self.nv),
+        ):
+            a = np.atleast_2d(as_floats(x, name))
+            if a.shape != (n, width):
+                raise DataError(f"{name}: shape {a.shape}, expected ({n}, {width})")
+            if not np.all(np.isfinite(a)):
+                raise DataError(f"{name}: NaN or infinite values")
+            arrays[name] = a
+        if q.shape != (n, self.nv):
+            raise DataError(f"q: shape {q.shape}, expected ({n}, {self.nv}) (joints {', '.join(self.joint_names)})")
+        norms = np.linalg.norm(arrays["base_q"][:, 3:], axis=1)
+        bad = np.flatnonzero(np.abs(norms - 1.0) > 1e-6)
+        if bad.size:
+            k = int(bad[0])
+            raise DataError(
+                f"base_q: quaternion of sample {k} has norm {norms[k]:.6g}, expected a unit quaternion (x, y, z, w)"
+            )
+        qj = q if not self._continuous else np.array([self.configuration(x) for x in q])
+        Q = np.hstack([arrays["base_q"], qj])
+        V = np.hstack([arrays["base_v"], arrays["dq"]])
+        A = np.hstack([arrays["base_a"], arrays["ddq"]])
+        return Q, V, A
+
+
+def build_floating(fixed: RobotModel, text: str, path) -> FloatingRobotModel:
+    """The free-flyer model of the URDF ``text`` with the joints ``fixed`` locks held at the same values."""
+    full = pin.buildModelFromXML(text, pin.JointModelFreeFlyer())
+    to_lock = [full.getJointId(n) for n in fixed.locked]
+    if to_lock:
+        q_ref = pin.neutral(full)
+        for n, value in fixed.locked.items():
+            j = full.joints[full.getJointId(n)]
+            if j.nq == 2:
+                q_ref[j.idx_q : j.idx_q + 2] = np.cos(value), np.sin(value)
+            else:
+                q_ref[j.idx_q] = value
+        full = pin.buildReducedModel(full, to_lock, q_ref)
+    names = [full.names[i] for i in range(2, full.njoints)]
+    if names != fixed.joint_names:
+        raise ModelError(f"{path}: the floating model's joints {names} differ from {fixed.joint_names}")
+    if BASE_NAME in names:
+        raise ModelError(f"{path}: a joint is named '{BASE_NAME}', the name pinid gives the floating base; rename it")
+    full.armature[:] = 0.0
+    full.damping[:] = 0.0
+    full.friction[:] = 0.0
+    base_link = next(f.name for f in full.frames if f.type == pin.FrameType.BODY and f.parentJoint == 1)
+    return FloatingRobotModel(fixed, full, base_link)
+
+
+def body_view(model: FloatingRobotModel) -> RobotModel:
+    """A RobotModel whose joints are the moving bodies: the free flyer ``base`` (kind ``floating``), then the
+    actuated joints; ``pin_model`` is ``ff_model``.  It gives the floating robot's standard parameters their
+    names, nominal values and layout (what estimators and the consistency checks read); its kinematic methods
+    (``rnea``, ``configuration``) are not meant to be called."""
+    inf = np.inf
+    joints = [JointInfo(BASE_NAME, "floating", -inf, inf, inf, inf), *model.joints]
+    view = RobotModel(
+        model.ff_model,
+        joints,
+        coulomb=np.r_[0.0, model.coulomb],
+        viscous=np.r_[0.0, model.viscous],
+        urdf_path=model.urdf_path,
+        urdf_text=model.urdf_text,
+        locked=model.locked,
+    )
+    view.stribeck = dict(model.stribeck)
+    return view
+
+
+def _check_terms(model: FloatingRobotModel, terms: JointTerms) -> JointTerms:
+    terms = as_terms(terms)
+    if terms.motor:
+        raise ModelError(
+            f"{model.name}: motor-side terms ({', '.join(t.name for t in terms.motor)}) with a floating base are "
+            "not supported; use joint-side terms"
+        )
+    if "passive" in terms.names:
+        raise ModelError(f"{model.name}: the wearer's passive term with a floating base is not supported")
+    return terms
+
+
+def as_floating(model) -> FloatingRobotModel:
+    """``model`` if it is a FloatingRobotModel; ModelError saying how to load one otherwise."""
+    if not isinstance(model, FloatingRobotModel):
+        raise ModelError(
+            f"model: got {type(model).__name__}, expected a floating-base robot "
+            "(RobotModel.from_urdf(path, base='floating'))"
+        )
+    return model
+
+
+def floating_parameter_names(model: FloatingRobotModel, terms: JointTerms = JointTerms()) -> list[str]:
+    """Names of the floating robot's standard parameters: ``base.m`` … then per joint body, then the terms."""
+    model = as_floating(model)
+    terms = _check_terms(model, terms)
+    view = model.bodies
+    return view.inertial_names + _terms.parameter_names(view, terms)
+
+
+def floating_standard_parameters(model: FloatingRobotModel, terms: JointTerms = JointTerms()) -> np.ndarray:
+    """Nominal standard parameters of the floating robot (URDF inertias of every body, ``<dynamics>`` friction)."""
+    model = as_floating(model)
+    terms = _check_terms(model, terms)
+    return np.concatenate([model.floating_parameters(), _terms.nominal(model.bodies, terms)])
+
+
+def floating_regressor(
+    model: FloatingRobotModel, base_q, base_v, base_a, q, dq, ddq, terms: JointTerms = JointTerms()
+) -> np.ndarray:
+    """Stacked regressor ``(N·(6 + n), p)``: per sample the 6 base rows, then the ``n`` joint rows.
+
+    ``W @ floating_standard_parameters(model, terms)`` is the generalised force of Pinocchio's RNEA on the free
+    flyer (``[base wrench; joint torques]``, no external force) plus the joint terms in the joint rows."""
+    model = as_floating(model)
+    terms = _check_terms(model, terms)
+    Q, V, A = model.full_state(base_q, base_v, base_a, q, dq, ddq)
+    n, nv = len(Q), model.nv
+    names = floating_parameter_names(model, terms)
+    ni = 10 * (nv + 1)
+    out = np.zeros((n, BASE_NV + nv, len(names)))
+    m, d = model.ff_model, model.ff_data
+    compute = pin.computeJointTorqueRegressor
+    inertial = out[:, :, :ni]
+    for k in range(n):
+        inertial[k] = compute(m, d, Q[k], V[k], A[k])
+    if terms.joint:  # joint-major term columns: the base's (zero) first, then the joints' in the fixed order
+        qj = np.atleast_2d(np.asarray(q, dtype=float))
+        _terms.columns(model, terms, qj, V[:, BASE_NV:], A[:, BASE_NV:], out=out[:, BASE_NV:, ni + len(terms.joint) :])
+    return out.reshape(n * (BASE_NV + nv), len(names))
+
+
+def floating_rnea(model: FloatingRobotModel, base_q, base_v, base_a, q, dq, ddq) -> np.ndarray:
+    """Rigid-body inverse dynamics on the free flyer, ``(N, 6 + n)``: base wrench [N, N·m], joint torques [N·m]."""
+    model = as_floating(model)
+    Q, V, A = model.full_state(base_q, base_v, base_a, q, dq, ddq)
+    m, d = model.ff_model, model.ff_data
+    return np.array([pin.rnea(m, d, a, b, c).copy() for a, b, c in zip(Q, V, A)])
+
+
+@dataclass(frozen=True)
+class Wrench:
+    """An external wrench on a link over time: ``values`` (N, 6) ``fx, fy, fz, tx, ty, tz`` [N, N·m].
+
+    ``frame = "local"``: in the frame of ``link`` (moment about its origin), as a foot F/T sensor measures;
+    ``"world"``: in world axes with the moment about the world origin (a force plate's wrench moved there)."""
+
+    link: str
+    values: np.ndarray
+    frame: str = "local"
+
+
+def contact_forces(model: FloatingRobotModel, base_q, q, wrenches: Sequence[Wrench]) -> np.ndarray:
+    """Generalised forces ``Σ_c J_cᵀ f_c`` ``(N, 6 + n)`` of external wrenches (what they add to the RNEA's
+    right-hand side: ``RNEA(q, v, a) = [0₆; τ] + Σ J_cᵀ f_c``)."""
+    model = as_floating(model)
+    bq = np.atleast_2d(as_floats(base_q, "base_q"))
+    qj = np.atleast_2d(as_floats(q, "q"))
+    n = len(bq)
+    Q = np.hstack([bq, qj if not model._continuous else np.array([model.configuration(x) for x in qj])])
+    m, d = model.ff_model, model.ff_data
+    items = []
+    for w in wrenches:
+        vals = np.asarray(w.values, dtype=float)
+        if vals.shape != (n, 6):
+            raise DataError(f"wrench on '{w.link}': shape {vals.shape}, expected ({n}, 6)")
+        if w.frame not in ("local", "world"):
+            raise DataError(f"wrench on '{w.link}': frame {w.frame!r}, expected 'local' or 'world'")
+        items.append((model.frame_id(w.link, "wrench link"), pin.LOCAL if w.frame == "local" else pin.WORLD, vals))
+    # every wrench in world axes about the world origin, then J_worldᵀ f on the joints that support its body
+    nvf = BASE_NV + model.nv
+    J = np.empty((n, 6, nvf))
+    world = [np.array(vals, copy=True) for _, _, vals in items]
+    local = [i for i, (_, ref, _) in enumerate(items) if ref == pin.LOCAL]
+    for k in range(n):
+        J[k] = pin.computeJointJacobians(m, d, Q[k])
+        for i in local:
+            fid = items[i][0]
+            frame = m.frames[fid]
+            X = d.oMi[frame.parentJoint] * frame.placement
+            world[i][k] = X.act(pin.Force(items[i][2][k])).vector
+    out = np.zeros((n, nvf))
+    for (fid, _, _), f in zip(items, world):
+        support = np.zeros(nvf, bool)
+        for jid in m.supports[m.frames[fid].parentJoint]:
+            if jid > 0:
+                j = m.joints[jid]
+                support[j.idx_v : j.idx_v + j.nv] = True
+        out[:, support] += np.einsum("nrc,nr->nc", J[:, :, support], f)
+    return out
+
+
+def random_floating_states(model: FloatingRobotModel, n: int, rng: np.random.Generator, *, acceleration: float = 5.0):
+    """``n`` random ``(base_q, base_v, base_a, q, dq, ddq)``: uniform orientations, joints inside their limits."""
+    n = count(n, "n", low=1)
+    q, dq, ddq = model.random_states(n, rng, acceleration=acceleration)
+    quat = rng.normal(size=(n, 4))
+    quat /= np.linalg.norm(quat, axis=1, keepdims=True)
+    base_q = np.hstack([rng.uniform(-1, 1, (n, 3)), quat])
+    base_v = rng.uniform(-1, 1, (n, BASE_NV))
+    base_a = rng.uniform(-acceleration, acceleration, (n, BASE_NV))
+    return base_q, base_v, base_a, q, dq, ddq
+
+
+#: Which rows a floating base-parameter set is computed from.
+ROW_SETS = ("all", "base", "joints")
+
+
+def row_mask(nv: int, rows: str) -> np.ndarray:
+    """(6 + nv,) booleans: the rows of one sample in the row set ``rows`` ("all", "base" or "joints")."""
+    if rows not in ROW_SETS:
+        raise SpecError(f"rows={rows!r}, expected one of {', '.join(ROW_SETS)}")
+    mask = np.ones(BASE_NV + nv, bool)
+    if rows == "base":
+        mask[BASE_NV:] = False
+    elif rows == "joints":
+        mask[:BASE_NV] = False
+    return mask
+
+
+def floating_base_parameters(
+    model: FloatingRobotModel,
+    terms: JointTerms = JointTerms(),
+    *,
+    rows: str = "all",
+    samples: int | None = None,
+    seed: int = 0,
+    tol: float = 1e-8,
+) -> BaseParameters:
+    """Base parameters of the floating robot from random states (seeded), as
+    :func:`pinid.model.base.base_parameters`: from all ``6 + n`` rows, the 6 base rows only (``rows="base"``:
+    what contact wrenches and motion identify without any joint torque) or the joint rows only."""
+    model = as_floating(model)
+    terms = _check_terms(model, terms)
+    names = floating_parameter_names(model, terms)
+    mask = row_mask(model.nv, rows)
+    per = int(mask.sum())
+    n = max(60, -(-4 * len(names) // per)) if samples is None else count(samples, "samples", low=1)
+    W = floating_regressor(model, *random_floating_states(model, n, np.random.default_rng(count(seed, "seed"))), terms)
+    return base_parameters_of(W.reshape(n, -1, len(names))[:, mask].reshape(-1, len(names)), names, tol)
+
+
+BASE_BUILDERS["floating"] = build_floating
+
+
+def floating_urdf(
+    model: FloatingRobotModel,
+    theta: np.ndarray,
+    terms: JointTerms = JointTerms(),
+    path=None,
+    *,
+    force: bool = False,
+    comment: str | None = None,
+) -> str:
+    """The URDF text of ``model`` with the floating standard parameters ``theta`` (base link first, as
+    :func:`floating_parameter_names`): the joints' bodies and friction as
+    :func:`pinid.model.export.identified_urdf` writes them, and the base link's ``<inertial>`` from ``theta[:10]``
+    (the links welded to it — fixed joints, locked joints — lose theirs: they are part of that body).  ModelError
+    for a physically inconsistent set unless ``force``.  Written atomically to ``path`` when given."""
+    import xml.etree.ElementTree as ET
+
+    from pinid.io import write_text
+    from pinid.model.export import identified_urdf, inertial_element
+    from pinid.model.physical import check_consistency, com_inertia
+
+    model = as_floating(model)
+    terms = _check_terms(model, terms)
+    theta = as_floats(theta, "theta").reshape(-1)
+    names = floating_parameter_names(model, terms)
+    if theta.shape != (len(names),):
+        raise ModelError(f"expected {len(names)} floating standard parameters, got {theta.size}")
+    report = check_consistency(theta, model.body_names, terms.names, [])
+    if not report.consistent and not force:
+        raise ModelError(
+            "refusing to export physically inconsistent parameters (" + "; ".join(report.problems[:3]) + ")"
+        )
+    k = len(terms.joint)
+    fixed = np.r_[theta[10 : 10 * (model.nv + 1)], theta[10 * (model.nv + 1) + k :]]
+    text = identified_urdf(
+        model, fixed, terms, force=True, comment=comment, origin="identified by pinid (floating base)"
+    )
+    root = ET.fromstring(text, parser=ET.XMLParser(target=ET.TreeBuilder(insert_comments=True)))
+    links = {link.get("name"): link for link in root.findall("link")}
+    welded, changed = {model.base_link}, True
+    while changed:  # links reached from the base link through joints that are not active
+        changed = False
+        for j in root.findall("joint"):
+            parent, child = j.find("parent").get("link"), j.find("child").get("link")
+            if parent in welded and child not in welded and j.get("name") not in model.joint_names:
+                welded.add(child)
+                changed = True
+    for name in welded:
+        for el in links[name].findall("inertial"):
+            links[name].remove(el)
+    m, c, I = com_inertia(theta[:10])
+    links[model.base_link].insert(0, inertial_element(m, c, I))
+    links[model.base_link].insert(
+        0,
+        ET.Comment(
+            f" pinid: identified inertia of the floating base, links welded to it: {', '.join(sorted(welded))} "
+        ),
+    )
+    ET.indent(root, space="  ")
+    out = '<?xml version="1.0" encoding="utf-8"?>\n' + ET.tostring(root, encoding="unicode") + "\n"
+    if path is not None:
+        write_text(path, out)
+    return out
