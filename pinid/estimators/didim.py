@@ -1,7 +1,8 @@
 """DIDIM (Gautier, Janot & Vandanjon 2013): output error on the torque of a closed-loop simulation, by Gauss–Newton.
 
 The direct and inverse dynamic identification model minimises the error between the measured torque and
-the torque of a *closed-loop simulation* of the model, ``‖τ_m − τ_s(β)‖²``, started from OLS.  Gautier's
+the torque of a *closed-loop simulation* of the model, ``‖τ_m − τ_s(β)‖²``, started from OLS (from the
+``sdp`` estimate when the OLS one cannot be simulated, as for :mod:`~pinid.estimators.iv`).  Gautier's
 observation makes each Gauss–Newton step a least-squares problem: in closed loop the simulated torque is
 ``τ_s(β) = W(q_s, dq_s, ddq_s)·β`` (inverse dynamics on the simulated states), and the sensitivity of the
 simulated states to ``β`` is small when the loop is stiff, so the Jacobian is ``W(q_s, dq_s, ddq_s)`` and::
@@ -34,9 +35,9 @@ import numpy as np
 
 from pinid.errors import SolverError
 from pinid.estimators.base import Estimator, Setting
-from pinid.estimators.iv import ModelSimulation, physical_fit
+from pinid.estimators.iv import ModelSimulation, physical_fit, simulated_start
 from pinid.identification.problem import Problem
-from pinid.linalg import solve_r, weighted_lstsq
+from pinid.linalg import weighted_lstsq
 
 
 class DIDIM(Estimator):
@@ -72,8 +73,7 @@ class DIDIM(Estimator):
     def fit(self, problem: Problem) -> "DIDIM":
         """OLS, then Gauss–Newton steps on the simulated regressor; sets ``base_`` and ``history_`` (RMS output error)."""
         sim = ModelSimulation(problem, self.bandwidth, self.substeps)
-        R, c, _, scale = problem.compressed()
-        x = solve_r(R, c, scale)
+        x, Z, start = simulated_start(problem, sim, "didim")
         tau, w = problem.tau, problem.weights
         standard = None
 
@@ -82,10 +82,8 @@ class DIDIM(Estimator):
             err = tau - Z @ b
             return Z, float(np.sqrt(np.sum(w * err * err) / max(np.sum(w), 1e-300)))
 
-        try:
-            Z, cost = evaluate(x)
-        except SolverError as exc:
-            raise SolverError(f"didim: simulating the OLS estimate failed: {exc}") from exc
+        err = tau - Z @ x
+        cost = float(np.sqrt(np.sum(w * err * err) / max(np.sum(w), 1e-300)))
         history, status, change = [cost], "ok", float("inf")
         for _ in range(int(self.iterations)):
             if self.physical:
@@ -120,5 +118,5 @@ class DIDIM(Estimator):
         self.weights_ = None
         self.history_ = history
         self.status_ = status if status != "ok" or change < self.tol else f"not settled after {len(history) - 1} steps"
-        self.info_ = {"iterations": len(history) - 1, "last_change": change, "output_error_rms": cost}
+        self.info_ = {"iterations": len(history) - 1, "last_change": change, "output_error_rms": cost, "start": start}
         return self

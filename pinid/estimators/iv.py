@@ -5,7 +5,9 @@ variables: ``dq`` and ``ddq`` come from differentiating noisy positions).  IDIM-
 regressor by an *instrument* ``Z`` — a regressor correlated with ``W`` but not with its noise — and solves
 ``Zᵀ·diag(w)·W·β = Zᵀ·diag(w)·τ``.  Janot, Vandanjon & Gautier build ``Z = W(q_s, dq_s, ddq_s)`` from a
 simulation of the robot model with the previous estimate, iterate until the parameters settle, start
-from OLS.
+from OLS.  When the OLS estimate cannot be simulated (a mass matrix that is not positive definite along
+the motion makes the simulation diverge; it happens with noisy positions) pinid starts from the
+physically consistent ``sdp`` estimate instead (``info_["start"]`` says which).
 
 **The simulation (what pinid can do without the controller).**  The paper simulates the closed loop
 with the rig's controller and reference trajectory.  A pinid problem carries neither (recordings have
@@ -15,7 +17,7 @@ q, dq, ddq, τ; no reference, no gains), so the model with base parameters ``β`
     M_β(q_s)·ddq_s + n_β(q_s, dq_s) = τ_m + K_p·(q_m − q_s) + K_d·(dq_m − dq_s)
 
 with ``K_p = M_jj·ω²``, ``K_d = 2·M_jj·ω`` (both poles at −ω, ``ω = 2π·bandwidth``, ``M_jj`` the diagonal of
-the URDF's mass matrix at the first sample).  ``M_β`` and ``n_β`` come from the base regressor itself
+the simulated model's mass matrix at the first sample; the URDF's where that is not positive).  ``M_β`` and ``n_β`` come from the base regressor itself
 (every joint term, drives included), so any base parameters can be simulated.  Integration: classic
 Runge–Kutta 4 with ``substeps`` steps per sample interval, τ_m, q_m, dq_m interpolated by cubic splines; the
 instrument row of sample k is ``W(q_s, dq_s, ddq_s)`` with the instantaneous simulated acceleration.
@@ -76,14 +78,20 @@ class ModelSimulation:
         self._pm = model.pin_model
         self._data = self._pm.createData()
         self._conf = model.configuration if model._continuous else (lambda x: x)
-        nom = problem.nominal_base
-        w = 2 * math.pi * self.bandwidth
-        self.gains = []
-        for ds in rows.datasets:
-            mjj = np.diag(self._mass_bias(ds.q[0], np.zeros(self.nv), nom)[0]).copy()
-            bad = ~(np.isfinite(mjj) & (mjj > 0))
-            mjj[bad] = 1.0 if np.all(bad) else np.min(mjj[~bad])
-            self.gains.append((mjj * w * w, 2 * mjj * w))
+        self._omega = 2 * math.pi * self.bandwidth
+        self._nominal = problem.nominal_base
+
+    def _gains(self, q0: np.ndarray, split) -> tuple[np.ndarray, np.ndarray]:
+        """PD gains ``(K_p, K_d)`` [N·m/rad, N·m·s/rad] putting both poles of each joint at −ω: ``M_jj`` of the
+        simulated model at ``q0`` (so a light estimate is not driven by stiff gains), the URDF's where that
+        diagonal is not positive."""
+        mjj = np.diag(self._mass_bias(q0, np.zeros(self.nv), None, split)[0]).copy()
+        bad = ~(np.isfinite(mjj) & (mjj > 0))
+        if np.any(bad):
+            nominal = np.diag(self._mass_bias(q0, np.zeros(self.nv), self._nominal)[0])
+            mjj[bad] = np.where(nominal[bad] > 0, nominal[bad], 1.0)
+        w = self._omega
+        return mjj * w * w, 2 * mjj * w
 
     # ------------------------------------------------------------------ dynamics of base parameters
     def _split(self, base: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -123,7 +131,7 @@ class ModelSimulation:
         """The simulated recordings (q_s, dq_s, ddq_s, the measured τ) for base parameters ``base``;
         SolverError when the simulation diverges or the mass matrix is singular."""
         split = self._split(np.asarray(base, dtype=float))
-        return [self._one(ds, gains, base, split) for ds, gains in zip(self.rows.datasets, self.gains)]
+        return [self._one(ds, self._gains(ds.q[0], split), base, split) for ds in self.rows.datasets]
 
     def _one(self, ds: Dataset, gains, base, split) -> Dataset:
         Kp, Kd = gains
@@ -206,6 +214,25 @@ def physical_fit(
     return est.base_, est.standard_
 
 
+def simulated_start(
+    problem: IdentificationProblem, sim: ModelSimulation, what: str
+) -> tuple[np.ndarray, np.ndarray, str]:
+    """``(β₀, Z₀, start)``: the OLS estimate and its simulated regressor; when the OLS estimate cannot be
+    simulated (its mass matrix is not positive definite along the motion: the simulation diverges), the
+    physically consistent least-squares estimate (``sdp``, positive definite by construction) instead.
+    SolverError when neither can be simulated."""
+    R, c, _, scale = problem.compressed()
+    x = solve_r(R, c, scale)
+    try:
+        return x, sim.instruments(x), "ols"
+    except SolverError as first:
+        try:
+            x = PhysicalLS().fit(problem).base_
+            return x, sim.instruments(x), "sdp (the OLS estimate could not be simulated)"
+        except SolverError as exc:
+            raise SolverError(f"{what}: simulating the OLS estimate failed ({first}), and the sdp one ({exc})") from exc
+
+
 class InstrumentalVariables(Estimator):
     """IDIM-IV: instruments from a simulation of the previous estimate, iterated from OLS (module text).
 
@@ -239,19 +266,17 @@ class InstrumentalVariables(Estimator):
     def fit(self, problem: Problem) -> "InstrumentalVariables":
         """OLS, then IV with instruments simulated from the previous estimate until it settles; sets ``base_``."""
         sim = ModelSimulation(problem, self.bandwidth, self.substeps)
-        R, c, _, scale = problem.compressed()
-        x = solve_r(R, c, scale)
+        x, Z, start = simulated_start(problem, sim, "iv")
         W, tau, w = problem.W, problem.tau, problem.weights
         history, standard, status = [], None, "ok"
         change = float("inf")
         for k in range(int(self.iterations)):
-            try:
-                Z = sim.instruments(x)
-            except SolverError as exc:
-                if k == 0:
-                    raise SolverError(f"iv: simulating the OLS estimate failed: {exc}") from exc
-                status = f"stopped at iteration {k + 1}: {exc}"
-                break
+            if k > 0:
+                try:
+                    Z = sim.instruments(x)
+                except SolverError as exc:
+                    status = f"stopped at iteration {k + 1}: {exc}"
+                    break
             if self.physical:
                 Zs = Z * np.sqrt(w)[:, None]
                 coef, *_ = np.linalg.lstsq(Zs, W * np.sqrt(w)[:, None], rcond=None)
@@ -268,5 +293,10 @@ class InstrumentalVariables(Estimator):
         self.weights_ = None
         self.history_ = history
         self.status_ = status if status != "ok" or change < self.tol else f"not settled after {len(history)} iterations"
-        self.info_ = {"iterations": len(history), "last_change": change, "bandwidth_hz": float(self.bandwidth)}
+        self.info_ = {
+            "iterations": len(history),
+            "last_change": change,
+            "bandwidth_hz": float(self.bandwidth),
+            "start": start,
+        }
         return self
