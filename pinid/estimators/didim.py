@@ -45,7 +45,8 @@ class DIDIM(Estimator):
 
     Settings: ``iterations`` (at most, default 10), ``tol`` (relative change of the parameters that
     stops it, default 1e-6), ``bandwidth`` [Hz] of the simulation's PD (default 2), ``substeps``
-    (Runge–Kutta steps per sample interval, default 1), ``physical`` (LMI-constrained steps, default False).
+    (Runge–Kutta steps per integrated interval, default 1), ``sim_rate`` (integrate at most at this rate
+    [Hz], default 250; :mod:`~pinid.estimators.iv`), ``physical`` (LMI-constrained steps, default False).
     """
 
     name = "didim"
@@ -57,22 +58,30 @@ class DIDIM(Estimator):
         "iterations": Setting("int", low=1, help="Gauss–Newton iterations at most"),
         "tol": Setting("float", low=0.0, help="stop when the parameters change less than this, relatively"),
         "bandwidth": Setting("float", low=0.0, low_open=True, help="PD bandwidth [Hz] of the simulation"),
-        "substeps": Setting("int", low=1, high=100, help="Runge–Kutta steps per sample interval"),
+        "substeps": Setting("int", low=1, high=100, help="Runge–Kutta steps per integrated interval"),
+        "sim_rate": Setting("float", low=0.0, low_open=True, optional=True, help="integrate at most at this rate [Hz]"),
         "physical": Setting("bool", help="physically consistent (LMI) least squares at every step"),
     }
 
     def __init__(
-        self, iterations: int = 10, tol: float = 1e-6, bandwidth: float = 2.0, substeps: int = 1, physical: bool = False
+        self,
+        iterations: int = 10,
+        tol: float = 1e-6,
+        bandwidth: float = 2.0,
+        substeps: int = 1,
+        sim_rate: float | None = 250.0,
+        physical: bool = False,
     ) -> None:
         self.iterations = iterations
         self.tol = tol
         self.bandwidth = bandwidth
         self.substeps = substeps
+        self.sim_rate = sim_rate
         self.physical = physical
 
     def fit(self, problem: Problem) -> "DIDIM":
         """OLS, then Gauss–Newton steps on the simulated regressor; sets ``base_`` and ``history_`` (RMS output error)."""
-        sim = ModelSimulation(problem, self.bandwidth, self.substeps)
+        sim = ModelSimulation(problem, self.bandwidth, self.substeps, self.sim_rate)
         x, Z, start = simulated_start(problem, sim, "didim")
         tau, w = problem.tau, problem.weights
         standard = None

@@ -19,8 +19,12 @@ q, dq, ddq, τ; no reference, no gains), so the model with base parameters ``β`
 with ``K_p = M_jj·ω²``, ``K_d = 2·M_jj·ω`` (both poles at −ω, ``ω = 2π·bandwidth``, ``M_jj`` the diagonal of
 the simulated model's mass matrix at the first sample; the URDF's where that is not positive).  ``M_β`` and ``n_β`` come from the base regressor itself
 (every joint term, drives included), so any base parameters can be simulated.  Integration: classic
-Runge–Kutta 4 with ``substeps`` steps per sample interval, τ_m, q_m, dq_m interpolated by cubic splines; the
-instrument row of sample k is ``W(q_s, dq_s, ddq_s)`` with the instantaneous simulated acceleration.
+Runge–Kutta 4 on every sample interval (``substeps`` steps each), τ_m, q_m, dq_m interpolated by cubic
+splines; the instrument row of sample k is ``W(q_s, dq_s, ddq_s)`` with the instantaneous simulated
+acceleration.  Recordings faster than ``sim_rate`` (default 250 Hz) are integrated on every
+⌊rate/sim_rate⌋-th sample only, the samples between filled by cubic Hermite interpolation of q (slopes
+dq) and dq (slopes ddq): a 2 Hz closed loop needs no 1 kHz grid, and a minute of 1 kHz data then costs
+seconds, not minutes (``sim_rate=None``: every sample).
 This is the reconstruction BIRDy's IV uses when only measured signals are available.  The instruments
 are not entirely free of the measurement noise: the PD passes the position noise through a low-pass
 of bandwidth ω and the measured torque's noise enters ``ddq_s`` — their correlation with the regressor's
@@ -62,7 +66,9 @@ class ModelSimulation:
     torque and a PD on the measured positions (see the module text); :meth:`instruments` returns the base
     regressor ``W(q_s, dq_s, ddq_s)`` on the problem's rows."""
 
-    def __init__(self, problem: IdentificationProblem, bandwidth: float = 2.0, substeps: int = 1) -> None:
+    def __init__(
+        self, problem: IdentificationProblem, bandwidth: float = 2.0, substeps: int = 1, rate: float | None = 250.0
+    ) -> None:
         rows = getattr(problem, "regressor_rows", None)
         if rows is None:
             raise SpecError(
@@ -73,6 +79,7 @@ class ModelSimulation:
         self.rows = rows
         self.bandwidth = float(bandwidth)
         self.substeps = int(substeps)
+        self.rate = None if rate is None else float(rate)
         model = problem.model
         self.nv = model.nv
         self._pm = model.pin_model
@@ -147,30 +154,36 @@ class ModelSimulation:
                 raise SolverError(f"{ds.source}: simulating the estimate, its mass matrix is singular") from exc
 
         # inputs between samples: not-a-knot cubic splines of τ_m, q_m, dq_m (4th order, as Runge–Kutta)
-        from scipy.interpolate import CubicSpline  # heavy import, only when a model is simulated
+        from scipy.interpolate import CubicHermiteSpline, CubicSpline  # heavy import, only when simulating
 
-        fractions = sorted({j / s for j in range(s)} | {(j + 0.5) / s for j in range(s)} | {1.0})
         signals = np.stack([tm, qm, vm], axis=1)  # (n, 3, nv)
-        if n >= 4:
-            spline = CubicSpline(t, signals, axis=0)
-            at = {f: spline(t[:-1] + f * np.diff(t)) for f in fractions}
+        spline = CubicSpline(t, signals, axis=0) if n >= 4 else None
+        # the grid integrated: every `stride`-th sample (at most `rate` Hz) and the last one
+        fs = (n - 1) / (t[-1] - t[0]) if n > 1 and t[-1] > t[0] else 1.0
+        stride = max(1, int(fs // self.rate)) if self.rate else 1
+        nodes = np.unique(np.r_[np.arange(0, n, stride), n - 1])
+        t0, t1 = t[nodes[:-1]], t[nodes[1:]]
+        fractions = sorted({j / s for j in range(s)} | {(j + 0.5) / s for j in range(s)} | {1.0})
+        if spline is not None:
+            at = {f: spline(t0 + f * (t1 - t0)) for f in fractions}
         else:
-            at = {f: signals[:-1] + f * np.diff(signals, axis=0) for f in fractions}
-        q_s, v_s, a_s = np.empty((n, nv)), np.empty((n, nv)), np.empty((n, nv))
+            at = {f: signals[nodes[:-1]] + f * (signals[nodes[1:]] - signals[nodes[:-1]]) for f in fractions}
+        m = len(nodes)
+        q_s, v_s, a_s = np.empty((m, nv)), np.empty((m, nv)), np.empty((m, nv))
         q, v = qm[0].copy(), vm[0].copy()
-        for k in range(n):
+        for i, k in enumerate(nodes):
             a = accel(q, v, tm[k], qm[k], vm[k])
-            q_s[k], v_s[k], a_s[k] = q, v, a
+            q_s[i], v_s[i], a_s[i] = q, v, a
             if not (np.all(np.isfinite(a)) and np.all(np.abs(q - qm[k]) <= 10 * span + 1.0)):
                 raise SolverError(
                     f"{ds.source}: the simulation of the estimate diverged at t = {t[k]:.4g} s "
                     "(an estimate far from physical, or a PD too weak: raise bandwidth)"
                 )
-            if k == n - 1:
+            if i == m - 1:
                 break
-            h = (t[k + 1] - t[k]) / s
+            h = (t1[i] - t0[i]) / s
             for j in range(s):
-                u0, um, u1 = (at[f][k] for f in (j / s, (j + 0.5) / s, (j + 1) / s))
+                u0, um, u1 = (at[f][i] for f in (j / s, (j + 0.5) / s, (j + 1) / s))
                 k1v, k1a = v, (a if j == 0 else accel(q, v, *u0))
                 k2v = v + 0.5 * h * k1a
                 k2a = accel(q + 0.5 * h * k1v, k2v, *um)
@@ -180,6 +193,10 @@ class ModelSimulation:
                 k4a = accel(q + h * k3v, k4v, *u1)
                 q = q + (h / 6) * (k1v + 2 * k2v + 2 * k3v + k4v)
                 v = v + (h / 6) * (k1a + 2 * k2a + 2 * k3a + k4a)
+        if m < n:  # the samples between nodes: cubic Hermite of q (slopes dq) and dq (slopes ddq)
+            vel = CubicHermiteSpline(t[nodes], v_s, a_s, axis=0)
+            q_s = CubicHermiteSpline(t[nodes], q_s, v_s, axis=0)(t)
+            v_s, a_s = vel(t), vel.derivative()(t)
         return Dataset(t, q_s, ds.joints, dq=v_s, ddq=a_s, tau=tm, source=f"{ds.source} (simulated)")
 
     def instruments(self, base: np.ndarray) -> np.ndarray:
@@ -238,7 +255,8 @@ class InstrumentalVariables(Estimator):
 
     Settings: ``iterations`` (at most, default 10), ``tol`` (stop when the base parameters change less
     than this, relatively; default 1e-6), ``bandwidth`` [Hz] of the PD that keeps the simulation on the
-    measured positions (default 2), ``substeps`` (Runge–Kutta steps per sample interval, default 1),
+    measured positions (default 2), ``substeps`` (Runge–Kutta steps per integrated interval, default 1),
+    ``sim_rate`` (integrate at most at this rate [Hz], default 250; None: every sample),
     ``physical`` (each iteration as LMI-constrained two-stage least squares; default False).
     """
 
@@ -250,22 +268,30 @@ class InstrumentalVariables(Estimator):
         "iterations": Setting("int", low=1, help="IV iterations at most"),
         "tol": Setting("float", low=0.0, help="stop when the parameters change less than this, relatively"),
         "bandwidth": Setting("float", low=0.0, low_open=True, help="PD bandwidth [Hz] of the simulation"),
-        "substeps": Setting("int", low=1, high=100, help="Runge–Kutta steps per sample interval"),
+        "substeps": Setting("int", low=1, high=100, help="Runge–Kutta steps per integrated interval"),
+        "sim_rate": Setting("float", low=0.0, low_open=True, optional=True, help="integrate at most at this rate [Hz]"),
         "physical": Setting("bool", help="physically consistent (LMI) two-stage least squares at every iteration"),
     }
 
     def __init__(
-        self, iterations: int = 10, tol: float = 1e-6, bandwidth: float = 2.0, substeps: int = 1, physical: bool = False
+        self,
+        iterations: int = 10,
+        tol: float = 1e-6,
+        bandwidth: float = 2.0,
+        substeps: int = 1,
+        sim_rate: float | None = 250.0,
+        physical: bool = False,
     ) -> None:
         self.iterations = iterations
         self.tol = tol
         self.bandwidth = bandwidth
         self.substeps = substeps
+        self.sim_rate = sim_rate
         self.physical = physical
 
     def fit(self, problem: Problem) -> "InstrumentalVariables":
         """OLS, then IV with instruments simulated from the previous estimate until it settles; sets ``base_``."""
-        sim = ModelSimulation(problem, self.bandwidth, self.substeps)
+        sim = ModelSimulation(problem, self.bandwidth, self.substeps, self.sim_rate)
         x, Z, start = simulated_start(problem, sim, "iv")
         W, tau, w = problem.W, problem.tau, problem.weights
         history, standard, status = [], None, "ok"

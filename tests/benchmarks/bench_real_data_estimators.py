@@ -9,7 +9,10 @@
    control) on the bundled ``exo_leg`` excitation, recorded at 200 Hz for 10 s: 16-bit encoder plus
    Gaussian position noise ``σ_q``, torque noise 1 % of each joint's peak.  Two noise levels on q:
    "realistic" (σ_q = 2e-5 rad, the twin's default) and "noisy q" (σ_q = 1e-3 rad: a potentiometer, or a
-   motor encoder behind a compliant gear).  Each seed is a new recording (same trajectory); the default
+   motor encoder behind a compliant gear) — in closed loop the PD feeds that noise back into the
+   recorded torque (K_p·σ_q ≈ 0.5 N·m at the hip); and "open-loop noisy q": the exact motion of the same
+   trajectory, exact inverse-dynamics torque plus 1 % noise, σ_q = 1e-3 rad on the recorded q only (the
+   errors-in-variables case IV and DIDIM are meant for).  Each seed is a new recording (same trajectory); the default
    preprocessing (10 Hz zero-phase low-pass, Savitzky–Golay derivatives) makes dq and ddq.  Every
    estimator runs on the same problem.  Bias and spread of each base parameter, relative to its natural
    magnitude (the errors of tests/test_identification.py::relative_errors), over the seeds.  Validation:
@@ -37,7 +40,8 @@ from pathlib import Path
 
 import numpy as np
 
-from pinid import RobotModel
+from pinid import JointTerms, RobotModel, base_parameters, standard_parameters
+from pinid.data.dataset import Dataset
 from pinid.data.formats import read_recording
 from pinid.estimators import make_estimator
 from pinid.identification.problem import (
@@ -51,7 +55,8 @@ from pinid.simulation.twin import load_trajectory, simulate
 
 ROOT = Path(__file__).resolve().parents[2]
 METHODS = ["ols", "wls", "sdp", "iv", "didim", "tls", "irls"]
-SCENARIOS = {"realistic": 2e-5, "noisy q": 1e-3}
+#: scenario -> (σ_q [rad], closed loop?)
+SCENARIOS = {"realistic": (2e-5, True), "noisy q": (1e-3, True), "open-loop noisy q": (1e-3, False)}
 
 
 def shared_data() -> Path:
@@ -87,12 +92,28 @@ def twin_model() -> RobotModel:
     return m.with_inertial_parameters(m.inertial_parameters(), coulomb=np.full(m.nv, 0.3), viscous=np.full(m.nv, 0.05))
 
 
-def monte_carlo(seeds: int, methods, seconds: float = 10.0):
+def open_loop(model, trajectory, seconds: float, seed: int, sq: float):
+    """A recording of the exact motion of ``trajectory`` at 200 Hz: q + N(0, σ_q) quantised to 16 bits, exact
+    inverse-dynamics torque (sign friction) + 1 % of each joint's peak as Gaussian noise; no controller, so
+    the position noise does not enter the torque."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(int(seconds * 200)) / 200
+    q, dq, ddq = trajectory.for_joints(model.joint_names, model.name).evaluate(t)
+    tau = model.rnea(q, dq, ddq) + model.coulomb * np.sign(dq) + model.viscous * dq
+    tau = tau + rng.normal(size=tau.shape) * 0.01 * np.abs(tau).max(axis=0)
+    res = 2 * np.pi / 2**16
+    qm = np.round((q + rng.normal(0, sq, q.shape)) / res) * res
+    return Dataset(t, qm, model.joint_names, tau=tau, source=f"open loop {seed}")
+
+
+def monte_carlo(seeds: int, methods, scenarios, seconds: float = 10.0):
     model = twin_model()
     train_tr, valid_tr = load_trajectory("exo_leg", model), load_trajectory("seed001_table3", model)
     unwrap = free_angles(model)
+    truth_base = base_parameters(model, JointTerms()).from_standard(standard_parameters(model, JointTerms()))
     results = {}
-    for scen, sq in SCENARIOS.items():
+    for scen in scenarios:
+        sq, closed = SCENARIOS[scen]
         errs = {m: [] for m in methods}
         val = {m: [] for m in methods}
         secs = {m: 0.0 for m in methods}
@@ -101,8 +122,15 @@ def monte_carlo(seeds: int, methods, seconds: float = 10.0):
             opts = dict(seconds=seconds, sample_rate=200, control_rate=1000, position_noise=sq)
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
-                rec, truth = simulate(model, train_tr, seed=s, **opts)
-                vrec, _ = simulate(model, valid_tr, seed=10_000 + s, **opts)
+                if closed:
+                    rec, truth = simulate(model, train_tr, seed=s, **opts)
+                    vrec, _ = simulate(model, valid_tr, seed=10_000 + s, **opts)
+                else:
+                    rec, vrec = (
+                        open_loop(model, train_tr, seconds, s, sq),
+                        open_loop(model, valid_tr, seconds, 10_000 + s, sq),
+                    )
+                    truth = {"base": {"names": base_parameters(model, JointTerms()).names, "values": truth_base}}
                 train = prepare_dataset(rec, {}, unwrap=unwrap)
                 valid = prepare_dataset(vrec, {}, unwrap=unwrap)
             problem = IdentificationProblem.from_datasets(model, train)
@@ -126,7 +154,7 @@ def monte_carlo(seeds: int, methods, seconds: float = 10.0):
 
 def print_monte_carlo(results, seeds):
     for scen, (errs, val, secs, fails, names) in results.items():
-        print(f"\n### Twin, {scen} (σ_q = {SCENARIOS[scen]:g} rad), {seeds} seeds\n")
+        print(f"\n### Twin, {scen} (σ_q = {SCENARIOS[scen][0]:g} rad), {seeds} seeds\n")
         print(
             "| method | mean abs bias [%] | max abs bias [%] | mean spread [%] | max spread [%] | RMSE [%] "
             "| validation vs raw τ [%] (joints) | fit time [s] | failed |"
@@ -169,7 +197,7 @@ def plot(results, path):
         ax.axhline(0, color="k", lw=0.5)
         ax.set_xticks(x, names, rotation=30, fontsize=7)
         ax.set_ylabel("error [% of magnitude]")
-        ax.set_title(f"twin, {scen} (σ_q = {SCENARIOS[scen]:g} rad): bias ± spread over seeds", fontsize=9)
+        ax.set_title(f"twin, {scen} (σ_q = {SCENARIOS[scen][0]:g} rad): bias ± spread over seeds", fontsize=9)
         ax.legend(fontsize=7, ncol=len(ms))
     fig.tight_layout()
     save_figure(fig, path)
@@ -214,6 +242,7 @@ def main() -> None:
     ap.add_argument("--real", action="store_true", help="only the real double pendulum")
     ap.add_argument("--plot", default=None, help="write the bias/spread figure here (PNG)")
     ap.add_argument("--methods", default=",".join(METHODS))
+    ap.add_argument("--scenarios", default=",".join(SCENARIOS), help=f"some of: {', '.join(SCENARIOS)}")
     a = ap.parse_args()
     methods = a.methods.split(",")
     print(
@@ -222,7 +251,7 @@ def main() -> None:
     )
     t0 = time.perf_counter()
     if not a.real:
-        res = monte_carlo(a.seeds, methods)
+        res = monte_carlo(a.seeds, methods, [x.strip() for x in a.scenarios.split(",")])
         print_monte_carlo(res, a.seeds)
         if a.plot:
             plot(res, a.plot)
