@@ -7,7 +7,9 @@ regressor by an *instrument* ``Z`` — a regressor correlated with ``W`` but not
 simulation of the robot model with the previous estimate, iterate until the parameters settle, start
 from OLS.  When the OLS estimate cannot be simulated (a mass matrix that is not positive definite along
 the motion makes the simulation diverge; it happens with noisy positions) pinid starts from the
-physically consistent ``sdp`` estimate instead (``info_["start"]`` says which).
+physically consistent ``sdp`` estimate instead (``info_["start"]`` says which).  An iteration whose
+estimate cannot be simulated ends the iterations, and the previous estimate (the last one simulated) is
+returned; ``status_`` says so.
 
 **The simulation (what pinid can do without the controller).**  The paper simulates the closed loop
 with the rig's controller and reference trajectory.  A pinid problem carries neither (recordings have
@@ -296,13 +298,18 @@ class InstrumentalVariables(Estimator):
         W, tau, w = problem.W, problem.tau, problem.weights
         history, standard, status = [], None, "ok"
         change = float("inf")
+        previous = (x, None)  # the last estimate whose simulation succeeded
         for k in range(int(self.iterations)):
             if k > 0:
                 try:
                     Z = sim.instruments(x)
                 except SolverError as exc:
-                    status = f"stopped at iteration {k + 1}: {exc}"
+                    x, standard = previous  # an estimate that cannot be simulated is not returned
+                    status = (
+                        f"stopped at iteration {k + 1} (its estimate cannot be simulated: {exc}); previous one returned"
+                    )
                     break
+                previous = (x, standard)
             if self.physical:
                 Zs = Z * np.sqrt(w)[:, None]
                 coef, *_ = np.linalg.lstsq(Zs, W * np.sqrt(w)[:, None], rcond=None)
