@@ -35,7 +35,11 @@ def fast(cls) -> dict:
 def test_class_declares_what_the_rest_needs(name):
     cls = ESTIMATORS[name]
     assert issubclass(cls, Estimator) and cls.name == name and cls.description
-    assert isinstance(cls.deterministic, bool) and cls.history in ("none", "passes", "rows", "fitness")
+    assert (
+        isinstance(cls.deterministic, bool)
+        and isinstance(cls.exact, bool)
+        and cls.history in ("none", "passes", "rows", "fitness")
+    )
     assert cls.colour is None or isinstance(cls.colour, str)
     params = cls().get_params()
     assert set(cls.settings) == set(params), "every __init__ setting has a Setting (types, range) and no other"
@@ -99,7 +103,8 @@ def test_deterministic_methods_recover_noise_free_parameters(name, clean):
     problem, truth = clean
     est = make_estimator(name).fit(problem)
     err = relative_errors(problem.model, est.base_, truth)
-    assert err.max() < 1e-5, dict(zip(problem.names, err))
+    # an estimator that simulates the model between samples (DIDIM) is exact only up to that simulation
+    assert err.max() < (1e-5 if ESTIMATORS[name].exact else 2e-2), dict(zip(problem.names, err))
 
 
 def test_ridge_between_least_squares_and_its_prior(clean):

@@ -10,11 +10,15 @@ from __future__ import annotations
 
 from pinid.errors import SpecError
 from pinid.estimators.base import Estimator, Setting
+from pinid.estimators.didim import DIDIM
+from pinid.estimators.irls import IRLS
+from pinid.estimators.iv import InstrumentalVariables
 from pinid.estimators.metaheuristic import DEEstimator, EWOAEstimator, Metaheuristic, PSOEstimator, RLSPSO, WOAEstimator
 from pinid.estimators.ols import OLS
 from pinid.estimators.ridge import Ridge
 from pinid.estimators.rls import RLS
 from pinid.estimators.sdp import PhysicalLS
+from pinid.estimators.tls import TLS
 from pinid.estimators.wls import WLS
 
 #: Registry: method name (as in ``pinid identify --methods``) -> estimator class.
@@ -29,6 +33,10 @@ ESTIMATORS: dict[str, type[Estimator]] = {
     "ewoa": EWOAEstimator,
     "de": DEEstimator,
     "ridge": Ridge,
+    "iv": InstrumentalVariables,
+    "didim": DIDIM,
+    "tls": TLS,
+    "irls": IRLS,
 }
 
 
@@ -43,9 +51,12 @@ def make_estimator(name: str, **settings) -> Estimator:
 
 __all__ = [
     "DEEstimator",
+    "DIDIM",
     "ESTIMATORS",
     "EWOAEstimator",
     "Estimator",
+    "IRLS",
+    "InstrumentalVariables",
     "Metaheuristic",
     "OLS",
     "PSOEstimator",
@@ -54,6 +65,7 @@ __all__ = [
     "RLSPSO",
     "Ridge",
     "Setting",
+    "TLS",
     "WLS",
     "WOAEstimator",
     "make_estimator",

@@ -120,6 +120,9 @@ class Estimator:
     fits_standard: ClassVar[bool] = False
     #: True when the result does not depend on a random seed (a comparison runs it once).
     deterministic: ClassVar[bool] = True
+    #: True when, on noise-free data, a deterministic estimator returns the truth to round-off; False when
+    #: something else limits it (DIDIM's simulation of the model between samples).
+    exact: ClassVar[bool] = True
     #: What ``history_`` holds: "none"; "passes" (the cost after each pass); "rows" (an error along the
     #: rows); "fitness" (the best fitness per iteration: drawn as a convergence curve).
     history: ClassVar[str] = "none"
