@@ -150,3 +150,15 @@ def test_cli_option_reaches_the_estimator_and_bad_settings_exit_2(tmp_path, clea
         proc = run_cli(*args, "--methods", "ols,wls,ridge", "--option", option, "-o", str(tmp_path / "bad"))
         assert_clean_error(proc, fragment)
     assert not (tmp_path / "bad").exists() or not any((tmp_path / "bad").iterdir())
+
+
+def test_every_method_defaults_leave_out_the_simulating_estimators():
+    """pinid compare and pinid demo run every registered method by default but those that simulate the robot
+    (iv, didim: tens of seconds each on a long recording); "all" still names every one."""
+    from pinid.estimators import ESTIMATORS, quick_methods
+    from pinid.identification.run import parse_methods
+
+    simulating = {name for name, cls in ESTIMATORS.items() if cls.simulates}
+    assert simulating == {"iv", "didim"}
+    assert quick_methods() == [m for m in ESTIMATORS if m not in simulating]
+    assert parse_methods("all") == list(ESTIMATORS)

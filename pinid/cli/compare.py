@@ -25,14 +25,14 @@ from pinid.cli.common import (
     terms_from_args,
 )
 from pinid.errors import SpecError
-from pinid.estimators import ESTIMATORS
+from pinid.estimators import ESTIMATORS, quick_methods
 from pinid.io import check_outputs
 
 HELP = f"compare estimators ({', '.join(ESTIMATORS)}) on the same data, several seeds"
 DESCRIPTION = f"""\
 Reads a URDF and training recordings (CSV; --mapping names their columns; missing velocities and
-accelerations are filled as in pinid identify), runs the chosen methods (default: all of the
-estimator registry: {", ".join(ESTIMATORS)}) on the same rows — deterministic methods once, the metaheuristics once
+accelerations are filled as in pinid identify), runs the chosen methods (default: those of the
+estimator registry that do not simulate the robot: {", ".join(quick_methods())}; all: every one) on the same rows — deterministic methods once, the metaheuristics once
 per seed — validates every run on the held-out --validate recordings and writes into the output folder
 (-o, default results/):
 
@@ -63,7 +63,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     add_terms_argument(p)
     add_stribeck_arguments(p)
     add_recording_arguments(p)
-    add_method_arguments(p, "all")
+    add_method_arguments(p, ",".join(quick_methods()))
     p.add_argument("--seeds", type=int, default=5, help="seeds per metaheuristic (0 … N−1); default 5")
     p.add_argument(
         "--truth",

@@ -12,7 +12,7 @@ from collections.abc import Iterator
 from pathlib import Path
 
 from pinid.cli.common import methods_from_args, seed_int
-from pinid.estimators import ESTIMATORS
+from pinid.estimators import ESTIMATORS, quick_methods
 from pinid.io import check_outputs
 
 HELP = "run the whole loop on the bundled exoskeleton leg: excite, simulate, identify, validate, track"
@@ -70,7 +70,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("-o", "--output", default="demo", metavar="FOLDER", help="output folder; default demo/")
     p.add_argument("--seed", type=seed_int, default=1, help="random seed of the recordings; default 1")
     p.add_argument(
-        "--methods", default=None, help="estimators to run (default: every registered one, see pinid identify --help)"
+        "--methods",
+        default=None,
+        help="estimators to run (default: every registered one but those that simulate the robot, "
+        f"{', '.join(sorted(set(ESTIMATORS) - set(quick_methods())))}; see pinid identify --help)",
     )
     p.add_argument(
         "-v",
@@ -160,7 +163,7 @@ def run(args: argparse.Namespace) -> int:
     from pinid.cli.main import build_parser  # deferred: pinid.cli.main loads this module (no circle at import)
 
     check_outputs(f"{args.output}/excitation.json")  # before the work, creating nothing
-    methods = ",".join(methods_from_args(args)) if args.methods else ",".join(ESTIMATORS)
+    methods = ",".join(methods_from_args(args)) if args.methods else ",".join(quick_methods())
     parser = build_parser()
     started = time.perf_counter()
     plan = steps(args.output, args.seed, methods, args.verbose)

@@ -40,6 +40,12 @@ ESTIMATORS: dict[str, type[Estimator]] = {
 }
 
 
+def quick_methods() -> list[str]:
+    """The registered methods that do not simulate the robot (:attr:`Estimator.simulates`): what ``pinid
+    compare`` and ``pinid demo`` run by default."""
+    return [name for name, cls in ESTIMATORS.items() if not cls.simulates]
+
+
 def make_estimator(name: str, **settings) -> Estimator:
     """An estimator from the registry by name, with checked settings (:meth:`Estimator.create`); SpecError
     for an unknown name or a bad setting."""
@@ -69,4 +75,5 @@ __all__ = [
     "WLS",
     "WOAEstimator",
     "make_estimator",
+    "quick_methods",
 ]

@@ -123,6 +123,9 @@ class Estimator:
     #: True when, on noise-free data, a deterministic estimator returns the truth to round-off; False when
     #: something else limits it (DIDIM's simulation of the model between samples).
     exact: ClassVar[bool] = True
+    #: True when a fit simulates the robot (iv, didim: tens of seconds on a long recording): the defaults
+    #: that run every method (``pinid compare``, ``pinid demo``) leave it out; ``--methods`` or "all" names it.
+    simulates: ClassVar[bool] = False
     #: What ``history_`` holds: "none"; "passes" (the cost after each pass); "rows" (an error along the
     #: rows); "fitness" (the best fitness per iteration: drawn as a convergence curve).
     history: ClassVar[str] = "none"

@@ -50,6 +50,7 @@ class DIDIM(Estimator):
     """
 
     name = "didim"
+    simulates = True  # each fit simulates the robot: left out of the every-method defaults
     description = "DIDIM: Gauss–Newton on the torque error of a closed-loop simulation, from OLS"
     colour = "tab:pink"
     history = "passes"

@@ -263,6 +263,7 @@ class InstrumentalVariables(Estimator):
     """
 
     name = "iv"
+    simulates = True  # each fit simulates the robot: left out of the every-method defaults
     description = "instrumental variables (IDIM-IV): instruments from a simulation of the previous estimate"
     colour = "tab:purple"
     history = "passes"

@@ -1,6 +1,6 @@
 """Compare estimators honestly: the same recordings, held-out validation, several seeds, the truth if known.
 
-:func:`compare` runs chosen methods of :data:`pinid.estimators.ESTIMATORS` (default: all) on the same
+:func:`compare` runs chosen methods of :data:`pinid.estimators.ESTIMATORS` (default: all that do not simulate) on the same
 training recordings — the deterministic ones (least squares, WLS, the LMI method, RLS) once, the
 metaheuristics once per seed — and measures for every run:
 
@@ -33,7 +33,7 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 
 from pinid.errors import SpecError
-from pinid.estimators import ESTIMATORS, Metaheuristic
+from pinid.estimators import ESTIMATORS, Metaheuristic, quick_methods
 from pinid.estimators.metaheuristic import (
     cached_lad,
     least_absolute_deviations,
@@ -440,7 +440,7 @@ def compare(
     built around them, so on the twin pass the CAD model, not the truth.  ``data``: training
     recordings (Datasets or paths).  ``validate``: held-out recordings — a list, or ``{label: recordings}``
     to report several validation sets separately.  ``methods``: names of
-    :data:`pinid.estimators.ESTIMATORS` (default all).  ``seeds``: a number of seeds (0, 1, …) or the
+    :data:`pinid.estimators.ESTIMATORS` (default: those that do not simulate the robot, :func:`~pinid.estimators.quick_methods`).  ``seeds``: a number of seeds (0, 1, …) or the
     seeds themselves, for the metaheuristics; deterministic methods run once.  ``truth``: true base
     parameters (array, dict, a truth dict of :func:`pinid.simulation.twin.simulate` or its JSON path).
     ``options``: settings per method; ``metaheuristic``: settings for every metaheuristic (``population``,
@@ -453,7 +453,7 @@ def compare(
     t_start = time.perf_counter()
     model = as_model(model)
     terms = as_terms(terms)
-    methods = parse_methods(methods, default=list(ESTIMATORS))
+    methods = parse_methods(methods, default=quick_methods())
     seed_list = list(range(int(seeds))) if np.ndim(seeds) == 0 else [int(s) for s in seeds]
     if not seed_list:
         raise SpecError("seeds: expected at least one seed")
