@@ -17,10 +17,14 @@ from pinid.model.robot import RobotModel
 from pinid.report.figures import save_figure
 from pinid.report.plot_control import tracking_figure
 from pinid.report.text import text_table
+from pinid.errors import OutputError
+from pinid.io import as_path
+from pinid.model.robot import as_robot
 
 
 def sine_reference(plant: RobotModel) -> FourierTrajectory:
     """Seed 001's reference, x_d = sin(0.5πt), scaled into the middle of each joint's range [rad]."""
+    plant = as_robot(plant)
     lo = np.where(np.isfinite(plant.lower), plant.lower, -1.0)
     hi = np.where(np.isfinite(plant.upper), plant.upper, 1.0)
     centre, amp = 0.5 * (lo + hi), np.minimum(0.35 * (hi - lo), 0.6)
@@ -49,6 +53,7 @@ def tracking_table(table: dict) -> str:
 
 def tracking_paths(folder: str | os.PathLike, controllers) -> list[Path]:
     """The files :func:`write_tracking` writes into ``folder`` for ``controllers`` (to check them early)."""
+    folder = as_path(folder, "folder", error=OutputError)
     out = Path(folder)
     return [out / "tracking.json", *(out / f"tracking_{c}.png" for c in controllers)]
 

@@ -14,11 +14,14 @@ from pinid.io import Artefacts, json_text
 from pinid.model.robot import RobotModel
 from pinid.report.figures import save_figure
 from pinid.report.plot_excitation import plot_excitation
+from pinid.model.robot import as_robot
+from pinid.errors import SpecError
 
 
 def spec_text(model: RobotModel, spec: ExcitationSpec) -> str:
     """The robot and the spec in three lines: harmonics, base frequency [rad/s] and period [s], samples,
     rest start, offsets, terms, margin."""
+    model = as_robot(model)
     return (
         f"robot {model.name} ({model.urdf_path}), joints {', '.join(model.joint_names)}\n"
         f"spec {spec.source}:\n"
@@ -64,6 +67,7 @@ def evaluate_excitation(
     """Evaluate a given trajectory under ``spec`` (designing nothing): the trajectory with the evaluation
     in its ``meta`` (condition number, log det, feasibility, limits, extremes, usage: the JSON ``pinid
     excite --evaluate`` writes) and :func:`~pinid.excitation.design.evaluate_trajectory`'s dict."""
+    model = as_robot(model)
     spec.validate(model)
     started = time.perf_counter()
     ev = evaluate_trajectory(model, trajectory, spec)
@@ -134,6 +138,8 @@ def write_excitation(
     the trajectory sampled at ``rate`` [Hz] for ``periods`` periods; ``json`` the ``report`` (the
     trajectory and its design or evaluation).  ``overwrite``: replace existing files (None: the
     :data:`pinid.io.OVERWRITE` policy, which the CLI's ``--force`` sets).  Returns the paths written."""
+    if not isinstance(trajectory, FourierTrajectory):
+        raise SpecError(f"trajectory: got {type(trajectory).__name__}, expected a FourierTrajectory")
     arts = Artefacts(overwrite=overwrite)
     if plot:
 

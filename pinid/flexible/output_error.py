@@ -45,10 +45,11 @@ import numpy as np
 from pinid.errors import DataError, JointError, PinidError, SolverError, SpecError
 from pinid.data.mapping import SourceSpec, peek_columns
 from pinid.data.registry import reader_for, writer_for
-from pinid.io import atomic_path, jsonable, write_json
+from pinid.io import atomic_path, jsonable, read_bounded_file, write_json
 from pinid.flexible.model import FLEX_PARAMS, RIGID_PARAMS, Drive, FlexibleModel, FlexSimulation, check_parameter
 from pinid.model.robot import INERTIAL_NAMES, RobotModel
 from pinid.optimizers import OPTIMIZERS, get_optimizer
+from pinid.io import as_path
 
 #: Costs of :class:`OutputErrorProblem`.
 COSTS: tuple[str, ...] = ("abs", "sq")
@@ -408,6 +409,7 @@ def _resolve_urdf(value: str, spec_path: Path | None) -> str:
 
 def load_flex_spec(path: str | os.PathLike, *, robot: RobotModel | None = None) -> FlexSpec:
     """Read a TOML spec; SpecError (naming the file, the table and the key) if it is malformed or impossible."""
+    path = as_path(path)
     p = Path(path)
     if not p.is_file():
         raise SpecError(f"{p}: file not found, expected a flexible-joint spec (.toml)")
@@ -974,7 +976,7 @@ class OutputErrorResult:
         """Read a file written by :meth:`save`."""
         p = Path(path)
         try:
-            return cls.from_dict(json.loads(p.read_text(encoding="utf-8")))
+            return cls.from_dict(json.loads(read_bounded_file(p, "output-error result (JSON)", error=DataError)))
         except (OSError, ValueError, KeyError, TypeError) as exc:
             raise DataError(f"{p}: not an output-error result ({exc})") from None
 

@@ -19,6 +19,8 @@ from pinid.flexible.output_error import (
 from pinid.io import Artefacts, json_text
 from pinid.report.figures import save_figure
 from pinid.report.plot_flexible import plot_angles
+from pinid.errors import OutputError
+from pinid.io import as_path
 
 
 def check_spec(spec: FlexSpec, recording: FlexRecording) -> tuple[str, dict]:
@@ -65,6 +67,7 @@ def result_text(res: OutputErrorResult) -> str:
 
 def twin_paths(path: str | os.PathLike) -> list[Path]:
     """The files :func:`write_twin` writes: the recording and its truth (``<path>.json``)."""
+    path = as_path(path, error=OutputError)
     return [Path(path), Path(str(path) + ".json")]
 
 

@@ -23,7 +23,6 @@ measure across runs), prints a table and saves/loads JSON; :mod:`pinid.report.pl
 
 from __future__ import annotations
 
-import json
 import os
 import time
 from dataclasses import dataclass, field
@@ -375,10 +374,7 @@ def _truth_vector(truth, names: list[str]) -> np.ndarray | None:
         return None
     if isinstance(truth, (str, os.PathLike)):
         p = Path(truth)
-        try:
-            truth = json.loads(p.read_text(encoding="utf-8"))
-        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-            raise SpecError(f"{p}: cannot read the truth JSON ({exc})") from None
+        truth = read_json(p, "truth")
     if isinstance(truth, Mapping) and "base" in truth and isinstance(truth["base"], Mapping):
         b = truth["base"]
         if not (isinstance(b.get("names"), list) and isinstance(b.get("values"), list)):

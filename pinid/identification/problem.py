@@ -50,6 +50,8 @@ from pinid.model.physical import parameter_scale
 from pinid.model.regressor import JointTerms, regressor, standard_parameters
 from pinid.model.robot import RobotModel
 from pinid.progress import progress
+from pinid.data.dataset import as_dataset
+from pinid.model.robot import as_robot
 
 #: Default fraction of a joint's largest speed below which its row counts as "at rest".
 REST_FRACTION = 0.02
@@ -470,6 +472,7 @@ def rest_threshold(
 ) -> np.ndarray:
     """Per joint, the speed [rad/s] below which a row of ``ds`` counts as at rest and is left out (zeros
     when Coulomb friction is not in the model or ``rest_velocity`` is 0/None; see the module text)."""
+    ds = as_dataset(ds)
     nv = model.nv
     if (
         not terms.coulomb
@@ -507,6 +510,7 @@ def stack_rows(
 
     ``W_b`` is allocated once with the kept rows only and filled chunk by chunk, so the tall matrix exists
     once (not once whole and once without the rows at rest, nor once per recording and once concatenated)."""
+    model = as_robot(model)
     nv = model.nv
     keeps = [kept_rows(ds, thr) for ds, thr in zip(datasets, thresholds)]
     counts = [int(np.count_nonzero(k)) for k in keeps]
@@ -520,6 +524,7 @@ def stack_rows(
 
 def kept_rows(ds: Dataset, threshold: np.ndarray) -> np.ndarray:
     """(N·nv,) booleans: the rows ``k·nv + j`` of a checked recording whose joint speed reaches its threshold."""
+    ds = as_dataset(ds)
     if not np.any(threshold > 0):
         return np.ones(ds.dq.size, bool)
     return (np.abs(ds.dq) >= threshold).reshape(-1)
@@ -554,6 +559,7 @@ def base_regressor(
     """Stacked base regressor ``(N·nv, nb)`` of a checked recording, computed in chunks to bound memory.
 
     ``keep`` (N·nv,) booleans: only those rows, in order; ``out``: the array to fill (kept rows × nb)."""
+    model = as_robot(model)
     n, nv = ds.n, model.nv
     rows = n * nv if keep is None else int(np.count_nonzero(keep))
     if out is None:
@@ -634,6 +640,7 @@ def load_datasets(
 
 def free_angles(model: RobotModel) -> list[str]:
     """Joints whose angle has no limits (continuous, or revolute without URDF limits): unwrapped in preprocessing."""
+    model = as_robot(model)
     return [j.name for j in model.joints if j.kind != "prismatic" and np.isinf(j.lower) and np.isinf(j.upper)]
 
 
@@ -644,13 +651,32 @@ def prepare_dataset(ds: Dataset, preprocess: Mapping | bool | None = None, *, un
     with these options (``cutoff``, ``preset``, ``differentiation``, ``trim`` …); False — never.
     ``unwrap``: joints whose angles are unwrapped when the recording is prepared (:func:`free_angles`).
     """
+    ds = as_dataset(ds)
+    check_preprocess(preprocess)
     needs = ds.dq is None or ds.ddq is None
     if preprocess is False or (preprocess is None and not needs):
         return ds
     # imported only when a recording is actually filtered
     from pinid.data.preprocess import prepare
 
-    return prepare(ds, **{"unwrap": list(unwrap), **dict(preprocess or {})})
+    return prepare(ds, **{"unwrap": list(unwrap), **(dict(preprocess) if isinstance(preprocess, Mapping) else {})})
+
+
+def check_preprocess(preprocess) -> None:
+    """SpecError unless ``preprocess`` is None, True, False or a dict of :func:`pinid.data.preprocess.prepare`
+    options (``{"cutof": 5}`` names the unknown key and the known ones)."""
+    import inspect
+
+    if preprocess is None or isinstance(preprocess, bool):
+        return
+    if not isinstance(preprocess, Mapping):
+        raise SpecError(f"preprocess: got {type(preprocess).__name__}, expected a dict of options, True, False or None")
+    from pinid.data.preprocess import prepare
+
+    known = [p for p in inspect.signature(prepare).parameters if p not in ("ds", "unwrap")]
+    unknown = [k for k in preprocess if k not in known]
+    if unknown:
+        raise SpecError(f"preprocess: unknown option(s) {unknown}, expected some of {', '.join(known)}")
 
 
 def predict_torque(

@@ -19,11 +19,11 @@ import numpy as np
 import scipy.linalg
 
 from pinid.checks import as_floats, count, number
-from pinid.errors import DataError, SpecError
+from pinid.errors import DataError, ModelError, SpecError
 from pinid.model.robot import RobotModel, as_robot
 from pinid.model.terms import STRIBECK_TERMS, as_terms
 from pinid.model.regressor import JointTerms, parameter_names, regressor
-from pinid.io import write_json
+from pinid.io import read_bounded_file, write_json
 
 
 @dataclass
@@ -107,8 +107,7 @@ class BaseParameters:
     @classmethod
     def load(cls, path) -> "BaseParameters":
         """Read from JSON written by :meth:`save`."""
-        with open(path, encoding="utf-8") as f:
-            return cls.from_dict(json.load(f))
+        return cls.from_dict(json.loads(read_bounded_file(path, "base-parameter JSON file")))
 
 
 def base_parameters(
@@ -135,7 +134,16 @@ def base_parameters(
     if any(t in STRIBECK_TERMS for t in terms.names):  # Stribeck columns vanish at speed: slow samples too
         dq = dq * np.logspace(-4, 0, n)[np.random.default_rng(seed).permutation(n)][:, None]
     W = regressor(model, q, dq, ddq, terms)
-    norms = np.linalg.norm(W, axis=0)
+    with np.errstate(over="ignore", invalid="ignore"):
+        norms = np.linalg.norm(W, axis=0)
+    bad = [names[i] for i in np.flatnonzero(~np.isfinite(norms))]
+    if bad or not np.any(norms > 0):
+        raise ModelError(
+            f"{model.name}: the regressor columns of {', '.join(bad[:4])} overflow (check the model's "
+            "numbers: transmission ratios, axes, origins)"
+            if bad
+            else f"{model.name}: every regressor column is zero, expected a model whose joints move its links"
+        )
     nonzero = np.flatnonzero(norms > tol * norms.max())
     Wn = W[:, nonzero] / norms[nonzero]
     _, R, piv = scipy.linalg.qr(Wn, mode="economic", pivoting=True)

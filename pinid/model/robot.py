@@ -25,6 +25,7 @@ import pinocchio as pin
 
 from pinid.checks import as_state, as_states, as_vector, count, number, same_length
 from pinid.errors import JointError, ModelError
+from pinid.io import read_bounded_file
 from pinid.model.bundled import resolve_robot
 
 #: Names of the 10 standard inertial parameters of a body, in Pinocchio's order.
@@ -40,16 +41,9 @@ _UNBOUNDED = 1e10  # |limit| above this is treated as no limit
 
 def _read_urdf_text(path: Path) -> str:
     """Read and sanity-check a URDF file; return its text.  Rejects entity declarations (XML bombs)."""
-    if not path.exists():
-        raise ModelError(f"{path}: file not found, expected a URDF file")
-    if path.is_dir():
-        raise ModelError(f"{path}: is a folder, expected a URDF file")
-    size = path.stat().st_size
-    if size == 0:
+    raw = read_bounded_file(path, "URDF file", error=ModelError, limit=_MAX_URDF_BYTES)
+    if not raw:
         raise ModelError(f"{path}: file is empty, expected a URDF file")
-    if size > _MAX_URDF_BYTES:
-        raise ModelError(f"{path}: file is {size} bytes, larger than a URDF should be (limit {_MAX_URDF_BYTES})")
-    raw = path.read_bytes()
     if b"\x00" in raw[:4096]:
         raise ModelError(f"{path}: binary file, expected a URDF (XML text)")
     try:

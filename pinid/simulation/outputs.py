@@ -17,11 +17,15 @@ from pinid.model.export import identified_urdf
 from pinid.model.regressor import JointTerms, standard_parameters
 from pinid.model.robot import RobotModel
 from pinid.simulation.twin import perturb, save_truth
+from pinid.errors import OutputError
+from pinid.io import as_path
+from pinid.model.robot import as_robot
 
 
 def cad_model(model: RobotModel, percent: float, seed: int) -> RobotModel:
     """A "CAD" model of ``model``: its inertial parameters perturbed by about ``percent`` %, physically
     consistent (:func:`~pinid.simulation.twin.perturb`), seeded by ``seed`` (apart from the twin's noise)."""
+    model = as_robot(model)
     return perturb(model, percent, np.random.default_rng(np.random.SeedSequence([int(seed), 1])))
 
 
@@ -52,12 +56,14 @@ def drawn_wearer_truth(table: np.ndarray, drawn: dict) -> dict:
 
 def truth_path_for(path: str | os.PathLike) -> Path:
     """Where a recording's truth goes by default: ``run.csv`` → ``run.truth.json``."""
+    path = as_path(path)
     p = Path(path)
     return p.with_name(p.stem + ".truth.json")
 
 
 def simulation_paths(path, *, truth_path=None, true_signals=None, cad_urdf=None) -> list[Path]:
     """The files :func:`write_simulation` writes for these arguments, in its order (to check them early)."""
+    path = as_path(path, error=OutputError)
     return [Path(path), Path(truth_path or truth_path_for(path))] + [Path(p) for p in (true_signals, cad_urdf) if p]
 
 

@@ -48,6 +48,10 @@ class Placement:
 
 def parse_attach(text: str) -> list[tuple[str, str]]:
     """``"hip:thigh,knee:shank"`` → ``[("hip", "thigh"), ("knee", "shank")]`` (exo joint or link : segment)."""
+    if not isinstance(text, str):
+        raise SpecError(
+            f"--attach: got {type(text).__name__}, expected POINT:SEGMENT pairs such as hip:thigh,knee:shank"
+        )
     pairs = []
     for item in (s.strip() for s in text.split(",")):
         point, sep, seg = item.partition(":")
@@ -150,6 +154,9 @@ def wearer_urdf(
 
     pairs = parse_attach(attach) if isinstance(attach, str) else list(attach)
     file, _ = resolve_robot(urdf)
+    from pinid.model.robot import RobotModel
+
+    RobotModel.from_urdf(file)  # the exoskeleton must be a URDF pinid loads (size, numbers, axes, nesting)
     try:
         root = ET.fromstring(
             file.read_text(encoding="utf-8"), parser=ET.XMLParser(target=ET.TreeBuilder(insert_comments=True))

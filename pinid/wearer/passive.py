@@ -28,6 +28,7 @@ from importlib import resources
 import numpy as np
 
 from pinid.errors import SpecError
+from pinid.model.robot import as_robot
 
 #: Anatomical joints, in the order of the exponent coefficients (after the constant).
 ANATOMICAL: tuple[str, ...] = ("hip", "knee", "ankle")
@@ -82,6 +83,7 @@ def moment(joint: str, hip: np.ndarray, knee: np.ndarray, ankle: np.ndarray, c: 
 
 def anatomy(robot) -> list[tuple[str | None, float]]:
     """For each active joint of ``robot``: (anatomical joint or None, sign s of anatomical = s·q)."""
+    robot = as_robot(robot)
     out = []
     for j in robot.joints:
         kind = next((a for a in ANATOMICAL if a in j.name.lower()), None)
