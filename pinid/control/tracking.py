@@ -17,7 +17,7 @@ from pinid.model.robot import RobotModel
 from pinid.report.figures import save_figure
 from pinid.report.plot_control import tracking_figure
 from pinid.report.text import text_table
-from pinid.errors import OutputError
+from pinid.errors import OutputError, SpecError
 from pinid.io import as_path
 from pinid.model.robot import as_robot
 
@@ -41,6 +41,8 @@ def load_reference(spec: str, plant: RobotModel) -> FourierTrajectory:
 def tracking_table(table: dict) -> str:
     """The tracking errors as a text table: per controller, model (a file's name) and joint, the RMS and
     maximum error [mrad] after the start-up and the settling time [s]."""
+    if not isinstance(table, dict):
+        raise SpecError(f"table: got {type(table).__name__}, expected the tracking table (a dict)")
     rows = []
     for c, per_model in table.items():
         for name, entry in per_model.items():
@@ -64,6 +66,8 @@ def write_tracking(
     """Write ``tracking.json`` (the plant's URDF, ``settings`` such as the reference, seconds, after,
     seed, and every metric) and one figure ``tracking_<controller>.png`` per controller into ``folder``,
     all or nothing.  ``overwrite``: replace existing files (None: the :data:`pinid.io.OVERWRITE` policy)."""
+    if not isinstance(table, dict):
+        raise SpecError(f"table: got {type(table).__name__}, expected the tracking table (a dict)")
     out = Path(folder)
     arts = Artefacts(overwrite=overwrite)
     arts.add(

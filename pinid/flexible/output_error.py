@@ -423,6 +423,8 @@ def spec_from_dict(
     data: Mapping, *, source: str = "<spec>", robot: RobotModel | None = None, spec_path: Path | None = None
 ) -> FlexSpec:
     """Build a :class:`FlexSpec` from the plain-dict form of a spec file."""
+    if not isinstance(data, Mapping):
+        raise SpecError(f"data: got {type(data).__name__}, expected a flexible-joint spec table")
     unknown = sorted(set(data) - _TOP_KEYS)
     if unknown:
         raise SpecError(f"{source}: unknown setting(s) {', '.join(unknown)} (known: {', '.join(sorted(_TOP_KEYS))})")

@@ -623,6 +623,7 @@ def load_datasets(
 ) -> list[Dataset]:
     """Recordings (Datasets or paths, one or several) read with ``mapping`` and prepared
     (:func:`~pinid.identification.problem.prepare_dataset`); DataError when none is given."""
+    model = as_robot(model)
     if items is None:
         return []
     if isinstance(items, (Dataset, str, os.PathLike)):

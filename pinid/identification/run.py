@@ -230,6 +230,9 @@ def check_distinct(data, validate=None) -> None:
     """DataError for a training recording given twice (its rows would count twice: the standard deviations
     shrink by √2 with no new information); a DataWarning for a validation recording that is also a
     training one (then the validation error is a training error)."""
+    for item in _items(data):
+        if not isinstance(item, (Dataset, str, os.PathLike)):
+            raise DataError(f"data: got {type(item).__name__}, expected recordings (Datasets or paths)")
     from pinid.data.formats import warn
 
     seen: dict = {}

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pinid.data.dataset import Dataset
+from pinid.data.dataset import Dataset, as_dataset
 from pinid.data.formats import write_recording
 from pinid.io import Artefacts
 from pinid.model.base import base_parameters
@@ -82,6 +82,7 @@ def write_simulation(
     JSON (default :func:`truth_path_for`), with ``true_signals`` the noise-free signals, with ``cad_urdf``
     the URDF of the ``cad`` model (its percent from ``truth["cad"]``).  ``overwrite``: replace existing
     files (None: the :data:`pinid.io.OVERWRITE` policy, which the CLI's ``--force`` sets)."""
+    recording = as_dataset(recording, "recording")
     arts = Artefacts(overwrite=overwrite)
     arts.add(path, lambda p: write_recording(p, recording))
     arts.add(truth_path or truth_path_for(path), lambda p: save_truth(p, truth))
@@ -107,6 +108,7 @@ def write_simulation(
 def simulation_text(recording: Dataset, truth: dict, path, *, truth_path=None, true_signals=None, cad_urdf=None) -> str:
     """What ``pinid simulate`` prints after :func:`write_simulation`: each file written, with the samples,
     rate, joints and tracking error [rad] of the recording and the parameter counts of the truth."""
+    recording = as_dataset(recording, "recording")
     track = ", ".join(f"{j} {v:.2g}" for j, v in truth["tracking"]["rms_error"].items())
     lines = [
         f"wrote {path} ({recording.n} samples at {truth['rates']['sample']} Hz, joints "

@@ -885,6 +885,8 @@ def _motor_terms(model: RobotModel) -> JointTerms:
 
 def truth_json(truth: dict) -> dict:
     """The JSON-ready part of a truth dict (everything but the in-memory ``signals``)."""
+    if not isinstance(truth, dict):
+        raise SpecError(f"truth: got {type(truth).__name__}, expected the truth dict of simulate")
     return {k: v for k, v in truth.items() if k != "signals"}
 
 

@@ -150,6 +150,8 @@ def wearer_urdf(
     ``height`` [m], ``sex`` ``"male"`` / ``"female"`` (de Leva 1996).  Raises SpecError on bad input
     before writing anything.
     """
+    if not isinstance(urdf, (str, os.PathLike)):
+        raise SpecError(f"urdf: got {type(urdf).__name__}, expected a URDF path or a bundled robot name")
     from pinid.model.bundled import resolve_robot
 
     pairs = parse_attach(attach) if isinstance(attach, str) else list(attach)
@@ -212,6 +214,10 @@ def wearer_urdf(
 def wearer_links(urdf_text: str) -> dict[str, tuple[str, float, np.ndarray, np.ndarray]]:
     """The wearer segments of a URDF written by :func:`wearer_urdf`:
     ``{segment: (exo link, mass [kg], CoM [m], inertia about the CoM [kg·m²])}`` in the exo link's frame."""
+    if not isinstance(urdf_text, str):
+        raise SpecError(
+            f"urdf_text: got {type(urdf_text).__name__}, expected the text of a URDF written by pinid wearer"
+        )
     root = ET.fromstring(urdf_text)
     parent = {
         j.find("child").get("link"): j.find("parent").get("link")

@@ -45,6 +45,8 @@ def coefficients() -> dict:
 
 def published(joint: str) -> np.ndarray:
     """The published exponent coefficients of anatomical ``joint``: (terms, 4) ``[c0, cH, cK, cA]`` [1, 1/deg]."""
+    if not isinstance(joint, str) or joint not in ANATOMICAL:
+        raise SpecError(f"joint={joint!r}, expected one of {', '.join(ANATOMICAL)}")
     return np.array([t["c"] for t in coefficients()[joint]["terms"]], dtype=float)
 
 
@@ -72,6 +74,8 @@ def check_exponents(d: dict, origin: str) -> dict[str, np.ndarray]:
 def moment(joint: str, hip: np.ndarray, knee: np.ndarray, ankle: np.ndarray, c: np.ndarray | None = None) -> np.ndarray:
     """Passive moment [N·m] of anatomical ``joint`` at hip, knee and ankle angles [deg] (R&E convention),
     with exponent coefficients ``c`` ((terms, 4); default the published)."""
+    if not isinstance(joint, str) or joint not in ANATOMICAL:
+        raise SpecError(f"joint={joint!r}, expected one of {', '.join(ANATOMICAL)}")
     row = coefficients()[joint]
     c = published(joint) if c is None else np.asarray(c, dtype=float)
     angles = np.stack(np.broadcast_arrays(np.asarray(hip, float), np.asarray(knee, float), np.asarray(ankle, float)))

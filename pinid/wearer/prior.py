@@ -48,6 +48,8 @@ def _vec(text):
 
 def wearer_prior(urdf_text: str, robot) -> list[BodyPrior]:
     """The wearer priors of ``robot`` (the exo + wearer RobotModel) from its URDF text, in joint order."""
+    if not isinstance(urdf_text, str):
+        raise SpecError(f"urdf_text: got {type(urdf_text).__name__}, expected the text of a URDF with a wearer")
     root = ET.fromstring(urdf_text)
     moved_by = {
         j.find("child").get("link"): j.get("name") for j in root.findall("joint") if j.find("child") is not None
