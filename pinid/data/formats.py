@@ -47,6 +47,8 @@ CHECK_MODES = ("error", "warn", "off")
 
 def warn(ds: Dataset | None, message: str) -> None:
     """Issue a :class:`DataWarning` and remember it in ``ds.meta["warnings"]``."""
+    if not isinstance(message, str):
+        raise DataError(f"message: got {type(message).__name__}, expected the warning's text")
     if ds is not None:
         ds.meta.setdefault("warnings", []).append(message)
     warnings.warn(message, DataWarning, stacklevel=3)

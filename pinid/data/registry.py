@@ -109,12 +109,16 @@ WRITERS: dict[str, Writer] = {}
 
 def register_reader(reader: Reader) -> Reader:
     """Add (or replace) a reader; returns it."""
+    if not isinstance(reader, Reader):
+        raise SpecError(f"reader: got {type(reader).__name__}, expected a pinid.data.registry.Reader")
     READERS[reader.name] = reader
     return reader
 
 
 def register_writer(writer: Writer) -> Writer:
     """Add (or replace) a writer; returns it."""
+    if not isinstance(writer, Writer):
+        raise SpecError(f"writer: got {type(writer).__name__}, expected a pinid.data.registry.Writer")
     WRITERS[writer.name] = writer
     return writer
 

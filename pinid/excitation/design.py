@@ -593,6 +593,8 @@ def limit_usage(
     ``q_low`` / ``q_high``: how far towards each position limit the motion goes from q0 (1 = reaches it);
     ``q_range``: the share of the range covered; ``dq``, ``ddq``, ``tau``: peak over limit.  Limits here are
     the spec's, before the margin; ``q0``: the trajectory's offsets (default: the spec's)."""
+    if not isinstance(extremes, dict):
+        raise SpecError(f"extremes: got {type(extremes).__name__}, expected the extremes dict of trajectory_extremes")
     out = {}
     q0s = spec.q0 if q0 is None else np.asarray(q0, dtype=float)
     for i, j in enumerate(spec.joints):
@@ -613,6 +615,8 @@ def limit_usage(
 
 def is_feasible(extremes: dict, spec: ExcitationSpec, tau_abs_max: np.ndarray | None = None, tol: float = 1e-9) -> bool:
     """Whether the extremes are inside the spec's limits (after the margin), to ``tol``."""
+    if not isinstance(extremes, dict):
+        raise SpecError(f"extremes: got {type(extremes).__name__}, expected the extremes dict of trajectory_extremes")
     for i, j in enumerate(spec.joints):
         e = extremes[j]
         if (
@@ -630,6 +634,8 @@ def is_feasible(extremes: dict, spec: ExcitationSpec, tau_abs_max: np.ndarray | 
 def limit_violations(extremes: dict, spec: ExcitationSpec, tol: float = 1e-9) -> list[str]:
     """One readable line per limit the extremes exceed (after the margin), e.g.
     ``"hip: q_min -0.08742 < -0.087 by 0.00042 rad"``; empty when inside."""
+    if not isinstance(extremes, dict):
+        raise SpecError(f"extremes: got {type(extremes).__name__}, expected the extremes dict of trajectory_extremes")
     out = []
     for i, j in enumerate(spec.joints):
         e = extremes[j]

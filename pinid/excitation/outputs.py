@@ -35,6 +35,8 @@ def spec_text(model: RobotModel, spec: ExcitationSpec) -> str:
 def usage_table(spec: ExcitationSpec, extremes: dict, usage: dict, q0) -> str:
     """A table of how much of each limit a trajectory uses: q reached and its limits [rad], the share of the
     range and toward each limit from ``q0``, |dq| [rad/s], |ddq| [rad/s²] and |tau| [N·m] maxima and their use."""
+    if not isinstance(spec, ExcitationSpec):
+        raise SpecError(f"spec: got {type(spec).__name__}, expected an ExcitationSpec")
     has_tau = any("tau" in u for u in usage.values())
     w = max(8, max(len(j) for j in spec.joints) + 2)
     head = (
@@ -93,6 +95,8 @@ def evaluate_excitation(
 def evaluation_text(source: str, spec: ExcitationSpec, ev: dict, q0, *, usage: bool = True) -> str:
     """:func:`evaluate_excitation`'s result as text: condition number, log det, inside the limits or not,
     the :func:`usage_table` (with ``usage``) and every limit the trajectory leaves."""
+    if not isinstance(spec, ExcitationSpec):
+        raise SpecError(f"spec: got {type(spec).__name__}, expected an ExcitationSpec")
     lines = [
         f"{source}: condition number {ev['condition_number']:.6g} (base regressor, {spec.samples} samples), "
         f"log det {ev['log_det']:.6g}, {'inside' if ev['feasible'] else 'OUTSIDE'} the limits"
@@ -107,6 +111,8 @@ def evaluation_text(source: str, spec: ExcitationSpec, ev: dict, q0, *, usage: b
 def design_text(result, spec: ExcitationSpec, *, usage: bool = True) -> str:
     """A design's result as text: condition number (and log det with the logdet criterion), time,
     evaluations, and with ``usage`` the :func:`usage_table`."""
+    if not isinstance(spec, ExcitationSpec):
+        raise SpecError(f"spec: got {type(spec).__name__}, expected an ExcitationSpec")
     crit = "" if spec.criterion == "cond" else f", log det(WᵀW) {result.log_det:.6g} (criterion logdet)"
     text = (
         f"condition number {result.condition_number:.6g}{crit} in {result.seconds:.1f} s "

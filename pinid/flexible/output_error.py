@@ -665,6 +665,8 @@ def make_twin(
     ``refine`` times smaller than a fit would (so that fitting does not reuse the exact same discretisation);
     ``motor``: also record the motor angles.  ``meta["truth"]`` holds every parameter value.
     """
+    if not isinstance(model, FlexibleModel):
+        raise SpecError(f"model: got {type(model).__name__}, expected a FlexibleModel")
     if isinstance(signal, InputSignal):
         t, u = signal.generate(model.joint_names)
         kind = signal.kind
@@ -1020,6 +1022,8 @@ def fit_output_error(
     ``f_scale`` [rad]: least squares' soft-L1 scale when the cost is ``"abs"``; ``max_nfev``: least squares'
     budget of residual evaluations (each Jacobian costs one more batch of ``d`` simulations).
     """
+    if not isinstance(problem, OutputErrorProblem):
+        raise SpecError(f"problem: got {type(problem).__name__}, expected an OutputErrorProblem (problem_from_spec)")
     if method not in methods():
         raise SpecError(f"unknown method {method!r}, expected one of {', '.join(methods())}")
     start = time.perf_counter()
@@ -1143,6 +1147,8 @@ def sensitivity(problem: OutputErrorProblem, x=None, *, noise: float = 1e-3, rel
     ``σ·√((SᵀS)⁻¹)_ii`` for Gaussian angle noise ``noise`` [rad] (Cramér-Rao bound of least squares), and the
     weakest direction (the right singular vector of the smallest singular value).
     """
+    if not isinstance(problem, OutputErrorProblem):
+        raise SpecError(f"problem: got {type(problem).__name__}, expected an OutputErrorProblem (problem_from_spec)")
     if x is None:
         if not problem.truth or any(n not in problem.truth for n in problem.free):
             x = problem.model.values[problem.idx]
@@ -1179,6 +1185,8 @@ WEAK = 0.1
 
 def classify(rel_std: float) -> str:
     """``"observable"`` (±2σ within ±2 %), ``"weak"`` (σ ≤ 10 %) or ``"unobservable"`` at the noise of the bound."""
+    if isinstance(rel_std, bool) or not isinstance(rel_std, (int, float, np.floating, np.integer)):
+        raise SpecError(f"rel_std: got {type(rel_std).__name__}, expected a relative standard deviation (a number)")
     if rel_std <= WELL_DETERMINED:
         return "observable"
     return "weak" if rel_std <= WEAK else "unobservable"
@@ -1194,6 +1202,8 @@ def problem_from_spec(
     outputs: Sequence[str] | None = None,
 ) -> OutputErrorProblem:
     """The problem a spec describes for ``recording`` (``rigid``: the rigid-joint model of the same spec)."""
+    if not isinstance(spec, FlexSpec):
+        raise SpecError(f"spec: got {type(spec).__name__}, expected a FlexSpec (load_flex_spec)")
     s = spec.rigid() if rigid else spec
     model = s.model()
     truth = None  # the rigid model has no truth: the twin is flexible
@@ -1229,6 +1239,8 @@ def compare_rigid_flexible(
     from that result.  Returns ``{"flexible": result, "rigid": result, "simulated": {label: (N, nv)},
     "measured": (N, nv), "t": (N,)}``.
     """
+    if not isinstance(spec, FlexSpec):
+        raise SpecError(f"spec: got {type(spec).__name__}, expected a FlexSpec (load_flex_spec)")
     method = method or spec.fit.method
     opts = dict(options or {"population": spec.fit.population, "iterations": spec.fit.iterations})
     out: dict = {"t": recording.t, "measured": recording.reorder(spec.robot.joint_names).q, "simulated": {}}

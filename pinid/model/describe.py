@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from pinid.errors import ModelError
 from pinid.model.base import base_parameters
 from pinid.model.regressor import JointTerms, standard_parameters
 from pinid.model.robot import RobotModel
@@ -49,6 +50,8 @@ def _num(x: float):
 def description_text(d: dict, terms: JointTerms) -> str:
     """:func:`describe`'s dict as text: a table of the joints, the locked joints, the drives' matrix, and
     every base parameter as a combination of standard parameters with its URDF value."""
+    if not isinstance(d, dict):
+        raise ModelError(f"d: got {type(d).__name__}, expected the dict of describe()")
     out = [
         f"robot {d['robot']}  ({d['urdf']})",
         f"{'joint':<24}{'type':<12}{'lower':>10}{'upper':>10}{'velocity':>10}{'effort':>10}",

@@ -86,6 +86,8 @@ def robot_from_dict(d: dict) -> tuple[RobotModel, JointTerms]:
 
 def stribeck_from_dict(d: dict, origin: str) -> dict[str, Stribeck]:
     """``{term: Stribeck}`` from ``{term: {"velocity": v, "shape": δ}}``; SpecError naming what is wrong."""
+    if not isinstance(d, dict):
+        raise SpecError(f"d: got {type(d).__name__}, expected a table of Stribeck terms")
     out = {}
     for name, v in d.items():
         if name not in STRIBECK_TERMS or not isinstance(v, dict) or set(v) - {"velocity", "shape"}:

@@ -58,6 +58,8 @@ def exponents(robot, joint: str) -> np.ndarray:
 
 def check_exponents(d: dict, origin: str) -> dict[str, np.ndarray]:
     """``{anatomical joint: (terms, 4) array}`` from a plain dict (a saved model); SpecError naming what is wrong."""
+    if not isinstance(d, dict):
+        raise SpecError(f"d: got {type(d).__name__}, expected a table of exponent coefficients per joint")
     out = {}
     for joint, c in (d or {}).items():
         want = published(joint).shape if joint in ANATOMICAL else None
