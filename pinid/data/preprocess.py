@@ -49,6 +49,7 @@ from pinid.data.filters import butter_sos, default_padlen, filtfilt_sos, savgol
 from pinid.errors import DataError, SpecError
 from pinid.data.formats import warn
 from pinid.data.dataset import as_dataset
+from pinid.checks import array_like
 
 #: Named recipes, after the paper they reproduce.  ``zha2019``: Zha et al. 2019 — 1 kHz sampling, zero-phase 10 Hz low-pass (the paper
 #: gives no order: 4 here; it differentiates by forward differences, which lag half a sample: central
@@ -103,6 +104,7 @@ def default_trim(fs: float, cutoff: float, order: int) -> float:
 def lowpass(x: np.ndarray, fs: float, cutoff: float, order: int = 4) -> np.ndarray:
     """Zero-phase Butterworth low-pass of ``x`` (samples along axis 0) [same unit as x], padded as
     scipy.signal.sosfiltfilt by default (:func:`~pinid.data.filters.default_padlen`)."""
+    array_like(x, "x")
     sos = butter_sos(order, cutoff, fs)
     return filtfilt_sos(sos, x, default_padlen(sos))
 

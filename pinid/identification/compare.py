@@ -49,6 +49,7 @@ from pinid.model.regressor import JointTerms
 from pinid.model.robot import RobotModel
 from pinid.model.terms import as_terms, stribeck_settings
 from pinid.model.serialize import robot_to_dict
+from pinid.checks import array_like
 
 #: Methods that give the same result whatever the seed (run once): the registry's ``deterministic`` ones.
 DETERMINISTIC: tuple[str, ...] = tuple(m for m, cls in ESTIMATORS.items() if cls.deterministic)
@@ -401,6 +402,7 @@ def parameter_errors(x: np.ndarray, truth: np.ndarray, scale: np.ndarray, names:
     A relative error is meaningless where the truth is 0 (|x_true| ≤ 1e-9·scale): there only the absolute
     error is reported.
     """
+    array_like(x, "x")
     err = np.abs(x - truth)
     nonzero = np.abs(truth) > 1e-9 * scale
     rel = 100.0 * err / np.maximum(np.abs(truth), 0.01 * scale)

@@ -52,6 +52,7 @@ from pinid.model.robot import RobotModel
 from pinid.progress import progress
 from pinid.data.dataset import as_dataset
 from pinid.model.robot import as_robot
+from pinid.checks import array_like
 
 #: Default fraction of a joint's largest speed below which its row counts as "at rest".
 REST_FRACTION = 0.02
@@ -456,6 +457,7 @@ def check_dataset(ds: Dataset, model: RobotModel) -> Dataset:
 
 def rest_thresholds(dq: np.ndarray, fraction: float = REST_FRACTION) -> np.ndarray:
     """Per joint: max(fraction·max|dq|, 3·σ̂_v) [rad/s], σ̂_v the velocity noise from the second difference."""
+    array_like(dq, "dq")
     dq = np.asarray(dq, dtype=float)
     peak = np.max(np.abs(dq), axis=0) if len(dq) else np.zeros(dq.shape[1])
     if len(dq) >= 5:

@@ -15,10 +15,12 @@ from pinid.linalg import RANK_TOL
 from pinid.model.conic import ConicProblem
 from pinid.model import terms as _terms
 from pinid.model.physical import PSEUDO_INERTIA_BASIS, check_consistency, parameter_scale
+from pinid.checks import array_like
 
 
 def null_projector(A: np.ndarray, tol: float = RANK_TOL) -> np.ndarray | None:
     """Orthogonal projector onto the null space of ``A`` (None when it is trivial)."""
+    array_like(A, "A")
     _, s, Vt = np.linalg.svd(A, full_matrices=True)
     rank = int(np.sum(s > tol * (s[0] if s.size else 1.0)))
     V0 = Vt[rank:].T
@@ -56,6 +58,7 @@ def add_consistency_constraints(conic: ConicProblem, problem, S: np.ndarray, mar
 
 def clip_terms(theta: np.ndarray, problem) -> np.ndarray:
     """θ with tiny negative joint terms (fc, fv, armature above −1e-9 relatively) set to 0: what an interior-point solver leaves."""
+    array_like(theta, "theta")
     out = theta.copy()
     params = _terms.robot_layout(problem.model, problem.terms)
     for name in {p.term.name for p in params if p.term.nonnegative}:

@@ -69,6 +69,7 @@ from pinid.progress import progress as _progress
 from pinid.resources import EXCITATION_DIR, bundled_trajectories
 from pinid.errors import OutputError
 from pinid.io import as_path
+from pinid.checks import array_like
 
 #: Seed 000 (Zha et al. 2019) Table 1, degrees: (hip offset, hip sin amplitude, knee offset, knee sin
 #: amplitude) of q = offset + amplitude·sin(2π t); q = 0 hanging down, counter-clockwise positive.
@@ -815,6 +816,7 @@ WEARER_BAND = (0.2, 2.0)
 def wearer_disturbance(t: np.ndarray, rms: np.ndarray, rng: np.random.Generator, components: int = 16) -> np.ndarray:
     """A smooth random torque (N, nv) [N·m] at times ``t`` [s]: per joint a sum of ``components`` sinusoids,
     frequencies uniform in :data:`WEARER_BAND`, random phases and amplitudes, scaled to exactly ``rms`` [N·m]."""
+    array_like(t, "t")
     rms = np.asarray(rms, dtype=float)
     f = rng.uniform(*WEARER_BAND, (components, rms.size))
     phase = rng.uniform(0, 2 * np.pi, (components, rms.size))
@@ -898,6 +900,7 @@ def save_truth(path, truth: dict):
 
 def friction_torque(dq: np.ndarray, coulomb, viscous) -> np.ndarray:
     """The regressor's friction ``fc·sign(dq) + fv·dq`` [N·m] for velocities ``dq`` (N, nv)."""
+    array_like(dq, "dq")
     return np.asarray(coulomb) * np.sign(dq) + np.asarray(viscous) * dq
 
 

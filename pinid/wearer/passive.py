@@ -29,6 +29,7 @@ import numpy as np
 
 from pinid.errors import SpecError
 from pinid.model.robot import as_robot
+from pinid.checks import array_like
 
 #: Anatomical joints, in the order of the exponent coefficients (after the constant).
 ANATOMICAL: tuple[str, ...] = ("hip", "knee", "ankle")
@@ -102,6 +103,7 @@ def anatomy(robot) -> list[tuple[str | None, float]]:
 def column(q: np.ndarray, robot, exps: dict[str, np.ndarray] | None = None) -> np.ndarray:
     """Regressor column (N, nv) of the passive scale factors: ``−s·M`` per mapped joint [N·m], 0 elsewhere;
     exponent coefficients from ``exps`` ``{anatomical joint: (terms, 4)}``, else :func:`exponents`."""
+    array_like(q, "q")
     q = np.atleast_2d(np.asarray(q, dtype=float))
     exps = exps or {}
     amap = anatomy(robot)
@@ -118,4 +120,5 @@ def column(q: np.ndarray, robot, exps: dict[str, np.ndarray] | None = None) -> n
 
 def torque(q: np.ndarray, robot, scale: np.ndarray | float = 1.0) -> np.ndarray:
     """Passive moment the wearer's tissues apply on the robot's joints [N·m], (N, nv): ``scale·s·M``."""
+    array_like(q, "q")
     return -np.asarray(scale, dtype=float) * column(q, robot)
