@@ -31,10 +31,11 @@ def row_blocks(
     W: np.ndarray, tau: np.ndarray, weights: np.ndarray | None = None, rows: int = GRAM_BLOCK_ROWS
 ) -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray | None]]:
     """``(W_k, τ_k, w_k)`` of consecutive blocks of ``rows`` rows of a whole matrix (``w_k`` None without weights)."""
-    array_like(W, "W")
-    for start in range(0, len(W), rows):
-        stop = start + rows
-        yield W[start:stop], tau[start:stop], None if weights is None else weights[start:stop]
+    array_like(W, "W")  # checked when called, not when first iterated
+    return (
+        (W[s : s + rows], tau[s : s + rows], None if weights is None else weights[s : s + rows])
+        for s in range(0, len(W), rows)
+    )
 
 
 def gram_sums(

@@ -386,7 +386,8 @@ def test_ctrl_c_while_starting_gives_one_line(tmp_path, recording):
     """Case 20: SIGINT at several moments from the first extension module on (deterministic: each trial
     starts its clock when the child maps numpy, whatever the machine's speed).  Every trial: no
     traceback, at most one line on stderr, status 130 (interrupted while starting) or 2 (while working)
-    or 0 (done before the signal), and no output unless it finished."""
+    or 0 (done before the signal; or killed by it, silently, while the interpreter shuts down after the
+    work), and no output unless it finished."""
     outcomes = []
     for k, delay in enumerate((0.0, 0.01, 0.05, 0.15, 0.3, 0.6)):
         out = tmp_path / f"o{k}"
@@ -408,6 +409,9 @@ def test_ctrl_c_while_starting_gives_one_line(tmp_path, recording):
                 proc.kill()
         lines = err.strip().splitlines()
         assert "Traceback" not in err and "PyCapsule" not in err, (delay, err)
+        if proc.returncode == -signal.SIGINT:  # the work was done; the signal met the interpreter's shutdown
+            assert not err.strip() and (out / "identification.json").is_file(), (delay, err)
+            continue
         assert proc.returncode in (0, 2, 130), (delay, proc.returncode, err)
         if proc.returncode != 0:
             assert len(lines) == 1 and "interrupted" in lines[0], (delay, err)
@@ -463,25 +467,10 @@ def test_named_api_cases(tmp_path, recording):
 
 
 #: Public functions of docs/api.md that do not yet refuse a wrong-type argument with a PinidError (they
-#: raise AttributeError/TypeError, or accept it).  Left for a later round; the test below fails when one
-#: of them is fixed (take it off the list) or when any other public function regresses.
+#: raise AttributeError/TypeError).  All in wearer/stage.py, which the other branch of issue 25's round
+#: edits; left for after the merge.  test_known_gaps_are_still_gaps fails when one of them
+#: is fixed (take it off the list); the seeded test fails when any other public function regresses.
 KNOWN_GAPS = {
-    "simulation.outputs.drawn_wearer_truth",
-    "identification.run.run_jobs",
-    "identification.problem.stacked_targets",
-    "identification.problem.base_statistics",
-    "identification.problem.least_norm_completion",
-    "identification.result.make_result",
-    "model.lmi.add_consistency_constraints",
-    "model.lmi.consistent_completion",
-    "linalg.row_blocks",
-    "model.export.identified_urdf",
-    "model.export.inertial_element",
-    "model.export.identified_drives",
-    "identification.compare.lad",
-    "identification.compare.references",
-    "wearer.prior.drawn",
-    "wearer.prior.draw_wearer",
     "wearer.stage.compress",
     "wearer.stage.choose_prior_weight",
     "wearer.stage.stack",

@@ -61,12 +61,16 @@ DEFAULT_SEEDS = 5
 def lad(problem, iterations: int = 200, tol: float = 1e-12) -> np.ndarray:
     """Least-absolute-deviations base parameters, the global minimum of seed 000's fitness Σ|r|
     (:func:`pinid.estimators.metaheuristic.least_absolute_deviations`)."""
+    if not hasattr(problem, "compressed"):
+        raise SpecError(f"problem: got {type(problem).__name__}, expected an IdentificationProblem")
     return least_absolute_deviations(problem, iterations, tol)
 
 
 def references(problem) -> dict:
     """The global minima of both training costs on the problem's rows and least squares' Σ|r|:
     ``{"sse", "sae", "sae_ls"}``."""
+    if not hasattr(problem, "compressed"):
+        raise SpecError(f"problem: got {type(problem).__name__}, expected an IdentificationProblem")
     x_ls = least_squares(problem)
     x_lad = cached_lad(problem)  # kept on the problem: the Σ|r| metaheuristics of every seed reuse it
     ls = training_costs(problem, x_ls)

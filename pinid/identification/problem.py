@@ -536,6 +536,10 @@ def stacked_targets(
     datasets: Sequence[Dataset], keeps: Sequence[np.ndarray], nv: int
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(tau, joint, sample)`` of the rows ``keeps`` of checked recordings, stacked as in :func:`stack_rows`."""
+    if not isinstance(datasets, Sequence) or isinstance(datasets, str):
+        raise DataError(f"datasets: got {type(datasets).__name__}, expected a list of Datasets")
+    for ds in datasets:
+        as_dataset(ds, "datasets")
     taus, joints, samples = [], [], []
     offset = 0
     for ds, keep in zip(datasets, keeps):
@@ -593,6 +597,10 @@ def base_statistics(
     diag(√w)·W as it is and with unit-norm columns.  ``residual``: ``tau − W @ base`` when already known
     (else computed, reading ``problem.W``).
     """
+    if not hasattr(problem, "weights"):
+        raise SpecError(
+            f"problem: got {type(problem).__name__}, expected an identification problem (IdentificationProblem)"
+        )
     w = problem.weights if weights is None else weights
     r = problem.tau - problem.W @ base if residual is None else residual
     dof = max(problem.rows - problem.nb, 1)
@@ -612,6 +620,8 @@ def base_statistics(
 
 def least_norm_completion(problem: IdentificationProblem, base: np.ndarray) -> np.ndarray:
     """The standard vector closest to the nominal one (in the scaled norm) with ``P·θ = base``."""
+    if not hasattr(problem, "nominal"):
+        raise SpecError(f"problem: got {type(problem).__name__}, expected an IdentificationProblem")
     S = parameter_scale(problem.nominal, problem.nv, len(problem.terms))
     A = problem.base.P * S
     z0 = problem.nominal / S

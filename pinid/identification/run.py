@@ -272,6 +272,8 @@ def run_jobs(
     label: str = "methods",
 ) -> list[Fit]:
     """Fit every ``(method, seed, settings)`` job on the setup's problem (or its segmental stages)."""
+    if not isinstance(s, Setup):
+        raise SpecError(f"s: got {type(s).__name__}, expected the Setup of pinid.identification.run.setup")
     jobs = list(jobs)
     fits = []
     bar = progress(len(jobs), label, enabled=show_progress)

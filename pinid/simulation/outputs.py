@@ -20,6 +20,8 @@ from pinid.simulation.twin import perturb, save_truth
 from pinid.errors import OutputError
 from pinid.io import as_path
 from pinid.model.robot import as_robot
+from pinid.errors import SpecError
+from pinid.checks import array_like
 
 
 def cad_model(model: RobotModel, percent: float, seed: int) -> RobotModel:
@@ -46,6 +48,9 @@ def drawn_wearer_truth(table: np.ndarray, drawn: dict) -> dict:
     """The ``wearer["drawn"]`` entry of a twin's truth when its wearer was drawn away from the tables
     (:func:`pinid.wearer.prior.draw_wearer`'s defaults: mass ±25 %, centre of mass ±20 %): the drawn
     wearer's standard parameters per joint and the robot's table (URDF) standard parameters."""
+    array_like(table, "table")
+    if not isinstance(drawn, dict):
+        raise SpecError(f"drawn: got {type(drawn).__name__}, expected the dict of draw_wearer")
     return {
         "mass_percent": 25.0,
         "com_percent": 20.0,
