@@ -48,6 +48,8 @@ from pinid.data.dataset import Dataset
 from pinid.data.filters import butter_sos, default_padlen, filtfilt_sos, savgol
 from pinid.errors import DataError, SpecError
 from pinid.data.formats import warn
+from pinid.data.dataset import as_dataset
+from pinid.checks import array_like
 
 #: Named recipes, after the paper they reproduce.  ``zha2019``: Zha et al. 2019 — 1 kHz sampling, zero-phase 10 Hz low-pass (the paper
 #: gives no order: 4 here; it differentiates by forward differences, which lag half a sample: central
@@ -79,6 +81,7 @@ _DEFAULTS = {"cutoff": None, "order": 4, "differentiation": "savgol", "trim": No
 
 def default_cutoff(fs: float) -> float:
     """Default low-pass cut-off [Hz] for a sample rate ``fs`` [Hz]: ``min(10, fs/10)``."""
+    fs = number(fs, "fs", low=0, low_open=True)
     return float(min(10.0, fs / 10.0))
 
 
@@ -87,11 +90,13 @@ SAVGOL_POLYORDER = 5
 
 def savgol_half_window(fs: float, cutoff: float) -> int:
     """Half-width ``M`` of the Savitzky–Golay window (length ``2M+1``) for rate ``fs`` and cut-off [Hz]."""
+    fs = number(fs, "fs", low=0, low_open=True)
     return int(max(4, round(0.3 * fs / cutoff)))
 
 
 def default_trim(fs: float, cutoff: float, order: int) -> float:
     """Default time [s] trimmed at each end: filter settling to 1/1000 plus the derivative window."""
+    fs = number(fs, "fs", low=0, low_open=True)
     settle = np.log(1000.0) / (2 * np.pi * cutoff * np.sin(np.pi / (2 * order)))
     return float(settle + (savgol_half_window(fs, cutoff) + 1) / fs)
 
@@ -99,12 +104,14 @@ def default_trim(fs: float, cutoff: float, order: int) -> float:
 def lowpass(x: np.ndarray, fs: float, cutoff: float, order: int = 4) -> np.ndarray:
     """Zero-phase Butterworth low-pass of ``x`` (samples along axis 0) [same unit as x], padded as
     scipy.signal.sosfiltfilt by default (:func:`~pinid.data.filters.default_padlen`)."""
+    array_like(x, "x")
     sos = butter_sos(order, cutoff, fs)
     return filtfilt_sos(sos, x, default_padlen(sos))
 
 
 def uniform_grid(ds: Dataset, rate: float | None = None) -> tuple[Dataset, dict]:
     """``ds`` on a uniform time grid (resampled when jittered or when ``rate`` is given); and a report."""
+    ds = as_dataset(ds)
     t = ds.t
     dt = np.diff(t)
     step = float(np.median(dt))

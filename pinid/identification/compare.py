@@ -23,7 +23,6 @@ measure across runs), prints a table and saves/loads JSON; :mod:`pinid.report.pl
 
 from __future__ import annotations
 
-import json
 import os
 import time
 from dataclasses import dataclass, field
@@ -50,6 +49,7 @@ from pinid.model.regressor import JointTerms
 from pinid.model.robot import RobotModel
 from pinid.model.terms import as_terms, stribeck_settings
 from pinid.model.serialize import robot_to_dict
+from pinid.checks import array_like
 
 #: Methods that give the same result whatever the seed (run once): the registry's ``deterministic`` ones.
 DETERMINISTIC: tuple[str, ...] = tuple(m for m, cls in ESTIMATORS.items() if cls.deterministic)
@@ -61,12 +61,16 @@ DEFAULT_SEEDS = 5
 def lad(problem, iterations: int = 200, tol: float = 1e-12) -> np.ndarray:
     """Least-absolute-deviations base parameters, the global minimum of seed 000's fitness Σ|r|
     (:func:`pinid.estimators.metaheuristic.least_absolute_deviations`)."""
+    if not hasattr(problem, "compressed"):
+        raise SpecError(f"problem: got {type(problem).__name__}, expected an IdentificationProblem")
     return least_absolute_deviations(problem, iterations, tol)
 
 
 def references(problem) -> dict:
     """The global minima of both training costs on the problem's rows and least squares' Σ|r|:
     ``{"sse", "sae", "sae_ls"}``."""
+    if not hasattr(problem, "compressed"):
+        raise SpecError(f"problem: got {type(problem).__name__}, expected an IdentificationProblem")
     x_ls = least_squares(problem)
     x_lad = cached_lad(problem)  # kept on the problem: the Σ|r| metaheuristics of every seed reuse it
     ls = training_costs(problem, x_ls)
@@ -375,10 +379,7 @@ def _truth_vector(truth, names: list[str]) -> np.ndarray | None:
         return None
     if isinstance(truth, (str, os.PathLike)):
         p = Path(truth)
-        try:
-            truth = json.loads(p.read_text(encoding="utf-8"))
-        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-            raise SpecError(f"{p}: cannot read the truth JSON ({exc})") from None
+        truth = read_json(p, "truth")
     if isinstance(truth, Mapping) and "base" in truth and isinstance(truth["base"], Mapping):
         b = truth["base"]
         if not (isinstance(b.get("names"), list) and isinstance(b.get("values"), list)):
@@ -405,6 +406,7 @@ def parameter_errors(x: np.ndarray, truth: np.ndarray, scale: np.ndarray, names:
     A relative error is meaningless where the truth is 0 (|x_true| ≤ 1e-9·scale): there only the absolute
     error is reported.
     """
+    array_like(x, "x")
     err = np.abs(x - truth)
     nonzero = np.abs(truth) > 1e-9 * scale
     rel = 100.0 * err / np.maximum(np.abs(truth), 0.01 * scale)

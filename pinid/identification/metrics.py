@@ -20,6 +20,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from pinid.checks import array_like
 
 METRIC_NAMES: tuple[str, ...] = ("rms", "rel_rms_percent", "mean_abs", "std_abs", "max_abs", "p5_abs", "p95_abs")
 
@@ -89,6 +90,7 @@ def torque_metrics(
     Either ``(N, nv)`` arrays in the order of ``joints``, or stacked 1-D rows with ``joint_index`` giving
     each row's joint (rows of a joint may be missing, e.g. samples dropped at rest).
     """
+    array_like(measured, "measured")
     measured = np.asarray(measured, dtype=float)
     predicted = np.asarray(predicted, dtype=float)
     if measured.shape != predicted.shape:

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pinid.errors import ModelError
+from pinid.errors import ModelError, SpecError
 from pinid.io import Artefacts, json_text
 from pinid.report.figures import save_figure
 from pinid.report.markdown import REPORT_FILES, report_files, summary_table
@@ -34,6 +34,8 @@ COMPARISON_FILES = ("comparison.json", "comparison.md", "compare_*.png")
 def result_text(r) -> str:
     """One method's detail (``pinid identify --verbose``): consistency, cond(W_b), time, status; the base
     parameters with standard deviations; the training and validation torque metrics."""
+    if not hasattr(r, "physically_consistent"):
+        raise SpecError(f"r: got {type(r).__name__}, expected an IdentificationResult")
     flag = "physically consistent" if r.physically_consistent else "NOT physically consistent"
     lines = [
         f"\n== {r.method}: {r.description}",
@@ -59,6 +61,8 @@ def identification_text(ident, *, verbose: bool = False) -> str:
     """What ``pinid identify`` prints after the work: the drive gains and the Stribeck velocities and shapes
     (when identified), the data used, every method's detail with ``verbose`` (:func:`result_text`), and the
     summary table."""
+    if not hasattr(ident, "results"):
+        raise SpecError(f"ident: got {type(ident).__name__}, expected an Identification")
     d = ident.data
     lines = []
     if "drive_gains" in d:
@@ -126,6 +130,8 @@ def write_identification(
     ``folder`` are removed.  A consistent result pinid cannot read back as a URDF gets none, with a
     warning.  ``overwrite``: replace existing files (None: the :data:`pinid.io.OVERWRITE` policy, which the
     CLI's ``--force`` sets).  Returns the paths written."""
+    if not hasattr(ident, "results"):
+        raise SpecError(f"ident: got {type(ident).__name__}, expected an Identification")
     urdfs, drives, mjcfs = {}, {}, {}
     for m, r in ident.results.items():  # everything is computed before any file is written
         if not (r.physically_consistent or force_export):
@@ -166,6 +172,8 @@ def write_identification(
 def comparison_markdown(comp, *, command: str | None = None, figures=()) -> str:
     """``comparison.md``: the command line (when given), the comparison table, the identified values
     (mean ± spread over the seeds) and links to the ``figures`` (file names)."""
+    if not hasattr(comp, "runs"):
+        raise SpecError(f"comp: got {type(comp).__name__}, expected a Comparison")
     block = f"```\n{command}\n```\n\n" if command else ""
     return (
         f"# Comparison on {comp.robot['name']}\n\n{block}```\n{comp.table()}\n```\n\nIdentified base parameters "
@@ -181,6 +189,8 @@ def write_comparison(
     ``comparison.md`` (:func:`comparison_markdown`) and, with ``figures``, the ``compare_*.png`` figures;
     all or nothing, an earlier comparison's files there removed.  ``overwrite``: as in
     :func:`write_identification`.  Returns the paths written."""
+    if not hasattr(comp, "runs"):
+        raise SpecError(f"comp: got {type(comp).__name__}, expected a Comparison")
     out = Path(folder)
     figs = comparison_figures(comp) if figures else {}
     arts = Artefacts(overwrite=overwrite)

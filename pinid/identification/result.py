@@ -296,6 +296,10 @@ def make_result(
     problem: IdentificationProblem, estimator, seconds: float, *, complete: bool = True
 ) -> IdentificationResult:
     """Check a fitted estimator and wrap it as an :class:`IdentificationResult` (training metrics included)."""
+    if not hasattr(problem, "base"):
+        raise SpecError(
+            f"problem: got {type(problem).__name__}, expected an identification problem (IdentificationProblem)"
+        )
     base = np.asarray(estimator.base_, dtype=float)
     if base.shape != (problem.nb,):
         raise PinidError(f"{estimator.name}: base_ has shape {base.shape}, expected ({problem.nb},)")
