@@ -142,6 +142,8 @@ class IdentificationProblem:
     ``weights``  (rows,) row weights (ones unless given); OLS minimises Σ w·r²
     ``base``     the :class:`~pinid.model.base.BaseParameters` map (``base.P @ θ_standard``)
     ``nominal``  (p,) the URDF's standard parameters (inertias, ``<dynamics>`` friction)
+    ``recorded_tau`` (rows,) the torque as recorded at each row's sample (:func:`recorded_torque`), the
+                 yardstick of the training error; None: ``tau`` is the torque as recorded
     """
 
     model: RobotModel
@@ -160,6 +162,7 @@ class IdentificationProblem:
     sample_rates: list[float] = field(default_factory=list)
     peak_velocity: np.ndarray | None = None
     regressor_rows: RegressorRows | None = field(default=None, repr=False, compare=False)
+    recorded_tau: np.ndarray | None = field(default=None, repr=False, compare=False)
 
     # ---------------------------------------------------------------- sizes and names
     @property
@@ -243,6 +246,8 @@ class IdentificationProblem:
         total = sum(ds.n for ds in prepared)
         keeps = [kept_rows(ds, thr) for ds, thr in zip(prepared, thresholds)]
         tau, joint, sample = stacked_targets(prepared, keeps, nv)
+        recorded = [recorded_torque(ds) for ds in prepared]
+        recorded_tau = np.concatenate([r.reshape(-1)[k] for r, k in zip(recorded, keeps)])
         rows = RegressorRows(model, terms, base, prepared, keeps)
         dropped = np.array([total - int(np.sum(joint == j)) for j in range(nv)])
         if weights is None:
@@ -271,6 +276,7 @@ class IdentificationProblem:
             sample_rates=[ds.sample_rate for ds in prepared],
             peak_velocity=np.max([np.abs(ds.dq).max(axis=0) for ds in prepared], axis=0),
             regressor_rows=rows,
+            recorded_tau=recorded_tau,
         )
         bar = progress(total, "regressor", enabled=show_progress)  # the Gram pass of the rank check
         try:
@@ -650,7 +656,33 @@ def prepare_dataset(ds: Dataset, preprocess: Mapping | bool | None = None, *, un
     # imported only when a recording is actually filtered
     from pinid.data.preprocess import prepare
 
-    return prepare(ds, **{"unwrap": list(unwrap), **dict(preprocess or {})})
+    out = prepare(ds, **{"unwrap": list(unwrap), **dict(preprocess or {})})
+    out.meta.setdefault("recorded", ds)  # the yardstick of the torque errors: :func:`recorded_torque`
+    return out
+
+
+def recorded_torque(ds: Dataset) -> np.ndarray:
+    """``(N, nv)`` torque as recorded [N·m] at the samples of a prepared recording: the yardstick of every
+    torque error (see docs/identification.md, "The yardstick").
+
+    :func:`prepare_dataset` keeps the recording as read in ``meta["recorded"]``.  Preprocessing trims and
+    decimates, which keeps recorded sample times: there the recorded value itself is taken.  When it
+    resampled (jittered time stamps, ``rate=``), the prepared times fall between recorded samples and the
+    recorded torque is interpolated linearly to them (no filter).  A recording that was not prepared is its
+    own record: ``ds.tau``.
+    """
+    rec = ds.meta.get("recorded")
+    if not isinstance(rec, Dataset) or rec.tau is None or rec.n < 2:
+        return ds.tau
+    rec = rec.reorder(list(ds.joints))
+    tr, tp = rec.t, ds.t
+    if np.any(np.diff(tr) <= 0):
+        return ds.tau
+    k = np.clip(np.searchsorted(tr, tp), 1, rec.n - 1)
+    k -= (tp - tr[k - 1]) < (tr[k] - tp)  # the nearest recorded sample
+    if np.all(np.abs(tr[k] - tp) <= 1e-6 * float(np.median(np.diff(tr)))):
+        return rec.tau[k]
+    return np.column_stack([np.interp(tp, tr, rec.tau[:, j]) for j in range(rec.nv)])
 
 
 def predict_torque(
