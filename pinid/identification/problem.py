@@ -656,16 +656,14 @@ def prepare_dataset(ds: Dataset, preprocess: Mapping | bool | None = None, *, un
     # imported only when a recording is actually filtered
     from pinid.data.preprocess import prepare
 
-    out = prepare(ds, **{"unwrap": list(unwrap), **dict(preprocess or {})})
-    out.meta.setdefault("recorded", ds)  # the yardstick of the torque errors: :func:`recorded_torque`
-    return out
+    return prepare(ds, **{"unwrap": list(unwrap), **dict(preprocess or {})})
 
 
 def recorded_torque(ds: Dataset) -> np.ndarray:
     """``(N, nv)`` torque as recorded [N·m] at the samples of a prepared recording: the yardstick of every
     torque error (see docs/identification.md, "The yardstick").
 
-    :func:`prepare_dataset` keeps the recording as read in ``meta["recorded"]``.  Preprocessing trims and
+    :func:`pinid.data.preprocess.prepare` keeps the recording as given in ``meta["recorded"]``.  Preprocessing trims and
     decimates, which keeps recorded sample times: there the recorded value itself is taken.  When it
     resampled (jittered time stamps, ``rate=``), the prepared times fall between recorded samples and the
     recorded torque is interpolated linearly to them (no filter).  A recording that was not prepared is its
