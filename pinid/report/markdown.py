@@ -180,7 +180,7 @@ def report_markdown(ident, figures: dict[str, str] | None = None) -> str:
     lines.append("")
     lines.append(
         f"Best (bold): **{ident.best}** — the physically consistent result with the lowest "
-        f"{'validation' if ident.validation_sources else 'training'} RMS; its model is saved as "
+        f"{'validation' if ident.validation_sources else 'training'} RMS (raw); its model is saved as "
         f"`model_{ident.best}.json`."
     )
     if "errors" in figures:
