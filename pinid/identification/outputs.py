@@ -94,10 +94,12 @@ def identification_text(ident, *, verbose: bool = False) -> str:
     )
     if verbose:
         lines += [result_text(r) for r in ident] + [""]
-    elif ident.results and ident.results[ident.best].truth_error:  # against the truth: every parameter
+    elif ident.results and (ident.results[ident.best].truth_error or ident.results[ident.best].warning):
+        best = ident.results[ident.best]  # against the truth, or poorly determined: every parameter's σ %
+        what = "against the truth" if best.truth_error else "and their relative standard deviations"
         lines += [
-            f"{ident.best} (best): base parameters against the truth",
-            parameter_text(ident.results[ident.best]),
+            f"{ident.best} (best): base parameters {what}",
+            parameter_text(best),
             "",
         ]
     header, rows = summary_table(ident, bold=lambda text: text)
