@@ -141,15 +141,17 @@ def torque_metrics(
         samples = measured.shape[0]
     per_joint = {name: _stats(m, m - p) for name, (m, p) in zip(joints, cols)}
     units = ["N·m"] * len(joints) if units is None else list(units)
-    per_unit = {}
-    for u in dict.fromkeys(units):
-        ms = [m for (m, _), uu in zip(cols, units) if uu == u]
-        es = [m - p for (m, p), uu in zip(cols, units) if uu == u]
-        per_unit[u] = _stats(np.concatenate(ms), np.concatenate(es))
-    if len(per_unit) == 1:
+    kinds = list(dict.fromkeys(units))
+    if len(kinds) == 1:
         pooled = _stats(measured.reshape(-1), (measured - predicted).reshape(-1))
-    else:  # N·m and N pooled together mean nothing
+        per_unit = {kinds[0]: pooled}
+    else:  # N·m and N pooled together mean nothing: one pool per unit
         pooled = {k: float("nan") for k in METRIC_NAMES}
+        per_unit = {}
+        for u in kinds:
+            ms = [m for (m, _), uu in zip(cols, units) if uu == u]
+            es = [m - p for (m, p), uu in zip(cols, units) if uu == u]
+            per_unit[u] = _stats(np.concatenate(ms), np.concatenate(es))
     return TorqueMetrics(per_joint, pooled, int(samples), dict(zip(joints, units)), per_unit)
 
 
