@@ -32,7 +32,9 @@
    down to no less than ``max(1 kHz, 20 × cutoff)`` — a 5 kHz recording becomes 1 kHz, 1 kHz and
    slower stay as they are.  ``decimate=1`` keeps every sample.
 
-Presets (``preset=``) fill in the options left at their defaults: see :data:`PRESETS`.
+Presets (``preset=``) fill in the options left at their defaults: see :data:`PRESETS`.  The recording as
+given is kept in ``meta["recorded"]``: torque errors are measured against it
+(:func:`pinid.identification.problem.recorded_torque`), not against the low-passed copy.
 """
 
 from __future__ import annotations
@@ -225,6 +227,7 @@ def prepare(
         raise DataError(f"{src}: {ds.n} samples, expected at least 10 to filter and differentiate")
     if rate is not None and (not np.isfinite(rate) or rate <= 0):
         raise SpecError(f"resampling rate {rate!r}, expected a rate > 0 [Hz]")
+    recorded = ds.meta.get("recorded", ds)  # the recording as read: the yardstick of torque errors
     ds, unwrapped = _unwrap(ds, unwrap)
     ds, grid = uniform_grid(ds, rate)
     fs = float(f"{1.0 / float(np.median(np.diff(ds.t))):.9g}")  # 1000 Hz, not 999.9999999999991 Hz
@@ -310,6 +313,7 @@ def prepare(
         )
     keep = slice(n_trim, ds.n - n_trim if n_trim else None, decimate)
     meta = dict(ds.meta)
+    meta["recorded"] = recorded
     meta["preprocess"] = {
         "preset": preset,
         "sample_rate": fs,

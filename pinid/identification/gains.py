@@ -168,7 +168,15 @@ class DriveGains:
             out.ddq,
             out.tau * self.gains,
             out.source,
-            {**out.meta, "drive_gains": self.gains.tolist()},
+            {
+                **out.meta,
+                "drive_gains": self.gains.tolist(),
+                **(
+                    {"recorded": self.apply(out.meta["recorded"])}
+                    if isinstance(out.meta.get("recorded"), Dataset)
+                    else {}
+                ),
+            },
         )
 
     def summary(self) -> dict:

@@ -5,6 +5,7 @@ terminal summary and its files, a comparison's files.  Each set of files is plan
 from __future__ import annotations
 
 import os
+import textwrap
 import warnings
 from pathlib import Path
 
@@ -43,18 +44,34 @@ def result_text(r) -> str:
     ]
     if not r.physically_consistent:
         lines += [f"   - {prob}" for prob in (r.consistency.get("problems") or [])[:4]]
-    rows = [
-        [n, f"{v:.6g}", f"{s:.3g}", f"{sp:.3g}" if np.isfinite(sp) else "inf"]
-        for n, v, s, sp in zip(r.base_names, r.base, r.std, r.std_percent)
-    ]
-    lines.append(text_table(["parameter", "value", "std", "std %"], rows, indent="   "))
-    for kind, m in (("train", r.train), ("validation", r.validation)):
+    lines.append(parameter_text(r, indent="   "))
+    for kind, m in (
+        ("train, raw (against the torque as recorded)", r.train),
+        ("validation, raw", r.validation),
+        ("train, filtered (against the low-passed torque)", r.train_filtered),
+        ("validation, filtered", r.validation_filtered),
+    ):
         if m is not None:
             lines += [
                 f"   {kind}:",
                 text_table(["joint", "RMS", "RMS %", "mean ± std |e|", "max |e|"], m.table(), indent="   "),
             ]
     return "\n".join(lines)
+
+
+def parameter_text(r, *, indent: str = "") -> str:
+    """One method's base parameters: value, standard deviation, relative standard deviation σ% and, with a
+    truth, the true value and the error (% of the truth, or the absolute error where the truth is 0)."""
+    t = r.truth_error
+    rows = []
+    for n, v, s, sp in zip(r.base_names, r.base, r.std, r.std_percent):
+        row = [n, f"{v:.6g}", f"{s:.3g}", f"{sp:.3g}" if np.isfinite(sp) else "inf"]
+        if t:
+            rel = t["error_percent"].get(n)
+            row += [f"{t['truth'][n]:.6g}", f"{rel:.3g}" if rel is not None else f"|e| {t['error'][n]:.2g}"]
+        rows.append(row)
+    head = ["parameter", "value", "std", "σ %"] + (["truth", "error %"] if t else [])
+    return text_table(head, rows, indent=indent)
 
 
 def identification_text(ident, *, verbose: bool = False) -> str:
@@ -83,8 +100,28 @@ def identification_text(ident, *, verbose: bool = False) -> str:
     )
     if verbose:
         lines += [result_text(r) for r in ident] + [""]
+    elif ident.results and (ident.results[ident.best].truth_error or ident.results[ident.best].warning):
+        best = ident.results[ident.best]  # against the truth, or poorly determined: every parameter's σ %
+        what = "against the truth" if best.truth_error else "and their relative standard deviations"
+        lines += [
+            f"{ident.best} (best): base parameters {what}",
+            parameter_text(best),
+            "",
+        ]
     header, rows = summary_table(ident, bold=lambda text: text)
     lines.append(text_table(header, rows))
+    lines.append(
+        "RMS raw: against the torque as recorded; RMS filtered: against the low-passed torque (moves with --cutoff)"
+    )
+    best = ident.results.get(ident.best) if ident.results else None
+    if best is not None and len(best.base):
+        k = int(np.nanargmax(np.where(np.isfinite(best.std_percent), best.std_percent, np.inf)))
+        lines.append(
+            f"{ident.best}: largest relative standard deviation σ % {best.std_percent[k]:.3g} ({best.base_names[k]}); "
+            "every parameter's with --verbose and in the report"
+        )
+    if best is not None and best.warning:  # one warning, wrapped to the terminal's 120 columns
+        lines += textwrap.wrap(best.warning, 120, subsequent_indent="  ", break_on_hyphens=False)
     return "\n".join(lines)
 
 

@@ -154,6 +154,8 @@ class IdentificationProblem:
     ``weights``  (rows,) row weights (ones unless given); OLS minimises Σ w·r²
     ``base``     the :class:`~pinid.model.base.BaseParameters` map (``base.P @ θ_standard``)
     ``nominal``  (p,) the URDF's standard parameters (inertias, ``<dynamics>`` friction)
+    ``recorded_tau`` (rows,) the torque as recorded at each row's sample (:func:`recorded_torque`), the
+                 yardstick of the training error; None: ``tau`` is the torque as recorded
     """
 
     model: RobotModel
@@ -173,6 +175,7 @@ class IdentificationProblem:
     peak_velocity: np.ndarray | None = None
     regressor_rows: RegressorRows | None = field(default=None, repr=False, compare=False)
     fit_joints: list[str] | None = None  # the joints whose torque rows enter the fit (None: all)
+    recorded_tau: np.ndarray | None = field(default=None, repr=False, compare=False)
 
     # ---------------------------------------------------------------- sizes and names
     @property
@@ -268,6 +271,8 @@ class IdentificationProblem:
         if not fit.all():
             keeps = [k & np.tile(fit, len(k) // nv) for k in keeps]
         tau, joint, sample = stacked_targets(prepared, keeps, nv)
+        recorded = [recorded_torque(ds) for ds in prepared]
+        recorded_tau = np.concatenate([r.reshape(-1)[k] for r, k in zip(recorded, keeps)])
         rows = RegressorRows(model, terms, base, prepared, keeps)
         if weights is None:
             w = np.ones(len(tau))
@@ -296,6 +301,7 @@ class IdentificationProblem:
             peak_velocity=np.max([np.abs(ds.dq).max(axis=0) for ds in prepared], axis=0),
             regressor_rows=rows,
             fit_joints=[j for j, f in zip(model.joint_names, fit) if f],
+            recorded_tau=recorded_tau,
         )
         bar = progress(total, "regressor", enabled=show_progress)  # the Gram pass of the rank check
         try:
@@ -777,6 +783,30 @@ def check_preprocess(preprocess) -> None:
     unknown = [k for k in preprocess if k not in known]
     if unknown:
         raise SpecError(f"preprocess: unknown option(s) {unknown}, expected some of {', '.join(known)}")
+
+
+def recorded_torque(ds: Dataset) -> np.ndarray:
+    """``(N, nv)`` torque as recorded [N·m] at the samples of a prepared recording: the yardstick of every
+    torque error (see docs/identification.md, "The yardstick").
+
+    :func:`pinid.data.preprocess.prepare` keeps the recording as given in ``meta["recorded"]``.  Preprocessing trims and
+    decimates, which keeps recorded sample times: there the recorded value itself is taken.  When it
+    resampled (jittered time stamps, ``rate=``), the prepared times fall between recorded samples and the
+    recorded torque is interpolated linearly to them (no filter).  A recording that was not prepared is its
+    own record: ``ds.tau``.
+    """
+    rec = ds.meta.get("recorded")
+    if not isinstance(rec, Dataset) or rec.tau is None or rec.n < 2:
+        return ds.tau
+    rec = rec.reorder(list(ds.joints))
+    tr, tp = rec.t, ds.t
+    if np.any(np.diff(tr) <= 0):
+        return ds.tau
+    k = np.clip(np.searchsorted(tr, tp), 1, rec.n - 1)
+    k -= (tp - tr[k - 1]) < (tr[k] - tp)  # the nearest recorded sample
+    if np.all(np.abs(tr[k] - tp) <= 1e-6 * float(np.median(np.diff(tr)))):
+        return rec.tau[k]
+    return np.column_stack([np.interp(tp, tr, rec.tau[:, j]) for j in range(rec.nv)])
 
 
 def predict_torque(

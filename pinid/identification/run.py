@@ -24,7 +24,7 @@ from pinid.data.dataset import Dataset, as_dataset
 from pinid.data.delay import parse_delay, shift_torque
 from pinid.errors import DataError, SpecError
 from pinid.estimators import ESTIMATORS, Estimator, make_estimator
-from pinid.identification.metrics import torque_metrics
+from pinid.identification.metrics import joint_units, torque_metrics
 from pinid.identification.problem import (
     REST_FRACTION,
     IdentificationProblem,
@@ -32,10 +32,12 @@ from pinid.identification.problem import (
     fit_mask,
     load_datasets,
     predict_torque,
+    recorded_torque,
 )
 from pinid.identification.result import Identification, IdentificationResult, make_result
 from pinid.identification.segmental import Segmental, SegmentalProblem
 from pinid.identification.stribeck import fit_velocity, with_stribeck
+from pinid.identification.truth import read_truth, true_base, truth_error
 from pinid.model.base import BaseParameters, base_parameters
 from pinid.model.regressor import JointTerms
 from pinid.model.robot import RobotModel
@@ -388,6 +390,7 @@ def identify(
     delay=None,
     manifest=None,
     started: Callable[[], None] | None = None,
+    truth=None,
 ) -> Identification:
     """Identify ``model``'s dynamic parameters from recordings with several methods; validate; compare.
 
@@ -416,6 +419,10 @@ def identify(
     ``data``, ``validate``, ``payload`` and ``payload_data`` (:mod:`pinid.data.manifest`).  ``started``: called
     once the inputs are read and checked, before the first method runs (the CLI says what it identifies then, so
     that a bad input prints only its error).
+    ``truth``: the truth of a twin (``pinid simulate``'s ``run.truth.json``, its path or dict): every
+    result gets ``truth_error``, its error against the true base parameters (:mod:`pinid.identification.truth`).
+    Torque errors are against the torque as recorded (``result.validation``, ``result.train``) and after
+    the preprocessing's low-pass (``validation_filtered``, ``train_filtered``).
 
     Returns an :class:`~pinid.identification.result.Identification`; ``result.model`` is the best
     result's :class:`~pinid.identification.identified.IdentifiedModel`, ``result["sdp"]`` one method's result.
@@ -434,6 +441,8 @@ def identify(
             got[k] for k in ("model", "data", "validate", "fit_joints", "delay")
         )
         payload, payload_data, manifest = got["payload"], got["payload_data"], got["manifest"]
+    if truth is not None:
+        read_truth(truth)  # an unreadable truth fails before any recording is read
     settings, auto = stribeck_settings(model, terms, stribeck_velocity, stribeck_shape)
     if auto and payload is not None:
         raise SpecError("Stribeck velocity 'auto' with drive gains (--payload): give the velocity instead")
@@ -458,24 +467,34 @@ def identify(
         fit_joints=fit_joints,
         delay=delay,
     )
+    x_true = None if truth is None else true_base(truth, s.model, s.terms, s.base)  # checked before the fits
     if started is not None:
         started()
     fits = run_jobs(s, [(m, None, options.get(m, {})) for m in methods], complete=complete, show_progress=show_progress)
     results = {f.method: f.result for f in fits}
+    if x_true is not None:
+        for r in results.values():
+            r.truth_error = truth_error(r.base, x_true, s.problem.natural_scale, s.base.names)
     values = {m: r.base for m, r in results.items()}
     val_sets = s.validation.get("validation", [])
     if val_sets:
         checked = [check_dataset(ds, model) for ds in val_sets]
         preds = [predict_torque(model, terms, s.base, ds, values) for ds in checked]
         tau_all = np.concatenate([ds.tau for ds in checked])
+        recorded = np.concatenate([recorded_torque(ds) for ds in checked])
+        units = joint_units(model)
         for m, r in results.items():
-            r.validation = torque_metrics(tau_all, np.concatenate([p[m] for p in preds]), model.joint_names)
+            pred = np.concatenate([p[m] for p in preds])
+            r.validation = torque_metrics(recorded, pred, model.joint_names, units=units)
+            r.validation_filtered = torque_metrics(tau_all, pred, model.joint_names, units=units)
         first = checked[0]
         curves = {
             "kind": "validation",
             "source": first.source,
             "t": first.t,
-            "measured": first.tau,
+            "measured": recorded_torque(first),
+            "filtered": first.tau,
+            "units": units,
             "predicted": preds[0],
         }
     else:
@@ -484,7 +503,9 @@ def identify(
             "kind": "training",
             "source": ds.source,
             "t": ds.t,
-            "measured": ds.tau,
+            "measured": recorded_torque(ds),
+            "filtered": ds.tau,
+            "units": joint_units(model),
             "predicted": predict_torque(model, terms, s.base, ds, values),
         }
     if s.train:  # the training motion, drawn as the report's "excitation" figure
