@@ -144,3 +144,27 @@ def test_the_suite_catches_an_optimizer_that_leaves_the_box(monkeypatch):
     monkeypatch.setitem(OPTIMIZERS, Escaping.name, Escaping)
     with pytest.raises(AssertionError, match="outside the box"):
         check_optimizer("toy_escape")
+
+
+def test_help_texts_list_the_registry(monkeypatch):
+    """`pinid excite` and `pinid flex` name the optimisers from the registry, a runtime one included."""
+    import argparse
+
+    from pinid.cli import excite, flex
+
+    monkeypatch.setitem(OPTIMIZERS, ShrinkingSearch.name, ShrinkingSearch)
+    for module, action in ((excite, None), (flex, "fit")):
+        parser = argparse.ArgumentParser(prog="pinid")
+        module.add_arguments(parser)
+        text = _help(parser, action)
+        assert all(name in text for name in OPTIMIZERS), (module.__name__, text)
+
+
+def _help(parser, action) -> str:
+    """The help of ``parser`` or of its sub-command ``action``."""
+    import argparse
+
+    if action is None:
+        return parser.format_help()
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    return sub.choices[action].format_help()
