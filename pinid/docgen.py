@@ -57,6 +57,8 @@ API_MODULES: tuple[tuple[str, str], ...] = (
     ("pinid.data.registry", "File formats (reader and writer registry)"),
     ("pinid.data.preprocess", "Preprocessing"),
     ("pinid.simulation.twin", "The digital twin"),
+    ("pinid.simulation.trajectories", "The twin's trajectories by name"),
+    ("pinid.simulation.cad", "The twin's CAD model"),
     ("pinid.simulation.outputs", "The twin's files and CAD model (pinid simulate)"),
     ("pinid.identification.run", "Identification"),
     ("pinid.identification.problem", "The identification problem"),
