@@ -5,6 +5,7 @@ an import inside a function is still an edge of the graph)."""
 from __future__ import annotations
 
 import ast
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -276,3 +277,59 @@ def test_known_private_reads_are_still_there():
     """A read that was removed leaves KNOWN_PRIVATE_READS (so that the list only shrinks)."""
     stale = sorted(KNOWN_PRIVATE_READS - {(m, a) for m, a, _ in _package_private_reads()})
     assert not stale, f"remove from KNOWN_PRIVATE_READS in tests/test_architecture.py: {stale}"
+
+
+# ---------------------------------------------------------------------------------------------- cited files
+REPO = PACKAGE.parent
+#: A path in a docstring: folders and a file name with one of these suffixes.
+_CITED = re.compile(r"(?<![\w./-])((?:[\w.-]+/)*[\w-]+\.(?:md|py|toml|json|urdf|csv|txt|npz))(?![\w/])")
+#: ``(module file, cited path)`` still citing a missing file (issue 26; pinid/identification is being
+#: reworked in parallel): the list can only shrink.
+KNOWN_MISSING_CITATIONS = {("pinid/identification/compare.py", "../shared/design.md")}
+
+
+def cited_files(path: Path) -> set[str]:
+    """Repository paths cited in the docstrings of ``path``: those under a top-level folder of the repository
+    (``docs/api.md``, ``tests/test_x.py``), climbing out of it (``../x.md``), or a root file (``README.md``);
+    illustrative names (``run/result.json``) are not paths of the repository and are left alone."""
+    tops = {p.name for p in REPO.iterdir()} | {p.name for p in PACKAGE.iterdir()}
+    out = set()
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, (ast.Module, ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef)):
+            for m in _CITED.finditer(ast.get_docstring(node) or ""):
+                s = m.group(1)
+                first = s.split("/")[0]
+                if first == ".." or ("/" in s and first in tops) or re.fullmatch(r"[A-Z_]+\.md", s):
+                    out.add(s)
+    return out
+
+
+def _exists_in_repo(cited: str) -> bool:
+    for base in (REPO, PACKAGE, PACKAGE / "resources"):
+        p = (base / cited).resolve()
+        if p.is_relative_to(REPO) and p.exists():
+            return True
+    return False
+
+
+def _missing_citations() -> set[tuple[str, str]]:
+    return {
+        (path.relative_to(REPO).as_posix(), c)
+        for path in modules().values()
+        for c in cited_files(path)
+        if not _exists_in_repo(c)
+    }
+
+
+def test_docstrings_cite_files_that_exist():
+    new = sorted(_missing_citations() - KNOWN_MISSING_CITATIONS)
+    assert not new, f"docstrings cite files that are not in the repository: {new}"
+    stale = sorted(KNOWN_MISSING_CITATIONS - _missing_citations())
+    assert not stale, f"remove from KNOWN_MISSING_CITATIONS in tests/test_architecture.py: {stale}"
+
+
+def test_the_citation_finder_sees_paths(tmp_path):
+    f = tmp_path / "m.py"
+    f.write_text('"""See docs/api.md, BOARD.md, ../x/y.md and run/result.json."""\n')
+    assert cited_files(f) == {"docs/api.md", "BOARD.md", "../x/y.md"}
+    assert _exists_in_repo("docs/api.md") and not _exists_in_repo("BOARD.md") and not _exists_in_repo("../x/y.md")
