@@ -46,6 +46,8 @@ def cli_reference() -> str:
 API_MODULES: tuple[tuple[str, str], ...] = (
     ("pinid.model.robot", "Robot models"),
     ("pinid.model.regressor", "Standard parameters and the regressor"),
+    ("pinid.model.terms", "Joint and motor terms (the term registry: Term, register)"),
+    ("pinid.model.drives", "Drives: transmissions and motors (Drives)"),
     ("pinid.model.base", "Base parameters"),
     ("pinid.model.describe", "Describing a robot (pinid info)"),
     ("pinid.excitation.trajectory", "Fourier trajectories"),
@@ -85,6 +87,7 @@ API_MODULES: tuple[tuple[str, str], ...] = (
     ("pinid.wearer.prior", "Wearer: table values as a prior"),
     ("pinid.wearer.stage", "Wearer: stage-2 identification"),
     ("pinid.wearer.exponents", "Wearer: passive-moment exponents by nonlinear least squares"),
+    ("pinid.wearer.experiment", "Wearer: the end-to-end study behind docs/wearer.md's figures"),
     ("pinid.flexible.model", "Flexible joints"),
     ("pinid.flexible.link", "Flexible joints: link dynamics"),
     ("pinid.flexible.recording", "Flexible joints: recordings and input signals"),

@@ -51,6 +51,10 @@ class PhysicalLS(Estimator):
     nominal parameters in unidentifiable directions, default 1e-3), ``mass_bounds`` (``(lo, hi)`` [kg]
     for every body, or ``{joint: (lo, hi)}``; None for none), ``margin`` (ε, default 1e-8), ``solver``
     ("CLARABEL", the default, is called directly; any other name is a cvxpy solver, cvxpy then loaded), ``solver_options`` (dict passed to the solver).
+
+    Registered as ``"sdp"`` although the class is named for what it estimates: the method name says how
+    it is solved (a semidefinite program), as users type it (``--methods ols,sdp``), in saved results
+    and in the seed papers' tables; renaming it would break those, so the registry keeps the name.
     """
 
     name = "sdp"
