@@ -1,6 +1,6 @@
 """The contract every registered optimiser keeps (issue 26): iterated over :data:`pinid.optimizers.OPTIMIZERS`,
 so a new optimiser is checked without editing this file.  ``check_optimizer`` is also run on a toy optimiser
-registered at runtime: adding one is one class plus one registry entry (docs/architecture.md).
+registered at runtime and on the worked example of docs/architecture.md ("Adding an optimiser").
 
 The contract: the same seed gives the same result bit for bit; no candidate leaves the box; the known
 minimum of a shifted quadratic is approached from the initial population; the population is evaluated in
@@ -10,7 +10,9 @@ initial population; NaN counts as the worst value.
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, fields
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -168,3 +170,21 @@ def _help(parser, action) -> str:
         return parser.format_help()
     sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
     return sub.choices[action].format_help()
+
+
+def architecture_example(heading: str) -> str:
+    """The python block of the section ``heading`` of docs/architecture.md (its worked example; compiled
+    with ``dont_inherit`` so that it runs as a file of its own, without this file's ``__future__`` import)."""
+    text = (Path(__file__).resolve().parents[1] / "docs" / "architecture.md").read_text(encoding="utf-8")
+    section = text.split(f"\n## {heading}\n", 1)[1].split("\n## ", 1)[0]
+    return re.search(r"```python\n(.*?)```", section, re.S).group(1)
+
+
+def test_the_worked_example_of_docs_architecture_keeps_the_contract(monkeypatch):
+    """docs/architecture.md's "Adding an optimiser" block, run as written, registers an optimiser that passes."""
+    monkeypatch.setitem(OPTIMIZERS, "shrink", None)  # restored (removed) after the test
+    exec(
+        compile(architecture_example("Adding an optimiser"), "docs/architecture.md", "exec", dont_inherit=True),
+        {"__name__": "example"},
+    )
+    check_optimizer("shrink")

@@ -1,6 +1,6 @@
 """The contract every registered reader and writer keeps (issue 26): iterated over
 :data:`pinid.data.registry.READERS` / ``WRITERS``, so a new format is checked without editing this file.
-``check_reader`` also runs on a toy format registered at runtime (docs/architecture.md, "adding a reader").
+``check_reader`` also runs on the worked example of docs/architecture.md ("Adding a data format").
 
 * every reader reads back what its writer of the same name wrote (or, for a format pinid does not write,
   the file its ``example`` makes): the same t, q, dq and tau, with and without a mapping spec naming the
@@ -12,13 +12,14 @@
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from pinid.data.formats import read_recording
-from pinid.data.registry import READERS, WRITERS, Reader, Table, Writer, reader_for
+from pinid.data.registry import READERS, WRITERS, Reader, Table, reader_for
 from pinid.errors import DataError
 
 JOINTS = ["hip", "knee"]
@@ -111,22 +112,26 @@ def _json_read(file: Path, source, wanted, origin: str) -> Table:
     return tab
 
 
-def _json_write(tmp: Path, names, data, digits) -> None:
-    tmp.write_text(json.dumps({n: data[:, i].tolist() for i, n in enumerate(names)}))
-
-
-@pytest.fixture
-def toy_format(monkeypatch):
-    """A JSON-of-columns format: one reader and one writer registration, nothing else."""
-    monkeypatch.setitem(READERS, "toy_json", Reader("toy_json", _json_read, suffixes=(".tjs",), columns=_json_columns))
-    monkeypatch.setitem(WRITERS, "toy_json", Writer("toy_json", _json_write, suffixes=(".tjs",)))
-
-
-def test_a_format_registered_at_runtime_keeps_the_contract(toy_format, tmp_path):
-    check_reader("toy_json", tmp_path)
-
-
 def test_a_reader_without_writer_or_example_is_refused(monkeypatch, tmp_path):
     monkeypatch.setitem(READERS, "toy_nowrite", Reader("toy_nowrite", _json_read, suffixes=(".tnw",)))
     with pytest.raises(AssertionError, match="neither a writer nor an example"):
         check_reader("toy_nowrite", tmp_path)
+
+
+def architecture_example(heading: str) -> str:
+    """The python block of the section ``heading`` of docs/architecture.md (its worked example; compiled
+    with ``dont_inherit`` so that it runs as a file of its own, without this file's ``__future__`` import)."""
+    text = (Path(__file__).resolve().parents[1] / "docs" / "architecture.md").read_text(encoding="utf-8")
+    section = text.split(f"\n## {heading}\n", 1)[1].split("\n## ", 1)[0]
+    return re.search(r"```python\n(.*?)```", section, re.S).group(1)
+
+
+def test_the_worked_example_of_docs_architecture_keeps_the_contract(monkeypatch, tmp_path):
+    """docs/architecture.md's "Adding a data format" block, run as written, registers a format that passes."""
+    monkeypatch.setitem(READERS, "jcol", None)  # restored (removed) after the test
+    monkeypatch.setitem(WRITERS, "jcol", None)
+    exec(
+        compile(architecture_example("Adding a data format"), "docs/architecture.md", "exec", dont_inherit=True),
+        {"__name__": "example"},
+    )
+    check_reader("jcol", tmp_path)

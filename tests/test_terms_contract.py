@@ -1,6 +1,6 @@
 """The contract every registered joint or motor term keeps (issue 26): iterated over
 :data:`pinid.model.terms.TERMS`, so a new term is checked without editing this file.  ``check_term`` also runs
-on a toy term registered at runtime (docs/architecture.md, "adding a joint term").
+on the worked example of docs/architecture.md ("Adding a joint term"), registered at runtime.
 
 For each term, alone on exo_leg with a coupled transmission (hip motor → knee, so motor terms reach both joint
 rows through Gᵀ), at random states away from rest (velocities in the term's own space, 0.02…2 rad/s):
@@ -16,6 +16,9 @@ rows through Gᵀ), at random states away from rest (velocities in the term's ow
 """
 
 from __future__ import annotations
+
+import re
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -106,34 +109,7 @@ def test_every_registered_term_acts_through_its_law(name):
     check_term(name)
 
 
-# ---------------------------------------------------------------------------------------------- a toy one
-@pytest.fixture
-def toy_spring():
-    """A joint spring ``τ = −k·q`` with its own setting (a free length), as one :func:`register` call."""
-    rest = 0.2  # [rad], the toy's own setting, carried by the term
-
-    term = T.register(
-        T.Term(
-            "toy_spring",
-            "k",
-            "joint spring (toy)",
-            "N·m/rad",
-            lambda mo: -(mo.q - rest),
-            nonnegative=True,
-            static=True,
-            plant=lambda v, mo, vs: -v * (mo.q - rest),
-        )
-    )
-    yield term
-    T.TERMS.pop(term.name)
-
-
-def test_a_term_registered_at_runtime_keeps_the_contract(toy_spring):
-    """Adding a term is one :func:`register` call; the suite checks it unchanged, and it selects like any other."""
-    check_term("toy_spring")
-    assert "toy_spring" in T.JointTerms.from_names("fc,toy_spring")
-
-
+# ---------------------------------------------------------------------------------------------- new terms
 def test_the_suite_catches_a_plant_that_disagrees_with_its_column():
     term = T.register(T.Term("toy_wrong", "w", "wrong", "N·m", lambda mo: mo.dq, plant=lambda v, mo, vs: 2 * v * mo.dq))
     try:
@@ -141,3 +117,25 @@ def test_the_suite_catches_a_plant_that_disagrees_with_its_column():
             check_term("toy_wrong")
     finally:
         T.TERMS.pop(term.name)
+
+
+def architecture_example(heading: str) -> str:
+    """The python block of the section ``heading`` of docs/architecture.md (its worked example; compiled
+    with ``dont_inherit`` so that it runs as a file of its own, without this file's ``__future__`` import)."""
+    text = (Path(__file__).resolve().parents[1] / "docs" / "architecture.md").read_text(encoding="utf-8")
+    section = text.split(f"\n## {heading}\n", 1)[1].split("\n## ", 1)[0]
+    return re.search(r"```python\n(.*?)```", section, re.S).group(1)
+
+
+def test_the_worked_example_of_docs_architecture_keeps_the_contract():
+    """docs/architecture.md's "Adding a joint term" block, run as written, registers a term that passes."""
+    assert "spring" not in T.TERMS
+    try:
+        exec(
+            compile(architecture_example("Adding a joint term"), "docs/architecture.md", "exec", dont_inherit=True),
+            {"__name__": "example"},
+        )
+        check_term("spring")
+        assert "spring" in T.JointTerms.from_names("fc,spring")  # selected like any other
+    finally:
+        T.TERMS.pop("spring", None)
