@@ -18,6 +18,7 @@ from pinid.cli.common import (
 from pinid.errors import SolverError, SpecError
 from pinid.io import check_outputs
 from pinid.model.regressor import JointTerms
+from pinid.optimizers import OPTIMIZERS, names_text
 
 HELP = "design an excitation trajectory (Fourier series) that conditions the identification best"
 DESCRIPTION = """\
@@ -94,12 +95,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="also keep |torque| (nominal URDF parameters) within the URDF's effort limits",
     )
     o = p.add_argument_group("optimiser")
-    o.add_argument("--optimizer", default=None, help="slsqp (gradient-based multistart, default), pso, woa, ewoa or de")
+    o.add_argument("--optimizer", default=None, help=f"slsqp (gradient-based multistart, default), {names_text()}")
     o.add_argument(
         "--seed", type=seed_int, default=None, help="random seed (default 0): the same seed gives the same result"
     )
-    o.add_argument("--population", type=positive_int, help="population of pso/woa/ewoa/de (default 100)")
-    o.add_argument("--iterations", type=positive_int, help="iterations of pso/woa/ewoa/de (default 200)")
+    o.add_argument("--population", type=positive_int, help=f"population of {'/'.join(OPTIMIZERS)} (default 100)")
+    o.add_argument("--iterations", type=positive_int, help=f"iterations of {'/'.join(OPTIMIZERS)} (default 200)")
     o.add_argument("--starts", type=positive_int, help="local searches of slsqp (default 128 up to 4 joints, 12 above)")
     o.add_argument(
         "--option",
@@ -128,7 +129,7 @@ def _options(args: argparse.Namespace) -> dict:
     name = args.optimizer.lower()
     if name == "slsqp":
         if args.population is not None or args.iterations is not None:
-            raise SpecError("--population and --iterations apply to pso, woa, ewoa and de, not to slsqp (use --starts)")
+            raise SpecError(f"--population and --iterations apply to {names_text('and')}, not to slsqp (use --starts)")
         if args.starts is not None:
             opts["starts"] = args.starts
     else:

@@ -11,9 +11,10 @@ import numpy as np
 from pinid.cli.common import seed_int
 from pinid.errors import SpecError
 from pinid.io import Artefacts, check_outputs, json_text
+from pinid.optimizers import OPTIMIZERS
 
 HELP = "flexible joints: simulate a twin, fit spring/damper/motor parameters by output error, rigid vs flexible"
-DESCRIPTION = """\
+DESCRIPTION = f"""\
 Joints driven through belts, cables or series-elastic actuators (seed 003): a motor drives the link through
 a nonlinear spring K1·Δ + K2·Δ³ and a damper C, with motor inertia Jm, damping Bm, friction fv, fc.
 Everything is read from a TOML spec (URDF, drives, bounds of the free parameters, truth of the twin, its
@@ -26,7 +27,7 @@ actions:
   twin     simulate the spec's truth under the spec's input, add seeded noise, write a CSV recording
            (t, T_<joint>, q_<joint>, qm_<joint>) and its truth (<out>.json)
   fit      fit the free parameters to a recording (default: a twin made on the fly) with a metaheuristic
-           (pso, woa, ewoa, de) or least_squares; write a JSON result and optionally a figure
+           ({", ".join(OPTIMIZERS)}) or least_squares; write a JSON result and optionally a figure
   compare  fit the flexible and the rigid model to the same recording (seed 003 Figs. 6-7); write a
            JSON result and optionally a figure of measured and simulated angles
 
@@ -67,7 +68,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         q.add_argument(
             "--method",
             default=None,
-            help="pso, woa, ewoa, de (pinid.optimizers) or least_squares; default: the spec's [fit] method",
+            help=f"{', '.join(OPTIMIZERS)} (pinid.optimizers) or least_squares; default: the spec's [fit] method",
         )
         q.add_argument(
             "--cost",

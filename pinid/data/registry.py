@@ -83,6 +83,10 @@ class Reader:
     column names, for files in pinid's dataset format read without a mapping spec (None: this format
     always needs a spec).  ``suffixes``: claimed suffixes (lower case, with the dot); ``match(path)``:
     claims a path whatever its suffix (e.g. a ROS 2 bag folder); ``folder``: the recording is a folder.
+    ``example(path, names, data) -> path``: for a format pinid does not write, makes a small file of
+    dataset-format columns (``names``, ``data`` (samples, columns)) at ``path`` (or beside it, returned),
+    so that the reader contract suite (tests/test_reader_contract.py) can read it back; a reader with a
+    writer of the same name needs none.
     """
 
     name: str
@@ -91,6 +95,7 @@ class Reader:
     columns: Callable[[Path], list[str]] | None = None
     match: Callable[[Path], bool] | None = None
     folder: bool = False
+    example: Callable[[Path, list[str], np.ndarray], Path] | None = None
 
 
 @dataclass(frozen=True)

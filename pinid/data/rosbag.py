@@ -327,4 +327,41 @@ def _suffixes(prefix: str) -> tuple[str, ...]:
     return next(sfx for pre, sfx in SIDE.values() if prefix.startswith(pre))
 
 
-register_reader(Reader("ros2bag", read, suffixes=(".mcap", ".db3"), columns=columns, match=is_bag_folder, folder=True))
+def example(path: Path, names: list[str], data: np.ndarray) -> Path:
+    """A rosbag2 folder (MCAP storage) at ``path``: one ``sensor_msgs/msg/JointState`` on ``/joint_states`` per
+    row of ``data``, whose dataset-format columns ``names`` (t, q_<joint>, dq_<joint>, tau_<joint>) give
+    the stamps, positions, velocities and efforts (for the reader contract suite; pinid writes no bags)."""
+    from rosbags.rosbag2 import StoragePlugin, Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.LATEST)
+    types = store.types
+    col = {n: data[:, i] for i, n in enumerate(names)}
+    joints = [n[2:] for n in names if n.startswith("q_")]
+    with Writer(path, version=9, storage_plugin=StoragePlugin.MCAP) as w:
+        conn = w.add_connection("/joint_states", JOINT_STATE, typestore=store)
+        for k, tk in enumerate(col["t"]):
+            ns = 1_700_000_000_000_000_000 + int(round(tk * 1e9))
+            stamp = types["builtin_interfaces/msg/Time"](sec=ns // 10**9, nanosec=ns % 10**9)
+            fields = {
+                f: np.array([col[p + j][k] for j in joints]) if all(p + j in col for j in joints) else np.zeros(0)
+                for p, f in FIELDS.items()
+            }
+            msg = types[JOINT_STATE](
+                header=types["std_msgs/msg/Header"](stamp=stamp, frame_id=""), name=joints, **fields
+            )
+            w.write(conn, ns, store.serialize_cdr(msg, JOINT_STATE))
+    return path
+
+
+register_reader(
+    Reader(
+        "ros2bag",
+        read,
+        suffixes=(".mcap", ".db3"),
+        columns=columns,
+        match=is_bag_folder,
+        folder=True,
+        example=example,
+    )
+)

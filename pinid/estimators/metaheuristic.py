@@ -12,7 +12,7 @@ Each estimator searches the nb base parameters inside a box with a population op
 ``"sae"``  Σ √w·|r|  — seed 000 (its PSO minimises the sum of absolute torque errors, "ΔT1 + ΔT2").
            Needs the tall product ``W·Xᵀ`` (rows × P) every iteration, computed in chunks of rows.
 
-**Least squares is the global minimiser of "sse"** on the training data (``../shared/design.md``): none of
+**Least squares is the global minimiser of "sse"** on the training data (docs/metaheuristics.md): none of
 these estimators can reach a lower "sse" than :class:`~pinid.estimators.ols.OLS`; with "sae" they aim at
 the least-absolute-deviations fit (:func:`least_absolute_deviations`, convex, found deterministically
 by IRLS) instead.  Every result reports both training costs, the least-squares value of its fitness

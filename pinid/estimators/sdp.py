@@ -10,7 +10,7 @@ consistency can be imposed on every body.  Problem::
 
 * The data term is ‖W_b·P·θ − τ‖ (rows weighted), compressed by one pass over the column-scaled
   ``[W_b | τ]`` (:func:`~pinid.estimators.base.augmented_r`): ``‖W_b x − τ‖² = ‖R·C·x − c‖² + ρ²`` with
-  ``R`` only nb × nb, so the solver never sees the tall regressor (``../shared/design.md``).  It is the *norm* of the excess
+  ``R`` only nb × nb, so the solver never sees the tall regressor (docs/benchmarks.md, memory).  It is the *norm* of the excess
   residual, not its square: the minimiser is the same, but the cost has a kink where the excess is
   zero, so when the least-squares solution is physically realisable it is returned exactly (an exact
   penalty) whatever the small regulariser does; on noise-free data of a consistent robot the base
@@ -51,6 +51,10 @@ class PhysicalLS(Estimator):
     nominal parameters in unidentifiable directions, default 1e-3), ``mass_bounds`` (``(lo, hi)`` [kg]
     for every body, or ``{joint: (lo, hi)}``; None for none), ``margin`` (ε, default 1e-8), ``solver``
     ("CLARABEL", the default, is called directly; any other name is a cvxpy solver, cvxpy then loaded), ``solver_options`` (dict passed to the solver).
+
+    Registered as ``"sdp"`` although the class is named for what it estimates: the method name says how
+    it is solved (a semidefinite program), as users type it (``--methods ols,sdp``), in saved results
+    and in the seed papers' tables; renaming it would break those, so the registry keeps the name.
     """
 
     name = "sdp"

@@ -8,7 +8,7 @@ regressor column is a function of the motion in its own space, vectorised over s
 * a motor term's column is evaluated on the motor motion ``(G·q, G·dq, G·ddq)`` and enters joint ``j``'s
   row as ``G[m, j]·c[:, m]`` (``τ_joint = Gᵀ·τ_motor``; see :mod:`pinid.model.drives`).
 
-Adding a term is one :func:`register` call (see docs/architecture.md and BOARD.md): give the selection
+Adding a term is one :func:`register` call (docs/architecture.md, "Adding a joint term"): give the selection
 name used by ``--terms``, the parameter suffix, label, unit, the column function, and optionally the
 nominal value per joint (read from the robot), the SDP sign constraint, the URDF ``<dynamics>`` /
 drives TOML field, whether it is an inertia (its column is an acceleration) and the torque the digital

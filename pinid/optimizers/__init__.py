@@ -13,6 +13,16 @@ name       method
 ``ewoa``   whale optimisation + differential mutation of the better whales (seed 001 Eq. (18))
 ``de``     scipy's differential evolution, vectorised
 =========  ===========================================================================
+
+Two methods are offered by name beside the registry but are not optimisers of this interface:
+``slsqp`` (the default of excitation design, :func:`pinid.excitation.design.design_excitation`) and
+``least_squares`` (the output-error fit of flexible joints, :func:`pinid.flexible.output_error.fit_output_error`;
+scipy's trust-region least squares also polishes the metaheuristic estimators).  Both are gradient-based
+*local* methods: slsqp needs the design problem's analytic gradient and its inequality constraints
+(a multistart with its own ``starts`` setting), least_squares a residual vector and its Jacobian.  The
+interface here is derivative-free minimisation of a batch *scalar* function in a box, which gives them
+neither; their callers list them beside :data:`OPTIMIZERS` (``design_optimizers()``,
+``output_error.methods()``), and the contract suite (tests/test_optimizer_contract.py) covers the registry.
 """
 
 from __future__ import annotations
@@ -44,6 +54,12 @@ def get_optimizer(name: str, options=None, **kw) -> Optimizer:
     return cls(options, **kw)
 
 
+def names_text(conjunction: str = "or", names=None) -> str:
+    """The registered names as prose for help texts and messages: ``"pso, woa, ewoa or de"``."""
+    names = list(OPTIMIZERS if names is None else names)
+    return names[0] if len(names) == 1 else f"{', '.join(names[:-1])} {conjunction} {names[-1]}"
+
+
 __all__ = [
     "DEOptions",
     "DifferentialEvolution",
@@ -57,4 +73,5 @@ __all__ = [
     "WOA",
     "WOAOptions",
     "get_optimizer",
+    "names_text",
 ]

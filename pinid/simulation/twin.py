@@ -50,7 +50,6 @@ from __future__ import annotations
 import math
 import warnings
 from dataclasses import dataclass, replace
-from pathlib import Path
 from collections.abc import Sequence
 
 import numpy as np
@@ -58,7 +57,7 @@ import pinocchio as pin
 
 from pinid.checks import count, number
 from pinid.data.dataset import Dataset
-from pinid.errors import DataError, DataWarning, ModelError, SpecError
+from pinid.errors import DataError, DataWarning, SpecError
 from pinid.model.robot import RobotModel, as_robot
 from pinid.excitation.trajectory import FourierTrajectory
 from pinid.io import write_json
@@ -66,152 +65,23 @@ from pinid.model import terms as _terms
 from pinid.model.base import base_parameters
 from pinid.model.regressor import JointTerms, parameter_names, standard_parameters
 from pinid.progress import progress as _progress
-from pinid.resources import EXCITATION_DIR, bundled_trajectories
 from pinid.errors import OutputError
 from pinid.io import as_path
 from pinid.checks import array_like
-
-#: Seed 000 (Zha et al. 2019) Table 1, degrees: (hip offset, hip sin amplitude, knee offset, knee sin
-#: amplitude) of q = offset + amplitude·sin(2π t); q = 0 hanging down, counter-clockwise positive.
-ZHA2019_TABLE1: dict[int, tuple[float, float, float, float]] = {
-    1: (-10.0, 0.0, 45.0, -30.0),
-    2: (-10.0, 0.0, 60.0, -30.0),
-    3: (-30.0, -30.0, 75.0, -30.0),
-    4: (-45.0, -30.0, 60.0, 30.0),
-}
-
-#: How seed 000's joint angles map onto a bundled robot's joints: (joint, sign) for hip and knee.  Angles
-#: are in the paper's convention (q = 0 hanging down, counter-clockwise positive seen from the side).
-#: ``apal_leg`` (seed 000's own leg): axes +y, positive = swing backward, exactly the paper's convention.
-#: ``exo_leg`` (seed 001's leg): axes −y, positive hip = flexion and negative knee = flexion, so both
-#: signs flip (paper hip −10° → exo_leg hip +10°; paper knee +45° → exo_leg knee −45°).
-PAPER_CONVENTIONS: dict[str, tuple[tuple[str, float], tuple[str, float]]] = {
-    "apal_leg": (("hip", 1.0), ("knee", 1.0)),
-    "exo_leg": (("hip", -1.0), ("knee", -1.0)),
-}
-
-
-def trajectory_presets() -> list[str]:
-    """Names of the trajectory presets: ``zha2019-1`` … ``zha2019-4`` (Zha et al. 2019, Table 1; the old
-    names ``seed000-1`` … are accepted with a DeprecationWarning)."""
-    return [f"zha2019-{k}" for k in ZHA2019_TABLE1]
-
-
-def zha2019_trajectory(
-    number: int, joints: Sequence[str] = ("hip", "knee"), signs: Sequence[float] = (1.0, 1.0)
-) -> FourierTrajectory:
-    """Seed 000's Table 1 trajectory ``number`` (1–4) as a Fourier trajectory (ω = 2π rad/s, one harmonic).
-
-    ``joints``: names for (hip, knee); ``signs``: +1 or −1 per joint when the robot's axis points the other
-    way than the paper's (counter-clockwise positive, q = 0 hanging down).  Angles become radians.
-    """
-    if isinstance(number, bool) or not isinstance(number, int) or number not in ZHA2019_TABLE1:
-        raise SpecError(f"number={number!r}: seed 000 Table 1 has trajectories 1 to 4")
-    ho, ha, ko, ka = ZHA2019_TABLE1[number]
-    d = np.pi / 180
-    s = np.asarray(signs, dtype=float)
-    return FourierTrajectory(
-        list(joints),
-        2 * np.pi,
-        s * np.array([ho, ko]) * d,
-        (s * np.array([ha, ka]) * d)[:, None],
-        np.zeros((2, 1)),
-        meta={
-            "name": f"zha2019-{number}",
-            "source": "Zha et al. 2019 (seed 000), Table 1",
-            "paper_degrees": {"hip": [ho, ha], "knee": [ko, ka]},
-            "signs": s.tolist(),
-        },
-    )
-
-
-def load_trajectory(spec: str, model: RobotModel, *, flip: Sequence[str] = ()) -> FourierTrajectory:
-    """A trajectory for ``model`` from a JSON file (``pinid excite``), the name of one that ships with pinid
-    (``seed001_table3``, :func:`pinid.resources.bundled_trajectories`) or a preset name (``zha2019-3``).
-
-    Presets are mapped onto the model's joints named ``hip`` and ``knee`` (or, failing that, its two
-    joints in order) with the signs of :data:`PAPER_CONVENTIONS` for that robot; ``flip`` negates more
-    joints (the robot's axis pointing the other way).  Files must name the model's joints.
-    """
-    if not isinstance(spec, str):
-        raise SpecError(f"spec: got {type(spec).__name__}, expected a trajectory JSON path, a bundled name or a preset")
-    renamed = spec.replace("seed000-", "zha2019-", 1) if spec.startswith("seed000-") else None
-    if renamed in trajectory_presets():
-        warnings.warn(f"trajectory preset {spec!r} is deprecated, use {renamed!r}", DeprecationWarning, stacklevel=2)
-        spec = renamed
-    if spec in trajectory_presets():
-        number = int(spec.split("-")[1])
-        names = model.joint_names
-        conv = PAPER_CONVENTIONS.get(model.name)
-        if conv is not None:
-            joints, signs = [c[0] for c in conv], [c[1] for c in conv]
-        elif "hip" in names and "knee" in names:
-            joints, signs = ["hip", "knee"], [1.0, 1.0]
-        elif len(names) == 2:
-            joints, signs = list(names), [1.0, 1.0]
-        else:
-            raise SpecError(
-                f"trajectory preset {spec} is for a two-joint leg (hip, knee); {model.name} has joints "
-                f"{', '.join(names)}"
-            )
-        for f in flip:
-            if f not in joints:
-                raise SpecError(f"--flip {f}: not a joint of the preset (its joints: {', '.join(joints)})")
-        signs = [-s if j in flip else s for j, s in zip(joints, signs)]
-        if len(names) != 2:
-            raise SpecError(
-                f"trajectory preset {spec} moves two joints; {model.name} has {len(names)} active joints "
-                f"({', '.join(names)}); lock the others with --lock"
-            )
-        return zha2019_trajectory(number, joints, signs)
-    p = Path(spec)
-    if not p.exists() and spec in bundled_trajectories():
-        p = EXCITATION_DIR / f"{spec}.json"
-    if not p.exists():
-        raise SpecError(
-            f"{spec}: no such excitation file, and not a bundled trajectory "
-            f"({', '.join(bundled_trajectories())}) or a preset ({', '.join(trajectory_presets())})"
-        )
-    tr = FourierTrajectory.load(p)
-    if flip:
-        raise SpecError("--flip applies to trajectory presets only; an excitation file is in the URDF's convention")
-    return tr
-
-
-# ---------------------------------------------------------------------------------------------- perturbation
-def perturb(model: RobotModel, percent: float, rng: np.random.Generator) -> RobotModel:
-    """A copy of ``model`` whose inertial parameters differ by about ``percent`` % — a "CAD" model.
-
-    Each body's mass distribution is transformed, which keeps it physically consistent: the mass is
-    scaled by ``1 + ε·u`` (|u| ≤ 1, ε = percent/100) and the mass distribution mapped by ``x → S·x + t``
-    with ``S = 1 + (ε/2)·U`` (entries of U uniform in [−1, 1]) and ``t`` up to ``(ε/2)·r`` per axis, r
-    the body's radius of gyration about its joint.  In pseudo-inertia form ``J' = (1 + ε·u)·A J Aᵀ``
-    with ``A = [[S, t], [0, 1]]``, so ``J' ⪰ 0`` whenever ``J ⪰ 0``.  Mass changes by at most ``percent``
-    %, first moments and inertias by about as much.  Friction is unchanged.
-    """
-    model = as_robot(model)
-    if not np.isfinite(percent) or percent < 0 or percent >= 100:
-        raise SpecError(f"perturbation {percent!r} %, expected a percentage from 0 to below 100")
-    eps = percent / 100.0
-    theta = model.inertial_parameters().copy()
-    for b in range(model.nv):
-        p = theta[10 * b : 10 * b + 10]
-        m, h = p[0], p[1:4]
-        Ixx, Ixy, Iyy, Ixz, Iyz, Izz = p[4:10]
-        inertia = np.array([[Ixx, Ixy, Ixz], [Ixy, Iyy, Iyz], [Ixz, Iyz, Izz]])
-        sigma = 0.5 * np.trace(inertia) * np.eye(3) - inertia
-        J = np.zeros((4, 4))
-        J[:3, :3], J[:3, 3], J[3, :3], J[3, 3] = sigma, h, h, m
-        S = np.eye(3) + 0.5 * eps * rng.uniform(-1, 1, (3, 3))
-        radius = math.sqrt(max(np.trace(sigma), 0.0) / m) if m > 0 else 0.0
-        A = np.eye(4)
-        A[:3, :3] = S
-        A[:3, 3] = 0.5 * eps * radius * rng.uniform(-1, 1, 3)
-        Jp = (1.0 + eps * rng.uniform(-1, 1)) * (A @ J @ A.T)
-        sig = 0.5 * (Jp[:3, :3] + Jp[:3, :3].T)
-        I2 = np.trace(sig) * np.eye(3) - sig
-        theta[10 * b : 10 * b + 10] = [Jp[3, 3], *Jp[:3, 3], I2[0, 0], I2[0, 1], I2[1, 1], I2[0, 2], I2[1, 2], I2[2, 2]]
-    return model.with_inertial_parameters(theta)
+from pinid.simulation.cad import perturb as perturb
+from pinid.simulation.plant_checks import (
+    LIMIT_OVERSHOOT as LIMIT_OVERSHOOT,
+    TRACKING_ERROR_MAX as TRACKING_ERROR_MAX,
+    check_mass_matrix,
+    check_tracking as check_tracking,
+)
+from pinid.simulation.trajectories import (
+    PAPER_CONVENTIONS as PAPER_CONVENTIONS,
+    ZHA2019_TABLE1 as ZHA2019_TABLE1,
+    load_trajectory as load_trajectory,
+    trajectory_presets as trajectory_presets,
+    zha2019_trajectory as zha2019_trajectory,
+)
 
 
 # ---------------------------------------------------------------------------------------------- simulation
@@ -600,7 +470,7 @@ def _simulate(
                 f"outside its URDF limits [{lo[j]:.4g}, {hi[j]:.4g}]"
             )
 
-    _check_mass_matrix(model, qd[:: max(1, len(qd) // 20)], extra.get("armature"))
+    check_mass_matrix(model, qd[:: max(1, len(qd) // 20)], extra.get("armature"))
 
     vmax = model.velocity_limit
     over = np.flatnonzero(np.max(np.abs(dqd), axis=0) > vmax * (1 + 1e-9))
@@ -810,47 +680,6 @@ def _simulate(
     return recording, truth
 
 
-#: How far [rad or m] beyond a joint limit, as a fraction of the limits' range, the plant may go before the
-#: twin calls the run failed (a tracking loop overshoots a little where the trajectory touches a limit).
-LIMIT_OVERSHOOT = 0.25
-#: Largest tracking error [rad, or m for a prismatic joint] of a run the twin accepts (on joints without
-#: limits; half a turn: the controller has lost the trajectory).
-TRACKING_ERROR_MAX = np.pi
-
-
-def check_tracking(model, q: np.ndarray, q_desired: np.ndarray) -> None:
-    """DataError (one line) when the plant's positions ``q`` (N, nv) left a joint's limits by more than
-    :data:`LIMIT_OVERSHOOT` × their range, or left ``q_desired`` by more than :data:`TRACKING_ERROR_MAX`:
-    the recording would not show the trajectory asked for (the model cannot be held by its controller:
-    a link kilometres long, a mass or inertia off by orders of magnitude, effort limits too low)."""
-    lo, hi = model.lower, model.upper
-    bounded = np.isfinite(lo) & np.isfinite(hi) & (hi > lo)
-    margin = np.where(bounded, LIMIT_OVERSHOOT * np.where(bounded, hi - lo, 0.0), np.inf)
-    beyond = np.maximum(lo - q, q - hi)
-    err = np.abs(q - q_desired).max(axis=0)
-    bad = np.flatnonzero(np.any(beyond > margin, axis=0) | (err > TRACKING_ERROR_MAX))
-    if not bad.size:
-        return
-    j = int(bad[np.argmax(err[bad])])
-    name = model.joint_names[j]
-    where = (
-        f"reached {q[np.argmax(beyond[:, j]), j]:.4g}, outside its limits [{lo[j]:.4g}, {hi[j]:.4g}]"
-        if bounded[j] and beyond[:, j].max() > margin[j]
-        else f"is {err[j]:.4g} off the trajectory"
-    )
-    pm = model.pin_model
-    offsets = [float(np.linalg.norm(pm.jointPlacements[i].translation)) for i in range(1, pm.njoints)]
-    k = int(np.argmax(offsets))
-    hint = (
-        f"; joint '{model.joint_names[k]}' sits {offsets[k]:.3g} m from its parent joint" if offsets[k] > 10.0 else ""
-    )
-    raise DataError(
-        f"simulation failed to track the trajectory: joint '{name}' {where} (tracking error up to "
-        f"{err[j]:.3g}){hint}; expected a model its controller can hold: check the URDF's joint origins, "
-        "masses, inertias and effort limits"
-    )
-
-
 #: Frequency band [Hz] of the wearer's involuntary active torque (slow, voluntary-like movement).
 WEARER_BAND = (0.2, 2.0)
 
@@ -871,42 +700,6 @@ def _wearer(model: RobotModel) -> dict:
     from pinid.wearer.attach import wearer_links
 
     return wearer_links(model.urdf_text) if model.urdf_text else {}
-
-
-def _check_mass_matrix(model: RobotModel, q: np.ndarray, armature=None) -> None:
-    """ModelError naming the link when the plant's mass matrix is singular at the positions ``q`` (N, nv):
-    a joint that moves no mass or inertia (a massless last link) cannot be simulated, its acceleration
-    is undetermined.  Armature and reflected rotor inertia count."""
-    pm, data = model.pin_model, model.pin_model.createData()
-    extra = np.zeros(model.nv) if armature is None else np.asarray(armature, dtype=float)
-    d = model.drives
-    if d is not None and np.any(d.nominal("armature") != 0):
-        extra = extra + np.einsum("mj,m,mj->j", d.matrix, d.nominal("armature"), d.matrix)
-    for qk in np.atleast_2d(q):
-        M = pin.crba(pm, data, model.configuration(qk))
-        M = np.triu(M) + np.triu(M, 1).T
-        M[np.diag_indices(model.nv)] += extra
-        diag = np.diag(M)
-        # A joint moving nothing has a zero diagonal entry (1e-12 kg·m² or kg: far below any real link).
-        # Otherwise singularity is judged on M scaled to a unit diagonal, so that links of very different
-        # sizes (a knee 1e6 m below the hip: M's entries 1e12 apart) are not mistaken for a massless one.
-        weak = np.flatnonzero(~(diag > 1e-12))
-        if weak.size:
-            j = int(weak[0])
-        else:
-            lowest, vectors = np.linalg.eigh(M / np.sqrt(np.outer(diag, diag)))
-            if lowest[0] > 1e-10:
-                continue
-            j = int(np.argmax(np.abs(vectors[:, 0])))  # the joint the singular direction moves most
-        name = model.joint_names[j]
-        jid = pm.getJointId(name)
-        links = [f.name for f in pm.frames if f.parentJoint == jid and f.type == pin.FrameType.BODY]
-        raise ModelError(
-            f"{model.name}: joint '{name}' moves no mass or inertia about its axis (link "
-            f"'{links[0] if links else name}' and the links after it are massless or their inertia is "
-            "zero), so the mass matrix is singular and the plant cannot be simulated; expected a "
-            "mass and inertia on every moving link (or an armature)"
-        )
 
 
 def plant_terms(model: RobotModel, terms: dict | None = None) -> dict[str, np.ndarray]:

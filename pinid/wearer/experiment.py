@@ -9,6 +9,12 @@
    the RMS of the true exo + wearer model on the same (preprocessed) validation data — what the
    sensor noise and the active torque leave, that no model can explain.
 4. Both controllers track a reference on the true plant with each model.
+
+No command calls it: it is the study behind docs/wearer.md's figures, kept in the package (not in the
+tests) so that they can be measured again from Python with other settings — tests/benchmarks/bench_wearer.py
+(the documented figures) and tests/test_wearer_experiment.py (the sensor-noise-only case) both call
+:func:`wearer_experiment`.  Everything it does goes through the public functions of the wearer stage, the
+twin and the identified model; its own code is only the bookkeeping of the four steps.
 """
 
 from __future__ import annotations
