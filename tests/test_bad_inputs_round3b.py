@@ -471,17 +471,10 @@ def test_named_api_cases(tmp_path, recording):
 
 
 #: Public functions of docs/api.md that do not yet refuse a wrong-type argument with a PinidError (they
-#: raise AttributeError/TypeError).  All in wearer/stage.py, which the other branch of issue 25's round
-#: edits; left for after the merge.  test_known_gaps_are_still_gaps fails when one of them
-#: is fixed (take it off the list); the seeded test fails when any other public function regresses.
-KNOWN_GAPS = {
-    "wearer.stage.compress",
-    "wearer.stage.choose_prior_weight",
-    "wearer.stage.stack",
-    "wearer.stage.stage_summary",
-    "wearer.stage.stage_text",
-    "wearer.stage.write_stage",
-}
+#: raise AttributeError/TypeError): none since issue 25 item 23's guards.  test_known_gaps_are_still_gaps
+#: fails when a listed one is fixed (take it off the list); the seeded test fails when any other public
+#: function regresses.
+KNOWN_GAPS: set[str] = set()
 
 
 def _api_functions() -> dict[str, object]:

@@ -40,6 +40,7 @@ from pinid.io import atomic_path
 from pinid.data.mapping import FLOAT_RE, QUANTITIES, MappingSpec, peek_columns
 from pinid.data.registry import Writer, register_writer, writer_for
 from pinid.data.dataset import as_dataset
+from pinid.checks import as_floats, count
 
 PREFIXES: dict[str, str] = {"q": "q_", "dq": "dq_", "ddq": "ddq_", "tau": "tau_"}
 CHECK_MODES = ("error", "warn", "off")
@@ -358,6 +359,7 @@ def time_digits(t: np.ndarray, digits: int) -> int:
     """Significant digits the time column ``t`` [s] needs: at least ``digits``, and enough that every
     time step keeps 7 digits of its own (epoch seconds, t = 1.7e9 in 1 ms steps, need 20: all 17 of a
     float64, which read back exactly); never more than 17."""
+    t, digits = as_floats(t, "t").reshape(-1), count(digits, "digits", low=1)
     steps = np.diff(t)
     steps = steps[steps > 0]
     if not steps.size:

@@ -159,4 +159,7 @@ def torque_metrics(
 
 def joint_units(model) -> list[str]:
     """Each active joint's torque unit: "N" for a prismatic joint, "N·m" otherwise."""
+    from pinid.model.robot import as_robot  # here: metrics loads without Pinocchio
+
+    model = as_robot(model)
     return ["N" if j.kind == "prismatic" else "N·m" for j in model.joints]

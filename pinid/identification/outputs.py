@@ -44,7 +44,7 @@ def result_text(r) -> str:
     ]
     if not r.physically_consistent:
         lines += [f"   - {prob}" for prob in (r.consistency.get("problems") or [])[:4]]
-    lines.append(parameter_text(r, indent="   "))
+    lines.append(_parameter_text(r, indent="   "))
     for kind, m in (
         ("train, raw (against the torque as recorded)", r.train),
         ("validation, raw", r.validation),
@@ -59,7 +59,7 @@ def result_text(r) -> str:
     return "\n".join(lines)
 
 
-def parameter_text(r, *, indent: str = "") -> str:
+def _parameter_text(r, *, indent: str = "") -> str:
     """One method's base parameters: value, standard deviation, relative standard deviation σ% and, with a
     truth, the true value and the error (% of the truth, or the absolute error where the truth is 0)."""
     t = r.truth_error
@@ -93,7 +93,7 @@ def identification_text(ident, *, verbose: bool = False) -> str:
         f"shape {v['shape']:.4g}{' (fitted)' if v.get('shape_fitted') else ''}"
         for name, v in d.get("stribeck", {}).items()
     ]
-    lines += recordings_lines(d, ident.robot.get("joints") or [])
+    lines += _recordings_lines(d, ident.robot.get("joints") or [])
     lines.append(
         f"training: {d['samples']} samples from {len(d['sources'])} recording(s), {d['rows']} torque rows used"
         + (f"; validation: {len(ident.validation_sources)} recording(s)" if ident.validation_sources else "")
@@ -105,7 +105,7 @@ def identification_text(ident, *, verbose: bool = False) -> str:
         what = "against the truth" if best.truth_error else "and their relative standard deviations"
         lines += [
             f"{ident.best} (best): base parameters {what}",
-            parameter_text(best),
+            _parameter_text(best),
             "",
         ]
     header, rows = summary_table(ident, bold=lambda text: text)
@@ -125,7 +125,7 @@ def identification_text(ident, *, verbose: bool = False) -> str:
     return "\n".join(lines)
 
 
-def recordings_lines(d: dict, joints: list[str]) -> list[str]:
+def _recordings_lines(d: dict, joints: list[str]) -> list[str]:
     """The torque delay and the joints left out of the fit (issue 28), one line each, when there are any."""
     lines = []
     if d.get("delay"):

@@ -62,6 +62,7 @@ from pinid.progress import progress
 from pinid.data.dataset import as_dataset
 from pinid.model.robot import as_robot
 from pinid.checks import array_like
+from pinid.model.terms import as_terms
 
 #: Default fraction of a joint's largest speed below which its row counts as "at rest".
 REST_FRACTION = 0.02
@@ -564,7 +565,7 @@ def fit_mask(model: RobotModel, fit_joints: Sequence[str] | str | None = None) -
     """(nv,) booleans: the joints whose torque rows enter the fit, from ``"J1,J2"``, a list or None (all).
 
     SpecError for an empty list or a name that is not an active joint (naming the joints that are)."""
-    names = model.joint_names
+    names = as_robot(model).joint_names
     if fit_joints is None:
         return np.ones(len(names), bool)
     if isinstance(fit_joints, str):
@@ -592,6 +593,7 @@ def motor_kept_rows(
     joint velocities are (a differential's motor stands still when dq5 = −dq6 while both joints move).  The
     motor's threshold is :func:`rest_thresholds` of the motor velocities (``"auto"``), or ``|G|·v`` for given
     joint thresholds ``v``; 0 or None keeps every row."""
+    ds, model, terms = as_dataset(ds), as_robot(model), as_terms(terms)
     n, nv = ds.dq.shape
     drives = getattr(model, "drives", None)
     if "motor_fc" not in terms or drives is None:
@@ -758,7 +760,7 @@ def prepare_dataset(ds: Dataset, preprocess: Mapping | bool | None = None, *, un
     ``unwrap``: joints whose angles are unwrapped when the recording is prepared (:func:`free_angles`).
     """
     ds = as_dataset(ds)
-    check_preprocess(preprocess)
+    _check_preprocess(preprocess)
     needs = ds.dq is None or ds.ddq is None
     if preprocess is False or (preprocess is None and not needs):
         return ds
@@ -768,7 +770,7 @@ def prepare_dataset(ds: Dataset, preprocess: Mapping | bool | None = None, *, un
     return prepare(ds, **{"unwrap": list(unwrap), **(dict(preprocess) if isinstance(preprocess, Mapping) else {})})
 
 
-def check_preprocess(preprocess) -> None:
+def _check_preprocess(preprocess) -> None:
     """SpecError unless ``preprocess`` is None, True, False or a dict of :func:`pinid.data.preprocess.prepare`
     options (``{"cutof": 5}`` names the unknown key and the known ones)."""
     import inspect
@@ -795,7 +797,7 @@ def recorded_torque(ds: Dataset) -> np.ndarray:
     recorded torque is interpolated linearly to them (no filter).  A recording that was not prepared is its
     own record: ``ds.tau``.
     """
-    rec = ds.meta.get("recorded")
+    rec = as_dataset(ds).meta.get("recorded")
     if not isinstance(rec, Dataset) or rec.tau is None or rec.n < 2:
         return ds.tau
     rec = rec.reorder(list(ds.joints))

@@ -45,6 +45,7 @@ from pinid.model.terms import STRIBECK_TERMS, Stribeck, as_terms, stribeck, stri
 from pinid.model.serialize import robot_to_dict
 from pinid.progress import progress
 from pinid.model.robot import as_robot
+from pinid.io import as_path
 
 #: Default methods of :func:`identify` and ``pinid identify``.
 DEFAULT_METHODS: tuple[str, ...] = ("ols", "wls", "sdp")
@@ -555,7 +556,8 @@ def use_manifest(
     from pinid.data.manifest import Manifest
     from pinid.model.drives import attach
 
-    m = manifest if isinstance(manifest, Manifest) else Manifest.load(manifest)
+    model = as_robot(model)
+    m = manifest if isinstance(manifest, Manifest) else Manifest.load(as_path(manifest, "manifest"))
     given = {"data": data, "validate": validate, "payload": payload, "payload data": payload_data, "mapping": mapping}
     clash = [k for k, v in given.items() if v is not None and not (isinstance(v, (list, tuple, dict)) and not v)]
     if clash:

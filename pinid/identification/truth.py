@@ -12,23 +12,24 @@ from __future__ import annotations
 
 import json
 import os
-from collections.abc import Mapping
-from pathlib import Path
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 
+from pinid.checks import as_floats
 from pinid.errors import SpecError
+from pinid.io import as_path
 from pinid.model.base import BaseParameters
 from pinid.model.regressor import JointTerms
-from pinid.model.robot import RobotModel
-from pinid.model.terms import robot_layout
+from pinid.model.robot import RobotModel, as_robot
+from pinid.model.terms import as_terms, robot_layout
 
 
 def read_truth(truth) -> tuple[dict, str]:
     """``(truth dict, its name for messages)`` from a dict or the path of a truth JSON."""
     if isinstance(truth, Mapping):
         return dict(truth), "truth"
-    p = Path(truth)
+    p = as_path(truth, "truth")
     try:
         d = json.loads(p.read_text(encoding="utf-8"))
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
@@ -42,6 +43,9 @@ def true_base(
     truth: Mapping | str | os.PathLike, model: RobotModel, terms: JointTerms, base: BaseParameters
 ) -> np.ndarray:
     """The true base parameters (in ``base.names``' order) from a truth of ``pinid simulate``."""
+    model, terms = as_robot(model), as_terms(terms)
+    if not isinstance(base, BaseParameters):
+        raise SpecError(f"base: got {type(base).__name__}, expected pinid BaseParameters (pinid.model.base)")
     d, where = read_truth(truth)
     std = d.get("standard")
     if not (isinstance(std, Mapping) and isinstance(std.get("names"), list) and isinstance(std.get("values"), list)):
@@ -78,8 +82,9 @@ def true_base(
 def parameter_errors(x: np.ndarray, truth: np.ndarray, scale: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``(|x − x_true| [the parameter's unit], 100·|x − x_true| / |x_true| [%], NaN where the truth is 0)``;
     the truth counts as 0 when ``|x_true| ≤ 1e-9·scale`` (``scale``: the natural magnitudes)."""
-    err = np.abs(np.asarray(x, float) - truth)
-    nonzero = np.abs(truth) > 1e-9 * np.asarray(scale, float)
+    x, truth, scale = (as_floats(v, k, finite=False) for k, v in (("x", x), ("truth", truth), ("scale", scale)))
+    err = np.abs(x - truth)
+    nonzero = np.abs(truth) > 1e-9 * scale
     with np.errstate(divide="ignore", invalid="ignore"):
         rel = np.where(nonzero, 100.0 * err / np.abs(truth), np.nan)
     return err, rel
@@ -89,6 +94,8 @@ def truth_error(x: np.ndarray, truth: np.ndarray, scale: np.ndarray, names: list
     """A result's ``truth_error``: ``{"truth", "error", "error_percent"}``, each ``{name: value}`` (the
     relative error None where the truth is 0; see :func:`parameter_errors`)."""
     err, rel = parameter_errors(x, truth, scale)
+    if isinstance(names, (str, bytes)) or not isinstance(names, Sequence):
+        raise SpecError(f"names: got {type(names).__name__}, expected a list of parameter names")
     return {
         "truth": dict(zip(names, map(float, truth))),
         "error": dict(zip(names, map(float, err))),

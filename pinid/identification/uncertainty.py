@@ -23,13 +23,15 @@ from __future__ import annotations
 
 import numpy as np
 
+from pinid.errors import SpecError
+
 #: Condition number of the base regressor above which identify warns (see the module text).
 COND_WARN = 1e3
 #: Relative standard deviation [%] of a base parameter above which identify warns.
 STD_WARN_PERCENT = 10.0
 
 
-def poorly_determined(std_percent: np.ndarray, names: list[str]) -> list[tuple[str, float]]:
+def _poorly_determined(std_percent: np.ndarray, names: list[str]) -> list[tuple[str, float]]:
     """``(name, %σ)`` of the parameters above :data:`STD_WARN_PERCENT`, the largest first."""
     sp = np.asarray(std_percent, dtype=float)
     bad = [(n, float(v)) for n, v in zip(names, sp) if not v <= STD_WARN_PERCENT]  # NaN and inf count
@@ -40,11 +42,13 @@ def uncertainty_warning(result, terms: list[str] | None = None, urdf: str | None
     """One line when ``result`` (an :class:`~pinid.identification.result.IdentificationResult`) is badly
     conditioned or has poorly determined parameters, naming them and what helps; None when it is fine.
     ``terms`` and ``urdf`` fill in the suggested ``pinid excite`` command."""
+    if not all(hasattr(result, a) for a in ("method", "condition_number", "std_percent", "base_names")):
+        raise SpecError(f"result: got {type(result).__name__}, expected a pinid IdentificationResult")
     parts = []
     cond = float(result.condition_number)
     if not cond <= COND_WARN:
         parts.append(f"cond(W_b) {cond:.3g} > 1e{int(np.log10(COND_WARN))}")
-    bad = poorly_determined(result.std_percent, result.base_names)
+    bad = _poorly_determined(result.std_percent, result.base_names)
     if bad:
         shown = ", ".join(f"{n} {v:.3g} %" for n, v in bad[:3]) + (f" and {len(bad) - 3} more" if len(bad) > 3 else "")
         parts.append(f"relative std > {STD_WARN_PERCENT:g} %: {shown}")

@@ -154,6 +154,9 @@ def base_parameters_of(
 ) -> BaseParameters:
     """The base parameters of a stacked standard regressor ``W`` (random states) with columns ``names``;
     ``fit``: the joints whose rows ``W`` holds, when not all (``--fit-joints``)."""
+    W = as_floats(W, "W", finite=False)  # no copy of a float array; non-finite columns are named below
+    if isinstance(names, (str, bytes)) or not isinstance(names, Sequence):
+        raise SpecError(f"names: got {type(names).__name__}, expected a list of parameter names")
     p = len(names)
     with np.errstate(over="ignore", invalid="ignore"):
         norms = np.linalg.norm(W, axis=0)

@@ -36,12 +36,14 @@ import xml.etree.ElementTree as ET
 import numpy as np
 import pinocchio as pin
 
+from pinid.checks import as_floats
 from pinid.errors import ModelError
 from pinid.io import write_text
 from pinid.model import terms as _terms
 from pinid.model.physical import check_consistency, com_inertia
 from pinid.model.regressor import JointTerms
-from pinid.model.robot import RobotModel
+from pinid.model.robot import RobotModel, as_robot
+from pinid.model.terms import as_terms
 
 #: Smallest mass [kg] and principal moment [kg·m²] written; MuJoCo refuses moving bodies below its mjMINVAL (1e-15).
 MIN_VALUE = 1e-12
@@ -85,7 +87,9 @@ def exported_pin_model(model: RobotModel, theta: np.ndarray, *, floating: bool =
     parameters ``theta[:10·nv]`` (about the joint frames); with ``floating`` a free-flyer root (Pinocchio's
     convention: base velocity in the base frame) whose body is the URDF's root link and every link fixed to it.
     Armature, damping and friction of the returned model are zero."""
-    theta = np.asarray(theta, dtype=float)
+    model, theta = as_robot(model), as_floats(theta, "theta")
+    if theta.ndim != 1 or theta.size < 10 * model.nv:
+        raise ModelError(f"theta: shape {theta.shape}, expected at least {10 * model.nv} standard parameters")
     if not floating or any(j.nv == 6 for j in model.pin_model.joints):
         pm = pin.Model(model.pin_model)
     else:
@@ -114,7 +118,7 @@ def exported_pin_model(model: RobotModel, theta: np.ndarray, *, floating: bool =
 def joint_fields(model: RobotModel, theta: np.ndarray, terms: JointTerms) -> tuple[dict[str, np.ndarray], list[str]]:
     """The MJCF joint fields ``{"armature" [kg·m²], "damping" [N·m·s/rad], "frictionloss" [N·m]: (nv,)}`` of the
     term block of ``theta``, and the non-zero identified terms that have no MJCF field (``"hip.offset = 0.3 N·m"``)."""
-    theta = np.asarray(theta, dtype=float)
+    model, terms, theta = as_robot(model), as_terms(terms), as_floats(theta, "theta")
     values = _terms.values(model, terms, theta[10 * model.nv :])
     out = {attr: np.zeros(model.nv) for attr, _ in _FIELDS.values()}
     lost = []
@@ -227,7 +231,7 @@ def identified_mjcf(
     atomically to ``path`` when given.  ModelError for a physically inconsistent set, a body MuJoCo refuses
     (massless, a zero principal moment) or a model without URDF text; nothing is written then.
     """
-    theta = np.asarray(theta, dtype=float)
+    model, terms, theta = as_robot(model), as_terms(terms), as_floats(theta, "theta", finite=False)
     nv, nt = model.nv, _terms.count(model, terms)
     if theta.shape != (10 * nv + nt,):
         raise ModelError(f"expected {10 * nv + nt} standard parameters, got {theta.size}")

@@ -25,7 +25,7 @@ from collections.abc import Callable, Iterator, Mapping, Sequence
 import numpy as np
 import pinocchio as pin
 
-from pinid.checks import as_state, as_states, as_vector, count, number, same_length
+from pinid.checks import as_floats, as_state, as_states, as_vector, count, number, same_length
 from pinid.errors import JointError, ModelError, ModelWarning
 from pinid.io import read_bounded_file
 from pinid.model.bundled import resolve_robot
@@ -490,6 +490,9 @@ def nearest_physical_inertia(inertia: np.ndarray, iterations: int = 200) -> np.n
     the triangle inequalities ``e_i ≤ e_j + e_k`` (which imply ``e_i ≥ 0``) by Dykstra's alternating
     projections onto its three half-spaces.  (For a set of symmetric matrices defined by their eigenvalues
     only, the nearest matrix keeps the eigenvectors, so this is the nearest physical inertia.)"""
+    inertia = as_floats(inertia, "inertia")
+    if inertia.shape != (3, 3):
+        raise ModelError(f"inertia: shape {inertia.shape}, expected a 3×3 rotational inertia [kg·m²]")
     e, V = np.linalg.eigh(0.5 * (inertia + inertia.T))
     normals = [np.array(n, dtype=float) / np.sqrt(3.0) for n in ((1, -1, -1), (-1, 1, -1), (-1, -1, 1))]
     x, corr = e.copy(), [np.zeros(3) for _ in normals]

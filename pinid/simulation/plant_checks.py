@@ -8,7 +8,8 @@ import numpy as np
 import pinocchio as pin
 
 from pinid.errors import DataError, ModelError
-from pinid.model.robot import RobotModel
+from pinid.checks import as_states
+from pinid.model.robot import RobotModel, as_robot
 
 #: How far [rad or m] beyond a joint limit, as a fraction of the limits' range, the plant may go before the
 #: twin calls the run failed (a tracking loop overshoots a little where the trajectory touches a limit).
@@ -23,6 +24,8 @@ def check_tracking(model, q: np.ndarray, q_desired: np.ndarray) -> None:
     :data:`LIMIT_OVERSHOOT` × their range, or left ``q_desired`` by more than :data:`TRACKING_ERROR_MAX`:
     the recording would not show the trajectory asked for (the model cannot be held by its controller:
     a link kilometres long, a mass or inertia off by orders of magnitude, effort limits too low)."""
+    model = as_robot(model)
+    q, q_desired = as_states(q, "q", model.joint_names), as_states(q_desired, "q_desired", model.joint_names)
     lo, hi = model.lower, model.upper
     bounded = np.isfinite(lo) & np.isfinite(hi) & (hi > lo)
     margin = np.where(bounded, LIMIT_OVERSHOOT * np.where(bounded, hi - lo, 0.0), np.inf)

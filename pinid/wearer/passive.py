@@ -53,6 +53,8 @@ def published(joint: str) -> np.ndarray:
 
 def exponents(robot, joint: str) -> np.ndarray:
     """The exponent coefficients ``robot`` uses for anatomical ``joint``: its own, else the published."""
+    if not isinstance(joint, str):
+        raise SpecError(f"joint={joint!r}, expected one of {', '.join(ANATOMICAL)}")
     own = (getattr(robot, "passive_exponents", None) or {}).get(joint)
     return published(joint) if own is None else np.asarray(own, dtype=float)
 

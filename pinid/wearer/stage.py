@@ -26,18 +26,21 @@ from __future__ import annotations
 import copy
 import os
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from pinid.checks import as_floats, count
+from pinid.data.dataset import as_dataset
 from pinid.errors import DataError, SpecError
-from pinid.io import Artefacts, json_text
+from pinid.io import Artefacts, as_path, json_text
 from pinid.model.base import base_parameters
 from pinid.model.conic import ConicProblem
 from pinid.model.physical import PSEUDO_INERTIA_BASIS
 from pinid.model.regressor import JointTerms, parameter_names, regressor
-from pinid.model.robot import RobotModel
+from pinid.model.robot import RobotModel, as_robot
 from pinid.wearer.passive import anatomy
 from pinid.wearer.prior import MASS_RANGE, BodyPrior, wearer_prior
 
@@ -131,7 +134,7 @@ def _scale(priors: list[BodyPrior], nv: int, nt: int) -> np.ndarray:
     return s
 
 
-def compress(W: np.ndarray, y: np.ndarray, block: int = 20000) -> tuple[np.ndarray, np.ndarray]:
+def _compress(W: np.ndarray, y: np.ndarray, block: int = 20000) -> tuple[np.ndarray, np.ndarray]:
     """``(R, z)`` with ``‖W·x − y‖² = ‖R·x − z‖² + const``, from QR of ``[W y]`` in row blocks."""
     acc = np.zeros((0, W.shape[1] + 1))
     for k in range(0, W.shape[0], block):
@@ -149,6 +152,11 @@ def check_stage1(exo, robot: RobotModel, origin: str = "stage-1 model") -> None:
     exoskeleton of ``robot`` (the exo + wearer URDF): same robot name, joints (names, order, kinds),
     joint placements and axes (within :data:`KINEMATICS_TOLERANCE`).  Stage 2 subtracts the exo's torque
     as given: an inconsistent or foreign exo would be absorbed, silently, into the wearer's parameters."""
+    from pinid.identification.identified import IdentifiedModel
+
+    if not isinstance(exo, IdentifiedModel):
+        raise SpecError(f"exo: got {type(exo).__name__}, expected the stage-1 IdentifiedModel (model_sdp.json)")
+    robot = as_robot(robot)
     if not exo.physically_consistent:
         from pinid.model.physical import check_consistency
 
@@ -261,7 +269,7 @@ def identify_wearer(
     if prior_weight == "auto":  # too short to cut into folds: the data alone
         auto = len(q) >= 2 * FOLDS
         prior_weight, cv = choose_prior_weight(W * S, y, nv, z0, bodies, solver) if auto else (0.0, None)
-    R, z = compress(W * S, y)
+    R, z = _compress(W * S, y)
     solution = _fit(R, z, z0, bodies, float(prior_weight), solver)
     status = solution.status
     theta = np.zeros_like(table)
@@ -337,11 +345,14 @@ def choose_prior_weight(
     disturbances of a wearer (slow active torque) are correlated in time: random rows would reward fitting
     them.  Returns ``(λ, {"weights": [...], "heldout_rms": [...] [N·m], "folds": FOLDS})``; ties (within
     1e-6 relative, or 1e-9 of the torque RMS) go to the smaller λ."""
+    A, y, z0, nv = as_floats(A, "A", finite=False), as_floats(y, "y"), as_floats(z0, "z0"), count(nv, "nv", low=1)
+    if not isinstance(bodies, tuple):
+        raise SpecError(f"bodies: got {type(bodies).__name__}, expected a tuple of wearer bodies")
     samples = len(y) // nv
     if samples < 2 * FOLDS:
         raise DataError(f"prior_weight='auto': {samples} samples, expected at least {2 * FOLDS} for {FOLDS} folds")
     cuts = np.linspace(0, samples, FOLDS + 1).round().astype(int) * nv
-    folds = [compress(A[a:b], y[a:b]) for a, b in zip(cuts[:-1], cuts[1:])]
+    folds = [_compress(A[a:b], y[a:b]) for a, b in zip(cuts[:-1], cuts[1:])]
     sse = np.zeros(len(PRIOR_WEIGHTS))
     for k, (Rk, zk) in enumerate(folds):
         others = np.vstack([np.column_stack(f) for j, f in enumerate(folds) if j != k])
@@ -357,8 +368,25 @@ def choose_prior_weight(
     return PRIOR_WEIGHTS[best], {"weights": list(PRIOR_WEIGHTS), "heldout_rms": rms.tolist(), "folds": FOLDS}
 
 
+def _as_fit(fit) -> WearerFit:
+    """``fit`` if it is a :class:`WearerFit`; SpecError naming what was expected otherwise."""
+    if not isinstance(fit, WearerFit):
+        raise SpecError(f"fit: got {type(fit).__name__}, expected a WearerFit (pinid.wearer.stage.identify_wearer)")
+    return fit
+
+
+def _as_summary(summary) -> dict:
+    """``summary`` if it is a dict; SpecError naming what was expected otherwise."""
+    if not isinstance(summary, dict):
+        raise SpecError(f"summary: got {type(summary).__name__}, expected the dict of stage_summary")
+    return summary
+
+
 def stack(datasets) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """``(q, dq, ddq, tau)`` of recordings (Datasets with all four), their samples stacked, (N, nv) each."""
+    if isinstance(datasets, (str, bytes)) or not isinstance(datasets, Sequence) or not datasets:
+        raise DataError(f"datasets: got {type(datasets).__name__}, expected a list of pinid Datasets")
+    datasets = [as_dataset(d, "datasets") for d in datasets]
     return tuple(np.vstack([getattr(d, k) for d in datasets]) for k in ("q", "dq", "ddq", "tau"))
 
 
@@ -366,6 +394,7 @@ def stage_summary(fit: WearerFit, exo: str | os.PathLike, train, validation=None
     """What ``pinid identify --stage wearer`` writes as ``identification.json``: the stage, the stage-1
     model's path ``exo``, the URDF, :meth:`WearerFit.to_dict` and the torque RMS errors [N·m] of the three
     models on the ``train`` and ``validation`` datasets (None without)."""
+    _as_fit(fit), as_path(exo, "exo")
     return {
         "stage": "wearer",
         "exo": exo,
@@ -379,6 +408,7 @@ def stage_summary(fit: WearerFit, exo: str | os.PathLike, train, validation=None
 def stage_text(fit: WearerFit, summary: dict) -> str:
     """A stage-2 fit as text: status and time, each base parameter identified and from the table, and the
     RMS errors of :func:`stage_summary`."""
+    _as_fit(fit), _as_summary(summary)
     width = max(len(n) for n in fit.base_names)
     lines = [
         f"stage 2 (wearer) of {fit.robot.name}: status {fit.status}, {fit.seconds:.2f} s",
@@ -424,7 +454,8 @@ def write_stage(
     into ``folder``, all or nothing; a ``--force`` re-run leaves no stale report; returns the paths."""
     from pinid.report.wearer import WEARER_REPORT_FILES, wearer_report_files
 
-    out = Path(folder)
+    _as_fit(fit), _as_summary(summary)
+    out = as_path(folder, "folder")
     arts = Artefacts(overwrite=overwrite)
     arts.add(out / "identification.json", json_text(summary))
     arts.add(out / "model_wearer.json", json_text(fit.model("identified").to_dict()))
