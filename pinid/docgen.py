@@ -65,6 +65,7 @@ API_MODULES: tuple[tuple[str, str], ...] = (
     ("pinid.simulation.outputs", "The twin's files and CAD model (pinid simulate)"),
     ("pinid.identification.run", "Identification"),
     ("pinid.identification.problem", "The identification problem"),
+    ("pinid.identification.rows", "Which rows enter the fit (fit joints, rest)"),
     ("pinid.identification.result", "Identification results"),
     ("pinid.identification.outputs", "Identification and comparison: text and files (pinid identify, compare)"),
     ("pinid.estimators", "Estimators"),

@@ -113,8 +113,9 @@ def test_identify_checks_its_inputs_before_saying_what_it_identifies(tmp_path):
 def test_simulate_summary_of_a_six_joint_arm_is_wrapped_and_aligned():
     """pinid simulate on the UR5: not one 330-column line but labelled blocks within 100 columns, every
     continuation starting where the first line's items start."""
-    from types import SimpleNamespace
+    import numpy as np
 
+    from pinid.data.dataset import Dataset
     from pinid.simulation.outputs import simulation_text
 
     joints = ["shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint", "wrist_2_joint"]
@@ -125,7 +126,8 @@ def test_simulate_summary_of_a_six_joint_arm_is_wrapped_and_aligned():
         "standard": {"names": ["x"] * 72},
         "base": {"names": ["x"] * 36},
     }
-    text = simulation_text(SimpleNamespace(n=26000, joints=joints), truth, "data/ur5_train.csv")
+    recording = Dataset(t=np.arange(26000) / 5000, q=np.zeros((26000, 6)), joints=joints)
+    text = simulation_text(recording, truth, "data/ur5_train.csv")
     lines = text.splitlines()
     assert max(map(len, lines)) <= 100, text
     assert lines[0] == "wrote data/ur5_train.csv (26000 samples at 5000 Hz)" and lines[-1].startswith("wrote ")
@@ -136,7 +138,9 @@ def test_simulate_summary_of_a_six_joint_arm_is_wrapped_and_aligned():
     for j in joints:  # every joint named once per block, never split
         assert sum(line.count(j) for line in block) == 2, (j, text)
     two = {**truth, "tracking": {"rms_error": {"hip": 1e-4, "knee": 2e-4}}}
-    text = simulation_text(SimpleNamespace(n=6000, joints=["hip", "knee"]), two, "run.csv")
+    text = simulation_text(
+        Dataset(t=np.arange(6000) / 1000, q=np.zeros((6000, 2)), joints=["hip", "knee"]), two, "run.csv"
+    )
     assert text.splitlines()[1:3] == [
         f"  {'joints':<26}hip, knee",
         f"  {'tracking error rms [rad]':<26}hip 0.0001, knee 0.0002",
