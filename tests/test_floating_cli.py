@@ -1,4 +1,5 @@
-"""The floating-base loop from the command line (issue 27): excite → simulate → identify, and bad inputs."""
+"""The floating-base loop from the command line (issue 27): excite → simulate → identify → MJCF (written by
+identify and by pinid export) → MuJoCo, and bad inputs."""
 
 from __future__ import annotations
 
@@ -49,6 +50,7 @@ def test_excite_simulate_identify_floating(tmp_path):
         ["identify", *EXO, "--data", "s.csv", "--validate", "v.csv", "--methods", "ols,sdp", "--no-report", "-o", "r"],
         ["identify", *EXO, "--data", "s.csv", "--rows", "base", "--methods", "ols", "--no-report", "-o", "rb"],
         ["identify", *EXO, "--data", "g.csv", "--methods", "ols", "--no-report", "-o", "rg"],
+        ["export", "--model", "r/identification.json", "-o", "exo.xml"],
     ]
     for args in steps:
         proc = run_cli(*args, cwd=tmp_path)
@@ -67,6 +69,13 @@ def test_excite_simulate_identify_floating(tmp_path):
     assert d["results"]["sdp"]["standard"] is not None
     back = RobotModel.from_urdf(tmp_path / "r" / "identified_sdp.urdf", base="floating")
     assert sum(i.mass for i in back.ff_model.inertias) == pytest.approx(d["results"]["sdp"]["base"][0])
+    # the MJCF written by identify (and again by pinid export) loads in MuJoCo: a free joint, the same mass
+    assert (tmp_path / "exo.xml").read_text() == (tmp_path / "r" / "identified_sdp.xml").read_text()
+    assert not (tmp_path / "r" / "identified_ols.xml").exists()  # OLS fits no standard parameters
+    mujoco = pytest.importorskip("mujoco")
+    m = mujoco.MjModel.from_xml_path(str(tmp_path / "exo.xml"))
+    assert (m.nq, m.nv, m.nu) == (7 + back.nv, 6 + back.nv, back.nv) and m.jnt_type[0] == mujoco.mjtJoint.mjJNT_FREE
+    assert m.body_mass.sum() == pytest.approx(d["results"]["sdp"]["base"][0], rel=1e-9)
 
 
 @pytest.mark.slow
