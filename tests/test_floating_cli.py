@@ -93,8 +93,13 @@ def test_bad_floating_inputs_are_one_line_and_write_nothing(tmp_path):
     assert_clean_error(proc, "--perturb: not available with --base floating")
     assert not (tmp_path / "x.csv").exists()
     proc = run_cli(
+        "identify", *EXO, "--data", "bad.csv", "--payload", "p.toml", "--no-report", "-o", "out", cwd=tmp_path
+    )
+    assert_clean_error(proc, "--payload: not available with --base floating")
+    proc = run_cli(
         "identify", *EXO, "--data", "bad.csv", "--mapping", "m.toml", "--no-report", "-o", "out", cwd=tmp_path
     )
-    assert_clean_error(proc, "--mapping: not available with --base floating")
+    assert_clean_error(proc, "m.toml: mapping spec not found")
+    assert not (tmp_path / "out").exists()
     proc = run_cli("info", "--urdf", "exo_leg", "--base", "flying", cwd=tmp_path)
     assert proc.returncode == 2 and "invalid choice" in proc.stderr

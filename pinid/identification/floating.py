@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pinid.data.contacts import FloatingSamples, prepare_floating, read_floating
+from pinid.data.contacts import FloatingSamples, floating_mapping, prepare_floating, read_floating
 from pinid.errors import DataError, ModelError, SpecError
 from pinid.estimators import make_estimator
 from pinid.identification.floating_problem import floating_problem
@@ -62,10 +62,17 @@ class FloatingIdentification:
 
 
 def load_floating(
-    items, model: FloatingRobotModel, preprocess=None, what: str = "training", *, swing_rows: bool = False
+    items,
+    model: FloatingRobotModel,
+    preprocess=None,
+    what: str = "training",
+    *,
+    swing_rows: bool = False,
+    mapping=None,
 ) -> list[FloatingSamples]:
     """Floating recordings (paths or prepared :class:`FloatingSamples`) read, checked and prepared
-    (``swing_rows``: accept contact phases without a wrench, :func:`pinid.data.contacts.read_floating`)."""
+    (``swing_rows``: accept contact phases without a wrench; ``mapping``: a mapping spec with a ``[floating]``
+    table for files not in the dataset format, :func:`pinid.data.contacts.read_floating`)."""
     if items is None:
         return []
     if isinstance(items, (FloatingSamples, str, os.PathLike)):
@@ -75,7 +82,8 @@ def load_floating(
         if isinstance(item, FloatingSamples):
             out.append(item)
         elif isinstance(item, (str, os.PathLike)):
-            out.append(prepare_floating(read_floating(item, model, swing_rows=swing_rows), model, preprocess))
+            rec = read_floating(item, model, swing_rows=swing_rows, mapping=mapping)
+            out.append(prepare_floating(rec, model, preprocess))
         else:
             raise DataError(f"{what} recording: got {type(item).__name__}, expected a path or FloatingSamples")
     if not out:
@@ -96,20 +104,24 @@ def identify_floating(
     options: Mapping[str, Mapping] | None = None,
     swing_rows: bool = False,
     rest_velocity=None,
+    mapping=None,
 ) -> FloatingIdentification:
     """Fit every method on the training recordings and score it on the validation ones (RMS over the rows used).
     ``swing_rows``: links with contact phases but no wrench are legs without force sensing; the rows their
     unknown wrench enters are left out while they are in contact.  ``rest_velocity``: as
-    :func:`~pinid.identification.floating_problem.floating_problem` (None keeps every row)."""
+    :func:`~pinid.identification.floating_problem.floating_problem` (None keeps every row).  ``mapping``: how
+    to read recordings not in the dataset format (:func:`pinid.data.contacts.floating_mapping`)."""
     model = as_floating(model)
     terms = as_terms(terms)
-    train = load_floating(data, model, preprocess, swing_rows=swing_rows)
+    if mapping is not None:
+        mapping = floating_mapping(mapping)  # checked once, before any recording is read
+    train = load_floating(data, model, preprocess, swing_rows=swing_rows, mapping=mapping)
     problem = floating_problem(
         model, train, terms=terms, rows=rows, base_weight=base_weight, rest_velocity=rest_velocity
     )
     val_problem = None
     if validate:
-        val = load_floating(validate, model, preprocess, "validation", swing_rows=swing_rows)
+        val = load_floating(validate, model, preprocess, "validation", swing_rows=swing_rows, mapping=mapping)
         val_problem = floating_problem(
             model,
             val,
