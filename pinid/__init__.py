@@ -1,17 +1,38 @@
-"""pinid: identify the rigid-body dynamics of robots (exoskeleton legs first) from a URDF and data."""
+"""pinid: identify the rigid-body dynamics of robots (exoskeleton legs first) from a URDF and data.
 
-from pinid.model.base import BaseParameters, base_parameters
-from pinid.estimators import ESTIMATORS
-from pinid.errors import DataError, JointError, ModelError, OutputError, PinidError, SolverError, SpecError
-from pinid.identification.problem import IdentificationProblem
-from pinid.identification.result import Identification, IdentificationResult
-from pinid.identification.run import identify
-from pinid.identification.identified import IdentifiedModel
-from pinid.model.robot import INERTIAL_NAMES, RobotModel
-from pinid.model.floating import FloatingRobotModel
-from pinid.model.regressor import JointTerms, joint_torque, parameter_names, regressor, standard_parameters
+The names below are loaded when first used (PEP 562), so ``import pinid`` and the ``pinid`` command
+start in milliseconds: the command installs its Ctrl-C handling before numpy, scipy and Pinocchio load
+(:func:`pinid.cli.main.main`).
+"""
 
 __version__ = "0.1.0"
+
+#: Public name -> the module that defines it.
+_EXPORTS = {
+    "BaseParameters": "pinid.model.base",
+    "base_parameters": "pinid.model.base",
+    "ESTIMATORS": "pinid.estimators",
+    "DataError": "pinid.errors",
+    "JointError": "pinid.errors",
+    "ModelError": "pinid.errors",
+    "OutputError": "pinid.errors",
+    "PinidError": "pinid.errors",
+    "SolverError": "pinid.errors",
+    "SpecError": "pinid.errors",
+    "IdentificationProblem": "pinid.identification.problem",
+    "Identification": "pinid.identification.result",
+    "IdentificationResult": "pinid.identification.result",
+    "identify": "pinid.identification.run",
+    "IdentifiedModel": "pinid.identification.identified",
+    "INERTIAL_NAMES": "pinid.model.robot",
+    "RobotModel": "pinid.model.robot",
+    "FloatingRobotModel": "pinid.model.floating",
+    "JointTerms": "pinid.model.regressor",
+    "joint_torque": "pinid.model.regressor",
+    "parameter_names": "pinid.model.regressor",
+    "regressor": "pinid.model.regressor",
+    "standard_parameters": "pinid.model.regressor",
+}
 
 __all__ = [
     "BaseParameters",
@@ -38,3 +59,18 @@ __all__ = [
     "regressor",
     "standard_parameters",
 ]
+
+
+def __getattr__(name: str):
+    module = _EXPORTS.get(name)
+    if module is None:
+        raise AttributeError(f"module 'pinid' has no attribute {name!r}")
+    import importlib
+
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -121,3 +121,14 @@ def option_numbers(options, where: str) -> None:
 
 
 __all__ = ["as_floats", "as_state", "as_states", "as_vector", "count", "number", "option_numbers", "same_length"]
+
+
+def array_like(x, name: str):
+    """``x`` unchanged if it can be an array of numbers (an ndarray, a list or tuple, a real number, or
+    anything with ``__array__``); DataError naming ``name`` otherwise (None, text, bytes, a dict or set,
+    a complex number, an object).  Cheap (no copy, no scan): for functions on a hot path."""
+    if isinstance(x, (np.ndarray, list, tuple)) or (isinstance(x, numbers.Real) and not isinstance(x, bool)):
+        return x
+    if hasattr(x, "__array__") and not isinstance(x, (str, bytes, dict, set, numbers.Complex)):
+        return x
+    raise DataError(f"{name}: got {type(x).__name__}, expected an array of numbers")

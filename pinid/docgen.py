@@ -70,6 +70,8 @@ API_MODULES: tuple[tuple[str, str], ...] = (
     ("pinid.model.serialize", "Saving a robot model with results"),
     ("pinid.linalg", "Least-squares kernels"),
     ("pinid.identification.metrics", "Validation metrics"),
+    ("pinid.identification.uncertainty", "Uncertainty of the parameters and its warning"),
+    ("pinid.identification.truth", "Errors against a twin's truth"),
     ("pinid.identification.identified", "The identified model for controllers"),
     ("pinid.model.export", "Identified URDF"),
     ("pinid.model.mjcf", "Identified model as MuJoCo MJCF"),

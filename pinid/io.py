@@ -112,12 +112,80 @@ def read_json(path: str | os.PathLike, what: str) -> dict:
     if not isinstance(path, (str, os.PathLike)):
         raise SpecError(f"path: got {type(path).__name__}, expected the path of a JSON file ({what})")
     p = Path(path)
-    if not p.is_file():
-        raise SpecError(f"{p}: file not found, expected a {what} JSON file")
-    d = parse_spec_text(p.read_bytes(), str(p), f"{what} file", kind="JSON")
+    d = parse_spec_text(read_bounded_file(p, f"{what} JSON file"), str(p), f"{what} file", kind="JSON")
     if not isinstance(d, dict):
         raise SpecError(f"{p}: expected a JSON object ({what})")
     return d
+
+
+#: Largest spec file read (TOML or JSON: specs, drives, payloads, trajectories, saved models) [bytes].
+MAX_SPEC_BYTES = 64 * 2**20
+
+
+def as_path(path, name: str = "path", *, error: type = SpecError) -> Path:
+    """``path`` (text or os.PathLike, no NUL) as a Path; ``error`` naming the argument ``name`` otherwise."""
+    if not isinstance(path, (str, os.PathLike)) or "\x00" in os.fspath(path):
+        raise error(f"{name}: got {path!r:.60}, expected a file path (text without NUL, or a pathlib.Path)")
+    return Path(path)
+
+
+def check_input_file(
+    path: str | os.PathLike, what: str, *, option: str | None = None, error: type = SpecError, limit: int | None = None
+) -> Path:
+    """``path`` as a Path if it names a regular file (not a folder, FIFO, device or socket) of at most
+    ``limit`` bytes; else ``error`` (one line naming ``option`` if given, the path and ``what`` was
+    expected).  What every file option checks before reading: a FIFO would block forever and
+    ``/dev/zero`` never ends."""
+    if not isinstance(path, (str, os.PathLike)):
+        raise error(f"{option or 'path'}: got {type(path).__name__}, expected the path of a {what}")
+    p = Path(path)
+    where = f"{option} {p}" if option else str(p)
+    try:
+        st = p.stat()
+    except FileNotFoundError:
+        raise error(f"{where}: file not found, expected a {what}") from None
+    except (OSError, ValueError) as exc:  # a NUL in the name, a name too long, no permission …
+        raise error(f"{where}: cannot be read ({getattr(exc, 'strerror', None) or exc}), expected a {what}") from None
+    import stat
+
+    if not stat.S_ISREG(st.st_mode):
+        kind = (
+            "a folder"
+            if stat.S_ISDIR(st.st_mode)
+            else "a FIFO (named pipe)"
+            if stat.S_ISFIFO(st.st_mode)
+            else "a device"
+            if stat.S_ISCHR(st.st_mode) or stat.S_ISBLK(st.st_mode)
+            else "a socket"
+            if stat.S_ISSOCK(st.st_mode)
+            else "not a regular file"
+        )
+        raise error(f"{where}: is {kind}, expected a {what} (a regular file)")
+    if limit is not None and st.st_size > limit:
+        raise error(f"{where}: {st.st_size:,} bytes, larger than a {what} should be (at most {limit:,} bytes)")
+    return p
+
+
+def read_bounded_file(
+    path: str | os.PathLike,
+    what: str,
+    *,
+    option: str | None = None,
+    error: type = SpecError,
+    limit: int = MAX_SPEC_BYTES,
+) -> bytes:
+    """The bytes of the regular file ``path`` (:func:`check_input_file`), reading at most ``limit``
+    bytes: a file that grows past it while read (``/proc``, a file being written) is refused too."""
+    p = check_input_file(path, what, option=option, error=error, limit=limit)
+    where = f"{option} {p}" if option else str(p)
+    try:
+        with open(p, "rb") as f:
+            data = f.read(limit + 1)
+    except OSError as exc:
+        raise error(f"{where}: cannot be read ({exc.strerror or exc}), expected a {what}") from None
+    if len(data) > limit:
+        raise error(f"{where}: larger than a {what} should be (at most {limit:,} bytes)")
+    return data
 
 
 #: Deepest nesting of tables and arrays accepted in a spec file (TOML or JSON); real specs use 3 or 4.
@@ -147,9 +215,7 @@ def parse_spec_text(text: bytes | str, origin: str, what: str, *, kind: str = "T
 def read_toml(path: str | os.PathLike, what: str) -> dict:
     """The table in the TOML file ``path`` (see :func:`parse_spec_text`); SpecError if it is missing."""
     p = Path(path)
-    if not p.is_file():
-        raise SpecError(f"{p}: file not found, expected a {what} (TOML)")
-    return parse_spec_text(p.read_bytes(), str(p), what)
+    return parse_spec_text(read_bounded_file(p, f"{what} (TOML)"), str(p), what)
 
 
 def _check_depth(data: Any, origin: str, what: str) -> None:

@@ -12,6 +12,8 @@ import numpy as np
 import scipy.linalg
 
 from pinid.errors import SolverError
+from pinid.checks import array_like, count
+from pinid.errors import DataError
 
 #: Relative tolerance on singular values (or pivots, or Gram eigenvalues) below which a matrix counts as
 #: rank deficient: used for the regressor's rank check, the choice Cholesky vs QR, and null spaces.
@@ -29,9 +31,11 @@ def row_blocks(
     W: np.ndarray, tau: np.ndarray, weights: np.ndarray | None = None, rows: int = GRAM_BLOCK_ROWS
 ) -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray | None]]:
     """``(W_k, τ_k, w_k)`` of consecutive blocks of ``rows`` rows of a whole matrix (``w_k`` None without weights)."""
-    for start in range(0, len(W), rows):
-        stop = start + rows
-        yield W[start:stop], tau[start:stop], None if weights is None else weights[start:stop]
+    array_like(W, "W")  # checked when called, not when first iterated
+    return (
+        (W[s : s + rows], tau[s : s + rows], None if weights is None else weights[s : s + rows])
+        for s in range(0, len(W), rows)
+    )
 
 
 def gram_sums(
@@ -40,6 +44,9 @@ def gram_sums(
     """``(G, b, yy)`` = (Σ W_kᵀ diag(w_k) W_k, Σ W_kᵀ diag(w_k) τ_k, Σ w_k·τ_k²) over row blocks
     ``(W_k, τ_k, w_k)`` (``w_k`` None: unit weights): the normal equations of a tall weighted least-squares
     problem, accumulated without the tall matrix existing whole."""
+    if not isinstance(blocks, Iterable) or isinstance(blocks, (str, bytes)):
+        raise DataError(f"blocks: got {type(blocks).__name__}, expected (W, tau, weights) row blocks")
+    nb = count(nb, "nb")
     G = np.zeros((nb, nb))
     b = np.zeros(nb)
     yy = 0.0
@@ -55,6 +62,7 @@ def gram_sums(
 
 def column_scale(G: np.ndarray) -> np.ndarray:
     """Column norms ``√diag(G)`` of the matrix behind a Gram matrix, zeros replaced by 1 (for scaling)."""
+    array_like(G, "G")
     scale = np.sqrt(np.maximum(np.diag(G), 0.0))
     scale[scale == 0] = 1.0
     return scale
@@ -64,6 +72,7 @@ def cholesky_r(G: np.ndarray, b: np.ndarray, yy: float) -> tuple[np.ndarray, np.
     """``(R, c, rho, scale)`` of :func:`augmented_r` from the Gram sums of :func:`gram_sums`, or None when the
     column-scaled Gram matrix is not safely positive definite (condition number above 1/:data:`RANK_TOL`, or
     not finite): then only a QR factorisation of the tall matrix is accurate enough."""
+    array_like(G, "G")
     nb = len(G)
     scale = column_scale(G)
     Gs = G / np.outer(scale, scale)
@@ -83,6 +92,8 @@ def cholesky_r(G: np.ndarray, b: np.ndarray, yy: float) -> tuple[np.ndarray, np.
 
 def unit_weights(weights: np.ndarray | None) -> np.ndarray | None:
     """``weights`` as floats, or None when absent or all ones (then rows are not multiplied)."""
+    if weights is not None:
+        array_like(weights, "weights")
     if weights is None or np.all(weights == 1.0):
         return None
     return np.asarray(weights, dtype=float)
@@ -100,6 +111,7 @@ def augmented_r(
     condition number is below 1e10 (then the normal equations lose at most ~1e-6 relative accuracy, far
     below any noise), else — and for rank deficiency — Householder QR of ``[A | y]`` (:func:`qr_r`).
     """
+    array_like(W, "W")
     W = np.asarray(W, dtype=float)
     y = np.asarray(tau, dtype=float)
     w = unit_weights(weights)
@@ -113,6 +125,7 @@ def qr_r(
 ) -> tuple[np.ndarray, np.ndarray, float, np.ndarray]:
     """``(R, c, rho, scale)`` of :func:`augmented_r` by Householder QR of the scaled, weighted ``[A | y]``
     (for ill-conditioned or rank-deficient problems; needs the whole tall matrix)."""
+    array_like(W, "W")
     nb = W.shape[1]
     aug = np.empty((W.shape[0], nb + 1))
     if weights is not None:
@@ -131,6 +144,7 @@ def qr_r(
 
 def solve_r(R: np.ndarray, c: np.ndarray, scale: np.ndarray) -> np.ndarray:
     """The least-squares solution ``x`` of the compressed problem of :func:`augmented_r`."""
+    array_like(R, "R")
     d = np.abs(np.diag(R))
     if d.size and (not np.all(np.isfinite(R)) or d.min() <= SOLVE_TOL * d.max()):
         raise SolverError("least squares: the (weighted) base regressor is rank deficient")
@@ -139,5 +153,6 @@ def solve_r(R: np.ndarray, c: np.ndarray, scale: np.ndarray) -> np.ndarray:
 
 def weighted_lstsq(W: np.ndarray, tau: np.ndarray, weights: np.ndarray | None = None) -> np.ndarray:
     """``argmin ‖diag(√w)(W x − τ)‖²`` through a column-scaled QR factorisation."""
+    array_like(W, "W")
     R, c, _, scale = augmented_r(W, tau, weights)
     return solve_r(R, c, scale)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from pinid.errors import SpecError
 from pinid import DataError, RobotModel
 from pinid.data.contacts import prepare_floating, read_floating, write_floating
 from pinid.estimators import ESTIMATORS, make_estimator
@@ -86,6 +87,10 @@ def test_every_estimator_takes_the_floating_problem(exo, method):
     family recovers the noise-free walk."""
     problem = floating_problem(exo, simulate_gait(exo, seconds=2, rate=100).exact, terms=TERMS)
     settings = {"iterations": 5, "population": 10} if method in ("pso", "woa", "ewoa", "de") else {}
+    if ESTIMATORS[method].simulates:  # iv, didim simulate a fixed-base robot: refused with one line
+        with pytest.raises(SpecError, match="floating base"):
+            make_estimator(method, **settings).fit(problem)
+        return
     est = make_estimator(method, **settings).fit(problem)
     assert est.base_.shape == (problem.nb,) and np.all(np.isfinite(est.base_))
     if method in ("ols", "wls", "sdp", "rls", "ridge", "rls-pso"):

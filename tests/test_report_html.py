@@ -125,7 +125,7 @@ def test_identify_writes_self_contained_html(report):
     the excitation and every figure embedded as a data: URI — the same figures as the PNG files."""
     out, printed = report
     methods = METHODS
-    assert "== ols" not in printed and "valid. RMS [N·m]" in printed  # the summary; the detail is in the report
+    assert "== ols" not in printed and "valid. RMS raw [N·m]" in printed  # the summary; the detail is in the report
     assert max(map(len, printed.splitlines())) <= 120
     page = Page((out / "report.html").read_text())
     assert external_resources(page) == []

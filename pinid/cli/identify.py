@@ -39,8 +39,10 @@ sample rate; measured velocities are used when present), identifies the base par
 method, checks every result for physical consistency, validates on --validate recordings and writes
 into the output folder (-o, default results/):
 
-  identification.json      every method: base parameters with standard deviations, standard
-                           parameters, consistency, condition number, train/validation metrics, time
+  identification.json      every method: base parameters with standard deviations (and errors against
+                           --truth), standard parameters, consistency, condition number, train/validation
+                           torque errors (raw: against the torque as recorded; filtered: after the
+                           low-pass), time
   model_<method>.json      the identified model for controller code (pinid.identification.identified.IdentifiedModel)
   identified_<method>.urdf the URDF with identified inertials and friction (consistent results only,
                            unless --force-export)
@@ -57,7 +59,10 @@ rows and the joint rows (--rows), and the folder gets identification.json and id
 
 Rows where a joint is nearly at rest are left out of the fit when Coulomb friction is in the model
 (--rest-velocity).  Methods: ols (least squares), wls (each joint weighted by 1/its residual
-variance), sdp (physically consistent least squares, pseudo-inertia LMI, Clarabel).
+variance), sdp (physically consistent least squares, pseudo-inertia LMI, Clarabel).  Torque errors are
+measured against the torque as recorded ("raw", the headline) and against the low-passed torque
+("filtered", which moves with --cutoff).  A one-line warning names the parameters the data determine
+poorly (cond(W_b) > 1e3 or a relative standard deviation > 10 %).
 
 examples:
   pinid identify --urdf urdf/exo_leg.urdf --data run1.csv --data run2.csv --validate run3.csv -o results/
@@ -101,6 +106,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     add_method_arguments(p, DEFAULT_METHODS)
     add_mapping_arguments(p)
     p.add_argument("-o", "--output", default="results", metavar="FOLDER", help="output folder; default results/")
+    p.add_argument(
+        "--truth",
+        default=None,
+        metavar="FILE",
+        help="the truth JSON pinid simulate writes beside its recording (run.truth.json): every base "
+        "parameter's error against it in the table, report and JSON",
+    )
     add_preprocessing_arguments(p)
     g = p.add_argument_group("estimation")
     g.add_argument(
@@ -297,6 +309,7 @@ def run(args: argparse.Namespace) -> int:
         stribeck_shape=args.stribeck_shape,
         **recording_options(args),
         started=started,
+        truth=args.truth,
     )
     print(identification_text(ident, verbose=args.verbose))
     written = write_identification(

@@ -142,17 +142,20 @@ def _add_progress_argument(p: argparse.ArgumentParser, default=None) -> None:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``pinid`` console script; returns the exit status."""
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    if not getattr(args, "_run", None):
-        parser.print_help()
-        return 2
+    with _quiet_startup_interrupt():  # Ctrl-C while numpy, scipy, Pinocchio load: one line, status 130
+        parser = build_parser()
+        args = parser.parse_args(argv)
+        if not getattr(args, "_run", None):
+            parser.print_help()
+            return 2
+        _preload()
     OVERWRITE.set(bool(getattr(args, "force", False)))  # the CLI never replaces a file unless told to
     token = MODE.set("auto" if getattr(args, "progress", None) is None else args.progress)
     from pinid.blas import cli_blas_threads  # deferred: pinid --help does not load it
 
     _sigterm_as_interrupt()
     try:
+        check_input_files(args)
         with cli_blas_threads(), _one_line_warnings(args.command):
             return int(args._run(args) or 0)
     except PinidError as exc:
@@ -180,6 +183,86 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 1
     finally:
         MODE.reset(token)  # main() called from Python leaves no command-line setting behind
+
+
+#: Exit status of a run interrupted (Ctrl-C) before its work began: 128 + SIGINT, as a shell reports it.
+EXIT_INTERRUPTED_AT_START = 130
+
+
+@contextlib.contextmanager
+def _quiet_startup_interrupt():
+    """While the command starts (its modules and their extensions load), Ctrl-C ends it at once with one
+    line and status 130: nothing has been written yet, and a KeyboardInterrupt raised inside an extension
+    module's import gives a traceback or an unrelated error ("PyCapsule_Import could not import module
+    datetime").  The previous handler is put back before the work, where Ctrl-C cleans up the outputs."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def handler(signum, frame):
+        os.write(2, b"pinid: interrupted while starting; nothing was written\n")
+        os._exit(EXIT_INTERRUPTED_AT_START)
+
+    previous = signal.signal(signal.SIGINT, handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
+def _preload() -> None:
+    """Load the heavy extension modules every command uses (numpy, scipy.linalg, Pinocchio) while
+    :func:`_quiet_startup_interrupt` holds Ctrl-C."""
+    import numpy  # noqa: F401
+    import scipy.linalg  # noqa: F401
+
+    import pinid.model.robot  # noqa: F401  (Pinocchio)
+
+
+#: Options that name an input file, per parsed-argument name: what the file is.  ``truth`` is an input
+#: of ``compare`` only (``simulate --truth`` is an output).
+INPUT_FILE_OPTIONS = {
+    "urdf": "URDF file",
+    "urdf_true": "URDF file",
+    "drives": "drives file (TOML)",
+    "spec": "spec file",
+    "comfort": "comfort limits file (TOML)",
+    "evaluate": "trajectory JSON file",
+    "excitation": "trajectory JSON file",
+    "reference": "trajectory JSON file",
+    "data": "recording",
+    "validate": "recording",
+    "payload_data": "recording",
+    "first_data": "recording",
+    "first_validate": "recording",
+    "mapping": "mapping spec (TOML)",
+    "exo": "model JSON file",
+    "model": "model file",
+    "payload": "payload file (TOML)",
+    "x0": "JSON file",
+}
+
+#: Input options whose value may also be a folder (a ROS 2 bag is a folder).
+FOLDER_INPUTS = {"data", "validate", "payload_data", "first_data", "first_validate"}
+
+
+def check_input_files(args: argparse.Namespace) -> None:
+    """Every input-file option whose value names an existing path must name a regular file (a folder for
+    recordings): a FIFO would block forever, ``/dev/zero`` never ends.  SpecError naming the option
+    (:func:`pinid.io.check_input_file`; the readers bound the size they read)."""
+    from pinid.io import check_input_file
+
+    names = dict(INPUT_FILE_OPTIONS)
+    if args.command == "compare":
+        names["truth"] = "truth JSON file"
+    for dest, what in names.items():
+        values = getattr(args, dest, None)
+        for v in values if isinstance(values, list) else [values]:
+            if not isinstance(v, str) or not os.path.lexists(v):
+                continue  # absent: a robot name, a preset, or the reader's own "not found"
+            if dest in FOLDER_INPUTS and os.path.isdir(v):
+                continue
+            check_input_file(v, what, option="--" + dest.replace("_", "-"))
 
 
 @contextlib.contextmanager

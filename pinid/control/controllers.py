@@ -38,6 +38,7 @@ from pinid.io import read_json
 from pinid.model.base import base_parameters
 from pinid.model.regressor import JointTerms, standard_parameters
 from pinid.simulation.twin import Plant, perturb, plant_terms, simulate
+from pinid.model.robot import as_robot
 
 
 class DynamicsModel(Protocol):
@@ -216,6 +217,7 @@ def track(
     carries a wearer); ``disturbance(t) -> (nv,)`` [N·m]: a torque acting on the plant besides the
     controller's (e.g. the wearer's, :func:`pinid.simulation.twin.wearer_disturbance`).
     """
+    plant = as_robot(plant)
     rng = np.random.default_rng(seed)
     nv = plant.nv
     limit = plant.effort_limit if torque_limit is None else np.broadcast_to(np.asarray(torque_limit, float), (nv,))
@@ -257,6 +259,8 @@ def load_controller_model(spec: str, plant: RobotModel, *, friction: bool = True
     parameters about PERCENT % off, :func:`pinid.simulation.twin.perturb` seeded by ``seed``, friction ignored — what
     a CAD model knows), a URDF file, an identified model (``model_<method>.json``) or an identification
     (``identification.json``: its best result)."""
+    if not isinstance(spec, str):
+        raise SpecError(f"spec: got {type(spec).__name__}, expected nominal, cad:PERCENT, a URDF or a model JSON")
     from pathlib import Path
 
     if spec == "nominal":
@@ -314,6 +318,7 @@ def compare_models(
 
     Returns ``{controller: {model_name: {"metrics": per-joint dict, "result": TrackingResult}}}``;
     metrics are taken after ``after`` [s] (the start-up transient excluded)."""
+    plant = as_robot(plant)
     out: dict = {}
     for c in controllers:
         if c not in CONTROLLERS:
@@ -348,6 +353,7 @@ def identified_vs_cad(
 
     Returns ``{"table": compare_models(...), "identification": Identification, "cad_base_error_percent":
     ..., "identified_base_error_percent": ...}`` (relative errors of the base parameters [%])."""
+    plant = as_robot(plant)
     rng = np.random.default_rng(seed)
     cad_robot = perturb(plant, percent, rng)
     cad = nominal_model(cad_robot, friction=False)

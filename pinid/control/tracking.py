@@ -17,10 +17,14 @@ from pinid.model.robot import RobotModel
 from pinid.report.figures import save_figure
 from pinid.report.plot_control import tracking_figure
 from pinid.report.text import text_table
+from pinid.errors import OutputError, SpecError
+from pinid.io import as_path
+from pinid.model.robot import as_robot
 
 
 def sine_reference(plant: RobotModel) -> FourierTrajectory:
     """Seed 001's reference, x_d = sin(0.5πt), scaled into the middle of each joint's range [rad]."""
+    plant = as_robot(plant)
     lo = np.where(np.isfinite(plant.lower), plant.lower, -1.0)
     hi = np.where(np.isfinite(plant.upper), plant.upper, 1.0)
     centre, amp = 0.5 * (lo + hi), np.minimum(0.35 * (hi - lo), 0.6)
@@ -37,6 +41,8 @@ def load_reference(spec: str, plant: RobotModel) -> FourierTrajectory:
 def tracking_table(table: dict) -> str:
     """The tracking errors as a text table: per controller, model (a file's name) and joint, the RMS and
     maximum error [mrad] after the start-up, the settling time [s] and the band [mrad] it settles into."""
+    if not isinstance(table, dict):
+        raise SpecError(f"table: got {type(table).__name__}, expected the tracking table (a dict)")
     rows = []
     for c, per_model in table.items():
         for name, entry in per_model.items():
@@ -51,6 +57,7 @@ def tracking_table(table: dict) -> str:
 
 def tracking_paths(folder: str | os.PathLike, controllers) -> list[Path]:
     """The files :func:`write_tracking` writes into ``folder`` for ``controllers`` (to check them early)."""
+    folder = as_path(folder, "folder", error=OutputError)
     out = Path(folder)
     return [out / "tracking.json", *(out / f"tracking_{c}.png" for c in controllers)]
 
@@ -61,6 +68,8 @@ def write_tracking(
     """Write ``tracking.json`` (the plant's URDF, ``settings`` such as the reference, seconds, after,
     seed, and every metric) and one figure ``tracking_<controller>.png`` per controller into ``folder``,
     all or nothing.  ``overwrite``: replace existing files (None: the :data:`pinid.io.OVERWRITE` policy)."""
+    if not isinstance(table, dict):
+        raise SpecError(f"table: got {type(table).__name__}, expected the tracking table (a dict)")
     out = Path(folder)
     arts = Artefacts(overwrite=overwrite)
     arts.add(

@@ -7,6 +7,7 @@ checking them and preprocessing live in :mod:`pinid.data.formats`.
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -30,9 +31,18 @@ class Dataset:
 
     def __post_init__(self) -> None:
         self.t = as_floats(self.t, f"{self.source}: t", finite=False).reshape(-1)
-        if isinstance(self.joints, str) or not all(isinstance(j, str) for j in self.joints):
+        if (
+            isinstance(self.joints, str)
+            or not isinstance(self.joints, Iterable)
+            or not all(isinstance(j, str) for j in self.joints)
+        ):
             raise DataError(f"{self.source}: joints {self.joints!r}, expected a list of joint names")
         self.joints = list(self.joints)
+        twice = sorted({j for j in self.joints if self.joints.count(j) > 1})
+        if twice:
+            raise DataError(
+                f"{self.source}: joints {self.joints}: '{twice[0]}' appears twice, expected each joint once"
+            )
         self.q = _as2d(self.q, "q", self)
         for name in ("dq", "ddq", "tau"):
             value = getattr(self, name)
@@ -107,3 +117,12 @@ def _as2d(a, name: str, ds: Dataset) -> np.ndarray:
     if a.ndim != 2:
         raise DataError(f"{ds.source}: {name} has {a.ndim} dimensions, expected a (samples, joints) table")
     return a
+
+
+def as_dataset(ds, name: str = "ds") -> Dataset:
+    """``ds`` if it is a :class:`Dataset`; DataError naming the argument ``name`` otherwise."""
+    if not isinstance(ds, Dataset):
+        raise DataError(
+            f"{name}: got {type(ds).__name__}, expected a pinid Dataset (pinid.data.formats.read_recording)"
+        )
+    return ds

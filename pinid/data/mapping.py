@@ -44,6 +44,7 @@ import os
 import re
 import warnings
 import zipfile
+from collections import Counter
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -55,6 +56,7 @@ from pinid.errors import DataError, DataWarning, SpecError
 from pinid.io import read_toml
 from pinid.model.drives import Transmission, transmission_from_table
 from pinid.data.dataset import Dataset
+from pinid.io import as_path
 
 QUANTITIES: tuple[str, ...] = ("q", "dq", "ddq", "tau")
 
@@ -331,6 +333,8 @@ def _source_path(v: Any, origin: str, where: str) -> str:
     """A ``[sources.x] path`` checked: text whose braces hold only :data:`PLACEHOLDERS`."""
     if not isinstance(v, str) or not v:
         raise SpecError(f'{origin}: path = {v!r} in {where}, expected a file name such as "{{stem}}_torque.csv"')
+    if "\x00" in v:
+        raise SpecError(f"{origin}: path = {v!r} in {where} holds a NUL character, expected a file name")
     for m in _BRACES.finditer(v):
         if m.group(1) not in PLACEHOLDERS:
             raise SpecError(
@@ -571,17 +575,61 @@ def _check_file(file: Path) -> None:
         raise DataError(f"{file}: file not found, expected a recording")
     if file.is_dir():
         raise DataError(f"{file}: is a folder, expected a recording file")
+    if not file.is_file():  # a FIFO would block the reader forever, a device never ends
+        from pinid.io import check_input_file
+
+        check_input_file(file, "recording", error=DataError)
     if file.stat().st_size == 0:
         raise DataError(f"{file}: file is empty, expected a recording")
 
 
-def _read_npz(file: Path, src: SourceSpec, wanted, origin: str) -> Table:
+def _open_npz(file: Path):
+    """``np.load(file)`` of an NPZ archive; DataError naming the file if it is not one (a ``.npy`` file
+    renamed ``.npz``, text, a damaged archive)."""
+    if not zipfile.is_zipfile(file):
+        with open(file, "rb") as f:
+            npy = f.read(6) == b"\x93NUMPY"
+        raise DataError(
+            f"{file}: "
+            + ("holds a single array (a .npy file)" if npy else "not an NPZ archive (not a zip file)")
+            + ", expected an NPZ archive of named arrays (numpy.savez)"
+        )
     try:
         npz = np.load(file, allow_pickle=False)
     except (OSError, ValueError, zipfile.BadZipFile) as exc:
         raise DataError(f"{file}: not a readable NPZ file ({exc})") from None
     if not hasattr(npz, "files"):
         raise DataError(f"{file}: holds a single array, expected an NPZ archive of named arrays")
+    return npz
+
+
+def _npz_array(npz, file: Path, col: str) -> np.ndarray:
+    """The array ``col`` of an open NPZ archive, after checking that the size its header declares is what
+    the archive holds (a header declaring 8 TB is refused before anything is allocated)."""
+    member = col if col in npz.zip.namelist() else f"{col}.npy"
+    try:
+        info = npz.zip.getinfo(member)
+        with npz.zip.open(member) as f:
+            version = np.lib.format.read_magic(f)
+            read = np.lib.format.read_array_header_1_0 if version == (1, 0) else np.lib.format.read_array_header_2_0
+            shape, _, dtype = read(f, max_header_size=10000)
+            header = f.tell()
+    except (OSError, ValueError, KeyError, zipfile.BadZipFile) as exc:
+        raise DataError(f"{file}: array '{col}' cannot be read ({str(exc).splitlines()[0]})") from None
+    declared = int(np.prod(shape, dtype=object)) * dtype.itemsize
+    if declared > info.file_size - header:
+        raise DataError(
+            f"{file}: array '{col}' declares shape {tuple(shape)} ({declared:,} bytes) but the archive holds "
+            f"{max(info.file_size - header, 0):,} bytes of it; the file is damaged or not a recording"
+        )
+    try:
+        return np.asarray(npz[col])
+    except ValueError as exc:
+        raise DataError(f"{file}: array '{col}' cannot be read ({exc})") from None
+
+
+def _read_npz(file: Path, src: SourceSpec, wanted, origin: str) -> Table:
+    npz = _open_npz(file)
     names = list(npz.files)
     tab = Table(file, names, {}, 0, None)
     tab.recognised = any(isinstance(c, str) and c in names for c, _, _ in wanted)
@@ -594,10 +642,7 @@ def _read_npz(file: Path, src: SourceSpec, wanted, origin: str) -> Table:
                     + (f"expected one of {', '.join(names)}" if tab.recognised else "expected a name")
                 )
             tab.key(col, where, origin)
-            try:
-                a = np.asarray(npz[col])
-            except ValueError as exc:
-                raise DataError(f"{file}: array '{col}' cannot be read ({exc})") from None
+            a = _npz_array(npz, file, col)
             if a.dtype.kind not in "fiub":
                 raise DataError(f"{file}: array '{col}' has type {a.dtype}, expected numbers")
             if index is not None:
@@ -691,7 +736,8 @@ def _read_csv(file: Path, src: SourceSpec, wanted, origin: str) -> Table:
                 f"{file}: the first row is numbers, not column names; "
                 "for a file without a header set header = false in a mapping spec"
             )
-        dup = sorted({n for n in names if names.count(n) > 1 and n})
+        counts = Counter(names)  # linear in the width (names.count per name was quadratic)
+        dup = sorted(n for n, c in counts.items() if c > 1 and n)
         if dup:
             raise DataError(f"{file}: column name(s) {dup} appear more than once in the header, expected unique names")
     elif src.names is not None:
@@ -744,9 +790,15 @@ def _read_csv(file: Path, src: SourceSpec, wanted, origin: str) -> Table:
 def _check_ragged_tail(file: Path, delim: str | None, ncols: int, lines_consumed: int) -> None:
     """Check that the last line has as many fields as the first (a logger killed mid-line)."""
     size = file.stat().st_size
+    window = 8192
     with open(file, "rb") as fb:
-        fb.seek(max(0, size - 8192))
-        tail = fb.read().decode("utf-8", errors="replace").rstrip("\r\n ")
+        while True:  # widen the window until it holds the whole last line (lines of any length)
+            fb.seek(max(0, size - window))
+            raw = fb.read().rstrip(b"\r\n ")
+            if b"\n" in raw or b"\r" in raw or window >= size:
+                break
+            window *= 4
+    tail = raw.decode("utf-8", errors="replace")
     last = tail.splitlines()[-1] if tail else ""
     if not last.strip() or last.lstrip().startswith("#"):
         return
@@ -802,6 +854,7 @@ def _time_of(tab: Table, src: SourceSpec, origin: str) -> np.ndarray:
 def peek_columns(path: str | os.PathLike) -> tuple[str, list[str]]:
     """``(format, names)`` of a file in pinid's dataset format: the CSV header or the NPZ array names
     (any registered reader with a ``columns`` function, :mod:`pinid.data.registry`)."""
+    path = as_path(path, error=DataError)
     file = Path(path)
     reader = None
     if file.suffix or file.is_dir():
@@ -821,11 +874,8 @@ def peek_columns(path: str | os.PathLike) -> tuple[str, list[str]]:
 
 
 def _npz_columns(file: Path) -> list[str]:
-    try:
-        with np.load(file, allow_pickle=False) as npz:
-            return list(npz.files)
-    except (OSError, ValueError, zipfile.BadZipFile, AttributeError) as exc:
-        raise DataError(f"{file}: not a readable NPZ file ({exc})") from None
+    with _open_npz(file) as npz:
+        return list(npz.files)
 
 
 def _csv_columns(file: Path) -> list[str]:

@@ -32,7 +32,9 @@
    down to no less than ``max(1 kHz, 20 × cutoff)`` — a 5 kHz recording becomes 1 kHz, 1 kHz and
    slower stay as they are.  ``decimate=1`` keeps every sample.
 
-Presets (``preset=``) fill in the options left at their defaults: see :data:`PRESETS`.
+Presets (``preset=``) fill in the options left at their defaults: see :data:`PRESETS`.  The recording as
+given is kept in ``meta["recorded"]``: torque errors are measured against it
+(:func:`pinid.identification.problem.recorded_torque`), not against the low-passed copy.
 """
 
 from __future__ import annotations
@@ -48,6 +50,8 @@ from pinid.data.dataset import Dataset
 from pinid.data.filters import butter_sos, default_padlen, filtfilt_sos, savgol
 from pinid.errors import DataError, SpecError
 from pinid.data.formats import warn
+from pinid.data.dataset import as_dataset
+from pinid.checks import array_like
 
 #: Named recipes, after the paper they reproduce.  ``zha2019``: Zha et al. 2019 — 1 kHz sampling, zero-phase 10 Hz low-pass (the paper
 #: gives no order: 4 here; it differentiates by forward differences, which lag half a sample: central
@@ -79,6 +83,7 @@ _DEFAULTS = {"cutoff": None, "order": 4, "differentiation": "savgol", "trim": No
 
 def default_cutoff(fs: float) -> float:
     """Default low-pass cut-off [Hz] for a sample rate ``fs`` [Hz]: ``min(10, fs/10)``."""
+    fs = number(fs, "fs", low=0, low_open=True)
     return float(min(10.0, fs / 10.0))
 
 
@@ -87,11 +92,13 @@ SAVGOL_POLYORDER = 5
 
 def savgol_half_window(fs: float, cutoff: float) -> int:
     """Half-width ``M`` of the Savitzky–Golay window (length ``2M+1``) for rate ``fs`` and cut-off [Hz]."""
+    fs = number(fs, "fs", low=0, low_open=True)
     return int(max(4, round(0.3 * fs / cutoff)))
 
 
 def default_trim(fs: float, cutoff: float, order: int) -> float:
     """Default time [s] trimmed at each end: filter settling to 1/1000 plus the derivative window."""
+    fs = number(fs, "fs", low=0, low_open=True)
     settle = np.log(1000.0) / (2 * np.pi * cutoff * np.sin(np.pi / (2 * order)))
     return float(settle + (savgol_half_window(fs, cutoff) + 1) / fs)
 
@@ -99,12 +106,14 @@ def default_trim(fs: float, cutoff: float, order: int) -> float:
 def lowpass(x: np.ndarray, fs: float, cutoff: float, order: int = 4) -> np.ndarray:
     """Zero-phase Butterworth low-pass of ``x`` (samples along axis 0) [same unit as x], padded as
     scipy.signal.sosfiltfilt by default (:func:`~pinid.data.filters.default_padlen`)."""
+    array_like(x, "x")
     sos = butter_sos(order, cutoff, fs)
     return filtfilt_sos(sos, x, default_padlen(sos))
 
 
 def uniform_grid(ds: Dataset, rate: float | None = None) -> tuple[Dataset, dict]:
     """``ds`` on a uniform time grid (resampled when jittered or when ``rate`` is given); and a report."""
+    ds = as_dataset(ds)
     t = ds.t
     dt = np.diff(t)
     step = float(np.median(dt))
@@ -218,6 +227,7 @@ def prepare(
         raise DataError(f"{src}: {ds.n} samples, expected at least 10 to filter and differentiate")
     if rate is not None and (not np.isfinite(rate) or rate <= 0):
         raise SpecError(f"resampling rate {rate!r}, expected a rate > 0 [Hz]")
+    recorded = ds.meta.get("recorded", ds)  # the recording as read: the yardstick of torque errors
     ds, unwrapped = _unwrap(ds, unwrap)
     ds, grid = uniform_grid(ds, rate)
     fs = float(f"{1.0 / float(np.median(np.diff(ds.t))):.9g}")  # 1000 Hz, not 999.9999999999991 Hz
@@ -303,6 +313,7 @@ def prepare(
         )
     keep = slice(n_trim, ds.n - n_trim if n_trim else None, decimate)
     meta = dict(ds.meta)
+    meta["recorded"] = recorded
     meta["preprocess"] = {
         "preset": preset,
         "sample_rate": fs,

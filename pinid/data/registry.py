@@ -17,6 +17,7 @@ from collections.abc import Callable
 import numpy as np
 
 from pinid.errors import DataError, SpecError
+from pinid.io import as_path
 
 
 class Table:
@@ -108,12 +109,16 @@ WRITERS: dict[str, Writer] = {}
 
 def register_reader(reader: Reader) -> Reader:
     """Add (or replace) a reader; returns it."""
+    if not isinstance(reader, Reader):
+        raise SpecError(f"reader: got {type(reader).__name__}, expected a pinid.data.registry.Reader")
     READERS[reader.name] = reader
     return reader
 
 
 def register_writer(writer: Writer) -> Writer:
     """Add (or replace) a writer; returns it."""
+    if not isinstance(writer, Writer):
+        raise SpecError(f"writer: got {type(writer).__name__}, expected a pinid.data.registry.Writer")
     WRITERS[writer.name] = writer
     return writer
 
@@ -125,6 +130,7 @@ def _suffixes(table: dict) -> str:
 def reader_for(file: Path, fmt: str = "auto") -> Reader:
     """The reader of ``file``: ``fmt`` by name, or (``"auto"``) the first whose ``match`` claims the path,
     else the one claiming its suffix.  DataError when none does; SpecError for an unknown ``fmt``."""
+    file = as_path(file, "file", error=DataError)
     if fmt != "auto":
         if fmt not in READERS:
             raise SpecError(f"format = {fmt!r}, expected one of {', '.join(READERS)} or 'auto' (by suffix)")
@@ -144,6 +150,7 @@ def reader_for(file: Path, fmt: str = "auto") -> Reader:
 
 def writer_for(path: Path) -> Writer:
     """The writer claiming ``path``'s suffix; DataError naming the suffixes pinid writes."""
+    path = as_path(path, error=DataError)
     suffix = path.suffix.lower()
     for w in WRITERS.values():
         if suffix in w.suffixes:

@@ -162,6 +162,11 @@ class _Topic:
                         f"{file}: message {k} of {topic} has no {field} (an empty array), "
                         f"expected {field} in every message"
                     )
+                if len(a) != len(self.names[k]):
+                    raise DataError(
+                        f"{file}: message {k} of {topic} has {len(self.names[k])} joint names and {len(a)} "
+                        f"{field} values, expected one {field} per name"
+                    )
                 cols[r] = a[index_of[self.names[k]]]
             for i, j in enumerate(joints):
                 out[(field, j)] = cols[:, i]

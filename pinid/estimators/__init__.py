@@ -49,6 +49,8 @@ def quick_methods() -> list[str]:
 def make_estimator(name: str, **settings) -> Estimator:
     """An estimator from the registry by name, with checked settings (:meth:`Estimator.create`); SpecError
     for an unknown name or a bad setting."""
+    if not isinstance(name, str):
+        raise SpecError(f"name: got {type(name).__name__}, expected an estimator name ({', '.join(ESTIMATORS)})")
     key = name.strip().lower()
     if key not in ESTIMATORS:
         raise SpecError(f"unknown method '{name}', expected one of {', '.join(ESTIMATORS)}")

@@ -72,10 +72,11 @@ class ModelSimulation:
         self, problem: IdentificationProblem, bandwidth: float = 2.0, substeps: int = 1, rate: float | None = 250.0
     ) -> None:
         rows = getattr(problem, "regressor_rows", None)
-        if rows is None:
+        if rows is None or not hasattr(rows, "datasets"):
             raise SpecError(
-                "iv/didim simulate the model on the recordings: expected a problem made from recordings "
-                "(IdentificationProblem.from_datasets), not a bare regressor or a segmental stage"
+                "iv/didim simulate the model on the recordings: expected a problem made from recordings of a "
+                "fixed-base robot (IdentificationProblem.from_datasets), not a bare regressor, a segmental "
+                "stage or a floating base"
             )
         self.problem = problem
         self.rows = rows

@@ -65,11 +65,12 @@ import pinocchio as pin
 
 from pinid.model.base import BaseParameters, base_parameters
 from pinid.blas import single_threaded_blas
-from pinid.checks import option_numbers
+from pinid.checks import count, number, option_numbers
 from pinid.errors import SpecError
-from pinid.io import display_path, parse_spec_text
+from pinid.io import display_path, parse_spec_text, read_bounded_file
+from pinid.memory import check_fits
 from pinid.resources import EXCITATION_DIR as BUNDLED_EXCITATION_DIR
-from pinid.model.robot import RobotModel
+from pinid.model.robot import RobotModel, as_robot
 from pinid.model.regressor import JointTerms, regressor, standard_parameters
 from pinid.model.terms import count as _term_count
 from pinid.excitation.trajectory import FourierTrajectory
@@ -77,6 +78,7 @@ from pinid.io import write_json
 from pinid.model.bundled import BUNDLED_URDF_DIR
 from pinid.optimizers import OPTIMIZERS, get_optimizer
 from pinid.progress import progress as progress_bar
+from pinid.io import as_path
 
 #: Acceleration limit [rad/s² or m/s²] when neither the spec nor the URDF gives one.
 DEFAULT_ACCELERATION = 5.0
@@ -311,6 +313,7 @@ class ExcitationSpec:
 def default_spec(model: RobotModel, **settings) -> ExcitationSpec:
     """Limits from the URDF plus pinid's defaults (see the module documentation); ``settings`` override
     any field of :class:`ExcitationSpec` (``harmonics=6``, ``rest_start=False``...)."""
+    model = as_robot(model)
     lo, hi = model.lower.copy(), model.upper.copy()
     both = np.isfinite(lo) & np.isfinite(hi)
     q0 = np.zeros(model.nv)
@@ -337,6 +340,7 @@ def default_spec(model: RobotModel, **settings) -> ExcitationSpec:
 
 def bundled_spec_path(model: RobotModel) -> Path | None:
     """The spec file pinid uses by default for a bundled robot (``exo_leg`` → ``excitation/exo_leg_table2.toml``)."""
+    model = as_robot(model)
     if model.urdf_path is None:
         return None
     path = Path(model.urdf_path)
@@ -355,11 +359,11 @@ def bundled_spec_path(model: RobotModel) -> Path | None:
 
 def load_spec(path: str | os.PathLike, model: RobotModel) -> ExcitationSpec:
     """Read a spec file (``.toml`` or ``.json``) for ``model``: URDF limits, overridden (tightened) by the file."""
+    path = as_path(path)
     p = Path(path)
-    if not p.is_file():
-        raise SpecError(f"{p}: file not found, expected an excitation spec (.toml or .json)")
+    text = read_bounded_file(p, "excitation spec (.toml or .json)")
     kind = "JSON" if p.suffix.lower() == ".json" else "TOML"
-    data = parse_spec_text(p.read_bytes(), str(p), "excitation spec", kind=kind)
+    data = parse_spec_text(text, str(p), "excitation spec", kind=kind)
     if not isinstance(data, dict):
         raise SpecError(f"{p}: expected a table of settings at the top level")
     return spec_from_dict(data, model, source=display_path(p))
@@ -367,6 +371,8 @@ def load_spec(path: str | os.PathLike, model: RobotModel) -> ExcitationSpec:
 
 def spec_from_dict(data: dict, model: RobotModel, *, source: str = "<spec>") -> ExcitationSpec:
     """Build a spec from the plain-dict form of a spec file (see ``excitation/exo_leg_table2.toml``)."""
+    if not isinstance(data, dict):
+        raise SpecError(f"{source}: data: got {type(data).__name__}, expected a table of settings")
     unknown = sorted(set(data) - _SPEC_KEYS)
     if unknown:
         raise SpecError(f"{source}: unknown setting(s) {', '.join(unknown)} (known: {', '.join(sorted(_SPEC_KEYS))})")
@@ -391,6 +397,8 @@ def spec_from_dict(data: dict, model: RobotModel, *, source: str = "<spec>") -> 
         changes["samples"] = number(data["samples"], "samples", integer=True)
     if "base_frequency" in data:
         changes["base_frequency"] = number(data["base_frequency"], "base_frequency")
+        if not (np.isfinite(changes["base_frequency"]) and changes["base_frequency"] > 0):  # the period divides by it
+            raise SpecError(f"{source}: base_frequency = {data['base_frequency']!r}, expected a number > 0 [rad/s]")
     if "margin" in data:
         changes["margin"] = number(data["margin"], "margin")
     for key in ("rest_start", "optimize_offsets"):
@@ -462,6 +470,7 @@ def _joint(model: RobotModel, name: str, source: str) -> int:
 def spec_for(model: RobotModel, path: str | os.PathLike | None = None, **settings) -> ExcitationSpec:
     """The spec to use: ``path`` if given, else the bundled one for ``exo_leg``, else :func:`default_spec`;
     ``settings`` (not None) override its fields."""
+    model = as_robot(model)
     path = path if path is not None else bundled_spec_path(model)
     spec = load_spec(path, model) if path is not None else default_spec(model)
     settings = {k: v for k, v in settings.items() if v is not None}
@@ -471,7 +480,9 @@ def spec_for(model: RobotModel, path: str | os.PathLike | None = None, **setting
 # ====================================================================================== evaluation
 def sample_times(period: float, samples: int) -> np.ndarray:
     """``samples`` equally spaced instants of one period, starting at 0 [s]."""
-    return np.arange(int(samples)) * (period / int(samples))
+    samples = count(samples, "samples", low=1)
+    period = number(period, "period", low=0, low_open=True)
+    return np.arange(samples) * (period / samples)
 
 
 def _clean_rest(dq: np.ndarray) -> np.ndarray:
@@ -518,6 +529,9 @@ def log_det_information(
 
 
 def _check_joints(model: RobotModel, trajectory: FourierTrajectory) -> None:
+    as_robot(model)
+    if not isinstance(trajectory, FourierTrajectory):
+        raise SpecError(f"trajectory: got {type(trajectory).__name__}, expected a FourierTrajectory")
     if list(trajectory.joints) != model.joint_names:
         raise SpecError(
             f"trajectory joints {list(trajectory.joints)} do not match the model's active joints {model.joint_names}"
@@ -540,6 +554,8 @@ def trajectory_extremes(trajectory: FourierTrajectory, points: int = DENSE_SAMPL
 
     Measured on a grid of ``points`` per period, each extreme then refined by Newton steps on the analytic
     derivatives (so they are exact to rounding, not to the grid)."""
+    if not isinstance(trajectory, FourierTrajectory):
+        raise SpecError(f"trajectory: got {type(trajectory).__name__}, expected a FourierTrajectory")
     t = sample_times(trajectory.period, points)
     out = {}
     values = [trajectory.derivative(t, k) for k in range(3)]
@@ -563,6 +579,7 @@ def torque_extremes(
     model: RobotModel, trajectory: FourierTrajectory, terms: JointTerms = JointTerms(), points: int = 1000
 ) -> np.ndarray:
     """Largest |torque| [N·m] per joint over one period, with the nominal URDF parameters (``points`` samples)."""
+    model = as_robot(model)
     q, dq, ddq = trajectory.evaluate(sample_times(trajectory.period, points))
     tau = (regressor(model, q, _clean_rest(dq), ddq, terms) @ standard_parameters(model, terms)).reshape(points, -1)
     return np.abs(tau).max(axis=0)
@@ -576,6 +593,8 @@ def limit_usage(
     ``q_low`` / ``q_high``: how far towards each position limit the motion goes from q0 (1 = reaches it);
     ``q_range``: the share of the range covered; ``dq``, ``ddq``, ``tau``: peak over limit.  Limits here are
     the spec's, before the margin; ``q0``: the trajectory's offsets (default: the spec's)."""
+    if not isinstance(extremes, dict):
+        raise SpecError(f"extremes: got {type(extremes).__name__}, expected the extremes dict of trajectory_extremes")
     out = {}
     q0s = spec.q0 if q0 is None else np.asarray(q0, dtype=float)
     for i, j in enumerate(spec.joints):
@@ -596,6 +615,8 @@ def limit_usage(
 
 def is_feasible(extremes: dict, spec: ExcitationSpec, tau_abs_max: np.ndarray | None = None, tol: float = 1e-9) -> bool:
     """Whether the extremes are inside the spec's limits (after the margin), to ``tol``."""
+    if not isinstance(extremes, dict):
+        raise SpecError(f"extremes: got {type(extremes).__name__}, expected the extremes dict of trajectory_extremes")
     for i, j in enumerate(spec.joints):
         e = extremes[j]
         if (
@@ -613,6 +634,8 @@ def is_feasible(extremes: dict, spec: ExcitationSpec, tau_abs_max: np.ndarray | 
 def limit_violations(extremes: dict, spec: ExcitationSpec, tol: float = 1e-9) -> list[str]:
     """One readable line per limit the extremes exceed (after the margin), e.g.
     ``"hip: q_min -0.08742 < -0.087 by 0.00042 rad"``; empty when inside."""
+    if not isinstance(extremes, dict):
+        raise SpecError(f"extremes: got {type(extremes).__name__}, expected the extremes dict of trajectory_extremes")
     out = []
     for i, j in enumerate(spec.joints):
         e = extremes[j]
@@ -671,6 +694,14 @@ class DesignProblem:
             self.harmonic_of = np.concatenate([k, k])
         self.T, self.m = T, m
         self.d = self.nv * m + (self.nv if spec.optimize_offsets else 0)
+        # The regressor of every sample and its derivatives along the d variables: about 17 kB per
+        # sample for exo_leg (8 bytes · nv · p · (2d + 20); measured, docs/benchmarks.md "Memory").
+        per_sample = 8.0 * self.nv * len(self.base.standard_names) * (2 * self.d + 20)
+        check_fits(
+            per_sample * spec.samples,
+            f"samples={spec.samples} (--samples, or samples in the spec)",
+            per_item=per_sample,
+        )
         self.times = sample_times(spec.period, spec.samples)
         self.check_times = sample_times(spec.period, check_samples or max(2 * spec.samples, 40 * N))
         self._basis_design, self._basis_check = self._basis_at(self.times), self._basis_at(self.check_times)
@@ -1180,6 +1211,7 @@ def design_excitation(
     BLAS runs single-threaded meanwhile: the work is many small matrix operations, which OpenBLAS's
     threads slow down (up to 4× on 2 cores) and make irreproducible.
     """
+    model = as_robot(model)
     spec = spec or spec_for(model)
     with single_threaded_blas():
         return _design(model, spec, optimizer, options, seed, progress, x0)

@@ -14,11 +14,14 @@ from pinid.io import Artefacts, json_text
 from pinid.model.robot import RobotModel
 from pinid.report.figures import save_figure
 from pinid.report.plot_excitation import plot_excitation
+from pinid.model.robot import as_robot
+from pinid.errors import SpecError
 
 
 def spec_text(model: RobotModel, spec: ExcitationSpec) -> str:
     """The robot and the spec in three lines: harmonics, base frequency [rad/s] and period [s], samples,
     rest start, offsets, terms, margin."""
+    model = as_robot(model)
     return (
         f"robot {model.name} ({model.urdf_path}), joints {', '.join(model.joint_names)}\n"
         f"spec {spec.source}:\n"
@@ -32,6 +35,8 @@ def spec_text(model: RobotModel, spec: ExcitationSpec) -> str:
 def usage_table(spec: ExcitationSpec, extremes: dict, usage: dict, q0) -> str:
     """A table of how much of each limit a trajectory uses: q reached and its limits [rad], the share of the
     range and toward each limit from ``q0``, |dq| [rad/s], |ddq| [rad/s²] and |tau| [N·m] maxima and their use."""
+    if not isinstance(spec, ExcitationSpec):
+        raise SpecError(f"spec: got {type(spec).__name__}, expected an ExcitationSpec")
     has_tau = any("tau" in u for u in usage.values())
     w = max(8, max(len(j) for j in spec.joints) + 2)
     head = (
@@ -64,6 +69,7 @@ def evaluate_excitation(
     """Evaluate a given trajectory under ``spec`` (designing nothing): the trajectory with the evaluation
     in its ``meta`` (condition number, log det, feasibility, limits, extremes, usage: the JSON ``pinid
     excite --evaluate`` writes) and :func:`~pinid.excitation.design.evaluate_trajectory`'s dict."""
+    model = as_robot(model)
     spec.validate(model)
     started = time.perf_counter()
     ev = evaluate_trajectory(model, trajectory, spec)
@@ -89,6 +95,8 @@ def evaluate_excitation(
 def evaluation_text(source: str, spec: ExcitationSpec, ev: dict, q0, *, usage: bool = True) -> str:
     """:func:`evaluate_excitation`'s result as text: condition number, log det, inside the limits or not,
     the :func:`usage_table` (with ``usage``) and every limit the trajectory leaves."""
+    if not isinstance(spec, ExcitationSpec):
+        raise SpecError(f"spec: got {type(spec).__name__}, expected an ExcitationSpec")
     lines = [
         f"{source}: condition number {ev['condition_number']:.6g} (base regressor, {spec.samples} samples), "
         f"log det {ev['log_det']:.6g}, {'inside' if ev['feasible'] else 'OUTSIDE'} the limits"
@@ -103,6 +111,8 @@ def evaluation_text(source: str, spec: ExcitationSpec, ev: dict, q0, *, usage: b
 def design_text(result, spec: ExcitationSpec, *, usage: bool = True) -> str:
     """A design's result as text: condition number (and log det with the logdet criterion), time,
     evaluations, and with ``usage`` the :func:`usage_table`."""
+    if not isinstance(spec, ExcitationSpec):
+        raise SpecError(f"spec: got {type(spec).__name__}, expected an ExcitationSpec")
     crit = "" if spec.criterion == "cond" else f", log det(WᵀW) {result.log_det:.6g} (criterion logdet)"
     text = (
         f"condition number {result.condition_number:.6g}{crit} in {result.seconds:.1f} s "
@@ -134,6 +144,8 @@ def write_excitation(
     the trajectory sampled at ``rate`` [Hz] for ``periods`` periods; ``json`` the ``report`` (the
     trajectory and its design or evaluation).  ``overwrite``: replace existing files (None: the
     :data:`pinid.io.OVERWRITE` policy, which the CLI's ``--force`` sets).  Returns the paths written."""
+    if not isinstance(trajectory, FourierTrajectory):
+        raise SpecError(f"trajectory: got {type(trajectory).__name__}, expected a FourierTrajectory")
     arts = Artefacts(overwrite=overwrite)
     if plot:
 

@@ -141,6 +141,8 @@ class Drive:
 
 def check_parameter(name: str, value: float, *, flexible: bool, where: str = "") -> None:
     """Raise SpecError if a drive parameter value is physically impossible (see the module table)."""
+    if not isinstance(name, str):
+        raise SpecError(f"name: got {type(name).__name__}, expected a parameter name such as base.K1")
     base = name.rsplit(".", 1)[-1]
     pre = f"{where}{name}"
     if not math.isfinite(value):

@@ -45,10 +45,11 @@ import numpy as np
 from pinid.errors import DataError, JointError, PinidError, SolverError, SpecError
 from pinid.data.mapping import SourceSpec, peek_columns
 from pinid.data.registry import reader_for, writer_for
-from pinid.io import atomic_path, jsonable, write_json
+from pinid.io import atomic_path, jsonable, read_bounded_file, write_json
 from pinid.flexible.model import FLEX_PARAMS, RIGID_PARAMS, Drive, FlexibleModel, FlexSimulation, check_parameter
 from pinid.model.robot import INERTIAL_NAMES, RobotModel
 from pinid.optimizers import OPTIMIZERS, get_optimizer
+from pinid.io import as_path
 
 #: Costs of :class:`OutputErrorProblem`.
 COSTS: tuple[str, ...] = ("abs", "sq")
@@ -412,6 +413,7 @@ def load_flex_spec(path: str | os.PathLike, *, robot: RobotModel | None = None) 
     missing, malformed or impossible."""
     from pinid.resources import EXCITATION_DIR, bundled_flex_specs
 
+    path = as_path(path)
     p = Path(path)
     name = p.name.removesuffix(".toml")
     if not p.is_file() and name == str(path).removesuffix(".toml") and name in bundled_flex_specs():
@@ -431,6 +433,8 @@ def spec_from_dict(
     data: Mapping, *, source: str = "<spec>", robot: RobotModel | None = None, spec_path: Path | None = None
 ) -> FlexSpec:
     """Build a :class:`FlexSpec` from the plain-dict form of a spec file."""
+    if not isinstance(data, Mapping):
+        raise SpecError(f"data: got {type(data).__name__}, expected a flexible-joint spec table")
     unknown = sorted(set(data) - _TOP_KEYS)
     if unknown:
         raise SpecError(f"{source}: unknown setting(s) {', '.join(unknown)} (known: {', '.join(sorted(_TOP_KEYS))})")
@@ -671,6 +675,8 @@ def make_twin(
     ``refine`` times smaller than a fit would (so that fitting does not reuse the exact same discretisation);
     ``motor``: also record the motor angles.  ``meta["truth"]`` holds every parameter value.
     """
+    if not isinstance(model, FlexibleModel):
+        raise SpecError(f"model: got {type(model).__name__}, expected a FlexibleModel")
     if isinstance(signal, InputSignal):
         t, u = signal.generate(model.joint_names)
         kind = signal.kind
@@ -984,7 +990,7 @@ class OutputErrorResult:
         """Read a file written by :meth:`save`."""
         p = Path(path)
         try:
-            return cls.from_dict(json.loads(p.read_text(encoding="utf-8")))
+            return cls.from_dict(json.loads(read_bounded_file(p, "output-error result (JSON)", error=DataError)))
         except (OSError, ValueError, KeyError, TypeError) as exc:
             raise DataError(f"{p}: not an output-error result ({exc})") from None
 
@@ -1026,6 +1032,8 @@ def fit_output_error(
     ``f_scale`` [rad]: least squares' soft-L1 scale when the cost is ``"abs"``; ``max_nfev``: least squares'
     budget of residual evaluations (each Jacobian costs one more batch of ``d`` simulations).
     """
+    if not isinstance(problem, OutputErrorProblem):
+        raise SpecError(f"problem: got {type(problem).__name__}, expected an OutputErrorProblem (problem_from_spec)")
     if method not in methods():
         raise SpecError(f"unknown method {method!r}, expected one of {', '.join(methods())}")
     start = time.perf_counter()
@@ -1149,6 +1157,8 @@ def sensitivity(problem: OutputErrorProblem, x=None, *, noise: float = 1e-3, rel
     ``σ·√((SᵀS)⁻¹)_ii`` for Gaussian angle noise ``noise`` [rad] (Cramér-Rao bound of least squares), and the
     weakest direction (the right singular vector of the smallest singular value).
     """
+    if not isinstance(problem, OutputErrorProblem):
+        raise SpecError(f"problem: got {type(problem).__name__}, expected an OutputErrorProblem (problem_from_spec)")
     if x is None:
         if not problem.truth or any(n not in problem.truth for n in problem.free):
             x = problem.model.values[problem.idx]
@@ -1185,6 +1195,8 @@ WEAK = 0.1
 
 def classify(rel_std: float) -> str:
     """``"observable"`` (±2σ within ±2 %), ``"weak"`` (σ ≤ 10 %) or ``"unobservable"`` at the noise of the bound."""
+    if isinstance(rel_std, bool) or not isinstance(rel_std, (int, float, np.floating, np.integer)):
+        raise SpecError(f"rel_std: got {type(rel_std).__name__}, expected a relative standard deviation (a number)")
     if rel_std <= WELL_DETERMINED:
         return "observable"
     return "weak" if rel_std <= WEAK else "unobservable"
@@ -1200,6 +1212,8 @@ def problem_from_spec(
     outputs: Sequence[str] | None = None,
 ) -> OutputErrorProblem:
     """The problem a spec describes for ``recording`` (``rigid``: the rigid-joint model of the same spec)."""
+    if not isinstance(spec, FlexSpec):
+        raise SpecError(f"spec: got {type(spec).__name__}, expected a FlexSpec (load_flex_spec)")
     s = spec.rigid() if rigid else spec
     model = s.model()
     truth = None  # the rigid model has no truth: the twin is flexible
@@ -1235,6 +1249,8 @@ def compare_rigid_flexible(
     from that result.  Returns ``{"flexible": result, "rigid": result, "simulated": {label: (N, nv)},
     "measured": (N, nv), "t": (N,)}``.
     """
+    if not isinstance(spec, FlexSpec):
+        raise SpecError(f"spec: got {type(spec).__name__}, expected a FlexSpec (load_flex_spec)")
     method = method or spec.fit.method
     opts = dict(options or {"population": spec.fit.population, "iterations": spec.fit.iterations})
     out: dict = {"t": recording.t, "measured": recording.reorder(spec.robot.joint_names).q, "simulated": {}}

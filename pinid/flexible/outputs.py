@@ -19,12 +19,16 @@ from pinid.flexible.output_error import (
 from pinid.io import Artefacts, json_text
 from pinid.report.figures import save_figure
 from pinid.report.plot_flexible import plot_angles
+from pinid.errors import OutputError, SpecError
+from pinid.io import as_path
 
 
 def check_spec(spec: FlexSpec, recording: FlexRecording) -> tuple[str, dict]:
     """``pinid flex check``: the drives, the recording, the RK4 step and which free parameters the recording
     makes observable (relative standard deviations at the truth, or the nominal values, for the spec's
     noise, at least 0.1 mrad).  Returns the text and its JSON form ``{"spec", "step", "sensitivity"}``."""
+    if not isinstance(spec, FlexSpec):
+        raise SpecError(f"spec: got {type(spec).__name__}, expected a FlexSpec (load_flex_spec)")
     prob = problem_from_spec(spec, recording)
     model, rec = prob.model, recording
     lines = [
@@ -51,6 +55,8 @@ def check_spec(spec: FlexSpec, recording: FlexRecording) -> tuple[str, dict]:
 def result_text(res: OutputErrorResult) -> str:
     """A fit as text: per parameter fitted, truth, error %, bounds; then the cost, the RMS angle errors
     [mrad], the simulations, the time and the integrator's step and tolerance."""
+    if not isinstance(res, OutputErrorResult):
+        raise SpecError(f"res: got {type(res).__name__}, expected an OutputErrorResult")
     rows = [["parameter", "fitted", "truth", "error %", "lower", "upper"]] + res.table()
     w = [max(len(r[i]) for r in rows) for i in range(6)]
     lines = ["  " + "  ".join(c.rjust(w[i]) if i else c.ljust(w[i]) for i, c in enumerate(r)) for r in rows]
@@ -65,12 +71,15 @@ def result_text(res: OutputErrorResult) -> str:
 
 def twin_paths(path: str | os.PathLike) -> list[Path]:
     """The files :func:`write_twin` writes: the recording and its truth (``<path>.json``)."""
+    path = as_path(path, error=OutputError)
     return [Path(path), Path(str(path) + ".json")]
 
 
 def write_twin(recording: FlexRecording, path: str | os.PathLike, *, overwrite: bool | None = None) -> list[Path]:
     """Write a twin's recording (CSV or NPZ, by the suffix) and its ``meta`` (truth, noise, seed …) as
     ``<path>.json``, both or neither.  ``overwrite``: None follows :data:`pinid.io.OVERWRITE`."""
+    if not isinstance(recording, FlexRecording):
+        raise SpecError(f"recording: got {type(recording).__name__}, expected a FlexRecording")
     arts = Artefacts(overwrite=overwrite)
     data, truth = twin_paths(path)
     arts.add(data, lambda p: replace(recording, meta={}).save(p))
@@ -88,6 +97,8 @@ def write_fit(
 ) -> list[Path]:
     """Write a fit's JSON (:meth:`OutputErrorResult.save`) and, with ``plot`` (needs its ``problem``), a
     figure of the measured and simulated angles; both or neither."""
+    if not isinstance(res, OutputErrorResult):
+        raise SpecError(f"res: got {type(res).__name__}, expected an OutputErrorResult")
     arts = Artefacts(overwrite=overwrite)
     arts.add(path, lambda p: res.save(p))
     if plot:
@@ -114,6 +125,8 @@ def write_comparison(
     """Write what :func:`~pinid.flexible.output_error.compare_rigid_flexible` returned as JSON (the
     recording, the spec, both fits) and, with ``plot``, a figure of the measured and simulated angles;
     both or neither."""
+    if not isinstance(comparison, dict):
+        raise SpecError(f"comparison: got {type(comparison).__name__}, expected the dict of compare_rigid_flexible")
     arts = Artefacts(overwrite=overwrite)
     arts.add(
         path,

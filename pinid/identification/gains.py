@@ -63,6 +63,8 @@ class Payload:
     @classmethod
     def from_dict(cls, d: Mapping, origin: str = "payload") -> "Payload":
         """Build from the TOML table (see the module text); SpecError naming the bad key."""
+        if not isinstance(d, Mapping):
+            raise SpecError(f"{origin}: got {type(d).__name__}, expected a table with mass, com, inertia (and link)")
         unknown = [k for k in d if k not in _KEYS]
         if unknown:
             raise SpecError(f"{origin}: unknown key(s) {unknown}, expected some of {list(_KEYS)}")
@@ -102,17 +104,12 @@ class Payload:
     @classmethod
     def load(cls, path: str | os.PathLike) -> "Payload":
         """Read a payload TOML file (see the module text)."""
-        import tomllib
+        from pinid.io import read_toml
 
         p = Path(path)
-        if not p.is_file():
+        if not p.exists():
             raise SpecError(f"{p}: payload file not found, expected a TOML file with mass, com and inertia")
-        try:
-            d = tomllib.loads(p.read_text(encoding="utf-8"))
-        except (tomllib.TOMLDecodeError, UnicodeDecodeError, RecursionError) as exc:
-            raise SpecError(
-                f"{p}: not a valid TOML file ({str(exc).splitlines()[0] if str(exc) else 'too deeply nested'})"
-            ) from None
+        d = read_toml(p, "payload file with mass, com and inertia")  # a regular file, bounded, depth-limited
         return cls.from_dict(d, str(p))
 
     def body(self, model: RobotModel) -> tuple[int, np.ndarray]:
@@ -171,7 +168,15 @@ class DriveGains:
             out.ddq,
             out.tau * self.gains,
             out.source,
-            {**out.meta, "drive_gains": self.gains.tolist()},
+            {
+                **out.meta,
+                "drive_gains": self.gains.tolist(),
+                **(
+                    {"recorded": self.apply(out.meta["recorded"])}
+                    if isinstance(out.meta.get("recorded"), Dataset)
+                    else {}
+                ),
+            },
         )
 
     def summary(self) -> dict:
@@ -184,6 +189,43 @@ class DriveGains:
             "rows": self.rows,
             "residual_rms": self.residual_rms,
         }
+
+
+#: A payload lighter than this fraction of the robot's moving mass cannot fix the gains' scale.
+PAYLOAD_MIN_FRACTION = 1e-3
+#: ... and one heavier than this multiple of it is a unit or typing error.
+PAYLOAD_MAX_MULTIPLE = 1e3
+#: A payload's centre of mass lies within this multiple of the robot's reach from its link's origin.
+PAYLOAD_REACH_MULTIPLE = 10.0
+
+
+def check_payload(payload: Payload, model: RobotModel) -> None:
+    """SpecError (one line, naming the payload file and the key) when the payload's ``mass`` or ``com`` is
+    out of the range a payload fixed to ``model`` can have: mass between :data:`PAYLOAD_MIN_FRACTION` and
+    :data:`PAYLOAD_MAX_MULTIPLE` times the robot's moving mass, centre of mass within
+    :data:`PAYLOAD_REACH_MULTIPLE` times the robot's reach (joint offsets plus the farthest link centre of
+    mass; at least 1 m) of the link's origin.  Checked before any fit, so that ``com = [1e200, 0, 0]`` is
+    not reported as NaN torques, nor ``mass = 1e-300`` as a wrong current sign."""
+    pm = model.pin_model
+    robot_mass = float(sum(pm.inertias[i].mass for i in range(1, pm.njoints)))
+    lo, hi = PAYLOAD_MIN_FRACTION * robot_mass, PAYLOAD_MAX_MULTIPLE * robot_mass
+    if robot_mass > 0 and not lo <= payload.mass <= hi:
+        raise SpecError(
+            f"{payload.origin}: mass = {payload.mass:g} kg, expected between {lo:.3g} and {hi:.3g} kg "
+            f"({PAYLOAD_MIN_FRACTION:g} to {PAYLOAD_MAX_MULTIPLE:g} × the {robot_mass:.3g} kg that "
+            f"{model.name}'s joints move): a lighter payload cannot fix the gains' scale"
+        )
+    reach = sum(float(np.linalg.norm(pm.jointPlacements[i].translation)) for i in range(1, pm.njoints))
+    reach += max((float(np.linalg.norm(pm.inertias[i].lever)) for i in range(1, pm.njoints)), default=0.0)
+    limit = max(1.0, PAYLOAD_REACH_MULTIPLE * reach)
+    big = float(np.abs(payload.com).max(initial=0.0))
+    distance = big * float(np.linalg.norm(np.asarray(payload.com) / big)) if big > 0 else 0.0  # no overflow
+    if not distance <= limit:
+        raise SpecError(
+            f"{payload.origin}: com = {np.asarray(payload.com).tolist()} is {distance:.3g} m from the link's "
+            f"origin, expected a point on or near {model.name} (within {limit:.3g} m, "
+            f"{PAYLOAD_REACH_MULTIPLE:g} × its reach of {reach:.3g} m) [m]"
+        )
 
 
 def identify_gains(
@@ -203,6 +245,7 @@ def identify_gains(
     """
     if not loaded:
         raise DataError("drive gains: no recording with the payload, expected at least one (--payload-data)")
+    check_payload(payload, model)
     j_body, phi = payload.body(model)
     parts = []
     for datasets, with_payload in ((list(unloaded), False), (list(loaded), True)):

@@ -12,7 +12,13 @@ Per joint, with ``e = τ_measured − τ_predicted`` [N·m]:
 ``p95_abs``         absolute error never goes below zero, unlike mean − std)
 =================== ===========================================================================
 
-``all`` pools every joint's samples (one number for a whole method).
+``all`` pools every joint's samples (one number for a whole method) when every joint has the same unit;
+``per_unit`` pools the joints of each unit (``"N·m"`` for revolute joints, ``"N"`` for prismatic ones).
+A robot with both gets NaN (None in JSON) in ``all``: an RMS of N·m and N together means nothing, so
+every summary reads ``per_unit`` instead (:func:`pooled_labels`).
+
+The yardstick (``measured``) is the caller's: pinid passes the torque as recorded for the headline
+figures and the low-passed torque for the "filtered" ones (docs/identification.md, "The yardstick").
 """
 
 from __future__ import annotations
@@ -20,6 +26,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from pinid.checks import array_like
 
 METRIC_NAMES: tuple[str, ...] = ("rms", "rel_rms_percent", "mean_abs", "std_abs", "max_abs", "p5_abs", "p95_abs")
 
@@ -49,26 +56,52 @@ class TorqueMetrics:
     per_joint: dict[str, dict[str, float]]
     all: dict[str, float]
     samples: int
+    units: dict[str, str] | None = None
+    per_unit: dict[str, dict[str, float]] | None = None
+
+    def pools(self) -> dict[str, dict[str, float]]:
+        """The pooled metrics to show: ``{"all": …}`` for one unit, else ``{"all N·m": …, "all N": …}``."""
+        if not self.per_unit or len(self.per_unit) <= 1:
+            return {"all": self.all}
+        return {f"all {u}": m for u, m in self.per_unit.items()}
+
+    def headline(self, key: str = "rms") -> float:
+        """One number for ranking methods: ``all[key]``, or with mixed units the mean of the per-unit
+        relative RMS [%] (units cancel there)."""
+        if not self.per_unit or len(self.per_unit) <= 1:
+            return self.all[key]
+        return float(np.mean([m["rel_rms_percent"] for m in self.per_unit.values()]))
 
     def to_dict(self) -> dict:
         """Plain-dict form; NaN becomes None so that it is valid JSON."""
         clean = lambda d: {k: (None if not np.isfinite(v) else v) for k, v in d.items()}
-        return {
+        out = {
             "per_joint": {j: clean(m) for j, m in self.per_joint.items()},
             "all": clean(self.all),
             "samples": self.samples,
         }
+        if self.units is not None:
+            out["units"] = dict(self.units)
+            out["per_unit"] = {u: clean(m) for u, m in (self.per_unit or {}).items()}
+        return out
 
     @classmethod
     def from_dict(cls, d: dict) -> "TorqueMetrics":
         """Rebuild from :meth:`to_dict`'s output."""
         unclean = lambda m: {k: (float("nan") if v is None else float(v)) for k, v in m.items()}
-        return cls({j: unclean(m) for j, m in d["per_joint"].items()}, unclean(d["all"]), int(d["samples"]))
+        per_unit = d.get("per_unit")
+        return cls(
+            {j: unclean(m) for j, m in d["per_joint"].items()},
+            unclean(d["all"]),
+            int(d["samples"]),
+            d.get("units"),
+            None if per_unit is None else {u: unclean(m) for u, m in per_unit.items()},
+        )
 
     def table(self) -> list[list[str]]:
-        """Rows ``[joint, rms, rel %, mean ± std, max]`` as text, for printing."""
+        """Rows ``[joint, rms, rel %, mean ± std, max]`` as text, for printing (the pooled rows per unit)."""
         rows = []
-        for name, m in list(self.per_joint.items()) + [("all", self.all)]:
+        for name, m in list(self.per_joint.items()) + list(self.pools().items()):
             rows.append(
                 [
                     name,
@@ -82,13 +115,19 @@ class TorqueMetrics:
 
 
 def torque_metrics(
-    measured: np.ndarray, predicted: np.ndarray, joints: list[str], joint_index: np.ndarray | None = None
+    measured: np.ndarray,
+    predicted: np.ndarray,
+    joints: list[str],
+    joint_index: np.ndarray | None = None,
+    units: list[str] | None = None,
 ) -> TorqueMetrics:
-    """Metrics of predicted against measured torques [N·m].
+    """Metrics of predicted against measured torques [N·m] (forces [N] for prismatic joints).
 
     Either ``(N, nv)`` arrays in the order of ``joints``, or stacked 1-D rows with ``joint_index`` giving
-    each row's joint (rows of a joint may be missing, e.g. samples dropped at rest).
+    each row's joint (rows of a joint may be missing, e.g. samples dropped at rest).  ``units``: each
+    joint's unit ("N·m" or "N"; default all N·m), pooled separately in ``per_unit``.
     """
+    array_like(measured, "measured")
     measured = np.asarray(measured, dtype=float)
     predicted = np.asarray(predicted, dtype=float)
     if measured.shape != predicted.shape:
@@ -103,5 +142,21 @@ def torque_metrics(
         cols = [(measured[joint_index == j], predicted[joint_index == j]) for j in range(len(joints))]
         samples = measured.shape[0]
     per_joint = {name: _stats(m, m - p) for name, (m, p) in zip(joints, cols)}
-    pooled = _stats(measured.reshape(-1), (measured - predicted).reshape(-1))
-    return TorqueMetrics(per_joint, pooled, int(samples))
+    units = ["N·m"] * len(joints) if units is None else list(units)
+    kinds = list(dict.fromkeys(units))
+    if len(kinds) == 1:
+        pooled = _stats(measured.reshape(-1), (measured - predicted).reshape(-1))
+        per_unit = {kinds[0]: pooled}
+    else:  # N·m and N pooled together mean nothing: one pool per unit
+        pooled = {k: float("nan") for k in METRIC_NAMES}
+        per_unit = {}
+        for u in kinds:
+            ms = [m for (m, _), uu in zip(cols, units) if uu == u]
+            es = [m - p for (m, p), uu in zip(cols, units) if uu == u]
+            per_unit[u] = _stats(np.concatenate(ms), np.concatenate(es))
+    return TorqueMetrics(per_joint, pooled, int(samples), dict(zip(joints, units)), per_unit)
+
+
+def joint_units(model) -> list[str]:
+    """Each active joint's torque unit: "N" for a prismatic joint, "N·m" otherwise."""
+    return ["N" if j.kind == "prismatic" else "N·m" for j in model.joints]

@@ -5,12 +5,13 @@ terminal summary and its files, a comparison's files.  Each set of files is plan
 from __future__ import annotations
 
 import os
+import textwrap
 import warnings
 from pathlib import Path
 
 import numpy as np
 
-from pinid.errors import ModelError
+from pinid.errors import ModelError, SpecError
 from pinid.io import Artefacts, json_text
 from pinid.report.figures import save_figure
 from pinid.report.markdown import REPORT_FILES, report_files, summary_table
@@ -34,6 +35,8 @@ COMPARISON_FILES = ("comparison.json", "comparison.md", "compare_*.png")
 def result_text(r) -> str:
     """One method's detail (``pinid identify --verbose``): consistency, cond(W_b), time, status; the base
     parameters with standard deviations; the training and validation torque metrics."""
+    if not hasattr(r, "physically_consistent"):
+        raise SpecError(f"r: got {type(r).__name__}, expected an IdentificationResult")
     flag = "physically consistent" if r.physically_consistent else "NOT physically consistent"
     lines = [
         f"\n== {r.method}: {r.description}",
@@ -41,12 +44,13 @@ def result_text(r) -> str:
     ]
     if not r.physically_consistent:
         lines += [f"   - {prob}" for prob in (r.consistency.get("problems") or [])[:4]]
-    rows = [
-        [n, f"{v:.6g}", f"{s:.3g}", f"{sp:.3g}" if np.isfinite(sp) else "inf"]
-        for n, v, s, sp in zip(r.base_names, r.base, r.std, r.std_percent)
-    ]
-    lines.append(text_table(["parameter", "value", "std", "std %"], rows, indent="   "))
-    for kind, m in (("train", r.train), ("validation", r.validation)):
+    lines.append(parameter_text(r, indent="   "))
+    for kind, m in (
+        ("train, raw (against the torque as recorded)", r.train),
+        ("validation, raw", r.validation),
+        ("train, filtered (against the low-passed torque)", r.train_filtered),
+        ("validation, filtered", r.validation_filtered),
+    ):
         if m is not None:
             lines += [
                 f"   {kind}:",
@@ -55,10 +59,27 @@ def result_text(r) -> str:
     return "\n".join(lines)
 
 
+def parameter_text(r, *, indent: str = "") -> str:
+    """One method's base parameters: value, standard deviation, relative standard deviation σ% and, with a
+    truth, the true value and the error (% of the truth, or the absolute error where the truth is 0)."""
+    t = r.truth_error
+    rows = []
+    for n, v, s, sp in zip(r.base_names, r.base, r.std, r.std_percent):
+        row = [n, f"{v:.6g}", f"{s:.3g}", f"{sp:.3g}" if np.isfinite(sp) else "inf"]
+        if t:
+            rel = t["error_percent"].get(n)
+            row += [f"{t['truth'][n]:.6g}", f"{rel:.3g}" if rel is not None else f"|e| {t['error'][n]:.2g}"]
+        rows.append(row)
+    head = ["parameter", "value", "std", "σ %"] + (["truth", "error %"] if t else [])
+    return text_table(head, rows, indent=indent)
+
+
 def identification_text(ident, *, verbose: bool = False) -> str:
     """What ``pinid identify`` prints after the work: the drive gains and the Stribeck velocities and shapes
     (when identified), the data used, every method's detail with ``verbose`` (:func:`result_text`), and the
     summary table."""
+    if not hasattr(ident, "results"):
+        raise SpecError(f"ident: got {type(ident).__name__}, expected an Identification")
     d = ident.data
     lines = []
     if "drive_gains" in d:
@@ -79,8 +100,28 @@ def identification_text(ident, *, verbose: bool = False) -> str:
     )
     if verbose:
         lines += [result_text(r) for r in ident] + [""]
+    elif ident.results and (ident.results[ident.best].truth_error or ident.results[ident.best].warning):
+        best = ident.results[ident.best]  # against the truth, or poorly determined: every parameter's σ %
+        what = "against the truth" if best.truth_error else "and their relative standard deviations"
+        lines += [
+            f"{ident.best} (best): base parameters {what}",
+            parameter_text(best),
+            "",
+        ]
     header, rows = summary_table(ident, bold=lambda text: text)
     lines.append(text_table(header, rows))
+    lines.append(
+        "RMS raw: against the torque as recorded; RMS filtered: against the low-passed torque (moves with --cutoff)"
+    )
+    best = ident.results.get(ident.best) if ident.results else None
+    if best is not None and len(best.base):
+        k = int(np.nanargmax(np.where(np.isfinite(best.std_percent), best.std_percent, np.inf)))
+        lines.append(
+            f"{ident.best}: largest relative standard deviation σ % {best.std_percent[k]:.3g} ({best.base_names[k]}); "
+            "every parameter's with --verbose and in the report"
+        )
+    if best is not None and best.warning:  # one warning, wrapped to the terminal's 120 columns
+        lines += textwrap.wrap(best.warning, 120, subsequent_indent="  ", break_on_hyphens=False)
     return "\n".join(lines)
 
 
@@ -126,6 +167,8 @@ def write_identification(
     ``folder`` are removed.  A consistent result pinid cannot read back as a URDF gets none, with a
     warning.  ``overwrite``: replace existing files (None: the :data:`pinid.io.OVERWRITE` policy, which the
     CLI's ``--force`` sets).  Returns the paths written."""
+    if not hasattr(ident, "results"):
+        raise SpecError(f"ident: got {type(ident).__name__}, expected an Identification")
     urdfs, drives, mjcfs = {}, {}, {}
     for m, r in ident.results.items():  # everything is computed before any file is written
         if not (r.physically_consistent or force_export):
@@ -166,6 +209,8 @@ def write_identification(
 def comparison_markdown(comp, *, command: str | None = None, figures=()) -> str:
     """``comparison.md``: the command line (when given), the comparison table, the identified values
     (mean ± spread over the seeds) and links to the ``figures`` (file names)."""
+    if not hasattr(comp, "runs"):
+        raise SpecError(f"comp: got {type(comp).__name__}, expected a Comparison")
     block = f"```\n{command}\n```\n\n" if command else ""
     return (
         f"# Comparison on {comp.robot['name']}\n\n{block}```\n{comp.table()}\n```\n\nIdentified base parameters "
@@ -181,6 +226,8 @@ def write_comparison(
     ``comparison.md`` (:func:`comparison_markdown`) and, with ``figures``, the ``compare_*.png`` figures;
     all or nothing, an earlier comparison's files there removed.  ``overwrite``: as in
     :func:`write_identification`.  Returns the paths written."""
+    if not hasattr(comp, "runs"):
+        raise SpecError(f"comp: got {type(comp).__name__}, expected a Comparison")
     out = Path(folder)
     figs = comparison_figures(comp) if figures else {}
     arts = Artefacts(overwrite=overwrite)

@@ -59,6 +59,9 @@ from pinid.model.physical import parameter_scale
 from pinid.model.regressor import JointTerms, regressor, standard_parameters
 from pinid.model.robot import RobotModel
 from pinid.progress import progress
+from pinid.data.dataset import as_dataset
+from pinid.model.robot import as_robot
+from pinid.checks import array_like
 
 #: Default fraction of a joint's largest speed below which its row counts as "at rest".
 REST_FRACTION = 0.02
@@ -151,6 +154,8 @@ class IdentificationProblem:
     ``weights``  (rows,) row weights (ones unless given); OLS minimises Σ w·r²
     ``base``     the :class:`~pinid.model.base.BaseParameters` map (``base.P @ θ_standard``)
     ``nominal``  (p,) the URDF's standard parameters (inertias, ``<dynamics>`` friction)
+    ``recorded_tau`` (rows,) the torque as recorded at each row's sample (:func:`recorded_torque`), the
+                 yardstick of the training error; None: ``tau`` is the torque as recorded
     """
 
     model: RobotModel
@@ -170,6 +175,7 @@ class IdentificationProblem:
     peak_velocity: np.ndarray | None = None
     regressor_rows: RegressorRows | None = field(default=None, repr=False, compare=False)
     fit_joints: list[str] | None = None  # the joints whose torque rows enter the fit (None: all)
+    recorded_tau: np.ndarray | None = field(default=None, repr=False, compare=False)
 
     # ---------------------------------------------------------------- sizes and names
     @property
@@ -265,6 +271,8 @@ class IdentificationProblem:
         if not fit.all():
             keeps = [k & np.tile(fit, len(k) // nv) for k in keeps]
         tau, joint, sample = stacked_targets(prepared, keeps, nv)
+        recorded = [recorded_torque(ds) for ds in prepared]
+        recorded_tau = np.concatenate([r.reshape(-1)[k] for r, k in zip(recorded, keeps)])
         rows = RegressorRows(model, terms, base, prepared, keeps)
         if weights is None:
             w = np.ones(len(tau))
@@ -293,6 +301,7 @@ class IdentificationProblem:
             peak_velocity=np.max([np.abs(ds.dq).max(axis=0) for ds in prepared], axis=0),
             regressor_rows=rows,
             fit_joints=[j for j, f in zip(model.joint_names, fit) if f],
+            recorded_tau=recorded_tau,
         )
         bar = progress(total, "regressor", enabled=show_progress)  # the Gram pass of the rank check
         try:
@@ -478,6 +487,7 @@ def check_dataset(ds: Dataset, model: RobotModel) -> Dataset:
 
 def rest_thresholds(dq: np.ndarray, fraction: float = REST_FRACTION) -> np.ndarray:
     """Per joint: max(fraction·max|dq|, 3·σ̂_v) [rad/s], σ̂_v the velocity noise from the second difference."""
+    array_like(dq, "dq")
     dq = np.asarray(dq, dtype=float)
     peak = np.max(np.abs(dq), axis=0) if len(dq) else np.zeros(dq.shape[1])
     if len(dq) >= 5:
@@ -494,6 +504,7 @@ def rest_threshold(
 ) -> np.ndarray:
     """Per joint, the speed [rad/s] below which a row of ``ds`` counts as at rest and is left out (zeros
     when Coulomb friction is not in the model or ``rest_velocity`` is 0/None; see the module text)."""
+    ds = as_dataset(ds)
     nv = model.nv
     if (
         not terms.coulomb
@@ -534,6 +545,7 @@ def stack_rows(
 
     ``W_b`` is allocated once with the kept rows only and filled chunk by chunk, so the tall matrix exists
     once (not once whole and once without the rows at rest, nor once per recording and once concatenated)."""
+    model = as_robot(model)
     nv = model.nv
     keeps = [
         kept_rows(ds, thr) & motor_kept_rows(ds, model, terms, rest_velocity, rest_fraction)
@@ -598,6 +610,7 @@ def motor_kept_rows(
 
 def kept_rows(ds: Dataset, threshold: np.ndarray) -> np.ndarray:
     """(N·nv,) booleans: the rows ``k·nv + j`` of a checked recording whose joint speed reaches its threshold."""
+    ds = as_dataset(ds)
     if not np.any(threshold > 0):
         return np.ones(ds.dq.size, bool)
     return (np.abs(ds.dq) >= threshold).reshape(-1)
@@ -607,6 +620,10 @@ def stacked_targets(
     datasets: Sequence[Dataset], keeps: Sequence[np.ndarray], nv: int
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(tau, joint, sample)`` of the rows ``keeps`` of checked recordings, stacked as in :func:`stack_rows`."""
+    if not isinstance(datasets, Sequence) or isinstance(datasets, str):
+        raise DataError(f"datasets: got {type(datasets).__name__}, expected a list of Datasets")
+    for ds in datasets:
+        as_dataset(ds, "datasets")
     taus, joints, samples = [], [], []
     offset = 0
     for ds, keep in zip(datasets, keeps):
@@ -632,6 +649,7 @@ def base_regressor(
     """Stacked base regressor ``(N·nv, nb)`` of a checked recording, computed in chunks to bound memory.
 
     ``keep`` (N·nv,) booleans: only those rows, in order; ``out``: the array to fill (kept rows × nb)."""
+    model = as_robot(model)
     n, nv = ds.n, model.nv
     rows = n * nv if keep is None else int(np.count_nonzero(keep))
     if out is None:
@@ -663,6 +681,10 @@ def base_statistics(
     diag(√w)·W as it is and with unit-norm columns.  ``residual``: ``tau − W @ base`` when already known
     (else computed, reading ``problem.W``).
     """
+    if not hasattr(problem, "weights"):
+        raise SpecError(
+            f"problem: got {type(problem).__name__}, expected an identification problem (IdentificationProblem)"
+        )
     w = problem.weights if weights is None else weights
     r = problem.tau - problem.W @ base if residual is None else residual
     dof = max(problem.rows - problem.nb, 1)
@@ -691,6 +713,8 @@ def completed_standard(model: RobotModel, terms: JointTerms, base: BaseParameter
 
 def least_norm_completion(problem: IdentificationProblem, base: np.ndarray) -> np.ndarray:
     """The standard vector closest to the nominal one (in the scaled norm) with ``P·θ = base``."""
+    if not hasattr(problem, "nominal"):
+        raise SpecError(f"problem: got {type(problem).__name__}, expected an IdentificationProblem")
     S = parameter_scale(problem.nominal, problem.nv, len(problem.terms))
     A = problem.base.P * S
     z0 = problem.nominal / S
@@ -704,6 +728,7 @@ def load_datasets(
 ) -> list[Dataset]:
     """Recordings (Datasets or paths, one or several) read with ``mapping`` and prepared
     (:func:`~pinid.identification.problem.prepare_dataset`); DataError when none is given."""
+    model = as_robot(model)
     if items is None:
         return []
     if isinstance(items, (Dataset, str, os.PathLike)):
@@ -721,6 +746,7 @@ def load_datasets(
 
 def free_angles(model: RobotModel) -> list[str]:
     """Joints whose angle has no limits (continuous, or revolute without URDF limits): unwrapped in preprocessing."""
+    model = as_robot(model)
     return [j.name for j in model.joints if j.kind != "prismatic" and np.isinf(j.lower) and np.isinf(j.upper)]
 
 
@@ -731,13 +757,56 @@ def prepare_dataset(ds: Dataset, preprocess: Mapping | bool | None = None, *, un
     with these options (``cutoff``, ``preset``, ``differentiation``, ``trim`` …); False — never.
     ``unwrap``: joints whose angles are unwrapped when the recording is prepared (:func:`free_angles`).
     """
+    ds = as_dataset(ds)
+    check_preprocess(preprocess)
     needs = ds.dq is None or ds.ddq is None
     if preprocess is False or (preprocess is None and not needs):
         return ds
     # imported only when a recording is actually filtered
     from pinid.data.preprocess import prepare
 
-    return prepare(ds, **{"unwrap": list(unwrap), **dict(preprocess or {})})
+    return prepare(ds, **{"unwrap": list(unwrap), **(dict(preprocess) if isinstance(preprocess, Mapping) else {})})
+
+
+def check_preprocess(preprocess) -> None:
+    """SpecError unless ``preprocess`` is None, True, False or a dict of :func:`pinid.data.preprocess.prepare`
+    options (``{"cutof": 5}`` names the unknown key and the known ones)."""
+    import inspect
+
+    if preprocess is None or isinstance(preprocess, bool):
+        return
+    if not isinstance(preprocess, Mapping):
+        raise SpecError(f"preprocess: got {type(preprocess).__name__}, expected a dict of options, True, False or None")
+    from pinid.data.preprocess import prepare
+
+    known = [p for p in inspect.signature(prepare).parameters if p not in ("ds", "unwrap")]
+    unknown = [k for k in preprocess if k not in known]
+    if unknown:
+        raise SpecError(f"preprocess: unknown option(s) {unknown}, expected some of {', '.join(known)}")
+
+
+def recorded_torque(ds: Dataset) -> np.ndarray:
+    """``(N, nv)`` torque as recorded [N·m] at the samples of a prepared recording: the yardstick of every
+    torque error (see docs/identification.md, "The yardstick").
+
+    :func:`pinid.data.preprocess.prepare` keeps the recording as given in ``meta["recorded"]``.  Preprocessing trims and
+    decimates, which keeps recorded sample times: there the recorded value itself is taken.  When it
+    resampled (jittered time stamps, ``rate=``), the prepared times fall between recorded samples and the
+    recorded torque is interpolated linearly to them (no filter).  A recording that was not prepared is its
+    own record: ``ds.tau``.
+    """
+    rec = ds.meta.get("recorded")
+    if not isinstance(rec, Dataset) or rec.tau is None or rec.n < 2:
+        return ds.tau
+    rec = rec.reorder(list(ds.joints))
+    tr, tp = rec.t, ds.t
+    if np.any(np.diff(tr) <= 0):
+        return ds.tau
+    k = np.clip(np.searchsorted(tr, tp), 1, rec.n - 1)
+    k -= (tp - tr[k - 1]) < (tr[k] - tp)  # the nearest recorded sample
+    if np.all(np.abs(tr[k] - tp) <= 1e-6 * float(np.median(np.diff(tr)))):
+        return rec.tau[k]
+    return np.column_stack([np.interp(tp, tr, rec.tau[:, j]) for j in range(rec.nv)])
 
 
 def predict_torque(

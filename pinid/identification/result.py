@@ -13,9 +13,10 @@ import numpy as np
 
 from pinid.errors import PinidError, SpecError
 from pinid.identification.identified import IdentifiedModel
-from pinid.identification.metrics import TorqueMetrics, torque_metrics
+from pinid.identification.metrics import TorqueMetrics, joint_units, torque_metrics
+from pinid.identification.uncertainty import uncertainty_warning
 from pinid.identification.problem import IdentificationProblem, base_statistics, least_norm_completion
-from pinid.io import jsonable, read_json, write_json
+from pinid.io import display_path, jsonable, read_json, write_json
 from pinid.model.export import identified_urdf
 from pinid.model.lmi import consistent_completion
 from pinid.model.physical import check_consistency
@@ -36,6 +37,11 @@ class IdentificationResult:
     URDF (``"least-norm completion"``, inconsistent).  Any completion gives the same torques, mass
     matrix, Coriolis and gravity, because those depend on the base parameters only.
     ``physically_consistent``: the check of ``standard`` (:func:`pinid.model.physical.check_consistency`).
+    ``train``, ``validation``: torque errors against the torque **as recorded** (the fixed yardstick,
+    :func:`pinid.identification.problem.recorded_torque`); ``train_filtered``, ``validation_filtered``:
+    the same against the torque after pinid's own preprocessing (low-pass), which moves with ``--cutoff``.
+    ``truth_error``: ``{"names", "truth", "error", "error_percent"}`` against a known truth
+    (:func:`truth_errors`), None without one.
     """
 
     method: str
@@ -57,6 +63,9 @@ class IdentificationResult:
     info: dict = field(default_factory=dict)
     history: list | None = None
     robot: dict | None = None
+    train_filtered: TorqueMetrics | None = None
+    validation_filtered: TorqueMetrics | None = None
+    truth_error: dict | None = None
     _robot_model: RobotModel | None = field(default=None, repr=False, compare=False)
     _model_cache: object = field(default=None, repr=False, compare=False)
 
@@ -67,9 +76,19 @@ class IdentificationResult:
             return 100.0 * self.std / np.abs(self.base)
 
     @property
+    def warning(self) -> str | None:
+        """One line when the data determine the parameters poorly (:mod:`pinid.identification.uncertainty`)."""
+        robot = self.robot or {}
+        urdf = robot.get("urdf")
+        bundled = urdf and Path(urdf).parent.name == "urdf" and Path(urdf).parent.parent.name == "resources"
+        where = robot.get("name") if bundled or not urdf else display_path(urdf)
+        return uncertainty_warning(self, robot.get("terms"), where)
+
+    @property
     def residual_rms(self) -> dict[str, float]:
-        """Training residual RMS per joint [N·m]."""
-        return {j: m["rms"] for j, m in self.train.per_joint.items()}
+        """Training residual RMS per joint [N·m]: the fit's own residual (against the preprocessed torque)."""
+        m = self.train_filtered if self.train_filtered is not None else self.train
+        return {j: v["rms"] for j, v in m.per_joint.items()}
 
     @property
     def base_parameters(self) -> dict[str, float]:
@@ -133,9 +152,13 @@ class IdentificationResult:
             "physically_consistent": bool(self.physically_consistent),
             "consistency": self.consistency,
             "condition_number": self.condition_number,
+            "warning": self.warning,
             "residual_rms": self.residual_rms,
             "train": self.train.to_dict(),
             "validation": None if self.validation is None else self.validation.to_dict(),
+            "train_filtered": None if self.train_filtered is None else self.train_filtered.to_dict(),
+            "validation_filtered": None if self.validation_filtered is None else self.validation_filtered.to_dict(),
+            "truth_error": self.truth_error,
             "seconds": self.seconds,
             "info": self.info,
             "history": self.history,
@@ -175,6 +198,11 @@ class IdentificationResult:
             info=d.get("info") or {},
             history=d.get("history"),
             robot=robot if robot is not None else d.get("robot"),
+            train_filtered=None if d.get("train_filtered") is None else TorqueMetrics.from_dict(d["train_filtered"]),
+            validation_filtered=None
+            if d.get("validation_filtered") is None
+            else TorqueMetrics.from_dict(d["validation_filtered"]),
+            truth_error=d.get("truth_error"),
         )
 
     def save(self, path: str | os.PathLike) -> Path:
@@ -221,7 +249,7 @@ class Identification:
 
         def score(r: IdentificationResult) -> float:
             m = r.validation if r.validation is not None else r.train
-            v = m.all["rms"]
+            v = m.headline()
             return v if np.isfinite(v) else np.inf
 
         pool = [r for r in self.results.values() if r.physically_consistent] or list(self.results.values())
@@ -296,6 +324,10 @@ def make_result(
     problem: IdentificationProblem, estimator, seconds: float, *, complete: bool = True
 ) -> IdentificationResult:
     """Check a fitted estimator and wrap it as an :class:`IdentificationResult` (training metrics included)."""
+    if not hasattr(problem, "base"):
+        raise SpecError(
+            f"problem: got {type(problem).__name__}, expected an identification problem (IdentificationProblem)"
+        )
     base = np.asarray(estimator.base_, dtype=float)
     if base.shape != (problem.nb,):
         raise PinidError(f"{estimator.name}: base_ has shape {base.shape}, expected ({problem.nb},)")
@@ -329,7 +361,10 @@ def make_result(
     predicted = problem.predict(base)  # block by block: the tall regressor need not exist whole
     std, cond, cond_scaled = base_statistics(problem, base, w, residual=problem.tau - predicted)
     info["condition_number_scaled"] = cond_scaled
-    train = torque_metrics(problem.tau, predicted, problem.model.joint_names, problem.joint)
+    joints, units = problem.model.joint_names, joint_units(problem.model)
+    filtered = torque_metrics(problem.tau, predicted, joints, problem.joint, units)
+    recorded = getattr(problem, "recorded_tau", None)
+    train = filtered if recorded is None else torque_metrics(recorded, predicted, joints, problem.joint, units)
     return IdentificationResult(
         method=estimator.name,
         base_names=problem.names,
@@ -342,6 +377,7 @@ def make_result(
         consistency=report.to_dict(),
         condition_number=cond,
         train=train,
+        train_filtered=filtered,
         seconds=float(seconds),
         settings=estimator.get_params(),
         description=estimator.description,

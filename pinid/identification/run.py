@@ -20,11 +20,11 @@ from collections.abc import Callable, Iterable, Mapping, Sequence
 
 import numpy as np
 
-from pinid.data.dataset import Dataset
+from pinid.data.dataset import Dataset, as_dataset
 from pinid.data.delay import parse_delay, shift_torque
 from pinid.errors import DataError, SpecError
 from pinid.estimators import ESTIMATORS, Estimator, make_estimator
-from pinid.identification.metrics import torque_metrics
+from pinid.identification.metrics import joint_units, torque_metrics
 from pinid.identification.problem import (
     REST_FRACTION,
     IdentificationProblem,
@@ -32,16 +32,19 @@ from pinid.identification.problem import (
     fit_mask,
     load_datasets,
     predict_torque,
+    recorded_torque,
 )
 from pinid.identification.result import Identification, IdentificationResult, make_result
 from pinid.identification.segmental import Segmental, SegmentalProblem
 from pinid.identification.stribeck import fit_velocity, with_stribeck
+from pinid.identification.truth import read_truth, true_base, truth_error
 from pinid.model.base import BaseParameters, base_parameters
 from pinid.model.regressor import JointTerms
 from pinid.model.robot import RobotModel
 from pinid.model.terms import STRIBECK_TERMS, Stribeck, as_terms, stribeck, stribeck_settings
 from pinid.model.serialize import robot_to_dict
 from pinid.progress import progress
+from pinid.model.robot import as_robot
 
 #: Default methods of :func:`identify` and ``pinid identify``.
 DEFAULT_METHODS: tuple[str, ...] = ("ols", "wls", "sdp")
@@ -132,6 +135,7 @@ def setup(
     ``fit_joints``: the joints whose torque rows enter the fit (default all); ``delay``: the torque
     channels' delay behind the positions (:func:`pinid.data.delay.parse_delay`; ``"auto"`` estimated on the
     training recordings, :mod:`pinid.identification.delay`), applied to every recording."""
+    model = as_robot(model)
     auto = dict(stribeck_auto or {})
     fit_mask(model, fit_joints)  # a bad joint name fails before any recording is read
     delays = parse_delay(delay, model.joint_names)
@@ -142,6 +146,7 @@ def setup(
     final_terms, terms = terms, JointTerms(names=[n for n in terms.names if n not in auto])
     check_distinct(data, validate)
     train = load_datasets(data, model, mapping, preprocess, "training")
+    warn_if_large_recordings(model, terms, train)
     if validate is None:
         val = {}
     elif isinstance(validate, Mapping):
@@ -227,6 +232,30 @@ def setup(
     return Setup(model, terms, base, problem, train, val, seg, shapes, used_delay)
 
 
+def bytes_per_sample(model: RobotModel, terms: JointTerms) -> float:
+    """About how much memory ``identify`` needs per training sample [bytes]: the tall regressor of the
+    base parameters (8·nv·nb, built whole by wls and the metaheuristics) and about six copies of the
+    recording's columns (8·(1 + 4·nv): read, reordered, filtered, differentiated).  Measured: exo_leg,
+    ols,wls,sdp, 542 B per sample (estimate 592); docs/benchmarks.md "Memory"."""
+    nb = base_parameters(model, terms).count
+    return 8.0 * (model.nv * nb + 6 * (1 + 4 * model.nv))
+
+
+def warn_if_large_recordings(model: RobotModel, terms: JointTerms, datasets: Sequence[Dataset]) -> bool:
+    """One-line DataWarning when the training recordings would need more than half the available
+    memory (:func:`bytes_per_sample`); True if warned."""
+    from pinid.memory import warn_if_large
+
+    model = as_robot(model)
+    if not isinstance(datasets, Iterable):
+        raise DataError(f"datasets: got {type(datasets).__name__}, expected a list of Datasets")
+    samples = sum(len(as_dataset(ds, "datasets").t) for ds in datasets)
+    if samples < 20_000:  # below ~100 MB for any robot pinid has met: not worth asking the system
+        return False
+    per = bytes_per_sample(model, terms)
+    return warn_if_large(per * samples, f"{samples:,} training samples of {model.name}", per_item=per)
+
+
 def _items(recordings) -> list:
     """The recordings given as one or several (Datasets, paths)."""
     if recordings is None:
@@ -261,6 +290,9 @@ def check_distinct(data, validate=None, *, what: str = "training data") -> None:
     deviations shrink by √2 with no new information), by path (symbolic links resolved) or by content (a
     copy); the same for a validation recording given twice in one group; a DataWarning for a validation
     recording that is also a training one (then the validation error is a training error)."""
+    for item in _items(data):
+        if not isinstance(item, (Dataset, str, os.PathLike)):
+            raise DataError(f"data: got {type(item).__name__}, expected recordings (Datasets or paths)")
     from pinid.data.formats import warn
 
     seen = _distinct(_items(data), what)
@@ -310,6 +342,8 @@ def run_jobs(
     label: str = "methods",
 ) -> list[Fit]:
     """Fit every ``(method, seed, settings)`` job on the setup's problem (or its segmental stages)."""
+    if not isinstance(s, Setup):
+        raise SpecError(f"s: got {type(s).__name__}, expected the Setup of pinid.identification.run.setup")
     jobs = list(jobs)
     fits = []
     bar = progress(len(jobs), label, enabled=show_progress)
@@ -356,6 +390,7 @@ def identify(
     delay=None,
     manifest=None,
     started: Callable[[], None] | None = None,
+    truth=None,
 ) -> Identification:
     """Identify ``model``'s dynamic parameters from recordings with several methods; validate; compare.
 
@@ -384,6 +419,10 @@ def identify(
     ``data``, ``validate``, ``payload`` and ``payload_data`` (:mod:`pinid.data.manifest`).  ``started``: called
     once the inputs are read and checked, before the first method runs (the CLI says what it identifies then, so
     that a bad input prints only its error).
+    ``truth``: the truth of a twin (``pinid simulate``'s ``run.truth.json``, its path or dict): every
+    result gets ``truth_error``, its error against the true base parameters (:mod:`pinid.identification.truth`).
+    Torque errors are against the torque as recorded (``result.validation``, ``result.train``) and after
+    the preprocessing's low-pass (``validation_filtered``, ``train_filtered``).
 
     Returns an :class:`~pinid.identification.result.Identification`; ``result.model`` is the best
     result's :class:`~pinid.identification.identified.IdentifiedModel`, ``result["sdp"]`` one method's result.
@@ -402,6 +441,8 @@ def identify(
             got[k] for k in ("model", "data", "validate", "fit_joints", "delay")
         )
         payload, payload_data, manifest = got["payload"], got["payload_data"], got["manifest"]
+    if truth is not None:
+        read_truth(truth)  # an unreadable truth fails before any recording is read
     settings, auto = stribeck_settings(model, terms, stribeck_velocity, stribeck_shape)
     if auto and payload is not None:
         raise SpecError("Stribeck velocity 'auto' with drive gains (--payload): give the velocity instead")
@@ -426,24 +467,34 @@ def identify(
         fit_joints=fit_joints,
         delay=delay,
     )
+    x_true = None if truth is None else true_base(truth, s.model, s.terms, s.base)  # checked before the fits
     if started is not None:
         started()
     fits = run_jobs(s, [(m, None, options.get(m, {})) for m in methods], complete=complete, show_progress=show_progress)
     results = {f.method: f.result for f in fits}
+    if x_true is not None:
+        for r in results.values():
+            r.truth_error = truth_error(r.base, x_true, s.problem.natural_scale, s.base.names)
     values = {m: r.base for m, r in results.items()}
     val_sets = s.validation.get("validation", [])
     if val_sets:
         checked = [check_dataset(ds, model) for ds in val_sets]
         preds = [predict_torque(model, terms, s.base, ds, values) for ds in checked]
         tau_all = np.concatenate([ds.tau for ds in checked])
+        recorded = np.concatenate([recorded_torque(ds) for ds in checked])
+        units = joint_units(model)
         for m, r in results.items():
-            r.validation = torque_metrics(tau_all, np.concatenate([p[m] for p in preds]), model.joint_names)
+            pred = np.concatenate([p[m] for p in preds])
+            r.validation = torque_metrics(recorded, pred, model.joint_names, units=units)
+            r.validation_filtered = torque_metrics(tau_all, pred, model.joint_names, units=units)
         first = checked[0]
         curves = {
             "kind": "validation",
             "source": first.source,
             "t": first.t,
-            "measured": first.tau,
+            "measured": recorded_torque(first),
+            "filtered": first.tau,
+            "units": units,
             "predicted": preds[0],
         }
     else:
@@ -452,7 +503,9 @@ def identify(
             "kind": "training",
             "source": ds.source,
             "t": ds.t,
-            "measured": ds.tau,
+            "measured": recorded_torque(ds),
+            "filtered": ds.tau,
+            "units": joint_units(model),
             "predicted": predict_torque(model, terms, s.base, ds, values),
         }
     if s.train:  # the training motion, drawn as the report's "excitation" figure
@@ -524,19 +577,50 @@ def use_manifest(
     }
 
 
+def _check_payload_data_distinct(data, payload_data) -> None:
+    """DataError when a recording with the payload is also a training recording (the same path or
+    Dataset, or, once read, the same samples): without a difference between them the gains are
+    undetermined and the fit reports a meaningless "non-positive gain"."""
+    training = _items(data)
+    for item in _items(payload_data):
+        for other in training:
+            same = bool(set(_keys(item)) & set(_keys(other)))
+            if not same and isinstance(item, Dataset) and isinstance(other, Dataset):
+                same = all(
+                    a is not None and b is not None and a.shape == b.shape and np.array_equal(a, b)
+                    for a, b in ((item.t, other.t), (item.q, other.q), (item.tau, other.tau))
+                )
+            if same:
+                raise DataError(
+                    f"{getattr(item, 'source', item)}: the recording with the payload (--payload-data) is also "
+                    f"a training recording (--data {getattr(other, 'source', other)}); expected a recording "
+                    "made with the payload fixed to the link, which differs from the one without it"
+                )
+
+
 def _currents_to_torques(model, terms, data, validate, payload, payload_data, mapping, preprocess, rest_velocity):
     """``(gains, training, validation)``: drive gains from the recordings with and without the payload, and
     the recordings' currents turned into torques (see :mod:`pinid.identification.gains`)."""
-    from pinid.identification.gains import Payload, identify_gains
+    from pinid.identification.gains import Payload, check_payload, identify_gains
 
     if payload is None or payload_data is None:
         raise SpecError(
             "drive gains need both the payload (--payload FILE) and a recording with it (--payload-data FILE)"
         )
-    payload = payload if isinstance(payload, Payload) else Payload.load(payload)
+    if isinstance(payload, Mapping):
+        payload = Payload.from_dict(payload, "payload")
+    elif isinstance(payload, (str, os.PathLike)):
+        payload = Payload.load(payload)
+    elif not isinstance(payload, Payload):
+        raise SpecError(
+            f"payload: got {type(payload).__name__}, expected a Payload, its table (a dict) or a payload TOML file"
+        )
+    check_payload(payload, model)
     check_distinct(payload_data, what="payload data")
+    _check_payload_data_distinct(data, payload_data)
     train = load_datasets(data, model, mapping, preprocess, "training")
     loaded = load_datasets(payload_data, model, mapping, preprocess, "payload")
+    _check_payload_data_distinct(train, loaded)
     gains = identify_gains(model, train, loaded, payload, terms=terms, rest_velocity=rest_velocity)
 
     def torques(items, what):

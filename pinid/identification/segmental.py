@@ -57,6 +57,7 @@ from pinid.linalg import augmented_r
 from pinid.model.robot import RobotModel
 from pinid.model.physical import parameter_scale
 from pinid.model.regressor import JointTerms, standard_parameters
+from pinid.model.robot import as_robot
 
 
 # ============================================================================================ sub-problems
@@ -127,6 +128,7 @@ def stack(
     Returns ``{"W", "tau", "joint", "sample", "sources"}``; rows of a joint at rest are dropped when
     Coulomb friction is in the model, as :meth:`IdentificationProblem.from_datasets` does.
     """
+    model = as_robot(model)
     if isinstance(datasets, Dataset):
         datasets = [datasets]
     datasets = [check_dataset(ds, model) for ds in datasets]

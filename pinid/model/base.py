@@ -20,11 +20,11 @@ import numpy as np
 import scipy.linalg
 
 from pinid.checks import as_floats, count, number
-from pinid.errors import DataError, SpecError
+from pinid.errors import DataError, ModelError, SpecError
 from pinid.model.robot import RobotModel, as_robot
 from pinid.model.terms import STRIBECK_TERMS, as_terms
 from pinid.model.regressor import JointTerms, parameter_names, regressor
-from pinid.io import write_json
+from pinid.io import read_bounded_file, write_json
 
 
 @dataclass
@@ -111,8 +111,7 @@ class BaseParameters:
     @classmethod
     def load(cls, path) -> "BaseParameters":
         """Read from JSON written by :meth:`save`."""
-        with open(path, encoding="utf-8") as f:
-            return cls.from_dict(json.load(f))
+        return cls.from_dict(json.loads(read_bounded_file(path, "base-parameter JSON file")))
 
 
 def base_parameters(
@@ -147,16 +146,25 @@ def base_parameters(
     if joints is not None and set(joints) != set(model.joint_names):
         fit = [j for j in model.joint_names if j in set(joints)]
         W = W.reshape(n, model.nv, p)[:, [model.joint_names.index(j) for j in fit], :].reshape(-1, p)
-    return base_parameters_of(W, names, tol, fit)
+    return base_parameters_of(W, names, tol, fit, robot=model.name)
 
 
 def base_parameters_of(
-    W: np.ndarray, names: list[str], tol: float = 1e-8, fit: list[str] | None = None
+    W: np.ndarray, names: list[str], tol: float = 1e-8, fit: list[str] | None = None, robot: str = "the robot"
 ) -> BaseParameters:
     """The base parameters of a stacked standard regressor ``W`` (random states) with columns ``names``;
     ``fit``: the joints whose rows ``W`` holds, when not all (``--fit-joints``)."""
     p = len(names)
-    norms = np.linalg.norm(W, axis=0)
+    with np.errstate(over="ignore", invalid="ignore"):
+        norms = np.linalg.norm(W, axis=0)
+    bad = [names[i] for i in np.flatnonzero(~np.isfinite(norms))]
+    if bad or not np.any(norms > 0):
+        raise ModelError(
+            f"{robot}: the regressor columns of {', '.join(bad[:4])} overflow (check the model's "
+            "numbers: transmission ratios, axes, origins)"
+            if bad
+            else f"{robot}: every regressor column is zero, expected a model whose joints move its links"
+        )
     nonzero = np.flatnonzero(norms > tol * norms.max())
     Wn = W[:, nonzero] / norms[nonzero]
     _, R, piv = scipy.linalg.qr(Wn, mode="economic", pivoting=True)

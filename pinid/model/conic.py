@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pinid.errors import SolverError, SpecError
+from pinid.checks import count
 
 #: Clarabel's tolerances used by default (its own defaults are 1e-8): the data term is a norm with a
 #: kink at the least-squares solution, and 1e-10 brings noise-free base parameters back to ≤ 1e-6.
@@ -42,6 +43,7 @@ CLARABEL_STATUS = {
 
 def svec_operator(d: int) -> np.ndarray:
     """The (d(d+1)/2, d²) matrix taking a column-major vec(F) to Clarabel's svec of F's symmetric part."""
+    d = count(d, "d", low=1)
     out = np.zeros((d * (d + 1) // 2, d * d))
     r = 0
     for j in range(d):

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
+from pinid.errors import ModelError
 from pinid.model.base import base_parameters
 from pinid.model.floating import floating_base_parameters, floating_standard_parameters
 from pinid.model.regressor import JointTerms, standard_parameters
@@ -81,6 +82,8 @@ def description_text(d: dict, terms: JointTerms) -> str:
     """:func:`describe`'s dict as text: a table of the joints with the units of their limits ([rad, rad/s,
     N·m], [m, m/s, N] for prismatic joints), the locked joints, the drives' matrix, and every base parameter
     as a combination of standard parameters with its nominal value and where that comes from."""
+    if not isinstance(d, dict):
+        raise ModelError(f"d: got {type(d).__name__}, expected the dict of describe()")
     units = [UNITS[j["type"] == "prismatic"] for j in d["joints"]]
     same = len(set(units)) == 1  # the units in the header, else in a last column
     heads = ["lower", "upper", "velocity", "effort"]

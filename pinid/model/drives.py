@@ -105,9 +105,20 @@ def check_motor_names(motors: Sequence[str], joints: Sequence[str], origin: str)
             )
 
 
+#: Largest magnitude of a transmission ratio accepted (motor rad per joint rad, or rad per m): real gears
+#: and screws stay below 1e5; 1e200 overflows the regressor's motor columns.
+MAX_GEAR_RATIO = 1e6
+
+
 def checked(t: Transmission, origin: str, error: type = SpecError) -> Transmission:
-    """``t`` if its matrix is square (motors × joints) and invertible, else a one-line ``error``."""
+    """``t`` if its matrix is square (motors × joints), invertible and of plausible ratios (each entry
+    ≤ :data:`MAX_GEAR_RATIO` in magnitude), else a one-line ``error``."""
     R = t.matrix
+    if R.ndim == 2 and np.all(np.isfinite(R)) and np.abs(R).max(initial=0.0) > MAX_GEAR_RATIO:
+        raise error(
+            f"{origin}: transmission of {t.joints}: ratio {np.abs(R).max():g} in its matrix, expected entries "
+            f"of magnitude at most {MAX_GEAR_RATIO:g} (q_motor = matrix · q_joint)"
+        )
     if R.shape != (len(t.motors), len(t.joints)) or len(t.motors) != len(t.joints) or not t.joints:
         raise error(
             f"{origin}: transmission of {t.joints}: matrix has shape {R.shape}, expected a square "
@@ -206,6 +217,11 @@ class Drives:
         if "transmission" not in d:
             raise SpecError(f"{origin}: no [transmission] table; expected joints, motors and matrix")
         tables = d["transmission"] if isinstance(d["transmission"], list) else [d["transmission"]]
+        if not tables:
+            raise SpecError(
+                f"{origin}: transmission = [] lists no transmission; expected at least one [[transmission]] "
+                "table with joints, motors and matrix (or leave out --drives for a robot without motors)"
+            )
         transmissions = [transmission_from_table(t, origin) for t in tables]
         motors = d.get("motors", {})
         if not isinstance(motors, Mapping) or not all(isinstance(v, Mapping) for v in motors.values()):
@@ -253,6 +269,9 @@ def urdf_transmissions(urdf_text: str, joints: Sequence[str], origin: str = "URD
         where = f"{origin}: <transmission name={name!r}>"
         kind = (tr.findtext("type") or tr.get("type") or "").strip().split("/")[-1]
         jels, aels = tr.findall("joint"), tr.findall("actuator")
+        for el in jels + aels:
+            if not (el.get("name") or "").strip():
+                raise ModelError(f'{where}: a <{el.tag}> without a name, expected <{el.tag} name="...">')
         jnames = [j.get("name") for j in jels]
         unknown = [j for j in jnames if j not in known]
         if unknown:

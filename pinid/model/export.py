@@ -28,7 +28,8 @@ import xml.etree.ElementTree as ET
 import numpy as np
 
 from pinid.errors import ModelError
-from pinid.model.robot import RobotModel
+from pinid.checks import number as finite_number
+from pinid.model.robot import RobotModel, as_robot
 from pinid.model.physical import check_consistency, com_inertia
 from pinid.model import terms as _terms
 from pinid.model.regressor import JointTerms
@@ -89,6 +90,7 @@ def identified_urdf(
     Written atomically to ``path`` when given.  The file's first comment reads ``origin (comment)``.  Raises
     ModelError for an inconsistent set unless ``force``, or when the model has no URDF text.
     """
+    model = as_robot(model)
     theta = np.asarray(theta, dtype=float)
     nv, nt = model.nv, _terms.count(model, terms)
     if theta.shape != (10 * nv + nt,):
@@ -186,6 +188,7 @@ def _set_inertial(link: ET.Element, m: float, c: np.ndarray, I: np.ndarray) -> N
 def inertial_element(mass: float, com, inertia, number=_num) -> ET.Element:
     """A URDF ``<inertial>``: ``mass`` [kg], ``com`` (3,) [m] in the link frame, ``inertia`` (3, 3) [kg·m²]
     about the centre of mass in link axes; ``number`` formats each value (default: all 17 digits)."""
+    mass = finite_number(mass, "mass")
     I = np.asarray(inertia, dtype=float)
     inertial = ET.Element("inertial")
     ET.SubElement(inertial, "origin", xyz=" ".join(number(x) for x in com), rpy="0 0 0")
@@ -214,6 +217,7 @@ def identified_drives(
     """The drives TOML of ``model`` with the motor-term values of the standard parameters ``theta``
     (``[motors.<name>]`` fc, fv, offset, armature; URDF has no field for them); None without motor terms.
     Written atomically to ``path`` when given.  Read it back with ``--drives``."""
+    model = as_robot(model)
     if not terms.motor or model.drives is None:
         return None
     theta = np.asarray(theta, dtype=float)

@@ -15,10 +15,13 @@ from pinid.linalg import RANK_TOL
 from pinid.model.conic import ConicProblem
 from pinid.model import terms as _terms
 from pinid.model.physical import PSEUDO_INERTIA_BASIS, check_consistency, parameter_scale
+from pinid.checks import array_like
+from pinid.errors import SpecError
 
 
 def null_projector(A: np.ndarray, tol: float = RANK_TOL) -> np.ndarray | None:
     """Orthogonal projector onto the null space of ``A`` (None when it is trivial)."""
+    array_like(A, "A")
     _, s, Vt = np.linalg.svd(A, full_matrices=True)
     rank = int(np.sum(s > tol * (s[0] if s.size else 1.0)))
     V0 = Vt[rank:].T
@@ -30,6 +33,10 @@ def null_projector(A: np.ndarray, tol: float = RANK_TOL) -> np.ndarray | None:
 def add_consistency_constraints(conic: ConicProblem, problem, S: np.ndarray, margin: float, mass_bounds=None) -> None:
     """Constrain θ = S·z of ``conic`` to be physically consistent: every pseudo-inertia ⪰ ``margin``·M·diag(L², L², L², 1),
     non-negative joint terms, masses within ``mass_bounds`` ((lo, hi) [kg] for every body, or {joint: (lo, hi)})."""
+    if not hasattr(problem, "nv"):
+        raise SpecError(
+            f"problem: got {type(problem).__name__}, expected an identification problem (IdentificationProblem)"
+        )
     nv = problem.nv
     p = conic.n
     joints = problem.model.joint_names
@@ -56,6 +63,7 @@ def add_consistency_constraints(conic: ConicProblem, problem, S: np.ndarray, mar
 
 def clip_terms(theta: np.ndarray, problem) -> np.ndarray:
     """θ with tiny negative joint terms (fc, fv, armature above −1e-9 relatively) set to 0: what an interior-point solver leaves."""
+    array_like(theta, "theta")
     out = theta.copy()
     params = _terms.robot_layout(problem.model, problem.terms)
     for name in {p.term.name for p in params if p.term.nonnegative}:
@@ -73,6 +81,10 @@ def consistent_completion(problem, base: np.ndarray, *, solver: str = "CLARABEL"
     reproduces these base parameters (the base parameters are not physically realisable).  θ is checked:
     consistent, and ``P·θ`` equal to ``base`` within 1e-6 relatively.
     """
+    if not hasattr(problem, "base"):
+        raise SpecError(
+            f"problem: got {type(problem).__name__}, expected an identification problem (IdentificationProblem)"
+        )
     P = problem.base.P
     nv, nt = problem.nv, len(problem.terms)
     S = parameter_scale(problem.nominal, nv, nt)

@@ -23,6 +23,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from pinid.model.terms import TERMS, layout
+from pinid.checks import array_like
 
 #: Relative tolerance of the checks: an eigenvalue of J ≥ −RTOL·‖J‖ counts as non-negative.
 RTOL = 1e-8
@@ -48,6 +49,7 @@ PSEUDO_INERTIA_BASIS: np.ndarray = _basis()
 
 def pseudo_inertia(pi: np.ndarray) -> np.ndarray:
     """The 4×4 pseudo-inertia matrix of one body's 10 standard parameters (about the joint frame)."""
+    array_like(pi, "pi")
     pi = np.asarray(pi, dtype=float)
     if pi.shape != (10,):
         raise ValueError(f"expected 10 standard inertial parameters, got shape {pi.shape}")
@@ -56,6 +58,7 @@ def pseudo_inertia(pi: np.ndarray) -> np.ndarray:
 
 def from_pseudo_inertia(J: np.ndarray) -> np.ndarray:
     """Inverse of :func:`pseudo_inertia`: the 10 standard parameters of a symmetric 4×4 matrix."""
+    array_like(J, "J")
     J = np.asarray(J, dtype=float)
     S = J[:3, :3]
     tr = np.trace(S)
@@ -82,6 +85,7 @@ def com_inertia(pi: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
     For a (numerically) zero mass the centre of mass is undefined; it is returned as the origin and
     ``I_c`` is the inertia about the joint frame.
     """
+    array_like(pi, "pi")
     pi = np.asarray(pi, dtype=float)
     m, h = float(pi[0]), pi[1:4]
     I_o = np.array([[pi[4], pi[5], pi[7]], [pi[5], pi[6], pi[8]], [pi[7], pi[8], pi[9]]])
@@ -158,6 +162,7 @@ def check_consistency(
     registry marks non-negative (Coulomb, viscous, rotor inertia) when it is ≥ −RTOL·max(1, |largest
     parameter of that term|).
     """
+    array_like(theta, "theta")
     theta = np.asarray(theta, dtype=float)
     nv = len(joints)
     params = layout(joints, motors, term_names)
@@ -188,6 +193,7 @@ def parameter_scale(theta_nominal: np.ndarray, nv: int, nt: int) -> np.ndarray:
     length ``L`` (its nominal centre-of-mass distance, at least 0.05 m and 10 % of the largest one);
     ``M`` for the mass, ``M·L`` for first moments, ``M·L²`` for inertias.  Joint terms: 1 (their units).
     """
+    array_like(theta_nominal, "theta_nominal")
     theta_nominal = np.asarray(theta_nominal, dtype=float)
     masses = np.array([abs(theta_nominal[10 * i]) for i in range(nv)])
     lengths = []

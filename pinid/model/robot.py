@@ -9,6 +9,7 @@ configuration layout is.  Standard inertial parameters per body are Pinocchio's
 from __future__ import annotations
 
 import contextlib
+import importlib
 import io
 import numbers
 import os
@@ -26,6 +27,7 @@ import pinocchio as pin
 
 from pinid.checks import as_state, as_states, as_vector, count, number, same_length
 from pinid.errors import JointError, ModelError, ModelWarning
+from pinid.io import read_bounded_file
 from pinid.model.bundled import resolve_robot
 
 #: Names of the 10 standard inertial parameters of a body, in Pinocchio's order.
@@ -37,23 +39,19 @@ MAX_URDF_JOINTS = 1000
 #: Tolerance of the inertia checks, relative to the body's trace of inertia [kg·m²] (CAD rounding).
 INERTIA_TOL = 1e-6
 _UNBOUNDED = 1e10  # |limit| above this is treated as no limit
-#: Builders of the bases other than "fixed", by name: ``(fixed model, URDF text, path) -> model``.
-#: :mod:`pinid.model.floating` registers "floating" (pinid imports it).
+#: Builders of the bases other than "fixed", by name: ``(fixed model, URDF text, path) -> model``; each
+#: module of :data:`BASE_MODULES` registers its own when it loads.
 BASE_BUILDERS: dict[str, Callable] = {}
+#: The module that builds each base other than "fixed", loaded on first use (a plug-in: the module imports
+#: this one, so this one names it instead of importing it).
+BASE_MODULES: dict[str, str] = {"floating": "pinid.model.floating"}
 
 
 def _read_urdf_text(path: Path) -> str:
     """Read and sanity-check a URDF file; return its text.  Rejects entity declarations (XML bombs)."""
-    if not path.exists():
-        raise ModelError(f"{path}: file not found, expected a URDF file")
-    if path.is_dir():
-        raise ModelError(f"{path}: is a folder, expected a URDF file")
-    size = path.stat().st_size
-    if size == 0:
+    raw = read_bounded_file(path, "URDF file", error=ModelError, limit=_MAX_URDF_BYTES)
+    if not raw:
         raise ModelError(f"{path}: file is empty, expected a URDF file")
-    if size > _MAX_URDF_BYTES:
-        raise ModelError(f"{path}: file is {size} bytes, larger than a URDF should be (limit {_MAX_URDF_BYTES})")
-    raw = path.read_bytes()
     if b"\x00" in raw[:4096]:
         raise ModelError(f"{path}: binary file, expected a URDF (XML text)")
     try:
@@ -243,7 +241,9 @@ class RobotModel:
         "floating" (on a free flyer: :class:`pinid.model.floating.FloatingRobotModel`, docs/floating-base.md).
         """
         if base != "fixed" and base not in BASE_BUILDERS:
-            raise ModelError(f"base={base!r}, expected one of: fixed, {', '.join(BASE_BUILDERS)}")
+            if not isinstance(base, str) or base not in BASE_MODULES:
+                raise ModelError(f"base={base!r}, expected one of: fixed, {', '.join(BASE_MODULES)}")
+            importlib.import_module(BASE_MODULES[base])  # registers its builder
         if not isinstance(urdf, (str, os.PathLike)):
             raise ModelError(f"urdf: got {type(urdf).__name__}, expected a URDF path or a robot name")
         if joints is not None and (isinstance(joints, str) or not all(isinstance(j, str) for j in joints)):

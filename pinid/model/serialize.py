@@ -15,6 +15,7 @@ from pinid.model.regressor import JointTerms
 from pinid.model.robot import RobotModel
 from pinid.model.terms import STRIBECK_TERMS, Stribeck
 from pinid.wearer.passive import check_exponents
+from pinid.model.robot import as_robot
 
 
 def robot_to_dict(model: RobotModel, terms: JointTerms) -> dict:
@@ -22,6 +23,7 @@ def robot_to_dict(model: RobotModel, terms: JointTerms) -> dict:
     ``"stribeck"`` ``{term: {"velocity", "shape"}}`` when the model sets Stribeck shapes, ``"passive_exponents"``
     ``{anatomical joint: (terms, 4) list}`` when it sets the wearer's passive-moment exponents, ``"base": "floating"``
     for a floating-base robot."""
+    model = as_robot(model)
     return {
         "name": model.name,
         "urdf": None if model.urdf_path is None else str(model.urdf_path),
@@ -89,6 +91,8 @@ def robot_from_dict(d: dict) -> tuple[RobotModel, JointTerms]:
 
 def stribeck_from_dict(d: dict, origin: str) -> dict[str, Stribeck]:
     """``{term: Stribeck}`` from ``{term: {"velocity": v, "shape": δ}}``; SpecError naming what is wrong."""
+    if not isinstance(d, dict):
+        raise SpecError(f"d: got {type(d).__name__}, expected a table of Stribeck terms")
     out = {}
     for name, v in d.items():
         if name not in STRIBECK_TERMS or not isinstance(v, dict) or set(v) - {"velocity", "shape"}:

@@ -67,7 +67,7 @@ def figure_recipes(ident) -> dict[str, Recipe]:
             figs[f"torque_{m}"] = (
                 torque_comparison,
                 (c["t"], c["measured"], {m: pred}, joints),
-                {"window": WINDOW, "title": title},
+                {"window": WINDOW, "title": title, "filtered": c.get("filtered"), "units": c.get("units")},
             )
     motion = c.get("motion")
     if motion is not None and len(motion["t"]):
@@ -78,44 +78,85 @@ def figure_recipes(ident) -> dict[str, Recipe]:
     metrics = {m: (r.validation if r.validation is not None else r.train) for m, r in ident.results.items()}
     if metrics:
         kind = "validation" if all(r.validation is not None for r in ident.results.values()) else "training"
-        title = f"absolute torque error ({kind}): mean (dot) and [p5, p95] band"
+        title = f"absolute torque error ({kind}, against the torque as recorded): mean (dot) and [p5, p95] band"
         figs["errors"] = (error_bars, (metrics,), {"title": title})
     return figs
 
 
+def pooled(metrics, key: str, fmt: str = ".4g") -> str:
+    """``metrics``' pooled ``key`` as text: one number, or one per unit (``0.12 N·m / 0.03 N``) for a robot
+    with revolute and prismatic joints; ``–`` without metrics."""
+    if metrics is None:
+        return "–"
+    pools = metrics.pools()
+    if len(pools) == 1:
+        return number(pools["all"][key], fmt)
+    unit = lambda label: "" if key.endswith("percent") else " " + label.split(" ", 1)[1]
+    return " / ".join(f"{number(m[key], fmt)}{unit(label)}" for label, m in pools.items())
+
+
+def truth_cell(err: dict, name: str) -> str:
+    """A parameter's error against the truth: ``12 %``, or the absolute error ``|e| 3e-05`` where the truth is 0."""
+    rel = err["error_percent"].get(name)
+    return f"{number(rel, '.2g')} %" if rel is not None else f"|e| {number(err['error'].get(name), '.2g')}"
+
+
+def _unit(ident) -> str:
+    """The header's unit of absolute torque errors: [N·m] or [N] for one unit; none (each cell says) for both."""
+    units = {"N" if k == "prismatic" else "N·m" for k in (ident.robot.get("joint_kinds") or [])} or {"N·m"}
+    for r in ident.results.values():
+        units |= set((r.train.units or {}).values())
+    return f" [{units.pop()}]" if len(units) == 1 else ""
+
+
 def summary_table(ident, bold=lambda text: f"**{text}**") -> tuple[list[str], list[list[str]]]:
-    """The summary: header and one row per method (consistency, cond(W_b), training and validation error,
-    time, status); ``bold`` marks the best method and inconsistent results (Markdown by default)."""
+    """The summary: header and one row per method (consistency, cond(W_b), training and validation error —
+    raw: against the torque as recorded; filtered: against the low-passed torque —, time, status); ``bold``
+    marks the best method and inconsistent results (Markdown by default).  Pooled errors are per unit."""
     rows = []
     for m, r in ident.results.items():
         v = r.validation
+        mean_std = "–"
+        if v is not None:
+            mean_std = " / ".join(f"{number(p['mean_abs'])} ± {number(p['std_abs'])}" for p in v.pools().values())
         rows.append(
             [
                 bold(m) if m == ident.best else m,
                 "yes" if r.physically_consistent else bold("no"),
                 number(r.condition_number, ".3g"),
-                number(r.train.all["rms"]),
-                "–" if v is None else number(v.all["rms"]),
-                "–" if v is None else number(v.all["rel_rms_percent"], ".3g"),
-                "–" if v is None else f"{number(v.all['mean_abs'])} ± {number(v.all['std_abs'])}",
+                pooled(r.train, "rms"),
+                pooled(v, "rms"),
+                pooled(v, "rel_rms_percent", ".3g"),
+                pooled(r.validation_filtered, "rel_rms_percent", ".3g"),
+                mean_std,
                 number(r.seconds, ".3g"),
                 r.status,
             ]
         )
+    unit = _unit(ident)
     return (
         [
             "method",
             "consistent",
             "cond(W_b)",
-            "train RMS [N·m]",
-            "valid. RMS [N·m]",
-            "valid. RMS %",
-            "valid. |e| [N·m]",
+            f"train RMS raw{unit}",
+            f"valid. RMS raw{unit}",
+            "valid. RMS raw %",
+            "valid. RMS filtered %",
+            f"valid. |e| raw{unit}",
             "time [s]",
             "status",
         ],
         rows,
     )
+
+
+#: What the summary's columns mean (the report prints it under the table; docs/identification.md too).
+SUMMARY_NOTE = (
+    "raw: against the torque as recorded (the fixed yardstick); filtered: against the torque after pinid's own "
+    "low-pass, which moves with --cutoff. valid. |e|: mean ± std of the absolute validation torque error over all "
+    "joints (of one unit)."
+)
 
 
 def report_markdown(ident, figures: dict[str, str] | None = None) -> str:
@@ -132,11 +173,14 @@ def report_markdown(ident, figures: dict[str, str] | None = None) -> str:
 
     lines += ["", "## Summary", ""]
     lines.append(markdown_table(*summary_table(ident)))
-    lines += ["", "valid. |e|: mean ± std of the absolute validation torque error over all joints."]
+    lines += ["", SUMMARY_NOTE]
+    warned = [r.warning for r in ident.results.values() if r.warning]
+    if warned:
+        lines += [""] + [f"**{w}**" + ("" if k == len(warned) - 1 else "  ") for k, w in enumerate(warned)]
     lines.append("")
     lines.append(
         f"Best (bold): **{ident.best}** — the physically consistent result with the lowest "
-        f"{'validation' if ident.validation_sources else 'training'} RMS; its model is saved as "
+        f"{'validation' if ident.validation_sources else 'training'} RMS (raw); its model is saved as "
         f"`model_{ident.best}.json`."
     )
     if "errors" in figures:
@@ -188,35 +232,51 @@ def report_markdown(ident, figures: dict[str, str] | None = None) -> str:
         for prob in (r.consistency.get("problems") or [])[:4]:
             lines.append(f"- problem: {prob}")
         lines.append("")
-        for kind, metrics in (("training", r.train), ("validation", r.validation)):
+        for kind, metrics in (
+            ("training, against the torque as recorded (raw)", r.train),
+            ("validation, against the torque as recorded (raw)", r.validation),
+            ("training, against the low-passed torque (filtered)", r.train_filtered),
+            ("validation, against the low-passed torque (filtered)", r.validation_filtered),
+        ):
             if metrics is not None:
                 lines += [f"Torque error per joint, {kind}:", ""]
                 lines.append(
-                    markdown_table(
-                        ["joint", "RMS [N·m]", "RMS [%]", "mean ± std abs [N·m]", "max abs [N·m]"], metrics.table()
-                    )
+                    markdown_table(["joint", "RMS [N·m or N]", "RMS [%]", "mean ± std abs", "max abs"], metrics.table())
                 )
                 lines.append("")
         key = f"torque_{m}"
         if key in figures:
             lines += [f"![{m}: measured and predicted torque]({figures[key]})", ""]
 
+    truth = next((r.truth_error for r in ident.results.values() if r.truth_error), None)
     lines += [
         "## Base parameters",
         "",
-        "Value and relative standard deviation σ% (from the residual variance); large σ% marks poorly "
-        "excited parameters.",
+        "Value and relative standard deviation σ% = 100·σ/|value| (σ² = ‖τ − Wθ‖²/(rows − nb), "
+        "Cov = σ²(WᵀW)⁻¹); large σ% marks poorly excited parameters."
+        + (
+            " truth: the twin's true value; err %: 100·|value − truth|/|truth| (the absolute error where the "
+            "truth is 0)."
+            if truth
+            else ""
+        ),
         "",
     ]
     names = ident.base.get("names", [])
     exprs = ident.base.get("expressions", [""] * len(names))
     nominal = ident.base.get("nominal", [None] * len(names))
-    header = ["parameter", "combination", "URDF"] + [f"{m} (σ%)" for m in ident.results]
+    header = ["parameter", "combination", "URDF"] + (["truth"] if truth else [])
+    header += [f"{m} (σ%" + (", err %)" if truth else ")") for m in ident.results]
     rows = []
     for i, n in enumerate(names):
         cells = [f"`{n}`", exprs[i] if len(exprs[i]) < 70 else exprs[i][:67] + "…", number(nominal[i])]
+        if truth:
+            cells.append(number(truth["truth"].get(n)))
         for r in ident.results.values():
-            cells.append(f"{number(r.base[i])} ({number(r.std_percent[i], '.2g')})")
+            cell = f"{number(r.base[i])} ({number(r.std_percent[i], '.2g')}"
+            if truth and r.truth_error:
+                cell += ", " + truth_cell(r.truth_error, n)
+            cells.append(cell + ")")
         rows.append(cells)
     lines.append(markdown_table(header, rows))
 

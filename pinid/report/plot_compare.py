@@ -115,8 +115,14 @@ def validation_errors(comparison, label: str | None = None, *, title: str | None
         metrics[m] = {
             "per_joint": {j: avg(lambda v, j=j: v["per_joint"][j]) for j in vals[0]["per_joint"]},
             "all": avg(lambda v: v["all"]),
+            "units": vals[0].get("units"),
+            "per_unit": {u: avg(lambda v, u=u: v["per_unit"][u]) for u in vals[0].get("per_unit") or {}},
         }
-    return error_bars(metrics, title=title or f"validation torque error ({label}): mean and [p5, p95], over runs")
+    return error_bars(
+        metrics,
+        title=title
+        or f"validation torque error ({label}, against the torque as recorded): mean and [p5, p95], over runs",
+    )
 
 
 def parameter_errors(comparison, *, ax=None, title: str | None = None):

@@ -23,14 +23,18 @@ def torque_comparison(
     predicted: np.ndarray | Mapping[str, np.ndarray],
     joints: list[str],
     *,
+    filtered: np.ndarray | None = None,
+    units: list[str] | None = None,
     title: str | None = None,
     window: float | None = 30.0,
     max_points: int = 2_000,
 ):
     """Per joint: measured and predicted torque [N·m] against time, and the error τ_meas − τ_pred below.
 
-    ``predicted`` is one ``(N, nv)`` array or ``{method: array}`` to overlay several methods.  Only the
-    first ``window`` seconds are drawn (None: all), thinned to ``max_points`` samples.  Returns the figure.
+    ``predicted`` is one ``(N, nv)`` array or ``{method: array}`` to overlay several methods.  ``measured``
+    is the torque as recorded (drawn grey; the error is against it); ``filtered``, when given, the torque
+    after pinid's low-pass (drawn black).  ``units``: each joint's unit (default N·m).  Only the first
+    ``window`` seconds are drawn (None: all), thinned to ``max_points`` samples.  Returns the figure.
     """
     t = np.asarray(t, dtype=float)
     measured = np.asarray(measured, dtype=float)
@@ -38,6 +42,7 @@ def torque_comparison(
     if window is not None and len(t) and t[-1] - t[0] > window:
         n = int(np.searchsorted(t, t[0] + window))
         t, measured = t[:n], measured[:n]
+        filtered = None if filtered is None else np.asarray(filtered, dtype=float)[:n]
         preds = {k: np.asarray(v)[:n] for k, v in preds.items()}
     nv = len(joints)
     fig, axes = new_figure(
@@ -46,13 +51,16 @@ def torque_comparison(
     idx = _thin(len(t), max_points)
     for j, name in enumerate(joints):
         top, bottom = axes[2 * j, 0], axes[2 * j + 1, 0]
-        top.plot(t[idx], measured[idx, j], color="black", lw=1.0, label="measured")
+        top.plot(t[idx], measured[idx, j], color="0.6", lw=0.8, label="measured (as recorded)")
+        if filtered is not None:
+            top.plot(t[idx], np.asarray(filtered)[idx, j], color="black", lw=1.0, label="measured, low-passed")
         for m, p in preds.items():
             p = np.asarray(p, dtype=float)
             top.plot(t[idx], p[idx, j], lw=0.9, label=m, alpha=0.85)
             bottom.plot(t[idx], measured[idx, j] - p[idx, j], lw=0.8, label=m, alpha=0.85)
-        top.set_ylabel(f"{name}\nτ [N·m]")
-        bottom.set_ylabel("error [N·m]")
+        unit = "N·m" if units is None else units[j]
+        top.set_ylabel(f"{name}\nτ [{unit}]")
+        bottom.set_ylabel(f"error (raw) [{unit}]")
         bottom.axhline(0.0, color="grey", lw=0.5)
         top.grid(alpha=0.3)
         bottom.grid(alpha=0.3)
@@ -74,7 +82,11 @@ def error_bars(metrics: Mapping[str, object], *, title: str | None = None):
     """
     per = {m: (v.to_dict() if hasattr(v, "to_dict") else v) for m, v in metrics.items()}
     methods = list(per)
-    panels = (list(next(iter(per.values()))["per_joint"]) + ["all"]) if per else []
+    first = next(iter(per.values())) if per else {}
+    units = first.get("units") or {}
+    pools = list(first.get("per_unit") or {}) if len(set(units.values())) > 1 else []
+    # one pooled panel per unit: N·m (revolute) and N (prismatic) never share an axis
+    panels = (list(first["per_joint"]) + ([f"all {u}" for u in pools] or ["all"])) if per else []
     ncols = max(1, min(3, len(panels)))
     nrows = max(1, -(-len(panels) // ncols))
     height = nrows * (0.9 + 0.28 * max(1, len(methods))) + (0.4 if title else 0.0)
@@ -85,7 +97,12 @@ def error_bars(metrics: Mapping[str, object], *, title: str | None = None):
         ax = axes[k // ncols, k % ncols]
         top = 0.0
         for i, m in enumerate(methods):
-            d = per[m]["all"] if name == "all" else per[m]["per_joint"][name]
+            if name == "all":
+                d = per[m]["all"]
+            elif name.startswith("all ") and name[4:] in (per[m].get("per_unit") or {}):
+                d = per[m]["per_unit"][name[4:]]
+            else:
+                d = per[m]["per_joint"][name]
             mean = d.get("mean_abs")
             if mean is None:
                 continue
@@ -101,8 +118,9 @@ def error_bars(metrics: Mapping[str, object], *, title: str | None = None):
         ax.set_xlim(0, 1.12 * top if top > 0 else 1.0)
         ax.set_ylim(-0.7, len(methods) - 0.3)
         ax.set_yticks(y, methods if k % ncols == 0 else [""] * len(methods), fontsize="small")
-        ax.set_title("all joints" if name == "all" else name, fontsize="medium")
-        ax.set_xlabel("|τ error| [N·m]", fontsize="small")
+        unit = name[4:] if name.startswith("all ") else units.get(name, next(iter(set(units.values())), "N·m"))
+        ax.set_title("all joints" if name == "all" else f"all {unit} joints" if name.startswith("all ") else name)
+        ax.set_xlabel(f"|τ error| [{unit}]", fontsize="small")
         ax.tick_params(axis="x", labelsize="small")
         ax.grid(axis="x", alpha=0.3)
     for k in range(len(panels), nrows * ncols):

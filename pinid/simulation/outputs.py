@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pinid.data.dataset import Dataset
+from pinid.data.dataset import Dataset, as_dataset
 from pinid.data.formats import write_recording
 from pinid.io import Artefacts
 from pinid.model.base import base_parameters
@@ -17,11 +17,17 @@ from pinid.model.export import identified_urdf
 from pinid.model.regressor import JointTerms, standard_parameters
 from pinid.model.robot import RobotModel
 from pinid.simulation.twin import perturb, save_truth
+from pinid.errors import OutputError
+from pinid.io import as_path
+from pinid.model.robot import as_robot
+from pinid.errors import SpecError
+from pinid.checks import array_like
 
 
 def cad_model(model: RobotModel, percent: float, seed: int) -> RobotModel:
     """A "CAD" model of ``model``: its inertial parameters perturbed by about ``percent`` %, physically
     consistent (:func:`~pinid.simulation.twin.perturb`), seeded by ``seed`` (apart from the twin's noise)."""
+    model = as_robot(model)
     return perturb(model, percent, np.random.default_rng(np.random.SeedSequence([int(seed), 1])))
 
 
@@ -42,6 +48,9 @@ def drawn_wearer_truth(table: np.ndarray, drawn: dict) -> dict:
     """The ``wearer["drawn"]`` entry of a twin's truth when its wearer was drawn away from the tables
     (:func:`pinid.wearer.prior.draw_wearer`'s defaults: mass ±25 %, centre of mass ±20 %): the drawn
     wearer's standard parameters per joint and the robot's table (URDF) standard parameters."""
+    array_like(table, "table")
+    if not isinstance(drawn, dict):
+        raise SpecError(f"drawn: got {type(drawn).__name__}, expected the dict of draw_wearer")
     return {
         "mass_percent": 25.0,
         "com_percent": 20.0,
@@ -52,12 +61,14 @@ def drawn_wearer_truth(table: np.ndarray, drawn: dict) -> dict:
 
 def truth_path_for(path: str | os.PathLike) -> Path:
     """Where a recording's truth goes by default: ``run.csv`` → ``run.truth.json``."""
+    path = as_path(path)
     p = Path(path)
     return p.with_name(p.stem + ".truth.json")
 
 
 def simulation_paths(path, *, truth_path=None, true_signals=None, cad_urdf=None) -> list[Path]:
     """The files :func:`write_simulation` writes for these arguments, in its order (to check them early)."""
+    path = as_path(path, error=OutputError)
     return [Path(path), Path(truth_path or truth_path_for(path))] + [Path(p) for p in (true_signals, cad_urdf) if p]
 
 
@@ -76,6 +87,7 @@ def write_simulation(
     JSON (default :func:`truth_path_for`), with ``true_signals`` the noise-free signals, with ``cad_urdf``
     the URDF of the ``cad`` model (its percent from ``truth["cad"]``).  ``overwrite``: replace existing
     files (None: the :data:`pinid.io.OVERWRITE` policy, which the CLI's ``--force`` sets)."""
+    recording = as_dataset(recording, "recording")
     arts = Artefacts(overwrite=overwrite)
     arts.add(path, lambda p: write_recording(p, recording))
     arts.add(truth_path or truth_path_for(path), lambda p: save_truth(p, truth))
@@ -118,6 +130,7 @@ def _wrapped(label: str, items: list[str], column: int) -> list[str]:
 def simulation_text(recording: Dataset, truth: dict, path, *, truth_path=None, true_signals=None, cad_urdf=None) -> str:
     """What ``pinid simulate`` prints after :func:`write_simulation`: each file written, with the samples,
     rate, joints and tracking error [rad] of the recording and the parameter counts of the truth."""
+    recording = as_dataset(recording, "recording")
     track = [f"{j} {v:.2g}" for j, v in truth["tracking"]["rms_error"].items()]
     first = "\n".join(  # one labelled block each, wrapped at WIDTH and aligned (a UR5's names are long)
         [f"wrote {path} ({recording.n} samples at {truth['rates']['sample']} Hz)"]

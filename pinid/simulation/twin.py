@@ -56,9 +56,10 @@ from collections.abc import Sequence
 import numpy as np
 import pinocchio as pin
 
+from pinid.checks import count, number
 from pinid.data.dataset import Dataset
-from pinid.errors import DataError, DataWarning, SpecError
-from pinid.model.robot import RobotModel
+from pinid.errors import DataError, DataWarning, ModelError, SpecError
+from pinid.model.robot import RobotModel, as_robot
 from pinid.excitation.trajectory import FourierTrajectory
 from pinid.io import write_json
 from pinid.model import terms as _terms
@@ -66,6 +67,9 @@ from pinid.model.base import base_parameters
 from pinid.model.regressor import JointTerms, parameter_names, standard_parameters
 from pinid.progress import progress as _progress
 from pinid.resources import EXCITATION_DIR, bundled_trajectories
+from pinid.errors import OutputError
+from pinid.io import as_path
+from pinid.checks import array_like
 
 #: Seed 000 (Zha et al. 2019) Table 1, degrees: (hip offset, hip sin amplitude, knee offset, knee sin
 #: amplitude) of q = offset + amplitude·sin(2π t); q = 0 hanging down, counter-clockwise positive.
@@ -101,8 +105,8 @@ def zha2019_trajectory(
     ``joints``: names for (hip, knee); ``signs``: +1 or −1 per joint when the robot's axis points the other
     way than the paper's (counter-clockwise positive, q = 0 hanging down).  Angles become radians.
     """
-    if number not in ZHA2019_TABLE1:
-        raise SpecError(f"seed 000 Table 1 has trajectories 1 to 4, not {number!r}")
+    if isinstance(number, bool) or not isinstance(number, int) or number not in ZHA2019_TABLE1:
+        raise SpecError(f"number={number!r}: seed 000 Table 1 has trajectories 1 to 4")
     ho, ha, ko, ka = ZHA2019_TABLE1[number]
     d = np.pi / 180
     s = np.asarray(signs, dtype=float)
@@ -129,6 +133,8 @@ def load_trajectory(spec: str, model: RobotModel, *, flip: Sequence[str] = ()) -
     joints in order) with the signs of :data:`PAPER_CONVENTIONS` for that robot; ``flip`` negates more
     joints (the robot's axis pointing the other way).  Files must name the model's joints.
     """
+    if not isinstance(spec, str):
+        raise SpecError(f"spec: got {type(spec).__name__}, expected a trajectory JSON path, a bundled name or a preset")
     renamed = spec.replace("seed000-", "zha2019-", 1) if spec.startswith("seed000-") else None
     if renamed in trajectory_presets():
         warnings.warn(f"trajectory preset {spec!r} is deprecated, use {renamed!r}", DeprecationWarning, stacklevel=2)
@@ -183,6 +189,7 @@ def perturb(model: RobotModel, percent: float, rng: np.random.Generator) -> Robo
     with ``A = [[S, t], [0, 1]]``, so ``J' ⪰ 0`` whenever ``J ⪰ 0``.  Mass changes by at most ``percent``
     %, first moments and inertias by about as much.  Friction is unchanged.
     """
+    model = as_robot(model)
     if not np.isfinite(percent) or percent < 0 or percent >= 100:
         raise SpecError(f"perturbation {percent!r} %, expected a percentage from 0 to below 100")
     eps = percent / 100.0
@@ -531,6 +538,13 @@ def _simulate(
     progress: bool | None,
 ) -> tuple[Dataset, dict]:
     """:func:`simulate` with every option resolved (one keyword each, as the body uses them)."""
+    model = as_robot(model)
+    if not isinstance(trajectory, FourierTrajectory):
+        raise SpecError(f"trajectory: got {type(trajectory).__name__}, expected a FourierTrajectory")
+    seconds = number(seconds, "seconds")  # a number; its range is checked below (the duration)
+    seed = count(seed, "seed")
+    if seed >= 2**32:
+        raise SpecError(f"seed={seed!r}, expected an integer 0 ≤ seed < 2³²")
     if not np.isfinite(seconds) or seconds <= 0:
         raise SpecError(f"duration {seconds!r} s, expected a duration > 0")
     if controller not in ("pd", "pid"):
@@ -585,6 +599,8 @@ def _simulate(
                 f"trajectory takes joint '{model.joint_names[j]}' to {qd[k, j]:.4g} rad at t = {t_ctrl[k]:.4g} s, "
                 f"outside its URDF limits [{lo[j]:.4g}, {hi[j]:.4g}]"
             )
+
+    _check_mass_matrix(model, qd[:: max(1, len(qd) // 20)], extra.get("armature"))
 
     vmax = model.velocity_limit
     over = np.flatnonzero(np.max(np.abs(dqd), axis=0) > vmax * (1 + 1e-9))
@@ -842,6 +858,7 @@ WEARER_BAND = (0.2, 2.0)
 def wearer_disturbance(t: np.ndarray, rms: np.ndarray, rng: np.random.Generator, components: int = 16) -> np.ndarray:
     """A smooth random torque (N, nv) [N·m] at times ``t`` [s]: per joint a sum of ``components`` sinusoids,
     frequencies uniform in :data:`WEARER_BAND`, random phases and amplitudes, scaled to exactly ``rms`` [N·m]."""
+    array_like(t, "t")
     rms = np.asarray(rms, dtype=float)
     f = rng.uniform(*WEARER_BAND, (components, rms.size))
     phase = rng.uniform(0, 2 * np.pi, (components, rms.size))
@@ -856,8 +873,45 @@ def _wearer(model: RobotModel) -> dict:
     return wearer_links(model.urdf_text) if model.urdf_text else {}
 
 
+def _check_mass_matrix(model: RobotModel, q: np.ndarray, armature=None) -> None:
+    """ModelError naming the link when the plant's mass matrix is singular at the positions ``q`` (N, nv):
+    a joint that moves no mass or inertia (a massless last link) cannot be simulated, its acceleration
+    is undetermined.  Armature and reflected rotor inertia count."""
+    pm, data = model.pin_model, model.pin_model.createData()
+    extra = np.zeros(model.nv) if armature is None else np.asarray(armature, dtype=float)
+    d = model.drives
+    if d is not None and np.any(d.nominal("armature") != 0):
+        extra = extra + np.einsum("mj,m,mj->j", d.matrix, d.nominal("armature"), d.matrix)
+    for qk in np.atleast_2d(q):
+        M = pin.crba(pm, data, model.configuration(qk))
+        M = np.triu(M) + np.triu(M, 1).T
+        M[np.diag_indices(model.nv)] += extra
+        diag = np.diag(M)
+        # A joint moving nothing has a zero diagonal entry (1e-12 kg·m² or kg: far below any real link).
+        # Otherwise singularity is judged on M scaled to a unit diagonal, so that links of very different
+        # sizes (a knee 1e6 m below the hip: M's entries 1e12 apart) are not mistaken for a massless one.
+        weak = np.flatnonzero(~(diag > 1e-12))
+        if weak.size:
+            j = int(weak[0])
+        else:
+            lowest, vectors = np.linalg.eigh(M / np.sqrt(np.outer(diag, diag)))
+            if lowest[0] > 1e-10:
+                continue
+            j = int(np.argmax(np.abs(vectors[:, 0])))  # the joint the singular direction moves most
+        name = model.joint_names[j]
+        jid = pm.getJointId(name)
+        links = [f.name for f in pm.frames if f.parentJoint == jid and f.type == pin.FrameType.BODY]
+        raise ModelError(
+            f"{model.name}: joint '{name}' moves no mass or inertia about its axis (link "
+            f"'{links[0] if links else name}' and the links after it are massless or their inertia is "
+            "zero), so the mass matrix is singular and the plant cannot be simulated; expected a "
+            "mass and inertia on every moving link (or an armature)"
+        )
+
+
 def plant_terms(model: RobotModel, terms: dict | None = None) -> dict[str, np.ndarray]:
     """The plant's extra joint terms, checked: ``terms`` or, by default, the wearer's passive moments."""
+    model = as_robot(model)
     if terms is None:
         return {"passive": _terms.nominal(model, JointTerms(names=["passive"]))} if _wearer(model) else {}
     out = {}
@@ -882,16 +936,20 @@ def _motor_terms(model: RobotModel) -> JointTerms:
 
 def truth_json(truth: dict) -> dict:
     """The JSON-ready part of a truth dict (everything but the in-memory ``signals``)."""
+    if not isinstance(truth, dict):
+        raise SpecError(f"truth: got {type(truth).__name__}, expected the truth dict of simulate")
     return {k: v for k, v in truth.items() if k != "signals"}
 
 
 def save_truth(path, truth: dict):
     """Write the truth dict (without ``signals``) as JSON, atomically."""
+    path = as_path(path, error=OutputError)
     return write_json(path, truth_json(truth))
 
 
 def friction_torque(dq: np.ndarray, coulomb, viscous) -> np.ndarray:
     """The regressor's friction ``fc·sign(dq) + fv·dq`` [N·m] for velocities ``dq`` (N, nv)."""
+    array_like(dq, "dq")
     return np.asarray(coulomb) * np.sign(dq) + np.asarray(viscous) * dq
 
 

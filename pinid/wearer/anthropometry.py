@@ -13,6 +13,7 @@ from importlib import resources
 
 import numpy as np
 
+from pinid.checks import number
 from pinid.errors import SpecError
 
 #: Sexes the table distinguishes.
@@ -55,7 +56,8 @@ class Segment:
 def check_person(mass: float, height: float, sex: str) -> None:
     """Raise SpecError unless body mass [kg], height [m] and sex are inside the table's accepted range."""
     lim = table()["limits"]
-    if sex not in SEXES:
+    mass, height = number(mass, "mass"), number(height, "height")  # numbers, not "75" or True
+    if not isinstance(sex, str) or sex not in SEXES:
         raise SpecError(f"sex {sex!r}: expected one of {', '.join(SEXES)}")
     lo, hi = lim["mass"]
     if not (np.isfinite(mass) and lo <= mass <= hi):
@@ -69,7 +71,7 @@ def segment(name: str, *, mass: float, height: float, sex: str) -> Segment:
     """The segment ``name`` (pelvis, thigh, shank, foot) of a person of ``mass`` [kg], ``height`` [m], ``sex``."""
     check_person(mass, height, sex)
     rows = table()[sex]
-    if name not in STRAPPED_SEGMENTS:
+    if not isinstance(name, str) or name not in STRAPPED_SEGMENTS:
         raise SpecError(f"segment {name!r}: expected one of {', '.join(STRAPPED_SEGMENTS)}")
     row = rows[name]
     length = row["length"] * height / table()["reference"][sex]["stature"]

@@ -74,6 +74,10 @@ class Placement:
 
 def parse_attach(text: str) -> list[tuple[str, str]]:
     """``"hip:thigh,knee:shank"`` → ``[("hip", "thigh"), ("knee", "shank")]`` (exo joint or link : segment)."""
+    if not isinstance(text, str):
+        raise SpecError(
+            f"--attach: got {type(text).__name__}, expected POINT:SEGMENT pairs such as hip:thigh,knee:shank"
+        )
     pairs = []
     for item in (s.strip() for s in text.split(",")):
         point, sep, seg = item.partition(":")
@@ -258,6 +262,8 @@ def wearer_urdf(
     ``height`` [m], ``sex`` ``"male"`` / ``"female"`` (de Leva 1996).  Raises SpecError on bad input
     before writing anything.
     """
+    if not isinstance(urdf, (str, os.PathLike)):
+        raise SpecError(f"urdf: got {type(urdf).__name__}, expected a URDF path or a bundled robot name")
     from pinid.model.bundled import resolve_robot
 
     from pinid.model.robot import RobotModel
@@ -265,7 +271,8 @@ def wearer_urdf(
     if attach is not None:
         pairs = parse_attach(attach) if isinstance(attach, str) else check_pairs(attach)
     file, _ = resolve_robot(urdf)
-    RobotModel.from_urdf(file)  # the exo must load (no NaN origin, mimic joint, lower > upper …): ModelError
+
+    RobotModel.from_urdf(file)  # the exoskeleton must be a URDF pinid loads (size, numbers, axes, nesting)
     try:
         root = ET.fromstring(
             file.read_text(encoding="utf-8"), parser=ET.XMLParser(target=ET.TreeBuilder(insert_comments=True))
@@ -346,6 +353,10 @@ def _check_loads(text: str, source) -> None:
 def wearer_links(urdf_text: str) -> dict[str, tuple[str, float, np.ndarray, np.ndarray]]:
     """The wearer segments of a URDF written by :func:`wearer_urdf`:
     ``{segment: (exo link, mass [kg], CoM [m], inertia about the CoM [kg·m²])}`` in the exo link's frame."""
+    if not isinstance(urdf_text, str):
+        raise SpecError(
+            f"urdf_text: got {type(urdf_text).__name__}, expected the text of a URDF written by pinid wearer"
+        )
     root = ET.fromstring(urdf_text)
     parent = {
         j.find("child").get("link"): j.find("parent").get("link")

@@ -10,13 +10,13 @@ not overlap the URDF's range is an error (the exoskeleton cannot move there).
 from __future__ import annotations
 
 import math
-import tomllib
 from importlib import resources
 from pathlib import Path
 
 import numpy as np
 
 from pinid.errors import SpecError
+from pinid.io import read_toml
 from pinid.wearer.passive import ANATOMICAL, anatomy
 
 _KEYS = {"min", "max", "speed", "acceleration"}
@@ -31,12 +31,7 @@ def read(path: str | Path | None = None) -> dict[str, dict[str, float]]:
     """``{anatomical joint: {min, max [deg], speed [deg/s], acceleration [deg/s²]}}`` from ``path`` (default
     the shipped file), checked."""
     p = Path(path) if path is not None else default_path()
-    try:
-        data = tomllib.loads(p.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise SpecError(f"{p}: file not found, expected comfort limits (.toml)") from None
-    except (ValueError, UnicodeDecodeError) as exc:
-        raise SpecError(f"{p}: not valid TOML ({str(exc).splitlines()[0]})") from None
+    data = read_toml(p, "comfort limits file")  # regular file, bounded size, depth-limited
     out = {}
     for joint, table in data.items():
         if joint not in ANATOMICAL or not isinstance(table, dict) or set(table) != _KEYS:

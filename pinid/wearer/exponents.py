@@ -28,6 +28,7 @@ import numpy as np
 
 from pinid.linalg import RANK_TOL
 from pinid.wearer.passive import ANATOMICAL, anatomy, column, exponents
+from pinid.model.robot import as_robot
 
 #: Bounds of a refined coefficient, as factors of its published value.
 BOUNDS: tuple[float, float] = (0.5, 2.0)
@@ -64,6 +65,7 @@ class ExponentFit:
 
 def free_coefficients(robot) -> list[tuple[str, int, int]]:
     """The refined coefficients ``(anatomical joint, term, column 1..3)``: non-zero, on a joint the robot has."""
+    robot = as_robot(robot)
     have = [kind for kind, _ in anatomy(robot) if kind is not None]
     return [
         (kind, k, 1 + a)
@@ -77,6 +79,7 @@ def free_coefficients(robot) -> list[tuple[str, int, int]]:
 def perturbed(robot, fraction: float = 0.2) -> dict[str, np.ndarray]:
     """Published exponent coefficients with each refined one (:func:`free_coefficients`) × (1 + fraction)
     and × (1 − fraction) in turn — a twin's wearer whose tissues differ from the published ones."""
+    robot = as_robot(robot)
     out = {kind: exponents(robot, kind).copy() for kind, _ in anatomy(robot) if kind is not None}
     for n, (kind, k, a) in enumerate(free_coefficients(robot)):
         out[kind][k, a] *= 1 + fraction if n % 2 == 0 else 1 - fraction
@@ -86,6 +89,7 @@ def perturbed(robot, fraction: float = 0.2) -> dict[str, np.ndarray]:
 def fit_exponents(robot, inertial: np.ndarray, y: np.ndarray, q: np.ndarray, *, tol: float = 1e-12) -> ExponentFit:
     """Exponents of ``robot``'s passive moments fitted to the torque ``y`` (N·nv,) [N·m] left by the exo,
     with the wearer's inertial columns ``inertial`` (N·nv, k) and joint positions ``q`` (N, nv) [rad]."""
+    robot = as_robot(robot)
     from scipy.optimize import least_squares  # scipy.optimize: imported only for this refinement
 
     t0 = time.perf_counter()

@@ -28,6 +28,8 @@ from importlib import resources
 import numpy as np
 
 from pinid.errors import SpecError
+from pinid.model.robot import as_robot
+from pinid.checks import array_like
 
 #: Anatomical joints, in the order of the exponent coefficients (after the constant).
 ANATOMICAL: tuple[str, ...] = ("hip", "knee", "ankle")
@@ -44,6 +46,8 @@ def coefficients() -> dict:
 
 def published(joint: str) -> np.ndarray:
     """The published exponent coefficients of anatomical ``joint``: (terms, 4) ``[c0, cH, cK, cA]`` [1, 1/deg]."""
+    if not isinstance(joint, str) or joint not in ANATOMICAL:
+        raise SpecError(f"joint={joint!r}, expected one of {', '.join(ANATOMICAL)}")
     return np.array([t["c"] for t in coefficients()[joint]["terms"]], dtype=float)
 
 
@@ -55,6 +59,8 @@ def exponents(robot, joint: str) -> np.ndarray:
 
 def check_exponents(d: dict, origin: str) -> dict[str, np.ndarray]:
     """``{anatomical joint: (terms, 4) array}`` from a plain dict (a saved model); SpecError naming what is wrong."""
+    if not isinstance(d, dict):
+        raise SpecError(f"d: got {type(d).__name__}, expected a table of exponent coefficients per joint")
     out = {}
     for joint, c in (d or {}).items():
         want = published(joint).shape if joint in ANATOMICAL else None
@@ -71,6 +77,8 @@ def check_exponents(d: dict, origin: str) -> dict[str, np.ndarray]:
 def moment(joint: str, hip: np.ndarray, knee: np.ndarray, ankle: np.ndarray, c: np.ndarray | None = None) -> np.ndarray:
     """Passive moment [N·m] of anatomical ``joint`` at hip, knee and ankle angles [deg] (R&E convention),
     with exponent coefficients ``c`` ((terms, 4); default the published)."""
+    if not isinstance(joint, str) or joint not in ANATOMICAL:
+        raise SpecError(f"joint={joint!r}, expected one of {', '.join(ANATOMICAL)}")
     row = coefficients()[joint]
     c = published(joint) if c is None else np.asarray(c, dtype=float)
     angles = np.stack(np.broadcast_arrays(np.asarray(hip, float), np.asarray(knee, float), np.asarray(ankle, float)))
@@ -82,6 +90,7 @@ def moment(joint: str, hip: np.ndarray, knee: np.ndarray, ankle: np.ndarray, c: 
 
 def anatomy(robot) -> list[tuple[str | None, float]]:
     """For each active joint of ``robot``: (anatomical joint or None, sign s of anatomical = s·q)."""
+    robot = as_robot(robot)
     out = []
     for j in robot.joints:
         kind = next((a for a in ANATOMICAL if a in j.name.lower()), None)
@@ -94,6 +103,7 @@ def anatomy(robot) -> list[tuple[str | None, float]]:
 def column(q: np.ndarray, robot, exps: dict[str, np.ndarray] | None = None) -> np.ndarray:
     """Regressor column (N, nv) of the passive scale factors: ``−s·M`` per mapped joint [N·m], 0 elsewhere;
     exponent coefficients from ``exps`` ``{anatomical joint: (terms, 4)}``, else :func:`exponents`."""
+    array_like(q, "q")
     q = np.atleast_2d(np.asarray(q, dtype=float))
     exps = exps or {}
     amap = anatomy(robot)
@@ -110,4 +120,5 @@ def column(q: np.ndarray, robot, exps: dict[str, np.ndarray] | None = None) -> n
 
 def torque(q: np.ndarray, robot, scale: np.ndarray | float = 1.0) -> np.ndarray:
     """Passive moment the wearer's tissues apply on the robot's joints [N·m], (N, nv): ``scale·s·M``."""
+    array_like(q, "q")
     return -np.asarray(scale, dtype=float) * column(q, robot)

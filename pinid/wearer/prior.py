@@ -23,6 +23,8 @@ import pinocchio as pin
 
 from pinid.errors import SpecError
 from pinid.wearer.attach import PREFIX
+from pinid.model.robot import as_robot
+from pinid.checks import array_like
 
 #: Default allowed deviation of a wearer body's mass from the table value (fraction).
 MASS_RANGE = 0.30
@@ -48,6 +50,8 @@ def _vec(text):
 
 def wearer_prior(urdf_text: str, robot) -> list[BodyPrior]:
     """The wearer priors of ``robot`` (the exo + wearer RobotModel) from its URDF text, in joint order."""
+    if not isinstance(urdf_text, str):
+        raise SpecError(f"urdf_text: got {type(urdf_text).__name__}, expected the text of a URDF with a wearer")
     root = ET.fromstring(urdf_text)
     moved_by = {
         j.find("child").get("link"): j.get("name") for j in root.findall("joint") if j.find("child") is not None
@@ -98,6 +102,9 @@ def wearer_prior(urdf_text: str, robot) -> list[BodyPrior]:
 def drawn(theta: np.ndarray, rng: np.random.Generator, mass: float = 0.25, com: float = 0.20) -> np.ndarray:
     """One body's table parameters (10,) drawn away from the table: mass × (1 ± ``mass``), CoM distance
     from the joint × (1 ± ``com``) (uniform, seeded), inertia about the CoM scaled with the mass."""
+    array_like(theta, "theta")
+    if not isinstance(rng, np.random.Generator):
+        raise SpecError(f"rng: got {type(rng).__name__}, expected a numpy.random.Generator")
     m, c = theta[0], theta[1:4] / theta[0]
     Ic = pin.Inertia.FromDynamicParameters(np.asarray(theta, dtype=float)).inertia
     k, kc = 1 + rng.uniform(-mass, mass), 1 + rng.uniform(-com, com)
@@ -108,6 +115,7 @@ def draw_wearer(robot, seed: int, mass: float = 0.25, com: float = 0.20):
     """``robot`` (exo + wearer) with its wearer's share of each body replaced by :func:`drawn` — the twin's
     "true" wearer, the same for the same ``seed`` (``pinid simulate`` and ``pinid track --wearer-draw``);
     returns ``(model, {joint: drawn (10,) wearer parameters})``."""
+    robot = as_robot(robot)
     if not any(lk.startswith(PREFIX) for lk in re.findall(r'<link\s+name="([^"]*)"', robot.urdf_text or "")):
         raise SpecError(f"{robot.name} carries no wearer to draw (links {PREFIX}*); expected a URDF from pinid wearer")
     rng = np.random.default_rng(np.random.SeedSequence([int(seed), 2]))

@@ -2,6 +2,7 @@
 
     python tests/benchmarks/bench_memory.py                     # 500 000 samples of panda, ols
     python tests/benchmarks/bench_memory.py --samples 100000 --methods ols,sdp
+    python tests/benchmarks/bench_memory.py --robot exo_leg --samples 100000 1000000 --methods ols,wls,sdp
     python tests/benchmarks/bench_memory.py --before /tmp/before   # an older checkout too, same file, one run
 
 Writes a recording of the Panda (example-robot-data, 7 DOF) following a random Fourier trajectory inside
@@ -35,9 +36,9 @@ from pinid.model.regressor import regressor, standard_parameters
 HERE = Path(__file__).resolve().parents[2]
 
 
-def recording(path: Path, samples: int, seed: int = 0) -> int:
+def recording(path: Path, samples: int, seed: int = 0, robot: str = "panda") -> int:
     """Write the recording; returns the number of base parameters."""
-    model = RobotModel.from_urdf("panda")
+    model = RobotModel.from_urdf(robot)
     spec = spec_for(model)
     problem = DesignProblem(model, spec)
     lower, upper = problem.box()
@@ -56,8 +57,8 @@ def recording(path: Path, samples: int, seed: int = 0) -> int:
     return base_parameters(model, spec.terms).count
 
 
-def identify(tree: Path, folder: Path, methods: str) -> tuple[float, float]:
-    """(wall [s], peak RSS [MB]) of ``pinid identify`` on ``folder/panda.npz`` with ``tree`` on the path."""
+def identify(tree: Path, folder: Path, methods: str, robot: str = "panda") -> tuple[float, float]:
+    """(wall [s], peak RSS [MB]) of ``pinid identify`` on ``folder/<robot>.npz`` with ``tree`` on the path."""
     env = dict(os.environ, PYTHONPATH=str(tree), MPLBACKEND="Agg", OPENBLAS_NUM_THREADS="1")
     t0 = time.perf_counter()
     proc = subprocess.Popen(
@@ -67,9 +68,9 @@ def identify(tree: Path, folder: Path, methods: str) -> tuple[float, float]:
             "pinid.cli",
             "identify",
             "--urdf",
-            "panda",
+            robot,
             "--data",
-            "panda.npz",
+            f"{robot}.npz",
             "--methods",
             methods,
             "--no-report",
@@ -94,7 +95,8 @@ def identify(tree: Path, folder: Path, methods: str) -> tuple[float, float]:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--samples", type=int, default=500_000)
+    ap.add_argument("--samples", type=int, nargs="+", default=[500_000], help="one or more lengths")
+    ap.add_argument("--robot", default="panda", help="robot name (default panda)")
     ap.add_argument("--methods", default="ols")
     ap.add_argument("--before", type=Path, help="an older checkout to measure on the same file")
     a = ap.parse_args()
@@ -102,19 +104,27 @@ def main() -> None:
         f"machine: {platform.machine()}, nproc {os.cpu_count()}, python {platform.python_version()}, "
         f"load {os.getloadavg()[0]:.2f}"
     )
-    with tempfile.TemporaryDirectory() as tmp:
-        d = Path(tmp)
-        nb = recording(d / "panda.npz", a.samples)
-        size = (d / "panda.npz").stat().st_size
-        rows = a.samples * 7
-        print(f"panda, {a.samples} samples ({rows} torque rows, {nb} base parameters), NPZ {size / 1e6:.0f} MB")
-        print(f"tall base regressor alone (float64): {rows * nb * 8 / 1e6:.0f} MB")
-        trees = ([("before", a.before.resolve())] if a.before else []) + [("this", HERE)]
-        for name, tree in trees:
-            wall, peak = identify(tree, d, a.methods)
-            print(
-                f"{name}: `pinid identify --methods {a.methods} --no-report`: {wall:.1f} s wall, peak RSS {peak:.0f} MB"
-            )
+    peaks = []
+    for samples in a.samples:
+        with tempfile.TemporaryDirectory() as tmp:
+            d = Path(tmp)
+            nb = recording(d / f"{a.robot}.npz", samples, robot=a.robot)
+            size = (d / f"{a.robot}.npz").stat().st_size
+            nv = RobotModel.from_urdf(a.robot).nv
+            rows = samples * nv
+            print(f"{a.robot}, {samples} samples ({rows} torque rows, {nb} base parameters), NPZ {size / 1e6:.0f} MB")
+            print(f"tall base regressor alone (float64): {rows * nb * 8 / 1e6:.0f} MB")
+            trees = ([("before", a.before.resolve())] if a.before else []) + [("this", HERE)]
+            for name, tree in trees:
+                wall, peak = identify(tree, d, a.methods, a.robot)
+                print(
+                    f"{name}: `pinid identify --urdf {a.robot} --methods {a.methods} --no-report`: {wall:.1f} s wall, "
+                    f"peak RSS {peak:.0f} MB"
+                )
+            peaks.append((samples, peak))
+    if len(peaks) > 1:
+        (n0, p0), (n1, p1) = peaks[0], peaks[-1]
+        print(f"slope: {(p1 - p0) * 2**20 / (n1 - n0):.0f} bytes per sample ({a.robot}, {a.methods})")
 
 
 if __name__ == "__main__":

@@ -129,15 +129,17 @@ def lad_segmental(seg: SegmentalProblem) -> np.ndarray:
 def validation_metrics(model, base_values: np.ndarray, ds, joint: str) -> tuple[float, float, float]:
     from pinid.model.base import base_parameters
     from pinid.identification.core import predict_torque
+    from pinid.identification.problem import check_dataset, recorded_torque
 
     bp = base_parameters(model)
     pred = predict_torque(model, model_terms(), bp, ds, base_values)
     j = model.joint_names.index(joint)
-    e = ds.tau[:, j] - pred[:, j]
+    tau = recorded_torque(check_dataset(ds, model))  # the yardstick: the torque as recorded, as compare()'s
+    e = tau[:, j] - pred[:, j]
     return (
         float(np.mean(np.abs(e))),
         float(np.std(np.abs(e))),
-        float(100 * np.sqrt(np.mean(e**2) / np.mean(ds.tau[:, j] ** 2))),
+        float(100 * np.sqrt(np.mean(e**2) / np.mean(tau[:, j] ** 2))),
     )
 
 
