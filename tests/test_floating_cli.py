@@ -1,4 +1,5 @@
-"""The floating-base loop from the command line (issue 27): excite → simulate → identify, and bad inputs."""
+"""The floating-base loop from the command line (issue 27): excite → simulate → identify → MJCF (written by
+identify and by pinid export) → MuJoCo, and bad inputs."""
 
 from __future__ import annotations
 
@@ -49,6 +50,7 @@ def test_excite_simulate_identify_floating(tmp_path):
         ["identify", *EXO, "--data", "s.csv", "--validate", "v.csv", "--methods", "ols,sdp", "--no-report", "-o", "r"],
         ["identify", *EXO, "--data", "s.csv", "--rows", "base", "--methods", "ols", "--no-report", "-o", "rb"],
         ["identify", *EXO, "--data", "g.csv", "--methods", "ols", "--no-report", "-o", "rg"],
+        ["export", "--model", "r/identification.json", "-o", "exo.xml"],
     ]
     for args in steps:
         proc = run_cli(*args, cwd=tmp_path)
@@ -67,6 +69,13 @@ def test_excite_simulate_identify_floating(tmp_path):
     assert d["results"]["sdp"]["standard"] is not None
     back = RobotModel.from_urdf(tmp_path / "r" / "identified_sdp.urdf", base="floating")
     assert sum(i.mass for i in back.ff_model.inertias) == pytest.approx(d["results"]["sdp"]["base"][0])
+    # the MJCF written by identify (and again by pinid export) loads in MuJoCo: a free joint, the same mass
+    assert (tmp_path / "exo.xml").read_text() == (tmp_path / "r" / "identified_sdp.xml").read_text()
+    assert not (tmp_path / "r" / "identified_ols.xml").exists()  # OLS fits no standard parameters
+    mujoco = pytest.importorskip("mujoco")
+    m = mujoco.MjModel.from_xml_path(str(tmp_path / "exo.xml"))
+    assert (m.nq, m.nv, m.nu) == (7 + back.nv, 6 + back.nv, back.nv) and m.jnt_type[0] == mujoco.mjtJoint.mjJNT_FREE
+    assert m.body_mass.sum() == pytest.approx(d["results"]["sdp"]["base"][0], rel=1e-9)
 
 
 @pytest.mark.slow
@@ -84,8 +93,13 @@ def test_bad_floating_inputs_are_one_line_and_write_nothing(tmp_path):
     assert_clean_error(proc, "--perturb: not available with --base floating")
     assert not (tmp_path / "x.csv").exists()
     proc = run_cli(
+        "identify", *EXO, "--data", "bad.csv", "--payload", "p.toml", "--no-report", "-o", "out", cwd=tmp_path
+    )
+    assert_clean_error(proc, "--payload: not available with --base floating")
+    proc = run_cli(
         "identify", *EXO, "--data", "bad.csv", "--mapping", "m.toml", "--no-report", "-o", "out", cwd=tmp_path
     )
-    assert_clean_error(proc, "--mapping: not available with --base floating")
+    assert_clean_error(proc, "m.toml: mapping spec not found")
+    assert not (tmp_path / "out").exists()
     proc = run_cli("info", "--urdf", "exo_leg", "--base", "flying", cwd=tmp_path)
     assert proc.returncode == 2 and "invalid choice" in proc.stderr

@@ -51,15 +51,22 @@ least-squares run, seed 000's RLS-PSO).  With --first-data the methods run in se
 strategy: the --first-joints (default knee) from recordings where only they move, then the others
 from --data with the first joints' contribution subtracted.
 
+With --base floating (docs/floating-base.md) the recordings hold base motion and contact wrenches; every
+method fits the same floating problem (--rows, --base-weight, --swing-rows as in pinid identify), and
+comparison.json / comparison.md give per run the training and validation RMS over the rows used [N, N·m]
+and, with --truth (the twin's .truth.json), the largest base-parameter error relative to its natural scale.
+
 examples:
   pinid compare --urdf cad.urdf --data run1.csv --validate run2.csv --truth run1.truth.json --seeds 5
   pinid compare --urdf apal_leg --first-data traj1.csv --first-validate traj2.csv \\
       --data traj3.csv --validate traj4.csv --methods ols,sdp,pso,rls-pso --fitness sae
+  pinid compare --urdf exo_lower_body --base floating --data susp.csv --validate susp_val.csv \\
+      --truth susp.truth.json --methods ols,wls,sdp
 """
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    add_robot_arguments(p)
+    add_robot_arguments(p, base=True)
     add_terms_argument(p)
     add_stribeck_arguments(p)
     add_recording_arguments(p)
@@ -114,7 +121,85 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         metavar="FILE",
         help="validation recording of the first stage (reported as 'first-stage validation')",
     )
+    g = p.add_argument_group("floating base (--base floating; docs/floating-base.md)")
+    g.add_argument(
+        "--rows",
+        choices=("all", "base", "joints"),
+        default="all",
+        help="rows to fit: all (base rows + joint rows, default), base (the 6 base rows), joints",
+    )
+    g.add_argument(
+        "--base-weight", type=float, default=1.0, help="weight of every base row (joint rows weigh 1); default 1"
+    )
+    g.add_argument(
+        "--swing-rows",
+        action="store_true",
+        help="accept contact_<link> phases without a wrench: the rows that foot's wrench enters are left out",
+    )
     add_preprocessing_arguments(p)
+
+
+def _run_floating(args: argparse.Namespace, out: Path) -> int:
+    """--base floating: every method on the same floating problem (pinid.identification.floating_compare)."""
+    from pinid.data.contacts import floating_mapping
+    from pinid.identification.floating_compare import compare_floating, write_floating_comparison
+
+    if args.seeds < 1:
+        raise SpecError(f"--seeds {args.seeds}: expected at least 1")
+    unused = [
+        f"--{k.replace('_', '-')}"
+        for k in (
+            "first_data",
+            "first_validate",
+            "manifest",
+            "fit_joints",
+            "delay",
+            "stribeck_velocity",
+            "stribeck_shape",
+        )
+        if getattr(args, k, None)
+    ]
+    if unused:
+        raise SpecError(f"{', '.join(unused)}: not available with --base floating (docs/floating-base.md)")
+    if not args.data:
+        raise SpecError("--base floating: expected --data FILE")
+    methods = methods_from_args(args)
+    meta = {
+        key: getattr(args, key)
+        for key in ("population", "iterations", "fitness", "box", "box_width", "box_floor")
+        if getattr(args, key) is not None
+    }
+    mapping = (
+        None if args.mapping is None else floating_mapping(args.mapping, allow_outside_paths=args.allow_outside_paths)
+    )
+    model = robot_from_args(args)
+    terms = terms_from_args(args)
+    if args.rows == "base":
+        terms = type(terms).from_names("none")  # no joint term enters the base rows
+    print(f"comparing on {model.name}, floating base ({args.rows} rows): {', '.join(methods)}; seeds {args.seeds}")
+    comp = compare_floating(
+        model,
+        args.data,
+        args.validate or None,
+        methods=methods,
+        seeds=args.seeds,
+        truth=args.truth,
+        terms=terms,
+        rows=args.rows,
+        base_weight=args.base_weight,
+        preprocess=preprocess_from_args(args),
+        options=options_from_args(
+            args, {"rls": {"forgetting": args.forgetting}} if args.forgetting and "rls" in methods else {}
+        ),
+        metaheuristic=meta,
+        swing_rows=args.swing_rows,
+        rest_velocity=None if args.rest_velocity == "auto" else rest_velocity_from_args(args.rest_velocity),
+        mapping=mapping,
+    )
+    print(comp.table())
+    written = write_floating_comparison(comp, out, command="pinid " + shlex.join(sys.argv[1:]))
+    print(f"\nwrote {len(written)} files to {out}/: " + ", ".join(Path(p).name for p in written))
+    return 0
 
 
 def _arguments(args: argparse.Namespace) -> dict:
@@ -171,6 +256,8 @@ def run(args: argparse.Namespace) -> int:
 
     out = Path(args.output)
     check_outputs(*(out / name for name in COMPARISON_FILES[:2]))  # before the work, creating nothing
+    if args.base == "floating":
+        return _run_floating(args, out)
     kwargs = _arguments(args)
     model = robot_from_args(args)
     print(

@@ -331,11 +331,17 @@ def _run_floating(args: argparse.Namespace, out: Path) -> int:
 
     unused = [
         f"--{k.replace('_', '-')}"
-        for k in ("mapping", "payload", "payload_data", "stribeck_velocity", "stribeck_shape", "force_export")
+        for k in ("payload", "payload_data", "stribeck_velocity", "stribeck_shape", "force_export")
         if getattr(args, k)
     ]
     if unused:
         raise SpecError(f"{', '.join(unused)}: not available with --base floating (docs/floating-base.md)")
+    from pinid.data.contacts import floating_mapping
+
+    # a mapping spec's [floating] table names the base, IMU, wrench, plate and contact columns (docs/data.md)
+    mapping = (
+        None if args.mapping is None else floating_mapping(args.mapping, allow_outside_paths=args.allow_outside_paths)
+    )
     methods = methods_from_args(args)
     model = robot_from_args(args)
     terms = terms_from_args(args)
@@ -355,6 +361,7 @@ def _run_floating(args: argparse.Namespace, out: Path) -> int:
         swing_rows=args.swing_rows,
         # the fixed base's default "auto" keeps every row here (docs/floating-base.md); a speed applies
         rest_velocity=None if args.rest_velocity == "auto" else rest_velocity_from_args(args.rest_velocity),
+        mapping=mapping,
     )
     print(ident.text())
     print(wrote_line(write_floating_identification(ident, out, model, terms), out))

@@ -14,7 +14,10 @@ de_leva_1996.toml; lengths scale with height), and writes the URDF with each hum
 fixed to the exo link it is strapped to: proximal endpoint at the joint centre, segment axis along the
 exo link, transverse axis along the joint axis (see docs/wearer.md).  A foot strapped to the shank's
 link (no ankle joint) starts at the ankle and points forward.  The default --attach adds the thigh and
-shank; add knee:foot for the foot.
+shank; add knee:foot for the foot.  On exo_lower_body (two legs and a pelvis) the default attaches the
+pelvis (de Leva's lower trunk) to the pelvis frame and each leg's thigh, shank and foot to its hip
+flexion, knee and ankle links: pelvis:pelvis,l_hip_flexion:l_thigh,l_knee:l_shank,l_ankle:l_foot,
+r_hip_flexion:r_thigh,r_knee:r_shank,r_ankle:r_foot.  The result loads with a fixed or a floating base.
 
   OUTPUT    the URDF: the exo's links unchanged, plus links wearer_<segment> and fixed joints
             wearer_<segment>_strap
@@ -23,6 +26,7 @@ Body mass 40-150 kg and height 1.40-2.10 m (the range pinid accepts for the tabl
 
 examples:
   pinid wearer --urdf exo_leg --mass 75 --height 1.78 --sex male --attach hip:thigh,knee:shank -o exo_with_wearer.urdf
+  pinid wearer --urdf exo_lower_body --mass 75 --height 1.78 --sex male -o exo_lower_body_worn.urdf
 """
 
 
@@ -33,9 +37,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--sex", choices=("male", "female"), required=True, help="which de Leva table to use")
     p.add_argument(
         "--attach",
-        default="hip:thigh,knee:shank",
+        default=None,
         help="POINT:SEGMENT pairs, comma-separated: POINT an exo joint (its child link) or link, "
-        "SEGMENT thigh, shank or foot; default hip:thigh,knee:shank",
+        "SEGMENT pelvis, thigh, shank or foot (with two legs: l_thigh … r_foot); default: the robot's "
+        "(exo_lower_body: the pelvis and both legs' thigh, shank and foot), else hip:thigh,knee:shank",
     )
     p.add_argument("-o", "--output", required=True, metavar="FILE", help="URDF to write")
 

@@ -40,7 +40,7 @@ import numpy as np
 
 from pinid.data.dataset import Dataset
 from pinid.data.formats import read_recording
-from pinid.data.mapping import MappingSpec, peek_columns
+from pinid.data.mapping import ColumnRef, MappingSpec, peek_columns
 from pinid.data.registry import writer_for
 from pinid.errors import DataError
 from pinid.io import atomic_path
@@ -55,6 +55,25 @@ PLATE = ("fx", "fy", "fz", "copx", "copy", "copz", "tz")
 PLATE_OPTIONAL = ("copz", "tz")
 #: Tolerance on the norm of a recorded quaternion (1 ± this).
 QUATERNION_TOL = 1e-3
+#: Unit words of a ``scale`` in a mapping spec's ``[floating]`` table (factor to SI), beside the joints' words.
+FLOATING_SCALE_WORDS: dict[str, float] = {
+    "m": 1.0,
+    "cm": 1e-2,
+    "mm": 1e-3,
+    "rad/s": 1.0,
+    "deg/s": np.pi / 180.0,
+    "m/s²": 1.0,
+    "m/s^2": 1.0,
+    "g": 9.80665,
+    "N": 1.0,
+    "kN": 1e3,
+    "N·m": 1.0,
+    "Nm": 1.0,
+    "N·mm": 1e-3,
+    "Nmm": 1e-3,
+}
+#: Top-level keys of a mapping spec that describe the joints, not the main file or the sources.
+_JOINT_KEYS = ("joints", "motors", "transmission", "checks", "description")
 
 
 @dataclass
@@ -125,25 +144,106 @@ def _need(have: dict, wanted, what: str, source: str, optional=()) -> None:
         )
 
 
+@dataclass
+class FloatingMapping:
+    """A mapping spec of a floating recording (:func:`floating_mapping`): ``joints`` the joints' spec,
+    ``columns`` the ``[floating]`` table's spec (one pseudo-joint per floating column, its ``q`` the column),
+    ``names`` the floating columns' dataset-format names in that order."""
+
+    joints: MappingSpec
+    columns: MappingSpec | None
+    names: list[str]
+
+
+def floating_mapping(
+    spec: "str | os.PathLike | dict | MappingSpec | FloatingMapping", *, allow_outside_paths: bool = False
+) -> FloatingMapping:
+    """A mapping spec (TOML file or dict, ``docs/data.md``) with a ``[floating]`` table: each key a floating
+    column's dataset-format name (``base_x``, ``imu_<frame>_wx``, ``wrench_<link>_fz``, ``plate_<link>_copx``,
+    ``contact_<link>`` …, the table in the module text), each value where it is, as a joint signal is (a
+    column name, an index, or ``{ column, source, index, scale, sign, offset }``; ``scale`` a number or a
+    word of :data:`FLOATING_SCALE_WORDS` or the joints').  The rest is an ordinary mapping spec (the joints,
+    time, sources).  SpecError naming the key for a name that is no floating column."""
+    from pinid.errors import SpecError
+    from pinid.io import read_toml
+
+    if isinstance(spec, FloatingMapping):
+        return spec
+    if isinstance(spec, MappingSpec):
+        return FloatingMapping(MappingSpec.load(spec, allow_outside_paths=allow_outside_paths), None, [])
+    if isinstance(spec, dict):
+        d, origin = dict(spec), "mapping spec"
+    else:
+        p = Path(spec)
+        if not p.is_file():
+            raise SpecError(f"{p}: mapping spec not found, expected a TOML file")
+        d, origin = dict(read_toml(p, "TOML mapping spec")), str(p)
+    table = d.pop("floating", {})
+    joints = MappingSpec.from_dict(d, origin=origin)
+    joints.allow_outside_paths = allow_outside_paths
+    if not isinstance(table, dict):
+        raise SpecError(f'{origin}: [floating] must be a table of floating columns, e.g. base_x = "mocap_x"')
+    if not table:
+        return FloatingMapping(joints, None, [])
+    refs = {}
+    for name, ref in table.items():
+        g = _groups([name], origin)
+        if not any(g[k] for k in g):
+            raise SpecError(
+                f"{origin}: [floating] {name}: not a floating column; expected base_x … base_qw, imu_<frame>_qx … _az, "
+                "wrench_<link>_fx … _tz, plate_<link>_fx … _tz or contact_<link> (docs/floating-base.md)"
+            )
+        if isinstance(ref, dict) and isinstance(ref.get("scale"), str) and ref["scale"] in FLOATING_SCALE_WORDS:
+            ref = {**ref, "scale": FLOATING_SCALE_WORDS[ref["scale"]]}
+        refs[f"c{len(refs)}"] = {"q": ref}
+    source = {k: v for k, v in d.items() if k not in _JOINT_KEYS}
+    try:
+        columns = MappingSpec.from_dict({**source, "joints": refs}, origin=origin)
+    except SpecError as exc:  # name the [floating] key, not the pseudo-joint
+        keys = list(table)
+        text = re.sub(r"\[joints\.c(\d+)\.q\]", lambda m: f"[floating.{keys[int(m.group(1))]}]", str(exc))
+        raise SpecError(text) from None
+    columns.allow_outside_paths = allow_outside_paths
+    for old, new in zip(refs, table):  # messages name the [floating] key, not the pseudo-joint
+        ref = columns.joints[old]["q"]
+        columns.joints[old]["q"] = ColumnRef(
+            ref.source, ref.column, ref.index, ref.scale, ref.sign, ref.offset, f"[floating.{new}]"
+        )
+    return FloatingMapping(joints, columns, list(table))
+
+
 def read_floating(
-    path: str | os.PathLike, model: FloatingRobotModel, *, swing_rows: bool = False, **kwargs
+    path: str | os.PathLike,
+    model: FloatingRobotModel,
+    *,
+    swing_rows: bool = False,
+    mapping: "str | os.PathLike | dict | FloatingMapping | None" = None,
+    **kwargs,
 ) -> FloatingRecording:
-    """Read a floating recording in the dataset format (the table in the module text) and check it against
-    ``model``: every link and frame named exists, the IMU is fixed to the base link, quaternions are unit,
-    contact phases have a wrench (unless ``swing_rows``: then a link with contact phases and no wrench is a
-    leg without force sensing, whose contact rows are left out, see
-    :func:`pinid.identification.floating_problem.floating_problem`), force plates have the base position.  ``kwargs`` go to
-    :func:`~pinid.data.formats.read_recording` (the joint columns)."""
+    """Read a floating recording in the dataset format (the table in the module text), or any file a
+    ``mapping`` spec describes (:func:`floating_mapping`: the joints as for a fixed base, the floating
+    columns in its ``[floating]`` table), and check it against ``model``: every link and frame named exists,
+    the IMU is fixed to the base link, quaternions are unit, contact phases have a wrench (unless
+    ``swing_rows``: then a link with contact phases and no wrench is a leg without force sensing, whose
+    contact rows are left out, see :func:`pinid.identification.floating_problem.floating_problem`), force
+    plates have the base position.  ``kwargs`` go to :func:`~pinid.data.formats.read_recording` (the joint
+    columns)."""
     model = as_floating(model)
     path = Path(path)
     source = str(path)
-    _, names = peek_columns(path)
-    g = _groups(names, source)
-    data = read_recording(path, model=model, **kwargs)
-    extra = [c for grp in ("base",) for c in g[grp].values()]
-    extra += [c for d in (*g["imu"].values(), *g["wrench"].values(), *g["plate"].values()) for c in d.values()]
-    extra += list(g["contact"].values())
-    values = _read_columns(path, extra, data.n) if extra else {}
+    if mapping is not None:
+        fm = floating_mapping(mapping, allow_outside_paths=kwargs.get("allow_outside_paths", False))
+        g = _groups(fm.names, source)
+        data = read_recording(path, model=model, mapping=fm.joints, **kwargs)
+        values = _read_mapped(path, fm, data.n) if fm.names else {}
+    else:
+        _, names = peek_columns(path)
+        g = _groups(names, source)
+        data = read_recording(path, model=model, **kwargs)
+        extra = [c for grp in ("base",) for c in g[grp].values()]
+        extra += [c for d in (*g["imu"].values(), *g["wrench"].values(), *g["plate"].values()) for c in d.values()]
+        extra += list(g["contact"].values())
+        values = _read_columns(path, extra, data.n) if extra else {}
     rec = FloatingRecording(data)
     if g["base"]:
         _need(g["base"], POSE, "the base pose", source)
@@ -228,6 +328,18 @@ def _read_columns(path: Path, columns: list[str], n: int) -> dict[str, np.ndarra
         k, j = (int(x) for x in np.argwhere(bad)[0])
         raise DataError(f"{path}: column {columns[j]} has NaN or infinite values (first at sample {k})")
     return {c: ds.q[:, i] for i, c in enumerate(columns)}
+
+
+def _read_mapped(path: Path, fm: FloatingMapping, n: int) -> dict[str, np.ndarray]:
+    """The floating columns of ``path`` through the ``[floating]`` table of ``fm``, in SI units, by name."""
+    ds = fm.columns.read(path)
+    if ds.n != n:
+        raise DataError(f"{path}: {ds.n} rows of [floating] columns for {n} samples; expected equal lengths")
+    bad = ~np.isfinite(ds.q)
+    if bad.any():
+        k, j = (int(x) for x in np.argwhere(bad)[0])
+        raise DataError(f"{path}: [floating] {fm.names[j]} has NaN or infinite values (first at sample {k})")
+    return {c: ds.q[:, i] for i, c in enumerate(fm.names)}
 
 
 def write_floating(path: str | os.PathLike, rec: FloatingRecording, *, digits: int = 12) -> Path:

@@ -1,23 +1,26 @@
 """Identify a floating-base robot from recordings with base motion and contact wrenches (``pinid identify
 --base floating``): read, prepare, stack (:mod:`pinid.identification.floating_problem`), fit every method,
-validate, and write ``identification.json`` and the identified URDFs of consistent results."""
+validate, and write ``identification.json`` and the identified URDFs and MJCFs of consistent results."""
 
 from __future__ import annotations
 
 import os
 import time
+import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from pinid.data.contacts import FloatingSamples, prepare_floating, read_floating
-from pinid.errors import DataError
+from pinid.data.contacts import FloatingSamples, floating_mapping, prepare_floating, read_floating
+from pinid.errors import DataError, ModelError, SpecError
 from pinid.estimators import make_estimator
 from pinid.identification.floating_problem import floating_problem
 from pinid.io import Artefacts, write_json
 from pinid.model.floating import FloatingRobotModel, as_floating, floating_urdf
+from pinid.model.serialize import robot_from_dict, robot_to_dict
+from pinid.model.mjcf import identified_mjcf
 from pinid.model.terms import JointTerms, as_terms
 
 
@@ -32,6 +35,9 @@ class FloatingIdentification:
     nominal: np.ndarray
     results: dict[str, dict] = field(default_factory=dict)
     data: dict = field(default_factory=dict)
+    #: The robot and terms (:func:`pinid.model.serialize.robot_to_dict`, URDF text included): what
+    #: ``pinid export`` rebuilds the model from.
+    model: dict | None = None
 
     def to_dict(self) -> dict:
         return {
@@ -42,6 +48,7 @@ class FloatingIdentification:
             "nominal_base": self.nominal.tolist(),
             "data": self.data,
             "results": self.results,
+            **({"model": self.model} if self.model is not None else {}),
         }
 
     def text(self) -> str:
@@ -55,10 +62,17 @@ class FloatingIdentification:
 
 
 def load_floating(
-    items, model: FloatingRobotModel, preprocess=None, what: str = "training", *, swing_rows: bool = False
+    items,
+    model: FloatingRobotModel,
+    preprocess=None,
+    what: str = "training",
+    *,
+    swing_rows: bool = False,
+    mapping=None,
 ) -> list[FloatingSamples]:
     """Floating recordings (paths or prepared :class:`FloatingSamples`) read, checked and prepared
-    (``swing_rows``: accept contact phases without a wrench, :func:`pinid.data.contacts.read_floating`)."""
+    (``swing_rows``: accept contact phases without a wrench; ``mapping``: a mapping spec with a ``[floating]``
+    table for files not in the dataset format, :func:`pinid.data.contacts.read_floating`)."""
     if items is None:
         return []
     if isinstance(items, (FloatingSamples, str, os.PathLike)):
@@ -68,7 +82,8 @@ def load_floating(
         if isinstance(item, FloatingSamples):
             out.append(item)
         elif isinstance(item, (str, os.PathLike)):
-            out.append(prepare_floating(read_floating(item, model, swing_rows=swing_rows), model, preprocess))
+            rec = read_floating(item, model, swing_rows=swing_rows, mapping=mapping)
+            out.append(prepare_floating(rec, model, preprocess))
         else:
             raise DataError(f"{what} recording: got {type(item).__name__}, expected a path or FloatingSamples")
     if not out:
@@ -89,20 +104,24 @@ def identify_floating(
     options: Mapping[str, Mapping] | None = None,
     swing_rows: bool = False,
     rest_velocity=None,
+    mapping=None,
 ) -> FloatingIdentification:
     """Fit every method on the training recordings and score it on the validation ones (RMS over the rows used).
     ``swing_rows``: links with contact phases but no wrench are legs without force sensing; the rows their
     unknown wrench enters are left out while they are in contact.  ``rest_velocity``: as
-    :func:`~pinid.identification.floating_problem.floating_problem` (None keeps every row)."""
+    :func:`~pinid.identification.floating_problem.floating_problem` (None keeps every row).  ``mapping``: how
+    to read recordings not in the dataset format (:func:`pinid.data.contacts.floating_mapping`)."""
     model = as_floating(model)
     terms = as_terms(terms)
-    train = load_floating(data, model, preprocess, swing_rows=swing_rows)
+    if mapping is not None:
+        mapping = floating_mapping(mapping)  # checked once, before any recording is read
+    train = load_floating(data, model, preprocess, swing_rows=swing_rows, mapping=mapping)
     problem = floating_problem(
         model, train, terms=terms, rows=rows, base_weight=base_weight, rest_velocity=rest_velocity
     )
     val_problem = None
     if validate:
-        val = load_floating(validate, model, preprocess, "validation", swing_rows=swing_rows)
+        val = load_floating(validate, model, preprocess, "validation", swing_rows=swing_rows, mapping=mapping)
         val_problem = floating_problem(
             model,
             val,
@@ -113,6 +132,7 @@ def identify_floating(
             rest_velocity=rest_velocity,
         )
     ident = FloatingIdentification(model.name, rows, problem.names, problem.nominal_base)
+    ident.model = robot_to_dict(model, problem.terms)
     ident.data = problem.summary() | {"rows_per_sample": int(problem.rows // max(problem.samples, 1))}
     for method in methods:
         start = time.perf_counter()
@@ -148,8 +168,10 @@ def write_floating_identification(
     model: FloatingRobotModel | None = None,
     terms: JointTerms = JointTerms(),
 ) -> list[Path]:
-    """Write ``identification.json`` into ``folder`` and, with ``model``, ``identified_<method>.urdf`` for every
-    method that fits physically consistent standard parameters (sdp): all or nothing
+    """Write ``identification.json`` into ``folder`` and, with ``model``, ``identified_<method>.urdf`` and the
+    MuJoCo MJCF ``identified_<method>.xml`` (a free joint on the base link, :func:`pinid.model.mjcf.identified_mjcf`;
+    a warning instead when MuJoCo would refuse a body) for every method that fits physically consistent standard
+    parameters (sdp): all or nothing
     (:class:`pinid.io.Artefacts`).  ``terms``: those of the identification."""
     from pinid.model.physical import check_consistency
 
@@ -169,4 +191,51 @@ def write_floating_identification(
                 folder / f"identified_{method}.urdf",
                 lambda p, th=theta, m=method: floating_urdf(model, th, terms, p, comment=m),
             )
+            try:  # computed now: a body MuJoCo refuses (massless, a zero moment) costs the MJCF only
+                text = identified_mjcf(model, theta, terms, comment=f"method {method}", floating=True)
+            except ModelError as exc:
+                warnings.warn(f"no MJCF for {method}: {exc}", stacklevel=2)
+                continue
+            arts.add(folder / f"identified_{method}.xml", text)
     return arts.write()
+
+
+def load_floating_identified(
+    path: str | os.PathLike, *, method: str | None = None
+) -> tuple[FloatingRobotModel, JointTerms, np.ndarray, str]:
+    """The floating robot, its terms, the standard parameters (``base.*`` first) and the method of a floating
+    identification (``identification.json`` of ``pinid identify --base floating``): ``method``, or by default
+    the physically consistent method with the lowest validation (else training) RMS.  SpecError naming the
+    file when it has no robot description or no such result."""
+    from pinid.io import read_json
+    from pinid.model.physical import check_consistency
+
+    d = read_json(path, "floating identification")
+    if not isinstance(d, dict) or d.get("base") != "floating" or not isinstance(d.get("results"), dict):
+        raise SpecError(f"{path}: not a floating identification (pinid identify --base floating)")
+    if not isinstance(d.get("model"), dict):
+        raise SpecError(f"{path}: no robot description ('model'); identify again with this version of pinid")
+    try:
+        model, terms = robot_from_dict(d["model"])
+    except SpecError as exc:
+        raise SpecError(f"{path}: {exc}") from None
+    model = as_floating(model)
+    usable = {}
+    for m, r in d["results"].items():
+        theta = r.get("standard") if isinstance(r, dict) else None
+        if isinstance(theta, list) and len(theta) == len(r.get("standard_names") or []):
+            theta = np.asarray(theta, dtype=float)
+            if np.all(np.isfinite(theta)) and check_consistency(theta, model.body_names, terms.names, []).consistent:
+                usable[m] = (theta, r.get("validation_rms") or r.get("train_rms") or np.inf)
+    if method is not None:
+        if method not in d["results"]:
+            raise SpecError(f"{path}: no method '{method}' (methods: {', '.join(d['results'])})")
+        if method not in usable:
+            raise SpecError(
+                f"{path}: method '{method}' has no physically consistent standard parameters (identify with sdp)"
+            )
+    elif not usable:
+        raise SpecError(f"{path}: no method with physically consistent standard parameters (identify with sdp)")
+    else:
+        method = min(usable, key=lambda m: usable[m][1])
+    return model, terms, usable[method][0], method

@@ -19,7 +19,10 @@ at its joint frame relative to the parent body (``pos``, ``quat`` w x y z), with
   effort limit when there is one.
 
 A fixed base is the URDF's root link as a body without joint (welded to the world); ``floating=True``
-gives the root link a ``<freejoint/>`` and its inertia (with every link fixed to it) from the URDF.
+gives the root link a ``<freejoint/>`` and its inertia (with every link fixed to it) from the URDF, or, for
+the standard parameters of a floating identification (:mod:`pinid.model.floating`: ``base.m`` … first, then
+the joints' bodies, the terms per body with the base's first), the identified base-link inertia ``base.*``
+(a free joint then always).
 Constant offsets, asymmetric or Stribeck friction, passive moments and coupled drives have no MJCF
 field: they are listed in the file's first comment (``not exported``) and not written.
 
@@ -233,11 +236,18 @@ def identified_mjcf(
     """
     model, terms, theta = as_robot(model), as_terms(terms), as_floats(theta, "theta", finite=False)
     nv, nt = model.nv, _terms.count(model, terms)
+    base_theta, full = None, theta
+    if getattr(model, "base", "fixed") == "floating" and theta.shape == (10 * (nv + 1) + len(terms.joint) * (nv + 1),):
+        # a floating identification: the base link's 10 parameters first, the terms per body (base first)
+        base_theta, theta, floating = theta[:10], _fixed_part(theta, nv, len(terms.joint)), True
     if theta.shape != (10 * nv + nt,):
-        raise ModelError(f"expected {10 * nv + nt} standard parameters, got {theta.size}")
-    if not np.all(np.isfinite(theta)):
+        raise ModelError(f"expected {10 * nv + nt} standard parameters, got {full.size}")
+    if not np.all(np.isfinite(full)):
         raise ModelError("identified parameters contain NaN or infinite values; MJCF not written")
-    report = check_consistency(theta, model.joint_names, terms.names, model.motor_names)
+    if base_theta is None:
+        report = check_consistency(theta, model.joint_names, terms.names, model.motor_names)
+    else:
+        report = check_consistency(full, model.body_names, terms.names, [])
     if not report.consistent:
         raise ModelError(
             "refusing to export physically inconsistent parameters to MJCF ("
@@ -247,6 +257,8 @@ def identified_mjcf(
     if not model.urdf_text:
         raise ModelError(f"{model.name}: no URDF text to export")
     pm = exported_pin_model(model, theta, floating=floating)
+    if base_theta is not None:  # the identified base link, with every link welded to it
+        pm.inertias[1] = pin.Inertia.FromDynamicParameters(base_theta)
     fields, lost = joint_fields(model, theta, terms)
     links, child_link, root_link = _urdf_links(model.urdf_text)
     active = {name: i for i, name in enumerate(model.joint_names)}
@@ -291,6 +303,8 @@ def identified_mjcf(
         inertia = pm.inertias[jid]
         if jname in active:  # the identified values, about the centre of mass
             m, c, I = com_inertia(theta[10 * active[jname] : 10 * active[jname] + 10])
+        elif jm.nv == 6 and base_theta is not None:
+            m, c, I = com_inertia(base_theta)
         else:
             m, c, I = inertia.mass, inertia.lever, inertia.inertia
         e, V = _mujoco_inertia(jname, m, I)
@@ -306,6 +320,12 @@ def identified_mjcf(
     if path is not None:
         write_text(path, text)
     return text
+
+
+def _fixed_part(theta: np.ndarray, nv: int, k: int) -> np.ndarray:
+    """The fixed-base layout (joint bodies, then joint terms) of a floating standard parameter vector
+    (``base.*`` first, ``k`` terms per body with the base's first)."""
+    return np.r_[theta[10 : 10 * (nv + 1)], theta[10 * (nv + 1) + k :]]
 
 
 def _joint(body: ET.Element, pm: pin.Model, data: pin.Data, jid: int, model: RobotModel, i: int, fields: dict) -> None:

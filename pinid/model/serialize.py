@@ -21,7 +21,8 @@ from pinid.model.robot import as_robot
 def robot_to_dict(model: RobotModel, terms: JointTerms) -> dict:
     """``{"name", "urdf", "joints", "locked", "terms", "urdf_text", "drives"}`` of a model and its terms, and
     ``"stribeck"`` ``{term: {"velocity", "shape"}}`` when the model sets Stribeck shapes, ``"passive_exponents"``
-    ``{anatomical joint: (terms, 4) list}`` when it sets the wearer's passive-moment exponents."""
+    ``{anatomical joint: (terms, 4) list}`` when it sets the wearer's passive-moment exponents, ``"base": "floating"``
+    for a floating-base robot."""
     model = as_robot(model)
     return {
         "name": model.name,
@@ -41,6 +42,7 @@ def robot_to_dict(model: RobotModel, terms: JointTerms) -> dict:
             if model.passive_exponents
             else {}
         ),
+        **({"base": "floating"} if getattr(model, "base", "fixed") == "floating" else {}),
     }
 
 
@@ -63,16 +65,19 @@ def robot_from_dict(d: dict) -> tuple[RobotModel, JointTerms]:
             raise SpecError("saved robot: no 'terms', expected a list of term names")
         if not isinstance(d.get(key), kinds):
             raise SpecError(f"saved robot: '{key}' is {type(d.get(key)).__name__}, expected {expected}")
+    if d.get("base", "fixed") not in ("fixed", "floating"):
+        raise SpecError(f"saved robot: 'base' is {d.get('base')!r}, expected 'fixed' or 'floating'")
+    base = d.get("base", "fixed")
     terms = JointTerms.from_names(list(d["terms"]))
     text = d.get("urdf_text")
     if text:
         with tempfile.TemporaryDirectory() as tmp:
             path = Path(tmp) / "robot.urdf"
             path.write_text(text, encoding="utf-8")
-            model = RobotModel.from_urdf(path, joints=d.get("joints"), locked=d.get("locked") or {})
+            model = RobotModel.from_urdf(path, joints=d.get("joints"), locked=d.get("locked") or {}, base=base)
         model.urdf_path = Path(d["urdf"]) if d.get("urdf") else None
     elif d.get("urdf"):
-        model = RobotModel.from_urdf(d["urdf"], joints=d.get("joints"), locked=d.get("locked") or {})
+        model = RobotModel.from_urdf(d["urdf"], joints=d.get("joints"), locked=d.get("locked") or {}, base=base)
     else:
         raise SpecError("saved result has no URDF (neither text nor path); cannot rebuild the robot model")
     if d.get("drives") is not None:

@@ -20,6 +20,8 @@ from pinid.errors import SpecError
 SEXES: tuple[str, ...] = ("male", "female")
 #: Leg segments with a length (what can be strapped to an exoskeleton).
 LEG_SEGMENTS: tuple[str, ...] = ("thigh", "shank", "foot")
+#: Segments that can be strapped to an exoskeleton: the pelvis (de Leva's lower trunk) and the leg segments.
+STRAPPED_SEGMENTS: tuple[str, ...] = ("pelvis", *LEG_SEGMENTS)
 
 
 @cache
@@ -66,11 +68,11 @@ def check_person(mass: float, height: float, sex: str) -> None:
 
 
 def segment(name: str, *, mass: float, height: float, sex: str) -> Segment:
-    """The segment ``name`` (thigh, shank, foot) of a person of ``mass`` [kg], ``height`` [m], ``sex``."""
+    """The segment ``name`` (pelvis, thigh, shank, foot) of a person of ``mass`` [kg], ``height`` [m], ``sex``."""
     check_person(mass, height, sex)
     rows = table()[sex]
-    if not isinstance(name, str) or name not in LEG_SEGMENTS:
-        raise SpecError(f"segment {name!r}: expected one of {', '.join(LEG_SEGMENTS)}")
+    if not isinstance(name, str) or name not in STRAPPED_SEGMENTS:
+        raise SpecError(f"segment {name!r}: expected one of {', '.join(STRAPPED_SEGMENTS)}")
     row = rows[name]
     length = row["length"] * height / table()["reference"][sex]["stature"]
     radii = tuple(float(row[k]) * length for k in ("r_sagittal", "r_transverse", "r_longitudinal"))

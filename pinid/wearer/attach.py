@@ -12,7 +12,16 @@ joint that moves it):
   own joint's origin, in its frame at q = 0); failing that towards its centre of mass; else along −z;
 * its transverse axis is the joint axis (made orthogonal to ``d``), its sagittal axis completes the
   right-handed frame — so for a sagittal-plane exo the table's transverse radius of gyration is the
-  one that matters.
+  one that matters;
+* a foot on its own link (an ankle joint) starts at the ankle joint centre and points forward: across the
+  joint axis and the leg's direction (the previous link's), the heel taken under the ankle;
+* the pelvis (de Leva's lower trunk, omphalion → mid-hip) has its distal endpoint at the midpoint of the
+  hip joint centres (the two thighs' proximal endpoints, else the link's moving child joints' origins),
+  its axis along the link's +z, its transverse axis along the line between the hips.
+
+Two legs: a leg segment's name may carry its side (``l_thigh`` … ``r_foot``; link ``wearer_l_thigh``).
+The default attach points are the robot's (:data:`ROBOT_ATTACH`: exo_lower_body gets the pelvis and both
+legs), else :data:`DEFAULT_ATTACH`.
 
 Pinocchio merges fixed links into the moving body, so the URDF loads as the exo with heavier links;
 the wearer's share stays readable from the ``wearer_*`` links (:func:`wearer_links`).
@@ -29,9 +38,26 @@ import pinocchio as pin
 
 from pinid.errors import SpecError
 from pinid.model.export import inertial_element
-from pinid.wearer.anthropometry import LEG_SEGMENTS, Segment, check_person, segment
+from pinid.wearer.anthropometry import LEG_SEGMENTS, STRAPPED_SEGMENTS, Segment, check_person, segment
 
 PREFIX = "wearer_"
+#: Sides a leg segment's name may start with (``l_thigh``, ``r_foot``): two legs on one exoskeleton.
+SIDES = ("l_", "r_")
+#: The default ``--attach`` of a robot (by its URDF ``<robot name>``); others: :data:`DEFAULT_ATTACH`.
+ROBOT_ATTACH = {
+    "exo_lower_body": "pelvis:pelvis,l_hip_flexion:l_thigh,l_knee:l_shank,l_ankle:l_foot,"
+    "r_hip_flexion:r_thigh,r_knee:r_shank,r_ankle:r_foot",
+}
+#: The default ``--attach`` of a robot not in :data:`ROBOT_ATTACH` (exo_leg's joint names).
+DEFAULT_ATTACH = "hip:thigh,knee:shank"
+
+
+def table_name(name: str) -> str:
+    """The table's segment of a strapped segment name: ``l_thigh`` → ``thigh``, ``pelvis`` → ``pelvis``."""
+    for side in SIDES:
+        if name.startswith(side) and name[len(side) :] in LEG_SEGMENTS:
+            return name[len(side) :]
+    return name
 
 
 @dataclass(frozen=True)
@@ -72,11 +98,22 @@ def check_pairs(pairs) -> list[tuple[str, str]]:
         raise SpecError(f"--attach {pairs!r}: expected (point, segment) pairs of names, e.g. hip:thigh,knee:shank")
     segs = [s for _, s in pairs]
     for s in segs:
-        if s not in LEG_SEGMENTS:
-            raise SpecError(f"--attach: segment {s!r} is not one of {', '.join(LEG_SEGMENTS)}")
+        if table_name(s) not in STRAPPED_SEGMENTS:
+            raise SpecError(
+                f"--attach: segment {s!r} is not one of {', '.join(STRAPPED_SEGMENTS)} "
+                f"(a leg segment may name its side: {', '.join(SIDES[0] + x for x in LEG_SEGMENTS)}, r_…)"
+            )
         if segs.count(s) > 1:
             raise SpecError(f"--attach: segment {s!r} attached twice, expected once")
+        if s in LEG_SEGMENTS and any(x != s and table_name(x) == s for x in segs):
+            raise SpecError(f"--attach: segment {s!r} without a side beside a sided one, expected l_{s} and r_{s}")
     return pairs
+
+
+def default_attach(root: ET.Element) -> str:
+    """The default ``--attach`` of the URDF tree ``root``: :data:`ROBOT_ATTACH` by its robot name, else
+    :data:`DEFAULT_ATTACH`."""
+    return ROBOT_ATTACH.get(root.get("name") or "", DEFAULT_ATTACH)
 
 
 def _vec(text: str | None, default=(0.0, 0.0, 0.0)) -> np.ndarray:
@@ -103,14 +140,17 @@ def place(root: ET.Element, pairs, *, mass: float, height: float, sex: str, sour
     joints = {j.get("name"): j for j in root.findall("joint")}
     parent_joint = {j.find("child").get("link"): j for j in joints.values() if j.find("child") is not None}
     out, shank_on = [], {}
-    for point, seg in sorted(pairs, key=lambda p: LEG_SEGMENTS.index(p[1])):
+    pelvis = [p for p in pairs if p[1] == "pelvis"]
+    legs = sorted((p for p in pairs if p[1] != "pelvis"), key=lambda p: LEG_SEGMENTS.index(table_name(p[1])))
+    for point, name in legs:
+        seg = table_name(name)
         if point in joints and joints[point].find("child") is not None:
             link = joints[point].find("child").get("link")
         elif point in links:
             link = point
         else:
             raise SpecError(
-                f"--attach {point}:{seg}: {point!r} names no joint or link of {source} "
+                f"--attach {point}:{name}: {point!r} names no joint or link of {source} "
                 f"(joints: {', '.join(joints)}; links: {', '.join(links)})"
             )
         pj = parent_joint.get(link)
@@ -131,16 +171,73 @@ def place(root: ET.Element, pairs, *, mass: float, height: float, sex: str, sour
             d = _unit(_vec(io.get("xyz") if io is not None else None))
         d = d if d is not None else np.array([0.0, 0.0, -1.0])
         s = segment(seg, mass=mass, height=height, sex=sex)
+        s = Segment(name, s.mass, s.length, s.com, s.radii, s.source)
         start = np.zeros(3)
         if seg == "foot" and link in shank_on:
             start = shank_on[link][0] * shank_on[link][1]
             forward = _unit(np.cross(axis, d))
             d = forward if forward is not None else d
+        elif seg == "foot" and pj is not None and pj.find("origin") is not None:  # its own link: the ankle
+            o = pj.find("origin")  # the leg's direction continued (the shank's), the foot forward of it
+            leg = _unit(pin.rpy.rpyToMatrix(*_vec(o.get("rpy"))).T @ _vec(o.get("xyz")))
+            forward = None if leg is None else _unit(np.cross(axis, leg))
+            d = forward if forward is not None else d
         if seg == "shank":
             shank_on[link] = (s.length, d)
         R = _frame(d, axis)
         out.append(Placement(s, link, start + s.com * d, R @ np.diag(s.inertia) @ R.T, start, R))
+    for point, _ in pelvis:
+        out.insert(0, _place_pelvis(root, point, out, mass=mass, height=height, sex=sex, source=source))
     return out
+
+
+def _chain_origin(root: ET.Element, top: str, link: str) -> np.ndarray | None:
+    """Origin of ``link`` in the frame of its ancestor ``top`` at q = 0 (the joint origins composed), or None
+    when ``top`` is not an ancestor."""
+    parent_joint = {j.find("child").get("link"): j for j in root.findall("joint") if j.find("child") is not None}
+    M = pin.SE3.Identity()
+    while link != top:
+        j = parent_joint.get(link)
+        if j is None:
+            return None
+        o = j.find("origin")
+        xyz, rpy = (_vec(o.get("xyz")), _vec(o.get("rpy"))) if o is not None else (np.zeros(3), np.zeros(3))
+        M = pin.SE3(pin.rpy.rpyToMatrix(*rpy), xyz) * M
+        link = j.find("parent").get("link")
+    return M.translation
+
+
+def _place_pelvis(root: ET.Element, point: str, legs: list[Placement], *, mass, height, sex, source) -> Placement:
+    """The pelvis (de Leva's lower trunk, omphalion → mid-hip) on the exo link ``point`` (the base link):
+    its distal end at the midpoint of the hip joint centres — the thighs' proximal endpoints when both are
+    attached below it, else the mean of the origins of the link's moving child joints — its axis along the
+    link's +z (up, the URDF convention) and its transverse axis along the line between the hips (else y)."""
+    links = {lk.get("name") for lk in root.findall("link")}
+    joints = {j.get("name"): j for j in root.findall("joint")}
+    if point in joints and joints[point].find("child") is not None:
+        link = joints[point].find("child").get("link")
+    elif point in links:
+        link = point
+    else:
+        raise SpecError(
+            f"--attach {point}:pelvis: {point!r} names no joint or link of {source} "
+            f"(joints: {', '.join(joints)}; links: {', '.join(sorted(links))})"
+        )
+    thighs = [p for p in legs if table_name(p.segment.name) == "thigh"]
+    hips = [o + p.start for p in thighs if (o := _chain_origin(root, link, p.link)) is not None]
+    if len(hips) < 2:
+        hips = [
+            _vec(j.find("origin").get("xyz") if j.find("origin") is not None else None)
+            for j in joints.values()
+            if j.find("parent") is not None and j.find("parent").get("link") == link and j.get("type") != "fixed"
+        ] or [np.zeros(3)]
+    mid = np.mean(hips, axis=0)
+    across = _unit(hips[0] - hips[-1]) if len(hips) > 1 else None
+    up = np.array([0.0, 0.0, 1.0])
+    s = segment("pelvis", mass=mass, height=height, sex=sex)
+    R = _frame(-up, across if across is not None else np.array([0.0, 1.0, 0.0]))
+    start = mid + s.length * up  # the omphalion: the proximal endpoint
+    return Placement(s, link, start - s.com * up, R @ np.diag(s.inertia) @ R.T, start, R)
 
 
 def _num(x: float) -> str:
@@ -149,7 +246,7 @@ def _num(x: float) -> str:
 
 def wearer_urdf(
     urdf: str | os.PathLike,
-    attach: str | list[tuple[str, str]],
+    attach: str | list[tuple[str, str]] | None,
     *,
     mass: float,
     height: float,
@@ -158,7 +255,10 @@ def wearer_urdf(
 ) -> str:
     """The URDF ``urdf`` (file or robot name) with the wearer's segments fixed to it; written to ``path`` if given.
 
-    ``attach``: ``"hip:thigh,knee:shank"`` or pairs (exo joint or link, segment); ``mass`` [kg],
+    ``attach``: ``"hip:thigh,knee:shank"`` or pairs (exo joint or link, segment: ``pelvis``, ``thigh``,
+    ``shank``, ``foot``, a leg segment with its side ``l_thigh`` … ``r_foot``); None: the robot's default
+    (:func:`default_attach`: both legs and the pelvis on exo_lower_body, ``hip:thigh,knee:shank``
+    otherwise); ``mass`` [kg],
     ``height`` [m], ``sex`` ``"male"`` / ``"female"`` (de Leva 1996).  Raises SpecError on bad input
     before writing anything.
     """
@@ -168,7 +268,8 @@ def wearer_urdf(
 
     from pinid.model.robot import RobotModel
 
-    pairs = parse_attach(attach) if isinstance(attach, str) else check_pairs(attach)
+    if attach is not None:
+        pairs = parse_attach(attach) if isinstance(attach, str) else check_pairs(attach)
     file, _ = resolve_robot(urdf)
 
     RobotModel.from_urdf(file)  # the exoskeleton must be a URDF pinid loads (size, numbers, axes, nesting)
@@ -178,6 +279,8 @@ def wearer_urdf(
         )
     except ET.ParseError as exc:
         raise SpecError(f"{file}: not a valid URDF ({exc})") from None
+    if attach is None:
+        pairs = parse_attach(default_attach(root))
     if root.find(f"link[@name='{PREFIX}thigh']") is not None or any(
         (lk.get("name") or "").startswith(PREFIX) for lk in root.findall("link")
     ):
@@ -187,6 +290,7 @@ def wearer_urdf(
         ET.Comment(
             f" pinid wearer: {sex}, {mass:g} kg, {height:g} m, de Leva 1996 (pinid/resources/anthropometry/"
             "de_leva_1996.toml); segments fixed to the exo links, proximal endpoint at the joint centre "
+            "(the pelvis: distal endpoint at the mid-hip point) "
         )
     )
     for p in placements:

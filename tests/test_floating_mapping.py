@@ -1,0 +1,120 @@
+"""Floating recordings with their own column names and units, read through a mapping spec's [floating]
+table (issue 27): the same identification as from the dataset-format file."""
+
+from __future__ import annotations
+
+import csv
+
+import numpy as np
+import pytest
+
+from conftest import assert_clean_error, run_cli
+
+from pinid import RobotModel
+from pinid.data.contacts import read_floating, write_floating
+from pinid.errors import SpecError
+from pinid.identification.floating import identify_floating
+from pinid.simulation.floating_twin import simulate_gait, simulate_suspended
+from test_floating_identification import excitation
+
+EXO = ["--urdf", "exo_lower_body", "--base", "floating"]
+#: dataset-format column → (foreign name, factor raw = factor · SI)
+FOREIGN = {
+    "t": ("time_ms", 1e3),
+    "q_l_knee": ("KneeL_deg", 180 / np.pi),
+    "base_x": ("pelvis_X_mm", 1e3),
+    "base_y": ("pelvis_Y_mm", 1e3),
+    "base_z": ("pelvis_Z_mm", 1e3),
+    "imu_imu_wx": ("gyro_x", 180 / np.pi),
+    "imu_imu_wy": ("gyro_y", 180 / np.pi),
+    "imu_imu_wz": ("gyro_z", 180 / np.pi),
+    "imu_imu_az": ("acc_z_g", 1 / 9.80665),
+    "wrench_pelvis_fz": ("loadcell_Fz_kN", 1e-3),
+    "plate_l_sole_fz": ("FP1_Fz", 1.0),
+    "contact_r_sole": ("FS_right", 1.0),
+}
+UNITS = {"time_ms": "ms", "KneeL_deg": "deg", "acc_z_g": "g", "loadcell_Fz_kN": "kN"}
+UNITS |= {f"pelvis_{c}_mm": "mm" for c in "XYZ"} | {f"gyro_{c}": "deg/s" for c in "xyz"}
+
+
+def foreign(src, dst, spec):
+    """Rewrite the dataset-format CSV ``src`` with foreign names and units to ``dst``; its mapping spec to ``spec``."""
+    with open(src) as f:
+        rows = list(csv.reader(f))
+    head, data = rows[0], np.array(rows[1:], dtype=float)
+    names = []
+    for j, h in enumerate(head):
+        name, factor = FOREIGN.get(h, (f"col_{h}", 1.0))
+        data[:, j] *= factor
+        names.append(name)
+    with open(dst, "w", newline="") as f:
+        w = csv.writer(f, delimiter=";")
+        w.writerow(names)
+        w.writerows([[repr(float(x)) for x in r] for r in data])
+
+    def ref(h):
+        name = FOREIGN.get(h, (f"col_{h}",))[0]
+        return f'{{ column = "{name}", scale = "{UNITS[name]}" }}' if name in UNITS else f'"{name}"'
+
+    joint = ("q_", "dq_", "ddq_", "tau_")
+    lines = ['delimiter = ";"', f"time = {ref('t')}", "[floating]"]
+    lines += [f"{h} = {ref(h)}" for h in head if h != "t" and not h.startswith(joint)]
+    for j in [h[2:] for h in head if h.startswith("q_")]:
+        lines.append(f"[joints.{j}]")
+        lines += [f"{k[:-1]} = {ref(k + j)}" for k in joint if k + j in head]
+    spec.write_text("\n".join(lines) + "\n")
+
+
+@pytest.fixture(scope="module")
+def exo():
+    return RobotModel.from_urdf("exo_lower_body", base="floating")
+
+
+@pytest.mark.parametrize("kind", ["suspended", "gait"])
+def test_foreign_names_and_units_identify_as_the_dataset_format(exo, kind, tmp_path):
+    """A recording with its own column names, ';' and units (ms, deg for a joint, mm, deg/s, g, kN) read
+    through a mapping spec gives the same signals and the same identification as the dataset-format file."""
+    if kind == "suspended":
+        twin = simulate_suspended(exo, excitation(exo), seconds=3, rate=100, imu_frame="imu")
+    else:
+        twin = simulate_gait(exo, seconds=3, rate=100)
+    write_floating(tmp_path / "mine.csv", twin.recording)
+    foreign(tmp_path / "mine.csv", tmp_path / "theirs.csv", tmp_path / "map.toml")
+    a = read_floating(tmp_path / "mine.csv", exo)
+    b = read_floating(tmp_path / "theirs.csv", exo, mapping=tmp_path / "map.toml")
+    np.testing.assert_allclose(b.data.t, a.data.t, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(b.data.q, a.data.q, rtol=1e-10, atol=1e-12)
+    ca, cb = a.columns(), b.columns()
+    assert sorted(ca) == sorted(cb)
+    for name in ca:
+        np.testing.assert_allclose(cb[name], ca[name], rtol=1e-10, atol=1e-9, err_msg=name)
+    r = {
+        src: identify_floating(exo, tmp_path / src, methods=("ols",), mapping=m).results["ols"]["base"]
+        for src, m in (("mine.csv", None), ("theirs.csv", tmp_path / "map.toml"))
+    }
+    np.testing.assert_allclose(r["theirs.csv"], r["mine.csv"], rtol=1e-6, atol=1e-8)
+    assert r["theirs.csv"][0] == pytest.approx(21.8, rel=0.01)  # the total mass
+    proc = run_cli("identify", *EXO, "--data", "theirs.csv", "--mapping", "map.toml", "--methods", "ols",
+                   "--no-report", "-o", "res", cwd=tmp_path)  # fmt: skip
+    assert proc.returncode == 0, proc.stderr
+
+
+@pytest.mark.parametrize(
+    "table, words",
+    [
+        ('base_w = "x"', "[floating] base_w: not a floating column"),
+        ('wrench_pelvis_fz = { column = "x", scale = "parsec" }', "scale"),
+        ("wrench_pelvis_fz = 3.5", "[floating.wrench_pelvis_fz]"),
+    ],
+)
+def test_bad_floating_mapping_is_one_line_and_writes_nothing(exo, table, words, tmp_path):
+    spec = tmp_path / "map.toml"
+    spec.write_text('time = "t"\n[joints.l_knee]\nq = "k"\n[floating]\n' + table + "\n")
+    (tmp_path / "d.csv").write_text("t,k\n0,0\n0.01,0\n")
+    with pytest.raises(SpecError, match=words.replace("[", r"\[").replace("]", r"\]")):
+        read_floating(tmp_path / "d.csv", exo, mapping=spec)
+    proc = run_cli(
+        "identify", *EXO, "--data", "d.csv", "--mapping", "map.toml", "--no-report", "-o", "out", cwd=tmp_path
+    )
+    assert_clean_error(proc, words)
+    assert not (tmp_path / "out").exists()

@@ -1,0 +1,120 @@
+"""MJCF of a floating identification (issue 27): a free joint carrying the identified base link, the same
+dynamics in MuJoCo as Pinocchio's on the identified floating model."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from conftest import assert_clean_error, run_cli
+
+from pinid import RobotModel
+from pinid.identification.floating import identify_floating, load_floating_identified, write_floating_identification
+from pinid.model.terms import JointTerms
+from pinid.simulation.floating_twin import simulate_suspended
+from test_floating_identification import excitation
+
+mujoco = pytest.importorskip("mujoco")
+
+TERMS = JointTerms.from_names("fc,fv")
+
+
+@pytest.fixture(scope="module")
+def identified(tmp_path_factory):
+    """The noise-free suspended twin of exo_lower_body identified by SDP, written to a folder."""
+    exo = RobotModel.from_urdf("exo_lower_body", base="floating")
+    twin = simulate_suspended(exo, excitation(exo), seconds=3, rate=100, imu_frame="imu")
+    ident = identify_floating(exo, twin.exact, methods=("sdp",), terms=TERMS)
+    folder = tmp_path_factory.mktemp("floating_mjcf")
+    write_floating_identification(ident, folder, exo, TERMS)
+    return exo, folder
+
+
+def test_identify_writes_a_free_joint_mjcf_with_the_identified_dynamics(identified):
+    """M(q) and qacc of the written MJCF equal Pinocchio's on the identified floating model at 20 random states:
+    MuJoCo's free joint has the root's linear velocity in the WORLD frame (Pinocchio: base frame), so with
+    v_pin = T·v_mj, T = diag(Rᵀ, 1, 1): M_mj = Tᵀ·M_pin·T and the root's linear qacc = R·(a + ω × v)."""
+    exo, folder = identified
+    model, terms, theta, method = load_floating_identified(folder / "identification.json")
+    assert method == "sdp" and terms.names == TERMS.names and model.base_link == exo.base_link
+    n = exo.nv
+    total = sum(i.mass for i in exo.ff_model.inertias)
+    assert theta[: 10 * (n + 1) : 10].sum() == pytest.approx(total, rel=1e-6)  # noise-free: the total mass
+    pm = exo.with_floating_parameters(theta[: 10 * (n + 1)]).ff_model
+    pd = pm.createData()
+    fv = theta[10 * (n + 1) :].reshape(n + 1, 2)[1:, 1]  # per body: fc, fv (the base's first)
+    m = mujoco.MjModel.from_xml_path(str(folder / "identified_sdp.xml"))
+    m.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_FRICTIONLOSS | mujoco.mjtDisableBit.mjDSBL_CONTACT
+    m.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONSTRAINT
+    d = mujoco.MjData(m)
+    assert (m.nq, m.nv, m.nu) == (pm.nq, pm.nv, n) and m.jnt_type[0] == mujoco.mjtJoint.mjJNT_FREE
+    assert m.body_mass[1:].sum() == pytest.approx(sum(i.mass for i in pm.inertias), rel=1e-12)
+    np.testing.assert_allclose(m.dof_damping[6:], fv, rtol=1e-12)
+    rng = np.random.default_rng(4)
+    for _ in range(20):
+        quat = rng.normal(size=4)
+        q = np.r_[rng.normal(size=3), quat / np.linalg.norm(quat), rng.uniform(exo.lower, exo.upper)]
+        v = rng.normal(size=pm.nv)
+        tau = np.r_[np.zeros(6), rng.uniform(-20, 20, n)]
+        a = pin.aba(pm, pd, q, v, tau - np.r_[np.zeros(6), fv * v[6:]])
+        M = pin.crba(pm, pd, q)
+        M = np.triu(M) + np.triu(M, 1).T
+        R = pin.Quaternion(q[3:7]).toRotationMatrix()
+        T = np.eye(pm.nv)
+        T[:3, :3] = R.T
+        d.qpos[:] = np.r_[q[:3], q[6], q[3:6], q[7:]]
+        d.qvel[:] = np.r_[R @ v[:3], v[3:]]
+        d.ctrl[:] = tau[6:]
+        mujoco.mj_forward(m, d)
+        Mmj = np.zeros((m.nv, m.nv))
+        mujoco.mj_fullM(m, d, Mmj)
+        assert np.abs(Mmj - T.T @ M @ T).max() < 1e-8 * np.abs(M).max()
+        expected = np.r_[R @ (a[:3] + np.cross(v[3:6], v[:3])), a[3:]]
+        assert np.abs(d.qacc - expected).max() < 1e-8 * np.abs(expected).max()
+
+
+def test_export_reads_the_floating_identification(identified, tmp_path):
+    """pinid export recognises the floating identification (no flag) and writes the same MJCF as identify."""
+    exo, folder = identified
+    proc = run_cli("export", "--model", str(folder / "identification.json"), "-o", "exo.xml", cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    assert (tmp_path / "exo.xml").read_text() == (folder / "identified_sdp.xml").read_text()
+    proc = run_cli(
+        "export", "--model", str(folder / "identification.json"), "--format", "urdf", "-o", "e.urdf", cwd=tmp_path
+    )
+    assert proc.returncode == 0, proc.stderr
+    back = RobotModel.from_urdf(tmp_path / "e.urdf", base="floating")
+    m = mujoco.MjModel.from_xml_path(str(tmp_path / "exo.xml"))
+    assert m.body_mass.sum() == pytest.approx(sum(i.mass for i in back.ff_model.inertias), rel=1e-9)
+
+
+def test_bad_floating_exports_are_one_line_and_write_nothing(identified, tmp_path):
+    _, folder = identified
+    d = json.loads((folder / "identification.json").read_text())
+    cases = {
+        "--method ols": ({**d, "results": {**d["results"], "ols": {**d["results"]["sdp"], "standard": None}}}, "ols"),
+        "no method": (d, "nope"),
+        "no model": ({k: v for k, v in d.items() if k != "model"}, None),
+        "inconsistent": (
+            {
+                **d,
+                "results": {"sdp": {**d["results"]["sdp"], "standard": [-1.0] + d["results"]["sdp"]["standard"][1:]}},
+            },
+            None,
+        ),
+    }
+    fragments = {
+        "--method ols": "method 'ols' has no physically consistent standard parameters",
+        "no method": "no method 'nope'",
+        "no model": "no robot description",
+        "inconsistent": "no method with physically consistent standard parameters",
+    }
+    for case, (content, method) in cases.items():
+        (tmp_path / "i.json").write_text(json.dumps(content))
+        extra = ["--method", method] if method else []
+        proc = run_cli("export", "--model", "i.json", *extra, "-o", "x.xml", cwd=tmp_path)
+        assert_clean_error(proc, fragments[case])
+        assert not (tmp_path / "x.xml").exists()
