@@ -291,6 +291,8 @@ def check_distinct(data, validate=None, *, what: str = "training data") -> None:
     deviations shrink by √2 with no new information), by path (symbolic links resolved) or by content (a
     copy); the same for a validation recording given twice in one group; a DataWarning for a validation
     recording that is also a training one (then the validation error is a training error)."""
+    if data is None:
+        raise DataError("data: got None, expected recordings (Datasets or paths)")
     for item in _items(data):
         if not isinstance(item, (Dataset, str, os.PathLike)):
             raise DataError(f"data: got {type(item).__name__}, expected recordings (Datasets or paths)")

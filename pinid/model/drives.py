@@ -37,7 +37,6 @@ import os
 import re
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 from collections.abc import Mapping, Sequence
 
@@ -61,8 +60,10 @@ class Transmission:
 def transmission_from_table(d: Any, origin: str, error: type = SpecError) -> Transmission:
     """Parse and check a ``[transmission]`` table (``joints``, ``motors``, ``matrix``); one-line ``error``."""
     where = "[transmission]"
+    if not isinstance(origin, str):
+        raise SpecError(f"origin: got {type(origin).__name__}, expected text naming the file")
     if not isinstance(d, dict):
-        raise error(f"{origin}: {where} must be a table with joints, motors, matrix")
+        raise error(f"{origin}: {where} must be a table with joints, motors, matrix, got {type(d).__name__}")
     extra = sorted(set(d) - {"joints", "motors", "matrix"})
     if extra:
         raise error(f"{origin}: {where} has unknown key(s) {extra}; expected joints, motors, matrix")
@@ -78,7 +79,13 @@ def transmission_from_table(d: Any, origin: str, error: type = SpecError) -> Tra
         R = np.array(d["matrix"], dtype=float)
     except (TypeError, ValueError):
         raise error(f"{origin}: {where} matrix must be a list of rows of numbers") from None
-    return checked(Transmission(list(tj), list(tm), R), origin, error)
+    return _checked(Transmission(list(tj), list(tm), R), origin, error)
+
+
+def _names(x, name: str, error: type = SpecError) -> None:
+    """``error`` naming ``name`` unless ``x`` is a list, tuple or array of names."""
+    if not isinstance(x, (list, tuple, np.ndarray)) or not all(isinstance(n, str) for n in x):
+        raise error(f"{name}: got {type(x).__name__}, expected a list of names")
 
 
 #: What a motor name may hold: letters, digits and ``_ - . / :`` (it becomes parameter names ``<motor>.fc``
@@ -91,6 +98,10 @@ def check_motor_names(motors: Sequence[str], joints: Sequence[str], origin: str)
     joint's: with motor terms, ``knee.fc`` of a motor named ``knee`` would clash with the joint's.  Checked
     when motor terms are used (:func:`pinid.model.terms.layout`), so a URDF whose actuators carry the joints'
     names still loads and serves every joint-side model."""
+    _names(motors, "motors")
+    _names(joints, "joints")
+    if not isinstance(origin, str):
+        raise SpecError(f"origin: got {type(origin).__name__}, expected text naming the file")
     for m in motors:
         if not isinstance(m, str) or not MOTOR_NAME.fullmatch(m):
             raise SpecError(
@@ -110,7 +121,7 @@ def check_motor_names(motors: Sequence[str], joints: Sequence[str], origin: str)
 MAX_GEAR_RATIO = 1e6
 
 
-def checked(t: Transmission, origin: str, error: type = SpecError) -> Transmission:
+def _checked(t: Transmission, origin: str, error: type = SpecError) -> Transmission:
     """``t`` if its matrix is square (motors × joints), invertible and of plausible ratios (each entry
     ≤ :data:`MAX_GEAR_RATIO` in magnitude), else a one-line ``error``."""
     R = t.matrix
@@ -235,9 +246,10 @@ class Drives:
 
 def load_drives(path: str | os.PathLike, joints: Sequence[str]) -> Drives:
     """Read a drives TOML file for a robot with active ``joints``; SpecError (one line) when it is wrong."""
-    from pinid.io import read_toml
+    from pinid.io import as_path, read_toml
 
-    p = Path(path)
+    p = as_path(path, "path")
+    _names(joints, "joints")
     if not p.is_file():
         raise SpecError(f"{p}: drives file not found, expected a TOML file with a [transmission] table")
     d = read_toml(p, "drives file with a [transmission] table")
@@ -261,6 +273,9 @@ def _number(el: ET.Element | None, tag: str, origin: str, default: float | None 
 
 def urdf_transmissions(urdf_text: str, joints: Sequence[str], origin: str = "URDF") -> list[Transmission]:
     """The transmissions of a URDF's ``<transmission>`` elements among the active ``joints`` (module text)."""
+    if not isinstance(urdf_text, str):
+        raise ModelError(f"urdf_text: got {type(urdf_text).__name__}, expected the URDF's text")
+    _names(joints, "joints", ModelError)
     root = ET.fromstring(urdf_text)
     known = {j.get("name") for j in root.findall("joint")}
     out = []
@@ -290,7 +305,7 @@ def urdf_transmissions(urdf_text: str, joints: Sequence[str], origin: str = "URD
             if len(jels) != 1 or len(aels) != 1:
                 raise ModelError(f"{where}: SimpleTransmission needs one joint and one actuator")
             n = _number(aels[0], "mechanicalReduction", where, 1.0)
-            out.append(checked(Transmission(jnames, [aels[0].get("name")], np.array([[n]])), where, ModelError))
+            out.append(_checked(Transmission(jnames, [aels[0].get("name")], np.array([[n]])), where, ModelError))
             continue
         if len(jels) != 2 or len(aels) != 2:
             raise ModelError(f"{where}: DifferentialTransmission needs two joints and two actuators")
@@ -299,7 +314,7 @@ def urdf_transmissions(urdf_text: str, joints: Sequence[str], origin: str = "URD
         a1, a2 = (_number(e, "mechanicalReduction", where, 1.0) for e in a)
         j1, j2 = (_number(e, "mechanicalReduction", where, 1.0) for e in j)
         G = np.array([[a1 * j1, a1 * j2], [a2 * j1, -a2 * j2]])
-        out.append(checked(Transmission([e.get("name") for e in j], [e.get("name") for e in a], G), where, ModelError))
+        out.append(_checked(Transmission([e.get("name") for e in j], [e.get("name") for e in a], G), where, ModelError))
     return out
 
 
@@ -312,6 +327,10 @@ def _by_role(els: list[ET.Element], roles: tuple[str, str], where: str) -> list[
 
 def attach(robot, drives: Drives | str | os.PathLike | None):
     """``robot`` with these drives (a :class:`Drives`, a drives TOML path, or None for none); returns it."""
+    if not isinstance(getattr(robot, "joint_names", None), list):
+        raise ModelError(f"robot: got {type(robot).__name__}, expected a pinid RobotModel")
+    if drives is not None and not isinstance(drives, (Drives, str, os.PathLike)):
+        raise SpecError(f"drives: got {type(drives).__name__}, expected a Drives, a drives TOML path or None")
     if drives is not None and not isinstance(drives, Drives):
         drives = load_drives(drives, robot.joint_names)
     if drives is not None and list(drives.joints) != robot.joint_names:

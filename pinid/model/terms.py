@@ -25,6 +25,7 @@ from typing import NamedTuple
 from collections.abc import Callable, Iterable, Sequence
 
 import numpy as np
+from pinid.checks import array_like, as_floats
 from pinid.errors import ModelError, SpecError
 from pinid.wearer import passive
 
@@ -71,6 +72,8 @@ TERMS: dict[str, Term] = {}
 
 def register(term: Term) -> Term:
     """Add a term to the registry (its name must be new); returns it."""
+    if not isinstance(term, Term):
+        raise SpecError(f"term: got {type(term).__name__}, expected a pinid.model.terms.Term")
     if term.name in TERMS:
         raise ValueError(f"term {term.name!r} is already registered")
     if term.space not in ("joint", "motor"):
@@ -197,6 +200,10 @@ class Stribeck:
 def stribeck(robot, name: str) -> Stribeck:
     """The Stribeck shape of term ``name`` (``fs``, ``motor_fs``) on ``robot`` (its ``stribeck`` dict),
     else the default (:data:`STRIBECK_VELOCITY`, :data:`STRIBECK_SHAPE`)."""
+    if not isinstance(name, str):
+        raise SpecError(
+            f"name: got {type(name).__name__}, expected a Stribeck term name, one of {list(STRIBECK_TERMS)}"
+        )
     return (getattr(robot, "stribeck", None) or {}).get(name) or Stribeck()
 
 
@@ -308,12 +315,24 @@ class JointTerms:
         return f"JointTerms.from_names({','.join(self._names)!r})"
 
 
-def as_terms(terms) -> JointTerms:
+def as_terms(terms: JointTerms | str | Iterable[str] | None) -> JointTerms:
     """Joint terms from a :class:`JointTerms`, ``"fc,fv"``, a list of names or None (the default: Coulomb and
     viscous friction); SpecError for anything else or an unknown name."""
     if isinstance(terms, JointTerms):
         return terms
     return JointTerms() if terms is None else JointTerms.from_names(terms)
+
+
+def _robot(robot) -> None:
+    """ModelError unless ``robot`` looks like a RobotModel (joint names and nv): cheap, for per-chunk calls."""
+    if not (hasattr(robot, "joint_names") and hasattr(robot, "nv")):
+        raise ModelError(f"robot: got {type(robot).__name__}, expected a pinid RobotModel")
+
+
+def _names(x, name: str) -> None:
+    """SpecError naming ``name`` unless ``x`` is a list, tuple or array of names."""
+    if not isinstance(x, (list, tuple, np.ndarray)) or not all(isinstance(n, str) for n in x):
+        raise SpecError(f"{name}: got {type(x).__name__}, expected a list of names")
 
 
 class TermParameter(NamedTuple):
@@ -330,6 +349,8 @@ def layout(joints: Sequence[str], motors: Sequence[str], terms: JointTerms | Ite
     :func:`pinid.model.drives.check_motor_names`)."""
     from pinid.model.drives import check_motor_names
 
+    _names(joints, "joints")
+    _names(motors, "motors")
     terms = terms if isinstance(terms, JointTerms) else JointTerms(names=terms)
     if terms.motor and not motors:
         raise ValueError(f"motor term(s) {[t.name for t in terms.motor]} need drives (none given)")
@@ -347,6 +368,8 @@ def _motors(robot) -> list[str]:
 
 def robot_layout(robot, terms: JointTerms) -> list[TermParameter]:
     """:func:`layout` for a RobotModel (its joints and its drives' motors); ModelError if motor terms have no drives."""
+    _robot(robot)
+    terms = as_terms(terms)
     if terms.motor and _motors(robot):
         from pinid.model.drives import check_motor_names
 
@@ -361,6 +384,8 @@ def robot_layout(robot, terms: JointTerms) -> list[TermParameter]:
 
 def count(robot, terms: JointTerms) -> int:
     """Number of term parameters of ``robot`` with ``terms``."""
+    _robot(robot)
+    terms = as_terms(terms)
     return len(terms.joint) * robot.nv + len(terms.motor) * len(_motors(robot))
 
 
@@ -385,8 +410,13 @@ def nonnegative(robot, terms: JointTerms) -> np.ndarray:
 
 def motion(robot, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray, space: str = "joint") -> Motion:
     """The (N, ·) motion in joint space or motor space (``G·q``, ``G·dq``, ``G·ddq``)."""
+    _robot(robot)
+    for key, x in (("q", q), ("dq", dq), ("ddq", ddq)):
+        array_like(x, key)
     if space == "joint":
         return Motion(q, dq, ddq, robot.joint_names, robot)
+    if space != "motor":
+        raise SpecError(f"space={space!r}, expected 'joint' or 'motor'")
     G = robot.drives.matrix
     return Motion(q @ G.T, dq @ G.T, ddq @ G.T, robot.drives.motor_names, robot)
 
@@ -396,6 +426,9 @@ def columns(
 ) -> np.ndarray:
     """Regressor columns of the terms, (N, nv, count) for (N, nv) joint motion (vectorised over samples);
     written into ``out`` (a zeroed (N, nv, count) array or view) when given."""
+    _robot(robot)
+    terms = as_terms(terms)
+    q = np.asarray(array_like(q, "q"))
     n, nv = q.shape
     joint, motor = terms.joint, terms.motor
     nm = len(_motors(robot)) if motor else 0
@@ -421,7 +454,9 @@ def columns(
 def values(robot, terms: JointTerms, theta_terms: np.ndarray) -> dict[str, np.ndarray]:
     """``{term name: per-joint (or per-motor) values}`` of the term block ``theta_terms``; unselected
     classic joint terms are zero arrays."""
-    theta_terms = np.asarray(theta_terms, dtype=float)
+    _robot(robot)
+    terms = as_terms(terms)
+    theta_terms = as_floats(theta_terms, "theta_terms", finite=False)
     out: dict[str, np.ndarray] = {n: np.zeros(robot.nv) for n in JOINT_TERM_NAMES}
     for t in terms.joint + terms.motor:
         out[t.name] = np.zeros(robot.nv if t.space == "joint" else len(_motors(robot)))
@@ -443,7 +478,13 @@ def torque(
     """Joint torque (N, nv) [N·m] of the terms with values ``theta_terms`` (the term block, or its
     :func:`values` dict): joint terms plus ``Gᵀ·``(motor terms); with ``smoothing`` [rad/s] each term's
     plant law (e.g. Coulomb ``fc·tanh(dq/v_s)``)."""
-    q, dq, ddq = (np.atleast_2d(np.asarray(x, dtype=float)) for x in (q, dq, ddq))
+    _robot(robot)
+    terms = as_terms(terms)
+    if not isinstance(theta_terms, dict):
+        array_like(theta_terms, "theta_terms")
+    q, dq, ddq = (
+        np.atleast_2d(np.asarray(array_like(x, k), dtype=float)) for k, x in (("q", q), ("dq", dq), ("ddq", ddq))
+    )
     vals = theta_terms if isinstance(theta_terms, dict) else values(robot, terms, theta_terms)
     tau = np.zeros_like(q)
     if terms.joint:
@@ -490,6 +531,8 @@ def stribeck_settings(
     :mod:`pinid.identification.stribeck`), ``"fs=0.05,motor_fs=auto"`` or ``{"fs": 0.05}``; ``shape`` the
     same (``"auto"`` only with the velocity ``"auto"``).  Unset values keep the robot's (:func:`stribeck`).
     SpecError for a value that is not a number > 0 or a term that is not a selected Stribeck term."""
+    _robot(robot)
+    terms = as_terms(terms)
     names = [n for n in terms.names if n in STRIBECK_TERMS]
     out = {n: stribeck(robot, n) for n in names}
     auto: dict[str, bool] = {}

@@ -8,7 +8,7 @@ import numpy as np
 import pinocchio as pin
 
 from pinid.errors import DataError, ModelError
-from pinid.checks import as_states
+from pinid.checks import as_floats, as_states
 from pinid.model.robot import RobotModel, as_robot
 
 #: How far [rad or m] beyond a joint limit, as a fraction of the limits' range, the plant may go before the
@@ -58,6 +58,10 @@ def check_mass_matrix(model: RobotModel, q: np.ndarray, armature=None) -> None:
     """ModelError naming the link when the plant's mass matrix is singular at the positions ``q`` (N, nv):
     a joint that moves no mass or inertia (a massless last link) cannot be simulated, its acceleration
     is undetermined.  Armature and reflected rotor inertia count."""
+    model = as_robot(model)
+    q = as_states(q, "q", model.joint_names)
+    if armature is not None:
+        armature = as_floats(armature, "armature")
     pm, data = model.pin_model, model.pin_model.createData()
     extra = np.zeros(model.nv) if armature is None else np.asarray(armature, dtype=float)
     d = model.drives

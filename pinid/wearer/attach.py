@@ -52,7 +52,7 @@ ROBOT_ATTACH = {
 DEFAULT_ATTACH = "hip:thigh,knee:shank"
 
 
-def table_name(name: str) -> str:
+def _table_name(name: str) -> str:
     """The table's segment of a strapped segment name: ``l_thigh`` → ``thigh``, ``pelvis`` → ``pelvis``."""
     for side in SIDES:
         if name.startswith(side) and name[len(side) :] in LEG_SEGMENTS:
@@ -98,19 +98,19 @@ def check_pairs(pairs) -> list[tuple[str, str]]:
         raise SpecError(f"--attach {pairs!r}: expected (point, segment) pairs of names, e.g. hip:thigh,knee:shank")
     segs = [s for _, s in pairs]
     for s in segs:
-        if table_name(s) not in STRAPPED_SEGMENTS:
+        if _table_name(s) not in STRAPPED_SEGMENTS:
             raise SpecError(
                 f"--attach: segment {s!r} is not one of {', '.join(STRAPPED_SEGMENTS)} "
                 f"(a leg segment may name its side: {', '.join(SIDES[0] + x for x in LEG_SEGMENTS)}, r_…)"
             )
         if segs.count(s) > 1:
             raise SpecError(f"--attach: segment {s!r} attached twice, expected once")
-        if s in LEG_SEGMENTS and any(x != s and table_name(x) == s for x in segs):
+        if s in LEG_SEGMENTS and any(x != s and _table_name(x) == s for x in segs):
             raise SpecError(f"--attach: segment {s!r} without a side beside a sided one, expected l_{s} and r_{s}")
     return pairs
 
 
-def default_attach(root: ET.Element) -> str:
+def _default_attach(root: ET.Element) -> str:
     """The default ``--attach`` of the URDF tree ``root``: :data:`ROBOT_ATTACH` by its robot name, else
     :data:`DEFAULT_ATTACH`."""
     return ROBOT_ATTACH.get(root.get("name") or "", DEFAULT_ATTACH)
@@ -141,9 +141,9 @@ def place(root: ET.Element, pairs, *, mass: float, height: float, sex: str, sour
     parent_joint = {j.find("child").get("link"): j for j in joints.values() if j.find("child") is not None}
     out, shank_on = [], {}
     pelvis = [p for p in pairs if p[1] == "pelvis"]
-    legs = sorted((p for p in pairs if p[1] != "pelvis"), key=lambda p: LEG_SEGMENTS.index(table_name(p[1])))
+    legs = sorted((p for p in pairs if p[1] != "pelvis"), key=lambda p: LEG_SEGMENTS.index(_table_name(p[1])))
     for point, name in legs:
-        seg = table_name(name)
+        seg = _table_name(name)
         if point in joints and joints[point].find("child") is not None:
             link = joints[point].find("child").get("link")
         elif point in links:
@@ -223,7 +223,7 @@ def _place_pelvis(root: ET.Element, point: str, legs: list[Placement], *, mass, 
             f"--attach {point}:pelvis: {point!r} names no joint or link of {source} "
             f"(joints: {', '.join(joints)}; links: {', '.join(sorted(links))})"
         )
-    thighs = [p for p in legs if table_name(p.segment.name) == "thigh"]
+    thighs = [p for p in legs if _table_name(p.segment.name) == "thigh"]
     hips = [o + p.start for p in thighs if (o := _chain_origin(root, link, p.link)) is not None]
     if len(hips) < 2:
         hips = [
@@ -257,7 +257,7 @@ def wearer_urdf(
 
     ``attach``: ``"hip:thigh,knee:shank"`` or pairs (exo joint or link, segment: ``pelvis``, ``thigh``,
     ``shank``, ``foot``, a leg segment with its side ``l_thigh`` … ``r_foot``); None: the robot's default
-    (:func:`default_attach`: both legs and the pelvis on exo_lower_body, ``hip:thigh,knee:shank``
+    (:func:`_default_attach`: both legs and the pelvis on exo_lower_body, ``hip:thigh,knee:shank``
     otherwise); ``mass`` [kg],
     ``height`` [m], ``sex`` ``"male"`` / ``"female"`` (de Leva 1996).  Raises SpecError on bad input
     before writing anything.
@@ -280,7 +280,7 @@ def wearer_urdf(
     except ET.ParseError as exc:
         raise SpecError(f"{file}: not a valid URDF ({exc})") from None
     if attach is None:
-        pairs = parse_attach(default_attach(root))
+        pairs = parse_attach(_default_attach(root))
     if root.find(f"link[@name='{PREFIX}thigh']") is not None or any(
         (lk.get("name") or "").startswith(PREFIX) for lk in root.findall("link")
     ):
