@@ -34,13 +34,12 @@ from __future__ import annotations
 import numpy as np
 
 from pinid.errors import SolverError
-from pinid.estimators.base import Estimator, Setting
-from pinid.estimators.iv import ModelSimulation, physical_fit, simulated_start
+from pinid.estimators.iv import ModelSimulation, SimulatingEstimator, physical_fit, simulated_start
 from pinid.identification.problem import Problem
 from pinid.linalg import weighted_lstsq
 
 
-class DIDIM(Estimator):
+class DIDIM(SimulatingEstimator):
     """DIDIM: Gauss–Newton on the torque output error of a closed-loop simulation, from OLS (module text).
 
     Settings: ``iterations`` (at most, default 10), ``tol`` (relative change of the parameters that
@@ -50,35 +49,9 @@ class DIDIM(Estimator):
     """
 
     name = "didim"
-    simulates = True  # each fit simulates the robot: left out of the every-method defaults
     description = "DIDIM: Gauss–Newton on the torque error of a closed-loop simulation, from OLS"
     colour = "tab:pink"
-    history = "passes"
     exact = False  # noise-free: limited by the simulation between samples (module text)
-    settings = {
-        "iterations": Setting("int", low=1, help="Gauss–Newton iterations at most"),
-        "tol": Setting("float", low=0.0, help="stop when the parameters change less than this, relatively"),
-        "bandwidth": Setting("float", low=0.0, low_open=True, help="PD bandwidth [Hz] of the simulation"),
-        "substeps": Setting("int", low=1, high=100, help="Runge–Kutta steps per integrated interval"),
-        "sim_rate": Setting("float", low=0.0, low_open=True, optional=True, help="integrate at most at this rate [Hz]"),
-        "physical": Setting("bool", help="physically consistent (LMI) least squares at every step"),
-    }
-
-    def __init__(
-        self,
-        iterations: int = 10,
-        tol: float = 1e-6,
-        bandwidth: float = 2.0,
-        substeps: int = 1,
-        sim_rate: float | None = 250.0,
-        physical: bool = False,
-    ) -> None:
-        self.iterations = iterations
-        self.tol = tol
-        self.bandwidth = bandwidth
-        self.substeps = substeps
-        self.sim_rate = sim_rate
-        self.physical = physical
 
     def fit(self, problem: Problem) -> "DIDIM":
         """OLS, then Gauss–Newton steps on the simulated regressor; sets ``base_`` and ``history_`` (RMS output error)."""

@@ -253,28 +253,20 @@ def simulated_start(
             raise SolverError(f"{what}: simulating the OLS estimate failed ({first}), and the sdp one ({exc})") from exc
 
 
-class InstrumentalVariables(Estimator):
-    """IDIM-IV: instruments from a simulation of the previous estimate, iterated from OLS (module text).
+class SimulatingEstimator(Estimator):
+    """What the estimators that simulate the model on the recordings (iv, didim) share: their settings
+    and construction, and :attr:`~pinid.estimators.base.Estimator.simulates` (left out of the every-method
+    defaults)."""
 
-    Settings: ``iterations`` (at most, default 10), ``tol`` (stop when the base parameters change less
-    than this, relatively; default 1e-6), ``bandwidth`` [Hz] of the PD that keeps the simulation on the
-    measured positions (default 2), ``substeps`` (Runge–Kutta steps per integrated interval, default 1),
-    ``sim_rate`` (integrate at most at this rate [Hz], default 250; None: every sample),
-    ``physical`` (each iteration as LMI-constrained two-stage least squares; default False).
-    """
-
-    name = "iv"
-    simulates = True  # each fit simulates the robot: left out of the every-method defaults
-    description = "instrumental variables (IDIM-IV): instruments from a simulation of the previous estimate"
-    colour = "tab:purple"
+    simulates = True
     history = "passes"
     settings = {
-        "iterations": Setting("int", low=1, help="IV iterations at most"),
+        "iterations": Setting("int", low=1, help="iterations at most"),
         "tol": Setting("float", low=0.0, help="stop when the parameters change less than this, relatively"),
         "bandwidth": Setting("float", low=0.0, low_open=True, help="PD bandwidth [Hz] of the simulation"),
         "substeps": Setting("int", low=1, high=100, help="Runge–Kutta steps per integrated interval"),
         "sim_rate": Setting("float", low=0.0, low_open=True, optional=True, help="integrate at most at this rate [Hz]"),
-        "physical": Setting("bool", help="physically consistent (LMI) two-stage least squares at every iteration"),
+        "physical": Setting("bool", help="physically consistent (LMI) least squares at every iteration"),
     }
 
     def __init__(
@@ -292,6 +284,21 @@ class InstrumentalVariables(Estimator):
         self.substeps = substeps
         self.sim_rate = sim_rate
         self.physical = physical
+
+
+class InstrumentalVariables(SimulatingEstimator):
+    """IDIM-IV: instruments from a simulation of the previous estimate, iterated from OLS (module text).
+
+    Settings: ``iterations`` (at most, default 10), ``tol`` (stop when the base parameters change less
+    than this, relatively; default 1e-6), ``bandwidth`` [Hz] of the PD that keeps the simulation on the
+    measured positions (default 2), ``substeps`` (Runge–Kutta steps per integrated interval, default 1),
+    ``sim_rate`` (integrate at most at this rate [Hz], default 250; None: every sample),
+    ``physical`` (each iteration as LMI-constrained two-stage least squares; default False).
+    """
+
+    name = "iv"
+    description = "instrumental variables (IDIM-IV): instruments from a simulation of the previous estimate"
+    colour = "tab:purple"
 
     def fit(self, problem: Problem) -> "InstrumentalVariables":
         """OLS, then IV with instruments simulated from the previous estimate until it settles; sets ``base_``."""
