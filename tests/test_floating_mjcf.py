@@ -6,7 +6,6 @@ from __future__ import annotations
 import json
 
 import numpy as np
-import pinocchio as pin
 import pytest
 
 from conftest import assert_clean_error, run_cli
@@ -16,6 +15,7 @@ from pinid.identification.floating import identify_floating, load_floating_ident
 from pinid.model.terms import JointTerms
 from pinid.simulation.floating_twin import simulate_suspended
 from test_floating_identification import excitation
+from test_mjcf import free_joint_errors
 
 mujoco = pytest.importorskip("mujoco")
 
@@ -55,25 +55,8 @@ def test_identify_writes_a_free_joint_mjcf_with_the_identified_dynamics(identifi
     np.testing.assert_allclose(m.dof_damping[6:], fv, rtol=1e-12)
     rng = np.random.default_rng(4)
     for _ in range(20):
-        quat = rng.normal(size=4)
-        q = np.r_[rng.normal(size=3), quat / np.linalg.norm(quat), rng.uniform(exo.lower, exo.upper)]
-        v = rng.normal(size=pm.nv)
-        tau = np.r_[np.zeros(6), rng.uniform(-20, 20, n)]
-        a = pin.aba(pm, pd, q, v, tau - np.r_[np.zeros(6), fv * v[6:]])
-        M = pin.crba(pm, pd, q)
-        M = np.triu(M) + np.triu(M, 1).T
-        R = pin.Quaternion(q[3:7]).toRotationMatrix()
-        T = np.eye(pm.nv)
-        T[:3, :3] = R.T
-        d.qpos[:] = np.r_[q[:3], q[6], q[3:6], q[7:]]
-        d.qvel[:] = np.r_[R @ v[:3], v[3:]]
-        d.ctrl[:] = tau[6:]
-        mujoco.mj_forward(m, d)
-        Mmj = np.zeros((m.nv, m.nv))
-        mujoco.mj_fullM(m, d, Mmj)
-        assert np.abs(Mmj - T.T @ M @ T).max() < 1e-8 * np.abs(M).max()
-        expected = np.r_[R @ (a[:3] + np.cross(v[3:6], v[:3])), a[3:]]
-        assert np.abs(d.qacc - expected).max() < 1e-8 * np.abs(expected).max()
+        m_err, a_err = free_joint_errors(m, d, pm, pd, rng, rng.uniform(exo.lower, exo.upper), 20.0, fv)
+        assert m_err < 1e-8 and a_err < 1e-8
 
 
 def test_export_reads_the_floating_identification(identified, tmp_path):

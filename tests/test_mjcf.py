@@ -71,6 +71,30 @@ def rel(a, b):
     return np.abs(a - b).max() / np.abs(b).max()
 
 
+def free_joint_errors(m, d, pm, pd, rng, q_joints, effort, damping):
+    """Relative errors of MuJoCo's M(q) and qacc against Pinocchio's free flyer at a random root pose and
+    velocity, the joints at ``q_joints`` and torques uniform in ±``effort`` [N·m], viscous ``damping``.
+    MuJoCo's qpos is (position, w x y z), its qvel the root's linear velocity in the WORLD frame (Pinocchio:
+    root frame): with v_pin = T·v_mj, T = diag(Rᵀ, 1, 1), M_mj = Tᵀ·M_pin·T and the root's linear qacc is
+    R·(a + ω × v)."""
+    quat = rng.normal(size=4)
+    q = np.r_[rng.normal(size=3), quat / np.linalg.norm(quat), q_joints]
+    v = rng.normal(size=pm.nv)
+    tau = np.r_[np.zeros(6), rng.uniform(-effort, effort, len(q_joints))]
+    a = pin.aba(pm, pd, q, v, tau - np.r_[np.zeros(6), damping * v[6:]])
+    M = pin.crba(pm, pd, q)
+    M = np.triu(M) + np.triu(M, 1).T
+    R = pin.Quaternion(q[3:7]).toRotationMatrix()
+    T = np.eye(pm.nv)
+    T[:3, :3] = R.T
+    d.qpos[:] = np.r_[q[:3], q[6], q[3:6], q[7:]]
+    d.qvel[:] = np.r_[R @ v[:3], v[3:]]
+    d.ctrl[:] = tau[6:]
+    mujoco.mj_forward(m, d)
+    expected = np.r_[R @ (a[:3] + np.cross(v[3:6], v[:3])), a[3:]]
+    return rel(full_mass_matrix(m, d), T.T @ M @ T), rel(d.qacc, expected)
+
+
 @pytest.mark.parametrize("name", ["exo_leg", "exo_continuous", "apal_leg", "ur5", "panda", "panda_finger", "solo12"])
 def test_fixed_base_matches_pinid(name, tmp_path):
     """M(q) (mj_fullM vs crba + armature) and qacc (mj_forward vs pinid's forward dynamics) on 50 random states
@@ -111,23 +135,8 @@ def test_floating_base_matches_pinocchio(name):
     assert (m.nq, m.nv, m.nu) == (pm.nq, pm.nv, robot.nv)
     rng = np.random.default_rng(4)
     for _ in range(30):
-        quat = rng.normal(size=4)
-        q = np.r_[rng.normal(size=3), quat / np.linalg.norm(quat), rng.uniform(-1.5, 1.5, robot.nv)]
-        v = rng.normal(size=pm.nv)
-        tau = np.r_[np.zeros(6), rng.uniform(-5, 5, robot.nv)]
-        a = pin.aba(pm, pd, q, v, tau - np.r_[np.zeros(6), fields["damping"] * v[6:]])
-        M = pin.crba(pm, pd, q)
-        M = np.triu(M) + np.triu(M, 1).T
-        R = pin.Quaternion(q[3:7]).toRotationMatrix()
-        T = np.eye(pm.nv)
-        T[:3, :3] = R.T
-        d.qpos[:] = np.r_[q[:3], q[6], q[3:6], q[7:]]
-        d.qvel[:] = np.r_[R @ v[:3], v[3:]]
-        d.ctrl[:] = tau[6:]
-        mujoco.mj_forward(m, d)
-        assert rel(full_mass_matrix(m, d), T.T @ M @ T) < 1e-8
-        expected = np.r_[R @ (a[:3] + np.cross(v[3:6], v[:3])), a[3:]]
-        assert rel(d.qacc, expected) < 1e-8
+        m_err, a_err = free_joint_errors(m, d, pm, pd, rng, rng.uniform(-1.5, 1.5, robot.nv), 5.0, fields["damping"])
+        assert m_err < 1e-8 and a_err < 1e-8
 
 
 def test_frictionloss_is_coulomb_friction_when_sliding():

@@ -257,10 +257,9 @@ def wearer_urdf(
 
     ``attach``: ``"hip:thigh,knee:shank"`` or pairs (exo joint or link, segment: ``pelvis``, ``thigh``,
     ``shank``, ``foot``, a leg segment with its side ``l_thigh`` … ``r_foot``); None: the robot's default
-    (:func:`_default_attach`: both legs and the pelvis on exo_lower_body, ``hip:thigh,knee:shank``
-    otherwise); ``mass`` [kg],
-    ``height`` [m], ``sex`` ``"male"`` / ``"female"`` (de Leva 1996).  Raises SpecError on bad input
-    before writing anything.
+    (:data:`ROBOT_ATTACH`: both legs and the pelvis on exo_lower_body; ``hip:thigh,knee:shank`` otherwise);
+    ``mass`` [kg], ``height`` [m], ``sex`` ``"male"`` / ``"female"`` (de Leva 1996).  Raises SpecError on bad
+    input before writing anything.
     """
     if not isinstance(urdf, (str, os.PathLike)):
         raise SpecError(f"urdf: got {type(urdf).__name__}, expected a URDF path or a bundled robot name")
