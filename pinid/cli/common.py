@@ -341,3 +341,39 @@ def wrote_line(paths, folder) -> str:
             break_long_words=False,
         )
     )
+
+
+def add_floating_arguments(p: argparse.ArgumentParser) -> None:
+    """The floating-base fitting options of identify and compare: --rows, --base-weight, --swing-rows."""
+    g = p.add_argument_group("floating base (--base floating; docs/floating-base.md)")
+    g.add_argument(
+        "--rows",
+        choices=("all", "base", "joints"),
+        default="all",
+        help="rows to fit: all (base rows + joint rows, default), base (the 6 base rows: contact wrenches and "
+        "motion, no joint torque needed), joints (joint torques with the wrenches' Jᵀf on the right)",
+    )
+    g.add_argument(
+        "--base-weight", type=float, default=1.0, help="weight of every base row (joint rows weigh 1); default 1"
+    )
+    g.add_argument(
+        "--swing-rows",
+        action="store_true",
+        help="accept contact_<link> phases without a wrench (a leg without force sensing): the rows that "
+        "foot's unknown wrench enters (base rows, its leg's joints) are left out while it is in contact",
+    )
+
+
+def floating_inputs(args: argparse.Namespace) -> tuple:
+    """``(mapping, model, terms)`` of a --base floating run: the [floating] mapping spec (or None), the robot
+    on its free flyer, and the terms (none with --rows base: no joint term enters the base rows)."""
+    from pinid.data.contacts import floating_mapping  # deferred: pinid --help does not load the contacts
+
+    mapping = (
+        None if args.mapping is None else floating_mapping(args.mapping, allow_outside_paths=args.allow_outside_paths)
+    )
+    model = robot_from_args(args)
+    terms = terms_from_args(args)
+    if args.rows == "base":
+        terms = type(terms).from_names("none")
+    return mapping, model, terms

@@ -8,6 +8,8 @@ import sys
 from pathlib import Path
 
 from pinid.cli.common import (
+    add_floating_arguments,
+    floating_inputs,
     add_mapping_arguments,
     add_method_arguments,
     add_preprocessing_arguments,
@@ -121,27 +123,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         metavar="FILE",
         help="validation recording of the first stage (reported as 'first-stage validation')",
     )
-    g = p.add_argument_group("floating base (--base floating; docs/floating-base.md)")
-    g.add_argument(
-        "--rows",
-        choices=("all", "base", "joints"),
-        default="all",
-        help="rows to fit: all (base rows + joint rows, default), base (the 6 base rows), joints",
-    )
-    g.add_argument(
-        "--base-weight", type=float, default=1.0, help="weight of every base row (joint rows weigh 1); default 1"
-    )
-    g.add_argument(
-        "--swing-rows",
-        action="store_true",
-        help="accept contact_<link> phases without a wrench: the rows that foot's wrench enters are left out",
-    )
+    add_floating_arguments(p)
     add_preprocessing_arguments(p)
 
 
 def _run_floating(args: argparse.Namespace, out: Path) -> int:
     """--base floating: every method on the same floating problem (pinid.identification.floating_compare)."""
-    from pinid.data.contacts import floating_mapping
     from pinid.identification.floating_compare import compare_floating, write_floating_comparison
 
     if args.seeds < 1:
@@ -169,13 +156,7 @@ def _run_floating(args: argparse.Namespace, out: Path) -> int:
         for key in ("population", "iterations", "fitness", "box", "box_width", "box_floor")
         if getattr(args, key) is not None
     }
-    mapping = (
-        None if args.mapping is None else floating_mapping(args.mapping, allow_outside_paths=args.allow_outside_paths)
-    )
-    model = robot_from_args(args)
-    terms = terms_from_args(args)
-    if args.rows == "base":
-        terms = type(terms).from_names("none")  # no joint term enters the base rows
+    mapping, model, terms = floating_inputs(args)
     print(f"comparing on {model.name}, floating base ({args.rows} rows): {', '.join(methods)}; seeds {args.seeds}")
     comp = compare_floating(
         model,

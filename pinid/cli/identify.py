@@ -6,6 +6,8 @@ import argparse
 from pathlib import Path
 
 from pinid.cli.common import (
+    add_floating_arguments,
+    floating_inputs,
     add_mapping_arguments,
     add_method_arguments,
     wrote_line,
@@ -129,23 +131,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="sdp: row weighting (none: as OLS, default; joint: as WLS)",
     )
     g.add_argument("--wls-iterations", type=positive_int, default=None, help="wls: reweighting passes (default 1)")
-    g = p.add_argument_group("floating base (--base floating; docs/floating-base.md)")
-    g.add_argument(
-        "--rows",
-        choices=("all", "base", "joints"),
-        default="all",
-        help="rows to fit: all (base rows + joint rows, default), base (the 6 base rows: contact wrenches and "
-        "motion, no joint torque needed), joints (joint torques with the wrenches' Jᵀf on the right)",
-    )
-    g.add_argument(
-        "--base-weight", type=float, default=1.0, help="weight of every base row (joint rows weigh 1); default 1"
-    )
-    g.add_argument(
-        "--swing-rows",
-        action="store_true",
-        help="accept contact_<link> phases without a wrench (a leg without force sensing): the rows that "
-        "foot's unknown wrench enters (base rows, its leg's joints) are left out while it is in contact",
-    )
+    add_floating_arguments(p)
     g = p.add_argument_group("stage 2: the wearer (docs/wearer.md)")
     g.add_argument(
         "--stage",
@@ -336,17 +322,10 @@ def _run_floating(args: argparse.Namespace, out: Path) -> int:
     ]
     if unused:
         raise SpecError(f"{', '.join(unused)}: not available with --base floating (docs/floating-base.md)")
-    from pinid.data.contacts import floating_mapping
 
     # a mapping spec's [floating] table names the base, IMU, wrench, plate and contact columns (docs/data.md)
-    mapping = (
-        None if args.mapping is None else floating_mapping(args.mapping, allow_outside_paths=args.allow_outside_paths)
-    )
     methods = methods_from_args(args)
-    model = robot_from_args(args)
-    terms = terms_from_args(args)
-    if args.rows == "base":
-        terms = type(terms).from_names("none")  # no joint term enters the base rows
+    mapping, model, terms = floating_inputs(args)
     print(f"identifying {model.name} on a floating base ({args.rows} rows) with {', '.join(methods)}")
     ident = identify_floating(
         model,
