@@ -13,6 +13,7 @@ import importlib
 import inspect
 import os
 import re
+import typing
 import sys
 
 from pinid.cli.main import build_parser
@@ -116,13 +117,22 @@ class _Annotation(str):
         return str(self).strip("'\"")
 
 
+def _is_text(annotation) -> bool:
+    """An annotation written as text: a string, or the ``ForwardRef`` a NamedTuple makes of one."""
+    return isinstance(annotation, (str, typing.ForwardRef))
+
+
+def _annotation_text(annotation) -> str:
+    return annotation.__forward_arg__ if isinstance(annotation, typing.ForwardRef) else annotation
+
+
 def _signature(obj) -> str:
     try:
         sig = inspect.signature(obj)
     except (TypeError, ValueError):
         return "(…)"
     plain = [
-        p.replace(annotation=_Annotation(p.annotation)) if isinstance(p.annotation, str) else p
+        p.replace(annotation=_Annotation(_annotation_text(p.annotation))) if _is_text(p.annotation) else p
         for p in sig.parameters.values()
     ]
     ret = sig.return_annotation
