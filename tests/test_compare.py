@@ -11,6 +11,7 @@ from pinid.identification.compare import DETERMINISTIC, Comparison, compare, lad
 from pinid.errors import SpecError
 from pinid.estimators.metaheuristic import training_costs
 from pinid.identification.core import IdentificationProblem
+from pinid.model.regressor import JointTerms, standard_parameters
 from pinid.simulation.twin import perturb
 
 from conftest import assert_clean_error, run_cli
@@ -290,3 +291,23 @@ def test_bad_truth_file_and_rest_velocity_are_clean_errors(tmp_path, setting):
         compare(cad, train, methods="ols", truth=str(bad))
     with pytest.raises(SpecError, match="one per joint"):
         compare(cad, train, methods="ols", rest_velocity=[0.1, 0.2, 0.3])
+
+
+def test_a_truth_of_other_joint_terms_is_mapped_through_the_runs_base_map(setting):
+    """A truth JSON of ``pinid simulate`` (fc, fv) compared with the terms fc, fv, armature: the truth's own
+    base names lack knee.armature, so its standard parameters go through the run's base map (armature was
+    not simulated: truly 0), as ``pinid identify --truth`` does — it used to be refused."""
+    truth, cad, train, valid = setting
+    bp, xt = true_base(truth)
+    doc = {
+        "joints": truth.joint_names,
+        "terms": ["fc", "fv"],
+        "standard": {"names": bp.standard_names, "values": standard_parameters(truth, JointTerms()).tolist()},
+        "base": {"names": bp.names, "values": xt.tolist()},
+    }
+    c = compare(cad, train, valid, methods=["ols"], seeds=1, truth=doc, terms="fc,fv,armature")
+    expected = dict(zip(bp.names, xt))
+    got = dict(zip(c.base_names, c.truth))
+    assert set(got) - set(expected) == {"knee.armature"} and got["knee.armature"] == 0.0
+    for name in expected:
+        np.testing.assert_allclose(got[name], expected[name], rtol=1e-9, atol=1e-12)

@@ -45,6 +45,7 @@ from pinid.identification.metrics import joint_units, torque_metrics
 from pinid.identification.problem import base_regressor, check_dataset, recorded_torque
 from pinid.identification.run import Fit, as_model, check_options, parse_methods, run_jobs, setup, use_manifest
 from pinid.identification.stribeck import with_stribeck
+from pinid.identification.truth import true_base
 from pinid.io import jsonable, read_json, write_json
 from pinid.model.regressor import JointTerms
 from pinid.model.robot import RobotModel
@@ -390,14 +391,21 @@ class Comparison:
 
 
 # ============================================================================================ the runner
-def _truth_vector(truth, names: list[str]) -> np.ndarray | None:
+def _truth_vector(truth, names: list[str], st) -> np.ndarray | None:
     """The true base parameters in ``names``' order from an array, ``{name: value}``, a truth dict of
-    :func:`pinid.simulation.twin.simulate` or the path of its JSON."""
+    :func:`pinid.simulation.twin.simulate` or the path of its JSON.  A truth whose own base parameters are
+    not this run's (other joint terms, fit joints or payloads change the base map) is mapped from its
+    standard parameters through the run's base map (``st``: the run's setup), as ``pinid identify --truth``
+    does."""
     if truth is None:
         return None
     if isinstance(truth, (str, os.PathLike)):
         p = Path(truth)
         truth = read_json(p, "truth")
+    if isinstance(truth, Mapping) and isinstance(truth.get("standard"), Mapping):
+        b = truth.get("base")
+        if not (isinstance(b, Mapping) and isinstance(b.get("names"), list) and set(names) <= set(b["names"])):
+            return true_base(truth, st.model, st.terms, st.base)
     if isinstance(truth, Mapping) and "base" in truth and isinstance(truth["base"], Mapping):
         b = truth["base"]
         if not (isinstance(b.get("names"), list) and isinstance(b.get("values"), list)):
@@ -517,7 +525,7 @@ def compare(
     )
     problem, seg, base = st.problem, st.segmental, st.base
     names = problem.names
-    truth_x = _truth_vector(truth, names)
+    truth_x = _truth_vector(truth, names, st)
     scale = natural_scale(problem)
     reference = {"main": references(problem)}
     if seg is not None:
