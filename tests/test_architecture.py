@@ -191,8 +191,6 @@ def test_known_long_modules_are_still_long():
 #: ``(module, attribute)`` reads of another module's private attribute still in the code (issue 26): the
 #: list can only shrink.
 KNOWN_PRIVATE_READS = {
-    ("pinid.cli.demo", "_run"),  # the argparse namespace's command function, set by cli/main.py
-    ("pinid.cli.main", "_run"),
     ("pinid.estimators.iv", "_continuous"),  # RobotModel._continuous (issue 26: models built once)
     ("pinid.excitation.design", "_continuous"),
     ("pinid.flexible.link", "_continuous"),

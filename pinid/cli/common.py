@@ -94,10 +94,11 @@ def add_stribeck_arguments(p: argparse.ArgumentParser) -> None:
     )
 
 
-def robot_from_args(args: argparse.Namespace):
-    """Load the RobotModel the robot options describe."""
+def robot_from_args(args: argparse.Namespace, urdf: str | None = None):
+    """Load the RobotModel the robot options describe (those :func:`add_robot_arguments` adds, or some of
+    them); ``urdf``: the robot when an option other than --urdf names it (pinid track's --urdf-true)."""
     locked = {}
-    for item in args.lock:
+    for item in getattr(args, "lock", []):
         name, sep, value = item.partition("=")
         try:
             if not sep:
@@ -105,9 +106,9 @@ def robot_from_args(args: argparse.Namespace):
             locked[name.strip()] = float(value)
         except ValueError:
             raise SpecError(f"--lock {item!r}: expected JOINT=VALUE with a number, e.g. --lock knee=-0.5") from None
-    joints = [j.strip() for j in args.joints.split(",") if j.strip()] if args.joints else None
+    joints = [j.strip() for j in args.joints.split(",") if j.strip()] if getattr(args, "joints", None) else None
     robot = RobotModel.from_urdf(
-        args.urdf,
+        args.urdf if urdf is None else urdf,
         joints=joints,
         locked=locked,
         repair_inertia=getattr(args, "repair_inertia", False),
@@ -281,6 +282,12 @@ def add_method_arguments(p: argparse.ArgumentParser, default: str) -> None:
     )
 
 
+def estimators_text(indent: int = 2) -> str:
+    """Every method of the estimator registry with its one-line description, one per line, for the help."""
+    width = max(len(name) for name in ESTIMATORS) + 2
+    return "\n".join(f"{' ' * indent}{name:<{width}}{cls.description}" for name, cls in ESTIMATORS.items())
+
+
 def methods_from_args(args: argparse.Namespace) -> list[str]:
     """The --methods list (:func:`pinid.identification.run.parse_methods`; SpecError naming --methods)."""
     try:
@@ -289,18 +296,29 @@ def methods_from_args(args: argparse.Namespace) -> list[str]:
         raise SpecError(f"--methods: {exc}") from None
 
 
+def parse_option(item: str, expected: str) -> tuple[str, object]:
+    """``(KEY, VALUE)`` of one ``--option KEY=VALUE`` (every command's --option): VALUE read as JSON
+    (numbers, true/false, null, [lists]), ``none`` as null, anything else as plain text.  SpecError
+    "expected ``expected``" (the form and an example) without "=" or without KEY."""
+    lhs, sep, text = item.partition("=")
+    if not sep or not lhs.strip():
+        raise SpecError(f"--option {item!r}: expected {expected}")
+    try:
+        value = json.loads(text)
+    except ValueError:
+        value = None if text.strip().lower() == "none" else text
+    return lhs.strip(), value
+
+
 def options_from_args(args: argparse.Namespace, options: dict | None = None) -> dict:
     """Per-method settings from --option METHOD.KEY=VALUE, on top of ``options`` (the per-method flags)."""
+    expected = "METHOD.KEY=VALUE, e.g. sdp.regularization=0.01"
     out = {m: dict(v) for m, v in (options or {}).items()}
     for item in args.option:
-        lhs, sep, text = item.partition("=")
-        method, dot, key = lhs.strip().partition(".")
-        if not sep or not dot or not method or not key:
-            raise SpecError(f"--option {item!r}: expected METHOD.KEY=VALUE, e.g. sdp.regularization=0.01")
-        try:
-            value = json.loads(text)
-        except ValueError:
-            value = None if text.strip().lower() == "none" else text
+        lhs, value = parse_option(item, expected)
+        method, dot, key = lhs.partition(".")
+        if not dot or not method or not key:
+            raise SpecError(f"--option {item!r}: expected {expected}")
         out.setdefault(method.strip().lower(), {})[key.strip()] = value
     return out
 

@@ -9,6 +9,7 @@ from pathlib import Path
 
 from pinid.cli.common import (
     add_floating_arguments,
+    estimators_text,
     floating_inputs,
     add_mapping_arguments,
     add_method_arguments,
@@ -27,7 +28,7 @@ from pinid.cli.common import (
     terms_from_args,
 )
 from pinid.errors import SpecError
-from pinid.estimators import ESTIMATORS, quick_methods
+from pinid.estimators import ESTIMATORS, names_text, quick_methods
 from pinid.io import check_outputs
 
 HELP = f"compare estimators ({', '.join(ESTIMATORS)}) on the same data, several seeds"
@@ -44,6 +45,9 @@ per seed — validates every run on the held-out --validate recordings and write
                        over the seeds
   comparison.md        the tables below and the command
   compare_*.png        convergence curves, validation errors, parameter errors (with --truth)
+
+methods of the estimator registry (--methods):
+{estimators_text()}
 
 Least squares minimises ½Σr² globally on its training data, so no method can fit the training data
 better on that cost; the comparison that means something is on held-out data, against the truth
@@ -93,7 +97,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "--box",
         choices=("nominal", "rls", "ls"),
         default=None,
-        help="search box of pso, woa, ewoa, de (rls-pso always searches its RLS box): nominal (default; "
+        help=f"search box of {', '.join(_with_box('nominal'))} ({names_text('and', _with_box('rls'))} always "
+        "searches its RLS box): nominal (default; "
         "around the URDF's values), rls (range of an RLS run), ls (around least squares — circular, "
         "for experiments)",
     )
@@ -105,7 +110,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="nominal box: at least ± this fraction of the natural magnitude (default 0.5)",
     )
     g.add_argument(
-        "--forgetting", type=float, default=None, help="rls and rls-pso: forgetting factor λ in (0, 1] (default 1)"
+        "--forgetting",
+        type=float,
+        default=None,
+        help=f"{names_text('and', ['rls', *_with_box('rls')])}: forgetting factor λ in (0, 1] (default 1)",
     )
     g = p.add_argument_group("segmental strategy (seed 000 §3.1)")
     g.add_argument(
@@ -125,6 +133,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     add_floating_arguments(p)
     add_preprocessing_arguments(p)
+
+
+def _with_box(box: str) -> list[str]:
+    """The metaheuristics of the registry that search ``box`` by default ("nominal", "rls")."""
+    return [name for name, cls in ESTIMATORS.items() if getattr(cls, "default_box", None) == box]
 
 
 def _run_floating(args: argparse.Namespace, out: Path) -> int:

@@ -160,18 +160,15 @@ def steps(out: str, seed: int, methods: str, verbose: bool = False) -> list[tupl
 
 
 def run(args: argparse.Namespace) -> int:
-    from pinid.cli.main import build_parser  # deferred: pinid.cli.main loads this module (no circle at import)
-
     check_outputs(f"{args.output}/excitation.json")  # before the work, creating nothing
     methods = ",".join(methods_from_args(args)) if args.methods else ",".join(quick_methods())
-    parser = build_parser()
     started = time.perf_counter()
     plan = steps(args.output, args.seed, methods, args.verbose)
     with all_or_nothing(Path(args.output), replace=args.force):
         for i, (title, argv) in enumerate(plan, 1):
             print(f"\n[{i}/{len(plan)}] {title}\n$ pinid {' '.join(argv)}", flush=True)
-            sub = parser.parse_args(argv)
-            sub._run(sub)  # errors propagate: the demo stops at the first failing step
+            step = args.command_parser.parse_args(argv)  # the parser of this command line: the same options
+            step.command_function(step)  # errors propagate: the demo stops at the first failing step
     print(f"\ndemo finished in {time.perf_counter() - started:.0f} s; everything is in {args.output}/:")
     print(summary_text(args.output))
     return 0

@@ -5,19 +5,18 @@ from __future__ import annotations
 import argparse
 import math
 
-import numpy as np
-
 from pinid.cli.common import (
     add_robot_arguments,
     add_terms_argument,
+    parse_option,
     positive_float,
     positive_int,
     robot_from_args,
     seed_int,
+    terms_from_args,
 )
 from pinid.errors import SolverError, SpecError
 from pinid.io import check_outputs
-from pinid.model.regressor import JointTerms
 from pinid.optimizers import OPTIMIZERS, names_text
 
 HELP = "design an excitation trajectory (Fourier series) that conditions the identification best"
@@ -107,7 +106,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         action="append",
         default=[],
         metavar="KEY=VALUE",
-        help="any other optimiser setting, e.g. --option w_min=0.3; repeatable",
+        help="any other optimiser setting, e.g. --option w_min=0.3 (VALUE in JSON: numbers, true/false, null, "
+        "[lists], or plain text); repeatable",
     )
     out = p.add_argument_group("output")
     out.add_argument(
@@ -140,25 +140,9 @@ def _options(args: argparse.Namespace) -> dict:
         if args.iterations is not None:
             opts["iterations"] = args.iterations
     for item in args.option:
-        key, sep, value = item.partition("=")
-        if not sep or not key.strip():
-            raise SpecError(f"--option {item!r}: expected KEY=VALUE, e.g. --option w_min=0.3")
-        opts[key.strip()] = _parse_value(value.strip())
+        key, value = parse_option(item, "KEY=VALUE, e.g. --option w_min=0.3")
+        opts[key] = value
     return opts
-
-
-def _parse_value(text: str):
-    low = text.lower()
-    if low in ("true", "false"):
-        return low == "true"
-    if low in ("none", "null"):
-        return None
-    for cast in (int, float):
-        try:
-            return cast(text)
-        except ValueError:
-            pass
-    return text
 
 
 # pinid.excitation.design takes about 17 ms to import: the functions below import it when they run
@@ -202,12 +186,7 @@ def _spec(args: argparse.Namespace, model):
     """The ExcitationSpec of --spec and the spec options, within --comfort and --torque-limits."""
     from pinid.excitation.design import spec_for  # deferred (see above)
 
-    terms = None
-    if args.terms is not None:
-        try:
-            terms = JointTerms.from_names(args.terms)
-        except ValueError as exc:
-            raise SpecError(f"--terms: {exc}") from None
+    terms = None if args.terms is None else terms_from_args(args)
     spec = spec_for(
         model,
         args.spec,
@@ -225,10 +204,9 @@ def _spec(args: argparse.Namespace, model):
 
         spec = within_comfort(spec, model, args.comfort or None)
     if args.torque_limits:
-        effort = model.effort_limit
-        if not np.any(np.isfinite(effort)):
-            raise SpecError(f"--torque-limits: the URDF {model.urdf_path} gives no effort limit for any joint")
-        spec = spec.replace(tau_max=np.minimum(spec.tau_max, effort))
+        from pinid.excitation.clamp import within_effort_limits  # deferred (see above)
+
+        spec = within_effort_limits(spec, model)
     return spec
 
 
@@ -263,17 +241,7 @@ def _clear_of_collision(args: argparse.Namespace, model, spec, traj, report: dic
 
 
 def run(args: argparse.Namespace) -> int:
-    # deferred (see above)
-    from pinid.excitation.design import design_excitation
-    from pinid.excitation.outputs import (
-        design_text,
-        evaluate_excitation,
-        evaluation_text,
-        excitation_paths,
-        spec_text,
-        write_excitation,
-    )
-    from pinid.excitation.trajectory import FourierTrajectory
+    from pinid.excitation.outputs import excitation_paths, spec_text, write_excitation  # deferred (see above)
 
     opts = _check(args)
     model = robot_from_args(args)
@@ -284,21 +252,7 @@ def run(args: argparse.Namespace) -> int:
     spec = _spec(args, model)
     say = (lambda *a: None) if args.quiet else print
     say(spec_text(model, spec))
-    if args.evaluate:
-        given = FourierTrajectory.load(args.evaluate).for_joints(model.joint_names, model.name)
-        traj, ev = evaluate_excitation(model, given, spec)
-        print(evaluation_text(args.evaluate, spec, ev, traj.q0, usage=not args.quiet))
-        report = traj.to_dict()
-    else:
-        name = args.optimizer.lower()
-        say(f"optimizer {name}" + (f" {opts}" if opts else "") + f", seed {args.seed}")
-        result = design_excitation(model, spec, optimizer=name, options=opts, seed=args.seed)
-        if not result.feasible:
-            raise SolverError(
-                f"{name} found no trajectory within the limits (torque limits too tight?); nothing written"
-            )
-        print(design_text(result, spec, usage=not args.quiet))
-        traj, report = result.trajectory, result.to_dict()
+    traj, report = _evaluate(args, model, spec) if args.evaluate else _design(args, model, spec, opts, say)
     if model.base == "floating":
         traj, report = _clear_of_collision(args, model, spec, traj, report)
     write_excitation(
@@ -311,3 +265,28 @@ def run(args: argparse.Namespace) -> int:
     if output:
         print(f"wrote {output}")
     return 0
+
+
+def _evaluate(args: argparse.Namespace, model, spec) -> tuple:
+    """--evaluate TRAJ: ``(trajectory, report)`` of the given trajectory within ``spec``, its evaluation printed."""
+    from pinid.excitation.outputs import evaluate_excitation, evaluation_text  # deferred (see above)
+    from pinid.excitation.trajectory import FourierTrajectory
+
+    given = FourierTrajectory.load(args.evaluate).for_joints(model.joint_names, model.name)
+    traj, ev = evaluate_excitation(model, given, spec)
+    print(evaluation_text(args.evaluate, spec, ev, traj.q0, usage=not args.quiet))
+    return traj, traj.to_dict()
+
+
+def _design(args: argparse.Namespace, model, spec, opts: dict, say) -> tuple:
+    """``(trajectory, report)`` of a new design with --optimizer and its settings ``opts``, printed."""
+    from pinid.excitation.design import design_excitation  # deferred (see above)
+    from pinid.excitation.outputs import design_text
+
+    name = args.optimizer.lower()
+    say(f"optimizer {name}" + (f" {opts}" if opts else "") + f", seed {args.seed}")
+    result = design_excitation(model, spec, optimizer=name, options=opts, seed=args.seed)
+    if not result.feasible:
+        raise SolverError(f"{name} found no trajectory within the limits (torque limits too tight?); nothing written")
+    print(design_text(result, spec, usage=not args.quiet))
+    return result.trajectory, result.to_dict()

@@ -7,6 +7,7 @@ from pathlib import Path
 
 from pinid.cli.common import (
     add_floating_arguments,
+    estimators_text,
     floating_inputs,
     add_mapping_arguments,
     add_method_arguments,
@@ -28,13 +29,18 @@ from pinid.cli.common import (
     terms_from_args,
 )
 from pinid.errors import SpecError
-from pinid.identification.problem import load_datasets
-from pinid.identification.run import check_distinct, identify
+from pinid.identification.run import identify
 from pinid.io import check_outputs
 from pinid.report.figures import start_figure_workers
 
-HELP = "identify dynamic parameters from recordings (OLS, WLS, physically consistent LMI), validate, export"
-DESCRIPTION = """\
+#: The default --methods and --terms of stage 1 (None in the namespace: not given, so stage 2 can refuse them).
+DEFAULT_METHODS, DEFAULT_TERMS = "ols,wls,sdp", "fc,fv"
+
+HELP = (
+    f"identify dynamic parameters from recordings with the registry's estimators (default {DEFAULT_METHODS}), "
+    "validate, export"
+)
+DESCRIPTION = f"""\
 Reads a URDF and one or more training recordings (CSV; --mapping names their columns), fills missing
 velocities and accelerations (zero-phase filter and differentiation with defaults chosen from the
 sample rate; measured velocities are used when present), identifies the base parameters with each
@@ -60,11 +66,12 @@ an IMU), contact wrenches (link-frame sensors or force plates) and contact phase
 rows and the joint rows (--rows), and the folder gets identification.json and identified_<method>.urdf.
 
 Rows where a joint is nearly at rest are left out of the fit when Coulomb friction is in the model
-(--rest-velocity).  Methods: ols (least squares), wls (each joint weighted by 1/its residual
-variance), sdp (physically consistent least squares, pseudo-inertia LMI, Clarabel).  Torque errors are
-measured against the torque as recorded ("raw", the headline) and against the low-passed torque
-("filtered", which moves with --cutoff).  A one-line warning names the parameters the data determine
-poorly (cond(W_b) > 1e3 or a relative standard deviation > 10 %).
+(--rest-velocity).  Torque errors are measured against the torque as recorded ("raw", the headline)
+and against the low-passed torque ("filtered", which moves with --cutoff).  A one-line warning names
+the parameters the data determine poorly (cond(W_b) > 1e3 or a relative standard deviation > 10 %).
+
+methods of the estimator registry (--methods, default {DEFAULT_METHODS}; all: every one):
+{estimators_text()}
 
 examples:
   pinid identify --urdf urdf/exo_leg.urdf --data run1.csv --data run2.csv --validate run3.csv -o results/
@@ -72,9 +79,6 @@ examples:
       --data trajectory_00.csv --validate trajectory_01.csv --terms fc,fv,armature --methods ols,sdp
 """
 
-
-#: The default --methods and --terms of stage 1 (None in the namespace: not given, so stage 2 can refuse them).
-DEFAULT_METHODS, DEFAULT_TERMS = "ols,wls,sdp", "fc,fv"
 
 #: Options of stage 1 that stage 2 (--stage wearer) does not use: (dest, option); stage 2 refuses them
 #: rather than ignore them (its terms, method and drives come from the stage-1 model and the wearer URDF).
@@ -242,23 +246,7 @@ def run(args: argparse.Namespace) -> int:
 
     out = Path(args.output)
     check_outputs(out / "identification.json")  # fail before the work (creates nothing)
-    if (args.stage == "wearer") != (args.exo is not None):
-        raise SpecError("--stage wearer and --exo MODEL_JSON go together (stage 2: the wearer, the exo fixed)")
-    stage = "2 (--stage wearer)" if args.stage == "wearer" else "1 (--stage robot)"
-    for dest, option in STAGE1_ONLY if args.stage == "wearer" else STAGE2_ONLY:
-        value = getattr(args, dest, None)
-        if value is not None and value is not False and value != []:
-            raise SpecError(
-                f"{option} does not apply to stage {stage}"
-                + (
-                    ": the exo is fixed to --exo (its terms, friction, drives) and only the wearer is fitted, "
-                    "from torque recordings"
-                    if args.stage == "wearer"
-                    else ""
-                )
-            )
-    if args.stage == "wearer" and args.base == "floating":
-        raise SpecError("--stage wearer with --base floating is not available (docs/floating-base.md)")
+    _check_stage(args)
     if args.stage == "wearer":
         return _run_wearer(args, out)
     args.methods = DEFAULT_METHODS if args.methods is None else args.methods
@@ -278,9 +266,45 @@ def run(args: argparse.Namespace) -> int:
         if not (args.no_report or args.no_figures):
             start_figure_workers()  # they load matplotlib while this process identifies
 
-    ident = identify(
-        model,
-        args.data,
+    ident = identify(model, args.data, **_identify_arguments(args, methods, terms), started=started)
+    print(identification_text(ident, verbose=args.verbose))
+    written = write_identification(
+        ident, out, report=not args.no_report, figures=not args.no_figures, force_export=args.force_export
+    )
+    refused = [m for m in ident.results if out / f"identified_{m}.urdf" not in written]
+    print(
+        f"\nbest: {ident.best}"
+        + (f"; no URDF for inconsistent result(s) {', '.join(refused)} (--force-export writes them)" if refused else "")
+    )
+    print(wrote_line(written, out))
+    return 0
+
+
+def _check_stage(args: argparse.Namespace) -> None:
+    """--stage and --exo go together, and each stage refuses the other's options (rather than ignore them)."""
+    if (args.stage == "wearer") != (args.exo is not None):
+        raise SpecError("--stage wearer and --exo MODEL_JSON go together (stage 2: the wearer, the exo fixed)")
+    stage = "2 (--stage wearer)" if args.stage == "wearer" else "1 (--stage robot)"
+    for dest, option in STAGE1_ONLY if args.stage == "wearer" else STAGE2_ONLY:
+        value = getattr(args, dest, None)
+        if value is not None and value is not False and value != []:
+            raise SpecError(
+                f"{option} does not apply to stage {stage}"
+                + (
+                    ": the exo is fixed to --exo (its terms, friction, drives) and only the wearer is fitted, "
+                    "from torque recordings"
+                    if args.stage == "wearer"
+                    else ""
+                )
+            )
+    if args.stage == "wearer" and args.base == "floating":
+        raise SpecError("--stage wearer with --base floating is not available (docs/floating-base.md)")
+
+
+def _identify_arguments(args: argparse.Namespace, methods: list[str], terms) -> dict:
+    """The keyword arguments of :func:`pinid.identification.run.identify` the options describe (read in this
+    order: an error names the first bad option)."""
+    return dict(
         methods=methods,
         validate=args.validate or None,
         terms=terms,
@@ -294,20 +318,8 @@ def run(args: argparse.Namespace) -> int:
         stribeck_velocity=args.stribeck_velocity,
         stribeck_shape=args.stribeck_shape,
         **recording_options(args),
-        started=started,
         truth=args.truth,
     )
-    print(identification_text(ident, verbose=args.verbose))
-    written = write_identification(
-        ident, out, report=not args.no_report, figures=not args.no_figures, force_export=args.force_export
-    )
-    refused = [m for m in ident.results if out / f"identified_{m}.urdf" not in written]
-    print(
-        f"\nbest: {ident.best}"
-        + (f"; no URDF for inconsistent result(s) {', '.join(refused)} (--force-export writes them)" if refused else "")
-    )
-    print(wrote_line(written, out))
-    return 0
 
 
 def _run_floating(args: argparse.Namespace, out: Path) -> int:
@@ -350,31 +362,22 @@ def _run_floating(args: argparse.Namespace, out: Path) -> int:
 def _run_wearer(args: argparse.Namespace, out: Path) -> int:
     """Stage 2: the wearer of ``--urdf`` identified with the exoskeleton fixed to ``--exo``."""
     from pinid.wearer.prior import MASS_RANGE  # deferred: pinid --help does not load the wearer's stage 2
-    from pinid.wearer.stage import identify_wearer, stack, stage_summary, stage_text, write_stage
+    from pinid.wearer.stage import identify_wearer_stage
 
     if not args.data or args.manifest or args.fit_joints or args.delay:
         raise SpecError("--stage wearer: expected --data FILE (--manifest, --fit-joints and --delay are for the robot)")
-    robot = robot_from_args(args)
-    pre = preprocess_from_args(args)
-    mapping = mapping_from_args(args)
-    check_distinct(args.data, args.validate or None)
-    train = load_datasets(args.data, robot, mapping, pre, "training")
-    val = load_datasets(args.validate or None, robot, mapping, pre, "validation")
-    fit = identify_wearer(
+    stage = identify_wearer_stage(
         args.exo,
-        robot,
-        *stack(train),
+        robot_from_args(args),
+        args.data,
+        validate=args.validate or None,
+        preprocess=preprocess_from_args(args),
+        mapping=mapping_from_args(args),
         passive=not args.no_passive,
         mass_range=MASS_RANGE if args.mass_range is None else args.mass_range,
         prior_weight="auto" if args.prior_weight is None else args.prior_weight,
         passive_exponents=args.passive_exponents,
     )
-    summary = stage_summary(fit, args.exo, train, val)
-    print(stage_text(fit, summary))
-    shown = ("validation", val) if val else ("training", train)
-    print(
-        wrote_line(
-            write_stage(fit, summary, out, shown=shown, report=not args.no_report, figures=not args.no_figures), out
-        )
-    )
+    print(stage.text())
+    print(wrote_line(stage.write(out, report=not args.no_report, figures=not args.no_figures), out))
     return 0

@@ -80,15 +80,6 @@ def _add_sources(p: argparse.ArgumentParser) -> None:
     p.epilog = sources_epilog(text)
 
 
-def _load(name: str):
-    try:
-        return importlib.import_module(f"pinid.cli.{name}")
-    except ModuleNotFoundError as exc:
-        if exc.name == f"pinid.cli.{name}":
-            return None  # not built yet
-        raise
-
-
 class _Parser(argparse.ArgumentParser):
     def error(self, message: str) -> None:  # argparse's own errors: one line, exit 2
         self.exit(2, f"{self.prog}: error: {message}\n")
@@ -107,11 +98,11 @@ def build_parser() -> argparse.ArgumentParser:
         "terminal only).",
     )
     parser.add_argument("--version", action="version", version=f"pinid {__version__}")
+    # every command's namespace: the parser that read it (pinid demo reads its steps' command lines with it)
+    parser.set_defaults(command_parser=parser)
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     for name in COMMANDS:
-        mod = _load(name)
-        if mod is None:
-            continue
+        mod = importlib.import_module(f"pinid.cli.{name}")
         p = sub.add_parser(
             name, help=mod.HELP, description=mod.DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter
         )
@@ -120,7 +111,7 @@ def build_parser() -> argparse.ArgumentParser:
             p.add_argument("--force", action="store_true", help="overwrite output files that already exist")
         _add_progress_argument(p)
         _add_sources(p)
-        p.set_defaults(_run=mod.run)
+        p.set_defaults(command_function=mod.run)
     return parser
 
 
@@ -145,7 +136,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     with _quiet_startup_interrupt():  # Ctrl-C while numpy, scipy, Pinocchio load: one line, status 130
         parser = build_parser()
         args = parser.parse_args(argv)
-        if not getattr(args, "_run", None):
+        if not getattr(args, "command_function", None):
             parser.print_help()
             return 2
         _preload()
@@ -157,7 +148,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         check_input_files(args)
         with cli_blas_threads(), _one_line_warnings(args.command):
-            return int(args._run(args) or 0)
+            return int(args.command_function(args) or 0)
     except PinidError as exc:
         print(f"pinid {args.command}: error: {exc}", file=sys.stderr)
         return 2

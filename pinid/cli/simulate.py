@@ -217,16 +217,8 @@ def _torque_noise(args: argparse.Namespace, model) -> tuple:
 
 
 def run(args: argparse.Namespace) -> int:
-    # deferred (see above)
-    from pinid.simulation.outputs import (
-        cad_model,
-        cad_truth,
-        drawn_wearer_truth,
-        simulation_paths,
-        simulation_text,
-        write_simulation,
-    )
-    from pinid.simulation.twin import load_trajectory
+    from pinid.simulation.outputs import simulation_paths  # deferred (see above)
+    from pinid.simulation.run import simulate_and_write
 
     files = _files(args)
     check_outputs(*simulation_paths(**files))  # no two on one path, none exists unless --force; creates nothing
@@ -235,23 +227,20 @@ def run(args: argparse.Namespace) -> int:
     model = robot_from_args(args)
     if model.base == "floating":
         return _simulate_floating(args, model, files)
-    drawn = None
-    if args.wearer_draw:
-        from pinid.wearer.prior import draw_wearer  # deferred: pinid --help does not load it
-
-        table = model.inertial_parameters()
-        model, drawn = draw_wearer(model, args.seed)
-    trajectory = load_trajectory(args.excitation, model, flip=args.flip)
-    torque_noise = _torque_noise(args, model)
-    cad = None if args.perturb is None else cad_model(model, args.perturb, args.seed)
-    ds, truth = _simulate(args, model, trajectory, cad, *torque_noise)  # warnings: one line each (main)
-    if cad is not None:
-        truth["cad"] = cad_truth(truth, model, cad, args.perturb)
-    if drawn is not None:
-        truth["wearer"]["drawn"] = drawn_wearer_truth(table, drawn)
-    truth["command"] = "pinid simulate " + " ".join(_argv_of(args))
-    write_simulation(ds, truth, cad=cad, **files)
-    print(simulation_text(ds, truth, **files))
+    text = simulate_and_write(  # warnings: one line each (main)
+        model,
+        args.excitation,
+        flip=args.flip,
+        seconds=args.seconds,
+        seed=args.seed,
+        **_twin_options(args, model),
+        wearer_draw=args.wearer_draw,
+        wearer_torque=args.wearer_torque,
+        perturb=args.perturb,
+        command="pinid simulate " + " ".join(_argv_of(args)),
+        **files,
+    )
+    print(text)
     return 0
 
 
@@ -280,7 +269,8 @@ _FIXED_ONLY = (
 
 def _simulate_floating(args: argparse.Namespace, model, files: dict) -> int:
     """--base floating: the suspended twin on --excitation, or the gait twin with --excitation gait."""
-    from pinid.simulation.floating_twin import Noise, floating_text, simulate_floating, write_floating_run  # deferred
+    from pinid.simulation.floating_twin import Noise  # deferred (see above)
+    from pinid.simulation.run import simulate_floating_and_write
 
     unused = [f"--{k.replace('_', '-')}" for k in _FIXED_ONLY if getattr(args, k) not in (None, False, 0.0)]
     if unused:
@@ -291,21 +281,31 @@ def _simulate_floating(args: argparse.Namespace, model, files: dict) -> int:
     noise = Noise(
         args.position_noise, 0.0 if torque is None else torque, force, moment, gyro, accel, None if torque else pct
     )
-    rate = args.sample_rate or args.control_rate
-    run = simulate_floating(
-        model, args.excitation, seconds=args.seconds, rate=rate, noise=noise, seed=args.seed, imu_frame=args.imu
+    text = simulate_floating_and_write(
+        model,
+        args.excitation,
+        files["path"],
+        truth_path=files["truth_path"],
+        seconds=args.seconds,
+        rate=args.sample_rate or args.control_rate,
+        noise=noise,
+        seed=args.seed,
+        imu_frame=args.imu,
+        command="pinid simulate " + " ".join(_argv_of(args)),
     )
-    run.truth["command"] = "pinid simulate " + " ".join(_argv_of(args))
-    written = write_floating_run(run, files["path"], files["truth_path"])
-    print(floating_text(run, written))
+    print(text)
     return 0
+
+
+#: Entries of the parsed namespace that do not define the run: the command and its parser, --force.
+_NOT_RECORDED = ("command", "command_function", "command_parser", "force")
 
 
 def _argv_of(args: argparse.Namespace) -> list[str]:
     """The options that define the run, for the record (paths included as given)."""
     out = []
     for k, v in sorted(vars(args).items()):
-        if k.startswith("_") or k in ("command", "force") or v is None or v is False or v == []:
+        if k in _NOT_RECORDED or v is None or v is False or v == []:
             continue
         flag = "--" + k.replace("_", "-")
         if v is True:
@@ -317,20 +317,18 @@ def _argv_of(args: argparse.Namespace) -> list[str]:
     return out
 
 
-def _simulate(args, model, trajectory, cad, torque_noise, torque_pct):
-    from pinid.simulation.twin import Controller, Friction, Rates, Sensors, simulate  # deferred (see above)
+def _twin_options(args: argparse.Namespace, model) -> dict:
+    """The twin's option groups (rates, controller, friction, sensors) the options describe, checked."""
+    from pinid.simulation.twin import Controller, Friction, Rates, Sensors  # deferred (see above)
 
-    return simulate(
-        model,
-        trajectory,
-        seconds=args.seconds,
-        seed=args.seed,
-        rates=Rates(args.control_rate, args.sample_rate, args.integration_rate),
-        controller=Controller(args.controller, args.bandwidth, feedforward=args.feedforward, feedforward_model=cad),
-        friction=Friction(
+    torque_noise, torque_pct = _torque_noise(args, model)
+    return {
+        "rates": Rates(args.control_rate, args.sample_rate, args.integration_rate),
+        "controller": Controller(args.controller, args.bandwidth, feedforward=args.feedforward),
+        "friction": Friction(
             _values(args.coulomb, model, "--coulomb"), _values(args.viscous, model, "--viscous"), args.coulomb_velocity
         ),
-        sensors=Sensors(
+        "sensors": Sensors(
             args.position_noise,
             (2 * np.pi / 2**args.encoder_bits) if args.encoder_bits else 0.0,
             torque_noise,
@@ -338,6 +336,4 @@ def _simulate(args, model, trajectory, cad, torque_noise, torque_pct):
             args.record_velocity,
             args.velocity_noise,
         ),
-        wearer_torque=args.wearer_torque,
-        progress=None,
-    )
+    }

@@ -6,11 +6,9 @@ import argparse
 import warnings
 from pathlib import Path
 
-from pinid.cli.common import nonnegative_float, seed_int, wrote_line
+from pinid.cli.common import nonnegative_float, robot_from_args, seed_int, wrote_line
 from pinid.errors import SpecError
 from pinid.io import check_outputs
-from pinid.model.drives import attach
-from pinid.model.robot import RobotModel
 
 HELP = "track a reference on the twin with backstepping / computed torque built on a model"
 DESCRIPTION = """\
@@ -91,9 +89,7 @@ def run(args: argparse.Namespace) -> int:
         check_outputs(*tracking_paths(args.output, controllers))
     if not (args.seconds > args.after >= 0):
         raise SpecError(f"--seconds {args.seconds} and --after {args.after}: expected seconds > after >= 0")
-    plant = RobotModel.from_urdf(args.urdf_true)
-    if args.drives:
-        attach(plant, args.drives)
+    plant = robot_from_args(args, urdf=args.urdf_true)  # with the plant's --drives
     if args.wearer_draw:
         from pinid.wearer.prior import draw_wearer  # deferred: pinid --help does not load it
 

@@ -475,3 +475,66 @@ def write_stage(
             arts.add(out / name, content)
     arts.clean(out, WEARER_REPORT_FILES)
     return arts.write()
+
+
+@dataclass
+class WearerStage:
+    """A stage-2 run on recordings (:func:`identify_wearer_stage`): the ``fit``, its ``summary``
+    (:func:`stage_summary`) and the prepared ``train`` and ``validation`` datasets."""
+
+    fit: WearerFit
+    summary: dict
+    train: list
+    validation: list
+
+    def text(self) -> str:
+        """What ``pinid identify --stage wearer`` prints (:func:`stage_text`)."""
+        return stage_text(self.fit, self.summary)
+
+    def write(
+        self, folder: str | os.PathLike, *, report: bool = True, figures: bool = True, overwrite: bool | None = None
+    ) -> list[Path]:
+        """The files of :func:`write_stage` in ``folder``, the report's figure on the validation recordings
+        (else the training ones); returns the paths."""
+        shown = ("validation", self.validation) if self.validation else ("training", self.train)
+        return write_stage(
+            self.fit, self.summary, folder, shown=shown, report=report, figures=figures, overwrite=overwrite
+        )
+
+
+def identify_wearer_stage(
+    exo,
+    robot: RobotModel,
+    data,
+    *,
+    validate=None,
+    mapping=None,
+    preprocess=None,
+    passive: bool = True,
+    mass_range: float = MASS_RANGE,
+    prior_weight: float | str = "auto",
+    passive_exponents: bool = False,
+) -> WearerStage:
+    """``pinid identify --stage wearer`` in one call: the training recordings ``data`` and the ``validate``
+    ones (paths or Datasets, each given once: :func:`~pinid.identification.run.check_distinct`) read with
+    ``mapping`` and prepared with ``preprocess`` (:func:`~pinid.identification.problem.load_datasets`), the
+    wearer of ``robot`` (the exo + wearer URDF) identified with the exoskeleton fixed to ``exo`` (the
+    stage-1 IdentifiedModel or its JSON path; :func:`identify_wearer` with ``passive``, ``mass_range``,
+    ``prior_weight``, ``passive_exponents``) and its errors on both sets of recordings summarised."""
+    from pinid.identification.problem import load_datasets  # deferred: stage 2 on arrays does not need them
+    from pinid.identification.run import check_distinct
+
+    robot = as_robot(robot)
+    check_distinct(data, validate)
+    train = load_datasets(data, robot, mapping, preprocess, "training")
+    val = load_datasets(validate, robot, mapping, preprocess, "validation")
+    fit = identify_wearer(
+        exo,
+        robot,
+        *stack(train),
+        passive=passive,
+        mass_range=mass_range,
+        prior_weight=prior_weight,
+        passive_exponents=passive_exponents,
+    )
+    return WearerStage(fit, stage_summary(fit, exo, train, val), train, val)

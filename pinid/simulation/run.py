@@ -1,0 +1,112 @@
+"""``pinid simulate`` in one call: the twin follows a trajectory, its truth is completed (the CAD model of
+``--perturb``, the wearer drawn by ``--wearer-draw``, the command) and the run's files are written, all or
+nothing; the call returns what the command prints.  The twin itself is :mod:`pinid.simulation.twin` (a
+floating base: :mod:`pinid.simulation.floating_twin`), the files :mod:`pinid.simulation.outputs`."""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+from collections.abc import Sequence
+
+from pinid.errors import SpecError
+from pinid.io import as_path
+from pinid.model.robot import RobotModel, as_robot
+from pinid.simulation.floating_twin import Noise, floating_text, simulate_floating, write_floating_run
+from pinid.simulation.outputs import cad_model, cad_truth, drawn_wearer_truth, simulation_text, write_simulation
+from pinid.simulation.trajectories import load_trajectory
+from pinid.simulation.twin import Controller, Friction, Rates, Sensors, simulate
+
+
+def simulate_and_write(
+    model: RobotModel,
+    excitation: str,
+    path: str | os.PathLike,
+    *,
+    seconds: float = 60.0,
+    seed: int = 0,
+    flip: Sequence[str] = (),
+    rates: Rates | None = None,
+    controller: Controller | None = None,
+    friction: Friction | None = None,
+    sensors: Sensors | None = None,
+    wearer_draw: bool = False,
+    wearer_torque: float = 0.0,
+    perturb: float | None = None,
+    truth_path: str | os.PathLike | None = None,
+    true_signals: str | os.PathLike | None = None,
+    cad_urdf: str | os.PathLike | None = None,
+    command: str | None = None,
+) -> str:
+    """Simulate ``model`` (the truth) following ``excitation`` (:func:`~pinid.simulation.trajectories.load_trajectory`:
+    a trajectory JSON, a bundled name or a preset, ``flip`` negating joints) for ``seconds`` [s], write the
+    recording at ``path`` with its truth (:func:`~pinid.simulation.outputs.write_simulation`) and return the
+    summary :func:`~pinid.simulation.outputs.simulation_text` gives.
+
+    ``rates``, ``controller``, ``friction``, ``sensors``: the twin's option groups (:func:`~pinid.simulation.twin.simulate`);
+    ``wearer_draw``: the wearer of an exo + wearer URDF drawn away from the tables (seeded,
+    :func:`pinid.wearer.prior.draw_wearer`), the drawn and table values in ``truth["wearer"]["drawn"]``;
+    ``wearer_torque`` [%]: the wearer's involuntary torque; ``perturb`` [%]: the feed-forward from a CAD model
+    that far from the truth (``truth["cad"]``; ``cad_urdf`` writes it); ``command``: the command line kept in
+    ``truth["command"]``.
+    """
+    model = as_robot(model)
+    path = as_path(path)
+    if not isinstance(excitation, str):
+        raise SpecError(f"excitation: got {type(excitation).__name__}, expected a trajectory path, name or preset")
+    drawn = table = None
+    if wearer_draw:
+        from pinid.wearer.prior import draw_wearer  # deferred: only a drawn wearer needs the wearer's tables
+
+        table = model.inertial_parameters()
+        model, drawn = draw_wearer(model, seed)
+    trajectory = load_trajectory(excitation, model, flip=flip)
+    cad = None if perturb is None else cad_model(model, perturb, seed)
+    if cad is not None:  # the feed-forward's model
+        controller = dataclasses.replace(controller or Controller(), feedforward_model=cad)
+    ds, truth = simulate(
+        model,
+        trajectory,
+        seconds=seconds,
+        seed=seed,
+        rates=rates,
+        controller=controller,
+        friction=friction,
+        sensors=sensors,
+        wearer_torque=wearer_torque,
+        progress=None,
+    )
+    if cad is not None:
+        truth["cad"] = cad_truth(truth, model, cad, perturb)
+    if drawn is not None:
+        truth["wearer"]["drawn"] = drawn_wearer_truth(table, drawn)
+    if command is not None:
+        truth["command"] = command
+    files = {"truth_path": truth_path, "true_signals": true_signals, "cad_urdf": cad_urdf}
+    write_simulation(ds, truth, path, cad=cad, **files)
+    return simulation_text(ds, truth, path, **files)
+
+
+def simulate_floating_and_write(
+    model: RobotModel,
+    excitation: str,
+    path: str | os.PathLike,
+    *,
+    truth_path: str | os.PathLike | None = None,
+    seconds: float = 10.0,
+    rate: float = 1000.0,
+    noise: Noise = Noise(),
+    seed: int = 0,
+    imu_frame: str | None = None,
+    command: str | None = None,
+) -> str:
+    """``pinid simulate --base floating`` in one call: :func:`~pinid.simulation.floating_twin.simulate_floating`
+    (``excitation`` "gait", or a trajectory the suspended legs follow), ``command`` kept in the truth, the
+    recording and its truth written (:func:`~pinid.simulation.floating_twin.write_floating_run`); returns
+    what the command prints (:func:`~pinid.simulation.floating_twin.floating_text`)."""
+    model = as_robot(model)
+    path = as_path(path)
+    run = simulate_floating(model, excitation, seconds=seconds, rate=rate, noise=noise, seed=seed, imu_frame=imu_frame)
+    if command is not None:
+        run.truth["command"] = command
+    return floating_text(run, write_floating_run(run, path, truth_path))
