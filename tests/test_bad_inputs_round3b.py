@@ -427,7 +427,7 @@ def test_ctrl_c_while_starting_gives_one_line(tmp_path, recording):
 # ------------------------------------------------------------------ 23: the Python API, wrong types
 def test_named_api_cases(tmp_path, recording):
     from pinid import RobotModel, identify
-    from pinid.excitation.design import condition_number
+    from pinid.excitation.evaluation import condition_number
     from pinid.identification.gains import Payload
     from pinid.simulation.twin import simulate, zha2019_trajectory
     from pinid.wearer.anthropometry import segment

@@ -11,19 +11,10 @@ import pytest
 from pinid import JointTerms, RobotModel, regressor
 from pinid.model.base import base_parameters
 from pinid.errors import SpecError
-from pinid.excitation.design import (
-    DesignProblem,
-    ExcitationSpec,
-    bundled_spec_path,
-    condition_number,
-    default_spec,
-    design_excitation,
-    evaluate_trajectory,
-    limit_violations,
-    load_spec,
-    spec_for,
-    trajectory_extremes,
-)
+from pinid.excitation.design import design_excitation
+from pinid.excitation.evaluation import condition_number, evaluate_trajectory, limit_violations, trajectory_extremes
+from pinid.excitation.problem import DesignProblem
+from pinid.excitation.spec import ExcitationSpec, bundled_spec_path, default_spec, load_spec, spec_for
 from pinid.excitation.trajectory import FourierTrajectory
 
 from conftest import assert_clean_error, load, run_cli

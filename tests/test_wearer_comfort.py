@@ -9,7 +9,7 @@ import pytest
 
 from conftest import assert_clean_error, run_cli
 from pinid.errors import SpecError
-from pinid.excitation.design import default_spec
+from pinid.excitation.spec import default_spec
 from pinid.wearer import comfort
 
 

@@ -184,7 +184,7 @@ def _check(args: argparse.Namespace) -> dict:
 
 def _spec(args: argparse.Namespace, model):
     """The ExcitationSpec of --spec and the spec options, within --comfort and --torque-limits."""
-    from pinid.excitation.design import spec_for  # deferred (see above)
+    from pinid.excitation.spec import spec_for  # deferred (see above)
 
     terms = None if args.terms is None else terms_from_args(args)
     spec = spec_for(

@@ -37,7 +37,8 @@ import numpy as np
 from pinid.data.dataset import Dataset
 from pinid.errors import DataError, DataWarning, SpecError
 from pinid.io import atomic_path
-from pinid.data.mapping import FLOAT_RE, QUANTITIES, MappingSpec, peek_columns
+from pinid.data.csv_reader import FLOAT_RE
+from pinid.data.mapping import QUANTITIES, MappingSpec, peek_columns
 from pinid.data.registry import Writer, register_writer, writer_for
 from pinid.data.dataset import as_dataset
 from pinid.checks import as_floats, count

@@ -3,9 +3,9 @@
 A reader turns one file (or folder) into named numeric columns (a :class:`Table`); the mapping spec
 (:mod:`pinid.data.mapping`) then says which column is which joint's q, dq, ddq or tau, with units and
 signs.  A writer stores pinid's dataset format (``t, q_<joint>, …``).  CSV and NPZ are registered by
-:mod:`pinid.data.mapping` (readers) and :mod:`pinid.data.formats` (writers); a new format is one module
-that calls :func:`register_reader` / :func:`register_writer` and one import line in
-``pinid/data/__init__.py`` (docs/architecture.md, "adding a data format").
+:mod:`pinid.data.csv_reader` and :mod:`pinid.data.npz_reader` (readers) and :mod:`pinid.data.formats`
+(writers); a new format is one module that calls :func:`register_reader` / :func:`register_writer` and
+one import line in ``pinid/data/__init__.py`` (docs/architecture.md, "adding a data format").
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """An excitation spec clamped to the robot's own limits: the torque bound of ``pinid excite --torque-limits``.
 
-The spec (:class:`pinid.excitation.design.ExcitationSpec`) holds what a URDF cannot; the URDF's effort
+The spec (:class:`pinid.excitation.spec.ExcitationSpec`) holds what a URDF cannot; the URDF's effort
 limits clamp its torque bound here, so that the command only says which clamp it wants."""
 
 from __future__ import annotations

@@ -8,7 +8,8 @@ import os
 import time
 from pathlib import Path
 
-from pinid.excitation.design import ExcitationSpec, evaluate_trajectory, limit_violations
+from pinid.excitation.evaluation import evaluate_trajectory, limit_violations
+from pinid.excitation.spec import ExcitationSpec
 from pinid.excitation.trajectory import FourierTrajectory
 from pinid.io import Artefacts, json_text
 from pinid.model.robot import RobotModel
@@ -68,7 +69,7 @@ def evaluate_excitation(
 ) -> tuple[FourierTrajectory, dict]:
     """Evaluate a given trajectory under ``spec`` (designing nothing): the trajectory with the evaluation
     in its ``meta`` (condition number, log det, feasibility, limits, extremes, usage: the JSON ``pinid
-    excite --evaluate`` writes) and :func:`~pinid.excitation.design.evaluate_trajectory`'s dict."""
+    excite --evaluate`` writes) and :func:`~pinid.excitation.evaluation.evaluate_trajectory`'s dict."""
     model = as_robot(model)
     spec.validate(model)
     started = time.perf_counter()

@@ -10,7 +10,7 @@ from pinid.report.figures import new_figure
 def plot_excitation(trajectory, spec=None, *, points: int = 1000, title: str | None = None):
     """q, dq and ddq of every joint over one period (rows), one column per joint, with the limits shaded.
 
-    ``spec``: an :class:`pinid.excitation.design.ExcitationSpec` whose limits are drawn (the region beyond a
+    ``spec``: an :class:`pinid.excitation.spec.ExcitationSpec` whose limits are drawn (the region beyond a
     limit is shaded red, the margin, if any, dashed).  Returns the figure.
     """
     t = np.linspace(0.0, trajectory.period, points)

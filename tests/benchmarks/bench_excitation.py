@@ -16,7 +16,7 @@ Prints Markdown tables:
 6. the same design on a 6-DOF (UR5) and a 7-DOF (Panda) arm of example-robot-data, limits from the URDF.
 
 The condition number is always that of the base regressor (friction columns included, unscaled) over
-200 samples of one period, computed by :func:`pinid.excitation.design.condition_number`.
+200 samples of one period, computed by :func:`pinid.excitation.evaluation.condition_number`.
 """
 
 from __future__ import annotations
@@ -32,7 +32,10 @@ import numpy as np
 
 from pinid import RobotModel
 from pinid.blas import single_threaded_blas
-from pinid.excitation.design import DesignProblem, design_excitation, evaluate_trajectory, limit_violations, spec_for
+from pinid.excitation.design import design_excitation
+from pinid.excitation.evaluation import evaluate_trajectory, limit_violations
+from pinid.excitation.problem import DesignProblem
+from pinid.excitation.spec import spec_for
 from pinid.excitation.trajectory import FourierTrajectory
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -29,7 +29,8 @@ import numpy as np
 from pinid import RobotModel
 from pinid.data.dataset import Dataset
 from pinid.data.formats import write_recording
-from pinid.excitation.design import DesignProblem, spec_for
+from pinid.excitation.problem import DesignProblem
+from pinid.excitation.spec import spec_for
 from pinid.model.base import base_parameters
 from pinid.model.regressor import regressor, standard_parameters
 

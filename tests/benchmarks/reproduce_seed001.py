@@ -36,7 +36,9 @@ import numpy as np
 
 from pinid import RobotModel
 from pinid.identification.compare import compare
-from pinid.excitation.design import design_excitation, evaluate_trajectory, spec_for
+from pinid.excitation.design import design_excitation
+from pinid.excitation.evaluation import evaluate_trajectory
+from pinid.excitation.spec import spec_for
 from pinid.data.preprocess import prepare
 from pinid.simulation.twin import load_trajectory, perturb, simulate
 
