@@ -193,13 +193,6 @@ def test_known_long_modules_are_still_long():
 KNOWN_PRIVATE_READS = {
     ("pinid.cli.demo", "_run"),  # the argparse namespace's command function, set by cli/main.py
     ("pinid.cli.main", "_run"),
-    ("pinid.estimators.iv", "_continuous"),  # RobotModel._continuous (issue 26: models built once)
-    ("pinid.excitation.design", "_continuous"),
-    ("pinid.flexible.link", "_continuous"),
-    ("pinid.identification.identified", "_continuous"),
-    ("pinid.model.floating", "_continuous"),
-    ("pinid.model.regressor", "_continuous"),
-    ("pinid.simulation.twin", "_continuous"),
 }
 
 

@@ -9,7 +9,6 @@ from pathlib import Path
 from pinid.cli.common import nonnegative_float, seed_int, wrote_line
 from pinid.errors import SpecError
 from pinid.io import check_outputs
-from pinid.model.drives import attach
 from pinid.model.robot import RobotModel
 
 HELP = "track a reference on the twin with backstepping / computed torque built on a model"
@@ -91,9 +90,7 @@ def run(args: argparse.Namespace) -> int:
         check_outputs(*tracking_paths(args.output, controllers))
     if not (args.seconds > args.after >= 0):
         raise SpecError(f"--seconds {args.seconds} and --after {args.after}: expected seconds > after >= 0")
-    plant = RobotModel.from_urdf(args.urdf_true)
-    if args.drives:
-        attach(plant, args.drives)
+    plant = RobotModel.from_urdf(args.urdf_true, drives=args.drives or None)
     if args.wearer_draw:
         from pinid.wearer.prior import draw_wearer  # deferred: pinid --help does not load it
 

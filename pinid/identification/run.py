@@ -36,7 +36,7 @@ from pinid.identification.problem import (
 )
 from pinid.identification.result import Identification, IdentificationResult, make_result
 from pinid.identification.segmental import Segmental, SegmentalProblem
-from pinid.identification.stribeck import fit_velocity, with_stribeck
+from pinid.identification.stribeck import fit_velocity
 from pinid.identification.truth import read_truth, true_base, truth_error
 from pinid.model.base import BaseParameters, base_parameters
 from pinid.model.regressor import JointTerms
@@ -131,8 +131,8 @@ def setup(
     """Load and stack the recordings.  ``validate``: recordings, or ``{label: recordings}``;
     ``segmental``: ``{"first": recordings, "joints": first joints}`` (seed 000's two stages);
     ``stribeck_auto``: ``{Stribeck term: fit its shape too}`` — their velocities are fitted
-    (:mod:`pinid.identification.stribeck`) and set in ``model.stribeck`` (a model of the caller's own:
-    :func:`~pinid.identification.stribeck.with_stribeck`).
+    (:mod:`pinid.identification.stribeck`); ``Setup.model`` is then a new model with the fitted shapes
+    (``model.with_stribeck``), the caller's is left as it is.
     ``fit_joints``: the joints whose torque rows enter the fit (default all); ``delay``: the torque
     channels' delay behind the positions (:func:`pinid.data.delay.parse_delay`; ``"auto"`` estimated on the
     training recordings, :mod:`pinid.identification.delay`), applied to every recording."""
@@ -215,9 +215,13 @@ def setup(
         if n in STRIBECK_TERMS
         for v in [stribeck(model, n)]
     }
-    for k, name in enumerate(auto):  # one 1-D search per term, around the linear fit without it
+    # One 1-D search per term, around the linear fit without it; then the problem is built again with the
+    # term.  It cannot be built once: the term's columns depend on the fitted velocity, and with them the
+    # base parameters (the structural QR on random samples) and every stacked row; appending columns to the
+    # problem of the search would give other base parameters and other digits.
+    for k, name in enumerate(auto):
         fit = fit_velocity(problem, train, name, fit_shape=auto[name])
-        model.stribeck[name] = Stribeck(fit.velocity, fit.shape)
+        model = model.with_stribeck({name: Stribeck(fit.velocity, fit.shape)})
         shapes[name] = fit.summary()
         terms = JointTerms(names=[n for n in final_terms.names if n not in list(auto)[k + 1 :]])
         base = base_parameters(model, terms, joints=base.fit_joints)
@@ -449,7 +453,7 @@ def identify(
     settings, auto = stribeck_settings(model, terms, stribeck_velocity, stribeck_shape)
     if auto and payload is not None:
         raise SpecError("Stribeck velocity 'auto' with drive gains (--payload): give the velocity instead")
-    model = with_stribeck(model, settings) if settings else model
+    model = model.with_stribeck(settings) if settings else model
     gains = None
     if payload is not None or payload_data is not None:
         gains, data, validate = _currents_to_torques(
@@ -470,7 +474,8 @@ def identify(
         fit_joints=fit_joints,
         delay=delay,
     )
-    x_true = None if truth is None else true_base(truth, s.model, s.terms, s.base)  # checked before the fits
+    model = s.model  # with the fitted Stribeck shapes (auto): built once, used from here on
+    x_true = None if truth is None else true_base(truth, model, s.terms, s.base)  # checked before the fits
     if started is not None:
         started()
     fits = run_jobs(s, [(m, None, options.get(m, {})) for m in methods], complete=complete, show_progress=show_progress)
@@ -556,7 +561,6 @@ def use_manifest(
     where the caller gives none.  SpecError when recordings (or a mapping spec: each recording of a manifest
     has its own) are given besides the manifest."""
     from pinid.data.manifest import Manifest
-    from pinid.model.drives import attach
 
     model = as_robot(model)
     m = manifest if isinstance(manifest, Manifest) else Manifest.load(as_path(manifest, "manifest"))
@@ -567,7 +571,7 @@ def use_manifest(
             f"{m.path}: the manifest lists the recordings, and {', '.join(clash)} given too; expected one or the other"
         )
     if m.drives is not None:  # a copy: the caller's model keeps its own drives
-        model = attach(model.with_inertial_parameters(model.inertial_parameters()), m.drives)
+        model = model.with_drives(m.drives)
     study = m.read(model)
     return {
         "model": model,

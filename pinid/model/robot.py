@@ -9,6 +9,7 @@ configuration layout is.  Standard inertial parameters per body are Pinocchio's
 from __future__ import annotations
 
 import contextlib
+import copy
 import importlib
 import io
 import numbers
@@ -20,6 +21,7 @@ import warnings
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
+from types import MappingProxyType
 from collections.abc import Callable, Iterator, Mapping, Sequence
 
 import numpy as np
@@ -186,6 +188,11 @@ class RobotModel:
     damping and friction are zero so that ``rnea`` is the rigid-body torque only; the joint friction
     read from the URDF ``<dynamics>`` tags is kept in ``coulomb`` [N·m] and ``viscous`` [N·m·s/rad].
     ``base`` is "fixed" (a floating base is :class:`pinid.model.floating.FloatingRobotModel`).
+
+    A model is built once with everything it needs: its ``drives`` (:class:`pinid.model.drives.Drives` or
+    None) and ``stribeck`` shapes (``{term: pinid.model.terms.Stribeck}``) are given at construction and
+    read-only afterwards; :meth:`with_drives` and :meth:`with_stribeck` return a new model.
+    ``continuous``: the indices of the continuous joints (Pinocchio's cos/sin coordinates).
     """
 
     base = "fixed"
@@ -200,6 +207,8 @@ class RobotModel:
         urdf_path: Path | None = None,
         urdf_text: str | None = None,
         locked: Mapping[str, float] | None = None,
+        drives=None,
+        stribeck: Mapping | None = None,
     ) -> None:
         self.pin_model = pin_model
         self.joints: tuple[JointInfo, ...] = tuple(joints)
@@ -208,11 +217,11 @@ class RobotModel:
         self.urdf_path = urdf_path
         self.urdf_text = urdf_text
         self.locked = dict(locked or {})
-        self.drives = None  # the robot's transmissions (pinid.model.drives.Drives) when it has any
-        self.stribeck = {}  # term name → pinid.model.terms.Stribeck (velocity, shape); default when absent
+        self._drives = drives  # the robot's transmissions (pinid.model.drives.Drives) when it has any
+        self._stribeck = dict(stribeck or {})  # term → Stribeck, a private copy (read through .stribeck)
         self.passive_exponents = {}  # anatomical joint → (terms, 4) exponent coefficients (pinid.wearer.passive)
         self._data = pin_model.createData()
-        self._continuous = [i for i, j in enumerate(self.joints) if j.kind == "continuous"]
+        self._continuous = tuple(i for i, j in enumerate(self.joints) if j.kind == "continuous")
         self._idx_q = [pin_model.joints[i + 1].idx_q for i in range(len(self.joints))]
 
     # ------------------------------------------------------------------ construction
@@ -225,6 +234,7 @@ class RobotModel:
         locked: Mapping[str, float] | None = None,
         repair_inertia: bool = False,
         base: str = "fixed",
+        drives=None,
     ) -> "RobotModel":
         """Load a URDF file, a bundled robot name (``exo_leg``) or an example-robot-data name (``panda``).
 
@@ -237,13 +247,17 @@ class RobotModel:
         naming the body, and the repaired values are the model's (nominal, prior) parameters.
         ``locked``: joints held fixed at a value [rad or m]; other inactive joints are held at 0 (or at
         the middle of their range when 0 is outside it).  The URDF's ``<transmission>`` elements become
-        ``drives`` (:mod:`pinid.model.drives`).  ``base``: "fixed" (the root link bolted to the world) or
+        ``drives`` (:mod:`pinid.model.drives`) unless ``drives`` (a :class:`~pinid.model.drives.Drives` or a
+        drives TOML path) replaces them.  ``base``: "fixed" (the root link bolted to the world) or
         "floating" (on a free flyer: :class:`pinid.model.floating.FloatingRobotModel`, docs/floating-base.md).
         """
         if base != "fixed" and base not in BASE_BUILDERS:
             if not isinstance(base, str) or base not in BASE_MODULES:
                 raise ModelError(f"base={base!r}, expected one of: fixed, {', '.join(BASE_MODULES)}")
             importlib.import_module(BASE_MODULES[base])  # registers its builder
+        from pinid.model.drives import Drives, as_drives, urdf_transmissions
+
+        as_drives(drives, None)  # a wrong type fails before the URDF is read
         if not isinstance(urdf, (str, os.PathLike)):
             raise ModelError(f"urdf: got {type(urdf).__name__}, expected a URDF path or a robot name")
         if joints is not None and (isinstance(joints, str) or not all(isinstance(j, str) for j in joints)):
@@ -322,6 +336,11 @@ class RobotModel:
         model.damping[:] = 0.0
         model.friction[:] = 0.0
         infos = [_joint_info(model, model.getJointId(n)) for n in active]
+        if drives is not None:
+            drives = as_drives(drives, active)
+        else:
+            transmissions = urdf_transmissions(text, active, path.name)
+            drives = Drives(list(active), transmissions, {}, f"{path.name} <transmission>") if transmissions else None
         robot = cls(
             model,
             infos,
@@ -330,15 +349,51 @@ class RobotModel:
             urdf_path=path,
             urdf_text=text,
             locked={k: v for k, v in lock.items() if k not in active},
+            drives=drives,
         )
-        from pinid.model.drives import Drives, urdf_transmissions
-
-        transmissions = urdf_transmissions(text, active, path.name)
-        if transmissions:
-            robot.drives = Drives(list(active), transmissions, {}, f"{path.name} <transmission>")
         if base != "fixed":
             return BASE_BUILDERS[base](robot, text, path)
         return robot
+
+    # ------------------------------------------------------------------ settings (read-only: built once)
+    @property
+    def drives(self):
+        """The robot's transmissions (:class:`pinid.model.drives.Drives`), None when it has none."""
+        return self._drives
+
+    @property
+    def stribeck(self) -> Mapping:
+        """``{term: pinid.model.terms.Stribeck}``: the Stribeck shapes the model sets (read-only; a term
+        absent here has the default shape, :func:`pinid.model.terms.stribeck`)."""
+        return MappingProxyType(self._stribeck)
+
+    @property
+    def continuous(self) -> tuple[int, ...]:
+        """Indices of the continuous joints (their Pinocchio coordinates are cos, sin); empty when none."""
+        return self._continuous
+
+    def _copy_with(self, **attributes) -> "RobotModel":
+        """A shallow copy of this model with some attributes replaced (the construction of with_*)."""
+        out = copy.copy(self)
+        out.passive_exponents = dict(self.passive_exponents)
+        for key, value in attributes.items():
+            setattr(out, key, value)
+        return out
+
+    def with_drives(self, drives) -> "RobotModel":
+        """A copy of this model with other drives: a :class:`~pinid.model.drives.Drives`, a drives TOML path,
+        or None for none (this model is left as it is)."""
+        from pinid.model.drives import as_drives
+
+        return self._copy_with(_drives=as_drives(drives, self.joint_names))
+
+    def with_stribeck(self, settings: Mapping) -> "RobotModel":
+        """A copy of this model with these Stribeck shapes ``{term: Stribeck}`` on top of its own (this model
+        is left as it is)."""
+        shapes = settings.values() if isinstance(settings, Mapping) else ()
+        if not isinstance(settings, Mapping) or not all(callable(getattr(v, "factor", None)) for v in shapes):
+            raise ModelError(f"settings: got {type(settings).__name__}, expected {{term: pinid.model.terms.Stribeck}}")
+        return self._copy_with(_stribeck={**self._stribeck, **settings})
 
     # ------------------------------------------------------------------ description
     @property
@@ -419,9 +474,9 @@ class RobotModel:
             urdf_path=self.urdf_path,
             urdf_text=self.urdf_text,
             locked=self.locked,
+            drives=self.drives,
+            stribeck=self.stribeck,
         )
-        out.drives = self.drives
-        out.stribeck = dict(self.stribeck)
         out.passive_exponents = dict(self.passive_exponents)
         return out
 
