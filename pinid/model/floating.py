@@ -72,8 +72,8 @@ class FloatingRobotModel(RobotModel):
             locked=fixed.locked,
             drives=fixed.drives,
             stribeck=fixed.stribeck,
+            passive_exponents=fixed.passive_exponents,
         )
-        self.passive_exponents = dict(fixed.passive_exponents)
         self.ff_model = ff_model
         self.ff_data = ff_model.createData()
         self.base_link = base_link

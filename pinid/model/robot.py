@@ -190,8 +190,9 @@ class RobotModel:
     ``base`` is "fixed" (a floating base is :class:`pinid.model.floating.FloatingRobotModel`).
 
     A model is built once with everything it needs: its ``drives`` (:class:`pinid.model.drives.Drives` or
-    None) and ``stribeck`` shapes (``{term: pinid.model.terms.Stribeck}``) are given at construction and
-    read-only afterwards; :meth:`with_drives` and :meth:`with_stribeck` return a new model.
+    None), ``stribeck`` shapes (``{term: pinid.model.terms.Stribeck}``) and the wearer's
+    ``passive_exponents`` are given at construction and read-only afterwards; :meth:`with_drives`,
+    :meth:`with_stribeck` and :meth:`with_passive_exponents` return a new model.
     ``continuous``: the indices of the continuous joints (Pinocchio's cos/sin coordinates).
     """
 
@@ -209,6 +210,7 @@ class RobotModel:
         locked: Mapping[str, float] | None = None,
         drives=None,
         stribeck: Mapping | None = None,
+        passive_exponents: Mapping | None = None,
     ) -> None:
         self.pin_model = pin_model
         self.joints: tuple[JointInfo, ...] = tuple(joints)
@@ -219,7 +221,8 @@ class RobotModel:
         self.locked = dict(locked or {})
         self._drives = drives  # the robot's transmissions (pinid.model.drives.Drives) when it has any
         self._stribeck = dict(stribeck or {})  # term → Stribeck, a private copy (read through .stribeck)
-        self.passive_exponents = {}  # anatomical joint → (terms, 4) exponent coefficients (pinid.wearer.passive)
+        # anatomical joint → (terms, 4) exponent coefficients (pinid.wearer.passive), read through .passive_exponents
+        self._passive_exponents = dict(passive_exponents or {})
         self._data = pin_model.createData()
         self._continuous = tuple(i for i, j in enumerate(self.joints) if j.kind == "continuous")
         self._idx_q = [pin_model.joints[i + 1].idx_q for i in range(len(self.joints))]
@@ -255,9 +258,6 @@ class RobotModel:
             if not isinstance(base, str) or base not in BASE_MODULES:
                 raise ModelError(f"base={base!r}, expected one of: fixed, {', '.join(BASE_MODULES)}")
             importlib.import_module(BASE_MODULES[base])  # registers its builder
-        from pinid.model.drives import Drives, as_drives, urdf_transmissions
-
-        as_drives(drives, None)  # a wrong type fails before the URDF is read
         if not isinstance(urdf, (str, os.PathLike)):
             raise ModelError(f"urdf: got {type(urdf).__name__}, expected a URDF path or a robot name")
         if joints is not None and (isinstance(joints, str) or not all(isinstance(j, str) for j in joints)):
@@ -267,6 +267,9 @@ class RobotModel:
             or not all(isinstance(v, numbers.Real) and not isinstance(v, bool) for v in locked.values())
         ):
             raise JointError(f"locked {locked!r}: expected {{joint name: value [rad or m]}}")
+        from pinid.model.drives import Drives, as_drives, urdf_transmissions
+
+        as_drives(drives, None)  # a wrong type fails before the URDF is read
         path, preset_locked = resolve_robot(urdf)
         text = _read_urdf_text(path)
         with _captured_stderr() as printed:
@@ -368,6 +371,12 @@ class RobotModel:
         return MappingProxyType(self._stribeck)
 
     @property
+    def passive_exponents(self) -> Mapping:
+        """``{anatomical joint: (terms, 4) exponent coefficients}`` of the wearer's passive moments
+        (:mod:`pinid.wearer.passive`; read-only, empty for the published ones)."""
+        return MappingProxyType(self._passive_exponents)
+
+    @property
     def continuous(self) -> tuple[int, ...]:
         """Indices of the continuous joints (their Pinocchio coordinates are cos, sin); empty when none."""
         return self._continuous
@@ -375,7 +384,6 @@ class RobotModel:
     def _copy_with(self, **attributes) -> "RobotModel":
         """A shallow copy of this model with some attributes replaced (the construction of with_*)."""
         out = copy.copy(self)
-        out.passive_exponents = dict(self.passive_exponents)
         for key, value in attributes.items():
             setattr(out, key, value)
         return out
@@ -394,6 +402,15 @@ class RobotModel:
         if not isinstance(settings, Mapping) or not all(callable(getattr(v, "factor", None)) for v in shapes):
             raise ModelError(f"settings: got {type(settings).__name__}, expected {{term: pinid.model.terms.Stribeck}}")
         return self._copy_with(_stribeck={**self._stribeck, **settings})
+
+    def with_passive_exponents(self, exponents: Mapping) -> "RobotModel":
+        """A copy of this model whose wearer passive-moment exponents are ``exponents`` (replacing its own;
+        ``{}`` for the published ones; checked by :func:`pinid.wearer.passive.check_exponents`)."""
+        if not isinstance(exponents, Mapping):
+            raise ModelError(
+                f"exponents: got {type(exponents).__name__}, expected {{anatomical joint: (terms, 4) array}}"
+            )
+        return self._copy_with(_passive_exponents=dict(exponents))
 
     # ------------------------------------------------------------------ description
     @property
@@ -476,8 +493,8 @@ class RobotModel:
             locked=self.locked,
             drives=self.drives,
             stribeck=self.stribeck,
+            passive_exponents=self.passive_exponents,
         )
-        out.passive_exponents = dict(self.passive_exponents)
         return out
 
     # ------------------------------------------------------------------ kinematics helpers
