@@ -189,15 +189,7 @@ def test_known_long_modules_are_still_long():
 # ---------------------------------------------------------------------------------------------- private attributes
 #: ``(module, attribute)`` reads of another module's private attribute still in the code (issue 26): the
 #: list can only shrink.
-KNOWN_PRIVATE_READS = {
-    ("pinid.estimators.iv", "_continuous"),  # RobotModel._continuous (issue 26: models built once)
-    ("pinid.excitation.problem", "_continuous"),
-    ("pinid.flexible.link", "_continuous"),
-    ("pinid.identification.identified", "_continuous"),
-    ("pinid.model.floating", "_continuous"),
-    ("pinid.model.regressor", "_continuous"),
-    ("pinid.simulation.twin", "_continuous"),
-}
+KNOWN_PRIVATE_READS: set[tuple[str, str]] = set()
 
 
 def _private_names(tree: ast.Module) -> set[str]:

@@ -76,12 +76,12 @@ def test_motor_name_with_newline_refused_and_toml_escaped(tmp_path):
     assert_clean_error(p, "motor name 'm\\nx' is not allowed")
     robot = load("exo_leg").with_inertial_parameters(load("exo_leg").inertial_parameters())
     for bad in ("a b", 'q"x', "", "m\x7f"):
-        robot.drives = Drives(robot.joint_names, [Transmission(["hip"], [bad], np.array([[2.0]]))])
+        bad_robot = robot.with_drives(Drives(robot.joint_names, [Transmission(["hip"], [bad], np.array([[2.0]]))]))
         with pytest.raises(SpecError, match="is not allowed"):
-            parameter_names(robot, JointTerms.from_names("motor_fc"))
+            parameter_names(bad_robot, JointTerms.from_names("motor_fc"))
     # the identified drives TOML reads back (a name with the allowed punctuation)
-    robot.drives = Drives(
-        robot.joint_names, [Transmission(["hip", "knee"], ["m.1/a:b-c", "m_2"], np.diag([30.0, 25.0]))]
+    robot = robot.with_drives(
+        Drives(robot.joint_names, [Transmission(["hip", "knee"], ["m.1/a:b-c", "m_2"], np.diag([30.0, 25.0]))])
     )
     terms = JointTerms.from_names("fc,motor_fc")
     text = IdentifiedModel(robot, terms, standard_parameters(robot, terms)).export_drives()

@@ -16,7 +16,7 @@ from pinid.data.dataset import Dataset
 from pinid.errors import ModelError, SpecError
 from pinid.identification.core import identify
 from pinid.identification.identified import IdentifiedModel
-from pinid.model.drives import Drives, Transmission, attach, load_drives
+from pinid.model.drives import Drives, Transmission, load_drives
 from pinid.model.robot import RobotModel
 from pinid.model.terms import Stribeck
 
@@ -50,8 +50,9 @@ def coupled(name: str) -> RobotModel:
         vals = {
             f"m{i + 1}": {"fc": 0.01 + 0.002 * i, "fv": 1e-3, "armature": 1e-5, "offset": 1e-3} for i in range(len(j))
         }
-    m.stribeck = {k: Stribeck(*v) for k, v in STRIBECK.items()}
-    return attach(m, Drives(j, tr, vals, "test drives"))
+    return m.with_stribeck({k: Stribeck(*v) for k, v in STRIBECK.items()}).with_drives(
+        Drives(j, tr, vals, "test drives")
+    )
 
 
 def expected_torque(m: RobotModel, q, dq, ddq, theta_terms, terms: JointTerms) -> np.ndarray:
@@ -183,7 +184,7 @@ def wrist_urdf(tmp_path, extra=WRIST_URDF):
 def test_urdf_transmissions_equal_the_drives_toml(tmp_path):
     from_urdf = RobotModel.from_urdf(wrist_urdf(tmp_path))
     (tmp_path / "d.toml").write_text(WRIST_TOML)
-    from_toml = attach(RobotModel.from_urdf(wrist_urdf(tmp_path, "")), tmp_path / "d.toml")
+    from_toml = RobotModel.from_urdf(wrist_urdf(tmp_path, ""), drives=tmp_path / "d.toml")
     assert from_urdf.motor_names == from_toml.motor_names == ["m1", "m5", "m6"]
     assert np.array_equal(from_urdf.drives.matrix, from_toml.drives.matrix)
     q, dq, ddq = from_urdf.random_states(5, np.random.default_rng(0))

@@ -170,3 +170,28 @@ def test_exo_lower_body_is_a_pelvis_with_two_four_joint_legs():
     assert np.diag(thigh.inertia) == pytest.approx(
         [3.5 * (3 * 0.04**2 + 0.42**2) / 12] * 2 + [3.5 * 0.04**2 / 2], rel=1e-5
     )
+
+
+def test_a_model_is_built_once_and_read_only_afterwards(tmp_path):
+    """Drives, Stribeck shapes and passive exponents are given at construction; with_* returns a new model and
+    the original keeps its own (issue 26: nothing writes into a built model)."""
+    from pinid.model.drives import Drives, Transmission
+    from pinid.model.terms import Stribeck
+
+    m = RobotModel.from_urdf("exo_leg")
+    for name, value in (("drives", None), ("stribeck", {}), ("passive_exponents", {}), ("continuous", ())):
+        with pytest.raises(AttributeError):
+            setattr(m, name, value)
+    with pytest.raises(TypeError):
+        m.stribeck["fs"] = Stribeck()
+    drives = Drives(m.joint_names, [Transmission(["hip"], ["m_hip"], np.array([[30.0]]))])
+    shaped = m.with_drives(drives).with_stribeck({"fs": Stribeck(0.2, 1.0)})
+    assert shaped.drives is drives and shaped.stribeck == {"fs": Stribeck(0.2, 1.0)}
+    assert m.drives is None and m.stribeck == {}
+    assert shaped.with_drives(None).drives is None and shaped.drives is drives
+    toml = tmp_path / "d.toml"
+    toml.write_text('[transmission]\njoints = ["knee"]\nmotors = ["m_knee"]\nmatrix = [[25]]\n')
+    built = RobotModel.from_urdf("exo_leg", drives=toml)
+    assert built.motor_names == ["m_knee"] and m.with_drives(toml).motor_names == ["m_knee"]
+    assert m.with_passive_exponents({"knee": np.zeros((2, 4))}).passive_exponents.keys() == {"knee"}
+    assert not m.passive_exponents

@@ -52,15 +52,12 @@ def twin(m, terms: JointTerms, seconds=30.0, rate=200.0, seed=0, shape=SHAPE) ->
 
 
 def exo_joint():
-    m = truth_model("exo_leg")
-    m.stribeck = {}
-    return m
+    return truth_model("exo_leg")
 
 
 def exo_motor():
-    m = coupled("exo_leg")  # cable G = [[30, 0], [12, 25]]
-    m.stribeck = {}
-    return m
+    # cable G = [[30, 0], [12, 25]]; coupled()'s drives without its Stribeck shapes
+    return truth_model("exo_leg").with_drives(coupled("exo_leg").drives)
 
 
 def _relative(a, b):
@@ -121,7 +118,7 @@ def test_noise_free_twin_shape_fitted_with_the_velocity():
 def test_settings_from_the_robot_python_and_defaults():
     m = exo_joint()
     assert stribeck_settings(m, JOINT) == ({"fs": Stribeck(0.1, 2.0)}, {})  # the documented default
-    m.stribeck = {"fs": Stribeck(0.2, 1.0)}
+    m = m.with_stribeck({"fs": Stribeck(0.2, 1.0)})
     assert stribeck_settings(m, JOINT, shape=3) == ({"fs": Stribeck(0.2, 3.0)}, {})
     assert stribeck_settings(m, JOINT, "fs=auto") == ({"fs": Stribeck(0.2, 1.0)}, {"fs": False})
     assert stribeck_settings(m, JOINT, "auto", "auto") == ({"fs": Stribeck(0.2, 1.0)}, {"fs": True})
@@ -210,11 +207,10 @@ def test_cli_identify_fits_the_velocity(tmp_path):
 
 def test_plant_law_and_nominal_motor_value_from_the_drives_file():
     from pinid.model import terms as T
-    from pinid.model.drives import Drives, attach
+    from pinid.model.drives import Drives
 
-    m = exo_motor()
-    m.stribeck = {"fs": Stribeck(VS, SHAPE), "motor_fs": Stribeck(MVS, 1.0)}
-    attach(m, Drives(m.joint_names, m.drives.transmissions, {"m_knee": {"fs": 0.03}}, "test"))
+    m = exo_motor().with_stribeck({"fs": Stribeck(VS, SHAPE), "motor_fs": Stribeck(MVS, 1.0)})
+    m = m.with_drives(Drives(m.joint_names, m.drives.transmissions, {"m_knee": {"fs": 0.03}}, "test"))
     sel = JointTerms.from_names("fs,motor_fs")
     assert np.array_equal(T.nominal(m, sel), [0, 0, 0, 0.03])
     ds, _ = twin(m, MOTOR, seconds=2)

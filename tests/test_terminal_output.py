@@ -67,9 +67,8 @@ def test_info_labels_nominal_values_by_their_source(tmp_path):
         '[transmission]\njoints = ["hip", "knee"]\nmotors = ["m1", "m2"]\nmatrix = [[50, 0], [0, 50]]\n'
         "[motors.m1]\nfc = 0.01\narmature = 1e-5\n"
     )
-    from pinid.model.drives import attach
 
-    leg = attach(RobotModel.from_urdf("exo_leg"), toml)
+    leg = RobotModel.from_urdf("exo_leg", drives=toml)
     terms = JointTerms.from_names("fc,fv,motor_fc,motor_armature")
     d = describe(leg, terms)
     source = {b["name"]: b["source"] for b in d["base_parameters"]}

@@ -25,7 +25,7 @@ import pytest
 
 from pinid import regressor
 from pinid.model import terms as T
-from pinid.model.drives import Drives, Transmission, attach
+from pinid.model.drives import Drives, Transmission
 from pinid.model.robot import RobotModel
 
 G = np.array([[30.0, 0.0], [12.0, 25.0]])  # cable: the knee motor turns with the hip too
@@ -35,7 +35,7 @@ SMOOTH = 1e-9  # [rad/s]: plant laws with this smoothing are their unsmoothed la
 def robot() -> RobotModel:
     m = RobotModel.from_urdf("exo_leg")
     values = {"m_hip": {"fc": 0.04, "fv": 0.004}, "m_knee": {"fc": 0.05, "fv": 0.003}}
-    return attach(m, Drives(m.joint_names, [Transmission(m.joint_names, ["m_hip", "m_knee"], G)], values, "test"))
+    return m.with_drives(Drives(m.joint_names, [Transmission(m.joint_names, ["m_hip", "m_knee"], G)], values, "test"))
 
 
 def states(m: RobotModel, space: str, n: int = 60, seed: int = 0):

@@ -159,7 +159,6 @@ def test_stage2_report_options(twin, tmp_path):
 
 @pytest.mark.slow
 def test_stage2_passive_exponents_from_the_command_line(twin):
-    import copy
     import dataclasses
 
     from pinid.data.formats import read_recording, write_recording
@@ -168,8 +167,7 @@ def test_stage2_passive_exponents_from_the_command_line(twin):
 
     d = twin
     robot = RobotModel.from_urdf(d / "eww.urdf")
-    true_robot = copy.copy(robot)
-    true_robot.passive_exponents = perturbed(robot, 0.2)
+    true_robot = robot.with_passive_exponents(perturbed(robot, 0.2))
     ds = read_recording(d / "true.npz")  # kp = 1: the twin's passive moments at the published exponents
     tau = ds.tau + passive.column(ds.q, true_robot) - passive.column(ds.q, robot)
     write_recording(d / "true_exp.npz", dataclasses.replace(ds, tau=tau))

@@ -53,15 +53,13 @@ def test_noise_free_wearer_recovered(setup):
 
 
 def test_passive_exponents_recovered_by_nonlinear_least_squares(setup, tmp_path):
-    import copy
 
     from pinid.model.base import base_parameters
     from pinid.wearer import passive
     from pinid.wearer.exponents import free_coefficients, perturbed
 
     stage1, path, robot, truth, (q, dq, ddq, tau) = setup
-    true_robot = copy.copy(robot)
-    true_robot.passive_exponents = perturbed(robot, 0.2)
+    true_robot = robot.with_passive_exponents(perturbed(robot, 0.2))
     # the true torque: the passive module's own formula at the true exponents (kp of the truth)
     tau = tau + (passive.column(q, true_robot) - passive.column(q, robot)) * truth[20:]
     data = (q, dq, ddq, tau)

@@ -13,7 +13,6 @@ from pinid.errors import SpecError
 from pinid.estimators import ESTIMATORS
 from pinid.identification.run import parse_methods
 from pinid.model.bundled import EXAMPLE_ROBOTS
-from pinid.model.drives import attach
 from pinid.model.regressor import JointTerms
 from pinid.model.robot import RobotModel
 from pinid.resources import bundled_robots
@@ -113,9 +112,8 @@ def robot_from_args(args: argparse.Namespace, urdf: str | None = None):
         locked=locked,
         repair_inertia=getattr(args, "repair_inertia", False),
         base=getattr(args, "base", "fixed"),
+        drives=getattr(args, "drives", None) or None,
     )
-    if getattr(args, "drives", None):
-        attach(robot, args.drives)
     return robot
 
 

@@ -87,7 +87,7 @@ class ModelSimulation:
         self.nv = model.nv
         self._pm = model.pin_model
         self._data = self._pm.createData()
-        self._conf = model.configuration if model._continuous else (lambda x: x)
+        self._conf = model.configuration if model.continuous else (lambda x: x)
         self._omega = 2 * math.pi * self.bandwidth
         self._nominal = problem.nominal_base
 

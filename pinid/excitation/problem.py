@@ -346,7 +346,7 @@ class DesignProblem:
         out = np.empty((3, n, nv, nv))
         data = pin_model.createData()
         rnea_d = pin.computeRNEADerivatives
-        conf = self.model.configuration if self.model._continuous else None
+        conf = self.model.configuration if self.model.continuous else None
         for s in range(n):
             a, b, c = rnea_d(pin_model, data, conf(q[s]) if conf else q[s], dq[s], ddq[s])
             out[0, s], out[1, s], out[2, s] = a, b, c

@@ -214,7 +214,7 @@ class PinocchioBatch:
                 m.armature[m.joints[m.getJointId(jn)].idx_v] = armature[i, j]
             self.models.append(m)
             self.datas.append(m.createData())
-        self.simple = not robot._continuous
+        self.simple = not robot.continuous
 
     def forward(self, q, dq, tau) -> np.ndarray:
         out = np.empty_like(q)

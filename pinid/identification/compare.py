@@ -44,7 +44,6 @@ from pinid.estimators.metaheuristic import (
 from pinid.identification.metrics import joint_units, torque_metrics
 from pinid.identification.problem import base_regressor, check_dataset, recorded_torque
 from pinid.identification.run import Fit, as_model, check_options, parse_methods, run_jobs, setup, use_manifest
-from pinid.identification.stribeck import with_stribeck
 from pinid.identification.truth import true_base
 from pinid.io import jsonable, read_json, write_json
 from pinid.model.regressor import JointTerms
@@ -509,7 +508,7 @@ def compare(
             got[k] for k in ("model", "data", "validate", "fit_joints", "delay")
         )
     shapes, auto = stribeck_settings(model, terms, stribeck_velocity, stribeck_shape)
-    model = with_stribeck(model, shapes) if shapes else model
+    model = model.with_stribeck(shapes) if shapes else model
     st = setup(
         model,
         data,
@@ -523,7 +522,7 @@ def compare(
         fit_joints=fit_joints,
         delay=delay,
     )
-    problem, seg, base = st.problem, st.segmental, st.base
+    model, problem, seg, base = st.model, st.problem, st.segmental, st.base  # the model with fitted shapes
     names = problem.names
     truth_x = _truth_vector(truth, names, st)
     scale = natural_scale(problem)

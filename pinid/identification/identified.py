@@ -86,7 +86,7 @@ class IdentifiedModel:
             ).consistent
         self.physically_consistent = bool(physically_consistent)
         self.meta = dict(meta or {})
-        self._plain = not robot._continuous
+        self._plain = not robot.continuous
         self._nv = robot.nv
         self._upper = np.triu_indices(robot.nv, 1)
         self._term_inertia = self._inertia_of_terms()

@@ -36,7 +36,7 @@ from pinid.identification.problem import (
 )
 from pinid.identification.result import Identification, IdentificationResult, make_result
 from pinid.identification.segmental import Segmental, SegmentalProblem
-from pinid.identification.stribeck import fit_velocity, with_stribeck
+from pinid.identification.stribeck import fit_velocity
 from pinid.identification.truth import read_truth, true_base, truth_error
 from pinid.model.base import BaseParameters, base_parameters
 from pinid.model.regressor import JointTerms
@@ -131,12 +131,45 @@ def setup(
     """Load and stack the recordings.  ``validate``: recordings, or ``{label: recordings}``;
     ``segmental``: ``{"first": recordings, "joints": first joints}`` (seed 000's two stages);
     ``stribeck_auto``: ``{Stribeck term: fit its shape too}`` — their velocities are fitted
-    (:mod:`pinid.identification.stribeck`) and set in ``model.stribeck`` (a model of the caller's own:
-    :func:`~pinid.identification.stribeck.with_stribeck`).
+    (:mod:`pinid.identification.stribeck`); ``Setup.model`` is then a new model with the fitted shapes
+    (``model.with_stribeck``), the caller's is left as it is.
     ``fit_joints``: the joints whose torque rows enter the fit (default all); ``delay``: the torque
     channels' delay behind the positions (:func:`pinid.data.delay.parse_delay`; ``"auto"`` estimated on the
     training recordings, :mod:`pinid.identification.delay`), applied to every recording."""
-    model = as_robot(model)
+    return _setup(
+        as_robot(model),
+        data,
+        validate,
+        terms=as_terms(terms),
+        mapping=mapping,
+        preprocess=preprocess,
+        rest_velocity=rest_velocity,
+        rest_fraction=rest_fraction,
+        segmental=segmental,
+        show_progress=show_progress,
+        stribeck_auto=stribeck_auto,
+        fit_joints=fit_joints,
+        delay=delay,
+    )
+
+
+def _setup(
+    model: RobotModel,
+    data,
+    validate=None,
+    *,
+    terms: JointTerms = JointTerms(),
+    mapping=None,
+    preprocess: Mapping | bool | None = None,
+    rest_velocity="auto",
+    rest_fraction: float = REST_FRACTION,
+    segmental: Mapping | None = None,
+    show_progress: bool | None = False,
+    stribeck_auto: Mapping[str, bool] | None = None,
+    fit_joints: Sequence[str] | str | None = None,
+    delay=None,
+) -> Setup:
+    """:func:`setup` of a model and terms resolved by the caller (``as_robot``, ``as_terms``: once per run)."""
     auto = dict(stribeck_auto or {})
     fit_mask(model, fit_joints)  # a bad joint name fails before any recording is read
     delays = parse_delay(delay, model.joint_names)
@@ -147,7 +180,7 @@ def setup(
     final_terms, terms = terms, JointTerms(names=[n for n in terms.names if n not in auto])
     check_distinct(data, validate)
     train = load_datasets(data, model, mapping, preprocess, "training")
-    warn_if_large_recordings(model, terms, train)
+    _warn_if_large(model, terms, train)
     if validate is None:
         val = {}
     elif isinstance(validate, Mapping):
@@ -215,9 +248,13 @@ def setup(
         if n in STRIBECK_TERMS
         for v in [stribeck(model, n)]
     }
-    for k, name in enumerate(auto):  # one 1-D search per term, around the linear fit without it
+    # One 1-D search per term, around the linear fit without it; then the problem is built again with the
+    # term.  It cannot be built once: the term's columns depend on the fitted velocity, and with them the
+    # base parameters (the structural QR on random samples) and every stacked row; appending columns to the
+    # problem of the search would give other base parameters and other digits.
+    for k, name in enumerate(auto):
         fit = fit_velocity(problem, train, name, fit_shape=auto[name])
-        model.stribeck[name] = Stribeck(fit.velocity, fit.shape)
+        model = model.with_stribeck({name: Stribeck(fit.velocity, fit.shape)})
         shapes[name] = fit.summary()
         terms = JointTerms(names=[n for n in final_terms.names if n not in list(auto)[k + 1 :]])
         base = base_parameters(model, terms, joints=base.fit_joints)
@@ -245,9 +282,13 @@ def bytes_per_sample(model: RobotModel, terms: JointTerms) -> float:
 def warn_if_large_recordings(model: RobotModel, terms: JointTerms, datasets: Sequence[Dataset]) -> bool:
     """One-line DataWarning when the training recordings would need more than half the available
     memory (:func:`bytes_per_sample`); True if warned."""
+    return _warn_if_large(as_robot(model), as_terms(terms), datasets)
+
+
+def _warn_if_large(model: RobotModel, terms: JointTerms, datasets: Sequence[Dataset]) -> bool:
+    """:func:`warn_if_large_recordings` of a model and terms resolved by the caller."""
     from pinid.memory import warn_if_large
 
-    model = as_robot(model)
     if not isinstance(datasets, Iterable):
         raise DataError(f"datasets: got {type(datasets).__name__}, expected a list of Datasets")
     samples = sum(len(as_dataset(ds, "datasets").t) for ds in datasets)
@@ -439,7 +480,7 @@ def identify(
         make_estimator(m, **options.get(m, {}))
     if manifest is not None:
         given = dict(data=data, validate=validate, payload=payload, payload_data=payload_data, mapping=mapping)
-        got = use_manifest(manifest, model, **given, fit_joints=fit_joints, delay=delay)
+        got = _use_manifest(manifest, model, **given, fit_joints=fit_joints, delay=delay)
         model, data, validate, fit_joints, delay = (
             got[k] for k in ("model", "data", "validate", "fit_joints", "delay")
         )
@@ -449,14 +490,14 @@ def identify(
     settings, auto = stribeck_settings(model, terms, stribeck_velocity, stribeck_shape)
     if auto and payload is not None:
         raise SpecError("Stribeck velocity 'auto' with drive gains (--payload): give the velocity instead")
-    model = with_stribeck(model, settings) if settings else model
+    model = model.with_stribeck(settings) if settings else model
     gains = None
     if payload is not None or payload_data is not None:
         gains, data, validate = _currents_to_torques(
             model, terms, data, validate, payload, payload_data, mapping, preprocess, rest_velocity
         )
         preprocess = False
-    s = setup(
+    s = _setup(
         model,
         data,
         validate,
@@ -470,7 +511,8 @@ def identify(
         fit_joints=fit_joints,
         delay=delay,
     )
-    x_true = None if truth is None else true_base(truth, s.model, s.terms, s.base)  # checked before the fits
+    model = s.model  # with the fitted Stribeck shapes (auto): built once, used from here on
+    x_true = None if truth is None else true_base(truth, model, s.terms, s.base)  # checked before the fits
     if started is not None:
         started()
     fits = run_jobs(s, [(m, None, options.get(m, {})) for m in methods], complete=complete, show_progress=show_progress)
@@ -555,10 +597,16 @@ def use_manifest(
     model with the manifest's drives (a copy), its recordings by role, and its ``fit_joints`` and ``delay``
     where the caller gives none.  SpecError when recordings (or a mapping spec: each recording of a manifest
     has its own) are given besides the manifest."""
-    from pinid.data.manifest import Manifest
-    from pinid.model.drives import attach
+    given = dict(data=data, validate=validate, payload=payload, payload_data=payload_data, mapping=mapping)
+    return _use_manifest(manifest, as_robot(model), **given, fit_joints=fit_joints, delay=delay)
 
-    model = as_robot(model)
+
+def _use_manifest(
+    manifest, model: RobotModel, *, data, validate, payload, payload_data, fit_joints, delay, mapping
+) -> dict:
+    """:func:`use_manifest` of a model resolved by the caller."""
+    from pinid.data.manifest import Manifest
+
     m = manifest if isinstance(manifest, Manifest) else Manifest.load(as_path(manifest, "manifest"))
     given = {"data": data, "validate": validate, "payload": payload, "payload data": payload_data, "mapping": mapping}
     clash = [k for k, v in given.items() if v is not None and not (isinstance(v, (list, tuple, dict)) and not v)]
@@ -567,7 +615,7 @@ def use_manifest(
             f"{m.path}: the manifest lists the recordings, and {', '.join(clash)} given too; expected one or the other"
         )
     if m.drives is not None:  # a copy: the caller's model keeps its own drives
-        model = attach(model.with_inertial_parameters(model.inertial_parameters()), m.drives)
+        model = model.with_drives(m.drives)
     study = m.read(model)
     return {
         "model": model,

@@ -23,7 +23,6 @@ below ``LOW·`` of it the column is zero but near rest: the search stays between
 
 from __future__ import annotations
 
-import copy
 from dataclasses import dataclass
 from collections.abc import Sequence
 
@@ -34,7 +33,6 @@ from pinid.data.dataset import Dataset
 from pinid.errors import DataError
 from pinid.identification.problem import IdentificationProblem, check_dataset
 from pinid.model import terms as _terms
-from pinid.model.robot import RobotModel
 
 GRID = 25  # log-spaced candidates of the coarse search
 LOW, HIGH = 1e-3, 1.0  # search range: fractions of the largest speed of the term's space
@@ -104,12 +102,10 @@ def fit_velocity(
     Q = scipy.linalg.qr(problem.W * sw[:, None], mode="economic")[0]
     y = problem.tau * sw
     y -= Q @ (Q.T @ y)
-    trial = copy.copy(model)
-    trial.stribeck = dict(model.stribeck)
     sel = _terms.JointTerms(names=[term])
 
     def residual(log_v: float, shape: float) -> float:
-        trial.stribeck[term] = _terms.Stribeck(float(np.exp(log_v)), shape)
+        trial = model.with_stribeck({term: _terms.Stribeck(float(np.exp(log_v)), shape)})
         S = _terms.columns(trial, sel, q, dq, ddq)[rows, problem.joint] * sw[:, None]
         S -= Q @ (Q.T @ S)
         beta = np.linalg.lstsq(S, y, rcond=None)[0]
@@ -137,10 +133,3 @@ def fit_velocity(
     return VelocityFit(
         term, float(np.exp(x)), float(np.exp(log_d)), cost, bounds, sum(v[2] for v in inner.values()), shape_fitted=True
     )
-
-
-def with_stribeck(model: RobotModel, settings: dict[str, _terms.Stribeck]) -> RobotModel:
-    """A shallow copy of ``model`` with these Stribeck shapes (the caller's model is left as it is)."""
-    out = copy.copy(model)
-    out.stribeck = {**model.stribeck, **settings}
-    return out

@@ -325,15 +325,18 @@ def _by_role(els: list[ET.Element], roles: tuple[str, str], where: str) -> list[
     return [by[r] for r in roles]
 
 
-def attach(robot, drives: Drives | str | os.PathLike | None):
-    """``robot`` with these drives (a :class:`Drives`, a drives TOML path, or None for none); returns it."""
-    if not isinstance(getattr(robot, "joint_names", None), list):
-        raise ModelError(f"robot: got {type(robot).__name__}, expected a pinid RobotModel")
+def as_drives(drives: Drives | str | os.PathLike | None, joints: Sequence[str] | None) -> Drives | None:
+    """The drives of a robot with active ``joints``: a :class:`Drives` (re-ordered to ``joints``), a drives
+    TOML path (read), or None for none; SpecError for anything else.  ``joints`` None: only the type is
+    checked (``drives`` is returned as given).  A model gets its drives at construction
+    (``RobotModel.from_urdf(..., drives=)``) or as a new model (``RobotModel.with_drives``)."""
     if drives is not None and not isinstance(drives, (Drives, str, os.PathLike)):
         raise SpecError(f"drives: got {type(drives).__name__}, expected a Drives, a drives TOML path or None")
-    if drives is not None and not isinstance(drives, Drives):
-        drives = load_drives(drives, robot.joint_names)
-    if drives is not None and list(drives.joints) != robot.joint_names:
-        drives = Drives(robot.joint_names, drives.transmissions, drives.values, drives.origin)
-    robot.drives = drives
-    return robot
+    if drives is None or joints is None:
+        return drives
+    _names(joints, "joints")
+    if not isinstance(drives, Drives):
+        drives = load_drives(drives, joints)
+    if list(drives.joints) != list(joints):
+        drives = Drives(list(joints), drives.transmissions, drives.values, drives.origin)
+    return drives

@@ -70,14 +70,19 @@ class FloatingRobotModel(RobotModel):
             urdf_path=fixed.urdf_path,
             urdf_text=fixed.urdf_text,
             locked=fixed.locked,
+            drives=fixed.drives,
+            stribeck=fixed.stribeck,
+            passive_exponents=fixed.passive_exponents,
         )
-        self.drives = fixed.drives
-        self.stribeck = dict(fixed.stribeck)
-        self.passive_exponents = dict(fixed.passive_exponents)
         self.ff_model = ff_model
         self.ff_data = ff_model.createData()
         self.base_link = base_link
         self._bodies: RobotModel | None = None
+
+    def _copy_with(self, **attributes) -> "FloatingRobotModel":
+        out = super()._copy_with(**attributes)
+        out._bodies = None  # the body view carries the settings: built again for the copy
+        return out
 
     @property
     def bodies(self) -> RobotModel:
@@ -148,7 +153,7 @@ class FloatingRobotModel(RobotModel):
             raise DataError(
                 f"base_q: quaternion of sample {k} has norm {norms[k]:.6g}, expected a unit quaternion (x, y, z, w)"
             )
-        qj = q if not self._continuous else np.array([self.configuration(x) for x in q])
+        qj = q if not self.continuous else np.array([self.configuration(x) for x in q])
         Q = np.hstack([arrays["base_q"], qj])
         V = np.hstack([arrays["base_v"], arrays["dq"]])
         A = np.hstack([arrays["base_a"], arrays["ddq"]])
@@ -195,8 +200,8 @@ def body_view(model: FloatingRobotModel) -> RobotModel:
         urdf_path=model.urdf_path,
         urdf_text=model.urdf_text,
         locked=model.locked,
+        stribeck=model.stribeck,
     )
-    view.stribeck = dict(model.stribeck)
     return view
 
 
@@ -289,7 +294,7 @@ def contact_forces(model: FloatingRobotModel, base_q, q, wrenches: Sequence[Wren
     bq = np.atleast_2d(as_floats(base_q, "base_q"))
     qj = np.atleast_2d(as_floats(q, "q"))
     n = len(bq)
-    Q = np.hstack([bq, qj if not model._continuous else np.array([model.configuration(x) for x in qj])])
+    Q = np.hstack([bq, qj if not model.continuous else np.array([model.configuration(x) for x in qj])])
     m, d = model.ff_model, model.ff_data
     items = []
     for w in wrenches:

@@ -63,7 +63,7 @@ def regressor(
     inertial = out[:, :, :ni]
     m, d = model.pin_model, model.pin_model.createData()
     compute = pin.computeJointTorqueRegressor
-    if model._continuous:
+    if model.continuous:
         for k in range(n):
             inertial[k] = compute(m, d, model.configuration(q[k]), dq[k], ddq[k])
     else:

@@ -9,6 +9,7 @@ configuration layout is.  Standard inertial parameters per body are Pinocchio's
 from __future__ import annotations
 
 import contextlib
+import copy
 import importlib
 import io
 import numbers
@@ -20,6 +21,7 @@ import warnings
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
+from types import MappingProxyType
 from collections.abc import Callable, Iterator, Mapping, Sequence
 
 import numpy as np
@@ -186,6 +188,12 @@ class RobotModel:
     damping and friction are zero so that ``rnea`` is the rigid-body torque only; the joint friction
     read from the URDF ``<dynamics>`` tags is kept in ``coulomb`` [N·m] and ``viscous`` [N·m·s/rad].
     ``base`` is "fixed" (a floating base is :class:`pinid.model.floating.FloatingRobotModel`).
+
+    A model is built once with everything it needs: its ``drives`` (:class:`pinid.model.drives.Drives` or
+    None), ``stribeck`` shapes (``{term: pinid.model.terms.Stribeck}``) and the wearer's
+    ``passive_exponents`` are given at construction and read-only afterwards; :meth:`with_drives`,
+    :meth:`with_stribeck` and :meth:`with_passive_exponents` return a new model.
+    ``continuous``: the indices of the continuous joints (Pinocchio's cos/sin coordinates).
     """
 
     base = "fixed"
@@ -200,6 +208,9 @@ class RobotModel:
         urdf_path: Path | None = None,
         urdf_text: str | None = None,
         locked: Mapping[str, float] | None = None,
+        drives=None,
+        stribeck: Mapping | None = None,
+        passive_exponents: Mapping | None = None,
     ) -> None:
         self.pin_model = pin_model
         self.joints: tuple[JointInfo, ...] = tuple(joints)
@@ -208,11 +219,12 @@ class RobotModel:
         self.urdf_path = urdf_path
         self.urdf_text = urdf_text
         self.locked = dict(locked or {})
-        self.drives = None  # the robot's transmissions (pinid.model.drives.Drives) when it has any
-        self.stribeck = {}  # term name → pinid.model.terms.Stribeck (velocity, shape); default when absent
-        self.passive_exponents = {}  # anatomical joint → (terms, 4) exponent coefficients (pinid.wearer.passive)
+        self._drives = drives  # the robot's transmissions (pinid.model.drives.Drives) when it has any
+        self._stribeck = dict(stribeck or {})  # term → Stribeck, a private copy (read through .stribeck)
+        # anatomical joint → (terms, 4) exponent coefficients (pinid.wearer.passive), read through .passive_exponents
+        self._passive_exponents = dict(passive_exponents or {})
         self._data = pin_model.createData()
-        self._continuous = [i for i, j in enumerate(self.joints) if j.kind == "continuous"]
+        self._continuous = tuple(i for i, j in enumerate(self.joints) if j.kind == "continuous")
         self._idx_q = [pin_model.joints[i + 1].idx_q for i in range(len(self.joints))]
 
     # ------------------------------------------------------------------ construction
@@ -225,6 +237,7 @@ class RobotModel:
         locked: Mapping[str, float] | None = None,
         repair_inertia: bool = False,
         base: str = "fixed",
+        drives=None,
     ) -> "RobotModel":
         """Load a URDF file, a bundled robot name (``exo_leg``) or an example-robot-data name (``panda``).
 
@@ -237,7 +250,8 @@ class RobotModel:
         naming the body, and the repaired values are the model's (nominal, prior) parameters.
         ``locked``: joints held fixed at a value [rad or m]; other inactive joints are held at 0 (or at
         the middle of their range when 0 is outside it).  The URDF's ``<transmission>`` elements become
-        ``drives`` (:mod:`pinid.model.drives`).  ``base``: "fixed" (the root link bolted to the world) or
+        ``drives`` (:mod:`pinid.model.drives`) unless ``drives`` (a :class:`~pinid.model.drives.Drives` or a
+        drives TOML path) replaces them.  ``base``: "fixed" (the root link bolted to the world) or
         "floating" (on a free flyer: :class:`pinid.model.floating.FloatingRobotModel`, docs/floating-base.md).
         """
         if base != "fixed" and base not in BASE_BUILDERS:
@@ -253,6 +267,9 @@ class RobotModel:
             or not all(isinstance(v, numbers.Real) and not isinstance(v, bool) for v in locked.values())
         ):
             raise JointError(f"locked {locked!r}: expected {{joint name: value [rad or m]}}")
+        from pinid.model.drives import Drives, as_drives, urdf_transmissions
+
+        as_drives(drives, None)  # a wrong type fails before the URDF is read
         path, preset_locked = resolve_robot(urdf)
         text = _read_urdf_text(path)
         with _captured_stderr() as printed:
@@ -322,6 +339,11 @@ class RobotModel:
         model.damping[:] = 0.0
         model.friction[:] = 0.0
         infos = [_joint_info(model, model.getJointId(n)) for n in active]
+        if drives is not None:
+            drives = as_drives(drives, active)
+        else:
+            transmissions = urdf_transmissions(text, active, path.name)
+            drives = Drives(list(active), transmissions, {}, f"{path.name} <transmission>") if transmissions else None
         robot = cls(
             model,
             infos,
@@ -330,15 +352,65 @@ class RobotModel:
             urdf_path=path,
             urdf_text=text,
             locked={k: v for k, v in lock.items() if k not in active},
+            drives=drives,
         )
-        from pinid.model.drives import Drives, urdf_transmissions
-
-        transmissions = urdf_transmissions(text, active, path.name)
-        if transmissions:
-            robot.drives = Drives(list(active), transmissions, {}, f"{path.name} <transmission>")
         if base != "fixed":
             return BASE_BUILDERS[base](robot, text, path)
         return robot
+
+    # ------------------------------------------------------------------ settings (read-only: built once)
+    @property
+    def drives(self):
+        """The robot's transmissions (:class:`pinid.model.drives.Drives`), None when it has none."""
+        return self._drives
+
+    @property
+    def stribeck(self) -> Mapping:
+        """``{term: pinid.model.terms.Stribeck}``: the Stribeck shapes the model sets (read-only; a term
+        absent here has the default shape, :func:`pinid.model.terms.stribeck`)."""
+        return MappingProxyType(self._stribeck)
+
+    @property
+    def passive_exponents(self) -> Mapping:
+        """``{anatomical joint: (terms, 4) exponent coefficients}`` of the wearer's passive moments
+        (:mod:`pinid.wearer.passive`; read-only, empty for the published ones)."""
+        return MappingProxyType(self._passive_exponents)
+
+    @property
+    def continuous(self) -> tuple[int, ...]:
+        """Indices of the continuous joints (their Pinocchio coordinates are cos, sin); empty when none."""
+        return self._continuous
+
+    def _copy_with(self, **attributes) -> "RobotModel":
+        """A shallow copy of this model with some attributes replaced (the construction of with_*)."""
+        out = copy.copy(self)
+        for key, value in attributes.items():
+            setattr(out, key, value)
+        return out
+
+    def with_drives(self, drives) -> "RobotModel":
+        """A copy of this model with other drives: a :class:`~pinid.model.drives.Drives`, a drives TOML path,
+        or None for none (this model is left as it is)."""
+        from pinid.model.drives import as_drives
+
+        return self._copy_with(_drives=as_drives(drives, self.joint_names))
+
+    def with_stribeck(self, settings: Mapping) -> "RobotModel":
+        """A copy of this model with these Stribeck shapes ``{term: Stribeck}`` on top of its own (this model
+        is left as it is)."""
+        shapes = settings.values() if isinstance(settings, Mapping) else ()
+        if not isinstance(settings, Mapping) or not all(callable(getattr(v, "factor", None)) for v in shapes):
+            raise ModelError(f"settings: got {type(settings).__name__}, expected {{term: pinid.model.terms.Stribeck}}")
+        return self._copy_with(_stribeck={**self._stribeck, **settings})
+
+    def with_passive_exponents(self, exponents: Mapping) -> "RobotModel":
+        """A copy of this model whose wearer passive-moment exponents are ``exponents`` (replacing its own;
+        ``{}`` for the published ones; checked by :func:`pinid.wearer.passive.check_exponents`)."""
+        if not isinstance(exponents, Mapping):
+            raise ModelError(
+                f"exponents: got {type(exponents).__name__}, expected {{anatomical joint: (terms, 4) array}}"
+            )
+        return self._copy_with(_passive_exponents=dict(exponents))
 
     # ------------------------------------------------------------------ description
     @property
@@ -419,10 +491,10 @@ class RobotModel:
             urdf_path=self.urdf_path,
             urdf_text=self.urdf_text,
             locked=self.locked,
+            drives=self.drives,
+            stribeck=self.stribeck,
+            passive_exponents=self.passive_exponents,
         )
-        out.drives = self.drives
-        out.stribeck = dict(self.stribeck)
-        out.passive_exponents = dict(self.passive_exponents)
         return out
 
     # ------------------------------------------------------------------ kinematics helpers

@@ -83,9 +83,11 @@ def robot_from_dict(d: dict) -> tuple[RobotModel, JointTerms]:
     if d.get("drives") is not None:
         from pinid.model.drives import Drives
 
-        model.drives = Drives.from_dict(d["drives"], model.joint_names, "saved drives")
-    model.stribeck = stribeck_from_dict(d.get("stribeck") or {}, "saved robot: 'stribeck'")
-    model.passive_exponents = check_exponents(d.get("passive_exponents") or {}, "saved robot: 'passive_exponents'")
+        model = model.with_drives(Drives.from_dict(d["drives"], model.joint_names, "saved drives"))
+    model = model.with_stribeck(stribeck_from_dict(d.get("stribeck") or {}, "saved robot: 'stribeck'"))
+    model = model.with_passive_exponents(
+        check_exponents(d.get("passive_exponents") or {}, "saved robot: 'passive_exponents'")
+    )
     return model, terms
 
 

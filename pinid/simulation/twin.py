@@ -155,7 +155,7 @@ class Plant:
         self._ivs = 1.0 / coulomb_velocity
         self._data = model.pin_model.createData()
         self._eye = np.eye(model.nv)
-        self._conf = model.configuration if model._continuous else (lambda x: x)
+        self._conf = model.configuration if model.continuous else (lambda x: x)
         extra = [(_terms.TERMS[n], np.asarray(v, dtype=float)) for n, v in (terms or {}).items()]
         self.extra = [(t, v) for t, v in extra if not t.inertia]
         added = sum((v for t, v in extra if t.inertia), np.zeros(model.nv))
@@ -483,7 +483,7 @@ def _simulate(
             stacklevel=3,
         )
     pm, pdata = model.pin_model, model.pin_model.createData()
-    cont = bool(model._continuous)
+    cont = bool(model.continuous)
     conf = model.configuration if cont else (lambda x: x)
     # gains
     Mjj = np.diag(pin.crba(pm, pdata, conf(qd[0]))).copy()

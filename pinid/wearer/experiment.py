@@ -69,7 +69,7 @@ def wearer_experiment(
     stage1 = identify(exo, exo_run, methods=["sdp"])["sdp"].model
     table = RobotModel.from_urdf(exo_with_wearer)
     plant, _ = draw_wearer(table, seed)
-    plant.passive_exponents = dict(true_exponents or {})
+    plant = plant.with_passive_exponents(dict(true_exponents or {}))
     train, _ = simulate(plant, excitation, seconds=seconds, seed=seed + 2, wearer_torque=wearer_torque)
     valid, _ = simulate(plant, validation, seconds=seconds / 2, seed=seed + 3, wearer_torque=wearer_torque)
     train, valid = prepare_dataset(train), prepare_dataset(valid)

@@ -23,7 +23,6 @@ mass × length²; ``kp``: 1).
 
 from __future__ import annotations
 
-import copy
 import os
 import time
 from collections.abc import Sequence
@@ -90,8 +89,7 @@ class WearerFit:
         theta = np.concatenate([exo.theta[: 10 * nv] + w[: 10 * nv], block])
         robot = self.robot
         if which == "table" and robot.passive_exponents:  # the table wearer: the published exponents
-            robot = copy.copy(robot)
-            robot.passive_exponents = {}
+            robot = robot.with_passive_exponents({})
         return IdentifiedModel(robot, terms, theta, meta={"wearer": which})
 
     def rms(self, datasets) -> dict[str, dict[str, float]]:
@@ -259,8 +257,7 @@ def identify_wearer(
         from pinid.wearer.exponents import fit_exponents
 
         refined = fit_exponents(robot, W[:, : -len(mapped)] if mapped else W, y, q)
-        robot = copy.copy(robot)  # the caller's model keeps the published exponents
-        robot.passive_exponents = refined.fitted
+        robot = robot.with_passive_exponents(refined.fitted)  # the caller's model keeps the published exponents
         W = regressor(robot, q, dq, ddq, terms)[:, free]
     S = _scale(priors, nv, nt)[free]
     z0 = table[free] / S
