@@ -16,7 +16,8 @@ from pinid.data.formats import read_recording
 from pinid.data.mapping import MappingSpec
 from pinid.data.preprocess import prepare
 from pinid.errors import DataError, DataWarning, ModelError, SpecError
-from pinid.model.robot import MAX_URDF_JOINTS, RobotModel
+from pinid.model.robot import RobotModel
+from pinid.model.urdf import MAX_URDF_JOINTS
 
 ROOT = Path(__file__).resolve().parents[1]
 EXO = (ROOT / "urdf" / "exo_leg.urdf").read_text()

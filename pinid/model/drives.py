@@ -35,7 +35,6 @@ from __future__ import annotations
 
 import os
 import re
-import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 from typing import Any
 from collections.abc import Mapping, Sequence
@@ -43,6 +42,7 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 
 from pinid.errors import ModelError, SpecError
+from pinid.model.urdf import Element, UrdfDocument
 
 #: Keys of a ``[motors.<name>]`` table of a drives file: the motor terms' parameter suffixes.
 MOTOR_VALUE_KEYS: tuple[str, ...] = ("fc", "fv", "armature", "offset", "fc_pos", "fc_neg", "fs")
@@ -256,7 +256,7 @@ def load_drives(path: str | os.PathLike, joints: Sequence[str]) -> Drives:
     return Drives.from_dict(d, joints, str(p))
 
 
-def _number(el: ET.Element | None, tag: str, origin: str, default: float | None = None) -> float:
+def _number(el: Element | None, tag: str, origin: str, default: float | None = None) -> float:
     sub = el.find(tag) if el is not None else None
     if sub is None or not (sub.text or "").strip():
         if default is None:
@@ -271,15 +271,18 @@ def _number(el: ET.Element | None, tag: str, origin: str, default: float | None 
     return v
 
 
-def urdf_transmissions(urdf_text: str, joints: Sequence[str], origin: str = "URDF") -> list[Transmission]:
-    """The transmissions of a URDF's ``<transmission>`` elements among the active ``joints`` (module text)."""
-    if not isinstance(urdf_text, str):
+def urdf_transmissions(
+    urdf_text: str | UrdfDocument, joints: Sequence[str], origin: str = "URDF"
+) -> list[Transmission]:
+    """The transmissions of a URDF's ``<transmission>`` elements among the active ``joints`` (module text);
+    ``urdf_text``: the URDF's text or its :class:`~pinid.model.urdf.UrdfDocument` (a model's, read once)."""
+    if not isinstance(urdf_text, (str, UrdfDocument)):
         raise ModelError(f"urdf_text: got {type(urdf_text).__name__}, expected the URDF's text")
     _names(joints, "joints", ModelError)
-    root = ET.fromstring(urdf_text)
-    known = {j.get("name") for j in root.findall("joint")}
+    document = urdf_text if isinstance(urdf_text, UrdfDocument) else UrdfDocument.from_text(urdf_text, origin)
+    known = document.joint_names()
     out = []
-    for tr in root.findall("transmission"):
+    for tr in document.transmissions():
         name = tr.get("name", "?")
         where = f"{origin}: <transmission name={name!r}>"
         kind = (tr.findtext("type") or tr.get("type") or "").strip().split("/")[-1]
@@ -318,7 +321,7 @@ def urdf_transmissions(urdf_text: str, joints: Sequence[str], origin: str = "URD
     return out
 
 
-def _by_role(els: list[ET.Element], roles: tuple[str, str], where: str) -> list[ET.Element]:
+def _by_role(els: list[Element], roles: tuple[str, str], where: str) -> list[Element]:
     by = {(e.findtext("role") or "").strip(): e for e in els}
     if set(by) != set(roles):
         raise ModelError(f"{where}: roles {sorted(by)}, expected {list(roles)}")

@@ -23,7 +23,6 @@ A physically inconsistent set is refused unless ``force=True``.  Comments of the
 from __future__ import annotations
 
 import os
-import xml.etree.ElementTree as ET
 
 import numpy as np
 
@@ -34,13 +33,7 @@ from pinid.model.physical import check_consistency, com_inertia
 from pinid.model import terms as _terms
 from pinid.model.regressor import JointTerms
 from pinid.io import write_text
-
-
-def _comment(text: str) -> ET.Element:
-    """An XML comment; "--" may not appear inside one (the file would not parse), so it is spaced out."""
-    while "--" in text:
-        text = text.replace("--", "- -")
-    return ET.Comment(text if not text.endswith("-") else text + " ")
+from pinid.model.urdf import Element, xml_comment, new_element, sub_element, xml_text
 
 
 def _num(x: float) -> str:
@@ -48,7 +41,7 @@ def _num(x: float) -> str:
     return "0" if x == 0 else f"{x:.17g}"
 
 
-def _link_owners(root: ET.Element, active: list[str]) -> tuple[dict[str, str | None], dict[str, str]]:
+def _link_owners(root: Element, active: list[str]) -> tuple[dict[str, str | None], dict[str, str]]:
     """For every link, the active joint whose body it is merged into (None: fixed to the world);
     and for every active joint, its child link."""
     parent_joint = {}
@@ -90,6 +83,26 @@ def identified_urdf(
     Written atomically to ``path`` when given.  The file's first comment reads ``origin (comment)``.  Raises
     ModelError for an inconsistent set unless ``force``, or when the model has no URDF text.
     """
+    root = identified_urdf_tree(model, theta, terms, force=force, comment=comment, origin=origin)
+    text = xml_text(root, '<?xml version="1.0" encoding="utf-8"?>\n')
+    if not force:
+        _check_loads(text, model)
+    if path is not None:
+        write_text(path, text)
+    return text
+
+
+def identified_urdf_tree(
+    model: RobotModel,
+    theta: np.ndarray,
+    terms: JointTerms,
+    *,
+    force: bool = False,
+    comment: str | None = None,
+    origin: str = "identified by pinid",
+) -> Element:
+    """The element tree of :func:`identified_urdf` (the model's URDF document edited), for a writer that
+    edits it further (:func:`pinid.model.floating.floating_urdf`); not yet checked to load back."""
     model = as_robot(model)
     theta = np.asarray(theta, dtype=float)
     nv, nt = model.nv, _terms.count(model, terms)
@@ -104,8 +117,7 @@ def identified_urdf(
         )
     if not model.urdf_text:
         raise ModelError(f"{model.name}: no URDF text to edit")
-    parser = ET.XMLParser(target=ET.TreeBuilder(insert_comments=True))
-    root = ET.fromstring(model.urdf_text, parser=parser)
+    root = model.urdf_document.tree()
     active = model.joint_names
     owners, child_of = _link_owners(root, active)
     links = {link.get("name"): link for link in root.findall("link")}
@@ -121,7 +133,7 @@ def identified_urdf(
         if merged:
             link.insert(
                 0,
-                _comment(
+                xml_comment(
                     f" pinid: identified inertia of body '{jname}', including merged link(s) {', '.join(merged)} "
                 ),
             )
@@ -131,7 +143,7 @@ def identified_urdf(
             continue
         for el in link.findall("inertial"):
             link.remove(el)
-        link.insert(0, _comment(f" pinid: inertial removed; it is part of the identified body of joint '{owner}' "))
+        link.insert(0, xml_comment(f" pinid: inertial removed; it is part of the identified body of joint '{owner}' "))
     params = _terms.robot_layout(model, terms)
     for i, jname in enumerate(active):
         jel = joints[jname]
@@ -140,26 +152,20 @@ def identified_urdf(
         if fields:
             dyn = jel.find("dynamics")
             if dyn is None:
-                dyn = ET.SubElement(jel, "dynamics")
+                dyn = sub_element(jel, "dynamics")
             for t, v in sorted(fields, key=lambda tv: tv[0].field):
                 dyn.set(t.field, _num(v))
         extra = [f"{t.suffix} {_num(v)} {t.unit}" for t, v in mine if not t.field]
         if extra:
-            jel.append(_comment(f" pinid: {', '.join(extra)} (no URDF field) "))
+            jel.append(xml_comment(f" pinid: {', '.join(extra)} (no URDF field) "))
     head = (
         f" {origin}{' (' + comment + ')' if comment else ''}: inertials of the moving links and "
         f"joint friction replaced; physically consistent: {'yes' if report.consistent else 'NO (forced)'}"
         + (f"; locked joints: {', '.join(f'{k}={v:g}' for k, v in model.locked.items())}" if model.locked else "")
         + " "
     )
-    root.insert(0, _comment(head))
-    ET.indent(root, space="  ")
-    text = '<?xml version="1.0" encoding="utf-8"?>\n' + ET.tostring(root, encoding="unicode") + "\n"
-    if not force:
-        _check_loads(text, model)
-    if path is not None:
-        write_text(path, text)
-    return text
+    root.insert(0, xml_comment(head))
+    return root
 
 
 def _check_loads(text: str, model: RobotModel) -> None:
@@ -179,21 +185,21 @@ def _check_loads(text: str, model: RobotModel) -> None:
             ) from None
 
 
-def _set_inertial(link: ET.Element, m: float, c: np.ndarray, I: np.ndarray) -> None:
+def _set_inertial(link: Element, m: float, c: np.ndarray, I: np.ndarray) -> None:
     for el in link.findall("inertial"):
         link.remove(el)
     link.insert(0, inertial_element(m, c, I))
 
 
-def inertial_element(mass: float, com, inertia, number=_num) -> ET.Element:
+def inertial_element(mass: float, com, inertia, number=_num) -> Element:
     """A URDF ``<inertial>``: ``mass`` [kg], ``com`` (3,) [m] in the link frame, ``inertia`` (3, 3) [kg·m²]
     about the centre of mass in link axes; ``number`` formats each value (default: all 17 digits)."""
     mass = finite_number(mass, "mass")
     I = np.asarray(inertia, dtype=float)
-    inertial = ET.Element("inertial")
-    ET.SubElement(inertial, "origin", xyz=" ".join(number(x) for x in com), rpy="0 0 0")
-    ET.SubElement(inertial, "mass", value=number(mass))
-    ET.SubElement(
+    inertial = new_element("inertial")
+    sub_element(inertial, "origin", xyz=" ".join(number(x) for x in com), rpy="0 0 0")
+    sub_element(inertial, "mass", value=number(mass))
+    sub_element(
         inertial,
         "inertia",
         ixx=number(I[0, 0]),

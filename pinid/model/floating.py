@@ -73,6 +73,7 @@ class FloatingRobotModel(RobotModel):
             drives=fixed.drives,
             stribeck=fixed.stribeck,
             passive_exponents=fixed.passive_exponents,
+            urdf_document=fixed.urdf_document,
         )
         self.ff_model = ff_model
         self.ff_data = ff_model.createData()
@@ -201,6 +202,7 @@ def body_view(model: FloatingRobotModel) -> RobotModel:
         urdf_text=model.urdf_text,
         locked=model.locked,
         stribeck=model.stribeck,
+        urdf_document=model.urdf_document,
     )
     return view
 
@@ -394,10 +396,9 @@ def floating_urdf(
     :func:`pinid.model.export.identified_urdf` writes them, and the base link's ``<inertial>`` from ``theta[:10]``
     (the links welded to it — fixed joints, locked joints — lose theirs: they are part of that body).  ModelError
     for a physically inconsistent set unless ``force``.  Written atomically to ``path`` when given."""
-    import xml.etree.ElementTree as ET
-
     from pinid.io import write_text
-    from pinid.model.export import identified_urdf, inertial_element
+    from pinid.model.export import identified_urdf_tree, inertial_element
+    from pinid.model.urdf import xml_comment, xml_text
     from pinid.model.physical import check_consistency, com_inertia
 
     model = as_floating(model)
@@ -413,10 +414,9 @@ def floating_urdf(
         )
     k = len(terms.joint)
     fixed = np.r_[theta[10 : 10 * (model.nv + 1)], theta[10 * (model.nv + 1) + k :]]
-    text = identified_urdf(
+    root = identified_urdf_tree(
         model, fixed, terms, force=True, comment=comment, origin="identified by pinid (floating base)"
     )
-    root = ET.fromstring(text, parser=ET.XMLParser(target=ET.TreeBuilder(insert_comments=True)))
     links = {link.get("name"): link for link in root.findall("link")}
     welded, changed = {model.base_link}, True
     while changed:  # links reached from the base link through joints that are not active
@@ -433,12 +433,11 @@ def floating_urdf(
     links[model.base_link].insert(0, inertial_element(m, c, I))
     links[model.base_link].insert(
         0,
-        ET.Comment(
+        xml_comment(
             f" pinid: identified inertia of the floating base, links welded to it: {', '.join(sorted(welded))} "
         ),
     )
-    ET.indent(root, space="  ")
-    out = '<?xml version="1.0" encoding="utf-8"?>\n' + ET.tostring(root, encoding="unicode") + "\n"
+    out = xml_text(root, '<?xml version="1.0" encoding="utf-8"?>\n')
     if path is not None:
         write_text(path, out)
     return out

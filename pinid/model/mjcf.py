@@ -34,7 +34,6 @@ principal moment), is refused with a :class:`~pinid.errors.ModelError` naming th
 from __future__ import annotations
 
 import os
-import xml.etree.ElementTree as ET
 
 import numpy as np
 import pinocchio as pin
@@ -47,6 +46,7 @@ from pinid.model.physical import check_consistency, com_inertia
 from pinid.model.regressor import JointTerms
 from pinid.model.robot import RobotModel, as_robot
 from pinid.model.terms import as_terms
+from pinid.model.urdf import Element, UrdfDocument, is_element, new_element, sub_element, xml_comment, xml_text
 
 #: Smallest mass [kg] and principal moment [kg·m²] written; MuJoCo refuses moving bodies below its mjMINVAL (1e-15).
 MIN_VALUE = 1e-12
@@ -66,19 +66,13 @@ def _vec(v) -> str:
     return " ".join(_num(x) for x in v)
 
 
-def _comment(text: str) -> ET.Element:
-    while "--" in text:
-        text = text.replace("--", "- -")
-    return ET.Comment(text if not text.endswith("-") else text + " ")
-
-
 def _quat(R: np.ndarray) -> np.ndarray:
     """MuJoCo's quaternion (w, x, y, z) of a rotation matrix."""
     x, y, z, w = pin.Quaternion(np.asarray(R, dtype=float)).coeffs()
     return np.array([w, x, y, z])
 
 
-def _placement(el: ET.Element, M: pin.SE3) -> None:
+def _placement(el: Element, M: pin.SE3) -> None:
     if np.any(M.translation != 0):
         el.set("pos", _vec(M.translation))
     if not np.allclose(M.rotation, np.eye(3), rtol=0, atol=0):
@@ -165,20 +159,15 @@ def _mujoco_inertia(name: str, m: float, I: np.ndarray) -> tuple[np.ndarray, np.
     return e, V
 
 
-def _urdf_links(urdf_text: str) -> tuple[dict[str, ET.Element], dict[str, str], str]:
+def _urdf_links(document: UrdfDocument) -> tuple[dict[str, Element], dict[str, str], str]:
     """The URDF's links by name, the child link of every joint, and the root link."""
-    root = ET.fromstring(urdf_text)
-    links = {link.get("name"): link for link in root.findall("link")}
-    child = {}
-    for j in root.findall("joint"):
-        c = j.find("child")
-        if c is not None:
-            child[j.get("name")] = c.get("link")
+    links = {link.get("name"): link for link in document.links()}
+    child = document.child_links()
     roots = [n for n in links if n not in set(child.values())]
     return links, child, (roots[0] if roots else next(iter(links)))
 
 
-def _origin(el: ET.Element | None) -> pin.SE3:
+def _origin(el: Element | None) -> pin.SE3:
     if el is None:
         return pin.SE3.Identity()
     xyz = np.array([float(x) for x in (el.get("xyz") or "0 0 0").split()])
@@ -190,13 +179,13 @@ def _origin(el: ET.Element | None) -> pin.SE3:
 _DISPLAY = {"contype": "0", "conaffinity": "0", "group": "1", "rgba": "0.6 0.6 0.6 1"}
 
 
-def _shape_geoms(link: ET.Element, M_link: pin.SE3, prefix: str, kind: str = "collision") -> list[ET.Element]:
+def _shape_geoms(link: Element, M_link: pin.SE3, prefix: str, kind: str = "collision") -> list[Element]:
     """MJCF geoms of a URDF link's box, cylinder and sphere shapes of ``kind`` ("collision": they collide;
     "visual": display only); ``M_link``: the link frame in the body."""
     out = []
     for k, col in enumerate(link.findall(kind)):
         geom = col.find("geometry")
-        shape = None if geom is None else next(iter(geom), None)
+        shape = None if geom is None else next(filter(is_element, geom), None)
         if shape is None or shape.tag not in ("box", "cylinder", "sphere"):
             continue
         try:
@@ -210,7 +199,7 @@ def _shape_geoms(link: ET.Element, M_link: pin.SE3, prefix: str, kind: str = "co
             continue  # urdfdom checked what Pinocchio needs; a shape MuJoCo cannot use is left out
         if not all(np.isfinite(size)) or min(size) <= 0:
             continue
-        el = ET.Element("geom", name=f"{prefix}_{kind}_{k}", type=shape.tag, size=_vec(size))
+        el = new_element("geom", name=f"{prefix}_{kind}_{k}", type=shape.tag, size=_vec(size))
         if kind == "visual":
             el.attrib.update(_DISPLAY)
         _placement(el, M_link * _origin(col.find("origin")))
@@ -260,21 +249,21 @@ def identified_mjcf(
     if base_theta is not None:  # the identified base link, with every link welded to it
         pm.inertias[1] = pin.Inertia.FromDynamicParameters(base_theta)
     fields, lost = joint_fields(model, theta, terms)
-    links, child_link, root_link = _urdf_links(model.urdf_text)
+    links, child_link, root_link = _urdf_links(model.urdf_document)
     active = {name: i for i, name in enumerate(model.joint_names)}
 
-    mj = ET.Element("mujoco", model=model.name)
+    mj = new_element("mujoco", model=model.name)
     head = (
         f" {origin}{' (' + comment + ')' if comment else ''} from {model.name}: inertials, armature, damping "
         f"(viscous friction), frictionloss (Coulomb friction); base {'floating (free joint)' if floating else 'fixed'}"
         + (f"; locked joints: {', '.join(f'{k}={v:g}' for k, v in model.locked.items())}" if model.locked else "")
         + f"; not exported: {'; '.join(lost) if lost else 'nothing'} "
     )
-    mj.append(_comment(head))
-    ET.SubElement(mj, "compiler", angle="radian", inertiafromgeom="false", autolimits="true")
-    ET.SubElement(mj, "option", gravity=_vec(pm.gravity.linear))
-    world = ET.SubElement(mj, "worldbody")
-    bodies: dict[int, ET.Element] = {}
+    mj.append(xml_comment(head))
+    sub_element(mj, "compiler", angle="radian", inertiafromgeom="false", autolimits="true")
+    sub_element(mj, "option", gravity=_vec(pm.gravity.linear))
+    world = sub_element(mj, "worldbody")
+    bodies: dict[int, Element] = {}
     names: dict[int, str] = {}
     pdata = pm.createData()
     pin.computeJointJacobians(pm, pdata, pin.neutral(pm))  # each joint's motion subspace: its axis
@@ -287,17 +276,17 @@ def identified_mjcf(
         return n if n != "world" else "world_link"  # MuJoCo's world body is called "world"
 
     if not floating:  # the root link (and what is fixed to it), welded to the world
-        bodies[0] = ET.SubElement(world, "body", name=body_name(0))
+        bodies[0] = sub_element(world, "body", name=body_name(0))
         names[0] = body_name(0)
     for jid in range(1, pm.njoints):
         parent = bodies.get(pm.parents[jid], world)
-        body = ET.SubElement(parent, "body", name=body_name(jid))
+        body = sub_element(parent, "body", name=body_name(jid))
         bodies[jid], names[jid] = body, body_name(jid)
         _placement(body, pm.jointPlacements[jid])
         jm = pm.joints[jid]
         jname = pm.names[jid]
         if jm.nv == 6:
-            ET.SubElement(body, "freejoint", name=jname)
+            sub_element(body, "freejoint", name=jname)
         else:
             _joint(body, pm, pdata, jid, model, active[jname], fields)
         inertia = pm.inertias[jid]
@@ -308,15 +297,14 @@ def identified_mjcf(
         else:
             m, c, I = inertia.mass, inertia.lever, inertia.inertia
         e, V = _mujoco_inertia(jname, m, I)
-        ET.SubElement(body, "inertial", pos=_vec(c), quat=_vec(_quat(V)), mass=_num(m), diaginertia=_vec(e))
+        sub_element(body, "inertial", pos=_vec(c), quat=_vec(_quat(V)), mass=_num(m), diaginertia=_vec(e))
     _geoms(pm, links, bodies, names)
-    act = ET.SubElement(mj, "actuator")
+    act = sub_element(mj, "actuator")
     for j in model.joints:
-        el = ET.SubElement(act, "motor", name=j.name, joint=j.name, gear="1")
+        el = sub_element(act, "motor", name=j.name, joint=j.name, gear="1")
         if np.isfinite(j.effort):
             el.set("ctrlrange", f"{_num(-j.effort)} {_num(j.effort)}")
-    ET.indent(mj, space="  ")
-    text = ET.tostring(mj, encoding="unicode") + "\n"
+    text = xml_text(mj)
     if path is not None:
         write_text(path, text)
     return text
@@ -328,7 +316,7 @@ def _fixed_part(theta: np.ndarray, nv: int, k: int) -> np.ndarray:
     return np.r_[theta[10 : 10 * (nv + 1)], theta[10 * (nv + 1) + k :]]
 
 
-def _joint(body: ET.Element, pm: pin.Model, data: pin.Data, jid: int, model: RobotModel, i: int, fields: dict) -> None:
+def _joint(body: Element, pm: pin.Model, data: pin.Data, jid: int, model: RobotModel, i: int, fields: dict) -> None:
     """The MJCF joint of Pinocchio joint ``jid`` (active joint ``i``): type, axis, range, terms; ``data``
     holds the joint Jacobians (any configuration: a 1-DOF joint's axis is constant in its own frame)."""
     S = pin.getJointJacobian(pm, data, jid, pin.LOCAL)[:, pm.joints[jid].idx_v]  # (linear, angular)
@@ -336,7 +324,7 @@ def _joint(body: ET.Element, pm: pin.Model, data: pin.Data, jid: int, model: Rob
     axis = S[:3] if kind == "slide" else S[3:]
     axis = np.where(np.abs(axis) < 1e-15 * np.abs(axis).max(), 0.0, axis)  # composition leaves 1e-32s
     info = model.joints[i]
-    el = ET.SubElement(body, "joint", name=info.name, type=kind, axis=_vec(axis / np.linalg.norm(axis)))
+    el = sub_element(body, "joint", name=info.name, type=kind, axis=_vec(axis / np.linalg.norm(axis)))
     if info.kind != "continuous" and np.isfinite(info.lower) and np.isfinite(info.upper):
         el.set("range", f"{_num(info.lower)} {_num(info.upper)}")
     for attr in ("armature", "damping", "frictionloss"):
@@ -344,7 +332,7 @@ def _joint(body: ET.Element, pm: pin.Model, data: pin.Data, jid: int, model: Rob
             el.set(attr, _num(fields[attr][i]))
 
 
-def _geoms(pm: pin.Model, links: dict, bodies: dict[int, ET.Element], names: dict[int, str]) -> None:
+def _geoms(pm: pin.Model, links: dict, bodies: dict[int, Element], names: dict[int, str]) -> None:
     """Collision and visual shapes of every URDF link in the body it belongs to; display capsules for bodies
     with neither."""
     has = set()
@@ -366,10 +354,10 @@ def _geoms(pm: pin.Model, links: dict, bodies: dict[int, ET.Element], names: dic
         pos = next((k for k, el in enumerate(body) if el.tag == "body"), len(body))
         extra = _DISPLAY
         if not ends:
-            g = ET.Element("geom", name=f"{names[jid]}_display", type="sphere", size=_num(CAPSULE_RADIUS), **extra)
+            g = new_element("geom", name=f"{names[jid]}_display", type="sphere", size=_num(CAPSULE_RADIUS), **extra)
             body.insert(pos, g)
         for k, e in enumerate(ends):
-            g = ET.Element(
+            g = new_element(
                 "geom",
                 name=f"{names[jid]}_display_{k}",
                 type="capsule",

@@ -14,11 +14,9 @@ import importlib
 import io
 import numbers
 import os
-import re
 import sys
 import tempfile
 import warnings
-import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
 from types import MappingProxyType
@@ -29,15 +27,12 @@ import pinocchio as pin
 
 from pinid.checks import as_floats, as_state, as_states, as_vector, count, number, same_length
 from pinid.errors import JointError, ModelError, ModelWarning
-from pinid.io import read_bounded_file
 from pinid.model.bundled import resolve_robot
+from pinid.model.urdf import UrdfDocument
 
 #: Names of the 10 standard inertial parameters of a body, in Pinocchio's order.
 INERTIAL_NAMES: tuple[str, ...] = ("m", "mx", "my", "mz", "Ixx", "Ixy", "Iyy", "Ixz", "Iyz", "Izz")
 
-_MAX_URDF_BYTES = 50 * 1024 * 1024
-#: Most joints accepted in a URDF (fixed ones included); deeper chains crash urdfdom's recursive parser.
-MAX_URDF_JOINTS = 1000
 #: Tolerance of the inertia checks, relative to the body's trace of inertia [kg·m²] (CAD rounding).
 INERTIA_TOL = 1e-6
 _UNBOUNDED = 1e10  # |limit| above this is treated as no limit
@@ -49,101 +44,13 @@ BASE_BUILDERS: dict[str, Callable] = {}
 BASE_MODULES: dict[str, str] = {"floating": "pinid.model.floating"}
 
 
-def _read_urdf_text(path: Path) -> str:
-    """Read and sanity-check a URDF file; return its text.  Rejects entity declarations (XML bombs)."""
-    raw = read_bounded_file(path, "URDF file", error=ModelError, limit=_MAX_URDF_BYTES)
-    if not raw:
-        raise ModelError(f"{path}: file is empty, expected a URDF file")
-    if b"\x00" in raw[:4096]:
-        raise ModelError(f"{path}: binary file, expected a URDF (XML text)")
-    try:
-        text = raw.decode("utf-8-sig")
-    except UnicodeDecodeError as exc:
-        raise ModelError(f"{path}: not UTF-8 text (byte {exc.start}), expected a URDF in UTF-8") from None
-    if re.search(r"<!ENTITY", text, re.IGNORECASE) or re.search(r"<!DOCTYPE", text, re.IGNORECASE):
-        raise ModelError(f"{path}: contains a DOCTYPE/ENTITY declaration, which a URDF does not need; refused")
-    try:
-        root = ET.fromstring(text)
-    except ET.ParseError as exc:
-        raise ModelError(f"{path}: not well-formed XML ({exc}), expected a URDF") from None
-    if root.tag != "robot":
-        raise ModelError(f"{path}: root element is <{root.tag}>, expected <robot> (a URDF)")
-    _check_joint_elements(root, path)
-    declared = {link.get("name") for link in root.findall("link")}
-    parents = {j.find("parent").get("link") for j in root.findall("joint") if j.find("parent") is not None}
-    children = {j.find("child").get("link") for j in root.findall("joint") if j.find("child") is not None}
-    missing_children = sorted(c for c in children if c not in declared)
-    if missing_children:
-        raise ModelError(f"{path}: joint child link(s) {missing_children} are not declared as <link>")
-    # Many exporters weld the robot to a "world" link they never declare; urdfdom refuses that.
-    # Declaring the missing root link is what the URDF spec asks for and changes nothing else.
-    missing_roots = sorted(p for p in parents if p and p not in declared)
-    if missing_roots:
-        extra = "".join(f'<link name="{name}"/>' for name in missing_roots)
-        text = re.sub(r"(<robot\b[^>]*>)", lambda m: m.group(1) + extra, text, count=1)
-    return text
-
-
-def _check_joint_elements(root: ET.Element, path: Path) -> None:
-    """What urdfdom and Pinocchio would crash on, ignore or accept silently: too many joints, a link
-    with two parent joints, a zero axis, lower limit above the upper one (mimic joints: :func:`_check_mimics`)."""
-    joints = root.findall("joint")
-    if len(joints) > MAX_URDF_JOINTS:
-        raise ModelError(
-            f"{path}: {len(joints)} joints, more than pinid accepts ({MAX_URDF_JOINTS}); expected a robot URDF"
-        )
-    parent_of: dict[str, str] = {}
-    for j in joints:
-        name = j.get("name", "?")
-        child = j.find("child")
-        if child is not None and child.get("link") in parent_of:
-            raise ModelError(
-                f"{path}: link '{child.get('link')}' is the child of joints '{parent_of[child.get('link')]}' "
-                f"and '{name}'; expected a tree (one parent joint per link, no closed loops)"
-            )
-        if child is not None:
-            parent_of[child.get("link")] = name
-        if j.get("type") in ("fixed", "floating", "planar"):
-            continue
-        axis = j.find("axis")
-        if axis is not None and axis.get("xyz") is not None:
-            try:
-                xyz = [float(x) for x in axis.get("xyz").split()]
-            except ValueError:
-                xyz = []  # urdfdom says what is wrong with it
-            with np.errstate(over="ignore", invalid="ignore"):
-                squared = float(np.sum(np.square(xyz))) if len(xyz) == 3 else 1.0
-            if not np.isfinite(squared):  # urdfdom normalises by sqrt(x² + y² + z²): inf, the axis becomes 0
-                why = "is not finite" if not np.all(np.isfinite(xyz)) else "has a length that overflows"
-                raise ModelError(
-                    f"{path}: joint '{name}' has axis xyz=\"{axis.get('xyz')}\", which {why}; "
-                    'expected a finite direction (it is normalised), e.g. "0 -1 0"'
-                )
-            if len(xyz) == 3 and not np.linalg.norm(xyz) > 1e-12:
-                raise ModelError(
-                    f"{path}: joint '{name}' has axis xyz=\"{axis.get('xyz')}\"; expected a non-zero direction"
-                )
-        limit = j.find("limit")
-        if limit is not None and j.get("type") != "continuous":
-            try:
-                lo, hi = float(limit.get("lower", 0)), float(limit.get("upper", 0))
-            except ValueError:
-                continue  # urdfdom says what is wrong with it
-            if lo > hi:
-                raise ModelError(
-                    f"{path}: joint '{name}' has lower limit {lo:g} above its upper limit {hi:g}; "
-                    "expected lower <= upper"
-                )
-
-
-def _check_mimics(text: str, active: Sequence[str], path: Path) -> None:
+def _check_mimics(document: UrdfDocument, active: Sequence[str], path: Path) -> None:
     """Refuse an active joint that mimics another (Pinocchio would treat it as independent); a locked one is fine."""
-    for j in ET.fromstring(text).findall("joint"):
-        mimic = j.find("mimic")
-        if mimic is not None and j.get("name") in active:
+    for name, mimicked in document.mimic_joints().items():
+        if name in active:
             raise ModelError(
-                f"{path}: mimic joints are not supported: joint '{j.get('name')}' mimics "
-                f"'{mimic.get('joint')}'; expected independent joints (lock it with --lock)"
+                f"{path}: mimic joints are not supported: joint '{name}' mimics "
+                f"'{mimicked}'; expected independent joints (lock it with --lock)"
             )
 
 
@@ -211,13 +118,15 @@ class RobotModel:
         drives=None,
         stribeck: Mapping | None = None,
         passive_exponents: Mapping | None = None,
+        urdf_document: UrdfDocument | None = None,
     ) -> None:
         self.pin_model = pin_model
         self.joints: tuple[JointInfo, ...] = tuple(joints)
         self.coulomb = np.asarray(coulomb, dtype=float)
         self.viscous = np.asarray(viscous, dtype=float)
         self.urdf_path = urdf_path
-        self.urdf_text = urdf_text
+        self.urdf_text = urdf_document.text if urdf_document is not None else urdf_text
+        self._urdf_document = urdf_document
         self.locked = dict(locked or {})
         self._drives = drives  # the robot's transmissions (pinid.model.drives.Drives) when it has any
         self._stribeck = dict(stribeck or {})  # term → Stribeck, a private copy (read through .stribeck)
@@ -271,7 +180,8 @@ class RobotModel:
 
         as_drives(drives, None)  # a wrong type fails before the URDF is read
         path, preset_locked = resolve_robot(urdf)
-        text = _read_urdf_text(path)
+        document = UrdfDocument.read(path)
+        text = document.text
         with _captured_stderr() as printed:
             try:
                 full = pin.buildModelFromXML(text)
@@ -299,14 +209,14 @@ class RobotModel:
         for n in list(lock) + list(joints or []):
             if n not in names:
                 raise JointError(f"joint '{n}' is not in {path.name} (its joints: {', '.join(names)})")
-        mimics = _mimic_joints(text) if joints is None else set()
+        mimics = set(document.mimic_joints()) if joints is None else set()
         active = list(joints) if joints is not None else [n for n in names if n not in lock and n not in mimics]
         if not active:
             raise ModelError(f"{path}: every movable joint is locked, expected at least one active joint")
         for n in active:
             if n in lock:
                 raise ModelError(f"joint '{n}' is both active and locked, expected one or the other")
-        _check_mimics(text, active, path)
+        _check_mimics(document, active, path)
         infos_full = {n: _joint_info(full, full.getJointId(n)) for n in names}
         q_ref = pin.neutral(full)
         to_lock = []
@@ -342,7 +252,7 @@ class RobotModel:
         if drives is not None:
             drives = as_drives(drives, active)
         else:
-            transmissions = urdf_transmissions(text, active, path.name)
+            transmissions = urdf_transmissions(document, active, path.name)
             drives = Drives(list(active), transmissions, {}, f"{path.name} <transmission>") if transmissions else None
         robot = cls(
             model,
@@ -350,9 +260,9 @@ class RobotModel:
             coulomb=coul,
             viscous=visc,
             urdf_path=path,
-            urdf_text=text,
             locked={k: v for k, v in lock.items() if k not in active},
             drives=drives,
+            urdf_document=document,
         )
         if base != "fixed":
             return BASE_BUILDERS[base](robot, text, path)
@@ -413,6 +323,13 @@ class RobotModel:
         return self._copy_with(_passive_exponents=dict(exponents))
 
     # ------------------------------------------------------------------ description
+    @property
+    def urdf_document(self) -> UrdfDocument | None:
+        """The URDF this model was built from, read once (:mod:`pinid.model.urdf`); None without URDF text."""
+        if self._urdf_document is None and self.urdf_text:
+            self._urdf_document = UrdfDocument.from_text(self.urdf_text, str(self.urdf_path or self.name))
+        return self._urdf_document
+
     @property
     def name(self) -> str:
         """The robot's name from the URDF."""
@@ -494,6 +411,7 @@ class RobotModel:
             drives=self.drives,
             stribeck=self.stribeck,
             passive_exponents=self.passive_exponents,
+            urdf_document=self._urdf_document,
         )
         return out
 
@@ -549,11 +467,6 @@ def as_robot(model) -> RobotModel:
 
 #: Largest body mass [kg] accepted from a URDF; anything heavier is a unit or typing error.
 MAX_BODY_MASS = 1e6
-
-
-def _mimic_joints(text: str) -> set[str]:
-    """Names of the URDF's joints with a ``<mimic>`` element."""
-    return {j.get("name") for j in ET.fromstring(text).findall("joint") if j.find("mimic") is not None}
 
 
 def nearest_physical_inertia(inertia: np.ndarray, iterations: int = 200) -> np.ndarray:

@@ -30,7 +30,6 @@ the wearer's share stays readable from the ``wearer_*`` links (:func:`wearer_lin
 from __future__ import annotations
 
 import os
-import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 
 import numpy as np
@@ -38,6 +37,7 @@ import pinocchio as pin
 
 from pinid.errors import SpecError
 from pinid.model.export import inertial_element
+from pinid.model.urdf import Element, UrdfDocument, sub_element, xml_comment, xml_text
 from pinid.wearer.anthropometry import LEG_SEGMENTS, STRAPPED_SEGMENTS, Segment, check_person, segment
 
 PREFIX = "wearer_"
@@ -110,7 +110,7 @@ def check_pairs(pairs) -> list[tuple[str, str]]:
     return pairs
 
 
-def _default_attach(root: ET.Element) -> str:
+def _default_attach(root: Element) -> str:
     """The default ``--attach`` of the URDF tree ``root``: :data:`ROBOT_ATTACH` by its robot name, else
     :data:`DEFAULT_ATTACH`."""
     return ROBOT_ATTACH.get(root.get("name") or "", DEFAULT_ATTACH)
@@ -133,7 +133,7 @@ def _frame(d: np.ndarray, axis: np.ndarray) -> np.ndarray:
     return np.column_stack([np.cross(y, d), y, d])
 
 
-def place(root: ET.Element, pairs, *, mass: float, height: float, sex: str, source: str = "URDF") -> list[Placement]:
+def place(root: Element, pairs, *, mass: float, height: float, sex: str, source: str = "URDF") -> list[Placement]:
     """Where each (point, segment) pair goes in the URDF tree ``root`` (see the module docstring)."""
     check_person(mass, height, sex)
     links = {lk.get("name"): lk for lk in root.findall("link")}
@@ -191,7 +191,7 @@ def place(root: ET.Element, pairs, *, mass: float, height: float, sex: str, sour
     return out
 
 
-def _chain_origin(root: ET.Element, top: str, link: str) -> np.ndarray | None:
+def _chain_origin(root: Element, top: str, link: str) -> np.ndarray | None:
     """Origin of ``link`` in the frame of its ancestor ``top`` at q = 0 (the joint origins composed), or None
     when ``top`` is not an ancestor."""
     parent_joint = {j.find("child").get("link"): j for j in root.findall("joint") if j.find("child") is not None}
@@ -207,7 +207,7 @@ def _chain_origin(root: ET.Element, top: str, link: str) -> np.ndarray | None:
     return M.translation
 
 
-def _place_pelvis(root: ET.Element, point: str, legs: list[Placement], *, mass, height, sex, source) -> Placement:
+def _place_pelvis(root: Element, point: str, legs: list[Placement], *, mass, height, sex, source) -> Placement:
     """The pelvis (de Leva's lower trunk, omphalion → mid-hip) on the exo link ``point`` (the base link):
     its distal end at the midpoint of the hip joint centres — the thighs' proximal endpoints when both are
     attached below it, else the mean of the origins of the link's moving child joints — its axis along the
@@ -271,13 +271,8 @@ def wearer_urdf(
         pairs = parse_attach(attach) if isinstance(attach, str) else check_pairs(attach)
     file, _ = resolve_robot(urdf)
 
-    RobotModel.from_urdf(file)  # the exoskeleton must be a URDF pinid loads (size, numbers, axes, nesting)
-    try:
-        root = ET.fromstring(
-            file.read_text(encoding="utf-8"), parser=ET.XMLParser(target=ET.TreeBuilder(insert_comments=True))
-        )
-    except ET.ParseError as exc:
-        raise SpecError(f"{file}: not a valid URDF ({exc})") from None
+    # the exoskeleton must be a URDF pinid loads (size, numbers, axes, nesting); its document is the start
+    root = RobotModel.from_urdf(file).urdf_document.tree()
     if attach is None:
         pairs = parse_attach(_default_attach(root))
     if root.find(f"link[@name='{PREFIX}thigh']") is not None or any(
@@ -286,7 +281,7 @@ def wearer_urdf(
         raise SpecError(f"{file}: already carries a wearer (links named {PREFIX}*), expected a bare exoskeleton")
     placements = place(root, pairs, mass=mass, height=height, sex=sex, source=file.name)
     root.append(
-        ET.Comment(
+        xml_comment(
             f" pinid wearer: {sex}, {mass:g} kg, {height:g} m, de Leva 1996 (pinid/resources/anthropometry/"
             "de_leva_1996.toml); segments fixed to the exo links, proximal endpoint at the joint centre "
             "(the pelvis: distal endpoint at the mid-hip point) "
@@ -295,31 +290,30 @@ def wearer_urdf(
     for p in placements:
         s = p.segment
         name = f"{PREFIX}{s.name}"
-        link = ET.SubElement(root, "link", name=name)
+        link = sub_element(root, "link", name=name)
         link.append(
-            ET.Comment(
+            xml_comment(
                 f" {s.source}: mass {s.mass:.4g} kg, length {s.length:.4g} m, CoM {s.com:.4g} m "
                 f"from the proximal end; inertia about the CoM in the frame of '{p.link}' "
             )
         )
         link.append(inertial_element(s.mass, p.com, p.inertia, _num))
         d = p.frame[:, 2]  # the segment as a cylinder (√2·longitudinal radius of gyration): also what
-        visual = ET.SubElement(link, "visual", name="segment")  # wearer_prior reads its extent from
-        ET.SubElement(
+        visual = sub_element(link, "visual", name="segment")  # wearer_prior reads its extent from
+        sub_element(
             visual,
             "origin",
             xyz=" ".join(_num(x) for x in p.start + 0.5 * s.length * d),
             rpy=" ".join(_num(x) for x in pin.rpy.matrixToRpy(p.frame)),
         )
-        ET.SubElement(
-            ET.SubElement(visual, "geometry"), "cylinder", radius=_num(np.sqrt(2.0) * s.radii[2]), length=_num(s.length)
+        sub_element(
+            sub_element(visual, "geometry"), "cylinder", radius=_num(np.sqrt(2.0) * s.radii[2]), length=_num(s.length)
         )
-        joint = ET.SubElement(root, "joint", name=f"{name}_strap", type="fixed")
-        ET.SubElement(joint, "parent", link=p.link)
-        ET.SubElement(joint, "child", link=name)
-        ET.SubElement(joint, "origin", xyz="0 0 0", rpy="0 0 0")
-    ET.indent(root, space="  ")
-    text = '<?xml version="1.0"?>\n' + ET.tostring(root, encoding="unicode") + "\n"
+        joint = sub_element(root, "joint", name=f"{name}_strap", type="fixed")
+        sub_element(joint, "parent", link=p.link)
+        sub_element(joint, "child", link=name)
+        sub_element(joint, "origin", xyz="0 0 0", rpy="0 0 0")
+    text = xml_text(root, '<?xml version="1.0"?>\n')
     _check_loads(text, file)
     if path is not None:
         from pinid.io import write_text
@@ -356,14 +350,14 @@ def wearer_links(urdf_text: str) -> dict[str, tuple[str, float, np.ndarray, np.n
         raise SpecError(
             f"urdf_text: got {type(urdf_text).__name__}, expected the text of a URDF written by pinid wearer"
         )
-    root = ET.fromstring(urdf_text)
+    document = UrdfDocument.from_text(urdf_text, "urdf_text")
     parent = {
         j.find("child").get("link"): j.find("parent").get("link")
-        for j in root.findall("joint")
+        for j in document.joints()
         if j.find("child") is not None
     }
     out = {}
-    for lk in root.findall("link"):
+    for lk in document.links():
         name = lk.get("name") or ""
         if not name.startswith(PREFIX):
             continue

@@ -15,7 +15,6 @@ the joint that moves its exo link (segments on one link add up).  Bounds:
 from __future__ import annotations
 
 import re
-import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -24,6 +23,7 @@ import pinocchio as pin
 from pinid.errors import SpecError
 from pinid.wearer.attach import PREFIX
 from pinid.model.robot import as_robot
+from pinid.model.urdf import UrdfDocument
 from pinid.checks import array_like
 
 #: Default allowed deviation of a wearer body's mass from the table value (fraction).
@@ -52,17 +52,16 @@ def wearer_prior(urdf_text: str, robot) -> list[BodyPrior]:
     """The wearer priors of ``robot`` (the exo + wearer RobotModel) from its URDF text, in joint order."""
     if not isinstance(urdf_text, str):
         raise SpecError(f"urdf_text: got {type(urdf_text).__name__}, expected the text of a URDF with a wearer")
-    root = ET.fromstring(urdf_text)
-    moved_by = {
-        j.find("child").get("link"): j.get("name") for j in root.findall("joint") if j.find("child") is not None
-    }
+    same = urdf_text == getattr(robot, "urdf_text", None)  # the robot's own URDF: its document, read once
+    document = robot.urdf_document if same else UrdfDocument.from_text(urdf_text, "urdf_text")
+    moved_by = {j.find("child").get("link"): j.get("name") for j in document.joints() if j.find("child") is not None}
     fixed_to = {
         j.find("child").get("link"): j.find("parent").get("link")
-        for j in root.findall("joint")
+        for j in document.joints()
         if j.find("child") is not None
     }
     out: dict[str, BodyPrior] = {}
-    for lk in root.findall("link"):
+    for lk in document.links():
         name = lk.get("name") or ""
         if not name.startswith(PREFIX):
             continue
