@@ -135,7 +135,7 @@ def test_heavy_optional_dependencies_load_only_when_used():
 import sys
 import pinid, pinid.cli.main
 from pinid.estimators import make_estimator
-from pinid.identification.problem import IdentificationProblem
+from pinid.problem.problem import IdentificationProblem
 from pinid.identification.result import make_result
 from pinid.data.dataset import Dataset
 import numpy as np

@@ -28,7 +28,7 @@ from pinid.cli.common import (
     terms_from_args,
 )
 from pinid.errors import SpecError
-from pinid.identification.problem import load_datasets
+from pinid.problem.problem import load_datasets
 from pinid.identification.run import check_distinct, identify
 from pinid.io import check_outputs
 from pinid.report.figures import start_figure_workers

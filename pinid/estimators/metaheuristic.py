@@ -57,7 +57,7 @@ import numpy as np
 from pinid.errors import SpecError
 from pinid.estimators.base import Estimator, Setting
 from pinid.estimators.rls import RLS
-from pinid.identification.problem import Problem, base_statistics
+from pinid.problem.problem import Problem, base_statistics
 from pinid.linalg import solve_r, weighted_lstsq
 from pinid.optimizers import get_optimizer
 
@@ -72,7 +72,7 @@ _CHUNK_ELEMENTS = (
 def natural_scale(problem) -> np.ndarray:
     """Natural magnitude of every base parameter (nb,): ``|P|·s`` with ``s`` = per body M, M·L, M·L²
     (:func:`pinid.model.physical.parameter_scale`, from the nominal parameters) and 1 for joint terms.
-    Every :class:`~pinid.identification.problem.Problem` provides it as ``problem.natural_scale``."""
+    Every :class:`~pinid.problem.problem.Problem` provides it as ``problem.natural_scale``."""
     return np.asarray(problem.natural_scale, dtype=float)
 
 

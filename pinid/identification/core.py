@@ -1,10 +1,10 @@
-"""Deprecated location: the identification now lives in :mod:`pinid.identification.problem` (the problem
+"""Deprecated location: the identification now lives in :mod:`pinid.problem.problem` (the problem
 and its statistics), :mod:`pinid.identification.result` (the results) and :mod:`pinid.identification.run`
 (:func:`identify`).  These names stay importable from here for one release."""
 
 from __future__ import annotations
 
-from pinid.identification.problem import (
+from pinid.problem.problem import (
     REST_FRACTION,
     IdentificationProblem,
     base_regressor,

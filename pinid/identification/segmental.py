@@ -44,7 +44,7 @@ from pinid.data.dataset import Dataset
 from pinid.errors import DataError, SpecError
 from pinid.estimators import ESTIMATORS, make_estimator
 from pinid.estimators.base import Estimator
-from pinid.identification.problem import (
+from pinid.problem.problem import (
     REST_FRACTION,
     IdentificationProblem,
     check_dataset,
@@ -65,7 +65,7 @@ from pinid.model.robot import as_robot
 class SubProblem:
     """Some rows and some base-parameter columns of a stacked problem, with a known torque subtracted.
 
-    It is a :class:`~pinid.identification.problem.Problem` (what base-only estimators use: ``W``, ``tau``,
+    It is a :class:`~pinid.problem.problem.Problem` (what base-only estimators use: ``W``, ``tau``,
     ``weights``, ``joint``, ``sample``, ``nb``, ``nv``, ``rows``, ``names``, ``nominal_base``,
     ``natural_scale``, ``compressed()``, ``model``, ``terms``), without ``base`` (the map to standard
     parameters belongs to the full problem).
@@ -147,7 +147,7 @@ class SegmentalProblem:
 
     ``first``: recordings with the other joints held fixed (seed 000: hip fixed, knee swinging);
     ``second``: recordings with every joint moving; ``first_joints``: the joints identified first.
-    ``problem`` is the full :class:`~pinid.identification.problem.IdentificationProblem` of ``second`` (what the
+    ``problem`` is the full :class:`~pinid.problem.problem.IdentificationProblem` of ``second`` (what the
     result is reported on); ``first_problem`` the first stage's :class:`SubProblem`.
     """
 
@@ -358,7 +358,7 @@ def segmental_identify(
 
     ``first``: recording(s) with only ``first_joints`` moving (seed 000: trajectory 1, hip fixed);
     ``second``: recording(s) with every joint moving (trajectory 3).  Recordings without ``dq``/``ddq``
-    are prepared (:func:`pinid.identification.problem.prepare_dataset`).  The result's training metrics are over
+    are prepared (:func:`pinid.problem.problem.prepare_dataset`).  The result's training metrics are over
     the second recordings' rows (both joints); ``info["segmental"]`` describes the stages.
     """
     if not isinstance(model, RobotModel):

@@ -32,7 +32,7 @@ import scipy.linalg
 
 from pinid.data.dataset import Dataset
 from pinid.errors import DataError
-from pinid.identification.problem import IdentificationProblem, check_dataset
+from pinid.problem.problem import IdentificationProblem, check_dataset
 from pinid.model import terms as _terms
 from pinid.model.robot import RobotModel
 

@@ -22,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 
 from pinid.identification.identified import IdentifiedModel
-from pinid.identification.problem import prepare_dataset
+from pinid.problem.problem import prepare_dataset
 from pinid.model.regressor import JointTerms
 from pinid.model.robot import RobotModel
 from pinid.simulation.twin import simulate

@@ -61,7 +61,7 @@ from pinid.model.robot import RobotModel
 from pinid.progress import progress
 from pinid.data.dataset import as_dataset
 from pinid.model.robot import as_robot
-from pinid.identification.rows import (
+from pinid.problem.rows import (
     REST_FRACTION as REST_FRACTION,
     fit_mask as fit_mask,
     kept_rows as kept_rows,
@@ -633,7 +633,7 @@ def load_datasets(
     items, model: RobotModel, mapping=None, preprocess: Mapping | bool | None = None, what: str = "training"
 ) -> list[Dataset]:
     """Recordings (Datasets or paths, one or several) read with ``mapping`` and prepared
-    (:func:`~pinid.identification.problem.prepare_dataset`); DataError when none is given."""
+    (:func:`~pinid.problem.problem.prepare_dataset`); DataError when none is given."""
     model = as_robot(model)
     if items is None:
         return []
