@@ -10,7 +10,7 @@ import pytest
 from pinid.identification.compare import DETERMINISTIC, Comparison, compare, lad
 from pinid.errors import SpecError
 from pinid.estimators.metaheuristic import training_costs
-from pinid.identification.core import IdentificationProblem
+from pinid.problem.problem import IdentificationProblem
 from pinid.simulation.twin import perturb
 
 from conftest import assert_clean_error, run_cli

@@ -62,7 +62,7 @@ def wearer_experiment(
     [rad]}}, "fit": WearerFit}`` with models ``identified``, ``table``, ``exo``.
     """
     from pinid.control.controllers import compare_models
-    from pinid.identification.core import identify
+    from pinid.identification.run import identify
 
     exo = RobotModel.from_urdf(exo_urdf)
     exo_run, _ = simulate(exo, excitation, seconds=seconds, seed=seed + 1)

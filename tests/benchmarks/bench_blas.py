@@ -26,7 +26,7 @@ from bench_metaheuristics import best_time, data  # noqa: E402
 from pinid import RobotModel  # noqa: E402
 from pinid.estimators import make_estimator  # noqa: E402
 from pinid.excitation.design import DesignProblem, spec_for  # noqa: E402
-from pinid.identification.core import IdentificationProblem  # noqa: E402
+from pinid.problem.problem import IdentificationProblem  # noqa: E402
 from pinid.model.regressor import regressor  # noqa: E402
 
 

@@ -69,7 +69,7 @@ def best_of(fn, repeats: int = 3) -> tuple[float, object]:
 
 def bench_sdp() -> list[str]:
     from pinid.estimators import PhysicalLS
-    from pinid.identification.core import IdentificationProblem
+    from pinid.problem.problem import IdentificationProblem
 
     model = RobotModel.from_urdf("panda")
     ds = recording(model, 20.0, 1000.0, 0, noise=0.5)  # 20 000 samples
