@@ -13,8 +13,7 @@ import numpy as np
 from pinid.errors import SpecError
 from pinid.model.regressor import JointTerms
 from pinid.model.robot import RobotModel
-from pinid.model.terms import STRIBECK_TERMS, Stribeck
-from pinid.wearer.passive import check_exponents
+from pinid.model.terms import STRIBECK_TERMS, TERMS, Stribeck
 from pinid.model.robot import as_robot
 
 
@@ -85,7 +84,9 @@ def robot_from_dict(d: dict) -> tuple[RobotModel, JointTerms]:
 
         model.drives = Drives.from_dict(d["drives"], model.joint_names, "saved drives")
     model.stribeck = stribeck_from_dict(d.get("stribeck") or {}, "saved robot: 'stribeck'")
-    model.passive_exponents = check_exponents(d.get("passive_exponents") or {}, "saved robot: 'passive_exponents'")
+    for term in TERMS.values():  # loads the plug-in terms: a saved setting may be one of theirs
+        if term.setting is not None and d.get(term.setting):
+            setattr(model, term.setting, term.read_setting(d[term.setting], f"saved robot: '{term.setting}'"))
     return model, terms
 
 
