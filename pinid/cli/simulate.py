@@ -319,6 +319,7 @@ def _argv_of(args: argparse.Namespace) -> list[str]:
 
 def _simulate(args, model, trajectory, cad, torque_noise, torque_pct):
     from pinid.simulation.twin import Controller, Friction, Rates, Sensors, simulate  # deferred (see above)
+    from pinid.wearer.attach import wearer_links  # the twin takes the wearer from here (folders are layers)
 
     return simulate(
         model,
@@ -339,5 +340,6 @@ def _simulate(args, model, trajectory, cad, torque_noise, torque_pct):
             args.velocity_noise,
         ),
         wearer_torque=args.wearer_torque,
+        wearer=wearer_links(model.urdf_text) if model.urdf_text else None,
         progress=None,
     )
