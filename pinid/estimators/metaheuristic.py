@@ -125,13 +125,16 @@ def least_squares(problem) -> np.ndarray:
 
 
 def cached_lad(problem) -> np.ndarray:
-    """:func:`least_absolute_deviations` of ``problem``, kept on it: every seed of a comparison needs it."""
+    """:func:`least_absolute_deviations` of ``problem``, kept in its ``cache`` (a
+    :class:`~pinid.problem.problem.ProblemCache`, when it has one): every seed of a comparison needs it."""
     key = (id(problem.W), id(problem.tau), id(problem.weights))
-    cache = problem.__dict__.get("_lad")
-    if cache is None or cache[0] != key:
-        cache = (key, least_absolute_deviations(problem))
-        problem.__dict__["_lad"] = cache
-    return cache[1]
+    cache = getattr(problem, "cache", None)
+    kept = None if cache is None else cache.get("lad", key)
+    if kept is None:
+        kept = least_absolute_deviations(problem)
+        if cache is not None:
+            cache.put("lad", kept, key)
+    return kept
 
 
 def least_absolute_deviations(problem, iterations: int = 200, tol: float = 1e-12) -> np.ndarray:

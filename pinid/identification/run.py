@@ -357,7 +357,7 @@ def run_jobs(
                 est, target = Segmental(method, settings), s.segmental
             else:
                 est, target = make_estimator(method, **settings), s.problem
-                s.problem.__dict__.pop("_compressed", None)  # each run's time includes its QR compression
+                s.problem.cache.forget("compressed")  # each run's time includes its QR compression
             t0 = time.perf_counter()
             est.fit(target)
             seconds = time.perf_counter() - t0

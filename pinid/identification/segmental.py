@@ -47,6 +47,7 @@ from pinid.estimators.base import Estimator
 from pinid.problem.problem import (
     REST_FRACTION,
     IdentificationProblem,
+    ProblemCache,
     check_dataset,
     load_datasets,
     rest_threshold,
@@ -83,6 +84,7 @@ class SubProblem:
     natural_scale: np.ndarray
     columns: np.ndarray
     sources: list[str] = field(default_factory=list)
+    cache: ProblemCache = field(default_factory=ProblemCache, init=False, repr=False, compare=False)
 
     @property
     def nb(self) -> int:
@@ -103,11 +105,10 @@ class SubProblem:
         """``(R, c, rho, scale)`` of :func:`pinid.estimators.base.augmented_r`, cached for the own weights."""
         if weights is not None and weights is not self.weights:
             return augmented_r(self.W, self.tau, weights)
-        cache = self.__dict__.get("_compressed")
-        if cache is None:
-            cache = augmented_r(self.W, self.tau, self.weights)
-            self.__dict__["_compressed"] = cache
-        return cache
+        kept = self.cache.get("compressed")
+        if kept is None:
+            kept = self.cache.put("compressed", augmented_r(self.W, self.tau, self.weights))
+        return kept
 
 
 def _natural_scale(model: RobotModel, terms: JointTerms, base: BaseParameters) -> np.ndarray:
