@@ -1,6 +1,6 @@
-"""The shape of the package: folders are layers (LAYERS), no import circles, no private names imported across modules, heavy optional
-dependencies loaded only when used.  Imports are read with ``ast`` (top level and inside functions alike:
-an import inside a function is still an edge of the graph)."""
+"""The shape of the package: folders are layers (LAYERS), no import circles, no private names imported
+across modules, heavy optional dependencies loaded only when used.  Imports are read with ``ast`` (top level
+and inside functions alike: an import inside a function is still an edge of the graph)."""
 
 from __future__ import annotations
 
