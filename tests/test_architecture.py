@@ -188,6 +188,21 @@ def test_folders_are_layers():
     assert not bad, "imports of a later layer (see LAYERS):\n" + "\n".join(bad)
 
 
+#: What the drawing layer may import: it draws the objects handed to it (results, models, comparisons).
+REPORT_IMPORTS = {"model", "estimators", "io", "errors", "checks"}
+
+
+def test_the_report_draws_what_it_is_handed():
+    """pinid/report imports model, estimators, io and the argument checks only: never the runner, the twin
+    or the data readers (its callers hand it what it draws)."""
+    bad = [
+        f"{m}:{line} imports {target}"
+        for m, target, line in package_imports()
+        if layer(m) == "report" and layer(target) not in REPORT_IMPORTS | {"report", None}
+    ]
+    assert not bad, "\n".join(bad)
+
+
 def test_heavy_optional_dependencies_load_only_when_used():
     """Importing pinid and its commands, and wrapping a least-squares result without completion, load
     neither cvxpy, matplotlib nor scipy.signal."""
