@@ -19,7 +19,7 @@ _EXPORTS = {
     "PinidError": "pinid.errors",
     "SolverError": "pinid.errors",
     "SpecError": "pinid.errors",
-    "IdentificationProblem": "pinid.identification.problem",
+    "IdentificationProblem": "pinid.problem.problem",
     "Identification": "pinid.identification.result",
     "IdentificationResult": "pinid.identification.result",
     "identify": "pinid.identification.run",

@@ -1,6 +1,6 @@
-"""The shape of the package: no import circles, no private names imported across modules, heavy optional
-dependencies loaded only when used.  Imports are read with ``ast`` (top level and inside functions alike:
-an import inside a function is still an edge of the graph)."""
+"""The shape of the package: folders are layers (LAYERS), no import circles, no private names imported
+across modules, heavy optional dependencies loaded only when used.  Imports are read with ``ast`` (top level
+and inside functions alike: an import inside a function is still an edge of the graph)."""
 
 from __future__ import annotations
 
@@ -128,6 +128,81 @@ def test_no_private_names_imported_across_modules():
     assert not bad, "\n".join(bad)
 
 
+# ---------------------------------------------------------------------------------------------- layers
+#: The folders and top-level modules of pinid, lowest first (issue 26: folders are layers): each imports only
+#: from those before it or from itself.  The utilities first; model (robots, regressor, terms) → data
+#: (recordings) → problem (the identification problem, below the estimators that fit it) → optimizers →
+#: estimators → report (draws what it is handed: imports model, estimators and io only) → excitation →
+#: identification (runner, results) → simulation (the twin) → control → wearer → flexible → cli → docgen,
+#: __main__.  An extension of a lower folder registers itself from its own (the wearer's passive term:
+#: pinid.model.terms.TERM_MODULES) or is handed in by its caller (the twin's wearer).
+LAYERS: list[str] = [
+    *("errors", "blas", "memory", "progress", "io", "checks", "linalg", "resources"),
+    *("model", "data", "problem", "optimizers", "estimators", "report", "excitation", "identification"),
+    *("simulation", "control", "wearer", "flexible", "cli", "docgen", "__main__"),
+]
+
+
+def layer(module: str) -> str | None:
+    """The folder or top-level module of pinid that ``module`` is in (None for the package itself)."""
+    parts = module.split(".")
+    return parts[1] if len(parts) > 1 else None
+
+
+def upward_imports(found: list[tuple[str, str, int]], layers: list[str]) -> list[str]:
+    """``module:line imports target`` for every import ``(module, target, line)`` of a layer after the
+    importer's in ``layers`` (an import of the package itself, ``pinid``, is not one)."""
+    rank = {name: i for i, name in enumerate(layers)}
+    out = []
+    for module, target, line in found:
+        a, b = layer(module), layer(target)
+        if a is not None and b is not None and rank[b] > rank[a]:
+            out.append(f"{module}:{line} imports {target} ({a} is below {b})")
+    return out
+
+
+def package_imports() -> list[tuple[str, str, int]]:
+    """``(module, imported module, line)`` for every pinid import of the package (in functions too)."""
+    known = modules()
+    return [(m, target, line) for m, path in known.items() for target, _, line in imports(m, path, known)]
+
+
+def test_the_layer_checker_finds_an_upward_import():
+    found = [("pinid.model.a", "pinid.cli.b", 3), ("pinid.cli.b", "pinid.model.a", 1), ("pinid.cli.b", "pinid", 2)]
+    assert upward_imports(found, ["model", "cli"]) == ["pinid.model.a:3 imports pinid.cli.b (model is below cli)"]
+    assert upward_imports(found[1:], ["model", "cli"]) == []
+
+
+def test_every_folder_and_top_level_module_has_its_layer():
+    present = {p.stem for p in PACKAGE.iterdir() if p.suffix == ".py" and p.stem != "__init__"}
+    present |= {p.name for p in PACKAGE.iterdir() if (p / "__init__.py").is_file()}
+    assert len(LAYERS) == len(set(LAYERS)), "a name twice in LAYERS"
+    assert not present - set(LAYERS), (
+        f"place these in LAYERS (tests/test_architecture.py): {sorted(present - set(LAYERS))}"
+    )
+    assert not set(LAYERS) - present, f"not in pinid any more, remove from LAYERS: {sorted(set(LAYERS) - present)}"
+
+
+def test_folders_are_layers():
+    bad = upward_imports(package_imports(), LAYERS)
+    assert not bad, "imports of a later layer (see LAYERS):\n" + "\n".join(bad)
+
+
+#: What the drawing layer may import: it draws the objects handed to it (results, models, comparisons).
+REPORT_IMPORTS = {"model", "estimators", "io", "errors", "checks"}
+
+
+def test_the_report_draws_what_it_is_handed():
+    """pinid/report imports model, estimators, io and the argument checks only: never the runner, the twin
+    or the data readers (its callers hand it what it draws)."""
+    bad = [
+        f"{m}:{line} imports {target}"
+        for m, target, line in package_imports()
+        if layer(m) == "report" and layer(target) not in REPORT_IMPORTS | {"report", None}
+    ]
+    assert not bad, "\n".join(bad)
+
+
 def test_heavy_optional_dependencies_load_only_when_used():
     """Importing pinid and its commands, and wrapping a least-squares result without completion, load
     neither cvxpy, matplotlib nor scipy.signal."""
@@ -135,7 +210,7 @@ def test_heavy_optional_dependencies_load_only_when_used():
 import sys
 import pinid, pinid.cli.main
 from pinid.estimators import make_estimator
-from pinid.identification.problem import IdentificationProblem
+from pinid.problem.problem import IdentificationProblem
 from pinid.identification.result import make_result
 from pinid.data.dataset import Dataset
 import numpy as np

@@ -6,9 +6,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-import pinid.identification.problem as problem_module
+import pinid.problem.problem as problem_module
 from pinid.estimators import make_estimator
-from pinid.identification.problem import (
+from pinid.problem.problem import (
     IdentificationProblem,
     RegressorRows,
     check_dataset,

@@ -10,7 +10,7 @@ import pytest
 from pinid.identification.compare import DETERMINISTIC, Comparison, compare, lad
 from pinid.errors import SpecError
 from pinid.estimators.metaheuristic import training_costs
-from pinid.identification.core import IdentificationProblem
+from pinid.problem.problem import IdentificationProblem
 from pinid.model.regressor import JointTerms, standard_parameters
 from pinid.simulation.twin import perturb
 

@@ -13,7 +13,7 @@ import pytest
 
 from pinid.errors import SolverError, SpecError
 from pinid.estimators import PhysicalLS
-from pinid.identification.core import IdentificationProblem
+from pinid.problem.problem import IdentificationProblem
 from pinid.model.conic import CLARABEL_OPTIONS, ConicProblem, svec_operator
 from pinid.model.lmi import consistent_completion, null_projector
 from pinid.model.physical import PSEUDO_INERTIA_BASIS, parameter_scale

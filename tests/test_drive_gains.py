@@ -13,7 +13,7 @@ from pinid import JointTerms, regressor, standard_parameters
 from pinid.data.dataset import Dataset
 from pinid.data.formats import write_recording
 from pinid.errors import DataError, SpecError
-from pinid.identification.core import identify
+from pinid.identification.run import identify
 from pinid.identification.gains import Payload, identify_gains
 from pinid.model.robot import RobotModel
 

@@ -14,7 +14,7 @@ import pytest
 from pinid import JointTerms, base_parameters, regressor, standard_parameters
 from pinid.data.dataset import Dataset
 from pinid.errors import ModelError, SpecError
-from pinid.identification.core import identify
+from pinid.identification.run import identify
 from pinid.identification.identified import IdentifiedModel
 from pinid.model.drives import Drives, Transmission, load_drives
 from pinid.model.robot import RobotModel

@@ -10,7 +10,7 @@ import pytest
 
 from pinid.errors import SpecError
 from pinid.estimators import ESTIMATORS, Estimator, Setting, make_estimator
-from pinid.identification.problem import IdentificationProblem, Problem
+from pinid.problem.problem import IdentificationProblem, Problem
 
 from test_identification import relative_errors, true_base, truth_model, twin
 

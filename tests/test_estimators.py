@@ -8,7 +8,7 @@ import pytest
 from pinid import JointTerms
 from pinid.errors import SolverError, SpecError
 from pinid.estimators import ESTIMATORS, OLS, WLS, Estimator, PhysicalLS, make_estimator
-from pinid.identification.core import IdentificationProblem
+from pinid.problem.problem import IdentificationProblem
 from pinid.model.physical import check_consistency
 
 from test_identification import relative_errors, true_base, truth_model, twin

@@ -10,7 +10,7 @@ from pinid import DataError, RobotModel
 from pinid.data.contacts import prepare_floating, read_floating, write_floating
 from pinid.estimators import ESTIMATORS, make_estimator
 from pinid.excitation.trajectory import FourierTrajectory
-from pinid.identification.floating_problem import floating_problem
+from pinid.problem.floating import floating_problem
 from pinid.model.floating import floating_base_parameters
 from pinid.model.terms import JointTerms
 from pinid.simulation.floating_twin import simulate_gait, simulate_suspended
@@ -66,7 +66,7 @@ def test_gait_twin_recovers_the_base_parameters(exo, gait, method):
 
 def test_gait_double_support_split_sums_to_the_total_wrench(exo, gait):
     """The two soles' wrenches carry exactly what the motion needs (the base rows of the RNEA)."""
-    from pinid.identification.floating_problem import floating_targets
+    from pinid.problem.floating import floating_targets
 
     s = gait.exact
     tau_free = s.data.tau

@@ -17,13 +17,9 @@ from pinid import JointTerms, base_parameters, standard_parameters
 from pinid.data.dataset import Dataset
 from pinid.errors import DataError, SpecError
 from pinid.identification.metrics import METRIC_NAMES
-from pinid.identification.core import (
-    Identification,
-    IdentificationProblem,
-    IdentificationResult,
-    identify,
-    rest_thresholds,
-)
+from pinid.identification.result import Identification, IdentificationResult
+from pinid.identification.run import identify
+from pinid.problem.problem import IdentificationProblem, rest_thresholds
 
 from conftest import assert_clean_error, load, run_cli, shared_data
 

@@ -8,7 +8,8 @@ import pytest
 from pinid.errors import SpecError
 from pinid.estimators import ESTIMATORS, OLS, RLS, RLSPSO, Metaheuristic, PSOEstimator, make_estimator
 from pinid.estimators.metaheuristic import fitness_function, natural_scale, nominal_box, search_box, training_costs
-from pinid.identification.core import IdentificationProblem, identify
+from pinid.identification.run import identify
+from pinid.problem.problem import IdentificationProblem
 
 from test_identification import relative_errors, true_base, truth_model, twin
 

@@ -22,7 +22,7 @@ from pinid.data.formats import write_recording
 from pinid.data.manifest import Manifest
 from pinid.errors import DataError, ModelError, ModelWarning, SpecError
 from pinid.identification.delay import estimate_delay
-from pinid.identification.problem import IdentificationProblem, motor_kept_rows, rest_thresholds
+from pinid.problem.problem import IdentificationProblem, motor_kept_rows, rest_thresholds
 from pinid.identification.outputs import identification_text
 from pinid.identification.run import identify
 from pinid.model.robot import RobotModel, nearest_physical_inertia
@@ -291,7 +291,7 @@ def test_coupled_motor_at_rest_drops_the_rows_of_its_joints(monkeypatch):
     column sign(dq5 + dq6) flips where the motor is at rest, whatever the joints do; those rows are left out
     (of both its joints), and the coupled joint is then predicted ≥ 3× better than without the motor rule
     (measured 6–12× on three seeds)."""
-    import pinid.identification.problem as problem
+    import pinid.problem.problem as problem
 
     m = coupled("ur5")
     clean = drive_twin(m, MOTOR_TERMS, seconds=30, rate=250, seed=11)

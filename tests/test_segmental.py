@@ -107,7 +107,7 @@ def test_the_proximal_joint_cannot_go_first(leg):
 
 
 def test_stages_are_problems_of_the_estimator_protocol(seg):
-    from pinid.identification.problem import Problem
+    from pinid.problem.problem import Problem
 
     assert isinstance(seg.problem, Problem) and isinstance(seg.first_problem, Problem)
     assert isinstance(seg.second_problem(seg.nominal_base[seg.first_cols]), Problem)

@@ -15,7 +15,7 @@ import pytest
 from pinid import JointTerms, base_parameters, standard_parameters
 from pinid.data.dataset import Dataset
 from pinid.errors import SpecError
-from pinid.identification.core import identify
+from pinid.identification.run import identify
 from pinid.identification.result import Identification
 from pinid.model.terms import Stribeck, parameter_names, stribeck_settings
 from pinid.data.formats import write_recording

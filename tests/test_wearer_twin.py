@@ -14,7 +14,7 @@ from pinid.model import terms as T
 from pinid.model.regressor import JointTerms
 from pinid.model.robot import RobotModel
 from pinid.simulation.twin import load_trajectory, simulate
-from pinid.wearer.attach import wearer_urdf
+from pinid.wearer.attach import wearer_links, wearer_urdf
 
 
 @pytest.fixture(scope="module")
@@ -36,7 +36,9 @@ def _residual(m, truth, vs=0.01, extra=None):
 def test_wearer_twin_applies_passive_moments(worn):
     _, m = worn
     with pytest.warns(DataWarning, match="above its URDF velocity limit"):  # zha2019-2 is faster than exo_leg allows
-        _, truth = simulate(m, load_trajectory("zha2019-2", m), seconds=1.0, seed=2, torque_noise=0.0)
+        _, truth = simulate(
+            m, load_trajectory("zha2019-2", m), seconds=1.0, seed=2, torque_noise=0.0, wearer=wearer_links(m.urdf_text)
+        )
     assert truth["terms"] == ["fc", "fv", "passive"]
     assert truth["wearer"]["terms"] == {"passive": {"hip": 1.0, "knee": 1.0}}
     i = truth["standard"]["names"].index("knee.kp")
@@ -60,7 +62,13 @@ def test_active_wearer_torque_has_its_rms_and_is_not_recorded(worn):
     _, m = worn
     with pytest.warns(DataWarning, match="above its URDF velocity limit"):  # zha2019-2 is faster than exo_leg allows
         _, truth = simulate(
-            m, load_trajectory("zha2019-2", m), seconds=2.0, seed=3, wearer_torque=5.0, torque_noise=0.0
+            m,
+            load_trajectory("zha2019-2", m),
+            seconds=2.0,
+            seed=3,
+            wearer_torque=5.0,
+            torque_noise=0.0,
+            wearer=wearer_links(m.urdf_text),
         )
     rms = np.array(list(truth["wearer"]["active_torque"]["rms"].values()))
     s = truth["signals"]
@@ -143,6 +151,7 @@ def test_track_plant_carries_the_wearer(worn):
     terms = JointTerms.from_names("fc,fv,passive")
     full = IdentifiedModel(m, terms, standard_parameters(m, terms))
     ref = sine_reference(m)
-    e_full = track(m, ComputedTorque(full), ref, seconds=2.0).metrics(after=1.0)
-    e_rigid = track(m, ComputedTorque(nominal_model(m)), ref, seconds=2.0).metrics(after=1.0)
+    worn_by = wearer_links(m.urdf_text)  # the plant's wearer, handed to the twin
+    e_full = track(m, ComputedTorque(full), ref, seconds=2.0, wearer=worn_by).metrics(after=1.0)
+    e_rigid = track(m, ComputedTorque(nominal_model(m)), ref, seconds=2.0, wearer=worn_by).metrics(after=1.0)
     assert all(e_rigid[j]["rms"] > 100 * e_full[j]["rms"] for j in m.joint_names)

@@ -227,6 +227,7 @@ def run(args: argparse.Namespace) -> int:
     model = robot_from_args(args)
     if model.base == "floating":
         return _simulate_floating(args, model, files)
+    model, wearer, drawn = _wearer(args, model)
     text = simulate_and_write(  # warnings: one line each (main)
         model,
         args.excitation,
@@ -234,7 +235,8 @@ def run(args: argparse.Namespace) -> int:
         seconds=args.seconds,
         seed=args.seed,
         **_twin_options(args, model),
-        wearer_draw=args.wearer_draw,
+        wearer=wearer,
+        drawn_wearer=drawn,
         wearer_torque=args.wearer_torque,
         perturb=args.perturb,
         command="pinid simulate " + " ".join(_argv_of(args)),
@@ -265,6 +267,22 @@ _FIXED_ONLY = (
     "viscous",
     "record_velocity",
 )
+
+
+def _wearer(args: argparse.Namespace, model):
+    """``(model, wearer segments or None, (table, drawn) or None)``: the wearer the twin carries
+    (:func:`pinid.wearer.attach.wearer_links`) and, with --wearer-draw, the model with its wearer drawn away
+    from the tables (seeded by --seed) and the values it had and has."""
+    from pinid.wearer.attach import wearer_links  # deferred: a robot without a wearer does not need it
+
+    drawn = None
+    if args.wearer_draw:
+        from pinid.wearer.prior import draw_wearer
+
+        table = model.inertial_parameters()
+        model, values = draw_wearer(model, args.seed)
+        drawn = (table, values)
+    return model, (wearer_links(model.urdf_text) if model.urdf_text else None), drawn
 
 
 def _simulate_floating(args: argparse.Namespace, model, files: dict) -> int:

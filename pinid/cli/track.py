@@ -83,6 +83,7 @@ def run(args: argparse.Namespace) -> int:
     # deferred: pinid.control loads the twin (~15 ms that pinid --help would pay)
     from pinid.control.controllers import compare_models, load_controller_model
     from pinid.control.tracking import load_reference, tracking_paths, tracking_table, write_tracking
+    from pinid.wearer.attach import wearer_links  # the plant's wearer, handed to the twin (folders are layers)
 
     controllers = tuple(c.strip() for c in args.controller.split(",") if c.strip())
     if args.output is not None:  # fail before the work, creating nothing
@@ -108,6 +109,7 @@ def run(args: argparse.Namespace) -> int:
         after=args.after,
         position_noise=args.position_noise,
         seed=args.seed,
+        wearer=wearer_links(plant.urdf_text) if plant.urdf_text else None,
     )
     print(tracking_table(table))
     if args.output is not None:

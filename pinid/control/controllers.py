@@ -24,6 +24,7 @@ exactly; with ``"desired"`` it holds away from reversals.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from collections.abc import Mapping
 from typing import Protocol
 
 import numpy as np
@@ -203,6 +204,7 @@ def track(
     lyapunov: bool = False,
     terms: dict | None = None,
     disturbance=None,
+    wearer: Mapping | None = None,
 ) -> TrackingResult:
     """Simulate ``plant`` (a URDF model with its true friction) under ``controller`` following ``reference``.
 
@@ -213,15 +215,16 @@ def track(
     (:class:`pinid.simulation.twin.Plant`: ABA-equivalent dynamics, Coulomb friction fc·tanh(dq/``coulomb_velocity``),
     implicit when stiff) integrated at ``rate·substeps`` [Hz].  Starts at ``q0`` (default the reference at
     t = 0) at rest.  Seeded: the same arguments give the same run.  ``terms``: the plant's extra joint
-    terms (:func:`pinid.simulation.twin.plant_terms`; default the wearer's passive moments when the plant
-    carries a wearer); ``disturbance(t) -> (nv,)`` [N·m]: a torque acting on the plant besides the
-    controller's (e.g. the wearer's, :func:`pinid.simulation.twin.wearer_disturbance`).
+    terms (:func:`pinid.simulation.twin.plant_terms`; default the wearer's passive moments when ``wearer``, the
+    segments strapped to the plant as :func:`pinid.simulation.twin.simulate` takes them, is given);
+    ``disturbance(t) -> (nv,)`` [N·m]: a torque acting on the plant besides the controller's (e.g. the
+    wearer's, :func:`pinid.simulation.twin.wearer_disturbance`).
     """
     plant = as_robot(plant)
     rng = np.random.default_rng(seed)
     nv = plant.nv
     limit = plant.effort_limit if torque_limit is None else np.broadcast_to(np.asarray(torque_limit, float), (nv,))
-    dynamics = Plant(plant, plant.coulomb, plant.viscous, coulomb_velocity, plant_terms(plant, terms))
+    dynamics = Plant(plant, plant.coulomb, plant.viscous, coulomb_velocity, plant_terms(plant, terms, wearer))
     n = int(round(seconds * rate))
     t = np.arange(n) / rate
     q_d, dq_d, ddq_d = reference.evaluate(t)
@@ -313,8 +316,10 @@ def compare_models(
     after: float = 2.0,
     position_noise: float = 2e-5,
     seed: int = 0,
+    wearer: Mapping | None = None,
 ) -> dict:
-    """Track ``reference`` on ``plant`` with every controller on every model; same noise seed for all.
+    """Track ``reference`` on ``plant`` with every controller on every model; same noise seed for all
+    (``wearer``: the segments strapped to the plant, as :func:`track` takes them).
 
     Returns ``{controller: {model_name: {"metrics": per-joint dict, "result": TrackingResult}}}``;
     metrics are taken after ``after`` [s] (the start-up transient excluded)."""
@@ -326,7 +331,13 @@ def compare_models(
         out[c] = {}
         for name, model in models.items():
             r = track(
-                plant, CONTROLLERS[c](model), reference, seconds=seconds, position_noise=position_noise, seed=seed
+                plant,
+                CONTROLLERS[c](model),
+                reference,
+                seconds=seconds,
+                position_noise=position_noise,
+                seed=seed,
+                wearer=wearer,
             )
             out[c][name] = {"metrics": r.metrics(after=after), "result": r}
     return out
@@ -342,6 +353,7 @@ def identified_vs_cad(
     track_seconds: float = 8.0,
     method: str = "sdp",
     seed: int = 0,
+    wearer: Mapping | None = None,
 ) -> dict:
     """Issue 7's experiment: does identification make the controllers better than a CAD model?
 
@@ -352,13 +364,15 @@ def identified_vs_cad(
     3. Both controllers track ``reference`` on ``plant`` with the CAD and with the identified model.
 
     Returns ``{"table": compare_models(...), "identification": Identification, "cad_base_error_percent":
-    ..., "identified_base_error_percent": ...}`` (relative errors of the base parameters [%])."""
+    ..., "identified_base_error_percent": ...}`` (relative errors of the base parameters [%]).  ``wearer``:
+    the segments strapped to ``plant``, as :func:`pinid.simulation.twin.simulate` takes them."""
     plant = as_robot(plant)
     rng = np.random.default_rng(seed)
     cad_robot = perturb(plant, percent, rng)
     cad = nominal_model(cad_robot, friction=False)
-    train, _ = simulate(plant, excitation, seconds=record_seconds, seed=seed + 1, feedforward_model=cad_robot)
-    valid, _ = simulate(plant, excitation, seconds=record_seconds / 2, seed=seed + 2, feedforward_model=cad_robot)
+    run = dict(feedforward_model=cad_robot, wearer=wearer)
+    train, _ = simulate(plant, excitation, seconds=record_seconds, seed=seed + 1, **run)
+    valid, _ = simulate(plant, excitation, seconds=record_seconds / 2, seed=seed + 2, **run)
     ident = identify(plant, train, validate=valid, methods=[method])
     terms = JointTerms()
     bp = base_parameters(plant, terms)
@@ -368,7 +382,7 @@ def identified_vs_cad(
     )
     rel = lambda x: (100 * np.abs(x - truth) / np.maximum(np.abs(truth), 1e-9)).tolist()  # noqa: E731
     models = {f"CAD ({percent:g} % off, no friction)": cad, f"identified ({method})": ident[method].model}
-    table = compare_models(plant, models, reference, seconds=track_seconds, seed=seed)
+    table = compare_models(plant, models, reference, seconds=track_seconds, seed=seed, wearer=wearer)
     return {
         "table": table,
         "identification": ident,

@@ -225,7 +225,7 @@ def read_floating(
     columns in its ``[floating]`` table), and check it against ``model``: every link and frame named exists,
     the IMU is fixed to the base link, quaternions are unit, contact phases have a wrench (unless
     ``swing_rows``: then a link with contact phases and no wrench is a leg without force sensing, whose
-    contact rows are left out, see :func:`pinid.identification.floating_problem.floating_problem`), force
+    contact rows are left out, see :func:`pinid.problem.floating.floating_problem`), force
     plates have the base position.  ``kwargs`` go to :func:`~pinid.data.formats.read_recording` (the joint
     columns)."""
     model = as_floating(model)
@@ -428,7 +428,7 @@ def prepare_floating(
     """Filter and differentiate joints and base motion together, zero the wrenches out of contact (phases, or
     force norm below ``threshold`` [N]), and give the base state in Pinocchio's free-flyer convention.
 
-    ``preprocess``: as :func:`pinid.identification.problem.prepare_dataset` (None: filter only when ``dq`` or
+    ``preprocess``: as :func:`pinid.problem.problem.prepare_dataset` (None: filter only when ``dq`` or
     ``ddq`` are missing; False: use the recording as it is, which then needs ``dq_`` and ``ddq_`` columns and
     takes the base derivatives from central differences)."""
     model = as_floating(model)

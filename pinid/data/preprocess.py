@@ -3,7 +3,7 @@
 :func:`prepare` does, in this order:
 
 0. **Unwrapping.**  Joints named in ``unwrap`` (angles without limits: continuous joints, and revolute
-   joints whose URDF gives no limits; :func:`~pinid.identification.problem.load_datasets` passes them)
+   joints whose URDF gives no limits; :func:`~pinid.problem.problem.load_datasets` passes them)
    are unwrapped first (``numpy.unwrap``): a logger that wraps them to [−π, π) makes a 2π jump that
    the filter and the derivatives would otherwise turn into a huge spike.  The joints changed are
    recorded in ``meta["preprocess"]["unwrapped"]``.
@@ -34,7 +34,7 @@
 
 Presets (``preset=``) fill in the options left at their defaults: see :data:`PRESETS`.  The recording as
 given is kept in ``meta["recorded"]``: torque errors are measured against it
-(:func:`pinid.identification.problem.recorded_torque`), not against the low-passed copy.
+(:func:`pinid.problem.problem.recorded_torque`), not against the low-passed copy.
 """
 
 from __future__ import annotations

@@ -3,8 +3,8 @@
 An estimator follows the scikit-learn contract:
 
 * ``__init__`` only stores its settings (keyword arguments, kept as attributes of the same name);
-* ``fit(problem)`` takes a :class:`~pinid.identification.problem.Problem` (an
-  :class:`~pinid.identification.problem.IdentificationProblem` or a segmental stage) and returns ``self``;
+* ``fit(problem)`` takes a :class:`~pinid.problem.problem.Problem` (an
+  :class:`~pinid.problem.problem.IdentificationProblem` or a segmental stage) and returns ``self``;
 * fitted values end in ``_``:
 
   ``base_``       (nb,) base parameters, in the order of ``problem.base.names`` (required)
@@ -35,7 +35,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from pinid.errors import SpecError
-from pinid.identification.problem import Problem
+from pinid.problem.problem import Problem
 from pinid.linalg import augmented_r, solve_r, weighted_lstsq
 
 
@@ -155,7 +155,7 @@ class Estimator:
         return cls(**checked)
 
     def fit(self, problem: Problem) -> "Estimator":  # pragma: no cover - abstract
-        """Estimate the base parameters of ``problem`` (a :class:`~pinid.identification.problem.Problem`); set the fitted attributes (``base_`` …) and return ``self``."""
+        """Estimate the base parameters of ``problem`` (a :class:`~pinid.problem.problem.Problem`); set the fitted attributes (``base_`` …) and return ``self``."""
         raise NotImplementedError
 
     def get_params(self) -> dict:

@@ -35,7 +35,7 @@ import numpy as np
 
 from pinid.errors import SolverError
 from pinid.estimators.iv import ModelSimulation, SimulatingEstimator, physical_fit, simulated_start
-from pinid.identification.problem import Problem
+from pinid.problem.problem import Problem
 from pinid.linalg import weighted_lstsq
 
 

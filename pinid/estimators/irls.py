@@ -30,7 +30,7 @@ import numpy as np
 
 from pinid.estimators.base import Estimator, Setting
 from pinid.estimators.sdp import PhysicalLS
-from pinid.identification.problem import Problem
+from pinid.problem.problem import Problem
 from pinid.linalg import solve_r, weighted_lstsq
 
 #: Default tuning constants (95 % Gaussian efficiency).

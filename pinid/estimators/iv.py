@@ -37,7 +37,7 @@ On noise-free data ``W·β_true = τ`` exactly, so any instruments with ``ZᵀW`
 IV is consistent there whatever the simulation's accuracy.
 
 The simulation needs the recordings (``problem.regressor_rows``, which every
-:meth:`~pinid.identification.problem.IdentificationProblem.from_datasets` problem has); a problem made
+:meth:`~pinid.problem.problem.IdentificationProblem.from_datasets` problem has); a problem made
 from a bare ``W`` or a segmental stage is a :class:`~pinid.errors.SpecError`.
 
 ``physical=True``: every iteration solves the IV equations as two-stage least squares
@@ -58,7 +58,7 @@ from pinid.data.dataset import Dataset
 from pinid.errors import SolverError, SpecError
 from pinid.estimators.base import Estimator, Setting
 from pinid.estimators.sdp import PhysicalLS
-from pinid.identification.problem import IdentificationProblem, Problem, base_regressor
+from pinid.problem.problem import IdentificationProblem, Problem, base_regressor
 from pinid.linalg import solve_r
 from pinid.model import terms as _terms
 

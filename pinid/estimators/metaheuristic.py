@@ -57,7 +57,7 @@ import numpy as np
 from pinid.errors import SpecError
 from pinid.estimators.base import Estimator, Setting
 from pinid.estimators.rls import RLS
-from pinid.identification.problem import Problem, base_statistics
+from pinid.problem.problem import Problem, base_statistics
 from pinid.linalg import solve_r, weighted_lstsq
 from pinid.optimizers import get_optimizer
 
@@ -72,7 +72,7 @@ _CHUNK_ELEMENTS = (
 def natural_scale(problem) -> np.ndarray:
     """Natural magnitude of every base parameter (nb,): ``|P|·s`` with ``s`` = per body M, M·L, M·L²
     (:func:`pinid.model.physical.parameter_scale`, from the nominal parameters) and 1 for joint terms.
-    Every :class:`~pinid.identification.problem.Problem` provides it as ``problem.natural_scale``."""
+    Every :class:`~pinid.problem.problem.Problem` provides it as ``problem.natural_scale``."""
     return np.asarray(problem.natural_scale, dtype=float)
 
 
@@ -125,13 +125,16 @@ def least_squares(problem) -> np.ndarray:
 
 
 def cached_lad(problem) -> np.ndarray:
-    """:func:`least_absolute_deviations` of ``problem``, kept on it: every seed of a comparison needs it."""
+    """:func:`least_absolute_deviations` of ``problem``, kept in its ``cache`` (a
+    :class:`~pinid.problem.problem.ProblemCache`, when it has one): every seed of a comparison needs it."""
     key = (id(problem.W), id(problem.tau), id(problem.weights))
-    cache = problem.__dict__.get("_lad")
-    if cache is None or cache[0] != key:
-        cache = (key, least_absolute_deviations(problem))
-        problem.__dict__["_lad"] = cache
-    return cache[1]
+    cache = getattr(problem, "cache", None)
+    kept = None if cache is None else cache.get("lad", key)
+    if kept is None:
+        kept = least_absolute_deviations(problem)
+        if cache is not None:
+            cache.put("lad", kept, key)
+    return kept
 
 
 def least_absolute_deviations(problem, iterations: int = 200, tol: float = 1e-12) -> np.ndarray:

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pinid.estimators.base import Estimator
-from pinid.identification.problem import Problem
+from pinid.problem.problem import Problem
 from pinid.linalg import solve_r
 
 

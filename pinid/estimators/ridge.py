@@ -10,7 +10,7 @@ import numpy as np
 import scipy.linalg
 
 from pinid.estimators.base import Estimator, Setting
-from pinid.identification.problem import Problem
+from pinid.problem.problem import Problem
 
 
 class Ridge(Estimator):

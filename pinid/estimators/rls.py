@@ -40,7 +40,7 @@ import numpy as np
 
 from pinid.errors import SpecError
 from pinid.estimators.base import Estimator, Setting
-from pinid.identification.problem import Problem
+from pinid.problem.problem import Problem
 
 
 class RLS(Estimator):

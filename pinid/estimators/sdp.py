@@ -37,7 +37,7 @@ import numpy as np
 
 from pinid.errors import SolverError, SpecError
 from pinid.estimators.base import Estimator, Setting, joint_weights
-from pinid.identification.problem import IdentificationProblem, Problem
+from pinid.problem.problem import IdentificationProblem, Problem
 from pinid.linalg import augmented_r, solve_r
 from pinid.model.conic import CLARABEL_OPTIONS, ConicProblem
 from pinid.model.lmi import add_consistency_constraints, clip_terms, consistent_completion, null_projector

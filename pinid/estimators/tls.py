@@ -12,7 +12,7 @@ unit norm too (``scaling="norm"``, the default, the usual choice when the error 
 leaves them as they are (``scaling="none"``); the result is unscaled afterwards.  The scaling changes the
 estimate under noise (not on noise-free data, where ``[W | τ]`` has an exact null vector and TLS returns
 the truth).  The tall matrix is never decomposed: with the compressed form ``(R, c, ρ)`` of
-:meth:`~pinid.identification.problem.IdentificationProblem.compressed`, ``[[R, c], [0, ρ]]`` has the
+:meth:`~pinid.problem.problem.IdentificationProblem.compressed`, ``[[R, c], [0, ρ]]`` has the
 same right singular vectors as the (column-scaled) ``[W | τ]``, so the SVD is (nb+1) × (nb+1).
 
 TLS has no physically consistent variant here (its cost is not a norm of a linear residual, so the
@@ -25,7 +25,7 @@ import numpy as np
 
 from pinid.errors import SolverError
 from pinid.estimators.base import Estimator, Setting
-from pinid.identification.problem import Problem
+from pinid.problem.problem import Problem
 
 
 class TLS(Estimator):

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from pinid.estimators.base import Estimator, Setting, joint_weights
-from pinid.identification.problem import Problem
+from pinid.problem.problem import Problem
 from pinid.linalg import solve_r, weighted_lstsq
 
 

@@ -1,1 +1,1 @@
-"""The identification problem, its results, the runner behind identify and compare, the identified model."""
+"""The results of identification, the runner behind identify and compare, the identified model."""

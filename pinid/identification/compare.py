@@ -42,7 +42,7 @@ from pinid.estimators.metaheuristic import (
     training_costs,
 )
 from pinid.identification.metrics import joint_units, torque_metrics
-from pinid.identification.problem import base_regressor, check_dataset, recorded_torque
+from pinid.problem.problem import base_regressor, check_dataset, recorded_torque
 from pinid.identification.run import Fit, as_model, check_options, parse_methods, run_jobs, setup, use_manifest
 from pinid.identification.truth import true_base
 from pinid.io import jsonable, read_json, write_json

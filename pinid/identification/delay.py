@@ -7,7 +7,7 @@ every ``d`` of the searched range; with ``W = Q·R`` the residual of the least-s
 ``‖τ_d‖² − ‖Qᵀ·τ_d‖²`` — one product per candidate.  Candidates: every sample step in ``[lo, hi]`` (default
 ±0.2 s; at most 201 on a coarser grid first, then every step around the best), then bounded Brent
 (``scipy.optimize.minimize_scalar``) within one step of the best one, between samples (linear
-interpolation).  Rows at rest are left out as in the fit (:mod:`pinid.identification.problem`); one delay
+interpolation).  Rows at rest are left out as in the fit (:mod:`pinid.problem.problem`); one delay
 for every torque channel.  Only the training recordings are used; the delay found is then applied to the
 training and the validation recordings.
 """
@@ -21,7 +21,7 @@ import numpy as np
 from pinid.data.dataset import Dataset
 from pinid.data.delay import DELAY_RANGE, shifted
 from pinid.errors import DataError, SpecError
-from pinid.identification.problem import (
+from pinid.problem.problem import (
     REST_FRACTION,
     base_regressor,
     check_dataset,

@@ -1,5 +1,5 @@
 """Identify a floating-base robot from recordings with base motion and contact wrenches (``pinid identify
---base floating``): read, prepare, stack (:mod:`pinid.identification.floating_problem`), fit every method,
+--base floating``): read, prepare, stack (:mod:`pinid.problem.floating`), fit every method,
 validate, and write ``identification.json`` and the identified URDFs and MJCFs of consistent results."""
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ import numpy as np
 from pinid.data.contacts import FloatingSamples, floating_mapping, prepare_floating, read_floating
 from pinid.errors import DataError, ModelError, SpecError
 from pinid.estimators import make_estimator
-from pinid.identification.floating_problem import floating_problem
+from pinid.problem.floating import floating_problem
 from pinid.io import Artefacts, write_json
 from pinid.model.floating import FloatingRobotModel, as_floating, floating_urdf
 from pinid.model.serialize import robot_from_dict, robot_to_dict
@@ -109,7 +109,7 @@ def identify_floating(
     """Fit every method on the training recordings and score it on the validation ones (RMS over the rows used).
     ``swing_rows``: links with contact phases but no wrench are legs without force sensing; the rows their
     unknown wrench enters are left out while they are in contact.  ``rest_velocity``: as
-    :func:`~pinid.identification.floating_problem.floating_problem` (None keeps every row).  ``mapping``: how
+    :func:`~pinid.problem.floating.floating_problem` (None keeps every row).  ``mapping``: how
     to read recordings not in the dataset format (:func:`pinid.data.contacts.floating_mapping`)."""
     model = as_floating(model)
     terms = as_terms(terms)

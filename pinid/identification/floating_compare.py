@@ -1,6 +1,6 @@
 """``pinid compare --base floating``: several estimators, several seeds, on the same floating recordings.
 
-Every method fits the same floating problem (:func:`pinid.identification.floating_problem.floating_problem`:
+Every method fits the same floating problem (:func:`pinid.problem.floating.floating_problem`:
 base rows and joint rows, ``rows``, ``base_weight`` as in ``pinid identify --base floating``); the
 deterministic ones once, the metaheuristics once per seed.  Each run is scored by its training and
 validation RMS over the rows used [N, N·m] and, with a truth (the ``.truth.json`` of ``pinid simulate
@@ -21,7 +21,7 @@ import numpy as np
 from pinid.errors import SpecError
 from pinid.estimators import ESTIMATORS, Metaheuristic, make_estimator
 from pinid.identification.floating import load_floating
-from pinid.identification.floating_problem import floating_problem
+from pinid.problem.floating import floating_problem
 from pinid.identification.run import check_options, parse_methods
 from pinid.io import Artefacts, json_text, read_json
 from pinid.model.floating import FloatingRobotModel, as_floating

@@ -35,7 +35,7 @@ import pinocchio as pin
 
 from pinid.data.dataset import Dataset
 from pinid.errors import DataError, SpecError
-from pinid.identification.problem import IdentificationProblem
+from pinid.problem.problem import IdentificationProblem
 from pinid.model.base import BaseParameters
 from pinid.model.regressor import JointTerms, regressor
 from pinid.model.robot import INERTIA_TOL, RobotModel

@@ -15,7 +15,7 @@ from pinid.errors import PinidError, SpecError
 from pinid.identification.identified import IdentifiedModel
 from pinid.identification.metrics import TorqueMetrics, joint_units, torque_metrics
 from pinid.identification.uncertainty import uncertainty_warning
-from pinid.identification.problem import IdentificationProblem, base_statistics, least_norm_completion
+from pinid.problem.problem import IdentificationProblem, base_statistics, least_norm_completion
 from pinid.io import display_path, jsonable, read_json, write_json
 from pinid.model.export import identified_urdf
 from pinid.model.lmi import consistent_completion
@@ -38,7 +38,7 @@ class IdentificationResult:
     matrix, Coriolis and gravity, because those depend on the base parameters only.
     ``physically_consistent``: the check of ``standard`` (:func:`pinid.model.physical.check_consistency`).
     ``train``, ``validation``: torque errors against the torque **as recorded** (the fixed yardstick,
-    :func:`pinid.identification.problem.recorded_torque`); ``train_filtered``, ``validation_filtered``:
+    :func:`pinid.problem.problem.recorded_torque`); ``train_filtered``, ``validation_filtered``:
     the same against the torque after pinid's own preprocessing (low-pass), which moves with ``--cutoff``.
     ``truth_error``: ``{"names", "truth", "error", "error_percent"}`` against a known truth
     (:func:`truth_errors`), None without one.

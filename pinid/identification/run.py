@@ -25,7 +25,7 @@ from pinid.data.delay import parse_delay, shift_torque
 from pinid.errors import DataError, SpecError
 from pinid.estimators import ESTIMATORS, Estimator, make_estimator
 from pinid.identification.metrics import joint_units, torque_metrics
-from pinid.identification.problem import (
+from pinid.problem.problem import (
     REST_FRACTION,
     IdentificationProblem,
     check_dataset,
@@ -398,7 +398,7 @@ def run_jobs(
                 est, target = Segmental(method, settings), s.segmental
             else:
                 est, target = make_estimator(method, **settings), s.problem
-                s.problem.__dict__.pop("_compressed", None)  # each run's time includes its QR compression
+                s.problem.cache.forget("compressed")  # each run's time includes its QR compression
             t0 = time.perf_counter()
             est.fit(target)
             seconds = time.perf_counter() - t0
@@ -441,10 +441,10 @@ def identify(
     ``model``: a RobotModel, URDF path or robot name.  ``data`` / ``validate``: Datasets or recording
     paths (read with :func:`pinid.data.formats.read_recording` and ``mapping``).  Recordings without ``dq`` or
     ``ddq`` go through :func:`pinid.data.preprocess.prepare` (see
-    :func:`~pinid.identification.problem.prepare_dataset` for ``preprocess``).
+    :func:`~pinid.problem.problem.prepare_dataset` for ``preprocess``).
     ``methods``: names from :data:`pinid.estimators.ESTIMATORS` (default ols, wls, sdp).  ``terms``: the
     joint terms in the model (default Coulomb and viscous friction).  ``rest_velocity``,
-    ``rest_fraction``: rows at rest dropped for Coulomb friction (:mod:`pinid.identification.problem`).
+    ``rest_fraction``: rows at rest dropped for Coulomb friction (:mod:`pinid.problem.problem`).
     ``options``: settings per method, e.g. ``{"sdp": {"regularization": 1e-2, "mass_bounds": (0.1, 20)}}``.
     ``complete``: look for a consistent standard set behind base-only results (one small SDP each).
     ``payload`` (a :class:`~pinid.identification.gains.Payload` or its TOML) with ``payload_data``: the

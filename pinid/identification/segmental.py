@@ -44,9 +44,10 @@ from pinid.data.dataset import Dataset
 from pinid.errors import DataError, SpecError
 from pinid.estimators import ESTIMATORS, make_estimator
 from pinid.estimators.base import Estimator
-from pinid.identification.problem import (
+from pinid.problem.problem import (
     REST_FRACTION,
     IdentificationProblem,
+    ProblemCache,
     check_dataset,
     load_datasets,
     rest_threshold,
@@ -65,7 +66,7 @@ from pinid.model.robot import as_robot
 class SubProblem:
     """Some rows and some base-parameter columns of a stacked problem, with a known torque subtracted.
 
-    It is a :class:`~pinid.identification.problem.Problem` (what base-only estimators use: ``W``, ``tau``,
+    It is a :class:`~pinid.problem.problem.Problem` (what base-only estimators use: ``W``, ``tau``,
     ``weights``, ``joint``, ``sample``, ``nb``, ``nv``, ``rows``, ``names``, ``nominal_base``,
     ``natural_scale``, ``compressed()``, ``model``, ``terms``), without ``base`` (the map to standard
     parameters belongs to the full problem).
@@ -83,6 +84,7 @@ class SubProblem:
     natural_scale: np.ndarray
     columns: np.ndarray
     sources: list[str] = field(default_factory=list)
+    cache: ProblemCache = field(default_factory=ProblemCache, init=False, repr=False, compare=False)
 
     @property
     def nb(self) -> int:
@@ -103,11 +105,10 @@ class SubProblem:
         """``(R, c, rho, scale)`` of :func:`pinid.estimators.base.augmented_r`, cached for the own weights."""
         if weights is not None and weights is not self.weights:
             return augmented_r(self.W, self.tau, weights)
-        cache = self.__dict__.get("_compressed")
-        if cache is None:
-            cache = augmented_r(self.W, self.tau, self.weights)
-            self.__dict__["_compressed"] = cache
-        return cache
+        kept = self.cache.get("compressed")
+        if kept is None:
+            kept = self.cache.put("compressed", augmented_r(self.W, self.tau, self.weights))
+        return kept
 
 
 def _natural_scale(model: RobotModel, terms: JointTerms, base: BaseParameters) -> np.ndarray:
@@ -147,7 +148,7 @@ class SegmentalProblem:
 
     ``first``: recordings with the other joints held fixed (seed 000: hip fixed, knee swinging);
     ``second``: recordings with every joint moving; ``first_joints``: the joints identified first.
-    ``problem`` is the full :class:`~pinid.identification.problem.IdentificationProblem` of ``second`` (what the
+    ``problem`` is the full :class:`~pinid.problem.problem.IdentificationProblem` of ``second`` (what the
     result is reported on); ``first_problem`` the first stage's :class:`SubProblem`.
     """
 
@@ -358,7 +359,7 @@ def segmental_identify(
 
     ``first``: recording(s) with only ``first_joints`` moving (seed 000: trajectory 1, hip fixed);
     ``second``: recording(s) with every joint moving (trajectory 3).  Recordings without ``dq``/``ddq``
-    are prepared (:func:`pinid.identification.problem.prepare_dataset`).  The result's training metrics are over
+    are prepared (:func:`pinid.problem.problem.prepare_dataset`).  The result's training metrics are over
     the second recordings' rows (both joints); ``info["segmental"]`` describes the stages.
     """
     if not isinstance(model, RobotModel):

@@ -31,7 +31,7 @@ import scipy.linalg
 
 from pinid.data.dataset import Dataset
 from pinid.errors import DataError
-from pinid.identification.problem import IdentificationProblem, check_dataset
+from pinid.problem.problem import IdentificationProblem, check_dataset
 from pinid.model import terms as _terms
 
 GRID = 25  # log-spaced candidates of the coarse search

@@ -1,6 +1,6 @@
 """How well the data determine each base parameter, and the one-line warning when they do not.
 
-The standard deviations (:func:`pinid.identification.problem.base_statistics`) follow the least-squares
+The standard deviations (:func:`pinid.problem.problem.base_statistics`) follow the least-squares
 formula: σ² = Σ w·r² / (rows − nb), Cov = σ²·(Wᵀ diag(w) W)⁻¹, ``std_i = √Cov_ii`` and the relative
 standard deviation ``%σ_i = 100·std_i / |θ_i|``.  OLS uses unit weights; WLS its own final weights (the
 formula is then that of weighted least squares); every other method (the LMI method, RLS, the

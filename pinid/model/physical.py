@@ -22,7 +22,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from pinid.model.terms import TERMS, layout
+from pinid.model.terms import layout
 from pinid.checks import array_like
 
 #: Relative tolerance of the checks: an eigenvalue of J ≥ −RTOL·‖J‖ counts as non-negative.
@@ -146,10 +146,6 @@ class ConsistencyReport:
             },
             "negative_terms": dict(self.negative_terms),
         }
-
-
-#: Terms that must be non-negative (from the terms registry; kept for compatibility).
-NONNEGATIVE_TERMS: tuple[str, ...] = tuple(n for n, t in TERMS.items() if t.nonnegative)
 
 
 def check_consistency(

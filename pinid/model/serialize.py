@@ -13,8 +13,7 @@ import numpy as np
 from pinid.errors import SpecError
 from pinid.model.regressor import JointTerms
 from pinid.model.robot import RobotModel
-from pinid.model.terms import STRIBECK_TERMS, Stribeck
-from pinid.wearer.passive import check_exponents
+from pinid.model.terms import STRIBECK_TERMS, TERMS, Stribeck
 from pinid.model.robot import as_robot
 
 
@@ -85,9 +84,12 @@ def robot_from_dict(d: dict) -> tuple[RobotModel, JointTerms]:
 
         model = model.with_drives(Drives.from_dict(d["drives"], model.joint_names, "saved drives"))
     model = model.with_stribeck(stribeck_from_dict(d.get("stribeck") or {}, "saved robot: 'stribeck'"))
-    model = model.with_passive_exponents(
-        check_exponents(d.get("passive_exponents") or {}, "saved robot: 'passive_exponents'")
-    )
+    for term in TERMS.values():  # loads the plug-in terms: a saved setting may be one of theirs
+        if term.setting is not None and d.get(term.setting):
+            # the model's with_<setting> gives a new model with it (models are built once)
+            model = getattr(model, f"with_{term.setting}")(
+                term.read_setting(d[term.setting], f"saved robot: '{term.setting}'")
+            )
     return model, terms
 
 

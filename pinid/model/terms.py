@@ -20,14 +20,14 @@ terms together, in registry order), then the motor block, motor-major.
 
 from __future__ import annotations
 
+import importlib
 from dataclasses import dataclass
 from typing import NamedTuple
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Iterator, MutableMapping, Sequence
 
 import numpy as np
 from pinid.checks import array_like, as_floats
 from pinid.errors import ModelError, SpecError
-from pinid.wearer import passive
 
 
 class Motion(NamedTuple):
@@ -57,6 +57,8 @@ class Term:
     plant: Callable[[np.ndarray, Motion, float], np.ndarray] | None = None  # (values, motion, v_s) → torque
     static: bool = False  # the column depends on q only (like gravity): a model's gravity(q) includes it
     velocity_step: bool = False  # the column jumps at zero velocity (Coulomb): ∂/∂dq taken as 0 elsewhere
+    setting: str | None = None  # a robot attribute the term reads, saved with the model ("passive_exponents")
+    read_setting: Callable[[object, str], object] | None = None  # (saved value, origin) → the attribute's value
 
     def torque(self, values: np.ndarray, motion: Motion, smoothing: float | None = None) -> np.ndarray:
         """Torque of this term [N·m] in its own space for per-joint/motor ``values``; the plant's law when
@@ -66,15 +68,60 @@ class Term:
         return np.asarray(values, dtype=float) * self.column(motion)
 
 
-#: Every known term, in column order (registration order).
-TERMS: dict[str, Term] = {}
+#: The module that registers each plug-in term (a term of a folder above this one), loaded the first time
+#: the term is asked for (a plug-in: the module imports this one, so this one names it instead of importing
+#: it).  Its place in the column order is kept from the start (:meth:`TermRegistry.reserve`).
+TERM_MODULES: dict[str, str] = {"passive": "pinid.wearer.passive"}
+
+
+class TermRegistry(MutableMapping):
+    """The known terms by name, in column order (registration order; a plug-in term of :data:`TERM_MODULES`
+    at the place reserved for it).  Asking for a plug-in term (``TERMS[name]``, ``name in TERMS``, its values)
+    imports its module, which registers it; listing the names imports nothing."""
+
+    def __init__(self) -> None:
+        self._terms: dict[str, Term | None] = {}  # None: a plug-in's place, its module not loaded yet
+
+    def reserve(self, name: str) -> None:
+        """Keep the place of plug-in term ``name`` (a key of :data:`TERM_MODULES`) in the column order."""
+        if name not in TERM_MODULES:
+            raise SpecError(f"term {name!r}: not a plug-in term, expected one of {list(TERM_MODULES)}")
+        self._terms.setdefault(name, None)
+
+    def registered(self, name: str) -> bool:
+        """True once term ``name`` is registered (loads no plug-in)."""
+        return self._terms.get(name) is not None
+
+    def __getitem__(self, name: str) -> Term:
+        if name in TERM_MODULES and not self.registered(name):
+            importlib.import_module(TERM_MODULES[name])  # registers the term
+        term = self._terms.get(name)
+        if term is None:
+            raise KeyError(name)
+        return term
+
+    def __setitem__(self, name: str, term: Term) -> None:
+        self._terms[name] = term
+
+    def __delitem__(self, name: str) -> None:
+        del self._terms[name]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(list(self._terms))
+
+    def __len__(self) -> int:
+        return len(self._terms)
+
+
+#: Every known term, in column order.
+TERMS = TermRegistry()
 
 
 def register(term: Term) -> Term:
     """Add a term to the registry (its name must be new); returns it."""
     if not isinstance(term, Term):
         raise SpecError(f"term: got {type(term).__name__}, expected a pinid.model.terms.Term")
-    if term.name in TERMS:
+    if TERMS.registered(term.name):
         raise ValueError(f"term {term.name!r} is already registered")
     if term.space not in ("joint", "motor"):
         raise ValueError(f"term {term.name!r}: space {term.space!r}, expected 'joint' or 'motor'")
@@ -140,17 +187,7 @@ register(
     )
 )
 
-register(
-    Term(
-        "passive",
-        "kp",
-        "wearer passive moment (scale of Riener & Edrich 1999)",
-        "1",
-        lambda m: passive.column(m.q, m.robot),
-        static=True,
-        nominal=lambda r: np.array([1.0 if kind else 0.0 for kind, _ in passive.anatomy(r)]),
-    )
-)
+TERMS.reserve("passive")  # the wearer's passive moments: registered by pinid.wearer.passive
 
 for _base in ("fc", "fv", "offset", "armature", "fc_pos", "fc_neg"):
     _t = TERMS[_base]

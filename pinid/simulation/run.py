@@ -30,7 +30,8 @@ def simulate_and_write(
     controller: Controller | None = None,
     friction: Friction | None = None,
     sensors: Sensors | None = None,
-    wearer_draw: bool = False,
+    wearer: dict | None = None,
+    drawn_wearer: tuple[dict, dict] | None = None,
     wearer_torque: float = 0.0,
     perturb: float | None = None,
     truth_path: str | os.PathLike | None = None,
@@ -44,8 +45,10 @@ def simulate_and_write(
     summary :func:`~pinid.simulation.outputs.simulation_text` gives.
 
     ``rates``, ``controller``, ``friction``, ``sensors``: the twin's option groups (:func:`~pinid.simulation.twin.simulate`);
-    ``wearer_draw``: the wearer of an exo + wearer URDF drawn away from the tables (seeded,
-    :func:`pinid.wearer.prior.draw_wearer`), the drawn and table values in ``truth["wearer"]["drawn"]``;
+    ``wearer``: the wearer segments the twin carries (:func:`pinid.wearer.attach.wearer_links`; the caller
+    finds them: the wearer is a layer above the twin); ``drawn_wearer``: ``(table values, drawn values)`` when
+    ``model``'s wearer was drawn away from the tables (:func:`pinid.wearer.prior.draw_wearer`), kept in
+    ``truth["wearer"]["drawn"]``;
     ``wearer_torque`` [%]: the wearer's involuntary torque; ``perturb`` [%]: the feed-forward from a CAD model
     that far from the truth (``truth["cad"]``; ``cad_urdf`` writes it); ``command``: the command line kept in
     ``truth["command"]``.
@@ -54,12 +57,6 @@ def simulate_and_write(
     path = as_path(path)
     if not isinstance(excitation, str):
         raise SpecError(f"excitation: got {type(excitation).__name__}, expected a trajectory path, name or preset")
-    drawn = table = None
-    if wearer_draw:
-        from pinid.wearer.prior import draw_wearer  # deferred: only a drawn wearer needs the wearer's tables
-
-        table = model.inertial_parameters()
-        model, drawn = draw_wearer(model, seed)
     trajectory = load_trajectory(excitation, model, flip=flip)
     cad = None if perturb is None else cad_model(model, perturb, seed)
     if cad is not None:  # the feed-forward's model
@@ -74,12 +71,13 @@ def simulate_and_write(
         friction=friction,
         sensors=sensors,
         wearer_torque=wearer_torque,
+        wearer=wearer,
         progress=None,
     )
     if cad is not None:
         truth["cad"] = cad_truth(truth, model, cad, perturb)
-    if drawn is not None:
-        truth["wearer"]["drawn"] = drawn_wearer_truth(table, drawn)
+    if drawn_wearer is not None:
+        truth["wearer"]["drawn"] = drawn_wearer_truth(*drawn_wearer)
     if command is not None:
         truth["command"] = command
     files = {"truth_path": truth_path, "true_signals": true_signals, "cad_urdf": cad_urdf}

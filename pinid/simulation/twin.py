@@ -9,8 +9,8 @@ Model, exactly the regressor's (:mod:`pinid.model.regressor`)::
 
     tau_applied (+ d) = M(q)·ddq + h(q, dq) + fc·sign(dq) + fv·dq (+ Σ more joint terms)   (fc, fv ≥ 0)
 
-More joint terms of the registry (``terms=``, e.g. the wearer's passive moments, on by default for a
-URDF from ``pinid wearer``) act through their own plant laws (:class:`Plant`); ``d`` is the wearer's
+More joint terms of the registry (``terms=``, e.g. the wearer's passive moments, on by default when the
+caller hands over the wearer strapped to the robot, ``wearer=``) act through their own plant laws (:class:`Plant`); ``d`` is the wearer's
 involuntary active torque (``wearer_torque``), which moves the leg but is not in the recorded torque.
 
 **Coulomb friction near zero velocity.**  ``sign(dq)`` makes the equations of motion stiff (set-valued
@@ -50,7 +50,7 @@ from __future__ import annotations
 import math
 import warnings
 from dataclasses import dataclass, replace
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 import pinocchio as pin
@@ -315,6 +315,7 @@ def simulate(
     sensors: Sensors | None = None,
     terms: dict[str, Sequence[float]] | None = None,
     wearer_torque: float = 0.0,
+    wearer: Mapping | None = None,
     progress: bool | None = False,
     **options,
 ) -> tuple[Dataset, dict]:
@@ -328,8 +329,10 @@ def simulate(
     given as a keyword (``bandwidth=8``, ``position_noise=0``, ``control_rate=500``, ``coulomb=…``; the
     rates as ``control_rate``, ``sample_rate``, ``integration_rate``), which overrides the group's.
     ``terms``: more true joint terms for the plant, ``{term name: per-joint values}`` (see :class:`Plant`;
-    default: the wearer's passive moments at their nominal scale 1 when the URDF carries a wearer, else
-    none).  ``wearer_torque`` [%]: the wearer's involuntary active torque, per joint that percentage of
+    default: the wearer's passive moments at their nominal scale 1 when ``wearer`` is given, else none).
+    ``wearer``: the wearer segments strapped to ``model``, ``{segment: (exo link, mass [kg], CoM [m], inertia
+    about the CoM [kg·m²])}`` (:func:`pinid.wearer.attach.wearer_links` of a URDF from ``pinid wearer``; the
+    truth lists them).  ``wearer_torque`` [%]: the wearer's involuntary active torque, per joint that percentage of
     the RMS gravity torque along the trajectory (:func:`wearer_disturbance`); it acts on the plant but is
     not in the recorded (motor) torque.  Everything random comes from ``seed``; more in the module text.
     """
@@ -373,6 +376,7 @@ def simulate(
         velocity_noise=s.velocity_noise,
         terms=terms,
         wearer_torque=wearer_torque,
+        wearer=wearer,
         progress=progress,
     )
 
@@ -405,6 +409,7 @@ def _simulate(
     velocity_noise: float,
     terms: dict[str, Sequence[float]] | None,
     wearer_torque: float,
+    wearer: Mapping | None,
     progress: bool | None,
 ) -> tuple[Dataset, dict]:
     """:func:`simulate` with every option resolved (one keyword each, as the body uses them)."""
@@ -451,7 +456,8 @@ def _simulate(
     fv = _per_joint(model.viscous if viscous is None else viscous, model, "viscous friction")
     if np.any(fc < 0) or np.any(fv < 0):
         raise SpecError(f"friction must be >= 0 (Coulomb {fc.tolist()}, viscous {fv.tolist()})")
-    extra = plant_terms(model, terms)
+    extra = plant_terms(model, terms, wearer)
+    wearer = dict(wearer or {})
     if not np.isfinite(wearer_torque) or wearer_torque < 0:
         raise SpecError(f"wearer torque {wearer_torque!r} %, expected a percentage >= 0")
 
@@ -664,11 +670,11 @@ def _simulate(
         },
         "signals": signals,
     }
-    if extra or disturbance is not None or _wearer(model):
+    if extra or disturbance is not None or wearer:
         truth["wearer"] = {
             "table_segments": {
                 s: {"link": lk, "mass": m, "com": c.tolist(), "inertia_about_com": I.tolist()}
-                for s, (lk, m, c, I) in _wearer(model).items()
+                for s, (lk, m, c, I) in wearer.items()
             },
             "terms": {n: dict(zip(joints, v.tolist())) for n, v in extra.items()},
             "active_torque": {
@@ -696,17 +702,14 @@ def wearer_disturbance(t: np.ndarray, rms: np.ndarray, rng: np.random.Generator,
     return x * (rms / np.maximum(np.sqrt(np.mean(x**2, axis=0)), 1e-300))
 
 
-def _wearer(model: RobotModel) -> dict:
-    from pinid.wearer.attach import wearer_links
-
-    return wearer_links(model.urdf_text) if model.urdf_text else {}
-
-
-def plant_terms(model: RobotModel, terms: dict | None = None) -> dict[str, np.ndarray]:
-    """The plant's extra joint terms, checked: ``terms`` or, by default, the wearer's passive moments."""
+def plant_terms(model: RobotModel, terms: dict | None = None, wearer: Mapping | None = None) -> dict[str, np.ndarray]:
+    """The plant's extra joint terms, checked: ``terms`` or, by default, the wearer's passive moments when
+    ``wearer`` (the segments strapped to ``model``, as :func:`simulate` takes them) is given and not empty."""
     model = as_robot(model)
+    if wearer is not None and not isinstance(wearer, Mapping):
+        raise SpecError(f"wearer: got {type(wearer).__name__}, expected {{segment: (link, mass, com, inertia)}}")
     if terms is None:
-        return {"passive": _terms.nominal(model, JointTerms(names=["passive"]))} if _wearer(model) else {}
+        return {"passive": _terms.nominal(model, JointTerms(names=["passive"]))} if wearer else {}
     out = {}
     for name, v in terms.items():
         t = _terms.TERMS.get(name)

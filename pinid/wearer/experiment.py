@@ -22,10 +22,11 @@ from __future__ import annotations
 import numpy as np
 
 from pinid.identification.identified import IdentifiedModel
-from pinid.identification.problem import prepare_dataset
+from pinid.problem.problem import prepare_dataset
 from pinid.model.regressor import JointTerms
 from pinid.model.robot import RobotModel
 from pinid.simulation.twin import simulate
+from pinid.wearer.attach import wearer_links
 from pinid.wearer.prior import draw_wearer
 from pinid.wearer.stage import identify_wearer, stack
 
@@ -62,7 +63,7 @@ def wearer_experiment(
     [rad]}}, "fit": WearerFit}`` with models ``identified``, ``table``, ``exo``.
     """
     from pinid.control.controllers import compare_models
-    from pinid.identification.core import identify
+    from pinid.identification.run import identify
 
     exo = RobotModel.from_urdf(exo_urdf)
     exo_run, _ = simulate(exo, excitation, seconds=seconds, seed=seed + 1)
@@ -70,8 +71,9 @@ def wearer_experiment(
     table = RobotModel.from_urdf(exo_with_wearer)
     plant, _ = draw_wearer(table, seed)
     plant = plant.with_passive_exponents(dict(true_exponents or {}))
-    train, _ = simulate(plant, excitation, seconds=seconds, seed=seed + 2, wearer_torque=wearer_torque)
-    valid, _ = simulate(plant, validation, seconds=seconds / 2, seed=seed + 3, wearer_torque=wearer_torque)
+    worn = wearer_links(plant.urdf_text)
+    train, _ = simulate(plant, excitation, seconds=seconds, seed=seed + 2, wearer_torque=wearer_torque, wearer=worn)
+    valid, _ = simulate(plant, validation, seconds=seconds / 2, seed=seed + 3, wearer_torque=wearer_torque, wearer=worn)
     train, valid = prepare_dataset(train), prepare_dataset(valid)
     fit = identify_wearer(
         stage1, table, *stack([train]), passive_exponents=passive_exponents, prior_weight=prior_weight
@@ -88,7 +90,7 @@ def wearer_experiment(
     rms = {w: _rms(m, [valid]) for w, m in models.items()}
     floor = _rms(truth, [valid])
     pooled = lambda r: float(np.sqrt(np.mean(r**2) / np.mean(floor**2)))  # noqa: E731
-    runs = compare_models(plant, models, reference, seconds=track_seconds, seed=seed)
+    runs = compare_models(plant, models, reference, seconds=track_seconds, seed=seed, wearer=worn)
     tracking = {
         c: {w: np.array([v["rms"] for v in r["metrics"].values()]) for w, r in by.items()} for c, by in runs.items()
     }

@@ -12,7 +12,9 @@ excursion is flexion for hip and knee, plantarflexion for the ankle.  exo_leg: h
 
 In the dynamic model the passive moment is a joint term (``--terms passive``, parameter ``<joint>.kp``,
 a dimensionless scale factor of the published shape, nominal 1): the motors supply
-``τ = ID(q, dq, ddq) + … − kp·s·M(φ)``, so the term's regressor column is ``−s·M``.
+``τ = ID(q, dq, ddq) + … − kp·s·M(φ)``, so the term's regressor column is ``−s·M``.  This module registers
+the term in :data:`pinid.model.terms.TERMS` (which loads it the first time ``passive`` is asked for,
+:data:`pinid.model.terms.TERM_MODULES`).
 
 The exponents' coefficients ``c`` are the published ones unless the robot carries its own
 (``robot.passive_exponents``, ``{anatomical joint: (terms, 4) array}``, saved with a model): what
@@ -29,6 +31,7 @@ import numpy as np
 
 from pinid.errors import SpecError
 from pinid.model.robot import as_robot
+from pinid.model.terms import Term, register
 from pinid.checks import array_like
 
 #: Anatomical joints, in the order of the exponent coefficients (after the constant).
@@ -124,3 +127,18 @@ def torque(q: np.ndarray, robot, scale: np.ndarray | float = 1.0) -> np.ndarray:
     """Passive moment the wearer's tissues apply on the robot's joints [N·m], (N, nv): ``scale·s·M``."""
     array_like(q, "q")
     return -np.asarray(scale, dtype=float) * column(q, robot)
+
+
+register(
+    Term(
+        "passive",
+        "kp",
+        "wearer passive moment (scale of Riener & Edrich 1999)",
+        "1",
+        lambda m: column(m.q, m.robot),
+        static=True,
+        nominal=lambda r: np.array([1.0 if kind else 0.0 for kind, _ in anatomy(r)]),
+        setting="passive_exponents",
+        read_setting=check_exponents,
+    )
+)

@@ -27,7 +27,7 @@ from pinid import RobotModel  # noqa: E402
 from pinid.estimators import make_estimator  # noqa: E402
 from pinid.excitation.problem import DesignProblem  # noqa: E402
 from pinid.excitation.spec import spec_for  # noqa: E402
-from pinid.identification.core import IdentificationProblem  # noqa: E402
+from pinid.problem.problem import IdentificationProblem  # noqa: E402
 from pinid.model.regressor import regressor  # noqa: E402
 
 

@@ -18,7 +18,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-import pinid.identification.problem as problem  # noqa: E402
+import pinid.problem.problem as problem  # noqa: E402
 from pinid import base_parameters, standard_parameters  # noqa: E402
 from pinid.data.dataset import Dataset  # noqa: E402
 from pinid.identification.run import identify  # noqa: E402

@@ -27,7 +27,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from test_drives import MOTOR_TERMS, coupled, twin  # noqa: E402
 
 from pinid import JointTerms  # noqa: E402
-from pinid.identification.core import identify  # noqa: E402
+from pinid.identification.run import identify  # noqa: E402
 
 
 def best_of(fn, repeats: int = 3):

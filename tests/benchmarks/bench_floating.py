@@ -28,7 +28,7 @@ from pinid import RobotModel
 from pinid.data.contacts import write_floating
 from pinid.estimators import make_estimator
 from pinid.identification.floating import identify_floating
-from pinid.identification.floating_problem import floating_problem
+from pinid.problem.floating import floating_problem
 from pinid.model.floating import floating_regressor, random_floating_states
 from pinid.model.terms import JointTerms
 from pinid.simulation.floating_twin import Noise, simulate_gait

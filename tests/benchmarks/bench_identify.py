@@ -69,7 +69,7 @@ def best_of(fn, repeats: int = 3) -> tuple[float, object]:
 
 def bench_sdp() -> list[str]:
     from pinid.estimators import PhysicalLS
-    from pinid.identification.core import IdentificationProblem
+    from pinid.problem.problem import IdentificationProblem
 
     model = RobotModel.from_urdf("panda")
     ds = recording(model, 20.0, 1000.0, 0, noise=0.5)  # 20 000 samples
@@ -77,7 +77,7 @@ def bench_sdp() -> list[str]:
     PhysicalLS().fit(problem)  # warm-up: imports Clarabel
 
     def fit_from_scratch():
-        problem.__dict__.pop("_compressed", None)  # include the QR compression of the tall regressor
+        problem.cache.forget("compressed")  # include the QR compression of the tall regressor
         return PhysicalLS().fit(problem)
 
     t_fit, est = best_of(fit_from_scratch)

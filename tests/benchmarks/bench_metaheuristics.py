@@ -25,7 +25,7 @@ import numpy as np
 from pinid import RobotModel
 from pinid.data.dataset import Dataset
 from pinid.estimators import make_estimator
-from pinid.identification.core import IdentificationProblem
+from pinid.problem.problem import IdentificationProblem
 
 
 def data(model: RobotModel, samples: int, rate: float = 1000.0, seed: int = 0) -> Dataset:

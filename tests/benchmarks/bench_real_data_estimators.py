@@ -44,7 +44,7 @@ from pinid import JointTerms, RobotModel, base_parameters, standard_parameters
 from pinid.data.dataset import Dataset
 from pinid.data.formats import read_recording
 from pinid.estimators import make_estimator
-from pinid.identification.problem import (
+from pinid.problem.problem import (
     IdentificationProblem,
     free_angles,
     predict_torque,

@@ -16,7 +16,7 @@ import numpy as np
 from pinid import RobotModel
 from pinid.data.contacts import prepare_floating, read_floating, write_floating
 from pinid.estimators import make_estimator
-from pinid.identification.floating_problem import floating_problem
+from pinid.problem.floating import floating_problem
 from pinid.model.terms import JointTerms
 from pinid.report.figures import save_figure
 from pinid.simulation.floating_twin import Noise, simulate_gait

@@ -128,8 +128,7 @@ def lad_segmental(seg: SegmentalProblem) -> np.ndarray:
 
 def validation_metrics(model, base_values: np.ndarray, ds, joint: str) -> tuple[float, float, float]:
     from pinid.model.base import base_parameters
-    from pinid.identification.core import predict_torque
-    from pinid.identification.problem import check_dataset, recorded_torque
+    from pinid.problem.problem import check_dataset, predict_torque, recorded_torque
 
     bp = base_parameters(model)
     pred = predict_torque(model, model_terms(), bp, ds, base_values)

@@ -14,7 +14,7 @@ Per sample the free-flyer equations of motion, linear in the standard parameters
 base row ``base_weight`` (default 1: plain least squares in SI units, N and N·m alike); WLS
 (``weighting="joint"``) re-weights per body, the 6 base rows together counting as the body ``base``.
 
-The result is an ordinary :class:`~pinid.identification.problem.IdentificationProblem` whose ``model`` is the
+The result is an ordinary :class:`~pinid.problem.problem.IdentificationProblem` whose ``model`` is the
 robot's body view (:func:`pinid.model.floating.body_view`: ``base`` then the joints), so every estimator,
 the SDP with its pseudo-inertia LMI on every body (the base link included) among them, takes it unchanged.
 Its rows are rebuilt block by block (:class:`FloatingRows`); joint rows at rest are kept unless
@@ -35,7 +35,7 @@ import numpy as np
 
 from pinid.data.contacts import FloatingSamples
 from pinid.errors import DataError
-from pinid.identification.problem import IdentificationProblem, rest_thresholds
+from pinid.problem.problem import IdentificationProblem, rest_thresholds
 from pinid.model.base import BaseParameters
 from pinid.model.floating import (
     BASE_NV,
@@ -55,7 +55,7 @@ _CHUNK = 2000  # samples per regressor block (2000 × (6 + n) rows × p columns 
 @dataclass
 class FloatingRows:
     """What rebuilds the rows of a floating problem's base regressor (duck-types
-    :class:`~pinid.identification.problem.RegressorRows`)."""
+    :class:`~pinid.problem.problem.RegressorRows`)."""
 
     model: FloatingRobotModel
     terms: JointTerms

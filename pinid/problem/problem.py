@@ -61,7 +61,7 @@ from pinid.model.robot import RobotModel
 from pinid.progress import progress
 from pinid.data.dataset import as_dataset
 from pinid.model.robot import as_robot
-from pinid.identification.rows import (
+from pinid.problem.rows import (
     REST_FRACTION as REST_FRACTION,
     fit_mask as fit_mask,
     kept_rows as kept_rows,
@@ -147,6 +147,31 @@ class RegressorRows:
         return W
 
 
+class ProblemCache:
+    """What is computed once from a problem's rows and kept with it: its Gram sums (``"gram"``), their
+    compression (``"compressed"``), an estimator's own (``"lad"``: the metaheuristics' least-absolute-deviation
+    start).  Each value is stored with the key of the data it was computed from (:meth:`put`) and returned
+    only while the key is the same (:meth:`get`); :meth:`forget` drops values (e.g. to time a compression)."""
+
+    def __init__(self) -> None:
+        self._values: dict[str, tuple[object, object]] = {}
+
+    def get(self, name: str, key: object = None) -> object | None:
+        """The value kept under ``name`` for ``key``, else None."""
+        kept = self._values.get(name)
+        return kept[1] if kept is not None and kept[0] == key else None
+
+    def put(self, name: str, value: object, key: object = None) -> object:
+        """Keep ``value`` under ``name`` for ``key`` (replacing what was kept); returns ``value``."""
+        self._values[name] = (key, value)
+        return value
+
+    def forget(self, *names: str) -> None:
+        """Drop the values kept under ``names`` (every value when none is named)."""
+        for name in names or tuple(self._values):
+            self._values.pop(name, None)
+
+
 @dataclass
 class IdentificationProblem:
     """What an estimator is given.  Rows are stacked sample-major (row of joint ``joint[r]`` at ``sample[r]``).
@@ -161,8 +186,10 @@ class IdentificationProblem:
     ``nominal``  (p,) the URDF's standard parameters (inertias, ``<dynamics>`` friction)
     ``recorded_tau`` (rows,) the torque as recorded at each row's sample (:func:`recorded_torque`), the
                  yardstick of the training error; None: ``tau`` is the torque as recorded
+    ``cache``    what is computed once from the rows and kept (:class:`ProblemCache`; not an argument)
     """
 
+    cache: ProblemCache = field(default_factory=ProblemCache, init=False, repr=False, compare=False)
     model: RobotModel
     terms: JointTerms
     base: BaseParameters
@@ -382,9 +409,9 @@ class IdentificationProblem:
         advanced by their samples), else over row blocks of ``W``.  Cached for the problem's own weights."""
         own = weights is None or weights is self.weights
         key = self._source_key()
-        cache = self.__dict__.get("_gram")
-        if own and cache is not None and cache[0] == key:
-            return cache[1]
+        kept = self.cache.get("gram", key) if own else None
+        if kept is not None:
+            return kept
         w = unit_weights(self.weights if own else weights)
         if self.blocked:
             parts = (
@@ -395,7 +422,7 @@ class IdentificationProblem:
             parts = row_blocks(self.W, self.tau, w)
         sums = gram_sums(parts, self.nb)
         if own:
-            self.__dict__["_gram"] = (key, sums)
+            self.cache.put("gram", sums, key)
         return sums
 
     def compressed(self, weights: np.ndarray | None = None):
@@ -407,15 +434,15 @@ class IdentificationProblem:
         if not own and not self.blocked:
             return augmented_r(self.W, self.tau, weights)
         key = self._source_key()
-        cache = self.__dict__.get("_compressed")
-        if own and cache is not None and cache[0] == key:
-            return cache[1]
+        kept = self.cache.get("compressed", key) if own else None
+        if kept is not None:
+            return kept
         G, b, yy = self.gram(weights)
         out = cholesky_r(G, b, yy)
         if out is None:
             out = qr_r(self.W, self.tau, unit_weights(self.weights if own else weights), column_scale(G))
         if own:
-            self.__dict__["_compressed"] = (key, out)
+            self.cache.put("compressed", out, key)
         return out
 
     def predict(self, base: np.ndarray) -> np.ndarray:
@@ -439,8 +466,7 @@ def _set_W(self: IdentificationProblem, value: np.ndarray | None) -> None:
     self.__dict__["_W"] = value
     if value is not None:  # a given matrix replaces the recordings' rows and what was computed from them
         self.__dict__["regressor_rows"] = None
-        self.__dict__.pop("_gram", None)
-        self.__dict__.pop("_compressed", None)
+        self.cache.forget("gram", "compressed")
 
 
 # ``W`` is a dataclass field (positional, as before) read and written through this property
@@ -633,7 +659,7 @@ def load_datasets(
     items, model: RobotModel, mapping=None, preprocess: Mapping | bool | None = None, what: str = "training"
 ) -> list[Dataset]:
     """Recordings (Datasets or paths, one or several) read with ``mapping`` and prepared
-    (:func:`~pinid.identification.problem.prepare_dataset`); DataError when none is given."""
+    (:func:`~pinid.problem.problem.prepare_dataset`); DataError when none is given."""
     model = as_robot(model)
     if items is None:
         return []
