@@ -348,9 +348,8 @@ def test_known_private_reads_are_still_there():
 REPO = PACKAGE.parent
 #: A path in a docstring: folders and a file name with one of these suffixes.
 _CITED = re.compile(r"(?<![\w./-])((?:[\w.-]+/)*[\w-]+\.(?:md|py|toml|json|urdf|csv|txt|npz))(?![\w/])")
-#: ``(module file, cited path)`` still citing a missing file (issue 26; pinid/identification is being
-#: reworked in parallel): the list can only shrink.
-KNOWN_MISSING_CITATIONS = {("pinid/identification/compare.py", "../shared/design.md")}
+#: ``(module file, cited path)`` still citing a missing file: the list can only shrink (empty since issue 26).
+KNOWN_MISSING_CITATIONS: set[tuple[str, str]] = set()
 
 
 def cited_files(path: Path) -> set[str]:

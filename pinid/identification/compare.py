@@ -5,7 +5,7 @@ training recordings — the deterministic ones (least squares, WLS, the LMI meth
 metaheuristics once per seed — and measures for every run:
 
 * the **training costs** of the fit: ½·Σr² (seed 001's fitness, Eq. (22)) and Σ|r| (seed 000's), next to
-  their global minima on the same rows — least squares for the first (``../shared/design.md``: no
+  their global minima on the same rows — least squares for the first (no
   method can beat it there), the least-absolute-deviations fit (:func:`lad`) for the second;
 * the **validation torque error** on held-out recordings, per joint: mean ± std of |e| (seed 000's
   Figs. 10 and 13), RMS and relative RMS — against the torque as recorded (``validation``), and against
