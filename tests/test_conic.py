@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from pinid.errors import SolverError, SpecError
-from pinid.estimators import PhysicalLS
+from pinid.estimators import SDP
 from pinid.identification.core import IdentificationProblem
 from pinid.model.conic import CLARABEL_OPTIONS, ConicProblem, svec_operator
 from pinid.model.lmi import consistent_completion, null_projector
@@ -162,7 +162,7 @@ def test_infeasible_unknown_setting_and_iteration_limit():
 
 # ---------------------------------------------------------------------------------------------- the sdp estimator
 def cvxpy_sdp(problem, regularization: float = 1e-3, margin: float = 1e-8) -> np.ndarray:
-    """θ of the cvxpy formulation PhysicalLS had before the builder (weighting "none", no mass bounds)."""
+    """θ of the cvxpy formulation SDP had before the builder (weighting "none", no mass bounds)."""
     import cvxpy as cp
 
     from pinid.model import terms as _terms
@@ -198,7 +198,7 @@ def test_sdp_noise_free_twin_recovers_base_parameters(name):
     model = truth_model(name)
     problem = IdentificationProblem.from_datasets(model, twin(model, seconds=10, rate=200, seed=2))
     _, truth = true_base(model)
-    est = PhysicalLS().fit(problem)
+    est = SDP().fit(problem)
     assert est.status_ == "optimal"
     assert relative_errors(model, est.base_, truth).max() <= 1e-6
     assert est.info_["solve_seconds"] > 0 and est.info_["regularizer"] >= 0
@@ -211,7 +211,7 @@ def test_sdp_noise_free_twin_recovers_base_parameters(name):
 def test_sdp_on_noisy_data_equals_the_cvxpy_formulation(name, motion):
     model = truth_model(name)
     problem = IdentificationProblem.from_datasets(model, twin(model, seconds=10, rate=200, seed=3, noise=0.5, **motion))
-    theta = PhysicalLS().fit(problem).standard_
+    theta = SDP().fit(problem).standard_
     reference = cvxpy_sdp(problem)
     assert np.linalg.norm(theta - reference) <= 1e-6 * np.linalg.norm(reference)
 
@@ -220,7 +220,7 @@ def test_sdp_infeasible_mass_bounds_message():
     model = truth_model("exo_leg")
     problem = IdentificationProblem.from_datasets(model, twin(model, seconds=5, rate=100, seed=1))
     with pytest.raises(SolverError) as err:
-        PhysicalLS(mass_bounds=(2.0, 1.0)).fit(problem)
+        SDP(mass_bounds=(2.0, 1.0)).fit(problem)
     assert str(err.value) == (
         "sdp: solver CLARABEL says the constraints are infeasible (status 'infeasible'); check the mass bounds"
     )
