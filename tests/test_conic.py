@@ -120,28 +120,51 @@ def cvxpy_optimum(data: dict, solver: str = "CLARABEL") -> float:
     return float(prob.value)
 
 
+def gap_tolerance(value: float, gap_abs: float, gap_rel: float) -> float:
+    """How far a solver's objective may sit from the optimum when it stops on its duality gap
+    (|primal − dual| ≤ gap_abs + gap_rel·|objective|; the optimum lies between the two)."""
+    return gap_abs + gap_rel * abs(value)
+
+
+CLARABEL_GAP = (CLARABEL_OPTIONS["tol_gap_abs"], CLARABEL_OPTIONS["tol_gap_rel"])
+
+
+def feasibility_tolerance(A: np.ndarray, z: np.ndarray, b: np.ndarray) -> float:
+    """How far ``A·z`` may miss ``b`` when the solver stops on its feasibility tolerance, relative to the
+    sizes involved (Clarabel's primal residual test: ‖A·z + s − b‖∞ ≤ tol_feas·(1 + ‖b‖∞ + ‖A·z‖∞))."""
+    return CLARABEL_OPTIONS["tol_feas"] * (1.0 + np.max(np.abs(b)) + np.max(np.abs(A @ z)))
+
+
 @pytest.mark.parametrize("seed", range(8))
 def test_random_socp_sdp_equals_cvxpy(seed):
     conic, data = random_problem(seed)
     sol = conic.solve()
     assert sol.status in ("optimal", "optimal_inaccurate")
     value = sum(w * v for (_, _, w), v in zip(data["norms"], sol.norms))
-    assert value == pytest.approx(cvxpy_optimum(data), rel=1e-7)
-    # the solution is feasible
-    np.testing.assert_allclose(data["eq"][0] @ sol.z, data["eq"][1], atol=1e-9)
-    assert np.all(data["ge"][0] @ sol.z >= data["ge"][1] - 1e-9)
+    # both are Clarabel at CLARABEL_OPTIONS: each within its gap of the optimum (measured: ≤ 0.33 of the
+    # sum, the seeds that stop "optimal_inaccurate" included)
+    assert abs(value - cvxpy_optimum(data)) <= 2 * gap_tolerance(value, *CLARABEL_GAP)
+    # the solution is feasible to the solver's feasibility tolerance (measured: ≤ 0.05 of it)
+    A, b = data["eq"]
+    np.testing.assert_allclose(A @ sol.z, b, rtol=0, atol=feasibility_tolerance(A, sol.z, b))
+    C, d = data["ge"]
+    assert np.all(C @ sol.z >= d - feasibility_tolerance(C, sol.z, d))
     for B, c in data["psd"]:
-        d = int(np.sqrt(B.shape[0]))
-        F = (B @ sol.z + c).reshape(d, d, order="F")
-        assert np.linalg.eigvalsh(0.5 * (F + F.T))[0] >= -1e-9
+        n = int(np.sqrt(B.shape[0]))
+        F = (B @ sol.z + c).reshape(n, n, order="F")
+        # the slack is in the cone exactly; B·z + c misses it by the residual (× √2: the svec scaling)
+        assert np.linalg.eigvalsh(0.5 * (F + F.T))[0] >= -np.sqrt(2) * feasibility_tolerance(B, sol.z, c)
 
 
 def test_other_solvers_go_through_cvxpy():
     conic, data = random_problem(0)
-    sol = conic.solve("SCS", {"eps_abs": 1e-9, "eps_rel": 1e-9, "max_iters": 200_000})
+    scs = {"eps_abs": 1e-9, "eps_rel": 1e-9, "max_iters": 200_000}
+    sol = conic.solve("SCS", scs)
     assert sol.status in ("optimal", "optimal_inaccurate")
     value = sum(w * v for (_, _, w), v in zip(data["norms"], sol.norms))
-    assert value == pytest.approx(cvxpy_optimum(data), rel=1e-5)
+    # SCS stops on its gap (eps_abs + eps_rel·|objective|), Clarabel on its own: the sum (measured: 0.07 of it)
+    tol = gap_tolerance(value, scs["eps_abs"], scs["eps_rel"]) + gap_tolerance(value, *CLARABEL_GAP)
+    assert abs(value - cvxpy_optimum(data)) <= tol
 
 
 def test_infeasible_unknown_setting_and_iteration_limit():
@@ -161,8 +184,10 @@ def test_infeasible_unknown_setting_and_iteration_limit():
 
 
 # ---------------------------------------------------------------------------------------------- the sdp estimator
-def cvxpy_sdp(problem, regularization: float = 1e-3, margin: float = 1e-8) -> np.ndarray:
-    """θ of the cvxpy formulation SDP had before the builder (weighting "none", no mass bounds)."""
+def cvxpy_sdp(problem, regularization: float = 1e-3, margin: float = 1e-8) -> tuple[np.ndarray, float]:
+    """θ of the cvxpy formulation SDP had before the builder (weighting "none", no mass bounds), and the
+    relative change of θ that round-off in building the problem may cause: n·eps·cond([G; λ·N]) (the
+    cost's two matrices stacked; both formulations build them from the same data in another order)."""
     import cvxpy as cp
 
     from pinid.model import terms as _terms
@@ -190,7 +215,8 @@ def cvxpy_sdp(problem, regularization: float = 1e-3, margin: float = 1e-8) -> np
     prob = cp.Problem(cp.Minimize(cost), cons)
     prob.solve(solver="CLARABEL", **CLARABEL_OPTIONS)
     assert prob.status == "optimal"
-    return np.asarray(z.value) * S
+    stacked = np.vstack([G, regularization * N]) if regularization > 0 and N is not None else G
+    return np.asarray(z.value) * S, stacked.shape[1] * np.finfo(float).eps * np.linalg.cond(stacked)
 
 
 @pytest.mark.parametrize("name", ["exo_leg", "ur5"])
@@ -212,8 +238,9 @@ def test_sdp_on_noisy_data_equals_the_cvxpy_formulation(name, motion):
     model = truth_model(name)
     problem = IdentificationProblem.from_datasets(model, twin(model, seconds=10, rate=200, seed=3, noise=0.5, **motion))
     theta = SDP().fit(problem).standard_
-    reference = cvxpy_sdp(problem)
-    assert np.linalg.norm(theta - reference) <= 1e-6 * np.linalg.norm(reference)
+    reference, tol = cvxpy_sdp(problem)
+    # the same problem, the same solver: they differ by how it was built (measured: ≤ 0.003 of tol)
+    assert np.linalg.norm(theta - reference) <= tol * np.linalg.norm(reference)
 
 
 def test_sdp_infeasible_mass_bounds_message():
