@@ -47,11 +47,15 @@ def test_psd_block_optimum_is_the_smallest_eigenvalue():
     conic = ConicProblem(1)
     conic.add_norm([[1.0]], [100.0])
     # mat(B·t + c) = A + (K − Kᵀ) − t·I: the antisymmetric part must be ignored
-    conic.add_psd(-np.eye(4).reshape(-1, 1), (A + K - K.T).reshape(-1, order="F"))
+    B, c = -np.eye(4).reshape(-1, 1), (A + K - K.T).reshape(-1, order="F")
+    conic.add_psd(B, c)
     sol = conic.solve()
     assert sol.status == "optimal"
-    assert sol.z[0] == pytest.approx(np.linalg.eigvalsh(A)[0], abs=1e-8)
-    assert sol.norms[0] == pytest.approx(100 - np.linalg.eigvalsh(A)[0], rel=1e-9)
+    # the cost 100 − t is linear: t is off by the gap, plus what the PSD residual lets t past λ_min
+    # (measured: 0.1 of it)
+    tol = gap_tolerance(sol.norms[0], *CLARABEL_GAP) + np.sqrt(2) * feasibility_tolerance(B, sol.z, c)
+    assert abs(sol.z[0] - np.linalg.eigvalsh(A)[0]) <= tol
+    assert abs(sol.norms[0] - (100 - np.linalg.eigvalsh(A)[0])) <= tol
     assert sol.solve_seconds is not None and sol.solve_seconds >= 0
 
 
@@ -66,7 +70,10 @@ def test_nearest_psd_matrix_in_frobenius_norm():
     Z = sol.z.reshape(3, 3, order="F")
     np.testing.assert_allclose(Z, psd_part(A), atol=1e-7)
     w = np.linalg.eigvalsh(A)
-    assert sol.norms[0] == pytest.approx(np.linalg.norm(w[w < 0]), rel=1e-7)
+    # the optimum's value to the solver's gap (measured: 0.003 of it); Z above is held to 1e-7, tighter than
+    # the √(2·value·gap) ≈ 5e-5 that rule gives it (measured: 2.8e-8)
+    tol = gap_tolerance(sol.norms[0], *CLARABEL_GAP) + feasibility_tolerance(np.eye(9), sol.z, np.zeros(9))
+    assert abs(sol.norms[0] - np.linalg.norm(w[w < 0])) <= tol
 
 
 # ---------------------------------------------------------------------------------------------- against cvxpy
