@@ -73,6 +73,8 @@ def test_identification_plots_the_report_figures(identification):
     torque = identification.plot("torque", method="sdp")
     # per joint a torque panel and the error under it
     assert visible(torque) == 4 and torque.get_suptitle().startswith("sdp: measured and predicted torque")
+    best = identification.plot("torque")  # the best method's, by default
+    assert best.get_suptitle().startswith(f"{identification.best}: measured and predicted torque")
     motion = identification.plot("motion")
     assert titles(motion) == ["hip", "knee", "", ""] and visible(motion) == 4
     with pytest.raises(SpecError, match="method"):
