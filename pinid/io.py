@@ -45,11 +45,6 @@ def check_writable(path: str | os.PathLike, *, overwrite: bool | None = None) ->
     return p
 
 
-def check_all_writable(paths) -> list[Path]:
-    """:func:`check_writable` for every path, before the first one is written (all or nothing)."""
-    return [check_writable(p) for p in paths]
-
-
 @contextlib.contextmanager
 def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
     """Yield a temporary path next to ``path``; on success rename it to ``path``, on error delete it."""

@@ -7,7 +7,7 @@ import pytest
 
 from pinid import JointTerms
 from pinid.errors import SolverError, SpecError
-from pinid.estimators import ESTIMATORS, OLS, WLS, Estimator, PhysicalLS, make_estimator
+from pinid.estimators import ESTIMATORS, OLS, WLS, Estimator, SDP, make_estimator
 from pinid.problem.problem import IdentificationProblem
 from pinid.model.physical import check_consistency
 
@@ -42,24 +42,24 @@ def test_registry_and_contract():
         make_estimator("nope")
     with pytest.raises(SpecError, match="method 'ols': bad settings"):
         make_estimator("ols", iterations=2)
-    assert "regularization=0.001" in repr(PhysicalLS())
+    assert "regularization=0.001" in repr(SDP())
 
 
-@pytest.mark.parametrize("cls", [OLS, WLS, PhysicalLS])
+@pytest.mark.parametrize("cls", [OLS, WLS, SDP])
 def test_fit_returns_self_with_fitted_values(cls, leg_problem):
     est = cls()
     assert est.fit(leg_problem) is est
     assert est.base_.shape == (leg_problem.nb,)
     np.testing.assert_allclose(est.predict(leg_problem.W), leg_problem.W @ est.base_)
     assert isinstance(est.info_, dict) and isinstance(est.status_, str)
-    if cls is PhysicalLS:
+    if cls is SDP:
         assert est.standard_.shape == (len(leg_problem.standard_names),)
         assert est.status_ == "optimal"
     else:
         assert est.standard_ is None
 
 
-@pytest.mark.parametrize("cls", [OLS, WLS, PhysicalLS])
+@pytest.mark.parametrize("cls", [OLS, WLS, SDP])
 def test_noise_free_recovery(cls, leg_problem):
     model = leg_problem.model
     _, truth = true_base(model)
@@ -70,8 +70,8 @@ def test_noise_free_recovery(cls, leg_problem):
 def test_sdp_regularizer_does_not_bias_base_parameters_and_pulls_the_rest_to_nominal(leg_problem):
     model = leg_problem.model
     _, truth = true_base(model)
-    plain = PhysicalLS(regularization=0.0).fit(leg_problem)
-    strong = PhysicalLS(regularization=1.0).fit(leg_problem)  # 1000 × the default
+    plain = SDP(regularization=0.0).fit(leg_problem)
+    strong = SDP(regularization=1.0).fit(leg_problem)  # 1000 × the default
     for est in (plain, strong):
         assert relative_errors(model, est.base_, truth).max() <= 1e-6
     # the nominal standard set is reproduced where the data cannot see (it is the truth here)
@@ -87,7 +87,7 @@ def test_sdp_stays_consistent_where_ols_is_not(arm_problem):
 
     theta, why = consistent_completion(arm_problem, ols.base_)
     assert theta is None and why
-    sdp = PhysicalLS().fit(arm_problem)
+    sdp = SDP().fit(arm_problem)
     assert sdp.status_ == "optimal"
     report = check_consistency(sdp.standard_, names, arm_problem.terms.names)
     assert report.consistent, report.problems
@@ -102,7 +102,7 @@ def test_sdp_stays_consistent_where_ols_is_not(arm_problem):
 def test_sdp_mass_matrix_positive_definite_at_10000_configurations(arm_problem):
     from pinid.identification.identified import IdentifiedModel
 
-    sdp = PhysicalLS().fit(arm_problem)
+    sdp = SDP().fit(arm_problem)
     model = IdentifiedModel(arm_problem.model, arm_problem.terms, sdp.standard_)
     q, _, _ = arm_problem.model.random_states(10_000, np.random.default_rng(5))
     smallest = min(np.linalg.eigvalsh(model.mass_matrix(x))[0] for x in q)
@@ -110,17 +110,17 @@ def test_sdp_mass_matrix_positive_definite_at_10000_configurations(arm_problem):
 
 
 def test_sdp_mass_bounds_and_infeasibility(leg_problem):
-    est = PhysicalLS(mass_bounds={"knee": (5.0, 6.0)}).fit(leg_problem)
+    est = SDP(mass_bounds={"knee": (5.0, 6.0)}).fit(leg_problem)
     assert 5.0 - 1e-7 <= est.standard_[10] <= 6.0 + 1e-7
     with pytest.raises(SolverError, match="infeasible.*mass bounds"):
-        PhysicalLS(mass_bounds=(2.0, 1.0)).fit(leg_problem)
+        SDP(mass_bounds=(2.0, 1.0)).fit(leg_problem)
 
 
 def test_sdp_solver_failure_is_an_error_not_a_result(leg_problem):
     with pytest.raises(SolverError, match="sdp: solver CLARABEL"):
-        PhysicalLS(solver_options={"max_iter": 1}).fit(leg_problem)
+        SDP(solver_options={"max_iter": 1}).fit(leg_problem)
     with pytest.raises(ValueError, match="weighting"):
-        PhysicalLS(weighting="by-magic").fit(leg_problem)
+        SDP(weighting="by-magic").fit(leg_problem)
 
 
 def test_sdp_joint_weighting_and_nonnegative_joint_terms():
@@ -130,7 +130,7 @@ def test_sdp_joint_weighting_and_nonnegative_joint_terms():
         twin(model, seconds=10, rate=200, seed=3, noise=[1.0, 0.1]),
         terms=JointTerms(coulomb=True, viscous=True, armature=True),
     )
-    est = PhysicalLS(weighting="joint").fit(problem)
+    est = SDP(weighting="joint").fit(problem)
     joint = est.standard_[20:].reshape(2, 3)
     assert np.all(joint >= 0)
     assert est.weights_ is not None and est.weights_.max() / est.weights_.min() == pytest.approx(100, rel=0.1)

@@ -162,6 +162,14 @@ class TrackingResult:
         """Tracking error q − q_d [rad], (N, nv)."""
         return self.q - self.q_d
 
+    def plot(self, *, label: str = "tracked", title: str = ""):
+        """One column per joint; rows: position against the reference (dashed) [rad], error [mrad], torque
+        [N·m] (:func:`pinid.report.plot_control.tracking_figure`, ``label`` in the legend).  Returns the
+        matplotlib Figure (never shown; matplotlib is loaded here, on first use)."""
+        from pinid.report.plot_control import tracking_figure  # loads matplotlib: on use only
+
+        return tracking_figure({str(label): self}, title=title)
+
     def metrics(self, *, after: float = 0.0, band: float | None = None) -> dict[str, dict[str, float]]:
         """Per joint: RMS and max |error| [rad] after ``after`` s, and settling time [s] — the first time
         after which |error| stays inside ``band`` (default: 2 % of the joint's reference range, at least

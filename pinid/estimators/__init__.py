@@ -17,7 +17,7 @@ from pinid.estimators.metaheuristic import DEEstimator, EWOAEstimator, Metaheuri
 from pinid.estimators.ols import OLS
 from pinid.estimators.ridge import Ridge
 from pinid.estimators.rls import RLS
-from pinid.estimators.sdp import PhysicalLS
+from pinid.estimators.sdp import SDP
 from pinid.estimators.tls import TLS
 from pinid.estimators.wls import WLS
 
@@ -25,7 +25,7 @@ from pinid.estimators.wls import WLS
 ESTIMATORS: dict[str, type[Estimator]] = {
     "ols": OLS,
     "wls": WLS,
-    "sdp": PhysicalLS,
+    "sdp": SDP,
     "rls": RLS,
     "pso": PSOEstimator,
     "rls-pso": RLSPSO,
@@ -74,10 +74,10 @@ __all__ = [
     "Metaheuristic",
     "OLS",
     "PSOEstimator",
-    "PhysicalLS",
     "RLS",
     "RLSPSO",
     "Ridge",
+    "SDP",
     "Setting",
     "TLS",
     "WLS",

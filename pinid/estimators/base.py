@@ -116,7 +116,7 @@ class Estimator:
     #: True when ``standard_`` is physically consistent by construction (still checked afterwards).
     consistent_by_construction: bool = False
     #: True when the estimator fits the full standard parameters and runs the stages of a staged
-    #: (segmental) fit itself with ``fit_stage`` (see :class:`~pinid.estimators.sdp.PhysicalLS`).
+    #: (segmental) fit itself with ``fit_stage`` (see :class:`~pinid.estimators.sdp.SDP`).
     fits_standard: ClassVar[bool] = False
     #: True when the result does not depend on a random seed (a comparison runs it once).
     deterministic: ClassVar[bool] = True

@@ -25,7 +25,7 @@ interpolated by cubic splines between samples; a Coulomb jump of the torque fall
 interval and is smeared): DIDIM is *not* exact there.  Measured on the exo leg at 100 Hz: 1e-4
 relatively without Coulomb friction, about 1e-2 with it (tests/test_real_data_estimators.py).
 
-``physical=True``: each step is LMI-constrained least squares (:class:`~pinid.estimators.sdp.PhysicalLS`)
+``physical=True``: each step is LMI-constrained least squares (:class:`~pinid.estimators.sdp.SDP`)
 on the simulated regressor, so the result is physically consistent.
 """
 

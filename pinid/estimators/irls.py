@@ -18,7 +18,7 @@ fraction of rows with weight below 0.5.
 
 On noise-free data every residual is zero, the weights stay 1 and IRLS returns least squares (the
 truth).  ``physical=True``: the last pass is the LMI-constrained least squares of
-:class:`~pinid.estimators.sdp.PhysicalLS` with the final robust weights, so the result is physically
+:class:`~pinid.estimators.sdp.SDP` with the final robust weights, so the result is physically
 consistent (the weights come from unconstrained passes).
 """
 
@@ -29,7 +29,7 @@ from dataclasses import replace
 import numpy as np
 
 from pinid.estimators.base import Estimator, Setting
-from pinid.estimators.sdp import PhysicalLS
+from pinid.estimators.sdp import SDP
 from pinid.problem.problem import Problem
 from pinid.linalg import solve_r, weighted_lstsq
 
@@ -113,7 +113,7 @@ class IRLS(Estimator):
                     break
         standard = None
         if self.physical:
-            est = PhysicalLS().fit(replace(problem, W=W, weights=weights, regressor_rows=None))
+            est = SDP().fit(replace(problem, W=W, weights=weights, regressor_rows=None))
             x, standard = est.base_, est.standard_
         self.base_ = x
         self.standard_ = standard

@@ -42,7 +42,7 @@ from a bare ``W`` or a segmental stage is a :class:`~pinid.errors.SpecError`.
 
 ``physical=True``: every iteration solves the IV equations as two-stage least squares
 (``min ‖P_Z·(W·β − τ)‖`` with ``P_Z`` the projection onto the instruments — the same solution as IV when
-``ZᵀW`` is invertible) under the LMI constraints of :class:`~pinid.estimators.sdp.PhysicalLS`, so the
+``ZᵀW`` is invertible) under the LMI constraints of :class:`~pinid.estimators.sdp.SDP`, so the
 result is physically consistent.
 """
 
@@ -57,7 +57,7 @@ import pinocchio as pin
 from pinid.data.dataset import Dataset
 from pinid.errors import SolverError, SpecError
 from pinid.estimators.base import Estimator, Setting
-from pinid.estimators.sdp import PhysicalLS
+from pinid.estimators.sdp import SDP
 from pinid.problem.problem import IdentificationProblem, Problem, base_regressor
 from pinid.linalg import solve_r
 from pinid.model import terms as _terms
@@ -227,10 +227,10 @@ def iv_solve(Z: np.ndarray, W: np.ndarray, tau: np.ndarray, weights: np.ndarray)
 def physical_fit(
     problem: IdentificationProblem, W: np.ndarray, weights: np.ndarray | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Base parameters of :class:`~pinid.estimators.sdp.PhysicalLS` (LMI-constrained least squares) on the
+    """Base parameters of :class:`~pinid.estimators.sdp.SDP` (LMI-constrained least squares) on the
     problem with regressor ``W`` (and row ``weights``) in place of its own; returns ``(base, standard)``."""
     sub = replace(problem, W=W, weights=problem.weights if weights is None else weights, regressor_rows=None)
-    est = PhysicalLS().fit(sub)
+    est = SDP().fit(sub)
     return est.base_, est.standard_
 
 
@@ -247,7 +247,7 @@ def simulated_start(
         return x, sim.instruments(x), "ols"
     except SolverError as first:
         try:
-            x = PhysicalLS().fit(problem).base_
+            x = SDP().fit(problem).base_
             return x, sim.instruments(x), "sdp (the OLS estimate could not be simulated)"
         except SolverError as exc:
             raise SolverError(f"{what}: simulating the OLS estimate failed ({first}), and the sdp one ({exc})") from exc

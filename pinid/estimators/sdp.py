@@ -44,7 +44,7 @@ from pinid.model.lmi import add_consistency_constraints, clip_terms, consistent_
 from pinid.model.physical import check_consistency, parameter_scale
 
 
-class PhysicalLS(Estimator):
+class SDP(Estimator):
     """Physically consistent least squares (LMI on every body's pseudo-inertia; see the module text).
 
     Settings: ``weighting`` ("none" or "joint"), ``regularization`` (weight λ of the pull toward the
@@ -52,9 +52,9 @@ class PhysicalLS(Estimator):
     for every body, or ``{joint: (lo, hi)}``; None for none), ``margin`` (ε, default 1e-8), ``solver``
     ("CLARABEL", the default, is called directly; any other name is a cvxpy solver, cvxpy then loaded), ``solver_options`` (dict passed to the solver).
 
-    Registered as ``"sdp"`` although the class is named for what it estimates: the method name says how
-    it is solved (a semidefinite program), as users type it (``--methods ols,sdp``), in saved results
-    and in the seed papers' tables; renaming it would break those, so the registry keeps the name.
+    Named after its registry name ``"sdp"`` (how it is solved: a semidefinite program), as the other
+    estimators are (OLS, WLS, RLS, ...): the name users type (``--methods ols,sdp``), find in saved
+    results and in the seed papers' tables.
     """
 
     name = "sdp"
@@ -89,7 +89,7 @@ class PhysicalLS(Estimator):
         self.solver = solver
         self.solver_options = solver_options
 
-    def fit(self, problem: IdentificationProblem) -> "PhysicalLS":
+    def fit(self, problem: IdentificationProblem) -> "SDP":
         """Solve the LMI-constrained least squares; sets ``base_``, ``standard_`` and the solver's ``status_``; SolverError if it fails."""
         if self.weighting not in ("none", "joint"):
             raise ValueError(f"sdp: weighting={self.weighting!r}, expected 'none' or 'joint'")
@@ -188,4 +188,4 @@ class PhysicalLS(Estimator):
         return theta, {"status": status, "rows": sub.rows}
 
 
-__all__ = ["CLARABEL_OPTIONS", "PhysicalLS", "add_consistency_constraints", "consistent_completion"]
+__all__ = ["CLARABEL_OPTIONS", "SDP", "add_consistency_constraints", "consistent_completion"]

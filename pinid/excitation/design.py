@@ -134,6 +134,16 @@ class ExcitationResult:
         """The criterion minimised: ``cond`` (condition number) or ``logdet`` (D-optimal)."""
         return self.spec.criterion
 
+    def plot(self, *, title: str | None = None):
+        """q [rad], dq [rad/s], ddq [rad/s²] over one period within the spec's limits, as ``pinid excite
+        --plot`` draws them (:func:`pinid.report.plot_excitation.plot_excitation`); returns the Figure."""
+        from pinid.report.plot_excitation import plot_excitation  # loads matplotlib: on use only
+
+        cond = f"condition number {self.condition_number:.4g}"
+        return plot_excitation(
+            self.trajectory, self.spec, title=title or f"{len(self.trajectory.joints)}-joint excitation, {cond}"
+        )
+
     def to_dict(self) -> dict:
         """The JSON form: the trajectory (FourierTrajectory's keys, radians) plus the design report."""
         report = {

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pinid.errors import DataError
+from pinid.errors import DataError, SpecError
 from pinid.io import jsonable, read_bounded_file, write_json
 
 
@@ -48,7 +48,8 @@ class OutputErrorResult:
 
     @property
     def rel_error(self) -> dict[str, float] | None:
-        """Relative error against the truth [%] per parameter, None without a truth."""
+        """Relative error against the truth per parameter, (fitted − truth)/|truth| (a fraction, not %);
+        None without a truth."""
         if not self.truth:
             return None
         out = {}
@@ -138,6 +139,23 @@ class OutputErrorResult:
             return cls.from_dict(json.loads(read_bounded_file(p, "output-error result (JSON)", error=DataError)))
         except (OSError, ValueError, KeyError, TypeError) as exc:
             raise DataError(f"{p}: not an output-error result ({exc})") from None
+
+    def plot(self, figure: str = "cost", *, title: str | None = None):
+        """``"cost"``: the best cost against the number of simulated parameter sets (log-log,
+        :func:`pinid.report.plot_flexible.plot_cost_curves`); ``"errors"``: every fitted parameter's
+        relative error against the truth [%] (:func:`~pinid.report.plot_flexible.plot_parameter_errors`,
+        needs a truth).  Returns the matplotlib Figure (never shown; matplotlib is loaded here, on use)."""
+        from pinid.report.plot_flexible import plot_cost_curves, plot_parameter_errors  # matplotlib: on use
+
+        if figure not in ("cost", "errors"):
+            raise SpecError(f"figure: got {figure!r}, expected 'cost' or 'errors'")
+        if figure == "cost":
+            title = title or f"output-error fit ({self.method}, {self.model_kind} model, {self.cost_kind} cost)"
+            return plot_cost_curves({self.method: self.history}, title=title)
+        if self.rel_error is None:
+            raise SpecError("figure: no 'errors' figure without a truth (the fit's truth is unknown)")
+        title = title or f"{self.method}: fitted parameters against the truth"
+        return plot_parameter_errors({self.method: self.rel_error}, title=title)
 
     def table(self) -> list[list[str]]:
         """Rows ``[name, fitted, truth, error %, lower, upper]`` as text."""

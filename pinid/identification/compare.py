@@ -331,6 +331,35 @@ class Comparison:
         return text_table(head, rows)
 
     # ---------------------------------------------------------------- JSON
+    def plot(self, figure: str = "errors", *, label: str | None = None, stage: str = "main"):
+        """One figure of ``pinid compare`` (:mod:`pinid.report.plot_compare`), the same drawing and title;
+        returns the matplotlib Figure (never shown; matplotlib is loaded here, on first use).
+
+        ``figure``: ``"errors"`` (the absolute validation torque error per joint and method, mean and
+        [p5, p95] over the runs, on validation set ``label``, default the first), ``"convergence"`` (the
+        metaheuristics' best fitness per iteration; ``stage="first"``: a segmental run's first stage) or
+        ``"parameters"`` (the base parameters' error against the truth [%]).
+        """
+        from pinid.report import plot_compare  # loads the report (matplotlib on drawing): on use only
+
+        if figure not in ("errors", "convergence", "parameters"):
+            raise SpecError(f"figure: got {figure!r}, expected 'errors', 'convergence' or 'parameters'")
+        if stage not in ("main", "first"):
+            raise SpecError(f"stage: got {stage!r}, expected 'main' or 'first'")
+        if figure == "errors":
+            if not self.validation_sources:
+                raise SpecError("figure: no 'errors' figure, the comparison has no validation recordings")
+            if label is not None and label not in self.validation_sources:
+                raise SpecError(f"label: got {label!r}, expected one of {', '.join(self.validation_sources)}")
+            return plot_compare.validation_errors(self, label)
+        if figure == "parameters":
+            if self.truth is None:
+                raise SpecError("figure: no 'parameters' figure, the comparison has no true parameters")
+            return plot_compare.parameter_errors(self, title="error against the true parameters")
+        second = " (second stage)" if self.segmental else ""
+        title = "convergence (first stage)" if stage == "first" else "convergence" + second
+        return plot_compare.convergence(self, stage=stage, title=title)
+
     def to_dict(self) -> dict:
         """Plain-JSON form (``comparison.json``)."""
         from pinid import __version__  # the package's own attribute: set after its submodules load

@@ -134,6 +134,22 @@ class IdentificationResult:
             comment=f"method {self.method}",
         )
 
+    def plot(self, data: str = "validation", *, title: str | None = None):
+        """The absolute torque error |e| of this method per joint and pooled: the mean and the [p5, p95]
+        band [N·m, N] (:func:`pinid.report.plot_identification.error_bars`), against the torque as recorded.
+
+        ``data``: ``"validation"`` (the held-out recordings; the training data without them) or ``"train"``.
+        Returns the matplotlib Figure (never shown; matplotlib is loaded here, on first use).
+        """
+        from pinid.report.plot_identification import error_bars  # loads matplotlib: on use only
+
+        if data not in ("validation", "train"):
+            raise SpecError(f"data: got {data!r}, expected 'validation' or 'train'")
+        kind = "validation" if data == "validation" and self.validation is not None else "training"
+        metrics = self.validation if kind == "validation" else self.train
+        title = title or f"{self.method}: absolute torque error ({kind}): mean (dot) and [p5, p95] band"
+        return error_bars({self.method: metrics}, title=title)
+
     def to_dict(self, *, include_robot: bool = True) -> dict:
         """Plain-dict form (the entry of ``identification.json`` under ``methods``)."""
         d = {
@@ -262,6 +278,28 @@ class Identification:
     def model(self):
         """The :class:`~pinid.identification.identified.IdentifiedModel` of the best result."""
         return self.results[self.best].model
+
+    def plot(self, figure: str = "errors", *, method: str | None = None):
+        """One figure of the report (:mod:`pinid.report.markdown`), the same drawing and title; returns the
+        matplotlib Figure (never shown; matplotlib is loaded here, on first use).
+
+        ``figure``: ``"errors"`` (every method's absolute torque error per joint, validation when every
+        method has it), ``"torque"`` (``method``'s measured and predicted torque [N·m] and their difference,
+        default the :attr:`best`) or ``"motion"`` (the recorded q, dq); the last two need the torque curves
+        :func:`~pinid.identification.run.identify` keeps (not saved in the JSON).
+        """
+        from pinid.report.markdown import figure_recipes  # loads the report (matplotlib on drawing): on use
+
+        if figure not in ("errors", "torque", "motion"):
+            raise SpecError(f"figure: got {figure!r}, expected 'errors', 'torque' or 'motion'")
+        if method is not None and method not in self.results:
+            raise SpecError(f"method: no result for '{method}' (methods run: {', '.join(self.results)})")
+        key = f"torque_{method or self.best}" if figure == "torque" else figure
+        recipes = figure_recipes(self)
+        if key not in recipes:
+            raise SpecError(f"figure: no '{figure}' figure without the torque curves (a loaded result has none)")
+        draw, args, kwargs = recipes[key]
+        return draw(*args, **kwargs)
 
     def to_dict(self) -> dict:
         """The content of ``identification.json``."""

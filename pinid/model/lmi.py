@@ -1,6 +1,6 @@
 """Physical consistency as conic constraints (pseudo-inertia LMI per body) and consistent completion.
 
-Used by the LMI estimator (:class:`pinid.estimators.sdp.PhysicalLS`), its segmental stages and the
+Used by the LMI estimator (:class:`pinid.estimators.sdp.SDP`), its segmental stages and the
 completion of base-only results (:func:`consistent_completion`).  The problems are stated with
 :class:`pinid.model.conic.ConicProblem`: Clarabel solves them directly, cvxpy is loaded only for another
 solver.

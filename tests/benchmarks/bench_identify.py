@@ -5,7 +5,7 @@
     python tests/benchmarks/bench_identify.py --cli      # only the whole `pinid identify` run
 
 1. The physically consistent estimator (``sdp``: pseudo-inertia LMI, Clarabel) on 20 000
-   samples of the 7-DOF Panda (example-robot-data, fingers locked), noisy torques: ``PhysicalLS.fit``
+   samples of the 7-DOF Panda (example-robot-data, fingers locked), noisy torques: ``SDP.fit``
    (QR compression of the 140 000-row base regressor, the conic problem, Clarabel), best of 3
    after one warm-up (not counted).  Building the problem (regressor, base
    columns, checks) is timed separately.  Target ≤ 1 s, status optimal.
@@ -68,17 +68,17 @@ def best_of(fn, repeats: int = 3) -> tuple[float, object]:
 
 
 def bench_sdp() -> list[str]:
-    from pinid.estimators import PhysicalLS
+    from pinid.estimators import SDP
     from pinid.problem.problem import IdentificationProblem
 
     model = RobotModel.from_urdf("panda")
     ds = recording(model, 20.0, 1000.0, 0, noise=0.5)  # 20 000 samples
     t_build, problem = best_of(lambda: IdentificationProblem.from_datasets(model, ds, terms=JointTerms()), 1)
-    PhysicalLS().fit(problem)  # warm-up: imports Clarabel
+    SDP().fit(problem)  # warm-up: imports Clarabel
 
     def fit_from_scratch():
         problem.cache.forget("compressed")  # include the QR compression of the tall regressor
-        return PhysicalLS().fit(problem)
+        return SDP().fit(problem)
 
     t_fit, est = best_of(fit_from_scratch)
     t_solve = est.info_.get("solve_seconds") or float("nan")
