@@ -27,7 +27,8 @@ _EXPORTS = {
     "INERTIAL_NAMES": "pinid.model.robot",
     "RobotModel": "pinid.model.robot",
     "FloatingRobotModel": "pinid.model.floating",
-    "JointTerms": "pinid.model.regressor",
+    "TermSelection": "pinid.model.regressor",
+    "JointTerms": "pinid.model.terms",  # TermSelection's old name: a DeprecationWarning, for one release
     "joint_torque": "pinid.model.regressor",
     "parameter_names": "pinid.model.regressor",
     "regressor": "pinid.model.regressor",
@@ -46,7 +47,7 @@ __all__ = [
     "identify",
     "INERTIAL_NAMES",
     "JointError",
-    "JointTerms",
+    "TermSelection",
     "ModelError",
     "OutputError",
     "PinidError",
@@ -68,7 +69,8 @@ def __getattr__(name: str):
     import importlib
 
     value = getattr(importlib.import_module(module), name)
-    globals()[name] = value
+    if name != "JointTerms":  # an old name is not cached: it warns at every use
+        globals()[name] = value
     return value
 
 

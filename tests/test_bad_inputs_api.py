@@ -16,7 +16,7 @@ from conftest import assert_clean_error, load, run_cli
 from pinid import (
     Identification,
     IdentifiedModel,
-    JointTerms,
+    TermSelection,
     PinidError,
     base_parameters,
     identify,
@@ -147,7 +147,7 @@ def test_named_api_cases(leg, identified):
         "with_inertial_parameters(NaN)": lambda: leg.with_inertial_parameters(np.full(20, np.nan)),
         "tol=-1": lambda: base_parameters(leg, tol=-1),
         "tol=nan": lambda: base_parameters(leg, tol=float("nan")),
-        "JointTerms.from_names('foo')": lambda: JointTerms.from_names("foo"),
+        "TermSelection.from_names('foo')": lambda: TermSelection.from_names("foo"),
         "prepare([1, 2, 3])": lambda: prepare([1, 2, 3]),
         "IdentifiedModel.mass_matrix(zeros(3))": lambda: identified.mass_matrix(np.zeros(3)),
         "identify(leg, [ndarray])": lambda: identify(leg, [np.zeros((10, 5))]),
@@ -234,8 +234,8 @@ def test_generated_wrong_inputs_give_pinid_errors(leg, identified, seed):
                     leg.inertial_parameters(), coulomb=w if w is not None else "x"
                 ),
                 f"from_standard #{k}": lambda w=w: base_parameters(leg).from_standard(w),
-                f"JointTerms.from_names #{k}": lambda w=w: (
-                    JointTerms.from_names(w) if not (isinstance(w, list) and not w) else JointTerms.from_names(3)
+                f"TermSelection.from_names #{k}": lambda w=w: (
+                    TermSelection.from_names(w) if not (isinstance(w, list) and not w) else TermSelection.from_names(3)
                 ),
                 f"prepare #{k}": lambda w=w: prepare(w),
                 f"identify #{k}": lambda w=w: identify(leg, [w]) if not isinstance(w, str) else identify(leg, [3]),
@@ -432,7 +432,7 @@ def test_export_refuses_urdf_pinid_cannot_read(leg):
     theta[10:20] = [-1e-12, 0, 0, 0, 0.01, 0, 0.01, 0, 0, 0.01]  # knee mass −1e-12 kg as OLS gave on zero torques
     assert check_consistency(theta, leg.joint_names, ["fc", "fv"]).consistent  # within the tolerance
     with pytest.raises(ModelError, match="would not load back"):
-        identified_urdf(leg, theta, JointTerms())
+        identified_urdf(leg, theta, TermSelection())
 
 
 def _flex_spec(tmp_path, f_max: str):

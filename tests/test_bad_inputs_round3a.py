@@ -21,7 +21,7 @@ from pinid.identification.identified import IdentifiedModel
 from pinid.io import Artefacts
 from pinid.model.base import base_parameters
 from pinid.model.drives import Drives, Transmission
-from pinid.model.regressor import JointTerms, parameter_names, standard_parameters
+from pinid.model.regressor import TermSelection, parameter_names, standard_parameters
 from pinid.model.robot import RobotModel
 from pinid.wearer.attach import wearer_urdf
 
@@ -56,14 +56,14 @@ def test_motor_named_like_a_joint_refused(tmp_path):
         '<actuator name="knee"><mechanicalReduction>25</mechanicalReduction></actuator></transmission></robot>'
     )
     robot = RobotModel.from_urdf(_urdf(tmp_path, "act.urdf", EXO.replace("</robot>", actuator)))
-    assert parameter_names(robot, JointTerms.from_names("fc,fv"))[-1] == "knee.fv"  # joint terms: as before
+    assert parameter_names(robot, TermSelection.from_names("fc,fv"))[-1] == "knee.fv"  # joint terms: as before
     for terms in ("fc,motor_fc", "motor_fv"):
         with pytest.raises(SpecError, match="motor 'knee' has the name of a joint"):
-            parameter_names(robot, JointTerms.from_names(terms))
+            parameter_names(robot, TermSelection.from_names(terms))
     # names that differ keep their parameter names: 10 inertial per body, fc per joint, fc per motor
     other = EXO.replace("</robot>", actuator.replace('actuator name="knee"', 'actuator name="m_knee"'))
     names = parameter_names(
-        RobotModel.from_urdf(_urdf(tmp_path, "ok.urdf", other)), JointTerms.from_names("fc,motor_fc")
+        RobotModel.from_urdf(_urdf(tmp_path, "ok.urdf", other)), TermSelection.from_names("fc,motor_fc")
     )
     assert names[20:] == ["hip.fc", "knee.fc", "m_knee.fc"] and len(set(names)) == len(names) == 23
 
@@ -78,12 +78,12 @@ def test_motor_name_with_newline_refused_and_toml_escaped(tmp_path):
     for bad in ("a b", 'q"x', "", "m\x7f"):
         bad_robot = robot.with_drives(Drives(robot.joint_names, [Transmission(["hip"], [bad], np.array([[2.0]]))]))
         with pytest.raises(SpecError, match="is not allowed"):
-            parameter_names(bad_robot, JointTerms.from_names("motor_fc"))
+            parameter_names(bad_robot, TermSelection.from_names("motor_fc"))
     # the identified drives TOML reads back (a name with the allowed punctuation)
     robot = robot.with_drives(
         Drives(robot.joint_names, [Transmission(["hip", "knee"], ["m.1/a:b-c", "m_2"], np.diag([30.0, 25.0]))])
     )
-    terms = JointTerms.from_names("fc,motor_fc")
+    terms = TermSelection.from_names("fc,motor_fc")
     text = IdentifiedModel(robot, terms, standard_parameters(robot, terms)).export_drives()
     d = tomllib.loads(text)
     assert d["transmission"][0]["motors"] == ["m.1/a:b-c", "m_2"] and set(d["motors"]) == {"m.1/a:b-c", "m_2"}
@@ -126,7 +126,7 @@ def stage2_files(tmp_path_factory, recording):
     apal_leg, and one of apal_leg's kinematics named exo_leg; the conftest recording and a copy of it."""
     d = tmp_path_factory.mktemp("stage2")
     wearer_urdf("exo_leg", "hip:thigh,knee:shank", mass=75, height=1.78, sex="male", path=d / "eww.urdf")
-    terms = JointTerms.from_names("fv")
+    terms = TermSelection.from_names("fv")
     for name, urdf in (("exo", "exo_leg"), ("apal", "apal_leg")):
         r = RobotModel.from_urdf(urdf)
         IdentifiedModel(r, terms, standard_parameters(r, terms)).save(d / f"{name}.json")
@@ -239,7 +239,7 @@ def test_axis_whose_length_overflows_refused(tmp_path):
         _urdf(tmp_path, "b.urdf", EXO.replace('<axis xyz="0 -1 0"/>', '<axis xyz="0 -1e100 0"/>'))
     )
     exo = load("exo_leg")
-    terms = JointTerms.from_names("fc,fv")
+    terms = TermSelection.from_names("fc,fv")
     assert base_parameters(long, terms).names == base_parameters(exo, terms).names
     q, dq, ddq = exo.random_states(5, np.random.default_rng(1))
     np.testing.assert_allclose(long.rnea(q, dq, ddq), exo.rnea(q, dq, ddq), rtol=1e-12, atol=1e-12)
@@ -299,7 +299,7 @@ def test_consistency_check_names_problem():
     from pinid.wearer.stage import check_stage1
 
     exo = load("exo_leg")
-    terms = JointTerms.from_names("fv")
+    terms = TermSelection.from_names("fv")
     theta = standard_parameters(exo, terms)
     theta[10] = -50.0
     bad = IdentifiedModel(exo, terms, theta)

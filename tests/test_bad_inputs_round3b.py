@@ -580,18 +580,18 @@ def test_memory_warning_for_large_recordings(monkeypatch):
     import pinid.memory as memory
     from pinid.errors import DataWarning
     from pinid.identification.run import bytes_per_sample, warn_if_large_recordings
-    from pinid.model.regressor import JointTerms
+    from pinid.model.regressor import TermSelection
 
     leg = load("exo_leg")
-    per = bytes_per_sample(leg, JointTerms())
+    per = bytes_per_sample(leg, TermSelection())
     assert 400 < per < 800  # measured 542 B per sample (docs/benchmarks.md, Memory)
     t = np.arange(50_000) / 1000.0
     ds = Dataset(t, np.zeros((len(t), 2)), leg.joint_names, tau=np.ones((len(t), 2)))
     monkeypatch.setattr(memory, "available_bytes", lambda: int(1.5 * per * len(t)))  # needs 2/3 of it
     with pytest.warns(DataWarning, match=r"50,000 training samples of exo_leg: needs about .* more than half"):
-        assert warn_if_large_recordings(leg, JointTerms(), [ds])
+        assert warn_if_large_recordings(leg, TermSelection(), [ds])
     monkeypatch.setattr(memory, "available_bytes", lambda: int(3 * per * len(t)))  # a third: no warning
-    assert not warn_if_large_recordings(leg, JointTerms(), [ds])
+    assert not warn_if_large_recordings(leg, TermSelection(), [ds])
     monkeypatch.setattr(memory, "available_bytes", lambda: int(0.5 * per * len(t)))  # more than there is
     with pytest.raises(SpecError, match="more than the .* available"):
         memory.check_fits(per * len(t), "recording", per_item=per)

@@ -18,7 +18,7 @@ from pinid.problem.problem import (
 from pinid.identification.result import make_result
 from pinid.identification.run import identify
 from pinid.linalg import augmented_r, cholesky_r
-from pinid.model.regressor import JointTerms
+from pinid.model.regressor import TermSelection
 
 from test_identification import truth_model, twin
 
@@ -70,8 +70,8 @@ def test_blocked_rows_and_compressed_form_equal_the_whole_regressor(name):
     R, c, rho, scale = p.compressed()
     # the rows rebuilt block by block are those stack_rows builds whole, in the order of tau
     checked = [check_dataset(ds, model) for ds in data]
-    thresholds = [rest_threshold(ds, model, JointTerms()) for ds in checked]
-    W, tau, joint, sample = stack_rows(model, JointTerms(), p.base, checked, thresholds)
+    thresholds = [rest_threshold(ds, model, TermSelection()) for ds in checked]
+    W, tau, joint, sample = stack_rows(model, TermSelection(), p.base, checked, thresholds)
     assert p.blocked  # nothing above built W
     np.testing.assert_array_equal(p.W, W)
     np.testing.assert_array_equal(p.tau, tau)
@@ -129,7 +129,7 @@ def test_ill_conditioned_gram_falls_back_to_qr_of_the_whole_regressor():
     with the offset column, the Gram matrix too ill-conditioned for Cholesky, the regressor still full rank."""
     model = truth_model("exo_leg")
     data = [twin(model, seed=3, noise=0.01, amplitude=3e-3)]
-    terms = JointTerms(offset=True)
+    terms = TermSelection(offset=True)
     p = IdentificationProblem.from_datasets(model, data, terms=terms)
     assert cholesky_r(*p.gram()) is None
     assert not p.blocked  # the rank check needed the QR factorisation of the whole W

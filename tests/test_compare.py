@@ -11,7 +11,7 @@ from pinid.identification.compare import DETERMINISTIC, Comparison, compare, lad
 from pinid.errors import SpecError
 from pinid.estimators.metaheuristic import training_costs
 from pinid.problem.problem import IdentificationProblem
-from pinid.model.regressor import JointTerms, standard_parameters
+from pinid.model.regressor import TermSelection, standard_parameters
 from pinid.simulation.twin import perturb
 
 from conftest import assert_clean_error, run_cli
@@ -302,7 +302,7 @@ def test_a_truth_of_other_joint_terms_is_mapped_through_the_runs_base_map(settin
     doc = {
         "joints": truth.joint_names,
         "terms": ["fc", "fv"],
-        "standard": {"names": bp.standard_names, "values": standard_parameters(truth, JointTerms()).tolist()},
+        "standard": {"names": bp.standard_names, "values": standard_parameters(truth, TermSelection()).tolist()},
         "base": {"names": bp.names, "values": xt.tolist()},
     }
     c = compare(cad, train, valid, methods=["ols"], seeds=1, truth=doc, terms="fc,fv,armature")

@@ -9,7 +9,7 @@ import json
 import numpy as np
 import pytest
 
-from pinid import JointTerms, regressor, standard_parameters
+from pinid import TermSelection, regressor, standard_parameters
 from pinid.data.dataset import Dataset
 from pinid.data.formats import write_recording
 from pinid.errors import DataError, SpecError
@@ -20,7 +20,7 @@ from pinid.model.robot import RobotModel
 from conftest import assert_clean_error, load, run_cli
 from test_identification import fourier_motion
 
-TERMS = JointTerms(coulomb=True, viscous=True)
+TERMS = TermSelection(coulomb=True, viscous=True)
 PAYLOAD = {"mass": 2.5, "com": [0.03, -0.02, -0.12], "inertia": [0.02, 0.03, 0.025, 0.002, -0.001, 0.003]}
 
 
@@ -56,7 +56,7 @@ def test_payload_parameters_match_a_urdf_with_the_payload_as_a_fixed_link(tmp_pa
     j, phi = payload.body(exo)
     assert j == exo.nv - 1
     q, dq, ddq = exo.random_states(20, np.random.default_rng(0))
-    y = regressor(exo, q, dq, ddq, JointTerms(names=[]))[:, 10 * j : 10 * j + 10] @ phi
+    y = regressor(exo, q, dq, ddq, TermSelection(names=[]))[:, 10 * j : 10 * j + 10] @ phi
     np.testing.assert_allclose(loaded.rnea(q, dq, ddq) - exo.rnea(q, dq, ddq), y.reshape(-1, exo.nv), atol=1e-10)
     # the default link: the last joint's child (the shank)
     shank = Payload.from_dict(PAYLOAD)

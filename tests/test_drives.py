@@ -11,7 +11,7 @@ import json
 import numpy as np
 import pytest
 
-from pinid import JointTerms, base_parameters, regressor, standard_parameters
+from pinid import TermSelection, base_parameters, regressor, standard_parameters
 from pinid.data.dataset import Dataset
 from pinid.errors import ModelError, SpecError
 from pinid.identification.run import identify
@@ -23,12 +23,12 @@ from pinid.model.terms import Stribeck
 from conftest import assert_clean_error, load, run_cli
 from test_identification import fourier_motion, truth_model
 
-ALL_TERMS = JointTerms.from_names(
+ALL_TERMS = TermSelection.from_names(
     "fc,fv,offset,armature,fc_pos,fc_neg,fs,"
     "motor_fc,motor_fv,motor_offset,motor_armature,motor_fc_pos,motor_fc_neg,motor_fs"
 )
 STRIBECK = {"fs": (0.3, 1.5), "motor_fs": (40.0, 2.0)}  # (velocity [rad/s], shape) of coupled()'s robots
-MOTOR_TERMS = JointTerms.from_names("fc,fv,motor_fc,motor_fv,motor_offset,motor_armature")
+MOTOR_TERMS = TermSelection.from_names("fc,fv,motor_fc,motor_fv,motor_offset,motor_armature")
 EXO_G = [[30.0, 0.0], [12.0, 25.0]]  # cable: the knee motor turns with the hip too
 WRIST_G = [[50.0, 0.0], [50.0, 50.0]]  # differential wrist: motor 6 turns with q5 + q6
 
@@ -55,7 +55,7 @@ def coupled(name: str) -> RobotModel:
     )
 
 
-def expected_torque(m: RobotModel, q, dq, ddq, theta_terms, terms: JointTerms) -> np.ndarray:
+def expected_torque(m: RobotModel, q, dq, ddq, theta_terms, terms: TermSelection) -> np.ndarray:
     """rnea + joint terms + Gᵀ·(motor terms at G·q), written out term by term (independent of the registry)."""
     nv, G = m.nv, m.drives.matrix
     nm = G.shape[0]
@@ -81,7 +81,7 @@ def expected_torque(m: RobotModel, q, dq, ddq, theta_terms, terms: JointTerms) -
     return tau
 
 
-def twin(m: RobotModel, terms: JointTerms, seconds=20.0, rate=200.0, seed=0, noise=0.0) -> Dataset:
+def twin(m: RobotModel, terms: TermSelection, seconds=20.0, rate=200.0, seed=0, noise=0.0) -> Dataset:
     t, q, dq, ddq = fourier_motion(m, seconds, rate, seed)
     theta = standard_parameters(m, terms)
     tau = expected_torque(m, q, dq, ddq, theta[10 * m.nv :], terms)
@@ -216,7 +216,7 @@ def test_bad_drives_files(tmp_path, toml, message):
 
 def test_motor_terms_need_drives():
     with pytest.raises(ModelError, match="need drives"):
-        base_parameters(load("exo_leg"), JointTerms.from_names("fc,motor_fc"))
+        base_parameters(load("exo_leg"), TermSelection.from_names("fc,motor_fc"))
 
 
 @pytest.mark.parametrize(

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pinid import JointTerms
+from pinid import TermSelection
 from pinid.errors import SolverError, SpecError
 from pinid.estimators import ESTIMATORS, OLS, WLS, Estimator, SDP, make_estimator
 from pinid.problem.problem import IdentificationProblem
@@ -128,7 +128,7 @@ def test_sdp_joint_weighting_and_nonnegative_joint_terms():
     problem = IdentificationProblem.from_datasets(
         model,
         twin(model, seconds=10, rate=200, seed=3, noise=[1.0, 0.1]),
-        terms=JointTerms(coulomb=True, viscous=True, armature=True),
+        terms=TermSelection(coulomb=True, viscous=True, armature=True),
     )
     est = SDP(weighting="joint").fit(problem)
     joint = est.standard_[20:].reshape(2, 3)

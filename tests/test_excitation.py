@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pinid import JointTerms, RobotModel, regressor
+from pinid import TermSelection, RobotModel, regressor
 from pinid.model.base import base_parameters
 from pinid.errors import SpecError
 from pinid.excitation.design import design_excitation
@@ -109,7 +109,7 @@ def test_bundled_spec_is_table2_and_used_by_default(exo):
         False,
         0.0,
     )
-    assert spec.base_frequency == pytest.approx(0.2 * np.pi) and spec.terms == JointTerms()
+    assert spec.base_frequency == pytest.approx(0.2 * np.pi) and spec.terms == TermSelection()
     assert spec_for(exo, rest_start=False, harmonics=None).rest_start is False
 
 
@@ -380,7 +380,7 @@ def test_exact_gradient_and_torque_jacobian_match_central_differences(robot, ter
     """The cond gradient (RNEA derivatives of a model per singular vector) and the torque Jacobian are exact."""
     model = RobotModel.from_urdf(robot)
     spec = spec_for(model).replace(
-        samples=max(20, 30 // model.nv * 2), terms=JointTerms.from_names(terms), tau_max=np.full(model.nv, 1e3)
+        samples=max(20, 30 // model.nv * 2), terms=TermSelection.from_names(terms), tau_max=np.full(model.nv, 1e3)
     )
     problem = DesignProblem(model, spec)
     lower, upper = problem.box()

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pinid import JointTerms, RobotModel, standard_parameters
+from pinid import TermSelection, RobotModel, standard_parameters
 from pinid.errors import ModelError
 from pinid.model.export import identified_urdf
 from pinid.identification.identified import IdentifiedModel
@@ -27,7 +27,7 @@ def test_exported_urdf_reloads_with_the_same_torques(name, tmp_path):
     import yourdfpy
 
     model = load(name)
-    terms = JointTerms()
+    terms = TermSelection()
     theta = perturbed_theta(model, terms)
     ident = IdentifiedModel(model, terms, theta)
     path = tmp_path / f"{name}_identified.urdf"
@@ -51,7 +51,7 @@ def test_exported_urdf_reloads_with_the_same_torques(name, tmp_path):
 
 def test_merged_links_lose_their_inertial_and_say_so(tmp_path):
     model = load("panda")  # hand and fingers (locked) are merged into panda_joint7's body
-    terms = JointTerms()
+    terms = TermSelection()
     text = identified_urdf(model, standard_parameters(model, terms), terms)
     assert "including merged link(s) panda_hand" in text
     assert text.count("inertial removed") >= 3
@@ -63,7 +63,7 @@ def test_nominal_parameters_export_the_urdf_inertials():
     import xml.etree.ElementTree as ET
 
     model = load("exo_leg")
-    terms = JointTerms()
+    terms = TermSelection()
     text = identified_urdf(model, standard_parameters(model, terms), terms)
     new = ET.fromstring(text)
     old = ET.fromstring(model.urdf_text)
@@ -86,7 +86,7 @@ def test_nominal_parameters_export_the_urdf_inertials():
 
 def test_inconsistent_parameters_are_refused_unless_forced(tmp_path):
     model = load("exo_leg")
-    terms = JointTerms(coulomb=True, viscous=True, armature=True)
+    terms = TermSelection(coulomb=True, viscous=True, armature=True)
     theta = standard_parameters(model, terms)
     theta[10] = -1.0  # knee mass
     with pytest.raises(ModelError, match="refusing to export physically inconsistent.*knee"):
@@ -98,7 +98,7 @@ def test_inconsistent_parameters_are_refused_unless_forced(tmp_path):
 
 def test_identified_model_and_result_export(tmp_path):
     model = load("exo_leg")
-    terms = JointTerms()
+    terms = TermSelection()
     ident = IdentifiedModel(model, terms, perturbed_theta(model, terms, seed=3), meta={"method": "sdp"})
     text = ident.export_urdf(tmp_path / "m.urdf")
     assert "method sdp" in text and (tmp_path / "m.urdf").is_file()

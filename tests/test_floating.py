@@ -17,9 +17,9 @@ from pinid.model.floating import (
     floating_standard_parameters,
     random_floating_states,
 )
-from pinid.model.terms import JointTerms
+from pinid.model.terms import TermSelection
 
-NONE = JointTerms.from_names("none")
+NONE = TermSelection.from_names("none")
 
 
 @pytest.fixture(scope="module")
@@ -41,7 +41,7 @@ def test_regressor_times_parameters_is_rnea_on_the_free_flyer(name):
 
 
 def test_joint_rows_add_the_joint_terms(exo):
-    terms = JointTerms.from_names("fc,fv")
+    terms = TermSelection.from_names("fc,fv")
     states = random_floating_states(exo, 8, np.random.default_rng(4))
     theta = floating_standard_parameters(exo, terms)
     names = floating_parameter_names(exo, terms)
@@ -150,7 +150,7 @@ def test_floating_urdf_round_trip(name, tmp_path):
     from pinid.model.floating import floating_urdf
 
     model = RobotModel.from_urdf(name, base="floating")
-    terms = JointTerms.from_names("fc,fv")
+    terms = TermSelection.from_names("fc,fv")
     theta = floating_standard_parameters(model, terms)
     theta[0] *= 1.1  # a heavier base (first moments unchanged: its centre of mass moves in)
     theta[10 + 10 * 2] *= 1.2  # and a heavier third body

@@ -51,12 +51,12 @@ def test_parameter_error_on_exact_samples():
     from pinid import RobotModel
     from pinid.identification.floating_compare import compare_floating
     from pinid.model.floating import floating_parameter_names, floating_standard_parameters
-    from pinid.model.terms import JointTerms
+    from pinid.model.terms import TermSelection
     from pinid.simulation.floating_twin import simulate_suspended
     from test_floating_identification import excitation
 
     exo = RobotModel.from_urdf("exo_lower_body", base="floating")
-    terms = JointTerms.from_names("fc,fv")
+    terms = TermSelection.from_names("fc,fv")
     twin = simulate_suspended(exo, excitation(exo), seconds=3, rate=100, imu_frame="imu")
     truth = {
         "base": "floating",

@@ -12,10 +12,10 @@ from pinid.estimators import ESTIMATORS, make_estimator
 from pinid.excitation.trajectory import FourierTrajectory
 from pinid.problem.floating import floating_problem
 from pinid.model.floating import floating_base_parameters
-from pinid.model.terms import JointTerms
+from pinid.model.terms import TermSelection
 from pinid.simulation.floating_twin import simulate_gait, simulate_suspended
 
-TERMS = JointTerms.from_names("fc,fv")
+TERMS = TermSelection.from_names("fc,fv")
 
 
 @pytest.fixture(scope="module")
@@ -52,7 +52,7 @@ def test_suspended_twin_recovers_the_base_parameters(exo, suspended, method, row
     problem = floating_problem(exo, suspended.exact, terms=TERMS, rows=rows)
     assert error(problem, make_estimator(method).fit(problem).base_) <= 1e-6
     if rows == "base":  # Ayusawa et al. 2014: the base rows identify every inertial base parameter
-        assert problem.nb == floating_base_parameters(exo, JointTerms.from_names("none")).count
+        assert problem.nb == floating_base_parameters(exo, TermSelection.from_names("none")).count
         assert problem.names[0] == "base.mR"  # the total mass among them
 
 

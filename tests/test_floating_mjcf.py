@@ -12,14 +12,14 @@ from conftest import assert_clean_error, run_cli
 
 from pinid import RobotModel
 from pinid.identification.floating import identify_floating, load_floating_identified, write_floating_identification
-from pinid.model.terms import JointTerms
+from pinid.model.terms import TermSelection
 from pinid.simulation.floating_twin import simulate_suspended
 from test_floating_identification import excitation
 from test_mjcf import free_joint_errors
 
 mujoco = pytest.importorskip("mujoco")
 
-TERMS = JointTerms.from_names("fc,fv")
+TERMS = TermSelection.from_names("fc,fv")
 
 
 @pytest.fixture(scope="module")

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pinid import JointTerms, base_parameters, standard_parameters
+from pinid import TermSelection, base_parameters, standard_parameters
 from pinid.data.dataset import Dataset
 from pinid.errors import DataError, SpecError
 from pinid.identification.metrics import METRIC_NAMES
@@ -73,12 +73,12 @@ def twin(model, seconds: float = 20.0, rate: float = 200.0, seed: int = 0, noise
     return Dataset(t, q, model.joint_names, dq=dq, ddq=ddq, tau=tau, source=f"twin{seed}")
 
 
-def true_base(model, terms=JointTerms()):
+def true_base(model, terms=TermSelection()):
     bp = base_parameters(model, terms)
     return bp, bp.from_standard(standard_parameters(model, terms))
 
 
-def relative_errors(model, estimate, truth, terms=JointTerms()):
+def relative_errors(model, estimate, truth, terms=TermSelection()):
     """|estimate − truth| relative to max(|truth_i|, s_i): s_i is the natural magnitude of the base
     parameter (its standard combination with mass M, first moments M·L, inertias M·L² of each body,
     :func:`pinid.model.physical.parameter_scale`), so a parameter that happens to be 0 (a product of inertia of
@@ -233,7 +233,7 @@ def test_coulomb_rows_at_rest_are_dropped_per_joint():
     assert p.rows == 2 * data.n - p.dropped.sum()
     keep_all = IdentificationProblem.from_datasets(model, data, rest_velocity=0)
     assert keep_all.rows == 2 * data.n and keep_all.dropped.sum() == 0
-    no_coulomb = IdentificationProblem.from_datasets(model, data, terms=JointTerms(coulomb=False))
+    no_coulomb = IdentificationProblem.from_datasets(model, data, terms=TermSelection(coulomb=False))
     assert no_coulomb.rows == 2 * data.n
     fixed = IdentificationProblem.from_datasets(model, data, rest_velocity=[0.5, 0.0])
     assert fixed.dropped[1] == 0 and fixed.dropped[0] == int(np.sum(np.abs(data.dq[:, 0]) < 0.5))

@@ -6,14 +6,14 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from pinid import JointTerms, standard_parameters
+from pinid import TermSelection, standard_parameters
 from pinid.errors import ModelError, SpecError
 from pinid.identification.identified import IdentifiedModel
 
 from conftest import load
 from test_identification import identify, truth_model, twin
 
-ALL = JointTerms(coulomb=True, viscous=True, offset=True, armature=True)
+ALL = TermSelection(coulomb=True, viscous=True, offset=True, armature=True)
 
 
 def model_with_terms(name="ur5", seed=0):
@@ -94,7 +94,7 @@ def test_computed_torque_example_tracks():
         return model.mass_matrix(q) @ v + model.coriolis(q, dq) @ dq + model.gravity(q) + model.friction(dq_d)
 
     # the plant is the truth (exact friction with sign(dq)), integrated at 2 kHz
-    plant = IdentifiedModel(truth, JointTerms(), standard_parameters(truth, JointTerms()))
+    plant = IdentifiedModel(truth, TermSelection(), standard_parameters(truth, TermSelection()))
     w, dt = 2 * np.pi * 0.5, 5e-4
     ref = lambda t: (
         np.array([0.6, -0.9]) + 0.3 * np.sin(w * t),
@@ -119,7 +119,7 @@ def coupled_model(seed=0):
     from test_drives import coupled
 
     robot = coupled("ur5")
-    terms = JointTerms.from_names("fc,fv,offset,armature,motor_fc,motor_fv,motor_armature")
+    terms = TermSelection.from_names("fc,fv,offset,armature,motor_fc,motor_fv,motor_armature")
     theta = standard_parameters(robot, terms)
     theta[10 * robot.nv :] = np.random.default_rng(seed).uniform(0.05, 0.5, theta.size - 10 * robot.nv)
     return IdentifiedModel(robot, terms, theta)
@@ -180,7 +180,7 @@ def test_derivatives_match_finite_differences(make):
 
 def test_passive_term_enters_the_position_derivative():
     robot = load("exo_leg")
-    terms = JointTerms.from_names("fv,passive")
+    terms = TermSelection.from_names("fv,passive")
     theta = standard_parameters(robot, terms)
     m = IdentifiedModel(robot, terms, theta)
     q, dq, ddq = robot.random_states(2, np.random.default_rng(4))

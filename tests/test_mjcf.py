@@ -8,7 +8,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from pinid import JointTerms, RobotModel, standard_parameters
+from pinid import TermSelection, RobotModel, standard_parameters
 from pinid.errors import ModelError
 from pinid.identification.identified import IdentifiedModel
 from pinid.model.bundled import example_robot_data_dir
@@ -20,7 +20,7 @@ from conftest import assert_clean_error, load, run_cli
 
 mujoco = pytest.importorskip("mujoco")
 
-TERMS = JointTerms(coulomb=True, viscous=True, armature=True)
+TERMS = TermSelection(coulomb=True, viscous=True, armature=True)
 
 
 def solo12():
@@ -160,7 +160,7 @@ def test_frictionloss_is_coulomb_friction_when_sliding():
 
 def test_exported_fields_are_the_identified_values():
     robot = load("exo_leg")
-    terms = JointTerms(coulomb=True, viscous=True, armature=True, offset=True)
+    terms = TermSelection(coulomb=True, viscous=True, armature=True, offset=True)
     model = identified(robot, seed=7, terms=terms)
     text = model.export_mjcf()
     m, _ = compiled(text)
@@ -291,7 +291,7 @@ def test_motor_terms_reflect_through_single_joint_motors():
     from test_drives import WRIST_G, coupled
 
     robot = coupled("ur5")
-    terms = JointTerms.from_names("fc,fv,motor_fc,motor_fv,motor_armature")
+    terms = TermSelection.from_names("fc,fv,motor_fc,motor_fv,motor_armature")
     model = identified(robot, seed=10, terms=terms)
     text = model.export_mjcf()
     m, d = compiled(text)

@@ -6,7 +6,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from pinid import JointTerms, standard_parameters
+from pinid import TermSelection, standard_parameters
 from pinid.model.physical import (
     PSEUDO_INERTIA_BASIS,
     check_consistency,
@@ -57,7 +57,7 @@ def test_com_inertia_matches_pinocchio():
 @pytest.mark.parametrize("name", ["exo_leg", "double_pendulum", "ur5", "panda"])
 def test_urdf_robots_are_consistent(name):
     model = load(name)
-    terms = JointTerms()
+    terms = TermSelection()
     report = check_consistency(standard_parameters(model, terms), model.joint_names, terms.names)
     assert report.consistent, report.problems
     assert report.to_dict()["consistent"] is True
@@ -89,7 +89,7 @@ def test_inconsistencies_are_found_and_named():
 
 def test_parameter_scale_is_positive_and_in_units():
     model = load("exo_leg")
-    theta = standard_parameters(model, JointTerms())
+    theta = standard_parameters(model, TermSelection())
     s = parameter_scale(theta, model.nv, 2)
     assert s.shape == theta.shape and np.all(s > 0)
     m, L2 = s[0], s[4] / s[0]

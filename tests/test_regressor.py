@@ -5,13 +5,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pinid import JointTerms, base_parameters, joint_torque, parameter_names, regressor, standard_parameters
+from pinid import TermSelection, base_parameters, joint_torque, parameter_names, regressor, standard_parameters
 from pinid.errors import DataError
 
 from conftest import load
 
 ROBOTS = ["exo_leg", "apal_leg", "ur5", "panda", "double_pendulum"]
-ALL_TERMS = JointTerms(coulomb=True, viscous=True, offset=True, armature=True)
+ALL_TERMS = TermSelection(coulomb=True, viscous=True, offset=True, armature=True)
 
 
 def _friction(model, dq, ddq, theta_joint, terms):
@@ -21,7 +21,7 @@ def _friction(model, dq, ddq, theta_joint, terms):
 
 
 @pytest.mark.parametrize("name", ROBOTS)
-@pytest.mark.parametrize("terms", [JointTerms(), ALL_TERMS], ids=["fc-fv", "all"])
+@pytest.mark.parametrize("terms", [TermSelection(), ALL_TERMS], ids=["fc-fv", "all"])
 def test_regressor_times_parameters_is_rnea_plus_joint_terms(name, terms):
     model = load(name)
     rng = np.random.default_rng(1)
@@ -49,7 +49,7 @@ def test_base_parameters_reproduce_torques_on_fresh_states(name):
 
 def test_planar_two_link_leg_has_six_inertial_base_parameters():
     for name in ("exo_leg", "apal_leg", "double_pendulum"):
-        bp = base_parameters(load(name), JointTerms())
+        bp = base_parameters(load(name), TermSelection())
         inertial = [n for n in bp.names if n.split(".")[1].rstrip("R") not in ("fc", "fv")]
         assert len(inertial) == 6, (name, bp.names)
         assert bp.count == 6 + 2 * 2
@@ -109,7 +109,7 @@ def test_regressor_rejects_wrong_shapes(exo):
 
 
 def test_joint_terms_from_names():
-    assert JointTerms.from_names("fc,offset") == JointTerms(True, False, True, False)
-    assert JointTerms.from_names("none").names == []
+    assert TermSelection.from_names("fc,offset") == TermSelection(True, False, True, False)
+    assert TermSelection.from_names("none").names == []
     with pytest.raises(ValueError, match="unknown term"):
-        JointTerms.from_names("fc,stiction")
+        TermSelection.from_names("fc,stiction")

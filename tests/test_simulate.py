@@ -297,7 +297,7 @@ def test_cli_perturb_npz_and_true_signals(tmp_path):
 
 def test_cli_cad_urdf_is_the_perturbed_model(tmp_path):
     """--cad-urdf writes the CAD model of --perturb as a URDF that loads back with the truth JSON's 'cad' values."""
-    from pinid import JointTerms, RobotModel, standard_parameters
+    from pinid import TermSelection, RobotModel, standard_parameters
 
     cad = tmp_path / "cad.urdf"
     proc = run_cli(
@@ -319,7 +319,7 @@ def test_cli_cad_urdf_is_the_perturbed_model(tmp_path):
     d = json.loads((tmp_path / "r.truth.json").read_text())
     back = RobotModel.from_urdf(cad)
     np.testing.assert_allclose(
-        standard_parameters(back, JointTerms()), d["cad"]["standard"]["values"], rtol=1e-9, atol=1e-12
+        standard_parameters(back, TermSelection()), d["cad"]["standard"]["values"], rtol=1e-9, atol=1e-12
     )
     assert d["cad"]["standard"]["values"] != d["standard"]["values"]
 

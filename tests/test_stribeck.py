@@ -12,7 +12,7 @@ import json
 import numpy as np
 import pytest
 
-from pinid import JointTerms, base_parameters, standard_parameters
+from pinid import TermSelection, base_parameters, standard_parameters
 from pinid.data.dataset import Dataset
 from pinid.errors import SpecError
 from pinid.identification.run import identify
@@ -24,8 +24,8 @@ from conftest import assert_clean_error, run_cli
 from test_drives import coupled
 from test_identification import fourier_motion, truth_model
 
-JOINT = JointTerms.from_names("fc,fv,fs")
-MOTOR = JointTerms.from_names("fc,fv,motor_fc,motor_fs")
+JOINT = TermSelection.from_names("fc,fv,fs")
+MOTOR = TermSelection.from_names("fc,fv,motor_fc,motor_fs")
 FS, VS, SHAPE = 0.6, 0.25, 2.0  # joint Stribeck: fs [N·m], v_s [rad/s], δ
 MFS, MVS = 0.03, 6.0  # motor Stribeck [N·m at the motor], v_s [rad/s at the motor]
 
@@ -34,7 +34,7 @@ def stribeck(x, vs, shape):
     return np.sign(x) * np.exp(-((np.abs(x) / vs) ** shape))
 
 
-def twin(m, terms: JointTerms, seconds=30.0, rate=200.0, seed=0, shape=SHAPE) -> tuple[Dataset, np.ndarray]:
+def twin(m, terms: TermSelection, seconds=30.0, rate=200.0, seed=0, shape=SHAPE) -> tuple[Dataset, np.ndarray]:
     """Noise-free recording of ``m`` with joint fc, fv (the model's), motor fc (its drives') and the Stribeck
     terms of ``terms`` (FS, VS, ``shape``; MFS, MVS, SHAPE); and the true standard parameters."""
     t, q, dq, ddq = fourier_motion(m, seconds, rate, seed)
@@ -211,7 +211,7 @@ def test_plant_law_and_nominal_motor_value_from_the_drives_file():
 
     m = exo_motor().with_stribeck({"fs": Stribeck(VS, SHAPE), "motor_fs": Stribeck(MVS, 1.0)})
     m = m.with_drives(Drives(m.joint_names, m.drives.transmissions, {"m_knee": {"fs": 0.03}}, "test"))
-    sel = JointTerms.from_names("fs,motor_fs")
+    sel = TermSelection.from_names("fs,motor_fs")
     assert np.array_equal(T.nominal(m, sel), [0, 0, 0, 0.03])
     ds, _ = twin(m, MOTOR, seconds=2)
     vals = np.array([0.5, 0.4, 0.02, 0.03])

@@ -42,24 +42,24 @@ def test_wide_tables_split_to_fit_repeating_the_key_column():
 
 def test_info_joint_table_has_units():
     """pinid info: limits, velocity and effort with their units; prismatic joints in m, m/s, N (issue 24)."""
-    from pinid import JointTerms
+    from pinid import TermSelection
     from pinid.model.describe import description_text
 
     row = dict(lower=-1.0, upper=1.0, velocity=2.0, effort=50.0)
     d = dict(robot="r", urdf="r.urdf", locked={}, drives=None, standard_parameters=20)
     d["base_parameters"] = [dict(name="a", expression="a", nominal=1.0, source="URDF")]
     d["joints"] = [dict(name="hip", type="revolute", **row)]
-    header = description_text(d, JointTerms()).splitlines()[1]
+    header = description_text(d, TermSelection()).splitlines()[1]
     assert header.split()[2:] == ["lower", "[rad]", "upper", "[rad]", "velocity", "[rad/s]", "effort", "[N·m]"]
     d["joints"].insert(0, dict(name="slide", type="prismatic", **row))
-    lines = description_text(d, JointTerms()).splitlines()
+    lines = description_text(d, TermSelection()).splitlines()
     assert lines[1].endswith("units") and lines[2].endswith("m, m/s, N") and lines[3].endswith("rad, rad/s, N·m")
 
 
 def test_info_labels_nominal_values_by_their_source(tmp_path):
     """pinid info --drives: motor values come from the drives TOML, joint values from the URDF, and a base
     parameter merging both says so — not "(URDF: …)" for all (issue 24)."""
-    from pinid import JointTerms, RobotModel
+    from pinid import TermSelection, RobotModel
     from pinid.model.describe import describe, description_text
 
     toml = tmp_path / "my_drives.toml"
@@ -69,7 +69,7 @@ def test_info_labels_nominal_values_by_their_source(tmp_path):
     )
 
     leg = RobotModel.from_urdf("exo_leg", drives=toml)
-    terms = JointTerms.from_names("fc,fv,motor_fc,motor_armature")
+    terms = TermSelection.from_names("fc,fv,motor_fc,motor_armature")
     d = describe(leg, terms)
     source = {b["name"]: b["source"] for b in d["base_parameters"]}
     assert source["hip.fcR"] == "URDF + my_drives.toml" and source["hip.fv"] == "URDF", source

@@ -61,7 +61,7 @@ def check_term(name: str) -> None:
     """Every clause of the contract for the registered term ``name``."""
     term = T.TERMS[name]
     m = robot()
-    sel = T.JointTerms(names=[name])
+    sel = T.TermSelection(names=[name])
     q, dq, ddq = states(m, term.space)
     n_own = m.nv if term.space == "joint" else len(m.drives.motor_names)
     names = T.parameter_names(m, sel)
@@ -136,6 +136,19 @@ def test_the_worked_example_of_docs_architecture_keeps_the_contract():
             {"__name__": "example"},
         )
         check_term("spring")
-        assert "spring" in T.JointTerms.from_names("fc,spring")  # selected like any other
+        assert "spring" in T.TermSelection.from_names("fc,spring")  # selected like any other
     finally:
         T.TERMS.pop("spring", None)
+
+
+def test_the_old_name_joint_terms_still_works_with_a_deprecation_warning():
+    """``JointTerms`` was renamed ``TermSelection`` (it selects motor and plug-in terms too): the old name
+    still works for one release, from every place it was imported, with a DeprecationWarning."""
+    import pinid
+    import pinid.model.regressor
+    import pinid.model.terms
+    from pinid.model.terms import TermSelection
+
+    for module in (pinid, pinid.model.regressor, pinid.model.terms):
+        with pytest.warns(DeprecationWarning, match="JointTerms is deprecated, use TermSelection"):
+            assert getattr(module, "JointTerms") is TermSelection

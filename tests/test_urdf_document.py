@@ -13,7 +13,7 @@ from pinid.errors import ModelError, PinidError
 from pinid.model.drives import urdf_transmissions
 from pinid.model.export import identified_urdf
 from pinid.model.mjcf import identified_mjcf
-from pinid.model.regressor import JointTerms, standard_parameters
+from pinid.model.regressor import TermSelection, standard_parameters
 from pinid.model.robot import RobotModel
 from pinid.model.urdf import UrdfDocument
 from pinid.wearer.attach import wearer_links, wearer_urdf
@@ -21,7 +21,7 @@ from pinid.wearer.prior import wearer_prior
 
 ROOT = Path(__file__).resolve().parents[1]
 PINID = ROOT / "pinid"
-TERMS = JointTerms.from_names(["fc", "fv"])
+TERMS = TermSelection.from_names(["fc", "fv"])
 
 
 @pytest.fixture

@@ -12,7 +12,7 @@ import pytest
 from conftest import assert_clean_error, run_cli
 from pinid.identification.identified import IdentifiedModel
 from pinid.model.base import base_parameters
-from pinid.model.regressor import JointTerms, standard_parameters
+from pinid.model.regressor import TermSelection, standard_parameters
 from pinid.model.robot import RobotModel
 from pinid.wearer.attach import wearer_urdf
 
@@ -27,7 +27,7 @@ def twin(tmp_path_factory):
     text = wearer_urdf("exo_leg", "hip:thigh,knee:shank,knee:foot", mass=75, height=1.78, sex="male")
     (d / "eww.urdf").write_text(re.sub(r'friction="[^"]*"', 'friction="0"', text))  # the plant: no Coulomb friction
     exo = RobotModel.from_urdf("exo_leg")
-    terms = JointTerms.from_names("fv")
+    terms = TermSelection.from_names("fv")
     IdentifiedModel(exo, terms, standard_parameters(exo, terms)).save(d / "exo.json")
     p = run_cli(
         "simulate",
@@ -71,7 +71,7 @@ def test_noise_free_stage2_recovers_wearer_base_parameters(twin):
     for j, w in drawn.items():
         truth[10 * robot.joint_index(j) : 10 * robot.joint_index(j) + 10] = w
     truth[20:] = 1.0  # passive scale factors of the twin
-    bp = base_parameters(robot, JointTerms.from_names("passive"))
+    bp = base_parameters(robot, TermSelection.from_names("passive"))
     expected = dict(zip(bp.names, bp.from_standard(truth)))
     got = res["base"]
     scale = max(abs(v) for v in expected.values())

@@ -7,7 +7,7 @@ import pinocchio as pin
 import pytest
 
 from pinid.model.base import base_parameters
-from pinid.model.regressor import JointTerms, parameter_names, regressor, standard_parameters
+from pinid.model.regressor import TermSelection, parameter_names, regressor, standard_parameters
 from pinid.model.robot import RobotModel
 from pinid.wearer import passive
 
@@ -33,7 +33,7 @@ def test_moments_behave_like_tissue():
 def test_exo_leg_mapping_and_regressor_identity():
     robot = RobotModel.from_urdf("exo_leg")
     assert passive.anatomy(robot) == [("hip", 1.0), ("knee", -1.0)]
-    terms = JointTerms.from_names("fc,fv,passive")
+    terms = TermSelection.from_names("fc,fv,passive")
     rng = np.random.default_rng(0)
     q = rng.uniform([-0.05, -1.6], [1.3, -0.1], (50, 2))
     dq, ddq = rng.normal(size=(50, 2)), rng.normal(size=(50, 2))
@@ -51,7 +51,7 @@ def test_exo_leg_mapping_and_regressor_identity():
 
 def test_scale_factors_recovered_by_least_squares():
     robot = RobotModel.from_urdf("exo_leg")
-    terms = JointTerms.from_names("fc,fv,passive")
+    terms = TermSelection.from_names("fc,fv,passive")
     rng = np.random.default_rng(1)
     q = rng.uniform([-0.05, -1.6], [1.3, -0.1], (200, 2))
     dq, ddq = rng.normal(size=(200, 2)), rng.normal(size=(200, 2))

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from pinid.identification.identified import IdentifiedModel
-from pinid.model.regressor import JointTerms, regressor, standard_parameters
+from pinid.model.regressor import TermSelection, regressor, standard_parameters
 from pinid.model.robot import RobotModel
 from pinid.wearer.attach import wearer_urdf
 from pinid.wearer.prior import drawn as _perturbed, wearer_prior
@@ -19,7 +19,7 @@ def setup(tmp_path_factory):
     wearer_urdf("exo_leg", "hip:thigh,knee:shank,knee:foot", mass=75, height=1.78, sex="male", path=path)
     exo = RobotModel.from_urdf("exo_leg")
     robot = RobotModel.from_urdf(path)
-    stage1 = IdentifiedModel(exo, JointTerms(), standard_parameters(exo, JointTerms()))
+    stage1 = IdentifiedModel(exo, TermSelection(), standard_parameters(exo, TermSelection()))
     rng = np.random.default_rng(3)
     truth = np.zeros(22)
     for b in wearer_prior(path.read_text(), robot):
@@ -28,7 +28,7 @@ def setup(tmp_path_factory):
     n = 400
     q = rng.uniform([-0.05, -1.6], [1.3, -0.1], (n, 2))
     dq, ddq = rng.normal(0, 1, (n, 2)), rng.normal(0, 3, (n, 2))
-    full = JointTerms.from_names("fc,fv,passive")
+    full = TermSelection.from_names("fc,fv,passive")
     theta_full = np.concatenate([stage1.theta[:20] + truth[:20], [1.2, 0.8, 0.8, 0.9, 0.6, 1.3]])
     theta_full[[22, 25]] = truth[20:]
     tau = (regressor(robot, q, dq, ddq, full) @ theta_full).reshape(n, 2)
@@ -132,7 +132,7 @@ def test_auto_prior_weight_pulls_toward_tables_that_are_right_when_data_are_nois
 
     stage1, path, robot, _, (q, dq, ddq, _) = setup
     table = identify_wearer(stage1, path, q, dq, ddq, np.zeros_like(q)).table
-    terms = JointTerms.from_names("passive")
+    terms = TermSelection.from_names("passive")
     clean = (regressor(robot, q, dq, ddq, terms) @ table).reshape(q.shape) + stage1.inverse_dynamics(q, dq, ddq)
     noisy = clean + np.random.default_rng(7).normal(0.0, 8.0, clean.shape)
     bp = base_parameters(robot, terms)

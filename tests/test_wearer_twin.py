@@ -11,7 +11,7 @@ from conftest import assert_clean_error, run_cli
 from pinid.data.formats import DataWarning
 from pinid.errors import SpecError
 from pinid.model import terms as T
-from pinid.model.regressor import JointTerms
+from pinid.model.regressor import TermSelection
 from pinid.model.robot import RobotModel
 from pinid.simulation.twin import load_trajectory, simulate
 from pinid.wearer.attach import wearer_links, wearer_urdf
@@ -29,7 +29,7 @@ def _residual(m, truth, vs=0.01, extra=None):
     s = truth["signals"]
     tau = m.rnea(s.q, s.dq, s.ddq) + m.coulomb * np.tanh(s.dq / vs) + m.viscous * s.dq
     for name, v in (extra or {}).items():
-        tau += T.torque(m, JointTerms.from_names(name), np.asarray(v, float), s.q, s.dq, s.ddq, smoothing=vs)
+        tau += T.torque(m, TermSelection.from_names(name), np.asarray(v, float), s.q, s.dq, s.ddq, smoothing=vs)
     return s.tau - tau
 
 
@@ -124,13 +124,13 @@ def test_model_with_passive_terms_for_control(worn):
     from pinid.model.regressor import standard_parameters
 
     _, m = worn
-    terms = JointTerms.from_names("fv,passive")
+    terms = TermSelection.from_names("fv,passive")
     model = IdentifiedModel(m, terms, standard_parameters(m, terms))
     q, dq = np.array([0.9, -1.5]), np.array([0.3, -0.2])
     np.testing.assert_allclose(model.friction(dq), m.viscous * dq)
     expected = (
         m.rnea(q[None], 0 * q[None], 0 * q[None])[0]
-        + T.torque(m, JointTerms.from_names("passive"), np.ones(2), q[None], 0 * q[None], 0 * q[None])[0]
+        + T.torque(m, TermSelection.from_names("passive"), np.ones(2), q[None], 0 * q[None], 0 * q[None])[0]
     )
     np.testing.assert_allclose(model.gravity(q), expected, atol=1e-12)
     np.testing.assert_allclose(
@@ -148,7 +148,7 @@ def test_track_plant_carries_the_wearer(worn):
     from pinid.model.regressor import standard_parameters
 
     _, m = worn
-    terms = JointTerms.from_names("fc,fv,passive")
+    terms = TermSelection.from_names("fc,fv,passive")
     full = IdentifiedModel(m, terms, standard_parameters(m, terms))
     ref = sine_reference(m)
     worn_by = wearer_links(m.urdf_text)  # the plant's wearer, handed to the twin

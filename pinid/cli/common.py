@@ -13,7 +13,7 @@ from pinid.errors import SpecError
 from pinid.estimators import ESTIMATORS
 from pinid.identification.run import parse_methods
 from pinid.model.bundled import EXAMPLE_ROBOTS
-from pinid.model.regressor import JointTerms
+from pinid.model.regressor import TermSelection
 from pinid.model.robot import RobotModel
 from pinid.resources import bundled_robots
 
@@ -117,10 +117,10 @@ def robot_from_args(args: argparse.Namespace, urdf: str | None = None):
     return robot
 
 
-def terms_from_args(args: argparse.Namespace) -> JointTerms:
-    """The JointTerms the --terms option describes."""
+def terms_from_args(args: argparse.Namespace) -> TermSelection:
+    """The TermSelection the --terms option describes."""
     try:
-        return JointTerms.from_names(args.terms)
+        return TermSelection.from_names(args.terms)
     except ValueError as exc:
         raise SpecError(f"--terms: {exc}") from None
 

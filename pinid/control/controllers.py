@@ -37,7 +37,7 @@ from pinid.identification.run import identify
 from pinid.identification.identified import IdentifiedModel
 from pinid.io import read_json
 from pinid.model.base import base_parameters
-from pinid.model.regressor import JointTerms, standard_parameters
+from pinid.model.regressor import TermSelection, standard_parameters
 from pinid.simulation.twin import Plant, perturb, plant_terms, simulate
 from pinid.model.robot import as_robot
 
@@ -60,7 +60,7 @@ class DynamicsModel(Protocol):
 
 def nominal_model(robot: RobotModel, *, friction: bool = True):
     """The URDF's own parameters as a dynamics model; ``friction=False`` ignores its ``<dynamics>``."""
-    terms = JointTerms() if friction else JointTerms(coulomb=False, viscous=False)
+    terms = TermSelection() if friction else TermSelection(coulomb=False, viscous=False)
     return IdentifiedModel(robot, terms, standard_parameters(robot, terms), meta={"method": "nominal"})
 
 
@@ -382,11 +382,11 @@ def identified_vs_cad(
     train, _ = simulate(plant, excitation, seconds=record_seconds, seed=seed + 1, **run)
     valid, _ = simulate(plant, excitation, seconds=record_seconds / 2, seed=seed + 2, **run)
     ident = identify(plant, train, validate=valid, methods=[method])
-    terms = JointTerms()
+    terms = TermSelection()
     bp = base_parameters(plant, terms)
     truth = bp.from_standard(standard_parameters(plant, terms))
     cad_base = bp.from_standard(
-        standard_parameters(cad_robot, JointTerms()) * np.r_[np.ones(10 * plant.nv), np.zeros(2 * plant.nv)]
+        standard_parameters(cad_robot, TermSelection()) * np.r_[np.ones(10 * plant.nv), np.zeros(2 * plant.nv)]
     )
     rel = lambda x: (100 * np.abs(x - truth) / np.maximum(np.abs(truth), 1e-9)).tolist()  # noqa: E731
     models = {f"CAD ({percent:g} % off, no friction)": cad, f"identified ({method})": ident[method].model}

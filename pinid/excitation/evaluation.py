@@ -21,7 +21,7 @@ from pinid.model.base import BaseParameters, base_parameters
 from pinid.checks import as_floats, count, number
 from pinid.errors import SpecError
 from pinid.model.robot import RobotModel, as_robot
-from pinid.model.regressor import JointTerms, regressor, standard_parameters
+from pinid.model.regressor import TermSelection, regressor, standard_parameters
 from pinid.excitation.trajectory import FourierTrajectory
 from pinid.excitation.spec import DEFAULT_SAMPLES, ExcitationSpec
 
@@ -47,7 +47,7 @@ def clean_rest(dq: np.ndarray) -> np.ndarray:
 def base_regressor(
     model: RobotModel,
     trajectory: FourierTrajectory,
-    terms: JointTerms = JointTerms(),
+    terms: TermSelection = TermSelection(),
     samples: int = DEFAULT_SAMPLES,
     base: BaseParameters | None = None,
 ) -> np.ndarray:
@@ -61,7 +61,7 @@ def base_regressor(
 def condition_number(
     model: RobotModel,
     trajectory: FourierTrajectory,
-    terms: JointTerms = JointTerms(),
+    terms: TermSelection = TermSelection(),
     samples: int = DEFAULT_SAMPLES,
     base: BaseParameters | None = None,
 ) -> float:
@@ -73,7 +73,7 @@ def condition_number(
 def log_det_information(
     model: RobotModel,
     trajectory: FourierTrajectory,
-    terms: JointTerms = JointTerms(),
+    terms: TermSelection = TermSelection(),
     samples: int = DEFAULT_SAMPLES,
     base: BaseParameters | None = None,
 ) -> float:
@@ -130,7 +130,7 @@ def trajectory_extremes(trajectory: FourierTrajectory, points: int = DENSE_SAMPL
 
 
 def torque_extremes(
-    model: RobotModel, trajectory: FourierTrajectory, terms: JointTerms = JointTerms(), points: int = 1000
+    model: RobotModel, trajectory: FourierTrajectory, terms: TermSelection = TermSelection(), points: int = 1000
 ) -> np.ndarray:
     """Largest |torque| [N·m] per joint over one period, with the nominal URDF parameters (``points`` samples)."""
     model = as_robot(model)

@@ -24,7 +24,7 @@ from pinid.errors import SpecError
 from pinid.io import as_path, display_path, parse_spec_text, read_bounded_file
 from pinid.resources import EXCITATION_DIR as BUNDLED_EXCITATION_DIR
 from pinid.model.robot import RobotModel, as_robot
-from pinid.model.regressor import JointTerms
+from pinid.model.regressor import TermSelection
 from pinid.model.bundled import BUNDLED_URDF_DIR
 
 #: Acceleration limit [rad/s² or m/s²] when neither the spec nor the URDF gives one.
@@ -93,7 +93,7 @@ class ExcitationSpec:
     optimize_offsets: bool = False
     margin: float = 0.0
     criterion: str = "cond"
-    terms: JointTerms = field(default_factory=JointTerms)
+    terms: TermSelection = field(default_factory=TermSelection)
     source: str = "defaults"
 
     def __post_init__(self) -> None:
@@ -351,7 +351,7 @@ def spec_from_dict(data: dict, model: RobotModel, *, source: str = "<spec>") -> 
     if "terms" in data:
         terms = data["terms"]
         try:
-            changes["terms"] = JointTerms.from_names(terms if isinstance(terms, (str, list)) else str(terms))
+            changes["terms"] = TermSelection.from_names(terms if isinstance(terms, (str, list)) else str(terms))
         except ValueError as exc:
             raise SpecError(f"{source}: terms: {exc}") from None
     arrays = {k: getattr(spec, k).copy() for k in ("q_min", "q_max", "dq_max", "ddq_max", "tau_max", "q0")}

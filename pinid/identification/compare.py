@@ -46,7 +46,7 @@ from pinid.problem.problem import base_regressor, check_dataset, recorded_torque
 from pinid.identification.run import Fit, as_model, check_options, parse_methods, run_jobs, setup, use_manifest
 from pinid.identification.truth import true_base
 from pinid.io import jsonable, read_json, write_json
-from pinid.model.regressor import JointTerms
+from pinid.model.regressor import TermSelection
 from pinid.model.robot import RobotModel
 from pinid.model.terms import as_terms, stribeck_settings
 from pinid.model.serialize import robot_to_dict
@@ -475,7 +475,7 @@ def compare(
     methods: Sequence[str] | str | None = None,
     seeds: int | Sequence[int] = DEFAULT_SEEDS,
     truth=None,
-    terms: JointTerms | str = JointTerms(),
+    terms: TermSelection | str = TermSelection(),
     options: Mapping[str, Mapping] | None = None,
     metaheuristic: Mapping | None = None,
     segmental: Mapping | None = None,

@@ -31,7 +31,7 @@ from pinid.problem.problem import (
     rest_threshold,
 )
 from pinid.model.base import BaseParameters, base_parameters
-from pinid.model.regressor import JointTerms
+from pinid.model.regressor import TermSelection
 from pinid.model.robot import RobotModel
 
 _COARSE = 201  # most candidates of the first grid
@@ -41,7 +41,7 @@ def estimate_delay(
     model: RobotModel,
     datasets: Sequence[Dataset],
     *,
-    terms: JointTerms = JointTerms(),
+    terms: TermSelection = TermSelection(),
     base: BaseParameters | None = None,
     bounds: tuple[float, float] = (-DELAY_RANGE, DELAY_RANGE),
     rest_velocity="auto",

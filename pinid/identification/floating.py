@@ -21,7 +21,7 @@ from pinid.io import Artefacts, write_json
 from pinid.model.floating import FloatingRobotModel, as_floating, floating_urdf
 from pinid.model.serialize import robot_from_dict, robot_to_dict
 from pinid.model.mjcf import identified_mjcf
-from pinid.model.terms import JointTerms, as_terms
+from pinid.model.terms import TermSelection, as_terms
 
 
 @dataclass
@@ -97,7 +97,7 @@ def identify_floating(
     *,
     methods: Sequence[str] = ("ols", "sdp"),
     validate=None,
-    terms: JointTerms = JointTerms(),
+    terms: TermSelection = TermSelection(),
     rows: str = "all",
     base_weight: float = 1.0,
     preprocess: Mapping | bool | None = None,
@@ -166,7 +166,7 @@ def write_floating_identification(
     ident: FloatingIdentification,
     folder: str | os.PathLike,
     model: FloatingRobotModel | None = None,
-    terms: JointTerms = JointTerms(),
+    terms: TermSelection = TermSelection(),
 ) -> list[Path]:
     """Write ``identification.json`` into ``folder`` and, with ``model``, ``identified_<method>.urdf`` and the
     MuJoCo MJCF ``identified_<method>.xml`` (a free joint on the base link, :func:`pinid.model.mjcf.identified_mjcf`;
@@ -202,7 +202,7 @@ def write_floating_identification(
 
 def load_floating_identified(
     path: str | os.PathLike, *, method: str | None = None
-) -> tuple[FloatingRobotModel, JointTerms, np.ndarray, str]:
+) -> tuple[FloatingRobotModel, TermSelection, np.ndarray, str]:
     """The floating robot, its terms, the standard parameters (``base.*`` first) and the method of a floating
     identification (``identification.json`` of ``pinid identify --base floating``): ``method``, or by default
     the physically consistent method with the lowest validation (else training) RMS.  SpecError naming the

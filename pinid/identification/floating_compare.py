@@ -25,7 +25,7 @@ from pinid.problem.floating import floating_problem
 from pinid.identification.run import check_options, parse_methods
 from pinid.io import Artefacts, json_text, read_json
 from pinid.model.floating import FloatingRobotModel, as_floating
-from pinid.model.terms import JointTerms, as_terms
+from pinid.model.terms import TermSelection, as_terms
 
 #: Files :func:`write_floating_comparison` writes.
 FILES = ("comparison.json", "comparison.md")
@@ -111,7 +111,7 @@ def compare_floating(
     methods: Sequence[str] | str | None = ("ols", "sdp"),
     seeds: int | Sequence[int] = 3,
     truth=None,
-    terms: JointTerms = JointTerms(),
+    terms: TermSelection = TermSelection(),
     rows: str = "all",
     base_weight: float = 1.0,
     preprocess=None,

@@ -37,7 +37,7 @@ from pinid.data.dataset import Dataset
 from pinid.errors import DataError, SpecError
 from pinid.problem.problem import IdentificationProblem
 from pinid.model.base import BaseParameters
-from pinid.model.regressor import JointTerms, regressor
+from pinid.model.regressor import TermSelection, regressor
 from pinid.model.robot import INERTIA_TOL, RobotModel
 
 _KEYS = ("link", "mass", "com", "inertia")
@@ -234,7 +234,7 @@ def identify_gains(
     loaded: Sequence[Dataset],
     payload: Payload,
     *,
-    terms: JointTerms = JointTerms(),
+    terms: TermSelection = TermSelection(),
     base: BaseParameters | None = None,
     rest_velocity="auto",
 ) -> DriveGains:
@@ -259,7 +259,7 @@ def identify_gains(
                 np.concatenate([getattr(ds.reorder(model.joint_names), k) for ds in datasets])
                 for k in ("q", "dq", "ddq")
             )
-            y = regressor(model, q, dq, ddq, JointTerms(names=[]))[:, 10 * j_body : 10 * j_body + 10] @ phi
+            y = regressor(model, q, dq, ddq, TermSelection(names=[]))[:, 10 * j_body : 10 * j_body + 10] @ phi
             rhs = -y[p.sample * model.nv + p.joint]
         currents = np.zeros((p.rows, model.nv))
         currents[np.arange(p.rows), p.joint] = -p.tau

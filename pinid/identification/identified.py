@@ -34,7 +34,7 @@ from pinid.io import read_json, write_json
 from pinid.model import terms as _terms
 from pinid.model.export import identified_urdf
 from pinid.model.physical import check_consistency
-from pinid.model.regressor import JointTerms, parameter_names
+from pinid.model.regressor import TermSelection, parameter_names
 from pinid.model.robot import RobotModel, as_robot
 from pinid.model.terms import as_terms
 from pinid.model.serialize import robot_from_dict, robot_to_dict
@@ -52,7 +52,7 @@ class IdentifiedModel:
     def __init__(
         self,
         robot: RobotModel,
-        terms: JointTerms | None,
+        terms: TermSelection | None,
         theta: np.ndarray,
         *,
         physically_consistent: bool | None = None,
@@ -133,7 +133,7 @@ class IdentifiedModel:
     # ---------------------------------------------------------------- dynamics
     def _term_torque(self, q, dq, ddq, keep=lambda t: True) -> np.ndarray:
         """Torque (N, nv) of the selected terms for which ``keep(term)`` holds."""
-        sel = JointTerms(names=[t.name for t in self.terms.joint + self.terms.motor if keep(t)])
+        sel = TermSelection(names=[t.name for t in self.terms.joint + self.terms.motor if keep(t)])
         theta = np.array([self._values[p.term.name][p.index] for p in _terms.robot_layout(self.robot, sel)])
         return _terms.torque(self.robot, sel, theta, q, dq, ddq)
 

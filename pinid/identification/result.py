@@ -20,7 +20,7 @@ from pinid.io import display_path, jsonable, read_json, write_json
 from pinid.model.export import identified_urdf
 from pinid.model.lmi import consistent_completion
 from pinid.model.physical import check_consistency
-from pinid.model.regressor import JointTerms
+from pinid.model.regressor import TermSelection
 from pinid.model.robot import RobotModel
 from pinid.model.serialize import robot_from_dict, robot_to_dict
 
@@ -113,7 +113,7 @@ class IdentificationResult:
     def model(self):
         """The :class:`~pinid.identification.identified.IdentifiedModel` with these parameters (built once)."""
         if self._model_cache is None:
-            terms = JointTerms.from_names(self.robot["terms"]) if self.robot else None
+            terms = TermSelection.from_names(self.robot["terms"]) if self.robot else None
             self._model_cache = IdentifiedModel(
                 self.robot_model,
                 terms,
@@ -128,7 +128,7 @@ class IdentificationResult:
         return identified_urdf(
             self.robot_model,
             self.standard,
-            JointTerms.from_names(self.robot["terms"]),
+            TermSelection.from_names(self.robot["terms"]),
             path,
             force=force,
             comment=f"method {self.method}",

@@ -39,7 +39,7 @@ from pinid.identification.segmental import Segmental, SegmentalProblem
 from pinid.identification.stribeck import fit_velocity
 from pinid.identification.truth import read_truth, true_base, truth_error
 from pinid.model.base import BaseParameters, base_parameters
-from pinid.model.regressor import JointTerms
+from pinid.model.regressor import TermSelection
 from pinid.model.robot import RobotModel
 from pinid.model.terms import STRIBECK_TERMS, Stribeck, as_terms, stribeck, stribeck_settings
 from pinid.model.serialize import robot_to_dict
@@ -102,7 +102,7 @@ class Setup:
     """Everything the runs share: the model, the training problem (or segmental stages), validation sets."""
 
     model: RobotModel
-    terms: JointTerms
+    terms: TermSelection
     base: BaseParameters
     problem: IdentificationProblem
     train: list[Dataset]
@@ -117,7 +117,7 @@ def setup(
     data,
     validate=None,
     *,
-    terms: JointTerms = JointTerms(),
+    terms: TermSelection = TermSelection(),
     mapping=None,
     preprocess: Mapping | bool | None = None,
     rest_velocity="auto",
@@ -158,7 +158,7 @@ def _setup(
     data,
     validate=None,
     *,
-    terms: JointTerms = JointTerms(),
+    terms: TermSelection = TermSelection(),
     mapping=None,
     preprocess: Mapping | bool | None = None,
     rest_velocity="auto",
@@ -177,7 +177,7 @@ def _setup(
         raise SpecError("fit joints and torque delays with the segmental strategy: not supported")
     if auto and segmental:
         raise SpecError("Stribeck velocity 'auto' with the segmental strategy: give the velocity instead")
-    final_terms, terms = terms, JointTerms(names=[n for n in terms.names if n not in auto])
+    final_terms, terms = terms, TermSelection(names=[n for n in terms.names if n not in auto])
     check_distinct(data, validate)
     train = load_datasets(data, model, mapping, preprocess, "training")
     _warn_if_large(model, terms, train)
@@ -256,7 +256,7 @@ def _setup(
         fit = fit_velocity(problem, train, name, fit_shape=auto[name])
         model = model.with_stribeck({name: Stribeck(fit.velocity, fit.shape)})
         shapes[name] = fit.summary()
-        terms = JointTerms(names=[n for n in final_terms.names if n not in list(auto)[k + 1 :]])
+        terms = TermSelection(names=[n for n in final_terms.names if n not in list(auto)[k + 1 :]])
         base = base_parameters(model, terms, joints=base.fit_joints)
         problem = IdentificationProblem.from_datasets(
             model,
@@ -270,7 +270,7 @@ def _setup(
     return Setup(model, terms, base, problem, train, val, seg, shapes, used_delay)
 
 
-def bytes_per_sample(model: RobotModel, terms: JointTerms) -> float:
+def bytes_per_sample(model: RobotModel, terms: TermSelection) -> float:
     """About how much memory ``identify`` needs per training sample [bytes]: the tall regressor of the
     base parameters (8·nv·nb, built whole by wls and the metaheuristics) and about six copies of the
     recording's columns (8·(1 + 4·nv): read, reordered, filtered, differentiated).  Measured: exo_leg,
@@ -279,13 +279,13 @@ def bytes_per_sample(model: RobotModel, terms: JointTerms) -> float:
     return 8.0 * (model.nv * nb + 6 * (1 + 4 * model.nv))
 
 
-def warn_if_large_recordings(model: RobotModel, terms: JointTerms, datasets: Sequence[Dataset]) -> bool:
+def warn_if_large_recordings(model: RobotModel, terms: TermSelection, datasets: Sequence[Dataset]) -> bool:
     """One-line DataWarning when the training recordings would need more than half the available
     memory (:func:`bytes_per_sample`); True if warned."""
     return _warn_if_large(as_robot(model), as_terms(terms), datasets)
 
 
-def _warn_if_large(model: RobotModel, terms: JointTerms, datasets: Sequence[Dataset]) -> bool:
+def _warn_if_large(model: RobotModel, terms: TermSelection, datasets: Sequence[Dataset]) -> bool:
     """:func:`warn_if_large_recordings` of a model and terms resolved by the caller."""
     from pinid.memory import warn_if_large
 
@@ -418,7 +418,7 @@ def identify(
     *,
     methods: Sequence[str] | str = DEFAULT_METHODS,
     validate: Dataset | str | os.PathLike | Iterable | None = None,
-    terms: JointTerms | str = JointTerms(),
+    terms: TermSelection | str = TermSelection(),
     mapping=None,
     preprocess: Mapping | bool | None = None,
     rest_velocity: float | Sequence[float] | str | None = "auto",

@@ -57,7 +57,7 @@ from pinid.identification.result import IdentificationResult, make_result
 from pinid.linalg import augmented_r
 from pinid.model.robot import RobotModel
 from pinid.model.physical import parameter_scale
-from pinid.model.regressor import JointTerms, standard_parameters
+from pinid.model.regressor import TermSelection, standard_parameters
 from pinid.model.robot import as_robot
 
 
@@ -73,7 +73,7 @@ class SubProblem:
     """
 
     model: RobotModel
-    terms: JointTerms
+    terms: TermSelection
     W: np.ndarray
     tau: np.ndarray
     joint: np.ndarray
@@ -111,14 +111,14 @@ class SubProblem:
         return kept
 
 
-def _natural_scale(model: RobotModel, terms: JointTerms, base: BaseParameters) -> np.ndarray:
+def _natural_scale(model: RobotModel, terms: TermSelection, base: BaseParameters) -> np.ndarray:
     return np.abs(base.P) @ parameter_scale(standard_parameters(model, terms), model.nv, len(terms))
 
 
 def stack(
     model: RobotModel,
     datasets: Dataset | Sequence[Dataset],
-    terms: JointTerms,
+    terms: TermSelection,
     base: BaseParameters,
     *,
     rest_velocity="auto",
@@ -159,7 +159,7 @@ class SegmentalProblem:
         second,
         *,
         first_joints: Sequence[str] = ("knee",),
-        terms: JointTerms = JointTerms(),
+        terms: TermSelection = TermSelection(),
         rest_velocity="auto",
         rest_fraction: float = REST_FRACTION,
         base: BaseParameters | None = None,
@@ -350,7 +350,7 @@ def segmental_identify(
     method: str = "ols",
     first_joints: Sequence[str] = ("knee",),
     settings: dict | None = None,
-    terms: JointTerms = JointTerms(),
+    terms: TermSelection = TermSelection(),
     rest_velocity="auto",
     preprocess=None,
     complete: bool = True,

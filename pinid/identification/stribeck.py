@@ -102,7 +102,7 @@ def fit_velocity(
     Q = scipy.linalg.qr(problem.W * sw[:, None], mode="economic")[0]
     y = problem.tau * sw
     y -= Q @ (Q.T @ y)
-    sel = _terms.JointTerms(names=[term])
+    sel = _terms.TermSelection(names=[term])
 
     def residual(log_v: float, shape: float) -> float:
         trial = model.with_stribeck({term: _terms.Stribeck(float(np.exp(log_v)), shape)})

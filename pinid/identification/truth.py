@@ -20,7 +20,7 @@ from pinid.checks import as_floats
 from pinid.errors import SpecError
 from pinid.io import as_path
 from pinid.model.base import BaseParameters
-from pinid.model.regressor import JointTerms
+from pinid.model.regressor import TermSelection
 from pinid.model.robot import RobotModel, as_robot
 from pinid.model.terms import as_terms, robot_layout
 
@@ -40,7 +40,7 @@ def read_truth(truth) -> tuple[dict, str]:
 
 
 def true_base(
-    truth: Mapping | str | os.PathLike, model: RobotModel, terms: JointTerms, base: BaseParameters
+    truth: Mapping | str | os.PathLike, model: RobotModel, terms: TermSelection, base: BaseParameters
 ) -> np.ndarray:
     """The true base parameters (in ``base.names``' order) from a truth of ``pinid simulate``."""
     model, terms = as_robot(model), as_terms(terms)

@@ -23,7 +23,7 @@ from pinid.checks import as_floats, count, number
 from pinid.errors import DataError, ModelError, SpecError
 from pinid.model.robot import RobotModel, as_robot
 from pinid.model.terms import STRIBECK_TERMS, as_terms
-from pinid.model.regressor import JointTerms, parameter_names, regressor
+from pinid.model.regressor import TermSelection, parameter_names, regressor
 from pinid.io import read_bounded_file, write_json
 
 
@@ -116,7 +116,7 @@ class BaseParameters:
 
 def base_parameters(
     model: RobotModel,
-    terms: JointTerms = JointTerms(),
+    terms: TermSelection = TermSelection(),
     *,
     samples: int | None = None,
     seed: int = 0,

@@ -10,11 +10,11 @@ import numpy as np
 from pinid.errors import ModelError
 from pinid.model.base import base_parameters
 from pinid.model.floating import floating_base_parameters, floating_standard_parameters
-from pinid.model.regressor import JointTerms, standard_parameters
+from pinid.model.regressor import TermSelection, standard_parameters
 from pinid.model.robot import RobotModel
 
 
-def describe(model: RobotModel, terms: JointTerms) -> dict:
+def describe(model: RobotModel, terms: TermSelection) -> dict:
     """Plain-dict description of a model and its base parameters (with their expressions in the standard
     parameters, their nominal values and where those come from: the URDF, the drives file or both)."""
     floating = getattr(model, "base", "fixed") == "floating"
@@ -78,7 +78,7 @@ def _num(x: float):
     return None if not np.isfinite(x) else float(x)
 
 
-def description_text(d: dict, terms: JointTerms) -> str:
+def description_text(d: dict, terms: TermSelection) -> str:
     """:func:`describe`'s dict as text: a table of the joints with the units of their limits ([rad, rad/s,
     N·m], [m, m/s, N] for prismatic joints), the locked joints, the drives' matrix, and every base parameter
     as a combination of standard parameters with its nominal value and where that comes from."""

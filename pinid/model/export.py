@@ -31,7 +31,7 @@ from pinid.checks import number as finite_number
 from pinid.model.robot import RobotModel, as_robot
 from pinid.model.physical import check_consistency, com_inertia
 from pinid.model import terms as _terms
-from pinid.model.regressor import JointTerms
+from pinid.model.regressor import TermSelection
 from pinid.io import write_text
 from pinid.model.urdf import Element, xml_comment, new_element, sub_element, xml_text
 
@@ -71,7 +71,7 @@ def _link_owners(root: Element, active: list[str]) -> tuple[dict[str, str | None
 def identified_urdf(
     model: RobotModel,
     theta: np.ndarray,
-    terms: JointTerms,
+    terms: TermSelection,
     path: str | os.PathLike | None = None,
     *,
     force: bool = False,
@@ -95,7 +95,7 @@ def identified_urdf(
 def identified_urdf_tree(
     model: RobotModel,
     theta: np.ndarray,
-    terms: JointTerms,
+    terms: TermSelection,
     *,
     force: bool = False,
     comment: str | None = None,
@@ -215,7 +215,7 @@ def inertial_element(mass: float, com, inertia, number=_num) -> Element:
 def identified_drives(
     model: RobotModel,
     theta: np.ndarray,
-    terms: JointTerms,
+    terms: TermSelection,
     path: str | os.PathLike | None = None,
     *,
     comment: str | None = None,

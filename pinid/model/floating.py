@@ -42,7 +42,7 @@ from pinid.errors import DataError, ModelError, SpecError
 from pinid.model.base import BaseParameters, base_parameters_of
 from pinid.model import terms as _terms
 from pinid.model.robot import BASE_BUILDERS, JointInfo, RobotModel
-from pinid.model.terms import JointTerms, as_terms
+from pinid.model.terms import TermSelection, as_terms
 
 #: Name of the free flyer in parameter names (``base.m``, ``base.mx`` …).
 BASE_NAME = "base"
@@ -207,7 +207,7 @@ def body_view(model: FloatingRobotModel) -> RobotModel:
     return view
 
 
-def _check_terms(model: FloatingRobotModel, terms: JointTerms) -> JointTerms:
+def _check_terms(model: FloatingRobotModel, terms: TermSelection) -> TermSelection:
     terms = as_terms(terms)
     if terms.motor:
         raise ModelError(
@@ -229,7 +229,7 @@ def as_floating(model) -> FloatingRobotModel:
     return model
 
 
-def floating_parameter_names(model: FloatingRobotModel, terms: JointTerms = JointTerms()) -> list[str]:
+def floating_parameter_names(model: FloatingRobotModel, terms: TermSelection = TermSelection()) -> list[str]:
     """Names of the floating robot's standard parameters: ``base.m`` … then per joint body, then the terms."""
     model = as_floating(model)
     terms = _check_terms(model, terms)
@@ -237,7 +237,7 @@ def floating_parameter_names(model: FloatingRobotModel, terms: JointTerms = Join
     return view.inertial_names + _terms.parameter_names(view, terms)
 
 
-def floating_standard_parameters(model: FloatingRobotModel, terms: JointTerms = JointTerms()) -> np.ndarray:
+def floating_standard_parameters(model: FloatingRobotModel, terms: TermSelection = TermSelection()) -> np.ndarray:
     """Nominal standard parameters of the floating robot (URDF inertias of every body, ``<dynamics>`` friction)."""
     model = as_floating(model)
     terms = _check_terms(model, terms)
@@ -245,7 +245,7 @@ def floating_standard_parameters(model: FloatingRobotModel, terms: JointTerms = 
 
 
 def floating_regressor(
-    model: FloatingRobotModel, base_q, base_v, base_a, q, dq, ddq, terms: JointTerms = JointTerms()
+    model: FloatingRobotModel, base_q, base_v, base_a, q, dq, ddq, terms: TermSelection = TermSelection()
 ) -> np.ndarray:
     """Stacked regressor ``(N·(6 + n), p)``: per sample the 6 base rows, then the ``n`` joint rows.
 
@@ -359,7 +359,7 @@ def row_mask(nv: int, rows: str) -> np.ndarray:
 
 def floating_base_parameters(
     model: FloatingRobotModel,
-    terms: JointTerms = JointTerms(),
+    terms: TermSelection = TermSelection(),
     *,
     rows: str = "all",
     samples: int | None = None,
@@ -385,7 +385,7 @@ BASE_BUILDERS["floating"] = build_floating
 def floating_urdf(
     model: FloatingRobotModel,
     theta: np.ndarray,
-    terms: JointTerms = JointTerms(),
+    terms: TermSelection = TermSelection(),
     path=None,
     *,
     force: bool = False,

@@ -43,7 +43,7 @@ from pinid.errors import ModelError
 from pinid.io import write_text
 from pinid.model import terms as _terms
 from pinid.model.physical import check_consistency, com_inertia
-from pinid.model.regressor import JointTerms
+from pinid.model.regressor import TermSelection
 from pinid.model.robot import RobotModel, as_robot
 from pinid.model.terms import as_terms
 from pinid.model.urdf import Element, UrdfDocument, is_element, new_element, sub_element, xml_comment, xml_text
@@ -112,7 +112,7 @@ def exported_pin_model(model: RobotModel, theta: np.ndarray, *, floating: bool =
     return pm
 
 
-def joint_fields(model: RobotModel, theta: np.ndarray, terms: JointTerms) -> tuple[dict[str, np.ndarray], list[str]]:
+def joint_fields(model: RobotModel, theta: np.ndarray, terms: TermSelection) -> tuple[dict[str, np.ndarray], list[str]]:
     """The MJCF joint fields ``{"armature" [kg·m²], "damping" [N·m·s/rad], "frictionloss" [N·m]: (nv,)}`` of the
     term block of ``theta``, and the non-zero identified terms that have no MJCF field (``"hip.offset = 0.3 N·m"``)."""
     model, terms, theta = as_robot(model), as_terms(terms), as_floats(theta, "theta")
@@ -210,7 +210,7 @@ def _shape_geoms(link: Element, M_link: pin.SE3, prefix: str, kind: str = "colli
 def identified_mjcf(
     model: RobotModel,
     theta: np.ndarray,
-    terms: JointTerms,
+    terms: TermSelection,
     path: str | os.PathLike | None = None,
     *,
     floating: bool = False,

@@ -24,18 +24,18 @@ import pinocchio as pin
 from pinid.checks import as_states, as_vector, same_length
 from pinid.model import terms as _terms
 from pinid.model.robot import RobotModel, as_robot
-from pinid.model.terms import JOINT_TERM_NAMES, JointTerms, as_terms
+from pinid.model.terms import JOINT_TERM_NAMES, TermSelection, as_terms
 
-__all__ = ["JOINT_TERM_NAMES", "JointTerms", "parameter_names", "standard_parameters", "regressor", "joint_torque"]
+__all__ = ["JOINT_TERM_NAMES", "TermSelection", "parameter_names", "standard_parameters", "regressor", "joint_torque"]
 
 
-def parameter_names(model: RobotModel, terms: JointTerms = JointTerms()) -> list[str]:
+def parameter_names(model: RobotModel, terms: TermSelection = TermSelection()) -> list[str]:
     """Names of all standard parameters: inertial block, then the term parameters (``hip.fc``, ``m6.fc``)."""
     model, terms = as_robot(model), as_terms(terms)
     return model.inertial_names + _terms.parameter_names(model, terms)
 
 
-def standard_parameters(model: RobotModel, terms: JointTerms = JointTerms()) -> np.ndarray:
+def standard_parameters(model: RobotModel, terms: TermSelection = TermSelection()) -> np.ndarray:
     """The model's nominal standard parameters (URDF inertias, ``<dynamics>`` friction, drives' values)."""
     model, terms = as_robot(model), as_terms(terms)
     return np.concatenate([model.inertial_parameters(), _terms.nominal(model, terms)])
@@ -46,7 +46,7 @@ def regressor(
     q: np.ndarray,
     dq: np.ndarray,
     ddq: np.ndarray,
-    terms: JointTerms = JointTerms(),
+    terms: TermSelection = TermSelection(),
 ) -> np.ndarray:
     """Stacked regressor ``W`` of shape ``(N·nv, 10·nv + number of term parameters)`` for N samples.
 
@@ -74,9 +74,19 @@ def regressor(
     return out.reshape(n * nv, ni + nt)
 
 
-def joint_torque(model: RobotModel, q, dq, ddq, theta: np.ndarray, terms: JointTerms = JointTerms()) -> np.ndarray:
+def joint_torque(
+    model: RobotModel, q, dq, ddq, theta: np.ndarray, terms: TermSelection = TermSelection()
+) -> np.ndarray:
     """Torque ``(N, nv)`` [N·m] of the standard parameters ``theta`` (regressor times parameters)."""
     model, terms = as_robot(model), as_terms(terms)
     q = as_states(q, "q", model.joint_names)
     theta = as_vector(theta, "theta", len(parameter_names(model, terms)), f"standard parameters (terms {terms.names})")
     return (regressor(model, q, dq, ddq, terms) @ theta).reshape(len(q), model.nv)
+
+
+def __getattr__(name: str):
+    if name == "JointTerms":  # the old name of TermSelection, for one release (pinid.model.terms warns)
+        from pinid.model import terms
+
+        return getattr(terms, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -11,13 +11,13 @@ from pathlib import Path
 import numpy as np
 
 from pinid.errors import SpecError
-from pinid.model.regressor import JointTerms
+from pinid.model.regressor import TermSelection
 from pinid.model.robot import RobotModel
 from pinid.model.terms import STRIBECK_TERMS, TERMS, Stribeck
 from pinid.model.robot import as_robot
 
 
-def robot_to_dict(model: RobotModel, terms: JointTerms) -> dict:
+def robot_to_dict(model: RobotModel, terms: TermSelection) -> dict:
     """``{"name", "urdf", "joints", "locked", "terms", "urdf_text", "drives"}`` of a model and its terms, and
     ``"stribeck"`` ``{term: {"velocity", "shape"}}`` when the model sets Stribeck shapes, ``"passive_exponents"``
     ``{anatomical joint: (terms, 4) list}`` when it sets the wearer's passive-moment exponents, ``"base": "floating"``
@@ -45,7 +45,7 @@ def robot_to_dict(model: RobotModel, terms: JointTerms) -> dict:
     }
 
 
-def robot_from_dict(d: dict) -> tuple[RobotModel, JointTerms]:
+def robot_from_dict(d: dict) -> tuple[RobotModel, TermSelection]:
     """Inverse of :func:`robot_to_dict` (from the URDF text when present, else the URDF path); SpecError
     naming the field that is missing or of the wrong type."""
     if not isinstance(d, dict):
@@ -67,7 +67,7 @@ def robot_from_dict(d: dict) -> tuple[RobotModel, JointTerms]:
     if d.get("base", "fixed") not in ("fixed", "floating"):
         raise SpecError(f"saved robot: 'base' is {d.get('base')!r}, expected 'fixed' or 'floating'")
     base = d.get("base", "fixed")
-    terms = JointTerms.from_names(list(d["terms"]))
+    terms = TermSelection.from_names(list(d["terms"]))
     text = d.get("urdf_text")
     if text:
         with tempfile.TemporaryDirectory() as tmp:

@@ -21,6 +21,7 @@ terms together, in registry order), then the motor block, motor-major.
 from __future__ import annotations
 
 import importlib
+import warnings
 from dataclasses import dataclass
 from typing import NamedTuple
 from collections.abc import Callable, Iterable, Iterator, MutableMapping, Sequence
@@ -273,16 +274,18 @@ register(_stribeck_term("motor_fs", "motor"))
 #: Names of the Stribeck terms (their shape is a robot setting: :func:`stribeck`, ``robot.stribeck``).
 STRIBECK_TERMS: tuple[str, ...] = ("fs", "motor_fs")
 
-#: The classic joint terms (``JointTerms``' keyword arguments), in column order.
+#: The classic joint terms (``TermSelection``' keyword arguments), in column order.
 JOINT_TERM_NAMES: tuple[str, ...] = ("fc", "fv", "offset", "armature")
 _FLAGS = dict(zip(("coulomb", "viscous", "offset", "armature"), JOINT_TERM_NAMES))
 
 
-class JointTerms:
-    """Which terms enter the model (default: joint Coulomb and viscous friction).
+class TermSelection:
+    """Which terms enter the model — joint, motor and plug-in terms (the wearer's passive moments) alike
+    (default: joint Coulomb and viscous friction).  Named ``JointTerms`` before issue 26; that name still
+    works for one release with a DeprecationWarning.
 
-    ``JointTerms(coulomb=True, viscous=True, offset=False, armature=False)`` selects the classic joint
-    terms; ``JointTerms.from_names("fc,fv,motor_fc")`` any registered ones.  ``names`` is in column order.
+    ``TermSelection(coulomb=True, viscous=True, offset=False, armature=False)`` selects the classic joint
+    terms; ``TermSelection.from_names("fc,fv,motor_fc")`` any registered ones.  ``names`` is in column order.
     """
 
     __slots__ = ("_names",)
@@ -308,7 +311,7 @@ class JointTerms:
         self._names = tuple(n for n in TERMS if n in names)
 
     @classmethod
-    def from_names(cls, names: str | Iterable[str]) -> "JointTerms":
+    def from_names(cls, names: str | Iterable[str]) -> "TermSelection":
         """Build from ``"fc,fv,offset"`` or a list of term names; ``""`` or ``"none"`` for no term."""
         if isinstance(names, str):
             names = [n.strip() for n in names.split(",") if n.strip() and n.strip() != "none"]
@@ -343,21 +346,21 @@ class JointTerms:
         return len(self._names)
 
     def __eq__(self, other) -> bool:
-        return isinstance(other, JointTerms) and other._names == self._names
+        return isinstance(other, TermSelection) and other._names == self._names
 
     def __hash__(self) -> int:
         return hash(self._names)
 
     def __repr__(self) -> str:
-        return f"JointTerms.from_names({','.join(self._names)!r})"
+        return f"TermSelection.from_names({','.join(self._names)!r})"
 
 
-def as_terms(terms: JointTerms | str | Iterable[str] | None) -> JointTerms:
-    """Joint terms from a :class:`JointTerms`, ``"fc,fv"``, a list of names or None (the default: Coulomb and
+def as_terms(terms: TermSelection | str | Iterable[str] | None) -> TermSelection:
+    """Joint terms from a :class:`TermSelection`, ``"fc,fv"``, a list of names or None (the default: Coulomb and
     viscous friction); SpecError for anything else or an unknown name."""
-    if isinstance(terms, JointTerms):
+    if isinstance(terms, TermSelection):
         return terms
-    return JointTerms() if terms is None else JointTerms.from_names(terms)
+    return TermSelection() if terms is None else TermSelection.from_names(terms)
 
 
 def _robot(robot) -> None:
@@ -380,7 +383,7 @@ class TermParameter(NamedTuple):
     index: int
 
 
-def layout(joints: Sequence[str], motors: Sequence[str], terms: JointTerms | Iterable[str]) -> list[TermParameter]:
+def layout(joints: Sequence[str], motors: Sequence[str], terms: TermSelection | Iterable[str]) -> list[TermParameter]:
     """The term parameters in order (joint block joint-major, then motor block motor-major).  With motor
     terms, SpecError for a motor name that is not allowed or is a joint's (their parameters would clash:
     :func:`pinid.model.drives.check_motor_names`)."""
@@ -388,7 +391,7 @@ def layout(joints: Sequence[str], motors: Sequence[str], terms: JointTerms | Ite
 
     _names(joints, "joints")
     _names(motors, "motors")
-    terms = terms if isinstance(terms, JointTerms) else JointTerms(names=terms)
+    terms = terms if isinstance(terms, TermSelection) else TermSelection(names=terms)
     if terms.motor and not motors:
         raise ValueError(f"motor term(s) {[t.name for t in terms.motor]} need drives (none given)")
     if terms.motor:
@@ -403,7 +406,7 @@ def _motors(robot) -> list[str]:
     return list(drives.motor_names) if drives is not None else []
 
 
-def robot_layout(robot, terms: JointTerms) -> list[TermParameter]:
+def robot_layout(robot, terms: TermSelection) -> list[TermParameter]:
     """:func:`layout` for a RobotModel (its joints and its drives' motors); ModelError if motor terms have no drives."""
     _robot(robot)
     terms = as_terms(terms)
@@ -419,19 +422,19 @@ def robot_layout(robot, terms: JointTerms) -> list[TermParameter]:
         ) from None
 
 
-def count(robot, terms: JointTerms) -> int:
+def count(robot, terms: TermSelection) -> int:
     """Number of term parameters of ``robot`` with ``terms``."""
     _robot(robot)
     terms = as_terms(terms)
     return len(terms.joint) * robot.nv + len(terms.motor) * len(_motors(robot))
 
 
-def parameter_names(robot, terms: JointTerms) -> list[str]:
+def parameter_names(robot, terms: TermSelection) -> list[str]:
     """Names of the term parameters (``hip.fc``, ``m6.fc``), in column order."""
     return [p.name for p in robot_layout(robot, terms)]
 
 
-def nominal(robot, terms: JointTerms) -> np.ndarray:
+def nominal(robot, terms: TermSelection) -> np.ndarray:
     """Nominal term values: the robot's own (URDF ``<dynamics>``, drives file) where it has them, else 0."""
     layout_ = robot_layout(robot, terms)
     cache = {
@@ -440,7 +443,7 @@ def nominal(robot, terms: JointTerms) -> np.ndarray:
     return np.array([0.0 if cache[p.term.name] is None else cache[p.term.name][p.index] for p in layout_])
 
 
-def nonnegative(robot, terms: JointTerms) -> np.ndarray:
+def nonnegative(robot, terms: TermSelection) -> np.ndarray:
     """Boolean mask over the term parameters: True where the value must be ≥ 0."""
     return np.array([p.term.nonnegative for p in robot_layout(robot, terms)], dtype=bool)
 
@@ -459,7 +462,7 @@ def motion(robot, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray, space: str = "
 
 
 def columns(
-    robot, terms: JointTerms, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray, out: np.ndarray | None = None
+    robot, terms: TermSelection, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray, out: np.ndarray | None = None
 ) -> np.ndarray:
     """Regressor columns of the terms, (N, nv, count) for (N, nv) joint motion (vectorised over samples);
     written into ``out`` (a zeroed (N, nv, count) array or view) when given."""
@@ -488,7 +491,7 @@ def columns(
     return out
 
 
-def values(robot, terms: JointTerms, theta_terms: np.ndarray) -> dict[str, np.ndarray]:
+def values(robot, terms: TermSelection, theta_terms: np.ndarray) -> dict[str, np.ndarray]:
     """``{term name: per-joint (or per-motor) values}`` of the term block ``theta_terms``; unselected
     classic joint terms are zero arrays."""
     _robot(robot)
@@ -504,7 +507,7 @@ def values(robot, terms: JointTerms, theta_terms: np.ndarray) -> dict[str, np.nd
 
 def torque(
     robot,
-    terms: JointTerms,
+    terms: TermSelection,
     theta_terms: np.ndarray | dict[str, np.ndarray],
     q,
     dq,
@@ -559,7 +562,7 @@ def _spec_items(spec, names: Sequence[str], what: str) -> dict[str, object]:
 
 
 def stribeck_settings(
-    robot, terms: JointTerms, velocity=None, shape=None
+    robot, terms: TermSelection, velocity=None, shape=None
 ) -> tuple[dict[str, Stribeck], dict[str, bool]]:
     """``({term: Stribeck}, {term whose velocity is fitted: its shape is fitted too})`` for the selected
     Stribeck terms.
@@ -597,3 +600,15 @@ def stribeck_settings(
                 )
             out[name] = Stribeck(**{**out[name].__dict__, what: number})
     return out, auto
+
+
+#: Old public names and their new ones; they still work for one release (issue 26: the selection holds
+#: motor and plug-in terms too, not only joint terms).
+_DEPRECATED = {"JointTerms": "TermSelection"}
+
+
+def __getattr__(name: str):
+    if name in _DEPRECATED:
+        warnings.warn(f"{name} is deprecated, use {_DEPRECATED[name]}", DeprecationWarning, stacklevel=2)
+        return globals()[_DEPRECATED[name]]
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -47,7 +47,7 @@ from pinid.model.floating import (
     floating_standard_parameters,
     row_mask,
 )
-from pinid.model.terms import JointTerms, as_terms
+from pinid.model.terms import TermSelection, as_terms
 
 _CHUNK = 2000  # samples per regressor block (2000 × (6 + n) rows × p columns of the standard regressor)
 
@@ -58,7 +58,7 @@ class FloatingRows:
     :class:`~pinid.problem.problem.RegressorRows`)."""
 
     model: FloatingRobotModel
-    terms: JointTerms
+    terms: TermSelection
     base: BaseParameters
     samples: list[FloatingSamples]
     keeps: list[np.ndarray]  # per recording (N, 6 + n) booleans: the rows used
@@ -130,7 +130,7 @@ def floating_problem(
     model: FloatingRobotModel,
     samples: FloatingSamples | Sequence[FloatingSamples],
     *,
-    terms: JointTerms = JointTerms(),
+    terms: TermSelection = TermSelection(),
     rows: str = "all",
     base_weight: float = 1.0,
     base: BaseParameters | None = None,
@@ -153,7 +153,7 @@ def floating_problem(
         raise DataError("no recording given, expected at least one floating recording")
     mask = row_mask(model.nv, rows)
     if rows == "base":
-        terms = JointTerms.from_names("none")  # no joint term enters the base rows
+        terms = TermSelection.from_names("none")  # no joint term enters the base rows
     if not (np.isfinite(base_weight) and base_weight > 0):
         raise DataError(f"base_weight={base_weight!r}, expected a number > 0")
     for s in samples:

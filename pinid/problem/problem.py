@@ -56,7 +56,7 @@ from pinid.errors import DataError, SpecError
 from pinid.linalg import RANK_TOL, augmented_r, cholesky_r, column_scale, gram_sums, qr_r, row_blocks, unit_weights
 from pinid.model.base import BaseParameters, base_parameters
 from pinid.model.physical import parameter_scale
-from pinid.model.regressor import JointTerms, regressor, standard_parameters
+from pinid.model.regressor import TermSelection, regressor, standard_parameters
 from pinid.model.robot import RobotModel
 from pinid.progress import progress
 from pinid.data.dataset import as_dataset
@@ -83,7 +83,7 @@ class Problem(Protocol):
     """
 
     model: RobotModel
-    terms: JointTerms
+    terms: TermSelection
     W: np.ndarray
     tau: np.ndarray
     joint: np.ndarray
@@ -117,7 +117,7 @@ class RegressorRows:
     its ``N·nv`` rows are kept (rows at rest dropped); see :func:`stack_rows` for the row order."""
 
     model: RobotModel
-    terms: JointTerms
+    terms: TermSelection
     base: BaseParameters
     datasets: list[Dataset]
     keeps: list[np.ndarray]
@@ -191,7 +191,7 @@ class IdentificationProblem:
 
     cache: ProblemCache = field(default_factory=ProblemCache, init=False, repr=False, compare=False)
     model: RobotModel
-    terms: JointTerms
+    terms: TermSelection
     base: BaseParameters
     W: np.ndarray | None = field(repr=False, compare=False)  # a property, defined after the class
     tau: np.ndarray
@@ -268,7 +268,7 @@ class IdentificationProblem:
         model: RobotModel,
         datasets: Dataset | Sequence[Dataset],
         *,
-        terms: JointTerms = JointTerms(),
+        terms: TermSelection = TermSelection(),
         base: BaseParameters | None = None,
         rest_velocity: float | Sequence[float] | str | None = "auto",
         rest_fraction: float = REST_FRACTION,
@@ -518,7 +518,7 @@ def check_dataset(ds: Dataset, model: RobotModel) -> Dataset:
 
 def stack_rows(
     model: RobotModel,
-    terms: JointTerms,
+    terms: TermSelection,
     base: BaseParameters,
     datasets: Sequence[Dataset],
     thresholds: Sequence[np.ndarray],
@@ -570,7 +570,7 @@ def stacked_targets(
 
 def base_regressor(
     model: RobotModel,
-    terms: JointTerms,
+    terms: TermSelection,
     base: BaseParameters,
     ds: Dataset,
     *,
@@ -634,7 +634,7 @@ def base_statistics(
     return std, cond, cond_scaled
 
 
-def completed_standard(model: RobotModel, terms: JointTerms, base: BaseParameters, values: np.ndarray) -> np.ndarray:
+def completed_standard(model: RobotModel, terms: TermSelection, base: BaseParameters, values: np.ndarray) -> np.ndarray:
     """The standard vector closest to the nominal one (in the scaled norm) with ``base.P·θ = values``."""
     nominal = standard_parameters(model, terms)
     S = parameter_scale(nominal, model.nv, len(terms))
@@ -743,7 +743,7 @@ def recorded_torque(ds: Dataset) -> np.ndarray:
 
 def predict_torque(
     model: RobotModel,
-    terms: JointTerms,
+    terms: TermSelection,
     base: BaseParameters,
     ds: Dataset,
     values: np.ndarray | Mapping[str, np.ndarray],

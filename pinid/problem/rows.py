@@ -10,7 +10,7 @@ import numpy as np
 from pinid.checks import array_like
 from pinid.data.dataset import Dataset, as_dataset
 from pinid.errors import SpecError
-from pinid.model.regressor import JointTerms
+from pinid.model.regressor import TermSelection
 from pinid.model.robot import RobotModel, as_robot
 from pinid.model.terms import as_terms
 
@@ -33,7 +33,7 @@ def rest_thresholds(dq: np.ndarray, fraction: float = REST_FRACTION) -> np.ndarr
 
 
 def rest_threshold(
-    ds: Dataset, model: RobotModel, terms: JointTerms, rest_velocity="auto", rest_fraction: float = REST_FRACTION
+    ds: Dataset, model: RobotModel, terms: TermSelection, rest_velocity="auto", rest_fraction: float = REST_FRACTION
 ) -> np.ndarray:
     """Per joint, the speed [rad/s] below which a row of ``ds`` counts as at rest and is left out (zeros
     when Coulomb friction is not in the model or ``rest_velocity`` is 0/None; see the module text)."""
@@ -84,7 +84,7 @@ def fit_mask(model: RobotModel, fit_joints: Sequence[str] | str | None = None) -
 
 
 def motor_kept_rows(
-    ds: Dataset, model: RobotModel, terms: JointTerms, rest_velocity="auto", rest_fraction: float = REST_FRACTION
+    ds: Dataset, model: RobotModel, terms: TermSelection, rest_velocity="auto", rest_fraction: float = REST_FRACTION
 ) -> np.ndarray:
     """(N·nv,) booleans: False at the rows ``k·nv + j`` whose joint ``j`` is driven (``G[m, j] ≠ 0``) by a
     motor ``m`` at rest at sample ``k`` — when motor Coulomb friction (``motor_fc``) is in the model.
@@ -100,10 +100,10 @@ def motor_kept_rows(
         return np.ones(n * nv, bool)
     G = drives.matrix
     if isinstance(rest_velocity, str):
-        rest_threshold(ds, model, JointTerms(), rest_velocity, rest_fraction)  # the same checks as the joints'
+        rest_threshold(ds, model, TermSelection(), rest_velocity, rest_fraction)  # the same checks as the joints'
         thr = rest_thresholds(ds.dq @ G.T, rest_fraction)
     else:
-        thr = np.abs(G) @ rest_threshold(ds, model, JointTerms(), rest_velocity, rest_fraction)
+        thr = np.abs(G) @ rest_threshold(ds, model, TermSelection(), rest_velocity, rest_fraction)
     if not np.any(thr > 0):
         return np.ones(n * nv, bool)
     still = np.abs(ds.dq @ G.T) < thr  # (N, motors)

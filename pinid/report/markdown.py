@@ -18,7 +18,7 @@ import numpy as np
 
 from pinid.io import Artefacts, display_path
 from pinid.model.physical import com_inertia
-from pinid.model.terms import JointTerms
+from pinid.model.terms import TermSelection
 from pinid.report.figures import Recipe
 from pinid.report.plot_identification import error_bars, recorded_motion, torque_comparison
 
@@ -292,7 +292,7 @@ def report_markdown(ident, figures: dict[str, str] | None = None) -> str:
         ]
         nv = len(robot["joints"])
         rows = []
-        joint_terms = JointTerms.from_names(robot["terms"]).joint  # the motor block follows
+        joint_terms = TermSelection.from_names(robot["terms"]).joint  # the motor block follows
         terms = [t.name for t in joint_terms]
         jt = best.standard[10 * nv : 10 * nv + nv * len(terms)].reshape(nv, len(terms)) if terms else np.zeros((nv, 0))
         for i, j in enumerate(robot["joints"]):

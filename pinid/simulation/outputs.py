@@ -14,7 +14,7 @@ from pinid.data.formats import write_recording
 from pinid.io import Artefacts
 from pinid.model.base import base_parameters
 from pinid.model.export import identified_urdf
-from pinid.model.regressor import JointTerms, standard_parameters
+from pinid.model.regressor import TermSelection, standard_parameters
 from pinid.model.robot import RobotModel
 from pinid.simulation.twin import perturb, save_truth
 from pinid.errors import OutputError
@@ -34,7 +34,7 @@ def cad_model(model: RobotModel, percent: float, seed: int) -> RobotModel:
 def cad_truth(truth: dict, model: RobotModel, cad: RobotModel, percent: float) -> dict:
     """The ``"cad"`` entry of a twin's ``truth``: ``percent`` and the CAD model's standard parameters (named
     as the truth's) and base parameters (those of ``model``), with the default terms (fc, fv)."""
-    terms = JointTerms()
+    terms = TermSelection()
     theta = standard_parameters(cad, terms)
     bp = base_parameters(model, terms)
     return {
@@ -94,7 +94,7 @@ def write_simulation(
     if true_signals:
         arts.add(true_signals, lambda p: write_recording(p, truth["signals"]))
     if cad_urdf:
-        terms = JointTerms()
+        terms = TermSelection()
         arts.add(
             cad_urdf,
             lambda p: identified_urdf(

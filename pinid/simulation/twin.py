@@ -63,7 +63,7 @@ from pinid.excitation.trajectory import FourierTrajectory
 from pinid.io import write_json
 from pinid.model import terms as _terms
 from pinid.model.base import base_parameters
-from pinid.model.regressor import JointTerms, parameter_names, standard_parameters
+from pinid.model.regressor import TermSelection, parameter_names, standard_parameters
 from pinid.progress import progress as _progress
 from pinid.errors import OutputError
 from pinid.io import as_path
@@ -617,7 +617,7 @@ def _simulate(
         t=rec_t, q=true_q, joints=joints, dq=true_v, ddq=true_a, tau=true_tau, source="pinid simulate (truth)"
     )
 
-    terms = JointTerms(names=["fc", "fv"] + list(extra) + _motor_terms(model).names)
+    terms = TermSelection(names=["fc", "fv"] + list(extra) + _motor_terms(model).names)
     truth_model = model.with_inertial_parameters(model.inertial_parameters(), coulomb=fc, viscous=fv)
     theta = standard_parameters(truth_model, terms)
     for k, p in enumerate(_terms.robot_layout(model, terms)):
@@ -709,7 +709,7 @@ def plant_terms(model: RobotModel, terms: dict | None = None, wearer: Mapping | 
     if wearer is not None and not isinstance(wearer, Mapping):
         raise SpecError(f"wearer: got {type(wearer).__name__}, expected {{segment: (link, mass, com, inertia)}}")
     if terms is None:
-        return {"passive": _terms.nominal(model, JointTerms(names=["passive"]))} if wearer else {}
+        return {"passive": _terms.nominal(model, TermSelection(names=["passive"]))} if wearer else {}
     out = {}
     for name, v in terms.items():
         t = _terms.TERMS.get(name)
@@ -722,12 +722,12 @@ def plant_terms(model: RobotModel, terms: dict | None = None, wearer: Mapping | 
     return out
 
 
-def _motor_terms(model: RobotModel) -> JointTerms:
+def _motor_terms(model: RobotModel) -> TermSelection:
     """The motor terms the plant of ``model`` has (all four when its drives carry any nominal value)."""
     d = model.drives
     if d is None or not any(np.any(d.nominal(k) != 0) for k in ("fc", "fv", "armature", "offset")):
-        return JointTerms(names=[])
-    return JointTerms(names=["motor_fc", "motor_fv", "motor_offset", "motor_armature"])
+        return TermSelection(names=[])
+    return TermSelection(names=["motor_fc", "motor_fv", "motor_offset", "motor_armature"])
 
 
 def truth_json(truth: dict) -> dict:

@@ -23,7 +23,7 @@ import numpy as np
 
 from pinid.identification.identified import IdentifiedModel
 from pinid.problem.problem import prepare_dataset
-from pinid.model.regressor import JointTerms
+from pinid.model.regressor import TermSelection
 from pinid.model.robot import RobotModel
 from pinid.simulation.twin import simulate
 from pinid.wearer.attach import wearer_links
@@ -78,7 +78,7 @@ def wearer_experiment(
     fit = identify_wearer(
         stage1, table, *stack([train]), passive_exponents=passive_exponents, prior_weight=prior_weight
     )
-    terms = JointTerms.from_names("fc,fv,passive")
+    terms = TermSelection.from_names("fc,fv,passive")
     truth = IdentifiedModel(
         plant,
         terms,

@@ -38,7 +38,7 @@ from pinid.io import Artefacts, as_path, json_text
 from pinid.model.base import base_parameters
 from pinid.model.conic import ConicProblem
 from pinid.model.physical import PSEUDO_INERTIA_BASIS
-from pinid.model.regressor import JointTerms, parameter_names, regressor
+from pinid.model.regressor import TermSelection, parameter_names, regressor
 from pinid.model.robot import RobotModel, as_robot
 from pinid.wearer.passive import anatomy
 from pinid.wearer.prior import MASS_RANGE, BodyPrior, wearer_prior
@@ -53,7 +53,7 @@ class WearerFit:
     robot: RobotModel
     exo: object  # the stage-1 IdentifiedModel
     priors: list[BodyPrior]
-    terms: JointTerms
+    terms: TermSelection
     theta: np.ndarray
     table: np.ndarray
     base_names: list[str]
@@ -80,7 +80,7 @@ class WearerFit:
         nv = self.robot.nv
         w = {"identified": self.theta, "table": self.table, "exo": np.zeros_like(self.theta)}[which]
         names = [n for n in exo.terms.names if n != "passive"] + (["passive"] if "passive" in self.terms else [])
-        terms = JointTerms.from_names(names)
+        terms = TermSelection.from_names(names)
         vals = _terms.values(exo.robot, exo.terms, exo.theta[10 * nv :])
         wv = _terms.values(self.robot, self.terms, w[10 * nv :])
         if "passive" in self.terms:
@@ -242,7 +242,7 @@ def identify_wearer(
         )
     t0 = time.perf_counter()
     nv = robot.nv
-    terms = JointTerms.from_names("passive" if passive else "none")
+    terms = TermSelection.from_names("passive" if passive else "none")
     nt = nv if passive else 0
     table = np.zeros(10 * nv + nt)
     for b in priors:

@@ -26,7 +26,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from test_drives import MOTOR_TERMS, coupled, twin  # noqa: E402
 
-from pinid import JointTerms  # noqa: E402
+from pinid import TermSelection  # noqa: E402
 from pinid.identification.run import identify  # noqa: E402
 
 
@@ -46,10 +46,10 @@ def main() -> None:
     rows = []
     times = {}
     cases = (
-        ("without drives (fc,fv)", JointTerms()),
+        ("without drives (fc,fv)", TermSelection()),
         (
             "without drives, as many terms (fc,fv,offset,armature,fc_pos,fc_neg)",
-            JointTerms.from_names("fc,fv,offset,armature,fc_pos,fc_neg"),
+            TermSelection.from_names("fc,fv,offset,armature,fc_pos,fc_neg"),
         ),
         ("with drives (+ 4 motor terms)", MOTOR_TERMS),
     )

@@ -30,7 +30,7 @@ from pinid.estimators import make_estimator
 from pinid.identification.floating import identify_floating
 from pinid.problem.floating import floating_problem
 from pinid.model.floating import floating_regressor, random_floating_states
-from pinid.model.terms import JointTerms
+from pinid.model.terms import TermSelection
 from pinid.simulation.floating_twin import Noise, simulate_gait
 
 
@@ -57,7 +57,7 @@ def main(argv=None) -> int:
     args = p.parse_args(argv)
     print(f"load average {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores")
     model = RobotModel.from_urdf("exo_lower_body", base="floating")
-    terms = JointTerms.from_names("fc,fv")
+    terms = TermSelection.from_names("fc,fv")
     states = random_floating_states(model, args.samples, np.random.default_rng(0))
     m, d = model.ff_model, model.ff_model.createData()
     Q, V, A = model.full_state(*states)
@@ -70,7 +70,7 @@ def main(argv=None) -> int:
         return out
 
     t_bare = best(bare, args.repeat)
-    t_none = best(lambda: floating_regressor(model, *states, JointTerms.from_names("none")), args.repeat)
+    t_none = best(lambda: floating_regressor(model, *states, TermSelection.from_names("none")), args.repeat)
     t_terms = best(lambda: floating_regressor(model, *states, terms), args.repeat)
     print(f"\n1. regressor stacking, exo_lower_body floating, {args.samples} samples ({args.samples * rows} rows)")
     c_bare, c_none, c_terms = CPU[-3:]

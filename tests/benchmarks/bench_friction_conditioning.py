@@ -19,7 +19,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from test_stribeck import JOINT, MOTOR, exo_joint, exo_motor, twin  # noqa: E402
 
-from pinid import JointTerms  # noqa: E402
+from pinid import TermSelection  # noqa: E402
 from pinid.problem.problem import IdentificationProblem, base_statistics  # noqa: E402
 from pinid.identification.stribeck import with_stribeck  # noqa: E402
 from pinid.model.terms import Stribeck  # noqa: E402
@@ -64,7 +64,7 @@ def main() -> None:
         ds, _ = twin(m, truth_terms)
         for names, shape in rows:
             model = with_stribeck(m, {shape[0]: Stribeck(shape[1], 2.0)}) if shape else m
-            p = IdentificationProblem.from_datasets(model, ds, terms=JointTerms.from_names(names), rest_velocity=0)
+            p = IdentificationProblem.from_datasets(model, ds, terms=TermSelection.from_names(names), rest_velocity=0)
             _, cond, scaled = base_statistics(p, p.nominal_base)
             vs = "" if shape is None else f"{shape[1]:g}"
             print(f"| {label} | {names} | {vs} | {p.nb} | {cond:.3g} | {scaled:.3g} |")

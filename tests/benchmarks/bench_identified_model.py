@@ -16,12 +16,12 @@ import platform
 import numpy as np
 import pinocchio as pin
 
-from pinid import JointTerms, RobotModel, standard_parameters
+from pinid import TermSelection, RobotModel, standard_parameters
 from pinid.identification.identified import IdentifiedModel
 
 from bench_regressor import best_time  # noqa: E402 - the script's own folder is on the path
 
-TERMS = JointTerms(coulomb=True, viscous=True, armature=True)
+TERMS = TermSelection(coulomb=True, viscous=True, armature=True)
 
 
 def main() -> None:

@@ -31,7 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pinid import JointTerms, RobotModel
+from pinid import TermSelection, RobotModel
 from pinid.data.dataset import Dataset
 
 
@@ -73,7 +73,7 @@ def bench_sdp() -> list[str]:
 
     model = RobotModel.from_urdf("panda")
     ds = recording(model, 20.0, 1000.0, 0, noise=0.5)  # 20 000 samples
-    t_build, problem = best_of(lambda: IdentificationProblem.from_datasets(model, ds, terms=JointTerms()), 1)
+    t_build, problem = best_of(lambda: IdentificationProblem.from_datasets(model, ds, terms=TermSelection()), 1)
     SDP().fit(problem)  # warm-up: imports Clarabel
 
     def fit_from_scratch():

@@ -19,13 +19,13 @@ import mujoco
 import numpy as np
 import pinocchio as pin
 
-from pinid import JointTerms, RobotModel, standard_parameters
+from pinid import TermSelection, RobotModel, standard_parameters
 from pinid.identification.identified import IdentifiedModel
 from pinid.model.bundled import example_robot_data_dir
 from pinid.model.mjcf import exported_pin_model, joint_fields
 from pinid.simulation.twin import perturb
 
-TERMS = JointTerms(coulomb=True, viscous=True, armature=True)
+TERMS = TermSelection(coulomb=True, viscous=True, armature=True)
 
 
 def identified(robot, seed=0):

@@ -40,7 +40,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pinid import JointTerms, RobotModel, base_parameters, standard_parameters
+from pinid import TermSelection, RobotModel, base_parameters, standard_parameters
 from pinid.data.dataset import Dataset
 from pinid.data.formats import read_recording
 from pinid.estimators import make_estimator
@@ -110,7 +110,7 @@ def monte_carlo(seeds: int, methods, scenarios, seconds: float = 10.0):
     model = twin_model()
     train_tr, valid_tr = load_trajectory("exo_leg", model), load_trajectory("seed001_table3", model)
     unwrap = free_angles(model)
-    truth_base = base_parameters(model, JointTerms()).from_standard(standard_parameters(model, JointTerms()))
+    truth_base = base_parameters(model, TermSelection()).from_standard(standard_parameters(model, TermSelection()))
     results = {}
     for scen in scenarios:
         sq, closed = SCENARIOS[scen]
@@ -130,7 +130,7 @@ def monte_carlo(seeds: int, methods, scenarios, seconds: float = 10.0):
                         open_loop(model, train_tr, seconds, s, sq),
                         open_loop(model, valid_tr, seconds, 10_000 + s, sq),
                     )
-                    truth = {"base": {"names": base_parameters(model, JointTerms()).names, "values": truth_base}}
+                    truth = {"base": {"names": base_parameters(model, TermSelection()).names, "values": truth_base}}
                 train = prepare_dataset(rec, {}, unwrap=unwrap)
                 valid = prepare_dataset(vrec, {}, unwrap=unwrap)
             problem = IdentificationProblem.from_datasets(model, train)

@@ -16,7 +16,7 @@ import time
 import numpy as np
 import pinocchio as pin
 
-from pinid import JointTerms, RobotModel, regressor
+from pinid import TermSelection, RobotModel, regressor
 
 CASES = [("exo_leg", 100_000, 0.5), ("ur5", 26_000, None), ("panda", 20_000, 1.0)]
 
@@ -46,8 +46,8 @@ def main() -> None:
     for name, n, target in CASES:
         model = RobotModel.from_urdf(name)
         q, dq, ddq = model.random_states(n, np.random.default_rng(0))
-        shape = regressor(model, q[:2], dq[:2], ddq[:2], JointTerms()).shape[1]
-        t = best_time(lambda: regressor(model, q, dq, ddq, JointTerms()))
+        shape = regressor(model, q[:2], dq[:2], ddq[:2], TermSelection()).shape[1]
+        t = best_time(lambda: regressor(model, q, dq, ddq, TermSelection()))
         floor = best_time(lambda: bare_loop(model, q, dq, ddq))
         print(
             f"| {name} ({model.nv} DOF) | {n} | {n * model.nv} × {shape} | {t:.3f} | {target or '–'} | "

@@ -17,7 +17,7 @@ from pinid import RobotModel
 from pinid.data.contacts import prepare_floating, read_floating, write_floating
 from pinid.estimators import make_estimator
 from pinid.problem.floating import floating_problem
-from pinid.model.terms import JointTerms
+from pinid.model.terms import TermSelection
 from pinid.report.figures import save_figure
 from pinid.simulation.floating_twin import Noise, simulate_gait
 
@@ -55,7 +55,7 @@ def main(argv=None) -> int:
     axes[1].legend(fontsize=8)
     fig.tight_layout()
     save_figure(fig, out / "floating_gait.png")
-    terms = JointTerms.from_names("fc,fv")
+    terms = TermSelection.from_names("fc,fv")
     with tempfile.TemporaryDirectory() as tmp:
         samples = [
             prepare_floating(read_floating(write_floating(Path(tmp) / f"{k}.csv", r.recording), model), model)

@@ -143,9 +143,9 @@ def validation_metrics(model, base_values: np.ndarray, ds, joint: str) -> tuple[
 
 
 def model_terms():
-    from pinid import JointTerms
+    from pinid import TermSelection
 
-    return JointTerms()
+    return TermSelection()
 
 
 def run(args) -> dict:
