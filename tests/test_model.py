@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -195,3 +197,6 @@ def test_a_model_is_built_once_and_read_only_afterwards(tmp_path):
     assert built.motor_names == ["m_knee"] and m.with_drives(toml).motor_names == ["m_knee"]
     assert m.with_passive_exponents({"knee": np.zeros((2, 4))}).passive_exponents.keys() == {"knee"}
     assert not m.passive_exponents
+    moved = m.with_urdf_path("/elsewhere/exo_leg.urdf")
+    assert moved.urdf_path == Path("/elsewhere/exo_leg.urdf") and m.urdf_path != moved.urdf_path
+    assert moved.urdf_text == m.urdf_text and m.with_urdf_path(None).urdf_path is None

@@ -298,6 +298,13 @@ class RobotModel:
             setattr(out, key, value)
         return out
 
+    def with_urdf_path(self, path: str | os.PathLike | None) -> "RobotModel":
+        """A copy of this model that names ``path`` as the URDF it came from (a saved model rebuilt from the
+        URDF text it kept names the original file; this model is left as it is)."""
+        if path is not None and not isinstance(path, (str, os.PathLike)):
+            raise ModelError(f"path: got {type(path).__name__}, expected a URDF path or None")
+        return self._copy_with(urdf_path=None if path is None else Path(path))
+
     def with_drives(self, drives) -> "RobotModel":
         """A copy of this model with other drives: a :class:`~pinid.model.drives.Drives`, a drives TOML path,
         or None for none (this model is left as it is)."""

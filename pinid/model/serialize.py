@@ -74,7 +74,7 @@ def robot_from_dict(d: dict) -> tuple[RobotModel, TermSelection]:
             path = Path(tmp) / "robot.urdf"
             path.write_text(text, encoding="utf-8")
             model = RobotModel.from_urdf(path, joints=d.get("joints"), locked=d.get("locked") or {}, base=base)
-        model.urdf_path = Path(d["urdf"]) if d.get("urdf") else None
+        model = model.with_urdf_path(d["urdf"] if d.get("urdf") else None)
     elif d.get("urdf"):
         model = RobotModel.from_urdf(d["urdf"], joints=d.get("joints"), locked=d.get("locked") or {}, base=base)
     else:
