@@ -151,4 +151,4 @@ def test_the_old_name_joint_terms_still_works_with_a_deprecation_warning():
 
     for module in (pinid, pinid.model.regressor, pinid.model.terms):
         with pytest.warns(DeprecationWarning, match="JointTerms is deprecated, use TermSelection"):
-            assert getattr(module, "JointTerms") is TermSelection
+            assert module.JointTerms is TermSelection
