@@ -77,6 +77,11 @@ LABELS = {
 }
 
 
+def md_label(key: str) -> str:
+    """A method's label as a Markdown table cell (its | escaped, or it would split the cell)."""
+    return LABELS.get(key, key).replace("|", "\\|")
+
+
 def to_paper_x(base: dict) -> np.ndarray:
     """pinid's base parameters of apal_leg (axes +y, s = −1) -> seed 000's X (docs/robots.md)."""
     b = base
@@ -298,7 +303,7 @@ def markdown(out: dict, agg: dict) -> str:
     for k, a in agg.items():
         kn, hp = a["knee_traj2"], a["hip_traj4"]
         lines.append(
-            f"| {LABELS.get(k, k)} | {kn['mean_abs'][0]:.4f} ± {kn['std_abs'][0]:.4f} (±{kn['mean_abs'][1]:.1g}) "
+            f"| {md_label(k)} | {kn['mean_abs'][0]:.4f} ± {kn['std_abs'][0]:.4f} (±{kn['mean_abs'][1]:.1g}) "
             f"| {kn['rel_rms'][0]:.2f} | {hp['mean_abs'][0]:.4f} ± {hp['std_abs'][0]:.4f} "
             f"(±{hp['mean_abs'][1]:.1g}) | {hp['rel_rms'][0]:.2f} | {a['seconds']:.2f} |"
         )
@@ -311,9 +316,7 @@ def markdown(out: dict, agg: dict) -> str:
         "and the paper's Tables 4 and 6:\n"
     )
     keys = list(agg)
-    lines.append(
-        "| X | truth | " + " | ".join(LABELS.get(k, k) for k in keys) + " | paper LS | paper PSO | paper RLS-PSO |"
-    )
+    lines.append("| X | truth | " + " | ".join(md_label(k) for k in keys) + " | paper LS | paper PSO | paper RLS-PSO |")
     lines.append("|---" * (len(keys) + 5) + "|")
     Xt = np.mean([e["X_truth"] for e in out["realisations"]], axis=0)
     for i, n in enumerate(X_NAMES):
@@ -322,7 +325,7 @@ def markdown(out: dict, agg: dict) -> str:
         lines.append("| " + " | ".join(row) + " |")
     lines.append("")
     lines.append("Error against the truth, |X − X_true|/|X_true| [%], mean over realisations:\n")
-    lines.append("| X | " + " | ".join(LABELS.get(k, k) for k in keys) + " |")
+    lines.append("| X | " + " | ".join(md_label(k) for k in keys) + " |")
     lines.append("|---" * (len(keys) + 1) + "|")
     for i, n in enumerate(X_NAMES):
         lines.append("| " + " | ".join([n] + [f"{agg[k]['X_err_percent'][i]:.2f}" for k in keys]) + " |")
