@@ -203,3 +203,18 @@ def test_stage2_bad_input_writes_nothing(twin, tmp_path):
     p = run_cli(*stage2(d, "--no-passive", "--passive-exponents", "-o", str(tmp_path / "c")))
     assert_clean_error(p, "passive_exponents", "passive")
     assert not list(tmp_path.iterdir())
+
+
+def test_stage2_takes_rest_velocity_when_given(twin, tmp_path):
+    """--rest-velocity was ignored by stage 2; now it leaves out the slow rows when given (a different
+    fit), keeps every row when not, and a bad value is a one-line error that writes nothing."""
+    d = twin
+    runs = {}
+    for name, extra in (("all", ()), ("rest", ("--rest-velocity", "0.5"))):
+        p = run_cli(*stage2(d, *extra, "--no-report", "-o", str(tmp_path / name)))
+        assert p.returncode == 0, p.stderr
+        runs[name] = json.loads((tmp_path / name / "identification.json").read_text())["base"]
+    assert runs["all"] != runs["rest"]
+    p = run_cli(*stage2(d, "--rest-velocity", "fast", "-o", str(tmp_path / "bad")))
+    assert_clean_error(p, "--rest-velocity")
+    assert not (tmp_path / "bad").exists()

@@ -150,3 +150,34 @@ def test_prior_weight_must_be_a_number_or_auto(setup, bad):
     stage1, path, _, _, data = setup
     with pytest.raises(SpecError, match="prior_weight"):
         identify_wearer(stage1, path, *data, prior_weight=bad)
+
+
+def test_rows_at_rest_are_left_out_when_asked(setup):
+    """At rest the exoskeleton's Coulomb friction (fixed from stage 1) has no defined sign: a recording whose
+    slow rows hold it the other way biases the wearer unless ``rest_velocity`` leaves those rows out; then
+    the wearer is recovered exactly.  Not given, every row is kept, bit for bit as before."""
+    from pinid.errors import SpecError
+    from pinid.model.base import base_parameters
+
+    stage1, path, robot, truth, (q, dq, ddq, tau) = setup
+    fc = np.array([1.2, 0.9])  # the exoskeleton's Coulomb friction [N·m] in the fixture's torque (theta_full)
+    slow = np.abs(dq) < 0.3
+    assert 0.1 < slow.mean() < 0.4
+    tau_static = tau - 2 * fc * np.sign(dq) * slow  # the static friction held the other way
+    want = base_parameters(robot, TermSelection.from_names("passive")).from_standard(truth)
+
+    def error(fit) -> float:
+        return float(np.max(np.abs(fit.base - want) / np.maximum(np.abs(want), 1e-3)))
+
+    biased = identify_wearer(stage1, path, q, dq, ddq, tau_static)
+    kept = identify_wearer(stage1, path, q, dq, ddq, tau_static, rest_velocity=0.3)
+    per_joint = identify_wearer(stage1, path, q, dq, ddq, tau_static, rest_velocity=[0.3, 0.3])
+    assert error(biased) > 1e-2 and error(kept) <= 1e-6, (error(biased), error(kept))
+    np.testing.assert_array_equal(per_joint.base, kept.base)
+    np.testing.assert_array_equal(
+        identify_wearer(stage1, path, q, dq, ddq, tau, rest_velocity=0).base,
+        identify_wearer(stage1, path, q, dq, ddq, tau).base,
+    )
+    for bad in ("fast", -1.0, [0.1, 0.2, 0.3], float("nan")):
+        with pytest.raises(SpecError, match="rest_velocity"):
+            identify_wearer(stage1, path, q, dq, ddq, tau, rest_velocity=bad)

@@ -222,7 +222,7 @@ def add_preprocessing_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--decimate", type=int, default=None, metavar="N", help="keep every N-th sample after filtering")
     g.add_argument(
         "--rest-velocity",
-        default="auto",
+        default=None,  # auto; None tells that it was not given (stage 2 keeps every row unless asked)
         metavar="V",
         help="rows with |dq| below V [rad/s] are left out (Coulomb friction); a number, one per joint "
         "(comma-separated), 0 to keep all, or auto (default: max(2%% of the joint's peak speed, "
@@ -248,9 +248,10 @@ def preprocess_from_args(args: argparse.Namespace) -> dict | bool | None:
     return None
 
 
-def rest_velocity_from_args(text: str):
-    """The ``rest_velocity`` of :func:`pinid.identify` from the --rest-velocity option's text."""
-    if text.strip().lower() == "auto":
+def rest_velocity_from_args(text: str | None):
+    """The ``rest_velocity`` of :func:`pinid.identify` from the --rest-velocity option's text ("auto" when
+    it was not given)."""
+    if text is None or text.strip().lower() == "auto":
         return "auto"
     try:
         values = [float(x) for x in text.split(",") if x.strip()]

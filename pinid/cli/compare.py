@@ -187,7 +187,7 @@ def _run_floating(args: argparse.Namespace, out: Path) -> int:
         ),
         metaheuristic=meta,
         swing_rows=args.swing_rows,
-        rest_velocity=None if args.rest_velocity == "auto" else rest_velocity_from_args(args.rest_velocity),
+        rest_velocity=None if args.rest_velocity in (None, "auto") else rest_velocity_from_args(args.rest_velocity),
         mapping=mapping,
     )
     print(comp.table())

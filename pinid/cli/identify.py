@@ -66,7 +66,7 @@ an IMU), contact wrenches (link-frame sensors or force plates) and contact phase
 rows and the joint rows (--rows), and the folder gets identification.json and identified_<method>.urdf.
 
 Rows where a joint is nearly at rest are left out of the fit when Coulomb friction is in the model
-(--rest-velocity).  Torque errors are measured against the torque as recorded ("raw", the headline)
+(--rest-velocity; with --stage wearer only when the option is given).  Torque errors are measured against the torque as recorded ("raw", the headline)
 and against the low-passed torque ("filtered", which moves with --cutoff).  A one-line warning names
 the parameters the data determine poorly (cond(W_b) > 1e3 or a relative standard deviation > 10 %).
 
@@ -351,7 +351,7 @@ def _run_floating(args: argparse.Namespace, out: Path) -> int:
         options=options_from_args(args, _options(args, methods)),
         swing_rows=args.swing_rows,
         # the fixed base's default "auto" keeps every row here (docs/floating-base.md); a speed applies
-        rest_velocity=None if args.rest_velocity == "auto" else rest_velocity_from_args(args.rest_velocity),
+        rest_velocity=None if args.rest_velocity in (None, "auto") else rest_velocity_from_args(args.rest_velocity),
         mapping=mapping,
     )
     print(ident.text())
@@ -377,6 +377,8 @@ def _run_wearer(args: argparse.Namespace, out: Path) -> int:
         mass_range=MASS_RANGE if args.mass_range is None else args.mass_range,
         prior_weight="auto" if args.prior_weight is None else args.prior_weight,
         passive_exponents=args.passive_exponents,
+        # every row unless asked: the documented stage 2 (docs/wearer.md)
+        rest_velocity=None if args.rest_velocity is None else rest_velocity_from_args(args.rest_velocity),
     )
     print(stage.text())
     print(wrote_line(stage.write(out, report=not args.no_report, figures=not args.no_figures), out))

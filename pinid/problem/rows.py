@@ -45,15 +45,31 @@ def rest_threshold(
         or (not isinstance(rest_velocity, str) and np.ndim(rest_velocity) == 0 and float(rest_velocity) == 0.0)
     ):
         return np.zeros(nv)
+    return rest_speeds(ds.dq, rest_velocity, model.joint_names, rest_fraction)
+
+
+def rest_speeds(
+    dq: np.ndarray, rest_velocity, joint_names: Sequence[str], rest_fraction: float = REST_FRACTION
+) -> np.ndarray:
+    """Per joint, the speed [rad/s] below which a row counts as at rest: ``rest_velocity`` "auto"
+    (:func:`rest_thresholds` of ``dq`` (N, nv) [rad/s]), a number, one per joint, or None/0 (zeros: every
+    row kept); a SpecError naming what is wrong otherwise."""
+    array_like(dq, "dq")
+    nv = len(joint_names)
+    if rest_velocity is None:
+        return np.zeros(nv)
     if isinstance(rest_velocity, str):
         if rest_velocity != "auto":
             raise SpecError(f"rest_velocity={rest_velocity!r}, expected 'auto', a number or one per joint")
-        return rest_thresholds(ds.dq, rest_fraction)
-    v = np.asarray(rest_velocity, dtype=float).reshape(-1)
+        return rest_thresholds(dq, rest_fraction)
+    try:
+        v = np.asarray(rest_velocity, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        raise SpecError(f"rest_velocity={rest_velocity!r}, expected 'auto', a number or one per joint") from None
     if v.size not in (1, nv):
         raise SpecError(
             f"rest_velocity={rest_velocity!r}: {v.size} values, expected one or one per joint "
-            f"({nv}: {', '.join(model.joint_names)})"
+            f"({nv}: {', '.join(joint_names)})"
         )
     v = np.broadcast_to(v, (nv,)).copy()
     if np.any(~np.isfinite(v)) or np.any(v < 0):

@@ -40,6 +40,7 @@ from pinid.model.conic import ConicProblem
 from pinid.model.physical import PSEUDO_INERTIA_BASIS
 from pinid.model.regressor import TermSelection, parameter_names, regressor
 from pinid.model.robot import RobotModel, as_robot
+from pinid.problem.rows import rest_speeds
 from pinid.wearer.passive import anatomy
 from pinid.wearer.prior import MASS_RANGE, BodyPrior, wearer_prior
 
@@ -212,6 +213,7 @@ def identify_wearer(
     mass_range: float = MASS_RANGE,
     prior_weight: float | str = "auto",
     passive_exponents: bool = False,
+    rest_velocity=None,
     solver: str = "CLARABEL",
 ) -> WearerFit:
     """Stage 2: the wearer's parameters from (N, nv) arrays ``q`` [rad], ``dq``, ``ddq``, ``tau`` [N·m].
@@ -220,7 +222,10 @@ def identify_wearer(
     ``pinid wearer`` (the table values, the bounds); ``mass_range`` ρ; ``prior_weight`` λ (see the module text), or
     ``"auto"`` (the default): chosen by blocked cross-validation (:func:`choose_prior_weight`);
     ``passive_exponents``: first fit the passive moments' exponents (:mod:`pinid.wearer.exponents`), then
-    solve the SDP with them (the returned model carries them).
+    solve the SDP with them (the returned model carries them); ``rest_velocity``: leave out each joint's rows
+    whose speed is below it [rad/s] — "auto", a number or one per joint (:func:`pinid.problem.rows.rest_speeds`;
+    None, the default, keeps every row): there the exoskeleton's Coulomb friction, fixed from stage 1, has
+    no defined sign, so those rows measure the static friction, not the wearer.
     """
     from pinid.identification.identified import IdentifiedModel
 
@@ -240,6 +245,7 @@ def identify_wearer(
         raise DataError(
             f"q, dq, ddq, tau: shapes {q.shape}, {dq.shape}, {ddq.shape}, {tau.shape}, expected (N, {robot.nv}) each"
         )
+    moving = (np.abs(dq) >= rest_speeds(dq, rest_velocity, robot.joint_names)).reshape(-1)
     t0 = time.perf_counter()
     nv = robot.nv
     terms = TermSelection.from_names("passive" if passive else "none")
@@ -250,15 +256,15 @@ def identify_wearer(
     mapped = [i for i, (kind, _) in enumerate(anatomy(robot)) if kind is not None] if passive else []
     table[[10 * nv + i for i in mapped]] = 1.0
     free = [10 * b.index + k for b in priors for k in range(10)] + [10 * nv + i for i in mapped]
-    W = regressor(robot, q, dq, ddq, terms)[:, free]
-    y = (tau - exo.inverse_dynamics(q, dq, ddq)).reshape(-1)
+    W = regressor(robot, q, dq, ddq, terms)[:, free] * moving[:, None]  # a row at rest weighs nothing
+    y = (tau - exo.inverse_dynamics(q, dq, ddq)).reshape(-1) * moving
     refined = None
     if passive_exponents:
         from pinid.wearer.exponents import fit_exponents
 
         refined = fit_exponents(robot, W[:, : -len(mapped)] if mapped else W, y, q)
         robot = robot.with_passive_exponents(refined.fitted)  # the caller's model keeps the published exponents
-        W = regressor(robot, q, dq, ddq, terms)[:, free]
+        W = regressor(robot, q, dq, ddq, terms)[:, free] * moving[:, None]
     S = _scale(priors, nv, nt)[free]
     z0 = table[free] / S
     bodies = (priors, free, S, mass_range, [10 * nv + i for i in mapped])
@@ -511,13 +517,15 @@ def identify_wearer_stage(
     mass_range: float = MASS_RANGE,
     prior_weight: float | str = "auto",
     passive_exponents: bool = False,
+    rest_velocity=None,
 ) -> WearerStage:
     """``pinid identify --stage wearer`` in one call: the training recordings ``data`` and the ``validate``
     ones (paths or Datasets, each given once: :func:`~pinid.identification.run.check_distinct`) read with
     ``mapping`` and prepared with ``preprocess`` (:func:`~pinid.problem.problem.load_datasets`), the
     wearer of ``robot`` (the exo + wearer URDF) identified with the exoskeleton fixed to ``exo`` (the
     stage-1 IdentifiedModel or its JSON path; :func:`identify_wearer` with ``passive``, ``mass_range``,
-    ``prior_weight``, ``passive_exponents``) and its errors on both sets of recordings summarised."""
+    ``prior_weight``, ``passive_exponents``, ``rest_velocity``) and its errors on both sets of recordings
+    summarised."""
     from pinid.problem.problem import load_datasets  # deferred: stage 2 on arrays does not need them
     from pinid.identification.run import check_distinct
 
@@ -533,5 +541,6 @@ def identify_wearer_stage(
         mass_range=mass_range,
         prior_weight=prior_weight,
         passive_exponents=passive_exponents,
+        rest_velocity=rest_velocity,
     )
     return WearerStage(fit, stage_summary(fit, exo, train, val), train, val)
