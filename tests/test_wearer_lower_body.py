@@ -77,3 +77,65 @@ def test_bad_attach_is_one_line_and_writes_nothing(tmp_path, attach, words):
                    "--attach", attach, "-o", "x.urdf", cwd=tmp_path)  # fmt: skip
     assert_clean_error(proc, words)
     assert not (tmp_path / "x.urdf").exists()
+
+
+def test_each_legs_passive_moments_read_its_own_angles():
+    """On two legs a joint's passive moment reads the hip, knee and ankle of its own leg (its kinematic
+    branch): moving the right leg leaves the left moments as they are, the same angles on both legs give the
+    same moments, and a hip abduction joint gets none (the published moments are about flexion axes).  Before,
+    the last joint of each name won: the left knee read the right hip and ankle, and the abduction joints
+    took the hip's flexion moment."""
+    from pinid.wearer.passive import anatomy, column
+
+    model = RobotModel.from_urdf("exo_lower_body")
+    names = model.joint_names
+    assert [k for k, _ in anatomy(model)] == [None, "hip", "knee", "ankle"] * 2
+    rng = np.random.default_rng(5)
+    lo, hi = np.array([j.lower for j in model.joints]), np.array([j.upper for j in model.joints])
+    q = rng.uniform(lo, hi, (50, model.nv))
+    left = [names.index(n) for n in ("l_hip_flexion", "l_knee", "l_ankle")]
+    right = [names.index(n) for n in ("r_hip_flexion", "r_knee", "r_ankle")]
+    moved = q.copy()
+    moved[:, right] = rng.uniform(lo[right], hi[right], (50, 3))
+    np.testing.assert_array_equal(column(moved, model)[:, left], column(q, model)[:, left])
+    assert np.abs(column(moved, model)[:, right] - column(q, model)[:, right]).max() > 1e-3
+    mirrored = q.copy()
+    mirrored[:, right] = q[:, left]
+    c = column(mirrored, model)
+    np.testing.assert_allclose(c[:, right], c[:, left], rtol=1e-12, atol=1e-12)
+    assert not c[:, [names.index("l_hip_abduction"), names.index("r_hip_abduction")]].any()
+
+
+def test_stage2_identifies_both_legs_of_the_wearer(tmp_path):
+    """Stage 2 on exo_lower_body with a fixed base and both legs strapped (the pelvis segment sits on the base
+    link, which no joint moves): noise-free, every base parameter of the six segments and the eight passive
+    scales comes back."""
+    from pinid.identification.identified import IdentifiedModel
+    from pinid.model.base import base_parameters
+    from pinid.model.regressor import TermSelection, regressor, standard_parameters
+    from pinid.wearer.attach import ROBOT_ATTACH, wearer_urdf
+    from pinid.wearer.prior import drawn, wearer_prior
+    from pinid.wearer.stage import identify_wearer
+
+    path = tmp_path / "eww.urdf"
+    legs_only = ROBOT_ATTACH["exo_lower_body"].split(",", 1)[1]
+    assert not legs_only.startswith("pelvis")
+    wearer_urdf("exo_lower_body", legs_only, **PERSON, path=path)
+    exo, robot = RobotModel.from_urdf("exo_lower_body"), RobotModel.from_urdf(path)
+    stage1 = IdentifiedModel(exo, TermSelection(), standard_parameters(exo, TermSelection()))
+    rng = np.random.default_rng(3)
+    nv = robot.nv
+    truth = np.zeros(11 * nv)
+    priors = wearer_prior(path.read_text(), robot)
+    for b in priors:
+        truth[10 * b.index : 10 * b.index + 10] = drawn(b.theta, rng)
+    truth[10 * nv :] = rng.uniform(0.7, 1.3, nv)
+    lo, hi = np.array([j.lower for j in robot.joints]), np.array([j.upper for j in robot.joints])
+    q = rng.uniform(lo, hi, (1500, nv))
+    dq, ddq = rng.normal(0, 1, q.shape), rng.normal(0, 3, q.shape)
+    terms = TermSelection.from_names("passive")
+    tau = stage1.inverse_dynamics(q, dq, ddq) + (regressor(robot, q, dq, ddq, terms) @ truth).reshape(q.shape)
+    fit = identify_wearer(stage1, path, q, dq, ddq, tau)
+    want = base_parameters(robot, fit.terms).from_standard(truth)
+    assert len(priors) == 6
+    assert np.max(np.abs(fit.base - want) / np.maximum(np.abs(want), 1e-3)) <= 1e-6

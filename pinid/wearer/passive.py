@@ -5,7 +5,10 @@ positive in the direction its own angle grows; the coefficients live in
 ``pinid/resources/anthropometry/riener_edrich_1999.toml`` with their source.
 
 Robot joints map to anatomical ones by name (a joint whose name contains ``hip``, ``knee`` or
-``ankle``; other joints get no passive moment).  The anatomical angle is ``s·q``: ``s = +1`` when the
+``ankle`` and none of :data:`NOT_SAGITTAL` — the published moments are about the flexion axes, so a hip
+abduction or rotation joint gets none; other joints get no passive moment).  A joint's moment reads the
+angles of its own leg: the mapped joints on its kinematic branch (its ancestors and descendants), so on
+a two-leg exoskeleton the left knee's biarticular terms see the left hip and ankle.  The anatomical angle is ``s·q``: ``s = +1`` when the
 joint's range reaches further on the positive side (``|upper| ≥ |lower|``), else ``-1`` — the larger
 excursion is flexion for hip and knee, plantarflexion for the ankle.  exo_leg: hip ``s = +1``, knee
 ``s = −1`` (its knee flexes negative).  A joint the leg does not have sits at its neutral 0.
@@ -34,6 +37,8 @@ from pinid.model.robot import as_robot
 from pinid.model.terms import Term, register
 from pinid.checks import array_like
 
+#: Words of a joint name that say it does not turn about a flexion axis (no sagittal passive moment).
+NOT_SAGITTAL: tuple[str, ...] = ("abduct", "adduct", "rotat", "invers", "evers")
 #: Anatomical joints, in the order of the exponent coefficients (after the constant).
 ANATOMICAL: tuple[str, ...] = ("hip", "knee", "ankle")
 
@@ -98,10 +103,35 @@ def anatomy(robot) -> list[tuple[str | None, float]]:
     robot = as_robot(robot)
     out = []
     for j in robot.joints:
-        kind = next((a for a in ANATOMICAL if a in j.name.lower()), None)
+        name = j.name.lower()
+        kind = next((a for a in ANATOMICAL if a in name), None)
+        if any(word in name for word in NOT_SAGITTAL):
+            kind = None
         lo, hi = abs(j.lower), abs(j.upper)
         s = 1.0 if not (np.isfinite(lo) and np.isfinite(hi)) or hi >= lo else -1.0
         out.append((kind, s))
+    return out
+
+
+def legs(robot) -> list[dict[str, int]]:
+    """For each active joint of ``robot``: ``{anatomical joint: index}`` of the mapped joints on its
+    kinematic branch (its ancestors, itself and its descendants), i.e. of its own leg; empty when unmapped."""
+    robot = as_robot(robot)
+    amap = anatomy(robot)
+    parents = robot.pin_model.parents  # Pinocchio joint i + 1 is the robot's joint i
+
+    def ancestors(i: int) -> set[int]:
+        out, k = set(), parents[i + 1]
+        while k > 0:
+            out.add(k - 1)
+            k = parents[k]
+        return out
+
+    above = [ancestors(i) for i in range(len(amap))]
+    out = []
+    for i, (kind, _) in enumerate(amap):
+        branch = above[i] | {i} | {k for k in range(len(amap)) if i in above[k]}
+        out.append({amap[k][0]: k for k in sorted(branch) if amap[k][0] is not None} if kind else {})
     return out
 
 
@@ -112,13 +142,11 @@ def column(q: np.ndarray, robot, exps: dict[str, np.ndarray] | None = None) -> n
     q = np.atleast_2d(np.asarray(q, dtype=float))
     exps = exps or {}
     amap = anatomy(robot)
-    deg = {a: np.zeros(q.shape[0]) for a in ANATOMICAL}
-    for i, (kind, s) in enumerate(amap):
-        if kind is not None:
-            deg[kind] = np.degrees(s * q[:, i])
+    zero = np.zeros(q.shape[0])
     out = np.zeros_like(q)
-    for i, (kind, s) in enumerate(amap):
+    for i, ((kind, s), leg) in enumerate(zip(amap, legs(robot))):
         if kind is not None:
+            deg = {a: np.degrees(amap[k][1] * q[:, k]) if (k := leg.get(a)) is not None else zero for a in ANATOMICAL}
             out[:, i] = -s * moment(kind, deg["hip"], deg["knee"], deg["ankle"], exps.get(kind, exponents(robot, kind)))
     return out
 
