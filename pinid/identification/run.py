@@ -136,40 +136,7 @@ def setup(
     ``fit_joints``: the joints whose torque rows enter the fit (default all); ``delay``: the torque
     channels' delay behind the positions (:func:`pinid.data.delay.parse_delay`; ``"auto"`` estimated on the
     training recordings, :mod:`pinid.identification.delay`), applied to every recording."""
-    return _setup(
-        as_robot(model),
-        data,
-        validate,
-        terms=as_terms(terms),
-        mapping=mapping,
-        preprocess=preprocess,
-        rest_velocity=rest_velocity,
-        rest_fraction=rest_fraction,
-        segmental=segmental,
-        show_progress=show_progress,
-        stribeck_auto=stribeck_auto,
-        fit_joints=fit_joints,
-        delay=delay,
-    )
-
-
-def _setup(
-    model: RobotModel,
-    data,
-    validate=None,
-    *,
-    terms: TermSelection = TermSelection(),
-    mapping=None,
-    preprocess: Mapping | bool | None = None,
-    rest_velocity="auto",
-    rest_fraction: float = REST_FRACTION,
-    segmental: Mapping | None = None,
-    show_progress: bool | None = False,
-    stribeck_auto: Mapping[str, bool] | None = None,
-    fit_joints: Sequence[str] | str | None = None,
-    delay=None,
-) -> Setup:
-    """:func:`setup` of a model and terms resolved by the caller (``as_robot``, ``as_terms``: once per run)."""
+    model, terms = as_robot(model), as_terms(terms)  # each returns a resolved model or selection as it is
     auto = dict(stribeck_auto or {})
     fit_mask(model, fit_joints)  # a bad joint name fails before any recording is read
     delays = parse_delay(delay, model.joint_names)
@@ -180,7 +147,7 @@ def _setup(
     final_terms, terms = terms, TermSelection(names=[n for n in terms.names if n not in auto])
     check_distinct(data, validate)
     train = load_datasets(data, model, mapping, preprocess, "training")
-    _warn_if_large(model, terms, train)
+    warn_if_large_recordings(model, terms, train)
     if validate is None:
         val = {}
     elif isinstance(validate, Mapping):
@@ -282,11 +249,7 @@ def bytes_per_sample(model: RobotModel, terms: TermSelection) -> float:
 def warn_if_large_recordings(model: RobotModel, terms: TermSelection, datasets: Sequence[Dataset]) -> bool:
     """One-line DataWarning when the training recordings would need more than half the available
     memory (:func:`bytes_per_sample`); True if warned."""
-    return _warn_if_large(as_robot(model), as_terms(terms), datasets)
-
-
-def _warn_if_large(model: RobotModel, terms: TermSelection, datasets: Sequence[Dataset]) -> bool:
-    """:func:`warn_if_large_recordings` of a model and terms resolved by the caller."""
+    model, terms = as_robot(model), as_terms(terms)
     from pinid.memory import warn_if_large
 
     if not isinstance(datasets, Iterable):
@@ -480,7 +443,7 @@ def identify(
         make_estimator(m, **options.get(m, {}))
     if manifest is not None:
         given = dict(data=data, validate=validate, payload=payload, payload_data=payload_data, mapping=mapping)
-        got = _use_manifest(manifest, model, **given, fit_joints=fit_joints, delay=delay)
+        got = use_manifest(manifest, model, **given, fit_joints=fit_joints, delay=delay)
         model, data, validate, fit_joints, delay = (
             got[k] for k in ("model", "data", "validate", "fit_joints", "delay")
         )
@@ -497,7 +460,7 @@ def identify(
             model, terms, data, validate, payload, payload_data, mapping, preprocess, rest_velocity
         )
         preprocess = False
-    s = _setup(
+    s = setup(
         model,
         data,
         validate,
@@ -597,14 +560,7 @@ def use_manifest(
     model with the manifest's drives (a copy), its recordings by role, and its ``fit_joints`` and ``delay``
     where the caller gives none.  SpecError when recordings (or a mapping spec: each recording of a manifest
     has its own) are given besides the manifest."""
-    given = dict(data=data, validate=validate, payload=payload, payload_data=payload_data, mapping=mapping)
-    return _use_manifest(manifest, as_robot(model), **given, fit_joints=fit_joints, delay=delay)
-
-
-def _use_manifest(
-    manifest, model: RobotModel, *, data, validate, payload, payload_data, fit_joints, delay, mapping
-) -> dict:
-    """:func:`use_manifest` of a model resolved by the caller."""
+    model = as_robot(model)
     from pinid.data.manifest import Manifest
 
     m = manifest if isinstance(manifest, Manifest) else Manifest.load(as_path(manifest, "manifest"))
