@@ -492,10 +492,12 @@ class RobotModel:
 def _with_setting(settings: dict[str, object], name: str, value: object) -> dict[str, object]:
     """A copy of ``settings`` whose ``name`` is ``value`` (a mapping copied into a dict); None or an empty
     mapping removes it (a setting that is not set)."""
-    out = {k: v for k, v in settings.items() if k != name}
+    out = dict(settings)
     if isinstance(value, Mapping):
         value = dict(value)
-    if value is not None and not (isinstance(value, dict) and not value):
+    if value is None or (isinstance(value, dict) and not value):
+        out.pop(name, None)
+    else:
         out[name] = value
     return out
 
