@@ -57,10 +57,10 @@ def law(term: T.Term, values: np.ndarray, motion: T.Motion) -> np.ndarray:
     return values * term.column(motion)
 
 
-def check_term(name: str) -> None:
-    """Every clause of the contract for the registered term ``name``."""
+def check_term(name: str, m: RobotModel | None = None) -> None:
+    """Every clause of the contract for the registered term ``name`` (on ``m``, default :func:`robot`)."""
     term = T.TERMS[name]
-    m = robot()
+    m = robot() if m is None else m
     sel = T.TermSelection(names=[name])
     q, dq, ddq = states(m, term.space)
     n_own = m.nv if term.space == "joint" else len(m.drives.motor_names)
@@ -127,18 +127,53 @@ def architecture_example(heading: str) -> str:
     return re.search(r"```python\n(.*?)```", section, re.S).group(1)
 
 
+def run_architecture_example() -> None:
+    """Run docs/architecture.md's "Adding a joint term" block as written (it registers the term ``spring``)."""
+    assert "spring" not in T.TERMS
+    exec(
+        compile(architecture_example("Adding a joint term"), "docs/architecture.md", "exec", dont_inherit=True),
+        {"__name__": "example"},
+    )
+
+
 def test_the_worked_example_of_docs_architecture_keeps_the_contract():
     """docs/architecture.md's "Adding a joint term" block, run as written, registers a term that passes."""
-    assert "spring" not in T.TERMS
     try:
-        exec(
-            compile(architecture_example("Adding a joint term"), "docs/architecture.md", "exec", dont_inherit=True),
-            {"__name__": "example"},
-        )
+        run_architecture_example()
         check_term("spring")
         assert "spring" in T.TermSelection.from_names("fc,spring")  # selected like any other
     finally:
         T.TERMS.pop("spring", None)
+
+
+def test_the_setting_of_the_worked_example_is_saved_with_the_model_without_editing_serialize():
+    """The docs example's rest angle is a model setting: the term keeps the contract with it set, the column
+    reads it, and robot_to_dict / robot_from_dict save and read it back through the term alone."""
+    import json
+
+    from pinid.model import serialize
+
+    try:
+        run_architecture_example()
+        m = robot().with_setting("spring_rest", 0.2)
+        check_term("spring", m)
+        at_rest = np.full((1, m.nv), 0.2)
+        np.testing.assert_array_equal(T.TERMS["spring"].column(T.motion(m, at_rest, 0 * at_rest, 0 * at_rest)), 0.0)
+        saved = json.loads(json.dumps(serialize.robot_to_dict(m, T.TermSelection(names=["fc", "spring"]))))
+        assert saved["spring_rest"] == 0.2
+        back, terms = serialize.robot_from_dict(saved)
+        assert back.setting("spring_rest") == 0.2 and terms.names == ["fc", "spring"]
+        assert "spring_rest" not in serialize.robot_to_dict(robot(), terms)  # absent when the model sets none
+        assert robot_default_rest(serialize.robot_from_dict({**saved, "spring_rest": None})[0]) == 0.0
+        assert "spring_rest" not in Path(serialize.__file__).read_text(encoding="utf-8")
+    finally:
+        T.TERMS.pop("spring", None)
+
+
+def robot_default_rest(m: RobotModel) -> float:
+    """The rest angle the docs example's term sees on ``m``: 0 where the model does not set it."""
+    zero = np.zeros((1, m.nv))
+    return float(-T.TERMS["spring"].column(T.motion(m, zero, zero, zero))[0, 0])
 
 
 def test_the_old_name_joint_terms_still_works_with_a_deprecation_warning():

@@ -71,9 +71,8 @@ class FloatingRobotModel(RobotModel):
             urdf_text=fixed.urdf_text,
             locked=fixed.locked,
             drives=fixed.drives,
-            stribeck=fixed.stribeck,
-            passive_exponents=fixed.passive_exponents,
             urdf_document=fixed.urdf_document,
+            settings=fixed.settings,
         )
         self.ff_model = ff_model
         self.ff_data = ff_model.createData()
@@ -201,8 +200,8 @@ def body_view(model: FloatingRobotModel) -> RobotModel:
         urdf_path=model.urdf_path,
         urdf_text=model.urdf_text,
         locked=model.locked,
-        stribeck=model.stribeck,
         urdf_document=model.urdf_document,
+        settings=model.settings,
     )
     return view
 

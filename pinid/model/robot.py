@@ -97,9 +97,11 @@ class RobotModel:
     ``base`` is "fixed" (a floating base is :class:`pinid.model.floating.FloatingRobotModel`).
 
     A model is built once with everything it needs: its ``drives`` (:class:`pinid.model.drives.Drives` or
-    None), ``stribeck`` shapes (``{term: pinid.model.terms.Stribeck}``) and the wearer's
-    ``passive_exponents`` are given at construction and read-only afterwards; :meth:`with_drives`,
-    :meth:`with_stribeck` and :meth:`with_passive_exponents` return a new model.
+    None) and the per-run settings of its terms (``settings``, ``{setting name: value}``, e.g. ``stribeck``
+    shapes ``{term: pinid.model.terms.Stribeck}`` and the wearer's ``passive_exponents``; a term names the
+    setting it reads, :attr:`pinid.model.terms.Term.setting`) are given at construction and read-only
+    afterwards (:meth:`setting`); :meth:`with_drives`, :meth:`with_setting`, :meth:`with_stribeck` and
+    :meth:`with_passive_exponents` return a new model.
     ``continuous``: the indices of the continuous joints (Pinocchio's cos/sin coordinates).
     """
 
@@ -119,6 +121,7 @@ class RobotModel:
         stribeck: Mapping | None = None,
         passive_exponents: Mapping | None = None,
         urdf_document: UrdfDocument | None = None,
+        settings: Mapping[str, object] | None = None,
     ) -> None:
         self.pin_model = pin_model
         self.joints: tuple[JointInfo, ...] = tuple(joints)
@@ -129,9 +132,12 @@ class RobotModel:
         self._urdf_document = urdf_document
         self.locked = dict(locked or {})
         self._drives = drives  # the robot's transmissions (pinid.model.drives.Drives) when it has any
-        self._stribeck = dict(stribeck or {})  # term → Stribeck, a private copy (read through .stribeck)
-        # anatomical joint → (terms, 4) exponent coefficients (pinid.wearer.passive), read through .passive_exponents
-        self._passive_exponents = dict(passive_exponents or {})
+        # setting name → value, a private copy (read through .setting): "stribeck" {term: Stribeck},
+        # "passive_exponents" {anatomical joint: (terms, 4) exponent coefficients} (pinid.wearer.passive), …
+        self._settings: dict[str, object] = {}
+        named = {"stribeck": stribeck, "passive_exponents": passive_exponents}  # the settings' own arguments
+        for name, value in {**(settings or {}), **{k: v for k, v in named.items() if v}}.items():
+            self._settings = _with_setting(self._settings, name, value)
         self._data = pin_model.createData()
         self._continuous = tuple(i for i, j in enumerate(self.joints) if j.kind == "continuous")
         self._idx_q = [pin_model.joints[i + 1].idx_q for i in range(len(self.joints))]
@@ -275,16 +281,30 @@ class RobotModel:
         return self._drives
 
     @property
+    def settings(self) -> Mapping[str, object]:
+        """``{setting name: value}``: every per-run setting of the model's terms (read-only, as :meth:`setting`
+        gives each one; a setting the model does not set is absent)."""
+        return MappingProxyType({name: self.setting(name) for name in self._settings})
+
+    def setting(self, name: str, default: object = None) -> object:
+        """The value of the term setting ``name`` (a :attr:`pinid.model.terms.Term.setting`), ``default`` when
+        the model does not set it; a mapping is given as a read-only view."""
+        if not isinstance(name, str):
+            raise ModelError(f"name: got {type(name).__name__}, expected a setting name (str)")
+        value = self._settings.get(name, default)
+        return MappingProxyType(value) if isinstance(value, dict) else value
+
+    @property
     def stribeck(self) -> Mapping:
         """``{term: pinid.model.terms.Stribeck}``: the Stribeck shapes the model sets (read-only; a term
         absent here has the default shape, :func:`pinid.model.terms.stribeck`)."""
-        return MappingProxyType(self._stribeck)
+        return self.setting("stribeck", MappingProxyType({}))
 
     @property
     def passive_exponents(self) -> Mapping:
         """``{anatomical joint: (terms, 4) exponent coefficients}`` of the wearer's passive moments
         (:mod:`pinid.wearer.passive`; read-only, empty for the published ones)."""
-        return MappingProxyType(self._passive_exponents)
+        return self.setting("passive_exponents", MappingProxyType({}))
 
     @property
     def continuous(self) -> tuple[int, ...]:
@@ -312,13 +332,21 @@ class RobotModel:
 
         return self._copy_with(_drives=as_drives(drives, self.joint_names))
 
+    def with_setting(self, name: str, value: object) -> "RobotModel":
+        """A copy of this model whose term setting ``name`` is ``value`` (replacing its own; None or an empty
+        mapping removes it; this model is left as it is).  The terms that declare the setting
+        (:attr:`pinid.model.terms.Term.setting`) read it through ``Motion.robot`` and save it with the model."""
+        if not isinstance(name, str) or not name:
+            raise ModelError(f"name: got {name!r}, expected a setting name (str)")
+        return self._copy_with(_settings=_with_setting(self._settings, name, value))
+
     def with_stribeck(self, settings: Mapping) -> "RobotModel":
         """A copy of this model with these Stribeck shapes ``{term: Stribeck}`` on top of its own (this model
         is left as it is)."""
         shapes = settings.values() if isinstance(settings, Mapping) else ()
         if not isinstance(settings, Mapping) or not all(callable(getattr(v, "factor", None)) for v in shapes):
             raise ModelError(f"settings: got {type(settings).__name__}, expected {{term: pinid.model.terms.Stribeck}}")
-        return self._copy_with(_stribeck={**self._stribeck, **settings})
+        return self.with_setting("stribeck", {**self.stribeck, **settings})
 
     def with_passive_exponents(self, exponents: Mapping) -> "RobotModel":
         """A copy of this model whose wearer passive-moment exponents are ``exponents`` (replacing its own;
@@ -327,7 +355,7 @@ class RobotModel:
             raise ModelError(
                 f"exponents: got {type(exponents).__name__}, expected {{anatomical joint: (terms, 4) array}}"
             )
-        return self._copy_with(_passive_exponents=dict(exponents))
+        return self.with_setting("passive_exponents", exponents)
 
     # ------------------------------------------------------------------ description
     @property
@@ -416,9 +444,8 @@ class RobotModel:
             urdf_text=self.urdf_text,
             locked=self.locked,
             drives=self.drives,
-            stribeck=self.stribeck,
-            passive_exponents=self.passive_exponents,
             urdf_document=self._urdf_document,
+            settings=self.settings,
         )
         return out
 
@@ -460,6 +487,19 @@ class RobotModel:
 
     def __repr__(self) -> str:
         return f"RobotModel({self.name!r}, joints={self.joint_names})"
+
+
+def _with_setting(settings: dict[str, object], name: str, value: object) -> dict[str, object]:
+    """A copy of ``settings`` whose ``name`` is ``value`` (a mapping copied into a dict); None or an empty
+    mapping removes it (a setting that is not set)."""
+    out = dict(settings)
+    if isinstance(value, Mapping):
+        value = dict(value)
+    if value is None or (isinstance(value, dict) and not value):
+        out.pop(name, None)
+    else:
+        out[name] = value
+    return out
 
 
 def as_robot(model) -> RobotModel:

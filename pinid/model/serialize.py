@@ -8,21 +8,38 @@ from __future__ import annotations
 import tempfile
 from pathlib import Path
 
-import numpy as np
-
 from pinid.errors import SpecError
 from pinid.model.regressor import TermSelection
 from pinid.model.robot import RobotModel
-from pinid.model.terms import STRIBECK_TERMS, TERMS, Stribeck
+from pinid.model.terms import TERM_MODULES, TERMS, Term
+from pinid.model.terms import stribeck_from_dict  # noqa: F401 - its place before the Stribeck terms declared it
 from pinid.model.robot import as_robot
+
+
+def _setting_terms() -> dict[str, Term]:
+    """``{setting name: the first registered term that declares it}`` (:attr:`pinid.model.terms.Term.setting`;
+    several terms may share one setting, e.g. fs and motor_fs read "stribeck"), the settings of the plug-in
+    terms (:data:`pinid.model.terms.TERM_MODULES`) last: the order of the keys of a saved robot.  Loads the
+    plug-in terms."""
+    out: dict[str, Term] = {}
+    terms = list(TERMS.values())  # loads the plug-in terms: a setting may be one of theirs
+    for term in sorted(terms, key=lambda t: t.name in TERM_MODULES):  # stable: registry order otherwise
+        if term.setting is not None:
+            out.setdefault(term.setting, term)
+    return out
 
 
 def robot_to_dict(model: RobotModel, terms: TermSelection) -> dict:
     """``{"name", "urdf", "joints", "locked", "terms", "urdf_text", "drives"}`` of a model and its terms, and
-    ``"stribeck"`` ``{term: {"velocity", "shape"}}`` when the model sets Stribeck shapes, ``"passive_exponents"``
-    ``{anatomical joint: (terms, 4) list}`` when it sets the wearer's passive-moment exponents, ``"base": "floating"``
-    for a floating-base robot."""
+    each term setting the model sets, saved by the term that declares it (``Term.write_setting``): e.g.
+    ``"stribeck"`` ``{term: {"velocity", "shape"}}``, ``"passive_exponents"`` ``{anatomical joint: (terms, 4)
+    list}``; ``"base": "floating"`` for a floating-base robot."""
     model = as_robot(model)
+    saved = {}
+    for name, term in _setting_terms().items():
+        value = model.setting(name)
+        if value is not None:
+            saved[name] = value if term.write_setting is None else term.write_setting(value)
     return {
         "name": model.name,
         "urdf": None if model.urdf_path is None else str(model.urdf_path),
@@ -31,16 +48,7 @@ def robot_to_dict(model: RobotModel, terms: TermSelection) -> dict:
         "terms": terms.names,
         "urdf_text": model.urdf_text,
         "drives": None if model.drives is None else model.drives.to_dict(),
-        **(
-            {"stribeck": {k: {"velocity": s.velocity, "shape": s.shape} for k, s in model.stribeck.items()}}
-            if model.stribeck
-            else {}
-        ),
-        **(
-            {"passive_exponents": {k: np.asarray(c).tolist() for k, c in model.passive_exponents.items()}}
-            if model.passive_exponents
-            else {}
-        ),
+        **saved,
         **({"base": "floating"} if getattr(model, "base", "fixed") == "floating" else {}),
     }
 
@@ -57,8 +65,6 @@ def robot_from_dict(d: dict) -> tuple[RobotModel, TermSelection]:
         ("urdf_text", (str, type(None)), "the URDF text or null"),
         ("urdf", (str, type(None)), "a URDF path or null"),
         ("drives", (dict, type(None)), "an object or null"),
-        ("stribeck", (dict, type(None)), "an object TERM: {velocity, shape} or null"),
-        ("passive_exponents", (dict, type(None)), "an object JOINT: exponent rows or null"),
     ):
         if key == "terms" and key not in d:
             raise SpecError("saved robot: no 'terms', expected a list of term names")
@@ -83,29 +89,8 @@ def robot_from_dict(d: dict) -> tuple[RobotModel, TermSelection]:
         from pinid.model.drives import Drives
 
         model = model.with_drives(Drives.from_dict(d["drives"], model.joint_names, "saved drives"))
-    model = model.with_stribeck(stribeck_from_dict(d.get("stribeck") or {}, "saved robot: 'stribeck'"))
-    for term in TERMS.values():  # loads the plug-in terms: a saved setting may be one of theirs
-        if term.setting is not None and d.get(term.setting):
-            # the model's with_<setting> gives a new model with it (models are built once)
-            model = getattr(model, f"with_{term.setting}")(
-                term.read_setting(d[term.setting], f"saved robot: '{term.setting}'")
-            )
+    for name, term in _setting_terms().items():  # each saved setting, read by the term that declares it
+        if d.get(name) is not None:
+            value = d[name] if term.read_setting is None else term.read_setting(d[name], f"saved robot: '{name}'")
+            model = model.with_setting(name, value)  # a new model (models are built once)
     return model, terms
-
-
-def stribeck_from_dict(d: dict, origin: str) -> dict[str, Stribeck]:
-    """``{term: Stribeck}`` from ``{term: {"velocity": v, "shape": δ}}``; SpecError naming what is wrong."""
-    if not isinstance(d, dict):
-        raise SpecError(f"d: got {type(d).__name__}, expected a table of Stribeck terms")
-    out = {}
-    for name, v in d.items():
-        if name not in STRIBECK_TERMS or not isinstance(v, dict) or set(v) - {"velocity", "shape"}:
-            raise SpecError(
-                f"{origin}: {name!r}: {v!r}, expected one of {list(STRIBECK_TERMS)}: "
-                "{velocity: number > 0, shape: number > 0}"
-            )
-        try:
-            out[name] = Stribeck(**v)
-        except SpecError as exc:
-            raise SpecError(f"{origin}: {name}: {exc}") from None
-    return out

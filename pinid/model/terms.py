@@ -11,8 +11,9 @@ regressor column is a function of the motion in its own space, vectorised over s
 Adding a term is one :func:`register` call (docs/architecture.md, "Adding a joint term"): give the selection
 name used by ``--terms``, the parameter suffix, label, unit, the column function, and optionally the
 nominal value per joint (read from the robot), the SDP sign constraint, the URDF ``<dynamics>`` /
-drives TOML field, whether it is an inertia (its column is an acceleration) and the torque the digital
-twin's plant applies (default: value × column).
+drives TOML field, whether it is an inertia (its column is an acceleration), the torque the digital
+twin's plant applies (default: value × column) and the name of the per-run model setting it reads
+(``robot.setting(name)``, saved with the model through ``read_setting`` / ``write_setting``).
 
 Parameter layout after the 10·nv inertial parameters: the joint block, joint-major (joint ``j``'s
 terms together, in registry order), then the motor block, motor-major.
@@ -24,7 +25,7 @@ import importlib
 import warnings
 from dataclasses import dataclass
 from typing import NamedTuple
-from collections.abc import Callable, Iterable, Iterator, MutableMapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, MutableMapping, Sequence
 
 import numpy as np
 from pinid.checks import array_like, as_floats
@@ -58,8 +59,10 @@ class Term:
     plant: Callable[[np.ndarray, Motion, float], np.ndarray] | None = None  # (values, motion, v_s) → torque
     static: bool = False  # the column depends on q only (like gravity): a model's gravity(q) includes it
     velocity_step: bool = False  # the column jumps at zero velocity (Coulomb): ∂/∂dq taken as 0 elsewhere
-    setting: str | None = None  # a robot attribute the term reads, saved with the model ("passive_exponents")
-    read_setting: Callable[[object, str], object] | None = None  # (saved value, origin) → the attribute's value
+    # the model setting the term reads (``robot.setting(name)``), saved with the model: "stribeck", "passive_exponents"
+    setting: str | None = None
+    read_setting: Callable[[object, str], object] | None = None  # (saved value, origin) → value; None: as saved
+    write_setting: Callable[[object], object] | None = None  # value → JSON-able saved value; None: as it is
 
     def torque(self, values: np.ndarray, motion: Motion, smoothing: float | None = None) -> np.ndarray:
         """Torque of this term [N·m] in its own space for per-joint/motor ``values``; the plant's law when
@@ -245,6 +248,31 @@ def stribeck(robot, name: str) -> Stribeck:
     return (getattr(robot, "stribeck", None) or {}).get(name) or Stribeck()
 
 
+def stribeck_from_dict(d: dict, origin: str) -> dict[str, Stribeck]:
+    """``{term: Stribeck}`` from ``{term: {"velocity": v, "shape": δ}}``; SpecError naming what is wrong."""
+    if not isinstance(d, dict):
+        raise SpecError(f"{origin}: got {type(d).__name__}, expected a table of Stribeck terms")
+    out = {}
+    for name, v in d.items():
+        if name not in STRIBECK_TERMS or not isinstance(v, dict) or set(v) - {"velocity", "shape"}:
+            raise SpecError(
+                f"{origin}: {name!r}: {v!r}, expected one of {list(STRIBECK_TERMS)}: "
+                "{velocity: number > 0, shape: number > 0}"
+            )
+        try:
+            out[name] = Stribeck(**v)
+        except SpecError as exc:
+            raise SpecError(f"{origin}: {name}: {exc}") from None
+    return out
+
+
+def stribeck_to_dict(shapes: Mapping[str, Stribeck]) -> dict[str, dict[str, float]]:
+    """``{term: {"velocity": v, "shape": δ}}`` of ``{term: Stribeck}`` (the saved form, :func:`stribeck_from_dict`)."""
+    if not isinstance(shapes, Mapping) or not all(isinstance(s, Stribeck) for s in shapes.values()):
+        raise SpecError(f"shapes: got {type(shapes).__name__}, expected {{term: Stribeck}}")
+    return {k: {"velocity": s.velocity, "shape": s.shape} for k, s in shapes.items()}
+
+
 def _stribeck_term(name: str, space: str) -> Term:
     """The Stribeck term ``name`` of ``space``: column sign(v)·exp(−(|v|/v_s)^δ), plant tanh(v/smoothing)·(…)."""
 
@@ -266,6 +294,9 @@ def _stribeck_term(name: str, space: str) -> Term:
         nominal=(lambda r: r.drives.nominal("fs")) if motor else None,
         field="fs" if motor else None,
         plant=plant,
+        setting="stribeck",
+        read_setting=stribeck_from_dict,
+        write_setting=stribeck_to_dict,
     )
 
 

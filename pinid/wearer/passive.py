@@ -27,6 +27,7 @@ The exponents' coefficients ``c`` are the published ones unless the robot carrie
 from __future__ import annotations
 
 import tomllib
+from collections.abc import Mapping
 from functools import cache
 from importlib import resources
 
@@ -70,7 +71,7 @@ def exponents(robot, joint: str) -> np.ndarray:
 def check_exponents(d: dict, origin: str) -> dict[str, np.ndarray]:
     """``{anatomical joint: (terms, 4) array}`` from a plain dict (a saved model); SpecError naming what is wrong."""
     if not isinstance(d, dict):
-        raise SpecError(f"d: got {type(d).__name__}, expected a table of exponent coefficients per joint")
+        raise SpecError(f"{origin}: got {type(d).__name__}, expected a table of exponent coefficients per joint")
     out = {}
     for joint, c in (d or {}).items():
         want = published(joint).shape if joint in ANATOMICAL else None
@@ -82,6 +83,14 @@ def check_exponents(d: dict, origin: str) -> dict[str, np.ndarray]:
             )
         out[joint] = arr
     return out
+
+
+def exponents_to_dict(exps: Mapping) -> dict[str, list]:
+    """``{anatomical joint: (terms, 4) list}`` of ``{anatomical joint: (terms, 4) array}`` (the saved form,
+    :func:`check_exponents`)."""
+    if not isinstance(exps, Mapping):
+        raise SpecError(f"exps: got {type(exps).__name__}, expected {{anatomical joint: (terms, 4) array}}")
+    return {k: np.asarray(c).tolist() for k, c in exps.items()}
 
 
 def moment(joint: str, hip: np.ndarray, knee: np.ndarray, ankle: np.ndarray, c: np.ndarray | None = None) -> np.ndarray:
@@ -168,5 +177,6 @@ register(
         nominal=lambda r: np.array([1.0 if kind else 0.0 for kind, _ in anatomy(r)]),
         setting="passive_exponents",
         read_setting=check_exponents,
+        write_setting=exponents_to_dict,
     )
 )
