@@ -28,6 +28,7 @@ import pinocchio as pin
 from pinid.checks import as_floats, as_state, as_states, as_vector, count, number, same_length
 from pinid.errors import JointError, ModelError, ModelWarning
 from pinid.model.bundled import resolve_robot
+from pinid.model.terms import Stribeck
 from pinid.model.urdf import UrdfDocument
 
 #: Names of the 10 standard inertial parameters of a body, in Pinocchio's order.
@@ -344,7 +345,7 @@ class RobotModel:
         """A copy of this model with these Stribeck shapes ``{term: Stribeck}`` on top of its own (this model
         is left as it is)."""
         shapes = settings.values() if isinstance(settings, Mapping) else ()
-        if not isinstance(settings, Mapping) or not all(callable(getattr(v, "factor", None)) for v in shapes):
+        if not isinstance(settings, Mapping) or not all(isinstance(v, Stribeck) for v in shapes):
             raise ModelError(f"settings: got {type(settings).__name__}, expected {{term: pinid.model.terms.Stribeck}}")
         return self.with_setting("stribeck", {**self.stribeck, **settings})
 

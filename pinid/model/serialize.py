@@ -12,7 +12,6 @@ from pinid.errors import SpecError
 from pinid.model.regressor import TermSelection
 from pinid.model.robot import RobotModel
 from pinid.model.terms import TERM_MODULES, TERMS, Term
-from pinid.model.terms import stribeck_from_dict  # noqa: F401 - its place before the Stribeck terms declared it
 from pinid.model.robot import as_robot
 
 
