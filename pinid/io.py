@@ -9,6 +9,7 @@ import contextlib
 import contextvars
 import json
 import os
+import sys
 import tempfile
 from pathlib import Path
 from typing import Any
@@ -187,16 +188,24 @@ def read_bounded_file(
 MAX_SPEC_DEPTH = 64
 
 
+def toml_loads(text: str) -> dict:
+    """The table in TOML ``text``: :mod:`tomllib` from Python 3.11, the ``tomli`` package before it (the
+    dependency ``pyproject.toml`` declares for 3.10).  Raises ``TOMLDecodeError`` (a ValueError)."""
+    if sys.version_info >= (3, 11):
+        import tomllib
+    else:  # pragma: no cover - exercised by .ci/run on the oldest admitted Python
+        import tomli as tomllib
+    return tomllib.loads(text)
+
+
 def parse_spec_text(text: bytes | str, origin: str, what: str, *, kind: str = "TOML") -> Any:
     """The value in a spec file's ``text`` (``kind`` "TOML" or "JSON"); SpecError (one line, naming
     ``origin`` and ``what`` was expected) if it is not UTF-8, not valid, or nested deeper than
     :data:`MAX_SPEC_DEPTH` levels.  The one place pinid parses a user's TOML."""
-    import tomllib
-
     try:
         if isinstance(text, bytes):
             text = text.decode("utf-8")
-        data = json.loads(text) if kind == "JSON" else tomllib.loads(text)
+        data = json.loads(text) if kind == "JSON" else toml_loads(text)
     except UnicodeDecodeError:
         raise SpecError(f"{origin}: not UTF-8 text, expected a {what}") from None
     except RecursionError:

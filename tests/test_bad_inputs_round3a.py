@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import json
 import os
-import tomllib
 from pathlib import Path
 
 import numpy as np
@@ -18,7 +17,7 @@ from pinid.data.formats import read_recording, time_digits, write_recording
 from pinid.errors import ModelError, OutputError, SpecError
 from pinid.identification.gains import Payload
 from pinid.identification.identified import IdentifiedModel
-from pinid.io import Artefacts
+from pinid.io import Artefacts, toml_loads
 from pinid.model.base import base_parameters
 from pinid.model.drives import Drives, Transmission
 from pinid.model.regressor import TermSelection, parameter_names, standard_parameters
@@ -85,12 +84,12 @@ def test_motor_name_with_newline_refused_and_toml_escaped(tmp_path):
     )
     terms = TermSelection.from_names("fc,motor_fc")
     text = IdentifiedModel(robot, terms, standard_parameters(robot, terms)).export_drives()
-    d = tomllib.loads(text)
+    d = toml_loads(text)
     assert d["transmission"][0]["motors"] == ["m.1/a:b-c", "m_2"] and set(d["motors"]) == {"m.1/a:b-c", "m_2"}
     from pinid.model.export import _q
 
     for name in ("a\nb", 'q"x', "b\\s", "\x7f\x01é"):
-        assert tomllib.loads("k = " + _q(name))["k"] == name
+        assert toml_loads("k = " + _q(name))["k"] == name
 
 
 # ------------------------------------------------------------------------- 2: outputs on resolved paths

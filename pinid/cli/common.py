@@ -341,7 +341,6 @@ def _number(kind, test, expected):
 #: argparse ``type=`` functions for numbers: they reject what no run can use, before any work.
 seed_int = _number(int, lambda v: 0 <= v < 2**32, "a seed 0 ≤ n < 2³²")
 positive_int = _number(int, lambda v: v > 0, "an integer > 0")
-nonnegative_int = _number(int, lambda v: v >= 0, "an integer ≥ 0")
 positive_float = _number(float, lambda v: math.isfinite(v) and v > 0, "a finite number > 0")
 nonnegative_float = _number(float, lambda v: math.isfinite(v) and v >= 0, "a finite number ≥ 0")
 

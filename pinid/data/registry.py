@@ -69,10 +69,6 @@ class Table:
         return self.data[(ref.column, ref.index)]
 
 
-#: What a reader is asked for: ``(column name or index, index in a 2-D array or None, where in the spec)``.
-Wanted = list[tuple[str | int, int | None, str]]
-
-
 @dataclass(frozen=True)
 class Reader:
     """A file format pinid reads.

@@ -166,11 +166,6 @@ class IdentifiedModel:
         M += self._term_inertia
         return M[0] if single else M
 
-    @property
-    def term_inertia(self) -> np.ndarray:
-        """Constant inertia of the terms (nv, nv) [kg·m²]: diag(armature) + Gᵀ·diag(motor armature)·G."""
-        return self._term_inertia.copy()
-
     def _inertia_of_terms(self) -> np.ndarray:
         out = np.zeros((self.nv, self.nv))
         for t in self.terms.joint + self.terms.motor:

@@ -239,10 +239,6 @@ class Drives:
             raise SpecError(f"{origin}: [motors] must hold [motors.<name>] tables of numbers")
         return cls(list(joints), transmissions, {m: dict(v) for m, v in motors.items()}, origin)
 
-    def with_values(self, values: Mapping[str, Mapping[str, float]]) -> "Drives":
-        """A copy with other nominal motor-term values (e.g. identified ones)."""
-        return Drives(list(self.joints), list(self.transmissions), {m: dict(v) for m, v in values.items()}, self.origin)
-
 
 def load_drives(path: str | os.PathLike, joints: Sequence[str]) -> Drives:
     """Read a drives TOML file for a robot with active ``joints``; SpecError (one line) when it is wrong."""

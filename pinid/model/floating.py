@@ -50,8 +50,6 @@ BASE_NAME = "base"
 BASE_NQ = 7
 #: Number of velocity coordinates of the free flyer (linear, angular; base frame).
 BASE_NV = 6
-#: Names of the 6 base rows (force then moment on the base link, base frame).
-BASE_ROWS = ("fx", "fy", "fz", "tx", "ty", "tz")
 
 
 class FloatingRobotModel(RobotModel):

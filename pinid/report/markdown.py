@@ -5,18 +5,17 @@ The figures: ``errors.png``, the absolute torque error per joint and method, mea
 (seed 000 Figs. 10/13 draw mean ± std, which goes below zero for an absolute error);
 ``training_motion.png``, the excitation as recorded (q and dq of the first training recording);
 ``torque_<method>.png``, measured vs predicted torque with the error underneath (seed 000 Figs. 9/12).
-:func:`report_files` renders them once; :func:`write_report` writes everything atomically.
+:func:`report_files` renders them once (the identification's writer writes them with its other files).
 """
 
 from __future__ import annotations
 
 import datetime as _dt
-import os
 from pathlib import Path
 
 import numpy as np
 
-from pinid.io import Artefacts, display_path
+from pinid.io import display_path
 from pinid.model.physical import com_inertia
 from pinid.model.terms import TermSelection
 from pinid.report.figures import Recipe
@@ -337,14 +336,3 @@ def report_files(ident, *, figures: bool = True) -> dict[str, str | bytes]:
         text = report_markdown(ident)
     page = markdown_to_html(text, pngs, title=f"pinid: identification of {ident.robot['name']}")
     return {"report.md": text, "report.html": page, **pngs}
-
-
-def write_report(ident, folder: str | os.PathLike, *, figures: bool = True) -> list[Path]:
-    """Write ``report.md``, ``report.html`` and the figures into ``folder`` (all or nothing, replacing an
-    earlier report there unless the :data:`pinid.io.OVERWRITE` policy forbids it); return the paths written."""
-    folder = Path(folder)
-    arts = Artefacts()
-    for name, content in report_files(ident, figures=figures).items():
-        arts.add(folder / name, content)
-    arts.clean(folder, list(REPORT_FILES))
-    return arts.write()

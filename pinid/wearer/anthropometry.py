@@ -6,7 +6,6 @@ Masses scale with body mass; lengths scale with stature (geometric similarity).
 
 from __future__ import annotations
 
-import tomllib
 from dataclasses import dataclass
 from functools import cache
 from importlib import resources
@@ -15,6 +14,7 @@ import numpy as np
 
 from pinid.checks import number
 from pinid.errors import SpecError
+from pinid.io import toml_loads
 
 #: Sexes the table distinguishes.
 SEXES: tuple[str, ...] = ("male", "female")
@@ -28,7 +28,7 @@ STRAPPED_SEGMENTS: tuple[str, ...] = ("pelvis", *LEG_SEGMENTS)
 def table() -> dict:
     """The de Leva 1996 table as read from the shipped TOML file."""
     text = (resources.files("pinid.resources") / "anthropometry" / "de_leva_1996.toml").read_text(encoding="utf-8")
-    return tomllib.loads(text)
+    return toml_loads(text)
 
 
 @dataclass(frozen=True)

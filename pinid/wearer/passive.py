@@ -26,7 +26,6 @@ The exponents' coefficients ``c`` are the published ones unless the robot carrie
 
 from __future__ import annotations
 
-import tomllib
 from collections.abc import Mapping
 from functools import cache
 from importlib import resources
@@ -34,6 +33,7 @@ from importlib import resources
 import numpy as np
 
 from pinid.errors import SpecError
+from pinid.io import toml_loads
 from pinid.model.robot import as_robot
 from pinid.model.terms import Term, register
 from pinid.checks import array_like
@@ -50,7 +50,7 @@ def coefficients() -> dict:
     text = (resources.files("pinid.resources") / "anthropometry" / "riener_edrich_1999.toml").read_text(
         encoding="utf-8"
     )
-    return tomllib.loads(text)
+    return toml_loads(text)
 
 
 def published(joint: str) -> np.ndarray:
