@@ -210,7 +210,14 @@ def add_preprocessing_arguments(p: argparse.ArgumentParser) -> None:
         help="preprocessing preset: zha2019 (Zha et al. 2019: 1 kHz, 10 Hz) or shi2024 (Shi et al. 2024: 5 Hz); "
         "the old names seed000, seed001 still work (deprecated)",
     )
-    g.add_argument("--cutoff", type=float, default=None, metavar="HZ", help="low-pass cut-off [Hz]")
+    g.add_argument(
+        "--cutoff",
+        type=cutoff_value,
+        default=None,
+        metavar="HZ",
+        help="low-pass cut-off [Hz], or auto: chosen by blocked cross-validation on the training recordings "
+        "(identify and compare; costs about one OLS identification per candidate)",
+    )
     g.add_argument("--order", type=int, default=None, help="filter order (default 4)")
     g.add_argument("--differentiation", default=None, help="differentiation method (default savgol)")
     g.add_argument(
@@ -228,6 +235,16 @@ def add_preprocessing_arguments(p: argparse.ArgumentParser) -> None:
         "(comma-separated), 0 to keep all, or auto (default: max(2%% of the joint's peak speed, "
         "3 × its velocity noise))",
     )
+
+
+def cutoff_value(text: str) -> float | str:
+    """--cutoff's value: a number [Hz] or "auto"."""
+    if text.strip().lower() == "auto":
+        return "auto"
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r}: expected a frequency [Hz] or auto") from None
 
 
 def preprocess_from_args(args: argparse.Namespace) -> dict | bool | None:

@@ -142,6 +142,13 @@ def _recordings_lines(d: dict, joints: list[str]) -> list[str]:
             else ""
         )
         lines.append(f"torque delay behind the positions: {said}{how}")
+    if d.get("cutoff"):
+        c = d["cutoff"]
+        curve = ", ".join(
+            f"{f:g} Hz {s:.3g} %" for f, s in zip(c["candidates_hz"], c["cv_rel_rms_percent"]) if s is not None
+        )
+        lines.append(f"low-pass cut-off {c['cutoff_hz']:g} Hz, chosen by {c['chosen_by']}")
+        lines.append(f"  held-out relative RMS against the torque as recorded: {curve}")
     fit = d.get("fit_joints")
     if fit is not None and len(fit) < len(joints):
         left = [j for j in joints if j not in fit]

@@ -110,6 +110,7 @@ class Setup:
     segmental: SegmentalProblem | None = None
     stribeck: dict[str, dict] = field(default_factory=dict)  # the Stribeck shapes used (data["stribeck"])
     delay: dict | None = None  # the torque delay used (data["delay"]): given or estimated
+    cutoff: dict | None = None  # the cut-off chosen by cross-validation (data["cutoff"]) when asked for "auto"
 
 
 def setup(
@@ -146,6 +147,10 @@ def setup(
         raise SpecError("Stribeck velocity 'auto' with the segmental strategy: give the velocity instead")
     final_terms, terms = terms, TermSelection(names=[n for n in terms.names if n not in auto])
     check_distinct(data, validate)
+    chosen = None
+    if isinstance(preprocess, Mapping) and isinstance(preprocess.get("cutoff"), str):
+        chosen = _auto_cutoff(model, data, terms, mapping, preprocess, fit_joints, rest_velocity, rest_fraction)
+        preprocess = {**preprocess, "cutoff": chosen.cutoff}
     train = load_datasets(data, model, mapping, preprocess, "training")
     warn_if_large_recordings(model, terms, train)
     if validate is None:
@@ -234,7 +239,22 @@ def setup(
             rest_fraction=rest_fraction,
             fit_joints=fit_joints,
         )
-    return Setup(model, terms, base, problem, train, val, seg, shapes, used_delay)
+    return Setup(model, terms, base, problem, train, val, seg, shapes, used_delay, chosen and chosen.to_dict())
+
+
+def _auto_cutoff(model, data, terms, mapping, preprocess, fit_joints, rest_velocity, rest_fraction):
+    """The cut-off the training ``data`` choose when ``preprocess["cutoff"]`` is ``"auto"``
+    (:mod:`pinid.identification.cutoff`); SpecError for any other text."""
+    if preprocess["cutoff"].strip().lower() != "auto":
+        raise SpecError(f"cut-off {preprocess['cutoff']!r}, expected a frequency > 0 [Hz] or auto")
+    from pinid.identification.cutoff import choose_cutoff  # loaded on use
+
+    fit = fit_mask(model, fit_joints)
+    base = base_parameters(model, terms, joints=None if fit.all() else [j for j, f in zip(model.joint_names, fit) if f])
+    options = {"rest_velocity": rest_velocity, "rest_fraction": rest_fraction, "fit_joints": fit_joints}
+    return choose_cutoff(
+        model, _items(data), terms=terms, base=base, mapping=mapping, preprocess=preprocess, problem_options=options
+    )
 
 
 def bytes_per_sample(model: RobotModel, terms: TermSelection) -> float:
@@ -526,6 +546,8 @@ def identify(
         summary["stribeck"] = s.stribeck
     if s.delay is not None:
         summary["delay"] = s.delay
+    if s.cutoff is not None:
+        summary["cutoff"] = s.cutoff
     if manifest is not None:
         summary["manifest"] = str(getattr(manifest, "path", manifest))
     return Identification(

@@ -711,6 +711,11 @@ def _check_preprocess(preprocess) -> None:
         raise SpecError(f"preprocess: got {type(preprocess).__name__}, expected a dict of options, True, False or None")
     from pinid.data.preprocess import prepare
 
+    if isinstance(preprocess.get("cutoff"), str):
+        raise SpecError(
+            f"cut-off {preprocess['cutoff']!r} here: only identify and compare choose the cut-off (auto); "
+            "expected a frequency [Hz]"
+        )
     known = [p for p in inspect.signature(prepare).parameters if p not in ("ds", "unwrap")]
     unknown = [k for k in preprocess if k not in known]
     if unknown:
