@@ -70,7 +70,8 @@ def add_terms_argument(p: argparse.ArgumentParser) -> None:
         "docs/wearer.md); motor side (needs drives: URDF <transmission> or --drives) motor_fc, "
         "motor_fv, motor_offset, motor_armature, motor_fc_pos, motor_fc_neg; Stribeck fs, motor_fs "
         "(fs·sign(v)·exp(−(|v|/v_s)^δ), on top of fc); "
-        "'none' for none; default fc,fv",
+        "'none' for none; 'auto' (identify): chosen on the training recordings by forward selection; "
+        "default fc,fv",
     )
 
 
@@ -117,8 +118,10 @@ def robot_from_args(args: argparse.Namespace, urdf: str | None = None):
     return robot
 
 
-def terms_from_args(args: argparse.Namespace) -> TermSelection:
-    """The TermSelection the --terms option describes."""
+def terms_from_args(args: argparse.Namespace, *, auto: bool = False) -> TermSelection | str:
+    """The TermSelection the --terms option describes (``"auto"`` where ``auto`` allows it)."""
+    if auto and str(args.terms).strip().lower() == "auto":
+        return "auto"
     try:
         return TermSelection.from_names(args.terms)
     except ValueError as exc:

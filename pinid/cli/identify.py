@@ -255,12 +255,12 @@ def run(args: argparse.Namespace) -> int:
         return _run_floating(args, out)
     methods = methods_from_args(args)
     model = robot_from_args(args)
-    terms = terms_from_args(args)
+    terms = terms_from_args(args, auto=True)
 
     def started() -> None:  # the inputs are read and checked: say what runs
         print(
             f"identifying {model.name} ({', '.join(model.joint_names)}) with {', '.join(methods)}; "
-            f"terms {', '.join(terms.names) or 'none'}",
+            f"terms {'auto' if terms == 'auto' else ', '.join(terms.names) or 'none'}",
             flush=True,
         )
         if not (args.no_report or args.no_figures):

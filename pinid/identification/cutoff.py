@@ -39,24 +39,21 @@ from pinid.errors import DataError, DataWarning, SpecError
 from pinid.model.base import BaseParameters
 from pinid.model.regressor import TermSelection
 from pinid.model.robot import RobotModel
-from pinid.problem.problem import (
-    IdentificationProblem,
-    base_regressor,
-    check_dataset,
-    free_angles,
-    prepare_dataset,
-    recorded_torque,
+from pinid.identification.crossval import (
+    FOLDS,
+    block_edges,
+    candidate_rows,
+    common_spans,
+    fold_scores,
+    fold_sums,
+    not_worse,
 )
+from pinid.problem.problem import free_angles, prepare_dataset
 
 #: Candidate cut-offs [Hz] (about three per decade); those the sample rate cannot carry are left out.
 GRID_HZ: tuple[float, ...] = (1.0, 1.5, 2.0, 3.0, 5.0, 7.0, 10.0, 15.0, 20.0, 30.0, 50.0, 70.0, 100.0, 150.0, 200.0)
 #: Highest candidate as a fraction of the Nyquist frequency (the filter refuses above 0.8).
 MAX_NYQUIST_FRACTION = 0.4
-#: Contiguous blocks per training recording.
-FOLDS = 5
-#: A higher cut-off is kept while its held-out error exceeds the best one's by at most this many standard
-#: errors of the paired fold-by-fold difference (about a one-sided 95 % test: "not measurably worse").
-STANDARD_ERRORS = 2.0
 
 
 @dataclass(frozen=True)
@@ -145,107 +142,25 @@ def choose_cutoff(
     candidates = sorted(float(c) for c in candidates)
     if not candidates:
         raise DataError("cut-off auto: the sample rate carries no candidate cut-off (at least 1 Hz)")
-    edges = [np.linspace(ds.t[0], ds.t[-1], folds + 1) for ds in raw]
+    edges = block_edges(raw, folds)
     options = {k: v for k, v in dict(preprocess or {}).items() if k != "cutoff"}
     fits, reasons = {}, {}
     for c in candidates:
         try:
             with warnings.catch_warnings():  # a candidate's own warnings ("content above the cut-off") are its score's
                 warnings.simplefilter("ignore", DataWarning)
-                fits[c] = _rows(model, raw, terms, base, {**options, "cutoff": c}, dict(problem_options or {}))
+                prepared = [prepare_dataset(ds, {**options, "cutoff": c}, unwrap=free_angles(model)) for ds in raw]
+                fits[c] = candidate_rows(model, prepared, terms, base, problem_options)
         except (DataError, SpecError) as exc:
             reasons[f"{c:g}"] = str(exc)
     if not fits:
         raise DataError(f"cut-off auto: no candidate cut-off could be used ({next(iter(reasons.values()))})")
-    # the samples every candidate keeps: the latest start and the earliest end of each recording
-    spans = [
-        (max(f.times[i][0] for f in fits.values()), min(f.times[i][-1] for f in fits.values())) for i in range(len(raw))
-    ]
-    sums = np.array(
-        [_score(fits[c], edges, spans, folds) if c in fits else np.full((folds, 2), np.nan) for c in candidates]
-    )
-    with np.errstate(invalid="ignore", divide="ignore"):
-        scores = 100.0 * np.sqrt(sums[:, :, 0].sum(axis=1) / sums[:, :, 1].sum(axis=1))
-        per_fold = 100.0 * np.sqrt(sums[:, :, 0] / sums[:, :, 1])
+    spans = common_spans(list(fits.values()))
+    nan = np.full((folds, 2), np.nan)
+    sums = np.array([fold_sums(fits[c], edges, spans) if c in fits else nan for c in candidates])
+    scores, per_fold = fold_scores(sums)
     if not np.any(np.isfinite(scores)):
         raise DataError("cut-off auto: no candidate left a held-out block to score (recordings too short)")
-    best = candidates[_pick(scores, per_fold)]
-    return CutoffChoice(best, candidates, [float(x) for x in scores], folds, reasons)
-
-
-def _pick(scores: np.ndarray, per_fold: np.ndarray) -> int:
-    """The highest candidate whose fold scores are not worse than the lowest-scoring candidate's by more
-    than :data:`STANDARD_ERRORS` standard errors of their paired fold-by-fold difference."""
     best = int(np.nanargmin(scores))
-    kept = [best]
-    for c in range(len(scores)):
-        d = per_fold[c] - per_fold[best]
-        d = d[np.isfinite(d)]
-        if len(d) > 1 and np.mean(d) <= STANDARD_ERRORS * np.std(d, ddof=1) / np.sqrt(len(d)):
-            kept.append(c)
-    return max(kept)
-
-
-@dataclass
-class _Rows:
-    """One candidate's fitted rows (W, tau, weights, each row's recording and time) and every sample's
-    full regressor and recorded torque for scoring."""
-
-    W: np.ndarray
-    tau: np.ndarray
-    weights: np.ndarray
-    row_recording: np.ndarray
-    row_time: np.ndarray
-    full: list[np.ndarray]  # per recording (N·nv, nb)
-    recorded: list[np.ndarray]  # per recording (N, nv)
-    times: list[np.ndarray]  # per recording (N,)
-
-
-def _rows(model, raw, terms, base, preprocess, problem_options) -> _Rows:
-    prepared = [prepare_dataset(ds, preprocess, unwrap=free_angles(model)) for ds in raw]
-    problem = IdentificationProblem.from_datasets(model, prepared, terms=terms, base=base, **problem_options)
-    checked = [check_dataset(ds, model) for ds in prepared]
-    times = [ds.t for ds in checked]
-    sample_recording = np.concatenate([np.full(ds.n, i) for i, ds in enumerate(checked)])
-    sample_time = np.concatenate(times)
-    return _Rows(
-        problem.W,
-        problem.tau,
-        problem.weights,
-        sample_recording[problem.sample],
-        sample_time[problem.sample],
-        [base_regressor(model, terms, base, ds) for ds in checked],
-        [recorded_torque(ds) for ds in checked],
-        times,
-    )
-
-
-def _score(rows: _Rows, edges, spans, folds: int) -> np.ndarray:
-    """Each fold's ``(squared error, squared recorded torque)`` sums of its held-out block's prediction
-    against the torque as recorded, ``(folds, 2)``; NaN rows when a fold leaves too few rows to fit."""
-    out = np.full((folds, 2), np.nan)
-    for k in range(folds):
-        held = np.zeros(len(rows.tau), dtype=bool)
-        for i, e in enumerate(edges):
-            held |= (rows.row_recording == i) & (rows.row_time >= e[k]) & (rows.row_time <= e[k + 1])
-        train = ~held & (rows.weights > 0)
-        if np.count_nonzero(train) <= rows.W.shape[1]:
-            continue
-        sw = np.sqrt(rows.weights[train])
-        A = rows.W[train] * sw[:, None]
-        s = np.linalg.norm(A, axis=0)
-        s[s == 0] = 1.0
-        theta = np.linalg.lstsq(A / s, rows.tau[train] * sw, rcond=None)[0] / s
-        err2 = ref2 = 0.0
-        for i, e in enumerate(edges):
-            t = rows.times[i]
-            lo, hi = max(e[k], spans[i][0]), min(e[k + 1], spans[i][1])
-            pick = np.flatnonzero((t >= lo) & (t <= hi))
-            if pick.size == 0:
-                continue
-            nv = rows.recorded[i].shape[1]
-            W = rows.full[i].reshape(len(t), nv, -1)[pick]
-            err2 += float(np.sum((W @ theta - rows.recorded[i][pick]) ** 2))
-            ref2 += float(np.sum(rows.recorded[i][pick] ** 2))
-        out[k] = err2, ref2
-    return out
+    kept = [best] + [c for c in range(len(candidates)) if not_worse(per_fold[c], per_fold[best])]
+    return CutoffChoice(candidates[max(kept)], candidates, [float(x) for x in scores], folds, reasons)

@@ -149,6 +149,12 @@ def _recordings_lines(d: dict, joints: list[str]) -> list[str]:
         )
         lines.append(f"low-pass cut-off {c['cutoff_hz']:g} Hz, chosen by {c['chosen_by']}")
         lines.append(f"  held-out relative RMS against the torque as recorded: {curve}")
+    if d.get("terms_choice"):
+        c = d["terms_choice"]
+        lines.append(f"terms {', '.join(c['terms']) or 'none'}, chosen by {c['chosen_by']}")
+        for k, step in enumerate(c["steps"]):
+            said = ", ".join(f"{n} {v:.3g} %" for n, v in step.items() if v is not None)
+            lines.append(f"  {'start' if k == 0 else f'step {k}'}: held-out relative RMS {said}")
     fit = d.get("fit_joints")
     if fit is not None and len(fit) < len(joints):
         left = [j for j in joints if j not in fit]

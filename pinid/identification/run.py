@@ -111,6 +111,7 @@ class Setup:
     stribeck: dict[str, dict] = field(default_factory=dict)  # the Stribeck shapes used (data["stribeck"])
     delay: dict | None = None  # the torque delay used (data["delay"]): given or estimated
     cutoff: dict | None = None  # the cut-off chosen by cross-validation (data["cutoff"]) when asked for "auto"
+    terms_choice: dict | None = None  # the terms chosen by cross-validation (data["terms_choice"]) for "auto"
 
 
 def setup(
@@ -137,8 +138,11 @@ def setup(
     ``fit_joints``: the joints whose torque rows enter the fit (default all); ``delay``: the torque
     channels' delay behind the positions (:func:`pinid.data.delay.parse_delay`; ``"auto"`` estimated on the
     training recordings, :mod:`pinid.identification.delay`), applied to every recording."""
-    model, terms = as_robot(model), as_terms(terms)  # each returns a resolved model or selection as it is
+    auto_terms = isinstance(terms, str) and terms.strip().lower() == "auto"
+    model, terms = as_robot(model), TermSelection() if auto_terms else as_terms(terms)  # resolved ones as they are
     auto = dict(stribeck_auto or {})
+    if auto_terms and (auto or segmental):
+        raise SpecError("terms auto with Stribeck velocity 'auto' or the segmental strategy: give the terms instead")
     fit_mask(model, fit_joints)  # a bad joint name fails before any recording is read
     delays = parse_delay(delay, model.joint_names)
     if segmental and (fit_joints is not None or delays is not None):
@@ -152,6 +156,16 @@ def setup(
         chosen = _auto_cutoff(model, data, terms, mapping, preprocess, fit_joints, rest_velocity, rest_fraction)
         preprocess = {**preprocess, "cutoff": chosen.cutoff}
     train = load_datasets(data, model, mapping, preprocess, "training")
+    terms_choice = None
+    if auto_terms:
+        from pinid.identification.term_choice import choose_terms  # loaded on use
+
+        fitted = [j for j, f in zip(model.joint_names, fit_mask(model, fit_joints)) if f]
+        options = {"rest_velocity": rest_velocity, "rest_fraction": rest_fraction, "fit_joints": fit_joints}
+        terms_choice = choose_terms(
+            model, train, fit_joints=None if len(fitted) == model.nv else fitted, problem_options=options
+        )
+        terms = final_terms = TermSelection(names=terms_choice.terms)
     warn_if_large_recordings(model, terms, train)
     if validate is None:
         val = {}
@@ -239,7 +253,19 @@ def setup(
             rest_fraction=rest_fraction,
             fit_joints=fit_joints,
         )
-    return Setup(model, terms, base, problem, train, val, seg, shapes, used_delay, chosen and chosen.to_dict())
+    return Setup(
+        model,
+        terms,
+        base,
+        problem,
+        train,
+        val,
+        seg,
+        shapes,
+        used_delay,
+        chosen and chosen.to_dict(),
+        terms_choice and terms_choice.to_dict(),
+    )
 
 
 def _auto_cutoff(model, data, terms, mapping, preprocess, fit_joints, rest_velocity, rest_fraction):
@@ -426,7 +452,8 @@ def identify(
     ``ddq`` go through :func:`pinid.data.preprocess.prepare` (see
     :func:`~pinid.problem.problem.prepare_dataset` for ``preprocess``).
     ``methods``: names from :data:`pinid.estimators.ESTIMATORS` (default ols, wls, sdp).  ``terms``: the
-    joint terms in the model (default Coulomb and viscous friction).  ``rest_velocity``,
+    joint terms in the model (default Coulomb and viscous friction; ``"auto"``: chosen on the training
+    recordings, :mod:`pinid.identification.term_choice`).  ``rest_velocity``,
     ``rest_fraction``: rows at rest dropped for Coulomb friction (:mod:`pinid.problem.problem`).
     ``options``: settings per method, e.g. ``{"sdp": {"regularization": 1e-2, "mass_bounds": (0.1, 20)}}``.
     ``complete``: look for a consistent standard set behind base-only results (one small SDP each).
@@ -456,7 +483,8 @@ def identify(
     """
     t_start = time.perf_counter()
     model = as_model(model)
-    terms = as_terms(terms)
+    auto_terms = isinstance(terms, str) and terms.strip().lower() == "auto"  # chosen by the training data
+    terms = TermSelection() if auto_terms else as_terms(terms)
     methods = parse_methods(methods)
     options = check_options(options, methods)
     for m in methods:  # bad settings fail before any recording is read
@@ -484,7 +512,7 @@ def identify(
         model,
         data,
         validate,
-        terms=terms,
+        terms="auto" if auto_terms else terms,
         mapping=mapping,
         preprocess=preprocess,
         rest_velocity=rest_velocity,
@@ -495,6 +523,7 @@ def identify(
         delay=delay,
     )
     model = s.model  # with the fitted Stribeck shapes (auto): built once, used from here on
+    terms = s.terms if auto_terms else terms
     x_true = None if truth is None else true_base(truth, model, s.terms, s.base)  # checked before the fits
     if started is not None:
         started()
@@ -548,6 +577,8 @@ def identify(
         summary["delay"] = s.delay
     if s.cutoff is not None:
         summary["cutoff"] = s.cutoff
+    if s.terms_choice is not None:
+        summary["terms_choice"] = s.terms_choice
     if manifest is not None:
         summary["manifest"] = str(getattr(manifest, "path", manifest))
     return Identification(

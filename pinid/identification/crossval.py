@@ -1,0 +1,147 @@
+"""Blocked cross-validation on the training recordings: what the data-chosen settings share.
+
+Every training recording is cut into ``folds`` contiguous blocks of equal duration (the same boundaries,
+in time, for every candidate compared); the model of a candidate is fitted by ordinary least squares on all
+blocks but one and the held-out block is predicted and scored **against the torque as recorded**, on the
+samples every candidate keeps.  Blocks rather than random rows: the residuals of filtered recordings are
+correlated in time, and a random split scores a sample with its neighbours in the fit.
+
+Candidates are compared fold by fold: a difference counts when the mean of the paired fold differences
+exceeds :data:`STANDARD_ERRORS` standard errors of them (about a one-sided 95 % test).
+:mod:`pinid.identification.cutoff` (the low-pass cut-off) and :mod:`pinid.identification.term_choice` (the
+joint terms) use it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from pinid.data.dataset import Dataset
+from pinid.model.base import BaseParameters
+from pinid.model.regressor import TermSelection
+from pinid.model.robot import RobotModel
+from pinid.problem.problem import IdentificationProblem, base_regressor, check_dataset, recorded_torque
+
+#: Contiguous blocks per training recording.
+FOLDS = 5
+#: A paired fold-by-fold difference counts when its mean exceeds this many standard errors.
+STANDARD_ERRORS = 2.0
+
+
+@dataclass
+class CandidateRows:
+    """One candidate's fitted rows (W, tau, weights, each row's recording and time) and, per recording,
+    every sample's regressor, recorded torque and time (for scoring)."""
+
+    W: np.ndarray
+    tau: np.ndarray
+    weights: np.ndarray
+    row_recording: np.ndarray
+    row_time: np.ndarray
+    full: list[np.ndarray]  # per recording (N·nv, nb)
+    recorded: list[np.ndarray]  # per recording (N, nv)
+    times: list[np.ndarray]  # per recording (N,)
+
+
+def block_edges(recordings: Sequence[Dataset], folds: int = FOLDS) -> list[np.ndarray]:
+    """Each recording's block boundaries [s] (``folds + 1`` times from its first to its last sample)."""
+    return [np.linspace(ds.t[0], ds.t[-1], folds + 1) for ds in recordings]
+
+
+def candidate_rows(
+    model: RobotModel,
+    prepared: Sequence[Dataset],
+    terms: TermSelection,
+    base: BaseParameters,
+    problem_options: Mapping | None = None,
+) -> CandidateRows:
+    """The rows of prepared recordings as the identification fits them (``problem_options``:
+    ``rest_velocity``, ``rest_fraction``, ``fit_joints``), with what scoring needs."""
+    problem = IdentificationProblem.from_datasets(
+        model, list(prepared), terms=terms, base=base, **(problem_options or {})
+    )
+    checked = [check_dataset(ds, model) for ds in prepared]
+    times = [ds.t for ds in checked]
+    sample_recording = np.concatenate([np.full(ds.n, i) for i, ds in enumerate(checked)])
+    sample_time = np.concatenate(times)
+    return CandidateRows(
+        problem.W,
+        problem.tau,
+        problem.weights,
+        sample_recording[problem.sample],
+        sample_time[problem.sample],
+        [base_regressor(model, terms, base, ds) for ds in checked],
+        [recorded_torque(ds) for ds in checked],
+        times,
+    )
+
+
+def common_spans(candidates: Sequence[CandidateRows]) -> list[tuple[float, float]]:
+    """Per recording, the time span [s] every candidate keeps (the latest start, the earliest end)."""
+    n = len(candidates[0].times)
+    return [(max(c.times[i][0] for c in candidates), min(c.times[i][-1] for c in candidates)) for i in range(n)]
+
+
+def fold_sums(rows: CandidateRows, edges: Sequence[np.ndarray], spans: Sequence[tuple[float, float]]) -> np.ndarray:
+    """``(folds, 2)``: each fold's squared error and squared recorded torque summed over its held-out block
+    (inside ``spans``), the model fitted by OLS on the other blocks; NaN where too few rows are left to fit."""
+    folds = len(edges[0]) - 1
+    out = np.full((folds, 2), np.nan)
+    for k in range(folds):
+        held = np.zeros(len(rows.tau), dtype=bool)
+        for i, e in enumerate(edges):
+            held |= (rows.row_recording == i) & (rows.row_time >= e[k]) & (rows.row_time <= e[k + 1])
+        train = ~held & (rows.weights > 0)
+        if np.count_nonzero(train) <= rows.W.shape[1]:
+            continue
+        sw = np.sqrt(rows.weights[train])
+        A = rows.W[train] * sw[:, None]
+        scale = np.linalg.norm(A, axis=0)
+        scale[scale == 0] = 1.0
+        theta = np.linalg.lstsq(A / scale, rows.tau[train] * sw, rcond=None)[0] / scale
+        err2 = ref2 = 0.0
+        for i, e in enumerate(edges):
+            t = rows.times[i]
+            lo, hi = max(e[k], spans[i][0]), min(e[k + 1], spans[i][1])
+            pick = np.flatnonzero((t >= lo) & (t <= hi))
+            if pick.size == 0:
+                continue
+            W = rows.full[i].reshape(len(t), rows.recorded[i].shape[1], -1)[pick]
+            err2 += float(np.sum((W @ theta - rows.recorded[i][pick]) ** 2))
+            ref2 += float(np.sum(rows.recorded[i][pick] ** 2))
+        out[k] = err2, ref2
+    return out
+
+
+def fold_scores(sums: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """From ``(candidates, folds, 2)`` sums: each candidate's pooled relative RMS [%] over all folds, and
+    each fold's ``(candidates, folds)``."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        pooled = 100.0 * np.sqrt(sums[:, :, 0].sum(axis=1) / sums[:, :, 1].sum(axis=1))
+        per_fold = 100.0 * np.sqrt(sums[:, :, 0] / sums[:, :, 1])
+    return pooled, per_fold
+
+
+def _paired(a: np.ndarray, b: np.ndarray) -> tuple[float, float] | None:
+    d = np.asarray(a) - np.asarray(b)
+    d = d[np.isfinite(d)]
+    if len(d) < 2:
+        return None
+    return float(np.mean(d)), float(np.std(d, ddof=1) / np.sqrt(len(d)))
+
+
+def not_worse(candidate: np.ndarray, reference: np.ndarray) -> bool:
+    """True when ``candidate``'s fold scores exceed ``reference``'s by at most :data:`STANDARD_ERRORS`
+    standard errors of the paired difference."""
+    d = _paired(candidate, reference)
+    return d is not None and d[0] <= STANDARD_ERRORS * d[1]
+
+
+def better(candidate: np.ndarray, reference: np.ndarray) -> bool:
+    """True when ``candidate``'s fold scores are below ``reference``'s by more than :data:`STANDARD_ERRORS`
+    standard errors of the paired difference (a measurable improvement)."""
+    d = _paired(candidate, reference)
+    return d is not None and -d[0] > STANDARD_ERRORS * d[1]
