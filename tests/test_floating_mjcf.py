@@ -101,3 +101,38 @@ def test_bad_floating_exports_are_one_line_and_write_nothing(identified, tmp_pat
         proc = run_cli("export", "--model", "i.json", *extra, "-o", "x.xml", cwd=tmp_path)
         assert_clean_error(proc, fragments[case])
         assert not (tmp_path / "x.xml").exists()
+
+
+def test_tampered_floating_identification_is_refused_and_names_are_matched_by_name(identified, tmp_path):
+    """Round 4 finding 09: a standard vector one short, a text value or other terms gave "internal error:
+    ValueError" (exit 1); a reversed ``standard_names`` list was ignored (values taken by position).  Now each
+    is one line naming the file and the field (exit 2, nothing written), and values are matched by name."""
+    _, folder = identified
+    d = json.loads((folder / "identification.json").read_text())
+    sdp = d["results"]["sdp"]
+
+    def with_sdp(**changes):
+        return {**d, "results": {"sdp": {**sdp, **changes}}}
+
+    cases = {
+        "short": (
+            with_sdp(standard=sdp["standard"][:-1], standard_names=sdp["standard_names"][:-1]),
+            f"short.json: results.sdp.standard_names do not match the {len(sdp['standard'])} parameters",
+        ),
+        "text": (with_sdp(standard=["x"] + sdp["standard"][1:]), "text.json: results.sdp.standard: expected a list"),
+        "terms": ({**d, "model": {**d["model"], "terms": ["fv"]}}, "terms.json: results.sdp.standard_names do not"),
+        "lengths": (with_sdp(standard=sdp["standard"][:-1]), "lengths.json: results.sdp: "),
+        "reversed": (with_sdp(standard_names=sdp["standard_names"][::-1]), "no method with physically consistent"),
+    }
+    for case, (content, fragment) in cases.items():
+        (tmp_path / f"{case}.json").write_text(json.dumps(content))
+        proc = run_cli("export", "--model", f"{case}.json", "-o", "x.xml", cwd=tmp_path)
+        assert_clean_error(proc, fragment)
+        assert not (tmp_path / "x.xml").exists()
+    # names and values reversed together: the same parameters, so the same MJCF as identify wrote
+    (tmp_path / "both.json").write_text(
+        json.dumps(with_sdp(standard=sdp["standard"][::-1], standard_names=sdp["standard_names"][::-1]))
+    )
+    proc = run_cli("export", "--model", "both.json", "-o", "both.xml", cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    assert (tmp_path / "both.xml").read_text() == (folder / "identified_sdp.xml").read_text()
