@@ -336,6 +336,8 @@ def _common_span(path: Path, fm: FloatingMapping) -> FloatingMapping:
     either (read apart, each would keep those inside its own sources: the wrench paired with other motion)."""
     if fm.columns is None or not fm.names:
         return fm
+    if not any(src.time is not None for spec in (fm.joints, fm.columns) for src in spec.sources.values()):
+        return fm  # every column on the main file's rows: nothing to align
     (a0, a1), (b0, b1) = fm.joints.time_span(path), fm.columns.time_span(path)
     lo, hi = max(a0, b0), min(a1, b1)
     if lo > hi:
