@@ -226,9 +226,13 @@ def test_rest_rows_left_out_on_request(exo, gait):
     assert error(problem, make_estimator("ols").fit(problem).base_) <= 1e-6
 
 
-def test_ros2_bag_with_imu_and_wrench_messages(exo, suspended, tmp_path):
+@pytest.mark.parametrize("raw_topic", [False, True])
+def test_ros2_bag_with_imu_and_wrench_messages(exo, suspended, tmp_path, raw_topic):
     """JointState + sensor_msgs/Imu (frame "imu") + geometry_msgs/WrenchStamped (frame "pelvis") in a rosbag2
-    folder read as the same floating recording as the CSV (Imu and wrench interpolated onto the joint stamps)."""
+    folder read as the same floating recording as the CSV (Imu and wrench interpolated onto the joint stamps).
+    ``raw_topic``: a second WrenchStamped topic in the same frame (a F/T driver's uncompensated /harness_raw,
+    +50 N, 0.3 ms later) was merged into the wrench series (round 4 finding 10: total mass 24 kg instead of
+    21.8); now refused in one line naming both topics, and ``[ros] ignore_topics`` chooses one."""
     pytest.importorskip("rosbags")
     from rosbags.rosbag2 import StoragePlugin, Writer
     from rosbags.typesys import Stores, get_typestore
@@ -253,6 +257,7 @@ def test_ros2_bag_with_imu_and_wrench_messages(exo, suspended, tmp_path):
         cj, ci, cw = (
             w.add_connection(t, m, typestore=store) for t, m in (("/joint_states", js), ("/imu", imu), ("/harness", wr))
         )
+        cw2 = w.add_connection("/harness_raw", wr, typestore=store) if raw_topic else None
         for k, tk in enumerate(ds.t):
             ns = t0 + int(round(tk * 1e9))
             w.write(
@@ -281,7 +286,25 @@ def test_ros2_bag_with_imu_and_wrench_messages(exo, suspended, tmp_path):
                 header=header(ns, "pelvis"), wrench=T["geometry_msgs/msg/Wrench"](force=vec(f[:3]), torque=vec(f[3:]))
             )
             w.write(cw, ns, store.serialize_cdr(msg, wr))
-    from_bag = read_floating(path, exo)
+            if raw_topic:
+                g = f + np.array([0, 0, 50.0, 0, 0, 0])
+                msg = T[wr](
+                    header=header(ns + 300_000, "pelvis"),
+                    wrench=T["geometry_msgs/msg/Wrench"](force=vec(g[:3]), torque=vec(g[3:])),
+                )
+                w.write(cw2, ns + 300_000, store.serialize_cdr(msg, wr))
+    mapping = None
+    if raw_topic:
+        with pytest.raises(SpecError, match=r"topics /harness and /harness_raw both give the wrench_pelvis_\* col"):
+            read_floating(path, exo)
+        side = [f"imu_imu_{c}" for c in ("qx", "qy", "qz", "qw", "wx", "wy", "wz", "ax", "ay", "az")]
+        side += [f"wrench_pelvis_{c}" for c in ("fx", "fy", "fz", "tx", "ty", "tz")]
+        mapping = {
+            "ros": {"ignore_topics": ["/harness_raw"]},
+            "joints": {j: {"q": f"q_{j}", "tau": f"tau_{j}"} for j in ds.joints},
+            "floating": {c: c for c in side},
+        }
+    from_bag = read_floating(path, exo, mapping=mapping)
     from_csv = read_floating(write_floating(tmp_path / "s.csv", rec), exo)
     assert from_bag.imu_frame == "imu" and list(from_bag.wrenches) == ["pelvis"]
     for key in ("q", "w", "a"):

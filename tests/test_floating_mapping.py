@@ -12,7 +12,7 @@ from conftest import assert_clean_error, run_cli
 
 from pinid import RobotModel
 from pinid.data.contacts import read_floating, write_floating
-from pinid.errors import SpecError
+from pinid.errors import DataError, SpecError
 from pinid.identification.floating import identify_floating
 from pinid.simulation.floating_twin import simulate_gait, simulate_suspended
 from test_floating_identification import excitation
@@ -118,3 +118,46 @@ def test_bad_floating_mapping_is_one_line_and_writes_nothing(exo, table, words, 
     )
     assert_clean_error(proc, words)
     assert not (tmp_path / "out").exists()
+
+
+def test_joint_and_floating_sources_keep_one_common_time_span(exo, tmp_path):
+    """Round 4 finding 11: torques from a logger that started 0.5 s late and a wrench from one that stopped
+    0.5 s early were each trimmed to their own span (the same number of samples, different ones: the wrench
+    paired with motion 0.5 s away, train RMS × 20).  Now both keep the samples inside every source: the same
+    signals as the one-file recording cut to the common span."""
+    twin = simulate_suspended(exo, excitation(exo), seconds=3, rate=100, imu_frame="imu")
+    full = read_floating(write_floating(tmp_path / "s.csv", twin.recording), exo)
+    with open(tmp_path / "s.csv") as f:
+        rows = list(csv.reader(f))
+    head, a = rows[0], np.array(rows[1:], dtype=float)
+    t = a[:, 0]
+    joints = [h[2:] for h in head if h.startswith("q_")]
+    base = [h for h in head if h.startswith(("base_", "imu_"))]
+    wc = [h for h in head if h.startswith("wrench_")]
+
+    def write(name, cols, mask):
+        np.savetxt(tmp_path / name, a[np.ix_(mask, [head.index(c) for c in cols])], delimiter=",",
+                   header=",".join(cols), comments="", fmt="%.17g")  # fmt: skip
+
+    every = np.ones(len(t), bool)
+    late, early = t >= 0.5, t <= t[-1] - 0.5
+    write("main.csv", ["t"] + [f"q_{j}" for j in joints] + base, every)
+    write("tq.csv", ["t"] + [f"tau_{j}" for j in joints], late)
+    write("ft.csv", ["t"] + wc, early)
+    spec = ['time = "t"', "[sources.tq]", 'path = "tq.csv"', 'time = "t"', "[sources.ft]", 'path = "ft.csv"']
+    spec += ['time = "t"']
+    for j in joints:
+        spec += [f"[joints.{j}]", f'q = "q_{j}"', f'tau = {{ source = "tq", column = "tau_{j}" }}']
+    spec += ["[floating]"] + [f'{c} = "{c}"' for c in base] + [f'{c} = {{ source = "ft", column = "{c}" }}' for c in wc]
+    (tmp_path / "map.toml").write_text("\n".join(spec) + "\n")
+    with pytest.warns(UserWarning, match=f"kept {int((late & early).sum())} of {len(t)} samples"):
+        rec = read_floating(tmp_path / "main.csv", exo, mapping=tmp_path / "map.toml")
+    inside = late & early
+    np.testing.assert_allclose(rec.data.t, t[inside], atol=1e-12)
+    np.testing.assert_allclose(rec.data.tau, full.data.tau[inside], atol=1e-9)
+    np.testing.assert_allclose(rec.wrenches["pelvis"], full.wrenches["pelvis"][inside], atol=1e-9)
+    np.testing.assert_allclose(rec.data.q, full.data.q[inside], atol=1e-9)
+    # no common span: one line
+    write("ft.csv", ["t"] + wc, t <= 0.4)
+    with pytest.raises(DataError, match=r"no common time span"):
+        read_floating(tmp_path / "main.csv", exo, mapping=tmp_path / "map.toml")

@@ -4,6 +4,7 @@ dynamics in MuJoCo as Pinocchio's on the identified floating model."""
 from __future__ import annotations
 
 import json
+import re
 
 import numpy as np
 import pytest
@@ -11,6 +12,7 @@ import pytest
 from conftest import assert_clean_error, run_cli
 
 from pinid import RobotModel
+from pinid.errors import SpecError
 from pinid.identification.floating import identify_floating, load_floating_identified, write_floating_identification
 from pinid.model.terms import TermSelection
 from pinid.simulation.floating_twin import simulate_suspended
@@ -101,3 +103,39 @@ def test_bad_floating_exports_are_one_line_and_write_nothing(identified, tmp_pat
         proc = run_cli("export", "--model", "i.json", *extra, "-o", "x.xml", cwd=tmp_path)
         assert_clean_error(proc, fragments[case])
         assert not (tmp_path / "x.xml").exists()
+
+
+def test_tampered_floating_identification_is_refused_and_names_are_matched_by_name(identified, tmp_path):
+    """Round 4 finding 09: a standard vector one short, a text value or other terms gave "internal error:
+    ValueError" (exit 1); a reversed ``standard_names`` list was ignored (values taken by position).  Now each
+    is one line naming the file and the field (exit 2, nothing written), and values are matched by name."""
+    _, folder = identified
+    d = json.loads((folder / "identification.json").read_text())
+    sdp = d["results"]["sdp"]
+
+    def with_sdp(**changes):
+        return {**d, "results": {"sdp": {**sdp, **changes}}}
+
+    cases = {
+        "short": (
+            with_sdp(standard=sdp["standard"][:-1], standard_names=sdp["standard_names"][:-1]),
+            f"short.json: results.sdp.standard_names do not match the {len(sdp['standard'])} parameters",
+        ),
+        "text": (with_sdp(standard=["x"] + sdp["standard"][1:]), "text.json: results.sdp.standard: expected a list"),
+        "terms": ({**d, "model": {**d["model"], "terms": ["fv"]}}, "terms.json: results.sdp.standard_names do not"),
+        "lengths": (with_sdp(standard=sdp["standard"][:-1]), "lengths.json: results.sdp: "),
+        "reversed": (with_sdp(standard_names=sdp["standard_names"][::-1]), "no method with physically consistent"),
+    }
+    for case, (content, fragment) in cases.items():
+        (tmp_path / f"{case}.json").write_text(json.dumps(content))
+        with pytest.raises(SpecError, match=re.escape(fragment)):
+            load_floating_identified(tmp_path / f"{case}.json")
+    proc = run_cli("export", "--model", "short.json", "-o", "x.xml", cwd=tmp_path)  # the CLI: one line, exit 2
+    assert_clean_error(proc, cases["short"][1])
+    assert not (tmp_path / "x.xml").exists()
+    # names and values reversed together: the same parameters, in the model's order
+    (tmp_path / "both.json").write_text(
+        json.dumps(with_sdp(standard=sdp["standard"][::-1], standard_names=sdp["standard_names"][::-1]))
+    )
+    theta = load_floating_identified(tmp_path / "both.json")[2]
+    np.testing.assert_array_equal(theta, load_floating_identified(folder / "identification.json")[2])

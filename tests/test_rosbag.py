@@ -143,6 +143,8 @@ def test_bag_errors_are_one_line(tmp_path, twin):
         read_recording(bag, mapping={"ros": {}, "joints": {"hip": {"q": "q_hip", "dq": "dq_hip"}}})
     with pytest.raises(SpecError, match=r"\[ros\] time = 'wall'"):
         read_recording(bag, mapping={"ros": {"time": "wall"}, "joints": {"hip": {"q": "q_hip"}}})
+    with pytest.raises(SpecError, match=r"\[ros\] ignore_topics = '/ft_raw', expected a list of topic names"):
+        read_recording(bag, mapping={"ros": {"ignore_topics": "/ft_raw"}, "joints": {"hip": {"q": "q_hip"}}})
     with pytest.raises(SpecError, match=r"unknown key 'topics' in \[ros\]"):
         read_recording(bag, mapping={"ros": {"topics": "/a"}, "joints": {"hip": {"q": "q_hip"}}})
     empty = tmp_path / "empty"

@@ -33,7 +33,7 @@ from __future__ import annotations
 import os
 import re
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -234,6 +234,7 @@ def read_floating(
     if mapping is not None:
         fm = floating_mapping(mapping, allow_outside_paths=kwargs.get("allow_outside_paths", False))
         g = _groups(fm.names, source)
+        fm = _common_span(path, fm)
         data = read_recording(path, model=model, mapping=fm.joints, **kwargs)
         values = _read_mapped(path, fm, data.n) if fm.names else {}
     else:
@@ -330,9 +331,28 @@ def _read_columns(path: Path, columns: list[str], n: int) -> dict[str, np.ndarra
     return {c: ds.q[:, i] for i, c in enumerate(columns)}
 
 
+def _common_span(path: Path, fm: FloatingMapping) -> FloatingMapping:
+    """``fm`` with its joint and ``[floating]`` specs both keeping only the samples inside every source of
+    either (read apart, each would keep those inside its own sources: the wrench paired with other motion)."""
+    if fm.columns is None or not fm.names:
+        return fm
+    if not any(src.time is not None for spec in (fm.joints, fm.columns) for src in spec.sources.values()):
+        return fm  # every column on the main file's rows: nothing to align
+    (a0, a1), (b0, b1) = fm.joints.time_span(path), fm.columns.time_span(path)
+    lo, hi = max(a0, b0), min(a1, b1)
+    if lo > hi:
+        raise DataError(
+            f"{path}: the joint sources cover [{a0:g}, {a1:g}] s and the [floating] sources [{b0:g}, {b1:g}] s: "
+            "no common time span, expected recordings of the same run"
+        )
+    return replace(fm, joints=replace(fm.joints, span=(lo, hi)), columns=replace(fm.columns, span=(lo, hi)))
+
+
 def _read_mapped(path: Path, fm: FloatingMapping, n: int) -> dict[str, np.ndarray]:
     """The floating columns of ``path`` through the ``[floating]`` table of ``fm``, in SI units, by name."""
-    ds = fm.columns.read(path)
+    with warnings.catch_warnings():  # the same samples as the joints' (:func:`_common_span`), already said
+        warnings.filterwarnings("ignore", message=".*those inside every source's time span")
+        ds = fm.columns.read(path)
     if ds.n != n:
         raise DataError(f"{path}: {ds.n} rows of [floating] columns for {n} samples; expected equal lengths")
     bad = ~np.isfinite(ds.q)

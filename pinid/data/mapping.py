@@ -138,6 +138,9 @@ class MappingSpec:
     checks: dict[str, str] = field(default_factory=dict)
     origin: str = "<mapping>"
     allow_outside_paths: bool = False  # True: [sources.*] paths may leave the main file's folder
+    #: (start, stop) [s] on the main file's clock: keep only the samples inside it too (a floating mapping's
+    #: common span of the joint and [floating] sources, :func:`pinid.data.contacts.read_floating`)
+    span: tuple[float, float] | None = None
 
     # ------------------------------------------------------------------ construction
     @classmethod
@@ -214,9 +217,9 @@ class MappingSpec:
         return out
 
     # ------------------------------------------------------------------ reading
-    def read(self, path: str | os.PathLike):
-        """Read the main file ``path`` (and the other sources) into a Dataset (not yet checked against a model)."""
-        path = Path(path)
+    def _load(self, path: Path) -> tuple[np.ndarray, np.ndarray, dict, Any]:
+        """The main file's time [s], the mask of its samples inside every timed source, the values of every
+        column reference (sources interpolated onto the main time) and the main file's table."""
         refs_by_source: dict[str, list[ColumnRef]] = {}
         for table in (self.joints, self.motors):
             for sig in table.values():
@@ -225,7 +228,6 @@ class MappingSpec:
         # main file
         main_tab = _open_source(self.main, path, path, refs_by_source.get(MAIN, []), self.origin)
         t = _time_of(main_tab, self.main, self.origin)
-        columns_desc: dict[str, str] = {}
         values: dict[ColumnRef, np.ndarray] = {}
         for ref in refs_by_source.get(MAIN, []):
             values[ref] = main_tab.values(ref, self.origin)
@@ -255,6 +257,28 @@ class MappingSpec:
                 keep &= inside
                 for ref in refs:
                     values[ref] = np.interp(t, ts, tab.values(ref, self.origin))
+        return t, keep, values, main_tab
+
+    def time_span(self, path: str | os.PathLike) -> tuple[float, float]:
+        """The (first, last) time [s] of the main file ``path`` inside every timed source this spec reads."""
+        path = Path(path)
+        t, keep = self._load(path)[:2]
+        if not keep.any():
+            raise DataError(f"{path}: no sample lies inside every source's time span ({self.origin})")
+        return float(t[keep][0]), float(t[keep][-1])
+
+    def read(self, path: str | os.PathLike):
+        """Read the main file ``path`` (and the other sources) into a Dataset (not yet checked against a model)."""
+        path = Path(path)
+        t, keep, values, main_tab = self._load(path)
+        if self.span is not None:
+            keep &= (t >= self.span[0]) & (t <= self.span[1])
+            if not keep.any():
+                raise DataError(
+                    f"{path}: no sample lies inside every source's time span (joint and [floating] sources: "
+                    f"[{self.span[0]:g}, {self.span[1]:g}] s), expected recordings of the same run"
+                )
+        columns_desc: dict[str, str] = {}
         for ref in values:
             columns_desc.setdefault(ref.where, f"{ref.source}:{ref.column!r}")
         n = len(t)

@@ -18,7 +18,9 @@ Floating base (docs/floating-base.md): every ``sensor_msgs/msg/Imu`` topic also 
 ``imu_<frame>_qx … _qw`` (orientation), ``_wx, _wy, _wz`` (angular velocity) and ``_ax, _ay, _az`` (linear
 acceleration, the specific force an accelerometer measures), and every ``geometry_msgs/msg/WrenchStamped``
 topic ``wrench_<frame>_fx … _tz``, ``<frame>`` being the messages' ``header.frame_id`` (a URDF link), linearly
-interpolated onto the JointState samples (which they must cover).
+interpolated onto the JointState samples (which they must cover).  Two topics that would give the same
+columns (same message type and frame, such as a F/T driver's compensated and raw wrenches) are refused, not
+merged: ``[ros] ignore_topics = ["/ft_raw"]`` leaves the unwanted ones out.
 
 ``t`` is in seconds from the first message of ``topic``.  When the messages of a topic name different
 joints (several publishers on one topic), the samples are the messages that hold every joint asked for.
@@ -52,34 +54,42 @@ def _side_values(msg, msgtype: str) -> list[float]:
     return [f.x, f.y, f.z, t.x, t.y, t.z]
 
 
-def _read_side(file: Path, clock: str) -> dict[str, tuple[np.ndarray, np.ndarray]]:
-    """Every Imu and WrenchStamped topic of a bag: ``{column prefix "imu_<frame>_": (stamps [ns], (N, k) values)}``."""
+def _read_side(
+    file: Path, clock: str, ignore: tuple[str, ...] = ()
+) -> dict[str, tuple[np.ndarray, np.ndarray, list[str]]]:
+    """Every Imu and WrenchStamped topic of a bag but those in ``ignore``: ``{column prefix "imu_<frame>_":
+    (stamps [ns], (N, k) values, the topics that gave them)}``; more than one topic under a prefix is an
+    ambiguous source, refused where its columns are read (:func:`_side_samples`)."""
     from rosbags.rosbag2 import Reader as BagReader
     from rosbags.typesys import Stores, get_typestore
 
     bag = BagReader(file)
     bag.open()
     try:
-        conns = [c for c in bag.connections if c.msgtype in SIDE]
+        unknown = [t for t in ignore if t not in {c.topic for c in bag.connections}]
+        if unknown:
+            raise SpecError(f"{file}: [ros] ignore_topics names {unknown[0]!r}, which is not a topic of the bag")
+        conns = [c for c in bag.connections if c.msgtype in SIDE and c.topic not in ignore]
         if not conns:
             return {}
         store = get_typestore(Stores.LATEST)
-        raw: dict[str, tuple[list, list]] = {}
+        raw: dict[str, tuple[list, list, dict]] = {}
         for conn, received, data in bag.messages(connections=conns):
             msg = store.deserialize_cdr(data, conn.msgtype)
             frame = msg.header.frame_id or conn.topic.strip("/").replace("/", "_")
             stamp = msg.header.stamp
             ns = int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec) if clock == "header" else int(received)
-            stamps, values = raw.setdefault(f"{SIDE[conn.msgtype][0]}{frame}_", ([], []))
+            stamps, values, topics = raw.setdefault(f"{SIDE[conn.msgtype][0]}{frame}_", ([], [], {}))
+            topics[conn.topic] = None
             stamps.append(ns)
             values.append(_side_values(msg, conn.msgtype))
     finally:
         bag.close()
     out = {}
-    for prefix, (stamps, values) in raw.items():
+    for prefix, (stamps, values, topics) in raw.items():
         st = np.asarray(stamps, dtype=np.int64)
         order = np.argsort(st, kind="stable")
-        out[prefix] = (st[order], np.asarray(values, dtype=float)[order])
+        out[prefix] = (st[order], np.asarray(values, dtype=float)[order], list(topics))
     return out
 
 
@@ -90,7 +100,7 @@ def _side_columns(prefix: str) -> list[str]:
 DEFAULT_TOPIC = "/joint_states"
 #: dataset-format prefix → JointState field
 FIELDS = {"q_": "position", "dq_": "velocity", "tau_": "effort"}
-_OPTION_KEYS = {"topic", "effort_topic", "time"}
+_OPTION_KEYS = {"topic", "effort_topic", "time", "ignore_topics"}
 
 
 def is_bag_folder(path: Path) -> bool:
@@ -99,7 +109,8 @@ def is_bag_folder(path: Path) -> bool:
 
 
 def options(source, origin: str) -> dict:
-    """The ``[ros]`` table of a mapping spec's source, checked: ``topic``, ``effort_topic``, ``time``."""
+    """The ``[ros]`` table of a mapping spec's source, checked: ``topic``, ``effort_topic``, ``time``,
+    ``ignore_topics`` (Imu / WrenchStamped topics to leave out)."""
     raw = getattr(source, "ros", None) or {}
     unknown = sorted(set(raw) - _OPTION_KEYS)
     if unknown:
@@ -112,7 +123,12 @@ def options(source, origin: str) -> dict:
     clock = raw.get("time", "header")
     if clock not in ("header", "receive"):
         raise SpecError(f'{origin}: [ros] time = {clock!r}, expected "header" (message stamps) or "receive" (bag time)')
-    return {"topic": raw.get("topic"), "effort_topic": raw.get("effort_topic"), "time": clock}
+    ignore = raw.get("ignore_topics", [])
+    if not (isinstance(ignore, list) and all(isinstance(x, str) and x for x in ignore)):
+        raise SpecError(
+            f'{origin}: [ros] ignore_topics = {ignore!r}, expected a list of topic names such as ["/ft_raw"]'
+        )
+    return {"topic": raw.get("topic"), "effort_topic": raw.get("effort_topic"), "time": clock, "ignore": tuple(ignore)}
 
 
 class _Topic:
@@ -285,7 +301,7 @@ def read(file: Path, source, wanted, origin: str) -> Table:
         values = {k: v[inside] for k, v in values.items()}
         for j in asked["effort"]:
             values[("effort", j)] = np.interp(tm, te, e_values[("effort", j)])
-    side = _side_samples(file, side_cols, stamps, opts["time"], origin) if side_cols else {}
+    side = _side_samples(file, side_cols, stamps, opts["time"], origin, opts["ignore"]) if side_cols else {}
     tab = Table(
         file, ["t"] + [p + j for p, f in FIELDS.items() for j in asked.get(f, [])] + side_cols, {}, len(stamps), None
     )
@@ -300,9 +316,13 @@ def read(file: Path, source, wanted, origin: str) -> Table:
     return tab
 
 
-def _side_samples(file: Path, cols: list[str], stamps: np.ndarray, clock: str, origin: str) -> dict[str, np.ndarray]:
-    """The Imu / WrenchStamped columns ``cols`` interpolated onto the JointState ``stamps`` [ns]."""
-    side = _read_side(file, clock)
+def _side_samples(
+    file: Path, cols: list[str], stamps: np.ndarray, clock: str, origin: str, ignore: tuple[str, ...] = ()
+) -> dict[str, np.ndarray]:
+    """The Imu / WrenchStamped columns ``cols`` interpolated onto the JointState ``stamps`` [ns]; SpecError when
+    two topics give the same columns (same message type and ``header.frame_id``): their messages would be
+    merged into one series."""
+    side = _read_side(file, clock, ignore)
     out = {}
     for col in cols:
         prefix = next((p for p in side if col.startswith(p) and col[len(p) :] in _suffixes(p)), None)
@@ -312,7 +332,13 @@ def _side_samples(file: Path, cols: list[str], stamps: np.ndarray, clock: str, o
                 f"{origin}: column {col!r} is not in {file.name}: no Imu or WrenchStamped messages with that "
                 f"header.frame_id (first columns of its Imu/WrenchStamped topics: {have})"
             )
-        st, values = side[prefix]
+        st, values, topics = side[prefix]
+        if len(topics) > 1:
+            raise SpecError(
+                f"{file}: topics {' and '.join(topics)} both give the {prefix}* columns (same message type and "
+                f"header.frame_id), so their messages would be merged; choose one with a mapping spec: [ros] "
+                f'ignore_topics = ["{topics[-1]}"]'
+            )
         if st[0] > stamps[0] or st[-1] < stamps[-1]:
             raise DataError(
                 f"{file}: the {prefix[:-1]} messages [{(st[0] - stamps[0]) * 1e-9:g}, {(st[-1] - stamps[0]) * 1e-9:g}] s "

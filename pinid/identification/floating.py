@@ -18,7 +18,7 @@ from pinid.errors import DataError, ModelError, SpecError
 from pinid.estimators import make_estimator
 from pinid.problem.floating import floating_problem
 from pinid.io import Artefacts, write_json
-from pinid.model.floating import FloatingRobotModel, as_floating, floating_urdf
+from pinid.model.floating import FloatingRobotModel, as_floating, floating_parameter_names, floating_urdf
 from pinid.model.serialize import robot_from_dict, robot_to_dict
 from pinid.model.mjcf import identified_mjcf
 from pinid.model.terms import TermSelection, as_terms
@@ -220,13 +220,15 @@ def load_floating_identified(
     except SpecError as exc:
         raise SpecError(f"{path}: {exc}") from None
     model = as_floating(model)
+    try:
+        expected = floating_parameter_names(model, terms)
+    except (ModelError, SpecError) as exc:
+        raise SpecError(f"{path}: 'model': {exc}") from None
     usable = {}
     for m, r in d["results"].items():
-        theta = r.get("standard") if isinstance(r, dict) else None
-        if isinstance(theta, list) and len(theta) == len(r.get("standard_names") or []):
-            theta = np.asarray(theta, dtype=float)
-            if np.all(np.isfinite(theta)) and check_consistency(theta, model.body_names, terms.names, []).consistent:
-                usable[m] = (theta, r.get("validation_rms") or r.get("train_rms") or np.inf)
+        theta = _standard_of(path, m, r, expected)
+        if theta is not None and check_consistency(theta, model.body_names, terms.names, []).consistent:
+            usable[m] = (theta, r.get("validation_rms") or r.get("train_rms") or np.inf)
     if method is not None:
         if method not in d["results"]:
             raise SpecError(f"{path}: no method '{method}' (methods: {', '.join(d['results'])})")
@@ -239,3 +241,38 @@ def load_floating_identified(
     else:
         method = min(usable, key=lambda m: usable[m][1])
     return model, terms, usable[method][0], method
+
+
+def _standard_of(path, method: str, r, expected: list[str]) -> np.ndarray | None:
+    """The standard parameters of one result of a floating identification file, in the order of ``expected``
+    (the model's names), matched by name; None when the method fits none (``standard`` null) or they are not
+    finite.  SpecError naming the file, the method and the field when the file does not say them properly."""
+    where = f"{path}: results.{method}"
+    if not isinstance(r, Mapping):
+        raise SpecError(f"{where}: expected an object, got {type(r).__name__}")
+    values, names = r.get("standard"), r.get("standard_names")
+    if values is None:
+        return None
+    if not isinstance(values, list) or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in values):
+        raise SpecError(f"{where}.standard: expected a list of numbers")
+    if not isinstance(names, list) or not all(isinstance(n, str) for n in names):
+        raise SpecError(f"{where}.standard_names: expected a list of parameter names")
+    if len(values) != len(names):
+        raise SpecError(f"{where}: {len(values)} standard values for {len(names)} standard_names")
+    if len(set(names)) != len(names):
+        raise SpecError(f"{where}.standard_names: a name appears twice")
+    missing = [n for n in expected if n not in set(names)]
+    extra = [n for n in names if n not in set(expected)]
+    if missing or extra:
+        said = "; ".join(
+            f"{label} {', '.join(ns[:3])}{' …' if len(ns) > 3 else ''}"
+            for label, ns in (("missing", missing), ("unknown", extra))
+            if ns
+        )
+        raise SpecError(
+            f"{where}.standard_names do not match the {len(expected)} parameters of the file's model and "
+            f"terms ('model'): {said}"
+        )
+    by_name = dict(zip(names, values))
+    theta = np.array([float(by_name[n]) for n in expected])
+    return theta if np.all(np.isfinite(theta)) else None
