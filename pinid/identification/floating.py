@@ -143,6 +143,7 @@ def identify_floating(
             "base": est.base_.tolist(),
             "standard": None if getattr(est, "standard_", None) is None else np.asarray(est.standard_).tolist(),
             "standard_names": problem.standard_names,
+            "standard_marks": problem.base.marks(),
             "train_rms": float(np.sqrt(np.mean(r * r))),
             "train_rms_by_row": _by_row(problem, r),
             "validation_rms": None,
@@ -189,10 +190,14 @@ def write_floating_identification(
                 continue
             arts.add(
                 folder / f"identified_{method}.urdf",
-                lambda p, th=theta, m=method: floating_urdf(model, th, terms, p, comment=m),
+                lambda p, th=theta, m=method, mk=r.get("standard_marks"): floating_urdf(
+                    model, th, terms, p, comment=m, marks=mk
+                ),
             )
             try:  # computed now: a body MuJoCo refuses (massless, a zero moment) costs the MJCF only
-                text = identified_mjcf(model, theta, terms, comment=f"method {method}", floating=True)
+                text = identified_mjcf(
+                    model, theta, terms, comment=f"method {method}", floating=True, marks=r.get("standard_marks")
+                )
             except ModelError as exc:
                 warnings.warn(f"no MJCF for {method}: {exc}", stacklevel=2)
                 continue
