@@ -244,3 +244,18 @@ def load_floating_identified(
     else:
         method = min(usable, key=lambda m: usable[m][1])
     return model, terms, usable[method][0], method
+
+
+def floating_marks(path: str | os.PathLike, method: str) -> dict[str, str] | None:
+    """``{standard name: mark}`` of ``method`` in a floating ``identification.json`` (which standard parameters
+    the data determined, :meth:`pinid.model.base.BaseParameters.marks`); None when the file has none (an older
+    pinid) or they do not match its standard names."""
+    from pinid.io import read_json
+    from pinid.model.base import MARKS
+
+    r = (read_json(path, "floating identification").get("results") or {}).get(method)
+    marks = r.get("standard_marks") if isinstance(r, dict) else None
+    names = r.get("standard_names") if isinstance(r, dict) else None
+    if not isinstance(marks, dict) or not isinstance(names, list) or set(marks) != set(names):
+        return None
+    return dict(marks) if set(marks.values()) <= set(MARKS) else None
