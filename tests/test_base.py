@@ -45,6 +45,17 @@ def test_marks_of_small_maps_by_hand():
     assert identifiability(np.zeros((0, 2))) == ["not identified"] * 2
 
 
+def test_nominal_base_values_drop_cancellation_round_off():
+    """A combination whose terms cancel (0.3 − 0.1·3 = −5.6e-17 in floating point) is shown as 0; a value that is
+    small by itself is kept."""
+    from pinid.model.base import BaseParameters
+
+    bp = BaseParameters(["a", "b", "c"], np.array([0, 2]), np.array([[1.0, -0.1, 0.0], [0.0, 0.0, 1.0]]), ["aR", "c"])
+    theta = np.array([0.3, 3.0, 1e-20])
+    assert bp.from_standard(theta)[0] != 0.0
+    assert bp.shown(theta).tolist() == [0.0, 1e-20]
+
+
 def test_exo_leg_marks_match_the_planar_physics():
     """The 2-DOF planar leg (axes along y): only m·x, m·z and Iyy of each body can act about y.  The hip's mass
     and its z moment enter only with the knee's mass (hip.mzR = hip.mz − 0.42·knee.m, hip.IyyR = hip.Iyy +

@@ -63,6 +63,13 @@ class BaseParameters:
             raise DataError(f"theta: shape {theta.shape}, expected ({len(self.standard_names)},) standard parameters")
         return self.P @ theta
 
+    def shown(self, theta: np.ndarray) -> np.ndarray:
+        """The base parameters of ``theta`` (1-D) as shown to a user (the nominal ones of the URDF): a
+        combination whose terms cancel to round-off (below 1e-12 of ``Σ|P_ij·θ_j|``, e.g. 2.8e-17) is 0."""
+        base = self.from_standard(theta)
+        scale = np.abs(self.P) @ np.abs(np.asarray(theta, dtype=float))
+        return np.where(np.abs(base) < 1e-12 * scale, 0.0, base) + 0.0
+
     def columns(self, W: np.ndarray) -> np.ndarray:
         """The base regressor: the independent columns of a stacked standard regressor ``W``."""
         W = as_floats(W, "W")
