@@ -74,6 +74,11 @@ def test_export_reads_the_floating_identification(identified, tmp_path):
     back = RobotModel.from_urdf(tmp_path / "e.urdf", base="floating")
     m = mujoco.MjModel.from_xml_path(str(tmp_path / "exo.xml"))
     assert m.body_mass.sum() == pytest.approx(sum(i.mass for i in back.ff_model.inertias), rel=1e-9)
+    # which standard parameters the data determined, beside each body (issue 33): the base link and the 8 bodies
+    urdf, xml = (tmp_path / "e.urdf").read_text(), (tmp_path / "exo.xml").read_text()
+    assert urdf.count("<!-- pinid, from these data (standard parameters m, m·c, I about the base frame)") == 1
+    assert urdf.count("<!-- pinid, from these data (standard parameters m, m·c, I about the joint)") == 8
+    assert xml.count("<!-- pinid, from these data (standard parameters") == 9
 
 
 def test_bad_floating_exports_are_one_line_and_write_nothing(identified, tmp_path):

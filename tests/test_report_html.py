@@ -237,11 +237,12 @@ def test_errors_figure_fits_a_page_and_stays_above_zero():
 
 
 def test_link_parameter_table_has_units(report):
-    """The report's link-parameter table: every column has its unit, friction included (issue 24)."""
+    """The report's link-parameter table: every column has its unit, friction included (issue 24); the last
+    one says which of the values the data determined (issue 33)."""
     out, _ = report
     md = (out / "report.md").read_text()
     section = md.split("## Link parameters", 1)[1].split("\n## ", 1)[0]
     header = next(line for line in section.splitlines() if line.startswith("| joint"))
     cells = [c.strip() for c in header.strip("|").split("|")]
-    assert cells[4:] == ["fc [N·m]", "fv [N·m·s/rad]"], cells
-    assert all("[" in c for c in cells[1:]), cells
+    assert cells[4:] == ["fc [N·m]", "fv [N·m·s/rad]", "from these data"], cells
+    assert all("[" in c for c in cells[1:-1]), cells

@@ -125,6 +125,9 @@ def _check_report(out: Path, res: dict) -> None:
     for n, v in res["base"].items():
         assert f"| `{n}` | {v:.6g} | {res['base_table'][n]:.6g} |" in md, n
     assert "](torque_wearer.png)" in md and "Validation:" not in md  # no --validate: training figures only
+    standard = md.split("## The wearer's standard parameters", 1)[1].split("\n## ", 1)[0]
+    rows = {line.split("|")[1].strip(" `"): line for line in standard.splitlines() if line.startswith("| `")}
+    assert rows and all(line.endswith(f"| {res['marks'][n]} |") for n, line in rows.items()), rows  # issue 33
     page = (out / "report.html").read_text()
     assert "data:image/png;base64," in page and "exo + identified wearer" in page
     assert (out / "torque_wearer.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

@@ -50,6 +50,13 @@ def test_noise_free_wearer_recovered(setup):
     # the combined model reproduces the torque
     tau = fit.model().inverse_dynamics(*data[:3])
     np.testing.assert_allclose(tau, data[3], atol=1e-6)
+    # each standard parameter is marked (issue 33): those marked identified are recovered on noise-free data
+    # (the others come from the tables and the consistency constraints)
+    marks = fit.marks
+    assert set(marks) == set(fit.names) and set(marks.values()) == {"identified", "partly", "not identified"}
+    ident = np.array([marks[n] == "identified" for n in fit.names])
+    np.testing.assert_allclose(fit.theta[ident], truth[ident], rtol=1e-6, atol=1e-9)
+    assert fit.to_dict()["marks"] == marks
 
 
 def test_passive_exponents_recovered_by_nonlinear_least_squares(setup, tmp_path):

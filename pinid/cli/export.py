@@ -63,14 +63,15 @@ def _is_floating(path) -> bool:
 
 def _export_floating(args: argparse.Namespace, out) -> int:
     """A floating identification: MJCF with a free joint carrying the identified base link, or the URDF."""
-    from pinid.identification.floating import load_floating_identified
+    from pinid.identification.floating import floating_marks, load_floating_identified
     from pinid.model.floating import floating_urdf
     from pinid.model.mjcf import identified_mjcf
 
     model, terms, theta, method = load_floating_identified(args.model, method=args.method)
+    marks = floating_marks(args.model, method)
     if args.format == "mjcf":
-        identified_mjcf(model, theta, terms, out, floating=True, comment=f"method {method}")
+        identified_mjcf(model, theta, terms, out, floating=True, comment=f"method {method}", marks=marks)
     else:
-        floating_urdf(model, theta, terms, out, comment=method)
+        floating_urdf(model, theta, terms, out, comment=method, marks=marks)
     print(f"wrote {args.output} ({args.format}, floating base, method {method})")
     return 0

@@ -143,6 +143,7 @@ def identify_floating(
             "base": est.base_.tolist(),
             "standard": None if getattr(est, "standard_", None) is None else np.asarray(est.standard_).tolist(),
             "standard_names": problem.standard_names,
+            "standard_marks": problem.base.marks(),
             "train_rms": float(np.sqrt(np.mean(r * r))),
             "train_rms_by_row": _by_row(problem, r),
             "validation_rms": None,
@@ -189,10 +190,14 @@ def write_floating_identification(
                 continue
             arts.add(
                 folder / f"identified_{method}.urdf",
-                lambda p, th=theta, m=method: floating_urdf(model, th, terms, p, comment=m),
+                lambda p, th=theta, m=method, mk=r.get("standard_marks"): floating_urdf(
+                    model, th, terms, p, comment=m, marks=mk
+                ),
             )
             try:  # computed now: a body MuJoCo refuses (massless, a zero moment) costs the MJCF only
-                text = identified_mjcf(model, theta, terms, comment=f"method {method}", floating=True)
+                text = identified_mjcf(
+                    model, theta, terms, comment=f"method {method}", floating=True, marks=r.get("standard_marks")
+                )
             except ModelError as exc:
                 warnings.warn(f"no MJCF for {method}: {exc}", stacklevel=2)
                 continue
@@ -276,3 +281,18 @@ def _standard_of(path, method: str, r, expected: list[str]) -> np.ndarray | None
     by_name = dict(zip(names, values))
     theta = np.array([float(by_name[n]) for n in expected])
     return theta if np.all(np.isfinite(theta)) else None
+
+
+def floating_marks(path: str | os.PathLike, method: str) -> dict[str, str] | None:
+    """``{standard name: mark}`` of ``method`` in a floating ``identification.json`` (which standard parameters
+    the data determined, :meth:`pinid.model.base.BaseParameters.marks`); None when the file has none (an older
+    pinid) or they do not match its standard names."""
+    from pinid.io import read_json
+    from pinid.model.base import MARKS
+
+    r = (read_json(path, "floating identification").get("results") or {}).get(method)
+    marks = r.get("standard_marks") if isinstance(r, dict) else None
+    names = r.get("standard_names") if isinstance(r, dict) else None
+    if not isinstance(marks, dict) or not isinstance(names, list) or set(marks) != set(names):
+        return None
+    return dict(marks) if set(marks.values()) <= set(MARKS) else None

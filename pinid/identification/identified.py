@@ -314,6 +314,13 @@ class IdentifiedModel:
         """Read a JSON file written by :meth:`save` (or by ``pinid identify``: ``model_<method>.json``)."""
         return cls.from_dict(read_json(path, "identified model"))
 
+    @property
+    def marks(self) -> dict[str, str] | None:
+        """``{standard name: "identified" | "partly" | "not identified"}`` from the identification (``meta``'s
+        ``standard_marks``; :meth:`pinid.model.base.BaseParameters.marks`), None when not known."""
+        marks = self.meta.get("standard_marks")
+        return dict(marks) if isinstance(marks, dict) else None
+
     def export_urdf(self, path: str | os.PathLike | None = None, *, force: bool = False) -> str:
         """The identified URDF text (see :func:`pinid.model.export.identified_urdf`); written to ``path`` when given."""
         return identified_urdf(
@@ -323,6 +330,7 @@ class IdentifiedModel:
             path,
             force=force,
             comment=f"method {self.meta.get('method', '?')}",
+            marks=self.marks,
         )
 
     def export_mjcf(self, path: str | os.PathLike | None = None, *, floating: bool | None = None) -> str:
@@ -340,6 +348,7 @@ class IdentifiedModel:
             path,
             floating=floating,
             comment=f"method {self.meta.get('method', '?')}",
+            marks=self.marks,
         )
 
     def export_drives(self, path: str | os.PathLike | None = None) -> str | None:

@@ -18,6 +18,7 @@ from pinid.identification.uncertainty import uncertainty_warning
 from pinid.problem.problem import IdentificationProblem, base_statistics, least_norm_completion
 from pinid.io import display_path, jsonable, read_json, write_json
 from pinid.model.export import identified_urdf
+from pinid.model.base import MARKS
 from pinid.model.lmi import consistent_completion
 from pinid.model.physical import check_consistency
 from pinid.model.regressor import TermSelection
@@ -41,7 +42,9 @@ class IdentificationResult:
     :func:`pinid.problem.problem.recorded_torque`); ``train_filtered``, ``validation_filtered``:
     the same against the torque after pinid's own preprocessing (low-pass), which moves with ``--cutoff``.
     ``truth_error``: ``{"names", "truth", "error", "error_percent"}`` against a known truth
-    (:func:`truth_errors`), None without one.
+    (:func:`truth_errors`), None without one.  ``marks``: ``{standard name: "identified" | "partly" |
+    "not identified"}`` (:meth:`pinid.model.base.BaseParameters.marks`): which standard values the data
+    determined and which are the completion's prior (the URDF's) carried through; None when unknown.
     """
 
     method: str
@@ -66,6 +69,7 @@ class IdentificationResult:
     train_filtered: TorqueMetrics | None = None
     validation_filtered: TorqueMetrics | None = None
     truth_error: dict | None = None
+    marks: dict[str, str] | None = None
     _robot_model: RobotModel | None = field(default=None, repr=False, compare=False)
     _model_cache: object = field(default=None, repr=False, compare=False)
 
@@ -119,7 +123,8 @@ class IdentificationResult:
                 terms,
                 self.standard,
                 physically_consistent=None if self.physically_consistent else False,  # None: checked again
-                meta={"method": self.method, "standard_source": self.standard_source},
+                meta={"method": self.method, "standard_source": self.standard_source}
+                | ({} if self.marks is None else {"standard_marks": dict(self.marks)}),
             )
         return self._model_cache
 
@@ -132,6 +137,7 @@ class IdentificationResult:
             path,
             force=force,
             comment=f"method {self.method}",
+            marks=self.marks,
         )
 
     def plot(self, data: str = "validation", *, title: str | None = None):
@@ -164,6 +170,7 @@ class IdentificationResult:
             "std": dict(zip(self.base_names, map(float, self.std))),
             "std_percent": dict(zip(self.base_names, map(float, self.std_percent))),
             "standard_parameters": self.standard_parameters,
+            "standard_marks": self.marks,
             "standard_source": self.standard_source,
             "physically_consistent": bool(self.physically_consistent),
             "consistency": self.consistency,
@@ -219,6 +226,7 @@ class IdentificationResult:
             if d.get("validation_filtered") is None
             else TorqueMetrics.from_dict(d["validation_filtered"]),
             truth_error=d.get("truth_error"),
+            marks=_marks(d.get("standard_marks"), std_names, d.get("method")),
         )
 
     def save(self, path: str | os.PathLike) -> Path:
@@ -423,8 +431,20 @@ def make_result(
         info=info,
         history=getattr(estimator, "history_", None),
         robot=robot_to_dict(problem.model, problem.terms),
+        marks=problem.base.marks(),
         _robot_model=problem.model,
     )
+
+
+def _marks(value, names: list[str], method) -> dict[str, str] | None:
+    """The ``standard_marks`` of a saved result, checked (None when absent: a file of an older pinid)."""
+    if value is None:
+        return None
+    if not isinstance(value, dict) or set(value) != set(names) or not set(value.values()) <= set(MARKS):
+        raise SpecError(
+            f"result {method!r}: 'standard_marks' must map each standard parameter to one of {', '.join(MARKS)}"
+        )
+    return {n: value[n] for n in names}
 
 
 def load_identified(path: str | os.PathLike, *, method: str | None = None) -> IdentifiedModel:

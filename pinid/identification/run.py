@@ -588,7 +588,7 @@ def identify(
         base={
             "names": s.base.names,
             "expressions": s.base.expressions(),
-            "nominal": s.base.from_standard(s.problem.nominal).tolist(),
+            "nominal": s.base.shown(s.problem.nominal).tolist(),
         },
         validation_sources=[ds.source for ds in val_sets],
         seconds=time.perf_counter() - t_start,

@@ -46,6 +46,11 @@ class BaseParameters:
         """Number of base parameters."""
         return len(self.independent)
 
+    def marks(self) -> dict[str, str]:
+        """``{standard name: mark}``: whether the data determine each standard parameter
+        (:func:`identifiability`): ``"identified"``, ``"partly"`` or ``"not identified"``."""
+        return dict(zip(self.standard_names, identifiability(self.P)))
+
     @property
     def unidentifiable(self) -> list[str]:
         """Standard parameters that appear in no base parameter (they do not affect the torque)."""
@@ -57,6 +62,13 @@ class BaseParameters:
         if theta.ndim not in (1, 2) or theta.shape[0] != len(self.standard_names):
             raise DataError(f"theta: shape {theta.shape}, expected ({len(self.standard_names)},) standard parameters")
         return self.P @ theta
+
+    def shown(self, theta: np.ndarray) -> np.ndarray:
+        """The base parameters of ``theta`` (1-D) as shown to a user (the nominal ones of the URDF): a
+        combination whose terms cancel to round-off (below 1e-12 of ``Σ|P_ij·θ_j|``, e.g. 2.8e-17) is 0."""
+        base = self.from_standard(theta)
+        scale = np.abs(self.P) @ np.abs(np.asarray(theta, dtype=float))
+        return np.where(np.abs(base) < 1e-12 * scale, 0.0, base) + 0.0
 
     def columns(self, W: np.ndarray) -> np.ndarray:
         """The base regressor: the independent columns of a stacked standard regressor ``W``."""
@@ -112,6 +124,54 @@ class BaseParameters:
     def load(cls, path) -> "BaseParameters":
         """Read from JSON written by :meth:`save`."""
         return cls.from_dict(json.loads(read_bounded_file(path, "base-parameter JSON file")))
+
+
+#: The three marks of a standard parameter (:func:`identifiability`).
+MARKS = ("identified", "partly", "not identified")
+
+
+def identifiability(P: np.ndarray, tol: float = 1e-9) -> list[str]:
+    """Whether the base parameters ``P @ theta`` determine each standard parameter ``theta[i]``.
+
+    ``"identified"``: the unit vector ``e_i`` lies in the row space of ``P`` (the value follows from the
+    base parameters alone); ``"not identified"``: ``e_i`` is orthogonal to it (column ``i`` of ``P`` is
+    zero: the data carry nothing about it, its value is the prior's, e.g. the URDF's); ``"partly"``:
+    otherwise (it enters base combinations with other parameters).  The columns are scaled to unit norm
+    first (the answer does not depend on units), then ``‖proj(e_i)‖²`` is compared with 1 and 0 within
+    ``tol``."""
+    P = as_floats(P, "P")
+    if P.ndim != 2:
+        raise DataError(f"P: shape {P.shape}, expected (base, standard)")
+    norms = np.linalg.norm(P, axis=0)
+    scale = norms.max() if norms.size and norms.max() > 0 else 1.0
+    zero = norms <= 1e-12 * scale
+    if P.shape[0] == 0 or np.all(zero):
+        return [MARKS[2]] * P.shape[1]
+    Pn = P[:, ~zero] / norms[~zero]
+    U, s, Vt = np.linalg.svd(Pn, full_matrices=False)
+    V = Vt[s > 1e-10 * s[0]]
+    proj = np.sum(V**2, axis=0)  # ‖projection of e_i onto the row space‖², i over the non-zero columns
+    out = np.full(P.shape[1], MARKS[2], dtype=object)
+    out[~zero] = np.where(proj >= 1 - tol, MARKS[0], np.where(proj <= tol, MARKS[2], MARKS[1]))
+    return [str(m) for m in out]
+
+
+def marks_summary(marks: dict[str, str] | None, names: Sequence[str]) -> str:
+    """One line grouping the parameters ``names`` (e.g. ``knee.m`` … ``knee.Izz``) by their mark in ``marks``
+    (:meth:`BaseParameters.marks`), short names without the body prefix: ``"identified: mx, Iyy; partly:
+    mz; not identified (prior value kept): m, my"``.  Empty when ``marks`` is None or has none of them."""
+    if not marks:
+        return ""
+    groups: dict[str, list[str]] = {k: [] for k in MARKS}
+    for n in names:
+        if marks.get(n) in groups:
+            groups[marks[n]].append(n.split(".", 1)[-1])
+    label = {
+        MARKS[0]: "identified",
+        MARKS[1]: "partly (in combinations)",
+        MARKS[2]: "not identified (no information in these data)",
+    }
+    return "; ".join(f"{label[k]}: {', '.join(v)}" for k, v in groups.items() if v)
 
 
 def base_parameters(

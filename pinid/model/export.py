@@ -29,7 +29,9 @@ import numpy as np
 from pinid.errors import ModelError
 from pinid.checks import number as finite_number
 from pinid.model.robot import RobotModel, as_robot
-from pinid.model.physical import check_consistency, com_inertia
+from pinid.model.base import marks_summary
+from pinid.model.physical import check_consistency, com_inertia, tidy_inertial
+from pinid.model.robot import INERTIAL_NAMES
 from pinid.model import terms as _terms
 from pinid.model.regressor import TermSelection
 from pinid.io import write_text
@@ -77,13 +79,14 @@ def identified_urdf(
     force: bool = False,
     comment: str | None = None,
     origin: str = "identified by pinid",
+    marks: dict[str, str] | None = None,
 ) -> str:
     """The URDF text of ``model`` with the standard parameters ``theta`` (see the module text).
 
     Written atomically to ``path`` when given.  The file's first comment reads ``origin (comment)``.  Raises
     ModelError for an inconsistent set unless ``force``, or when the model has no URDF text.
     """
-    root = identified_urdf_tree(model, theta, terms, force=force, comment=comment, origin=origin)
+    root = identified_urdf_tree(model, theta, terms, force=force, comment=comment, origin=origin, marks=marks)
     text = xml_text(root, '<?xml version="1.0" encoding="utf-8"?>\n')
     if not force:
         _check_loads(text, model)
@@ -100,9 +103,12 @@ def identified_urdf_tree(
     force: bool = False,
     comment: str | None = None,
     origin: str = "identified by pinid",
+    marks: dict[str, str] | None = None,
 ) -> Element:
     """The element tree of :func:`identified_urdf` (the model's URDF document edited), for a writer that
-    edits it further (:func:`pinid.model.floating.floating_urdf`); not yet checked to load back."""
+    edits it further (:func:`pinid.model.floating.floating_urdf`); not yet checked to load back.
+    ``marks``: ``{standard name: mark}`` (:meth:`pinid.model.base.BaseParameters.marks`), written as a
+    comment beside each inertial and joint's friction."""
     model = as_robot(model)
     theta = np.asarray(theta, dtype=float)
     nv, nt = model.nv, _terms.count(model, terms)
@@ -127,8 +133,13 @@ def identified_urdf_tree(
         raise ModelError(f"{model.name}: joint(s) {missing} not found in the URDF text")
     for i, jname in enumerate(active):
         link = links[child_of[jname]]
-        m, c, I = com_inertia(theta[10 * i : 10 * i + 10])
+        m, c, I = tidy_inertial(*com_inertia(theta[10 * i : 10 * i + 10]))
         _set_inertial(link, m, c, I)
+        note = marks_summary(marks, [f"{jname}.{n}" for n in INERTIAL_NAMES])
+        if note:
+            link.insert(
+                0, xml_comment(f" pinid, from these data (standard parameters m, m·c, I about the joint): {note} ")
+            )
         merged = sorted(n for n, o in owners.items() if o == jname and n != child_of[jname])
         if merged:
             link.insert(
@@ -158,6 +169,9 @@ def identified_urdf_tree(
         extra = [f"{t.suffix} {_num(v)} {t.unit}" for t, v in mine if not t.field]
         if extra:
             jel.append(xml_comment(f" pinid: {', '.join(extra)} (no URDF field) "))
+        note = marks_summary(marks, [f"{jname}.{t.suffix}" for t, _ in mine])
+        if note:
+            jel.append(xml_comment(f" pinid, from these data: {note} "))
     head = (
         f" {origin}{' (' + comment + ')' if comment else ''}: inertials of the moving links and "
         f"joint friction replaced; physically consistent: {'yes' if report.consistent else 'NO (forced)'}"

@@ -387,6 +387,7 @@ def floating_urdf(
     *,
     force: bool = False,
     comment: str | None = None,
+    marks: dict[str, str] | None = None,
 ) -> str:
     """The URDF text of ``model`` with the floating standard parameters ``theta`` (base link first, as
     :func:`floating_parameter_names`): the joints' bodies and friction as
@@ -396,7 +397,9 @@ def floating_urdf(
     from pinid.io import write_text
     from pinid.model.export import identified_urdf_tree, inertial_element
     from pinid.model.urdf import xml_comment, xml_text
-    from pinid.model.physical import check_consistency, com_inertia
+    from pinid.model.base import marks_summary
+    from pinid.model.physical import check_consistency, com_inertia, tidy_inertial
+    from pinid.model.robot import INERTIAL_NAMES
 
     model = as_floating(model)
     terms = _check_terms(model, terms)
@@ -412,7 +415,7 @@ def floating_urdf(
     k = len(terms.joint)
     fixed = np.r_[theta[10 : 10 * (model.nv + 1)], theta[10 * (model.nv + 1) + k :]]
     root = identified_urdf_tree(
-        model, fixed, terms, force=True, comment=comment, origin="identified by pinid (floating base)"
+        model, fixed, terms, force=True, comment=comment, origin="identified by pinid (floating base)", marks=marks
     )
     links = {link.get("name"): link for link in root.findall("link")}
     welded, changed = {model.base_link}, True
@@ -426,8 +429,13 @@ def floating_urdf(
     for name in welded:
         for el in links[name].findall("inertial"):
             links[name].remove(el)
-    m, c, I = com_inertia(theta[:10])
+    m, c, I = tidy_inertial(*com_inertia(theta[:10]))
     links[model.base_link].insert(0, inertial_element(m, c, I))
+    note = marks_summary(marks, [f"base.{n}" for n in INERTIAL_NAMES])
+    if note:
+        links[model.base_link].insert(
+            0, xml_comment(f" pinid, from these data (standard parameters m, m·c, I about the base frame): {note} ")
+        )
     links[model.base_link].insert(
         0,
         xml_comment(

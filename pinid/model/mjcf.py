@@ -42,9 +42,10 @@ from pinid.checks import as_floats
 from pinid.errors import ModelError
 from pinid.io import write_text
 from pinid.model import terms as _terms
-from pinid.model.physical import check_consistency, com_inertia
+from pinid.model.base import marks_summary
+from pinid.model.physical import NOISE, check_consistency, com_inertia, tidy_inertial
 from pinid.model.regressor import TermSelection
-from pinid.model.robot import RobotModel, as_robot
+from pinid.model.robot import INERTIAL_NAMES, RobotModel, as_robot
 from pinid.model.terms import as_terms
 from pinid.model.urdf import Element, UrdfDocument, is_element, new_element, sub_element, xml_comment, xml_text
 
@@ -216,12 +217,15 @@ def identified_mjcf(
     floating: bool = False,
     comment: str | None = None,
     origin: str = "identified by pinid",
+    marks: dict[str, str] | None = None,
 ) -> str:
     """The MJCF text of ``model`` with the standard parameters ``theta`` (see the module text).
 
     ``floating``: a free joint on the root link (default: the root link welded to the world).  Written
     atomically to ``path`` when given.  ModelError for a physically inconsistent set, a body MuJoCo refuses
     (massless, a zero principal moment) or a model without URDF text; nothing is written then.
+    ``marks``: ``{standard name: mark}`` (:meth:`pinid.model.base.BaseParameters.marks`), written as a comment
+    beside each identified body's inertial and each joint (which values the data determined).
     """
     model, terms, theta = as_robot(model), as_terms(terms), as_floats(theta, "theta", finite=False)
     nv, nt = model.nv, _terms.count(model, terms)
@@ -290,14 +294,29 @@ def identified_mjcf(
         else:
             _joint(body, pm, pdata, jid, model, active[jname], fields)
         inertia = pm.inertias[jid]
+        prefix = None
         if jname in active:  # the identified values, about the centre of mass
-            m, c, I = com_inertia(theta[10 * active[jname] : 10 * active[jname] + 10])
+            m, c, I = tidy_inertial(*com_inertia(theta[10 * active[jname] : 10 * active[jname] + 10]))
+            prefix = jname
         elif jm.nv == 6 and base_theta is not None:
-            m, c, I = com_inertia(base_theta)
+            m, c, I = tidy_inertial(*com_inertia(base_theta))
+            prefix = "base"
         else:
             m, c, I = inertia.mass, inertia.lever, inertia.inertia
         e, V = _mujoco_inertia(jname, m, I)
-        sub_element(body, "inertial", pos=_vec(c), quat=_vec(_quat(V)), mass=_num(m), diaginertia=_vec(e))
+        note = marks_summary(marks, [f"{prefix}.{n}" for n in INERTIAL_NAMES]) if prefix else ""
+        if note:
+            body.append(
+                xml_comment(f" pinid, from these data (standard parameters m, m·c, I about the joint): {note} ")
+            )
+        quat = _quat(V)
+        quat[np.abs(quat) < NOISE] = 0.0  # round-off of the eigenvectors, not a rotation
+        sub_element(body, "inertial", pos=_vec(c), quat=_vec(quat + 0.0), mass=_num(m), diaginertia=_vec(e))
+        if jname in active and marks:
+            own = [n for n in marks if n.split(".", 1)[0] == jname and n.split(".", 1)[-1] not in INERTIAL_NAMES]
+            note = marks_summary(marks, own)
+            if note:
+                body.append(xml_comment(f" pinid, joint '{jname}' terms from these data: {note} "))
     _geoms(pm, links, bodies, names)
     act = sub_element(mj, "actuator")
     for j in model.joints:

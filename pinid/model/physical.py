@@ -96,6 +96,23 @@ def com_inertia(pi: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
     return m, c, I_c
 
 
+#: Relative size below which a value is written as 0 (round-off of the completion, not a value).
+NOISE = 1e-12
+
+
+def tidy_inertial(m: float, c: np.ndarray, I: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
+    """``(m, c, I)`` of :func:`com_inertia` with round-off set to exactly 0: a centre-of-mass coordinate
+    below ``NOISE`` times the body's length scale (``max(|c|, √(λmax(I)/|m|))`` [m]), an inertia entry below
+    ``NOISE`` times the largest one [kg·m²].  What is written for a user (report, URDF, MJCF) goes through
+    this, so ``c = -6.57e-22`` reads 0."""
+    c, I = np.array(c, dtype=float), np.array(I, dtype=float)
+    big = float(np.abs(I).max()) if I.size else 0.0
+    length = max(float(np.linalg.norm(c)), float(np.sqrt(big / abs(m))) if m and big > 0 else 0.0)
+    c[np.abs(c) < NOISE * length] = 0.0
+    I[np.abs(I) < NOISE * big] = 0.0
+    return m, c + 0.0, I + 0.0  # + 0.0: no "-0"
+
+
 @dataclass
 class BodyCheck:
     """Consistency of one body: the smallest eigenvalue of its pseudo-inertia, and relative to ‖J‖."""

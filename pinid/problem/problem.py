@@ -237,8 +237,8 @@ class IdentificationProblem:
 
     @property
     def nominal_base(self) -> np.ndarray:
-        """The nominal (URDF) base parameters."""
-        return self.base.from_standard(self.nominal)
+        """The nominal (URDF) base parameters (round-off of cancelling terms set to 0)."""
+        return self.base.shown(self.nominal)
 
     @property
     def natural_scale(self) -> np.ndarray:

@@ -16,7 +16,9 @@ from pathlib import Path
 import numpy as np
 
 from pinid.io import display_path
-from pinid.model.physical import com_inertia
+from pinid.model.base import marks_summary
+from pinid.model.physical import NOISE, com_inertia, tidy_inertial
+from pinid.model.robot import INERTIAL_NAMES
 from pinid.model.terms import TermSelection
 from pinid.report.figures import Recipe
 from pinid.report.plot_identification import error_bars, recorded_motion, torque_comparison
@@ -295,14 +297,27 @@ def report_markdown(ident, figures: dict[str, str] | None = None) -> str:
         terms = [t.name for t in joint_terms]
         jt = best.standard[10 * nv : 10 * nv + nv * len(terms)].reshape(nv, len(terms)) if terms else np.zeros((nv, 0))
         for i, j in enumerate(robot["joints"]):
-            m, c, I = com_inertia(best.standard[10 * i : 10 * i + 10])
+            m, c, I = tidy_inertial(*com_inertia(best.standard[10 * i : 10 * i + 10]))
             ev = np.linalg.eigvalsh(0.5 * (I + I.T))
+            ev[np.abs(ev) < NOISE * np.abs(ev).max()] = 0.0
+            names = [f"{j}.{n}" for n in INERTIAL_NAMES] + [f"{j}.{t.suffix}" for t in joint_terms]
             rows.append(
                 [f"`{j}`", number(m), " ".join(number(x, ".3g") for x in c), " ".join(number(x, ".3g") for x in ev)]
                 + [number(jt[i, k]) for k in range(len(terms))]
+                + ([marks_summary(best.marks, names) or "–"] if best.marks else [])
             )
         units = [f"{t.name} [{t.unit}]" for t in joint_terms]  # revolute joints' units (pinid.model.terms)
-        lines.append(markdown_table(["joint", "mass [kg]", "c [m]", "principal I_c [kg·m²]"] + units, rows))
+        marked = ["from these data"] if best.marks else []
+        lines.append(markdown_table(["joint", "mass [kg]", "c [m]", "principal I_c [kg·m²]"] + units + marked, rows))
+        if best.marks:
+            lines += [
+                "",
+                "*From these data*: which standard parameters (m, m·c, I about the joint frame, the joint terms) "
+                "the recordings determine: *identified* (a base parameter by itself), *partly* (only in "
+                "combinations with others: its value here is one completion of the base parameters), *not "
+                "identified* (in no base parameter: the data say nothing about it: the value is the URDF's, carried through by the completion unless "
+                "physical consistency moved it).",
+            ]
 
     lines += [
         "",

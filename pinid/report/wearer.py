@@ -98,12 +98,15 @@ def wearer_markdown(result: Mapping, figures: Mapping[str, str] | None = None) -
         "## The wearer's standard parameters",
         "",
         "Per body (about the joint frame: m [kg], m·c [kg·m], inertia [kg·m²]; kp: scale of the "
-        "published passive moment).",
+        "published passive moment).  *From these data*: identified (a base parameter by itself), partly (only "
+        "in combinations), not identified (the data say nothing about it: the value comes from the tables and the "
+        "consistency constraints).",
         "",
         markdown_table(
-            ["parameter", "identified", "table"],
+            ["parameter", "identified", "table"] + (["from these data"] if result.get("marks") else []),
             [
                 [f"`{n}`", number(v, ".6g"), number(result["table"][n], ".6g")]
+                + ([result["marks"].get(n, "–")] if result.get("marks") else [])
                 for n, v in result["parameters"].items()
                 if v or result["table"][n]
             ],

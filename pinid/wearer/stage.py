@@ -65,6 +65,7 @@ class WearerFit:
     exponents: object = None  # the pinid.wearer.exponents.ExponentFit when the exponents were refined
     prior_weight: float = 0.0  # λ used (chosen by cross-validation with prior_weight="auto")
     cross_validation: dict | None = None  # choose_prior_weight's table, with prior_weight="auto"
+    marks: dict | None = None  # {name: "identified" | "partly" | "not identified"} (BaseParameters.marks)
 
     @property
     def names(self) -> list[str]:
@@ -111,6 +112,7 @@ class WearerFit:
         """Plain-dict form (for JSON)."""
         return {
             "parameters": dict(zip(self.names, self.theta.tolist())),
+            **({"marks": dict(self.marks)} if self.marks else {}),
             "table": dict(zip(self.names, self.table.tolist())),
             "base": dict(zip(self.base_names, self.base.tolist())),
             "base_table": dict(zip(self.base_names, self.base_table.tolist())),
@@ -293,6 +295,7 @@ def identify_wearer(
         refined,
         float(prior_weight),
         cv,
+        bp.marks(),
     )
 
 
