@@ -89,6 +89,17 @@ def test_manifest_ranges_of_one_file_equal_the_file_split_by_hand(one_file, rang
         ('[[recording]]\nfile = "run.csv"\nrole = "train"\ntime = [50, 60]\n', DataError, "no sample with 50"),
         ('[[recording]]\nfile = "run.csv"\nrole = "train"\nrows = [9000]\n', DataError, "select no row"),
         ('[[recording]]\nfile = "run.csv"\nrole = "train"\nrows = [5, 5]\n', SpecError, "0 ≤ first < stop"),
+        (  # issue 33 (06): a copy of the file (train.csv holds run.csv's first 3200 rows) shares samples
+            '[[recording]]\nfile = "train.csv"\nrole = "train"\n'
+            '[[recording]]\nfile = "run.csv"\nrole = "validate"\nrows = [3000, 4000]\n',
+            DataError,
+            "run.csv[rows 3000:4000] (validate) and train.csv (train) share 200 samples (the same t, q and tau",
+        ),
+        (  # issue 33 (06): a stop past the end is refused, not clipped
+            '[[recording]]\nfile = "run.csv"\nrole = "train"\nrows = [3000, 400000]\n',
+            DataError,
+            "rows 3000:400000 go past the end of run.csv, which has 4800 rows; expected a stop ≤ 4800",
+        ),
     ],
 )
 def test_bad_manifests_are_one_line_errors(one_file, text, error, fragment):
@@ -108,8 +119,10 @@ def test_manifest_overlap_allowed_on_request_with_a_warning(one_file):
         '[[recording]]\nfile = "run.csv"\nrole = "validate"\nrows = [1900, 3000]\n',
         "overlap.toml",
     )
-    with pytest.warns(UserWarning, match="share rows 1900–1999"):
+    with pytest.warns(UserWarning) as caught:
         study = Manifest.load(path).read(m)
+    said = " ".join(str(w.message) for w in caught)
+    assert "share rows 1900–1999" in said and "share 500 samples (the same t, q and tau in train.csv" in said
     assert [ds.n for ds in study.train] == [2000] and [ds.n for ds in study.validate] == [1500, 1100]
 
 
@@ -130,6 +143,10 @@ def test_cli_manifest_and_its_errors(one_file, tmp_path):
         identify(m, manifest=good, mapping=folder / "x.toml")
     with pytest.raises(SpecError, match="expected --data FILE"):
         recording_options(argparse.Namespace(**{**vars(both), "manifest": None, "data": None}))
+    past = _write(folder, '[[recording]]\nfile = "run.csv"\nrole = "train"\nrows = [3000, 400000]\n', "e.toml")
+    proc = run_cli("identify", "--manifest", str(past), "--methods", "ols", "-o", str(out), "--no-report")
+    assert_clean_error(proc, "go past the end of run.csv, which has 4800 rows")
+    assert not out.exists()
     proc = run_cli("identify", "--manifest", str(good), "--methods", "ols", "-o", str(out), "--no-report")
     assert proc.returncode == 0, proc.stderr
     assert (out / "identification.json").is_file()
