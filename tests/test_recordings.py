@@ -232,6 +232,11 @@ def test_given_delay_of_whole_samples_moves_the_samples():
     for bad in ("tau=soon", "tau.ankle=0.1", "tau=1e3", "tau.knee=auto"):
         with pytest.raises(SpecError):
             parse_delay(bad, m.joint_names)
+    with pytest.raises(SpecError, match=r"knee given twice \(tau.knee=0.04, knee=0.02\); expected each channel once"):
+        parse_delay("tau.knee=0.04,knee=0.02", m.joint_names)  # issue 33: the last one won, silently
+    with pytest.raises(SpecError, match="tau given twice"):
+        parse_delay("tau=0.04,tau=0.02", m.joint_names)
+    assert np.array_equal(parse_delay("tau.knee=0.02,tau=0.04", m.joint_names), [0.04, 0.02])  # in any order
 
 
 def test_given_delay_moves_the_raw_yardstick_too():

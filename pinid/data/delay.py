@@ -44,7 +44,14 @@ def parse_delay(spec, joints: Sequence[str]) -> np.ndarray | str | None:
             key, sep, value = part.partition("=")
             if not sep:
                 key, value = "tau", key
-            items[key.strip()] = value.strip()
+            key = key.strip()
+            same = [k for k in items if k.removeprefix("tau.") == key.removeprefix("tau.")]  # knee is tau.knee
+            if same:
+                raise SpecError(
+                    f"delay {spec!r}: {key} given twice ({same[0]}={items[same[0]]}, {key}={value.strip()}); "
+                    "expected each channel once"
+                )
+            items[key] = value.strip()
         if not items:
             raise SpecError(f"delay {spec!r}: {_EXPECTED}")
     elif isinstance(spec, Mapping):
@@ -52,7 +59,7 @@ def parse_delay(spec, joints: Sequence[str]) -> np.ndarray | str | None:
     else:
         items = {"tau": spec}
     out = np.zeros(len(joints))
-    for key, value in items.items():
+    for key, value in sorted(items.items(), key=lambda kv: kv[0] != "tau"):  # tau=… first, per joint over it
         if key == "tau":
             target = list(range(len(joints)))
         else:
