@@ -234,8 +234,10 @@ class Stribeck:
             object.__setattr__(self, key, float(v))
 
     def factor(self, v: np.ndarray) -> np.ndarray:
-        """``exp(−(|v|/velocity)^shape)``: 1 at rest, → 0 at speed."""
-        return np.exp(-((np.abs(v) / self.velocity) ** self.shape))
+        """``exp(−(|v|/velocity)^shape)``: 1 at rest, → 0 at speed.  Bounded for any shape: a power that
+        overflows (shape 1e6 above ``velocity``) is +inf, and its factor exactly 0 (the step it tends to)."""
+        with np.errstate(over="ignore", under="ignore"):
+            return np.exp(-((np.abs(v) / self.velocity) ** self.shape))
 
 
 def stribeck(robot, name: str) -> Stribeck:
