@@ -295,3 +295,19 @@ def test_a_bug_is_one_line_with_status_1_and_debug_shows_it(monkeypatch, capsys)
     monkeypatch.setenv("PINID_DEBUG", "1")
     with pytest.raises(ValueError):
         main(["info", "--urdf", "exo_leg"])
+
+
+def test_closed_pipe_is_quiet_exit_141():
+    """Issue 33 (15): `pinid info … | head -1` — the reader closed the pipe: no "[Errno 32] Broken pipe" as
+    bad input (status 2), but exit status 141 (128 + SIGPIPE) and nothing on stderr (docs/checks.md)."""
+    import subprocess
+    import sys
+
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "pinid.cli", "info", "--urdf", "exo_leg"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    )
+    proc.stdout.close()  # the reader is gone before anything is written: the first write fails with EPIPE
+    err = proc.stderr.read().decode()
+    assert proc.wait(timeout=120) == 141 and err == "", err

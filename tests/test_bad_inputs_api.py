@@ -582,3 +582,53 @@ def test_tampered_identification_json(tmp_path, model_json):
             Identification.load(path)
     with pytest.raises(SpecError, match="not a valid identification"):
         Identification.from_dict({"robot": model_json["robot"], "methods": {"ols": 3}})
+
+
+def _round4_cases():
+    """Issue 33 (12): public calls that raised raw numpy/Python errors (or took a short vector silently)."""
+    from pinid import RobotModel, TermSelection, standard_parameters
+    from pinid.data import preprocess as pp
+    from pinid.model import mjcf
+    from pinid.model import terms as tm
+    from pinid.model.base import base_parameters_of
+    from pinid.model.regressor import parameter_names, regressor
+    from pinid.simulation import plant_checks, twin
+
+    leg, terms = RobotModel.from_urdf("exo_leg"), TermSelection(coulomb=True, viscous=True)
+    th = standard_parameters(leg, terms)
+    rng = np.random.default_rng(0)
+    q = np.column_stack([rng.uniform(0, 1, 50), rng.uniform(-1.5, -0.2, 50)])
+    dq = rng.normal(size=(50, 2))
+    W, names = regressor(leg, q, dq, dq, terms), parameter_names(leg, terms)
+    return {
+        "q: shape (50, 3), expected (N, 2)": lambda: tm.columns(leg, terms, np.hstack([q, q[:, :1]]), dq, dq),
+        "dq: shape (49, 2), expected (N, 2)": lambda: tm.columns(leg, terms, q, dq[:-1], dq),
+        "dq: shape (50, 2), expected (N, 2) for joints ['hip', 'knee'], the shape of q (49, 2)": lambda: tm.torque(
+            leg, terms, th[20:], q[:-1], dq, dq
+        ),
+        "theta_terms: shape (3,), expected (4,) values of the terms": lambda: tm.values(leg, terms, th[20:23]),
+        "theta_terms: shape (), expected (4,)": lambda: tm.values(leg, terms, np.float64(1.0)),
+        "theta: shape (0,), expected (24,) standard parameters": lambda: mjcf.joint_fields(leg, np.zeros(0), terms),
+        "theta: shape (), expected (24,)": lambda: mjcf.joint_fields(leg, np.float64(1.0), terms),
+        "fs=0.0, expected a finite number > 0": lambda: pp.lowpass(q, 0.0, 5.0),
+        "cutoff=-1.0, expected a finite number > 0": lambda: pp.lowpass(q, 100.0, -1.0),
+        "cutoff=60 Hz, expected below the Nyquist frequency": lambda: pp.lowpass(q, 100.0, 60.0),
+        "x: 0 samples, expected more than 15 to filter": lambda: pp.lowpass(np.zeros((0, 2)), 100.0, 5.0),
+        "cutoff=0.0, expected a finite number > 0": lambda: pp.default_trim(100.0, 0.0, 4),
+        "order=0, expected an integer ≥ 1": lambda: pp.default_trim(100.0, 5.0, 0),
+        "cutoff=nan, expected a finite number": lambda: pp.savgol_half_window(100.0, float("nan")),
+        "coulomb: shape (3,), expected (2,) per joint": lambda: twin.friction_torque(dq, np.ones(3), np.ones(2)),
+        "t: shape (), rms: shape (2,)": lambda: twin.wearer_disturbance(np.float64(1.0), np.ones(2), rng),
+        "q has 49 samples and q_desired 50": lambda: plant_checks.check_tracking(leg, q[:-1], q),
+        "W: shape (100, 24), expected (rows, 23)": lambda: base_parameters_of(W, names[:-1]),
+        "W: shape (24, 100), expected (rows, 24)": lambda: base_parameters_of(W.T, names),
+    }
+
+
+def test_round4_api_calls_raise_one_line_pinid_errors():
+    from pinid.errors import PinidError
+
+    for fragment, call in _round4_cases().items():
+        with pytest.raises(PinidError) as info:
+            call()
+        assert fragment in str(info.value) and "\n" not in str(info.value), (fragment, str(info.value))

@@ -143,3 +143,14 @@ def test_wls_iterations_and_history(leg_problem):
     assert 1 <= len(est.history_) <= 5
     with pytest.raises(ValueError, match="iterations"):
         WLS(iterations=0).fit(noisy)
+
+
+def test_iv_sim_rate_too_low_is_named_not_a_divergence():
+    """Issue 33 (minor): iv.sim_rate=1e-6 said the simulation diverged ("raise bandwidth"); the rate is
+    too low for the PD: RK4 needs ω·h ≤ 2.5, 2π·2 Hz / 2.5 = 5.03 Hz at the default bandwidth."""
+    m = truth_model("exo_leg")
+    problem = IdentificationProblem.from_datasets(m, [twin(m, seconds=2, rate=200)])
+    with pytest.raises(
+        SpecError, match=r"sim_rate=1e-06 Hz is too low for the PD bandwidth 2 Hz: expected sim_rate ≥ 5.03 Hz"
+    ):
+        make_estimator("iv", sim_rate=1e-6).fit(problem)

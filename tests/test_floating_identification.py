@@ -311,3 +311,20 @@ def test_ros2_bag_with_imu_and_wrench_messages(exo, suspended, tmp_path, raw_top
         np.testing.assert_allclose(from_bag.imu[key], from_csv.imu[key], atol=1e-9)
     np.testing.assert_allclose(from_bag.wrenches["pelvis"], from_csv.wrenches["pelvis"], atol=1e-9)
     np.testing.assert_allclose(from_bag.data.tau, from_csv.data.tau, atol=1e-9)
+
+
+def test_always_in_contact_and_base_weight_out_of_range_are_named(exo):
+    """Issue 33 (minor): a leg without force sensing in contact in every sample is named (in contact, not "at
+    rest", not a list of unexcited columns); --base-weight 1e300 is out of range, not "columns are zero"."""
+    import dataclasses
+
+    run = simulate_gait(exo, seconds=1, rate=100)
+    s = dataclasses.replace(
+        run.exact,
+        wrenches=[w for w in run.exact.wrenches if w.link == "l_sole"],
+        unsensed={"r_sole": np.ones(run.exact.n, bool)},
+    )
+    with pytest.raises(DataError, match="r_sole in contact in every sample without a measured wrench"):
+        floating_problem(exo, s, terms=TERMS)
+    with pytest.raises(DataError, match=r"base_weight=1e\+300 is out of range, expected a number in \[1e-06, 1e\+06\]"):
+        floating_problem(exo, run.exact, terms=TERMS, base_weight=1e300)

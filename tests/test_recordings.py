@@ -89,6 +89,17 @@ def test_manifest_ranges_of_one_file_equal_the_file_split_by_hand(one_file, rang
         ('[[recording]]\nfile = "run.csv"\nrole = "train"\ntime = [50, 60]\n', DataError, "no sample with 50"),
         ('[[recording]]\nfile = "run.csv"\nrole = "train"\nrows = [9000]\n', DataError, "select no row"),
         ('[[recording]]\nfile = "run.csv"\nrole = "train"\nrows = [5, 5]\n', SpecError, "0 ≤ first < stop"),
+        (  # issue 33 (06): a copy of the file (train.csv holds run.csv's first 3200 rows) shares samples
+            '[[recording]]\nfile = "train.csv"\nrole = "train"\n'
+            '[[recording]]\nfile = "run.csv"\nrole = "validate"\nrows = [3000, 4000]\n',
+            DataError,
+            "run.csv[rows 3000:4000] (validate) and train.csv (train) share 200 samples (the same t, q and tau",
+        ),
+        (  # issue 33 (06): a stop past the end is refused, not clipped
+            '[[recording]]\nfile = "run.csv"\nrole = "train"\nrows = [3000, 400000]\n',
+            DataError,
+            "rows 3000:400000 go past the end of run.csv, which has 4800 rows; expected a stop ≤ 4800",
+        ),
     ],
 )
 def test_bad_manifests_are_one_line_errors(one_file, text, error, fragment):
@@ -108,8 +119,10 @@ def test_manifest_overlap_allowed_on_request_with_a_warning(one_file):
         '[[recording]]\nfile = "run.csv"\nrole = "validate"\nrows = [1900, 3000]\n',
         "overlap.toml",
     )
-    with pytest.warns(UserWarning, match="share rows 1900–1999"):
+    with pytest.warns(UserWarning) as caught:
         study = Manifest.load(path).read(m)
+    said = " ".join(str(w.message) for w in caught)
+    assert "share rows 1900–1999" in said and "share 500 samples (the same t, q and tau in train.csv" in said
     assert [ds.n for ds in study.train] == [2000] and [ds.n for ds in study.validate] == [1500, 1100]
 
 
@@ -130,6 +143,10 @@ def test_cli_manifest_and_its_errors(one_file, tmp_path):
         identify(m, manifest=good, mapping=folder / "x.toml")
     with pytest.raises(SpecError, match="expected --data FILE"):
         recording_options(argparse.Namespace(**{**vars(both), "manifest": None, "data": None}))
+    past = _write(folder, '[[recording]]\nfile = "run.csv"\nrole = "train"\nrows = [3000, 400000]\n', "e.toml")
+    proc = run_cli("identify", "--manifest", str(past), "--methods", "ols", "-o", str(out), "--no-report")
+    assert_clean_error(proc, "go past the end of run.csv, which has 4800 rows")
+    assert not out.exists()
     proc = run_cli("identify", "--manifest", str(good), "--methods", "ols", "-o", str(out), "--no-report")
     assert proc.returncode == 0, proc.stderr
     assert (out / "identification.json").is_file()
@@ -215,6 +232,25 @@ def test_given_delay_of_whole_samples_moves_the_samples():
     for bad in ("tau=soon", "tau.ankle=0.1", "tau=1e3", "tau.knee=auto"):
         with pytest.raises(SpecError):
             parse_delay(bad, m.joint_names)
+    with pytest.raises(SpecError, match=r"knee given twice \(tau.knee=0.04, knee=0.02\); expected each channel once"):
+        parse_delay("tau.knee=0.04,knee=0.02", m.joint_names)  # issue 33: the last one won, silently
+    with pytest.raises(SpecError, match="tau given twice"):
+        parse_delay("tau=0.04,tau=0.02", m.joint_names)
+    assert np.array_equal(parse_delay("tau.knee=0.02,tau=0.04", m.joint_names), [0.04, 0.02])  # in any order
+
+
+def test_given_delay_moves_the_raw_yardstick_too():
+    """Issue 33 (01): with the true delay the raw errors (against the torque as recorded, aligned by the same
+    delay, not filtered) are those of the undelayed recording; before, they were measured against the
+    unshifted torque: 4.42 % against 0.68 %."""
+    m = truth_model("exo_leg")
+    train, valid = twin(m, seconds=12, rate=200, seed=4, noise=0.05), twin(m, seconds=6, rate=200, seed=5, noise=0.05)
+    ref = identify(m, train, validate=valid, methods="ols", preprocess=True)["ols"]
+    got = identify(
+        m, _lagging(train, 8), validate=_lagging(valid, 8), methods="ols", preprocess=True, delay="tau=0.04"
+    )["ols"]
+    for a, b in ((got.validation, ref.validation), (got.train, ref.train)):
+        assert a.all["rel_rms_percent"] == pytest.approx(b.all["rel_rms_percent"], rel=0.03)
 
 
 # ---------------------------------------------------------------------------------------------- vendor URDFs

@@ -233,3 +233,14 @@ def test_compare_fits_the_velocity_too():
     assert comp.robot["stribeck"]["fs"]["velocity"] == comp.data["stribeck"]["fs"]["velocity"]
     given = identify(m, ds, methods=["ols"], terms=JOINT)  # no setting: the default is used and reported
     assert given.data["stribeck"] == {"fs": {"velocity": 0.1, "shape": 2.0, "fitted": False}}
+
+
+def test_shape_1e6_is_a_step_without_overflow_warnings():
+    """Issue 33 (minor): a Stribeck shape 1e6 surfaced as a numpy overflow warning; the factor is bounded and
+    tends to the step (1 below the Stribeck velocity, 0 above)."""
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        f = Stribeck(velocity=0.1, shape=1e6).factor(np.array([0.0, 0.05, 0.0999, 0.1001, 2.0, -3.0]))
+    assert np.array_equal(f, [1.0, 1.0, 1.0, 0.0, 0.0, 0.0])

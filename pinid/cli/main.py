@@ -148,7 +148,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         check_input_files(args)
         with cli_blas_threads(), _one_line_warnings(args.command):
-            return int(args.command_function(args) or 0)
+            status = int(args.command_function(args) or 0)
+            sys.stdout.flush()  # a closed pipe shows here, not at the interpreter's exit
+            return status
+    except BrokenPipeError:  # the reader went away (`pinid info | head -1`): not the user's error, no message
+        return _closed_stdout()
     except PinidError as exc:
         print(f"pinid {args.command}: error: {exc}", file=sys.stderr)
         return 2
@@ -277,6 +281,18 @@ def _sigterm_as_interrupt() -> None:
 
     if threading.current_thread() is threading.main_thread():
         signal.signal(signal.SIGTERM, handler)
+
+
+#: Exit status when the reader of stdout closed the pipe: 128 + SIGPIPE, what a Unix tool killed by it reports.
+BROKEN_PIPE_STATUS = 128 + 13
+
+
+def _closed_stdout() -> int:
+    """Point stdout at the null device (the interpreter's final flush must not fail again) and return
+    :data:`BROKEN_PIPE_STATUS`: the output was cut short on purpose by its reader (docs/checks.md)."""
+    with contextlib.suppress(OSError, ValueError):
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+    return BROKEN_PIPE_STATUS
 
 
 if __name__ == "__main__":

@@ -44,7 +44,14 @@ def parse_delay(spec, joints: Sequence[str]) -> np.ndarray | str | None:
             key, sep, value = part.partition("=")
             if not sep:
                 key, value = "tau", key
-            items[key.strip()] = value.strip()
+            key = key.strip()
+            same = [k for k in items if k.removeprefix("tau.") == key.removeprefix("tau.")]  # knee is tau.knee
+            if same:
+                raise SpecError(
+                    f"delay {spec!r}: {key} given twice ({same[0]}={items[same[0]]}, {key}={value.strip()}); "
+                    "expected each channel once"
+                )
+            items[key] = value.strip()
         if not items:
             raise SpecError(f"delay {spec!r}: {_EXPECTED}")
     elif isinstance(spec, Mapping):
@@ -52,7 +59,7 @@ def parse_delay(spec, joints: Sequence[str]) -> np.ndarray | str | None:
     else:
         items = {"tau": spec}
     out = np.zeros(len(joints))
-    for key, value in items.items():
+    for key, value in sorted(items.items(), key=lambda kv: kv[0] != "tau"):  # tau=… first, per joint over it
         if key == "tau":
             target = list(range(len(joints)))
         else:
@@ -93,6 +100,20 @@ def shift_torque(ds: Dataset, delays: np.ndarray | float) -> Dataset:
         tau[:, j] = shifted(t, ds.tau[:, j], out.t + d[j])
     out.tau = tau
     out.meta["delay"] = {name: float(v) for name, v in zip(ds.joints, d)}
+    rec = ds.meta.get("recorded")
+    if isinstance(rec, Dataset) and rec.tau is not None and rec.n >= 2 and set(ds.joints) <= set(rec.joints):
+        out.meta["recorded"] = _shift_recorded(
+            rec.reorder(list(ds.joints)), d
+        )  # the yardstick moves with the torque: not filtered
+    return out
+
+
+def _shift_recorded(rec: Dataset, d: np.ndarray) -> Dataset:
+    """The recording as read with each torque channel read at ``t + d[j]`` [s] (linear interpolation, no
+    filter): the yardstick of torque errors aligned like the fitted torque.  Only the times the aligned
+    recording keeps are ever looked up, so the ends (held at the last sample) are never used."""
+    out = rec.select(slice(None))
+    out.tau = np.column_stack([shifted(rec.t, rec.tau[:, j], rec.t + d[j]) for j in range(rec.nv)])
     return out
 
 

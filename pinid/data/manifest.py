@@ -26,8 +26,10 @@ gains).  So one file can give a training and a validation range without a conver
 Paths (``file``, ``mapping``, ``drives``, ``payload``) are relative to the manifest's folder.  ``rows`` are
 0-based data rows, ``[first, stop)`` as a Python slice (``stop`` may be left out: ``rows = [6000]``);
 ``time`` selects the samples with ``start ≤ t < stop`` on the recording's own time column.  Two ranges
-of one file that share a sample are refused (a validation range inside the training range measures a
-training error; two training ranges count rows twice) unless ``allow_overlap = true`` (then a warning).
+that share a sample are refused (a validation range inside the training range measures a
+training error; two training ranges count rows twice) unless ``allow_overlap = true`` (then a warning): of
+one file by row index, of two files (a copy, a hard link, the same rows cut to a file of their own) by the
+samples themselves (t, q and tau, bit for bit).  A ``rows`` stop past the end of the file is refused.
 Unknown keys, missing files, an empty range and a manifest without a training recording are one-line
 errors.  The range is cut from the recording as read, before any filtering, so a range gives exactly what
 the same rows written to a file of their own give.
@@ -137,21 +139,26 @@ class Manifest:
     def read(self, model=None) -> "Study":
         """Read every recording (with ``model``: in its joint order, checked against it), cut to its range;
         DataError for an empty range or overlapping ranges of one file (see the module text)."""
-        spans: dict[str, list[tuple[int, int, Entry]]] = {}
+        spans: list[tuple[str, int, int, Entry, np.ndarray]] = []
         study = Study(self)
         for e in self.entries:
             ds = read_recording(e.file, mapping=e.mapping, model=model)
             first, stop = _span(ds, e, self.path)
-            for a, b, other in spans.setdefault(os.path.realpath(e.file), []):
-                if first < b and a < stop:
-                    msg = (
-                        f"{self.path}: {e.name} ({e.role}) and {other.name} ({other.role}) share rows "
-                        f"{max(a, first)}–{min(b, stop) - 1} of {e.file.name}"
+            path, keys = os.path.realpath(e.file), _row_keys(ds, first, stop)
+            for p, a, b, other, other_keys in spans:
+                if p == path:
+                    shared = (
+                        f"rows {max(a, first)}–{min(b, stop) - 1} of {e.file.name}" if first < b and a < stop else ""
                     )
+                else:  # another file: a copy (or hard link) shares samples, not a path
+                    n = np.intersect1d(keys, other_keys).size
+                    shared = f"{n} samples (the same t, q and tau in {e.file.name} and {other.file.name})" if n else ""
+                if shared:
+                    msg = f"{self.path}: {e.name} ({e.role}) and {other.name} ({other.role}) share {shared}"
                     if not self.allow_overlap:
                         raise DataError(msg + "; expected ranges that do not overlap (allow_overlap = true allows it)")
                     warn(None, msg + " (allow_overlap = true)")
-            spans[os.path.realpath(e.file)].append((first, stop, e))
+            spans.append((path, first, stop, e, keys))
             part = ds.select(slice(first, stop))
             part.source = str(e.file) if e.time is None and e.rows is None else f"{e.file}[{_range_text(e)}]"
             if e.label:
@@ -200,7 +207,12 @@ def _span(ds: Dataset, e: Entry, origin: Path) -> tuple[int, int]:
             )
         return int(inside[0]), int(inside[-1]) + 1
     if e.rows is not None:
-        first, stop = e.rows[0], ds.n if e.rows[1] is None else min(e.rows[1], ds.n)
+        first, stop = e.rows[0], ds.n if e.rows[1] is None else e.rows[1]
+        if stop > ds.n:
+            raise DataError(
+                f"{origin}: {e.name}: rows {e.rows[0]}:{e.rows[1]} go past the end of {e.file.name}, which has "
+                f"{ds.n} rows; expected a stop ≤ {ds.n} (or [first] for every row from first)"
+            )
         if first >= stop:
             raise DataError(
                 f"{origin}: {e.name}: rows {e.rows[0]}:{'' if e.rows[1] is None else e.rows[1]} select no row "
@@ -208,6 +220,17 @@ def _span(ds: Dataset, e: Entry, origin: Path) -> tuple[int, int]:
             )
         return first, stop
     return 0, ds.n
+
+
+def _row_keys(ds: Dataset, first: int, stop: int) -> np.ndarray:
+    """Sorted 64-bit keys of the samples ``[first, stop)`` (time, positions, torque, bit for bit): two
+    recordings share a sample when they share a key (a copy of a file shares all of them)."""
+    cols = [ds.t[first:stop, None], ds.q[first:stop]] + ([] if ds.tau is None else [ds.tau[first:stop]])
+    bits = np.ascontiguousarray(np.hstack(cols), dtype=np.float64).view(np.uint64)
+    mult = np.random.default_rng(0).integers(1, 2**63, size=bits.shape[1], dtype=np.uint64) | np.uint64(1)
+    with np.errstate(over="ignore"):
+        keys = (bits ^ (bits >> np.uint64(29))) * mult
+        return np.unique(np.bitwise_xor.reduce(keys * np.uint64(0x9E3779B97F4A7C15), axis=1))
 
 
 def _unknown(d: dict, allowed: set[str], origin: str, where: str) -> None:

@@ -45,7 +45,7 @@ import numpy as np
 
 from dataclasses import replace
 
-from pinid.checks import number
+from pinid.checks import as_floats, count, number
 from pinid.data.dataset import Dataset
 from pinid.data.filters import butter_sos, default_padlen, filtfilt_sos, savgol
 from pinid.errors import DataError, SpecError
@@ -93,12 +93,15 @@ SAVGOL_POLYORDER = 5
 def savgol_half_window(fs: float, cutoff: float) -> int:
     """Half-width ``M`` of the Savitzky–Golay window (length ``2M+1``) for rate ``fs`` and cut-off [Hz]."""
     fs = number(fs, "fs", low=0, low_open=True)
+    cutoff = number(cutoff, "cutoff", low=0, low_open=True)
     return int(max(4, round(0.3 * fs / cutoff)))
 
 
 def default_trim(fs: float, cutoff: float, order: int) -> float:
     """Default time [s] trimmed at each end: filter settling to 1/1000 plus the derivative window."""
     fs = number(fs, "fs", low=0, low_open=True)
+    cutoff = number(cutoff, "cutoff", low=0, low_open=True)
+    order = count(order, "order", low=1)
     settle = np.log(1000.0) / (2 * np.pi * cutoff * np.sin(np.pi / (2 * order)))
     return float(settle + (savgol_half_window(fs, cutoff) + 1) / fs)
 
@@ -106,9 +109,16 @@ def default_trim(fs: float, cutoff: float, order: int) -> float:
 def lowpass(x: np.ndarray, fs: float, cutoff: float, order: int = 4) -> np.ndarray:
     """Zero-phase Butterworth low-pass of ``x`` (samples along axis 0) [same unit as x], padded as
     scipy.signal.sosfiltfilt by default (:func:`~pinid.data.filters.default_padlen`)."""
-    array_like(x, "x")
-    sos = butter_sos(order, cutoff, fs)
-    return filtfilt_sos(sos, x, default_padlen(sos))
+    x = as_floats(array_like(x, "x"), "x")
+    fs = number(fs, "fs", low=0, low_open=True)
+    cutoff = number(cutoff, "cutoff", low=0, low_open=True)
+    if cutoff >= fs / 2:
+        raise SpecError(f"cutoff={cutoff:g} Hz, expected below the Nyquist frequency fs/2 = {fs / 2:g} Hz")
+    sos = butter_sos(count(order, "order", low=1), cutoff, fs)
+    pad = default_padlen(sos)
+    if x.ndim == 0 or x.shape[0] <= pad:
+        raise DataError(f"x: {0 if x.ndim == 0 else x.shape[0]} samples, expected more than {pad} to filter")
+    return filtfilt_sos(sos, x, pad)
 
 
 def uniform_grid(ds: Dataset, rate: float | None = None) -> tuple[Dataset, dict]:

@@ -63,6 +63,11 @@ from pinid.linalg import solve_r
 from pinid.model import terms as _terms
 
 
+#: Largest ω·h [-] of one Runge–Kutta step (ω = 2π·bandwidth, h the step): RK4 on the PD's poles at −ω is
+#: stable to ω·h ≈ 2.8; a lower ``sim_rate`` makes every simulation diverge.
+RK4_STEP_LIMIT = 2.5
+
+
 class ModelSimulation:
     """The model with base parameters ``β`` simulated on each recording of ``problem`` under the measured
     torque and a PD on the measured positions (see the module text); :meth:`instruments` returns the base
@@ -77,6 +82,12 @@ class ModelSimulation:
                 "iv/didim simulate the model on the recordings: expected a problem made from recordings of a "
                 "fixed-base robot (IdentificationProblem.from_datasets), not a bare regressor, a segmental "
                 "stage or a floating base"
+            )
+        low = 2 * math.pi * float(bandwidth) / (RK4_STEP_LIMIT * max(int(substeps), 1))
+        if rate is not None and float(rate) < low:
+            raise SpecError(
+                f"sim_rate={rate:g} Hz is too low for the PD bandwidth {bandwidth:g} Hz: expected sim_rate ≥ "
+                f"{low:.3g} Hz (ω·h ≤ {RK4_STEP_LIMIT:g} per Runge–Kutta step; default 250 Hz), or none for every sample"
             )
         self.problem = problem
         self.rows = rows

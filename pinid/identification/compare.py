@@ -42,7 +42,7 @@ from pinid.estimators.metaheuristic import (
     training_costs,
 )
 from pinid.identification.metrics import joint_units, torque_metrics
-from pinid.problem.problem import base_regressor, check_dataset, recorded_torque
+from pinid.problem.problem import base_regressor, check_dataset, predict_torque, recorded_torque
 from pinid.identification.run import Fit, as_model, check_options, parse_methods, run_jobs, setup, use_manifest
 from pinid.identification.truth import true_base
 from pinid.io import jsonable, read_json, write_json
@@ -613,6 +613,15 @@ _INFO_KEYS = (
 )
 
 
+def _predicted(problem, ds, Wb: np.ndarray, values: np.ndarray) -> np.ndarray:
+    """``(N, nv)`` torque [N·m] predicted on a validation recording as identify predicts it: with the cached
+    base regressor ``Wb``, or (``--fit-joints``) through the completed standard set
+    (:func:`~pinid.problem.problem.predict_torque`: the left-out joints need the bodies the fitted rows miss)."""
+    if problem.base.fit_joints is not None:
+        return predict_torque(problem.model, problem.terms, problem.base, ds, values)
+    return (Wb @ values).reshape(ds.n, problem.model.nv)
+
+
 def _run_of(fit: Fit, problem, val_W: dict, truth_x, scale, segmental: bool) -> Run:
     """The measures of one fitted job (:class:`Run`)."""
     res, model = fit.result, problem.model
@@ -620,7 +629,7 @@ def _run_of(fit: Fit, problem, val_W: dict, truth_x, scale, segmental: bool) -> 
     for label, items in val_W.items():
         tau = np.concatenate([ds.tau for ds, _ in items])
         recorded = np.concatenate([recorded_torque(ds) for ds, _ in items])
-        pred = np.concatenate([(Wb @ res.base).reshape(ds.n, model.nv) for ds, Wb in items])
+        pred = np.concatenate([_predicted(problem, ds, Wb, res.base) for ds, Wb in items])
         validation[label] = torque_metrics(recorded, pred, model.joint_names, units=joint_units(model)).to_dict()
         filtered[label] = torque_metrics(tau, pred, model.joint_names, units=joint_units(model)).to_dict()
     hist_first = None

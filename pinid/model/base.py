@@ -218,6 +218,8 @@ def base_parameters_of(
     if isinstance(names, (str, bytes)) or not isinstance(names, Sequence):
         raise SpecError(f"names: got {type(names).__name__}, expected a list of parameter names")
     p = len(names)
+    if W.ndim != 2 or W.shape[1] != p:
+        raise DataError(f"W: shape {W.shape}, expected (rows, {p}): one column per name of names ({p} names)")
     with np.errstate(over="ignore", invalid="ignore"):
         norms = np.linalg.norm(W, axis=0)
     bad = [names[i] for i in np.flatnonzero(~np.isfinite(norms))]

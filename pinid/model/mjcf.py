@@ -39,7 +39,7 @@ import numpy as np
 import pinocchio as pin
 
 from pinid.checks import as_floats
-from pinid.errors import ModelError
+from pinid.errors import DataError, ModelError
 from pinid.io import write_text
 from pinid.model import terms as _terms
 from pinid.model.base import marks_summary
@@ -117,6 +117,11 @@ def joint_fields(model: RobotModel, theta: np.ndarray, terms: TermSelection) -> 
     """The MJCF joint fields ``{"armature" [kg·m²], "damping" [N·m·s/rad], "frictionloss" [N·m]: (nv,)}`` of the
     term block of ``theta``, and the non-zero identified terms that have no MJCF field (``"hip.offset = 0.3 N·m"``)."""
     model, terms, theta = as_robot(model), as_terms(terms), as_floats(theta, "theta")
+    size = 10 * model.nv + _terms.count(model, terms)
+    if theta.shape != (size,):
+        raise DataError(
+            f"theta: shape {theta.shape}, expected ({size},) standard parameters of {model.name} with these terms"
+        )
     values = _terms.values(model, terms, theta[10 * model.nv :])
     out = {attr: np.zeros(model.nv) for attr, _ in _FIELDS.values()}
     lost = []

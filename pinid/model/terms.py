@@ -29,7 +29,7 @@ from collections.abc import Callable, Iterable, Iterator, Mapping, MutableMappin
 
 import numpy as np
 from pinid.checks import array_like, as_floats
-from pinid.errors import ModelError, SpecError
+from pinid.errors import DataError, ModelError, SpecError
 
 
 class Motion(NamedTuple):
@@ -234,8 +234,10 @@ class Stribeck:
             object.__setattr__(self, key, float(v))
 
     def factor(self, v: np.ndarray) -> np.ndarray:
-        """``exp(−(|v|/velocity)^shape)``: 1 at rest, → 0 at speed."""
-        return np.exp(-((np.abs(v) / self.velocity) ** self.shape))
+        """``exp(−(|v|/velocity)^shape)``: 1 at rest, → 0 at speed.  Bounded for any shape: a power that
+        overflows (shape 1e6 above ``velocity``) is +inf, and its factor exactly 0 (the step it tends to)."""
+        with np.errstate(over="ignore", under="ignore"):
+            return np.exp(-((np.abs(v) / self.velocity) ** self.shape))
 
 
 def stribeck(robot, name: str) -> Stribeck:
@@ -492,6 +494,18 @@ def motion(robot, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray, space: str = "
     return Motion(q @ G.T, dq @ G.T, ddq @ G.T, robot.drives.motor_names, robot)
 
 
+def _same_motion_shape(robot, q, dq, ddq) -> None:
+    """DataError unless ``q``, ``dq`` and ``ddq`` are (N, nv) arrays of one shape (a cheap check: no copy)."""
+    want = robot.nv
+    for name, x in (("q", q), ("dq", dq), ("ddq", ddq)):
+        shape = np.shape(x)
+        if len(shape) != 2 or shape[1] != want or shape != np.shape(q):
+            raise DataError(
+                f"{name}: shape {shape}, expected (N, {want}) for joints {list(robot.joint_names)}, "
+                f"the shape of q {np.shape(q)}"
+            )
+
+
 def columns(
     robot, terms: TermSelection, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray, out: np.ndarray | None = None
 ) -> np.ndarray:
@@ -500,6 +514,7 @@ def columns(
     _robot(robot)
     terms = as_terms(terms)
     q = np.asarray(array_like(q, "q"))
+    _same_motion_shape(robot, q, dq, ddq)
     n, nv = q.shape
     joint, motor = terms.joint, terms.motor
     nm = len(_motors(robot)) if motor else 0
@@ -528,10 +543,16 @@ def values(robot, terms: TermSelection, theta_terms: np.ndarray) -> dict[str, np
     _robot(robot)
     terms = as_terms(terms)
     theta_terms = as_floats(theta_terms, "theta_terms", finite=False)
+    layout = robot_layout(robot, terms)
+    if theta_terms.shape != (len(layout),):
+        raise DataError(
+            f"theta_terms: shape {theta_terms.shape}, expected ({len(layout)},) values of the terms "
+            f"{', '.join(p.name for p in layout[:6]) or '(none)'}{' …' if len(layout) > 6 else ''}"
+        )
     out: dict[str, np.ndarray] = {n: np.zeros(robot.nv) for n in JOINT_TERM_NAMES}
     for t in terms.joint + terms.motor:
         out[t.name] = np.zeros(robot.nv if t.space == "joint" else len(_motors(robot)))
-    for p, v in zip(robot_layout(robot, terms), theta_terms):
+    for p, v in zip(layout, theta_terms):
         out[p.term.name][p.index] = v
     return out
 
@@ -556,6 +577,7 @@ def torque(
     q, dq, ddq = (
         np.atleast_2d(np.asarray(array_like(x, k), dtype=float)) for k, x in (("q", q), ("dq", dq), ("ddq", ddq))
     )
+    _same_motion_shape(robot, q, dq, ddq)
     vals = theta_terms if isinstance(theta_terms, dict) else values(robot, terms, theta_terms)
     tau = np.zeros_like(q)
     if terms.joint:

@@ -100,6 +100,11 @@ class FloatingRows:
         return W
 
 
+#: The weights of the base rows accepted [-]: the Gram matrix squares them, and beyond 1e6 (or below 1e-6)
+#: the joint rows' columns (friction) fall below the rank tolerance and read as "not excited".
+BASE_WEIGHT_RANGE = (1e-6, 1e6)
+
+
 def floating_targets(model: FloatingRobotModel, s: FloatingSamples) -> np.ndarray:
     """``[0₆; τ] + Σ J_cᵀ f_c`` ``(N, 6 + n)``: the right-hand side of every row (τ taken as 0 when not measured)."""
     y = np.zeros((s.n, BASE_NV + model.nv))
@@ -154,8 +159,11 @@ def floating_problem(
     mask = row_mask(model.nv, rows)
     if rows == "base":
         terms = TermSelection.from_names("none")  # no joint term enters the base rows
-    if not (np.isfinite(base_weight) and base_weight > 0):
-        raise DataError(f"base_weight={base_weight!r}, expected a number > 0")
+    if not (np.isfinite(base_weight) and BASE_WEIGHT_RANGE[0] <= base_weight <= BASE_WEIGHT_RANGE[1]):
+        raise DataError(
+            f"base_weight={base_weight!r} is out of range, expected a number in [{BASE_WEIGHT_RANGE[0]:g}, "
+            f"{BASE_WEIGHT_RANGE[1]:g}] (a weight beyond it drowns the joint rows in rounding)"
+        )
     for s in samples:
         if rows != "base" and s.data.tau is None:
             raise DataError(
@@ -169,6 +177,13 @@ def floating_problem(
     ys, joints, sample_idx, weights, keeps = [], [], [], [], []
     offset = 0
     for s in samples:
+        always = [link for link, contact in s.unsensed.items() if len(contact) and np.all(contact)]
+        if always:
+            raise DataError(
+                f"{s.source}: {', '.join(always)} in contact in every sample without a measured wrench "
+                "(--swing-rows): the base rows and that leg's joint rows are all left out (in contact, not at "
+                "rest); expected a recording where the leg swings, or its wrench"
+            )
         keep = swing_rows(model, s, mask)
         if terms.coulomb and rest_velocity is not None and rest_velocity != 0:
             if isinstance(rest_velocity, str):

@@ -26,6 +26,8 @@ def check_tracking(model, q: np.ndarray, q_desired: np.ndarray) -> None:
     a link kilometres long, a mass or inertia off by orders of magnitude, effort limits too low)."""
     model = as_robot(model)
     q, q_desired = as_states(q, "q", model.joint_names), as_states(q_desired, "q_desired", model.joint_names)
+    if q.shape != q_desired.shape:
+        raise DataError(f"q has {len(q)} samples and q_desired {len(q_desired)}, expected the same number")
     lo, hi = model.lower, model.upper
     bounded = np.isfinite(lo) & np.isfinite(hi) & (hi > lo)
     margin = np.where(bounded, LIMIT_OVERSHOOT * np.where(bounded, hi - lo, 0.0), np.inf)

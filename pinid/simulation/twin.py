@@ -55,7 +55,7 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 import pinocchio as pin
 
-from pinid.checks import count, number
+from pinid.checks import as_floats, count, number
 from pinid.data.dataset import Dataset
 from pinid.errors import DataError, DataWarning, SpecError
 from pinid.model.robot import RobotModel, as_robot
@@ -693,8 +693,10 @@ WEARER_BAND = (0.2, 2.0)
 def wearer_disturbance(t: np.ndarray, rms: np.ndarray, rng: np.random.Generator, components: int = 16) -> np.ndarray:
     """A smooth random torque (N, nv) [N·m] at times ``t`` [s]: per joint a sum of ``components`` sinusoids,
     frequencies uniform in :data:`WEARER_BAND`, random phases and amplitudes, scaled to exactly ``rms`` [N·m]."""
-    array_like(t, "t")
-    rms = np.asarray(rms, dtype=float)
+    t = as_floats(array_like(t, "t"), "t")
+    rms = as_floats(rms, "rms")
+    if t.ndim != 1 or rms.ndim != 1:
+        raise DataError(f"t: shape {t.shape}, rms: shape {rms.shape}; expected (N,) times [s] and (nv,) RMS [N·m]")
     f = rng.uniform(*WEARER_BAND, (components, rms.size))
     phase = rng.uniform(0, 2 * np.pi, (components, rms.size))
     amp = rng.normal(0, 1, (components, rms.size))
@@ -745,8 +747,13 @@ def save_truth(path, truth: dict):
 
 def friction_torque(dq: np.ndarray, coulomb, viscous) -> np.ndarray:
     """The regressor's friction ``fc·sign(dq) + fv·dq`` [N·m] for velocities ``dq`` (N, nv)."""
-    array_like(dq, "dq")
-    return np.asarray(coulomb) * np.sign(dq) + np.asarray(viscous) * dq
+    dq = as_floats(array_like(dq, "dq"), "dq")
+    nv = dq.shape[-1] if dq.ndim else 1
+    fc, fv = as_floats(coulomb, "coulomb"), as_floats(viscous, "viscous")
+    for name, v in (("coulomb", fc), ("viscous", fv)):
+        if v.shape not in ((), (nv,)):
+            raise DataError(f"{name}: shape {v.shape}, expected ({nv},) per joint, as the columns of dq")
+    return fc * np.sign(dq) + fv * dq
 
 
 #: Old public names (the seed papers' numbers) and their new ones; they still work for one release.
