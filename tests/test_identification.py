@@ -281,6 +281,14 @@ def test_nan_mismatched_joints_few_samples_and_rank_deficiency_are_named():
         identify(model, good, methods="ols,lsq")
 
 
+def test_lmi_is_an_alias_of_sdp():
+    """Issue 33: the docs call sdp "the LMI method"; ``lmi`` names it (once, in order)."""
+    from pinid.identification.run import parse_methods
+
+    assert parse_methods("ols,LMI") == ["ols", "sdp"]
+    assert parse_methods(["lmi", "sdp", "wls"]) == ["sdp", "wls"]
+
+
 def test_recordings_without_derivatives_are_prepared():
     """A recording with q and tau only goes through pinid.data.preprocess (defaults from the sample rate)."""
     model = truth_model("exo_leg")
