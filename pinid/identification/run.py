@@ -489,7 +489,7 @@ def identify(
         for r in results.values():
             r.truth_error = truth_error(r.base, x_true, s.problem.natural_scale, s.base.names)
     values = {m: r.base for m, r in results.items()}
-    val_sets = s.validation.get("validation", [])
+    val_sets, floor = s.validation.get("validation", []), None
     if val_sets:
         checked = [check_dataset(ds, model) for ds in val_sets]
         preds = [predict_torque(model, terms, s.base, ds, values) for ds in checked]
@@ -500,6 +500,9 @@ def identify(
             pred = np.concatenate([p[m] for p in preds])
             r.validation = torque_metrics(recorded, pred, model.joint_names, units=units)
             r.validation_filtered = torque_metrics(tau_all, pred, model.joint_names, units=units)
+        from pinid.identification.floor import validation_floor
+
+        floor = validation_floor(model, terms, checked, rest_velocity=rest_velocity, rest_fraction=rest_fraction)
         first = checked[0]
         curves = {
             "kind": "validation",
@@ -545,6 +548,7 @@ def identify(
         validation_sources=[ds.source for ds in val_sets],
         seconds=time.perf_counter() - t_start,
         curves=curves,
+        floor=floor,
     )
 
 
