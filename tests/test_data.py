@@ -268,11 +268,16 @@ def bad_recordings(tmp_path: Path) -> dict[str, tuple[Path, str, dict]]:
     case(
         "degrees_small",
         r,
-        "joint 'hip' reaches 4.584 at line 52, outside its URDF limits [-0.087, 1.309]; in degrees they would fit",
+        "joint 'hip' reaches 4.584 at line 52, outside its URDF limits [-0.087, 1.309] (URDF exo_leg.urdf); in degrees they would "
+        "fit",
     )
     r = rows.copy()
     r[:, 2] = -r[:, 2]
-    case("limits", r, "outside its URDF limits [-1.658, -0.087]; with the opposite sign they would fit")
+    case(
+        "limits",
+        r,
+        "outside its URDF limits [-1.658, -0.087] (URDF exo_leg.urdf); with the opposite sign they would fit",
+    )
     case("missing", rows[:, [0, 1, 3]], "no data for joint 'knee' of exo_leg", header=["t", "q_hip", "tau_hip"])
     case(
         "unknown",
@@ -443,3 +448,18 @@ def test_example_wrist_coupling(tmp_path):
     assert back.joints == ["elbow", "wrist_pitch", "wrist_roll"]
     np.testing.assert_allclose(back.q, qj, atol=1e-8)
     np.testing.assert_allclose(back.tau, tj, atol=1e-8)
+
+
+def test_a_recording_of_another_robot_names_the_urdf_not_degrees(tmp_path):
+    """Issue 33: apal_leg's motion (radians) read against exo_leg (the default --urdf) names the URDF used and
+    says the ranges do not fit it, rather than advising a degrees conversion for data already in radians."""
+    t = np.arange(200) / 100.0
+    q = np.column_stack([-0.5 - 0.5 * np.sin(t), 1.3 + 0.5 * np.sin(t)])  # apal_leg's hip and knee ranges
+    path = write_recording(tmp_path / "apal.csv", Dataset(t, q, ["hip", "knee"], tau=np.zeros_like(q)))
+    with pytest.raises(DataError) as exc:
+        read_recording(path, model=load("exo_leg"))
+    assert str(exc.value).endswith(
+        "outside its URDF limits [-0.087, 1.309] (URDF exo_leg.urdf); the recording's joint ranges do not fit "
+        "exo_leg's: is it the robot recorded (--urdf)?"
+    ), str(exc.value)
+    assert read_recording(path, model=load("apal_leg")).n == 200

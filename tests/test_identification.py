@@ -281,6 +281,14 @@ def test_nan_mismatched_joints_few_samples_and_rank_deficiency_are_named():
         identify(model, good, methods="ols,lsq")
 
 
+def test_lmi_is_an_alias_of_sdp():
+    """Issue 33: the docs call sdp "the LMI method"; ``lmi`` names it (once, in order)."""
+    from pinid.identification.run import parse_methods
+
+    assert parse_methods("ols,LMI") == ["ols", "sdp"]
+    assert parse_methods(["lmi", "sdp", "wls"]) == ["sdp", "wls"]
+
+
 def test_recordings_without_derivatives_are_prepared():
     """A recording with q and tau only goes through pinid.data.preprocess (defaults from the sample rate)."""
     model = truth_model("exo_leg")
@@ -516,3 +524,32 @@ def test_default_preprocessing_on_a_6dof_arm_at_100_hz_and_5_khz(rate):
         assert r.validation_filtered.all["rms"] <= 1.1 * floor, (method, r.validation_filtered.all["rms"], floor)
         assert r.validation_filtered.all["rel_rms_percent"] < 3.0
     assert res["sdp"].physically_consistent
+
+
+def test_the_model_class_floor_is_the_noise_on_the_twin():
+    """Issue 34 item 4: the same terms fitted by OLS on the validation recording itself; on the twin (the model
+    class is the truth's) its per-joint error is the torque noise, and every method validates at it."""
+    from pinid.identification.outputs import identification_text
+
+    model = truth_model("exo_leg")
+    noise = 0.05
+    ident = identify(
+        model,
+        twin(model, seconds=10, seed=0, noise=noise),
+        validate=twin(model, seconds=10, seed=1, noise=noise),
+        methods="ols,sdp",
+    )
+    floor = ident.floor.per_joint
+    for j in model.joint_names:
+        assert floor[j]["rms"] == pytest.approx(noise, rel=0.05)
+        for r in ident:
+            assert floor[j]["rms"] <= r.validation.per_joint[j]["rms"] <= 1.02 * floor[j]["rms"]
+    again = Identification.from_dict(json.loads(json.dumps(ident.to_dict())))
+    assert again.floor.per_joint["knee"]["rms"] == floor["knee"]["rms"]
+    text = identification_text(ident)
+    hip = f"hip {floor['hip']['rel_rms_percent']:.3g} ({ident.best} {ident[ident.best].validation.per_joint['hip']['rel_rms_percent']:.3g})"
+    assert (
+        f"model-class floor, valid. RMS raw % (the same terms fitted by OLS on the validation recording itself): {hip}"
+        in " ".join(text.split())
+    )
+    assert identify(model, twin(model, seconds=5, seed=0), methods="ols").floor is None

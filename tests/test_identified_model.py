@@ -206,3 +206,15 @@ def test_wrong_shapes_are_data_errors(call):
 
     with pytest.raises(DataError):
         call(model_with_terms())
+
+
+def test_an_identification_file_given_as_a_model_names_the_model_files():
+    """Issue 33: identification.json where a model is expected (``--exo``, ``export --model``) says which files
+    to pass, model_<method>.json."""
+    d = {"robot": {}, "methods": {"ols": {}, "sdp": {}}}
+    with pytest.raises(SpecError) as exc:
+        IdentifiedModel.from_dict(d)
+    assert (
+        "this is pinid identify's identification.json: pass one of the model_<method>.json files written "
+        "beside it (model_ols.json, model_sdp.json)" in str(exc.value)
+    )

@@ -160,3 +160,15 @@ def test_old_preset_names_still_work_with_a_deprecation_warning():
     new = prepare(recording(500.0), preset="zha2019")
     np.testing.assert_array_equal(old.ddq, new.ddq)
     assert old.meta["preprocess"]["preset"] == "zha2019"
+
+
+def test_millisecond_time_stamps_suggest_the_time_scale():
+    """Issue 33: time stamps in ms read as 1 Hz; the error suggests the mapping spec's time scale."""
+    t = np.arange(100) * 1.0  # 1 kHz in milliseconds
+    ds = Dataset(t, np.zeros((100, 1)) + 0.1, ["hip"], tau=np.ones((100, 1)))
+    with pytest.raises(
+        DataError,
+        match=r"time stamps in milliseconds\? \(1000 Hz then\) a mapping spec converts them: "
+        r'time = \{ column = "t", scale = "ms" \}',
+    ):
+        prepare(ds)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import warnings
 from pathlib import Path
 
 from pinid.cli.common import (
@@ -28,7 +29,7 @@ from pinid.cli.common import (
     robot_from_args,
     terms_from_args,
 )
-from pinid.errors import SpecError
+from pinid.errors import DataWarning, SpecError
 from pinid.identification.run import identify
 from pinid.io import check_outputs
 from pinid.report.figures import start_figure_workers
@@ -268,6 +269,7 @@ def run(args: argparse.Namespace) -> int:
 
     ident = identify(model, args.data, **_identify_arguments(args, methods, terms), started=started)
     print(identification_text(ident, verbose=args.verbose))
+    warn_if_unvalidated(bool(ident.validation_sources))
     written = write_identification(
         ident, out, report=not args.no_report, figures=not args.no_figures, force_export=args.force_export
     )
@@ -278,6 +280,19 @@ def run(args: argparse.Namespace) -> int:
     )
     print(wrote_line(written, out))
     return 0
+
+
+#: The one-line warning of an identification without validation recordings (issue 33).
+UNVALIDATED = (
+    "no validation recording (--validate, or a manifest's validation role): the best method is picked on its "
+    "training error, which cannot show overfitting; validate on a recording of another trajectory"
+)
+
+
+def warn_if_unvalidated(validated: bool) -> None:
+    """A DataWarning (one line on stderr: ``pinid identify: warning: …``) when nothing was validated."""
+    if not validated:
+        warnings.warn(UNVALIDATED, DataWarning, stacklevel=2)
 
 
 def _check_stage(args: argparse.Namespace) -> None:
@@ -355,6 +370,7 @@ def _run_floating(args: argparse.Namespace, out: Path) -> int:
         mapping=mapping,
     )
     print(ident.text())
+    warn_if_unvalidated(bool(args.validate))
     print(wrote_line(write_floating_identification(ident, out, model, terms), out))
     return 0
 

@@ -286,23 +286,40 @@ def _check_against_model(ds: Dataset, model, limits: str, degrees: str) -> Datas
         if low or high:
             k = int(np.argmin(q) if low else np.argmax(q))
             value = qmin if low else qmax
-            hint = ""
-            if (
-                info.kind != "prismatic"
-                and info.lower - tol <= qmin * np.pi / 180
-                and qmax * np.pi / 180 <= info.upper + tol
-            ):
+            fixes = _range_fixes(out, model)  # a hint only when it fits every joint outside its limits
+            hint = f"; the recording's joint ranges do not fit {model.name}'s: is it the robot recorded (--urdf)?"
+            if all(f["degrees"] for f in fixes):
                 hint = '; in degrees they would fit (a mapping spec converts with scale = "deg")'
-            elif info.lower - tol <= -qmax and -qmin <= info.upper + tol:
+            elif all(f["sign"] for f in fixes):
                 hint = "; with the opposite sign they would fit (sign = -1 in a mapping spec)"
+            urdf = Path(model.urdf_path).name if model.urdf_path is not None else model.name
             msg = (
                 f"{src}: joint '{info.name}' reaches {value:.4g} at {_at(out, k)}, outside its URDF limits "
-                f"[{info.lower:.4g}, {info.upper:.4g}]{hint}"
+                f"[{info.lower:.4g}, {info.upper:.4g}] (URDF {urdf}){hint}"
             )
             if limits == "error":
                 raise DataError(msg)
             warn(out, msg)
     return out
+
+
+def _range_fixes(ds: Dataset, model) -> list[dict]:
+    """For each joint whose positions leave its URDF limits (by more than 1 % of the range): whether they fit
+    in degrees (only when the motion spans more than the joint's range, impossible in radians: a recording in
+    radians of another robot would fit in degrees too, as nearly anything does) and with the opposite sign."""
+    fixes = []
+    for i, info in enumerate(model.joints):
+        q = ds.q[:, i]
+        qmin, qmax = float(q.min()), float(q.max())
+        span = info.upper - info.lower if np.isfinite(info.upper - info.lower) else 1.0
+        tol = max(1e-6, 0.01 * span)
+        if info.lower - tol <= qmin and qmax <= info.upper + tol:
+            continue
+        r = np.pi / 180
+        degrees = info.kind != "prismatic" and qmax - qmin > span + tol
+        degrees = degrees and info.lower - tol <= qmin * r and qmax * r <= info.upper + tol
+        fixes.append({"degrees": degrees, "sign": info.lower - tol <= -qmax and -qmin <= info.upper + tol})
+    return fixes
 
 
 # ---------------------------------------------------------------------------------------------- writing

@@ -247,6 +247,12 @@ def prepare(
             raise DataError(
                 f"{src}: sample rate {fs:.3g} Hz is too low for the default low-pass "
                 "(needs at least 10 Hz); expected a recording sampled at 10 Hz or faster"
+                + (
+                    f"; time stamps in milliseconds? ({1e3 * fs:.4g} Hz then) a mapping spec converts them: "
+                    'time = { column = "t", scale = "ms" } (docs/data.md)'
+                    if 1e3 * fs >= 10.0
+                    else ""
+                )
             )
         cutoff = default_cutoff(fs)
     elif not np.isfinite(cutoff) or cutoff <= 0:

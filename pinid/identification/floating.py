@@ -22,6 +22,7 @@ from pinid.model.floating import FloatingRobotModel, as_floating, floating_param
 from pinid.model.serialize import robot_from_dict, robot_to_dict
 from pinid.model.mjcf import identified_mjcf
 from pinid.model.terms import TermSelection, as_terms
+from pinid.identification.plausibility import shared_excitation
 
 
 @dataclass
@@ -122,6 +123,7 @@ def identify_floating(
     val_problem = None
     if validate:
         val = load_floating(validate, model, preprocess, "validation", swing_rows=swing_rows, mapping=mapping)
+        shared_excitation([r.data for r in train], [r.data for r in val])  # a repeat hides overfitting: warned
         val_problem = floating_problem(
             model,
             val,

@@ -269,9 +269,10 @@ class IdentifiedModel:
             raise SpecError(f"identified model: a {type(d).__name__}, expected a JSON object")
         if d.get("format") != _FORMAT:
             hint = (
-                " — this is an identification (pinid identify's identification.json): read it with "
-                "pinid.Identification.load(path), its .model is the best method's IdentifiedModel"
-                if "methods" in d and "robot" in d
+                " — this is pinid identify's identification.json: pass one of the model_<method>.json files "
+                f"written beside it ({', '.join(f'model_{m}.json' for m in d['methods'])}), or in Python "
+                "pinid.Identification.load(path).model"
+                if isinstance(d.get("methods"), dict) and "robot" in d
                 else ""
             )
             raise SpecError(f"not an identified model (format {d.get('format')!r}, expected {_FORMAT!r}){hint}")

@@ -14,7 +14,7 @@ import numpy as np
 from pinid.errors import ModelError, SpecError
 from pinid.io import Artefacts, json_text
 from pinid.report.figures import save_figure
-from pinid.report.markdown import REPORT_FILES, report_files, summary_table
+from pinid.report.markdown import REPORT_FILES, floor_line, report_files, summary_table
 from pinid.report.plot_compare import comparison_figures
 from pinid.report.text import text_table
 
@@ -113,6 +113,9 @@ def identification_text(ident, *, verbose: bool = False) -> str:
     lines.append(
         "RMS raw: against the torque as recorded; RMS filtered: against the low-passed torque (moves with --cutoff)"
     )
+    floor = floor_line(ident)
+    if floor is not None:
+        lines += textwrap.wrap(floor, 120, subsequent_indent="  ", break_on_hyphens=False)
     best = ident.results.get(ident.best) if ident.results else None
     if best is not None and len(best.base):
         k = int(np.nanargmax(np.where(np.isfinite(best.std_percent), best.std_percent, np.inf)))

@@ -255,6 +255,9 @@ class Identification:
     validation_sources: list[str] = field(default_factory=list)
     seconds: float = 0.0
     curves: dict = field(default_factory=dict, repr=False, compare=False)
+    #: The model-class floor (:mod:`pinid.identification.floor`): the same terms fitted by OLS in-sample on
+    #: the validation recordings, its torque error against the torque as recorded; None without validation.
+    floor: TorqueMetrics | None = None
 
     def __getitem__(self, method: str) -> IdentificationResult:
         try:
@@ -323,6 +326,7 @@ class Identification:
                 "best": self.best if self.results else None,
                 "seconds": self.seconds,
                 "methods": {m: r.to_dict(include_robot=False) for m, r in self.results.items()},
+                **({"floor": self.floor.to_dict()} if self.floor is not None else {}),
             }
         )
 
@@ -340,6 +344,7 @@ class Identification:
                 d.get("base") or {},
                 list(d.get("validation_sources") or []),
                 float(d.get("seconds") or 0.0),
+                floor=None if d.get("floor") is None else TorqueMetrics.from_dict(d["floor"]),
             )
         except PinidError:
             raise

@@ -49,11 +49,14 @@ from pinid.io import as_path
 
 #: Default methods of :func:`identify` and ``pinid identify``.
 DEFAULT_METHODS: tuple[str, ...] = ("ols", "wls", "sdp")
+#: Other names of registry methods that :func:`parse_methods` accepts (the docs call sdp "the LMI method").
+METHOD_ALIASES: dict[str, str] = {"lmi": "sdp"}
 
 
 # ====================================================================== parsing (one place)
 def parse_methods(methods: Sequence[str] | str | None, default: Sequence[str] = DEFAULT_METHODS) -> list[str]:
-    """Method names from ``"ols,sdp"``, a list, ``"all"`` or None (``default``); lower case, no repeats.
+    """Method names from ``"ols,sdp"``, a list, ``"all"`` or None (``default``); lower case, no repeats;
+    an alias of :data:`METHOD_ALIASES` (``lmi``) becomes its method (``sdp``).
 
     SpecError for an empty list or a name not in :data:`pinid.estimators.ESTIMATORS`.
     """
@@ -66,7 +69,8 @@ def parse_methods(methods: Sequence[str] | str | None, default: Sequence[str] = 
             methods = list(ESTIMATORS)
         else:
             methods = [m.strip() for m in methods.split(",") if m.strip()]
-    names = list(dict.fromkeys(str(m).strip().lower() for m in methods))
+    names = [str(m).strip().lower() for m in methods]
+    names = list(dict.fromkeys(METHOD_ALIASES.get(m, m) for m in names))
     if not names:
         raise SpecError(f"no method given, expected some of {', '.join(ESTIMATORS)}")
     unknown = [m for m in names if m not in ESTIMATORS]
@@ -525,6 +529,7 @@ def identify(
     model = s.model  # with the fitted Stribeck shapes (auto): built once, used from here on
     terms = s.terms if auto_terms else terms
     x_true = None if truth is None else true_base(truth, model, s.terms, s.base)  # checked before the fits
+    check_recordings(s)
     if started is not None:
         started()
     fits = run_jobs(s, [(m, None, options.get(m, {})) for m in methods], complete=complete, show_progress=show_progress)
@@ -533,7 +538,7 @@ def identify(
         for r in results.values():
             r.truth_error = truth_error(r.base, x_true, s.problem.natural_scale, s.base.names)
     values = {m: r.base for m, r in results.items()}
-    val_sets = s.validation.get("validation", [])
+    val_sets, floor = s.validation.get("validation", []), None
     if val_sets:
         checked = [check_dataset(ds, model) for ds in val_sets]
         preds = [predict_torque(model, terms, s.base, ds, values) for ds in checked]
@@ -544,6 +549,9 @@ def identify(
             pred = np.concatenate([p[m] for p in preds])
             r.validation = torque_metrics(recorded, pred, model.joint_names, units=units)
             r.validation_filtered = torque_metrics(tau_all, pred, model.joint_names, units=units)
+        from pinid.identification.floor import validation_floor
+
+        floor = validation_floor(model, terms, checked, rest_velocity=rest_velocity, rest_fraction=rest_fraction)
         first = checked[0]
         curves = {
             "kind": "validation",
@@ -593,7 +601,23 @@ def identify(
         validation_sources=[ds.source for ds in val_sets],
         seconds=time.perf_counter() - t_start,
         curves=curves,
+        floor=floor,
     )
+
+
+def check_recordings(s: Setup, samples: int = 5000) -> None:
+    """The one-line warnings of :mod:`pinid.identification.plausibility`: a validation recording that repeats
+    a training trajectory; a torque channel whose sign is flipped against the URDF's torque (rigid bodies and
+    the URDF's friction, on at most ``samples`` samples of the training recordings)."""
+    from pinid.identification.plausibility import flipped_torque_signs, shared_excitation
+
+    model = s.model
+    train = [check_dataset(ds, model) for ds in s.train]
+    shared_excitation(train, [check_dataset(ds, model) for ds in s.validation.get("validation", [])])
+    step = max(1, sum(ds.n for ds in train) // samples)
+    q, dq, ddq, tau = (np.concatenate([getattr(ds, k)[::step] for ds in train]) for k in ("q", "dq", "ddq", "tau"))
+    nominal = model.rnea(q, dq, ddq) + model.coulomb * np.sign(dq) + model.viscous * dq
+    flipped_torque_signs(model.joint_names, tau, nominal)
 
 
 def use_manifest(

@@ -152,6 +152,25 @@ def summary_table(ident, bold=lambda text: f"**{text}**") -> tuple[list[str], li
     )
 
 
+def floor_line(ident) -> str | None:
+    """One line: per joint, the model-class floor (the same terms fitted by OLS in-sample on the validation
+    recordings: :mod:`pinid.identification.floor`) beside the best method's validation error, both RMS % against
+    the torque as recorded; None without a floor."""
+    floor = getattr(ident, "floor", None)
+    if floor is None or not ident.results:
+        return None
+    val = ident.results[ident.best].validation
+    cells = [
+        f"{j} {number(m['rel_rms_percent'], '.3g')}"
+        + (f" ({ident.best} {number(val.per_joint[j]['rel_rms_percent'], '.3g')})" if val is not None else "")
+        for j, m in floor.per_joint.items()
+    ]
+    return (
+        f"model-class floor, valid. RMS raw % (the same terms fitted by OLS on the validation recording itself): "
+        f"{', '.join(cells)}; near the floor the model class limits the result, far above it the identification"
+    )
+
+
 #: What the summary's columns mean (the report prints it under the table; docs/identification.md too).
 SUMMARY_NOTE = (
     "raw: against the torque as recorded (the fixed yardstick); filtered: against the torque after pinid's own "
@@ -175,6 +194,9 @@ def report_markdown(ident, figures: dict[str, str] | None = None) -> str:
     lines += ["", "## Summary", ""]
     lines.append(markdown_table(*summary_table(ident)))
     lines += ["", SUMMARY_NOTE]
+    floor = floor_line(ident)
+    if floor is not None:
+        lines += ["", floor[0].upper() + floor[1:] + "."]
     warned = [r.warning for r in ident.results.values() if r.warning]
     if warned:
         lines += [""] + [f"**{w}**" + ("" if k == len(warned) - 1 else "  ") for k, w in enumerate(warned)]
