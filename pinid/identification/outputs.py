@@ -151,7 +151,13 @@ def _recordings_lines(d: dict, joints: list[str]) -> list[str]:
             f"{f:g} Hz {s:.3g} %" for f, s in zip(c["candidates_hz"], c["cv_rel_rms_percent"]) if s is not None
         )
         lines.append(f"low-pass cut-off {c['cutoff_hz']:g} Hz, chosen by {c['chosen_by']}")
-        lines.append(f"  held-out relative RMS against the torque as recorded: {curve}")
+        lines += textwrap.wrap(
+            f"held-out relative RMS against the torque as recorded: {curve}",
+            120,
+            initial_indent="  ",
+            subsequent_indent="    ",
+            break_on_hyphens=False,
+        )
     if d.get("terms_choice"):
         c = d["terms_choice"]
         lines.append(f"terms {', '.join(c['terms']) or 'none'}, chosen by {c['chosen_by']}")
