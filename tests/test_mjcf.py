@@ -23,6 +23,15 @@ mujoco = pytest.importorskip("mujoco")
 TERMS = TermSelection(coulomb=True, viscous=True, armature=True)
 
 
+PENDULUM = """<robot name="pendulum">
+  <link name="base"/>
+  <link name="arm"><inertial><origin xyz="0 0 -0.3"/><mass value="1.0"/>
+    <inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.001"/></inertial></link>
+  <joint name="j" type="revolute"><parent link="base"/><child link="arm"/><axis xyz="0 1 0"/>
+    <limit lower="-2" upper="2" effort="50" velocity="5"/></joint>
+</robot>"""
+
+
 def solo12():
     return load(str(example_robot_data_dir() / "solo_description" / "robots" / "solo12.urdf"))
 
@@ -38,6 +47,14 @@ def robot_named(name, folder=None):
         )
         path = Path(folder) / "exo_continuous.urdf"
         path.write_text(text)
+        return RobotModel.from_urdf(path)
+    if name == "exo_hip":  # one active joint (nv = 1): the knee held at its neutral value
+        return RobotModel.from_urdf("exo_leg", joints=["hip"])
+    if name == "exo_knee_locked":
+        return RobotModel.from_urdf("exo_leg", locked={"knee": -0.8})
+    if name == "pendulum":
+        path = Path(folder) / "pendulum.urdf"
+        path.write_text(PENDULUM)
         return RobotModel.from_urdf(path)
     if name == "panda_finger":
         joints = [f"panda_joint{i}" for i in range(1, 8)] + ["panda_finger_joint1"]
@@ -95,7 +112,11 @@ def free_joint_errors(m, d, pm, pd, rng, q_joints, effort, damping):
     return rel(full_mass_matrix(m, d), T.T @ M @ T), rel(d.qacc, expected)
 
 
-@pytest.mark.parametrize("name", ["exo_leg", "exo_continuous", "apal_leg", "ur5", "panda", "panda_finger", "solo12"])
+@pytest.mark.parametrize(
+    "name",
+    ["exo_leg", "exo_continuous", "apal_leg", "ur5", "panda", "panda_finger", "solo12"]
+    + ["exo_hip", "exo_knee_locked", "pendulum"],  # one active joint: Pinocchio's Jacobian is 1-D
+)
 def test_fixed_base_matches_pinid(name, tmp_path):
     """M(q) (mj_fullM vs crba + armature) and qacc (mj_forward vs pinid's forward dynamics) on 50 random states
     inside the limits, to 1e-8 relative; MuJoCo's Coulomb friction (frictionloss, a constraint) switched off
@@ -247,6 +268,42 @@ def test_identify_writes_mjcf_and_export_command(tmp_path, recording):
     )
     assert proc.returncode == 0, proc.stderr
     assert (tmp_path / "a.xml").read_text() == (out / "identified_sdp.xml").read_text()
+
+
+def test_one_active_joint_identify_writes_a_loadable_mjcf(tmp_path, recording):
+    """identify --joints hip (nv = 1) writes its MJCF (it used to end in an internal IndexError) and pinid
+    export writes the same file from the saved model."""
+    out = tmp_path / "run"
+    args = ["--data", str(recording), "--methods", "sdp", "--no-report", "--no-progress", "-o", str(out)]
+    proc = run_cli("identify", "--urdf", "exo_leg", "--joints", "hip", *args)
+    assert proc.returncode == 0, proc.stderr
+    m, _ = compiled((out / "identified_sdp.xml").read_text())
+    assert (m.nv, m.nu) == (1, 1)
+    proc = run_cli("export", "--model", str(out / "model_sdp.json"), "-o", str(tmp_path / "a.xml"))
+    assert proc.returncode == 0, proc.stderr
+    assert (tmp_path / "a.xml").read_text() == (out / "identified_sdp.xml").read_text()
+
+
+def test_body_names_are_unique_when_a_link_is_called_world_link(tmp_path):
+    """Root link "world" and a link "world_link": the root body becomes "world_link_1", MuJoCo loads the file
+    and its mass matrix is Pinocchio's."""
+    text = PENDULUM.replace('"base"', '"world"').replace('"arm"', '"world_link"')
+    text = text.replace(
+        "</robot>",
+        '<link name="arm"><inertial><origin xyz="0 0 -0.2"/><mass value="1"/>'
+        '<inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.001"/></inertial></link>'
+        '<joint name="j2" type="revolute"><parent link="world_link"/><child link="arm"/><origin xyz="0 0 -0.4"/>'
+        '<axis xyz="0 1 0"/><limit lower="-2" upper="2" effort="50" velocity="5"/></joint></robot>',
+    )
+    (tmp_path / "w.urdf").write_text(text)
+    robot = RobotModel.from_urdf(tmp_path / "w.urdf")
+    model = IdentifiedModel(robot, TermSelection(), standard_parameters(robot, TermSelection()))
+    m, d = compiled(model.export_mjcf())
+    names = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b) for b in range(m.nbody)]
+    assert names == ["world", "world_link_1", "world_link", "arm"]
+    d.qpos[:] = [0.3, -0.7]
+    mujoco.mj_forward(m, d)
+    assert rel(full_mass_matrix(m, d), model.mass_matrix(np.array([[0.3, -0.7]]))[0]) < 1e-12
 
 
 def test_export_command_refuses_an_inconsistent_model(tmp_path):

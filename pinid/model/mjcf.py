@@ -268,12 +268,15 @@ def identified_mjcf(
     pdata = pm.createData()
     pin.computeJointJacobians(pm, pdata, pin.neutral(pm))  # each joint's motion subspace: its axis
 
-    def body_name(jid: int) -> str:
+    def link_name(jid: int) -> str:
         if pm.joints[jid].nv == 6 or jid == 0:
-            n = root_link
-        else:
-            n = child_link.get(pm.names[jid], pm.names[jid])
-        return n if n != "world" else "world_link"  # MuJoCo's world body is called "world"
+            return root_link
+        return child_link.get(pm.names[jid], pm.names[jid])
+
+    unique = _unique_body_names([link_name(j) for j in range(pm.njoints)], set(links))
+
+    def body_name(jid: int) -> str:
+        return unique[jid]
 
     if not floating:  # the root link (and what is fixed to it), welded to the world
         bodies[0] = sub_element(world, "body", name=body_name(0))
@@ -310,6 +313,24 @@ def identified_mjcf(
     return text
 
 
+def _unique_body_names(names: list[str], taken: set[str]) -> list[str]:
+    """Body names MuJoCo accepts: "world" (MuJoCo's own world body) becomes "world_link", and a name another
+    body or URDF link (``taken``) already has gets a suffix ``_1``, ``_2``, …"""
+    used = set(taken) - {"world"}
+    out = []
+    for n in names:
+        if n != "world" and n not in out:
+            out.append(n)
+            continue
+        stem = "world_link" if n == "world" else n
+        cand, k = stem, 0
+        while cand in used or cand in out or cand == "world":
+            k += 1
+            cand = f"{stem}_{k}"
+        out.append(cand)
+    return out
+
+
 def _fixed_part(theta: np.ndarray, nv: int, k: int) -> np.ndarray:
     """The fixed-base layout (joint bodies, then joint terms) of a floating standard parameter vector
     (``base.*`` first, ``k`` terms per body with the base's first)."""
@@ -319,7 +340,8 @@ def _fixed_part(theta: np.ndarray, nv: int, k: int) -> np.ndarray:
 def _joint(body: Element, pm: pin.Model, data: pin.Data, jid: int, model: RobotModel, i: int, fields: dict) -> None:
     """The MJCF joint of Pinocchio joint ``jid`` (active joint ``i``): type, axis, range, terms; ``data``
     holds the joint Jacobians (any configuration: a 1-DOF joint's axis is constant in its own frame)."""
-    S = pin.getJointJacobian(pm, data, jid, pin.LOCAL)[:, pm.joints[jid].idx_v]  # (linear, angular)
+    J = np.asarray(pin.getJointJacobian(pm, data, jid, pin.LOCAL)).reshape(6, pm.nv)  # 1-D when nv = 1
+    S = J[:, pm.joints[jid].idx_v]  # (linear, angular)
     kind = "slide" if np.linalg.norm(S[:3]) > np.linalg.norm(S[3:]) else "hinge"
     axis = S[:3] if kind == "slide" else S[3:]
     axis = np.where(np.abs(axis) < 1e-15 * np.abs(axis).max(), 0.0, axis)  # composition leaves 1e-32s
