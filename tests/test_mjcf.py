@@ -12,6 +12,7 @@ from pinid import TermSelection, RobotModel, standard_parameters
 from pinid.errors import ModelError
 from pinid.identification.identified import IdentifiedModel
 from pinid.model.bundled import example_robot_data_dir
+from pinid.model.physical import com_inertia
 from pinid.model.mjcf import exported_pin_model, identified_mjcf, joint_fields
 from pinid.model.terms import values as term_values
 from pinid.simulation.twin import perturb
@@ -250,6 +251,48 @@ def test_inconsistent_or_massless_models_are_refused(tmp_path):
     with pytest.raises(ModelError, match="body of joint 'knee' has mass 0 kg; MuJoCo needs"):
         identified_mjcf(robot, massless, TERMS, tmp_path / "x.xml")
     assert not (tmp_path / "x.xml").exists()
+
+
+def test_absurd_mass_is_refused_as_the_urdf_export_refuses_it(tmp_path):
+    """A model with a 1e300 kg body: both exports refuse it in one error, nothing written."""
+    robot = load("exo_leg")
+    theta = standard_parameters(robot, TermSelection())
+    theta[0:10] *= 1e300 / theta[0]
+    model = IdentifiedModel(robot, TermSelection(), theta)
+    with pytest.raises(ModelError, match="'hip' has mass 1e\\+300 kg; expected 0 to 1e\\+06 kg"):
+        model.export_mjcf(tmp_path / "x.xml")
+    with pytest.raises(ModelError, match="mass 1e\\+300 kg; expected 0 to 1e\\+06 kg"):
+        model.export_urdf(tmp_path / "x.urdf")
+    assert not list(tmp_path.iterdir())
+
+
+def test_consistent_body_with_a_rounding_size_negative_moment_is_exported(tmp_path):
+    """The consistency check and the MJCF export share one tolerance: a knee whose smallest principal moment
+    is −9.3e-12 kg·m² (as woa produced) is consistent, and its MJCF is written with that moment at MIN_VALUE;
+    a moment of −1e-3 kg·m² is refused by both."""
+    from pinid.model.mjcf import MIN_VALUE
+    from pinid.model.physical import check_consistency
+
+    robot = load("exo_leg")
+    theta = standard_parameters(robot, TermSelection())
+
+    def with_moment(x):
+        th = theta.copy()
+        m, c, I = com_inertia(th[10:20])
+        e, V = np.linalg.eigh(I)
+        e[0] = x
+        e[1] = max(e[1], e[2])  # keep the triangle inequality
+        Io = (V * e) @ V.T + m * (c @ c * np.eye(3) - np.outer(c, c))  # about the joint frame's origin
+        th[10:20] = [m, *(m * c), Io[0, 0], Io[0, 1], Io[1, 1], Io[0, 2], Io[1, 2], Io[2, 2]]
+        return th
+
+    good, bad = with_moment(-9.3e-12), with_moment(-1e-3)
+    assert check_consistency(good[:20], robot.joint_names, []).consistent
+    assert not check_consistency(bad[:20], robot.joint_names, []).consistent
+    m, _ = compiled(IdentifiedModel(robot, TermSelection(), good).export_mjcf())
+    assert m.body_inertia[-1].min() == pytest.approx(MIN_VALUE, rel=1e-6)
+    with pytest.raises(ModelError, match="physically inconsistent"):
+        IdentifiedModel(robot, TermSelection(), bad).export_mjcf(tmp_path / "x.xml")
 
 
 def test_identify_writes_mjcf_and_export_command(tmp_path, recording):

@@ -42,9 +42,9 @@ from pinid.checks import as_floats
 from pinid.errors import ModelError
 from pinid.io import write_text
 from pinid.model import terms as _terms
-from pinid.model.physical import check_consistency, com_inertia
+from pinid.model.physical import check_consistency, com_inertia, nonnegative_within_tolerance
 from pinid.model.regressor import TermSelection
-from pinid.model.robot import RobotModel, as_robot
+from pinid.model.robot import MAX_BODY_MASS, RobotModel, as_robot
 from pinid.model.terms import as_terms
 from pinid.model.urdf import Element, UrdfDocument, is_element, new_element, sub_element, xml_comment, xml_text
 
@@ -146,7 +146,15 @@ def _mujoco_inertia(name: str, m: float, I: np.ndarray) -> tuple[np.ndarray, np.
     e, V = np.linalg.eigh(0.5 * (I + I.T))
     if np.linalg.det(V) < 0:
         V[:, 2] = -V[:, 2]
-    if not m > MIN_VALUE or not e[0] > MIN_VALUE:
+    if not np.isfinite(m) or m > MAX_BODY_MASS:
+        raise ModelError(
+            f"the body of joint '{name}' has mass {m:.3g} kg; expected 0 to {MAX_BODY_MASS:.0e} kg; MJCF not written"
+        )
+    if m > MIN_VALUE and e[0] <= MIN_VALUE and nonnegative_within_tolerance(e[0], max(abs(e).max(), m)):
+        # a body the consistency check accepts (a rounding-size negative moment, or a point mass): MuJoCo
+        # needs moments above MIN_VALUE, so they are raised to it (a change of at most RTOL of the body's scale)
+        e = np.maximum(e, MIN_VALUE)
+    if not m > MIN_VALUE or not e[0] >= MIN_VALUE:
         what = (
             f"mass {m:.3g} kg" if not m > MIN_VALUE else f"principal moments {e[0]:.3g}, {e[1]:.3g}, {e[2]:.3g} kg·m²"
         )
