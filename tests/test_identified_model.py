@@ -218,3 +218,32 @@ def test_an_identification_file_given_as_a_model_names_the_model_files():
         "this is pinid identify's identification.json: pass one of the model_<method>.json files written "
         "beside it (model_ols.json, model_sdp.json)" in str(exc.value)
     )
+
+
+def test_model_of_a_repaired_urdf_loads_back(tmp_path):
+    """A model identified with --repair-inertia (a knee izz of the wrong sign) is saved with the repair flag:
+    IdentifiedModel.load, `pinid export --model` and the saved robot's inertias all read it back; without the
+    flag the saved text is refused naming 'the saved URDF text', not a temporary file."""
+    import json
+
+    from pinid import RobotModel
+
+    from conftest import run_cli
+
+    bad = tmp_path / "bad.urdf"
+    bad.write_text(load("exo_leg").urdf_text.replace('izz="0.0075"', 'izz="-0.0075"'))
+    with pytest.warns(Warning, match="repaired to the nearest physical inertia"):
+        robot = RobotModel.from_urdf(bad, repair_inertia=True)
+    terms = TermSelection()
+    theta = standard_parameters(robot, terms)
+    IdentifiedModel(robot, terms, theta, meta={"method": "sdp"}).save(tmp_path / "model_sdp.json")
+    back = IdentifiedModel.load(tmp_path / "model_sdp.json")
+    assert back.robot.repair_inertia
+    np.testing.assert_array_equal(standard_parameters(back.robot, terms), theta)
+    proc = run_cli("export", "--model", str(tmp_path / "model_sdp.json"), "-o", str(tmp_path / "a.urdf"))
+    assert proc.returncode == 0, proc.stderr
+    d = json.loads((tmp_path / "model_sdp.json").read_text())
+    d["robot"].pop("repair_inertia")
+    (tmp_path / "plain.json").write_text(json.dumps(d))
+    with pytest.raises(ModelError, match="^the saved URDF text: the body moved by joint 'knee'"):
+        IdentifiedModel.load(tmp_path / "plain.json")

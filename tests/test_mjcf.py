@@ -12,6 +12,7 @@ from pinid import TermSelection, RobotModel, standard_parameters
 from pinid.errors import ModelError
 from pinid.identification.identified import IdentifiedModel
 from pinid.model.bundled import example_robot_data_dir
+from pinid.model.physical import com_inertia
 from pinid.model.mjcf import exported_pin_model, identified_mjcf, joint_fields
 from pinid.model.terms import values as term_values
 from pinid.simulation.twin import perturb
@@ -21,6 +22,15 @@ from conftest import assert_clean_error, load, run_cli
 mujoco = pytest.importorskip("mujoco")
 
 TERMS = TermSelection(coulomb=True, viscous=True, armature=True)
+
+
+PENDULUM = """<robot name="pendulum">
+  <link name="base"/>
+  <link name="arm"><inertial><origin xyz="0 0 -0.3"/><mass value="1.0"/>
+    <inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.001"/></inertial></link>
+  <joint name="j" type="revolute"><parent link="base"/><child link="arm"/><axis xyz="0 1 0"/>
+    <limit lower="-2" upper="2" effort="50" velocity="5"/></joint>
+</robot>"""
 
 
 def solo12():
@@ -38,6 +48,14 @@ def robot_named(name, folder=None):
         )
         path = Path(folder) / "exo_continuous.urdf"
         path.write_text(text)
+        return RobotModel.from_urdf(path)
+    if name == "exo_hip":  # one active joint (nv = 1): the knee held at its neutral value
+        return RobotModel.from_urdf("exo_leg", joints=["hip"])
+    if name == "exo_knee_locked":
+        return RobotModel.from_urdf("exo_leg", locked={"knee": -0.8})
+    if name == "pendulum":
+        path = Path(folder) / "pendulum.urdf"
+        path.write_text(PENDULUM)
         return RobotModel.from_urdf(path)
     if name == "panda_finger":
         joints = [f"panda_joint{i}" for i in range(1, 8)] + ["panda_finger_joint1"]
@@ -95,7 +113,11 @@ def free_joint_errors(m, d, pm, pd, rng, q_joints, effort, damping):
     return rel(full_mass_matrix(m, d), T.T @ M @ T), rel(d.qacc, expected)
 
 
-@pytest.mark.parametrize("name", ["exo_leg", "exo_continuous", "apal_leg", "ur5", "panda", "panda_finger", "solo12"])
+@pytest.mark.parametrize(
+    "name",
+    ["exo_leg", "exo_continuous", "apal_leg", "ur5", "panda", "panda_finger", "solo12"]
+    + ["exo_hip", "exo_knee_locked", "pendulum"],  # one active joint: Pinocchio's Jacobian is 1-D
+)
 def test_fixed_base_matches_pinid(name, tmp_path):
     """M(q) (mj_fullM vs crba + armature) and qacc (mj_forward vs pinid's forward dynamics) on 50 random states
     inside the limits, to 1e-8 relative; MuJoCo's Coulomb friction (frictionloss, a constraint) switched off
@@ -231,6 +253,48 @@ def test_inconsistent_or_massless_models_are_refused(tmp_path):
     assert not (tmp_path / "x.xml").exists()
 
 
+def test_absurd_mass_is_refused_as_the_urdf_export_refuses_it(tmp_path):
+    """A model with a 1e300 kg body: both exports refuse it in one error, nothing written."""
+    robot = load("exo_leg")
+    theta = standard_parameters(robot, TermSelection())
+    theta[0:10] *= 1e300 / theta[0]
+    model = IdentifiedModel(robot, TermSelection(), theta)
+    with pytest.raises(ModelError, match="'hip' has mass 1e\\+300 kg; expected 0 to 1e\\+06 kg"):
+        model.export_mjcf(tmp_path / "x.xml")
+    with pytest.raises(ModelError, match="mass 1e\\+300 kg; expected 0 to 1e\\+06 kg"):
+        model.export_urdf(tmp_path / "x.urdf")
+    assert not list(tmp_path.iterdir())
+
+
+def test_consistent_body_with_a_rounding_size_negative_moment_is_exported(tmp_path):
+    """The consistency check and the MJCF export share one tolerance: a knee whose smallest principal moment
+    is −9.3e-12 kg·m² (as woa produced) is consistent, and its MJCF is written with that moment at MIN_VALUE;
+    a moment of −1e-3 kg·m² is refused by both."""
+    from pinid.model.mjcf import MIN_VALUE
+    from pinid.model.physical import check_consistency
+
+    robot = load("exo_leg")
+    theta = standard_parameters(robot, TermSelection())
+
+    def with_moment(x):
+        th = theta.copy()
+        m, c, I = com_inertia(th[10:20])
+        e, V = np.linalg.eigh(I)
+        e[0] = x
+        e[1] = max(e[1], e[2])  # keep the triangle inequality
+        Io = (V * e) @ V.T + m * (c @ c * np.eye(3) - np.outer(c, c))  # about the joint frame's origin
+        th[10:20] = [m, *(m * c), Io[0, 0], Io[0, 1], Io[1, 1], Io[0, 2], Io[1, 2], Io[2, 2]]
+        return th
+
+    good, bad = with_moment(-9.3e-12), with_moment(-1e-3)
+    assert check_consistency(good[:20], robot.joint_names, []).consistent
+    assert not check_consistency(bad[:20], robot.joint_names, []).consistent
+    m, _ = compiled(IdentifiedModel(robot, TermSelection(), good).export_mjcf())
+    assert m.body_inertia[-1].min() == pytest.approx(MIN_VALUE, rel=1e-6)
+    with pytest.raises(ModelError, match="physically inconsistent"):
+        IdentifiedModel(robot, TermSelection(), bad).export_mjcf(tmp_path / "x.xml")
+
+
 def test_identify_writes_mjcf_and_export_command(tmp_path, recording):
     """pinid identify writes identified_<method>.xml beside the URDF for consistent methods; pinid export
     writes one from identification.json and refuses an inconsistent model in one line, writing nothing."""
@@ -247,6 +311,42 @@ def test_identify_writes_mjcf_and_export_command(tmp_path, recording):
     )
     assert proc.returncode == 0, proc.stderr
     assert (tmp_path / "a.xml").read_text() == (out / "identified_sdp.xml").read_text()
+
+
+def test_one_active_joint_identify_writes_a_loadable_mjcf(tmp_path, recording):
+    """identify --joints hip (nv = 1) writes its MJCF (it used to end in an internal IndexError) and pinid
+    export writes the same file from the saved model."""
+    out = tmp_path / "run"
+    args = ["--data", str(recording), "--methods", "sdp", "--no-report", "--no-progress", "-o", str(out)]
+    proc = run_cli("identify", "--urdf", "exo_leg", "--joints", "hip", *args)
+    assert proc.returncode == 0, proc.stderr
+    m, _ = compiled((out / "identified_sdp.xml").read_text())
+    assert (m.nv, m.nu) == (1, 1)
+    proc = run_cli("export", "--model", str(out / "model_sdp.json"), "-o", str(tmp_path / "a.xml"))
+    assert proc.returncode == 0, proc.stderr
+    assert (tmp_path / "a.xml").read_text() == (out / "identified_sdp.xml").read_text()
+
+
+def test_body_names_are_unique_when_a_link_is_called_world_link(tmp_path):
+    """Root link "world" and a link "world_link": the root body becomes "world_link_1", MuJoCo loads the file
+    and its mass matrix is Pinocchio's."""
+    text = PENDULUM.replace('"base"', '"world"').replace('"arm"', '"world_link"')
+    text = text.replace(
+        "</robot>",
+        '<link name="arm"><inertial><origin xyz="0 0 -0.2"/><mass value="1"/>'
+        '<inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.001"/></inertial></link>'
+        '<joint name="j2" type="revolute"><parent link="world_link"/><child link="arm"/><origin xyz="0 0 -0.4"/>'
+        '<axis xyz="0 1 0"/><limit lower="-2" upper="2" effort="50" velocity="5"/></joint></robot>',
+    )
+    (tmp_path / "w.urdf").write_text(text)
+    robot = RobotModel.from_urdf(tmp_path / "w.urdf")
+    model = IdentifiedModel(robot, TermSelection(), standard_parameters(robot, TermSelection()))
+    m, d = compiled(model.export_mjcf())
+    names = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b) for b in range(m.nbody)]
+    assert names == ["world", "world_link_1", "world_link", "arm"]
+    d.qpos[:] = [0.3, -0.7]
+    mujoco.mj_forward(m, d)
+    assert rel(full_mass_matrix(m, d), model.mass_matrix(np.array([[0.3, -0.7]]))[0]) < 1e-12
 
 
 def test_export_command_refuses_an_inconsistent_model(tmp_path):

@@ -43,9 +43,9 @@ from pinid.errors import DataError, ModelError
 from pinid.io import write_text
 from pinid.model import terms as _terms
 from pinid.model.base import marks_summary
-from pinid.model.physical import NOISE, check_consistency, com_inertia, tidy_inertial
+from pinid.model.physical import NOISE, check_consistency, com_inertia, nonnegative_within_tolerance, tidy_inertial
 from pinid.model.regressor import TermSelection
-from pinid.model.robot import INERTIAL_NAMES, RobotModel, as_robot
+from pinid.model.robot import INERTIAL_NAMES, MAX_BODY_MASS, RobotModel, as_robot
 from pinid.model.terms import as_terms
 from pinid.model.urdf import Element, UrdfDocument, is_element, new_element, sub_element, xml_comment, xml_text
 
@@ -152,7 +152,15 @@ def _mujoco_inertia(name: str, m: float, I: np.ndarray) -> tuple[np.ndarray, np.
     e, V = np.linalg.eigh(0.5 * (I + I.T))
     if np.linalg.det(V) < 0:
         V[:, 2] = -V[:, 2]
-    if not m > MIN_VALUE or not e[0] > MIN_VALUE:
+    if not np.isfinite(m) or m > MAX_BODY_MASS:
+        raise ModelError(
+            f"the body of joint '{name}' has mass {m:.3g} kg; expected 0 to {MAX_BODY_MASS:.0e} kg; MJCF not written"
+        )
+    if m > MIN_VALUE and e[0] <= MIN_VALUE and nonnegative_within_tolerance(e[0], max(abs(e).max(), m)):
+        # a body the consistency check accepts (a rounding-size negative moment, or a point mass): MuJoCo
+        # needs moments above MIN_VALUE, so they are raised to it (a change of at most RTOL of the body's scale)
+        e = np.maximum(e, MIN_VALUE)
+    if not m > MIN_VALUE or not e[0] >= MIN_VALUE:
         what = (
             f"mass {m:.3g} kg" if not m > MIN_VALUE else f"principal moments {e[0]:.3g}, {e[1]:.3g}, {e[2]:.3g} kg·m²"
         )
@@ -277,12 +285,15 @@ def identified_mjcf(
     pdata = pm.createData()
     pin.computeJointJacobians(pm, pdata, pin.neutral(pm))  # each joint's motion subspace: its axis
 
-    def body_name(jid: int) -> str:
+    def link_name(jid: int) -> str:
         if pm.joints[jid].nv == 6 or jid == 0:
-            n = root_link
-        else:
-            n = child_link.get(pm.names[jid], pm.names[jid])
-        return n if n != "world" else "world_link"  # MuJoCo's world body is called "world"
+            return root_link
+        return child_link.get(pm.names[jid], pm.names[jid])
+
+    unique = _unique_body_names([link_name(j) for j in range(pm.njoints)], set(links))
+
+    def body_name(jid: int) -> str:
+        return unique[jid]
 
     if not floating:  # the root link (and what is fixed to it), welded to the world
         bodies[0] = sub_element(world, "body", name=body_name(0))
@@ -334,6 +345,24 @@ def identified_mjcf(
     return text
 
 
+def _unique_body_names(names: list[str], taken: set[str]) -> list[str]:
+    """Body names MuJoCo accepts: "world" (MuJoCo's own world body) becomes "world_link", and a name another
+    body or URDF link (``taken``) already has gets a suffix ``_1``, ``_2``, …"""
+    used = set(taken) - {"world"}
+    out = []
+    for n in names:
+        if n != "world" and n not in out:
+            out.append(n)
+            continue
+        stem = "world_link" if n == "world" else n
+        cand, k = stem, 0
+        while cand in used or cand in out or cand == "world":
+            k += 1
+            cand = f"{stem}_{k}"
+        out.append(cand)
+    return out
+
+
 def _fixed_part(theta: np.ndarray, nv: int, k: int) -> np.ndarray:
     """The fixed-base layout (joint bodies, then joint terms) of a floating standard parameter vector
     (``base.*`` first, ``k`` terms per body with the base's first)."""
@@ -343,7 +372,8 @@ def _fixed_part(theta: np.ndarray, nv: int, k: int) -> np.ndarray:
 def _joint(body: Element, pm: pin.Model, data: pin.Data, jid: int, model: RobotModel, i: int, fields: dict) -> None:
     """The MJCF joint of Pinocchio joint ``jid`` (active joint ``i``): type, axis, range, terms; ``data``
     holds the joint Jacobians (any configuration: a 1-DOF joint's axis is constant in its own frame)."""
-    S = pin.getJointJacobian(pm, data, jid, pin.LOCAL)[:, pm.joints[jid].idx_v]  # (linear, angular)
+    J = np.asarray(pin.getJointJacobian(pm, data, jid, pin.LOCAL)).reshape(6, pm.nv)  # 1-D when nv = 1
+    S = J[:, pm.joints[jid].idx_v]  # (linear, angular)
     kind = "slide" if np.linalg.norm(S[:3]) > np.linalg.norm(S[3:]) else "hinge"
     axis = S[:3] if kind == "slide" else S[3:]
     axis = np.where(np.abs(axis) < 1e-15 * np.abs(axis).max(), 0.0, axis)  # composition leaves 1e-32s

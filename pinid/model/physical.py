@@ -113,6 +113,12 @@ def tidy_inertial(m: float, c: np.ndarray, I: np.ndarray) -> tuple[float, np.nda
     return m, c + 0.0, I + 0.0  # + 0.0: no "-0"
 
 
+def nonnegative_within_tolerance(value: float, scale: float) -> bool:
+    """The one tolerance rule of the consistency checks (and of the MJCF export): ``value`` counts as
+    non-negative when it is ≥ −RTOL·``scale`` (``scale``: the size of the quantity it belongs to)."""
+    return value >= -RTOL * scale
+
+
 @dataclass
 class BodyCheck:
     """Consistency of one body: the smallest eigenvalue of its pseudo-inertia, and relative to ‖J‖."""
@@ -125,7 +131,7 @@ class BodyCheck:
     @property
     def consistent(self) -> bool:
         """True when every check passed."""
-        return self.relative >= -RTOL
+        return nonnegative_within_tolerance(self.relative, 1.0)
 
 
 @dataclass
@@ -192,9 +198,9 @@ def check_consistency(
     scale = {}  # per term name; the report lists parameters in column order (not a set's hash order)
     for name in dict.fromkeys(p.term.name for p in params if p.term.nonnegative):
         idx = [k for k, p in enumerate(params) if p.term.name == name]
-        scale[name] = RTOL * max(1.0, float(np.abs(values[idx]).max()))
+        scale[name] = max(1.0, float(np.abs(values[idx]).max()))
     for k, p in enumerate(params):
-        if p.term.nonnegative and values[k] < -scale[p.term.name]:
+        if p.term.nonnegative and not nonnegative_within_tolerance(values[k], scale[p.term.name]):
             negative[p.name] = float(values[k])
     return ConsistencyReport(bodies, negative)
 

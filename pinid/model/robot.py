@@ -108,6 +108,9 @@ class RobotModel:
 
     base = "fixed"
 
+    #: True when the model was loaded with ``repair_inertia`` (saved with it, so a saved model loads back).
+    repair_inertia: bool = False
+
     def __init__(
         self,
         pin_model: pin.Model,
@@ -272,7 +275,9 @@ class RobotModel:
             urdf_document=document,
         )
         if base != "fixed":
-            return BASE_BUILDERS[base](robot, text, path)
+            robot = BASE_BUILDERS[base](robot, text, path)
+        if repair_inertia:
+            robot.repair_inertia = True
         return robot
 
     # ------------------------------------------------------------------ settings (read-only: built once)
@@ -448,6 +453,7 @@ class RobotModel:
             urdf_document=self._urdf_document,
             settings=self.settings,
         )
+        out.repair_inertia = self.repair_inertia  # its URDF text still needs the repair to load
         return out
 
     # ------------------------------------------------------------------ kinematics helpers

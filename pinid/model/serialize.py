@@ -6,9 +6,10 @@ The dict holds the URDF text, so a saved result rebuilds its model without the o
 from __future__ import annotations
 
 import tempfile
+import warnings
 from pathlib import Path
 
-from pinid.errors import SpecError
+from pinid.errors import ModelError, ModelWarning, SpecError
 from pinid.model.regressor import TermSelection
 from pinid.model.robot import RobotModel
 from pinid.model.terms import TERM_MODULES, TERMS, Term
@@ -49,6 +50,7 @@ def robot_to_dict(model: RobotModel, terms: TermSelection) -> dict:
         "drives": None if model.drives is None else model.drives.to_dict(),
         **saved,
         **({"base": "floating"} if getattr(model, "base", "fixed") == "floating" else {}),
+        **({"repair_inertia": True} if model.repair_inertia else {}),
     }
 
 
@@ -71,19 +73,28 @@ def robot_from_dict(d: dict) -> tuple[RobotModel, TermSelection]:
             raise SpecError(f"saved robot: '{key}' is {type(d.get(key)).__name__}, expected {expected}")
     if d.get("base", "fixed") not in ("fixed", "floating"):
         raise SpecError(f"saved robot: 'base' is {d.get('base')!r}, expected 'fixed' or 'floating'")
+    if not isinstance(d.get("repair_inertia", False), bool):
+        raise SpecError(f"saved robot: 'repair_inertia' is {d.get('repair_inertia')!r}, expected true or false")
     base = d.get("base", "fixed")
     terms = TermSelection.from_names(list(d["terms"]))
     text = d.get("urdf_text")
-    if text:
-        with tempfile.TemporaryDirectory() as tmp:
-            path = Path(tmp) / "robot.urdf"
-            path.write_text(text, encoding="utf-8")
-            model = RobotModel.from_urdf(path, joints=d.get("joints"), locked=d.get("locked") or {}, base=base)
-        model = model.with_urdf_path(d["urdf"] if d.get("urdf") else None)
-    elif d.get("urdf"):
-        model = RobotModel.from_urdf(d["urdf"], joints=d.get("joints"), locked=d.get("locked") or {}, base=base)
-    else:
-        raise SpecError("saved result has no URDF (neither text nor path); cannot rebuild the robot model")
+    options = {"joints": d.get("joints"), "locked": d.get("locked") or {}, "base": base}
+    options["repair_inertia"] = d.get("repair_inertia", False)
+    with warnings.catch_warnings():  # the repair was reported when the model was identified
+        warnings.simplefilter("ignore", ModelWarning)
+        if text:
+            with tempfile.TemporaryDirectory() as tmp:
+                path = Path(tmp) / "robot.urdf"
+                path.write_text(text, encoding="utf-8")
+                try:
+                    model = RobotModel.from_urdf(path, **options)
+                except ModelError as exc:
+                    raise ModelError(str(exc).replace(str(path), "the saved URDF text")) from None
+            model = model.with_urdf_path(d["urdf"] if d.get("urdf") else None)
+        elif d.get("urdf"):
+            model = RobotModel.from_urdf(d["urdf"], **options)
+        else:
+            raise SpecError("saved result has no URDF (neither text nor path); cannot rebuild the robot model")
     if d.get("drives") is not None:
         from pinid.model.drives import Drives
 
