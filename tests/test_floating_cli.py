@@ -96,6 +96,16 @@ def test_bad_floating_inputs_are_one_line_and_write_nothing(tmp_path):
         "identify", *EXO, "--data", "bad.csv", "--payload", "p.toml", "--no-report", "-o", "out", cwd=tmp_path
     )
     assert_clean_error(proc, "--payload: not available with --base floating")
+    (tmp_path / "manifest.toml").write_text('[[recording]]\nfile = "bad.csv"\nrole = "train"\n')
+    for extra, option in (
+        (["--data", "bad.csv", "--fit-joints", "l_knee"], "--fit-joints"),
+        (["--data", "bad.csv", "--delay", "tau=0.05"], "--delay"),
+        (["--data", "bad.csv", "--truth", "t.json"], "--truth"),
+        (["--manifest", "manifest.toml"], "--manifest"),
+    ):
+        proc = run_cli("identify", *EXO, *extra, "--no-report", "-o", "out", cwd=tmp_path)
+        assert_clean_error(proc, f"{option}: not available with --base floating (docs/floating-base.md)")
+        assert not (tmp_path / "out").exists()
     proc = run_cli(
         "identify", *EXO, "--data", "bad.csv", "--mapping", "m.toml", "--no-report", "-o", "out", cwd=tmp_path
     )

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -328,3 +330,140 @@ def test_always_in_contact_and_base_weight_out_of_range_are_named(exo):
         floating_problem(exo, s, terms=TERMS)
     with pytest.raises(DataError, match=r"base_weight=1e\+300 is out of range, expected a number in \[1e-06, 1e\+06\]"):
         floating_problem(exo, run.exact, terms=TERMS, base_weight=1e300)
+
+
+def _edited(tmp_path, recording, name, edit):
+    """The twin recording written, its columns edited by ``edit(names, array)`` in place, written as ``name``."""
+    path = write_floating(tmp_path / f"{name}_src.csv", recording)
+    names = path.read_text().splitlines()[0].split(",")
+    a = np.loadtxt(path, delimiter=",", skiprows=1)
+    names = edit(names, a) or names
+    out = tmp_path / f"{name}.csv"
+    np.savetxt(out, a, delimiter=",", header=",".join(names), comments="", fmt="%.12g")
+    return out
+
+
+def _flip_half(names, a):
+    qi = [names.index(f"base_{c}") for c in ("qx", "qy", "qz", "qw")]
+    a[len(a) // 2 :, qi] *= -1  # q -> -q: the same rotations, the other hemisphere
+
+
+def test_quaternion_sign_flips_change_nothing(exo, gait, tmp_path):
+    """A base quaternion that jumps to −q (motion capture keeping w ≥ 0) gives the same parameters as without."""
+    from pinid.identification.floating import identify_floating
+
+    plain = _edited(tmp_path, gait.recording, "plain", lambda n, a: None)
+    flipped = _edited(tmp_path, gait.recording, "flipped", _flip_half)
+    a, b = (identify_floating(exo, p, methods=["ols"]).results["ols"]["base"] for p in (plain, flipped))
+    np.testing.assert_allclose(b, a, rtol=1e-9, atol=1e-9 * np.max(np.abs(a)))
+
+
+def test_given_joint_derivatives_do_not_skip_the_base_filter(exo, gait, tmp_path):
+    """dq_/ddq_ columns for the joints: the noisy base pose is still filtered (--preprocess auto), so the total
+    mass stays at 21.8 kg; with preprocessing off, exact data leave no residual at the ends."""
+    from pinid.identification.floating import identify_floating
+
+    rng = np.random.default_rng(0)
+
+    def noisy_with_derivatives(names, a):
+        for c in ("base_x", "base_y", "base_z"):
+            a[:, names.index(c)] += 1e-4 * rng.standard_normal(len(a))
+        return None
+
+    rec = gait.recording
+    path = _edited(tmp_path, rec, "noisy", noisy_with_derivatives)
+    text = path.read_text().splitlines()
+    joints = rec.data.joints
+    extra = np.hstack([gait.exact.data.dq, gait.exact.data.ddq])  # the twin's exact joint derivatives
+    assert len(extra) == rec.data.n
+    rows = [f"{line},{','.join(f'{v:.12g}' for v in e)}" for line, e in zip(text[1:], extra)]
+    header = text[0] + "," + ",".join([f"dq_{j}" for j in joints] + [f"ddq_{j}" for j in joints])
+    path.write_text("\n".join([header, *rows]) + "\n")
+    r = identify_floating(exo, path, methods=["ols"]).results["ols"]
+    assert r["base"][0] == pytest.approx(21.8, rel=2e-3)
+    exact = _edited(tmp_path, rec, "exact", lambda n, a: None)
+    text = exact.read_text().splitlines()
+    exact.write_text(
+        "\n".join([header, *[f"{line},{','.join(f'{v:.12g}' for v in e)}" for line, e in zip(text[1:], extra)]]) + "\n"
+    )
+    r = identify_floating(exo, exact, methods=["ols"], preprocess=False).results["ols"]
+    assert r["train_rms_by_row"]["base"] < 0.02  # [N, N·m]: no one-sided differences left at the ends
+    assert r["base"][0] == pytest.approx(21.8, rel=1e-3)
+
+
+def _negate_plates(names, a):
+    for i, c in enumerate(names):
+        if c.startswith("plate_") and c.endswith(("_fx", "_fy", "_fz", "_tz")):
+            a[:, i] *= -1  # the force of the foot on the plate
+
+
+def _invert_phases(names, a):
+    for i, c in enumerate(names):
+        if c.startswith("contact_"):
+            a[:, i] = 1 - a[:, i]
+
+
+def _w_first(names, a):
+    qi = [names.index(f"base_{c}") for c in ("qx", "qy", "qz", "qw")]
+    a[:, qi] = a[:, [qi[3], qi[0], qi[1], qi[2]]]
+
+
+def _millimetres(names, a):
+    for c in ("base_x", "base_y", "base_z"):
+        a[:, names.index(c)] *= 1000
+
+
+@pytest.mark.parametrize(
+    "edit, cause",
+    [
+        (_negate_plates, "the sign of the wrench"),
+        (_invert_phases, r"check the phase logic \(1 = in contact\)"),
+        (_w_first, r"quaternion order \(x, y, z, w expected, w last\)"),
+        (_millimetres, r"units \(m expected, not mm\)"),
+    ],
+)
+def test_implausible_total_mass_names_the_cause(exo, gait, tmp_path, edit, cause):
+    """A convention error in the recording never passes silently: an error (or a warning) naming the cause."""
+    from pinid.identification.floating import identify_floating
+
+    import re
+
+    path = _edited(tmp_path, gait.recording, "bad", edit)
+    said = []
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            identify_floating(exo, path, methods=["ols", "sdp"])
+        except DataError as exc:
+            said.append(str(exc))
+    said += [str(w.message) for w in caught]
+    assert any(re.search(cause, line) for line in said), said
+
+
+def test_accelerometer_without_gravity_is_named(exo, suspended, tmp_path):
+    from pinid.identification.floating import identify_floating
+
+    def no_gravity(names, a):
+        qi = [names.index(f"imu_imu_{c}") for c in ("qx", "qy", "qz", "qw")]
+        ai = [names.index(f"imu_imu_{c}") for c in ("ax", "ay", "az")]
+        from pinid.data.contacts import quat_matrix
+
+        a[:, ai] -= np.einsum("nji,j->ni", quat_matrix(a[:, qi]), [0, 0, 9.81])  # specific force + R^T g
+
+    path = _edited(tmp_path, suspended.recording, "nog", no_gravity)
+    with pytest.warns(UserWarning, match="must include gravity"):
+        with pytest.raises(DataError, match="likely cause: .*must include gravity"):
+            identify_floating(exo, path, methods=["ols"], rows="base")
+
+
+def test_no_wrench_in_the_base_rows_is_refused(exo, suspended, tmp_path):
+    from pinid.identification.floating import identify_floating
+
+    path = write_floating(tmp_path / "src.csv", suspended.recording)
+    names = path.read_text().splitlines()[0].split(",")
+    a = np.loadtxt(path, delimiter=",", skiprows=1)
+    keep = [i for i, c in enumerate(names) if not c.startswith(("wrench_", "plate_", "contact_"))]
+    out = tmp_path / "nowrench.csv"
+    np.savetxt(out, a[:, keep], delimiter=",", header=",".join(names[i] for i in keep), comments="", fmt="%.12g")
+    with pytest.raises(DataError, match=r"no external wrench and no joint torque .*homogeneous"):
+        identify_floating(exo, out, methods=["ols"], rows="base")

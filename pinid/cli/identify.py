@@ -344,8 +344,18 @@ def _run_floating(args: argparse.Namespace, out: Path) -> int:
 
     unused = [
         f"--{k.replace('_', '-')}"
-        for k in ("payload", "payload_data", "stribeck_velocity", "stribeck_shape", "force_export")
-        if getattr(args, k)
+        for k in (
+            "manifest",
+            "fit_joints",
+            "delay",
+            "truth",
+            "payload",
+            "payload_data",
+            "stribeck_velocity",
+            "stribeck_shape",
+            "force_export",
+        )
+        if getattr(args, k, None)
     ]
     if unused:
         raise SpecError(f"{', '.join(unused)}: not available with --base floating (docs/floating-base.md)")

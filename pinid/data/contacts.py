@@ -250,6 +250,7 @@ def read_floating(
         _need(g["base"], POSE, "the base pose", source)
         rec.base_pose = np.column_stack([values[g["base"][c]] for c in POSE])
         _check_unit(rec.base_pose[:, 3:], "base_qx..base_qw", source)
+        rec.base_pose[:, 3:] = continuous_quat(rec.base_pose[:, 3:])
     if len(g["imu"]) > 1:
         raise DataError(f"{source}: IMUs on {', '.join(g['imu'])}; expected one IMU (imu_<frame>_...)")
     for frame, cols in g["imu"].items():
@@ -269,6 +270,7 @@ def read_floating(
             _need(cols, QUAT, f"the IMU orientation on '{frame}'", source)
             rec.imu["q"] = np.column_stack([values[cols[c]] for c in QUAT])
             _check_unit(rec.imu["q"], f"imu_{frame}_qx..qw", source)
+            rec.imu["q"] = continuous_quat(rec.imu["q"])
     if rec.base_pose is None and rec.imu_frame is None:
         raise DataError(f"{source}: no base motion; expected base_x..base_qw (motion capture) or imu_<frame>_* columns")
     if rec.base_pose is not None and rec.imu_frame is not None:
@@ -421,6 +423,19 @@ def quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     )
 
 
+def continuous_quat(q: np.ndarray) -> np.ndarray:
+    """(N, 4) quaternions with a continuous sign: each sample is negated (the same rotation) when it lies in the
+    other hemisphere than the previous one (dot product < 0), as angles are unwrapped before filtering.
+    Motion-capture software and ROS tf often keep w ≥ 0, which flips q → −q whenever the rotation angle
+    passes 180°; filtered and differentiated component-wise, such a flip is a spike in ω and ω̇."""
+    q = np.array(q, dtype=float)
+    if len(q) < 2:
+        return q
+    dots = np.einsum("ij,ij->i", q[1:], q[:-1])
+    sign = np.concatenate([[1.0], np.cumprod(np.where(dots < 0, -1.0, 1.0))])
+    return q * sign[:, None]
+
+
 def quat_matrix(q: np.ndarray) -> np.ndarray:
     """(N, 3, 3) rotation matrices of (N, 4) unit quaternions ``x, y, z, w``."""
     x, y, z, w = (q / np.linalg.norm(q, axis=1, keepdims=True)).T
@@ -448,9 +463,10 @@ def prepare_floating(
     """Filter and differentiate joints and base motion together, zero the wrenches out of contact (phases, or
     force norm below ``threshold`` [N]), and give the base state in Pinocchio's free-flyer convention.
 
-    ``preprocess``: as :func:`pinid.problem.problem.prepare_dataset` (None: filter only when ``dq`` or
-    ``ddq`` are missing; False: use the recording as it is, which then needs ``dq_`` and ``ddq_`` columns and
-    takes the base derivatives from central differences)."""
+    ``preprocess``: options of :func:`pinid.data.preprocess.prepare` (None or True: filter every signal, the
+    joints' ``dq_``/``ddq_`` columns unused; False: use the recording as it is, which then needs ``dq_`` and
+    ``ddq_`` columns, takes the base and wrench derivatives from central differences and drops the two samples
+    at each end, whose differences would be one-sided)."""
     model = as_floating(model)
     ds = rec.data.reorder(model.joint_names)
     extra = rec.columns()
@@ -471,12 +487,19 @@ def prepare_floating(
     tau = ds.tau if ds.tau is not None else np.zeros((n, nv))
     big = Dataset(ds.t, q, [*ds.joints, *names], dq=widen(ds.dq), ddq=widen(ds.ddq), tau=widen(tau), source=ds.source)
     needs = ds.dq is None or ds.ddq is None
-    if preprocess is False or (preprocess is None and not needs):
+    # "auto" (None) filters every signal here, whatever dq_/ddq_ columns the joints have: the base pose, IMU and
+    # wrenches have no given derivatives, and differentiating them unfiltered amplifies their noise
+    if preprocess is False:
         if needs:
             raise DataError(f"{ds.source}: no dq_/ddq_ columns and preprocessing off; expected both or preprocessing")
+        if n < 5:
+            raise DataError(f"{ds.source}: {n} samples; expected at least 5 with preprocessing off")
         sig_dq = np.gradient(q[:, nv:], ds.t, axis=0)
         sig_ddq = np.gradient(sig_dq, ds.t, axis=0)
-        t, jq, jdq, jddq, jtau, sig = ds.t, ds.q, ds.dq, ds.ddq, ds.tau, q[:, nv:]
+        keep = slice(2, n - 2)  # the two end samples of each side hold one-sided differences: dropped
+        t, jq, jdq, jddq, sig = ds.t[keep], ds.q[keep], ds.dq[keep], ds.ddq[keep], q[keep, nv:]
+        jtau = None if ds.tau is None else ds.tau[keep]
+        sig_dq, sig_ddq = sig_dq[keep], sig_ddq[keep]
     else:
         from pinid.data.preprocess import prepare  # only when a recording is filtered
 

@@ -70,10 +70,12 @@ def load_floating(
     *,
     swing_rows: bool = False,
     mapping=None,
+    hints: list[str] | None = None,
 ) -> list[FloatingSamples]:
     """Floating recordings (paths or prepared :class:`FloatingSamples`) read, checked and prepared
     (``swing_rows``: accept contact phases without a wrench; ``mapping``: a mapping spec with a ``[floating]``
-    table for files not in the dataset format, :func:`pinid.data.contacts.read_floating`)."""
+    table for files not in the dataset format, :func:`pinid.data.contacts.read_floating`; ``hints``: a list
+    :func:`recording_hints` appends to)."""
     if items is None:
         return []
     if isinstance(items, (FloatingSamples, str, os.PathLike)):
@@ -84,6 +86,9 @@ def load_floating(
             out.append(item)
         elif isinstance(item, (str, os.PathLike)):
             rec = read_floating(item, model, swing_rows=swing_rows, mapping=mapping)
+            found = recording_hints(rec, model)
+            if hints is not None:
+                hints.extend(found)
             out.append(prepare_floating(rec, model, preprocess))
         else:
             raise DataError(f"{what} recording: got {type(item).__name__}, expected a path or FloatingSamples")
@@ -116,7 +121,8 @@ def identify_floating(
     terms = as_terms(terms)
     if mapping is not None:
         mapping = floating_mapping(mapping)  # checked once, before any recording is read
-    train = load_floating(data, model, preprocess, swing_rows=swing_rows, mapping=mapping)
+    hints: list[str] = []  # convention errors the raw recordings point to (recording_hints)
+    train = load_floating(data, model, preprocess, swing_rows=swing_rows, mapping=mapping, hints=hints)
     problem = floating_problem(
         model, train, terms=terms, rows=rows, base_weight=base_weight, rest_velocity=rest_velocity
     )
@@ -132,6 +138,12 @@ def identify_floating(
             base_weight=base_weight,
             base=problem.base,
             rest_velocity=rest_velocity,
+        )
+    if not np.any(np.abs(problem.tau) > 1e-9 * max(1.0, float(np.max(np.abs(problem.tau), initial=0.0)))):
+        raise DataError(
+            f"{_sources(data)}: no external wrench and no joint torque in the rows used ({rows}): they are "
+            "homogeneous (W·θ = 0) and identify nothing; expected wrench_<link>_* or plate_<link>_* columns (the "
+            "wrench applied by the environment on the robot) or joint torques with --rows all"
         )
     ident = FloatingIdentification(model.name, rows, problem.names, problem.nominal_base)
     ident.model = robot_to_dict(model, problem.terms)
@@ -156,7 +168,84 @@ def identify_floating(
             entry["validation_rms"] = float(np.sqrt(np.mean(rv * rv)))
             entry["validation_rms_by_row"] = _by_row(val_problem, rv)
         ident.results[method] = entry
+    _check_total_mass(ident, hints, _sources(data))
     return ident
+
+
+#: identified total mass / the URDF's: outside this band a warning, outside ``MASS_REFUSED`` (or ≤ 0 for every
+#: method) an error: nothing sensible can come out of such a recording (docs/floating-base.md)
+MASS_WARNED = (0.5, 2.0)
+MASS_REFUSED = (0.2, 5.0)
+
+
+def _sources(data) -> str:
+    items = [data] if isinstance(data, (str, os.PathLike, FloatingSamples)) else list(data or [])
+    names = [str(d) if isinstance(d, (str, os.PathLike)) else d.data.source for d in items]
+    return ", ".join(names) or "floating recording"
+
+
+def recording_hints(rec, model: FloatingRobotModel) -> list[str]:
+    """What in a raw floating recording points to a convention error, one phrase each: contact phases that are 0
+    (not in contact) on most samples where the measured force exceeds half the robot's weight (phase logic
+    inverted), an accelerometer whose mean specific force is far below g (gravity left out), base positions
+    beyond 20 m (millimetres), a quaternion whose x is near ±1 on average (w first: an upright robot's w read as
+    x).  Each is also warned about at once (one line)."""
+    weight = sum(float(i.mass) for i in model.ff_model.inertias) * 9.81
+    src, hints = rec.source, []
+    for link, phase in rec.contacts.items():
+        w = rec.wrenches.get(link, rec.plates.get(link))
+        off = ~np.asarray(phase, bool)
+        loaded = np.linalg.norm(w[:, :3], axis=1) > 0.5 * weight if w is not None else np.zeros(0, bool)
+        if loaded.any() and np.mean(off[loaded]) > 0.5:
+            hints.append(
+                f"{src}: contact_{link} is 0 on {np.mean(off[loaded]):.0%} of the samples where the force on "
+                f"'{link}' exceeds half the robot's weight: check the phase logic (1 = in contact)"
+            )
+            warnings.warn(hints[-1], stacklevel=3)
+    if "a" in rec.imu and np.mean(np.linalg.norm(rec.imu["a"], axis=1)) < 0.3 * 9.81:
+        hints.append(
+            f"{src}: the accelerometer's mean |a| is {np.mean(np.linalg.norm(rec.imu['a'], axis=1)):.3g} m/s²: it "
+            "must include gravity (an IMU measures specific force, about 9.81 m/s² at rest)"
+        )
+        warnings.warn(hints[-1], stacklevel=3)
+    if rec.base_pose is not None and np.max(np.abs(rec.base_pose[:, :3])) > 20:
+        top = np.max(np.abs(rec.base_pose[:, :3]))
+        hints.append(f"{src}: base positions up to {top:.4g}: units (m expected, not mm)")
+        warnings.warn(hints[-1], stacklevel=3)
+    for what, q in (("base", None if rec.base_pose is None else rec.base_pose[:, 3:]), ("IMU", rec.imu.get("q"))):
+        # read as x, y, z, w, a w-first stream of a robot that stands upright has its w in the x column
+        if q is not None and np.mean(np.abs(q[:, 0])) > 0.7:
+            hints.append(
+                f"{src}: the {what} quaternion's x is near ±1 (upside down?): quaternion order (x, y, z, w "
+                "expected, w last)"
+            )
+            warnings.warn(hints[-1], stacklevel=3)
+    return hints
+
+
+def _check_total_mass(ident: FloatingIdentification, hints: list[str], source: str) -> None:
+    """Warn when a method's total mass is outside ``MASS_WARNED`` × the URDF's, refuse (DataError) when every
+    method's is outside ``MASS_REFUSED`` × or negative, naming the likely cause."""
+    if not ident.names or ident.names[0] != "base.mR" or ident.rows == "joints":
+        return
+    nominal = float(ident.nominal[0])
+    masses = {m: float(r["base"][0]) for m, r in ident.results.items()}
+    if nominal <= 0 or not masses:
+        return
+    odd = {m: v for m, v in masses.items() if not MASS_WARNED[0] <= v / nominal <= MASS_WARNED[1]}
+    if not odd:
+        return
+    text = ", ".join(f"{m} {v:.4g} kg" for m, v in odd.items())
+    cause = "; ".join(hints) or (
+        "the sign of the wrench (pinid wants the wrench applied BY the environment ON the robot; force plates "
+        "usually give the opposite)"
+        if min(odd.values()) < 0
+        else "the sign or units of the wrench, the contact phases (1 = in contact) or the units of the base pose"
+    )
+    line = f"{source}: identified total mass {text} against the URDF's {nominal:.4g} kg; likely cause: {cause}"
+    if len(odd) == len(masses) and all(not MASS_REFUSED[0] <= v / nominal <= MASS_REFUSED[1] for v in odd.values()):
+        raise DataError(line)
+    warnings.warn(line, stacklevel=3)
 
 
 def _by_row(problem, r: np.ndarray) -> dict[str, float]:
