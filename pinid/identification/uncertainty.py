@@ -34,7 +34,7 @@ STD_WARN_PERCENT = 10.0
 def _poorly_determined(std_percent: np.ndarray, names: list[str]) -> list[tuple[str, float]]:
     """``(name, %σ)`` of the parameters above :data:`STD_WARN_PERCENT`, the largest first."""
     sp = np.asarray(std_percent, dtype=float)
-    bad = [(n, float(v)) for n, v in zip(names, sp) if not v <= STD_WARN_PERCENT]  # NaN and inf count
+    bad = [(n, float(v)) for n, v in zip(names, sp) if v > STD_WARN_PERCENT]  # inf counts; NaN (no σ) does not
     return sorted(bad, key=lambda kv: -kv[1] if np.isfinite(kv[1]) else -np.inf)
 
 

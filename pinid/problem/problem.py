@@ -58,6 +58,7 @@ from pinid.model.base import BaseParameters, base_parameters
 from pinid.model.physical import parameter_scale
 from pinid.model.regressor import TermSelection, regressor, standard_parameters
 from pinid.model.robot import RobotModel
+from pinid.problem.covariance import hac_covariance
 from pinid.progress import progress
 from pinid.data.dataset import as_dataset
 from pinid.model.robot import as_robot
@@ -605,13 +606,19 @@ def base_regressor(
 
 # ====================================================================== statistics
 def base_statistics(
-    problem: Problem, base: np.ndarray, weights: np.ndarray | None = None, *, residual: np.ndarray | None = None
+    problem: Problem,
+    base: np.ndarray,
+    weights: np.ndarray | None = None,
+    *,
+    residual: np.ndarray | None = None,
+    kind: str = "hac",
 ) -> tuple[np.ndarray, float, float]:
     """``(std, condition_number, condition_number_scaled)`` of base parameters fitted with row ``weights``.
 
-    σ² = Σ w·r² / (rows − nb), cov = σ²·(Wᵀ diag(w) W)⁻¹; the condition numbers are those of
-    diag(√w)·W as it is and with unit-norm columns.  ``residual``: ``tau − W @ base`` when already known
-    (else computed, reading ``problem.W``).
+    ``kind="hac"`` (default): the Newey–West sandwich of :mod:`pinid.problem.covariance`, calibrated for
+    time-correlated residuals; ``"white"``: σ²·(Wᵀ diag(w) W)⁻¹ with σ² = Σ w·r² / (rows − nb).  The
+    condition numbers are those of diag(√w)·W as it is and with unit-norm columns.  ``residual``:
+    ``tau − W @ base`` when already known (else computed, reading ``problem.W``).
     """
     if not hasattr(problem, "weights"):
         raise SpecError(
@@ -620,11 +627,14 @@ def base_statistics(
     w = problem.weights if weights is None else weights
     r = problem.tau - problem.W @ base if residual is None else residual
     dof = max(problem.rows - problem.nb, 1)
-    sigma2 = float(np.sum(w * r * r)) / dof
     R, _, _, scale = problem.compressed(weights)
     try:
         Rinv = scipy.linalg.solve_triangular(R, np.eye(len(R)))
-        std = np.sqrt(sigma2 * np.sum(Rinv**2, axis=1)) / scale
+        if kind == "white":
+            sigma2 = float(np.sum(w * r * r)) / dof
+            std = np.sqrt(sigma2 * np.sum(Rinv**2, axis=1)) / scale
+        else:
+            std = _hac_std(problem, w * r, Rinv, scale, dof)
     except (np.linalg.LinAlgError, ValueError):
         std = np.full(problem.nb, np.inf)
     s_scaled = np.linalg.svd(R, compute_uv=False)
@@ -632,6 +642,29 @@ def base_statistics(
     cond = float(s_raw[0] / s_raw[-1]) if s_raw[-1] > 0 else float("inf")
     cond_scaled = float(s_scaled[0] / s_scaled[-1]) if s_scaled[-1] > 0 else float("inf")
     return std, cond, cond_scaled
+
+
+def _hac_std(problem: Problem, e: np.ndarray, Rinv: np.ndarray, scale: np.ndarray, dof: int) -> np.ndarray:
+    """HAC standard deviations from weighted residuals ``e = w·r`` (rows,), per recording."""
+    sample = np.asarray(problem.sample, dtype=int)
+    rows = getattr(problem, "regressor_rows", None)
+    if rows is not None:
+        sizes = [ds.n for ds in rows.datasets]
+    else:
+        sizes = [int(sample.max()) + 1 if len(sample) else 0]
+    n = sum(sizes)
+    g = np.zeros((n, problem.nb))
+    if rows is not None and getattr(problem, "blocked", False):
+        for r0, Wk in rows.blocks():
+            k = slice(r0, r0 + len(Wk))
+            np.add.at(g, sample[k], Wk * e[k, None])
+    else:
+        np.add.at(g, sample, problem.W * e[:, None])
+    g /= scale  # scaled coordinates, those of R
+    edges = np.cumsum([0, *sizes])
+    Binv = Rinv @ Rinv.T
+    cov, _ = hac_covariance(Binv, g, list(zip(edges[:-1], edges[1:])), problem.rows / dof)
+    return np.sqrt(np.clip(np.diag(cov), 0.0, None)) / scale
 
 
 def completed_standard(model: RobotModel, terms: TermSelection, base: BaseParameters, values: np.ndarray) -> np.ndarray:
