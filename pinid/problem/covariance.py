@@ -65,3 +65,30 @@ def hac_covariance(
         lags.append(lag)
         S += bartlett_long_run(g, lag)
     return Binv @ S @ Binv * dof_ratio, lags
+
+
+def hac_std(problem, e: np.ndarray, Rinv: np.ndarray, scale: np.ndarray, dof: int) -> np.ndarray:
+    """HAC standard deviations of the base parameters of ``problem`` (an identification problem) from its
+    weighted residuals ``e = w·r`` (rows,), per recording; ``Rinv``, ``scale``: the inverse of the compressed
+    ``R`` and its column scale (:meth:`~pinid.problem.problem.IdentificationProblem.compressed`); ``dof``:
+    rows − nb.  The scores are summed per sample (all joints), the W rows built block by block when the
+    problem holds no tall ``W``."""
+    sample = np.asarray(problem.sample, dtype=int)
+    rows = getattr(problem, "regressor_rows", None)
+    if rows is not None:
+        sizes = [ds.n for ds in rows.datasets]
+    else:
+        sizes = [int(sample.max()) + 1 if len(sample) else 0]
+    n = sum(sizes)
+    g = np.zeros((n, problem.nb))
+    if rows is not None and getattr(problem, "blocked", False):
+        for r0, Wk in rows.blocks():
+            k = slice(r0, r0 + len(Wk))
+            np.add.at(g, sample[k], Wk * e[k, None])
+    else:
+        np.add.at(g, sample, problem.W * e[:, None])
+    g /= scale  # scaled coordinates, those of R
+    edges = np.cumsum([0, *sizes])
+    Binv = Rinv @ Rinv.T
+    cov, _ = hac_covariance(Binv, g, list(zip(edges[:-1], edges[1:])), problem.rows / dof)
+    return np.sqrt(np.clip(np.diag(cov), 0.0, None)) / scale

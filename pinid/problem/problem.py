@@ -58,7 +58,7 @@ from pinid.model.base import BaseParameters, base_parameters
 from pinid.model.physical import parameter_scale
 from pinid.model.regressor import TermSelection, regressor, standard_parameters
 from pinid.model.robot import RobotModel
-from pinid.problem.covariance import hac_covariance
+from pinid.problem.covariance import hac_std
 from pinid.progress import progress
 from pinid.data.dataset import as_dataset
 from pinid.model.robot import as_robot
@@ -634,7 +634,7 @@ def base_statistics(
             sigma2 = float(np.sum(w * r * r)) / dof
             std = np.sqrt(sigma2 * np.sum(Rinv**2, axis=1)) / scale
         else:
-            std = _hac_std(problem, w * r, Rinv, scale, dof)
+            std = hac_std(problem, w * r, Rinv, scale, dof)
     except (np.linalg.LinAlgError, ValueError):
         std = np.full(problem.nb, np.inf)
     s_scaled = np.linalg.svd(R, compute_uv=False)
@@ -642,29 +642,6 @@ def base_statistics(
     cond = float(s_raw[0] / s_raw[-1]) if s_raw[-1] > 0 else float("inf")
     cond_scaled = float(s_scaled[0] / s_scaled[-1]) if s_scaled[-1] > 0 else float("inf")
     return std, cond, cond_scaled
-
-
-def _hac_std(problem: Problem, e: np.ndarray, Rinv: np.ndarray, scale: np.ndarray, dof: int) -> np.ndarray:
-    """HAC standard deviations from weighted residuals ``e = w·r`` (rows,), per recording."""
-    sample = np.asarray(problem.sample, dtype=int)
-    rows = getattr(problem, "regressor_rows", None)
-    if rows is not None:
-        sizes = [ds.n for ds in rows.datasets]
-    else:
-        sizes = [int(sample.max()) + 1 if len(sample) else 0]
-    n = sum(sizes)
-    g = np.zeros((n, problem.nb))
-    if rows is not None and getattr(problem, "blocked", False):
-        for r0, Wk in rows.blocks():
-            k = slice(r0, r0 + len(Wk))
-            np.add.at(g, sample[k], Wk * e[k, None])
-    else:
-        np.add.at(g, sample, problem.W * e[:, None])
-    g /= scale  # scaled coordinates, those of R
-    edges = np.cumsum([0, *sizes])
-    Binv = Rinv @ Rinv.T
-    cov, _ = hac_covariance(Binv, g, list(zip(edges[:-1], edges[1:])), problem.rows / dof)
-    return np.sqrt(np.clip(np.diag(cov), 0.0, None)) / scale
 
 
 def completed_standard(model: RobotModel, terms: TermSelection, base: BaseParameters, values: np.ndarray) -> np.ndarray:

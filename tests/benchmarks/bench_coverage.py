@@ -47,7 +47,11 @@ def one(seed: int, loop: str, seconds: float, folder: str) -> dict:
             err = np.array([r.truth_error["error"][n] for n in r.base_names])
             std = r.std
             ok = np.isfinite(std)
-            out[(kind, m)] = (int(np.sum(np.abs(err[ok]) <= 2 * std[ok])), int(ok.sum()), float(np.median(np.abs(err[ok]) / std[ok])))
+            out[(kind, m)] = (
+                int(np.sum(np.abs(err[ok]) <= 2 * std[ok])),
+                int(ok.sum()),
+                float(np.median(np.abs(err[ok]) / std[ok])),
+            )
     return out
 
 
@@ -60,11 +64,17 @@ def main() -> None:
     t0 = time.perf_counter()
     load = os.getloadavg()[0]
     with tempfile.TemporaryDirectory() as folder, ProcessPoolExecutor(a.jobs) as pool:
-        jobs = {(s, loop): pool.submit(one, s, loop, a.seconds, folder) for s in range(1, a.seeds + 1) for loop in LOOPS}
+        jobs = {
+            (s, loop): pool.submit(one, s, loop, a.seconds, folder) for s in range(1, a.seeds + 1) for loop in LOOPS
+        }
         res = {k: f.result() for k, f in jobs.items()}
-    print(f"{a.seeds} seeds × {len(LOOPS)} loop settings, {a.seconds:g} s each; load average at start {load:.1f}; "
-          f"{time.perf_counter() - t0:.0f} s")
-    print("| loop | method | within ±2σ, Newey–West (printed) | within ±2σ, white (before) | median \\|error\\|/σ NW | median \\|error\\|/σ white |")
+    print(
+        f"{a.seeds} seeds × {len(LOOPS)} loop settings, {a.seconds:g} s each; load average at start {load:.1f}; "
+        f"{time.perf_counter() - t0:.0f} s"
+    )
+    print(
+        "| loop | method | within ±2σ, Newey–West (printed) | within ±2σ, white (before) | median \\|error\\|/σ NW | median \\|error\\|/σ white |"
+    )
     print("|---|---|---|---|---|---|")
     for loop in [*LOOPS, "both"]:
         for m in METHODS:
@@ -74,7 +84,9 @@ def main() -> None:
                 hit, n = sum(v[0] for v in vals), sum(v[1] for v in vals)
                 cells.append((hit, n, float(np.median([v[2] for v in vals]))))
             (h1, n1, r1), (h2, n2, r2) = cells
-            print(f"| {loop} | {m} | {100 * h1 / n1:.1f} % ({h1}/{n1}) | {100 * h2 / n2:.1f} % ({h2}/{n2}) | {r1:.2f} | {r2:.2f} |")
+            print(
+                f"| {loop} | {m} | {100 * h1 / n1:.1f} % ({h1}/{n1}) | {100 * h2 / n2:.1f} % ({h2}/{n2}) | {r1:.2f} | {r2:.2f} |"
+            )
 
 
 if __name__ == "__main__":
