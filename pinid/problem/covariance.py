@@ -75,9 +75,8 @@ def hac_std(problem, e: np.ndarray, Rinv: np.ndarray, scale: np.ndarray, dof: in
     problem holds no tall ``W``."""
     sample = np.asarray(problem.sample, dtype=int)
     rows = getattr(problem, "regressor_rows", None)
-    if rows is not None:
-        sizes = [ds.n for ds in rows.datasets]
-    else:
+    sizes = [ds.n for ds in rows.datasets] if rows is not None else getattr(problem, "recording_sizes", None)
+    if sizes is None:
         sizes = [int(sample.max()) + 1 if len(sample) else 0]
     n = sum(sizes)
     g = np.zeros((n, problem.nb))

@@ -466,6 +466,9 @@ def _get_W(self: IdentificationProblem) -> np.ndarray | None:
 def _set_W(self: IdentificationProblem, value: np.ndarray | None) -> None:
     self.__dict__["_W"] = value
     if value is not None:  # a given matrix replaces the recordings' rows and what was computed from them
+        rows = self.__dict__.get("regressor_rows")
+        if rows is not None:  # the recordings' lengths still bound the HAC windows (pinid.problem.covariance)
+            self.__dict__["recording_sizes"] = [ds.n for ds in rows.datasets]
         self.__dict__["regressor_rows"] = None
         self.cache.forget("gram", "compressed")
 
