@@ -193,8 +193,17 @@ def test_standard_deviations_and_condition_number_follow_the_formulas():
     W, tau = problem.W, problem.tau
     x, *_ = np.linalg.lstsq(W, tau, rcond=None)
     resid = tau - W @ x
-    sigma2 = resid @ resid / (len(tau) - W.shape[1])
-    std = np.sqrt(np.diag(sigma2 * np.linalg.inv(W.T @ W)))
+    from pinid.problem.covariance import andrews_bandwidth
+
+    g = np.zeros((problem.sample.max() + 1, W.shape[1]))  # Newey–West: per-sample scores, explicit lag sum
+    np.add.at(g, problem.sample, W * resid[:, None])
+    lag = andrews_bandwidth(g / problem.compressed()[3])  # chosen in unit-column coordinates
+    S = g.T @ g
+    for k in range(1, lag + 1):
+        G = g[k:].T @ g[:-k]
+        S += (1 - k / (lag + 1)) * (G + G.T)
+    Binv = np.linalg.inv(W.T @ W)
+    std = np.sqrt(np.diag(Binv @ S @ Binv) * len(tau) / (len(tau) - W.shape[1]))
     np.testing.assert_allclose(r.base, x, rtol=1e-9, atol=1e-12)
     np.testing.assert_allclose(r.std, std, rtol=1e-6)
     np.testing.assert_allclose(r.std_percent, 100 * std / np.abs(x), rtol=1e-6)

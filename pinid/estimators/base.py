@@ -116,6 +116,9 @@ class Estimator:
     #: True when the estimator fits the full standard parameters and runs the stages of a staged
     #: (segmental) fit itself with ``fit_stage`` (see :class:`~pinid.estimators.sdp.SDP`).
     fits_standard: ClassVar[bool] = False
+    #: True when the least-squares sandwich covariance (:func:`pinid.problem.problem.base_statistics`)
+    #: describes the estimate's spread; False (metaheuristics): the result prints no σ.
+    calibrated_std: ClassVar[bool] = True
     #: True when the result does not depend on a random seed (a comparison runs it once).
     deterministic: ClassVar[bool] = True
     #: True when, on noise-free data, a deterministic estimator returns the truth to round-off; False when

@@ -188,7 +188,7 @@ def search_box(problem, box="nominal", *, width: float = 1.0, floor: float = 0.5
             }
         elif kind == "ls":
             x = least_squares(problem)
-            std = base_statistics(problem, x)[0]  # works on a segmental SubProblem too
+            std = base_statistics(problem, x, kind="white")[0]  # works on a segmental SubProblem too
             half = np.maximum(10.0 * max(width, 1e-12) * std, 1e-9 * natural_scale(problem))
             lower, upper = x - half, x + half
         else:
@@ -234,6 +234,8 @@ class Metaheuristic(Estimator):
     Subclasses set ``name``, ``description``, ``optimizer`` (a key of :data:`pinid.optimizers.OPTIMIZERS`)
     and ``default_box``.
     """
+
+    calibrated_std = False  # a swarm's optimum has no sampling covariance to report
 
     optimizer: str = ""
     default_box = "nominal"

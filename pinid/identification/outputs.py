@@ -65,7 +65,7 @@ def _parameter_text(r, *, indent: str = "") -> str:
     t = r.truth_error
     rows = []
     for n, v, s, sp in zip(r.base_names, r.base, r.std, r.std_percent):
-        row = [n, f"{v:.6g}", f"{s:.3g}", f"{sp:.3g}" if np.isfinite(sp) else "inf"]
+        row = [n, f"{v:.6g}"] + (["—", "—"] if np.isnan(s) else [f"{s:.3g}", f"{sp:.3g}" if np.isfinite(sp) else "inf"])
         if t:
             rel = t["error_percent"].get(n)
             row += [f"{t['truth'][n]:.6g}", f"{rel:.3g}" if rel is not None else f"|e| {t['error'][n]:.2g}"]
@@ -117,12 +117,15 @@ def identification_text(ident, *, verbose: bool = False) -> str:
     if floor is not None:
         lines += textwrap.wrap(floor, 120, subsequent_indent="  ", break_on_hyphens=False)
     best = ident.results.get(ident.best) if ident.results else None
-    if best is not None and len(best.base):
-        k = int(np.nanargmax(np.where(np.isfinite(best.std_percent), best.std_percent, np.inf)))
+    if best is not None and len(best.base) and not np.all(np.isnan(best.std)):
+        sp = best.std_percent
+        k = int(np.nanargmax(np.where(np.isnan(sp) | np.isfinite(sp), sp, np.inf)))
         lines.append(
-            f"{ident.best}: largest relative standard deviation σ % {best.std_percent[k]:.3g} ({best.base_names[k]}); "
+            f"{ident.best}: largest relative standard deviation σ % {sp[k]:.3g} ({best.base_names[k]}); "
             "every parameter's with --verbose and in the report"
         )
+    elif best is not None and len(best.base):
+        lines.append(f"{ident.best}: no calibrated standard deviation (σ —) for this method")
     if best is not None and best.warning:  # one warning, wrapped to the terminal's 120 columns
         lines += textwrap.wrap(best.warning, 120, subsequent_indent="  ", break_on_hyphens=False)
     return "\n".join(lines)

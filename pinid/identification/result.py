@@ -25,13 +25,19 @@ from pinid.model.regressor import TermSelection
 from pinid.model.robot import RobotModel
 from pinid.model.serialize import robot_from_dict, robot_to_dict
 
+#: A constrained estimate (sdp) whose value is within this fraction of its natural scale of zero sits on a
+#: bound (friction ≥ 0, a pseudo-inertia margin): its σ is not that of a free parameter and is not printed.
+BOUND_FRACTION = 1e-6
+
 
 @dataclass
 class IdentificationResult:
     """One method's result.  Arrays follow ``base_names`` / ``standard_names``.
 
-    ``std``: standard deviations of the base parameters, σ² (WᵀW)⁻¹ with σ² = Σ w·r²/(rows − nb) and
-    the weights the method used; ``std_percent``: 100·std/|value| (inf for a zero value).
+    ``std``: standard deviations of the base parameters, the Newey–West sandwich of
+    :func:`~pinid.problem.problem.base_statistics` with the weights the method used; NaN (JSON null,
+    printed "—") where no calibrated σ exists (metaheuristics; an sdp value on a bound);
+    ``std_percent``: 100·std/|value| (inf for a zero value).
     ``standard``: full standard parameters — the estimator's own (``standard_source = "estimator"``),
     else the physically consistent set closest to the URDF that reproduces the base parameters
     (``"consistent completion"``), else, when none exists, the least-squares completion closest to the
@@ -411,6 +417,10 @@ def make_result(
     w = getattr(estimator, "weights_", None)
     predicted = problem.predict(base)  # block by block: the tall regressor need not exist whole
     std, cond, cond_scaled = base_statistics(problem, base, w, residual=problem.tau - predicted)
+    if not getattr(estimator, "calibrated_std", True):
+        std = np.full_like(std, np.nan)  # no calibrated σ: none printed rather than a wrong one
+    elif getattr(estimator, "consistent_by_construction", False):
+        std = np.where(np.abs(base) <= BOUND_FRACTION * problem.natural_scale, np.nan, std)  # on a bound
     info["condition_number_scaled"] = cond_scaled
     joints, units = problem.model.joint_names, joint_units(problem.model)
     filtered = torque_metrics(problem.tau, predicted, joints, problem.joint, units)

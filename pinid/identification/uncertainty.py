@@ -1,12 +1,11 @@
 """How well the data determine each base parameter, and the one-line warning when they do not.
 
-The standard deviations (:func:`pinid.problem.problem.base_statistics`) follow the least-squares
-formula: σ² = Σ w·r² / (rows − nb), Cov = σ²·(Wᵀ diag(w) W)⁻¹, ``std_i = √Cov_ii`` and the relative
-standard deviation ``%σ_i = 100·std_i / |θ_i|``.  OLS uses unit weights; WLS its own final weights (the
-formula is then that of weighted least squares); every other method (the LMI method, RLS, the
-metaheuristics) is scored with the same formula at its own estimate and residual — a linearisation that
-ignores constraints and bounds: a parameter held at a bound of the LMI method (e.g. a rotor inertia at 0)
-gets a %σ of inf or far above 100 %, which says "not determined by the data", not a Gaussian spread.
+The standard deviations (:func:`pinid.problem.problem.base_statistics`) are the Newey–West sandwich of
+least squares (:mod:`pinid.problem.covariance`), which holds for residuals correlated in time as those of
+filtered recordings are; ``std_i = √Cov_ii`` and the relative standard deviation ``%σ_i = 100·std_i / |θ_i|``.
+OLS uses unit weights, WLS its own final weights; the LMI method is scored at its own estimate, and a value
+it holds on a bound (friction ≥ 0, a pseudo-inertia margin) gets no σ (NaN, printed "—"); the
+metaheuristics get none at all.  A missing σ never counts as "poorly determined" here.
 
 The warning (:func:`uncertainty_warning`) fires when
 
@@ -34,7 +33,7 @@ STD_WARN_PERCENT = 10.0
 def _poorly_determined(std_percent: np.ndarray, names: list[str]) -> list[tuple[str, float]]:
     """``(name, %σ)`` of the parameters above :data:`STD_WARN_PERCENT`, the largest first."""
     sp = np.asarray(std_percent, dtype=float)
-    bad = [(n, float(v)) for n, v in zip(names, sp) if not v <= STD_WARN_PERCENT]  # NaN and inf count
+    bad = [(n, float(v)) for n, v in zip(names, sp) if v > STD_WARN_PERCENT]  # inf counts; NaN (no σ) does not
     return sorted(bad, key=lambda kv: -kv[1] if np.isfinite(kv[1]) else -np.inf)
 
 

@@ -58,6 +58,7 @@ from pinid.model.base import BaseParameters, base_parameters
 from pinid.model.physical import parameter_scale
 from pinid.model.regressor import TermSelection, regressor, standard_parameters
 from pinid.model.robot import RobotModel
+from pinid.problem.covariance import hac_std
 from pinid.progress import progress
 from pinid.data.dataset import as_dataset
 from pinid.model.robot import as_robot
@@ -465,6 +466,9 @@ def _get_W(self: IdentificationProblem) -> np.ndarray | None:
 def _set_W(self: IdentificationProblem, value: np.ndarray | None) -> None:
     self.__dict__["_W"] = value
     if value is not None:  # a given matrix replaces the recordings' rows and what was computed from them
+        rows = self.__dict__.get("regressor_rows")
+        if rows is not None:  # the recordings' lengths still bound the HAC windows (pinid.problem.covariance)
+            self.__dict__["recording_sizes"] = [ds.n for ds in rows.datasets]
         self.__dict__["regressor_rows"] = None
         self.cache.forget("gram", "compressed")
 
@@ -605,13 +609,19 @@ def base_regressor(
 
 # ====================================================================== statistics
 def base_statistics(
-    problem: Problem, base: np.ndarray, weights: np.ndarray | None = None, *, residual: np.ndarray | None = None
+    problem: Problem,
+    base: np.ndarray,
+    weights: np.ndarray | None = None,
+    *,
+    residual: np.ndarray | None = None,
+    kind: str = "hac",
 ) -> tuple[np.ndarray, float, float]:
     """``(std, condition_number, condition_number_scaled)`` of base parameters fitted with row ``weights``.
 
-    σ² = Σ w·r² / (rows − nb), cov = σ²·(Wᵀ diag(w) W)⁻¹; the condition numbers are those of
-    diag(√w)·W as it is and with unit-norm columns.  ``residual``: ``tau − W @ base`` when already known
-    (else computed, reading ``problem.W``).
+    ``kind="hac"`` (default): the Newey–West sandwich of :mod:`pinid.problem.covariance`, calibrated for
+    time-correlated residuals; ``"white"``: σ²·(Wᵀ diag(w) W)⁻¹ with σ² = Σ w·r² / (rows − nb).  The
+    condition numbers are those of diag(√w)·W as it is and with unit-norm columns.  ``residual``:
+    ``tau − W @ base`` when already known (else computed, reading ``problem.W``).
     """
     if not hasattr(problem, "weights"):
         raise SpecError(
@@ -620,11 +630,14 @@ def base_statistics(
     w = problem.weights if weights is None else weights
     r = problem.tau - problem.W @ base if residual is None else residual
     dof = max(problem.rows - problem.nb, 1)
-    sigma2 = float(np.sum(w * r * r)) / dof
     R, _, _, scale = problem.compressed(weights)
     try:
         Rinv = scipy.linalg.solve_triangular(R, np.eye(len(R)))
-        std = np.sqrt(sigma2 * np.sum(Rinv**2, axis=1)) / scale
+        if kind == "white":
+            sigma2 = float(np.sum(w * r * r)) / dof
+            std = np.sqrt(sigma2 * np.sum(Rinv**2, axis=1)) / scale
+        else:
+            std = hac_std(problem, w * r, Rinv, scale, dof)
     except (np.linalg.LinAlgError, ValueError):
         std = np.full(problem.nb, np.inf)
     s_scaled = np.linalg.svd(R, compute_uv=False)
