@@ -113,6 +113,9 @@ class Estimator:
     name: str = "estimator"
     #: One line for tables and the report.
     description: str = ""
+    #: True when ``standard_`` is physically consistent by construction (constrained: a value on a bound
+    #: gets no σ, :func:`pinid.identification.result.make_result`).
+    consistent_by_construction: bool = False
     #: True when the estimator fits the full standard parameters and runs the stages of a staged
     #: (segmental) fit itself with ``fit_stage`` (see :class:`~pinid.estimators.sdp.SDP`).
     fits_standard: ClassVar[bool] = False

@@ -59,6 +59,7 @@ class SDP(Estimator):
 
     name = "sdp"
     description = "physically consistent least squares (pseudo-inertia LMI, Clarabel)"
+    consistent_by_construction = True
     fits_standard = True
     colour = "tab:green"
     settings = {
