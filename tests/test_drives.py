@@ -13,7 +13,7 @@ import pytest
 
 from pinid import TermSelection, base_parameters, regressor, standard_parameters
 from pinid.data.dataset import Dataset
-from pinid.errors import ModelError, SpecError
+from pinid.errors import ModelError, ModelWarning, SpecError
 from pinid.identification.run import identify
 from pinid.identification.identified import IdentifiedModel
 from pinid.model.drives import Drives, Transmission, load_drives
@@ -322,3 +322,46 @@ def test_cli_identify_with_drives_exports_drives_toml_and_motor_names(tmp_path):
     theta = standard_parameters(m, MOTOR_TERMS)
     want = expected_torque(m, q, dq, ddq, theta[10 * m.nv :], MOTOR_TERMS)
     assert np.allclose(ident.inverse_dynamics(q, dq, ddq), want, atol=1e-5)
+
+
+def _kinova_style(reduction2: float = 1.0) -> str:
+    """Two joints, each described by two SimpleTransmissions (ros_control, then one with a motorInertia), as
+    Kinova's published Gen3 URDF does; ``reduction2``: the second description's reduction."""
+    links = "".join(
+        f'<link name="l{i}"><inertial><origin xyz="0 0 0.1"/><mass value="1"/>'
+        '<inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.002"/></inertial></link>'
+        for i in (1, 2)
+    )
+    joints = "".join(
+        f'<joint name="j{i}" type="revolute"><parent link="{"base" if i == 1 else "l1"}"/><child link="l{i}"/>'
+        f'<origin xyz="0 0 0.2"/><axis xyz="0 {i - 1} {2 - i}"/>'
+        '<limit lower="-2" upper="2" effort="50" velocity="2"/></joint>'
+        for i in (1, 2)
+    )
+    trans = "".join(
+        f'<transmission name="j{i}_{tag}"><type>transmission_interface/SimpleTransmission</type>'
+        f'<joint name="j{i}"><hardwareInterface>hardware_interface/{iface}</hardwareInterface></joint>'
+        f'<actuator name="j{i}_{tag}_act"><mechanicalReduction>{n}</mechanicalReduction>{extra}</actuator>'
+        "</transmission>"
+        for i in (1, 2)
+        for tag, iface, n, extra in (
+            ("trans", "PositionJointInterface", 1.0, ""),
+            ("tran", "EffortJointInterface", reduction2, "<motorInertia>0.0001</motorInertia>"),
+        )
+    )
+    return f'<robot name="k"><link name="base"/>{links}{joints}{trans}</robot>'
+
+
+def test_a_drive_described_twice_is_read_once_with_one_warning(tmp_path):
+    """Issue 33: a vendor URDF with two <transmission> elements per joint loads (every command read it as an
+    error); the repeated descriptions are left out with one warning naming them."""
+    path = tmp_path / "k.urdf"
+    path.write_text(_kinova_style())
+    with pytest.warns(ModelWarning, match="j1_tran, j2_tran describe drives already read") as record:
+        robot = RobotModel.from_urdf(path)
+    assert len([w for w in record if issubclass(w.category, ModelWarning)]) == 1
+    assert robot.drives.motor_names == ["j1_trans_act", "j2_trans_act"]
+    np.testing.assert_array_equal(robot.drives.matrix, np.eye(2))
+    path.write_text(_kinova_style(reduction2=50.0))
+    with pytest.raises(ModelError, match="'j1' is also in <transmission name='j1_trans'> with another reduction"):
+        RobotModel.from_urdf(path)

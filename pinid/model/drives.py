@@ -17,7 +17,10 @@ Two sources, with the same meaning of ``matrix`` as a mapping spec's ``[transmis
    ``SimpleTransmission`` with the actuator's ``mechanicalReduction`` ``n`` gives ``[[n]]``;
    ``DifferentialTransmission`` with actuator roles ``actuator1/2`` (reductions ``a1, a2``) and joint
    roles ``joint1/2`` (reductions ``j1, j2``, default 1) gives ``[[a1·j1, a1·j2], [a2·j1, −a2·j2]]``.
-   Other transmission types and transmissions of inactive (locked or fixed) joints are left out.
+   Other transmission types and transmissions of inactive (locked or fixed) joints are left out.  A
+   joint named by several ``SimpleTransmission`` elements with the same reduction (vendor URDFs such as
+   Kinova's describe each drive twice: once for ros_control, once with its motor inertia) keeps the first;
+   the others are left out with one warning.  Different reductions for one joint are an error.
 2. a drives TOML (``--drives FILE``), replacing the URDF's::
 
        [transmission]                 # or [[transmission]] for several
@@ -35,13 +38,14 @@ from __future__ import annotations
 
 import os
 import re
+import warnings
 from dataclasses import dataclass, field
 from typing import Any
 from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from pinid.errors import ModelError, SpecError
+from pinid.errors import ModelError, ModelWarning, SpecError
 from pinid.model.urdf import Element, UrdfDocument
 
 #: Keys of a ``[motors.<name>]`` table of a drives file: the motor terms' parameter suffixes.
@@ -278,6 +282,8 @@ def urdf_transmissions(
     document = urdf_text if isinstance(urdf_text, UrdfDocument) else UrdfDocument.from_text(urdf_text, origin)
     known = document.joint_names()
     out = []
+    simple: dict[str, tuple[str, float]] = {}  # joint → (its first SimpleTransmission, reduction)
+    repeated: list[str] = []  # transmissions that describe a drive already read
     for tr in document.transmissions():
         name = tr.get("name", "?")
         where = f"{origin}: <transmission name={name!r}>"
@@ -304,6 +310,16 @@ def urdf_transmissions(
             if len(jels) != 1 or len(aels) != 1:
                 raise ModelError(f"{where}: SimpleTransmission needs one joint and one actuator")
             n = _number(aels[0], "mechanicalReduction", where, 1.0)
+            if jnames[0] in simple:  # the same drive described again (ros_control and motor descriptions)
+                first, reduction = simple[jnames[0]]
+                if reduction != n:
+                    raise ModelError(
+                        f"{where}: joint {jnames[0]!r} is also in <transmission name={first!r}> with another "
+                        f"reduction ({reduction:g}, here {n:g}); expected one transmission per joint"
+                    )
+                repeated.append(name)
+                continue
+            simple[jnames[0]] = (name, n)
             out.append(_checked(Transmission(jnames, [aels[0].get("name")], np.array([[n]])), where, ModelError))
             continue
         if len(jels) != 2 or len(aels) != 2:
@@ -314,6 +330,13 @@ def urdf_transmissions(
         j1, j2 = (_number(e, "mechanicalReduction", where, 1.0) for e in j)
         G = np.array([[a1 * j1, a1 * j2], [a2 * j1, -a2 * j2]])
         out.append(_checked(Transmission([e.get("name") for e in j], [e.get("name") for e in a], G), where, ModelError))
+    if repeated:
+        warnings.warn(
+            f"{origin}: <transmission> {', '.join(repeated)} describe drives already read (same joint, same "
+            "reduction): left out, the first transmission of each joint is used",
+            ModelWarning,
+            stacklevel=2,
+        )
     return out
 
 
