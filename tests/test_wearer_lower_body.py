@@ -139,3 +139,16 @@ def test_stage2_identifies_both_legs_of_the_wearer(tmp_path):
     want = base_parameters(robot, fit.terms).from_standard(truth)
     assert len(priors) == 6
     assert np.max(np.abs(fit.base - want) / np.maximum(np.abs(want), 1e-3)) <= 1e-6
+
+
+def test_a_foot_on_the_sole_frame_points_forward_like_on_the_foot_link():
+    """Issue 33 (round 4, 14): l_sole is fixed to l_foot with the same orientation (5 cm ahead, 7 cm down): a
+    foot attached there points forward, as on l_foot, not sideways (a fixed joint has no axis: the limb's is
+    used)."""
+    person = dict(mass=75, height=1.78, sex="male")
+    on_foot = wearer_links(wearer_urdf("exo_lower_body", "l_foot:l_foot", **person))["l_foot"]
+    on_sole = wearer_links(wearer_urdf("exo_lower_body", "l_sole:l_foot", **person))["l_foot"]
+    assert on_sole[0] == "l_sole" and on_foot[0] == "l_foot"
+    np.testing.assert_allclose(on_sole[2], on_foot[2], atol=1e-12)  # the same CoM in each frame: forward (+x)
+    assert on_sole[2][0] > 0.1 and abs(on_sole[2][1]) < 1e-12
+    np.testing.assert_allclose(on_sole[3], on_foot[3], atol=1e-12)

@@ -154,8 +154,9 @@ def place(root: Element, pairs, *, mass: float, height: float, sex: str, source:
                 f"(joints: {', '.join(joints)}; links: {', '.join(links)})"
             )
         pj = parent_joint.get(link)
-        axis_el = pj.find("axis") if pj is not None else None
-        axis = _unit(_vec(axis_el.get("xyz") if axis_el is not None else None, (1.0, 0, 0)))
+        mj, to_link = _moving_parent(link, parent_joint)  # a frame on a fixed joint (a sole) takes its limb's axis
+        axis_el = mj.find("axis") if mj is not None else None
+        axis = _unit(to_link @ _vec(axis_el.get("xyz") if axis_el is not None else None, (1.0, 0, 0)))
         axis = axis if axis is not None else np.array([1.0, 0, 0])
         children = [j for j in joints.values() if j.find("parent") is not None and j.find("parent").get("link") == link]
         d = None
@@ -177,9 +178,9 @@ def place(root: Element, pairs, *, mass: float, height: float, sex: str, source:
             start = shank_on[link][0] * shank_on[link][1]
             forward = _unit(np.cross(axis, d))
             d = forward if forward is not None else d
-        elif seg == "foot" and pj is not None and pj.find("origin") is not None:  # its own link: the ankle
-            o = pj.find("origin")  # the leg's direction continued (the shank's), the foot forward of it
-            leg = _unit(pin.rpy.rpyToMatrix(*_vec(o.get("rpy"))).T @ _vec(o.get("xyz")))
+        elif seg == "foot" and mj is not None and mj.find("origin") is not None:  # its own link: the ankle
+            o = mj.find("origin")  # the leg's direction continued (the shank's), the foot forward of it
+            leg = _unit(to_link @ pin.rpy.rpyToMatrix(*_vec(o.get("rpy"))).T @ _vec(o.get("xyz")))
             forward = None if leg is None else _unit(np.cross(axis, leg))
             d = forward if forward is not None else d
         if seg == "shank":
@@ -189,6 +190,18 @@ def place(root: Element, pairs, *, mass: float, height: float, sex: str, source:
     for point, _ in pelvis:
         out.insert(0, _place_pelvis(root, point, out, mass=mass, height=height, sex=sex, source=source))
     return out
+
+
+def _moving_parent(link: str, parent_joint: dict) -> tuple[Element | None, np.ndarray]:
+    """The nearest joint above ``link`` that moves (not ``fixed``), and the rotation taking a vector in that
+    joint's child frame into ``link``'s frame (the fixed joints between; identity when it is ``link``'s own)."""
+    to_link, pj = np.eye(3), parent_joint.get(link)
+    while pj is not None and pj.get("type") == "fixed":
+        o = pj.find("origin")
+        to_link = to_link @ pin.rpy.rpyToMatrix(*_vec(o.get("rpy") if o is not None else None)).T
+        parent = pj.find("parent")
+        pj = parent_joint.get(parent.get("link")) if parent is not None else None
+    return pj, to_link
 
 
 def _chain_origin(root: Element, top: str, link: str) -> np.ndarray | None:
