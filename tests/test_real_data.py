@@ -100,3 +100,38 @@ def test_mapping_signs_match_the_urdf(model):
     assert np.all(urdf * 3 < urdf_flipped)
     # a plain least-squares fit explains joint 2 much better than joint 1 (shared/data README)
     assert fit[1] < 0.3 < fit[0]
+
+
+KUKA = shared_data() / "kuka_med7"
+
+
+@pytest.mark.skipif(not (KUKA / "mext.csv").is_file(), reason=f"KUKA LBR Med 7 recordings not found at {KUKA}")
+def test_kuka_med7_offsets_per_recording_figures():
+    """docs/identification.md, "KUKA LBR Med 7": the figures measured with offsets per recording (ols)."""
+    from pinid.identification.offsets import identify_recording_offsets, relative_rms, score_calibrated
+    from pinid.problem.problem import recorded_torque
+
+    model = RobotModel.from_urdf(KUKA / "robot.urdf")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        mext = read_recording(KUKA / "mext.csv", model=model)
+        js = prepare(read_recording(KUKA / "js.csv", model=model))
+        n70 = int(0.7 * mext.n)
+        train, valid = prepare(mext.select(slice(0, n70))), prepare(mext.select(slice(n70, mext.n)))
+        whole = prepare(mext)
+    fit = identify_recording_offsets(model, [train], "fc,fv")
+    pooled, per = relative_rms(recorded_torque(valid), fit.predict(valid, fit.offsets[0]))
+    assert 3.6 < pooled < 3.75 and per[1] < 2.7 and per[3] < 2.1, (pooled, per)
+    # KUKA's own model on the same samples: tau − kuka_tau_ext
+    raw = np.genfromtxt(KUKA / "mext.csv", delimiter=",", names=True)
+    k = np.searchsorted(raw["t"], valid.t - 1e-9)
+    tau = np.column_stack([raw[f"tau_A{j}"] for j in range(1, 8)])[k]
+    kuka = tau - np.column_stack([raw[f"kuka_tau_ext_A{j}"] for j in range(1, 8)])[k]
+    assert np.array_equal(tau, recorded_torque(valid))
+    assert 4.6 < relative_rms(tau, kuka)[0] < 4.7
+    # another day, its offsets calibrated from its first 10 %, scored on the rest
+    pooled, per = score_calibrated(identify_recording_offsets(model, [whole], "fc,fv"), js, 0.1)
+    assert 11.9 < pooled < 12.05, (pooled, per)
+    # why 6 % is out of reach against the torque as recorded: js's torque differs from its own 10 Hz
+    # low-passed copy by 6.95 % (spikes up to 30 N·m from one sample to the next on A2)
+    assert 6.9 < relative_rms(recorded_torque(js), js.tau)[0] < 7.0
