@@ -269,10 +269,10 @@ def run(args: argparse.Namespace) -> int:
 
     ident = identify(model, args.data, **_identify_arguments(args, methods, terms), started=started)
     print(identification_text(ident, verbose=args.verbose))
-    warn_if_unvalidated(bool(ident.validation_sources))
     written = write_identification(
         ident, out, report=not args.no_report, figures=not args.no_figures, force_export=args.force_export
     )
+    warn_if_unvalidated(bool(ident.validation_sources))  # after writing: a refused output is one line alone
     refused = [m for m in ident.results if out / f"identified_{m}.urdf" not in written]
     print(
         f"\nbest: {ident.best}"
@@ -380,8 +380,8 @@ def _run_floating(args: argparse.Namespace, out: Path) -> int:
         mapping=mapping,
     )
     print(ident.text())
-    warn_if_unvalidated(bool(args.validate))
     print(wrote_line(write_floating_identification(ident, out, model, terms), out))
+    warn_if_unvalidated(bool(args.validate))
     return 0
 
 
