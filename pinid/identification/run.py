@@ -529,7 +529,7 @@ def identify(
     model = s.model  # with the fitted Stribeck shapes (auto): built once, used from here on
     terms = s.terms if auto_terms else terms
     x_true = None if truth is None else true_base(truth, model, s.terms, s.base)  # checked before the fits
-    check_recordings(s)
+    _check_recordings(s)
     if started is not None:
         started()
     fits = run_jobs(s, [(m, None, options.get(m, {})) for m in methods], complete=complete, show_progress=show_progress)
@@ -605,7 +605,7 @@ def identify(
     )
 
 
-def check_recordings(s: Setup, samples: int = 5000) -> None:
+def _check_recordings(s: Setup, samples: int = 5000) -> None:
     """The one-line warnings of :mod:`pinid.identification.plausibility`: a validation recording that repeats
     a training trajectory; a torque channel whose sign is flipped against the URDF's torque (rigid bodies and
     the URDF's friction, on at most ``samples`` samples of the training recordings)."""

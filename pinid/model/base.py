@@ -13,7 +13,7 @@ standard parameters are folded into it (``hip.IyyR = hip.Iyy + 0.1764·knee.m + 
 from __future__ import annotations
 
 import json
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -160,6 +160,10 @@ def marks_summary(marks: dict[str, str] | None, names: Sequence[str]) -> str:
     """One line grouping the parameters ``names`` (e.g. ``knee.m`` … ``knee.Izz``) by their mark in ``marks``
     (:meth:`BaseParameters.marks`), short names without the body prefix: ``"identified: mx, Iyy; partly:
     mz; not identified (prior value kept): m, my"``.  Empty when ``marks`` is None or has none of them."""
+    if marks is not None and not isinstance(marks, Mapping):
+        raise SpecError(f"marks: got {type(marks).__name__}, expected {{standard name: mark}} or None")
+    if isinstance(names, str) or not isinstance(names, Sequence) or not all(isinstance(n, str) for n in names):
+        raise SpecError(f"names: got {type(names).__name__}, expected a list of standard parameter names")
     if not marks:
         return ""
     groups: dict[str, list[str]] = {k: [] for k in MARKS}

@@ -17,6 +17,7 @@ armature are non-negative (the constant ``offset`` may have any sign).
 
 from __future__ import annotations
 
+import numbers
 from dataclasses import dataclass, field
 from collections.abc import Sequence
 
@@ -24,6 +25,7 @@ import numpy as np
 
 from pinid.model.terms import layout
 from pinid.checks import array_like
+from pinid.errors import SpecError
 
 #: Relative tolerance of the checks: an eigenvalue of J ≥ −RTOL·‖J‖ counts as non-negative.
 RTOL = 1e-8
@@ -105,7 +107,9 @@ def tidy_inertial(m: float, c: np.ndarray, I: np.ndarray) -> tuple[float, np.nda
     below ``NOISE`` times the body's length scale (``max(|c|, √(λmax(I)/|m|))`` [m]), an inertia entry below
     ``NOISE`` times the largest one [kg·m²].  What is written for a user (report, URDF, MJCF) goes through
     this, so ``c = -6.57e-22`` reads 0."""
-    c, I = np.array(c, dtype=float), np.array(I, dtype=float)
+    if not isinstance(m, numbers.Real) or isinstance(m, bool):
+        raise SpecError(f"m: got {type(m).__name__}, expected a mass [kg]")
+    c, I = np.array(array_like(c, "c"), dtype=float), np.array(array_like(I, "I"), dtype=float)
     big = float(np.abs(I).max()) if I.size else 0.0
     length = max(float(np.linalg.norm(c)), float(np.sqrt(big / abs(m))) if m and big > 0 else 0.0)
     c[np.abs(c) < NOISE * length] = 0.0
@@ -116,6 +120,8 @@ def tidy_inertial(m: float, c: np.ndarray, I: np.ndarray) -> tuple[float, np.nda
 def nonnegative_within_tolerance(value: float, scale: float) -> bool:
     """The one tolerance rule of the consistency checks (and of the MJCF export): ``value`` counts as
     non-negative when it is ≥ −RTOL·``scale`` (``scale``: the size of the quantity it belongs to)."""
+    if not all(isinstance(x, numbers.Real) and not isinstance(x, bool) for x in (value, scale)):
+        raise SpecError(f"value {value!r}, scale {scale!r}: expected two real numbers")
     return value >= -RTOL * scale
 
 
