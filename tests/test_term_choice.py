@@ -9,7 +9,8 @@ import pytest
 from conftest import load, shared_data
 from pinid.data.dataset import Dataset
 from pinid.errors import SpecError
-from pinid.identification.run import identify, setup
+from pinid.identification import run as runner  # not `setup` by name: pytest 7 runs a module's setup()
+from pinid.identification.run import identify
 from pinid.identification.term_choice import choose_terms
 from test_identification import twin, truth_model
 
@@ -47,7 +48,7 @@ def test_identify_with_auto_terms_recovers_the_offset():
 
 def test_auto_terms_refuse_what_they_cannot_combine_with():
     with pytest.raises(SpecError, match="terms auto with Stribeck velocity 'auto'"):
-        setup(load("exo_leg"), noisy(), terms="auto", stribeck_auto={"fs": False})
+        runner.setup(load("exo_leg"), noisy(), terms="auto", stribeck_auto={"fs": False})
 
 
 def test_kuka_chooses_the_offset_its_torque_sensors_need():
