@@ -144,12 +144,12 @@ def choose_cutoff(
         raise DataError("cut-off auto: the sample rate carries no candidate cut-off (at least 1 Hz)")
     edges = block_edges(raw, folds)
     options = {k: v for k, v in dict(preprocess or {}).items() if k != "cutoff"}
-    fits, reasons = {}, {}
+    fits, reasons, unwrap = {}, {}, free_angles(model)
     for c in candidates:
         try:
             with warnings.catch_warnings():  # a candidate's own warnings ("content above the cut-off") are its score's
                 warnings.simplefilter("ignore", DataWarning)
-                prepared = [prepare_dataset(ds, {**options, "cutoff": c}, unwrap=free_angles(model)) for ds in raw]
+                prepared = [prepare_dataset(ds, {**options, "cutoff": c}, unwrap=unwrap) for ds in raw]
                 fits[c] = candidate_rows(model, prepared, terms, base, problem_options)
         except (DataError, SpecError) as exc:
             reasons[f"{c:g}"] = str(exc)

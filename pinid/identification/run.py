@@ -142,12 +142,14 @@ def setup(
     ``fit_joints``: the joints whose torque rows enter the fit (default all); ``delay``: the torque
     channels' delay behind the positions (:func:`pinid.data.delay.parse_delay`; ``"auto"`` estimated on the
     training recordings, :mod:`pinid.identification.delay`), applied to every recording."""
-    auto_terms = isinstance(terms, str) and terms.strip().lower() == "auto"
+    auto_terms = _is_auto(terms)
     model, terms = as_robot(model), TermSelection() if auto_terms else as_terms(terms)  # resolved ones as they are
     auto = dict(stribeck_auto or {})
     if auto_terms and (auto or segmental):
         raise SpecError("terms auto with Stribeck velocity 'auto' or the segmental strategy: give the terms instead")
-    fit_mask(model, fit_joints)  # a bad joint name fails before any recording is read
+    fit = fit_mask(model, fit_joints)  # a bad joint name fails before any recording is read
+    fitted = None if fit.all() else [j for j, f in zip(model.joint_names, fit) if f]  # None: every joint
+    rows = {"rest_velocity": rest_velocity, "rest_fraction": rest_fraction, "fit_joints": fit_joints}
     delays = parse_delay(delay, model.joint_names)
     if segmental and (fit_joints is not None or delays is not None):
         raise SpecError("fit joints and torque delays with the segmental strategy: not supported")
@@ -157,18 +159,21 @@ def setup(
     check_distinct(data, validate)
     chosen = None
     if isinstance(preprocess, Mapping) and isinstance(preprocess.get("cutoff"), str):
-        chosen = _auto_cutoff(model, data, terms, mapping, preprocess, fit_joints, rest_velocity, rest_fraction)
+        if not _is_auto(preprocess["cutoff"]):
+            raise SpecError(f"cut-off {preprocess['cutoff']!r}, expected a frequency > 0 [Hz] or auto")
+        from pinid.identification.cutoff import choose_cutoff  # loaded on use
+
+        base = base_parameters(model, terms, joints=fitted)
+        chosen = choose_cutoff(
+            model, _items(data), terms=terms, base=base, mapping=mapping, preprocess=preprocess, problem_options=rows
+        )
         preprocess = {**preprocess, "cutoff": chosen.cutoff}
     train = load_datasets(data, model, mapping, preprocess, "training")
     terms_choice = None
     if auto_terms:
         from pinid.identification.term_choice import choose_terms  # loaded on use
 
-        fitted = [j for j, f in zip(model.joint_names, fit_mask(model, fit_joints)) if f]
-        options = {"rest_velocity": rest_velocity, "rest_fraction": rest_fraction, "fit_joints": fit_joints}
-        terms_choice = choose_terms(
-            model, train, fit_joints=None if len(fitted) == model.nv else fitted, problem_options=options
-        )
+        terms_choice = choose_terms(model, train, fit_joints=fitted, problem_options=rows)
         terms = final_terms = TermSelection(names=terms_choice.terms)
     warn_if_large_recordings(model, terms, train)
     if validate is None:
@@ -177,8 +182,7 @@ def setup(
         val = {str(k): load_datasets(v, model, mapping, preprocess, f"validation ({k})") for k, v in validate.items()}
     else:
         val = {"validation": load_datasets(validate, model, mapping, preprocess, "validation")}
-    fit = fit_mask(model, fit_joints)
-    base = base_parameters(model, terms, joints=None if fit.all() else [j for j, f in zip(model.joint_names, fit) if f])
+    base = base_parameters(model, terms, joints=fitted)
     used_delay = None
     if delays is not None:
         if isinstance(delays, str):
@@ -272,19 +276,9 @@ def setup(
     )
 
 
-def _auto_cutoff(model, data, terms, mapping, preprocess, fit_joints, rest_velocity, rest_fraction):
-    """The cut-off the training ``data`` choose when ``preprocess["cutoff"]`` is ``"auto"``
-    (:mod:`pinid.identification.cutoff`); SpecError for any other text."""
-    if preprocess["cutoff"].strip().lower() != "auto":
-        raise SpecError(f"cut-off {preprocess['cutoff']!r}, expected a frequency > 0 [Hz] or auto")
-    from pinid.identification.cutoff import choose_cutoff  # loaded on use
-
-    fit = fit_mask(model, fit_joints)
-    base = base_parameters(model, terms, joints=None if fit.all() else [j for j, f in zip(model.joint_names, fit) if f])
-    options = {"rest_velocity": rest_velocity, "rest_fraction": rest_fraction, "fit_joints": fit_joints}
-    return choose_cutoff(
-        model, _items(data), terms=terms, base=base, mapping=mapping, preprocess=preprocess, problem_options=options
-    )
+def _is_auto(value) -> bool:
+    """True for the text ``"auto"`` (any case, spaces around): a setting the training recordings choose."""
+    return isinstance(value, str) and value.strip().lower() == "auto"
 
 
 def bytes_per_sample(model: RobotModel, terms: TermSelection) -> float:
@@ -487,7 +481,7 @@ def identify(
     """
     t_start = time.perf_counter()
     model = as_model(model)
-    auto_terms = isinstance(terms, str) and terms.strip().lower() == "auto"  # chosen by the training data
+    auto_terms = _is_auto(terms)  # chosen by the training data
     terms = TermSelection() if auto_terms else as_terms(terms)
     methods = parse_methods(methods)
     options = check_options(options, methods)
