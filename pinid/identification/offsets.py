@@ -25,6 +25,7 @@ import numpy as np
 
 from pinid.data.dataset import Dataset
 from pinid.errors import SpecError
+from pinid.identification.metrics import torque_metrics
 from pinid.model.base import BaseParameters, base_parameters
 from pinid.model.robot import as_robot
 from pinid.model.terms import TermSelection, as_terms
@@ -96,11 +97,11 @@ def calibrate_offsets(fit: RecordingOffsets, ds: Dataset, fraction: float = 0.1)
 
 
 def relative_rms(measured: np.ndarray, predicted: np.ndarray) -> tuple[float, np.ndarray]:
-    """``(pooled, per_joint)`` relative RMS error [%] of ``predicted`` against ``measured`` (N, nv)."""
-    e = measured - predicted
-    pooled = 100 * float(np.sqrt(np.sum(e**2) / np.sum(measured**2)))
-    per = 100 * np.sqrt(np.sum(e**2, axis=0) / np.sum(measured**2, axis=0))
-    return pooled, per
+    """``(pooled, per_joint)`` relative RMS error [%] of ``predicted`` against ``measured`` (N, nv): the
+    ``rel_rms_percent`` of :func:`pinid.identification.metrics.torque_metrics`."""
+    names = [str(j) for j in range(np.shape(measured)[1])]
+    m = torque_metrics(measured, predicted, names)
+    return m.all["rel_rms_percent"], np.array([m.per_joint[n]["rel_rms_percent"] for n in names])
 
 
 def score_calibrated(fit: RecordingOffsets, ds: Dataset, fraction: float = 0.1) -> tuple[float, np.ndarray]:
