@@ -30,6 +30,7 @@ from pinid.cli.common import (
 from pinid.errors import SpecError
 from pinid.estimators import ESTIMATORS, names_text, quick_methods
 from pinid.io import check_outputs
+from pinid.parallel import default_workers
 
 HELP = f"compare estimators ({', '.join(ESTIMATORS)}) on the same data, several seeds"
 DESCRIPTION = f"""\
@@ -87,6 +88,21 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     add_mapping_arguments(p)
     p.add_argument("-o", "--output", default="results", metavar="FOLDER", help="output folder; default results/")
     p.add_argument("--no-plots", action="store_true", help="do not write the figures")
+    p.add_argument(
+        "--workers",
+        type=int,
+        default=None,
+        metavar="N",
+        help="local processes running the methods and seeds in parallel; default: every core "
+        f"({default_workers()} here); the numbers do not depend on it",
+    )
+    p.add_argument(
+        "--scheduler",
+        default=None,
+        metavar="ADDRESS",
+        help="run the methods and seeds on this Dask cluster instead (tcp://host:8786; "
+        'pip install "pinid[dask]"; docs/identification.md#studies-on-a-cluster)',
+    )
     g = p.add_argument_group(f"metaheuristics ({', '.join(m for m, c in ESTIMATORS.items() if not c.deterministic)})")
     g.add_argument("--population", type=int, default=None, help="population size (default 100)")
     g.add_argument("--iterations", type=int, default=None, help="iterations (default 200)")
@@ -189,6 +205,8 @@ def _run_floating(args: argparse.Namespace, out: Path) -> int:
         swing_rows=args.swing_rows,
         rest_velocity=None if args.rest_velocity in (None, "auto") else rest_velocity_from_args(args.rest_velocity),
         mapping=mapping,
+        workers=args.workers,
+        scheduler=args.scheduler,
     )
     print(comp.table())
     written = write_floating_comparison(comp, out, command="pinid " + shlex.join(sys.argv[1:]))
@@ -237,6 +255,8 @@ def _arguments(args: argparse.Namespace) -> dict:
         preprocess=preprocess_from_args(args),
         rest_velocity=rest_velocity_from_args(args.rest_velocity),
         show_progress=None,
+        workers=args.workers,
+        scheduler=args.scheduler,
         stribeck_velocity=args.stribeck_velocity,
         stribeck_shape=args.stribeck_shape,
         **recording_options(args),

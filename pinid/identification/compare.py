@@ -51,6 +51,7 @@ from pinid.model.robot import RobotModel
 from pinid.model.terms import as_terms, stribeck_settings
 from pinid.model.serialize import robot_to_dict
 from pinid.checks import array_like
+from pinid.parallel import check_workers
 
 #: Methods that give the same result whatever the seed (run once): the registry's ``deterministic`` ones.
 DETERMINISTIC: tuple[str, ...] = tuple(m for m, cls in ESTIMATORS.items() if cls.deterministic)
@@ -489,6 +490,8 @@ def compare(
     fit_joints=None,
     delay=None,
     manifest=None,
+    workers: int | None = 1,
+    scheduler=None,
 ) -> Comparison:
     """Run ``methods`` on the same recordings with several seeds; validate; compare (module text).
 
@@ -504,7 +507,9 @@ def compare(
     ``{"first": recordings, "joints": ("knee",)}`` runs seed 000's segmental strategy (``data`` is then
     the recording with every joint moving).  ``mapping``, ``preprocess``, ``rest_velocity``,
     ``complete``, ``stribeck_velocity``, ``stribeck_shape``, ``fit_joints``, ``delay``, ``manifest`` (without
-    drive gains): as in :func:`pinid.identification.run.identify`.
+    drive gains): as in :func:`pinid.identification.run.identify`.  ``workers``: local processes for the
+    runs (None: every core); ``scheduler``: a Dask scheduler's address (or ``distributed.Client``) to run
+    them on a cluster instead (:mod:`pinid.parallel`).  The numbers do not depend on either.
     """
     t_start = time.perf_counter()
     model = as_model(model)
@@ -515,6 +520,8 @@ def compare(
         raise SpecError("seeds: expected at least one seed")
     options = check_options(options, methods)
     meta = dict(metaheuristic or {})
+    workers = check_workers(workers)
+    serial = workers == 1 and scheduler is None
 
     def settings_for(m: str, seed: int | None) -> dict:
         s = {}
@@ -523,7 +530,7 @@ def compare(
             if ESTIMATORS[m].default_box != "nominal":
                 s.pop("box", None)  # rls-pso is PSO in *its* RLS box: a box choice for the others leaves it alone
             s["seed"] = seed
-            s.setdefault("progress", show_progress)
+            s.setdefault("progress", show_progress if serial else False)  # in parallel: jobs done / total only
         s.update(options.get(m, {}))
         return s
 
@@ -565,7 +572,10 @@ def compare(
     }
     jobs = [(m, s, settings_for(m, s)) for m in methods for s in ([None] if ESTIMATORS[m].deterministic else seed_list)]
     runs: dict[str, list[Run]] = {m: [] for m in methods}
-    for fit in run_jobs(st, jobs, complete=complete, show_progress=show_progress, label="compare"):
+    fits = run_jobs(
+        st, jobs, complete=complete, show_progress=show_progress, label="compare", workers=workers, scheduler=scheduler
+    )
+    for fit in fits:
         runs[fit.method].append(_run_of(fit, problem, val_W, truth_x, scale, seg is not None))
     settings_out = {
         "metaheuristic": {k: v for k, v in meta.items() if k != "progress"},

@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from pinid.parallel import run_parallel
 from pinid.errors import SpecError
 from pinid.estimators import ESTIMATORS, Metaheuristic, make_estimator
 from pinid.identification.floating import load_floating
@@ -120,11 +121,14 @@ def compare_floating(
     swing_rows: bool = False,
     rest_velocity=None,
     mapping=None,
+    workers: int | None = 1,
+    scheduler=None,
 ) -> FloatingComparison:
     """Run ``methods`` on the same floating recordings (see the module text); ``seeds``: a number (0, 1, …)
     or the seeds of the metaheuristics; ``metaheuristic``: settings of every metaheuristic (``population``,
     ``iterations``, ``fitness``, ``box`` …; ``options`` per method override them); the other arguments as
-    :func:`pinid.identification.floating.identify_floating`."""
+    :func:`pinid.identification.floating.identify_floating`; ``workers``, ``scheduler``: where the runs go
+    (:mod:`pinid.parallel`), as in :func:`pinid.identification.compare.compare`."""
     start = time.perf_counter()
     model = as_floating(model)
     terms = as_terms(terms)
@@ -148,30 +152,38 @@ def compare_floating(
     scale = problem.natural_scale
     comp = FloatingComparison(model.name, rows, problem.names, problem.nominal_base, truth_x)
     comp.data = problem.summary()
+    jobs = []
     for m in methods:
         metaheuristic_method = issubclass(ESTIMATORS[m], Metaheuristic)
         for seed in [None] if ESTIMATORS[m].deterministic else seed_list:
             settings = {**(metaheuristic or {}), "seed": seed, "progress": False} if metaheuristic_method else {}
             settings.update(options.get(m, {}))
-            t0 = time.perf_counter()
-            est = make_estimator(m, **settings).fit(problem)
-            seconds = time.perf_counter() - t0
-            r = problem.tau - problem.predict(est.base_)
-            rv = None if val is None else val.tau - val.predict(est.base_)
-            comp.runs.append(
-                {
-                    "method": m,
-                    "seed": seed,
-                    "base": est.base_.tolist(),
-                    "train_rms": float(np.sqrt(np.mean(r * r))),
-                    "validation_rms": None if rv is None else float(np.sqrt(np.mean(rv * rv))),
-                    "parameter_error": None if truth_x is None else float(np.max(np.abs(est.base_ - truth_x) / scale)),
-                    "physically_consistent": getattr(est, "standard_", None) is not None,
-                    "seconds": seconds,
-                }
-            )
+            jobs.append((m, seed, settings))
+    shared = (problem, val, truth_x, scale)
+    comp.runs = run_parallel(_floating_run, shared, jobs, workers=workers, scheduler=scheduler, label="compare")
     comp.seconds = time.perf_counter() - start
     return comp
+
+
+def _floating_run(shared: tuple, job: tuple[str, int | None, dict]) -> dict:
+    """One method with one seed on the shared floating problem: its row of ``FloatingComparison.runs``."""
+    problem, val, truth_x, scale = shared
+    m, seed, settings = job
+    t0 = time.perf_counter()
+    est = make_estimator(m, **settings).fit(problem)
+    seconds = time.perf_counter() - t0
+    r = problem.tau - problem.predict(est.base_)
+    rv = None if val is None else val.tau - val.predict(est.base_)
+    return {
+        "method": m,
+        "seed": seed,
+        "base": est.base_.tolist(),
+        "train_rms": float(np.sqrt(np.mean(r * r))),
+        "validation_rms": None if rv is None else float(np.sqrt(np.mean(rv * rv))),
+        "parameter_error": None if truth_x is None else float(np.max(np.abs(est.base_ - truth_x) / scale)),
+        "physically_consistent": getattr(est, "standard_", None) is not None,
+        "seconds": seconds,
+    }
 
 
 def write_floating_comparison(comp: FloatingComparison, folder, *, command: str | None = None) -> list[Path]:

@@ -23,6 +23,7 @@ import numpy as np
 from pinid.data.dataset import Dataset, as_dataset
 from pinid.data.delay import parse_delay, shift_torque
 from pinid.errors import DataError, SpecError
+from pinid.parallel import run_parallel
 from pinid.estimators import ESTIMATORS, Estimator, make_estimator
 from pinid.identification.metrics import joint_units, torque_metrics
 from pinid.problem.problem import (
@@ -43,7 +44,6 @@ from pinid.model.regressor import TermSelection
 from pinid.model.robot import RobotModel
 from pinid.model.terms import STRIBECK_TERMS, Stribeck, as_terms, stribeck, stribeck_settings
 from pinid.model.serialize import robot_to_dict
-from pinid.progress import progress
 from pinid.model.robot import as_robot
 from pinid.io import as_path
 
@@ -391,31 +391,37 @@ def run_jobs(
     complete: bool = True,
     show_progress: bool | None = False,
     label: str = "methods",
+    workers: int | None = 1,
+    scheduler=None,
 ) -> list[Fit]:
-    """Fit every ``(method, seed, settings)`` job on the setup's problem (or its segmental stages)."""
+    """Fit every ``(method, seed, settings)`` job on the setup's problem (or its segmental stages), in the
+    jobs' order, on ``workers`` local processes or a Dask ``scheduler`` (:func:`pinid.parallel.run_parallel`)."""
     if not isinstance(s, Setup):
         raise SpecError(f"s: got {type(s).__name__}, expected the Setup of pinid.identification.run.setup")
-    jobs = list(jobs)
-    fits = []
-    bar = progress(len(jobs), label, enabled=show_progress)
-    try:
-        for method, seed, settings in jobs:
-            bar.set_description(method + ("" if seed is None else f" seed {seed}"))
-            if s.segmental is not None:
-                est, target = Segmental(method, settings), s.segmental
-            else:
-                est, target = make_estimator(method, **settings), s.problem
-                s.problem.cache.forget("compressed")  # each run's time includes its QR compression
-            t0 = time.perf_counter()
-            est.fit(target)
-            seconds = time.perf_counter() - t0
-            fits.append(
-                Fit(method, seed, settings, est, make_result(s.problem, est, seconds, complete=complete), seconds)
-            )
-            bar.update(1)
-    finally:
-        bar.close()
-    return fits
+    items = [(method, seed, settings, complete) for method, seed, settings in jobs]
+    return run_parallel(
+        _fit_job,
+        s,
+        items,
+        workers=workers,
+        scheduler=scheduler,
+        show_progress=show_progress,
+        label=label,
+        describe=lambda job: job[0] + ("" if job[1] is None else f" seed {job[1]}"),
+    )
+
+
+def _fit_job(s: Setup, job: tuple[str, int | None, dict, bool]) -> Fit:
+    method, seed, settings, complete = job
+    if s.segmental is not None:
+        est, target = Segmental(method, settings), s.segmental
+    else:
+        est, target = make_estimator(method, **settings), s.problem
+        s.problem.cache.forget("compressed")  # each run's time includes its QR compression
+    t0 = time.perf_counter()
+    est.fit(target)
+    seconds = time.perf_counter() - t0
+    return Fit(method, seed, settings, est, make_result(s.problem, est, seconds, complete=complete), seconds)
 
 
 # ====================================================================== identify

@@ -77,6 +77,15 @@ class FloatingRobotModel(RobotModel):
         self.base_link = base_link
         self._bodies: RobotModel | None = None
 
+    def __getstate__(self) -> dict:
+        state = super().__getstate__()
+        state.pop("ff_data", None)
+        return state
+
+    def __setstate__(self, state: dict) -> None:
+        super().__setstate__(state)
+        self.ff_data = self.ff_model.createData()
+
     def _copy_with(self, **attributes) -> "FloatingRobotModel":
         out = super()._copy_with(**attributes)
         out._bodies = None  # the body view carries the settings: built again for the copy

@@ -146,6 +146,16 @@ class RobotModel:
         self._continuous = tuple(i for i, j in enumerate(self.joints) if j.kind == "continuous")
         self._idx_q = [pin_model.joints[i + 1].idx_q for i in range(len(self.joints))]
 
+    def __getstate__(self) -> dict:
+        """Pickled without Pinocchio's work data (rebuilt on loading; pin 4.0's ``Data`` cannot be unpickled)."""
+        state = dict(self.__dict__)
+        state.pop("_data", None)
+        return state
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        self._data = self.pin_model.createData()
+
     # ------------------------------------------------------------------ construction
     @classmethod
     def from_urdf(

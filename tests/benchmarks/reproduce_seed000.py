@@ -183,7 +183,7 @@ def run(args) -> dict:
             settings = {"fitness": fitness, "population": args.population, "iterations": iterations}
             if rls:
                 settings["rls"] = rls
-            comp = compare(cad, recs[3], methods=methods, metaheuristic=settings, **common)
+            comp = compare(cad, recs[3], methods=methods, metaheuristic=settings, workers=args.workers, **common)
             comps[variant] = comp
             for m, rs in comp.runs.items():
                 key = m if m in ("ols", "sdp", "rls") else f"{m}/{variant}"
@@ -449,6 +449,7 @@ def figures(out: dict, agg: dict, folder: Path) -> list[Path]:
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--realisations", type=int, default=5)
+    p.add_argument("--workers", type=int, default=None, help="local processes per comparison (default: every core)")
     p.add_argument("--seconds", type=float, default=20.0)
     p.add_argument("--population", type=int, default=100)
     p.add_argument("--iterations", type=int, default=1000)

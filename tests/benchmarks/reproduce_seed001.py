@@ -35,6 +35,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 import numpy as np
 
 from pinid import RobotModel
+from pinid.parallel import run_parallel
 from pinid.identification.compare import compare
 from pinid.excitation.design import design_excitation
 from pinid.excitation.evaluation import evaluate_trajectory
@@ -57,33 +58,37 @@ def cad_model(truth: RobotModel, percent: float, seed: int) -> RobotModel:
     )
 
 
+def _design(shared: tuple, job: tuple) -> dict:
+    """One metaheuristic excitation design (a job of :func:`pinid.parallel.run_parallel`)."""
+    leg, spec = shared
+    name, seed, population, iterations = job
+    r = design_excitation(
+        leg,
+        spec,
+        optimizer=name,
+        seed=seed,
+        progress=False,
+        options={"population": population, "iterations": iterations},
+    )
+    return {
+        "seed": seed,
+        "cond": float(r.condition_number),
+        "history": [float(h) for h in r.history],
+        "seconds": float(r.seconds),
+        "nfev": int(r.nfev),
+        "feasible": bool(r.feasible),
+        "trajectory": r.trajectory.to_dict(),
+    }
+
+
 def excitation_part(leg: RobotModel, args) -> dict:
     spec = spec_for(leg)
     out: dict = {"runs": {}, "spec": spec.source}
-    for name in OPTIMIZERS:
-        runs = []
-        for seed in range(args.seeds):
-            r = design_excitation(
-                leg,
-                spec,
-                optimizer=name,
-                seed=seed,
-                progress=False,
-                options={"population": args.population, "iterations": args.iterations},
-            )
-            runs.append(
-                {
-                    "seed": seed,
-                    "cond": float(r.condition_number),
-                    "history": [float(h) for h in r.history],
-                    "seconds": float(r.seconds),
-                    "nfev": int(r.nfev),
-                    "feasible": bool(r.feasible),
-                    "trajectory": r.trajectory.to_dict(),
-                }
-            )
-            print(f"excitation {name} seed {seed}: cond {r.condition_number:.3f} in {r.seconds:.1f} s", file=sys.stderr)
-        out["runs"][name] = runs
+    jobs = [(name, seed, args.population, args.iterations) for name in OPTIMIZERS for seed in range(args.seeds)]
+    designs = run_parallel(_design, (leg, spec), jobs, workers=args.workers, label="excitation designs")
+    for (name, seed, _, _), r in zip(jobs, designs):
+        out["runs"].setdefault(name, []).append(r)
+        print(f"excitation {name} seed {seed}: cond {r['cond']:.3f} in {r['seconds']:.1f} s", file=sys.stderr)
     t0 = time.perf_counter()
     ref = design_excitation(leg, spec, seed=0, progress=False)
     out["slsqp"] = {"cond": float(ref.condition_number), "seconds": time.perf_counter() - t0, "nfev": int(ref.nfev)}
@@ -112,6 +117,7 @@ def identification_part(leg: RobotModel, train_traj, args) -> dict:
         seeds=args.seeds,
         truth=truth,
         metaheuristic={"fitness": "sse", "population": args.population, "iterations": args.iterations},
+        workers=args.workers,
     )
     return {"comparison": comp.to_dict(), "table": comp.table(), "values": comp.values_table(), "_comp": comp}
 
@@ -209,6 +215,7 @@ def figures(exc: dict, ident: dict, folder: Path) -> list[Path]:
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--seeds", type=int, default=5)
+    p.add_argument("--workers", type=int, default=None, help="local processes (default: every core)")
     p.add_argument("--population", type=int, default=100)
     p.add_argument("--iterations", type=int, default=200)
     p.add_argument("--seconds", type=float, default=60.0)

@@ -1,0 +1,173 @@
+"""Independent jobs on every core, or on a Dask cluster: ``run_parallel(fn, shared, items)``.
+
+A study (``pinid compare``: methods × seeds; the seed-000/001 reproductions; the coverage benchmark) is a
+list of independent jobs that share one large input (the training problem).  :func:`run_parallel` runs
+``fn(shared, item)`` for every item and returns the results **in the order of the items**, so that a
+parallel study gives the same numbers as a serial one:
+
+* ``workers=1`` (and no scheduler): one after another in this process;
+* ``workers=N``: N local processes of the standard library's :mod:`multiprocessing` (``fork`` where the
+  platform has it, so ``shared`` is not copied through a pipe); each runs with one BLAS thread;
+* ``scheduler="tcp://host:8786"`` (or a ``distributed.Client``): the jobs go to that Dask cluster
+  (``pip install "pinid[dask]"``); ``shared`` is scattered to the workers once.
+
+Progress shows jobs done / total.  Ctrl-C stops every local worker (they ignore the signal themselves, so
+no worker prints a traceback) or cancels the cluster's futures, and the interrupt reaches the caller before
+anything is written.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+import pickle
+import signal
+from collections.abc import Callable, Sequence
+from typing import Any
+
+from pinid.errors import PinidError, SpecError
+from pinid.progress import progress
+
+#: What :func:`run_parallel`'s local workers run: ``(fn, shared)``, set once per worker process.
+_WORKER_STATE: dict[str, Any] = {}
+
+
+def default_workers() -> int:
+    """The machine's cores available to this process (at least 1)."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # macOS, Windows
+        return max(1, os.cpu_count() or 1)
+
+
+def check_workers(workers: int | None) -> int:
+    """``workers`` as a count ≥ 1 (None: :func:`default_workers`); a clear error otherwise."""
+    if workers is None:
+        return default_workers()
+    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+        raise SpecError(f"workers: got {workers!r}, expected a whole number of processes ≥ 1")
+    return workers
+
+
+def run_parallel(
+    fn: Callable[[Any, Any], Any],
+    shared: Any,
+    items: Sequence[Any],
+    *,
+    workers: int | None = 1,
+    scheduler: Any = None,
+    show_progress: bool | None = False,
+    label: str = "jobs",
+    describe: Callable[[Any], str] | None = None,
+) -> list:
+    """``[fn(shared, item) for item in items]``, run on ``workers`` local processes or a Dask ``scheduler``.
+
+    ``fn`` must be a module-level function (it is pickled by reference); ``shared`` and the items must be
+    picklable.  ``describe(item)``: the text the progress bar shows for a job (serial runs only).
+    """
+    if not callable(fn):
+        raise SpecError(f"fn: got {type(fn).__name__}, expected a function of (shared, item)")
+    if isinstance(items, (str, bytes)) or not isinstance(items, Sequence):
+        raise SpecError(f"items: got {type(items).__name__}, expected a sequence of jobs")
+    workers = check_workers(workers)
+    bar = progress(len(items), label, enabled=show_progress)
+    try:
+        if scheduler is not None:
+            return _on_dask(fn, shared, items, scheduler, bar)
+        if workers == 1 or len(items) <= 1:
+            out = []
+            for item in items:
+                if describe is not None:
+                    bar.set_description(describe(item))
+                out.append(fn(shared, item))
+                bar.update(1)
+            return out
+        return _on_processes(fn, shared, items, min(workers, len(items)), bar)
+    finally:
+        bar.close()
+
+
+# ============================================================================================ local
+def _start_worker(fn: Callable, shared: Any) -> None:
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent stops the workers; none prints a traceback
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)  # Pool.terminate's signal ends a worker silently
+    _WORKER_STATE["fn"], _WORKER_STATE["shared"] = fn, shared
+
+
+def _run_in_worker(indexed: tuple[int, Any]) -> tuple[int, bytes]:
+    from pinid.blas import single_threaded_blas
+
+    index, item = indexed
+    with single_threaded_blas():  # N processes on N cores: one BLAS thread each
+        value = _WORKER_STATE["fn"](_WORKER_STATE["shared"], item)
+    # pickled here and unpickled by the caller itself: a result that cannot be unpickled raises there, where
+    # multiprocessing's own result thread would die and leave the pool waiting for ever
+    return index, pickle.dumps(value, protocol=pickle.HIGHEST_PROTOCOL)
+
+
+def _unpickled(data: bytes, item: Any) -> Any:
+    try:
+        return pickle.loads(data)
+    except Exception as e:
+        raise PinidError(f"job {item!r}: its result could not be carried back from the worker process ({e})") from None
+
+
+def _context() -> multiprocessing.context.BaseContext:
+    methods = multiprocessing.get_all_start_methods()
+    return multiprocessing.get_context("fork" if "fork" in methods else "spawn")
+
+
+def _on_processes(fn: Callable, shared: Any, items: Sequence, workers: int, bar) -> list:
+    results: list = [None] * len(items)
+    pool = _context().Pool(workers, initializer=_start_worker, initargs=(fn, shared))
+    try:
+        for index, data in pool.imap_unordered(_run_in_worker, list(enumerate(items))):
+            results[index] = _unpickled(data, items[index])
+            bar.update(1)
+        pool.close()
+    except BaseException:  # Ctrl-C or a job's error: stop every worker now, then let it reach the caller
+        pool.terminate()
+        raise
+    finally:
+        pool.join()
+    return results
+
+
+# ============================================================================================ Dask
+def _dask_job(fn: Callable, shared: Any, item: Any) -> Any:
+    from pinid.blas import single_threaded_blas
+
+    with single_threaded_blas():
+        return fn(shared, item)
+
+
+def _on_dask(fn: Callable, shared: Any, items: Sequence, scheduler: Any, bar) -> list:
+    try:
+        import distributed
+    except ImportError:
+        raise SpecError(
+            f'scheduler {scheduler!r}: Dask is not installed; install it with: pip install "pinid[dask]"'
+        ) from None
+    own = isinstance(scheduler, str)
+    if not own and not isinstance(scheduler, distributed.Client):
+        raise SpecError(f"scheduler: got {type(scheduler).__name__}, expected an address 'tcp://host:port'")
+    try:
+        client = distributed.Client(scheduler, timeout="10s") if own else scheduler
+    except (OSError, TimeoutError) as e:
+        raise SpecError(f"scheduler {scheduler!r}: no Dask scheduler answers there ({e})") from None
+    futures = []
+    try:
+        shared_future = client.scatter(shared, broadcast=True)
+        futures = client.map(_dask_job, [fn] * len(items), [shared_future] * len(items), items, pure=False)
+        index = {f.key: i for i, f in enumerate(futures)}
+        results: list = [None] * len(items)
+        for future in distributed.as_completed(futures):
+            results[index[future.key]] = future.result()
+            bar.update(1)
+        return results
+    except BaseException:
+        client.cancel(futures)
+        raise
+    finally:
+        if own:
+            client.close()

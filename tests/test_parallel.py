@@ -1,0 +1,188 @@
+"""pinid.parallel and the parallel studies: the same numbers on 1 or N local processes or on a Dask cluster;
+clear errors; Ctrl-C stops every worker and writes nothing."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+from pinid.blas import single_threaded_blas
+from pinid.data.formats import write_recording
+from pinid.errors import PinidError, SpecError
+from pinid.identification.compare import compare
+from pinid.parallel import check_workers, default_workers, run_parallel
+from pinid.simulation.twin import perturb
+
+from conftest import assert_clean_error, run_cli
+from test_identification import true_base, truth_model, twin
+
+SMALL = {"population": 12, "iterations": 8}
+
+
+def _square_plus(shared: float, item: float) -> tuple[int, float]:
+    return os.getpid(), shared + item * item
+
+
+def _fails_on_three(shared, item):
+    if item == 3:
+        raise SpecError("item 3: refused")
+    return item
+
+
+def test_results_come_back_in_the_order_of_the_items_from_several_processes():
+    items = list(range(12))
+    serial = run_parallel(_square_plus, 0.5, items, workers=1)
+    parallel = run_parallel(_square_plus, 0.5, items, workers=2)
+    assert [v for _, v in parallel] == [v for _, v in serial] == [0.5 + i * i for i in items]
+    assert {pid for pid, _ in serial} == {os.getpid()}
+    assert os.getpid() not in {pid for pid, _ in parallel}  # the jobs ran in the workers
+
+
+def test_a_jobs_error_reaches_the_caller_as_itself():
+    with pytest.raises(SpecError, match="item 3: refused"):
+        run_parallel(_fails_on_three, None, list(range(6)), workers=2)
+
+
+def _refuse_to_load():
+    raise RuntimeError("input stream error")
+
+
+class _Unloadable:
+    """A result that pickles but cannot be unpickled (as pin 4.0's Data was)."""
+
+    def __reduce__(self):
+        return (_refuse_to_load, ())
+
+
+def _unloadable(shared, item):
+    return _Unloadable()
+
+
+def test_a_result_that_cannot_come_back_is_an_error_not_a_hang():
+    with pytest.raises(PinidError, match="could not be carried back"):
+        run_parallel(_unloadable, None, [1, 2, 3], workers=2)
+
+
+def test_a_robot_model_travels_to_a_worker_and_back():
+    import pickle
+
+    model = truth_model("exo_leg")
+    back = pickle.loads(pickle.dumps(model))
+    q, dq, ddq = (np.array([0.3, 0.5]), np.array([0.1, -0.2]), np.array([1.0, 2.0]))
+    assert np.array_equal(back.rnea(q, dq, ddq), model.rnea(q, dq, ddq))
+
+
+@pytest.mark.parametrize("workers", [0, -1, 1.5, "2", True])
+def test_workers_must_be_a_count(workers):
+    with pytest.raises(SpecError, match="workers"):
+        check_workers(workers)
+
+
+def test_default_workers_are_the_cores():
+    assert check_workers(None) == default_workers() >= 1
+
+
+@pytest.fixture(scope="module")
+def study():
+    truth = truth_model("exo_leg")
+    cad = perturb(truth, 20, np.random.default_rng(3))
+    train = twin(truth, seconds=10, rate=100, seed=1, noise=0.5)
+    valid = twin(truth, seconds=6, rate=100, seed=2, noise=0.5)
+    return cad, train, valid, true_base(truth)[1]
+
+
+def _numbers(comp) -> dict:
+    """Everything a comparison measured except the clock."""
+    d = comp.to_dict()
+    d.pop("seconds", None)
+    for runs in d["runs"].values():
+        for r in runs:
+            r.pop("seconds")
+    d.pop("summary", None)
+    return d
+
+
+def _compare(study, **where):
+    cad, train, valid, xt = study
+    with single_threaded_blas():  # the CLI's setting: the workers run with one BLAS thread too
+        return compare(
+            cad, train, valid, methods=["ols", "sdp", "pso", "de"], seeds=3, truth=xt, metaheuristic=SMALL, **where
+        )
+
+
+@pytest.mark.slow
+def test_compare_gives_the_same_numbers_on_one_or_two_processes(study):
+    one, two = _compare(study, workers=1), _compare(study, workers=2)
+    assert _numbers(one) == _numbers(two)
+    assert [r.seed for r in two.runs["pso"]] == [0, 1, 2]
+
+
+@pytest.mark.slow
+def test_compare_gives_the_same_numbers_on_a_dask_cluster(study):
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as c:
+        on_cluster = _compare(study, scheduler=c.scheduler_address)
+    assert _numbers(on_cluster) == _numbers(_compare(study, workers=1))
+
+
+def test_an_address_where_no_scheduler_answers_is_a_clear_error(study):
+    pytest.importorskip("distributed")
+    with pytest.raises(SpecError, match="no Dask scheduler answers"):
+        run_parallel(_square_plus, 0.0, [1, 2], scheduler="tcp://127.0.0.1:9")
+
+
+def test_cli_refuses_zero_workers(tmp_path):
+    res = run_cli("compare", "--urdf", "exo_leg", "--data", "x.csv", "--workers", "0", "-o", str(tmp_path / "o"))
+    assert_clean_error(res, "workers")
+    assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(sys.platform == "win32", reason="POSIX signals")
+def test_ctrl_c_stops_every_worker_and_writes_nothing(tmp_path, study):
+    cad, train, valid, _ = study
+    data = tmp_path / "train.csv"
+    write_recording(data, train)
+    out = tmp_path / "out"
+    argv = ["compare", "--urdf", "exo_leg", "--data", str(data), "--methods", "pso,de", "--seeds", "8"]
+    argv += ["--iterations", "20000", "--workers", "2", "--no-plots", "-o", str(out)]
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "pinid.cli", *argv], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
+    children: list[int] = []
+    deadline = time.monotonic() + 60
+    while len(children) < 2 and time.monotonic() < deadline and proc.poll() is None:  # wait for the pool
+        time.sleep(0.2)
+        children = _children(proc.pid)
+    assert len(children) >= 2, "the two workers never started"
+    time.sleep(1.0)  # the workers are fitting
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode in (2, 130), (proc.returncode, err)
+    assert "Traceback" not in err and len(err.strip().splitlines()) == 1 and "interrupted" in err, err
+    assert not out.exists()
+    time.sleep(0.5)
+    assert not [pid for pid in children if _alive(pid)], "a worker outlived the interrupt"
+
+
+def _children(pid: int) -> list[int]:
+    try:
+        text = subprocess.run(["pgrep", "-P", str(pid)], capture_output=True, text=True).stdout
+    except FileNotFoundError:
+        return []
+    return [int(p) for p in text.split()]
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    with open(f"/proc/{pid}/stat") as f:  # a zombie is dead
+        return f.read().split()[2] != "Z"
