@@ -65,7 +65,7 @@ from pinid.excitation.evaluation import (
 from pinid.excitation.problem import DesignProblem
 from pinid.excitation.workers import _Workers, _pool_size
 
-#: robots with up to this many joints get the full default multistart (128 starts, 4 polished)
+#: robots with up to this many joints get the full default multistart (128 starts, 2 polished)
 SMALL_ROBOT = 4
 
 #: starts per batch of phase 1: a start is stopped early against the best of the batches before it, so
@@ -99,7 +99,7 @@ class MultistartOptions:
     does not depend on it).
 
     ``starts``, ``polish`` and ``stop_ratio`` left at None depend on the robot's size (:meth:`resolved`):
-    128, 4 and 1.25 up to ``SMALL_ROBOT`` (4) joints, 12, 1 and 0 above — on a 6- or 7-DOF arm one search
+    128, 2 and 1.25 up to ``SMALL_ROBOT`` (4) joints, 12, 1 and 0 above — on a 6- or 7-DOF arm one search
     start costs 1–2 s and one polish 5–20 s here, and the search's ranking of a few starts says little
     about the polished result, so every start runs to its end.
     """
@@ -123,7 +123,7 @@ class MultistartOptions:
         return replace(
             self,
             starts=(128 if small else 12) if self.starts is None else self.starts,
-            polish=(4 if small else 1) if self.polish is None else self.polish,
+            polish=(2 if small else 1) if self.polish is None else self.polish,
             stop_ratio=(1.25 if small else 0.0) if self.stop_ratio is None else self.stop_ratio,
         )
 
