@@ -39,6 +39,7 @@ number reported is then recomputed with :func:`~pinid.excitation.evaluation.cond
 from __future__ import annotations
 
 import os
+import sys
 import time
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
@@ -62,9 +63,22 @@ from pinid.excitation.evaluation import (
     trajectory_extremes,
 )
 from pinid.excitation.problem import DesignProblem
+from pinid.excitation.workers import _Workers, _pool_size
 
-#: robots with up to this many joints get the full default multistart (128 starts, 4 polished)
+#: robots with up to this many joints get the full default multistart (128 starts, 2 polished)
 SMALL_ROBOT = 4
+
+#: starts per batch of phase 1: a start is stopped early against the best of the batches before it, so
+#: that the design does not depend on the number of worker processes
+BATCH = 8
+
+#: for the expected time (:class:`_Estimate`): the share of phase 1's starts' time that is spent when
+#: starts are stopped early, and the time of one polish in search starts (measured: 0.4–0.6 and 4–13 on
+#: exo_leg, UR5, Panda; docs/excitation.md)
+SEARCH_SHARE, POLISH_COST = 0.5, 8.0
+
+#: a design expected to take longer than this [s] says so on stderr first
+LONG = 5.0
 
 
 # ====================================================================================== results
@@ -79,9 +93,15 @@ class MultistartOptions:
     (``samples`` per period, limits on a grid of ``2·samples``) with ``polish_maxiter`` and ``polish_ftol``.
     ``time_limit`` [s]: no new phase-1 start after it (None: no limit).
 
-    ``starts`` and ``polish`` left at None depend on the robot's size (:meth:`resolved`): 128 and 4 up to
-    ``SMALL_ROBOT`` (4) joints, 12 and 1 above — on a 6- or 7-DOF arm one search start costs 1.5–2 s and
-    one polish 10–25 s here, and this keeps the default design of those arms under a minute.
+    Early stop: after ``stop_after`` iterations, a search start whose value (scaled into the limits) is
+    more than ``stop_ratio`` times the best of the batches of :data:`BATCH` starts before it is given up
+    (0: never).  ``workers``: processes the starts and polishes run in (None: one per core; the result
+    does not depend on it).
+
+    ``starts``, ``polish`` and ``stop_ratio`` left at None depend on the robot's size (:meth:`resolved`):
+    128, 2 and 1.25 up to ``SMALL_ROBOT`` (4) joints, 12, 1 and 0 above — on a 6- or 7-DOF arm one search
+    start costs 1–2 s and one polish 5–20 s here, and the search's ranking of a few starts says little
+    about the polished result, so every start runs to its end.
     """
 
     starts: int | None = None
@@ -93,14 +113,18 @@ class MultistartOptions:
     polish_maxiter: int = 300
     polish_ftol: float = 1e-9
     time_limit: float | None = None
+    stop_after: int = 3
+    stop_ratio: float | None = None
+    workers: int | None = None
 
     def resolved(self, nv: int) -> "MultistartOptions":
-        """These options with ``starts`` and ``polish`` filled in for a robot of ``nv`` joints."""
+        """These options with ``starts``, ``polish`` and ``stop_ratio`` filled in for a robot of ``nv`` joints."""
         small = nv <= SMALL_ROBOT
         return replace(
             self,
             starts=(128 if small else 12) if self.starts is None else self.starts,
-            polish=(4 if small else 1) if self.polish is None else self.polish,
+            polish=(2 if small else 1) if self.polish is None else self.polish,
+            stop_ratio=(1.25 if small else 0.0) if self.stop_ratio is None else self.stop_ratio,
         )
 
 
@@ -279,29 +303,50 @@ def _design(model, spec, optimizer, options, seed, progress, x0) -> ExcitationRe
     )
 
 
-def _local_search(problem: DesignProblem, x: np.ndarray, maxiter: int, ftol: float) -> tuple[np.ndarray, float, int]:
+class _Stopped(Exception):
+    """A local search stopped early (it could not beat the best found): its iterate ``x``."""
+
+    def __init__(self, x: np.ndarray) -> None:
+        self.x = x
+
+
+def _local_search(
+    problem: DesignProblem,
+    x: np.ndarray,
+    maxiter: int,
+    ftol: float,
+    stop: tuple[int, float] | None = None,
+) -> tuple[np.ndarray, float, int]:
     """SLSQP from ``x`` with the kinematic limits as linear constraints (and torque limits as nonlinear ones);
     returns the result scaled into the limits on the check grid, its criterion value and the SLSQP
-    iterations.  Gradients: :meth:`DesignProblem.objective_and_gradient`."""
+    iterations (−1: stopped early).  Gradients: :meth:`DesignProblem.objective_and_gradient`.
+
+    ``stop = (k, limit)``: after k iterations, give up if the criterion value of the iterate (scaled into
+    the limits) is above ``limit`` — a start that far behind the best found rarely ends better."""
     from scipy.optimize import minimize
 
     A, b = problem.linear_constraints()
     torque = problem.spec.has_torque_limits
     h = 1e-7
-    cache: dict = {}
 
-    def batch(x: np.ndarray):
-        key = x.tobytes()
-        if key not in cache:
-            cache.clear()
-            cache[key] = problem.objective_and_gradient(x, h, torque=torque)
-        return cache[key]
-
+    # the line search asks for values only: the gradient (four times the cost) only where SLSQP needs it,
+    # reusing the regressor and SVD of the value at the same point
     def fun(x):
-        f, g, _, _ = batch(x)
-        if not np.isfinite(f):
-            return 1e10, np.zeros_like(x)
-        return f, np.where(np.isfinite(g), g, 0.0)
+        f = problem.objective(x)[0]
+        return f if np.isfinite(f) else 1e10
+
+    grads: dict = {}
+
+    def gradient(x):
+        key = x.tobytes()
+        if key not in grads:
+            grads.clear()
+            grads[key] = problem.objective_and_gradient(x, h, torque=torque)
+        return grads[key]
+
+    def jac(x):
+        g = gradient(x)[1]
+        return np.where(np.isfinite(g), g, 0.0)
 
     constraints = [{"type": "ineq", "fun": lambda x: b - A @ x, "jac": lambda x: -A}]
     if torque:
@@ -310,33 +355,49 @@ def _local_search(problem: DesignProblem, x: np.ndarray, maxiter: int, ftol: flo
         lim = np.tile(limit, len(problem.times))[finite]
 
         def tau_con(x):
-            tau = batch(x)[2].reshape(-1)[finite]
+            tau = problem.objective(x, torque=True)[1].reshape(-1)[finite]
             return np.concatenate([lim - tau, lim + tau])
 
         def tau_jac(x):
-            J = batch(x)[3][finite]
+            J = gradient(x)[3][finite]
             return np.vstack([-J, J])
 
         constraints.append({"type": "ineq", "fun": tau_con, "jac": tau_jac})
-    res = minimize(
-        fun,
-        x,
-        jac=True,
-        method="SLSQP",
-        constraints=constraints,
-        options={"maxiter": int(maxiter), "ftol": float(ftol)},
-    )
+    iterations = [0]
+
+    def callback(xk):
+        iterations[0] += 1
+        if iterations[0] == stop[0] and problem.evaluate(problem.scale_into_limits(xk[None, :]))[0] > stop[1]:
+            raise _Stopped(np.array(xk, dtype=float))
+
+    try:
+        res = minimize(
+            fun,
+            x,
+            jac=jac,
+            method="SLSQP",
+            constraints=constraints,
+            options={"maxiter": int(maxiter), "ftol": float(ftol)},
+            callback=callback if stop is not None and np.isfinite(stop[1]) else None,
+        )
+    except _Stopped as stopped:
+        X, values = _scaled_values(problem, stopped.x[None, :], torque)
+        return X[0], float(values[0]), -1
     # SLSQP leaves tolerance-level violations: scale into the limits; and when it stops on a failed line
     # search its last iterate can be worse than where it started: keep the better of the two
-    X = problem.scale_into_limits(np.vstack([res.x, x]))
-    out = problem.evaluate(X, torque=torque)
-    if torque:
-        values, tau = out
-        values = np.where(problem.torque_violation(tau) > 1e-6, np.inf, values)
-    else:
-        values = out
+    X, values = _scaled_values(problem, np.vstack([res.x, x]), torque)
     k = 0 if values[0] <= values[1] else 1
     return X[k], float(values[k]), int(res.nit)
+
+
+def _scaled_values(problem: DesignProblem, X: np.ndarray, torque: bool) -> tuple[np.ndarray, np.ndarray]:
+    """The candidates ``X`` scaled into the limits on the check grid and their criterion values (inf where
+    a torque limit is exceeded)."""
+    X = problem.scale_into_limits(X)
+    if not torque:
+        return X, problem.evaluate(X)
+    values, tau = problem.evaluate(X, torque=True)
+    return X, np.where(problem.torque_violation(tau) > 1e-6, np.inf, values)
 
 
 def _multistart(
@@ -350,10 +411,14 @@ def _multistart(
 
     ``history``: best criterion value (on the full problem's samples) after each polished candidate,
     preceded by phase 1's best values per start (on the search samples)."""
-    for key in ("starts", "screen", "polish", "maxiter", "polish_maxiter"):
+    for key in ("starts", "screen", "polish", "maxiter", "polish_maxiter", "stop_after"):
         value = getattr(opts, key)
         if int(value) != value or value < 1:
             raise SpecError(f"slsqp: {key} {value!r}, expected a positive integer")
+    if opts.stop_ratio != 0 and opts.stop_ratio < 1:
+        raise SpecError(f"slsqp: stop_ratio {opts.stop_ratio!r}, expected ≥ 1 (or 0: never stop a start early)")
+    if opts.workers is not None and (int(opts.workers) != opts.workers or opts.workers < 1):
+        raise SpecError(f"slsqp: workers {opts.workers!r}, expected a positive integer")
     start_time = time.perf_counter()
     spec = problem.spec
     ns = opts.search_samples or max(50, 12 * spec.harmonics)
@@ -370,16 +435,30 @@ def _multistart(
         starts = np.vstack([search.scale_into_limits(np.atleast_2d(x0)), starts])[: opts.starts]
     found: list[tuple[float, np.ndarray]] = []
     history: list[float] = []
-    best = np.inf
-    with progress_bar(len(starts) + opts.polish, "slsqp", enabled=progress) as bar:
-        for i, xs in enumerate(starts):
-            if opts.time_limit is not None and i > 0 and time.perf_counter() - start_time > opts.time_limit:
+    best, stopped = np.inf, 0
+    n_workers = _pool_size(opts.workers, min(len(starts), BATCH))
+    tell = _Estimate(len(starts), opts.polish, n_workers, start_time, enabled=progress)
+    problems = {"search": search, "polish": problem}
+    with (
+        _Workers(_local_search, problems, n_workers) as workers,
+        progress_bar(len(starts) + opts.polish, "slsqp", enabled=progress) as bar,
+    ):
+        for first in range(0, len(starts), BATCH):
+            if opts.time_limit is not None and first > 0 and time.perf_counter() - start_time > opts.time_limit:
                 break
-            x, value, _ = _local_search(search, xs, opts.maxiter, opts.ftol)
-            found.append((value, x))
-            best = min(best, value)
-            history.append(best)
-            bar.update(1)
+            # a start more than stop_ratio times worse than the best of the batches before after stop_after
+            # iterations is given up; the batches make that independent of the number of workers
+            limit = best * opts.stop_ratio if opts.stop_ratio and np.isfinite(best) else np.inf
+            tasks = [
+                ("search", xs, opts.maxiter, opts.ftol, (opts.stop_after, limit))
+                for xs in starts[first : first + BATCH]
+            ]
+            for (x, value, nit), _ in workers.map(tasks, each=tell.first_start):
+                found.append((value, x))
+                stopped += nit < 0
+                best = min(best, value)
+                history.append(best)
+            bar.update(len(tasks))
             # phase 1's values are on the search grid (ns samples per period), not the design's: say so, so
             # that the polished result (on the design's samples, the value reported) is not read as worse
             bar.set_postfix_str(f"search best {best:.6g} ({ns} samples/period)", refresh=False)
@@ -390,15 +469,12 @@ def _multistart(
                 break
             if all(np.linalg.norm(x - c) > 1e-6 * (1 + np.linalg.norm(c)) for c in chosen):
                 chosen.append(x)
+        chosen = [problem.scale_into_limits(x[None, :])[0] for x in chosen]
+        tasks = [("polish", x, opts.polish_maxiter, opts.polish_ftol) for x in chosen]
         best_x, best_f = None, np.inf
         polished = []
-        for x in chosen:
-            x, value, _ = _local_search(
-                problem, problem.scale_into_limits(x[None, :])[0], opts.polish_maxiter, opts.polish_ftol
-            )
-            repaired, _ = _final_repair(problem, x)  # as the result will be: within the limits on the dense grid
-            if np.isfinite(value) and not np.array_equal(repaired, x):
-                x, value = repaired, float(problem.evaluate(repaired[None, :])[0])
+        for x_start, ((x, value, _), _) in zip(chosen, workers.map(tasks)):
+            x, value = _never_worse(problem, x_start, x, value)
             polished.append(value)
             if value < best_f:
                 best_x, best_f = x, value
@@ -412,12 +488,53 @@ def _multistart(
         history,
         {
             "starts_run": len(found),
+            "starts_stopped_early": stopped,
             "search_samples": ns,
             "search_nfev": search.nfev,
             "search_regressor_samples": search.regressor_samples,
             "polished_values": polished,
+            "workers": max(n_workers, 1),
         },
     )
+
+
+def _never_worse(problem: DesignProblem, x_start: np.ndarray, x: np.ndarray, value: float) -> tuple[np.ndarray, float]:
+    """The polished ``x`` (criterion ``value``) or its start ``x_start``, whichever is better on the full
+    problem once both are within the limits on the dense grid (:func:`_final_repair`), as the result will be."""
+    out = []
+    for y, v in ((x, value), (x_start, None)):
+        repaired, _ = _final_repair(problem, y)
+        if v is None or not np.array_equal(repaired, y):
+            _, values = _scaled_values(problem, repaired[None, :], problem.spec.has_torque_limits)
+            v = float(values[0])
+        out.append((repaired, v))
+    return out[0] if out[0][1] <= out[1][1] else out[1]
+
+
+class _Estimate:
+    """Says on stderr, once the first start of phase 1 is done, how long the design will take when that
+    is more than :data:`LONG` seconds: phase 1 from the first start's time (a fraction
+    :data:`SEARCH_SHARE` of the starts run to the end), each polish :data:`POLISH_COST` starts."""
+
+    def __init__(self, starts: int, polish: int, workers: int, start_time: float, enabled: bool | None) -> None:
+        from pinid.progress import _wanted
+
+        self.starts, self.polish, self.workers, self.start_time = starts, polish, max(workers, 1), start_time
+        self.enabled, self.said = _wanted(enabled), False
+
+    def first_start(self, index: int, seconds: float) -> None:
+        if self.said or not self.enabled:
+            return
+        self.said = True
+        rounds = -(-self.starts // self.workers) * SEARCH_SHARE + -(-self.polish // self.workers) * POLISH_COST
+        total = time.perf_counter() - self.start_time + max(rounds - 1, 0) * seconds
+        if total >= LONG:
+            print(
+                f"pinid: slsqp: about {total:.0f} s ({self.starts} starts, {self.polish} polished, "
+                f"{self.workers} process{'es' if self.workers > 1 else ''})",
+                file=sys.stderr,
+                flush=True,
+            )
 
 
 def _metaheuristic(problem: DesignProblem, opt, rng: np.random.Generator, progress: bool | None, x0: np.ndarray | None):

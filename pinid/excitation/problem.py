@@ -163,7 +163,10 @@ class DesignProblem:
         return lower, upper
 
     def linear_constraints(self) -> tuple[np.ndarray, np.ndarray]:
-        """``A x <= b``: position, velocity and acceleration limits of every joint on the check grid."""
+        """``A x <= b``: position, velocity and acceleration limits of every joint on the check grid (computed
+        once; do not modify them)."""
+        if getattr(self, "_linear", None) is not None:
+            return self._linear
         s = self.spec
         Bq, Bdq, Bddq = self._basis_check
         n = len(self.check_times)
@@ -182,7 +185,8 @@ class DesignProblem:
                 b_pos = np.concatenate([np.full(n, s.upper[j] - s.q0[j]), np.full(n, s.q0[j] - s.lower[j])])
             rows.append(block)
             rhs.append(np.concatenate([b_pos, np.full(2 * n, s.velocity[j]), np.full(2 * n, s.acceleration[j])]))
-        return np.vstack(rows), np.concatenate(rhs)
+        self._linear = np.vstack(rows), np.concatenate(rhs)
+        return self._linear
 
     def scale_into_limits(self, X: np.ndarray, t: np.ndarray | None = None, safety: float = 0.0) -> np.ndarray:
         """Scale each joint's coefficients of every candidate by the largest factor ≤ 1 that puts its
@@ -232,6 +236,41 @@ class DesignProblem:
             return values, (W @ self.theta).reshape(len(X), len(self.times), self.nv)
         return values
 
+    def objective(self, x: np.ndarray, *, torque: bool = False) -> tuple[float, np.ndarray | None]:
+        """``(f, tau)`` at ``x``: the value of :meth:`objective_and_gradient` without its gradient (what a
+        line search asks for; about a fifth of the cost), and with ``torque`` the nominal torques
+        ``(samples, nv)``.  The regressor and its SVD are kept, so a gradient at the same ``x`` next reuses them."""
+        state = self._value_state(x)
+        tau = (state["W0"] @ self.theta).reshape(len(self.times), self.nv) if torque else None
+        return state["f"], tau
+
+    def _value_state(self, x: np.ndarray) -> dict:
+        """The regressor at the samples, its base columns' SVD and the criterion value at ``x`` (the last
+        one is kept: SLSQP asks for the gradient at the point whose value it just accepted)."""
+        x = np.asarray(x, dtype=float)
+        key = x.tobytes()
+        last = getattr(self, "_last", None)
+        if last is not None and last["key"] == key:
+            return last
+        n = len(self.times)
+        q, dq, ddq = (v[0] for v in self.states(x[None, :]))
+        dq = clean_rest(dq)
+        W0 = regressor(self.model, q, dq, ddq, self.spec.terms)
+        self.regressor_samples += n
+        self.nfev += 1
+        try:
+            U, sv, Vt = np.linalg.svd(self.base.columns(W0), full_matrices=False)
+        except np.linalg.LinAlgError:
+            U, sv, Vt = None, np.zeros(1), None
+        if not sv[-1] > 0:
+            f = np.inf
+        elif self.spec.criterion == "cond":
+            f = float(np.log(sv[0] / sv[-1]))
+        else:
+            f = float(-2 * np.sum(np.log(sv)))
+        self._last = {"key": key, "q": q, "dq": dq, "ddq": ddq, "W0": W0, "U": U, "sv": sv, "Vt": Vt, "f": f}
+        return self._last
+
     def objective_and_gradient(self, x: np.ndarray, h: float = 1e-7, *, torque: bool = False):
         """``(f, grad, tau, tau_jac)`` at ``x``.
 
@@ -243,26 +282,14 @@ class DesignProblem:
         variables.  For ``logdet`` it uses forward differences of step ``h`` of each sample's regressor row
         (exact for ddq).  Joint-term columns: analytic (Coulomb: 0 almost everywhere).  The chain rule
         through the Fourier basis gives d/dx.  With ``torque``: the nominal torques ``tau (samples, nv)``
-        and their Jacobian ``tau_jac (samples·nv, d)`` (RNEA derivatives of the nominal model)."""
-        x = np.asarray(x, dtype=float)
+        and their Jacobian ``tau_jac (samples·nv, d)`` (RNEA derivatives of the nominal model).  The value
+        at the same ``x`` as the last :meth:`objective` is not computed again."""
+        st = self._value_state(x)
         n, nv = len(self.times), self.nv
-        q, dq, ddq = (v[0] for v in self.states(x[None, :]))
-        dq = clean_rest(dq)
-        if self.spec.criterion == "cond":
-            W0 = regressor(self.model, q, dq, ddq, self.spec.terms)
-            D = None
-            self.regressor_samples += n
-        else:
-            W0, D = self._difference_derivatives(q, dq, ddq, h)
-        self.nfev += 1
-        Wb = self.base.columns(W0)
+        q, dq, ddq, W0, U, sv, Vt, f = (st[k] for k in ("q", "dq", "ddq", "W0", "U", "sv", "Vt", "f"))
         tau = tau_jac = None
-        try:
-            U, sv, Vt = np.linalg.svd(Wb, full_matrices=False)
-        except np.linalg.LinAlgError:
-            sv = np.zeros(1)
-        if not sv[-1] > 0:
-            f, G = np.inf, np.zeros((3 * nv, n))
+        if not np.isfinite(f):
+            G = np.zeros((3 * nv, n))
         else:
             cols = self.base.independent
 
@@ -272,7 +299,6 @@ class DesignProblem:
                 return out
 
             if self.spec.criterion == "cond":
-                f = float(np.log(sv[0] / sv[-1]))
                 G = self._contract(
                     q,
                     dq,
@@ -281,7 +307,7 @@ class DesignProblem:
                     [U[:, 0].reshape(n, nv) / sv[0], -U[:, -1].reshape(n, nv) / sv[-1]],
                 )
             else:
-                f = float(-2 * np.sum(np.log(sv)))
+                D = self._difference_derivatives(q, dq, ddq, h, W0)
                 pinv_t = np.zeros((n * nv, D.shape[-1]))
                 pinv_t[:, cols] = (U / sv) @ Vt  # (W_b⁺)ᵀ: d log det(W_bᵀW_b) = 2 <(W_b⁺)ᵀ, dW_b>
                 G = -2 * (D.reshape(len(D), n, -1) * pinv_t.reshape(n, -1)).sum(-1)
@@ -294,23 +320,22 @@ class DesignProblem:
             tau_jac = self._chain_rows(dtau)
         return f, grad, tau, tau_jac
 
-    def _difference_derivatives(self, q, dq, ddq, h):
-        """Regressor ``W (n·nv, p)`` at the samples and ``D (3nv, n, nv, p)``: d(row of sample s)/d(q_j, dq_j,
-        ddq_j) by forward differences of step ``h`` (rigid-body columns), analytic for the term columns."""
+    def _difference_derivatives(self, q, dq, ddq, h, W0):
+        """``D (3nv, n, nv, p)``: d(row of sample s)/d(q_j, dq_j, ddq_j) by forward differences of step ``h``
+        from the regressor ``W0 (n·nv, p)`` at the samples (rigid-body columns), analytic for the term columns."""
         n, nv = len(q), self.nv
-        k = 1 + 3 * nv
+        k = 3 * nv
         Q, DQ, DDQ = (np.broadcast_to(v, (k, n, nv)).copy() for v in (q, dq, ddq))
         for j in range(nv):
-            Q[1 + j, :, j] += h
-            DQ[1 + nv + j, :, j] += h
-            DDQ[1 + 2 * nv + j, :, j] += h
+            Q[j, :, j] += h
+            DQ[nv + j, :, j] += h
+            DDQ[2 * nv + j, :, j] += h
         W = regressor(self.model, Q.reshape(-1, nv), DQ.reshape(-1, nv), DDQ.reshape(-1, nv), self.spec.terms)
         self.regressor_samples += k * n
-        W = W.reshape(k, n, nv, -1)
-        D = (W[1:] - W[0]) / h
+        D = (W.reshape(k, n, nv, -1) - W0.reshape(n, nv, -1)) / h
         ni = 10 * nv
         D[:, :, :, ni:] = self._term_derivatives()[:, None, :, :]
-        return W[0].reshape(n * nv, -1), D
+        return D
 
     def _term_derivatives(self) -> np.ndarray:
         """``(3nv, nv, nt)``: d(term column of joint row i)/d(q_j, dq_j, ddq_j), the same at every sample:
@@ -351,10 +376,15 @@ class DesignProblem:
             a, b, c = rnea_d(pin_model, data, conf(q[s]) if conf else q[s], dq[s], ddq[s])
             out[0, s], out[1, s], out[2, s] = a, b, c
         M = out[2]  # Pinocchio fills the upper triangle of the mass matrix only
-        low = np.tril_indices(nv, -1)
+        low = self._lower_triangle()
         M[:, low[0], low[1]] = M[:, low[1], low[0]]
         self.regressor_samples += n
         return out
+
+    def _lower_triangle(self) -> tuple[np.ndarray, np.ndarray]:
+        if getattr(self, "_tril", None) is None:
+            self._tril = np.tril_indices(self.nv, -1)
+        return self._tril
 
     def _contract(self, q, dq, ddq, vectors: list[np.ndarray], weights: list[np.ndarray]) -> np.ndarray:
         """``G (3nv, n)`` = Σ_r Σ_i weights[r][s, i]·d(W(s) vectors[r])_i/d(state_j(s)), exactly.

@@ -1,12 +1,13 @@
 """Benchmark: `pinid excite` on the 2-DOF leg and on 6- and 7-DOF arms (issue 17).
 
     python tests/benchmarks/bench_excite_arms.py                      # this tree: exo_leg, ur5, panda defaults
-    python tests/benchmarks/bench_excite_arms.py --before /tmp/before # also `--starts 2` on ur5, old vs new
+    python tests/benchmarks/bench_excite_arms.py --before /tmp/before # each default design with both trees
 
 Each case is one `pinid excite` command line run from the shell (a fresh process, imports included) in an
 empty folder; the script prints the wall time, the command's own design time and the condition number it
-reports.  With ``--before DIR`` (a checkout of an older pinid) the same ``--starts 2`` run on ur5 is made
-with both trees, one after the other, so their ratio comes from the same machine state.
+reports.  With ``--before DIR`` (a checkout of an older pinid) every case is run with both trees, one
+right after the other, so that their ratio comes from the same machine state; the load (1-minute
+average) is printed before each pair.
 """
 
 from __future__ import annotations
@@ -45,21 +46,22 @@ def excite(tree: Path, args: list[str]) -> tuple[float, float, float]:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--before", type=Path, help="checkout of an older pinid to compare `--starts 2` on ur5 with")
+    ap.add_argument("--before", type=Path, help="checkout of an older pinid to run every case with too")
     args = ap.parse_args()
     print(
         f"machine: {platform.machine()}, nproc {os.cpu_count()}, {platform.processor() or '?'}, "
         f"python {platform.python_version()}, load {os.getloadavg()[0]:.2f}"
     )
-    print("\n| tree | command | wall [s] | design [s] | condition number |\n|---|---|---|---|---|")
-    cases = []
-    if args.before:
-        cases += [(args.before, ["--urdf", "ur5", "--starts", "2"]), (ROOT, ["--urdf", "ur5", "--starts", "2"])]
-    cases += [(ROOT, ["--urdf", "exo_leg"]), (ROOT, ["--urdf", "ur5"]), (ROOT, ["--urdf", "panda"])]
-    for tree, argv in cases:
-        wall, design, cond = excite(tree, argv)
-        name = "before" if tree != ROOT else "this"
-        print(f"| {name} | `pinid excite {' '.join(argv)}` | {wall:.1f} | {design:.1f} | {cond:.4f} |", flush=True)
+    print("\n| tree | command | load | wall [s] | design [s] | condition number |\n|---|---|---|---|---|---|")
+    for argv in (["--urdf", "exo_leg"], ["--urdf", "ur5"], ["--urdf", "panda"]):
+        for tree in ([args.before] if args.before else []) + [ROOT]:
+            load = os.getloadavg()[0]
+            wall, design, cond = excite(tree, argv)
+            name = "before" if tree != ROOT else "this"
+            print(
+                f"| {name} | `pinid excite {' '.join(argv)}` | {load:.2f} | {wall:.1f} | {design:.1f} | {cond:.4f} |",
+                flush=True,
+            )
     print(f"\nload after: {os.getloadavg()[0]:.2f}")
 
 
