@@ -120,10 +120,11 @@ def identification_text(ident, *, verbose: bool = False) -> str:
     if best is not None and len(best.base) and not np.all(np.isnan(best.std)):
         sp = best.std_percent
         k = int(np.nanargmax(np.where(np.isnan(sp) | np.isfinite(sp), sp, np.inf)))
-        lines.append(
+        text = (
             f"{ident.best}: largest relative standard deviation σ % {sp[k]:.3g} ({best.base_names[k]}); "
             "every parameter's with --verbose and in the report"
         )
+        lines += textwrap.wrap(text, 120, subsequent_indent="  ", break_on_hyphens=False)
     elif best is not None and len(best.base):
         lines.append(f"{ident.best}: no calibrated standard deviation (σ —) for this method")
     if best is not None and best.warning:  # one warning, wrapped to the terminal's 120 columns
