@@ -22,7 +22,7 @@ import multiprocessing
 import os
 import pickle
 import signal
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from typing import Any
 
 from pinid.errors import PinidError, SpecError
@@ -117,19 +117,43 @@ def _context() -> multiprocessing.context.BaseContext:
     return multiprocessing.get_context("fork" if "fork" in methods else "spawn")
 
 
+class LocalWorkers:
+    """``workers`` local processes (0 or 1: this process) that run ``fn(shared, item)``, kept for several
+    rounds of jobs; a context manager.  Leaving it by an exception (Ctrl-C, a job's error) stops every
+    worker at once; leaving it normally lets them finish."""
+
+    def __init__(self, fn: Callable[[Any, Any], Any], shared: Any, workers: int) -> None:
+        self.fn, self.shared = fn, shared
+        self.pool = _context().Pool(workers, initializer=_start_worker, initargs=(fn, shared)) if workers > 1 else None
+
+    def results(self, items: Sequence, *, ordered: bool = True) -> Iterator[tuple[int, Any]]:
+        """``(index, result)`` of every item: in the items' order, or as they finish (``ordered=False``)."""
+        if self.pool is None:
+            yield from ((i, self.fn(self.shared, item)) for i, item in enumerate(items))
+            return
+        mapper = self.pool.imap if ordered else self.pool.imap_unordered
+        for index, data in mapper(_run_in_worker, list(enumerate(items))):
+            yield index, _unpickled(data, items[index])
+
+    def __enter__(self) -> "LocalWorkers":
+        return self
+
+    def __exit__(self, kind, *_) -> None:
+        if self.pool is None:
+            return
+        if kind is None:
+            self.pool.close()
+        else:  # Ctrl-C or a job's error: stop every worker now, then let it reach the caller
+            self.pool.terminate()
+        self.pool.join()
+
+
 def _on_processes(fn: Callable, shared: Any, items: Sequence, workers: int, bar) -> list:
     results: list = [None] * len(items)
-    pool = _context().Pool(workers, initializer=_start_worker, initargs=(fn, shared))
-    try:
-        for index, data in pool.imap_unordered(_run_in_worker, list(enumerate(items))):
-            results[index] = _unpickled(data, items[index])
+    with LocalWorkers(fn, shared, workers) as pool:
+        for index, value in pool.results(items, ordered=False):
+            results[index] = value
             bar.update(1)
-        pool.close()
-    except BaseException:  # Ctrl-C or a job's error: stop every worker now, then let it reach the caller
-        pool.terminate()
-        raise
-    finally:
-        pool.join()
     return results
 
 
