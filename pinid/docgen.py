@@ -81,6 +81,7 @@ API_MODULES: tuple[tuple[str, str], ...] = (
     ("pinid.model.lmi", "Physical consistency as an LMI"),
     ("pinid.model.serialize", "Saving a robot model with results"),
     ("pinid.linalg", "Least-squares kernels"),
+    ("pinid.parallel", "Studies on every core or a Dask cluster"),
     ("pinid.identification.metrics", "Validation metrics"),
     ("pinid.identification.uncertainty", "Uncertainty of the parameters and its warning"),
     ("pinid.identification.truth", "Errors against a twin's truth"),

@@ -95,6 +95,15 @@ class Lines:
         self.close()
 
 
+def shown(enabled: bool | None = None) -> bool:
+    """Whether long work shows its progress, given a caller's ``enabled`` (the rules of the module text)."""
+    if enabled is not None and not isinstance(enabled, (bool, int)):
+        from pinid.errors import SpecError
+
+        raise SpecError(f"enabled: got {enabled!r}, expected True, False or None")
+    return _wanted(enabled)
+
+
 def progress(total: int | None, desc: str, *, enabled: bool | None = None):
     """Progress of ``total`` steps (None: unknown): a tqdm bar, sparse :class:`Lines`, or a silent bar.
     Use ``.update(n)`` and ``.close()``, or a ``with`` block."""

@@ -63,7 +63,7 @@ from pinid.excitation.evaluation import (
     trajectory_extremes,
 )
 from pinid.excitation.problem import DesignProblem
-from pinid.excitation.workers import _Workers, _pool_size
+from pinid.excitation.workers import SearchWorkers, pool_size
 
 #: robots with up to this many joints get the full default multistart (128 starts, 2 polished)
 SMALL_ROBOT = 4
@@ -436,11 +436,11 @@ def _multistart(
     found: list[tuple[float, np.ndarray]] = []
     history: list[float] = []
     best, stopped = np.inf, 0
-    n_workers = _pool_size(opts.workers, min(len(starts), BATCH))
+    n_workers = pool_size(opts.workers, min(len(starts), BATCH))
     tell = _Estimate(len(starts), opts.polish, n_workers, start_time, enabled=progress)
     problems = {"search": search, "polish": problem}
     with (
-        _Workers(_local_search, problems, n_workers) as workers,
+        SearchWorkers(_local_search, problems, n_workers) as workers,
         progress_bar(len(starts) + opts.polish, "slsqp", enabled=progress) as bar,
     ):
         for first in range(0, len(starts), BATCH):
@@ -517,10 +517,10 @@ class _Estimate:
     :data:`SEARCH_SHARE` of the starts run to the end), each polish :data:`POLISH_COST` starts."""
 
     def __init__(self, starts: int, polish: int, workers: int, start_time: float, enabled: bool | None) -> None:
-        from pinid.progress import _wanted
+        from pinid.progress import shown
 
         self.starts, self.polish, self.workers, self.start_time = starts, polish, max(workers, 1), start_time
-        self.enabled, self.said = _wanted(enabled), False
+        self.enabled, self.said = shown(enabled), False
 
     def first_start(self, index: int, seconds: float) -> None:
         if self.said or not self.enabled:

@@ -17,7 +17,7 @@ from collections.abc import Callable
 from pinid.parallel import LocalWorkers, default_workers
 
 
-def _pool_size(workers: int | None, jobs: int) -> int:
+def pool_size(workers: int | None, jobs: int) -> int:
     """Worker processes for ``jobs`` tasks: ``workers`` (None: one per core), at most ``jobs``; 0 (run in
     this process) off Linux or for fewer than 2."""
     n = workers if workers is not None else default_workers()
@@ -36,7 +36,7 @@ def _run(shared: tuple[Callable, dict], task: tuple) -> tuple:
     return out, time.perf_counter() - start, problem.nfev - before[0], problem.regressor_samples - before[1]
 
 
-class _Workers:
+class SearchWorkers:
     """Run tasks of ``fn(problems[key], *arguments)`` in ``n`` forked workers (0: in this process; the
     pool of :class:`pinid.parallel.LocalWorkers`); a context manager.  :meth:`map` returns
     ``(result, seconds)`` per task, in order, and adds the counters of work done in a worker to this
@@ -60,7 +60,7 @@ class _Workers:
                 each(i, seconds)
         return results
 
-    def __enter__(self) -> "_Workers":
+    def __enter__(self) -> "SearchWorkers":
         return self
 
     def __exit__(self, kind, *rest) -> None:
