@@ -126,7 +126,7 @@ def least_squares(problem) -> np.ndarray:
 
 def cached_lad(problem) -> np.ndarray:
     """:func:`least_absolute_deviations` of ``problem``, kept in its ``cache`` (a
-    :class:`~pinid.problem.problem.ProblemCache`, when it has one): every seed of a comparison needs it."""
+    :class:`~pinid.problem.cache.ProblemCache`, when it has one): every seed of a comparison needs it."""
     key = (id(problem.W), id(problem.tau), id(problem.weights))
     cache = getattr(problem, "cache", None)
     kept = None if cache is None else cache.get("lad", key)
