@@ -402,9 +402,9 @@ def report_files(ident, *, figures: bool = True) -> dict[str, str | bytes]:
     if figures:
         from pinid.report.figures import figure_workers, render_pngs
 
-        names = figure_names(ident)
-        recipes = grouped_recipes(figure_recipes(ident), figure_workers())
-        pngs = {names[key]: png for key, png in render_pngs(recipes).items()}
+        names, recipes = figure_names(ident), figure_recipes(ident)
+        drawn = render_pngs(grouped_recipes(recipes, figure_workers()))
+        pngs = {names[key]: drawn[key] for key in recipes}  # in the recipes' order, whatever the groups
         text = report_markdown(ident, {k: n for k, n in names.items() if n in pngs})
     else:
         text = report_markdown(ident)
