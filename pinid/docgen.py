@@ -72,6 +72,7 @@ API_MODULES: tuple[tuple[str, str], ...] = (
     ("pinid.identification.run", "Identification"),
     ("pinid.problem.problem", "The identification problem"),
     ("pinid.problem.rows", "Which rows enter the fit (fit joints, rest)"),
+    ("pinid.problem.cache", "What a problem computes once and keeps"),
     ("pinid.identification.result", "Identification results"),
     ("pinid.identification.outputs", "Identification and comparison: text and files (pinid identify, compare)"),
     ("pinid.estimators", "Estimators"),

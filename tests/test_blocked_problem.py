@@ -143,3 +143,44 @@ def test_ill_conditioned_gram_falls_back_to_qr_of_the_whole_regressor():
     b = make_result(q, make_estimator("ols").fit(q), 0.0)
     assert relative(a.base, b.base) < 1e-9
     assert relative(a.std, b.std) < 1e-3  # HAC σ: the ill-conditioned fit's residual scores differ at round-off × cond
+
+
+@pytest.mark.parametrize("limit", [problem_module.KEEP_BLOCKS_BYTES, 0])
+def test_small_problems_keep_their_blocks_after_the_first_pass(monkeypatch, limit):
+    """Issue 35: the Gram sums, the HAC σ and the predictions of every method read the blocks of the first
+    pass (the same arrays, read-only) instead of rebuilding them; above KEEP_BLOCKS_BYTES every pass rebuilds."""
+    monkeypatch.setattr(problem_module, "KEEP_BLOCKS_BYTES", limit)
+    model = truth_model("exo_leg")
+    p = IdentificationProblem.from_datasets(model, recordings(model))
+    built = []
+    real = problem_module.base_regressor
+    monkeypatch.setattr(problem_module, "base_regressor", lambda *a, **k: built.append(1) or real(*a, **k))
+    p.regressor_rows.kept = None  # from_datasets' rank check made a first pass
+    first = [(r, Wk.copy()) for r, Wk in p.regressor_rows.blocks()]
+    count = len(built)
+    assert count > 1
+    again = list(p.regressor_rows.blocks())
+    assert len(built) == (count if limit else 2 * count)
+    assert [r for r, _ in again] == [r for r, _ in first]
+    for (_, a), (_, b) in zip(first, again):
+        np.testing.assert_array_equal(a, b)
+    if limit:
+        assert not again[0][1].flags.writeable
+        for method in ("ols", "sdp"):  # what an identification computes from them is unchanged
+            q = IdentificationProblem.from_datasets(model, recordings(model))
+            monkeypatch.setattr(problem_module, "KEEP_BLOCKS_BYTES", 0)
+            fresh = make_result(q, make_estimator(method).fit(q), 0.0)
+            monkeypatch.setattr(problem_module, "KEEP_BLOCKS_BYTES", limit)
+            kept = make_result(p, make_estimator(method).fit(p), 0.0)
+            np.testing.assert_array_equal(kept.base, fresh.base)
+            np.testing.assert_array_equal(kept.std, fresh.std)
+
+
+def test_a_pass_left_unfinished_keeps_nothing():
+    model = truth_model("exo_leg")
+    p = IdentificationProblem.from_datasets(model, recordings(model))
+    p.regressor_rows.kept = None  # from_datasets' rank check made a first pass
+    blocks = p.regressor_rows.blocks()
+    next(blocks)
+    blocks.close()
+    assert p.regressor_rows.kept is None

@@ -97,3 +97,21 @@ def test_cli_track_bad_input(tmp_path):
     assert_clean_error(run_cli("track", "--controller", "pid-magic", "-o", str(tmp_path / "o")), "controller")
     assert not (tmp_path / "o" / "tracking.json").exists()
     assert_clean_error(run_cli("track", "--seconds", "1", "--after", "2"), "expected seconds > after")
+
+
+def test_compare_models_in_worker_processes_gives_the_serial_results(exo, monkeypatch):
+    """Issue 35: the runs of compare_models are independent and seeded; in forked workers (one per core)
+    they give the same numbers as one after the other."""
+    import pinid.control.controllers as controllers
+    import pinid.parallel
+
+    models = {"exact": nominal_model(exo), "no friction": nominal_model(exo, friction=False)}
+    kwargs = dict(seconds=1.0, after=0.5, seed=3)
+    monkeypatch.setattr(pinid.parallel, "default_workers", lambda: 2)
+    parallel = controllers.compare_models(exo, models, REF, **kwargs)
+    monkeypatch.setattr(pinid.parallel, "default_workers", lambda: 1)
+    serial = controllers.compare_models(exo, models, REF, **kwargs)
+    for c in serial:
+        for name in models:
+            np.testing.assert_equal(parallel[c][name]["metrics"], serial[c][name]["metrics"])  # NaN: never settled
+            np.testing.assert_array_equal(parallel[c][name]["result"].q, serial[c][name]["result"].q)

@@ -66,3 +66,65 @@ def test_workers_started_ahead_draw_the_same_bytes_and_are_used_once():
     assert figures._started is not started
     assert render_pngs(recipes, workers=1) == pooled  # an explicit count shuts the started workers down
     assert figures._started is None
+
+
+def _torque_recipes(methods=("ols", "wls", "sdp")):
+    """Torque figures of several methods on one recording, keyed as the report's (``torque_<method>``)."""
+    t = np.arange(4000) / 1000.0
+    measured = np.column_stack([np.sin(t), 3 * np.cos(2 * t)]) + 0.1 * np.random.default_rng(0).normal(size=(4000, 2))
+    out = {}
+    for k, m in enumerate(methods):
+        pred = measured * (1 + 0.05 * k) + 0.2 * k
+        out[f"torque_{m}"] = (
+            torque_comparison,
+            (t, measured, {m: pred}, ["hip", "knee"]),
+            {"title": f"{m}: torque", "filtered": measured * 0.99, "units": ["N·m", "N·m"], "window": 3.0},
+        )
+    return out
+
+
+def test_png_bytes_have_the_pixels_of_savefig():
+    """Issue 35: the figures skip savefig's slow RGBA encoding; what a reader sees is the same."""
+    import io
+
+    from PIL import Image
+
+    from pinid.report.figures import DPI, png_bytes
+
+    fn, args, kwargs = _recipes()["torque"]
+    ours = Image.open(io.BytesIO(png_bytes(fn(*args, **kwargs))))
+    buf = io.BytesIO()
+    fn(*args, **kwargs).savefig(buf, format="png", dpi=DPI)
+    theirs = Image.open(buf)
+    assert ours.mode == "RGB" and ours.size == theirs.size
+    np.testing.assert_array_equal(np.asarray(ours), np.asarray(theirs.convert("RGB")))
+
+
+def test_one_torque_figure_redrawn_per_method_gives_the_bytes_of_new_figures():
+    from pinid.report.figures import figure_png
+    from pinid.report.plot_identification import torque_pngs
+
+    recipes = _torque_recipes()
+    fresh = [figure_png(fn(*args, **kw)) for fn, args, kw in recipes.values()]
+    _, (t, measured, _, joints), kw = recipes["torque_ols"]
+    predicted = {m: next(iter(args[2].values())) for m, (_, args, _) in zip(("ols", "wls", "sdp"), recipes.values())}
+    titles = {m: f"{m}: torque" for m in predicted}
+    rest = {k: v for k, v in kw.items() if k != "title"}
+    assert torque_pngs(t, measured, predicted, joints, titles=titles, **rest) == fresh
+
+
+@pytest.mark.parametrize("workers, count", [(1, 1), (2, 2), (4, 3)])
+def test_grouped_torque_figures_give_the_same_bytes(workers, count):
+    """One worker redraws one torque figure for every method; more workers share the methods (the
+    groups that finish first by the cost model: 3 torque figures and 2 others on 2 workers: 2 groups)."""
+    from pinid.report.markdown import grouped_recipes
+
+    recipes = {**_torque_recipes(), **{k: v for k, v in _recipes().items() if k != "torque"}}
+    grouped = grouped_recipes(recipes, workers)
+    groups = [k for k in grouped if isinstance(k, tuple)]
+    assert sorted(sum(map(list, groups), [])) == sorted(k for k in recipes if k.startswith("torque_"))
+    assert len(groups) == count
+    expected = render_pngs(recipes, workers=1)
+    assert render_pngs(grouped, workers=1) == expected
+    if sys.platform.startswith("linux"):
+        assert render_pngs(grouped, workers=2) == expected

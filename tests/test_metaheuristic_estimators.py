@@ -222,3 +222,28 @@ def test_de_history_starts_at_the_initial_population(clean):
     est = make_estimator("de", **SMALL).fit(clean)
     assert est.history_[0] > est.history_[-1]
     assert est.history_[0] >= est.history_[1]
+
+
+def test_an_rls_run_is_kept_in_the_problem_for_its_settings(monkeypatch):
+    """Issue 35: the rls method and RLS-PSO's box on the same problem run the recursion once; another
+    setting, or another problem, runs it again; the kept run gives what a new run gives."""
+    model = truth_model("exo_leg")
+    problem = IdentificationProblem.from_datasets(model, twin(model, seconds=10, rate=100, seed=3, noise=0.5))
+    runs = []
+    real = RLS._run
+    monkeypatch.setattr(RLS, "_run", lambda self, *a: runs.append(1) or real(self, *a))
+    first = RLS().fit(problem)
+    box = RLSPSO(**SMALL).fit(problem).box_
+    again = RLS().fit(problem)
+    assert len(runs) == 1
+    np.testing.assert_array_equal(box[0], first.box_[0])
+    for name in ("base_", "estimates_"):
+        np.testing.assert_array_equal(getattr(again, name), getattr(first, name))
+    assert again.info_ == first.info_ and again.history_ == first.history_
+    again.base_[0] = 1e9  # a caller changing its result does not change what the problem keeps
+    np.testing.assert_array_equal(RLS().fit(problem).base_, first.base_)
+    RLS(burn_in=0.2).fit(problem)
+    assert len(runs) == 2
+    other = IdentificationProblem.from_datasets(model, twin(model, seconds=10, rate=100, seed=3, noise=0.5))
+    np.testing.assert_array_equal(RLS().fit(other).base_, first.base_)  # the same data, a new run
+    assert len(runs) == 3

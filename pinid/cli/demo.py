@@ -6,6 +6,7 @@ import argparse
 import contextlib
 import os
 import shutil
+import sys
 import tempfile
 import time
 from collections.abc import Iterator
@@ -164,14 +165,87 @@ def run(args: argparse.Namespace) -> int:
     methods = ",".join(methods_from_args(args)) if args.methods else ",".join(quick_methods())
     started = time.perf_counter()
     plan = steps(args.output, args.seed, methods, args.verbose)
-    with all_or_nothing(Path(args.output), replace=args.force):
+    with all_or_nothing(Path(args.output), replace=args.force), _Ahead(args, plan[AHEAD][1]) as ahead:
         for i, (title, argv) in enumerate(plan, 1):
             print(f"\n[{i}/{len(plan)}] {title}\n$ pinid {' '.join(argv)}", flush=True)
+            if i - 1 == AHEAD and ahead.done():
+                continue  # run on the second core while the steps before it ran; its output printed now
             step = args.command_parser.parse_args(argv)  # the parser of this command line: the same options
             step.command_function(step)  # errors propagate: the demo stops at the first failing step
     print(f"\ndemo finished in {time.perf_counter() - started:.0f} s; everything is in {args.output}/:")
     print(summary_text(args.output))
     return 0
+
+
+#: The step run ahead, in a forked process, while the steps before it run (index in :func:`steps`): the
+#: validation recording, which follows a bundled trajectory and needs nothing the demo made before it.
+AHEAD = 2
+
+
+class _Ahead:
+    """Step :data:`AHEAD` run in a forked process from the start (Linux, more than one core), its standard
+    output and errors kept; :meth:`done` waits for it and prints them.  When it failed, or cannot run ahead,
+    :meth:`done` is False and the step runs in turn as usual (its error, if any, raised there).  A process
+    still running when the block ends (an error or Ctrl-C in another step) is stopped."""
+
+    def __init__(self, args: argparse.Namespace, argv: list[str]) -> None:
+        self.args, self.argv, self.proc, self.pipe = args, argv, None, None
+
+    def __enter__(self) -> _Ahead:
+        if sys.platform.startswith("linux") and (os.cpu_count() or 1) > 1:
+            import multiprocessing
+            import warnings
+
+            ctx = multiprocessing.get_context("fork")
+            sys.stdout.flush()  # what is buffered now would be written again by the child
+            sys.stderr.flush()
+            self.pipe, child = ctx.Pipe(duplex=False)
+            with warnings.catch_warnings():  # Python ≥ 3.12 warns about fork with threads (BLAS)
+                warnings.simplefilter("ignore", DeprecationWarning)
+                self.proc = ctx.Process(target=self._child, args=(child,), daemon=True)
+                self.proc.start()
+            child.close()
+        return self
+
+    def _child(self, conn) -> None:
+        import io
+        import signal
+
+        signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's: it stops this process
+        out, err = io.StringIO(), io.StringIO()
+        ok = False
+        try:
+            with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+                step = self.args.command_parser.parse_args(self.argv)
+                step.command_function(step)
+            ok = True
+        except BaseException:  # noqa: BLE001 - the step is run again in turn, where its error is raised
+            pass
+        conn.send((ok, out.getvalue(), err.getvalue()))
+        conn.close()
+
+    def done(self) -> bool:
+        """Wait for the step; True (its output printed) when it succeeded."""
+        if self.proc is None:
+            return False
+        try:
+            ok, out, err = self.pipe.recv()
+        except EOFError:  # the process died
+            ok = False
+        self.proc.join()
+        self.proc = None
+        if ok:
+            sys.stdout.write(out)
+            sys.stdout.flush()
+            sys.stderr.write(err)
+        return ok
+
+    def __exit__(self, *exc) -> None:
+        if self.proc is not None:
+            self.proc.terminate()
+            self.proc.join()
+        if self.pipe is not None:
+            self.pipe.close()
 
 
 def summary_text(out: str) -> str:

@@ -14,7 +14,7 @@ import numpy as np
 from pinid.excitation.trajectory import FourierTrajectory
 from pinid.io import Artefacts, json_text
 from pinid.model.robot import RobotModel
-from pinid.report.figures import save_figure
+from pinid.report.figures import render_pngs
 from pinid.report.plot_control import tracking_figure
 from pinid.report.text import text_table
 from pinid.errors import OutputError, SpecError
@@ -82,7 +82,9 @@ def write_tracking(
             }
         ),
     )
-    for c, pm in table.items():
-        fig = tracking_figure({n: e["result"] for n, e in pm.items()}, title=c)
-        arts.add(out / f"tracking_{c}.png", lambda p, fig=fig: save_figure(fig, p))
+    recipes = {
+        c: (tracking_figure, ({n: e["result"] for n, e in pm.items()},), {"title": c}) for c, pm in table.items()
+    }
+    for c, png in render_pngs(recipes).items():  # one figure per core (pinid.report.figures)
+        arts.add(out / f"tracking_{c}.png", png)
     return arts.write()

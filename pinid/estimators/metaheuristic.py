@@ -50,7 +50,6 @@ both training costs and the least-squares ones).
 
 from __future__ import annotations
 
-import copy
 
 import time
 
@@ -128,7 +127,7 @@ def least_squares(problem) -> np.ndarray:
 
 def cached_lad(problem) -> np.ndarray:
     """:func:`least_absolute_deviations` of ``problem``, kept in its ``cache`` (a
-    :class:`~pinid.problem.problem.ProblemCache`, when it has one): every seed of a comparison needs it."""
+    :class:`~pinid.problem.cache.ProblemCache`, when it has one): every seed of a comparison needs it."""
     key = (id(problem.W), id(problem.tau), id(problem.weights))
     cache = getattr(problem, "cache", None)
     kept = None if cache is None else cache.get("lad", key)
@@ -161,26 +160,6 @@ def least_absolute_deviations(problem, iterations: int = 200, tol: float = 1e-12
     return x
 
 
-def _cached_rls_box(problem, settings: dict) -> tuple[np.ndarray, np.ndarray, dict]:
-    """The range of a recursive least-squares run on ``problem`` and what to report of it, kept in the
-    problem's ``cache`` like :func:`cached_lad`: RLS is deterministic, and every seed of RLS-PSO needs it."""
-    key = (id(problem.W), id(problem.tau), id(problem.weights), repr(sorted(settings.items())))
-    cache = getattr(problem, "cache", None)
-    kept = None if cache is None else cache.get("rls_box", key)
-    if kept is None:
-        est = RLS.create(**settings).fit(problem)  # bad settings: SpecError
-        report = {
-            "final": dict(zip(problem.names, map(float, est.base_))),
-            "burn_in_rows": est.info_["burn_in_rows"],
-            "forgetting": est.info_["forgetting"],
-        }
-        kept = (*est.box_, report)
-        if cache is not None:
-            cache.put("rls_box", kept, key)
-    lower, upper, report = kept
-    return np.array(lower, float), np.array(upper, float), copy.deepcopy(report)
-
-
 def nominal_box(problem, width: float = 1.0, floor: float = 0.5) -> tuple[np.ndarray, np.ndarray]:
     """``x_nom ± max(width·|x_nom|, floor·s)`` (see the module text)."""
     if not width >= 0 or not floor >= 0 or (width == 0 and floor == 0):
@@ -201,7 +180,13 @@ def search_box(problem, box="nominal", *, width: float = 1.0, floor: float = 0.5
         if kind == "nominal":
             lower, upper = nominal_box(problem, width, floor)
         elif kind == "rls":
-            lower, upper, info["rls"] = _cached_rls_box(problem, dict(rls or {}))
+            est = RLS.create(**dict(rls or {})).fit(problem)  # bad settings: SpecError; the run is cached (RLS.fit)
+            lower, upper = est.box_
+            info["rls"] = {
+                "final": dict(zip(names, map(float, est.base_))),
+                "burn_in_rows": est.info_["burn_in_rows"],
+                "forgetting": est.info_["forgetting"],
+            }
         elif kind == "ls":
             x = least_squares(problem)
             std = base_statistics(problem, x, kind="white")[0]  # works on a segmental SubProblem too

@@ -36,6 +36,8 @@ error over each tenth of the rows: how well the running estimate predicted the n
 
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 
 from pinid.errors import SpecError
@@ -99,8 +101,23 @@ class RLS(Estimator):
         return lam, skip
 
     def fit(self, problem: Problem) -> "RLS":
-        """Run the recursion over the problem's rows in order; sets ``base_``, ``history_`` and the search box ``box_``."""
+        """Run the recursion over the problem's rows in order; sets ``base_``, ``history_`` and the search box
+        ``box_``.  The run is kept in the problem's ``cache`` (when it has one) for these settings: the
+        ``rls`` method and RLS-PSO's box on the same problem run it once (it is deterministic)."""
         lam, skip = self._check(problem)
+        cache = getattr(problem, "cache", None)
+        x0 = self.x0 if isinstance(self.x0, str) else np.asarray(self.x0, dtype=float).tobytes()
+        key = (id(problem.W), id(problem.tau), id(problem.weights), lam, self.init, self.p0, x0, skip, self.widen)
+        kept = None if cache is None else cache.get("rls", key)
+        if kept is None:
+            self._run(problem, lam, skip)
+            if cache is not None:
+                cache.put("rls", copy.deepcopy({k: getattr(self, k) for k in _FITTED}), key)
+        else:
+            self.__dict__.update(copy.deepcopy(kept))
+        return self
+
+    def _run(self, problem: Problem, lam: float, skip: int) -> None:
         W = np.asarray(problem.W, dtype=float)
         tau = np.asarray(problem.tau, dtype=float)
         w = np.asarray(problem.weights, dtype=float) if problem.weights is not None else np.ones(len(tau))
@@ -171,7 +188,10 @@ class RLS(Estimator):
             "box": {"lower": dict(zip(names, map(float, lower))), "upper": dict(zip(names, map(float, upper)))},
             "a_priori_error_rms_per_tenth": self.history_,
         }
-        return self
+
+
+#: What :meth:`RLS.fit` sets (kept in the problem's cache).
+_FITTED = ("base_", "estimates_", "box_", "standard_", "weights_", "history_", "status_", "info_")
 
 
 def _exact_start(H: np.ndarray, tau: np.ndarray, w: np.ndarray, lam: float):

@@ -132,10 +132,13 @@ class IdentifiedModel:
 
     # ---------------------------------------------------------------- dynamics
     def _term_torque(self, q, dq, ddq, keep=lambda t: True) -> np.ndarray:
-        """Torque (N, nv) of the selected terms for which ``keep(term)`` holds."""
-        sel = TermSelection(names=[t.name for t in self.terms.joint + self.terms.motor if keep(t)])
-        theta = np.array([self._values[p.term.name][p.index] for p in _terms.robot_layout(self.robot, sel)])
-        return _terms.torque(self.robot, sel, theta, q, dq, ddq)
+        """Torque (N, nv) of the selected terms for which ``keep(term)`` holds, with their values of
+        ``_values`` (the selection made once per set of names: a controller calls this at every step)."""
+        names = tuple(t.name for t in self.terms.joint + self.terms.motor if keep(t))
+        selections = self.__dict__.setdefault("_selections", {})
+        if names not in selections:
+            selections[names] = TermSelection(names=list(names))
+        return _terms.torque(self.robot, selections[names], self._values, q, dq, ddq)
 
     def friction(self, dq: np.ndarray) -> np.ndarray:
         """Friction torque [N·m] at joint velocities ``dq`` (nv,) or (N, nv): the velocity-dependent

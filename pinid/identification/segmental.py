@@ -44,10 +44,10 @@ from pinid.data.dataset import Dataset
 from pinid.errors import DataError, SpecError
 from pinid.estimators import ESTIMATORS, make_estimator
 from pinid.estimators.base import Estimator
+from pinid.problem.cache import ProblemCache
 from pinid.problem.problem import (
     REST_FRACTION,
     IdentificationProblem,
-    ProblemCache,
     check_dataset,
     load_datasets,
     rest_threshold,

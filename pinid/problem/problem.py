@@ -37,7 +37,9 @@ A problem made by :meth:`IdentificationProblem.from_datasets` keeps the recordin
 (:class:`RegressorRows`) instead of the tall ``W``: its Gram sums, compressed form, rank check and
 predictions are accumulated ``_CHUNK`` samples at a time, so ``W`` is built (whole, once, cached) only
 when an estimator reads ``problem.W`` (wls, rls, metaheuristics …) or the Gram matrix is too
-ill-conditioned for Cholesky (then the compressed form needs a QR factorisation of the whole matrix).
+ill-conditioned for Cholesky (then the compressed form needs a QR factorisation of the whole matrix).  Blocks
+of at most ``KEEP_BLOCKS_BYTES`` in all (5 s at 5 kHz of a 6-DOF arm: 60 MB) are kept after a first pass
+and read again by the Gram sums, the HAC σ and the predictions (issue 35); larger ones are rebuilt.
 """
 
 from __future__ import annotations
@@ -50,18 +52,17 @@ from collections.abc import Iterator, Mapping, Sequence
 import numpy as np
 import scipy.linalg
 
-from pinid.data.dataset import Dataset
+from pinid.data.dataset import Dataset, as_dataset
 from pinid.data.formats import read_recording
 from pinid.errors import DataError, SpecError
 from pinid.linalg import RANK_TOL, augmented_r, cholesky_r, column_scale, gram_sums, qr_r, row_blocks, unit_weights
 from pinid.model.base import BaseParameters, base_parameters
 from pinid.model.physical import parameter_scale
 from pinid.model.regressor import TermSelection, regressor, standard_parameters
-from pinid.model.robot import RobotModel
+from pinid.model.robot import RobotModel, as_robot
+from pinid.problem.cache import ProblemCache as ProblemCache
 from pinid.problem.covariance import hac_std
 from pinid.progress import progress
-from pinid.data.dataset import as_dataset
-from pinid.model.robot import as_robot
 from pinid.problem.rows import (
     REST_FRACTION as REST_FRACTION,
     fit_mask as fit_mask,
@@ -72,6 +73,7 @@ from pinid.problem.rows import (
 )
 
 _CHUNK = 20_000  # samples per regressor chunk (bounds memory of the full standard regressor)
+KEEP_BLOCKS_BYTES = 128 * 2**20  # regressor blocks kept after a first pass up to this size in all (module text)
 
 
 @runtime_checkable
@@ -115,13 +117,15 @@ class Problem(Protocol):
 @dataclass
 class RegressorRows:
     """What rebuilds the rows of a stacked base regressor: checked recordings and, per recording, which of
-    its ``N·nv`` rows are kept (rows at rest dropped); see :func:`stack_rows` for the row order."""
+    its ``N·nv`` rows are kept (rows at rest dropped); see :func:`stack_rows` for the row order.  ``kept``: the
+    blocks of a first pass, ``[(first row, W rows, samples)]``, when they total ≤ :data:`KEEP_BLOCKS_BYTES`."""
 
     model: RobotModel
     terms: TermSelection
     base: BaseParameters
     datasets: list[Dataset]
     keeps: list[np.ndarray]
+    kept: list[tuple[int, np.ndarray, int]] | None = field(default=None, repr=False, compare=False)
 
     @property
     def count(self) -> int:
@@ -130,15 +134,26 @@ class RegressorRows:
 
     def blocks(self, *, bar=None) -> Iterator[tuple[int, np.ndarray]]:
         """``(first row, W rows)`` of the stacked base regressor, ``_CHUNK`` samples at a time, in order
-        (``bar``: a progress bar advanced by the samples done)."""
+        (``bar``: a progress bar advanced by the samples done); read-only from :attr:`kept` after a first pass."""
+        if self.kept is not None:
+            for row, Wk, samples in self.kept:
+                yield row, Wk
+                if bar is not None:
+                    bar.update(samples)
+            return
+        passed = [] if self.count * self.base.count * 8 <= KEEP_BLOCKS_BYTES else None
         nv, row = self.model.nv, 0
         for ds, keep in zip(self.datasets, self.keeps):
             for start in range(0, ds.n, _CHUNK):
                 stop = min(ds.n, start + _CHUNK)
                 part = ds.select(slice(start, stop))
                 Wk = base_regressor(self.model, self.terms, self.base, part, bar=bar, keep=keep[start * nv : stop * nv])
+                if passed is not None:
+                    Wk.flags.writeable = False  # shared by the passes to come
+                    passed.append((row, Wk, stop - start))
                 yield row, Wk
                 row += len(Wk)
+        self.kept = passed
 
     def build(self) -> np.ndarray:
         """The whole stacked base regressor (rows kept × nb)."""
@@ -146,31 +161,6 @@ class RegressorRows:
         for row, Wk in self.blocks():
             W[row : row + len(Wk)] = Wk
         return W
-
-
-class ProblemCache:
-    """What is computed once from a problem's rows and kept with it: its Gram sums (``"gram"``), their
-    compression (``"compressed"``), an estimator's own (``"lad"``: the metaheuristics' least-absolute-deviation
-    start).  Each value is stored with the key of the data it was computed from (:meth:`put`) and returned
-    only while the key is the same (:meth:`get`); :meth:`forget` drops values (e.g. to time a compression)."""
-
-    def __init__(self) -> None:
-        self._values: dict[str, tuple[object, object]] = {}
-
-    def get(self, name: str, key: object = None) -> object | None:
-        """The value kept under ``name`` for ``key``, else None."""
-        kept = self._values.get(name)
-        return kept[1] if kept is not None and kept[0] == key else None
-
-    def put(self, name: str, value: object, key: object = None) -> object:
-        """Keep ``value`` under ``name`` for ``key`` (replacing what was kept); returns ``value``."""
-        self._values[name] = (key, value)
-        return value
-
-    def forget(self, *names: str) -> None:
-        """Drop the values kept under ``names`` (every value when none is named)."""
-        for name in names or tuple(self._values):
-            self._values.pop(name, None)
 
 
 @dataclass

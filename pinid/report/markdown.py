@@ -21,7 +21,7 @@ from pinid.model.physical import NOISE, com_inertia, tidy_inertial
 from pinid.model.robot import INERTIAL_NAMES
 from pinid.model.terms import TermSelection
 from pinid.report.figures import Recipe
-from pinid.report.plot_identification import error_bars, recorded_motion, torque_comparison
+from pinid.report.plot_identification import error_bars, recorded_motion, torque_comparison, torque_pngs
 
 #: Every file a report writes (patterns): what ``pinid identify --force`` removes of an earlier run's report.
 REPORT_FILES = ("report.md", "report.html", "errors.png", "training_motion.png", "torque_*.png")
@@ -82,6 +82,42 @@ def figure_recipes(ident) -> dict[str, Recipe]:
         title = f"absolute torque error ({kind}, against the torque as recorded): mean (dot) and [p5, p95] band"
         figs["errors"] = (error_bars, (metrics,), {"title": title})
     return figs
+
+
+#: Relative drawing cost of the report's figures (6-DOF arm, 2000 points per line): the first torque
+#: figure 1, each further method redrawn into it (:func:`~pinid.report.plot_identification.torque_pngs`)
+#: 0.65, the motion and error figures ~0.6 each.
+_FIRST, _REDRAWN, _OTHER = 1.0, 0.65, 0.6
+
+
+def grouped_recipes(recipes: dict[str, Recipe], workers: int) -> dict[str | tuple[str, ...], Recipe]:
+    """:func:`figure_recipes` with the torque figures drawn in groups, each group one figure redrawn per
+    method (:func:`~pinid.report.plot_identification.torque_pngs`, keyed by the tuple of its keys): as many
+    groups as finish soonest on ``workers`` processes (one process: one group), the fewest of those; the
+    largest first.  The same PNG bytes as ``recipes``."""
+    torque = [k for k in recipes if k.startswith("torque_")]
+    others = {k: r for k, r in recipes.items() if k not in torque}
+    if len(torque) < 2:
+        return dict(recipes)
+
+    def finish(groups: int) -> tuple[float, float]:  # (the last worker's load, the total), list scheduling
+        sizes = [len(torque) // groups + (i < len(torque) % groups) for i in range(groups)]
+        loads = [0.0] * max(1, workers)
+        jobs = sorted([_FIRST + _REDRAWN * (n - 1) for n in sizes] + [_OTHER] * len(others), reverse=True)
+        for job in jobs:
+            loads[loads.index(min(loads))] += job
+        return round(max(loads), 6), round(sum(jobs), 6)
+
+    groups = min(range(1, min(len(torque), max(1, workers)) + 1), key=finish)
+    out: dict[str | tuple[str, ...], Recipe] = {}
+    for g in range(groups):
+        keys = tuple(torque[g::groups])
+        _, (t, measured, _, joints), kwargs = recipes[keys[0]]
+        predicted = {k.removeprefix("torque_"): next(iter(recipes[k][1][2].values())) for k in keys}
+        titles = {k.removeprefix("torque_"): recipes[k][2]["title"] for k in keys}
+        rest = {name: v for name, v in kwargs.items() if name != "title"}
+        out[keys] = (torque_pngs, (t, measured, predicted, joints), {"titles": titles, **rest})
+    return {**out, **others}
 
 
 def pooled(metrics, key: str, fmt: str = ".4g") -> str:
@@ -364,10 +400,11 @@ def report_files(ident, *, figures: bool = True) -> dict[str, str | bytes]:
 
     pngs = {}
     if figures:
-        from pinid.report.figures import render_pngs
+        from pinid.report.figures import figure_workers, render_pngs
 
-        names = figure_names(ident)
-        pngs = {names[key]: png for key, png in render_pngs(figure_recipes(ident)).items()}
+        names, recipes = figure_names(ident), figure_recipes(ident)
+        drawn = render_pngs(grouped_recipes(recipes, figure_workers()))
+        pngs = {names[key]: drawn[key] for key in recipes}  # in the recipes' order, whatever the groups
         text = report_markdown(ident, {k: n for k, n in names.items() if n in pngs})
     else:
         text = report_markdown(ident)

@@ -8,7 +8,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from pinid.report.figures import fixed_layout, new_figure
+from pinid.report.figures import fixed_layout, new_figure, png_bytes
 
 
 def _thin(n: int, max_points: int) -> np.ndarray:
@@ -36,9 +36,21 @@ def torque_comparison(
     after pinid's low-pass (drawn black).  ``units``: each joint's unit (default N·m).  Only the first
     ``window`` seconds are drawn (None: all), thinned to ``max_points`` samples.  Returns the figure.
     """
+    preds = dict(predicted) if isinstance(predicted, Mapping) else {"predicted": predicted}
+    fig, _ = _torque_figure(
+        t, measured, preds, joints, filtered=filtered, units=units, title=title, window=window, max_points=max_points
+    )
+    return fig
+
+
+def _torque_figure(
+    t, measured, preds: dict, joints, *, filtered=None, units=None, title=None, window=30.0, max_points: int = 2_000
+):
+    """:func:`torque_comparison`'s figure and a function ``redraw(method, prediction, title)`` that puts
+    another single method's prediction into it (lines, error, legend, title, autoscaled y)."""
     t = np.asarray(t, dtype=float)
     measured = np.asarray(measured, dtype=float)
-    preds = dict(predicted) if isinstance(predicted, Mapping) else {"predicted": predicted}
+    n = len(t)
     if window is not None and len(t) and t[-1] - t[0] > window:
         n = int(np.searchsorted(t, t[0] + window))
         t, measured = t[:n], measured[:n]
@@ -49,6 +61,8 @@ def torque_comparison(
         2 * nv, 1, figsize=(9, 2.6 * 2 * nv), sharex=True, squeeze=False, gridspec_kw={"height_ratios": [2, 1] * nv}
     )
     idx = _thin(len(t), max_points)
+    lines: list[tuple] = []  # per joint: (top axes, bottom axes, prediction line, error line) of the last method
+    legend = None
     for j, name in enumerate(joints):
         top, bottom = axes[2 * j, 0], axes[2 * j + 1, 0]
         top.plot(t[idx], measured[idx, j], color="0.6", lw=0.8, label="measured (as recorded)")
@@ -56,8 +70,9 @@ def torque_comparison(
             top.plot(t[idx], np.asarray(filtered)[idx, j], color="black", lw=1.0, label="measured, low-passed")
         for m, p in preds.items():
             p = np.asarray(p, dtype=float)
-            top.plot(t[idx], p[idx, j], lw=0.9, label=m, alpha=0.85)
-            bottom.plot(t[idx], measured[idx, j] - p[idx, j], lw=0.8, label=m, alpha=0.85)
+            (line,) = top.plot(t[idx], p[idx, j], lw=0.9, label=m, alpha=0.85)
+            (err,) = bottom.plot(t[idx], measured[idx, j] - p[idx, j], lw=0.8, label=m, alpha=0.85)
+        lines.append((top, bottom, line, err) if preds else (top, bottom, None, None))
         unit = "N·m" if units is None else units[j]
         top.set_ylabel(f"{name}\nτ [{unit}]")
         bottom.set_ylabel(f"error (raw) [{unit}]")
@@ -65,12 +80,55 @@ def torque_comparison(
         top.grid(alpha=0.3)
         bottom.grid(alpha=0.3)
         if j == 0:
-            top.legend(loc="upper right", fontsize="small", ncol=min(4, 1 + len(preds)))
+            legend = top.legend(loc="upper right", fontsize="small", ncol=min(4, 1 + len(preds)))
     axes[-1, 0].set_xlabel("time [s]")
-    if title:
-        fig.suptitle(title)
+    # 0.2 inch from the top edge, above the first panel (suptitle's default, 2 % of the height, is inside it)
+    heading = fig.suptitle(title, y=1 - 0.2 / fig.get_figheight()) if title else None
     fixed_layout(fig, left=0.95, right=0.15, bottom=0.5, top=0.55 if title else 0.2, hspace=0.32)
-    return fig
+
+    def redraw(method: str, prediction: np.ndarray, new_title: str | None) -> None:
+        p = np.asarray(prediction, dtype=float)[:n]
+        for j, (top, bottom, line, err) in enumerate(lines):
+            line.set_ydata(p[idx, j])
+            err.set_ydata(measured[idx, j] - p[idx, j])
+            line.set_label(method)
+            err.set_label(method)
+            for ax in (top, bottom):
+                ax.relim()
+                ax.autoscale_view()
+        legend.get_texts()[-1].set_text(method)
+        if heading is not None and new_title:
+            heading.set_text(new_title)
+
+    return fig, redraw
+
+
+def torque_pngs(
+    t: np.ndarray,
+    measured: np.ndarray,
+    predicted: Mapping[str, np.ndarray],
+    joints: list[str],
+    *,
+    titles: Mapping[str, str],
+    **kwargs,
+) -> list[bytes]:
+    """The PNG bytes of :func:`torque_comparison` for each method of ``predicted`` alone (title ``titles[m]``),
+    one figure redrawn with each method's lines: its axes and ticks are made once (the same bytes as a new
+    figure per method, tested; on a 6-DOF arm 0.3 s instead of 0.45 s for each method after the first).
+    ``kwargs``: :func:`torque_comparison`'s ``filtered``, ``units``, ``window``, ``max_points``."""
+    import matplotlib.pyplot as plt
+
+    methods = list(predicted)
+    first = methods[0]
+    fig, redraw = _torque_figure(t, measured, {first: predicted[first]}, joints, title=titles[first], **kwargs)
+    try:
+        pngs = [png_bytes(fig)]
+        for m in methods[1:]:
+            redraw(m, predicted[m], titles[m])
+            pngs.append(png_bytes(fig))
+    finally:
+        plt.close(fig)
+    return pngs
 
 
 def error_bars(metrics: Mapping[str, object], *, title: str | None = None):

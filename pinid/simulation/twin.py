@@ -199,7 +199,7 @@ class Plant:
             Minv = pin.computeMinverse(pm, pdata, qc)
             a = Minv @ (tau - nle - self.fc * th - self.fv * v)
             D = self.fc * self._ivs * (1.0 - th * th) + self.fv + Dx
-            stiff = h * float(np.max(Minv.diagonal() * D)) > 0.1
+            stiff = h * float((Minv.diagonal() * D).max()) > 0.1
             D = np.diag(D) if stiff else D
         else:
             M = pin.crba(pm, pdata, qc)
@@ -215,7 +215,7 @@ class Plant:
                 Dm = m["fc"] * self._ivs * (1.0 - thm * thm) + m["fv"]
                 D = D + G.T @ (Dm[:, None] * G)
             a = Minv @ (tau - nle - f)
-            stiff = h * float(np.max(np.abs(Minv @ D))) > 0.1
+            stiff = h * float(np.abs(Minv @ D).max()) > 0.1
         if stiff:  # near zero velocity: implicit friction
             dv = np.linalg.solve(self._eye + (h * Minv) @ D, h * a)
         else:
@@ -530,7 +530,7 @@ def _simulate(
 
     def measure(i: int, q: np.ndarray) -> np.ndarray:
         y = q + q_noise[i // g]
-        return np.round(y / res) * res if res > 0 else y
+        return (y / res).round() * res if res > 0 else y
 
     # state
     h = 1.0 / grid
@@ -567,8 +567,8 @@ def _simulate(
                 e = qd[k] - qm
                 integ += e / ctrl
                 tau = tau_ff[k] + Kp * e + Kd * (v_ref - v_est) + Ki * integ
-                clipped = np.clip(tau, -effort, effort)
-                if np.any(clipped != tau):
+                clipped = tau.clip(-effort, effort)  # array methods: the np.* wrappers cost more than the work
+                if (clipped != tau).any():
                     saturated += 1
                     tau = clipped
                 if bar is not None and k % 1000 == 0 and k:
@@ -579,7 +579,7 @@ def _simulate(
                 true_q[s_idx], true_v[s_idx], true_a[s_idx], true_tau[s_idx] = q, v, a, tau
                 s_idx += 1
             q, v = q_new, v_new
-            if not np.all(np.isfinite(v)):
+            if not np.isfinite(v).all():
                 raise DataError(
                     f"simulation diverged at t = {i * h:.4g} s; expected a stable closed loop "
                     "(lower --bandwidth or raise the control rate)"
