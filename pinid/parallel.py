@@ -23,6 +23,7 @@ import os
 import pickle
 import signal
 from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from typing import Any
 
 from pinid.errors import PinidError, SpecError
@@ -90,7 +91,7 @@ def run_parallel(
 # ============================================================================================ local
 def _start_worker(fn: Callable, shared: Any) -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent stops the workers; none prints a traceback
-    signal.signal(signal.SIGTERM, signal.SIG_DFL)  # Pool.terminate's signal ends a worker silently
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)  # a terminating signal ends a worker silently
     _WORKER_STATE["fn"], _WORKER_STATE["shared"] = fn, shared
 
 
@@ -124,28 +125,47 @@ class LocalWorkers:
 
     def __init__(self, fn: Callable[[Any, Any], Any], shared: Any, workers: int) -> None:
         self.fn, self.shared = fn, shared
-        self.pool = _context().Pool(workers, initializer=_start_worker, initargs=(fn, shared)) if workers > 1 else None
+        self.executor = (
+            ProcessPoolExecutor(workers, mp_context=_context(), initializer=_start_worker, initargs=(fn, shared))
+            if workers > 1
+            else None
+        )
 
     def results(self, items: Sequence, *, ordered: bool = True) -> Iterator[tuple[int, Any]]:
         """``(index, result)`` of every item: in the items' order, or as they finish (``ordered=False``)."""
-        if self.pool is None:
+        if self.executor is None:
             yield from ((i, self.fn(self.shared, item)) for i, item in enumerate(items))
             return
-        mapper = self.pool.imap if ordered else self.pool.imap_unordered
-        for index, data in mapper(_run_in_worker, list(enumerate(items))):
-            yield index, _unpickled(data, items[index])
+        futures = [self.executor.submit(_run_in_worker, (i, item)) for i, item in enumerate(items)]
+        try:
+            for future in futures if ordered else as_completed(futures):
+                index, data = future.result()
+                yield index, _unpickled(data, items[index])
+        finally:
+            for future in futures:  # left early (an error, Ctrl-C, the caller stopped): nothing more starts
+                future.cancel()
 
     def __enter__(self) -> "LocalWorkers":
         return self
 
     def __exit__(self, kind, *_) -> None:
-        if self.pool is None:
+        # the executor is dropped here, not left to the garbage collector: a forked worker of a later pool
+        # that collected it would wake its (absent) manager thread through a pipe and could block for ever
+        executor, self.executor = self.executor, None
+        if executor is None:
             return
         if kind is None:
-            self.pool.close()
-        else:  # Ctrl-C or a job's error: stop every worker now, then let it reach the caller
-            self.pool.terminate()
-        self.pool.join()
+            executor.shutdown(wait=True)
+            return
+        # Ctrl-C or a job's error: stop every worker now, then let it reach the caller.  The executor's own
+        # shutdown would wait for the running jobs (Python < 3.14 has no terminate_workers), so the worker
+        # processes are killed here; the executor sees them gone and cleans up without waiting.
+        processes = list((getattr(executor, "_processes", None) or {}).values())
+        executor.shutdown(wait=False, cancel_futures=True)
+        for process in processes:
+            process.kill()
+        for process in processes:
+            process.join()
 
 
 def _on_processes(fn: Callable, shared: Any, items: Sequence, workers: int, bar) -> list:

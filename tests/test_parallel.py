@@ -44,7 +44,6 @@ def test_results_come_back_in_the_order_of_the_items_from_several_processes():
     assert os.getpid() not in {pid for pid, _ in parallel}  # the jobs ran in the workers
 
 
-@pytest.mark.skipif(sys.version_info < (3, 11), reason="Pool.terminate can deadlock on CPython 3.10 (seen in CI); open")
 def test_a_jobs_error_reaches_the_caller_as_itself():
     with pytest.raises(SpecError, match="item 3: refused"):
         run_parallel(_fails_on_three, None, list(range(6)), workers=2)
@@ -65,7 +64,6 @@ def _unloadable(shared, item):
     return _Unloadable()
 
 
-@pytest.mark.skipif(sys.version_info < (3, 11), reason="Pool.terminate can deadlock on CPython 3.10 (seen in CI); open")
 def test_a_result_that_cannot_come_back_is_an_error_not_a_hang():
     with pytest.raises(PinidError, match="could not be carried back"):
         run_parallel(_unloadable, None, [1, 2, 3], workers=2)
