@@ -469,3 +469,35 @@ def test_early_stop_and_workers_keep_the_design_deterministic():
     assert one.condition_number == two.condition_number
     assert np.array_equal(one.trajectory.a, two.trajectory.a) and np.array_equal(one.trajectory.b, two.trajectory.b)
     assert one.nfev == two.nfev and one.details["regressor_samples"] == two.details["regressor_samples"]
+
+
+def test_gram_singular_values_match_the_svd_and_fall_back_when_ill_conditioned():
+    """Issue 35: the criterion from the Gram matrix's eigenvalues is the SVD's to round-off below GRAM_COND;
+    above it the SVD itself is used (squaring the condition number would lose the smallest value)."""
+    from pinid.excitation.problem import GRAM_COLUMNS, GRAM_COND, _extreme_pairs, _singular_values
+
+    rng = np.random.default_rng(0)
+    n = GRAM_COLUMNS + 4
+    U, _ = np.linalg.qr(rng.standard_normal((6 * n, n)))
+    V, _ = np.linalg.qr(rng.standard_normal((n, n)))
+    for cond in (3.0, 40.0, 0.5 * GRAM_COND, 1e8):
+        s = np.geomspace(cond, 1.0, n)
+        W = (U * s) @ V.T
+        sv = _singular_values(W[None])[0]
+        exact = np.linalg.svd(W, compute_uv=False)
+        assert sv == pytest.approx(exact, rel=1e-13 * cond**2 + 1e-12), cond
+        (u_max, v_max, s_max), (u_min, v_min, s_min) = _extreme_pairs(W, sv)
+        assert s_max / s_min == pytest.approx(cond, rel=1e-13 * cond**2 + 1e-12)
+        for u, v, sigma in ((u_max, v_max, s_max), (u_min, v_min, s_min)):
+            assert np.abs(np.outer(u, v) * sigma - np.outer(W @ v, v)).max() <= 1e-12 * cond
+
+
+def test_a_polish_on_a_coarser_grid_still_meets_the_limits_on_the_full_grid(exo):
+    """Issue 35: the polish's constraints on a coarser grid (polish_grid) — the design is still scaled inside
+    the limits at every instant (dense grid, exact extremes) and on the default 2·samples grid."""
+    result = design_excitation(exo, options={**FAST, "polish_grid": 40, "workers": 1}, seed=0)
+    assert result.feasible and result.optimizer_options["polish_grid"] == 40
+    assert_inside(result.trajectory, result.spec)
+    problem = DesignProblem(exo, result.spec)
+    A, b = problem.linear_constraints()
+    assert np.all(A @ problem.variables(result.trajectory) <= b + 1e-9)

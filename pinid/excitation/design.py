@@ -98,10 +98,14 @@ class MultistartOptions:
     (0: never).  ``workers``: processes the starts and polishes run in (None: one per core; the result
     does not depend on it).
 
+    ``polish_grid``: points per period of the polish's constraint grid (None: ``2·samples`` up to
+    ``SMALL_ROBOT`` joints, ``samples`` above — SLSQP's subproblem grows faster than its 6·nv·grid rows;
+    the design is scaled inside the limits at every instant afterwards whatever the grid).
+
     ``starts``, ``polish`` and ``stop_ratio`` left at None depend on the robot's size (:meth:`resolved`):
-    128, 2 and 1.25 up to ``SMALL_ROBOT`` (4) joints, 12, 1 and 0 above — on a 6- or 7-DOF arm one search
-    start costs 1–2 s and one polish 5–20 s here, and the search's ranking of a few starts says little
-    about the polished result, so every start runs to its end.
+    128, 2 and 1.25 up to ``SMALL_ROBOT`` (4) joints, 12, 2 and 0 above — on a 6- or 7-DOF arm one search
+    start costs 0.3–1.5 s and one polish 3–10 s here (the two polishes run on two cores at once), and the
+    search's ranking of a few starts says little about the polished result, so every start runs to its end.
     """
 
     starts: int | None = None
@@ -116,6 +120,7 @@ class MultistartOptions:
     stop_after: int = 3
     stop_ratio: float | None = None
     workers: int | None = None
+    polish_grid: int | None = None
 
     def resolved(self, nv: int) -> "MultistartOptions":
         """These options with ``starts``, ``polish`` and ``stop_ratio`` filled in for a robot of ``nv`` joints."""
@@ -123,7 +128,7 @@ class MultistartOptions:
         return replace(
             self,
             starts=(128 if small else 12) if self.starts is None else self.starts,
-            polish=(2 if small else 1) if self.polish is None else self.polish,
+            polish=2 if self.polish is None else self.polish,
             stop_ratio=(1.25 if small else 0.0) if self.stop_ratio is None else self.stop_ratio,
         )
 
@@ -265,6 +270,8 @@ def _design(model, spec, optimizer, options, seed, progress, x0) -> ExcitationRe
         opts = MultistartOptions(**options)
         option_numbers(opts, "slsqp")
         opts = opts.resolved(model.nv)
+        if opts.polish_grid is None:
+            opts = replace(opts, polish_grid=spec.samples * (2 if model.nv <= SMALL_ROBOT else 1))
         x, history, extra = _multistart(problem, opts, rng, progress, x0)
         used_options = asdict(opts)
     elif name in OPTIMIZERS:
@@ -411,7 +418,7 @@ def _multistart(
 
     ``history``: best criterion value (on the full problem's samples) after each polished candidate,
     preceded by phase 1's best values per start (on the search samples)."""
-    for key in ("starts", "screen", "polish", "maxiter", "polish_maxiter", "stop_after"):
+    for key in ("starts", "screen", "polish", "maxiter", "polish_maxiter", "stop_after", "polish_grid"):
         value = getattr(opts, key)
         if int(value) != value or value < 1:
             raise SpecError(f"slsqp: {key} {value!r}, expected a positive integer")
@@ -438,7 +445,10 @@ def _multistart(
     best, stopped = np.inf, 0
     n_workers = pool_size(opts.workers, min(len(starts), BATCH))
     tell = _Estimate(len(starts), opts.polish, n_workers, start_time, enabled=progress)
-    problems = {"search": search, "polish": problem}
+    polish = problem
+    if len(problem.check_times) != opts.polish_grid:
+        polish = DesignProblem(problem.model, spec, check_samples=int(opts.polish_grid), base=problem.base)
+    problems = {"search": search, "polish": polish}
     with (
         SearchWorkers(_local_search, problems, n_workers) as workers,
         progress_bar(len(starts) + opts.polish, "slsqp", enabled=progress) as bar,
@@ -490,8 +500,9 @@ def _multistart(
             "starts_run": len(found),
             "starts_stopped_early": stopped,
             "search_samples": ns,
-            "search_nfev": search.nfev,
-            "search_regressor_samples": search.regressor_samples,
+            "search_nfev": search.nfev + (polish.nfev if polish is not problem else 0),
+            "search_regressor_samples": search.regressor_samples
+            + (polish.regressor_samples if polish is not problem else 0),
             "polished_values": polished,
             "workers": max(n_workers, 1),
         },

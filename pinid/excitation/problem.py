@@ -33,6 +33,44 @@ from pinid.excitation.trajectory import FourierTrajectory
 from pinid.excitation.spec import ExcitationSpec
 from pinid.excitation.evaluation import clean_rest, sample_times
 
+#: the criterion comes from the eigenvalues of the Gram matrix W_bᵀW_b (a fifth of the SVD's cost) while
+#: cond(W_b) is below this: their relative round-off, about 1e-16·cond², is then below 1e-8; above it
+#: (candidates far from any design) from the SVD of W_b
+GRAM_COND = 1e4
+
+#: ... and the base regressor has at least this many columns: below, its SVD costs less than the regressor
+#: (0.1 ms for exo_leg's 400 × 10) and is kept, which leaves the small robots' designs as they were
+GRAM_COLUMNS = 20
+
+
+def _singular_values(Wb: np.ndarray) -> np.ndarray:
+    """Singular values, descending, of a batch of base regressors ``Wb (P, rows, nb)`` → ``(P, nb)``: the
+    square roots of the Gram matrices' eigenvalues, or the SVD where the condition number is above
+    :data:`GRAM_COND` or it has fewer than :data:`GRAM_COLUMNS` columns."""
+    if Wb.shape[-1] < GRAM_COLUMNS:
+        return np.linalg.svd(Wb, compute_uv=False)
+    lam = np.linalg.eigvalsh(np.swapaxes(Wb, 1, 2) @ Wb)[:, ::-1]
+    sv = np.sqrt(np.clip(lam, 0.0, None))
+    bad = ~(sv[:, -1] * GRAM_COND > sv[:, 0])
+    if bad.any():
+        sv[bad] = np.linalg.svd(Wb[bad], compute_uv=False)
+    return sv
+
+
+def _extreme_pairs(Wb: np.ndarray, sv: np.ndarray) -> list[tuple[np.ndarray, np.ndarray, float]]:
+    """``[(u, v, σ)]`` of the largest and the smallest singular value of ``Wb (rows, nb)`` (``sv``: its
+    singular values, descending): from the Gram matrix's eigenvectors (u = W_b v / σ) while the condition
+    number is below :data:`GRAM_COND` (and W_b has :data:`GRAM_COLUMNS` columns or more), otherwise from the SVD."""
+    if sv[-1] * GRAM_COND > sv[0] and Wb.shape[-1] >= GRAM_COLUMNS:
+        lam, V = np.linalg.eigh(Wb.T @ Wb)
+        out = []
+        for i in (-1, 0):
+            s = float(np.sqrt(lam[i]))
+            out.append((Wb @ V[:, i] / s, V[:, i], s))
+        return out
+    U, s, Vt = np.linalg.svd(Wb, full_matrices=False)
+    return [(U[:, 0], Vt[0], float(s[0])), (U[:, -1], Vt[-1], float(s[-1]))]
+
 
 class DesignProblem:
     """The design variables, their map to Fourier coefficients, limits as linear constraints, and the
@@ -227,7 +265,7 @@ class DesignProblem:
         X = np.atleast_2d(X)
         W, Wb = self._regressors(X)
         with np.errstate(divide="ignore", invalid="ignore"):
-            sv = np.linalg.svd(Wb, compute_uv=False)
+            sv = _singular_values(Wb)
             if self.spec.criterion == "cond":
                 values = np.where(sv[:, -1] > 0, sv[:, 0] / sv[:, -1], np.inf)
             else:
@@ -258,17 +296,22 @@ class DesignProblem:
         W0 = regressor(self.model, q, dq, ddq, self.spec.terms)
         self.regressor_samples += n
         self.nfev += 1
+        Wb, pairs = self.base.columns(W0), None
         try:
-            U, sv, Vt = np.linalg.svd(self.base.columns(W0), full_matrices=False)
+            if Wb.shape[1] < GRAM_COLUMNS:  # a small regressor: its SVD, vectors included, as it is cheap
+                U, sv, Vt = np.linalg.svd(Wb, full_matrices=False)
+                pairs = [(U[:, 0], Vt[0], sv[0]), (U[:, -1], Vt[-1], sv[-1])]
+            else:
+                sv = _singular_values(Wb[None])[0]
         except np.linalg.LinAlgError:
-            U, sv, Vt = None, np.zeros(1), None
+            sv = np.zeros(1)
         if not sv[-1] > 0:
             f = np.inf
         elif self.spec.criterion == "cond":
             f = float(np.log(sv[0] / sv[-1]))
         else:
             f = float(-2 * np.sum(np.log(sv)))
-        self._last = {"key": key, "q": q, "dq": dq, "ddq": ddq, "W0": W0, "U": U, "sv": sv, "Vt": Vt, "f": f}
+        self._last = {"key": key, "q": q, "dq": dq, "ddq": ddq, "W0": W0, "Wb": Wb, "sv": sv, "f": f, "pairs": pairs}
         return self._last
 
     def objective_and_gradient(self, x: np.ndarray, h: float = 1e-7, *, torque: bool = False):
@@ -286,7 +329,7 @@ class DesignProblem:
         at the same ``x`` as the last :meth:`objective` is not computed again."""
         st = self._value_state(x)
         n, nv = len(self.times), self.nv
-        q, dq, ddq, W0, U, sv, Vt, f = (st[k] for k in ("q", "dq", "ddq", "W0", "U", "sv", "Vt", "f"))
+        q, dq, ddq, W0, Wb, sv, f = (st[k] for k in ("q", "dq", "ddq", "W0", "Wb", "sv", "f"))
         tau = tau_jac = None
         if not np.isfinite(f):
             G = np.zeros((3 * nv, n))
@@ -299,14 +342,16 @@ class DesignProblem:
                 return out
 
             if self.spec.criterion == "cond":
+                (u_max, v_max, s_max), (u_min, v_min, s_min) = st["pairs"] or _extreme_pairs(Wb, sv)
                 G = self._contract(
                     q,
                     dq,
                     ddq,
-                    [full(Vt[0]), full(Vt[-1])],
-                    [U[:, 0].reshape(n, nv) / sv[0], -U[:, -1].reshape(n, nv) / sv[-1]],
+                    [full(v_max), full(v_min)],
+                    [u_max.reshape(n, nv) / s_max, -u_min.reshape(n, nv) / s_min],
                 )
             else:
+                U, sv, Vt = np.linalg.svd(Wb, full_matrices=False)
                 D = self._difference_derivatives(q, dq, ddq, h, W0)
                 pinv_t = np.zeros((n * nv, D.shape[-1]))
                 pinv_t[:, cols] = (U / sv) @ Vt  # (W_b⁺)ᵀ: d log det(W_bᵀW_b) = 2 <(W_b⁺)ᵀ, dW_b>
