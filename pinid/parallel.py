@@ -6,7 +6,7 @@ list of independent jobs that share one large input (the training problem).  :fu
 parallel study gives the same numbers as a serial one:
 
 * ``workers=1`` (and no scheduler): one after another in this process;
-* ``workers=N``: N local processes of the standard library's :mod:`multiprocessing` (``fork`` where the
+* ``workers=N``: N local processes of the standard library's :mod:`concurrent.futures` (``fork`` where the
   platform has it, so ``shared`` is not copied through a pipe); each runs with one BLAS thread;
 * ``scheduler="tcp://host:8786"`` (or a ``distributed.Client``): the jobs go to that Dask cluster
   (``pip install "pinid[dask]"``); ``shared`` is scattered to the workers once.
