@@ -186,3 +186,22 @@ def _alive(pid: int) -> bool:
         return False
     with open(f"/proc/{pid}/stat") as f:  # a zombie is dead
         return f.read().split()[2] != "Z"
+
+
+def _rows_of(s) -> int:
+    return s.problem.rows
+
+
+def test_a_job_beside_the_fits_comes_back_last_on_one_or_two_processes():
+    from pinid.identification.run import run_jobs, setup
+
+    truth = truth_model("exo_leg")
+    s = setup(truth, [twin(truth, seconds=4, rate=100, seed=1, noise=0.5)])
+    jobs = [("ols", None, {}), ("ridge", None, {})]
+    one = run_jobs(s, jobs, beside=_rows_of)
+    two = run_jobs(s, jobs, beside=_rows_of, workers=2)
+    assert one[-1] == two[-1] == s.problem.rows
+    assert [f.method for f in one[:-1]] == [f.method for f in two[:-1]] == ["ols", "ridge"]
+    assert np.array_equal(one[0].estimator.base_, two[0].estimator.base_)
+    with pytest.raises(SpecError, match="beside"):
+        run_jobs(s, jobs, beside="rows")

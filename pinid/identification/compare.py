@@ -79,6 +79,15 @@ def references(problem) -> dict:
     return {"sse": ls["sse"], "sae": training_costs(problem, x_lad)["sae"], "sae_ls": ls["sae"]}
 
 
+def _study_references(st) -> dict:
+    """A comparison's references (:func:`references`): of the problem, and of the segmental strategy's first
+    stage (the second stage's minimum depends on the first stage's values: per run, in ``run.info``)."""
+    out = {"main": references(st.problem)}
+    if st.segmental is not None:
+        out["first"] = references(st.segmental.first_problem)
+    return out
+
+
 # ============================================================================================ results
 @dataclass
 class Run:
@@ -562,18 +571,21 @@ def compare(
     names = problem.names
     truth_x = _truth_vector(truth, names, st)
     scale = natural_scale(problem)
-    reference = {"main": references(problem)}
-    if seg is not None:
-        # the second stage's minimum depends on the first stage's values: per run, in run.info
-        reference["first"] = references(seg.first_problem)
     val_W = {
         label: [(ds, base_regressor(model, terms, base, ds)) for ds in (check_dataset(d, model) for d in sets)]
         for label, sets in st.validation.items()
     }
     jobs = [(m, s, settings_for(m, s)) for m in methods for s in ([None] if ESTIMATORS[m].deterministic else seed_list)]
     runs: dict[str, list[Run]] = {m: [] for m in methods}
-    fits = run_jobs(
-        st, jobs, complete=complete, show_progress=show_progress, label="compare", workers=workers, scheduler=scheduler
+    *fits, reference = run_jobs(
+        st,
+        jobs,
+        complete=complete,
+        show_progress=show_progress,
+        label="compare",
+        workers=workers,
+        scheduler=scheduler,
+        beside=_study_references,
     )
     for fit in fits:
         runs[fit.method].append(_run_of(fit, problem, val_W, truth_x, scale, seg is not None))

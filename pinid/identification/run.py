@@ -17,6 +17,7 @@ import os
 import time
 from dataclasses import dataclass, field
 from collections.abc import Callable, Iterable, Mapping, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -393,25 +394,33 @@ def run_jobs(
     label: str = "methods",
     workers: int | None = 1,
     scheduler=None,
-) -> list[Fit]:
+    beside: Callable[[Setup], Any] | None = None,
+) -> list:
     """Fit every ``(method, seed, settings)`` job on the setup's problem (or its segmental stages), in the
-    jobs' order, on ``workers`` local processes or a Dask ``scheduler`` (:func:`pinid.parallel.run_parallel`)."""
+    jobs' order, on ``workers`` local processes or a Dask ``scheduler`` (:func:`pinid.parallel.run_parallel`).
+    ``beside(s)``: one more job, run first on a worker while the fits run (a study's references, so that
+    they do not wait alone); its value is the list's last item."""
     if not isinstance(s, Setup):
         raise SpecError(f"s: got {type(s).__name__}, expected the Setup of pinid.identification.run.setup")
+    if beside is not None and not callable(beside):
+        raise SpecError(f"beside: got {type(beside).__name__}, expected a function of the setup")
     items = [(method, seed, settings, complete) for method, seed, settings in jobs]
-    return run_parallel(
+    out = run_parallel(
         _fit_job,
         s,
-        items,
+        ([(None, beside)] if beside is not None else []) + items,
         workers=workers,
         scheduler=scheduler,
         show_progress=show_progress,
         label=label,
-        describe=lambda job: job[0] + ("" if job[1] is None else f" seed {job[1]}"),
+        describe=lambda job: "references" if job[0] is None else job[0] + ("" if job[1] is None else f" seed {job[1]}"),
     )
+    return out[1:] + out[:1] if beside is not None else out
 
 
-def _fit_job(s: Setup, job: tuple[str, int | None, dict, bool]) -> Fit:
+def _fit_job(s: Setup, job: tuple) -> Any:
+    if job[0] is None:  # run_jobs' beside
+        return job[1](s)
     method, seed, settings, complete = job
     if s.segmental is not None:
         est, target = Segmental(method, settings), s.segmental
