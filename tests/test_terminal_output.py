@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import numpy as np
+import pytest
+
+from pinid.errors import SpecError
 from pinid.report.text import text_table
 
 
@@ -155,3 +159,19 @@ def test_demo_summary_continuation_is_aligned():
         starts = {len(line) - len(line.lstrip()) if line.startswith("   ") else _starts(line)[1] for line in lines}
         assert len(starts) == 1, summary_text(out)
         assert any(line.startswith(" " * 10) for line in lines)  # the continuation line is there
+
+
+def test_the_tracking_table_says_what_its_statistics_cover():
+    from pinid.control.controllers import TrackingResult
+    from pinid.control.tracking import tracking_table
+
+    t = np.linspace(0.0, 4.0, 401)
+    q_d = np.c_[0.5 * np.cos(t)]
+    run = TrackingResult(t=t, q_d=q_d, q=q_d + 0.05 * (t < 1.0)[:, None], dq=0 * q_d, tau=0 * q_d, joints=["hip"])
+    table = {"backstepping": {"nominal": {"metrics": run.metrics(after=1.5)}}}
+    text = tracking_table(table, after=1.5)
+    assert "over t ≥ 1.5 s (--after" in text and "at least 1 mrad" in text
+    assert max(len(line) for line in text.splitlines()) <= 100
+    assert tracking_table(table) == text.split("\nRMS, max")[0]
+    with pytest.raises(SpecError, match="after"):
+        tracking_table(table, after="1.5")

@@ -111,7 +111,7 @@ def run(args: argparse.Namespace) -> int:
         seed=args.seed,
         wearer=wearer_links(plant.urdf_text) if plant.urdf_text else None,
     )
-    print(tracking_table(table))
+    print(tracking_table(table, after=args.after))
     if args.output is not None:
         settings = {"reference": args.reference, "seconds": args.seconds, "after": args.after, "seed": args.seed}
         print(wrote_line(write_tracking(table, args.output, plant=plant, settings=settings), Path(args.output)))

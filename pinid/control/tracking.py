@@ -38,11 +38,14 @@ def load_reference(spec: str, plant: RobotModel) -> FourierTrajectory:
     return reference.for_joints(plant.joint_names, plant.name)
 
 
-def tracking_table(table: dict) -> str:
+def tracking_table(table: dict, *, after: float | None = None) -> str:
     """The tracking errors as a text table: per controller, model (a file's name) and joint, the RMS and
-    maximum error [mrad] after the start-up, the settling time [s] and the band [mrad] it settles into."""
+    maximum error [mrad] after the start-up, the settling time [s] and the band [mrad] it settles into;
+    with ``after`` [s] (where the statistics start), a line below saying what each column covers."""
     if not isinstance(table, dict):
         raise SpecError(f"table: got {type(table).__name__}, expected the tracking table (a dict)")
+    if after is not None and (isinstance(after, bool) or not isinstance(after, (int, float)) or not after >= 0):
+        raise SpecError(f"after: got {after!r}, expected the start of the statistics in seconds (≥ 0)")
     rows = []
     for c, per_model in table.items():
         for name, entry in per_model.items():
@@ -52,7 +55,14 @@ def tracking_table(table: dict) -> str:
                 band = f"{1e3 * m['band']:.3g}" if "band" in m else "-"
                 rows.append([c, label, joint, f"{1e3 * m['rms']:.3f}", f"{1e3 * m['max_abs']:.3f}", settle, band])
     header = ["controller", "model", "joint", "RMS [mrad]", "max [mrad]", "settle [s]", "band [mrad]"]
-    return text_table(header, rows, keys=3)
+    text = text_table(header, rows, keys=3)
+    if after is None:
+        return text
+    return (
+        f"{text}\nRMS, max: over t ≥ {after:g} s (--after; the start-up before it, shaded in the figures, is left out)"
+        "\nsettle: from t = 0, the time after which |error| stays inside the band; band: 2 % of the joint's"
+        "\nreference range, at least 1 mrad (dotted in the figures)"
+    )
 
 
 def tracking_paths(folder: str | os.PathLike, controllers) -> list[Path]:
@@ -70,7 +80,10 @@ def write_tracking(
     all or nothing.  ``overwrite``: replace existing files (None: the :data:`pinid.io.OVERWRITE` policy)."""
     if not isinstance(table, dict):
         raise SpecError(f"table: got {type(table).__name__}, expected the tracking table (a dict)")
+    if not isinstance(settings, dict):
+        raise SpecError(f"settings: got {type(settings).__name__}, expected a dict (reference, seconds, after, seed)")
     out = Path(folder)
+    after = float(settings.get("after", 0.0))
     arts = Artefacts(overwrite=overwrite)
     arts.add(
         out / "tracking.json",
@@ -83,7 +96,8 @@ def write_tracking(
         ),
     )
     recipes = {
-        c: (tracking_figure, ({n: e["result"] for n, e in pm.items()},), {"title": c}) for c, pm in table.items()
+        c: (tracking_figure, ({n: e["result"] for n, e in pm.items()},), {"title": c, "after": after})
+        for c, pm in table.items()
     }
     for c, png in render_pngs(recipes).items():  # one figure per core (pinid.report.figures)
         arts.add(out / f"tracking_{c}.png", png)
