@@ -69,3 +69,17 @@ def test_identify_without_validation_says_so_in_one_line(recording, tmp_path):
         code = main(["identify", "--data", str(recording), "--methods", "ols", "--no-report", "-o", str(tmp_path)])
     assert code == 0
     assert f"pinid identify: warning: {UNVALIDATED}\n" in err.getvalue(), err.getvalue()
+
+
+def test_compare_warns_of_a_flipped_torque_sign_as_identify_does():
+    from pinid.identification.compare import compare
+
+    model = load("exo_leg")
+    t = np.arange(0, 8, 0.01)
+    q = _fourier(t)
+    dq, ddq = np.gradient(q, t, axis=0), np.gradient(np.gradient(q, t, axis=0), t, axis=0)
+    tau = model.rnea(q, dq, ddq)
+    tau[:, 0] *= -1
+    flipped = Dataset(t, q, ["hip", "knee"], dq, ddq, tau, source="flipped.csv")
+    with pytest.warns(DataWarning, match=r"check the sign of tau_hip"):
+        compare(model, [flipped], methods=["ols"], seeds=1, preprocess=False)

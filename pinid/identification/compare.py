@@ -43,7 +43,16 @@ from pinid.estimators.metaheuristic import (
 )
 from pinid.identification.metrics import joint_units, torque_metrics
 from pinid.problem.problem import base_regressor, check_dataset, predict_torque, recorded_torque
-from pinid.identification.run import Fit, as_model, check_options, parse_methods, run_jobs, setup, use_manifest
+from pinid.identification.run import (
+    Fit,
+    as_model,
+    check_options,
+    check_recordings,
+    parse_methods,
+    run_jobs,
+    setup,
+    use_manifest,
+)
 from pinid.identification.truth import true_base
 from pinid.io import jsonable, read_json, write_json
 from pinid.model.regressor import TermSelection
@@ -568,6 +577,7 @@ def compare(
         delay=delay,
     )
     model, problem, seg, base = st.model, st.problem, st.segmental, st.base  # the model with fitted shapes
+    check_recordings(st)  # as identify: a flipped torque sign, a validation recording that repeats training
     names = problem.names
     truth_x = _truth_vector(truth, names, st)
     scale = natural_scale(problem)

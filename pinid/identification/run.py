@@ -538,7 +538,7 @@ def identify(
     model = s.model  # with the fitted Stribeck shapes (auto): built once, used from here on
     terms = s.terms if auto_terms else terms
     x_true = None if truth is None else true_base(truth, model, s.terms, s.base)  # checked before the fits
-    _check_recordings(s)
+    check_recordings(s)
     if started is not None:
         started()
     fits = run_jobs(s, [(m, None, options.get(m, {})) for m in methods], complete=complete, show_progress=show_progress)
@@ -614,15 +614,21 @@ def identify(
     )
 
 
-def _check_recordings(s: Setup, samples: int = 5000) -> None:
-    """The one-line warnings of :mod:`pinid.identification.plausibility`: a validation recording that repeats
-    a training trajectory; a torque channel whose sign is flipped against the URDF's torque (rigid bodies and
-    the URDF's friction, on at most ``samples`` samples of the training recordings)."""
+def check_recordings(s: Setup, samples: int = 5000) -> None:
+    """The one-line warnings of :mod:`pinid.identification.plausibility` (``identify`` and ``compare``): a
+    validation recording that repeats a training trajectory; a torque channel whose sign is flipped against
+    the URDF's torque (rigid bodies and the URDF's friction, on at most ``samples`` samples of the training
+    recordings)."""
+    if not isinstance(s, Setup):
+        raise SpecError(f"s: got {type(s).__name__}, expected the Setup of pinid.identification.run.setup")
+    if isinstance(samples, bool) or not isinstance(samples, int) or samples < 1:
+        raise SpecError(f"samples: got {samples!r}, expected a whole number ≥ 1")
     from pinid.identification.plausibility import flipped_torque_signs, shared_excitation
 
     model = s.model
     train = [check_dataset(ds, model) for ds in s.train]
-    shared_excitation(train, [check_dataset(ds, model) for ds in s.validation.get("validation", [])])
+    held_out = [check_dataset(ds, model) for sets in s.validation.values() for ds in sets]
+    shared_excitation(train, held_out)
     step = max(1, sum(ds.n for ds in train) // samples)
     q, dq, ddq, tau = (np.concatenate([getattr(ds, k)[::step] for ds in train]) for k in ("q", "dq", "ddq", "tau"))
     nominal = model.rnea(q, dq, ddq) + model.coulomb * np.sign(dq) + model.viscous * dq
