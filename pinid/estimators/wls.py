@@ -43,13 +43,22 @@ class WLS(Estimator):
         x = solve_r(R, c, scale)
         history = []
         sigma = None
+        blocked = getattr(problem, "blocked", False)  # then W is never built whole (issue 35)
+        if blocked:
+            problem.as_whole = True  # its sums as over the whole W, which wls built before issue 35
         for _ in range(int(self.iterations)):
-            r = problem.tau - problem.W @ x
+            r = problem.residual(x) if blocked else problem.tau - problem.W @ x
             w, sigma = joint_weights(problem, r)
-            w = w * problem.weights
-            x_new = weighted_lstsq(problem.W, problem.tau, w)
-            r_new = problem.tau - problem.W @ x_new
-            history.append(float(np.sum(w * r_new**2)))
+            del r
+            np.multiply(w, problem.weights, out=w)
+            if blocked:
+                x_new = solve_r(*_compressed_weighted(problem, w))
+            else:
+                x_new = weighted_lstsq(problem.W, problem.tau, w)
+            e = problem.residual(x_new) if blocked else problem.tau - problem.W @ x_new
+            np.square(e, out=e)
+            history.append(float(np.sum(np.multiply(w, e, out=e))))  # Σ w·r², in one array of rows
+            del e
             change = np.linalg.norm(x_new - x) / max(np.linalg.norm(x_new), 1e-300)
             x = x_new
             if change < self.tol:
@@ -61,3 +70,9 @@ class WLS(Estimator):
         self.status_ = "ok"
         self.info_ = {"joint_sigma": {n: float(s) for n, s in zip(problem.model.joint_names, sigma)}}
         return self
+
+
+def _compressed_weighted(problem: Problem, w: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(R, c, scale)`` of the weighted problem, without the tall ``W`` (the problem's blocks)."""
+    R, c, _, scale = problem.weighted_compressed(w)
+    return R, c, scale

@@ -534,9 +534,12 @@ def identify(
         started()
     fits = run_jobs(s, [(m, None, options.get(m, {})) for m in methods], complete=complete, show_progress=show_progress)
     results = {f.method: f.result for f in fits}
+    del fits  # the estimators (wls: its row weights)
     if x_true is not None:
         for r in results.values():
             r.truth_error = truth_error(r.base, x_true, s.problem.natural_scale, s.base.names)
+    summary, nominal = s.problem.summary(), s.base.shown(s.problem.nominal).tolist()
+    s.problem = s.segmental = None  # its rows (torques, joints) let go before the predictions below
     values = {m: r.base for m, r in results.items()}
     val_sets, floor = s.validation.get("validation", []), None
     if val_sets:
@@ -576,7 +579,6 @@ def identify(
     if s.train:  # the training motion, drawn as the report's "excitation" figure
         ds = s.train[0]
         curves["motion"] = {"source": ds.source, "t": ds.t, "q": ds.q, "dq": ds.dq}
-    summary = s.problem.summary()
     if gains is not None:
         summary["drive_gains"] = gains.summary()
     if s.stribeck:
@@ -596,7 +598,7 @@ def identify(
         base={
             "names": s.base.names,
             "expressions": s.base.expressions(),
-            "nominal": s.base.shown(s.problem.nominal).tolist(),
+            "nominal": nominal,
         },
         validation_sources=[ds.source for ds in val_sets],
         seconds=time.perf_counter() - t_start,
