@@ -23,8 +23,8 @@ from pinid.identification.run import identify
 from pinid.model.regressor import TermSelection, regressor, standard_parameters
 
 SAMPLES = (10_000, 40_000)
-#: Bytes per sample allowed (measured 2026-11-27: 122, about what the data path holds at its peak:
-#: the recording 72, its kept torques, joints and rows 20, two or three arrays of rows 32-48; before issue 35: 622).
+#: Bytes per sample allowed (measured 2026-11-27: 57; what the data path holds at its peak, about 110 B:
+#: the recording 72, its kept torques, joints and rows 20, two arrays of rows 32; before issue 35: 622).
 BOUND = 200
 
 

@@ -65,11 +65,33 @@ class WLS(Estimator):
                 break
         self.base_ = x
         self.standard_ = None
-        self.weights_ = w
+        del w  # weights_ forms it again when read (below): a fitted WLS holds no array of rows
+        self.__dict__["_weight_rows_"] = (problem.joint, problem.weights, sigma)
         self.history_ = history
         self.status_ = "ok"
         self.info_ = {"joint_sigma": {n: float(s) for n, s in zip(problem.model.joint_names, sigma)}}
         return self
+
+
+def _weights(self: WLS) -> np.ndarray | None:
+    rows = self.__dict__.get("_weight_rows_")
+    if rows is None:
+        return self.__dict__.get("_given_weights_")
+    joint, weights, sigma = rows
+    w = (1.0 / sigma**2)[joint]
+    return np.multiply(w, weights, out=w)  # the fit's weights, the same operations
+
+
+def _set_weights(self: WLS, value: np.ndarray | None) -> None:
+    self.__dict__["_given_weights_"], self.__dict__["_weight_rows_"] = value, None
+
+
+WLS.weights_ = property(
+    _weights,
+    _set_weights,
+    doc="(rows,) the row weights of the fit: 1/σ_j² of each row's joint times ``problem.weights``, formed when "
+    "read from σ (issue 35: not held, 8 bytes per row).",
+)
 
 
 def _compressed_weighted(problem: Problem, w: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

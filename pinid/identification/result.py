@@ -414,7 +414,6 @@ def make_result(
             source = "least-norm completion"
     report = check_consistency(theta, problem.model.joint_names, problem.terms.names, problem.model.motor_names)
     consistent = report.consistent and "standard_base_mismatch" not in info
-    w = getattr(estimator, "weights_", None)
     # block by block: the tall regressor need not exist whole; one array of rows (the residual) unless the
     # torque as recorded differs from the fitted one (then the prediction is kept for its errors too)
     recorded = getattr(problem, "recorded_tau", None)
@@ -423,7 +422,9 @@ def make_result(
         residual = problem.residual(base)
     else:
         residual = problem.tau - (problem.predict(base) if predicted is None else predicted)
+    w = getattr(estimator, "weights_", None)  # wls: formed when read, let go before the metrics
     std, cond, cond_scaled = base_statistics(problem, base, w, residual=residual)
+    del w
     if not getattr(estimator, "calibrated_std", True):
         std = np.full_like(std, np.nan)  # no calibrated σ: none printed rather than a wrong one
     elif getattr(estimator, "consistent_by_construction", False):

@@ -282,12 +282,15 @@ def _is_auto(value) -> bool:
 
 
 def bytes_per_sample(model: RobotModel, terms: TermSelection) -> float:
-    """About how much memory ``identify`` needs per training sample [bytes]: the tall regressor of the
-    base parameters (8·nv·nb, built whole by wls and the metaheuristics) and about six copies of the
-    recording's columns (8·(1 + 4·nv): read, reordered, filtered, differentiated).  Measured: exo_leg,
-    ols,wls,sdp, 542 B per sample (estimate 592); docs/benchmarks.md "Memory"."""
-    nb = base_parameters(model, terms).count
-    return 8.0 * (model.nv * nb + 6 * (1 + 4 * model.nv))
+    """About how much memory ``identify`` needs per training sample [bytes] with the default methods: the
+    recording (8·(1 + 4·nv): t, q, dq, ddq, tau), its kept torque rows, their joints and which are kept
+    (10·nv) and the arrays of rows of the moment (24·nv: a residual with the metrics' scratch or wls's
+    weights, and the heap around them); the regressor itself is built in blocks (issue 35).  Measured on
+    exo_leg, ols,wls,sdp: 101 B per sample between 100 000 and 1 000 000 samples, 132 B above the imports at
+    10 000 000 (estimate 140).  rls, the metaheuristics, the segmental strategy, the Stribeck search and drive
+    gains build the tall regressor whole (8·nv·nb more, ``terms`` sets nb).  docs/benchmarks.md "Memory"."""
+    as_terms(terms)
+    return 8.0 * (1 + 4 * model.nv) + 34.0 * model.nv
 
 
 def warn_if_large_recordings(model: RobotModel, terms: TermSelection, datasets: Sequence[Dataset]) -> bool:
