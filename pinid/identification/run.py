@@ -286,7 +286,7 @@ def bytes_per_sample(model: RobotModel, terms: TermSelection) -> float:
     recording (8·(1 + 4·nv): t, q, dq, ddq, tau), its kept torque rows, their joints and which are kept
     (10·nv) and the arrays of rows of the moment (24·nv: a residual with the metrics' scratch or wls's
     weights, and the heap around them); the regressor itself is built in blocks (issue 35).  Measured on
-    exo_leg, ols,wls,sdp: 101 B per sample between 100 000 and 1 000 000 samples, 132 B above the imports at
+    exo_leg, ols,wls,sdp: 103 B per sample between 100 000 and 1 000 000 samples, 132 B above the imports at
     10 000 000 (estimate 140).  rls, the metaheuristics, the segmental strategy, the Stribeck search and drive
     gains build the tall regressor whole (8·nv·nb more, ``terms`` sets nb).  docs/benchmarks.md "Memory"."""
     as_terms(terms)
