@@ -38,6 +38,37 @@ def row_blocks(
     )
 
 
+def regrouped_blocks(
+    blocks: Iterable[np.ndarray], tau: np.ndarray, weights: np.ndarray | None = None, rows: int | None = None
+) -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray | None]]:
+    """:func:`row_blocks` of the matrix whose consecutive row blocks are ``blocks`` (e.g. a tall regressor
+    built block by block), without that matrix: each block of ``rows`` rows is copied into one reused buffer
+    (valid until the next block is asked for), so sums over them are those over the whole matrix's blocks;
+    ``rows`` default :data:`GRAM_BLOCK_ROWS`."""
+    array_like(tau, "tau")  # checked when called, not when first iterated
+    if not isinstance(blocks, Iterable):
+        raise DataError(f"blocks: got {type(blocks).__name__}, expected row blocks of a matrix")
+    return _regrouped(blocks, tau, weights, GRAM_BLOCK_ROWS if rows is None else count(rows, "rows"))
+
+
+def _regrouped(blocks, tau, weights, rows):
+    buf, fill, start = None, 0, 0
+    for Wk in blocks:
+        at = 0
+        while at < len(Wk):
+            if buf is None:
+                buf = np.empty((min(rows, len(tau)), Wk.shape[1]))
+            take = min(rows - fill, len(Wk) - at)
+            buf[fill : fill + take] = Wk[at : at + take]
+            fill, at = fill + take, at + take
+            if fill == rows:
+                yield buf, tau[start : start + rows], None if weights is None else weights[start : start + rows]
+                fill, start = 0, start + rows
+    if fill:
+        stop = start + fill
+        yield buf[:fill], tau[start:stop], None if weights is None else weights[start:stop]
+
+
 def gram_sums(
     blocks: Iterable[tuple[np.ndarray, np.ndarray, np.ndarray | None]], nb: int
 ) -> tuple[np.ndarray, np.ndarray, float]:

@@ -93,15 +93,19 @@ class Dataset:
         )
 
     def reorder(self, joints: list[str]) -> "Dataset":
-        """The same data with columns in the order of ``joints`` (a model's joint names)."""
+        """The same data with columns in the order of ``joints`` (a model's joint names); the arrays are
+        shared (not copied) when the columns are already in that order."""
         missing = [j for j in joints if j not in self.joints]
         if missing:
             raise DataError(f"{self.source}: no data for joint(s) {missing}; the recording has {self.joints}")
         idx = [self.joints.index(j) for j in joints]
-        pick = lambda a: None if a is None else a[:, idx]
+        if idx == list(range(self.nv)):  # already in that order: the same arrays, no copy of the recording
+            pick = lambda a: a
+        else:
+            pick = lambda a: None if a is None else a[:, idx]
         return replace(
             self,
-            q=self.q[:, idx],
+            q=pick(self.q),
             dq=pick(self.dq),
             ddq=pick(self.ddq),
             tau=pick(self.tau),

@@ -302,6 +302,8 @@ class MappingSpec:
                 joint_vals = motor @ tr.matrix if qty == "tau" else np.linalg.solve(tr.matrix, motor.T).T
                 for i, j in enumerate(tr.joints):
                     signals.setdefault(j, {})[qty] = joint_vals[:, i]
+        values.clear()  # the columns live on in ``signals`` only: each is let go once stacked (below)
+        main_tab.data = {}
         joint_names = self.joint_names
         for j in joint_names:
             if "q" not in signals.get(j, {}):
@@ -315,7 +317,8 @@ class MappingSpec:
                     f"{self.origin}: {qty} given for joints {have} but not for {missing}; "
                     f"expected {qty} for every joint or for none"
                 )
-            arrays[qty] = np.column_stack([signals[j][qty] for j in joint_names]) if have else None
+            # one (N, nv) array per quantity; its columns let go as soon as it is stacked (one copy of the recording)
+            arrays[qty] = np.column_stack([signals[j].pop(qty) for j in joint_names]) if have else None
         idx = np.flatnonzero(keep)
         if idx.size < n:
             warnings.warn(

@@ -94,7 +94,7 @@ def _read_npz(file: Path, src: SourceSpec, wanted, origin: str) -> Table:
                     f"{file}: array '{col}' has shape {a.shape}, expected one value per sample "
                     "(1-D); for a 2-D array give index = ... in the mapping spec"
                 )
-            tab.data[(col, index)] = a.astype(float)
+            tab.data[(col, index)] = a.astype(float, copy=False)  # float64 arrays as read: no copy
             lengths[f"{col}" + ("" if index is None else f"[:, {index}]")] = len(a)
     if len(set(lengths.values())) > 1:
         parts = ", ".join(f"'{k}' {v}" for k, v in lengths.items())

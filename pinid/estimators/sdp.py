@@ -99,9 +99,15 @@ class SDP(Estimator):
         if self.weighting == "joint":
             R0, c0, _, s0 = problem.compressed()
             x = solve_r(R0, c0, s0)
-            jw, _ = joint_weights(problem, problem.tau - problem.W @ x)
+            blocked = getattr(problem, "blocked", False)  # then W is never built whole (issue 35)
+            if blocked:
+                problem.as_whole = True  # its sums as over the whole W, which it built before issue 35
+            jw, _ = joint_weights(problem, problem.residual(x) if blocked else problem.tau - problem.W @ x)
             w = w * jw
-            R, c, rho, colscale = augmented_r(problem.W, problem.tau, w)
+            if blocked:
+                R, c, rho, colscale = problem.weighted_compressed(w)
+            else:
+                R, c, rho, colscale = augmented_r(problem.W, problem.tau, w)
         else:
             R, c, rho, colscale = problem.compressed()
         norm_y = float(np.sqrt(c @ c + rho * rho)) or 1.0

@@ -43,21 +43,58 @@ class WLS(Estimator):
         x = solve_r(R, c, scale)
         history = []
         sigma = None
+        blocked = getattr(problem, "blocked", False)  # then W is never built whole (issue 35)
+        if blocked:
+            problem.as_whole = True  # its sums as over the whole W, which wls built before issue 35
         for _ in range(int(self.iterations)):
-            r = problem.tau - problem.W @ x
+            r = problem.residual(x) if blocked else problem.tau - problem.W @ x
             w, sigma = joint_weights(problem, r)
-            w = w * problem.weights
-            x_new = weighted_lstsq(problem.W, problem.tau, w)
-            r_new = problem.tau - problem.W @ x_new
-            history.append(float(np.sum(w * r_new**2)))
+            del r
+            np.multiply(w, problem.weights, out=w)
+            if blocked:
+                x_new = solve_r(*_compressed_weighted(problem, w))
+            else:
+                x_new = weighted_lstsq(problem.W, problem.tau, w)
+            e = problem.residual(x_new) if blocked else problem.tau - problem.W @ x_new
+            np.square(e, out=e)
+            history.append(float(np.sum(np.multiply(w, e, out=e))))  # Σ w·r², in one array of rows
+            del e
             change = np.linalg.norm(x_new - x) / max(np.linalg.norm(x_new), 1e-300)
             x = x_new
             if change < self.tol:
                 break
         self.base_ = x
         self.standard_ = None
-        self.weights_ = w
+        del w  # weights_ forms it again when read (below): a fitted WLS holds no array of rows
+        self.__dict__["_weight_rows_"] = (problem.joint, problem.weights, sigma)
         self.history_ = history
         self.status_ = "ok"
         self.info_ = {"joint_sigma": {n: float(s) for n, s in zip(problem.model.joint_names, sigma)}}
         return self
+
+
+def _weights(self: WLS) -> np.ndarray | None:
+    rows = self.__dict__.get("_weight_rows_")
+    if rows is None:
+        return self.__dict__.get("_given_weights_")
+    joint, weights, sigma = rows
+    w = (1.0 / sigma**2)[joint]
+    return np.multiply(w, weights, out=w)  # the fit's weights, the same operations
+
+
+def _set_weights(self: WLS, value: np.ndarray | None) -> None:
+    self.__dict__["_given_weights_"], self.__dict__["_weight_rows_"] = value, None
+
+
+WLS.weights_ = property(
+    _weights,
+    _set_weights,
+    doc="(rows,) the row weights of the fit: 1/σ_j² of each row's joint times ``problem.weights``, formed when "
+    "read from σ (issue 35: not held, 8 bytes per row).",
+)
+
+
+def _compressed_weighted(problem: Problem, w: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(R, c, scale)`` of the weighted problem, without the tall ``W`` (the problem's blocks)."""
+    R, c, _, scale = problem.weighted_compressed(w)
+    return R, c, scale

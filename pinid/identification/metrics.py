@@ -49,6 +49,40 @@ def _stats(measured: np.ndarray, error: np.ndarray) -> dict:
     }
 
 
+def _stats_in(measured: np.ndarray, error: np.ndarray, buf: np.ndarray) -> dict:
+    """:func:`_stats` — the same numbers, operation for operation — with ``error`` overwritten and ``buf``
+    (which may be ``measured`` itself, then overwritten too) as the only scratch array (issue 35)."""
+    if error.size == 0:
+        return {k: float("nan") for k in METRIC_NAMES}
+    ref = float(np.sqrt(np.mean(np.square(measured, out=buf))))
+    rms = float(np.sqrt(np.mean(np.square(error, out=buf))))
+    a = np.abs(error, out=buf)
+    mean_abs, max_abs = float(a.mean()), float(a.max())
+    std_abs = _std(a, scratch=error)
+    p5, p95 = np.percentile(a, [5.0, 95.0], overwrite_input=True)  # the same order statistics, in place
+    return {
+        "rms": rms,
+        "rel_rms_percent": 100.0 * rms / ref if ref > 0 else float("nan"),
+        "mean_abs": mean_abs,
+        "std_abs": std_abs,
+        "max_abs": max_abs,
+        "p5_abs": float(p5),
+        "p95_abs": float(p95),
+    }
+
+
+def _std(a: np.ndarray, scratch: np.ndarray) -> float:
+    """``a.std()`` of a 1-D float array, numpy's own steps (``numpy._core._methods._var``), the deviations
+    in ``scratch`` instead of a new array."""
+    n = a.size
+    mean = np.add.reduce(a, keepdims=True)
+    np.true_divide(mean, n, out=mean)
+    x = np.subtract(a, mean, out=scratch)
+    np.square(x, out=x)
+    var = np.add.reduce(x)
+    return float(np.sqrt(var.dtype.type(var / n)))
+
+
 @dataclass
 class TorqueMetrics:
     """Metrics per joint (``per_joint[name][metric]``) and pooled (``all[metric]``), over ``samples`` rows."""
@@ -155,6 +189,49 @@ def torque_metrics(
             es = [m - p for (m, p), uu in zip(cols, units) if uu == u]
             per_unit[u] = _stats(np.concatenate(ms), np.concatenate(es))
     return TorqueMetrics(per_joint, pooled, int(samples), dict(zip(joints, units)), per_unit)
+
+
+def error_metrics(
+    measured: np.ndarray,
+    error: np.ndarray,
+    joints: list[str],
+    joint_index: np.ndarray | None = None,
+    units: list[str] | None = None,
+) -> TorqueMetrics:
+    """:func:`torque_metrics` from the error ``measured − predicted`` [N·m] itself — the same numbers — with
+    ``error`` used as scratch space (**overwritten**): at most one more array of its size, for long
+    recordings (issue 35).  Arguments as :func:`torque_metrics`, ``error`` in place of ``predicted``."""
+    array_like(measured, "measured")
+    array_like(error, "error")
+    measured = np.asarray(measured, dtype=float)
+    error = np.asarray(error, dtype=float)
+    if measured.shape != error.shape:
+        raise ValueError(f"measured {measured.shape} and error {error.shape} torques differ in shape")
+    if joint_index is None:
+        if measured.ndim != 2 or measured.shape[1] != len(joints):
+            raise ValueError(f"torques of shape {measured.shape}, expected (N, {len(joints)})")
+        pick = lambda a, j: a[:, j].copy()  # noqa: E731
+    else:
+        joint_index = np.asarray(joint_index)
+        pick = lambda a, j: a[joint_index == j]  # noqa: E731
+    per_joint = {}
+    for j, name in enumerate(joints):
+        m = pick(measured, j)
+        per_joint[name] = _stats_in(m, pick(error, j), m)
+    units = ["N·m"] * len(joints) if units is None else list(units)
+    kinds = list(dict.fromkeys(units))
+    if len(kinds) == 1:
+        flat = error.reshape(-1)
+        pooled = _stats_in(measured.reshape(-1), flat, np.empty_like(flat))
+        per_unit = {kinds[0]: pooled}
+    else:  # as torque_metrics: each unit's joints one after the other
+        pooled = {k: float("nan") for k in METRIC_NAMES}
+        per_unit = {}
+        for u in kinds:
+            js = [j for j, uu in enumerate(units) if uu == u]
+            m = np.concatenate([pick(measured, j) for j in js])
+            per_unit[u] = _stats_in(m, np.concatenate([pick(error, j) for j in js]), m)
+    return TorqueMetrics(per_joint, pooled, int(measured.shape[0]), dict(zip(joints, units)), per_unit)
 
 
 def joint_units(model) -> list[str]:

@@ -13,7 +13,7 @@ import numpy as np
 
 from pinid.errors import PinidError, SpecError
 from pinid.identification.identified import IdentifiedModel
-from pinid.identification.metrics import TorqueMetrics, joint_units, torque_metrics
+from pinid.identification.metrics import TorqueMetrics, error_metrics, joint_units, torque_metrics
 from pinid.identification.uncertainty import uncertainty_warning
 from pinid.problem.problem import IdentificationProblem, base_statistics, least_norm_completion
 from pinid.io import display_path, jsonable, read_json, write_json
@@ -414,17 +414,25 @@ def make_result(
             source = "least-norm completion"
     report = check_consistency(theta, problem.model.joint_names, problem.terms.names, problem.model.motor_names)
     consistent = report.consistent and "standard_base_mismatch" not in info
-    w = getattr(estimator, "weights_", None)
-    predicted = problem.predict(base)  # block by block: the tall regressor need not exist whole
-    std, cond, cond_scaled = base_statistics(problem, base, w, residual=problem.tau - predicted)
+    # block by block: the tall regressor need not exist whole; one array of rows (the residual) unless the
+    # torque as recorded differs from the fitted one (then the prediction is kept for its errors too)
+    recorded = getattr(problem, "recorded_tau", None)
+    predicted = problem.predict(base) if recorded is not None else None
+    if predicted is None and hasattr(problem, "residual"):
+        residual = problem.residual(base)
+    else:
+        residual = problem.tau - (problem.predict(base) if predicted is None else predicted)
+    w = getattr(estimator, "weights_", None)  # wls: formed when read, let go before the metrics
+    std, cond, cond_scaled = base_statistics(problem, base, w, residual=residual)
+    del w
     if not getattr(estimator, "calibrated_std", True):
         std = np.full_like(std, np.nan)  # no calibrated σ: none printed rather than a wrong one
     elif getattr(estimator, "consistent_by_construction", False):
         std = np.where(np.abs(base) <= BOUND_FRACTION * problem.natural_scale, np.nan, std)  # on a bound
     info["condition_number_scaled"] = cond_scaled
     joints, units = problem.model.joint_names, joint_units(problem.model)
-    filtered = torque_metrics(problem.tau, predicted, joints, problem.joint, units)
-    recorded = getattr(problem, "recorded_tau", None)
+    filtered = error_metrics(problem.tau, residual, joints, problem.joint, units)  # overwrites the residual
+    del residual
     train = filtered if recorded is None else torque_metrics(recorded, predicted, joints, problem.joint, units)
     return IdentificationResult(
         method=estimator.name,

@@ -283,12 +283,15 @@ def _is_auto(value) -> bool:
 
 
 def bytes_per_sample(model: RobotModel, terms: TermSelection) -> float:
-    """About how much memory ``identify`` needs per training sample [bytes]: the tall regressor of the
-    base parameters (8·nv·nb, built whole by wls and the metaheuristics) and about six copies of the
-    recording's columns (8·(1 + 4·nv): read, reordered, filtered, differentiated).  Measured: exo_leg,
-    ols,wls,sdp, 542 B per sample (estimate 592); docs/benchmarks.md "Memory"."""
-    nb = base_parameters(model, terms).count
-    return 8.0 * (model.nv * nb + 6 * (1 + 4 * model.nv))
+    """About how much memory ``identify`` needs per training sample [bytes] with the default methods: the
+    recording (8·(1 + 4·nv): t, q, dq, ddq, tau), its kept torque rows, their joints and which are kept
+    (10·nv) and the arrays of rows of the moment (24·nv: a residual with the metrics' scratch or wls's
+    weights, and the heap around them); the regressor itself is built in blocks (issue 35).  Measured on
+    exo_leg, ols,wls,sdp: 103 B per sample between 100 000 and 1 000 000 samples, 132 B above the imports at
+    10 000 000 (estimate 140).  rls, the metaheuristics, the segmental strategy, the Stribeck search and drive
+    gains build the tall regressor whole (8·nv·nb more, ``terms`` sets nb).  docs/benchmarks.md "Memory"."""
+    as_terms(terms)
+    return 8.0 * (1 + 4 * model.nv) + 34.0 * model.nv
 
 
 def warn_if_large_recordings(model: RobotModel, terms: TermSelection, datasets: Sequence[Dataset]) -> bool:
@@ -543,9 +546,12 @@ def identify(
         started()
     fits = run_jobs(s, [(m, None, options.get(m, {})) for m in methods], complete=complete, show_progress=show_progress)
     results = {f.method: f.result for f in fits}
+    del fits  # the estimators (wls: its row weights)
     if x_true is not None:
         for r in results.values():
             r.truth_error = truth_error(r.base, x_true, s.problem.natural_scale, s.base.names)
+    summary, nominal = s.problem.summary(), s.base.shown(s.problem.nominal).tolist()
+    s.problem = s.segmental = None  # its rows (torques, joints) let go before the predictions below
     values = {m: r.base for m, r in results.items()}
     val_sets, floor = s.validation.get("validation", []), None
     if val_sets:
@@ -585,7 +591,6 @@ def identify(
     if s.train:  # the training motion, drawn as the report's "excitation" figure
         ds = s.train[0]
         curves["motion"] = {"source": ds.source, "t": ds.t, "q": ds.q, "dq": ds.dq}
-    summary = s.problem.summary()
     if gains is not None:
         summary["drive_gains"] = gains.summary()
     if s.stribeck:
@@ -605,7 +610,7 @@ def identify(
         base={
             "names": s.base.names,
             "expressions": s.base.expressions(),
-            "nominal": s.base.shown(s.problem.nominal).tolist(),
+            "nominal": nominal,
         },
         validation_sources=[ds.source for ds in val_sets],
         seconds=time.perf_counter() - t_start,

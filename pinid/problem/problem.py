@@ -45,6 +45,7 @@ and read again by the Gram sums, the HAC σ and the predictions (issue 35); larg
 from __future__ import annotations
 
 import os
+import weakref
 from dataclasses import dataclass, field
 from typing import Protocol, runtime_checkable
 from collections.abc import Iterator, Mapping, Sequence
@@ -55,14 +56,28 @@ import scipy.linalg
 from pinid.data.dataset import Dataset, as_dataset
 from pinid.data.formats import read_recording
 from pinid.errors import DataError, SpecError
-from pinid.linalg import RANK_TOL, augmented_r, cholesky_r, column_scale, gram_sums, qr_r, row_blocks, unit_weights
+from pinid.linalg import (
+    RANK_TOL,
+    augmented_r,
+    cholesky_r,
+    column_scale,
+    gram_sums,
+    qr_r,
+    regrouped_blocks,
+    row_blocks,
+    unit_weights,
+)
 from pinid.model.base import BaseParameters, base_parameters
 from pinid.model.physical import parameter_scale
 from pinid.model.regressor import TermSelection, regressor, standard_parameters
 from pinid.model.robot import RobotModel, as_robot
 from pinid.problem.cache import ProblemCache as ProblemCache
-from pinid.problem.covariance import hac_std
 from pinid.progress import progress
+from pinid.problem.statistics import (
+    base_statistics as base_statistics,
+    completed_standard as completed_standard,
+    least_norm_completion as least_norm_completion,
+)
 from pinid.problem.rows import (
     REST_FRACTION as REST_FRACTION,
     fit_mask as fit_mask,
@@ -70,6 +85,7 @@ from pinid.problem.rows import (
     motor_kept_rows as motor_kept_rows,
     rest_threshold as rest_threshold,
     rest_thresholds as rest_thresholds,
+    _kept_targets,
 )
 
 _CHUNK = 20_000  # samples per regressor chunk (bounds memory of the full standard regressor)
@@ -155,6 +171,14 @@ class RegressorRows:
                 row += len(Wk)
         self.kept = passed
 
+    def samples(self) -> np.ndarray:
+        """(rows kept,) each row's sample in the concatenated recordings (as :func:`stacked_targets`)."""
+        parts, offset = [], 0
+        for ds, keep in zip(self.datasets, self.keeps):
+            parts.append(offset + np.flatnonzero(keep) // self.model.nv)
+            offset += ds.n
+        return parts[0] if len(parts) == 1 else np.concatenate(parts)
+
     def build(self) -> np.ndarray:
         """The whole stacked base regressor (rows kept × nb)."""
         W = np.empty((self.count, self.base.count))
@@ -199,6 +223,9 @@ class IdentificationProblem:
     regressor_rows: RegressorRows | None = field(default=None, repr=False, compare=False)
     fit_joints: list[str] | None = None  # the joints whose torque rows enter the fit (None: all)
     recorded_tau: np.ndarray | None = field(default=None, repr=False, compare=False)
+    #: predictions summed as over the whole ``W`` (rows in blocks of ``GRAM_BLOCK_ROWS``, the same digits as
+    #: ``W @ base``) from the first estimator that fits on the whole rows (wls): what they were when it built W
+    as_whole: bool = field(default=False, repr=False, compare=False)
 
     # ---------------------------------------------------------------- sizes and names
     @property
@@ -293,12 +320,18 @@ class IdentificationProblem:
         dropped = total - np.sum([k.reshape(-1, nv).sum(axis=0) for k in keeps], axis=0)
         if not fit.all():
             keeps = [k & np.tile(fit, len(k) // nv) for k in keeps]
-        tau, joint, sample = stacked_targets(prepared, keeps, nv)
+        tau, joint = _kept_targets(prepared, keeps, nv)
         recorded = [recorded_torque(ds) for ds in prepared]
-        recorded_tau = np.concatenate([r.reshape(-1)[k] for r, k in zip(recorded, keeps)])
+        # None when the torque as recorded is the torque itself (not prepared): no second copy of it
+        recorded_tau = (
+            None
+            if all(r is ds.tau for r, ds in zip(recorded, prepared))
+            else np.concatenate([r.reshape(-1)[k] for r, k in zip(recorded, keeps)])
+        )
+        del recorded
         rows = RegressorRows(model, terms, base, prepared, keeps)
         if weights is None:
-            w = np.ones(len(tau))
+            w = np.broadcast_to(np.float64(1.0), (len(tau),))  # unit weights, read-only: no array of ones
         else:
             w = np.asarray(weights, dtype=float).reshape(-1)
             if w.shape != (total * nv,):
@@ -313,7 +346,7 @@ class IdentificationProblem:
             None,
             tau,
             joint,
-            sample,
+            None,  # ``sample``: computed from ``regressor_rows`` when read (not kept: 8 bytes per row)
             w,
             standard_parameters(model, terms),
             samples=total,
@@ -422,8 +455,8 @@ class IdentificationProblem:
         ``W``; QR of the whole ``W`` (built if needed) when the Gram matrix is ill-conditioned.  Cached for
         the problem's own weights."""
         own = weights is None or weights is self.weights
-        if not own and not self.blocked:
-            return augmented_r(self.W, self.tau, weights)
+        if not own:  # the same sums as augmented_r(W, tau, weights), W built or not
+            return self.weighted_compressed(weights)
         key = self._source_key()
         kept = self.cache.get("compressed", key) if own else None
         if kept is not None:
@@ -436,11 +469,42 @@ class IdentificationProblem:
             self.cache.put("compressed", out, key)
         return out
 
+    def residual(self, base: np.ndarray) -> np.ndarray:
+        """``tau − W @ base`` (rows,) [N·m]; block by block while ``W`` is not built (one array of rows)."""
+        if not self.blocked:
+            return self.tau - self.W @ base
+        r = self.predict(base)
+        return np.subtract(self.tau, r, out=r)
+
+    def weighted_compressed(self, weights: np.ndarray) -> tuple[np.ndarray, np.ndarray, float, np.ndarray]:
+        """``augmented_r(W, tau, weights)`` (:func:`pinid.linalg.augmented_r`, the same sums over the same
+        blocks of ``GRAM_BLOCK_ROWS`` rows) without building ``W`` while it is not built; the QR of the
+        whole ``W`` when the Gram matrix is ill-conditioned.  Kept for the last ``weights`` array while it lives
+        (it is not to be changed in place in between)."""
+        if not self.blocked:
+            return augmented_r(self.W, self.tau, weights)
+        kept = self.cache.get("weighted", self._source_key())  # (weak reference to the weights, result)
+        if kept is not None and kept[0]() is weights:  # the same array again (wls: its fit, then its result)
+            return kept[1]
+        w = unit_weights(weights)
+        G, b, yy = gram_sums(regrouped_blocks((Wk for _, Wk in self.regressor_rows.blocks()), self.tau, w), self.nb)
+        out = cholesky_r(G, b, yy)
+        out = out if out is not None else qr_r(self.W, self.tau, w, column_scale(G))
+        if isinstance(weights, np.ndarray):
+            self.cache.put("weighted", (weakref.ref(weights), out), self._source_key())
+        return out
+
     def predict(self, base: np.ndarray) -> np.ndarray:
         """``W @ base`` (rows,) [N·m]; block by block while ``W`` is not built (see :attr:`blocked`)."""
         if not self.blocked:
             return self.W @ base
         out = np.empty(self.rows)
+        if self.as_whole:  # BLAS's matrix-vector product rounds the same on row blocks of a multiple of 4
+            r = 0
+            for Wk, _, _ in regrouped_blocks((Wk for _, Wk in self.regressor_rows.blocks()), self.tau):
+                out[r : r + len(Wk)] = Wk @ base
+                r += len(Wk)
+            return out
         for r, Wk in self.regressor_rows.blocks():
             out[r : r + len(Wk)] = Wk @ base
         return out
@@ -459,6 +523,8 @@ def _set_W(self: IdentificationProblem, value: np.ndarray | None) -> None:
         rows = self.__dict__.get("regressor_rows")
         if rows is not None:  # the recordings' lengths still bound the HAC windows (pinid.problem.covariance)
             self.__dict__["recording_sizes"] = [ds.n for ds in rows.datasets]
+            if self.__dict__.get("_sample") is None:  # kept from here on: the rows can no longer say it
+                self.__dict__["_sample"] = rows.samples()
         self.__dict__["regressor_rows"] = None
         self.cache.forget("gram", "compressed")
 
@@ -466,6 +532,17 @@ def _set_W(self: IdentificationProblem, value: np.ndarray | None) -> None:
 # ``W`` is a dataclass field (positional, as before) read and written through this property
 IdentificationProblem.W = property(
     _get_W, _set_W, doc="(rows, nb) base regressor, built whole on first reading from ``regressor_rows``."
+)
+
+
+def _get_sample(self: IdentificationProblem) -> np.ndarray | None:
+    sample, rows = self.__dict__.get("_sample"), self.regressor_rows
+    return rows.samples() if sample is None and rows is not None else sample  # not kept: read by few
+
+
+# ``sample`` too (a dataclass field): from the recordings' kept rows when not given (:meth:`RegressorRows.samples`)
+IdentificationProblem.sample = property(
+    _get_sample, lambda self, v: self.__dict__.__setitem__("_sample", v), doc="(rows,) each row's sample."
 )
 
 
@@ -595,66 +672,6 @@ def base_regressor(
         if bar is not None:
             bar.update(stop - start)
     return out
-
-
-# ====================================================================== statistics
-def base_statistics(
-    problem: Problem,
-    base: np.ndarray,
-    weights: np.ndarray | None = None,
-    *,
-    residual: np.ndarray | None = None,
-    kind: str = "hac",
-) -> tuple[np.ndarray, float, float]:
-    """``(std, condition_number, condition_number_scaled)`` of base parameters fitted with row ``weights``.
-
-    ``kind="hac"`` (default): the Newey–West sandwich of :mod:`pinid.problem.covariance`, calibrated for
-    time-correlated residuals; ``"white"``: σ²·(Wᵀ diag(w) W)⁻¹ with σ² = Σ w·r² / (rows − nb).  The
-    condition numbers are those of diag(√w)·W as it is and with unit-norm columns.  ``residual``:
-    ``tau − W @ base`` when already known (else computed, reading ``problem.W``).
-    """
-    if not hasattr(problem, "weights"):
-        raise SpecError(
-            f"problem: got {type(problem).__name__}, expected an identification problem (IdentificationProblem)"
-        )
-    w = problem.weights if weights is None else weights
-    r = problem.tau - problem.W @ base if residual is None else residual
-    dof = max(problem.rows - problem.nb, 1)
-    R, _, _, scale = problem.compressed(weights)
-    try:
-        Rinv = scipy.linalg.solve_triangular(R, np.eye(len(R)))
-        if kind == "white":
-            sigma2 = float(np.sum(w * r * r)) / dof
-            std = np.sqrt(sigma2 * np.sum(Rinv**2, axis=1)) / scale
-        else:
-            std = hac_std(problem, w * r, Rinv, scale, dof)
-    except (np.linalg.LinAlgError, ValueError):
-        std = np.full(problem.nb, np.inf)
-    s_scaled = np.linalg.svd(R, compute_uv=False)
-    s_raw = np.linalg.svd(R * scale, compute_uv=False)
-    cond = float(s_raw[0] / s_raw[-1]) if s_raw[-1] > 0 else float("inf")
-    cond_scaled = float(s_scaled[0] / s_scaled[-1]) if s_scaled[-1] > 0 else float("inf")
-    return std, cond, cond_scaled
-
-
-def completed_standard(model: RobotModel, terms: TermSelection, base: BaseParameters, values: np.ndarray) -> np.ndarray:
-    """The standard vector closest to the nominal one (in the scaled norm) with ``base.P·θ = values``."""
-    nominal = standard_parameters(model, terms)
-    S = parameter_scale(nominal, model.nv, len(terms))
-    A = base.P * S
-    dz = np.linalg.lstsq(A, np.asarray(values, dtype=float) - A @ (nominal / S), rcond=None)[0]
-    return (nominal / S + dz) * S
-
-
-def least_norm_completion(problem: IdentificationProblem, base: np.ndarray) -> np.ndarray:
-    """The standard vector closest to the nominal one (in the scaled norm) with ``P·θ = base``."""
-    if not hasattr(problem, "nominal"):
-        raise SpecError(f"problem: got {type(problem).__name__}, expected an IdentificationProblem")
-    S = parameter_scale(problem.nominal, problem.nv, len(problem.terms))
-    A = problem.base.P * S
-    z0 = problem.nominal / S
-    dz = np.linalg.lstsq(A, base - A @ z0, rcond=None)[0]
-    return (z0 + dz) * S
 
 
 # ====================================================================== recordings

@@ -132,3 +132,14 @@ def kept_rows(ds: Dataset, threshold: np.ndarray) -> np.ndarray:
     if not np.any(threshold > 0):
         return np.ones(ds.dq.size, bool)
     return (np.abs(ds.dq) >= threshold).reshape(-1)
+
+
+def _kept_targets(datasets: Sequence[Dataset], keeps: Sequence[np.ndarray], nv: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(tau, joint)`` of :func:`stacked_targets` with ``joint`` in the smallest integer type (int8 up to
+    127 joints: 1 byte per row instead of 8) and without ``sample``, which the problem computes when read."""
+    kind = np.int8 if nv <= 127 else np.intp
+    taus = [ds.tau.reshape(-1)[keep] for ds, keep in zip(datasets, keeps)]
+    joints = [np.tile(np.arange(nv, dtype=kind), ds.n)[keep] for ds, keep in zip(datasets, keeps)]
+    if len(taus) == 1:
+        return taus[0], joints[0]
+    return np.concatenate(taus), np.concatenate(joints)

@@ -9,8 +9,8 @@ Writes a recording of the Panda (example-robot-data, 7 DOF) following a random F
 its limits at 1 kHz — q, dq, ddq exact, τ = W(q, dq, ddq)·θ_URDF (friction fc, fv from the URDF) plus
 0.01 N·m noise — as NPZ, then runs ``pinid identify --urdf panda --data FILE --methods M --no-report`` in
 a fresh process (per tree with ``--before``) and prints its wall time and peak resident memory
-(``ru_maxrss`` of that child, from ``os.wait4``), with the size of the recording and of the tall base
-regressor for comparison.
+(``ru_maxrss`` of that child, from ``os.wait4`` in a small process between this one and the child, see
+``MEASURE``), with the size of the recording and of the tall base regressor for comparison.
 """
 
 from __future__ import annotations
@@ -58,12 +58,28 @@ def recording(path: Path, samples: int, seed: int = 0, robot: str = "panda") -> 
     return base_parameters(model, spec.terms).count
 
 
+#: Runs its arguments as a child and prints the child's peak RSS [kB] (``ru_maxrss`` of ``os.wait4``) on its
+#: last stderr line.  A small process in between: Linux keeps the RSS of the process that forked a child as
+#: the floor of that child's ``ru_maxrss`` (the old address space's high-water mark is kept across exec), and
+#: this script holds the recording it wrote (about 300 MB for 1 M exo_leg samples) — a floor, not the child's.
+MEASURE = """
+import os, subprocess, sys
+proc = subprocess.Popen(sys.argv[1:], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+err = proc.stderr.read()
+_, status, usage = os.wait4(proc.pid, 0)
+sys.stderr.write(err + f"\\nmaxrss_kb {usage.ru_maxrss} status {status}\\n")
+"""
+
+
 def identify(tree: Path, folder: Path, methods: str, robot: str = "panda") -> tuple[float, float]:
     """(wall [s], peak RSS [MB]) of ``pinid identify`` on ``folder/<robot>.npz`` with ``tree`` on the path."""
     env = dict(os.environ, PYTHONPATH=str(tree), MPLBACKEND="Agg", OPENBLAS_NUM_THREADS="1")
     t0 = time.perf_counter()
     proc = subprocess.Popen(
         [
+            sys.executable,
+            "-c",
+            MEASURE,
             sys.executable,
             "-m",
             "pinid.cli",
@@ -85,13 +101,14 @@ def identify(tree: Path, folder: Path, methods: str, robot: str = "panda") -> tu
         stderr=subprocess.PIPE,
         text=True,
     )
-    _, status, usage = os.wait4(proc.pid, 0)
-    wall = time.perf_counter() - t0
     err = proc.stderr.read()
+    proc.wait()
+    wall = time.perf_counter() - t0
     proc.stderr.close()
-    if status:
+    last = err.strip().splitlines()[-1].split() if err.strip() else []
+    if proc.returncode or len(last) != 4 or last[0] != "maxrss_kb" or last[3] != "0":
         raise SystemExit(err)
-    return wall, usage.ru_maxrss / 1024  # Linux: kB
+    return wall, int(last[1]) / 1024  # Linux: kB
 
 
 def main() -> None:
