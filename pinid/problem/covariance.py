@@ -117,10 +117,8 @@ def _recording_scores(rows, e, weights, scale):
     blocks = rows.blocks()
 
     def scores(ds, keep):
-        from pinid.problem.problem import _CHUNK
-
-        for start in range(0, ds.n, _CHUNK):
-            stop = min(ds.n, start + _CHUNK)
+        for start in range(0, ds.n, rows.chunk):
+            stop = min(ds.n, start + rows.chunk)
             r0, Wk = next(blocks)
             k = slice(r0, r0 + len(Wk))
             ek = e[k] if weights is None else weights[k] * e[k]

@@ -4,8 +4,7 @@
 regressor ``W`` (rows × nb), the torques ``tau``, each row's joint and sample, row weights, the
 base-parameter map and the nominal standard parameters.  :func:`base_statistics` gives the standard
 deviations and condition numbers of a fit.  Estimators (:mod:`pinid.estimators`) take any object of
-the :class:`Problem` protocol — this class or a segmental stage's
-:class:`~pinid.identification.segmental.SubProblem`.
+the :class:`Problem` protocol — this class or a segmental stage's :class:`~pinid.identification.segmental.SubProblem`.
 
 Coulomb friction near rest
 --------------------------
@@ -47,7 +46,7 @@ from __future__ import annotations
 import os
 import weakref
 from dataclasses import dataclass, field
-from typing import Protocol, runtime_checkable
+from typing import ClassVar, Protocol, runtime_checkable
 from collections.abc import Iterator, Mapping, Sequence
 
 import numpy as np
@@ -85,7 +84,7 @@ from pinid.problem.rows import (
     motor_kept_rows as motor_kept_rows,
     rest_threshold as rest_threshold,
     rest_thresholds as rest_thresholds,
-    _kept_targets,
+    kept_targets,
 )
 
 _CHUNK = 20_000  # samples per regressor chunk (bounds memory of the full standard regressor)
@@ -142,6 +141,7 @@ class RegressorRows:
     datasets: list[Dataset]
     keeps: list[np.ndarray]
     kept: list[tuple[int, np.ndarray, int]] | None = field(default=None, repr=False, compare=False)
+    chunk: ClassVar[int] = _CHUNK  # samples per block of blocks()
 
     @property
     def count(self) -> int:
@@ -320,7 +320,7 @@ class IdentificationProblem:
         dropped = total - np.sum([k.reshape(-1, nv).sum(axis=0) for k in keeps], axis=0)
         if not fit.all():
             keeps = [k & np.tile(fit, len(k) // nv) for k in keeps]
-        tau, joint = _kept_targets(prepared, keeps, nv)
+        tau, joint = kept_targets(prepared, keeps, nv)
         recorded = [recorded_torque(ds) for ds in prepared]
         # None when the torque as recorded is the torque itself (not prepared): no second copy of it
         recorded_tau = (

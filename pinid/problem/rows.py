@@ -134,9 +134,13 @@ def kept_rows(ds: Dataset, threshold: np.ndarray) -> np.ndarray:
     return (np.abs(ds.dq) >= threshold).reshape(-1)
 
 
-def _kept_targets(datasets: Sequence[Dataset], keeps: Sequence[np.ndarray], nv: int) -> tuple[np.ndarray, np.ndarray]:
+def kept_targets(datasets: Sequence[Dataset], keeps: Sequence[np.ndarray], nv: int) -> tuple[np.ndarray, np.ndarray]:
     """``(tau, joint)`` of :func:`stacked_targets` with ``joint`` in the smallest integer type (int8 up to
     127 joints: 1 byte per row instead of 8) and without ``sample``, which the problem computes when read."""
+    if isinstance(nv, bool) or not isinstance(nv, (int, np.integer)) or nv < 1:
+        raise SpecError(f"nv: got {nv!r}, expected the number of joints (a whole number ≥ 1)")
+    if not isinstance(datasets, Sequence) or not isinstance(keeps, Sequence) or len(datasets) != len(keeps):
+        raise SpecError("datasets and keeps: expected two sequences of the same length (a row mask per recording)")
     kind = np.int8 if nv <= 127 else np.intp
     taus = [ds.tau.reshape(-1)[keep] for ds, keep in zip(datasets, keeps)]
     joints = [np.tile(np.arange(nv, dtype=kind), ds.n)[keep] for ds, keep in zip(datasets, keeps)]
