@@ -22,6 +22,7 @@ import multiprocessing
 import os
 import pickle
 import signal
+import warnings
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from typing import Any
@@ -113,6 +114,10 @@ def _unpickled(data: bytes, item: Any) -> Any:
         raise PinidError(f"job {item!r}: its result could not be carried back from the worker process ({e})") from None
 
 
+#: Python ≥ 3.12's DeprecationWarning at a fork in a process with threads (muted around the workers' fork).
+_FORK_WARNING = r"This process \(pid=\d+\) is multi-threaded, use of fork\(\) may lead to deadlocks"
+
+
 def _context() -> multiprocessing.context.BaseContext:
     methods = multiprocessing.get_all_start_methods()
     return multiprocessing.get_context("fork" if "fork" in methods else "spawn")
@@ -125,11 +130,17 @@ class LocalWorkers:
 
     def __init__(self, fn: Callable[[Any, Any], Any], shared: Any, workers: int) -> None:
         self.fn, self.shared = fn, shared
-        self.executor = (
-            ProcessPoolExecutor(workers, mp_context=_context(), initializer=_start_worker, initargs=(fn, shared))
-            if workers > 1
-            else None
-        )
+        self.executor = None
+        if workers > 1:
+            self.executor = ProcessPoolExecutor(
+                workers, mp_context=_context(), initializer=_start_worker, initargs=(fn, shared)
+            )
+            # every worker forked now (with fork, the executor starts them all at its first job, before its own
+            # thread), not at the first real job, after a progress bar has started its thread.  Python ≥ 3.12
+            # warns of any fork in a process with threads; these workers only run fn, so that warning is muted.
+            with warnings.catch_warnings():
+                warnings.filterwarnings("ignore", message=_FORK_WARNING, category=DeprecationWarning)
+                self.executor.submit(int)
 
     def results(self, items: Sequence, *, ordered: bool = True) -> Iterator[tuple[int, Any]]:
         """``(index, result)`` of every item: in the items' order, or as they finish (``ordered=False``)."""
