@@ -44,11 +44,17 @@ def test_the_same_excitation_started_later_is_found_another_one_is_not():
     assert aligned_difference(_fourier(grid), _fourier(grid[:800], w=0.31 * np.pi), spread) > 0.3
 
 
+def _motion(seconds: float):
+    """``(t, q, dq, ddq)`` of :func:`_fourier` at 100 Hz, derivatives by finite differences."""
+    t = np.arange(0, seconds, 0.01)
+    q = _fourier(t)
+    dq = np.gradient(q, t, axis=0)
+    return t, q, dq, np.gradient(dq, t, axis=0)
+
+
 def test_a_flipped_torque_sign_is_named():
     model = load("exo_leg")
-    t = np.arange(0, 5, 0.01)
-    q = _fourier(t)
-    dq, ddq = np.gradient(q, t, axis=0), np.gradient(np.gradient(q, t, axis=0), t, axis=0)
+    t, q, dq, ddq = _motion(5)
     nominal = model.rnea(q, dq, ddq)
     rng = np.random.default_rng(1)
     recorded = 1.2 * nominal + 0.05 * rng.normal(size=nominal.shape)  # another payload, noise: not flipped
@@ -75,9 +81,7 @@ def test_compare_warns_of_a_flipped_torque_sign_as_identify_does():
     from pinid.identification.compare import compare
 
     model = load("exo_leg")
-    t = np.arange(0, 8, 0.01)
-    q = _fourier(t)
-    dq, ddq = np.gradient(q, t, axis=0), np.gradient(np.gradient(q, t, axis=0), t, axis=0)
+    t, q, dq, ddq = _motion(8)
     tau = model.rnea(q, dq, ddq)
     tau[:, 0] *= -1
     flipped = Dataset(t, q, ["hip", "knee"], dq, ddq, tau, source="flipped.csv")
