@@ -5,6 +5,7 @@ and inside functions alike: an import inside a function is still an edge of the 
 from __future__ import annotations
 
 import ast
+import functools
 import re
 import subprocess
 import sys
@@ -32,9 +33,24 @@ def _type_checking_only(node: ast.AST, parents: dict) -> bool:
     return False
 
 
+@functools.cache
+def source(path: Path) -> str:
+    """The text of a module, read once per test run."""
+    return path.read_text(encoding="utf-8")
+
+
+_parse_text = functools.cache(ast.parse)
+
+
+@functools.cache
+def parsed(path: Path) -> ast.Module:
+    """The syntax tree of a module, parsed once per test run (every test here walks the same modules)."""
+    return _parse_text(source(path))
+
+
 def imports(name: str, path: Path, known: dict[str, Path]) -> list[tuple[str, str | None, int]]:
     """``(module, imported name or None, line)`` for every import of a pinid module in ``path``."""
-    tree = ast.parse(path.read_text(encoding="utf-8"))
+    tree = parsed(path)
     parents = {child: node for node in ast.walk(tree) for child in ast.iter_child_nodes(node)}
     is_package = path.name == "__init__.py"
     out = []
@@ -241,7 +257,7 @@ def _long_modules() -> dict[str, int]:
     root = PACKAGE.parent
     out = {}
     for path in modules().values():
-        n = len(path.read_text(encoding="utf-8").splitlines())
+        n = len(source(path).splitlines())
         if n > MAX_LINES:
             out[path.relative_to(root).as_posix()] = n
     return out
@@ -305,7 +321,7 @@ def _private_names(tree: ast.Module) -> set[str]:
 def private_reads(sources: dict[str, str]) -> list[tuple[str, str, int]]:
     """``(module, attribute, line)`` for every ``obj._name`` (``obj`` not ``self``/``cls``) whose private
     name some module of ``sources`` (``{module: source text}``) defines, in a module that does not."""
-    trees = {m: ast.parse(text) for m, text in sources.items()}
+    trees = {m: _parse_text(text) for m, text in sources.items()}
     defined = {m: _private_names(t) for m, t in trees.items()}
     anywhere = set().union(*defined.values()) if defined else set()
     out = []
@@ -320,8 +336,9 @@ def private_reads(sources: dict[str, str]) -> list[tuple[str, str, int]]:
     return out
 
 
+@functools.cache
 def _package_private_reads() -> list[tuple[str, str, int]]:
-    return private_reads({m: p.read_text(encoding="utf-8") for m, p in modules().items()})
+    return private_reads({m: source(p) for m, p in modules().items()})
 
 
 def test_the_private_read_finder_finds_one():
@@ -358,7 +375,7 @@ def cited_files(path: Path) -> set[str]:
     illustrative names (``run/result.json``) are not paths of the repository and are left alone."""
     tops = {p.name for p in REPO.iterdir()} | {p.name for p in PACKAGE.iterdir()}
     out = set()
-    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+    for node in ast.walk(parsed(path)):
         if isinstance(node, (ast.Module, ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef)):
             for m in _CITED.finditer(ast.get_docstring(node) or ""):
                 s = m.group(1)
