@@ -128,3 +128,56 @@ def test_grouped_torque_figures_give_the_same_bytes(workers, count):
     assert render_pngs(grouped, workers=1) == expected
     if sys.platform.startswith("linux"):
         assert render_pngs(grouped, workers=2) == expected
+
+
+def test_torque_figure_draws_the_prediction_above_the_measurements_and_both_errors():
+    """Issue 33: the prediction in the method's colour above the raw (light) and low-passed (thin) torque;
+    the error panel has the raw and the filtered error, labelled; the legend is outside every panel."""
+    from matplotlib.colors import to_hex
+
+    from pinid.report.colors import method_color
+
+    fn, args, kw = _torque_recipes(("sdp",))["torque_sdp"]
+    fig = fn(*args, **kw)
+    top, bottom = fig.axes[0], fig.axes[1]
+    lines = {ln.get_label(): ln for ln in top.get_lines()}
+    pred, raw, low = lines["sdp: predicted"], lines["measured (as recorded)"], lines["measured, low-passed"]
+    assert pred.get_zorder() > max(raw.get_zorder(), low.get_zorder())
+    assert to_hex(pred.get_color()) == to_hex(method_color("sdp"))
+    assert low.get_linewidth() < pred.get_linewidth()
+    errors = [ln.get_label() for ln in bottom.get_lines() if not ln.get_label().startswith("_")]
+    assert errors == ["sdp: error, raw", "sdp: error, filtered"]
+    assert all(ax.get_legend() is None for ax in fig.axes) and len(fig.legends) == 1
+    legend_box = fig.legends[0].get_window_extent(fig.canvas.get_renderer())
+    assert legend_box.y0 >= top.get_window_extent().y1  # above the first panel: it covers no data
+
+
+def test_parameter_plausibility_marks_sigma_truth_and_inconsistent_methods():
+    """The parameter figure: one row per base parameter, values divided by the natural scale; a ±2σ bar
+    where σ is known (none for a metaheuristic); the URDF and the truth; an inconsistent method hollow."""
+    from matplotlib.colors import to_hex
+
+    from pinid.report.colors import method_color
+    from pinid.report.plot_parameters import parameter_plausibility
+
+    names = ["hip.mx", "hip.Iyy", "hip.fv"]
+    scale = [2.0, 0.5, 1.0]
+    estimates = {
+        "sdp": {"value": [1.0, 0.25, 0.3], "std": [0.1, 0.01, 0.02], "consistent": True},
+        "pso": {"value": [1.2, -0.1, 0.35], "std": [np.nan] * 3, "consistent": False},
+    }
+    fig = parameter_plausibility(names, [1.1, 0.2, 0.25], scale, estimates, truth=[1.0, 0.25, None], title="p")
+    ax = fig.axes[0]
+    assert [t.get_text() for t in ax.get_yticklabels()] == names
+    labels = [t.get_text() for t in fig.legends[0].get_texts()]
+    assert labels == ["URDF", "truth", "sdp", "pso (not physically consistent)"]
+    dots = {ln.get_label().split(" (")[0]: ln for ln in ax.get_lines()}
+    np.testing.assert_allclose(dots["sdp"].get_xdata(), [0.5, 0.5, 0.3])  # divided by the natural scale
+    np.testing.assert_allclose(dots["URDF"].get_xdata(), [0.55, 0.4, 0.25])
+    assert np.isnan(dots["truth"].get_xdata()[2])
+    assert to_hex(dots["pso"].get_markerfacecolor()) == "#ffffff"  # hollow: not physically consistent
+    assert to_hex(dots["sdp"].get_markerfacecolor()) == to_hex(method_color("sdp"))
+    bars = [c for c in ax.collections if c.get_segments()]
+    assert len(bars) == 1 and len(bars[0].get_segments()) == 3  # ±2σ for sdp only, none for pso
+    half = [abs(seg[1][0] - seg[0][0]) / 2 for seg in bars[0].get_segments()]
+    np.testing.assert_allclose(half, [0.1, 0.04, 0.04])  # 2σ / scale

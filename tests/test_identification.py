@@ -406,7 +406,8 @@ def test_cli_identify_on_simulated_recordings(tmp_path):
         assert r["validation"]["all"]["rel_rms_percent"] < 10, (m, r["validation"]["all"])
     assert d["methods"]["sdp"]["physically_consistent"]
     assert (out / "identified_sdp.urdf").is_file() and (out / "report.md").is_file()
-    assert (out / "errors.png").is_file() and (out / "torque_sdp.png").is_file()
+    assert (out / "errors.png").is_file() and (out / f"torque_{d['best']}.png").is_file()  # the best method's
+    assert (out / "parameters.png").is_file() and (out / "predictions.png").is_file()
     from pinid.identification.identified import IdentifiedModel
     from pinid.model.robot import RobotModel
 
@@ -491,7 +492,7 @@ def test_cli_on_real_recordings(tmp_path):
     sdp = ident["methods"]["sdp"]
     assert sdp["physically_consistent"]
     assert sdp["validation"]["per_joint"]["Joint2"]["rel_rms_percent"] < 40, sdp["validation"]
-    assert (out / "report.md").is_file() and (out / "torque_sdp.png").is_file()
+    assert (out / "report.md").is_file() and (out / f"torque_{ident['best']}.png").is_file()
     again = RobotModel.from_urdf(out / "identified_sdp.urdf")
     assert again.joint_names == ["Joint1", "Joint2"]
 

@@ -4,6 +4,7 @@ and opened in a headless Chromium (selenium; Debian's chromium and chromium-driv
 from __future__ import annotations
 
 import base64
+import json
 from html.parser import HTMLParser
 
 import numpy as np
@@ -75,6 +76,22 @@ def test_renderer_subset():
         markdown_to_html("![x](missing.png)", {})
 
 
+def test_folded_sections_and_scrolling_tables():
+    """The raw HTML lines that fold a section pass through as they are (GitHub renders them in the
+    Markdown too); Markdown inside a fold is rendered; every table scrolls in its own block."""
+    text = (
+        "## Methods\n\n<details open>\n<summary><strong>ols</strong> (best): 1 %</summary>\n\nText **b**.\n\n"
+        "| a | b |\n|---|---|\n| 1 | 2 |\n\n</details>\n\n<details>\n<summary>wls</summary>\n\n- x\n\n</details>\n"
+    )
+    out = markdown_to_html(text)
+    page = Page(out)  # balanced: every <details> closed
+    assert [a for t, a in page.attrs if t == "details"] == [{"open": None}, {}]
+    assert page.tags.count("summary") == 2 and page.tags.count("li") == 1 and page.tables == [[["a", "b"], ["1", "2"]]]
+    assert '<div class="table"><table>' in out and out.count("<table>") == out.count('<div class="table">')
+    assert ".table { overflow-x: auto;" in out  # wide tables scroll inside the page, the page does not
+    assert "&lt;details" not in out and "<p><summary>" not in out
+
+
 METHODS = ["ols", "wls", "pso"]
 
 
@@ -133,16 +150,26 @@ def test_identify_writes_self_contained_html(report):
         assert all(len(row) == len(table[0]) for row in table), table
     summary = page.tables[0]
     assert summary[0][0] == "method" and [r[0] for r in summary[1:]] == methods
-    assert all(f"### {m}" in (out / "report.md").read_text() for m in methods)  # a section per method
+    md = (out / "report.md").read_text()
+    best = json.loads((out / "identification.json").read_text())["best"]
+    for m in methods:  # a folded section per method, the best one open
+        opening = "<details open>" if m == best else "<details>"
+        assert f"{opening}\n<summary><strong>{m}</strong>{' (best)' if m == best else ''}: " in md, m
+    assert [a for t, a in page.attrs if t == "details"].count({"open": None}) == 1
+    assert page.tags.count("details") == page.tags.count("summary") == len(methods)
     imgs = [a["src"] for t, a in page.attrs if t == "img"]
     assert all(src.startswith("data:image/png;base64,") for src in imgs)
     embedded = {base64.b64decode(src.split(",", 1)[1]) for src in imgs}
     pngs = {p.name: p.read_bytes() for p in out.glob("*.png")}
-    assert set(pngs) == {"errors.png", "training_motion.png", *(f"torque_{m}.png" for m in methods)}
+    figures = {"errors.png", "parameters.png", "predictions.png", "training_motion.png", f"torque_{best}.png"}
+    assert set(pngs) == figures  # the comparison's figures and the best method's torque, not one per method
     assert embedded == set(pngs.values())
     assert page.tags.index("table") < page.tags.index("img")  # the summary table comes before any figure
+    # the comparison leads: its figures (the parameter plausibility beside the torque error) before the detail
+    lead = md.split("## Robot and data")[0]
+    assert all(f"]({name})" in lead for name in figures - {"training_motion.png"})
+    assert lead.index("](errors.png)") < lead.index("](parameters.png)") < lead.index(f"](torque_{best}.png)")
     # the HTML is the Markdown's text: every heading of report.md is a heading of the page
-    md = (out / "report.md").read_text()
     for line in md.splitlines():
         if line.startswith("#"):
             assert line.lstrip("# ").replace("`", "") in "".join(page.text), line
@@ -200,6 +227,10 @@ def test_report_opens_in_a_headless_browser(report):
               tableFirst: !!(first.compareDocumentPosition(imgs[0]) & Node.DOCUMENT_POSITION_FOLLOWING),
               title: document.title,
             };""")
+        browser.set_window_size(1000, 900)  # a narrow window: wide tables scroll in their block, not the page
+        narrow = browser.execute_script(
+            "return [document.documentElement.scrollWidth, document.documentElement.clientWidth];"
+        )
     finally:
         browser.quit()
     pngs = list(out.glob("*.png"))
@@ -208,6 +239,7 @@ def test_report_opens_in_a_headless_browser(report):
     assert state["fetched"] == [], state["fetched"]
     assert state["rows"] == METHODS and state["tableFirst"], state
     assert state["title"] == "pinid: identification of exo_leg"
+    assert narrow[0] <= narrow[1], narrow
 
 
 def test_errors_figure_fits_a_page_and_stays_above_zero():
@@ -246,3 +278,14 @@ def test_link_parameter_table_has_units(report):
     cells = [c.strip() for c in header.strip("|").split("|")]
     assert cells[4:] == ["fc [N·m]", "fv [N·m·s/rad]", "from these data"], cells
     assert all("[" in c for c in cells[1:-1]), cells
+
+
+def test_report_size_is_bounded_by_its_few_figures(report):
+    """Issue 33: report.html carries the summary's figures and the best method's torque, not a figure per
+    method: its size is the base64 of those five PNGs plus a text that grows by a folded table per method."""
+    out, _ = report
+    html_size = (out / "report.html").stat().st_size
+    pngs = sum(p.stat().st_size for p in out.glob("*.png"))
+    assert len(list(out.glob("*.png"))) == 5
+    assert html_size <= 4 / 3 * pngs + 60_000, (html_size, pngs)
+    assert html_size < 1_500_000

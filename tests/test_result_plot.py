@@ -79,6 +79,11 @@ def test_identification_plots_the_report_figures(identification):
     assert best.get_suptitle().startswith(f"{identification.best}: measured and predicted torque")
     motion = identification.plot("motion")
     assert titles(motion) == ["hip", "knee", "", ""] and visible(motion) == 4
+    params = identification.plot("parameters")  # the best method's and ols's base parameters ± 2σ
+    names = [t.get_text() for t in params.axes[0].get_yticklabels()]
+    assert names == identification.base["names"] and params.get_suptitle().startswith("base parameters")
+    overlay = identification.plot("predictions")  # every method's prediction, its difference to the best's
+    assert visible(overlay) == 4 and {t.get_text() for t in overlay.legends[0].get_texts()} >= {"ols", "sdp"}
     with pytest.raises(SpecError, match="method"):
         identification.plot("torque", method="pso")
     with pytest.raises(SpecError, match="figure"):
@@ -91,6 +96,7 @@ def test_a_loaded_identification_plots_without_curves(identification, tmp_path):
     assert titles(IdentificationResult.from_dict(back["ols"].to_dict()).plot()) == ["hip", "knee", "all joints"]
     with pytest.raises(SpecError, match="torque curves"):
         back.plot("torque")
+    assert [t.get_text() for t in back.plot("parameters").axes[0].get_yticklabels()] == back.base["names"]
 
 
 def test_comparison_plots_its_three_figures(leg):

@@ -57,10 +57,12 @@ into the output folder (-o, default results/):
                            unless --force-export)
   identified_<method>_drives.toml  with motor terms: the drives with the identified motor friction,
                            offset and rotor inertia (URDF has no field for them; read back with --drives)
-  report.md, report.html   a readable report: summary table, robot and data, the excitation (training
-                           motion), per-method sections, base and link parameters; the HTML page is
-                           the same text with its figures embedded (one file, opens without a server)
-  errors.png, training_motion.png, torque_<method>.png   the report's figures
+  report.md, report.html   a readable report: the comparison first (summary table, error, parameter
+                           and torque figures), robot and data, the excitation (training motion), each
+                           method's detail folded, base and link parameters; the HTML page is the same
+                           text with its figures embedded (one file, opens without a server)
+  errors.png, parameters.png, predictions.png, training_motion.png, torque_<best method>.png
+                           the report's figures
 
 With --base floating (docs/floating-base.md) the recordings also hold the base motion (motion capture or
 an IMU), contact wrenches (link-frame sensors or force plates) and contact phases; the fit uses the 6 base

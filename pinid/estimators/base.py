@@ -133,7 +133,9 @@ class Estimator:
     #: What ``history_`` holds: "none"; "passes" (the cost after each pass); "rows" (an error along the
     #: rows); "fitness" (the best fitness per iteration: drawn as a convergence curve).
     history: ClassVar[str] = "none"
-    #: Matplotlib colour of this method in every figure (None: the next of the default cycle).
+    #: Matplotlib colour of this method in every figure (:func:`pinid.report.colors.method_color`; None: a
+    #: fallback colour from the method name).  Distinct from every registered method's and from grey and black
+    #: (the measurements), tests/test_report_colors.py.
     colour: ClassVar[str | None] = None
     #: The settings ``__init__`` takes, each with its accepted values (checked by :meth:`create`).
     settings: ClassVar[dict[str, Setting]] = {}

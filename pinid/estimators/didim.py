@@ -50,7 +50,7 @@ class DIDIM(SimulatingEstimator):
 
     name = "didim"
     description = "DIDIM: Gauss–Newton on the torque error of a closed-loop simulation, from OLS"
-    colour = "tab:pink"
+    colour = "#ff00ff"
     exact = False  # noise-free: limited by the simulation between samples (module text)
 
     def fit(self, problem: Problem) -> "DIDIM":

@@ -68,7 +68,7 @@ class IRLS(Estimator):
 
     name = "irls"
     description = "iteratively reweighted least squares (Huber or Tukey weights): robust to outliers"
-    colour = "tab:red"
+    colour = "#b8860b"
     history = "passes"
     settings = {
         "loss": Setting("str", choices=("huber", "tukey"), help="robust loss"),

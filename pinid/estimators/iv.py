@@ -309,7 +309,7 @@ class InstrumentalVariables(SimulatingEstimator):
 
     name = "iv"
     description = "instrumental variables (IDIM-IV): instruments from a simulation of the previous estimate"
-    colour = "tab:purple"
+    colour = "#800000"
 
     def fit(self, problem: Problem) -> "InstrumentalVariables":
         """OLS, then IV with instruments simulated from the previous estimate until it settles; sets ``base_``."""

@@ -369,7 +369,7 @@ class PSOEstimator(Metaheuristic):
 
     name = "pso"
     description = "particle swarm optimisation (seed 000 Eqs. (7)-(8)) in a box around the URDF's values"
-    colour = "tab:blue"
+    colour = "#9467bd"
     optimizer = "pso"
 
 
@@ -378,7 +378,7 @@ class RLSPSO(Metaheuristic):
 
     name = "rls-pso"
     description = "particle swarm inside the range of a recursive least-squares run (seed 000 RLS-PSO)"
-    colour = "tab:cyan"
+    colour = "#17becf"
     optimizer = "pso"
     default_box = "rls"
 
@@ -388,7 +388,7 @@ class WOAEstimator(Metaheuristic):
 
     name = "woa"
     description = "whale optimisation (seed 001 Eqs. (14)-(17)) in a box around the URDF's values"
-    colour = "tab:orange"
+    colour = "#bcbd22"
     optimizer = "woa"
 
 
@@ -397,7 +397,7 @@ class EWOAEstimator(Metaheuristic):
 
     name = "ewoa"
     description = "enhanced whale optimisation (seed 001 Eqs. (14)-(18)) in a box around the URDF's values"
-    colour = "tab:red"
+    colour = "#d62728"
     optimizer = "ewoa"
 
 
@@ -406,5 +406,5 @@ class DEEstimator(Metaheuristic):
 
     name = "de"
     description = "scipy differential evolution in a box around the URDF's values (reference)"
-    colour = "tab:purple"
+    colour = "#e377c2"
     optimizer = "de"

@@ -18,7 +18,7 @@ class OLS(Estimator):
 
     name = "ols"
     description = "ordinary least squares on the base regressor"
-    colour = "black"
+    colour = "#1f77b4"
 
     def __init__(self) -> None:
         pass

@@ -25,7 +25,7 @@ class Ridge(Estimator):
 
     name = "ridge"
     description = "ridge-regularised least squares toward the URDF's base parameters"
-    colour = "tab:olive"
+    colour = "#000080"
     settings = {
         "alpha": Setting("float", low=0.0, help="weight of the pull toward the prior (dimensionless)"),
         "prior": Setting("str", choices=("nominal", "zero"), help="the prior: the URDF's values or zero"),

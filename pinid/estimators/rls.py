@@ -56,7 +56,7 @@ class RLS(Estimator):
 
     name = "rls"
     description = "recursive least squares with forgetting factor (seed 000 Eq. (6)); its range defines a box"
-    colour = "tab:brown"
+    colour = "#8c564b"
     history = "rows"
     settings = {
         "forgetting": Setting("float", low=0.0, high=1.0, low_open=True, help="forgetting factor λ"),

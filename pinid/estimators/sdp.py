@@ -61,7 +61,7 @@ class SDP(Estimator):
     description = "physically consistent least squares (pseudo-inertia LMI, Clarabel)"
     consistent_by_construction = True
     fits_standard = True
-    colour = "tab:green"
+    colour = "#2ca02c"
     settings = {
         "weighting": Setting("str", choices=("none", "joint"), help="row weighting: none (as OLS) or joint (as WLS)"),
         "regularization": Setting(

@@ -36,7 +36,7 @@ class TLS(Estimator):
 
     name = "tls"
     description = "total least squares (errors in variables) on [W | τ], columns scaled to unit norm"
-    colour = "tab:cyan"
+    colour = "#008080"
     settings = {
         "scaling": Setting("str", choices=("norm", "none"), help="column scaling of [W | τ] before the SVD"),
     }

@@ -24,7 +24,7 @@ class WLS(Estimator):
 
     name = "wls"
     description = "least squares, each joint weighted by 1/(its residual variance)"
-    colour = "grey"
+    colour = "#ff7f0e"
     history = "passes"
     settings = {
         "iterations": Setting("int", low=1, help="reweighting passes"),

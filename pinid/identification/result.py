@@ -301,14 +301,18 @@ class Identification:
         matplotlib Figure (never shown; matplotlib is loaded here, on first use).
 
         ``figure``: ``"errors"`` (every method's absolute torque error per joint, validation when every
-        method has it), ``"torque"`` (``method``'s measured and predicted torque [N·m] and their difference,
-        default the :attr:`best`) or ``"motion"`` (the recorded q, dq); the last two need the torque curves
-        :func:`~pinid.identification.run.identify` keeps (not saved in the JSON).
+        method has it), ``"parameters"`` (the best method's and OLS's base parameters ±2σ against the URDF
+        and the truth, divided by their natural scale), ``"torque"`` (``method``'s measured and predicted
+        torque [N·m] and its raw and filtered error, default the :attr:`best`), ``"predictions"`` (every
+        method's predicted torque and its difference to the best's) or ``"motion"`` (the recorded q, dq); the
+        last three need the torque curves :func:`~pinid.identification.run.identify` keeps (not saved in the
+        JSON).
         """
         from pinid.report.markdown import figure_recipes  # loads the report (matplotlib on drawing): on use
 
-        if figure not in ("errors", "torque", "motion"):
-            raise SpecError(f"figure: got {figure!r}, expected 'errors', 'torque' or 'motion'")
+        kinds = ("errors", "parameters", "torque", "predictions", "motion")
+        if figure not in kinds:
+            raise SpecError(f"figure: got {figure!r}, expected one of {', '.join(map(repr, kinds))}")
         if method is not None and method not in self.results:
             raise SpecError(f"method: no result for '{method}' (methods run: {', '.join(self.results)})")
         key = f"torque_{method or self.best}" if figure == "torque" else figure

@@ -551,6 +551,7 @@ def identify(
         for r in results.values():
             r.truth_error = truth_error(r.base, x_true, s.problem.natural_scale, s.base.names)
     summary, nominal = s.problem.summary(), s.base.shown(s.problem.nominal).tolist()
+    scale = [float(v) for v in s.problem.natural_scale]  # the report's parameter figure
     s.problem = s.segmental = None  # its rows (torques, joints) let go before the predictions below
     values = {m: r.base for m, r in results.items()}
     val_sets, floor = s.validation.get("validation", []), None
@@ -611,6 +612,7 @@ def identify(
             "names": s.base.names,
             "expressions": s.base.expressions(),
             "nominal": nominal,
+            "scale": scale,
         },
         validation_sources=[ds.source for ds in val_sets],
         seconds=time.perf_counter() - t_start,

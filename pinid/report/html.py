@@ -3,8 +3,11 @@ from one text.
 
 Renders the small subset of Markdown the reports use — ``#``/``##``/``###`` headings, paragraphs,
 ``- `` lists, pipe tables (``\\|`` for a ``|`` in a cell), fenced code, a paragraph that is one image ``![alt](file)``, and inline
-`` `code` `` and ``**bold**`` — and embeds every image as a ``data:`` URI: the page needs no server, no
-other file and no network (no external style sheet, font or script).
+`` `code` `` and ``**bold**`` — plus the raw HTML lines that fold a section (``<details>``, ``<details open>``,
+``<summary>…</summary>``, ``</details>``: GitHub renders them in report.md too), passed through as they
+are; and embeds every image as a ``data:`` URI: the page needs no server, no other file and no network (no
+external style sheet, font or script).  Every table scrolls sideways inside its own block, so that the
+page stays readable on a narrow window (1000 px).
 """
 
 from __future__ import annotations
@@ -16,15 +19,21 @@ from collections.abc import Mapping
 
 _IMAGE = re.compile(r"^!\[(?P<alt>.*)\]\((?P<src>[^)\s]+)\)$")
 _INLINE = re.compile(r"`([^`]+)`|\*\*(.+?)\*\*")
+#: Raw HTML lines passed through: the folding of a report's sections.
+_RAW = re.compile(r"^(<details( open)?>|</details>|<summary>.*</summary>)$")
 
 STYLE = """\
-body { font-family: system-ui, sans-serif; max-width: 1250px; margin: 1.5em auto; padding: 0 1em; color: #222; }
+body { font-family: system-ui, sans-serif; max-width: 1250px; margin: 1.5em auto; padding: 0 1em; color: #222;
+       overflow-wrap: break-word; }
 h1 { border-bottom: 2px solid #ccc; } h2 { border-bottom: 1px solid #ddd; margin-top: 1.6em; }
 table { border-collapse: collapse; margin: 0.6em 0; font-size: 0.92em; }
 th, td { border: 1px solid #ccc; padding: 0.2em 0.55em; text-align: right; }
-th { background: #f2f2f2; } td:first-child, th:first-child { text-align: left; }
+th { background: #f2f2f2; } td { white-space: nowrap; } td:first-child, th:first-child { text-align: left; }
 code { background: #f4f4f4; padding: 0 0.2em; } pre { background: #f4f4f4; padding: 0.7em; overflow-x: auto; }
 img { max-width: 100%; height: auto; display: block; margin: 0.6em 0; }
+.table { overflow-x: auto; max-width: 100%; } figure { margin: 0.6em 0; }
+details { border: 1px solid #ddd; border-radius: 4px; padding: 0.1em 0.8em; margin: 0.4em 0; }
+details[open] { padding-bottom: 0.5em; } summary { cursor: pointer; padding: 0.3em 0; }
 """
 
 
@@ -66,6 +75,9 @@ def markdown_to_html(text: str, images: Mapping[str, bytes] | None = None, *, ti
         line = lines[i]
         if not line.strip():
             i += 1
+        elif _RAW.match(line.strip()):
+            body.append(line.strip())
+            i += 1
         elif line.startswith("```"):
             j = i + 1
             while j < len(lines) and not lines[j].startswith("```"):
@@ -83,11 +95,11 @@ def markdown_to_html(text: str, images: Mapping[str, bytes] | None = None, *, ti
             rows = [_cells(r) for r in lines[i:j]]
             head, rest = rows[0], [r for r in rows[1:] if not all(set(c) <= set("-: ") for c in r)]
             body.append(
-                "<table><thead><tr>"
+                '<div class="table"><table><thead><tr>'
                 + "".join(f"<th>{_inline(c)}</th>" for c in head)
                 + "</tr></thead><tbody>"
                 + "".join("<tr>" + "".join(f"<td>{_inline(c)}</td>" for c in r) + "</tr>" for r in rest)
-                + "</tbody></table>"
+                + "</tbody></table></div>"
             )
             i = j
         elif line.startswith("- "):
@@ -101,7 +113,7 @@ def markdown_to_html(text: str, images: Mapping[str, bytes] | None = None, *, ti
             i += 1
         else:
             j = i + 1
-            while j < len(lines) and lines[j].strip() and not re.match(r"^(#|\||- |```|!\[)", lines[j]):
+            while j < len(lines) and lines[j].strip() and not re.match(r"^(#|\||- |```|!\[|<)", lines[j]):
                 j += 1
             body.append("<p>" + " ".join(_inline(r) for r in lines[i:j]) + "</p>")
             i = j

@@ -1,11 +1,16 @@
 """A readable report of an identification, with its figures, for a lab notebook: ``report.md`` and the same
 text as one self-contained page, ``report.html`` (figures embedded; :mod:`pinid.report.html`).
 
-The figures: ``errors.png``, the absolute torque error per joint and method, mean and [p5, p95] band
-(seed 000 Figs. 10/13 draw mean ± std, which goes below zero for an absolute error);
-``training_motion.png``, the excitation as recorded (q and dq of the first training recording);
-``torque_<method>.png``, measured vs predicted torque with the error underneath (seed 000 Figs. 9/12).
-:func:`report_files` renders them once (the identification's writer writes them with its other files).
+The report leads with the comparison: the summary table, ``errors.png`` (the absolute torque error per joint
+and method, mean and [p5, p95] band; seed 000 Figs. 10/13 draw mean ± std, which goes below zero for an
+absolute error), ``parameters.png`` (the best method's and OLS's base parameters ±2σ against the URDF and
+the truth, :mod:`pinid.report.plot_parameters`), ``torque_<best>.png`` (measured vs predicted torque of the
+best method with the raw and filtered error underneath; seed 000 Figs. 9/12) and ``predictions.png`` (every
+method's prediction, and its difference to the best's).  Then the robot and data with
+``training_motion.png`` (q and dq of the first training recording), and each method's detail folded
+(``<details>``; the best one open).  :func:`report_files` renders the figures once (the identification's
+writer writes them with its other files); :func:`figure_recipes` has a torque figure for every method
+(:meth:`pinid.identification.result.Identification.plot`).
 """
 
 from __future__ import annotations
@@ -21,10 +26,25 @@ from pinid.model.physical import NOISE, com_inertia, tidy_inertial
 from pinid.model.robot import INERTIAL_NAMES
 from pinid.model.terms import TermSelection
 from pinid.report.figures import Recipe
-from pinid.report.plot_identification import error_bars, recorded_motion, torque_comparison, torque_pngs
+from pinid.report.plot_identification import (
+    error_bars,
+    prediction_overlay,
+    recorded_motion,
+    torque_comparison,
+    torque_pngs,
+)
+from pinid.report.plot_parameters import parameter_plausibility
 
 #: Every file a report writes (patterns): what ``pinid identify --force`` removes of an earlier run's report.
-REPORT_FILES = ("report.md", "report.html", "errors.png", "training_motion.png", "torque_*.png")
+REPORT_FILES = (
+    "report.md",
+    "report.html",
+    "errors.png",
+    "parameters.png",
+    "predictions.png",
+    "training_motion.png",
+    "torque_*.png",
+)
 
 
 def number(x, fmt: str = ".4g") -> str:
@@ -48,15 +68,56 @@ WINDOW = 30.0
 
 
 def figure_names(ident) -> dict[str, str]:
-    """File names of the report's figures: ``{"errors": …, "motion": …, "torque_<method>": …}``."""
-    names = {"errors": "errors.png", "motion": "training_motion.png"}
+    """File names of the report's figures: ``{"errors": …, "parameters": …, "predictions": …, "motion": …,
+    "torque_<method>": …}`` (a torque figure for every method; the report draws the best one's)."""
+    names = {
+        "errors": "errors.png",
+        "parameters": "parameters.png",
+        "predictions": "predictions.png",
+        "motion": "training_motion.png",
+    }
     names.update({f"torque_{m}": f"torque_{m}.png" for m in ident.results})
     return names
 
 
+def shown_figures(ident) -> list[str]:
+    """The keys of :func:`figure_names` the report draws: the comparison figures, the best method's torque."""
+    return ["errors", "parameters", "predictions", "motion", f"torque_{ident.best}"] if ident.results else []
+
+
+def _plausibility_recipe(ident) -> Recipe | None:
+    """:func:`~pinid.report.plot_parameters.parameter_plausibility` of the best method and OLS (when run and
+    not the best), against the URDF and the truth; None without base parameters."""
+    names = ident.base.get("names") or []
+    if not names or not ident.results:
+        return None
+    shown = [ident.best] + (["ols"] if "ols" in ident.results and ident.best != "ols" else [])
+    estimates = {
+        m: {
+            "value": ident.results[m].base,
+            "std": ident.results[m].std,
+            "consistent": ident.results[m].physically_consistent,
+        }
+        for m in shown
+    }
+    truth = next((r.truth_error["truth"] for r in ident.results.values() if r.truth_error), None)
+    truth_v = None if truth is None else [truth.get(n) for n in names]
+    title = (
+        f"base parameters: estimate ± 2σ against the URDF{' and the truth' if truth else ''}, "
+        "each divided by its natural scale"
+    )
+    nominal = ident.base.get("nominal") or [None] * len(names)
+    return (
+        parameter_plausibility,
+        (names, nominal, ident.base.get("scale"), estimates),
+        {"truth": truth_v, "title": title},
+    )
+
+
 def figure_recipes(ident) -> dict[str, Recipe]:
     """The report's figures by key (see :func:`figure_names`) as recipes for
-    :func:`pinid.report.figures.render_pngs`, largest first; empty without torque curves."""
+    :func:`pinid.report.figures.render_pngs`, largest first; the torque, prediction and motion figures only
+    with the torque curves (:attr:`~pinid.identification.result.Identification.curves`)."""
     figs = {}
     c = ident.curves or {}
     joints = ident.robot["joints"]
@@ -70,6 +131,16 @@ def figure_recipes(ident) -> dict[str, Recipe]:
                 (c["t"], c["measured"], {m: pred}, joints),
                 {"window": WINDOW, "title": title, "filtered": c.get("filtered"), "units": c.get("units")},
             )
+        if len(c["predicted"]) > 1 and ident.best in c["predicted"]:
+            title = f"every method's predicted torque ({c['kind']}, {Path(str(c['source'])).name}{span})"
+            figs["predictions"] = (
+                prediction_overlay,
+                (c["t"], c["measured"], c["predicted"], joints),
+                {"reference": ident.best, "window": WINDOW, "title": title, "units": c.get("units")},
+            )
+    plausible = _plausibility_recipe(ident)
+    if plausible is not None:
+        figs["parameters"] = plausible
     motion = c.get("motion")
     if motion is not None and len(motion["t"]):
         t = np.asarray(motion["t"])
@@ -215,6 +286,108 @@ SUMMARY_NOTE = (
 )
 
 
+def _comparison_figures(ident, figures: dict[str, str]) -> list[str]:
+    """The summary's figures (those of ``figures``' keys that exist), each with a line saying what it shows."""
+    lines = []
+    if "errors" in figures:
+        lines += ["", f"![absolute torque error: mean and [p5, p95] per joint and method]({figures['errors']})"]
+    if "parameters" in figures:
+        shown = ident.best + (" and ols" if "ols" in ident.results and ident.best != "ols" else "")
+        lines += [
+            "",
+            f"Base parameters of {shown}: the estimate (dot) ± 2σ (bar; none for a metaheuristic or a value on a "
+            "bound) against the URDF's value (square) and, with a truth, the true value (cross), each divided by "
+            "the parameter's natural scale (its bodies' mass, mass·length, mass·length²; 1 for joint terms). "
+            "A hollow dot marks a result that is not physically consistent.",
+            "",
+            f"![base parameters: estimate ± 2σ against the URDF]({figures['parameters']})",
+        ]
+    key = f"torque_{ident.best}"
+    if key in figures:
+        lines += [
+            "",
+            f"### The best method's torque ({ident.best})",
+            "",
+            "The prediction (colour) over the torque as recorded (light grey) and low-passed (thin dark line); "
+            "below, the error against each of them (raw: light, filtered: full colour).",
+            "",
+            f"![{ident.best}: measured and predicted torque]({figures[key]})",
+        ]
+    if "predictions" in figures:
+        lines += [
+            "",
+            "### Every method's prediction",
+            "",
+            f"Each method's predicted torque in its colour and, below, its difference to {ident.best}'s.",
+            "",
+            f"![every method's predicted torque]({figures['predictions']})",
+        ]
+    return lines
+
+
+def method_table(result, unit: str = "") -> tuple[list[str], list[list[str]]]:
+    """One table of a method's torque error per joint (and pooled): RMS (RMS %) on the training and
+    validation data, against the torque as recorded (raw) and the low-passed one (filtered), then the mean
+    ± std and max of |e| (validation raw, else training raw).  ``unit``: the header's unit (" [N·m]")."""
+    sets = [
+        (name, m)
+        for name, m in (
+            ("train raw", result.train),
+            ("valid. raw", result.validation),
+            ("train filtered", result.train_filtered),
+            ("valid. filtered", result.validation_filtered),
+        )
+        if m is not None
+    ]
+    primary_name, primary = sets[1] if len(sets) > 1 and sets[1][0] == "valid. raw" else sets[0]
+
+    def cell(m: dict | None) -> str:
+        return "–" if m is None else f"{number(m['rms'])} ({number(m['rel_rms_percent'], '.3g')} %)"
+
+    def row_of(metrics, name: str) -> dict | None:
+        return metrics.per_joint.get(name) or metrics.pools().get(name)
+
+    labels = list(primary.per_joint) + list(primary.pools())
+    rows = []
+    for name in labels:
+        p = row_of(primary, name)
+        rows.append(
+            [name]
+            + [cell(row_of(m, name)) for _, m in sets]
+            + [f"{number(p['mean_abs'])} ± {number(p['std_abs'])}", number(p["max_abs"])]
+        )
+    header = ["joint"] + [f"RMS {n}{unit} (%)" for n, _ in sets]
+    header += [f"{primary_name} |e| mean ± std{unit}", f"{primary_name} max |e|{unit}"]
+    return header, rows
+
+
+def method_section(ident, m: str) -> list[str]:
+    """Lines of method ``m``'s folded section: ``<details>`` (open for the best), a one-line summary, the
+    description, consistency, cond(W_b), time, and :func:`method_table`."""
+    import html
+
+    r = ident.results[m]
+    best = m == ident.best
+    v = r.validation if r.validation is not None else r.train
+    kind = "valid." if r.validation is not None else "train"
+    flag = "" if r.physically_consistent else ", <strong>not physically consistent</strong>"
+    headline = (
+        f"<summary><strong>{html.escape(m)}</strong>{' (best)' if best else ''}: {kind} RMS raw "
+        f"{html.escape(pooled(v, 'rel_rms_percent', '.3g'))} %{flag}; {html.escape(number(r.seconds, '.3g'))} s"
+        "</summary>"
+    )
+    lines = ["<details open>" if best else "<details>", headline, "", f"{r.description}.", ""]
+    consistent = "physically consistent" if r.physically_consistent else "**not physically consistent**"
+    lines.append(
+        f"- {consistent} ({r.standard_source}); cond(W_b) {number(r.condition_number, '.4g')}; "
+        f"{number(r.seconds, '.3g')} s; status {r.status}"
+    )
+    for prob in (r.consistency.get("problems") or [])[:4]:
+        lines.append(f"- problem: {prob}")
+    lines += ["", markdown_table(*method_table(r, _unit(ident))), "", "</details>", ""]
+    return lines
+
+
 def report_markdown(ident, figures: dict[str, str] | None = None) -> str:
     """The report text; ``figures`` maps figure keys to the file names to link (missing keys are skipped)."""
     from pinid import __version__
@@ -242,8 +415,7 @@ def report_markdown(ident, figures: dict[str, str] | None = None) -> str:
         f"{'validation' if ident.validation_sources else 'training'} RMS (raw); its model is saved as "
         f"`model_{ident.best}.json`."
     )
-    if "errors" in figures:
-        lines += ["", f"![absolute torque error: mean and [p5, p95] per joint and method]({figures['errors']})"]
+    lines += _comparison_figures(ident, figures)
 
     lines += ["", "## Robot and data", ""]
     urdf = robot.get("urdf")
@@ -280,33 +452,17 @@ def report_markdown(ident, figures: dict[str, str] | None = None) -> str:
             f"![training motion: q and dq per joint]({figures['motion']})",
         ]
 
-    lines += ["", "## Methods", ""]
-    for m, r in ident.results.items():
-        lines += [f"### {m}" + (" (best)" if m == ident.best else ""), "", f"{r.description}.", ""]
-        flag = "physically consistent" if r.physically_consistent else "**not physically consistent**"
-        lines.append(
-            f"- {flag} ({r.standard_source}); cond(W_b) {number(r.condition_number, '.4g')}; "
-            f"{number(r.seconds, '.3g')} s; status {r.status}"
-        )
-        for prob in (r.consistency.get("problems") or [])[:4]:
-            lines.append(f"- problem: {prob}")
-        lines.append("")
-        for kind, metrics in (
-            ("training, against the torque as recorded (raw)", r.train),
-            ("validation, against the torque as recorded (raw)", r.validation),
-            ("training, against the low-passed torque (filtered)", r.train_filtered),
-            ("validation, against the low-passed torque (filtered)", r.validation_filtered),
-        ):
-            if metrics is not None:
-                lines += [f"Torque error per joint, {kind}:", ""]
-                lines.append(
-                    markdown_table(["joint", "RMS [N·m or N]", "RMS [%]", "mean ± std abs", "max abs"], metrics.table())
-                )
-                lines.append("")
-        key = f"torque_{m}"
-        if key in figures:
-            lines += [f"![{m}: measured and predicted torque]({figures[key]})", ""]
-
+    lines += [
+        "",
+        "## Methods",
+        "",
+        "Each method's detail, folded (click a line to open it; the best method's is open).  Torque error per "
+        "joint: RMS and, in brackets, RMS % of the torque's RMS; raw: against the torque as recorded, "
+        "filtered: against the low-passed torque.",
+        "",
+    ]
+    for m in ident.results:
+        lines += method_section(ident, m)
     truth = next((r.truth_error for r in ident.results.values() if r.truth_error), None)
     lines += [
         "## Base parameters",
@@ -403,6 +559,8 @@ def report_files(ident, *, figures: bool = True) -> dict[str, str | bytes]:
         from pinid.report.figures import figure_workers, render_pngs
 
         names, recipes = figure_names(ident), figure_recipes(ident)
+        shown = set(shown_figures(ident))
+        recipes = {k: r for k, r in recipes.items() if k in shown}
         drawn = render_pngs(grouped_recipes(recipes, figure_workers()))
         pngs = {names[key]: drawn[key] for key in recipes}  # in the recipes' order, whatever the groups
         text = report_markdown(ident, {k: n for k, n in names.items() if n in pngs})

@@ -6,13 +6,9 @@ from __future__ import annotations
 import numpy as np
 
 from pinid.estimators import ESTIMATORS
+from pinid.report.colors import method_color
 from pinid.report.figures import new_figure
 from pinid.report.plot_identification import error_bars
-
-
-def _color(method: str, k: int) -> str:
-    cls = ESTIMATORS.get(method)
-    return cls.colour if cls is not None and cls.colour else f"C{k % 10}"
 
 
 def _converges(method: str) -> bool:
@@ -31,16 +27,16 @@ def convergence(comparison, *, stage: str = "main", ax=None, title: str | None =
     least squares sits for Σ|r|.  Otherwise the raw fitness with the minima as lines.  Returns the figure.
     """
     if ax is None:
-        fig, ax = new_figure(figsize=(7, 4))
+        fig, ax = new_figure(figsize=(8.5, 4))
     else:
         fig = ax.figure
     fitness_kinds = set()
     ls_excess = []
     drawn = 0
-    for k, (m, runs) in enumerate(comparison.runs.items()):
+    for m, runs in comparison.runs.items():
         if not _converges(m):
             continue
-        color = _color(m, k)
+        color = method_color(m)
         curves = []
         for r in runs:
             c = r.history_first if stage == "first" else r.history
@@ -86,8 +82,8 @@ def convergence(comparison, *, stage: str = "main", ax=None, title: str | None =
     ax.set_yscale("log")
     ax.set_xlabel("iteration")
     ax.grid(alpha=0.3, which="both")
-    if drawn:
-        ax.legend(fontsize="small")
+    if drawn:  # outside the axes, on the right: the curves keep the whole plot
+        ax.legend(fontsize="small", loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
     if title:
         ax.set_title(title)
     fig.tight_layout()
@@ -150,15 +146,23 @@ def parameter_errors(comparison, *, ax=None, title: str | None = None):
             yerr=[lo, hi],
             capsize=1.5,
             label=m,
-            color=_color(m, k),
+            color=method_color(m),
         )
     ax.set_yscale("log")
     ax.set_xticks(x, names, rotation=35, ha="right")
     ax.set_ylabel("|x − x_true| / |x_true| [%]")
     ax.grid(axis="y", alpha=0.3, which="both")
-    ax.legend(fontsize="x-small", ncol=min(5, len(methods)))
+    # above the axes (the bars keep the whole plot), the title above the legend
+    rows = -(-len(methods) // min(7, max(1, len(methods))))
+    ax.legend(
+        fontsize="x-small",
+        ncol=min(7, max(1, len(methods))),
+        loc="lower center",
+        bbox_to_anchor=(0.5, 1.01),
+        frameon=False,
+    )
     if title:
-        ax.set_title(title)
+        ax.set_title(title, pad=10 + 15 * rows)
     fig.tight_layout()
     return fig
 

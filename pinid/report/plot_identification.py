@@ -29,12 +29,15 @@ def torque_comparison(
     window: float | None = 30.0,
     max_points: int = 2_000,
 ):
-    """Per joint: measured and predicted torque [N·m] against time, and the error τ_meas − τ_pred below.
+    """Per joint: measured and predicted torque [N·m] against time, and the prediction error below.
 
-    ``predicted`` is one ``(N, nv)`` array or ``{method: array}`` to overlay several methods.  ``measured``
-    is the torque as recorded (drawn grey; the error is against it); ``filtered``, when given, the torque
-    after pinid's low-pass (drawn black).  ``units``: each joint's unit (default N·m).  Only the first
-    ``window`` seconds are drawn (None: all), thinned to ``max_points`` samples.  Returns the figure.
+    ``predicted`` is one ``(N, nv)`` array or ``{method: array}`` to overlay several methods (each in its
+    colour, :func:`pinid.report.colors.method_color`, drawn above the measurements).  ``measured`` is the
+    torque as recorded (light grey); ``filtered``, when given, the torque after pinid's low-pass (a thin
+    dark line).  The error panel shows τ_meas − τ_pred against the torque as recorded (raw, light) and,
+    with ``filtered``, against the low-passed torque (filtered, full colour).  ``units``: each joint's
+    unit (default N·m).  Only the first ``window`` seconds are drawn (None: all), thinned to
+    ``max_points`` samples.  The legend sits above the panels.  Returns the figure.
     """
     preds = dict(predicted) if isinstance(predicted, Mapping) else {"predicted": predicted}
     fig, _ = _torque_figure(
@@ -43,60 +46,108 @@ def torque_comparison(
     return fig
 
 
+def _window(t, arrays: dict, window: float | None) -> tuple[np.ndarray, dict, int]:
+    """``t`` and ``arrays`` (None kept) cut to the first ``window`` seconds; the number of samples kept."""
+    t = np.asarray(t, dtype=float)
+    n = len(t)
+    if window is not None and len(t) and t[-1] - t[0] > window:
+        n = int(np.searchsorted(t, t[0] + window))
+    return t[:n], {k: None if v is None else np.asarray(v, dtype=float)[:n] for k, v in arrays.items()}, n
+
+
+def _legend_above(fig, handles: list, top: float) -> tuple[object, float]:
+    """A figure legend of ``handles`` centred above the panels, ``top`` inches below the figure's top edge;
+    returns it and the height it takes [in]."""
+    ncol = max(1, min(4, len(handles)))
+    rows = -(-len(handles) // ncol)
+    legend = fig.legend(
+        handles=handles,
+        loc="upper center",
+        bbox_to_anchor=(0.5, 1 - top / fig.get_figheight()),
+        ncol=ncol,
+        fontsize="small",
+        frameon=False,
+    )
+    return legend, 0.24 * rows + 0.1
+
+
 def _torque_figure(
     t, measured, preds: dict, joints, *, filtered=None, units=None, title=None, window=30.0, max_points: int = 2_000
 ):
     """:func:`torque_comparison`'s figure and a function ``redraw(method, prediction, title)`` that puts
-    another single method's prediction into it (lines, error, legend, title, autoscaled y)."""
-    t = np.asarray(t, dtype=float)
-    measured = np.asarray(measured, dtype=float)
-    n = len(t)
-    if window is not None and len(t) and t[-1] - t[0] > window:
-        n = int(np.searchsorted(t, t[0] + window))
-        t, measured = t[:n], measured[:n]
-        filtered = None if filtered is None else np.asarray(filtered, dtype=float)[:n]
-        preds = {k: np.asarray(v)[:n] for k, v in preds.items()}
+    another single method's prediction into it (lines, errors, colours, legend, title, autoscaled y)."""
+    from pinid.report.colors import method_color
+
+    t, cut, n = _window(t, {"measured": measured, "filtered": filtered, **preds}, window)
+    measured, filtered = cut.pop("measured"), cut.pop("filtered")
+    preds = cut
     nv = len(joints)
+    f = filtered is not None
+    legend_rows = -(-(1 + f + len(preds) * (2 + f)) // 4)  # measured, low-passed; per method: 2 or 3 lines
+    head = (0.5 if title else 0.1) + 0.24 * legend_rows + 0.1
     fig, axes = new_figure(
-        2 * nv, 1, figsize=(9, 2.6 * 2 * nv), sharex=True, squeeze=False, gridspec_kw={"height_ratios": [2, 1] * nv}
+        2 * nv,
+        1,
+        figsize=(9, 2.6 * 2 * nv + head - 0.2),
+        sharex=True,
+        squeeze=False,
+        gridspec_kw={"height_ratios": [2, 1] * nv},
     )
     idx = _thin(len(t), max_points)
-    lines: list[tuple] = []  # per joint: (top axes, bottom axes, prediction line, error line) of the last method
-    legend = None
+    lines: list[tuple] = []  # per joint: (top, bottom, prediction, raw error, filtered error) of the last method
     for j, name in enumerate(joints):
         top, bottom = axes[2 * j, 0], axes[2 * j + 1, 0]
-        top.plot(t[idx], measured[idx, j], color="0.6", lw=0.8, label="measured (as recorded)")
+        bottom.axhline(0.0, color="grey", lw=0.5)  # first: in the data limits, as after a redraw's relim
+        top.plot(t[idx], measured[idx, j], color="0.75", lw=0.8, zorder=1, label="measured (as recorded)")
         if filtered is not None:
-            top.plot(t[idx], np.asarray(filtered)[idx, j], color="black", lw=1.0, label="measured, low-passed")
+            top.plot(t[idx], filtered[idx, j], color="0.3", lw=0.5, zorder=2, label="measured, low-passed")
+        line = err = ferr = None
         for m, p in preds.items():
-            p = np.asarray(p, dtype=float)
-            (line,) = top.plot(t[idx], p[idx, j], lw=0.9, label=m, alpha=0.85)
-            (err,) = bottom.plot(t[idx], measured[idx, j] - p[idx, j], lw=0.8, label=m, alpha=0.85)
-        lines.append((top, bottom, line, err) if preds else (top, bottom, None, None))
+            c = method_color(m)
+            (line,) = top.plot(t[idx], p[idx, j], color=c, lw=1.1, zorder=3, label=f"{m}: predicted")
+            (err,) = bottom.plot(
+                t[idx], measured[idx, j] - p[idx, j], color=c, lw=0.6, alpha=0.35, label=f"{m}: error, raw"
+            )
+            if filtered is not None:
+                (ferr,) = bottom.plot(
+                    t[idx], filtered[idx, j] - p[idx, j], color=c, lw=0.9, zorder=3, label=f"{m}: error, filtered"
+                )
+        lines.append((top, bottom, line, err, ferr))
         unit = "N·m" if units is None else units[j]
         top.set_ylabel(f"{name}\nτ [{unit}]")
-        bottom.set_ylabel(f"error (raw) [{unit}]")
-        bottom.axhline(0.0, color="grey", lw=0.5)
+        bottom.set_ylabel(f"error [{unit}]")
         top.grid(alpha=0.3)
         bottom.grid(alpha=0.3)
-        if j == 0:
-            legend = top.legend(loc="upper right", fontsize="small", ncol=min(4, 1 + len(preds)))
     axes[-1, 0].set_xlabel("time [s]")
-    # 0.2 inch from the top edge, above the first panel (suptitle's default, 2 % of the height, is inside it)
+    # 0.2 inch from the top edge, above the legend (suptitle's default, 2 % of the height, is inside it)
     heading = fig.suptitle(title, y=1 - 0.2 / fig.get_figheight()) if title else None
-    fixed_layout(fig, left=0.95, right=0.15, bottom=0.5, top=0.55 if title else 0.2, hspace=0.32)
+    legend_top = 0.5 if title else 0.1
+
+    def handles() -> list:
+        return list(axes[0, 0].get_lines()) + [ln for ln in axes[1, 0].get_lines() if ln.get_label()[0] != "_"]
+
+    legend, _ = _legend_above(fig, handles(), legend_top)
+    fixed_layout(fig, left=0.95, right=0.15, bottom=0.5, top=head, hspace=0.32)
 
     def redraw(method: str, prediction: np.ndarray, new_title: str | None) -> None:
+        nonlocal legend
         p = np.asarray(prediction, dtype=float)[:n]
-        for j, (top, bottom, line, err) in enumerate(lines):
+        c = method_color(method)
+        for j, (top, bottom, line, err, ferr) in enumerate(lines):
             line.set_ydata(p[idx, j])
             err.set_ydata(measured[idx, j] - p[idx, j])
-            line.set_label(method)
-            err.set_label(method)
+            line.set_label(f"{method}: predicted")
+            err.set_label(f"{method}: error, raw")
+            for ln in (line, err) + ((ferr,) if ferr is not None else ()):
+                ln.set_color(c)
+            if ferr is not None:
+                ferr.set_ydata(filtered[idx, j] - p[idx, j])
+                ferr.set_label(f"{method}: error, filtered")
             for ax in (top, bottom):
                 ax.relim()
                 ax.autoscale_view()
-        legend.get_texts()[-1].set_text(method)
+        legend.remove()
+        legend, _ = _legend_above(fig, handles(), legend_top)
         if heading is not None and new_title:
             heading.set_text(new_title)
 
@@ -131,6 +182,62 @@ def torque_pngs(
     return pngs
 
 
+def prediction_overlay(
+    t: np.ndarray,
+    measured: np.ndarray,
+    predicted: Mapping[str, np.ndarray],
+    joints: list[str],
+    *,
+    reference: str,
+    units: list[str] | None = None,
+    title: str | None = None,
+    window: float | None = 30.0,
+    max_points: int = 1_000,
+):
+    """Every method's predicted torque [N·m] in one figure, per joint: the predictions over the torque as
+    recorded (light grey), and below each prediction minus ``reference``'s (the best method's), where the
+    methods differ.  One colour per method (:func:`pinid.report.colors.method_color`), the legend above the
+    panels; the first ``window`` seconds (None: all), thinned to ``max_points``.  Returns the figure."""
+    from pinid.report.colors import method_color
+
+    if reference not in predicted:
+        raise KeyError(f"reference {reference!r} is not one of the predictions ({', '.join(predicted)})")
+    t, cut, _ = _window(t, {"measured": measured, **predicted}, window)
+    measured = cut.pop("measured")
+    nv = len(joints)
+    head = (0.5 if title else 0.1) + 0.24 * -(-(1 + len(cut)) // 4) + 0.1
+    fig, axes = new_figure(
+        2 * nv,
+        1,
+        figsize=(9, 2.2 * 2 * nv + head),
+        sharex=True,
+        squeeze=False,
+        gridspec_kw={"height_ratios": [2, 1] * nv},
+    )
+    idx = _thin(len(t), max_points)
+    ref = cut[reference]
+    for j, name in enumerate(joints):
+        top, bottom = axes[2 * j, 0], axes[2 * j + 1, 0]
+        top.plot(t[idx], measured[idx, j], color="0.75", lw=0.8, zorder=1, label="measured (as recorded)")
+        for m, p in cut.items():
+            c, lw = method_color(m), (1.3 if m == reference else 0.8)
+            top.plot(t[idx], p[idx, j], color=c, lw=lw, zorder=3 if m == reference else 2, label=m)
+            if m != reference:
+                bottom.plot(t[idx], p[idx, j] - ref[idx, j], color=c, lw=0.8)
+        unit = "N·m" if units is None else units[j]
+        top.set_ylabel(f"{name}\nτ [{unit}]")
+        bottom.set_ylabel(f"τ − τ_{reference} [{unit}]")
+        bottom.axhline(0.0, color=method_color(reference), lw=1.0)
+        top.grid(alpha=0.3)
+        bottom.grid(alpha=0.3)
+    axes[-1, 0].set_xlabel("time [s]")
+    if title:
+        fig.suptitle(title, y=1 - 0.2 / fig.get_figheight())
+    _legend_above(fig, list(axes[0, 0].get_lines()), 0.5 if title else 0.1)
+    fixed_layout(fig, left=0.95, right=0.15, bottom=0.5, top=head, hspace=0.32)
+    return fig
+
+
 def error_bars(metrics: Mapping[str, object], *, title: str | None = None):
     """The absolute torque error |e| [N·m] per joint (one panel each, and one pooling all joints) and method:
     the mean (dot, value written) and the [p5, p95] band of |e| (never below zero, unlike mean − std).
@@ -138,6 +245,8 @@ def error_bars(metrics: Mapping[str, object], *, title: str | None = None):
     ``metrics``: ``{method: TorqueMetrics}`` (or their ``to_dict()`` forms).  A grid of at most three
     panels per row, 10 inches wide, so it fits a page.  Returns the figure.
     """
+    from pinid.report.colors import method_color
+
     per = {m: (v.to_dict() if hasattr(v, "to_dict") else v) for m, v in metrics.items()}
     methods = list(per)
     first = next(iter(per.values())) if per else {}
@@ -150,7 +259,7 @@ def error_bars(metrics: Mapping[str, object], *, title: str | None = None):
     height = nrows * (0.9 + 0.28 * max(1, len(methods))) + (0.4 if title else 0.0)
     fig, axes = new_figure(nrows, ncols, figsize=(10, min(height, 13)), squeeze=False)
     y = np.arange(len(methods))[::-1]
-    colours = [f"C{k % 10}" for k in range(len(methods))]
+    colours = [method_color(m) for m in methods]
     for k, name in enumerate(panels):
         ax = axes[k // ncols, k % ncols]
         top = 0.0
