@@ -22,6 +22,7 @@ from pinid.model.floating import FloatingRobotModel, as_floating, floating_param
 from pinid.model.serialize import robot_from_dict, robot_to_dict
 from pinid.model.mjcf import identified_mjcf
 from pinid.model.terms import TermSelection, as_terms
+from pinid.identification.floating_checks import method_statistics, parameters_text, std_percent
 from pinid.identification.plausibility import shared_excitation
 
 
@@ -52,13 +53,17 @@ class FloatingIdentification:
             **({"model": self.model} if self.model is not None else {}),
         }
 
-    def text(self) -> str:
-        """A table of each method's RMS and the first base parameters."""
-        out = [f"{'method':<8}{'train RMS':>12}{'valid. RMS':>12}{'seconds':>10}   total mass [kg]"]
+    def text(self, *, verbose: bool = False) -> str:
+        """A table of each method's RMS, cond(W_b) and total mass; each method's largest relative standard
+        deviation (``verbose``: every base parameter's value, σ and σ %)."""
+        out = [f"{'method':<8}{'train RMS':>12}{'valid. RMS':>12}{'cond(W_b)':>11}{'seconds':>10}   total mass [kg]"]
         for m, r in self.results.items():
             val = "-" if r["validation_rms"] is None else f"{r['validation_rms']:.4g}"
             mass = r["base"][0] if self.names[0].startswith("base.m") else float("nan")
-            out.append(f"{m:<8}{r['train_rms']:>12.4g}{val:>12}{r['seconds']:>10.3f}   {mass:.6g}")
+            cond = r.get("condition_number", float("nan"))
+            out.append(f"{m:<8}{r['train_rms']:>12.4g}{val:>12}{cond:>11.4g}{r['seconds']:>10.3f}   {mass:.6g}")
+        for m, r in self.results.items():
+            out += parameters_text(m, self.names, r, verbose=verbose)
         return "\n".join(out)
 
 
@@ -153,8 +158,12 @@ def identify_floating(
         est = make_estimator(method, **dict((options or {}).get(method, {}))).fit(problem)
         seconds = time.perf_counter() - start
         r = problem.tau - problem.predict(est.base_)
+        std, cond = method_statistics(problem, est, r)
         entry = {
             "base": est.base_.tolist(),
+            "std": std.tolist(),
+            "std_percent": dict(zip(problem.names, std_percent(est.base_, std).tolist())),
+            "condition_number": cond,
             "standard": None if getattr(est, "standard_", None) is None else np.asarray(est.standard_).tolist(),
             "standard_names": problem.standard_names,
             "standard_marks": problem.base.marks(),

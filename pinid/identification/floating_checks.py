@@ -1,0 +1,64 @@
+"""What a floating-base identification can be trusted for (docs/floating-base.md, "Numbers you can trust"):
+each method's standard deviations and condition number (the fixed base's Newey–West sandwich,
+:func:`pinid.problem.statistics.base_statistics`, on the floating problem's rows, every row of a sample in one
+score), and the one-line warning naming the base parameters the data barely excite."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from pinid.errors import SpecError
+from pinid.identification.result import BOUND_FRACTION
+from pinid.problem.statistics import base_statistics
+from pinid.report.text import text_table
+
+#: A base parameter is barely excited when 2σ exceeds this fraction of its natural scale (mass, mass·length,
+#: mass·length² of its bodies; 1 N·m or N·m·s/rad for a joint term): its 95 % interval then spans more than
+#: ±10 % of what such a parameter typically is, whatever its own value (which may be near 0).
+EXCITED_FRACTION = 0.10
+
+
+def method_statistics(problem, estimator, residual: np.ndarray) -> tuple[np.ndarray, float]:
+    """``(std, cond)`` of a method fitted on ``problem`` (a floating :class:`IdentificationProblem`): the HAC
+    standard deviations of its base parameters (NaN for a method without a calibrated σ, and for a value an
+    LMI method holds on a bound), as for a fixed base (:func:`pinid.identification.result.make_result`), and
+    cond(W_b) of its weighted rows; ``residual``: ``tau − W·base`` (rows,)."""
+    if not hasattr(problem, "natural_scale") or not hasattr(estimator, "base_"):
+        raise SpecError("method_statistics: expected an identification problem and a fitted estimator")
+    base = np.asarray(estimator.base_, dtype=float)
+    w = getattr(estimator, "weights_", None)  # wls: its final weights
+    std, cond, _ = base_statistics(problem, base, w, residual=np.asarray(residual, dtype=float))
+    if not getattr(estimator, "calibrated_std", True):
+        std = np.full_like(std, np.nan)
+    elif getattr(estimator, "consistent_by_construction", False):
+        std = np.where(np.abs(base) <= BOUND_FRACTION * problem.natural_scale, np.nan, std)
+    return std, float(cond)
+
+
+def std_percent(base, std) -> np.ndarray:
+    """``100·std/|value|`` (inf for a zero value, NaN where σ is NaN)."""
+    base, std = np.asarray(base, dtype=float), np.asarray(std, dtype=float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(base != 0, 100 * std / np.abs(base), np.where(np.isnan(std), np.nan, np.inf))
+
+
+def parameters_text(method: str, names: list[str], result: dict, *, verbose: bool = False) -> list[str]:
+    """Lines of one method of a floating identification (a ``results`` entry of ``identification.json``): its
+    largest relative standard deviation σ %, or (``verbose``) every base parameter's value, σ and σ %."""
+    if not isinstance(method, str) or not isinstance(names, list) or not isinstance(result, dict):
+        raise SpecError("parameters_text: expected a method name, the base parameter names and a result dict")
+    std = result.get("std")
+    if std is None or not len(names):
+        return []
+    base, std = np.asarray(result["base"], dtype=float), np.asarray(std, dtype=float)
+    sp = std_percent(base, std)
+    if np.all(np.isnan(std)):
+        return [f"{method}: no calibrated standard deviation (σ —) for this method"]
+    if not verbose:
+        k = int(np.nanargmax(np.where(np.isnan(sp) | np.isfinite(sp), sp, np.inf)))
+        return [f"{method}: largest relative standard deviation σ % {sp[k]:.3g} ({names[k]}); every one with --verbose"]
+    rows = [
+        [n, f"{v:.6g}", *(["—", "—"] if np.isnan(s) else [f"{s:.3g}", f"{p:.3g}" if np.isfinite(p) else "inf"])]
+        for n, v, s, p in zip(names, base, std, sp)
+    ]
+    return [f"\n== {method}: base parameters", text_table(["parameter", "value", "std", "σ %"], rows, indent="   ")]

@@ -1,0 +1,66 @@
+"""Numbers you can trust on a floating base (issue 33): σ and cond(W_b) of every method, and the checks of
+the recordings against a known truth, the floating twin (:mod:`pinid.simulation.floating_twin`)."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+
+from pinid import RobotModel
+from pinid.data.contacts import prepare_floating
+from pinid.excitation.trajectory import FourierTrajectory
+from pinid.identification.floating import identify_floating
+from pinid.model.terms import TermSelection
+from pinid.simulation.floating_twin import Noise, simulate_suspended
+
+TERMS = TermSelection.from_names("fc,fv")
+NOISE = Noise(torque=0.5, force=2.0, moment=0.2)
+
+
+@pytest.fixture(scope="module")
+def exo():
+    return RobotModel.from_urdf("exo_lower_body", base="floating")
+
+
+def excitation(model, seed=0, harmonics=4, scale=0.08) -> FourierTrajectory:
+    rng = np.random.default_rng(seed)
+    span = (model.upper - model.lower)[:, None]
+    a, b = (rng.uniform(-1, 1, (model.nv, harmonics)) * scale * span for _ in range(2))
+    return FourierTrajectory(model.joint_names, 2 * np.pi * 0.2, 0.5 * (model.lower + model.upper), a, b)
+
+
+def identified(model, runs, validate=None, **kw):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return identify_floating(
+            model,
+            [prepare_floating(r.recording, model) for r in runs],
+            validate=None if validate is None else [prepare_floating(r.recording, model) for r in validate],
+            methods=kw.pop("methods", ("ols", "wls", "sdp")),
+            terms=TERMS,
+            **kw,
+        )
+
+
+def test_true_base_parameters_lie_within_two_sigma_at_about_the_nominal_rate(exo):
+    """4 suspended twins (10 s at 200 Hz, torque, force and moment noise, default preprocessing) without
+    Coulomb friction (the filtered Coulomb step is a model error no σ covers: docs/floating-base.md): the share
+    of the 82 true base parameters within ±2σ is near 95 % (measured 87.8 / 90.2 / 95.5 % for ols / wls /
+    sdp over seeds 0–3), far from the 30–50 % a white-noise σ gives."""
+    twin = RobotModel.from_urdf("exo_lower_body", base="floating")
+    twin.coulomb = np.zeros(twin.nv)
+    hits = {m: [0, 0] for m in ("ols", "wls", "sdp")}
+    for seed in range(4):
+        run = simulate_suspended(twin, excitation(exo, seed), seconds=10, rate=200, noise=NOISE, seed=seed)
+        ident = identified(exo, [run])
+        truth = np.array([0.0 if n.endswith(".fc") else v for n, v in zip(ident.names, ident.nominal)])
+        for m, r in ident.results.items():
+            std = np.asarray(r["std"])
+            assert r["condition_number"] > 1 and len(std) == len(ident.names) == len(r["std_percent"])
+            ok = np.isfinite(std)
+            hits[m][0] += int(np.sum(np.abs(np.asarray(r["base"]) - truth)[ok] <= 2 * std[ok]))
+            hits[m][1] += int(ok.sum())
+    share = {m: h / n for m, (h, n) in hits.items()}
+    assert share["ols"] >= 0.8 and share["wls"] >= 0.8 and share["sdp"] >= 0.85, share
