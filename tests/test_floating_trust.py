@@ -64,3 +64,27 @@ def test_true_base_parameters_lie_within_two_sigma_at_about_the_nominal_rate(exo
             hits[m][1] += int(ok.sum())
     share = {m: h / n for m, (h, n) in hits.items()}
     assert share["ols"] >= 0.8 and share["wls"] >= 0.8 and share["sdp"] >= 0.85, share
+
+
+@pytest.fixture(scope="module")
+def suspended(exo):
+    return simulate_suspended(exo, excitation(exo, 7), seconds=6, rate=200, noise=NOISE, seed=7)
+
+
+def test_a_flipped_joint_torque_is_named(exo, suspended):
+    """The fixed base's "check the sign of tau_<joint>" (r < −0.5 against the URDF's torque for the motion and
+    the measured wrenches) on the floating path: the knee's torque flipped is named, nothing else."""
+    rec = suspended.recording
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        identify_floating(exo, [prepare_floating(rec, exo)], methods=("ols",), terms=TERMS)
+    assert not [w for w in caught if "check the sign" in str(w.message)]
+    j = exo.joint_names.index("l_knee")
+    tau = rec.data.tau.copy()
+    tau[:, j] *= -1
+    flipped = type(rec)(type(rec.data)(rec.data.t, rec.data.q, rec.data.joints, tau=tau, source="flipped"))
+    flipped.base_pose, flipped.wrenches = rec.base_pose, rec.wrenches
+    with pytest.warns(UserWarning, match="check the sign of tau_l_knee") as caught:
+        ident = identify_floating(exo, [prepare_floating(flipped, exo)], methods=("ols",), terms=TERMS)
+    assert ident.data["flipped_torque_signs"] == ["l_knee"]
+    assert sum("check the sign" in str(w.message) for w in caught) == 1

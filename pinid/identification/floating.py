@@ -22,7 +22,7 @@ from pinid.model.floating import FloatingRobotModel, as_floating, floating_param
 from pinid.model.serialize import robot_from_dict, robot_to_dict
 from pinid.model.mjcf import identified_mjcf
 from pinid.model.terms import TermSelection, as_terms
-from pinid.identification.floating_checks import method_statistics, parameters_text, std_percent
+from pinid.identification.floating_checks import flipped_floating_signs, method_statistics, parameters_text, std_percent
 from pinid.identification.plausibility import shared_excitation
 
 
@@ -128,6 +128,7 @@ def identify_floating(
         mapping = floating_mapping(mapping)  # checked once, before any recording is read
     hints: list[str] = []  # convention errors the raw recordings point to (recording_hints)
     train = load_floating(data, model, preprocess, swing_rows=swing_rows, mapping=mapping, hints=hints)
+    flipped = flipped_floating_signs(model, train) if rows != "base" else []  # one warning, as a fixed base's
     problem = floating_problem(
         model, train, terms=terms, rows=rows, base_weight=base_weight, rest_velocity=rest_velocity
     )
@@ -153,6 +154,7 @@ def identify_floating(
     ident = FloatingIdentification(model.name, rows, problem.names, problem.nominal_base)
     ident.model = robot_to_dict(model, problem.terms)
     ident.data = problem.summary() | {"rows_per_sample": int(problem.rows // max(problem.samples, 1))}
+    ident.data["flipped_torque_signs"] = flipped
     for method in methods:
         start = time.perf_counter()
         est = make_estimator(method, **dict((options or {}).get(method, {}))).fit(problem)

@@ -8,6 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from pinid.errors import SpecError
+from pinid.identification.plausibility import flipped_torque_signs
 from pinid.identification.result import BOUND_FRACTION
 from pinid.problem.statistics import base_statistics
 from pinid.report.text import text_table
@@ -62,3 +63,36 @@ def parameters_text(method: str, names: list[str], result: dict, *, verbose: boo
         for n, v, s, p in zip(names, base, std, sp)
     ]
     return [f"\n== {method}: base parameters", text_table(["parameter", "value", "std", "σ %"], rows, indent="   ")]
+
+
+def flipped_floating_signs(model, samples, *, limit: int = 5000) -> list[str]:
+    """The joints whose recorded torque is anti-correlated with the URDF's for the same motion and wrenches
+    (``RNEA_joints − (Σ J_cᵀ f_c)_joints`` plus the URDF's friction, on at most ``limit`` samples of the
+    prepared training recordings ``samples``; samples where a foot without a measured wrench is in contact are
+    left out): one DataWarning "check the sign of tau_<joint>" (:func:`pinid.identification.plausibility.
+    flipped_torque_signs`, the fixed base's check)."""
+    from pinid.model.floating import BASE_NV, contact_forces, floating_rnea
+
+    if not hasattr(model, "ff_model") or isinstance(samples, (str, bytes)) or not hasattr(samples, "__iter__"):
+        raise SpecError("flipped_floating_signs: expected a FloatingRobotModel and a list of FloatingSamples")
+    samples = [s for s in samples if s.data.tau is not None]
+    total = sum(s.n for s in samples)
+    if not total:
+        return []
+    step = max(1, total // limit)
+    recorded, nominal = [], []
+    for s in samples:
+        k = np.arange(0, s.n, step)
+        for contact in s.unsensed.values():
+            k = k[~np.asarray(contact, bool)[k]]
+        if not len(k):
+            continue
+        wrenches = [type(w)(w.link, np.asarray(w.values)[k], w.frame) for w in s.wrenches]
+        bq, q, dq = s.base_q[k], s.data.q[k], s.data.dq[k]
+        rnea = floating_rnea(model, bq, s.base_v[k], s.base_a[k], q, dq, s.data.ddq[k])[:, BASE_NV:]
+        ext = contact_forces(model, bq, q, wrenches)[:, BASE_NV:] if wrenches else 0.0
+        nominal.append(rnea - ext + model.coulomb * np.sign(dq) + model.viscous * dq)
+        recorded.append(s.data.tau[k])
+    if not recorded:
+        return []
+    return flipped_torque_signs(model.joint_names, np.concatenate(recorded), np.concatenate(nominal))
