@@ -22,7 +22,13 @@ from pinid.model.floating import FloatingRobotModel, as_floating, floating_param
 from pinid.model.serialize import robot_from_dict, robot_to_dict
 from pinid.model.mjcf import identified_mjcf
 from pinid.model.terms import TermSelection, as_terms
-from pinid.identification.floating_checks import flipped_floating_signs, method_statistics, parameters_text, std_percent
+from pinid.identification.floating_checks import (
+    com_warning,
+    flipped_floating_signs,
+    method_statistics,
+    parameters_text,
+    std_percent,
+)
 from pinid.identification.plausibility import shared_excitation
 
 
@@ -180,6 +186,9 @@ def identify_floating(
             entry["validation_rms_by_row"] = _by_row(val_problem, rv)
         ident.results[method] = entry
     _check_total_mass(ident, hints, _sources(data))
+    if rows != "joints":
+        posture = np.mean(np.concatenate([s.data.q for s in train]), axis=0)
+        com_warning(ident, model, problem.terms, problem.base, posture, _sources(data))
     return ident
 
 

@@ -5,6 +5,8 @@ score), and the one-line warning naming the base parameters the data barely exci
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 
 from pinid.errors import SpecError
@@ -96,3 +98,78 @@ def flipped_floating_signs(model, samples, *, limit: int = 5000) -> list[str]:
     if not recorded:
         return []
     return flipped_torque_signs(model.joint_names, np.concatenate(recorded), np.concatenate(nominal))
+
+
+#: The whole-body centre of mass (identified first moments / mass, base frame) is implausible when it is this
+#: fraction of the robot's size (the farthest body origin from the base link's, at the mean training posture)
+#: or more from the URDF's: a few centimetres on a lower-body exoskeleton, far beyond what noise moves it.
+COM_WARNED = 0.10
+
+
+def whole_body_com(model, terms, base, q: np.ndarray, values: np.ndarray) -> np.ndarray:
+    """The whole-body centre of mass [m] in the base frame at joint positions ``q`` (nv,) of each base vector
+    ``values`` (k, nb) whose first entry is the total mass ``base.mR``: the first moments ``h = Σ mᵢcᵢ`` read
+    from the moment rows of the base at rest in three base orientations (``moment = g_b × h``, g in the
+    base frame), divided by the mass."""
+    import pinocchio as pin
+
+    from pinid.model.floating import floating_regressor
+
+    if not hasattr(model, "ff_model") or not hasattr(base, "independent"):
+        raise SpecError("whole_body_com: expected a FloatingRobotModel, its terms and base parameters")
+    values = np.atleast_2d(np.asarray(values, dtype=float))
+    g = np.asarray(model.ff_model.gravity.linear)
+    A, Y = [], []
+    zero6, zero = np.zeros((1, 6)), np.zeros((1, model.nv))
+    for axis, angle in (
+        (np.array([1.0, 0, 0]), 0.0),
+        (np.array([1.0, 0, 0]), np.pi / 2),
+        (np.array([0, 1.0, 0]), np.pi / 2),
+    ):
+        R = pin.exp3(axis * angle)
+        quat = pin.Quaternion(R).coeffs()  # x, y, z, w
+        W = floating_regressor(model, np.r_[0, 0, 0, quat][None], zero6, zero6, q[None], zero, zero, terms)
+        Y.append(W[3:6][:, base.independent])
+        gb = R.T @ g
+        A.append(pin.skew(gb))  # the moment the base must receive to hold the robot still: g_b × h
+    A, Y = np.vstack(A), np.vstack(Y)
+    h = np.linalg.lstsq(A, Y @ values.T, rcond=None)[0].T  # (k, 3)
+    return h / values[:, :1]
+
+
+def com_warning(ident, model, terms, base, q: np.ndarray, source: str) -> str | None:
+    """One DataWarning line when a method's whole-body centre of mass (:func:`whole_body_com`, at the mean
+    training posture ``q``) is :data:`COM_WARNED` × the robot's size or more from the URDF's, naming the likely
+    causes; returns it (None when every method's is plausible or the rows have no ``base.mR``)."""
+    import pinocchio as pin
+
+    from pinid.errors import DataWarning
+
+    if not ident.names or ident.names[0] != "base.mR" or not ident.results:
+        return None
+    methods = list(ident.results)
+    values = np.array([ident.nominal] + [ident.results[m]["base"] for m in methods])
+    if np.any(values[:, 0] <= 0):
+        return None  # the total mass's own check says it
+    com = whole_body_com(model, terms, base, np.asarray(q, dtype=float), values)
+    m, d = model.ff_model, model.ff_model.createData()
+    pin.framesForwardKinematics(m, d, np.r_[0, 0, 0, 0, 0, 0, 1.0, model.configuration(q)])
+    size = max(float(np.linalg.norm(f.translation)) for f in d.oMf)
+    off = {k: float(np.linalg.norm(c - com[0])) for k, c in zip(methods, com[1:])}
+    for k, c in zip(methods, com[1:]):
+        ident.results[k]["com"] = c.tolist()
+    ident.data["com_urdf"] = com[0].tolist()
+    bad = {k: v for k, v in off.items() if v >= COM_WARNED * size}
+    if not bad:
+        return None
+    line = (
+        f"{source}: whole-body centre of mass (base frame, mean posture) "
+        + ", ".join(
+            f"{k} ({', '.join(f'{x:.3g}' for x in com[1 + methods.index(k)])}) m, {v:.3g} m off" for k, v in bad.items()
+        )
+        + f" against the URDF's ({', '.join(f'{x:.3g}' for x in com[0])}) m; more than {COM_WARNED:.0%} of the robot's "
+        f"size ({size:.3g} m): check the wrench's axes and frame (link or world, force plate x/y), the sign of its "
+        "moments and the point they are taken about (centre of pressure, sensor origin)"
+    )
+    warnings.warn(line, DataWarning, stacklevel=3)
+    return line
