@@ -116,3 +116,21 @@ def test_whole_body_centre_of_mass_against_the_urdf(exo):
     rec.plates = {k: v * np.r_[1, 1, 1, -1, -1, 1, 1] for k, v in rec.plates.items()}
     with pytest.warns(UserWarning, match="whole-body centre of mass .* ols .* the wrench's axes and frame"):
         identify_floating(exo, [prepare_floating(rec, exo)], methods=("ols",), terms=TERMS)
+
+
+def test_model_class_floor_on_floating_validation(exo, suspended):
+    """The floor (OLS fitted on the validation rows themselves) is at most every method's validation RMS, about
+    the RMS of the true parameters on the same prepared rows (the noise floor), and given per body (the base's
+    6 wrench rows as ``base``) and printed."""
+    from pinid.problem.floating import floating_problem
+
+    held_out = simulate_suspended(exo, excitation(exo, 8), seconds=6, rate=200, noise=NOISE, seed=8)
+    ident = identified(exo, [suspended], [held_out], methods=("ols", "sdp"))
+    floor = ident.data["floor"]
+    assert all(floor["rms"] <= r["validation_rms"] for r in ident.results.values())
+    val = floating_problem(exo, prepare_floating(held_out.recording, exo), terms=TERMS)
+    r = val.tau - val.predict(val.nominal_base)
+    truth = float(np.sqrt(np.mean(r * r)))
+    assert 0.8 * truth <= floor["rms"] <= truth, (floor["rms"], truth)
+    assert set(floor["rms_by_row"]) == {"base", *exo.joint_names}
+    assert "model-class floor" in ident.text() and "base " in ident.text().splitlines()[-1]

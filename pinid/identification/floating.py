@@ -70,6 +70,17 @@ class FloatingIdentification:
             out.append(f"{m:<8}{r['train_rms']:>12.4g}{val:>12}{cond:>11.4g}{r['seconds']:>10.3f}   {mass:.6g}")
         for m, r in self.results.items():
             out += parameters_text(m, self.names, r, verbose=verbose)
+        floor = self.data.get("floor")
+        if floor:
+            best = min(self.results, key=lambda m: self.results[m]["validation_rms"])
+            by = self.results[best]["validation_rms_by_row"]
+            cells = [f"all {floor['rms']:.3g} ({best} {self.results[best]['validation_rms']:.3g})"]
+            cells += [f"{k} {v:.3g} ({best} {by[k]:.3g})" for k, v in floor["rms_by_row"].items() if k in by]
+            out.append(
+                "model-class floor, valid. RMS [N·m; base: N and N·m] (the same terms fitted by OLS on the "
+                f"validation recording itself): {', '.join(cells)}; near the floor the model class limits the "
+                "result, far above it the identification"
+            )
         return "\n".join(out)
 
 
@@ -185,6 +196,8 @@ def identify_floating(
             entry["validation_rms"] = float(np.sqrt(np.mean(rv * rv)))
             entry["validation_rms_by_row"] = _by_row(val_problem, rv)
         ident.results[method] = entry
+    if val_problem is not None:
+        ident.data["floor"] = _floor(val_problem)
     _check_total_mass(ident, hints, _sources(data))
     if rows != "joints":
         posture = np.mean(np.concatenate([s.data.q for s in train]), axis=0)
@@ -266,6 +279,17 @@ def _check_total_mass(ident: FloatingIdentification, hints: list[str], source: s
     if len(odd) == len(masses) and all(not MASS_REFUSED[0] <= v / nominal <= MASS_REFUSED[1] for v in odd.values()):
         raise DataError(line)
     warnings.warn(line, stacklevel=3)
+
+
+def _floor(problem) -> dict | None:
+    """The model-class floor (:mod:`pinid.identification.floor`): OLS fitted on the validation rows themselves
+    and its RMS over them, all rows and per body (``base``: the 6 wrench rows) [N·m, N]; None when they do not
+    determine the parameters alone."""
+    try:
+        r = problem.tau - problem.predict(make_estimator("ols").fit(problem).base_)
+    except (np.linalg.LinAlgError, DataError, ValueError):
+        return None
+    return {"rms": float(np.sqrt(np.mean(r * r))), "rms_by_row": _by_row(problem, r)}
 
 
 def _by_row(problem, r: np.ndarray) -> dict[str, float]:
