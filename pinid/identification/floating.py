@@ -24,6 +24,7 @@ from pinid.model.mjcf import identified_mjcf
 from pinid.model.terms import TermSelection, as_terms
 from pinid.identification.floating_checks import (
     com_warning,
+    excitation_warning,
     flipped_floating_signs,
     method_statistics,
     parameters_text,
@@ -199,6 +200,7 @@ def identify_floating(
     if val_problem is not None:
         ident.data["floor"] = _floor(val_problem)
     _check_total_mass(ident, hints, _sources(data))
+    excitation_warning(ident, problem.natural_scale, _sources(data))
     if rows != "joints":
         posture = np.mean(np.concatenate([s.data.q for s in train]), axis=0)
         com_warning(ident, model, problem.terms, problem.base, posture, _sources(data))

@@ -173,3 +173,30 @@ def com_warning(ident, model, terms, base, q: np.ndarray, source: str) -> str | 
     )
     warnings.warn(line, DataWarning, stacklevel=3)
     return line
+
+
+def excitation_warning(ident, natural_scale: np.ndarray, source: str) -> str | None:
+    """One DataWarning line naming the base parameters whose 2σ exceeds :data:`EXCITED_FRACTION` of their
+    natural scale (``natural_scale`` (nb,), :attr:`IdentificationProblem.natural_scale`) for the method with
+    the lowest validation (else training) RMS among those with a σ; returns it, None when every one is excited."""
+    scale = np.asarray(natural_scale, dtype=float)
+    have = [m for m, r in ident.results.items() if r.get("std") is not None and np.any(np.isfinite(r["std"]))]
+    if not have or scale.shape != (len(ident.names),):
+        return None
+    method = min(have, key=lambda m: ident.results[m]["validation_rms"] or ident.results[m]["train_rms"])
+    ratio = 2 * np.asarray(ident.results[method]["std"], dtype=float) / np.maximum(scale, 1e-300)
+    bad = sorted(((n, float(v)) for n, v in zip(ident.names, ratio) if v > EXCITED_FRACTION), key=lambda kv: -kv[1])
+    ident.results[method]["barely_excited"] = [n for n, _ in bad]
+    if not bad:
+        return None
+    shown = ", ".join(f"{n} {100 * v:.3g} %" for n, v in bad[:4]) + (
+        f" and {len(bad) - 4} more" if len(bad) > 4 else ""
+    )
+    line = (
+        f"{source}: {method}: barely excited (2σ > {EXCITED_FRACTION:.0%} of their natural scale): {shown}; a low "
+        "held-out error does not vouch for them: move those joints more (pinid excite --base floating) or record longer"
+    )
+    from pinid.errors import DataWarning
+
+    warnings.warn(line, DataWarning, stacklevel=3)
+    return line
