@@ -40,6 +40,8 @@ def method_statistics(problem, estimator, residual: np.ndarray) -> tuple[np.ndar
 
 def std_percent(base, std) -> np.ndarray:
     """``100·std/|value|`` (inf for a zero value, NaN where σ is NaN)."""
+    if isinstance(base, (str, bytes)) or isinstance(std, (str, bytes)):
+        raise SpecError("std_percent: expected arrays of values and standard deviations")
     base, std = np.asarray(base, dtype=float), np.asarray(std, dtype=float)
     with np.errstate(divide="ignore", invalid="ignore"):
         return np.where(base != 0, 100 * std / np.abs(base), np.where(np.isnan(std), np.nan, np.inf))
@@ -145,6 +147,8 @@ def com_warning(ident, model, terms, base, q: np.ndarray, source: str) -> str | 
 
     from pinid.errors import DataWarning
 
+    if not hasattr(ident, "results") or not hasattr(model, "ff_model") or not isinstance(source, str):
+        raise SpecError("com_warning: expected a FloatingIdentification, its FloatingRobotModel and a source name")
     if not ident.names or ident.names[0] != "base.mR" or not ident.results:
         return None
     methods = list(ident.results)
@@ -179,6 +183,8 @@ def excitation_warning(ident, natural_scale: np.ndarray, source: str) -> str | N
     """One DataWarning line naming the base parameters whose 2σ exceeds :data:`EXCITED_FRACTION` of their
     natural scale (``natural_scale`` (nb,), :attr:`IdentificationProblem.natural_scale`) for the method with
     the lowest validation (else training) RMS among those with a σ; returns it, None when every one is excited."""
+    if not hasattr(ident, "results") or not isinstance(source, str) or isinstance(natural_scale, (str, bytes)):
+        raise SpecError("excitation_warning: expected a FloatingIdentification, the natural scales and a source name")
     scale = np.asarray(natural_scale, dtype=float)
     have = [m for m, r in ident.results.items() if r.get("std") is not None and np.any(np.isfinite(r["std"]))]
     if not have or scale.shape != (len(ident.names),):
