@@ -381,7 +381,7 @@ def _run_floating(args: argparse.Namespace, out: Path) -> int:
         rest_velocity=None if args.rest_velocity in (None, "auto") else rest_velocity_from_args(args.rest_velocity),
         mapping=mapping,
     )
-    print(ident.text())
+    print(ident.text(verbose=args.verbose))
     print(wrote_line(write_floating_identification(ident, out, model, terms), out))
     warn_if_unvalidated(bool(args.validate))
     return 0

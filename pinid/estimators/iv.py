@@ -58,7 +58,7 @@ from pinid.data.dataset import Dataset
 from pinid.errors import SolverError, SpecError
 from pinid.estimators.base import Estimator, Setting
 from pinid.estimators.sdp import SDP
-from pinid.problem.problem import IdentificationProblem, Problem, base_regressor
+from pinid.problem.problem import IdentificationProblem, Problem, RegressorRows, base_regressor
 from pinid.linalg import solve_r
 from pinid.model import terms as _terms
 
@@ -77,7 +77,7 @@ class ModelSimulation:
         self, problem: IdentificationProblem, bandwidth: float = 2.0, substeps: int = 1, rate: float | None = 250.0
     ) -> None:
         rows = getattr(problem, "regressor_rows", None)
-        if rows is None or not hasattr(rows, "datasets"):
+        if not isinstance(rows, RegressorRows):  # a floating problem's rows have recordings too, not fixed-base ones
             raise SpecError(
                 "iv/didim simulate the model on the recordings: expected a problem made from recordings of a "
                 "fixed-base robot (IdentificationProblem.from_datasets), not a bare regressor, a segmental "

@@ -22,6 +22,14 @@ from pinid.model.floating import FloatingRobotModel, as_floating, floating_param
 from pinid.model.serialize import robot_from_dict, robot_to_dict
 from pinid.model.mjcf import identified_mjcf
 from pinid.model.terms import TermSelection, as_terms
+from pinid.identification.floating_checks import (
+    com_warning,
+    excitation_warning,
+    flipped_floating_signs,
+    method_statistics,
+    parameters_text,
+    std_percent,
+)
 from pinid.identification.plausibility import shared_excitation
 
 
@@ -52,13 +60,28 @@ class FloatingIdentification:
             **({"model": self.model} if self.model is not None else {}),
         }
 
-    def text(self) -> str:
-        """A table of each method's RMS and the first base parameters."""
-        out = [f"{'method':<8}{'train RMS':>12}{'valid. RMS':>12}{'seconds':>10}   total mass [kg]"]
+    def text(self, *, verbose: bool = False) -> str:
+        """A table of each method's RMS, cond(W_b) and total mass; each method's largest relative standard
+        deviation (``verbose``: every base parameter's value, σ and σ %)."""
+        out = [f"{'method':<8}{'train RMS':>12}{'valid. RMS':>12}{'cond(W_b)':>11}{'seconds':>10}   total mass [kg]"]
         for m, r in self.results.items():
             val = "-" if r["validation_rms"] is None else f"{r['validation_rms']:.4g}"
             mass = r["base"][0] if self.names[0].startswith("base.m") else float("nan")
-            out.append(f"{m:<8}{r['train_rms']:>12.4g}{val:>12}{r['seconds']:>10.3f}   {mass:.6g}")
+            cond = r.get("condition_number", float("nan"))
+            out.append(f"{m:<8}{r['train_rms']:>12.4g}{val:>12}{cond:>11.4g}{r['seconds']:>10.3f}   {mass:.6g}")
+        for m, r in self.results.items():
+            out += parameters_text(m, self.names, r, verbose=verbose)
+        floor = self.data.get("floor")
+        if floor:
+            best = min(self.results, key=lambda m: self.results[m]["validation_rms"])
+            by = self.results[best]["validation_rms_by_row"]
+            cells = [f"all {floor['rms']:.3g} ({best} {self.results[best]['validation_rms']:.3g})"]
+            cells += [f"{k} {v:.3g} ({best} {by[k]:.3g})" for k, v in floor["rms_by_row"].items() if k in by]
+            out.append(
+                "model-class floor, valid. RMS [N·m; base: N and N·m] (the same terms fitted by OLS on the "
+                f"validation recording itself): {', '.join(cells)}; near the floor the model class limits the "
+                "result, far above it the identification"
+            )
         return "\n".join(out)
 
 
@@ -123,6 +146,7 @@ def identify_floating(
         mapping = floating_mapping(mapping)  # checked once, before any recording is read
     hints: list[str] = []  # convention errors the raw recordings point to (recording_hints)
     train = load_floating(data, model, preprocess, swing_rows=swing_rows, mapping=mapping, hints=hints)
+    flipped = flipped_floating_signs(model, train) if rows != "base" else []  # one warning, as a fixed base's
     problem = floating_problem(
         model, train, terms=terms, rows=rows, base_weight=base_weight, rest_velocity=rest_velocity
     )
@@ -148,13 +172,18 @@ def identify_floating(
     ident = FloatingIdentification(model.name, rows, problem.names, problem.nominal_base)
     ident.model = robot_to_dict(model, problem.terms)
     ident.data = problem.summary() | {"rows_per_sample": int(problem.rows // max(problem.samples, 1))}
+    ident.data["flipped_torque_signs"] = flipped
     for method in methods:
         start = time.perf_counter()
         est = make_estimator(method, **dict((options or {}).get(method, {}))).fit(problem)
         seconds = time.perf_counter() - start
         r = problem.tau - problem.predict(est.base_)
+        std, cond = method_statistics(problem, est, r)
         entry = {
             "base": est.base_.tolist(),
+            "std": std.tolist(),
+            "std_percent": dict(zip(problem.names, std_percent(est.base_, std).tolist())),
+            "condition_number": cond,
             "standard": None if getattr(est, "standard_", None) is None else np.asarray(est.standard_).tolist(),
             "standard_names": problem.standard_names,
             "standard_marks": problem.base.marks(),
@@ -168,7 +197,13 @@ def identify_floating(
             entry["validation_rms"] = float(np.sqrt(np.mean(rv * rv)))
             entry["validation_rms_by_row"] = _by_row(val_problem, rv)
         ident.results[method] = entry
+    if val_problem is not None:
+        ident.data["floor"] = _floor(val_problem)
     _check_total_mass(ident, hints, _sources(data))
+    excitation_warning(ident, problem.natural_scale, _sources(data))
+    if rows != "joints":
+        posture = np.mean(np.concatenate([s.data.q for s in train]), axis=0)
+        com_warning(ident, model, problem.terms, problem.base, posture, _sources(data))
     return ident
 
 
@@ -246,6 +281,17 @@ def _check_total_mass(ident: FloatingIdentification, hints: list[str], source: s
     if len(odd) == len(masses) and all(not MASS_REFUSED[0] <= v / nominal <= MASS_REFUSED[1] for v in odd.values()):
         raise DataError(line)
     warnings.warn(line, stacklevel=3)
+
+
+def _floor(problem) -> dict | None:
+    """The model-class floor (:mod:`pinid.identification.floor`): OLS fitted on the validation rows themselves
+    and its RMS over them, all rows and per body (``base``: the 6 wrench rows) [N·m, N]; None when they do not
+    determine the parameters alone."""
+    try:
+        r = problem.tau - problem.predict(make_estimator("ols").fit(problem).base_)
+    except (np.linalg.LinAlgError, DataError, ValueError):
+        return None
+    return {"rms": float(np.sqrt(np.mean(r * r))), "rms_by_row": _by_row(problem, r)}
 
 
 def _by_row(problem, r: np.ndarray) -> dict[str, float]:

@@ -113,10 +113,10 @@ def hac_std(
 def _recording_scores(rows, e, weights, scale):
     """Per recording, an iterator of its per-sample scores ``Σ_rows(t) w·r·W / scale`` in blocks of samples,
     in time order (the blocks of ``rows.blocks()``, one per chunk of samples)."""
-    nv = rows.model.nv
     blocks = rows.blocks()
 
     def scores(ds, keep):
+        nv, keep = keep.size // max(ds.n, 1), keep.reshape(-1)  # rows per sample: nv, or 6 + nv (floating base)
         for start in range(0, ds.n, rows.chunk):
             stop = min(ds.n, start + rows.chunk)
             r0, Wk = next(blocks)

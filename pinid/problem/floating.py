@@ -30,6 +30,7 @@ from __future__ import annotations
 
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 
@@ -62,6 +63,12 @@ class FloatingRows:
     base: BaseParameters
     samples: list[FloatingSamples]
     keeps: list[np.ndarray]  # per recording (N, 6 + n) booleans: the rows used
+    chunk: ClassVar[int] = _CHUNK  # samples per block of blocks()
+
+    @property
+    def datasets(self) -> list:
+        """The recordings' joint data (their lengths bound the HAC windows, :mod:`pinid.problem.covariance`)."""
+        return [s.data for s in self.samples]
 
     @property
     def count(self) -> int:

@@ -1,0 +1,208 @@
+"""What a floating-base identification can be trusted for (docs/floating-base.md, "Numbers you can trust"):
+each method's standard deviations and condition number (the fixed base's Newey–West sandwich,
+:func:`pinid.problem.statistics.base_statistics`, on the floating problem's rows, every row of a sample in one
+score), and the one-line warning naming the base parameters the data barely excite."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+
+from pinid.errors import SpecError
+from pinid.identification.plausibility import flipped_torque_signs
+from pinid.identification.result import BOUND_FRACTION
+from pinid.problem.statistics import base_statistics
+from pinid.report.text import text_table
+
+#: A base parameter is barely excited when 2σ exceeds this fraction of its natural scale (mass, mass·length,
+#: mass·length² of its bodies; 1 N·m or N·m·s/rad for a joint term): its 95 % interval then spans more than
+#: ±10 % of what such a parameter typically is, whatever its own value (which may be near 0).
+EXCITED_FRACTION = 0.10
+
+
+def method_statistics(problem, estimator, residual: np.ndarray) -> tuple[np.ndarray, float]:
+    """``(std, cond)`` of a method fitted on ``problem`` (a floating :class:`IdentificationProblem`): the HAC
+    standard deviations of its base parameters (NaN for a method without a calibrated σ, and for a value an
+    LMI method holds on a bound), as for a fixed base (:func:`pinid.identification.result.make_result`), and
+    cond(W_b) of its weighted rows; ``residual``: ``tau − W·base`` (rows,)."""
+    if not hasattr(problem, "natural_scale") or not hasattr(estimator, "base_"):
+        raise SpecError("method_statistics: expected an identification problem and a fitted estimator")
+    base = np.asarray(estimator.base_, dtype=float)
+    w = getattr(estimator, "weights_", None)  # wls: its final weights
+    std, cond, _ = base_statistics(problem, base, w, residual=np.asarray(residual, dtype=float))
+    if not getattr(estimator, "calibrated_std", True):
+        std = np.full_like(std, np.nan)
+    elif getattr(estimator, "consistent_by_construction", False):
+        std = np.where(np.abs(base) <= BOUND_FRACTION * problem.natural_scale, np.nan, std)
+    return std, float(cond)
+
+
+def std_percent(base, std) -> np.ndarray:
+    """``100·std/|value|`` (inf for a zero value, NaN where σ is NaN)."""
+    if isinstance(base, (str, bytes)) or isinstance(std, (str, bytes)):
+        raise SpecError("std_percent: expected arrays of values and standard deviations")
+    base, std = np.asarray(base, dtype=float), np.asarray(std, dtype=float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(base != 0, 100 * std / np.abs(base), np.where(np.isnan(std), np.nan, np.inf))
+
+
+def parameters_text(method: str, names: list[str], result: dict, *, verbose: bool = False) -> list[str]:
+    """Lines of one method of a floating identification (a ``results`` entry of ``identification.json``): its
+    largest relative standard deviation σ %, or (``verbose``) every base parameter's value, σ and σ %."""
+    if not isinstance(method, str) or not isinstance(names, list) or not isinstance(result, dict):
+        raise SpecError("parameters_text: expected a method name, the base parameter names and a result dict")
+    std = result.get("std")
+    if std is None or not len(names):
+        return []
+    base, std = np.asarray(result["base"], dtype=float), np.asarray(std, dtype=float)
+    sp = std_percent(base, std)
+    if np.all(np.isnan(std)):
+        return [f"{method}: no calibrated standard deviation (σ —) for this method"]
+    if not verbose:
+        k = int(np.nanargmax(np.where(np.isnan(sp) | np.isfinite(sp), sp, np.inf)))
+        return [f"{method}: largest relative standard deviation σ % {sp[k]:.3g} ({names[k]}); every one with --verbose"]
+    rows = [
+        [n, f"{v:.6g}", *(["—", "—"] if np.isnan(s) else [f"{s:.3g}", f"{p:.3g}" if np.isfinite(p) else "inf"])]
+        for n, v, s, p in zip(names, base, std, sp)
+    ]
+    return [f"\n== {method}: base parameters", text_table(["parameter", "value", "std", "σ %"], rows, indent="   ")]
+
+
+def flipped_floating_signs(model, samples, *, limit: int = 5000) -> list[str]:
+    """The joints whose recorded torque is anti-correlated with the URDF's for the same motion and wrenches
+    (``RNEA_joints − (Σ J_cᵀ f_c)_joints`` plus the URDF's friction, on at most ``limit`` samples of the
+    prepared training recordings ``samples``; samples where a foot without a measured wrench is in contact are
+    left out): one DataWarning "check the sign of tau_<joint>" (:func:`pinid.identification.plausibility.
+    flipped_torque_signs`, the fixed base's check)."""
+    from pinid.model.floating import BASE_NV, contact_forces, floating_rnea
+
+    if not hasattr(model, "ff_model") or isinstance(samples, (str, bytes)) or not hasattr(samples, "__iter__"):
+        raise SpecError("flipped_floating_signs: expected a FloatingRobotModel and a list of FloatingSamples")
+    samples = [s for s in samples if s.data.tau is not None]
+    total = sum(s.n for s in samples)
+    if not total:
+        return []
+    step = max(1, total // limit)
+    recorded, nominal = [], []
+    for s in samples:
+        k = np.arange(0, s.n, step)
+        for contact in s.unsensed.values():
+            k = k[~np.asarray(contact, bool)[k]]
+        if not len(k):
+            continue
+        wrenches = [type(w)(w.link, np.asarray(w.values)[k], w.frame) for w in s.wrenches]
+        bq, q, dq = s.base_q[k], s.data.q[k], s.data.dq[k]
+        rnea = floating_rnea(model, bq, s.base_v[k], s.base_a[k], q, dq, s.data.ddq[k])[:, BASE_NV:]
+        ext = contact_forces(model, bq, q, wrenches)[:, BASE_NV:] if wrenches else 0.0
+        nominal.append(rnea - ext + model.coulomb * np.sign(dq) + model.viscous * dq)
+        recorded.append(s.data.tau[k])
+    if not recorded:
+        return []
+    return flipped_torque_signs(model.joint_names, np.concatenate(recorded), np.concatenate(nominal))
+
+
+#: The whole-body centre of mass (identified first moments / mass, base frame) is implausible when it is this
+#: fraction of the robot's size (the farthest body origin from the base link's, at the mean training posture)
+#: or more from the URDF's: a few centimetres on a lower-body exoskeleton, far beyond what noise moves it.
+COM_WARNED = 0.10
+
+
+def whole_body_com(model, terms, base, q: np.ndarray, values: np.ndarray) -> np.ndarray:
+    """The whole-body centre of mass [m] in the base frame at joint positions ``q`` (nv,) of each base vector
+    ``values`` (k, nb) whose first entry is the total mass ``base.mR``: the first moments ``h = Σ mᵢcᵢ`` read
+    from the moment rows of the base at rest in three base orientations (``moment = g_b × h``, g in the
+    base frame), divided by the mass."""
+    import pinocchio as pin
+
+    from pinid.model.floating import floating_regressor
+
+    if not hasattr(model, "ff_model") or not hasattr(base, "independent"):
+        raise SpecError("whole_body_com: expected a FloatingRobotModel, its terms and base parameters")
+    values = np.atleast_2d(np.asarray(values, dtype=float))
+    g = np.asarray(model.ff_model.gravity.linear)
+    A, Y = [], []
+    zero6, zero = np.zeros((1, 6)), np.zeros((1, model.nv))
+    for axis, angle in (
+        (np.array([1.0, 0, 0]), 0.0),
+        (np.array([1.0, 0, 0]), np.pi / 2),
+        (np.array([0, 1.0, 0]), np.pi / 2),
+    ):
+        R = pin.exp3(axis * angle)
+        quat = pin.Quaternion(R).coeffs()  # x, y, z, w
+        W = floating_regressor(model, np.r_[0, 0, 0, quat][None], zero6, zero6, q[None], zero, zero, terms)
+        Y.append(W[3:6][:, base.independent])
+        gb = R.T @ g
+        A.append(pin.skew(gb))  # the moment the base must receive to hold the robot still: g_b × h
+    A, Y = np.vstack(A), np.vstack(Y)
+    h = np.linalg.lstsq(A, Y @ values.T, rcond=None)[0].T  # (k, 3)
+    return h / values[:, :1]
+
+
+def com_warning(ident, model, terms, base, q: np.ndarray, source: str) -> str | None:
+    """One DataWarning line when a method's whole-body centre of mass (:func:`whole_body_com`, at the mean
+    training posture ``q``) is :data:`COM_WARNED` × the robot's size or more from the URDF's, naming the likely
+    causes; returns it (None when every method's is plausible or the rows have no ``base.mR``)."""
+    import pinocchio as pin
+
+    from pinid.errors import DataWarning
+
+    if not hasattr(ident, "results") or not hasattr(model, "ff_model") or not isinstance(source, str):
+        raise SpecError("com_warning: expected a FloatingIdentification, its FloatingRobotModel and a source name")
+    if not ident.names or ident.names[0] != "base.mR" or not ident.results:
+        return None
+    methods = list(ident.results)
+    values = np.array([ident.nominal] + [ident.results[m]["base"] for m in methods])
+    if np.any(values[:, 0] <= 0):
+        return None  # the total mass's own check says it
+    com = whole_body_com(model, terms, base, np.asarray(q, dtype=float), values)
+    m, d = model.ff_model, model.ff_model.createData()
+    pin.framesForwardKinematics(m, d, np.r_[0, 0, 0, 0, 0, 0, 1.0, model.configuration(q)])
+    size = max(float(np.linalg.norm(f.translation)) for f in d.oMf)
+    off = {k: float(np.linalg.norm(c - com[0])) for k, c in zip(methods, com[1:])}
+    for k, c in zip(methods, com[1:]):
+        ident.results[k]["com"] = c.tolist()
+    ident.data["com_urdf"] = com[0].tolist()
+    bad = {k: v for k, v in off.items() if v >= COM_WARNED * size}
+    if not bad:
+        return None
+    line = (
+        f"{source}: whole-body centre of mass (base frame, mean posture) "
+        + ", ".join(
+            f"{k} ({', '.join(f'{x:.3g}' for x in com[1 + methods.index(k)])}) m, {v:.3g} m off" for k, v in bad.items()
+        )
+        + f" against the URDF's ({', '.join(f'{x:.3g}' for x in com[0])}) m; more than {COM_WARNED:.0%} of the robot's "
+        f"size ({size:.3g} m): check the wrench's axes and frame (link or world, force plate x/y), the sign of its "
+        "moments and the point they are taken about (centre of pressure, sensor origin)"
+    )
+    warnings.warn(line, DataWarning, stacklevel=3)
+    return line
+
+
+def excitation_warning(ident, natural_scale: np.ndarray, source: str) -> str | None:
+    """One DataWarning line naming the base parameters whose 2σ exceeds :data:`EXCITED_FRACTION` of their
+    natural scale (``natural_scale`` (nb,), :attr:`IdentificationProblem.natural_scale`) for the method with
+    the lowest validation (else training) RMS among those with a σ; returns it, None when every one is excited."""
+    if not hasattr(ident, "results") or not isinstance(source, str) or isinstance(natural_scale, (str, bytes)):
+        raise SpecError("excitation_warning: expected a FloatingIdentification, the natural scales and a source name")
+    scale = np.asarray(natural_scale, dtype=float)
+    have = [m for m, r in ident.results.items() if r.get("std") is not None and np.any(np.isfinite(r["std"]))]
+    if not have or scale.shape != (len(ident.names),):
+        return None
+    method = min(have, key=lambda m: ident.results[m]["validation_rms"] or ident.results[m]["train_rms"])
+    ratio = 2 * np.asarray(ident.results[method]["std"], dtype=float) / np.maximum(scale, 1e-300)
+    bad = sorted(((n, float(v)) for n, v in zip(ident.names, ratio) if v > EXCITED_FRACTION), key=lambda kv: -kv[1])
+    ident.results[method]["barely_excited"] = [n for n, _ in bad]
+    if not bad:
+        return None
+    shown = ", ".join(f"{n} {100 * v:.3g} %" for n, v in bad[:4]) + (
+        f" and {len(bad) - 4} more" if len(bad) > 4 else ""
+    )
+    line = (
+        f"{source}: {method}: barely excited (2σ > {EXCITED_FRACTION:.0%} of their natural scale): {shown}; a low "
+        "held-out error does not vouch for them: move those joints more (pinid excite --base floating) or record longer"
+    )
+    from pinid.errors import DataWarning
+
+    warnings.warn(line, DataWarning, stacklevel=3)
+    return line
