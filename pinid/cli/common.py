@@ -69,7 +69,9 @@ def add_terms_argument(p: argparse.ArgumentParser) -> None:
         "instead of fc), passive (wearer's passive joint moments, scale of Riener & Edrich 1999; "
         "docs/wearer.md); motor side (needs drives: URDF <transmission> or --drives) motor_fc, "
         "motor_fv, motor_offset, motor_armature, motor_fc_pos, motor_fc_neg; Stribeck fs, motor_fs "
-        "(fs·sign(v)·exp(−(|v|/v_s)^δ), on top of fc); "
+        "(fs·sign(v)·exp(−(|v|/v_s)^δ), on top of fc); position ripple: ripple (sin and cos of r·q, "
+        "ripple_s1, ripple_c1), ripple2 or ripple3 (2 or 3 harmonics; r: --ripple-periods or the drives' "
+        "ratio); fl (load-dependent Coulomb, fl·|τ_load|·sign(dq), τ_load the URDF's rigid-body torque); "
         "'none' for none; 'auto' (identify): chosen on the training recordings by forward selection; "
         "default fc,fv",
     )

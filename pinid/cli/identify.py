@@ -31,6 +31,7 @@ from pinid.cli.common import (
 )
 from pinid.errors import DataWarning, SpecError
 from pinid.identification.run import identify
+from pinid.model.terms_ripple import periods_from_text
 from pinid.io import check_outputs
 from pinid.report.figures import start_figure_workers
 
@@ -98,6 +99,7 @@ STAGE1_ONLY = (
     ("force_export", "--force-export"),
     ("stribeck_velocity", "--stribeck-velocity"),
     ("stribeck_shape", "--stribeck-shape"),
+    ("ripple_periods", "--ripple-periods"),
 )
 #: Options of stage 2 that stage 1 does not use.
 STAGE2_ONLY = (
@@ -205,6 +207,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "the currents of every recording turned into torques; repeatable",
     )
     add_stribeck_arguments(p)
+    p.add_argument(
+        "--ripple-periods",
+        default=None,
+        metavar="R|JOINT=R,…",
+        help="position ripple (--terms ripple): ripple periods per joint revolution, one number or per joint "
+        "(A1=160,A2=100); default the drives' reduction ratio; saved with the model (docs/identification.md)",
+    )
     p.set_defaults(methods=None, terms=None, prior_weight=None)  # given or not (STAGE1_ONLY, STAGE2_ONLY)
     p.add_argument("--no-report", action="store_true", help="do not write report.md, report.html and the figures")
     p.add_argument(
@@ -238,6 +247,14 @@ def _options(args, methods) -> dict:
     return opts
 
 
+def _model(args: argparse.Namespace):
+    """The robot of the options, with the ripple terms' periods (--ripple-periods) as its setting."""
+    model = robot_from_args(args)
+    if args.ripple_periods is None:
+        return model
+    return model.with_setting("ripple_periods", periods_from_text(args.ripple_periods))
+
+
 def _prior_weight(text: str) -> float | str:
     """``--prior-weight``: a number ≥ 0 or ``auto``."""
     return "auto" if text.strip().lower() == "auto" else nonnegative_float(text)
@@ -257,7 +274,7 @@ def run(args: argparse.Namespace) -> int:
     if args.base == "floating":
         return _run_floating(args, out)
     methods = methods_from_args(args)
-    model = robot_from_args(args)
+    model = _model(args)
     terms = terms_from_args(args, auto=True)
 
     def started() -> None:  # the inputs are read and checked: say what runs
@@ -355,6 +372,7 @@ def _run_floating(args: argparse.Namespace, out: Path) -> int:
             "payload_data",
             "stribeck_velocity",
             "stribeck_shape",
+            "ripple_periods",
             "force_export",
         )
         if getattr(args, k, None)

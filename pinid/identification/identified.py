@@ -138,14 +138,18 @@ class IdentifiedModel:
         selections = self.__dict__.setdefault("_selections", {})
         if names not in selections:
             selections[names] = TermSelection(names=list(names))
-        return _terms.torque(self.robot, selections[names], self._values, q, dq, ddq)
+        # the nominal robot: the columns of the identification (fl reads the nominal rigid-body torque)
+        return _terms.torque(self.nominal_robot, selections[names], self._values, q, dq, ddq)
 
     def friction(self, dq: np.ndarray) -> np.ndarray:
         """Friction torque [N·m] at joint velocities ``dq`` (nv,) or (N, nv): the velocity-dependent
-        terms, joint side (fc·sign(dq) + fv·dq) plus ``Gᵀ·`` motor side."""
+        terms, joint side (fc·sign(dq) + fv·dq) plus ``Gᵀ·`` motor side; not the load-dependent ``fl``
+        (it needs q and ddq: :meth:`inverse_dynamics` has it)."""
         (dq,), single = self._states(("dq", dq))
         zero = np.zeros_like(dq)
-        tau = self._term_torque(zero, dq, zero, lambda t: not t.inertia and not t.static and t.suffix != "offset")
+        tau = self._term_torque(
+            zero, dq, zero, lambda t: not (t.inertia or t.static or t.load) and t.suffix != "offset"
+        )
         return tau[0] if single else tau
 
     def gravity(self, q: np.ndarray) -> np.ndarray:
@@ -193,7 +197,7 @@ class IdentifiedModel:
         (q, dq, ddq), single = self._states(("q", q), ("dq", dq), ("ddq", ddq))
         tau = np.array([pin.rnea(self.pin_model, self.pin_data, self._config(a), b, c) for a, b, c in zip(q, dq, ddq)])
         if len(self.terms):
-            tau += _terms.torque(self.robot, self.terms, self._values, q, dq, ddq)
+            tau += _terms.torque(self.nominal_robot, self.terms, self._values, q, dq, ddq)
         return tau[0] if single else tau
 
     def forward_dynamics(self, q: np.ndarray, dq: np.ndarray, tau: np.ndarray) -> np.ndarray:

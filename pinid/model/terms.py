@@ -14,6 +14,9 @@ nominal value per joint (read from the robot), the SDP sign constraint, the URDF
 drives TOML field, whether it is an inertia (its column is an acceleration), the torque the digital
 twin's plant applies (default: value × column) and the name of the per-run model setting it reads
 (``robot.setting(name)``, saved with the model through ``read_setting`` / ``write_setting``).
+Terms of other modules are plug-ins (:data:`TERM_MODULES`): the wearer's passive moments, the position
+ripple (:mod:`pinid.model.terms_ripple`, selected as a group: ``ripple``, :data:`TERM_GROUPS`) and the
+load-dependent Coulomb friction ``fl`` (:mod:`pinid.model.terms_load`).
 
 Parameter layout after the 10·nv inertial parameters: the joint block, joint-major (joint ``j``'s
 terms together, in registry order), then the motor block, motor-major.
@@ -59,6 +62,9 @@ class Term:
     plant: Callable[[np.ndarray, Motion, float], np.ndarray] | None = None  # (values, motion, v_s) → torque
     static: bool = False  # the column depends on q only (like gravity): a model's gravity(q) includes it
     velocity_step: bool = False  # the column jumps at zero velocity (Coulomb): ∂/∂dq taken as 0 elsewhere
+    # the column reads the rigid-body load torque (fl): it depends on ddq, not as an inertia; the twin solves
+    # its acceleration by fixed-point iteration, IdentifiedModel.friction(dq) leaves it out
+    load: bool = False
     # the model setting the term reads (``robot.setting(name)``), saved with the model: "stribeck", "passive_exponents"
     setting: str | None = None
     read_setting: Callable[[object, str], object] | None = None  # (saved value, origin) → value; None: as saved
@@ -75,7 +81,17 @@ class Term:
 #: The module that registers each plug-in term (a term of a folder above this one), loaded the first time
 #: the term is asked for (a plug-in: the module imports this one, so this one names it instead of importing
 #: it).  Its place in the column order is kept from the start (:meth:`TermRegistry.reserve`).
-TERM_MODULES: dict[str, str] = {"passive": "pinid.wearer.passive"}
+TERM_MODULES: dict[str, str] = {
+    "passive": "pinid.wearer.passive",
+    **{f"ripple_{p}{k}": "pinid.model.terms_ripple" for k in (1, 2, 3) for p in "sc"},
+    "fl": "pinid.model.terms_load",
+}
+#: Selection names that stand for several terms (``--terms ripple``): the position ripple's harmonics
+#: (:mod:`pinid.model.terms_ripple`: one term per sine and cosine amplitude of each harmonic).
+TERM_GROUPS: dict[str, tuple[str, ...]] = {
+    name: tuple(f"ripple_{p}{k}" for k in range(1, n + 1) for p in "sc")
+    for name, n in (("ripple", 1), ("ripple2", 2), ("ripple3", 3))
+}
 
 
 class TermRegistry(MutableMapping):
@@ -191,7 +207,10 @@ register(
     )
 )
 
-TERMS.reserve("passive")  # the wearer's passive moments: registered by pinid.wearer.passive
+# the plug-ins' places: the wearer's passive moments (pinid.wearer.passive), the position ripple
+# (pinid.model.terms_ripple) and the load-dependent Coulomb friction (pinid.model.terms_load)
+for _name in TERM_MODULES:
+    TERMS.reserve(_name)
 
 for _base in ("fc", "fv", "offset", "armature", "fc_pos", "fc_neg"):
     _t = TERMS[_base]
@@ -337,7 +356,7 @@ class TermSelection:
             names = [n for n, on in zip(JOINT_TERM_NAMES, flags) if on]
         if isinstance(names, str) or not isinstance(names, Iterable):
             raise SpecError(f"terms {names!r}: expected a list of term names, some of {list(TERMS)}")
-        names = list(names)
+        names = [x for n in names for x in (TERM_GROUPS.get(n, (n,)) if isinstance(n, str) else (n,))]
         unknown = [n for n in names if not isinstance(n, str) or n not in TERMS]
         if unknown:
             raise SpecError(f"unknown term(s) {unknown}, expected some of {list(TERMS)}")
@@ -345,7 +364,8 @@ class TermSelection:
 
     @classmethod
     def from_names(cls, names: str | Iterable[str]) -> "TermSelection":
-        """Build from ``"fc,fv,offset"`` or a list of term names; ``""`` or ``"none"`` for no term."""
+        """Build from ``"fc,fv,offset"`` or a list of term names (or groups of :data:`TERM_GROUPS`: ``ripple``);
+        ``""`` or ``"none"`` for no term."""
         if isinstance(names, str):
             names = [n.strip() for n in names.split(",") if n.strip() and n.strip() != "none"]
         elif not isinstance(names, (list, tuple)):

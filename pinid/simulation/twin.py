@@ -138,7 +138,8 @@ class Plant:
     values, e.g. ``{"passive": [1, 1], "fc_pos": [...]}``; each acts through its own plant law
     (``Term.torque`` with ``smoothing = v_s``), an inertia term adds its values to M's diagonal, and a
     term with a smoothed law (Coulomb-like, stiff near zero velocity) joins the implicit friction with
-    its velocity derivative (central difference)."""
+    its velocity derivative (central difference); a term that reads the acceleration (``Term.load``: ``fl``,
+    through the rigid-body torque) is solved with it by fixed-point iteration, started at the last step's."""
 
     def __init__(
         self,
@@ -158,6 +159,8 @@ class Plant:
         self._conf = model.configuration if model.continuous else (lambda x: x)
         extra = [(_terms.TERMS[n], np.asarray(v, dtype=float)) for n, v in (terms or {}).items()]
         self.extra = [(t, v) for t, v in extra if not t.inertia]
+        self._load = any(t.load for t, _ in self.extra)  # a term reads the acceleration (fl): solved by iteration
+        self._a = np.zeros(model.nv)  # the last step's acceleration: the iteration's start
         added = sum((v for t, v in extra if t.inertia), np.zeros(model.nv))
         d = model.drives
         self.motor = None
@@ -169,16 +172,16 @@ class Plant:
             rotor = G.T @ (self.motor["armature"][:, None] * G)  # Gᵀ·diag(Im)·G [kg·m²]
             self.rotor = rotor if self.rotor is None else rotor + self.rotor
 
-    def _extra(self, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Torque [N·m] of the extra terms at (q, v), and its velocity derivative (diagonal) [N·m·s/rad]."""
+    def _extra(self, q: np.ndarray, v: np.ndarray, a: np.ndarray, slope: bool = True) -> tuple[np.ndarray, np.ndarray]:
+        """Torque [N·m] of the extra terms at (q, v, a), and its velocity derivative (diagonal) [N·m·s/rad]."""
 
         def f(terms, vel):
-            m = _terms.Motion(q[None], vel[None], np.zeros((1, q.size)), self.model.joint_names, self.model)
+            m = _terms.Motion(q[None], vel[None], a[None], self.model.joint_names, self.model)
             return sum((t.torque(x, m, self._vs)[0] for t, x in terms), np.zeros(q.size))
 
         stiff = [(t, x) for t, x in self.extra if t.plant is not None]
         D = np.zeros(q.size)
-        if stiff:
+        if stiff and slope:
             dv = 1e-3 * self._vs
             D = (f(stiff, v + dv) - f(stiff, v - dv)) / (2 * dv)
         return f(self.extra, v), D
@@ -193,7 +196,7 @@ class Plant:
         th = np.tanh(v * self._ivs)
         Dx = 0.0
         if self.extra:
-            fx, Dx = self._extra(q, v)
+            fx, Dx = self._extra(q, v, self._a if self._load else np.zeros_like(v))
             tau = tau - fx
         if self.rotor is None:
             Minv = pin.computeMinverse(pm, pdata, qc)
@@ -216,6 +219,19 @@ class Plant:
                 D = D + G.T @ (Dm[:, None] * G)
             a = Minv @ (tau - nle - f)
             stiff = h * float(np.abs(Minv @ D).max()) > 0.1
+        if self._load:  # solve a = M⁻¹·(τ − nle − f − f_x(q, v, a)) =: base − M⁻¹·f_x(q, v, a) by Newton
+            base, K = a + Minv @ fx, None
+            for _ in range(50):
+                fa = self._extra(q, v, a, slope=False)[0]
+                g = a - base + Minv @ fa
+                if np.abs(g).max() <= 1e-13 * (1.0 + np.abs(a).max()):
+                    break
+                if K is None:  # ∂f_x/∂a by differences: exact for fl, affine in a between sign changes
+                    e = 1e-6 * (1.0 + np.abs(a).max())
+                    J = np.stack([(self._extra(q, v, a + e * u, slope=False)[0] - fa) / e for u in self._eye], axis=1)
+                    K = np.linalg.inv(self._eye + Minv @ J)
+                a = a - K @ g
+            self._a = a
         if stiff:  # near zero velocity: implicit friction
             dv = np.linalg.solve(self._eye + (h * Minv) @ D, h * a)
         else:
