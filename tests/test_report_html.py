@@ -289,3 +289,47 @@ def test_report_size_is_bounded_by_its_few_figures(report):
     assert len(list(out.glob("*.png"))) == 5
     assert html_size <= 4 / 3 * pngs + 60_000, (html_size, pngs)
     assert html_size < 1_500_000
+
+
+def test_choices_by_cross_validation_are_drawn_and_said(report):
+    """--cutoff auto / --terms auto: the report says what was chosen, on which curve, and draws it; a run
+    without them has no such section (the choices' dicts as identification.json stores them)."""
+    import matplotlib.colors
+
+    from pinid.errors import SpecError
+    from pinid.identification.result import Identification
+    from pinid.report.markdown import figure_names, report_markdown, shown_figures
+
+    out, _ = report
+    ident = Identification.load(out / "identification.json")
+    assert "choices" not in shown_figures(ident)
+    assert "Chosen by cross-validation" not in report_markdown(ident, figure_names(ident))
+    with pytest.raises(SpecError, match="cross-validation"):
+        ident.plot("choices")
+    ident.data["cutoff"] = {
+        "chosen_by": "5-fold blocked cross-validation on the training recordings",
+        "cutoff_hz": 10.0,
+        "candidates_hz": [5.0, 10.0, 20.0],
+        "cv_rel_rms_percent": [4.1, 3.9, None],
+        "skipped": {"20": "too few samples"},
+    }
+    ident.data["terms_choice"] = {
+        "chosen_by": "forward selection, 5-fold blocked cross-validation on the training recordings",
+        "terms": ["fc", "fv", "offset"],
+        "steps": [{"fc,fv": 3.9}, {"+offset": 3.5, "+armature": 3.85}, {"+armature": 3.52}],
+    }
+    assert "choices" in shown_figures(ident)
+    text = report_markdown(ident, figure_names(ident))
+    assert "low-pass cut-off **10 Hz**" in text and "5 Hz 4.1 %, 10 Hz 3.9 %" in text
+    assert "terms **fc, fv, offset**" in text and "+offset, +armature" in text
+    assert "![choices made by cross-validation](cross_validation.png)" in text
+    fig = ident.plot("choices")
+    cut, terms = fig.axes
+    assert list(cut.lines[0].get_xdata()) == [5.0, 10.0]  # the unusable candidate is left out
+    assert [t.get_text() for t in terms.get_yticklabels()] == [
+        "step 1: +offset",
+        "step 1: +armature",
+        "step 2: +armature",
+    ]
+    red = [p.get_width() for p in terms.patches if p.get_facecolor()[:3] == matplotlib.colors.to_rgb("tab:red")]
+    assert red == [3.5]  # the candidate added

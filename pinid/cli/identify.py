@@ -62,7 +62,8 @@ into the output folder (-o, default results/):
                            and torque figures), robot and data, the excitation (training motion), each
                            method's detail folded, base and link parameters; the HTML page is the same
                            text with its figures embedded (one file, opens without a server)
-  errors.png, parameters.png, predictions.png, training_motion.png, torque_<best method>.png
+  errors.png, parameters.png, predictions.png, training_motion.png, torque_<best method>.png,
+  cross_validation.png (with --cutoff auto or --terms auto: the held-out errors the choice was made on)
                            the report's figures
 
 With --base floating (docs/floating-base.md) the recordings also hold the base motion (motion capture or

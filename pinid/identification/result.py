@@ -304,13 +304,14 @@ class Identification:
         method has it), ``"parameters"`` (the best method's and OLS's base parameters ±2σ against the URDF
         and the truth, divided by their natural scale), ``"torque"`` (``method``'s measured and predicted
         torque [N·m] and its raw and filtered error, default the :attr:`best`), ``"predictions"`` (every
-        method's predicted torque and its difference to the best's) or ``"motion"`` (the recorded q, dq); the
+        method's predicted torque and its difference to the best's), ``"motion"`` (the recorded q, dq); the
         last three need the torque curves :func:`~pinid.identification.run.identify` keeps (not saved in the
-        JSON).
+        JSON); ``"choices"``: the cut-off and terms chosen by cross-validation (``--cutoff auto``,
+        ``--terms auto``) and the held-out errors they were chosen on.
         """
         from pinid.report.markdown import figure_recipes  # loads the report (matplotlib on drawing): on use
 
-        kinds = ("errors", "parameters", "torque", "predictions", "motion")
+        kinds = ("errors", "parameters", "torque", "predictions", "motion", "choices")
         if figure not in kinds:
             raise SpecError(f"figure: got {figure!r}, expected one of {', '.join(map(repr, kinds))}")
         if method is not None and method not in self.results:
@@ -318,7 +319,14 @@ class Identification:
         key = f"torque_{method or self.best}" if figure == "torque" else figure
         recipes = figure_recipes(self)
         if key not in recipes:
-            raise SpecError(f"figure: no '{figure}' figure without the torque curves (a loaded result has none)")
+            raise SpecError(
+                f"figure: no '{figure}' figure "
+                + (
+                    "without a choice by cross-validation (--cutoff auto, --terms auto)"
+                    if figure == "choices"
+                    else "without the torque curves (a loaded result has none)"
+                )
+            )
         draw, args, kwargs = recipes[key]
         return draw(*args, **kwargs)
 

@@ -33,6 +33,7 @@ from pinid.report.plot_identification import (
     torque_comparison,
     torque_pngs,
 )
+from pinid.report.plot_choices import cross_validation_figure
 from pinid.report.plot_parameters import parameter_plausibility
 
 #: Every file a report writes (patterns): what ``pinid identify --force`` removes of an earlier run's report.
@@ -43,6 +44,7 @@ REPORT_FILES = (
     "parameters.png",
     "predictions.png",
     "training_motion.png",
+    "cross_validation.png",
     "torque_*.png",
 )
 
@@ -75,6 +77,7 @@ def figure_names(ident) -> dict[str, str]:
         "parameters": "parameters.png",
         "predictions": "predictions.png",
         "motion": "training_motion.png",
+        "choices": "cross_validation.png",
     }
     names.update({f"torque_{m}": f"torque_{m}.png" for m in ident.results})
     return names
@@ -82,7 +85,17 @@ def figure_names(ident) -> dict[str, str]:
 
 def shown_figures(ident) -> list[str]:
     """The keys of :func:`figure_names` the report draws: the comparison figures, the best method's torque."""
-    return ["errors", "parameters", "predictions", "motion", f"torque_{ident.best}"] if ident.results else []
+    if not ident.results:
+        return []
+    chosen = ["choices"] if _choices(ident) else []
+    return ["errors", "parameters", "predictions", "motion", *chosen, f"torque_{ident.best}"]
+
+
+def _choices(ident) -> dict:
+    """The choices made by cross-validation (``--cutoff auto``, ``--terms auto``): ``{"cutoff": …,
+    "terms": …}`` of those made, from the identification's data."""
+    data = ident.data or {}
+    return {k: data[d] for k, d in (("cutoff", "cutoff"), ("terms", "terms_choice")) if data.get(d)}
 
 
 def _plausibility_recipe(ident) -> Recipe | None:
@@ -147,6 +160,9 @@ def figure_recipes(ident) -> dict[str, Recipe]:
         span = f", first {WINDOW:g} s" if t[-1] - t[0] > WINDOW else ""
         title = f"training motion ({Path(str(motion['source'])).name}{span})"
         figs["motion"] = (recorded_motion, (t, motion["q"], motion["dq"], joints), {"window": WINDOW, "title": title})
+    choices = _choices(ident)
+    if choices:
+        figs["choices"] = (cross_validation_figure, (choices.get("cutoff"), choices.get("terms")), {})
     metrics = {m: (r.validation if r.validation is not None else r.train) for m, r in ident.results.items()}
     if metrics:
         kind = "validation" if all(r.validation is not None for r in ident.results.values()) else "training"
@@ -388,6 +404,39 @@ def method_section(ident, m: str) -> list[str]:
     return lines
 
 
+def _choices_section(ident, figures: dict[str, str]) -> list[str]:
+    """ "Chosen by cross-validation": the cut-off and terms chosen (``--cutoff auto``, ``--terms auto``), the
+    curve they were chosen on, and its figure; nothing when neither was asked for."""
+    choices = _choices(ident)
+    if not choices:
+        return []
+    lines = ["", "### Chosen by cross-validation", ""]
+    if "cutoff" in choices:
+        c = choices["cutoff"]
+        curve = ", ".join(
+            f"{f:g} Hz {v:.3g} %" for f, v in zip(c["candidates_hz"], c["cv_rel_rms_percent"]) if v is not None
+        )
+        lines.append(
+            f"- low-pass cut-off **{c['cutoff_hz']:g} Hz**, chosen by {c['chosen_by']}; held-out relative RMS: {curve}"
+        )
+    if "terms" in choices:
+        c = choices["terms"]
+        first, *rest = [s for s in c["steps"] if s] or [{}]
+        best = [min(s, key=lambda k: s[k] if s[k] is not None else np.inf) for s in rest]
+        lines.append(
+            f"- terms **{', '.join(c['terms']) or 'none'}**, chosen by {c['chosen_by']}: from "
+            f"{next(iter(first), 'none')}, each step's best candidate {', '.join(best) or 'none'}; a candidate "
+            "is added only when measurably better (two standard errors of the paired fold differences)"
+        )
+    lines.append(
+        "- the scores are held-out errors of blocks of the training recordings against the torque as recorded; "
+        "the validation recording played no part."
+    )
+    if "choices" in figures:
+        lines += ["", f"![choices made by cross-validation]({figures['choices']})"]
+    return lines
+
+
 def report_markdown(ident, figures: dict[str, str] | None = None) -> str:
     """The report text; ``figures`` maps figure keys to the file names to link (missing keys are skipped)."""
     from pinid import __version__
@@ -452,6 +501,7 @@ def report_markdown(ident, figures: dict[str, str] | None = None) -> str:
             f"![training motion: q and dq per joint]({figures['motion']})",
         ]
 
+    lines += _choices_section(ident, figures)
     lines += [
         "",
         "## Methods",
@@ -467,8 +517,10 @@ def report_markdown(ident, figures: dict[str, str] | None = None) -> str:
     lines += [
         "## Base parameters",
         "",
-        "Value and relative standard deviation σ% = 100·σ/|value| (σ² = ‖τ − Wθ‖²/(rows − nb), "
-        "Cov = σ²(WᵀW)⁻¹); large σ% marks poorly excited parameters."
+        "Value and relative standard deviation σ% = 100·σ/|value|, σ from the Newey–West covariance, which "
+        'allows for residuals correlated in time (docs/identification.md, "How σ is computed"); – where a '
+        "method gives no calibrated σ (metaheuristics, a value held on a bound); large σ% marks poorly "
+        "excited parameters."
         + (
             " truth: the twin's true value; err %: 100·|value − truth|/|truth| (the absolute error where the "
             "truth is 0)."
