@@ -88,6 +88,40 @@ def test_cli_track_writes_json_and_plots(tmp_path):
 
     d = json.loads((tmp_path / "tracking.json").read_text())
     assert d["results"]["computed-torque"]["nominal"]["hip"]["rms"] < 1e-3
+    # the comparison across models: written, a PNG, listed; --no-figures writes the JSON alone
+    png = tmp_path / "tracking_models.png"
+    assert png.read_bytes()[:4] == b"\x89PNG" and png.stat().st_size > 5_000 and "tracking_models.png" in proc.stdout
+    args = ("track", "--seconds", "1", "--after", "0.5", "--controller", "computed-torque", "--no-figures")
+    proc = run_cli(*args, "-o", str(tmp_path / "n"))
+    assert proc.returncode == 0, proc.stderr
+    assert [f.name for f in (tmp_path / "n").iterdir()] == ["tracking.json"] and ".png" not in proc.stdout
+
+
+def test_tracking_models_figure_bars_every_model_and_controller():
+    """One bar per model × controller and joint, its height the RMS [mrad]; a log axis when the bars span
+    more than 100×, a linear one otherwise."""
+    import matplotlib.pyplot as plt
+
+    from pinid.report.plot_control import tracking_models_figure
+
+    rms = {
+        "backstepping": {"nominal": {"hip": 1e-5, "knee": 2e-5}, "cad:30": {"hip": 0.02, "knee": 0.01}},
+        "computed-torque": {"nominal": {"hip": 3e-5, "knee": 1e-5}, "cad:30": {"hip": 0.01, "knee": 0.04}},
+    }
+    fig = tracking_models_figure(rms)
+    ax = fig.axes[0]
+    assert ax.get_yscale() == "log"
+    heights = [p.get_height() for c in ax.containers for p in c.patches]
+    assert heights == pytest.approx([0.01, 0.02, 0.03, 0.01, 20.0, 10.0, 10.0, 40.0])
+    assert [t.get_text() for t in ax.get_legend().get_texts()] == [
+        "nominal, backstepping",
+        "nominal, computed-torque",
+        "cad:30, backstepping",
+        "cad:30, computed-torque",
+    ]
+    one = {"computed-torque": {"nominal": {"hip": 1e-3, "knee": 2e-3}, "a.json": {"hip": 5e-3, "knee": 4e-3}}}
+    assert tracking_models_figure(one).axes[0].get_yscale() == "linear"
+    plt.close("all")
 
 
 def test_cli_track_bad_input(tmp_path):

@@ -47,6 +47,7 @@ def test_excite_simulate_identify_floating(tmp_path):
             "v.csv",
         ],
         ["simulate", *EXO, "--excitation", "gait", "--seconds", "4", "--control-rate", "200", "-o", "g.csv"],
+        ["simulate", *EXO, "--excitation", "gait", "--seconds", "1", "--no-figures", "-o", "n.csv"],
         ["identify", *EXO, "--data", "s.csv", "--validate", "v.csv", "--methods", "ols,sdp", "--no-report", "-o", "r"],
         ["identify", *EXO, "--data", "s.csv", "--rows", "base", "--methods", "ols", "--no-report", "-o", "rb"],
         ["identify", *EXO, "--data", "g.csv", "--methods", "ols", "--no-report", "-o", "rg"],
@@ -55,6 +56,9 @@ def test_excite_simulate_identify_floating(tmp_path):
     for args in steps:
         proc = run_cli(*args, cwd=tmp_path)
         assert proc.returncode == 0, (args, proc.stderr)
+    # the joints drawn beside each recording (prescribed, recorded, torque), none with --no-figures
+    assert all((tmp_path / f).stat().st_size > 10_000 for f in ("s.png", "v.png", "g.png"))
+    assert not (tmp_path / "n.png").exists()
     clear = json.loads((tmp_path / "exc.json").read_text())["self_collision"]
     assert clear["pairs"] == 16 and clear["distance"] >= clear["margin"] == 0.02
     truth = json.loads((tmp_path / "s.truth.json").read_text())

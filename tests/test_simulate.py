@@ -368,3 +368,40 @@ def test_old_trajectory_preset_names_still_work_with_a_deprecation_warning():
     np.testing.assert_array_equal(old.evaluate(0.3)[0], new.evaluate(0.3)[0])
     with pytest.warns(DeprecationWarning, match="seed000_trajectory is deprecated"):
         assert twin_module.seed000_trajectory is twin_module.zha2019_trajectory
+
+
+def test_cli_draws_the_run_beside_the_recording(tmp_path):
+    """OUTPUT with .png: written (a PNG), listed in what the command prints, left out with --no-figures; the
+    figure's error column is the truth's tracking error (simulated − reference)."""
+    args = ("simulate", "--urdf", "apal_leg", "--excitation", "zha2019-1", "--seconds", "1", "--seed", "2")
+    proc = run_cli(*args, "-o", str(tmp_path / "a.csv"))
+    assert proc.returncode == 0, proc.stderr
+    png = tmp_path / "a.png"
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 10_000
+    assert f"wrote {png} (per joint: reference and simulated q, tracking error, measured torque)" in proc.stdout
+    proc = run_cli(*args, "--no-figures", "-o", str(tmp_path / "b.csv"))
+    assert proc.returncode == 0, proc.stderr
+    assert not (tmp_path / "b.png").exists() and ".png" not in proc.stdout
+    assert sorted(f.name for f in tmp_path.iterdir()) == ["a.csv", "a.png", "a.truth.json", "b.csv", "b.truth.json"]
+    # --no-figures is not part of the run's record: the same truth and command line but for the file name
+    a, b = (json.loads((tmp_path / f"{k}.truth.json").read_text()) for k in "ab")
+    assert a.pop("command").replace("a.csv", "b.csv") == b.pop("command") and a == b
+
+
+def test_simulation_figure_draws_the_tracking_error(apal_run):
+    from pinid.report.plot_simulation import simulation_figure
+
+    model, ds, truth = apal_run
+    reference = load_trajectory("zha2019-4", model).evaluate(ds.t)[0]
+    fig = simulation_figure(ds.t, reference, truth["signals"].q, ds.tau, ds.joints)
+    try:
+        error_axes = fig.axes[1::3]
+        for j, joint in enumerate(ds.joints):
+            drawn = error_axes[j].lines[0].get_ydata()
+            assert np.sqrt(np.mean(drawn**2)) == pytest.approx(1e3 * truth["tracking"]["rms_error"][joint], rel=1e-9)
+        with pytest.raises(SpecError, match="reference: shape"):
+            simulation_figure(ds.t, reference[:, :1], truth["signals"].q, ds.tau, ds.joints)
+    finally:
+        import matplotlib.pyplot as plt
+
+        plt.close("all")

@@ -7,6 +7,7 @@ import pytest
 
 from pinid.errors import SpecError
 from pinid.wearer import anthropometry as anth
+from pinid.wearer.attach import wearer_urdf
 
 
 @pytest.mark.parametrize("sex", anth.SEXES)
@@ -101,7 +102,56 @@ def test_cli_wearer_writes_urdf(tmp_path, capsys):
         == 0
     )
     assert "wearer_thigh_strap" in out.read_text()
-    assert "10.62 kg" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert "10.62 kg" in printed
+    # the picture of where the segments attach, beside the URDF and listed; none with --no-figures
+    png = tmp_path / "exo_with_wearer.png"
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 10_000
+    assert f"wrote {png} (where the segments attach" in printed
+    person = ("--mass", "75", "--height", "1.78", "--sex", "male")
+    assert _cli("wearer", *person, "--no-figures", "-o", str(tmp_path / "b.urdf")) == 0
+    assert ".png" not in capsys.readouterr().out and not (tmp_path / "b.png").exists()
+    assert sorted(f.name for f in tmp_path.iterdir()) == ["b.urdf", "exo_with_wearer.png", "exo_with_wearer.urdf"]
+
+
+@pytest.mark.parametrize(
+    "robot, attach, feet",
+    [("exo_lower_body", None, ("l_foot", "r_foot")), ("exo_leg", "hip:thigh,knee:shank,knee:foot", ("foot",))],
+)
+def test_attachment_picture_puts_the_foot_forward(robot, attach, feet):
+    """The attachment picture, read from its plotted data (not pixels): in the zero pose each foot's CoM is
+    ahead of its attachment (+x, sagittal view) and level with the ankle, every thigh and shank hangs below
+    its frame; a 3-D robot gets a frontal view with the left leg at +y.  The foot once pointed sideways."""
+    import matplotlib.pyplot as plt
+
+    from pinid.report.plot_wearer import attachment_figure
+    from pinid.wearer.attach import wearer_segments
+
+    text = wearer_urdf(robot, attach, mass=75, height=1.78, sex="male")
+    segments = wearer_segments(text)
+    fig = attachment_figure(text, segments)
+    try:
+
+        def point(ax, gid):
+            (line,) = [ln for ln in ax.lines if ln.get_gid() == gid]
+            return float(line.get_xdata()[0]), float(line.get_ydata()[0])
+
+        sagittal = fig.axes[0]
+        assert len(fig.axes) == (2 if robot == "exo_lower_body" else 1)
+        for foot in feet:
+            (cx, cz), (ax_, _) = point(sagittal, f"com:{foot}"), point(sagittal, f"attach:{foot}")
+            assert cx - ax_ == pytest.approx(0.1165, abs=1e-3)  # de Leva's 44 % of the foot, forward
+            (line,) = [ln for ln in sagittal.lines if ln.get_gid() == f"segment:{foot}"]  # heel to toe
+            (x0, x1), (z0, z1) = line.get_xdata(), line.get_ydata()
+            assert x1 - x0 == pytest.approx(0.2639, abs=1e-3) and z0 == pytest.approx(z1, abs=1e-6) == cz
+        for seg in segments:
+            if seg.endswith(("thigh", "shank")):
+                assert point(sagittal, f"com:{seg}")[1] < point(sagittal, f"attach:{seg}")[1] - 0.1, seg
+        if robot == "exo_lower_body":
+            frontal = fig.axes[1]
+            assert point(frontal, "com:l_foot")[0] > 0.05 > -0.05 > point(frontal, "com:r_foot")[0]
+    finally:
+        plt.close("all")
 
 
 @pytest.mark.parametrize(

@@ -79,11 +79,13 @@ def test_noise_free_stage2_recovers_wearer_base_parameters(twin):
         assert abs(got[n] - v) <= 1e-6 * max(abs(v), 1e-2 * scale), (n, got[n], v)
     assert abs(res["parameters"]["knee.kp"] - 1) < 1e-6 and abs(res["parameters"]["hip.kp"] - 1) < 1e-6
     assert sorted(p.name for p in (d / "out").iterdir()) == [
+        "attachment_wearer.png",
         "identification.json",
         "model_table.json",
         "model_wearer.json",
         "report.html",
         "report.md",
+        "segments_wearer.png",
         "torque_wearer.png",
     ]
     _check_report(d / "out", whole)
@@ -130,7 +132,8 @@ def _check_report(out: Path, res: dict) -> None:
     assert rows and all(line.endswith(f"| {res['marks'][n]} |") for n, line in rows.items()), rows  # issue 33
     page = (out / "report.html").read_text()
     assert "data:image/png;base64," in page and "exo + identified wearer" in page
-    assert (out / "torque_wearer.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    for name in ("torque_wearer.png", "attachment_wearer.png", "segments_wearer.png"):
+        assert (out / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and f"]({name})" in md, name
 
 
 def test_stage2_report_options(twin, tmp_path):
@@ -150,6 +153,12 @@ def test_stage2_report_options(twin, tmp_path):
     r = res["validation_rms"]["identified"]
     assert "Validation:" in md and f"| exo + identified wearer | {r['hip']:.4g} | {r['knee']:.4g} |" in md
     assert ".png" not in md
+    # with figures: where the segments attach and stage 2 against the tables, in the report and listed
+    p = run_cli(*base, "-o", str(tmp_path / "f"))
+    assert p.returncode == 0, p.stderr
+    md = (tmp_path / "f" / "report.md").read_text()
+    for name in ("attachment_wearer.png", "segments_wearer.png", "torque_wearer.png"):
+        assert (tmp_path / "f" / name).stat().st_size > 10_000 and name in p.stdout and f"]({name})" in md, name
     # --no-report into the same folder (--force): the earlier report goes, nothing stale stays
     p = run_cli(*base, "--no-report", "--force", "-o", str(tmp_path / "a"))
     assert p.returncode == 0, p.stderr

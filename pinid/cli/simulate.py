@@ -25,6 +25,8 @@ adds sensor noise and encoder quantisation, and writes
                            (name it with --truth)
   --cad-urdf FILE          with --perturb: the 'CAD' model as a URDF (the truth's kinematics and
                            friction, its inertial parameters perturbed), to identify or control with
+  OUTPUT with .png         per joint: the reference and simulated position, the tracking error and
+                           the measured torque (not with --no-figures)
 
 With --base floating (docs/floating-base.md): the legs follow the excitation exactly while the pelvis hangs
 in a spring-damper harness (its load cell recorded as wrench_<base link>_*), or, with --excitation gait, a
@@ -61,6 +63,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--seed", type=seed_int, default=0, help="random seed (noise, perturbation); default 0")
     p.add_argument("-o", "--output", required=True, help="recording to write (.csv or .npz)")
     p.add_argument("--truth", default=None, help="truth JSON to write; default OUTPUT with .truth.json")
+    p.add_argument("--no-figures", action="store_true", help="do not draw OUTPUT with .png (matplotlib not loaded)")
     p.add_argument(
         "--true-signals",
         default=None,
@@ -202,6 +205,7 @@ def _files(args: argparse.Namespace) -> dict:
         "truth_path": Path(args.truth) if args.truth else None,
         "true_signals": args.true_signals,
         "cad_urdf": args.cad_urdf,
+        "figure": None if args.no_figures else out.with_suffix(".png"),
     }
 
 
@@ -309,6 +313,7 @@ def _simulate_floating(args: argparse.Namespace, model, files: dict) -> int:
         noise=noise,
         seed=args.seed,
         imu_frame=args.imu,
+        figure=files["figure"],
         command="pinid simulate " + " ".join(_argv_of(args)),
     )
     print(text)
@@ -316,7 +321,7 @@ def _simulate_floating(args: argparse.Namespace, model, files: dict) -> int:
 
 
 #: Entries of the parsed namespace that do not define the run: the command and its parser, --force.
-_NOT_RECORDED = ("command", "command_function", "command_parser", "force")
+_NOT_RECORDED = ("command", "command_function", "command_parser", "force", "no_figures")
 
 
 def _argv_of(args: argparse.Namespace) -> list[str]:

@@ -18,8 +18,10 @@ ignored, as a CAD model would be —, a URDF, results/model_<method>.json or res
 reference (--reference: a trajectory JSON from pinid excite, or 'sine' — seed 001's 4 s sinusoid, kept
 inside the joint limits).  Simulates the closed loop with each controller and prints the tracking
 error per joint (RMS and max after the start-up, settling time and the band it settles into: 2 % of
-the joint's reference range, at least 1 mrad).  Writes FOLDER/tracking.json and
-FOLDER/tracking_<controller>.png.
+the joint's reference range, at least 1 mrad).  Writes FOLDER/tracking.json,
+FOLDER/tracking_<controller>.png (per joint: reference and response, error, torque of every model) and
+FOLDER/tracking_models.png (the RMS error per joint of every model × controller as grouped bars; a log
+scale when they span more than 100×); --no-figures: the JSON only.
 
 examples:
   pinid track --urdf-true urdf/exo_leg.urdf --model results/identification.json -o results/track
@@ -65,6 +67,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "--wearer-draw does with the same --seed: the same true wearer",
     )
     p.add_argument("-o", "--output", default=None, metavar="FOLDER", help="write tracking.json and plots here")
+    p.add_argument("--no-figures", action="store_true", help="with -o: write tracking.json only (no PNG)")
 
 
 def sine_reference(plant):
@@ -87,7 +90,7 @@ def run(args: argparse.Namespace) -> int:
 
     controllers = tuple(c.strip() for c in args.controller.split(",") if c.strip())
     if args.output is not None:  # fail before the work, creating nothing
-        check_outputs(*tracking_paths(args.output, controllers))
+        check_outputs(*tracking_paths(args.output, controllers, figures=not args.no_figures))
     if not (args.seconds > args.after >= 0):
         raise SpecError(f"--seconds {args.seconds} and --after {args.after}: expected seconds > after >= 0")
     plant = robot_from_args(args, urdf=args.urdf_true)  # with the plant's --drives
@@ -114,5 +117,6 @@ def run(args: argparse.Namespace) -> int:
     print(tracking_table(table, after=args.after))
     if args.output is not None:
         settings = {"reference": args.reference, "seconds": args.seconds, "after": args.after, "seed": args.seed}
-        print(wrote_line(write_tracking(table, args.output, plant=plant, settings=settings), Path(args.output)))
+        written = write_tracking(table, args.output, plant=plant, settings=settings, figures=not args.no_figures)
+        print(wrote_line(written, Path(args.output)))
     return 0

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
 from pinid.io import Artefacts, display_path
 
@@ -21,6 +22,9 @@ r_hip_flexion:r_thigh,r_knee:r_shank,r_ankle:r_foot.  The result loads with a fi
 
   OUTPUT    the URDF: the exo's links unchanged, plus links wearer_<segment> and fixed joints
             wearer_<segment>_strap
+  OUTPUT with .png  where the segments attach: the robot in its zero pose (sagittal view, and frontal
+            for a 3-D robot), each segment, the exo link frame it is strapped to and its CoM
+            (not with --no-figures)
 
 Body mass 40-150 kg and height 1.40-2.10 m (the range pinid accepts for the table's proportional scaling).
 
@@ -43,17 +47,24 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "(exo_lower_body: the pelvis and both legs' thigh, shank and foot), else hip:thigh,knee:shank",
     )
     p.add_argument("-o", "--output", required=True, metavar="FILE", help="URDF to write")
+    p.add_argument("--no-figures", action="store_true", help="do not draw OUTPUT with .png (matplotlib not loaded)")
 
 
 def run(args: argparse.Namespace) -> int:
-    from pinid.wearer.attach import wearer_links, wearer_urdf  # deferred: ~4 ms that pinid --help would pay
+    # deferred: ~4 ms that pinid --help would pay
+    from pinid.wearer.attach import attachment_png, wearer_links, wearer_urdf
 
     arts = Artefacts()  # checked before the work, written all or nothing
     arts.add(args.output, lambda p: p.write_text(text, encoding="utf-8"))
+    figure = None if args.no_figures else Path(args.output).with_suffix(".png")
+    if figure is not None:
+        arts.add(figure, lambda p: p.write_bytes(attachment_png(text)))
     arts.check()
     text = wearer_urdf(args.urdf, args.attach, mass=args.mass, height=args.height, sex=args.sex)
     arts.write()
     for seg, (link, m, c, _) in wearer_links(text).items():
         print(f"{seg:6s} on {link}: {m:.2f} kg, CoM ({c[0]:+.3f}, {c[1]:+.3f}, {c[2]:+.3f}) m")
     print(f"wrote {display_path(args.output)}")
+    if figure is not None:
+        print(f"wrote {display_path(figure)} (where the segments attach: zero pose, attachment frames, CoMs)")
     return 0

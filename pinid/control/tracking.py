@@ -15,7 +15,7 @@ from pinid.excitation.trajectory import FourierTrajectory
 from pinid.io import Artefacts, json_text
 from pinid.model.robot import RobotModel
 from pinid.report.figures import render_pngs
-from pinid.report.plot_control import tracking_figure
+from pinid.report.plot_control import tracking_figure, tracking_models_figure
 from pinid.report.text import text_table
 from pinid.errors import OutputError, SpecError
 from pinid.io import as_path
@@ -65,19 +65,36 @@ def tracking_table(table: dict, *, after: float | None = None) -> str:
     )
 
 
-def tracking_paths(folder: str | os.PathLike, controllers) -> list[Path]:
+def tracking_paths(folder: str | os.PathLike, controllers, *, figures: bool = True) -> list[Path]:
     """The files :func:`write_tracking` writes into ``folder`` for ``controllers`` (to check them early)."""
     folder = as_path(folder, "folder", error=OutputError)
     out = Path(folder)
-    return [out / "tracking.json", *(out / f"tracking_{c}.png" for c in controllers)]
+    if not figures:
+        return [out / "tracking.json"]
+    return [out / "tracking.json", *(out / f"tracking_{c}.png" for c in controllers), out / "tracking_models.png"]
+
+
+def _model_labels(names) -> dict[str, str]:
+    """A short label per model: its file's name (``nominal`` and ``cad:30`` as given), the path as given
+    when two files share a name."""
+    short = {n: n if n == "nominal" else Path(n).name for n in names}
+    return {n: s if list(short.values()).count(s) == 1 else n for n, s in short.items()}
 
 
 def write_tracking(
-    table: dict, folder: str | os.PathLike, *, plant: RobotModel, settings: dict, overwrite: bool | None = None
+    table: dict,
+    folder: str | os.PathLike,
+    *,
+    plant: RobotModel,
+    settings: dict,
+    figures: bool = True,
+    overwrite: bool | None = None,
 ) -> list[Path]:
     """Write ``tracking.json`` (the plant's URDF, ``settings`` such as the reference, seconds, after,
-    seed, and every metric) and one figure ``tracking_<controller>.png`` per controller into ``folder``,
-    all or nothing.  ``overwrite``: replace existing files (None: the :data:`pinid.io.OVERWRITE` policy)."""
+    seed, and every metric) and, with ``figures``, one figure ``tracking_<controller>.png`` per controller
+    and ``tracking_models.png`` (the RMS error per joint of every model × controller, as grouped bars) into
+    ``folder``, all or nothing.  ``overwrite``: replace existing files (None: the :data:`pinid.io.OVERWRITE`
+    policy)."""
     if not isinstance(table, dict):
         raise SpecError(f"table: got {type(table).__name__}, expected the tracking table (a dict)")
     if not isinstance(settings, dict):
@@ -95,10 +112,18 @@ def write_tracking(
             }
         ),
     )
+    if not figures:
+        return arts.write()
     recipes = {
-        c: (tracking_figure, ({n: e["result"] for n, e in pm.items()},), {"title": c, "after": after})
+        f"tracking_{c}.png": (tracking_figure, ({n: e["result"] for n, e in pm.items()},), {"title": c, "after": after})
         for c, pm in table.items()
     }
-    for c, png in render_pngs(recipes).items():  # one figure per core (pinid.report.figures)
-        arts.add(out / f"tracking_{c}.png", png)
+    labels = _model_labels([n for pm in table.values() for n in pm])
+    rms = {
+        c: {labels[n]: {j: m["rms"] for j, m in e["metrics"].items()} for n, e in pm.items()} for c, pm in table.items()
+    }
+    title = f"RMS tracking error per joint after t = {after:g} s: every model × controller"
+    recipes["tracking_models.png"] = (tracking_models_figure, (rms,), {"title": title})
+    for name, png in render_pngs(recipes).items():  # one figure per core (pinid.report.figures)
+        arts.add(out / name, png)
     return arts.write()

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from pinid.errors import SpecError
 from pinid.report.figures import new_figure
 
 
@@ -48,5 +49,56 @@ def tracking_figure(results: dict, *, title: str = "", after: float = 0.0):
     axes[1, 0].legend(fontsize=8)
     if title:
         fig.suptitle(title)
+    fig.tight_layout()
+    return fig
+
+
+def tracking_models_figure(rms: dict, *, title: str = "", log: bool | None = None):
+    """Grouped bars of the RMS tracking error [mrad] per joint, one bar per model × controller.
+
+    ``rms`` is ``{controller: {model label: {joint: RMS [rad]}}}`` (the metrics' ``rms``, after the
+    start-up).  Each model has its colour, each controller its hatch.  ``log``: a logarithmic axis; None
+    (default) when the largest bar is more than 100 times the smallest.  Returns the figure."""
+    if not isinstance(rms, dict) or not rms or not all(isinstance(v, dict) and v for v in rms.values()):
+        raise SpecError(f"rms: got {type(rms).__name__}, expected {{controller: {{model: {{joint: RMS}}}}}}")
+    controllers = list(rms)
+    models = list(dict.fromkeys(m for per_model in rms.values() for m in per_model))
+    joints = list(dict.fromkeys(j for per_model in rms.values() for r in per_model.values() for j in r))
+    bars = [(m, c) for m in models for c in controllers if m in rms[c]]
+    values = np.array([[1e3 * float(rms[c][m].get(j, np.nan)) for j in joints] for m, c in bars])
+    positive = values[np.isfinite(values) & (values > 0)]
+    if log is None:
+        log = positive.size > 1 and positive.max() > 100 * positive.min()
+    width = 0.8 / len(bars)
+    rows = -(-len(bars) // (2 if len(controllers) > 1 else 3))  # of the legend, below the axes
+    fig, ax = new_figure(figsize=(max(7.0, 1.2 + len(joints) * (0.5 + 0.28 * len(bars))), 4.2 + 0.22 * rows))
+    x = np.arange(len(joints))
+    hatches = ("", "//", "..", "xx", "\\\\", "++")
+    for k, (m, c) in enumerate(bars):
+        drawn = ax.bar(
+            x - 0.4 + (k + 0.5) * width,
+            values[k],
+            width,
+            color=f"C{models.index(m) % 10}",
+            hatch=hatches[controllers.index(c) % len(hatches)],
+            edgecolor="0.2",
+            lw=0.5,
+            label=f"{m}, {c}" if len(controllers) > 1 else m,
+        )
+        if values.size <= 24:  # the value on each bar while they are few enough to read
+            ax.bar_label(drawn, fmt="%.2g", fontsize=7, padding=1)
+    if log:
+        ax.set_yscale("log")
+    ax.set_xticks(x, joints, rotation=30 if len(joints) > 4 else 0)
+    ax.set_ylabel("RMS tracking error [mrad]" + (" (log scale)" if log else ""))
+    ax.grid(axis="y", alpha=0.3, which="both" if log else "major")
+    ax.margins(y=0.12)
+    ax.legend(
+        fontsize=8,
+        ncol=min(len(bars), 2 if len(controllers) > 1 else 3),
+        loc="upper center",
+        bbox_to_anchor=(0.5, -0.12 if len(joints) <= 4 else -0.2),
+    )
+    fig.suptitle(title or "tracking error per joint: every model × controller", fontsize=10)
     fig.tight_layout()
     return fig

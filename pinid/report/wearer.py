@@ -3,8 +3,11 @@
 From the stage-2 result (the identification.json dict of ``pinid identify --stage wearer``): the torque
 RMS of exo + identified wearer, exo + table wearer and exo alone on the training and validation
 recordings, the wearer's base parameters (identified vs table), its standard parameters per body, the
-passive moments' scale factors and, when fitted, their exponents; and ``torque_wearer.png``, measured vs
-predicted torque of the three models (:func:`pinid.report.plot_identification.torque_comparison`).
+passive moments' scale factors and, when fitted, their exponents; and the figures ``torque_wearer.png``,
+measured vs predicted torque of the three models (:func:`pinid.report.plot_identification.torque_comparison`),
+``attachment_wearer.png``, where the segments attach (:func:`pinid.report.plot_wearer.attachment_figure`),
+and ``segments_wearer.png``, the identified masses and centres of mass against the tables
+(:func:`pinid.report.plot_wearer.segment_masses_figure`).
 """
 
 from __future__ import annotations
@@ -17,7 +20,7 @@ from pinid.io import display_path
 from pinid.report.markdown import WINDOW, markdown_table, number
 
 #: Every file the stage-2 report writes (``pinid identify --stage wearer`` removes an earlier run's).
-WEARER_REPORT_FILES = ("report.md", "report.html", "torque_wearer.png")
+WEARER_REPORT_FILES = ("report.md", "report.html", "torque_wearer.png", "attachment_wearer.png", "segments_wearer.png")
 
 #: The three models of stage 2, in the report's order, and what to call them.
 MODELS = {"identified": "exo + identified wearer", "table": "exo + table wearer", "exo": "exo alone"}
@@ -49,7 +52,8 @@ def _prior_weight_line(result: Mapping) -> str:
 
 
 def wearer_markdown(result: Mapping, figures: Mapping[str, str] | None = None) -> str:
-    """The report text of stage-2 ``result``; ``figures`` maps ``"torque"`` to the file name to link."""
+    """The report text of stage-2 ``result``; ``figures`` maps ``"torque"``, ``"attachment"`` and
+    ``"segments"`` to the file names to link."""
     from pinid import __version__
 
     figures = figures or {}
@@ -65,6 +69,16 @@ def wearer_markdown(result: Mapping, figures: Mapping[str, str] | None = None) -
         + ", ".join(f"`{j}` ({', '.join(s)})" for j, s in result["bodies"].items())
         + ".",
         "",
+    ]
+    if "attachment" in figures:
+        lines += [
+            "Where the segments attach (the robot in its zero pose; each segment's exo link frame and its "
+            "centre of mass, from the tables):",
+            "",
+            f"![where the wearer's segments attach]({figures['attachment']})",
+            "",
+        ]
+    lines += [
         "## Torque RMS",
         "",
     ]
@@ -94,6 +108,19 @@ def wearer_markdown(result: Mapping, figures: Mapping[str, str] | None = None) -
                 for n, v in base.items()
             ],
         ),
+        "",
+    ]
+    if "segments" in figures:
+        lines += [
+            "",
+            "## The wearer's masses and centres of mass against the tables",
+            "",
+            "Per body, the wearer's share identified (bars) and the tables' (black lines): mass [kg] and centre "
+            "of mass about the joint frame [m] (m·c / m).",
+            "",
+            f"![identified segment masses and centres of mass against the tables]({figures['segments']})",
+        ]
+    lines += [
         "",
         "## The wearer's standard parameters",
         "",
@@ -148,16 +175,28 @@ def wearer_markdown(result: Mapping, figures: Mapping[str, str] | None = None) -
 
 
 def wearer_report_files(
-    result: Mapping, curves: Mapping | None = None, *, figures: bool = True
+    result: Mapping, curves: Mapping | None = None, *, figures: bool = True, attachment: tuple | None = None
 ) -> dict[str, str | bytes]:
-    """``report.md``, ``report.html`` (figures embedded) and ``torque_wearer.png`` of stage-2 ``result``.
+    """``report.md``, ``report.html`` (figures embedded) and the figures of stage-2 ``result``:
+    ``segments_wearer.png`` (masses and centres of mass against the tables), ``torque_wearer.png`` with
+    ``curves`` and ``attachment_wearer.png`` with ``attachment``; none with ``figures=False``, which does
+    not load matplotlib.
 
     ``curves``: ``{"t" (N,) [s], "measured" (N, nv) [N·m], "predicted": {model: (N, nv)}, "joints",
-    "source", "kind"}`` for the torque figure (none without them or with ``figures=False``, which does
-    not load matplotlib)."""
+    "source", "kind"}``; ``attachment``: ``(urdf_text, segments)``, the exo + wearer URDF and its segments
+    (:func:`pinid.wearer.attach.wearer_segments`)."""
     from pinid.report.html import markdown_to_html
 
     pngs = {}
+    linked = {}
+    if figures and attachment:
+        from pinid.report.figures import figure_png
+        from pinid.report.plot_wearer import attachment_figure
+
+        urdf_text, segments = attachment
+        title = "where the segments attach (zero pose)"
+        pngs["attachment_wearer.png"] = figure_png(attachment_figure(urdf_text, segments, title=title))
+        linked["attachment"] = "attachment_wearer.png"
     if figures and curves:
         from pinid.report.figures import figure_png
         from pinid.report.plot_identification import torque_comparison
@@ -173,5 +212,12 @@ def wearer_report_files(
             title=f"measured and predicted torque ({curves['kind']}, {curves['source']}{span})",
         )
         pngs["torque_wearer.png"] = figure_png(fig)
-    text = wearer_markdown(result, {"torque": "torque_wearer.png"} if pngs else None)
+        linked["torque"] = "torque_wearer.png"
+    if figures:
+        from pinid.report.figures import figure_png
+        from pinid.report.plot_wearer import segment_masses_figure
+
+        pngs["segments_wearer.png"] = figure_png(segment_masses_figure(result))
+        linked["segments"] = "segments_wearer.png"
+    text = wearer_markdown(result, linked)
     return {"report.md": text, "report.html": markdown_to_html(text, pngs, title="pinid: stage 2, the wearer"), **pngs}

@@ -429,16 +429,43 @@ def simulate_floating(
     )
 
 
-def write_floating_run(run: FloatingRun, path, truth_path=None, *, overwrite: bool | None = None) -> list:
-    """Write the recording (CSV or NPZ) and the truth JSON (default ``<path stem>.truth.json``), all or nothing."""
+def write_floating_run(run: FloatingRun, path, truth_path=None, *, figure=None, overwrite: bool | None = None) -> list:
+    """Write the recording (CSV or NPZ) and the truth JSON (default ``<path stem>.truth.json``) and, with
+    ``figure``, a PNG of the joints (:func:`_figure_png`), all or nothing."""
     from pinid.data.contacts import write_floating
     from pinid.io import Artefacts, write_json
     from pinid.simulation.outputs import truth_path_for
 
+    if not isinstance(run, FloatingRun):
+        raise SpecError(f"run: got {type(run).__name__}, expected a FloatingRun of simulate_floating")
     arts = Artefacts(overwrite=overwrite)
     arts.add(path, lambda p: write_floating(p, run.recording))
     arts.add(truth_path or truth_path_for(path), lambda p: write_json(p, run.truth))
+    if figure:
+        arts.add(figure, _figure_png(run))
     return arts.write()
+
+
+def _figure_png(run: FloatingRun) -> bytes:
+    """Per joint: the prescribed position (the legs follow it exactly), the recorded one, their difference
+    (the encoder noise) and the recorded torque (the exact one when none is recorded)."""
+    from pinid.report.figures import figure_png
+    from pinid.report.plot_simulation import simulation_figure
+
+    exact, rec = run.exact.data, run.recording.data
+    tau = rec.tau if rec.tau is not None else exact.tau
+    title = f"pinid simulate --base floating: {run.truth['kind']} {run.truth['robot']}, {exact.n} samples"
+    fig = simulation_figure(
+        exact.t,
+        exact.q,
+        rec.q,
+        tau,
+        exact.joints,
+        title=title,
+        error_label="recorded − prescribed (encoder noise)",
+        position_labels=("prescribed", "recorded"),
+    )
+    return figure_png(fig)
 
 
 def floating_text(run: FloatingRun, written) -> str:

@@ -66,10 +66,11 @@ def truth_path_for(path: str | os.PathLike) -> Path:
     return p.with_name(p.stem + ".truth.json")
 
 
-def simulation_paths(path, *, truth_path=None, true_signals=None, cad_urdf=None) -> list[Path]:
+def simulation_paths(path, *, truth_path=None, true_signals=None, cad_urdf=None, figure=None) -> list[Path]:
     """The files :func:`write_simulation` writes for these arguments, in its order (to check them early)."""
     path = as_path(path, error=OutputError)
-    return [Path(path), Path(truth_path or truth_path_for(path))] + [Path(p) for p in (true_signals, cad_urdf) if p]
+    extra = (true_signals, cad_urdf, figure)
+    return [Path(path), Path(truth_path or truth_path_for(path))] + [Path(p) for p in extra if p]
 
 
 def write_simulation(
@@ -81,13 +82,20 @@ def write_simulation(
     true_signals: str | os.PathLike | None = None,
     cad: RobotModel | None = None,
     cad_urdf: str | os.PathLike | None = None,
+    figure: str | os.PathLike | None = None,
+    reference: np.ndarray | None = None,
     overwrite: bool | None = None,
 ) -> list[Path]:
     """Write a twin's run, all or nothing: the ``recording`` at ``path`` (CSV or NPZ), the ``truth`` as
     JSON (default :func:`truth_path_for`), with ``true_signals`` the noise-free signals, with ``cad_urdf``
-    the URDF of the ``cad`` model (its percent from ``truth["cad"]``).  ``overwrite``: replace existing
-    files (None: the :data:`pinid.io.OVERWRITE` policy, which the CLI's ``--force`` sets)."""
+    the URDF of the ``cad`` model (its percent from ``truth["cad"]``), with ``figure`` a PNG of the run
+    (:func:`pinid.report.plot_simulation.simulation_figure`: the ``reference`` positions (N, nv) [rad] at
+    the recording's times, the simulated ones ``truth["signals"].q``, their difference, the recorded
+    torque).  ``overwrite``: replace existing files (None: the :data:`pinid.io.OVERWRITE` policy, which
+    the CLI's ``--force`` sets)."""
     recording = as_dataset(recording, "recording")
+    if figure is not None and reference is None:
+        raise SpecError("reference: got None, expected the reference positions (N, nv) [rad] to draw the figure")
     arts = Artefacts(overwrite=overwrite)
     arts.add(path, lambda p: write_recording(p, recording))
     arts.add(truth_path or truth_path_for(path), lambda p: save_truth(p, truth))
@@ -107,7 +115,19 @@ def write_simulation(
                 f"seed {truth['seed']}",
             ),
         )
+    if figure:
+        arts.add(figure, _figure_png(recording, truth, reference))
     return arts.write()
+
+
+def _figure_png(recording: Dataset, truth: dict, reference) -> bytes:
+    """The PNG of :func:`write_simulation`'s ``figure``."""
+    from pinid.report.figures import figure_png
+    from pinid.report.plot_simulation import simulation_figure
+
+    true = truth["signals"]
+    title = f"pinid simulate: {truth['robot']}, seed {truth['seed']}, {recording.n} samples"
+    return figure_png(simulation_figure(recording.t, reference, true.q, recording.tau, recording.joints, title=title))
 
 
 #: Width of what ``pinid simulate`` prints [columns].
@@ -127,7 +147,9 @@ def _wrapped(label: str, items: list[str], column: int) -> list[str]:
     return lines + [line]
 
 
-def simulation_text(recording: Dataset, truth: dict, path, *, truth_path=None, true_signals=None, cad_urdf=None) -> str:
+def simulation_text(
+    recording: Dataset, truth: dict, path, *, truth_path=None, true_signals=None, cad_urdf=None, figure=None
+) -> str:
     """What ``pinid simulate`` prints after :func:`write_simulation`: each file written, with the samples,
     rate, joints and tracking error [rad] of the recording and the parameter counts of the truth."""
     recording = as_dataset(recording, "recording")
@@ -146,4 +168,6 @@ def simulation_text(recording: Dataset, truth: dict, path, *, truth_path=None, t
         lines.append(f"wrote {true_signals} (noise-free signals)")
     if cad_urdf:
         lines.append(f"wrote {cad_urdf} (CAD model: inertia perturbed by about {truth['cad']['percent']:g} %)")
+    if figure:
+        lines.append(f"wrote {figure} (per joint: reference and simulated q, tracking error, measured torque)")
     return "\n".join(lines)

@@ -37,6 +37,7 @@ def simulate_and_write(
     truth_path: str | os.PathLike | None = None,
     true_signals: str | os.PathLike | None = None,
     cad_urdf: str | os.PathLike | None = None,
+    figure: str | os.PathLike | None = None,
     command: str | None = None,
 ) -> str:
     """Simulate ``model`` (the truth) following ``excitation`` (:func:`~pinid.simulation.trajectories.load_trajectory`:
@@ -50,8 +51,9 @@ def simulate_and_write(
     ``model``'s wearer was drawn away from the tables (:func:`pinid.wearer.prior.draw_wearer`), kept in
     ``truth["wearer"]["drawn"]``;
     ``wearer_torque`` [%]: the wearer's involuntary torque; ``perturb`` [%]: the feed-forward from a CAD model
-    that far from the truth (``truth["cad"]``; ``cad_urdf`` writes it); ``command``: the command line kept in
-    ``truth["command"]``.
+    that far from the truth (``truth["cad"]``; ``cad_urdf`` writes it); ``figure``: a PNG of the run (per
+    joint the reference and simulated position, the tracking error, the recorded torque); ``command``: the
+    command line kept in ``truth["command"]``.
     """
     model = as_robot(model)
     path = as_path(path)
@@ -80,8 +82,9 @@ def simulate_and_write(
         truth["wearer"]["drawn"] = drawn_wearer_truth(*drawn_wearer)
     if command is not None:
         truth["command"] = command
-    files = {"truth_path": truth_path, "true_signals": true_signals, "cad_urdf": cad_urdf}
-    write_simulation(ds, truth, path, cad=cad, **files)
+    files = {"truth_path": truth_path, "true_signals": true_signals, "cad_urdf": cad_urdf, "figure": figure}
+    reference = trajectory.for_joints(model.joint_names, model.name).evaluate(ds.t)[0] if figure else None
+    write_simulation(ds, truth, path, cad=cad, reference=reference, **files)
     return simulation_text(ds, truth, path, **files)
 
 
@@ -96,15 +99,17 @@ def simulate_floating_and_write(
     noise: Noise = Noise(),
     seed: int = 0,
     imu_frame: str | None = None,
+    figure: str | os.PathLike | None = None,
     command: str | None = None,
 ) -> str:
     """``pinid simulate --base floating`` in one call: :func:`~pinid.simulation.floating_twin.simulate_floating`
     (``excitation`` "gait", or a trajectory the suspended legs follow), ``command`` kept in the truth, the
-    recording and its truth written (:func:`~pinid.simulation.floating_twin.write_floating_run`); returns
-    what the command prints (:func:`~pinid.simulation.floating_twin.floating_text`)."""
+    recording and its truth written (:func:`~pinid.simulation.floating_twin.write_floating_run`, with
+    ``figure`` a PNG of the joints); returns what the command prints
+    (:func:`~pinid.simulation.floating_twin.floating_text`)."""
     model = as_robot(model)
     path = as_path(path)
     run = simulate_floating(model, excitation, seconds=seconds, rate=rate, noise=noise, seed=seed, imu_frame=imu_frame)
     if command is not None:
         run.truth["command"] = command
-    return floating_text(run, write_floating_run(run, path, truth_path))
+    return floating_text(run, write_floating_run(run, path, truth_path, figure=figure))

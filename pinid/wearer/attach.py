@@ -384,3 +384,35 @@ def wearer_links(urdf_text: str) -> dict[str, tuple[str, float, np.ndarray, np.n
             I,
         )
     return out
+
+
+def wearer_segments(urdf_text: str) -> dict[str, dict]:
+    """The wearer segments of a URDF written by :func:`wearer_urdf`, to draw:
+    ``{segment: {"link": exo link, "mass": [kg], "com", "start", "end": [m]}}`` in the exo link's frame
+    (``start``/``end``: the segment's proximal and distal endpoints, from its cylinder)."""
+    found = wearer_links(urdf_text)  # checks urdf_text
+    links = {lk.get("name"): lk for lk in UrdfDocument.from_text(urdf_text, "urdf_text").links()}
+    out = {}
+    for seg, (link, mass, com, _) in found.items():
+        lk = links[f"{PREFIX}{seg}"]
+        origin, cylinder = lk.find("visual/origin"), lk.find("visual/geometry/cylinder")
+        if origin is None or cylinder is None:
+            raise SpecError(f"urdf_text: link {PREFIX}{seg} has no <visual> cylinder, expected pinid wearer's")
+        centre = _vec(origin.get("xyz"))
+        axis = pin.rpy.rpyToMatrix(_vec(origin.get("rpy")))[:, 2]
+        half = 0.5 * float(cylinder.get("length")) * axis
+        out[seg] = {"link": link, "mass": mass, "com": com, "start": centre - half, "end": centre + half}
+    return out
+
+
+def attachment_png(urdf_text: str) -> bytes:
+    """A PNG of where the wearer's segments of ``urdf_text`` (a URDF of :func:`wearer_urdf`) attach: the
+    robot in its zero pose, each segment, its exo link frame and its CoM
+    (:func:`pinid.report.plot_wearer.attachment_figure`)."""
+    from pinid.report.figures import figure_png
+    from pinid.report.plot_wearer import attachment_figure
+
+    segments = wearer_segments(urdf_text)  # checks urdf_text
+    name = UrdfDocument.from_text(urdf_text, "urdf_text").name
+    title = f"{name} + wearer: where the segments attach (zero pose)"
+    return figure_png(attachment_figure(urdf_text, segments, title=title))

@@ -459,6 +459,7 @@ def write_stage(
     torque figure on the first of the ``shown`` datasets ((kind, datasets): validation, else training)
     into ``folder``, all or nothing; a ``--force`` re-run leaves no stale report; returns the paths."""
     from pinid.report.wearer import WEARER_REPORT_FILES, wearer_report_files
+    from pinid.wearer.attach import wearer_segments
 
     _as_fit(fit), _as_summary(summary)
     out = as_path(folder, "folder")
@@ -477,7 +478,9 @@ def write_stage(
             "source": Path(str(datasets[0].source)).name,
             "predicted": {w: fit.model(w).inverse_dynamics(q, dq, ddq) for w in ("identified", "table", "exo")},
         }
-        for name, content in wearer_report_files(summary, curves, figures=figures).items():
+        text = fit.robot.urdf_text
+        attachment = (text, wearer_segments(text)) if figures and text else None
+        for name, content in wearer_report_files(summary, curves, figures=figures, attachment=attachment).items():
             arts.add(out / name, content)
     arts.clean(out, WEARER_REPORT_FILES)
     return arts.write()
