@@ -211,9 +211,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--ripple-periods",
         default=None,
-        metavar="R|JOINT=R,…",
+        metavar="R|JOINT=R,…|auto",
         help="position ripple (--terms ripple): ripple periods per joint revolution, one number or per joint "
-        "(A1=160,A2=100); default the drives' reduction ratio; saved with the model (docs/identification.md)",
+        "(A1=160,A2=100), or auto (chosen by blocked cross-validation on the training recordings); default the "
+        "drives' reduction ratio; saved with the model (docs/identification.md)",
     )
     p.set_defaults(methods=None, terms=None, prior_weight=None)  # given or not (STAGE1_ONLY, STAGE2_ONLY)
     p.add_argument("--no-report", action="store_true", help="do not write report.md, report.html and the figures")
@@ -253,6 +254,8 @@ def _model(args: argparse.Namespace):
     model = robot_from_args(args)
     if args.ripple_periods is None:
         return model
+    if args.ripple_periods.strip().lower() == "auto":  # chosen by cross-validation (identification.ripple_choice)
+        return model.with_setting("ripple_periods", "auto")
     return model.with_setting("ripple_periods", periods_from_text(args.ripple_periods))
 
 

@@ -168,6 +168,21 @@ def _recordings_lines(d: dict, joints: list[str]) -> list[str]:
         for k, step in enumerate(c["steps"]):
             said = ", ".join(f"{n} {v:.3g} %" for n, v in step.items() if v is not None)
             lines.append(f"  {'start' if k == 0 else f'step {k}'}: held-out relative RMS {said}")
+    if d.get("ripple_periods"):
+        c = d["ripple_periods"]
+        curve = ", ".join(f"{r:g} {v:.3g} %" for r, v in zip(c["candidates"], c["cv_rel_rms_percent"]) if v is not None)
+        lines.append(
+            f"ripple periods per revolution {c['periods']:g}, chosen by {c['chosen_by']} "
+            f"({'measurably better than' if c['measurably_better'] else 'not measurably better than'} no ripple, "
+            f"{c['without_ripple_percent']:.3g} %)"
+        )
+        lines += textwrap.wrap(
+            f"held-out relative RMS against the torque as recorded: {curve}",
+            120,
+            initial_indent="  ",
+            subsequent_indent="    ",
+            break_on_hyphens=False,
+        )
     fit = d.get("fit_joints")
     if fit is not None and len(fit) < len(joints):
         left = [j for j in joints if j not in fit]

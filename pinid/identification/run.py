@@ -117,6 +117,7 @@ class Setup:
     delay: dict | None = None  # the torque delay used (data["delay"]): given or estimated
     cutoff: dict | None = None  # the cut-off chosen by cross-validation (data["cutoff"]) when asked for "auto"
     terms_choice: dict | None = None  # the terms chosen by cross-validation (data["terms_choice"]) for "auto"
+    ripple: dict | None = None  # the ripple periods chosen by cross-validation (data["ripple_periods"]) for "auto"
 
 
 def setup(
@@ -158,15 +159,17 @@ def setup(
         raise SpecError("Stribeck velocity 'auto' with the segmental strategy: give the velocity instead")
     final_terms, terms = terms, TermSelection(names=[n for n in terms.names if n not in auto])
     check_distinct(data, validate)
+    ripple_auto = _is_auto(model.setting("ripple_periods"))  # chosen below; the cut-off's choice goes without
+    cv_terms = TermSelection(names=[n for n in terms.names if not n.startswith("ripple_")]) if ripple_auto else terms
     chosen = None
     if isinstance(preprocess, Mapping) and isinstance(preprocess.get("cutoff"), str):
         if not _is_auto(preprocess["cutoff"]):
             raise SpecError(f"cut-off {preprocess['cutoff']!r}, expected a frequency > 0 [Hz] or auto")
         from pinid.identification.cutoff import choose_cutoff  # loaded on use
 
-        base = base_parameters(model, terms, joints=fitted)
+        base = base_parameters(model, cv_terms, joints=fitted)
         chosen = choose_cutoff(
-            model, _items(data), terms=terms, base=base, mapping=mapping, preprocess=preprocess, problem_options=rows
+            model, _items(data), terms=cv_terms, base=base, mapping=mapping, preprocess=preprocess, problem_options=rows
         )
         preprocess = {**preprocess, "cutoff": chosen.cutoff}
     train = load_datasets(data, model, mapping, preprocess, "training")
@@ -176,6 +179,12 @@ def setup(
 
         terms_choice = choose_terms(model, train, fit_joints=fitted, problem_options=rows)
         terms = final_terms = TermSelection(names=terms_choice.terms)
+    ripple = None
+    if ripple_auto:
+        from pinid.identification.ripple_choice import choose_ripple_periods  # loaded on use
+
+        ripple = choose_ripple_periods(model, train, terms, fit_joints=fitted, problem_options=rows)
+        model = model.with_setting("ripple_periods", ripple.periods)
     warn_if_large_recordings(model, terms, train)
     if validate is None:
         val = {}
@@ -274,6 +283,7 @@ def setup(
         used_delay,
         chosen and chosen.to_dict(),
         terms_choice and terms_choice.to_dict(),
+        ripple and ripple.to_dict(),
     )
 
 
@@ -602,6 +612,8 @@ def identify(
         summary["cutoff"] = s.cutoff
     if s.terms_choice is not None:
         summary["terms_choice"] = s.terms_choice
+    if s.ripple is not None:
+        summary["ripple_periods"] = s.ripple
     if manifest is not None:
         summary["manifest"] = str(getattr(manifest, "path", manifest))
     return Identification(

@@ -1,0 +1,119 @@
+"""The ripple periods per joint revolution chosen by the training recordings (``--ripple-periods auto``).
+
+A position ripple ``s·sin(k·r·q) + c·cos(k·r·q)`` (:mod:`pinid.model.terms_ripple`) needs ``r``: the motor's
+pole or gear-tooth count times the reduction, which a user often does not know.  Each candidate of
+:data:`CANDIDATES` (and the drives' ratio, when the robot has drives) is scored by the blocked
+cross-validation of :mod:`pinid.identification.crossval` (held-out blocks of the training recordings, against
+the torque as recorded); the best pooled score wins, one ``r`` for every joint.  The validation recordings
+play no part.  The model without ripple is scored too: the choice says whether the ripple helps measurably.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from pinid.data.dataset import Dataset
+from pinid.errors import SpecError
+from pinid.identification.crossval import (
+    FOLDS,
+    better,
+    block_edges,
+    candidate_rows,
+    common_spans,
+    fold_scores,
+    fold_sums,
+)
+from pinid.model.base import base_parameters
+from pinid.model.regressor import TermSelection
+from pinid.model.robot import RobotModel
+
+#: Ripple periods per joint revolution tried (one for every joint): low orders (a position-periodic error of
+#: the model or the sensors) and common reductions (one period per motor revolution).
+CANDIDATES = (1, 2, 3, 4, 6, 8, 10, 12, 16, 20, 30, 50, 80, 100, 120, 160, 200)
+#: The value of the model setting ``ripple_periods`` that asks for the choice.
+AUTO = "auto"
+#: The terms of the ripple family (:mod:`pinid.model.terms_ripple`).
+RIPPLE_PREFIX = "ripple_"
+
+
+@dataclass(frozen=True)
+class RippleChoice:
+    """The ripple periods chosen and the curve: ``candidates`` (periods per revolution), ``scores`` (pooled
+    held-out relative RMS [%]); ``without``: the score without the ripple terms; ``helps``: the chosen one
+    measurably better than none (:func:`pinid.identification.crossval.better`)."""
+
+    periods: float
+    candidates: list[float]
+    scores: list[float]
+    without: float
+    helps: bool
+    folds: int = FOLDS
+    reasons: dict[str, str] = field(default_factory=dict)
+
+    def to_dict(self) -> dict:
+        return {
+            "chosen_by": f"{self.folds}-fold blocked cross-validation on the training recordings",
+            "periods": self.periods,
+            "candidates": list(self.candidates),
+            "cv_rel_rms_percent": [None if not np.isfinite(s) else float(s) for s in self.scores],
+            "without_ripple_percent": float(self.without),
+            "measurably_better": bool(self.helps),
+        }
+
+
+def is_auto(model: RobotModel) -> bool:
+    """True when ``model`` asks for its ripple periods to be chosen (its setting ``ripple_periods`` is "auto")."""
+    value = model.setting("ripple_periods")
+    return isinstance(value, str) and value.strip().lower() == AUTO
+
+
+def ripple_terms(terms: TermSelection) -> list[str]:
+    """The ripple terms among ``terms``' names."""
+    return [n for n in terms.names if n.startswith(RIPPLE_PREFIX)]
+
+
+def choose_ripple_periods(
+    model: RobotModel,
+    prepared: Sequence[Dataset],
+    terms: TermSelection,
+    *,
+    fit_joints: Sequence[str] | None = None,
+    problem_options: Mapping | None = None,
+    candidates: Sequence[float] | None = None,
+) -> RippleChoice:
+    """Choose the ripple periods of ``terms``' ripple terms on the ``prepared`` training recordings (see the
+    module text); SpecError when ``terms`` has no ripple term."""
+    if not isinstance(model, RobotModel) or not isinstance(terms, TermSelection):
+        raise SpecError("choose_ripple_periods: expected a RobotModel and a TermSelection")
+    if not ripple_terms(terms):
+        raise SpecError("ripple periods 'auto' without a ripple term; expected --terms …,ripple (or ripple2, ripple3)")
+    tried = list(candidates if candidates is not None else CANDIDATES)
+    drives = getattr(model, "drives", None)
+    if candidates is None and drives is not None:
+        G = np.abs(np.asarray(drives.matrix, dtype=float))
+        tried += [float(r) for r in np.unique(np.round(G.max(axis=0), 6)) if r > 0 and r not in tried]
+    plain = TermSelection(names=[n for n in terms.names if not n.startswith(RIPPLE_PREFIX)])
+    base_model = model.with_setting("ripple_periods", None)
+    rows = [
+        candidate_rows(
+            base_model, prepared, plain, base_parameters(base_model, plain, joints=fit_joints), problem_options
+        )
+    ]
+    for r in tried:
+        m = model.with_setting("ripple_periods", float(r))
+        rows.append(candidate_rows(m, prepared, terms, base_parameters(m, terms, joints=fit_joints), problem_options))
+    edges = block_edges(prepared)
+    spans = common_spans(rows)
+    sums = np.array([fold_sums(c, edges, spans) for c in rows])
+    pooled, per_fold = fold_scores(sums)
+    k = int(np.nanargmin(pooled[1:])) + 1
+    return RippleChoice(
+        periods=float(tried[k - 1]),
+        candidates=[float(r) for r in tried],
+        scores=[float(s) for s in pooled[1:]],
+        without=float(pooled[0]),
+        helps=better(per_fold[k], per_fold[0]),
+    )
