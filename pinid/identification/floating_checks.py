@@ -72,8 +72,8 @@ def parameters_text(method: str, names: list[str], result: dict, *, verbose: boo
 def flipped_floating_signs(model, samples, *, limit: int = 5000) -> list[str]:
     """The joints whose recorded torque is anti-correlated with the URDF's for the same motion and wrenches
     (``RNEA_joints − (Σ J_cᵀ f_c)_joints`` plus the URDF's friction, on at most ``limit`` samples of the
-    prepared training recordings ``samples``; samples where a foot without a measured wrench is in contact are
-    left out): one DataWarning "check the sign of tau_<joint>" (:func:`pinid.identification.plausibility.
+    prepared training recordings ``samples``; samples where a foot without a measured wrench is in contact, or a
+    foot's contact phase is uncertain, are left out): one DataWarning "check the sign of tau_<joint>" (:func:`pinid.identification.plausibility.
     flipped_torque_signs`, the fixed base's check)."""
     from pinid.model.floating import BASE_NV, contact_forces, floating_rnea
 
@@ -87,7 +87,7 @@ def flipped_floating_signs(model, samples, *, limit: int = 5000) -> list[str]:
     recorded, nominal = [], []
     for s in samples:
         k = np.arange(0, s.n, step)
-        for contact in s.unsensed.values():
+        for contact in [*s.unsensed.values(), *getattr(s, "uncertain", {}).values()]:
             k = k[~np.asarray(contact, bool)[k]]
         if not len(k):
             continue
