@@ -72,6 +72,11 @@ FLOATING_SCALE_WORDS: dict[str, float] = {
     "N·mm": 1e-3,
     "Nmm": 1e-3,
 }
+#: A filtered contact phase within this of 0 or 1 is clear.  Where it is not (``CONTACT_MARGIN < phase <
+#: 1 − CONTACT_MARGIN``) and the raw phase changes more than once there (a foot switch that chatters), the rows
+#: the link's wrench enters are left out; a single clean step is gated at 0.5.  A clean step through the default
+#: 10 Hz low-pass is in that band for about 40 ms, and rings to −0.07 / 1.07 outside it.
+CONTACT_MARGIN = 0.1
 #: Top-level keys of a mapping spec that describe the joints, not the main file or the sources.
 _JOINT_KEYS = ("joints", "motors", "transmission", "checks", "description")
 
@@ -399,6 +404,7 @@ class FloatingSamples:
     base_a: np.ndarray
     wrenches: list[Wrench]
     unsensed: dict[str, np.ndarray] = field(default_factory=dict)  # link -> (N,) in contact, wrench unknown
+    uncertain: dict[str, np.ndarray] = field(default_factory=dict)  # link -> (N,) phase neither 0 nor 1
 
     @property
     def n(self) -> int:
@@ -547,9 +553,17 @@ def prepare_floating(
     base_v = np.hstack([np.zeros((m, 3)), omega])
     base_a = np.hstack([acc, domega])
     wrenches = []
-    # the filter spreads a phase's step over a few samples: a measured wrench is zeroed below 0.5, a link
-    # without a measured wrench counts as in contact above 0.05 (its rows are left out: conservative)
-    contact = {link: sig[:, col[f"contact_{link}"]] > 0.5 for link in rec.contacts}
+    # the filter spreads a phase's step over a few samples: a measured wrench is zeroed below 0.5; where a foot
+    # switch chatters (its filtered phase hovers between 0 and 1 for the whole bounce) the rows the wrench enters
+    # are left out (``uncertain``); a link without a measured wrench counts as in contact above 0.05 (its rows
+    # are left out: conservative)
+    phase = {link: sig[:, col[f"contact_{link}"]] for link in rec.contacts}
+    contact = {link: p > 0.5 for link, p in phase.items()}
+    uncertain = {
+        link: _chattering(ds.t, rec.contacts[link], t, np.abs(p - 0.5) < 0.5 - CONTACT_MARGIN)
+        for link, p in phase.items()
+        if link in rec.wrenches or link in rec.plates
+    }
     for link in rec.wrenches:
         w = block(f"wrench_{link}_", WRENCH)
         wrenches.append(Wrench(link, _gate(w, contact.get(link), threshold), "local"))
@@ -557,12 +571,23 @@ def prepare_floating(
         w = block(f"plate_{link}_", WRENCH)  # world wrench about the origin (converted above)
         wrenches.append(Wrench(link, _gate(w, contact.get(link), threshold), "world"))
     data = Dataset(t, jq, list(model.joint_names), dq=jdq, ddq=jddq, tau=jtau, source=ds.source, meta=dict(ds.meta))
-    unsensed = {
-        link: sig[:, col[f"contact_{link}"]] > 0.05
-        for link in rec.contacts
-        if link not in rec.wrenches and link not in rec.plates
-    }
-    return FloatingSamples(data, base_q, base_v, base_a, wrenches, unsensed)
+    unsensed = {link: p > 0.05 for link, p in phase.items() if link not in uncertain}
+    return FloatingSamples(data, base_q, base_v, base_a, wrenches, unsensed, uncertain)
+
+
+def _chattering(t_raw: np.ndarray, raw: np.ndarray, t: np.ndarray, band: np.ndarray) -> np.ndarray:
+    """(N,) booleans: the samples of ``band`` (the filtered phase neither clearly 0 nor 1, at times ``t`` [s]) in a
+    run of it within which the raw phase (``raw`` at ``t_raw``) changes more than once: a chattering switch.  A
+    single clean step keeps its samples (gated at 0.5), so a recording whose phases do not chatter is unchanged."""
+    changes = np.flatnonzero(np.diff(np.asarray(raw, dtype=int)))
+    edges = 0.5 * (t_raw[changes] + t_raw[changes + 1])  # [s], between the samples either side of a change
+    d = np.diff(np.r_[0, band.astype(int), 0])
+    out = np.zeros(len(band), bool)
+    for a, b in zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1)):
+        lo, hi = t[a - 1] if a else -np.inf, t[b] if b < len(t) else np.inf  # the run and half a sample each side
+        if np.count_nonzero((edges > lo) & (edges < hi)) > 1:
+            out[a:b] = True
+    return out
 
 
 def _gate(w: np.ndarray, contact: np.ndarray | None, threshold: float) -> np.ndarray:

@@ -27,6 +27,7 @@ from pinid.identification.floating_checks import (
     excitation_warning,
     flipped_floating_signs,
     method_statistics,
+    orientation_noise_warning,
     parameters_text,
     std_percent,
 )
@@ -98,7 +99,8 @@ def load_floating(
     """Floating recordings (paths or prepared :class:`FloatingSamples`) read, checked and prepared
     (``swing_rows``: accept contact phases without a wrench; ``mapping``: a mapping spec with a ``[floating]``
     table for files not in the dataset format, :func:`pinid.data.contacts.read_floating`; ``hints``: a list
-    :func:`recording_hints` appends to)."""
+    :func:`recording_hints` appends to; motion-capture orientation noise that biases at the default cut-off is
+    warned, :func:`~pinid.identification.floating_checks.orientation_noise_warning`)."""
     if items is None:
         return []
     if isinstance(items, (FloatingSamples, str, os.PathLike)):
@@ -112,6 +114,7 @@ def load_floating(
             found = recording_hints(rec, model)
             if hints is not None:
                 hints.extend(found)
+            orientation_noise_warning(rec, preprocess, str(item))
             out.append(prepare_floating(rec, model, preprocess))
         else:
             raise DataError(f"{what} recording: got {type(item).__name__}, expected a path or FloatingSamples")

@@ -1,11 +1,13 @@
 """What a floating-base identification can be trusted for (docs/floating-base.md, "Numbers you can trust"):
 each method's standard deviations and condition number (the fixed base's Newey–West sandwich,
 :func:`pinid.problem.statistics.base_statistics`, on the floating problem's rows, every row of a sample in one
-score), and the one-line warning naming the base parameters the data barely excite."""
+score), the one-line warning naming the base parameters the data barely excite, and the one about motion-capture
+orientation noise that biases the base parameters at the default cut-off."""
 
 from __future__ import annotations
 
 import warnings
+from collections.abc import Mapping
 
 import numpy as np
 
@@ -72,8 +74,8 @@ def parameters_text(method: str, names: list[str], result: dict, *, verbose: boo
 def flipped_floating_signs(model, samples, *, limit: int = 5000) -> list[str]:
     """The joints whose recorded torque is anti-correlated with the URDF's for the same motion and wrenches
     (``RNEA_joints − (Σ J_cᵀ f_c)_joints`` plus the URDF's friction, on at most ``limit`` samples of the
-    prepared training recordings ``samples``; samples where a foot without a measured wrench is in contact are
-    left out): one DataWarning "check the sign of tau_<joint>" (:func:`pinid.identification.plausibility.
+    prepared training recordings ``samples``; samples where a foot without a measured wrench is in contact, or a
+    foot's contact phase is uncertain, are left out): one DataWarning "check the sign of tau_<joint>" (:func:`pinid.identification.plausibility.
     flipped_torque_signs`, the fixed base's check)."""
     from pinid.model.floating import BASE_NV, contact_forces, floating_rnea
 
@@ -87,7 +89,7 @@ def flipped_floating_signs(model, samples, *, limit: int = 5000) -> list[str]:
     recorded, nominal = [], []
     for s in samples:
         k = np.arange(0, s.n, step)
-        for contact in s.unsensed.values():
+        for contact in [*s.unsensed.values(), *getattr(s, "uncertain", {}).values()]:
             k = k[~np.asarray(contact, bool)[k]]
         if not len(k):
             continue
@@ -201,6 +203,66 @@ def excitation_warning(ident, natural_scale: np.ndarray, source: str) -> str | N
     line = (
         f"{source}: {method}: barely excited (2σ > {EXCITED_FRACTION:.0%} of their natural scale): {shown}; a low "
         "held-out error does not vouch for them: move those joints more (pinid excite --base floating) or record longer"
+    )
+    from pinid.errors import DataWarning
+
+    warnings.warn(line, DataWarning, stacklevel=3)
+    return line
+
+
+#: Motion-capture orientation noise biases the base parameters when the noise it puts on the filtered base
+#: angular acceleration exceeds this [rad/s²].  From the suspended twin of docs/floating-base.md (1 kHz, 0.11°
+#: per axis): 0.48 rad/s² at the default 10 Hz cut-off (base.mzR +2.74 for −0.37), 0.085 at 5 Hz (+0.39),
+#: 0.0086 at 2 Hz (−0.324: harmless); the threshold sits between the last two, at their geometric mean.
+ORIENTATION_NOISE_WARNED = 0.03
+
+
+def orientation_noise(t: np.ndarray, quat: np.ndarray, cutoff: float | None = None) -> tuple[float, float]:
+    """``(σ, σ_ω̇)``: the orientation noise of a motion-capture quaternion stream ``quat`` (N, 4) ``x, y, z, w``
+    at times ``t`` [s], per axis [deg] (RMS of the rotation from its low-passed copy, at ``cutoff`` [Hz],
+    default the preprocessing's, to the raw sample), and the noise that white noise of that level puts on the
+    angular acceleration differentiated twice after that low-pass, ``σ·(2π)²·fc^2.5·√(2/(5·fs))`` [rad/s²]."""
+    from pinid.data.contacts import continuous_quat, quat_mul
+    from pinid.data.preprocess import default_cutoff, default_trim, lowpass
+
+    if isinstance(t, (str, bytes)) or isinstance(quat, (str, bytes)) or isinstance(cutoff, (str, bytes, bool)):
+        raise SpecError("orientation_noise: expected times [s], (N, 4) quaternions and a cut-off [Hz] or None")
+    t, quat = np.asarray(t, dtype=float), np.asarray(quat, dtype=float)
+    if quat.ndim != 2 or quat.shape[1] != 4 or t.shape != (len(quat),) or len(t) < 16:
+        raise SpecError("orientation_noise: expected (N, 4) quaternions at N ≥ 16 times")
+    fs = 1.0 / float(np.median(np.diff(t)))
+    fc = default_cutoff(fs) if cutoff is None else float(cutoff)
+    q = continuous_quat(quat / np.linalg.norm(quat, axis=1, keepdims=True))
+    smooth = np.column_stack([lowpass(q[:, i], fs, fc) for i in range(4)])
+    smooth /= np.linalg.norm(smooth, axis=1, keepdims=True)
+    r = quat_mul(smooth * np.array([-1, -1, -1, 1.0]), q)
+    rotvec = 2 * r[:, :3] * np.sign(r[:, 3:] + (r[:, 3:] == 0))  # small angles
+    edge = min(int(default_trim(fs, fc, 4) * fs), len(t) // 4)  # the filter's ends
+    sigma = float(np.sqrt(np.mean(rotvec[edge : len(t) - edge] ** 2)))
+    return float(np.degrees(sigma)), sigma * (2 * np.pi) ** 2 * fc**2.5 * np.sqrt(2 / (5 * fs))
+
+
+def orientation_noise_warning(rec, preprocess, source: str) -> str | None:
+    """One DataWarning line when the base orientation comes from motion capture (``rec.base_pose``; an IMU's
+    gyro needs one differentiation fewer), the cut-off is the default (``preprocess`` None, True, or options
+    without ``cutoff`` or ``preset``) and :func:`orientation_noise` puts more than
+    :data:`ORIENTATION_NOISE_WARNED` on the base angular acceleration; returns it, else None."""
+    if not hasattr(rec, "base_pose") or not isinstance(source, str) or isinstance(preprocess, (str, bytes)):
+        raise SpecError("orientation_noise_warning: expected a FloatingRecording, preprocessing options and a source")
+    if rec.base_pose is None or preprocess is False:
+        return None
+    if isinstance(preprocess, Mapping) and (preprocess.get("cutoff") is not None or preprocess.get("preset")):
+        return None
+    sigma, noise = orientation_noise(rec.data.t, rec.base_pose[:, 3:])
+    if noise <= ORIENTATION_NOISE_WARNED:
+        return None
+    fs = 1.0 / float(np.median(np.diff(rec.data.t)))
+    safe = (ORIENTATION_NOISE_WARNED / noise) ** 0.4 * min(10.0, fs / 10)  # σ_ω̇ ∝ fc^2.5
+    line = (
+        f"{source}: motion-capture orientation noise {sigma:.2g}° per axis puts {noise:.2g} rad/s² of noise on the "
+        f"base angular acceleration at the default cut-off (more than {ORIENTATION_NOISE_WARNED:g}), which biases "
+        f"the base parameters: give --cutoff {safe:.2g} or lower (if the excitation's band allows) or record the "
+        "base with an IMU (its gyro needs one differentiation fewer)"
     )
     from pinid.errors import DataWarning
 

@@ -125,10 +125,11 @@ def floating_targets(model: FloatingRobotModel, s: FloatingSamples) -> np.ndarra
 def swing_rows(model: FloatingRobotModel, s: FloatingSamples, mask: np.ndarray) -> np.ndarray:
     """(N, 6 + n) booleans: the rows of ``mask`` (one sample's row set) that no unknown wrench enters.  A link
     in contact without a measured wrench (``s.unsensed``: a leg without force sensing) takes out, at those
-    samples, the 6 base rows and the rows of the joints that support it; its leg's rows stay in swing."""
+    samples, the 6 base rows and the rows of the joints that support it; its leg's rows stay in swing.  So does a
+    measured wrench where its link's contact phase is uncertain (``s.uncertain``: neither clearly 0 nor 1)."""
     keep = np.broadcast_to(mask, (s.n, len(mask))).copy()
     m = model.ff_model
-    for link, contact in s.unsensed.items():
+    for link, contact in [*s.unsensed.items(), *getattr(s, "uncertain", {}).items()]:
         rows = np.zeros(len(mask), bool)
         for jid in m.supports[m.frames[model.frame_id(link)].parentJoint]:
             if jid > 0:
