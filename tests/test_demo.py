@@ -43,7 +43,8 @@ def test_demo_runs_the_whole_loop(tmp_path):
     assert (out / "identification" / "report.html").is_file()
     assert "== sdp" not in proc.stdout and "tracking_<controller>" not in proc.stdout
     assert "tracking_backstepping.png" in proc.stdout and "tracking_computed-torque.png" in proc.stdout
-    assert len(proc.stdout.splitlines()) < 80, proc.stdout
+    # short enough to read: 81 lines with the test's long tmp paths (each simulate step names its figure)
+    assert len(proc.stdout.splitlines()) < 90, proc.stdout
     # `pinid demo --help` lists exactly the steps the run prints, in order
     import re
 
