@@ -36,7 +36,7 @@ HELP = f"compare estimators ({', '.join(ESTIMATORS)}) on the same data, several 
 DESCRIPTION = f"""\
 Reads a URDF and training recordings (CSV; --mapping names their columns; missing velocities and
 accelerations are filled as in pinid identify), runs the chosen methods (default: those of the
-estimator registry that do not simulate the robot: {", ".join(quick_methods())}; all: every one) on the same rows — deterministic methods once, the metaheuristics once
+estimator registry that do not simulate the robot and are not left out of the defaults: {", ".join(quick_methods())}; all: every one) on the same rows — deterministic methods once, the metaheuristics once
 per seed — validates every run on the held-out --validate recordings and writes into the output folder
 (-o, default results/):
 

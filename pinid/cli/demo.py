@@ -73,8 +73,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--methods",
         default=None,
-        help="estimators to run (default: every registered one but those that simulate the robot, "
-        f"{', '.join(sorted(set(ESTIMATORS) - set(quick_methods())))}; see pinid identify --help)",
+        help="estimators to run (default: every registered one but those that simulate the robot or are "
+        f"left out of the defaults, {', '.join(sorted(set(ESTIMATORS) - set(quick_methods())))}; see pinid identify --help)",
     )
     p.add_argument(
         "-v",

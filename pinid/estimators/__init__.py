@@ -11,6 +11,7 @@ from __future__ import annotations
 from pinid.errors import SpecError
 from pinid.estimators.base import Estimator, Setting
 from pinid.estimators.didim import DIDIM
+from pinid.estimators.essential import Essential
 from pinid.estimators.irls import IRLS
 from pinid.estimators.iv import InstrumentalVariables
 from pinid.estimators.metaheuristic import DEEstimator, EWOAEstimator, Metaheuristic, PSOEstimator, RLSPSO, WOAEstimator
@@ -37,13 +38,14 @@ ESTIMATORS: dict[str, type[Estimator]] = {
     "didim": DIDIM,
     "tls": TLS,
     "irls": IRLS,
+    "essential": Essential,
 }
 
 
 def quick_methods() -> list[str]:
-    """The registered methods that do not simulate the robot (:attr:`Estimator.simulates`): what ``pinid
-    compare`` and ``pinid demo`` run by default."""
-    return [name for name, cls in ESTIMATORS.items() if not cls.simulates]
+    """The registered methods that do not simulate the robot (:attr:`Estimator.simulates`) and are not left
+    out of the defaults (:attr:`Estimator.in_defaults`): what ``pinid compare`` and ``pinid demo`` run by default."""
+    return [name for name, cls in ESTIMATORS.items() if cls.in_defaults and not cls.simulates]
 
 
 def names_text(conjunction: str = "or", names=None) -> str:
@@ -67,6 +69,7 @@ __all__ = [
     "DEEstimator",
     "DIDIM",
     "ESTIMATORS",
+    "Essential",
     "EWOAEstimator",
     "Estimator",
     "IRLS",

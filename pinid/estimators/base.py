@@ -130,6 +130,9 @@ class Estimator:
     #: True when a fit simulates the robot (iv, didim: tens of seconds on a long recording): the defaults
     #: that run every method (``pinid compare``, ``pinid demo``) leave it out; ``--methods`` or "all" names it.
     simulates: ClassVar[bool] = False
+    #: False when the defaults that run every method (``pinid compare``, ``pinid demo``) leave it out though it
+    #: does not simulate (``essential``: a variant of ``ols`` that would add a fit to every default run).
+    in_defaults: ClassVar[bool] = True
     #: What ``history_`` holds: "none"; "passes" (the cost after each pass); "rows" (an error along the
     #: rows); "fitness" (the best fitness per iteration: drawn as a convergence curve).
     history: ClassVar[str] = "none"
