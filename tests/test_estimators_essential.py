@@ -56,3 +56,20 @@ def test_slow_noisy_twin_fixes_the_armature_to_the_urdf_and_recovers_the_rest():
     assert est.history_[0] <= est.history_[-1] <= 1.01 * est.history_[0]  # residual norm per pass
     result = make_result(problem, est, 0.0)
     assert result.info["fixed"] == est.info_["fixed"] and result.method == "essential"
+
+
+def test_blocked_problem_gives_what_the_built_regressor_gives():
+    """hac_std reads the kept columns block by block while W is not built (issue 35), or from W once built."""
+    model = truth_model("exo_leg")
+    data = twin(model, seconds=10, rate=200, seed=1, noise=[0.5, 0.05], frequency=0.05)
+    problem = IdentificationProblem.from_datasets(model, data, terms=TERMS)
+    assert problem.blocked
+    blocked = Essential().fit(problem)
+    assert problem.W.shape == (problem.rows, problem.nb)  # built whole from here on
+    assert not problem.blocked
+    whole = Essential().fit(problem)
+    assert blocked.info_["fixed"] == whole.info_["fixed"]
+    np.testing.assert_allclose(blocked.base_, whole.base_, rtol=1e-9)
+    np.testing.assert_allclose(
+        list(blocked.info_["identified"].values()), list(whole.info_["identified"].values()), rtol=1e-6
+    )
