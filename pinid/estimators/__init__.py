@@ -13,6 +13,7 @@ from pinid.estimators.base import Estimator, Setting
 from pinid.estimators.didim import DIDIM
 from pinid.estimators.irls import IRLS
 from pinid.estimators.iv import InstrumentalVariables
+from pinid.estimators.logdet import LogDet
 from pinid.estimators.metaheuristic import DEEstimator, EWOAEstimator, Metaheuristic, PSOEstimator, RLSPSO, WOAEstimator
 from pinid.estimators.ols import OLS
 from pinid.estimators.ridge import Ridge
@@ -37,13 +38,14 @@ ESTIMATORS: dict[str, type[Estimator]] = {
     "didim": DIDIM,
     "tls": TLS,
     "irls": IRLS,
+    "logdet": LogDet,
 }
 
 
 def quick_methods() -> list[str]:
-    """The registered methods that do not simulate the robot (:attr:`Estimator.simulates`): what ``pinid
-    compare`` and ``pinid demo`` run by default."""
-    return [name for name, cls in ESTIMATORS.items() if not cls.simulates]
+    """The registered methods that do not simulate the robot (:attr:`Estimator.simulates`) and are not
+    otherwise slow (:attr:`Estimator.slow`): what ``pinid compare`` and ``pinid demo`` run by default."""
+    return [name for name, cls in ESTIMATORS.items() if not cls.simulates and not cls.slow]
 
 
 def names_text(conjunction: str = "or", names=None) -> str:
@@ -71,6 +73,7 @@ __all__ = [
     "Estimator",
     "IRLS",
     "InstrumentalVariables",
+    "LogDet",
     "Metaheuristic",
     "OLS",
     "PSOEstimator",

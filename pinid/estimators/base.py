@@ -130,6 +130,9 @@ class Estimator:
     #: True when a fit simulates the robot (iv, didim: tens of seconds on a long recording): the defaults
     #: that run every method (``pinid compare``, ``pinid demo``) leave it out; ``--methods`` or "all" names it.
     simulates: ClassVar[bool] = False
+    #: True when a fit is slow for another reason (logdet: its weight cross-validated, some 50 conic solves,
+    #: seconds on a 7-joint arm): also left out of those defaults.
+    slow: ClassVar[bool] = False
     #: What ``history_`` holds: "none"; "passes" (the cost after each pass); "rows" (an error along the
     #: rows); "fitness" (the best fitness per iteration: drawn as a convergence curve).
     history: ClassVar[str] = "none"
