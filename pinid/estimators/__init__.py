@@ -14,6 +14,7 @@ from pinid.estimators.didim import DIDIM
 from pinid.estimators.essential import Essential
 from pinid.estimators.irls import IRLS
 from pinid.estimators.iv import InstrumentalVariables
+from pinid.estimators.logdet import LogDet
 from pinid.estimators.metaheuristic import DEEstimator, EWOAEstimator, Metaheuristic, PSOEstimator, RLSPSO, WOAEstimator
 from pinid.estimators.ols import OLS
 from pinid.estimators.ridge import Ridge
@@ -39,6 +40,7 @@ ESTIMATORS: dict[str, type[Estimator]] = {
     "tls": TLS,
     "irls": IRLS,
     "essential": Essential,
+    "logdet": LogDet,
 }
 
 
@@ -74,6 +76,7 @@ __all__ = [
     "Estimator",
     "IRLS",
     "InstrumentalVariables",
+    "LogDet",
     "Metaheuristic",
     "OLS",
     "PSOEstimator",
