@@ -170,6 +170,11 @@ class _Program:
                 self.cp_problem.solve(solver="CLARABEL", **self.options)
         except cp.error.SolverError as exc:
             raise SolverError(f"logdet: solver CLARABEL failed ({str(exc).strip().splitlines()[0]})") from None
+        except OverflowError:  # older cvxpy (1.5) indexes a large parameterised problem's tensors in int32
+            raise SolverError(
+                f"logdet: cvxpy {cp.__version__} cannot compile a problem this large (an int32 overflow in its "
+                "parameter tensors); expected a newer cvxpy (pip install -U cvxpy), or use sdp"
+            ) from None
         status = str(self.cp_problem.status)
         if status not in ("optimal", "optimal_inaccurate") or self.z.value is None:
             raise SolverError(f"logdet: solver CLARABEL stopped with status '{status}'")
@@ -223,7 +228,9 @@ def _choose_weight(problem, prog: _Program) -> tuple[float, dict]:
         for g, lam in enumerate(GRID):
             try:
                 theta, _ = prog.solve(*out, lam)
-            except SolverError:
+            except SolverError as exc:
+                if "int32 overflow" in str(exc):  # the cvxpy release, not the weight: every fit would fail so
+                    raise
                 continue
             r = yh - held @ (prog.P @ theta)
             scores[g, f] = float(np.sqrt((r @ r) / max(float(yh @ yh), 1e-300)))
