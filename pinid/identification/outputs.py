@@ -132,6 +132,17 @@ def identification_text(ident, *, verbose: bool = False) -> str:
     return "\n".join(lines)
 
 
+def _held_out_lines(curve: str) -> list[str]:
+    """A cross-validation curve's text (``"5 Hz 3.9 %, …"``), wrapped at 120 columns under its choice."""
+    return textwrap.wrap(
+        f"held-out relative RMS against the torque as recorded: {curve}",
+        120,
+        initial_indent="  ",
+        subsequent_indent="    ",
+        break_on_hyphens=False,
+    )
+
+
 def _recordings_lines(d: dict, joints: list[str]) -> list[str]:
     """The torque delay and the joints left out of the fit (issue 28), one line each, when there are any."""
     lines = []
@@ -155,13 +166,7 @@ def _recordings_lines(d: dict, joints: list[str]) -> list[str]:
             f"{f:g} Hz {s:.3g} %" for f, s in zip(c["candidates_hz"], c["cv_rel_rms_percent"]) if s is not None
         )
         lines.append(f"low-pass cut-off {c['cutoff_hz']:g} Hz, chosen by {c['chosen_by']}")
-        lines += textwrap.wrap(
-            f"held-out relative RMS against the torque as recorded: {curve}",
-            120,
-            initial_indent="  ",
-            subsequent_indent="    ",
-            break_on_hyphens=False,
-        )
+        lines += _held_out_lines(curve)
     if d.get("terms_choice"):
         c = d["terms_choice"]
         lines.append(f"terms {', '.join(c['terms']) or 'none'}, chosen by {c['chosen_by']}")
@@ -176,13 +181,7 @@ def _recordings_lines(d: dict, joints: list[str]) -> list[str]:
             f"({'measurably better than' if c['measurably_better'] else 'not measurably better than'} no ripple, "
             f"{c['without_ripple_percent']:.3g} %)"
         )
-        lines += textwrap.wrap(
-            f"held-out relative RMS against the torque as recorded: {curve}",
-            120,
-            initial_indent="  ",
-            subsequent_indent="    ",
-            break_on_hyphens=False,
-        )
+        lines += _held_out_lines(curve)
     fit = d.get("fit_joints")
     if fit is not None and len(fit) < len(joints):
         left = [j for j in joints if j not in fit]
