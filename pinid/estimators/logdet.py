@@ -35,8 +35,8 @@ from pinid.errors import SolverError, SpecError
 from pinid.estimators.base import Estimator, Setting
 from pinid.linalg import augmented_r, cholesky_r, gram_sums, row_blocks, unit_weights
 from pinid.model import terms as _terms
-from pinid.model.lmi import clip_terms
-from pinid.model.physical import PSEUDO_INERTIA_BASIS, check_consistency, parameter_scale
+from pinid.model.lmi import clip_terms, pseudo_inertia_map
+from pinid.model.physical import check_consistency, parameter_scale
 
 #: Candidate weights λ of the automatic choice (dimensionless: the data term is relative).
 GRID = tuple(float(x) for x in np.logspace(-8, 2, 11))
@@ -131,7 +131,7 @@ class _Program:
         self.blocks, self.J0 = [], []
         prior = []
         for i in range(nv):
-            B = _pseudo_inertia_map(S, i, p)
+            B = pseudo_inertia_map(S, i, p)
             J0 = (B @ z0).reshape(4, 4, order="F")
             J0 = 0.5 * (J0 + J0.T)
             ev = np.linalg.eigvalsh(J0)
@@ -190,18 +190,6 @@ class _Program:
             d = -logdet + np.linalg.slogdet(J0)[1] + float(np.trace(np.linalg.solve(J0, J))) - 4.0
             out.append(float(d) if sign > 0 else float("inf"))
         return out
-
-
-def _pseudo_inertia_map(S: np.ndarray, i: int, p: int) -> np.ndarray:
-    """(16, p) map from z = θ/S to the column-major vec of body ``i``'s pseudo-inertia in its own scale
-    (as :func:`pinid.model.lmi.add_consistency_constraints` states it)."""
-    M = S[10 * i]
-    L = np.sqrt(S[10 * i + 4] / M)
-    T = np.diag([1.0 / (np.sqrt(M) * L)] * 3 + [1.0 / np.sqrt(M)])
-    B = np.zeros((16, p))
-    for k in range(10):
-        B[:, 10 * i + k] = (T @ PSEUDO_INERTIA_BASIS[k] @ T).reshape(-1, order="F") * S[10 * i + k]
-    return B
 
 
 def _choose_weight(problem, prog: _Program) -> tuple[float, dict]:

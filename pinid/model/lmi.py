@@ -15,7 +15,7 @@ from pinid.linalg import RANK_TOL
 from pinid.model.conic import ConicProblem
 from pinid.model import terms as _terms
 from pinid.model.physical import PSEUDO_INERTIA_BASIS, check_consistency, parameter_scale
-from pinid.checks import array_like
+from pinid.checks import array_like, as_floats, count
 from pinid.errors import SpecError
 
 
@@ -41,13 +41,7 @@ def add_consistency_constraints(conic: ConicProblem, problem, S: np.ndarray, mar
     p = conic.n
     joints = problem.model.joint_names
     for i in range(nv):
-        M = S[10 * i]
-        L = np.sqrt(S[10 * i + 4] / M)
-        T = np.diag([1.0 / (np.sqrt(M) * L)] * 3 + [1.0 / np.sqrt(M)])
-        B = np.zeros((16, p))
-        for k in range(10):
-            B[:, 10 * i + k] = (T @ PSEUDO_INERTIA_BASIS[k] @ T).reshape(-1, order="F") * S[10 * i + k]
-        conic.add_psd(B, -float(margin) * np.eye(4).reshape(-1))
+        conic.add_psd(pseudo_inertia_map(S, i, p), -float(margin) * np.eye(4).reshape(-1))
     idx = 10 * nv + np.flatnonzero(_terms.nonnegative(problem.model, problem.terms))
     if idx.size:
         conic.add_inequality(np.eye(p)[idx], 0.0)
@@ -108,3 +102,19 @@ def consistent_completion(problem, base: np.ndarray, *, solver: str = "CLARABEL"
     if not report.consistent:
         return None, "; ".join(report.problems)
     return theta, status
+
+
+def pseudo_inertia_map(S: np.ndarray, i: int, p: int) -> np.ndarray:
+    """(16, p) map from z = θ/S (``S`` the column scale) to the column-major vec of body ``i``'s pseudo-inertia
+    in its own scale (mass and length of ``S``): what :func:`add_consistency_constraints` keeps PSD."""
+    S = as_floats(S, "S")
+    i, p = count(i, "i"), count(p, "p", low=1)
+    if S.ndim != 1 or len(S) < 10 * (i + 1):
+        raise SpecError(f"S: shape {S.shape}, expected a column scale of at least {10 * (i + 1)} values")
+    M = S[10 * i]
+    L = np.sqrt(S[10 * i + 4] / M)
+    T = np.diag([1.0 / (np.sqrt(M) * L)] * 3 + [1.0 / np.sqrt(M)])
+    B = np.zeros((16, p))
+    for k in range(10):
+        B[:, 10 * i + k] = (T @ PSEUDO_INERTIA_BASIS[k] @ T).reshape(-1, order="F") * S[10 * i + k]
+    return B
