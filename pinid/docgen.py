@@ -74,6 +74,7 @@ API_MODULES: tuple[tuple[str, str], ...] = (
     ("pinid.problem.rows", "Which rows enter the fit (fit joints, rest)"),
     ("pinid.problem.cache", "What a problem computes once and keeps"),
     ("pinid.identification.result", "Identification results"),
+    ("pinid.result_protocol", "The result protocol (to_dict, from_dict, save, load, text, plot)"),
     ("pinid.identification.outputs", "Identification and comparison: text and files (pinid identify, compare)"),
     ("pinid.estimators", "Estimators"),
     ("pinid.optimizers", "Optimisers"),
@@ -173,6 +174,14 @@ def _members(cls) -> list[str]:
         else:
             continue
         lines.append(f"  - {head} — {doc}" if doc else f"  - {head}")
+    plots = getattr(cls, "PLOTS", None)
+    if isinstance(plots, dict) and plots and "plot" not in vars(cls):  # the result protocol's plot
+        kinds = ", ".join(f"``{k}``" + (" (one panel)" if one else "") for k, one in plots.items())
+        extra = "".join(f", ``{k}:…``" for k in getattr(cls, "PLOT_ARGUMENTS", ()))
+        lines.append(
+            f"  - `.plot(kind: str | None = None, ax=None)` — kinds {kinds}{extra}; the first by default; ``ax`` "
+            "for a one-panel kind (:mod:`pinid.result_protocol`, which also gives ``save`` and ``load``)."
+        )
     return lines
 
 

@@ -153,7 +153,7 @@ def test_no_private_names_imported_across_modules():
 #: __main__.  An extension of a lower folder registers itself from its own (the wearer's passive term:
 #: pinid.model.terms.TERM_MODULES) or is handed in by its caller (the twin's wearer).
 LAYERS: list[str] = [
-    *("errors", "blas", "memory", "progress", "parallel", "io", "checks", "linalg", "resources"),
+    *("errors", "blas", "memory", "progress", "parallel", "io", "result_protocol", "checks", "linalg", "resources"),
     *("model", "data", "problem", "optimizers", "estimators", "report", "excitation", "identification"),
     *("simulation", "control", "wearer", "flexible", "cli", "docgen", "__main__"),
 ]

@@ -64,7 +64,7 @@ def test_identification_result_plots_its_error_bars(identification):
     assert titles(fig) == ["hip", "knee", "all joints"]
     assert fig.get_suptitle().startswith("ols: absolute torque error (validation)")
     assert r.plot("train").get_suptitle().startswith("ols: absolute torque error (training)")
-    with pytest.raises(SpecError, match="data"):
+    with pytest.raises(SpecError, match="kind"):
         r.plot("test")
 
 
@@ -72,7 +72,7 @@ def test_identification_plots_the_report_figures(identification):
     errors = identification.plot()
     assert titles(errors) == ["hip", "knee", "all joints"]
     assert {t.get_text() for t in errors.axes[0].get_yticklabels()} == {"ols", "sdp"}  # a row per method
-    torque = identification.plot("torque", method="sdp")
+    torque = identification.plot("torque:sdp")
     # per joint a torque panel and the error under it
     assert visible(torque) == 4 and torque.get_suptitle().startswith("sdp: measured and predicted torque")
     best = identification.plot("torque")  # the best method's, by default
@@ -85,8 +85,8 @@ def test_identification_plots_the_report_figures(identification):
     overlay = identification.plot("predictions")  # every method's prediction, its difference to the best's
     assert visible(overlay) == 4 and {t.get_text() for t in overlay.legends[0].get_texts()} >= {"ols", "sdp"}
     with pytest.raises(SpecError, match="method"):
-        identification.plot("torque", method="pso")
-    with pytest.raises(SpecError, match="figure"):
+        identification.plot("torque:pso")
+    with pytest.raises(SpecError, match="kind"):
         identification.plot("bars")
 
 
@@ -118,10 +118,10 @@ def test_comparison_plots_its_three_figures(leg):
     params = comparison.plot("parameters")
     assert titles(params) == ["error against the true parameters"]
     assert [t.get_text() for t in params.axes[0].get_xticklabels()]  # one bar group per base parameter
-    with pytest.raises(SpecError, match="label"):
-        comparison.plot(label="nope")
-    with pytest.raises(SpecError, match="stage"):
-        comparison.plot("convergence", stage="second")
+    with pytest.raises(SpecError, match="validation set"):
+        comparison.plot("errors:nope")
+    with pytest.raises(SpecError, match="convergence:first"):
+        comparison.plot("convergence:second")
 
 
 def test_output_error_result_plots_cost_and_parameter_errors():
@@ -135,17 +135,17 @@ def test_output_error_result_plots_cost_and_parameter_errors():
     assert cost.axes[0].get_xscale() == "log" and len(cost.axes[0].get_lines()) == 1
     errors = res.plot("errors")
     assert [t.get_text() for t in errors.axes[0].get_xticklabels()] == list(res.rel_error)
-    with pytest.raises(SpecError, match="figure"):
+    with pytest.raises(SpecError, match="kind"):
         res.plot("angles")
 
 
 def test_tracking_result_plots_position_error_torque(exo):
     ref = FourierTrajectory(["hip", "knee"], 0.5 * np.pi, [0.61, -0.87], [[0.5], [0.5]], [[0.0], [0.0]])
     r = track(exo, ComputedTorque(nominal_model(exo)), ref, seconds=0.5)
-    fig = r.plot(label="nominal", title="computed torque")
+    fig = r.plot()
     assert isinstance(fig, Figure) and visible(fig) == 3 * exo.nv  # rows q, error, torque; a column per joint
-    assert titles(fig)[: exo.nv] == ["hip", "knee"] and fig.get_suptitle() == "computed torque"
-    assert [t.get_text() for t in fig.axes[0].get_legend().get_texts()] == ["reference", "nominal"]
+    assert titles(fig)[: exo.nv] == ["hip", "knee"]
+    assert [t.get_text() for t in fig.axes[0].get_legend().get_texts()] == ["reference", "tracked"]
 
 
 def test_excitation_result_plots_q_dq_ddq_within_the_limits(exo):

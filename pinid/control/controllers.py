@@ -40,6 +40,7 @@ from pinid.model.base import base_parameters
 from pinid.model.regressor import TermSelection, standard_parameters
 from pinid.simulation.twin import Plant, perturb, plant_terms, simulate
 from pinid.model.robot import as_robot
+from pinid.result_protocol import ResultProtocol, panel
 
 
 class DynamicsModel(Protocol):
@@ -145,7 +146,7 @@ CONTROLLERS = {"backstepping": Backstepping, "computed-torque": ComputedTorque}
 
 
 @dataclass
-class TrackingResult:
+class TrackingResult(ResultProtocol):
     """A closed-loop run: time [s], reference, measured state, applied torque, per-joint error figures."""
 
     t: np.ndarray
@@ -162,13 +163,65 @@ class TrackingResult:
         """Tracking error q − q_d [rad], (N, nv)."""
         return self.q - self.q_d
 
-    def plot(self, *, label: str = "tracked", title: str = ""):
-        """One column per joint; rows: position against the reference (dashed) [rad], error [mrad], torque
-        [N·m] (:func:`pinid.report.plot_control.tracking_figure`, ``label`` in the legend).  Returns the
-        matplotlib Figure (never shown; matplotlib is loaded here, on first use)."""
-        from pinid.report.plot_control import tracking_figure  # loads matplotlib: on use only
+    PLOTS = {"tracking": False, "error": True}
+    FILE_KIND = "tracking result"
 
-        return tracking_figure({str(label): self}, title=title)
+    def _plot(self, kind: str, ax):
+        """``"tracking"``: one column per joint; rows: position against the reference (dashed) [rad], error
+        [mrad], torque [N·m] (:func:`pinid.report.plot_control.tracking_figure`); ``"error"``: every joint's
+        tracking error [mrad] in one panel."""
+        if kind == "tracking":
+            from pinid.report.plot_control import tracking_figure  # loads matplotlib: on use only
+
+            return tracking_figure({"tracked": self})
+        fig, ax = panel(ax)
+        for j, name in enumerate(self.joints):
+            ax.plot(self.t, 1e3 * self.error[:, j], lw=0.9, label=name)
+        ax.set_xlabel("time [s]")
+        ax.set_ylabel("tracking error [mrad]")
+        ax.set_title("tracking error q − q_d")
+        ax.legend(fontsize=8)
+        fig.tight_layout()
+        return fig
+
+    def to_dict(self) -> dict:
+        """Plain-JSON form: the time series as lists (rows: samples), the joints and ``meta``."""
+        return {
+            "joints": list(self.joints),
+            "t": self.t.tolist(),
+            "q_d": self.q_d.tolist(),
+            "q": self.q.tolist(),
+            "dq": self.dq.tolist(),
+            "tau": self.tau.tolist(),
+            "lyapunov": None if self.lyapunov is None else self.lyapunov.tolist(),
+            "meta": dict(self.meta),
+        }
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "TrackingResult":
+        """Inverse of :meth:`to_dict`."""
+        nv = len(d["joints"])
+        arr = lambda k: np.asarray(d[k], dtype=float).reshape(-1, nv)
+        return cls(
+            np.asarray(d["t"], dtype=float),
+            arr("q_d"),
+            arr("q"),
+            arr("dq"),
+            arr("tau"),
+            [str(j) for j in d["joints"]],
+            None if d.get("lyapunov") is None else np.asarray(d["lyapunov"], dtype=float),
+            dict(d.get("meta") or {}),
+        )
+
+    def text(self) -> str:
+        """Per joint: RMS and max |error| [mrad] and the settling time [s] (:meth:`metrics`)."""
+        from pinid.report.text import text_table
+
+        rows = [
+            [j, f"{1e3 * m['rms']:.4g}", f"{1e3 * m['max_abs']:.4g}", f"{m['settling_time']:.3g}"]
+            for j, m in self.metrics().items()
+        ]
+        return text_table(["joint", "RMS [mrad]", "max |e| [mrad]", "settling [s]"], rows)
 
     def metrics(self, *, after: float = 0.0, band: float | None = None) -> dict[str, dict[str, float]]:
         """Per joint: RMS and max |error| [rad] after ``after`` s, and settling time [s] — the first time

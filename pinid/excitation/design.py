@@ -38,11 +38,9 @@ number reported is then recomputed with :func:`~pinid.excitation.evaluation.cond
 
 from __future__ import annotations
 
-import os
 import sys
 import time
 from dataclasses import asdict, dataclass, field, replace
-from pathlib import Path
 
 import numpy as np
 
@@ -51,7 +49,8 @@ from pinid.checks import option_numbers
 from pinid.errors import SpecError
 from pinid.model.robot import RobotModel, as_robot
 from pinid.excitation.trajectory import FourierTrajectory
-from pinid.io import write_json
+from pinid.model.regressor import TermSelection
+from pinid.result_protocol import ResultProtocol
 from pinid.optimizers import OPTIMIZERS, get_optimizer
 from pinid.progress import progress as progress_bar
 from pinid.excitation.spec import ExcitationSpec, spec_for
@@ -139,7 +138,7 @@ def design_optimizers() -> list[str]:
 
 
 @dataclass
-class ExcitationResult:
+class ExcitationResult(ResultProtocol):
     """A designed excitation: the trajectory and what the design reached."""
 
     trajectory: FourierTrajectory
@@ -163,15 +162,24 @@ class ExcitationResult:
         """The criterion minimised: ``cond`` (condition number) or ``logdet`` (D-optimal)."""
         return self.spec.criterion
 
-    def plot(self, *, title: str | None = None):
-        """q [rad], dq [rad/s], ddq [rad/s²] over one period within the spec's limits, as ``pinid excite
-        --plot`` draws them (:func:`pinid.report.plot_excitation.plot_excitation`); returns the Figure."""
+    PLOTS = {"trajectory": False}
+    FILE_KIND = "excitation design"
+
+    def _plot(self, kind: str, ax):
+        """``"trajectory"``: q [rad], dq [rad/s], ddq [rad/s²] over one period within the spec's limits, as
+        ``pinid excite --plot`` draws them (:func:`pinid.report.plot_excitation.plot_excitation`)."""
         from pinid.report.plot_excitation import plot_excitation  # loads matplotlib: on use only
 
         cond = f"condition number {self.condition_number:.4g}"
         return plot_excitation(
-            self.trajectory, self.spec, title=title or f"{len(self.trajectory.joints)}-joint excitation, {cond}"
+            self.trajectory, self.spec, title=f"{len(self.trajectory.joints)}-joint excitation, {cond}"
         )
+
+    def text(self) -> str:
+        """What ``pinid excite`` prints (:func:`pinid.excitation.outputs.design_text`)."""
+        from pinid.excitation.outputs import design_text
+
+        return design_text(self, self.spec)
 
     def to_dict(self) -> dict:
         """The JSON form: the trajectory (FourierTrajectory's keys, radians) plus the design report."""
@@ -208,9 +216,57 @@ class ExcitationResult:
         )
         return traj.to_dict()
 
-    def save(self, path: str | os.PathLike) -> Path:
-        """Write the JSON form atomically (readable by :meth:`FourierTrajectory.load`)."""
-        return write_json(path, self.to_dict())
+    @classmethod
+    def from_dict(cls, d: dict) -> "ExcitationResult":
+        """Inverse of :meth:`to_dict`: the trajectory and the spec's limits and settings from the report
+        (the file :meth:`save` writes is also a :class:`FourierTrajectory`)."""
+        traj = FourierTrajectory.from_dict(d, source="excitation design")
+        meta = dict(traj.meta)
+        limits = meta["limits"]
+        joints = traj.joints
+
+        def lim(key: str, missing: float) -> np.ndarray:
+            return np.array([missing if limits[j][key] is None else float(limits[j][key]) for j in joints])
+
+        spec = ExcitationSpec(
+            joints,
+            lim("q_min", -np.inf),
+            lim("q_max", np.inf),
+            lim("dq_max", np.inf),
+            lim("ddq_max", np.inf),
+            traj.q0,
+            lim("tau_max", np.inf),
+            harmonics=traj.harmonics,
+            base_frequency=traj.base_frequency,
+            samples=int(meta["samples"]),
+            rest_start=bool(meta["rest_start"]),
+            margin=float(meta["margin"]),
+            criterion=str(meta["criterion"]),
+            terms=TermSelection.from_names(meta["terms"]),
+            source=str(meta["spec"]),
+        )
+        report = {"condition_number", "criterion", "log_det", "feasible", "rest_start", "samples", "terms", "limits"}
+        report |= {"margin", "extremes", "usage", "optimizer", "optimizer_options", "seed", "seconds", "nfev"}
+        report |= {"history", "spec"}  # :meth:`to_dict`'s own keys; the others (urdf, robot, …) are details
+        details = {k: v for k, v in meta.items() if k not in report}
+        trajectory = FourierTrajectory(joints, traj.base_frequency, traj.q0, traj.a, traj.b)
+        return cls(
+            trajectory,
+            spec,
+            float(meta["condition_number"]),
+            float(meta["log_det"]),
+            meta["extremes"],
+            meta["usage"],
+            bool(meta["feasible"]),
+            str(meta["optimizer"]),
+            dict(meta["optimizer_options"]),
+            meta["seed"],
+            float(meta["seconds"]),
+            np.asarray(meta["history"], dtype=float),
+            int(meta["nfev"]),
+            None,
+            details,
+        )
 
 
 def _final_repair(problem: DesignProblem, x: np.ndarray) -> tuple[np.ndarray, FourierTrajectory]:

@@ -12,12 +12,13 @@ from pathlib import Path
 import numpy as np
 
 from pinid.errors import DataError, SpecError
-from pinid.io import jsonable, read_bounded_file, write_json
+from pinid.io import jsonable, read_bounded_file
+from pinid.result_protocol import ResultProtocol
 
 
 # ====================================================================== results
 @dataclass
-class OutputErrorResult:
+class OutputErrorResult(ResultProtocol):
     """One fit: fitted values, cost and its curve, time, and the error against the truth when it is known.
 
     ``history``: ``[[simulations, best cost], ...]``; ``nfev``: parameter sets simulated; ``seconds``: wall
@@ -40,6 +41,8 @@ class OutputErrorResult:
     metrics: dict
     truth: dict | None = None
     extra: dict = field(default_factory=dict)
+
+    PLOTS = {"cost": True, "errors": True}
 
     @property
     def values(self) -> dict[str, float]:
@@ -86,10 +89,6 @@ class OutputErrorResult:
                 **self.extra,
             }
         )
-
-    def save(self, path: str | os.PathLike) -> Path:
-        """Write :meth:`to_dict` as JSON (atomically)."""
-        return write_json(path, self.to_dict())
 
     @classmethod
     def from_dict(cls, d: dict) -> "OutputErrorResult":
@@ -140,22 +139,31 @@ class OutputErrorResult:
         except (OSError, ValueError, KeyError, TypeError) as exc:
             raise DataError(f"{p}: not an output-error result ({exc})") from None
 
-    def plot(self, figure: str = "cost", *, title: str | None = None):
+    def _plot(self, kind: str, ax):
         """``"cost"``: the best cost against the number of simulated parameter sets (log-log,
         :func:`pinid.report.plot_flexible.plot_cost_curves`); ``"errors"``: every fitted parameter's
         relative error against the truth [%] (:func:`~pinid.report.plot_flexible.plot_parameter_errors`,
-        needs a truth).  Returns the matplotlib Figure (never shown; matplotlib is loaded here, on use)."""
+        needs a truth)."""
         from pinid.report.plot_flexible import plot_cost_curves, plot_parameter_errors  # matplotlib: on use
 
-        if figure not in ("cost", "errors"):
-            raise SpecError(f"figure: got {figure!r}, expected 'cost' or 'errors'")
-        if figure == "cost":
-            title = title or f"output-error fit ({self.method}, {self.model_kind} model, {self.cost_kind} cost)"
-            return plot_cost_curves({self.method: self.history}, title=title)
+        if kind == "cost":
+            title = f"output-error fit ({self.method}, {self.model_kind} model, {self.cost_kind} cost)"
+            return plot_cost_curves({self.method: self.history}, ax=ax, title=title)
         if self.rel_error is None:
-            raise SpecError("figure: no 'errors' figure without a truth (the fit's truth is unknown)")
-        title = title or f"{self.method}: fitted parameters against the truth"
-        return plot_parameter_errors({self.method: self.rel_error}, title=title)
+            raise SpecError("kind: no 'errors' figure without a truth (the fit's truth is unknown)")
+        title = f"{self.method}: fitted parameters against the truth"
+        return plot_parameter_errors({self.method: self.rel_error}, ax=ax, title=title)
+
+    def text(self) -> str:
+        """The fitted values against the truth and the bounds (:meth:`table`), then cost, RMS and time."""
+        from pinid.report.text import text_table
+
+        head = ["parameter", "fitted", "truth", "error %", "lower", "upper"]
+        return (
+            text_table(head, self.table())
+            + f"\n{self.method} ({self.model_kind} model, {self.cost_kind} cost): cost {self.cost:.6g}, "
+            f"angle RMS {self.rms:.3g} rad, {self.nfev} simulations, {self.seconds:.3g} s; {self.message}"
+        )
 
     def table(self) -> list[list[str]]:
         """Rows ``[name, fitted, truth, error %, lower, upper]`` as text."""

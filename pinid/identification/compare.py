@@ -54,13 +54,14 @@ from pinid.identification.run import (
     use_manifest,
 )
 from pinid.identification.truth import true_base
-from pinid.io import jsonable, read_json, write_json
+from pinid.io import jsonable, read_json
 from pinid.model.regressor import TermSelection
 from pinid.model.robot import RobotModel
 from pinid.model.terms import as_terms, stribeck_settings
 from pinid.model.serialize import robot_to_dict
 from pinid.checks import array_like
 from pinid.parallel import check_workers
+from pinid.result_protocol import ResultProtocol
 
 #: Methods that give the same result whatever the seed (run once): the registry's ``deterministic`` ones.
 DETERMINISTIC: tuple[str, ...] = tuple(m for m, cls in ESTIMATORS.items() if cls.deterministic)
@@ -172,7 +173,7 @@ def _mean_std(values) -> tuple[float, float]:
 
 
 @dataclass
-class Comparison:
+class Comparison(ResultProtocol):
     """Runs of several methods on the same data (what :func:`compare` returns); JSON with save/load.
 
     ``runs[method]`` is a list of :class:`Run`; ``reference`` the global minima of both training costs
@@ -194,6 +195,11 @@ class Comparison:
     settings: dict = field(default_factory=dict)
     segmental: dict | None = None
     seconds: float = 0.0
+
+    PLOTS = {"errors": False, "convergence": True, "parameters": True}
+    #: ``"errors:<label>"``: validation set ``label``; ``"convergence:first"``: a segmental run's first stage.
+    PLOT_ARGUMENTS = ("errors", "convergence")
+    FILE_KIND = "comparison"
 
     # ---------------------------------------------------------------- summaries
     @property
@@ -350,34 +356,37 @@ class Comparison:
         return text_table(head, rows)
 
     # ---------------------------------------------------------------- JSON
-    def plot(self, figure: str = "errors", *, label: str | None = None, stage: str = "main"):
-        """One figure of ``pinid compare`` (:mod:`pinid.report.plot_compare`), the same drawing and title;
-        returns the matplotlib Figure (never shown; matplotlib is loaded here, on first use).
+    def _plot(self, kind: str, ax):
+        """One figure of ``pinid compare`` (:mod:`pinid.report.plot_compare`), the same drawing and title.
 
-        ``figure``: ``"errors"`` (the absolute validation torque error per joint and method, mean and
-        [p5, p95] over the runs, on validation set ``label``, default the first), ``"convergence"`` (the
-        metaheuristics' best fitness per iteration; ``stage="first"``: a segmental run's first stage) or
-        ``"parameters"`` (the base parameters' error against the truth [%]).
+        ``"errors"`` (the absolute validation torque error per joint and method, mean and [p5, p95] over
+        the runs, on the first validation set; ``"errors:<label>"``: on set ``label``), ``"convergence"``
+        (the metaheuristics' best fitness per iteration; ``"convergence:first"``: a segmental run's first
+        stage) or ``"parameters"`` (the base parameters' error against the truth [%]).
         """
         from pinid.report import plot_compare  # loads the report (matplotlib on drawing): on use only
 
-        if figure not in ("errors", "convergence", "parameters"):
-            raise SpecError(f"figure: got {figure!r}, expected 'errors', 'convergence' or 'parameters'")
-        if stage not in ("main", "first"):
-            raise SpecError(f"stage: got {stage!r}, expected 'main' or 'first'")
+        figure, _, arg = kind.partition(":")
         if figure == "errors":
             if not self.validation_sources:
-                raise SpecError("figure: no 'errors' figure, the comparison has no validation recordings")
-            if label is not None and label not in self.validation_sources:
-                raise SpecError(f"label: got {label!r}, expected one of {', '.join(self.validation_sources)}")
-            return plot_compare.validation_errors(self, label)
+                raise SpecError("kind: no 'errors' figure, the comparison has no validation recordings")
+            if arg and arg not in self.validation_sources:
+                raise SpecError(f"kind: no validation set {arg!r} (sets: {', '.join(self.validation_sources)})")
+            return plot_compare.validation_errors(self, arg or None)
         if figure == "parameters":
             if self.truth is None:
-                raise SpecError("figure: no 'parameters' figure, the comparison has no true parameters")
-            return plot_compare.parameter_errors(self, title="error against the true parameters")
+                raise SpecError("kind: no 'parameters' figure, the comparison has no true parameters")
+            return plot_compare.parameter_errors(self, ax=ax, title="error against the true parameters")
+        if arg not in ("", "main", "first"):
+            raise SpecError(f"kind: got {kind!r}, expected 'convergence' or 'convergence:first'")
+        stage = "first" if arg == "first" else "main"
         second = " (second stage)" if self.segmental else ""
         title = "convergence (first stage)" if stage == "first" else "convergence" + second
-        return plot_compare.convergence(self, stage=stage, title=title)
+        return plot_compare.convergence(self, stage=stage, ax=ax, title=title)
+
+    def text(self) -> str:
+        """What ``pinid compare`` prints (:meth:`table`)."""
+        return self.table()
 
     def to_dict(self) -> dict:
         """Plain-JSON form (``comparison.json``)."""
@@ -423,10 +432,6 @@ class Comparison:
             segmental=d.get("segmental"),
             seconds=float(d.get("seconds") or 0.0),
         )
-
-    def save(self, path: str | os.PathLike) -> Path:
-        """Write as JSON (atomically)."""
-        return write_json(path, self.to_dict())
 
     @classmethod
     def load(cls, path: str | os.PathLike) -> "Comparison":

@@ -49,6 +49,7 @@ from pinid.identification.crossval import (
     not_worse,
 )
 from pinid.problem.problem import free_angles, prepare_dataset
+from pinid.result_protocol import ResultProtocol, panel
 
 #: Candidate cut-offs [Hz] (about three per decade); those the sample rate cannot carry are left out.
 GRID_HZ: tuple[float, ...] = (1.0, 1.5, 2.0, 3.0, 5.0, 7.0, 10.0, 15.0, 20.0, 30.0, 50.0, 70.0, 100.0, 150.0, 200.0)
@@ -57,7 +58,7 @@ MAX_NYQUIST_FRACTION = 0.4
 
 
 @dataclass(frozen=True)
-class CutoffChoice:
+class CutoffChoice(ResultProtocol):
     """The cut-off [Hz] chosen and the cross-validation curve it was chosen on.
 
     ``candidates`` [Hz] and ``scores`` (pooled relative RMS [%] of the held-out blocks against the torque
@@ -69,7 +70,10 @@ class CutoffChoice:
     folds: int
     reasons: dict[str, str] = field(default_factory=dict)
 
+    PLOTS = {"curve": True}
+
     def to_dict(self) -> dict:
+        """Plain-JSON form (``identification.json``'s ``data.cutoff``)."""
         return {
             "chosen_by": f"{self.folds}-fold blocked cross-validation on the training recordings",
             "cutoff_hz": self.cutoff,
@@ -77,6 +81,15 @@ class CutoffChoice:
             "cv_rel_rms_percent": [None if not np.isfinite(s) else float(s) for s in self.scores],
             "skipped": dict(self.reasons),
         }
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "CutoffChoice":
+        """Inverse of :meth:`to_dict` (the folds read from ``chosen_by``)."""
+        folds = int(str(d["chosen_by"]).split("-", 1)[0])
+        scores = [float("nan") if s is None else float(s) for s in d["cv_rel_rms_percent"]]
+        return cls(
+            float(d["cutoff_hz"]), [float(c) for c in d["candidates_hz"]], scores, int(folds), dict(d["skipped"])
+        )
 
     def text(self) -> str:
         """One line: the choice and its neighbours on the curve."""
@@ -91,14 +104,9 @@ class CutoffChoice:
             f"recordings (held-out relative RMS against the torque as recorded: {', '.join(near)})"
         )
 
-    def plot(self, kind: str | None = None, ax=None):
-        """The cross-validation curve (score against cut-off, log axis) with the choice marked; the Figure."""
-        import matplotlib.pyplot as plt
-
-        if ax is None:
-            fig, ax = plt.subplots(figsize=(6, 3.5))
-        else:
-            fig = ax.figure
+    def _plot(self, kind: str, ax):
+        """``"curve"``: the cross-validation curve (score against cut-off, log axis), the choice marked."""
+        fig, ax = panel(ax)
         ok = np.isfinite(self.scores)
         ax.semilogx(np.array(self.candidates)[ok], np.array(self.scores)[ok], "o-", color="tab:blue")
         ax.axvline(self.cutoff, color="tab:red", ls="--", label=f"chosen: {self.cutoff:g} Hz")

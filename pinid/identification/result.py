@@ -16,7 +16,7 @@ from pinid.identification.identified import IdentifiedModel
 from pinid.identification.metrics import TorqueMetrics, error_metrics, joint_units, torque_metrics
 from pinid.identification.uncertainty import uncertainty_warning
 from pinid.problem.problem import IdentificationProblem, base_statistics, least_norm_completion
-from pinid.io import display_path, jsonable, read_json, write_json
+from pinid.io import display_path, jsonable, read_json
 from pinid.model.export import identified_urdf
 from pinid.model.base import MARKS
 from pinid.model.lmi import consistent_completion
@@ -24,6 +24,7 @@ from pinid.model.physical import check_consistency
 from pinid.model.regressor import TermSelection
 from pinid.model.robot import RobotModel
 from pinid.model.serialize import robot_from_dict, robot_to_dict
+from pinid.result_protocol import ResultProtocol
 
 #: A constrained estimate (sdp) whose value is within this fraction of its natural scale of zero sits on a
 #: bound (friction ≥ 0, a pseudo-inertia margin): its σ is not that of a free parameter and is not printed.
@@ -31,7 +32,7 @@ BOUND_FRACTION = 1e-6
 
 
 @dataclass
-class IdentificationResult:
+class IdentificationResult(ResultProtocol):
     """One method's result.  Arrays follow ``base_names`` / ``standard_names``.
 
     ``std``: standard deviations of the base parameters, the Newey–West sandwich of
@@ -78,6 +79,9 @@ class IdentificationResult:
     marks: dict[str, str] | None = None
     _robot_model: RobotModel | None = field(default=None, repr=False, compare=False)
     _model_cache: object = field(default=None, repr=False, compare=False)
+
+    PLOTS = {"validation": False, "train": False}
+    FILE_KIND = "identification result"
 
     @property
     def std_percent(self) -> np.ndarray:
@@ -146,21 +150,23 @@ class IdentificationResult:
             marks=self.marks,
         )
 
-    def plot(self, data: str = "validation", *, title: str | None = None):
+    def _plot(self, kind: str, ax):
         """The absolute torque error |e| of this method per joint and pooled: the mean and the [p5, p95]
         band [N·m, N] (:func:`pinid.report.plot_identification.error_bars`), against the torque as recorded.
-
-        ``data``: ``"validation"`` (the held-out recordings; the training data without them) or ``"train"``.
-        Returns the matplotlib Figure (never shown; matplotlib is loaded here, on first use).
-        """
+        ``"validation"`` (the held-out recordings; the training data without them) or ``"train"``."""
         from pinid.report.plot_identification import error_bars  # loads matplotlib: on use only
 
-        if data not in ("validation", "train"):
-            raise SpecError(f"data: got {data!r}, expected 'validation' or 'train'")
-        kind = "validation" if data == "validation" and self.validation is not None else "training"
+        kind = "validation" if kind == "validation" and self.validation is not None else "training"
         metrics = self.validation if kind == "validation" else self.train
-        title = title or f"{self.method}: absolute torque error ({kind}): mean (dot) and [p5, p95] band"
+        title = f"{self.method}: absolute torque error ({kind}): mean (dot) and [p5, p95] band"
         return error_bars({self.method: metrics}, title=title)
+
+    def text(self) -> str:
+        """This method's detail as ``pinid identify --verbose`` prints it (consistency, the base parameters
+        with σ, the torque errors)."""
+        from pinid.identification.outputs import result_text
+
+        return result_text(self).lstrip("\n")
 
     def to_dict(self, *, include_robot: bool = True) -> dict:
         """Plain-dict form (the entry of ``identification.json`` under ``methods``)."""
@@ -235,18 +241,9 @@ class IdentificationResult:
             marks=_marks(d.get("standard_marks"), std_names, d.get("method")),
         )
 
-    def save(self, path: str | os.PathLike) -> Path:
-        """Write as JSON (atomically), with the robot's URDF text so that :meth:`load` needs nothing else."""
-        return write_json(path, self.to_dict())
-
-    @classmethod
-    def load(cls, path: str | os.PathLike) -> "IdentificationResult":
-        """Read a JSON file written by :meth:`save`."""
-        return cls.from_dict(read_json(path, "identification result"))
-
 
 @dataclass
-class Identification:
+class Identification(ResultProtocol):
     """Results of several methods on the same data (what :func:`identify` returns).
 
     ``results[method]`` is an :class:`IdentificationResult`; ``best`` names the one ``model`` uses: the
@@ -264,6 +261,17 @@ class Identification:
     #: The model-class floor (:mod:`pinid.identification.floor`): the same terms fitted by OLS in-sample on
     #: the validation recordings, its torque error against the torque as recorded; None without validation.
     floor: TorqueMetrics | None = None
+
+    PLOTS = {
+        "errors": False,
+        "parameters": False,
+        "torque": False,
+        "predictions": False,
+        "motion": False,
+        "choices": False,
+    }
+    PLOT_ARGUMENTS = ("torque",)
+    FILE_KIND = "identification"
 
     def __getitem__(self, method: str) -> IdentificationResult:
         try:
@@ -296,14 +304,13 @@ class Identification:
         """The :class:`~pinid.identification.identified.IdentifiedModel` of the best result."""
         return self.results[self.best].model
 
-    def plot(self, figure: str = "errors", *, method: str | None = None):
-        """One figure of the report (:mod:`pinid.report.markdown`), the same drawing and title; returns the
-        matplotlib Figure (never shown; matplotlib is loaded here, on first use).
+    def _plot(self, kind: str, ax):
+        """One figure of the report (:mod:`pinid.report.markdown`), the same drawing and title.
 
-        ``figure``: ``"errors"`` (every method's absolute torque error per joint, validation when every
-        method has it), ``"parameters"`` (the best method's and OLS's base parameters ±2σ against the URDF
-        and the truth, divided by their natural scale), ``"torque"`` (``method``'s measured and predicted
-        torque [N·m] and its raw and filtered error, default the :attr:`best`), ``"predictions"`` (every
+        ``"errors"`` (every method's absolute torque error per joint, validation when every method has it),
+        ``"parameters"`` (the best method's and OLS's base parameters ±2σ against the URDF and the truth,
+        divided by their natural scale), ``"torque"`` (the best method's measured and predicted torque
+        [N·m] and its raw and filtered error; ``"torque:sdp"``: method sdp's), ``"predictions"`` (every
         method's predicted torque and its difference to the best's), ``"motion"`` (the recorded q, dq); the
         last three need the torque curves :func:`~pinid.identification.run.identify` keeps (not saved in the
         JSON); ``"choices"``: the cut-off and terms chosen by cross-validation (``--cutoff auto``,
@@ -311,16 +318,14 @@ class Identification:
         """
         from pinid.report.markdown import figure_recipes  # loads the report (matplotlib on drawing): on use
 
-        kinds = ("errors", "parameters", "torque", "predictions", "motion", "choices")
-        if figure not in kinds:
-            raise SpecError(f"figure: got {figure!r}, expected one of {', '.join(map(repr, kinds))}")
-        if method is not None and method not in self.results:
-            raise SpecError(f"method: no result for '{method}' (methods run: {', '.join(self.results)})")
+        figure, _, method = kind.partition(":")
+        if method and method not in self.results:
+            raise SpecError(f"kind: no result for method '{method}' (methods run: {', '.join(self.results)})")
         key = f"torque_{method or self.best}" if figure == "torque" else figure
         recipes = figure_recipes(self)
         if key not in recipes:
             raise SpecError(
-                f"figure: no '{figure}' figure "
+                f"kind: no '{figure}' figure "
                 + (
                     "without a choice by cross-validation (--cutoff auto, --terms auto)"
                     if figure == "choices"
@@ -329,6 +334,13 @@ class Identification:
             )
         draw, args, kwargs = recipes[key]
         return draw(*args, **kwargs)
+
+    def text(self) -> str:
+        """What ``pinid identify`` prints: the data used and the summary table
+        (:func:`pinid.identification.outputs.identification_text`)."""
+        from pinid.identification.outputs import identification_text
+
+        return identification_text(self)
 
     def to_dict(self) -> dict:
         """The content of ``identification.json``."""
@@ -370,10 +382,6 @@ class Identification:
             raise SpecError(
                 f"not a valid identification ({type(exc).__name__}: {exc}); expected one written by pinid identify"
             ) from None
-
-    def save(self, path: str | os.PathLike) -> Path:
-        """Write ``identification.json`` (atomically)."""
-        return write_json(path, self.to_dict())
 
     @classmethod
     def load(cls, path: str | os.PathLike) -> "Identification":

@@ -29,6 +29,7 @@ from pinid.identification.crossval import (
 from pinid.model.base import base_parameters
 from pinid.model.regressor import TermSelection
 from pinid.model.robot import RobotModel
+from pinid.result_protocol import ResultProtocol, panel
 
 #: Ripple periods per joint revolution tried (one for every joint): low orders (a position-periodic error of
 #: the model or the sensors) and common reductions (one period per motor revolution).
@@ -40,7 +41,7 @@ RIPPLE_PREFIX = "ripple_"
 
 
 @dataclass(frozen=True)
-class RippleChoice:
+class RippleChoice(ResultProtocol):
     """The ripple periods chosen and the curve: ``candidates`` (periods per revolution), ``scores`` (pooled
     held-out relative RMS [%]); ``without``: the score without the ripple terms; ``helps``: the chosen one
     measurably better than none (:func:`pinid.identification.crossval.better`)."""
@@ -53,7 +54,10 @@ class RippleChoice:
     folds: int = FOLDS
     reasons: dict[str, str] = field(default_factory=dict)
 
+    PLOTS = {"curve": True}
+
     def to_dict(self) -> dict:
+        """Plain-JSON form (``identification.json``'s ``data.ripple_choice``)."""
         return {
             "chosen_by": f"{self.folds}-fold blocked cross-validation on the training recordings",
             "periods": self.periods,
@@ -62,6 +66,44 @@ class RippleChoice:
             "without_ripple_percent": float(self.without),
             "measurably_better": bool(self.helps),
         }
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "RippleChoice":
+        """Inverse of :meth:`to_dict` (the folds read from ``chosen_by``)."""
+        scores = [float("nan") if s is None else float(s) for s in d["cv_rel_rms_percent"]]
+        return cls(
+            float(d["periods"]),
+            [float(c) for c in d["candidates"]],
+            scores,
+            float(d["without_ripple_percent"]),
+            bool(d["measurably_better"]),
+            int(str(d["chosen_by"]).split("-", 1)[0]),
+        )
+
+    def text(self) -> str:
+        """One line: the choice, its score and the score without ripple."""
+        k = self.candidates.index(self.periods)
+        verdict = "measurably better than" if self.helps else "not measurably better than"
+        return (
+            f"ripple periods per revolution {self.periods:g}, chosen by {self.folds}-fold blocked cross-validation "
+            f"on the training recordings (held-out relative RMS {self.scores[k]:.3g} %, {verdict} "
+            f"{self.without:.3g} % without ripple)"
+        )
+
+    def _plot(self, kind: str, ax):
+        """``"curve"``: the held-out relative RMS [%] against the periods per revolution, the choice marked,
+        the score without ripple dotted."""
+        fig, ax = panel(ax)
+        ok = np.isfinite(self.scores)
+        ax.semilogx(np.array(self.candidates)[ok], np.array(self.scores)[ok], "o-", color="tab:blue")
+        ax.axvline(self.periods, color="tab:red", ls="--", label=f"chosen: {self.periods:g}")
+        ax.axhline(self.without, color="0.3", ls=":", label="without ripple")
+        ax.set_xlabel("ripple periods per revolution")
+        ax.set_ylabel("held-out rel. RMS [%]")
+        ax.set_title("ripple periods by blocked cross-validation")
+        ax.legend()
+        fig.tight_layout()
+        return fig
 
 
 def is_auto(model: RobotModel) -> bool:

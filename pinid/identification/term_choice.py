@@ -36,6 +36,7 @@ from pinid.identification.crossval import (
 from pinid.model.base import base_parameters
 from pinid.model.regressor import TermSelection
 from pinid.model.robot import RobotModel
+from pinid.result_protocol import ResultProtocol, panel
 
 #: Where the selection starts.
 START: tuple[str, ...] = ("fc", "fv")
@@ -49,14 +50,17 @@ STEPS: tuple[tuple[str, tuple[str, ...]], ...] = (
 
 
 @dataclass(frozen=True)
-class TermsChoice:
+class TermsChoice(ResultProtocol):
     """The terms chosen and each step's candidates with their held-out relative RMS [%]."""
 
     terms: list[str]
     steps: list[dict[str, float]] = field(default_factory=list)
     folds: int = FOLDS
 
+    PLOTS = {"steps": True}
+
     def to_dict(self) -> dict:
+        """Plain-JSON form (``identification.json``'s ``data.terms_choice``)."""
         return {
             "chosen_by": f"forward selection, {self.folds}-fold blocked cross-validation on the training recordings",
             "terms": list(self.terms),
@@ -67,6 +71,29 @@ class TermsChoice:
         """One line: the terms and the held-out error of each step's best candidate."""
         path = " → ".join(f"{min(s, key=s.get)} {min(s.values()):.3g} %" for s in self.steps)
         return f"terms {','.join(self.terms)}, chosen by forward selection on the training recordings ({path})"
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "TermsChoice":
+        """Inverse of :meth:`to_dict` (the folds read from ``chosen_by``)."""
+        folds = int(str(d["chosen_by"]).split(", ", 1)[1].split("-", 1)[0])
+        steps = [{k: float("nan") if v is None else float(v) for k, v in s.items()} for s in d["steps"]]
+        return cls([str(t) for t in d["terms"]], steps, folds)
+
+    def _plot(self, kind: str, ax):
+        """``"steps"``: every candidate's held-out relative RMS [%] per step, the step's best joined."""
+        fig, ax = panel(ax)
+        for i, step in enumerate(self.steps):
+            v = [x for x in step.values() if np.isfinite(x)]
+            ax.plot([i] * len(v), v, "o", color="0.6")
+        best = [min(s.values()) for s in self.steps]
+        ax.plot(range(len(best)), best, "o-", color="tab:red", label="best of the step")
+        labels = [min(s, key=s.get) for s in self.steps]
+        ax.set_xticks(range(len(labels)), labels, fontsize=8)
+        ax.set_ylabel("held-out rel. RMS [%]")
+        ax.set_title(f"terms by forward selection: {', '.join(self.terms)}")
+        ax.legend()
+        fig.tight_layout()
+        return fig
 
 
 def _apply(names: list[str], change: tuple[str, ...]) -> list[str] | None:

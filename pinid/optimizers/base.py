@@ -26,6 +26,7 @@ import numpy as np
 
 from pinid.checks import option_numbers
 from pinid.errors import SolverError, SpecError
+from pinid.result_protocol import ResultProtocol, panel
 
 #: ``fun_batch(X) -> values``: X is ``(P, d)``, values ``(P,)``.
 BatchFunction = Callable[[np.ndarray], np.ndarray]
@@ -34,7 +35,7 @@ Callback = Callable[[int, np.ndarray, float], "bool | None"]
 
 
 @dataclass
-class OptimizeResult:
+class OptimizeResult(ResultProtocol):
     """What :meth:`Optimizer.minimize` returns.
 
     ``x``: best point found ``(d,)``; ``fun``: its value; ``history``: best value after the initial
@@ -52,6 +53,8 @@ class OptimizeResult:
     message: str
     extra: dict = field(default_factory=dict)
 
+    PLOTS = {"history": True}
+
     def to_dict(self) -> dict:
         """Plain-dict form (JSON-serialisable)."""
         return {
@@ -64,6 +67,42 @@ class OptimizeResult:
             "message": self.message,
             **self.extra,
         }
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "OptimizeResult":
+        """Inverse of :meth:`to_dict` (keys it does not know go back to ``extra``)."""
+        known = ("x", "fun", "history", "nfev", "nit", "seconds", "message")
+        return cls(
+            np.asarray(d["x"], dtype=float),
+            float(d["fun"]),
+            np.asarray(d["history"], dtype=float),
+            int(d["nfev"]),
+            int(d["nit"]),
+            float(d["seconds"]),
+            str(d["message"]),
+            {k: v for k, v in d.items() if k not in known},
+        )
+
+    def text(self) -> str:
+        """The best value, the work done and why it stopped, one line each."""
+        return (
+            f"best value {self.fun:.6g} at x = {np.array2string(self.x, precision=4)}\n"
+            f"{self.nit} iterations, {self.nfev} function values, {self.seconds:.3g} s\n"
+            f"stopped: {self.message}"
+        )
+
+    def _plot(self, kind: str, ax):
+        """``"history"``: the best value after each iteration (log scale when every value is positive)."""
+        fig, ax = panel(ax)
+        h = np.asarray(self.history, dtype=float)
+        ax.plot(np.arange(len(h)), h, "-", color="tab:blue")
+        if len(h) and np.all(h[np.isfinite(h)] > 0):
+            ax.set_yscale("log")
+        ax.set_xlabel("iteration")
+        ax.set_ylabel("best value")
+        ax.set_title(f"convergence: best {self.fun:.4g} after {self.nit} iterations")
+        fig.tight_layout()
+        return fig
 
 
 class _Counted:

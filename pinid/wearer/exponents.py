@@ -29,13 +29,14 @@ import numpy as np
 from pinid.linalg import RANK_TOL
 from pinid.wearer.passive import ANATOMICAL, anatomy, column, exponents
 from pinid.model.robot import as_robot
+from pinid.result_protocol import ResultProtocol, panel
 
 #: Bounds of a refined coefficient, as factors of its published value.
 BOUNDS: tuple[float, float] = (0.5, 2.0)
 
 
 @dataclass
-class ExponentFit:
+class ExponentFit(ResultProtocol):
     """Fitted exponent coefficients ``{anatomical joint: (terms, 4)}``, the published ones, the names of
     the free coefficients (``knee[2].cK``), the unconstrained fit's torque RMS [N·m] at the published and
     the fitted exponents, the solver's evaluations, message and time [s]."""
@@ -49,6 +50,9 @@ class ExponentFit:
     message: str
     seconds: float
 
+    PLOTS = {"change": True}
+    FILE_KIND = "passive exponent fit"
+
     def to_dict(self) -> dict:
         """Plain-dict form (for JSON)."""
         return {
@@ -61,6 +65,53 @@ class ExponentFit:
             "message": self.message,
             "seconds": self.seconds,
         }
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "ExponentFit":
+        """Inverse of :meth:`to_dict`."""
+        arrays = lambda m: {k: np.asarray(v, dtype=float).reshape(-1, 4) for k, v in m.items()}
+        return cls(
+            arrays(d["fitted"]),
+            arrays(d["published"]),
+            [str(n) for n in d["free"]],
+            float(d["rms_published"]),
+            float(d["rms_fitted"]),
+            int(d["evaluations"]),
+            str(d["message"]),
+            float(d["seconds"]),
+        )
+
+    def _changes(self) -> list[tuple[str, float, float]]:
+        """``(name, published, fitted)`` of every free coefficient [1/deg]."""
+        out = []
+        for name in self.free:
+            kind, rest = name.split("[", 1)
+            k, a = int(rest.split("]", 1)[0]), 1 + "HKA".index(name[-1])
+            out.append((name, float(self.published[kind][k, a]), float(self.fitted[kind][k, a])))
+        return out
+
+    def text(self) -> str:
+        """The free coefficients published and fitted [1/deg], then the torque RMS before and after [N·m]."""
+        from pinid.report.text import text_table
+
+        rows = [[n, f"{p:.5g}", f"{f:.5g}", f"{100 * (f / p - 1):+.3g}"] for n, p, f in self._changes()]
+        return (
+            text_table(["coefficient", "published", "fitted", "change %"], rows)
+            + f"\ntorque RMS {self.rms_published:.4g} N·m at the published exponents, {self.rms_fitted:.4g} N·m "
+            f"fitted ({self.evaluations} evaluations, {self.seconds:.3g} s)"
+        )
+
+    def _plot(self, kind: str, ax):
+        """``"change"``: every free coefficient's change from its published value [%]."""
+        fig, ax = panel(ax)
+        changes = self._changes()
+        ax.barh(range(len(changes)), [100 * (f / p - 1) for _, p, f in changes], color="tab:blue")
+        ax.set_yticks(range(len(changes)), [n for n, _, _ in changes], fontsize=8)
+        ax.axvline(0, color="0.3", lw=0.8)
+        ax.set_xlabel("fitted − published [% of published]")
+        ax.set_title(f"passive exponents: torque RMS {self.rms_published:.3g} → {self.rms_fitted:.3g} N·m")
+        fig.tight_layout()
+        return fig
 
 
 def free_coefficients(robot) -> list[tuple[str, int, int]]:
