@@ -20,6 +20,7 @@ the one fallback, so that a saved robot naming ``passive`` loads from a fresh ch
 
 from __future__ import annotations
 
+import functools
 import importlib.metadata
 import types
 import warnings
@@ -39,18 +40,22 @@ GROUPS: tuple[str, ...] = ("pinid.terms", "pinid.estimators", "pinid.optimizers"
 _SOURCE_TREE = Path(__file__).resolve().parents[1] / "pyproject.toml"
 
 
-def _source_tree_entry_points(group: str) -> list[importlib.metadata.EntryPoint]:
-    """pinid's entry points of ``group`` in the ``pyproject.toml`` of the source tree pinid runs from (none
-    for an installed wheel: there is no such file, or it is another project's)."""
+@functools.cache
+def _source_tree_project() -> dict:
+    """The ``[project]`` table of the ``pyproject.toml`` beside the package when it is pinid's (a source tree),
+    else ``{}`` (an installed wheel: no such file, or another project's); read once."""
     from pinid.io import toml_loads
 
     try:
         project = toml_loads(_SOURCE_TREE.read_text(encoding="utf-8")).get("project", {})
     except (OSError, ValueError):
-        return []
-    if project.get("name") != "pinid":
-        return []
-    table = project.get("entry-points", {}).get(group, {})
+        return {}
+    return project if project.get("name") == "pinid" else {}
+
+
+def _source_tree_entry_points(group: str) -> list[importlib.metadata.EntryPoint]:
+    """pinid's entry points of ``group`` in the ``pyproject.toml`` of the source tree pinid runs from."""
+    table = _source_tree_project().get("entry-points", {}).get(group, {})
     return [importlib.metadata.EntryPoint(name, value, group) for name, value in table.items()]
 
 
