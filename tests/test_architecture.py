@@ -11,6 +11,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+from pinid.plugins import GROUPS
+
 PACKAGE = Path(__file__).resolve().parents[1] / "pinid"
 
 
@@ -150,10 +152,11 @@ def test_no_private_names_imported_across_modules():
 #: (recordings) → problem (the identification problem, below the estimators that fit it) → optimizers →
 #: estimators → report (draws what it is handed: imports model, estimators and io only) → excitation →
 #: identification (runner, results) → simulation (the twin) → control → wearer → flexible → cli → docgen,
-#: __main__.  An extension of a lower folder registers itself from its own (the wearer's passive term:
-#: pinid.model.terms.TERM_MODULES) or is handed in by its caller (the twin's wearer).
+#: __main__.  An extension of a lower folder registers itself from its own, loaded as an entry point of the
+#: lower folder's registry (the wearer's passive term: pyproject.toml, pinid.plugins), or is handed in by its
+#: caller (the twin's wearer).
 LAYERS: list[str] = [
-    *("errors", "blas", "memory", "progress", "parallel", "io", "result_protocol", "checks", "linalg", "resources"),
+    *("errors", "blas", "memory", "progress", "parallel", "io", "result_protocol", "checks", "linalg", "resources", "plugins"),
     *("model", "data", "problem", "optimizers", "estimators", "report", "excitation", "identification"),
     *("simulation", "control", "wearer", "flexible", "cli", "docgen", "__main__"),
 ]
@@ -202,6 +205,50 @@ def test_every_folder_and_top_level_module_has_its_layer():
 def test_folders_are_layers():
     bad = upward_imports(package_imports(), LAYERS)
     assert not bad, "imports of a later layer (see LAYERS):\n" + "\n".join(bad)
+
+
+def string_imports(known: dict[str, Path]) -> list[tuple[str, str, int]]:
+    """``(module, named module, line)`` for every string in the code of a module (not a docstring) that is a
+    pinid module's name, ``"pinid.wearer.passive"`` or ``"pinid.wearer.passive:attr"``: an import by name
+    (``importlib.import_module``, a table of module names) the import graph does not see."""
+    out = []
+    for m, path in known.items():
+        tree = parsed(path)
+        docstrings = {
+            id(node.body[0].value)
+            for node in ast.walk(tree)
+            if isinstance(node, (ast.Module, ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef))
+            and node.body
+            and isinstance(node.body[0], ast.Expr)
+            and isinstance(node.body[0].value, ast.Constant)
+        }
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Constant) and isinstance(node.value, str) and id(node) not in docstrings:
+                target = node.value.split(":")[0]
+                if target in known and target not in GROUPS:  # an entry-point group is named like its package
+                    out.append((m, target, node.lineno))
+    return out
+
+
+def test_the_string_import_finder_sees_a_module_name(tmp_path):
+    lower = tmp_path / "a.py"
+    lower.write_text(
+        '"""Loads pinid.wearer.passive."""\nimport importlib\nimportlib.import_module("pinid.wearer.passive")\n'
+    )
+    known = {"pinid.model.a": lower, "pinid.wearer.passive": tmp_path / "b.py"}
+    (tmp_path / "b.py").write_text("")
+    found = string_imports(known)
+    assert found == [("pinid.model.a", "pinid.wearer.passive", 3)]  # not the docstring's
+    assert upward_imports(found, LAYERS) == ["pinid.model.a:3 imports pinid.wearer.passive (model is below wearer)"]
+
+
+def test_no_module_names_a_later_layer_by_string():
+    """A lower layer does not load a higher one by name (issue 32: the wearer's passive term is an entry point
+    of pyproject.toml, not a string of pinid.model.terms)."""
+    bad = upward_imports(string_imports(modules()), LAYERS)
+    assert not bad, "modules of a later layer named by string (an entry point instead, pinid.plugins):\n" + "\n".join(
+        bad
+    )
 
 
 #: What the drawing layer may import: it draws the objects handed to it (results, models, comparisons).

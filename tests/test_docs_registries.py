@@ -62,5 +62,27 @@ def test_the_estimator_table_names_only_registered_methods():
     )
 
 
+def test_the_methods_table_is_generated_from_the_estimators():
+    """docs/identification.md's table of methods is :func:`pinid.docgen.methods_table` between its markers
+    (``python -m pinid.docgen methods-table --write`` rewrites it), and names every estimator of pinid."""
+    from pinid.docgen import methods_table, with_methods_table
+
+    text = (DOCS / "identification.md").read_text(encoding="utf-8")
+    assert with_methods_table(text) == text, (
+        "docs/identification.md: the methods' table is stale; run python -m pinid.docgen methods-table --write"
+    )
+    rows = re.findall(r"^\| `([\w-]+)` \|", methods_table(), flags=re.M)
+    assert rows == [n for n in ESTIMATORS if not ESTIMATORS.plugin(n)]
+
+
+def test_the_terms_help_names_every_term_and_group():
+    from pinid.cli.common import terms_help
+    from pinid.model.terms import TERM_GROUPS
+
+    text = terms_help()
+    missing = [n for n in [*TERMS, *TERM_GROUPS] if not re.search(rf"(?<![\w-]){re.escape(n)}(?![\w-])", text)]
+    assert not missing, f"--terms help does not name {missing}"
+
+
 def test_the_checker_sees_a_missing_name():
     assert "newmethod" not in quoted("| `ols` | least squares |") and {"ols"} <= quoted("| `ols` | x |")

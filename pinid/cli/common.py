@@ -15,6 +15,7 @@ from pinid.identification.run import parse_methods
 from pinid.model.bundled import EXAMPLE_ROBOTS
 from pinid.model.regressor import TermSelection
 from pinid.model.robot import RobotModel
+from pinid.model.terms import TERM_GROUPS, TERMS
 from pinid.resources import bundled_robots
 
 
@@ -59,22 +60,32 @@ def add_robot_arguments(p: argparse.ArgumentParser, *, default: str | None = "ex
         )
 
 
+def _term_list(names: list[str]) -> str:
+    """``fc (Coulomb friction), fv (viscous friction)``: the terms with their labels (a motor term's without
+    its leading "motor") and notes."""
+    texts = [TERMS[n].label.removeprefix("motor ") + (f"; {TERMS[n].note}" if TERMS[n].note else "") for n in names]
+    return ", ".join(f"{n} ({t})" for n, t in zip(names, texts))
+
+
+def terms_help() -> str:
+    """The --terms help, generated from the term registry (every registered term and plug-in, with its label,
+    and the groups of :data:`pinid.model.terms.TERM_GROUPS`)."""
+    TERMS.load_all()  # the plug-ins' labels (another package's terms too)
+    grouped = {n for members in TERM_GROUPS.values() for n in members}
+    joint = [n for n in TERMS if n not in grouped and TERMS[n].space == "joint"]
+    motor = [n for n in TERMS if n not in grouped and TERMS[n].space == "motor"]
+    groups = ", ".join(f"{g} ({TERMS[m[0]].label.split(',')[0]}: {', '.join(m)})" for g, m in TERM_GROUPS.items())
+    return (
+        f"terms in the model, comma-separated: joint side {_term_list(joint)}; motor side (needs drives: URDF "
+        f"<transmission> or --drives) {_term_list(motor)}; groups: {groups}; 'none' for none; 'auto' (identify): "
+        "chosen on the training recordings by forward selection; default fc,fv (docs/identification.md, "
+        "docs/drives.md)"
+    )
+
+
 def add_terms_argument(p: argparse.ArgumentParser) -> None:
     """The --terms option: which joint terms enter the model."""
-    p.add_argument(
-        "--terms",
-        default="fc,fv",
-        help="terms in the model, comma-separated: joint side fc (Coulomb), fv (viscous), "
-        "offset (constant torque), armature (rotor inertia), fc_pos/fc_neg (asymmetric Coulomb, "
-        "instead of fc), passive (wearer's passive joint moments, scale of Riener & Edrich 1999; "
-        "docs/wearer.md); motor side (needs drives: URDF <transmission> or --drives) motor_fc, "
-        "motor_fv, motor_offset, motor_armature, motor_fc_pos, motor_fc_neg; Stribeck fs, motor_fs "
-        "(fs·sign(v)·exp(−(|v|/v_s)^δ), on top of fc); position ripple: ripple (sin and cos of r·q, "
-        "ripple_s1, ripple_c1), ripple2 or ripple3 (2 or 3 harmonics; r: --ripple-periods or the drives' "
-        "ratio); fl (load-dependent Coulomb, fl·|τ_load|·sign(dq), τ_load the URDF's rigid-body torque); "
-        "'none' for none; 'auto' (identify): chosen on the training recordings by forward selection; "
-        "default fc,fv",
-    )
+    p.add_argument("--terms", default="fc,fv", help=terms_help())
 
 
 def add_stribeck_arguments(p: argparse.ArgumentParser) -> None:

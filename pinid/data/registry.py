@@ -5,7 +5,8 @@ A reader turns one file (or folder) into named numeric columns (a :class:`Table`
 signs.  A writer stores pinid's dataset format (``t, q_<joint>, …``).  CSV and NPZ are registered by
 :mod:`pinid.data.csv_reader` and :mod:`pinid.data.npz_reader` (readers) and :mod:`pinid.data.formats`
 (writers); a new format is one module that calls :func:`register_reader` / :func:`register_writer` and
-one import line in ``pinid/data/__init__.py`` (docs/architecture.md, "adding a data format").
+one import line in ``pinid/data/__init__.py`` (docs/extending.md); another package's reader is an entry point
+of the group ``pinid.readers`` (a module that calls :func:`register_reader`, or a :class:`Reader`).
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ import numpy as np
 
 from pinid.errors import DataError, SpecError
 from pinid.io import as_path
+from pinid.plugins import Registry
 
 
 class Table:
@@ -104,7 +106,8 @@ class Writer:
     suffixes: tuple[str, ...] = ()
 
 
-READERS: dict[str, Reader] = {}
+#: Readers by format name; other packages add theirs through entry points of the group ``pinid.readers``.
+READERS: Registry = Registry("pinid.readers", "reader", adopt=lambda name, reader: register_reader(reader))
 WRITERS: dict[str, Writer] = {}
 
 

@@ -3,7 +3,7 @@
 Every estimator follows the contract of :class:`~pinid.estimators.base.Estimator`: ``__init__`` only
 stores settings, ``fit(problem)`` returns ``self``, fitted values end in ``_`` (``base_`` always;
 ``standard_``, ``history_`` when the estimator has them).  Adding one is a file here and one line in
-:data:`ESTIMATORS`.
+:data:`ESTIMATORS`; another package's is an entry point of the group ``pinid.estimators`` (docs/extending.md).
 """
 
 from __future__ import annotations
@@ -22,9 +22,19 @@ from pinid.estimators.rls import RLS
 from pinid.estimators.sdp import SDP
 from pinid.estimators.tls import TLS
 from pinid.estimators.wls import WLS
+from pinid.plugins import Registry
 
-#: Registry: method name (as in ``pinid identify --methods``) -> estimator class.
-ESTIMATORS: dict[str, type[Estimator]] = {
+
+def _adopt(name: str, cls: object) -> None:
+    """Register the estimator class an entry point names (SpecError for anything else)."""
+    if not (isinstance(cls, type) and issubclass(cls, Estimator)):
+        raise SpecError(f"estimator {name!r}: the entry point names {cls!r}, expected a pinid Estimator subclass")
+    ESTIMATORS[name] = cls
+
+
+#: Registry: method name (as in ``pinid identify --methods``) -> estimator class; other packages add theirs
+#: through entry points of the group ``pinid.estimators`` (:class:`pinid.plugins.Registry`).
+_BUILTIN: dict[str, type[Estimator]] = {
     "ols": OLS,
     "wls": WLS,
     "sdp": SDP,
@@ -42,6 +52,7 @@ ESTIMATORS: dict[str, type[Estimator]] = {
     "essential": Essential,
     "logdet": LogDet,
 }
+ESTIMATORS: Registry = Registry("pinid.estimators", "estimator", adopt=_adopt, entries=_BUILTIN)
 
 
 def quick_methods() -> list[str]:

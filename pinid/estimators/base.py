@@ -113,6 +113,12 @@ class Estimator:
     name: str = "estimator"
     #: One line for tables and the report.
     description: str = ""
+    #: The row of the methods' table of docs/identification.md (generated: ``python -m pinid.docgen
+    #: methods-table --write``), Markdown: what it does (default :attr:`description`), what it assumes of
+    #: the data, and its settings with their defaults (default: the names and defaults of ``__init__``).
+    summary: ClassVar[str] = ""
+    assumptions: ClassVar[str] = ""
+    settings_summary: ClassVar[str] = ""
     #: True when ``standard_`` is physically consistent by construction (constrained: a value on a bound
     #: gets no σ, :func:`pinid.identification.result.make_result`).
     consistent_by_construction: bool = False

@@ -49,6 +49,12 @@ class DIDIM(SimulatingEstimator):
     """
 
     name = "didim"
+    summary = (
+        "DIDIM (Gautier, Janot & Vandanjon 2013): Gauss–Newton on the torque output error of a closed-loop "
+        "simulation, Jacobian = the simulated regressor, from OLS"
+    )
+    assumptions = "as `iv`; the truth is a fixed point only up to the simulation's error (not exact on noise-free data)"
+    settings_summary = "as `iv`"
     description = "DIDIM: Gauss–Newton on the torque error of a closed-loop simulation, from OLS"
     colour = "#ff00ff"
     exact = False  # noise-free: limited by the simulation between samples (module text)

@@ -33,6 +33,17 @@ class Essential(Estimator):
     """
 
     name = "essential"
+    summary = (
+        "Pham & Gautier's essential parameters (as FloBaRoID): from OLS, the base parameter of largest "
+        "relative σ (Newey–West, `100·σ/|θ|`) fixed to its URDF value (its column's torque moved to the "
+        "target), the rest refitted, until every kept one is below `threshold` or fixing the next one would "
+        "raise the residual norm by more than `max_growth`; `info` lists `identified` (with σ %) and `fixed`"
+    )
+    assumptions = (
+        "as OLS, plus: the URDF's values of the parameters the data leave undetermined are better than what "
+        "noise makes of them"
+    )
+    settings_summary = "`threshold` (10 %), `max_growth` (0.01: 1 % over OLS's residual norm)"
     description = "least squares on the essential base parameters; those the data do not determine fixed to the URDF"
     colour = "#6b8e23"
     history = "passes"

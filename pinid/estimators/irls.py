@@ -67,6 +67,12 @@ class IRLS(Estimator):
     """
 
     name = "irls"
+    summary = (
+        "iteratively reweighted least squares, Huber (or Tukey bisquare, started from Huber) weights of "
+        "residuals scaled by each joint's MAD"
+    )
+    assumptions = "a minority of gross outliers in the torque"
+    settings_summary = '`loss` ("huber"), `tuning` (1), `iterations` (50), `tol` (1e-8), `physical` (False)'
     description = "iteratively reweighted least squares (Huber or Tukey weights): robust to outliers"
     colour = "#b8860b"
     history = "passes"

@@ -308,6 +308,15 @@ class InstrumentalVariables(SimulatingEstimator):
     """
 
     name = "iv"
+    summary = (
+        "IDIM-IV (Janot, Vandanjon & Gautier): `Zᵀ W β = Zᵀ τ` with instruments `Z = W(q_s, dq_s, ddq_s)` "
+        "from a simulation of the previous estimate, iterated from OLS"
+    )
+    assumptions = (
+        "the simulated motion is correlated with the true one and not with the regressor's noise (see below: "
+        "only approximately, without the rig's controller)"
+    )
+    settings_summary = "`iterations` (10), `tol` (1e-6), `bandwidth` (2 Hz), `substeps` (1), `physical` (False)"
     description = "instrumental variables (IDIM-IV): instruments from a simulation of the previous estimate"
     colour = "#800000"
 

@@ -242,6 +242,14 @@ class Metaheuristic(Estimator):
     default_box = "nominal"
     deterministic = False
     history = "fitness"
+    assumptions = (
+        "as OLS; the optimum inside the search box (`box`, `box_width`) and reached in "
+        "`iterations` (seeded: `pinid compare` runs several seeds)"
+    )
+    settings_summary = (
+        '`population` (100), `iterations` (200), `fitness` ("sse"; "sae"), `box` ("nominal"; "rls", "ls", '
+        "bounds), `box_width` (1.0), `box_floor` (0.5), `seed` (0), `tol`, `options`, `x0` ([metaheuristics](metaheuristics.md))"
+    )
     settings = {
         "population": Setting("int", low=2, help="particles per iteration"),
         "iterations": Setting("int", low=1, help="iterations"),

@@ -17,6 +17,12 @@ class OLS(Estimator):
     """
 
     name = "ols"
+    summary = (
+        "least squares on the base regressor (column-scaled Cholesky of the Gram matrix; Householder QR when "
+        "its condition number exceeds 1e10)"
+    )
+    assumptions = "independent torque errors of equal variance on every row, regressor without error"
+    settings_summary = "none"
     description = "ordinary least squares on the base regressor"
     colour = "#1f77b4"
 

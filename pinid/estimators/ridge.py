@@ -24,6 +24,7 @@ class Ridge(Estimator):
     """
 
     name = "ridge"
+    assumptions = "as OLS, plus: the URDF's base parameters are a useful prior where the data say little"
     description = "ridge-regularised least squares toward the URDF's base parameters"
     colour = "#000080"
     settings = {

@@ -55,6 +55,7 @@ class RLS(Estimator):
     """
 
     name = "rls"
+    assumptions = "as OLS; with `forgetting` < 1, parameters that drift in time (older rows count less)"
     description = "recursive least squares with forgetting factor (seed 000 Eq. (6)); its range defines a box"
     colour = "#8c564b"
     history = "rows"

@@ -58,6 +58,16 @@ class SDP(Estimator):
     """
 
     name = "sdp"
+    summary = (
+        "physically consistent least squares: semidefinite program in the full standard vector θ, Clarabel "
+        "(`pinid.model.conic`; another `solver` through cvxpy)"
+    )
+    assumptions = "as OLS, plus: the robot is made of rigid bodies with non-negative mass, friction and armature"
+    settings_summary = (
+        '`weighting` ("none"; "joint" weights as WLS), `regularization` (1e-3), `mass_bounds` (None; `(lo, '
+        'hi)` kg for every body or `{joint: (lo, hi)}`), `margin` (1e-8), `solver` ("CLARABEL"), '
+        "`solver_options`"
+    )
     description = "physically consistent least squares (pseudo-inertia LMI, Clarabel)"
     consistent_by_construction = True
     fits_standard = True

@@ -35,6 +35,12 @@ class TLS(Estimator):
     """
 
     name = "tls"
+    summary = "total least squares on `[W | τ]` (smallest right singular vector of its compressed form)"
+    assumptions = (
+        "errors in every column, independent and of equal variance after the column scaling (`scaling`: "
+        '"norm", unit-norm columns of W and τ; or "none")'
+    )
+    settings_summary = '`scaling` ("norm")'
     description = "total least squares (errors in variables) on [W | τ], columns scaled to unit norm"
     colour = "#008080"
     settings = {

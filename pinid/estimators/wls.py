@@ -23,6 +23,9 @@ class WLS(Estimator):
     """
 
     name = "wls"
+    summary = "each joint's rows weighted by 1/σ_j², σ_j² that joint's residual variance from an OLS pass"
+    assumptions = "errors independent, variance differs between joints (sensors, torque ranges), constant in time"
+    settings_summary = "`iterations` (1: one reweighting; more re-estimate σ_j from the weighted fit), `tol` (1e-10)"
     description = "least squares, each joint weighted by 1/(its residual variance)"
     colour = "#ff7f0e"
     history = "passes"

@@ -12,18 +12,18 @@ from pathlib import Path
 from pinid.errors import ModelError, ModelWarning, SpecError
 from pinid.model.regressor import TermSelection
 from pinid.model.robot import RobotModel
-from pinid.model.terms import TERM_MODULES, TERMS, Term
+from pinid.model.terms import TERMS, Term
 from pinid.model.robot import as_robot
 
 
 def _setting_terms() -> dict[str, Term]:
     """``{setting name: the first registered term that declares it}`` (:attr:`pinid.model.terms.Term.setting`;
     several terms may share one setting, e.g. fs and motor_fs read "stribeck"), the settings of the plug-in
-    terms (:data:`pinid.model.terms.TERM_MODULES`) last: the order of the keys of a saved robot.  Loads the
+    terms (:data:`pinid.model.terms.PLUGIN_TERMS`, entry points: :mod:`pinid.plugins`) last: the order of the keys of a saved robot.  Loads the
     plug-in terms."""
     out: dict[str, Term] = {}
     terms = list(TERMS.values())  # loads the plug-in terms: a setting may be one of theirs
-    for term in sorted(terms, key=lambda t: t.name in TERM_MODULES):  # stable: registry order otherwise
+    for term in sorted(terms, key=lambda t: TERMS.plugin(t.name)):  # stable: registry order otherwise
         if term.setting is not None:
             out.setdefault(term.setting, term)
     return out

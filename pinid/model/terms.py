@@ -14,7 +14,8 @@ nominal value per joint (read from the robot), the SDP sign constraint, the URDF
 drives TOML field, whether it is an inertia (its column is an acceleration), the torque the digital
 twin's plant applies (default: value × column) and the name of the per-run model setting it reads
 (``robot.setting(name)``, saved with the model through ``read_setting`` / ``write_setting``).
-Terms of other modules are plug-ins (:data:`TERM_MODULES`): the wearer's passive moments, the position
+Terms of other modules and packages are plug-ins (:data:`PLUGIN_TERMS`, entry points of the group
+``pinid.terms``: :mod:`pinid.plugins`): the wearer's passive moments, the position
 ripple (:mod:`pinid.model.terms_ripple`, selected as a group: ``ripple``, :data:`TERM_GROUPS`) and the
 load-dependent Coulomb friction ``fl`` (:mod:`pinid.model.terms_load`).
 
@@ -24,15 +25,15 @@ terms together, in registry order), then the motor block, motor-major.
 
 from __future__ import annotations
 
-import importlib
 import warnings
 from dataclasses import dataclass
 from typing import NamedTuple
-from collections.abc import Callable, Iterable, Iterator, Mapping, MutableMapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 
 import numpy as np
 from pinid.checks import array_like, as_floats
 from pinid.errors import DataError, ModelError, SpecError
+from pinid.plugins import Registry
 
 
 class Motion(NamedTuple):
@@ -69,6 +70,7 @@ class Term:
     setting: str | None = None
     read_setting: Callable[[object, str], object] | None = None  # (saved value, origin) → value; None: as saved
     write_setting: Callable[[object], object] | None = None  # value → JSON-able saved value; None: as it is
+    note: str = ""  # a few words for the --terms help after the label: its law, what it replaces
 
     def torque(self, values: np.ndarray, motion: Motion, smoothing: float | None = None) -> np.ndarray:
         """Torque of this term [N·m] in its own space for per-joint/motor ``values``; the plant's law when
@@ -78,14 +80,11 @@ class Term:
         return np.asarray(values, dtype=float) * self.column(motion)
 
 
-#: The module that registers each plug-in term (a term of a folder above this one), loaded the first time
-#: the term is asked for (a plug-in: the module imports this one, so this one names it instead of importing
-#: it).  Its place in the column order is kept from the start (:meth:`TermRegistry.reserve`).
-TERM_MODULES: dict[str, str] = {
-    "passive": "pinid.wearer.passive",
-    **{f"ripple_{p}{k}": "pinid.model.terms_ripple" for k in (1, 2, 3) for p in "sc"},
-    "fl": "pinid.model.terms_load",
-}
+#: The in-tree plug-in terms, in their column order: terms of a module this one does not import (the wearer's
+#: passive moments, a layer above; the position ripple and the load-dependent friction, loaded when used).
+#: Each is an entry point of the group ``pinid.terms`` (pyproject.toml), loaded the first time the term is
+#: asked for (:class:`pinid.plugins.Registry`); its place in the column order is kept from the start.
+PLUGIN_TERMS: tuple[str, ...] = ("passive", *(f"ripple_{p}{k}" for k in (1, 2, 3) for p in "sc"), "fl")
 #: Selection names that stand for several terms (``--terms ripple``): the position ripple's harmonics
 #: (:mod:`pinid.model.terms_ripple`: one term per sine and cosine amplitude of each harmonic).
 TERM_GROUPS: dict[str, tuple[str, ...]] = {
@@ -94,43 +93,14 @@ TERM_GROUPS: dict[str, tuple[str, ...]] = {
 }
 
 
-class TermRegistry(MutableMapping):
-    """The known terms by name, in column order (registration order; a plug-in term of :data:`TERM_MODULES`
-    at the place reserved for it).  Asking for a plug-in term (``TERMS[name]``, ``name in TERMS``, its values)
-    imports its module, which registers it; listing the names imports nothing."""
+class TermRegistry(Registry):
+    """The known terms by name, in column order (registration order; a plug-in term of :data:`PLUGIN_TERMS`
+    at the place reserved for it, one of another package at the end).  Asking for a plug-in term
+    (``TERMS[name]``, ``name in TERMS``, its values) loads its entry point, which registers it; listing the
+    names loads nothing."""
 
     def __init__(self) -> None:
-        self._terms: dict[str, Term | None] = {}  # None: a plug-in's place, its module not loaded yet
-
-    def reserve(self, name: str) -> None:
-        """Keep the place of plug-in term ``name`` (a key of :data:`TERM_MODULES`) in the column order."""
-        if name not in TERM_MODULES:
-            raise SpecError(f"term {name!r}: not a plug-in term, expected one of {list(TERM_MODULES)}")
-        self._terms.setdefault(name, None)
-
-    def registered(self, name: str) -> bool:
-        """True once term ``name`` is registered (loads no plug-in)."""
-        return self._terms.get(name) is not None
-
-    def __getitem__(self, name: str) -> Term:
-        if name in TERM_MODULES and not self.registered(name):
-            importlib.import_module(TERM_MODULES[name])  # registers the term
-        term = self._terms.get(name)
-        if term is None:
-            raise KeyError(name)
-        return term
-
-    def __setitem__(self, name: str, term: Term) -> None:
-        self._terms[name] = term
-
-    def __delitem__(self, name: str) -> None:
-        del self._terms[name]
-
-    def __iter__(self) -> Iterator[str]:
-        return iter(list(self._terms))
-
-    def __len__(self) -> int:
-        return len(self._terms)
+        super().__init__("pinid.terms", "term", adopt=lambda name, obj: register(obj))
 
 
 #: Every known term, in column order.
@@ -192,6 +162,7 @@ register(
         nonnegative=True,
         plant=lambda v, m, vs: v * np.maximum(np.tanh(m.dq / vs), 0.0),
         velocity_step=True,
+        note="with fc_neg, instead of fc",
     )
 )
 register(
@@ -204,12 +175,13 @@ register(
         nonnegative=True,
         plant=lambda v, m, vs: v * np.minimum(np.tanh(m.dq / vs), 0.0),
         velocity_step=True,
+        note="with fc_pos, instead of fc",
     )
 )
 
 # the plug-ins' places: the wearer's passive moments (pinid.wearer.passive), the position ripple
 # (pinid.model.terms_ripple) and the load-dependent Coulomb friction (pinid.model.terms_load)
-for _name in TERM_MODULES:
+for _name in PLUGIN_TERMS:
     TERMS.reserve(_name)
 
 for _base in ("fc", "fv", "offset", "armature", "fc_pos", "fc_neg"):
@@ -318,6 +290,7 @@ def _stribeck_term(name: str, space: str) -> Term:
         setting="stribeck",
         read_setting=stribeck_from_dict,
         write_setting=stribeck_to_dict,
+        note=f"{name}·sign(v)·exp(−(|v|/v_s)^δ), on top of {'motor_fc' if motor else 'fc'}",
     )
 
 

@@ -15,7 +15,7 @@ iteration (:attr:`pinid.model.terms.Term.load`).  ``IdentifiedModel.friction(dq)
 alone, leaves the term out; :meth:`~pinid.identification.identified.IdentifiedModel.inverse_dynamics` has it.
 
 Registered in :data:`pinid.model.terms.TERMS` when ``fl`` is first asked for
-(:data:`pinid.model.terms.TERM_MODULES`).
+(its entry point of the group ``pinid.terms``, pyproject.toml; :mod:`pinid.plugins`).
 """
 
 from __future__ import annotations
@@ -64,5 +64,6 @@ register(
         nonnegative=True,
         plant=_plant,
         load=True,
+        note="fl·|τ_load|·sign(dq), τ_load the URDF's rigid-body torque",
     )
 )

@@ -14,7 +14,7 @@ together: ``--terms fc,fv,ripple`` (K = 1), ``ripple2`` (K = 2), ``ripple3``.  T
 (``static``: :meth:`IdentifiedModel.gravity` includes them); the twin's plant applies value × column.
 
 Registered in :data:`pinid.model.terms.TERMS` when one of its names is first asked for
-(:data:`pinid.model.terms.TERM_MODULES`).
+(its entry point of the group ``pinid.terms``, pyproject.toml; :mod:`pinid.plugins`).
 """
 
 from __future__ import annotations

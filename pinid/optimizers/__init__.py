@@ -3,7 +3,8 @@
 They minimise a batch function ``f(X) -> (P,)`` of a population ``X (P, d)`` inside a box, with a seeded
 ``numpy.random.Generator``, and return an :class:`OptimizeResult` (best point, value, best value per
 iteration, evaluations, time).  Excitation design (:mod:`pinid.excitation.design`) and identification reuse
-them.  Adding an optimiser is one file plus one line in :data:`OPTIMIZERS`.
+them.  Adding an optimiser is one file plus one line in :data:`OPTIMIZERS`; another package's is an entry point
+of the group ``pinid.optimizers`` (docs/extending.md).
 
 =========  ===========================================================================
 name       method
@@ -32,14 +33,24 @@ from pinid.optimizers.base import OptimizeResult, Optimizer
 from pinid.optimizers.de import DEOptions, DifferentialEvolution
 from pinid.optimizers.pso import PSO, PSOOptions
 from pinid.optimizers.woa import EWOA, WOA, EWOAOptions, WOAOptions
+from pinid.plugins import Registry
 
-#: Optimisers by name.
-OPTIMIZERS: dict[str, type[Optimizer]] = {
+
+def _adopt(name: str, cls: object) -> None:
+    """Register the optimiser class an entry point names (SpecError for anything else)."""
+    if not (isinstance(cls, type) and issubclass(cls, Optimizer)):
+        raise SpecError(f"optimizer {name!r}: the entry point names {cls!r}, expected a pinid Optimizer subclass")
+    OPTIMIZERS[name] = cls
+
+
+_BUILTIN: dict[str, type[Optimizer]] = {
     "pso": PSO,
     "woa": WOA,
     "ewoa": EWOA,
     "de": DifferentialEvolution,
 }
+#: Optimisers by name; other packages add theirs through entry points of the group ``pinid.optimizers``.
+OPTIMIZERS: Registry = Registry("pinid.optimizers", "optimizer", adopt=_adopt, entries=_BUILTIN)
 
 
 def get_optimizer(name: str, options=None, **kw) -> Optimizer:

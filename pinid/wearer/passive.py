@@ -17,7 +17,7 @@ In the dynamic model the passive moment is a joint term (``--terms passive``, pa
 a dimensionless scale factor of the published shape, nominal 1): the motors supply
 ``τ = ID(q, dq, ddq) + … − kp·s·M(φ)``, so the term's regressor column is ``−s·M``.  This module registers
 the term in :data:`pinid.model.terms.TERMS` (which loads it the first time ``passive`` is asked for,
-:data:`pinid.model.terms.TERM_MODULES`).
+its entry point of the group ``pinid.terms``, pyproject.toml; :mod:`pinid.plugins`).
 
 The exponents' coefficients ``c`` are the published ones unless the robot carries its own
 (``robot.passive_exponents``, ``{anatomical joint: (terms, 4) array}``, saved with a model): what
@@ -178,5 +178,6 @@ register(
         setting="passive_exponents",
         read_setting=check_exponents,
         write_setting=exponents_to_dict,
+        note="docs/wearer.md",
     )
 )
