@@ -72,6 +72,7 @@ def add_terms_argument(p: argparse.ArgumentParser) -> None:
         "(fs·sign(v)·exp(−(|v|/v_s)^δ), on top of fc); position ripple: ripple (sin and cos of r·q, "
         "ripple_s1, ripple_c1), ripple2 or ripple3 (2 or 3 harmonics; r: --ripple-periods or the drives' "
         "ratio); fl (load-dependent Coulomb, fl·|τ_load|·sign(dq), τ_load the URDF's rigid-body torque); "
+        "fsig (sigmoid friction of Gaz 2019, fsig·(σ(φ2·(dq+φ3)) − σ(φ2·φ3)); shape: --sigmoid-shape); "
         "'none' for none; 'auto' (identify): chosen on the training recordings by forward selection; "
         "default fc,fv",
     )

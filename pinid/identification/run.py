@@ -118,6 +118,7 @@ class Setup:
     cutoff: dict | None = None  # the cut-off chosen by cross-validation (data["cutoff"]) when asked for "auto"
     terms_choice: dict | None = None  # the terms chosen by cross-validation (data["terms_choice"]) for "auto"
     ripple: dict | None = None  # the ripple periods chosen by cross-validation (data["ripple_periods"]) for "auto"
+    sigmoid: dict | None = None  # the sigmoid friction's shapes fitted for "auto" (data["sigmoid"])
 
 
 def setup(
@@ -185,6 +186,11 @@ def setup(
 
         ripple = choose_ripple_periods(model, train, terms, fit_joints=fitted, problem_options=rows)
         model = model.with_setting("ripple_periods", ripple.periods)
+    sigmoid = None
+    if _is_auto(model.setting("sigmoid")):  # the sigmoid friction's shape (identification.sigmoid)
+        from pinid.identification.sigmoid import fit_sigmoid  # loaded on use (scipy.optimize)
+
+        model, sigmoid = fit_sigmoid(model, train, terms, fit_joints=fitted, problem_options=rows)
     warn_if_large_recordings(model, terms, train)
     if validate is None:
         val = {}
@@ -284,6 +290,7 @@ def setup(
         chosen and chosen.to_dict(),
         terms_choice and terms_choice.to_dict(),
         ripple and ripple.to_dict(),
+        sigmoid,
     )
 
 
@@ -614,6 +621,8 @@ def identify(
         summary["terms_choice"] = s.terms_choice
     if s.ripple is not None:
         summary["ripple_periods"] = s.ripple
+    if s.sigmoid is not None:
+        summary["sigmoid"] = s.sigmoid
     if manifest is not None:
         summary["manifest"] = str(getattr(manifest, "path", manifest))
     return Identification(

@@ -85,6 +85,7 @@ TERM_MODULES: dict[str, str] = {
     "passive": "pinid.wearer.passive",
     **{f"ripple_{p}{k}": "pinid.model.terms_ripple" for k in (1, 2, 3) for p in "sc"},
     "fl": "pinid.model.terms_load",
+    "fsig": "pinid.model.terms_sigmoid",
 }
 #: Selection names that stand for several terms (``--terms ripple``): the position ripple's harmonics
 #: (:mod:`pinid.model.terms_ripple`: one term per sine and cosine amplitude of each harmonic).
