@@ -9,7 +9,8 @@ only the shapes enter nonlinearly.  :func:`fit_sigmoid` (``--sigmoid-shape auto`
 2. joint ``j``'s column ``s`` is non-zero on its own rows only, so the residual of the fit with it is
    ``‖y‖² − (sᵀy)² / (sᵀs − ‖Qᵀs‖²)``: a cost of (its rows × columns) per candidate shape;
 3. a grid of :data:`STEEP_GRID` × :data:`OFFSET_GRID` candidates over ``log φ2 ∈`` :data:`STEEP` / speed and
-   ``φ3 ∈ ±``:data:`OFFSET_SPAN` × speed (speed: the joint's largest) picks the best cell (on the first visit; later ones start from the current shape); Nelder–Mead refines.
+   ``φ3 ∈ ±``:data:`OFFSET_SPAN` × speed (speed: the joint's largest) picks the best cell (on the first visit; later ones start from the current shape); Nelder–Mead refines
+   within the same bounds (outside them the column tends to a multiple of ``fv``'s or ``fc``'s).
 
 The joints are visited in turn (Gauss–Seidel) until no shape moves by more than :data:`SWEEP_TOL` (relative), at
 most :data:`SWEEPS` times, from the model's shapes (the default when ``"auto"``).  A joint whose column is (nearly) in the span of the others keeps its start (``fitted: false``).
@@ -34,7 +35,8 @@ from pinid.problem.problem import IdentificationProblem, check_dataset
 STEEP = (2.0, 2000.0)  # range of φ2·(the joint's largest speed): transition widths from ~2× to 1/1000 of it
 STEEP_GRID = 13
 OFFSET_SPAN, OFFSET_GRID = 0.05, 9  # φ3 within ± this fraction of the joint's largest speed; its candidates
-SWEEPS, SWEEP_TOL = 6, 1e-6  # at most this many visits of every joint; stop when no shape moves more (relative)
+SWEEPS, SWEEP_TOL = 4, 1e-5  # at most this many visits of every joint; stop when no shape moves more (relative)
+MAXITER = 400  # Nelder–Mead's iterations per visit
 XTOL = 1e-7  # Nelder–Mead's tolerance on (log φ2, φ3/speed)
 
 
@@ -134,7 +136,8 @@ def fit_shapes(problem: IdentificationProblem, datasets: Sequence[Dataset], *, s
                 residual,
                 start,
                 method="Nelder-Mead",
-                options={"xatol": XTOL, "fatol": 1e-14 * max(yy, 1e-300), "maxiter": 2000},
+                bounds=[tuple(np.log(STEEP)), (-OFFSET_SPAN, OFFSET_SPAN)],
+                options={"xatol": XTOL, "fatol": 1e-14 * max(yy, 1e-300), "maxiter": MAXITER},
             )
             evaluations += len(grid) + int(opt.nfev)
             best = min(float(opt.fun), min(costs))
