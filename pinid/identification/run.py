@@ -144,7 +144,8 @@ def setup(
     (``model.with_stribeck``), the caller's is left as it is.
     ``fit_joints``: the joints whose torque rows enter the fit (default all); ``delay``: the torque
     channels' delay behind the positions (:func:`pinid.data.delay.parse_delay`; ``"auto"`` estimated on the
-    training recordings, :mod:`pinid.identification.delay`), applied to every recording."""
+    training recordings, ``"auto-per-joint"`` one per channel, :mod:`pinid.identification.delay`), applied to
+    every recording."""
     auto_terms = _is_auto(terms)
     model, terms = as_robot(model), TermSelection() if auto_terms else as_terms(terms)  # resolved ones as they are
     auto = dict(stribeck_auto or {})
@@ -212,8 +213,9 @@ def setup(
                 rest_velocity=rest_velocity,
                 rest_fraction=rest_fraction,
                 fit_joints=fit_joints,
+                per_joint=delays == "auto-per-joint",
             )
-            delays = np.full(model.nv, used_delay["delay"])
+            delays = np.asarray(used_delay.pop("per_joint_delays", np.full(model.nv, used_delay["delay"])))
         used_delay = {
             **(used_delay or {}),
             "estimated": used_delay is not None,
