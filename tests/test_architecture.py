@@ -156,7 +156,19 @@ def test_no_private_names_imported_across_modules():
 #: lower folder's registry (the wearer's passive term: pyproject.toml, pinid.plugins), or is handed in by its
 #: caller (the twin's wearer).
 LAYERS: list[str] = [
-    *("errors", "blas", "memory", "progress", "parallel", "io", "result_protocol", "checks", "linalg", "resources", "plugins"),
+    *(
+        "errors",
+        "blas",
+        "memory",
+        "progress",
+        "parallel",
+        "io",
+        "result_protocol",
+        "checks",
+        "linalg",
+        "resources",
+        "plugins",
+    ),
     *("model", "data", "problem", "optimizers", "estimators", "report", "excitation", "identification"),
     *("simulation", "control", "wearer", "flexible", "cli", "docgen", "__main__"),
 ]

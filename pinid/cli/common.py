@@ -192,10 +192,10 @@ def add_recording_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--delay",
         default=None,
-        metavar="tau=SECONDS|auto",
+        metavar="tau=SECONDS|auto|auto-per-joint",
         help="seconds by which the torque channels lag the positions (tau=0.04, per joint "
-        "tau.knee=0.04), or auto: estimated on the training recordings by a 1-D search in ±0.2 s "
-        "(docs/data.md); applied to every recording",
+        "tau.knee=0.04), or auto: one delay estimated on the training recordings by a 1-D search in ±0.2 s, "
+        "or auto-per-joint: one per torque channel (docs/data.md); applied to every recording",
     )
 
 

@@ -101,6 +101,7 @@ STAGE1_ONLY = (
     ("stribeck_velocity", "--stribeck-velocity"),
     ("stribeck_shape", "--stribeck-shape"),
     ("ripple_periods", "--ripple-periods"),
+    ("sigmoid_shape", "--sigmoid-shape"),
 )
 #: Options of stage 2 that stage 1 does not use.
 STAGE2_ONLY = (
@@ -216,6 +217,14 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "(A1=160,A2=100), or auto (chosen by blocked cross-validation on the training recordings); default the "
         "drives' reduction ratio; saved with the model (docs/identification.md)",
     )
+    p.add_argument(
+        "--sigmoid-shape",
+        default=None,
+        metavar="PHI2,PHI3|JOINT=PHI2:PHI3,…|auto",
+        help="sigmoid friction (--terms fsig): steepness φ2 [s/rad] > 0 and velocity offset φ3 [rad/s] of every "
+        "joint, per joint (A1=40:0.01,A2=60:0), or auto (fitted per joint by a 2-D search around the linear "
+        "fit); default 40,0; saved with the model (docs/identification.md)",
+    )
     p.set_defaults(methods=None, terms=None, prior_weight=None)  # given or not (STAGE1_ONLY, STAGE2_ONLY)
     p.add_argument("--no-report", action="store_true", help="do not write report.md, report.html and the figures")
     p.add_argument(
@@ -250,8 +259,13 @@ def _options(args, methods) -> dict:
 
 
 def _model(args: argparse.Namespace):
-    """The robot of the options, with the ripple terms' periods (--ripple-periods) as its setting."""
+    """The robot of the options, with the ripple terms' periods (--ripple-periods) and the sigmoid friction's
+    shape (--sigmoid-shape) as its settings."""
     model = robot_from_args(args)
+    if args.sigmoid_shape is not None:
+        from pinid.model.terms_sigmoid import shape_from_text  # the plug-in term, loaded on use
+
+        model = model.with_setting("sigmoid", shape_from_text(args.sigmoid_shape))
     if args.ripple_periods is None:
         return model
     if args.ripple_periods.strip().lower() == "auto":  # chosen by cross-validation (identification.ripple_choice)
@@ -377,6 +391,7 @@ def _run_floating(args: argparse.Namespace, out: Path) -> int:
             "stribeck_velocity",
             "stribeck_shape",
             "ripple_periods",
+            "sigmoid_shape",
             "force_export",
         )
         if getattr(args, k, None)

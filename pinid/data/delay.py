@@ -7,8 +7,8 @@ aligns a recording this way (linear interpolation of each torque channel at ``t 
 leads.  A delay that is a whole number of sample steps moves the samples as they are.
 
 A delay is given as seconds for every torque channel (``0.04``, ``"tau=0.04"``), per joint
-(``"tau.knee=0.04,tau.hip=0.02"``, ``{"knee": 0.04}``) or ``"auto"`` (``"tau=auto"``: estimated on the
-training recordings, :mod:`pinid.identification.delay`).
+(``"tau.knee=0.04,tau.hip=0.02"``, ``{"knee": 0.04}``), ``"auto"`` (``"tau=auto"``: one delay estimated on the
+training recordings, :mod:`pinid.identification.delay`) or ``"auto-per-joint"`` (one estimated per channel).
 """
 
 from __future__ import annotations
@@ -29,8 +29,9 @@ _EXPECTED = "expected seconds by which the torque lags the positions: 0.04, tau=
 
 
 def parse_delay(spec, joints: Sequence[str]) -> np.ndarray | str | None:
-    """``None`` (no delay), ``"auto"`` or per-joint delays (nv,) [s] from a number, ``"tau=0.04"``,
-    ``"tau.knee=0.04,…"``, ``"auto"`` / ``"tau=auto"`` or ``{joint or "tau": seconds}``; SpecError (one line)
+    """``None`` (no delay), ``"auto"``, ``"auto-per-joint"`` or per-joint delays (nv,) [s] from a number,
+    ``"tau=0.04"``, ``"tau.knee=0.04,…"``, ``"auto"`` / ``"tau=auto"``, ``"auto-per-joint"`` or
+    ``{joint or "tau": seconds}``; SpecError (one line)
     for anything else, an unknown joint or a value that is not a finite number of at most :data:`MAX_DELAY`."""
     if spec is None:
         return None
@@ -39,6 +40,8 @@ def parse_delay(spec, joints: Sequence[str]) -> np.ndarray | str | None:
         text = spec.strip()
         if text.lower() in ("auto", "tau=auto"):
             return "auto"
+        if text.lower() in ("auto-per-joint", "tau=auto-per-joint"):
+            return "auto-per-joint"
         items: dict = {}
         for part in (p.strip() for p in text.split(",") if p.strip()):
             key, sep, value = part.partition("=")
@@ -70,7 +73,10 @@ def parse_delay(spec, joints: Sequence[str]) -> np.ndarray | str | None:
                 )
             target = [joints.index(name)]
         if isinstance(value, str) and value.strip().lower() == "auto":
-            raise SpecError(f"delay {key}=auto: 'auto' estimates one delay for every torque channel; give tau=auto")
+            raise SpecError(
+                f"delay {key}=auto: 'auto' estimates one delay for every torque channel; give tau=auto, or "
+                "auto-per-joint for one delay per channel"
+            )
         try:
             number = float(value)
         except (TypeError, ValueError):

@@ -7,7 +7,7 @@ gains).  So one file can give a training and a validation range without a conver
     description = "UR-like arm, run 3"      # optional
     drives = "drives.toml"                  # optional: replaces the URDF's transmissions
     payload = "payload.toml"                # with role = "payload" recordings: drive gains from currents
-    delay = 0.04                            # optional: torque delay [s], "auto", or { tau = 0.04 }
+    delay = 0.04                            # optional: torque delay [s], "auto", "auto-per-joint" or { tau = 0.04 }
     fit_joints = ["shoulder", "elbow"]      # optional: joints whose torque rows enter the fit
     allow_overlap = false                   # optional: true turns overlapping ranges into a warning
 

@@ -118,6 +118,7 @@ class Setup:
     cutoff: dict | None = None  # the cut-off chosen by cross-validation (data["cutoff"]) when asked for "auto"
     terms_choice: dict | None = None  # the terms chosen by cross-validation (data["terms_choice"]) for "auto"
     ripple: dict | None = None  # the ripple periods chosen by cross-validation (data["ripple_periods"]) for "auto"
+    sigmoid: dict | None = None  # the sigmoid friction's shapes fitted for "auto" (data["sigmoid"])
 
 
 def setup(
@@ -143,7 +144,8 @@ def setup(
     (``model.with_stribeck``), the caller's is left as it is.
     ``fit_joints``: the joints whose torque rows enter the fit (default all); ``delay``: the torque
     channels' delay behind the positions (:func:`pinid.data.delay.parse_delay`; ``"auto"`` estimated on the
-    training recordings, :mod:`pinid.identification.delay`), applied to every recording."""
+    training recordings, ``"auto-per-joint"`` one per channel, :mod:`pinid.identification.delay`), applied to
+    every recording."""
     auto_terms = _is_auto(terms)
     model, terms = as_robot(model), TermSelection() if auto_terms else as_terms(terms)  # resolved ones as they are
     auto = dict(stribeck_auto or {})
@@ -185,6 +187,11 @@ def setup(
 
         ripple = choose_ripple_periods(model, train, terms, fit_joints=fitted, problem_options=rows)
         model = model.with_setting("ripple_periods", ripple.periods)
+    sigmoid = None
+    if _is_auto(model.setting("sigmoid")):  # the sigmoid friction's shape (identification.sigmoid)
+        from pinid.identification.sigmoid import fit_sigmoid  # loaded on use (scipy.optimize)
+
+        model, sigmoid = fit_sigmoid(model, train, terms, fit_joints=fitted, problem_options=rows)
     warn_if_large_recordings(model, terms, train)
     if validate is None:
         val = {}
@@ -206,8 +213,9 @@ def setup(
                 rest_velocity=rest_velocity,
                 rest_fraction=rest_fraction,
                 fit_joints=fit_joints,
+                per_joint=delays == "auto-per-joint",
             )
-            delays = np.full(model.nv, used_delay["delay"])
+            delays = np.asarray(used_delay.pop("per_joint_delays", np.full(model.nv, used_delay["delay"])))
         used_delay = {
             **(used_delay or {}),
             "estimated": used_delay is not None,
@@ -284,6 +292,7 @@ def setup(
         chosen and chosen.to_dict(),
         terms_choice and terms_choice.to_dict(),
         ripple and ripple.to_dict(),
+        sigmoid,
     )
 
 
@@ -614,6 +623,8 @@ def identify(
         summary["terms_choice"] = s.terms_choice
     if s.ripple is not None:
         summary["ripple_periods"] = s.ripple
+    if s.sigmoid is not None:
+        summary["sigmoid"] = s.sigmoid
     if manifest is not None:
         summary["manifest"] = str(getattr(manifest, "path", manifest))
     return Identification(

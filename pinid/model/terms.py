@@ -84,7 +84,7 @@ class Term:
 #: passive moments, a layer above; the position ripple and the load-dependent friction, loaded when used).
 #: Each is an entry point of the group ``pinid.terms`` (pyproject.toml), loaded the first time the term is
 #: asked for (:class:`pinid.plugins.Registry`); its place in the column order is kept from the start.
-PLUGIN_TERMS: tuple[str, ...] = ("passive", *(f"ripple_{p}{k}" for k in (1, 2, 3) for p in "sc"), "fl")
+PLUGIN_TERMS: tuple[str, ...] = ("passive", *(f"ripple_{p}{k}" for k in (1, 2, 3) for p in "sc"), "fl", "fsig")
 #: Selection names that stand for several terms (``--terms ripple``): the position ripple's harmonics
 #: (:mod:`pinid.model.terms_ripple`: one term per sine and cosine amplitude of each harmonic).
 TERM_GROUPS: dict[str, tuple[str, ...]] = {
