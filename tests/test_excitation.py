@@ -501,3 +501,34 @@ def test_a_polish_on_a_coarser_grid_still_meets_the_limits_on_the_full_grid(exo)
     problem = DesignProblem(exo, result.spec)
     A, b = problem.linear_constraints()
     assert np.all(A @ problem.variables(result.trajectory) <= b + 1e-9)
+
+
+def test_a_long_design_says_its_expected_time_before_it_runs(monkeypatch, capsys):
+    """Issue 35: a design expected to take more than ``LONG`` seconds says so on stderr once, after its first
+    search start and before the rest (here LONG is 0, so any design is long)."""
+    import pinid.excitation.design as design
+
+    monkeypatch.setattr(design, "LONG", 0.0)
+    said_before_polish = []
+    real = design._local_search
+
+    def watch(problem, x, maxiter, ftol, stop=None):
+        if stop is None:  # a polish: the expected time was said before
+            said_before_polish.append("pinid: slsqp: about" in capsys.readouterr().err)
+        return real(problem, x, maxiter, ftol, stop)
+
+    monkeypatch.setattr(design, "_local_search", watch)
+    leg = RobotModel.from_urdf("exo_leg")
+    design.design_excitation(leg, options={**FAST, "starts": 3, "workers": 1}, seed=0, progress=True)
+    assert said_before_polish and said_before_polish[0], said_before_polish
+
+
+def test_the_design_problems_regressor_is_the_public_one():
+    """DesignProblem stacks the regressor without the public function's argument checks: the same numbers."""
+    for name, terms in (("exo_leg", TermSelection()), ("exo_leg", TermSelection.from_names("fc,fv,offset"))):
+        model = RobotModel.from_urdf(name)
+        spec = spec_for(model).replace(terms=terms)
+        problem = DesignProblem(model, spec)
+        rng = np.random.default_rng(1)
+        q, dq, ddq = (rng.standard_normal((7, model.nv)) for _ in range(3))
+        assert np.array_equal(problem._stacked(q, dq, ddq), regressor(model, q, dq, ddq, terms))

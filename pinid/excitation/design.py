@@ -411,7 +411,8 @@ def _local_search(
         g = gradient(x)[1]
         return np.where(np.isfinite(g), g, 0.0)
 
-    constraints = [{"type": "ineq", "fun": lambda x: b - A @ x, "jac": lambda x: -A}]
+    minus_A = -A  # once: SLSQP asks for the constraints' Jacobian at every iterate
+    constraints = [{"type": "ineq", "fun": lambda x: b - A @ x, "jac": lambda x: minus_A}]
     if torque:
         limit = problem.spec.torque
         finite = np.isfinite(np.tile(limit, len(problem.times)))
