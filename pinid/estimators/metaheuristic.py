@@ -58,7 +58,8 @@ import numpy as np
 from pinid.errors import SpecError
 from pinid.estimators.base import Estimator, Setting
 from pinid.estimators.rls import RLS
-from pinid.problem.problem import Problem, base_statistics
+from pinid.problem.problem import Problem
+from pinid.problem.statistics import base_statistics
 from pinid.linalg import solve_r, weighted_lstsq
 from pinid.optimizers import get_optimizer
 

@@ -39,8 +39,8 @@ from pinid.errors import SolverError, SpecError
 from pinid.estimators.base import Estimator, Setting, joint_weights
 from pinid.problem.problem import IdentificationProblem, Problem
 from pinid.linalg import augmented_r, solve_r
-from pinid.model.conic import CLARABEL_OPTIONS, ConicProblem
-from pinid.model.lmi import add_consistency_constraints, clip_terms, consistent_completion, null_projector
+from pinid.model.conic import ConicProblem
+from pinid.model.lmi import add_consistency_constraints, clip_terms, null_projector
 from pinid.model.physical import check_consistency, parameter_scale
 
 
@@ -194,4 +194,4 @@ class SDP(Estimator):
         return theta, {"status": status, "rows": sub.rows}
 
 
-__all__ = ["CLARABEL_OPTIONS", "SDP", "add_consistency_constraints", "consistent_completion"]
+__all__ = ["SDP"]

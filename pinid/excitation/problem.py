@@ -28,7 +28,7 @@ from pinid.model.base import BaseParameters, base_parameters
 from pinid.memory import check_fits
 from pinid.model.robot import RobotModel
 from pinid.model.regressor import regressor, standard_parameters
-from pinid.model.terms import count as _term_count
+from pinid.model.terms import term_count
 from pinid.excitation.trajectory import FourierTrajectory
 from pinid.excitation.spec import ExcitationSpec
 from pinid.excitation.evaluation import clean_rest, sample_times
@@ -390,7 +390,7 @@ class DesignProblem:
             return self._term_d
         nv, terms = self.nv, self.spec.terms
         nt = len(terms.joint)
-        D = np.zeros((3 * nv, nv, _term_count(self.model, terms)))
+        D = np.zeros((3 * nv, nv, term_count(self.model, terms)))
         for t, term in enumerate(terms.joint):
             for j in range(nv):
                 col = j * nt + t
