@@ -9,7 +9,7 @@ consistency can be imposed on every body.  Problem::
                 m_lo ≤ m_i ≤ m_hi                              optional mass bounds
 
 * The data term is ‖W_b·P·θ − τ‖ (rows weighted), compressed by one pass over the column-scaled
-  ``[W_b | τ]`` (:func:`~pinid.estimators.base.augmented_r`): ``‖W_b x − τ‖² = ‖R·C·x − c‖² + ρ²`` with
+  ``[W_b | τ]`` (:func:`~pinid.linalg.augmented_r`): ``‖W_b x − τ‖² = ‖R·C·x − c‖² + ρ²`` with
   ``R`` only nb × nb, so the solver never sees the tall regressor (docs/benchmarks.md, memory).  It is the *norm* of the excess
   residual, not its square: the minimiser is the same, but the cost has a kink where the excess is
   zero, so when the least-squares solution is physically realisable it is returned exactly (an exact

@@ -97,7 +97,7 @@ class SubProblem:
         return len(self.tau)
 
     def compressed(self, weights: np.ndarray | None = None):
-        """``(R, c, rho, scale)`` of :func:`pinid.estimators.base.augmented_r`, cached for the own weights."""
+        """``(R, c, rho, scale)`` of :func:`pinid.linalg.augmented_r`, cached for the own weights."""
         if weights is not None and weights is not self.weights:
             return augmented_r(self.W, self.tau, weights)
         kept = self.cache.get("compressed")
