@@ -27,7 +27,7 @@ _EXPORTS = {
     "INERTIAL_NAMES": "pinid.model.robot",
     "RobotModel": "pinid.model.robot",
     "FloatingRobotModel": "pinid.model.floating",
-    "TermSelection": "pinid.model.regressor",
+    "TermSelection": "pinid.model.terms",
     "JointTerms": "pinid.model.terms",  # TermSelection's old name: a DeprecationWarning, for one release
     "joint_torque": "pinid.model.regressor",
     "parameter_names": "pinid.model.regressor",

@@ -120,7 +120,17 @@ def option_numbers(options, where: str) -> None:
             )
 
 
-__all__ = ["as_floats", "as_state", "as_states", "as_vector", "count", "number", "option_numbers", "same_length"]
+__all__ = [
+    "array_like",
+    "as_floats",
+    "as_state",
+    "as_states",
+    "as_vector",
+    "count",
+    "number",
+    "option_numbers",
+    "same_length",
+]
 
 
 def array_like(x, name: str):

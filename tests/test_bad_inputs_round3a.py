@@ -20,7 +20,8 @@ from pinid.identification.identified import IdentifiedModel
 from pinid.io import Artefacts, toml_loads
 from pinid.model.base import base_parameters
 from pinid.model.drives import Drives, Transmission
-from pinid.model.regressor import TermSelection, parameter_names, standard_parameters
+from pinid.model.regressor import parameter_names, standard_parameters
+from pinid.model.terms import TermSelection
 from pinid.model.robot import RobotModel
 from pinid.wearer.attach import wearer_urdf
 

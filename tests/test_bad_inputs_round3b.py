@@ -430,7 +430,8 @@ def test_named_api_cases(tmp_path, recording):
     from pinid import RobotModel, identify
     from pinid.excitation.evaluation import condition_number
     from pinid.identification.gains import Payload
-    from pinid.simulation.twin import simulate, zha2019_trajectory
+    from pinid.simulation.twin import simulate
+    from pinid.simulation.trajectories import zha2019_trajectory
     from pinid.wearer.anthropometry import segment
 
     leg = load("exo_leg")
@@ -581,7 +582,7 @@ def test_memory_warning_for_large_recordings(monkeypatch):
     import pinid.memory as memory
     from pinid.errors import DataWarning
     from pinid.identification.run import bytes_per_sample, warn_if_large_recordings
-    from pinid.model.regressor import TermSelection
+    from pinid.model.terms import TermSelection
 
     leg = load("exo_leg")
     per = bytes_per_sample(leg, TermSelection())

@@ -8,17 +8,12 @@ import pytest
 
 import pinid.problem.problem as problem_module
 from pinid.estimators import make_estimator
-from pinid.problem.problem import (
-    IdentificationProblem,
-    RegressorRows,
-    check_dataset,
-    rest_threshold,
-    stack_rows,
-)
+from pinid.problem.problem import IdentificationProblem, RegressorRows, check_dataset, stack_rows
+from pinid.problem.rows import rest_threshold
 from pinid.identification.result import make_result
 from pinid.identification.run import identify
 from pinid.linalg import augmented_r, cholesky_r
-from pinid.model.regressor import TermSelection
+from pinid.model.terms import TermSelection
 
 from test_identification import truth_model, twin
 

@@ -11,8 +11,9 @@ from pinid.identification.compare import DETERMINISTIC, Comparison, compare, lad
 from pinid.errors import SpecError
 from pinid.estimators.metaheuristic import training_costs
 from pinid.problem.problem import IdentificationProblem
-from pinid.model.regressor import TermSelection, standard_parameters
-from pinid.simulation.twin import perturb
+from pinid.model.regressor import standard_parameters
+from pinid.model.terms import TermSelection
+from pinid.simulation.cad import perturb
 
 from conftest import assert_clean_error, run_cli
 from test_identification import true_base, truth_model, twin

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pinid.control.controllers import Backstepping, ComputedTorque, nominal_model, track
+from pinid.control.controllers import Backstepping, ComputedTorque, Tracking, nominal_model, track
 from pinid.errors import SpecError
 from pinid.excitation.trajectory import FourierTrajectory
 
@@ -16,7 +16,7 @@ REF = FourierTrajectory(["hip", "knee"], 0.5 * np.pi, [0.61, -0.87], [[0.5], [0.
 @pytest.mark.parametrize("controller", [Backstepping, ComputedTorque])
 def test_exact_model_tracks_to_noise_level(exo, controller):
     noise = 1e-4  # rad
-    r = track(exo, controller(nominal_model(exo)), REF, seconds=3, position_noise=noise, seed=1)
+    r = track(exo, controller(nominal_model(exo)), REF, Tracking(3, position_noise=noise, seed=1))
     for name, m in r.metrics(after=1.0).items():
         assert m["rms"] < 3 * noise, (name, m)
     # inside Table 2 all along
@@ -30,7 +30,7 @@ def test_backstepping_lyapunov_decreases_noise_free(exo):
     control period, which no sampled controller can cancel (V then rises by ~1e-5·V0 at reversals)."""
     plant = exo.with_inertial_parameters(exo.inertial_parameters(), coulomb=np.zeros(2))
     ctrl = Backstepping(nominal_model(plant), K1=5.0, K2=10.0, friction_from="measured")
-    r = track(plant, ctrl, REF, seconds=1.5, lyapunov=True, rate=1000, substeps=4)
+    r = track(plant, ctrl, REF, Tracking(1.5, rate=1000, substeps=4), lyapunov=True)
     V = r.lyapunov
     assert V[0] > 0.1
     assert np.all(np.diff(V) < 1e-8 * V[0]), np.diff(V).max()  # zero-order-hold rounding only
@@ -41,8 +41,8 @@ def test_wrong_model_tracks_worse(exo):
     rng = np.random.default_rng(0)
     theta = exo.inertial_parameters() * (1 + 0.3 * rng.choice([-1, 1], size=20))
     wrong = nominal_model(exo.with_inertial_parameters(theta), friction=False)
-    good = track(exo, ComputedTorque(nominal_model(exo)), REF, seconds=3).metrics(after=1.0)
-    bad = track(exo, ComputedTorque(wrong), REF, seconds=3).metrics(after=1.0)
+    good = track(exo, ComputedTorque(nominal_model(exo)), REF, Tracking(3)).metrics(after=1.0)
+    bad = track(exo, ComputedTorque(wrong), REF, Tracking(3)).metrics(after=1.0)
     for j in ("hip", "knee"):
         assert bad[j]["rms"] > 10 * good[j]["rms"]
 

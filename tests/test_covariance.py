@@ -8,7 +8,8 @@ import pytest
 from pinid.estimators import make_estimator
 from pinid.identification.result import make_result
 from pinid.problem.covariance import andrews_bandwidth, bartlett_long_run, hac_covariance
-from pinid.problem.problem import IdentificationProblem, base_statistics
+from pinid.problem.problem import IdentificationProblem
+from pinid.problem.statistics import base_statistics
 
 from test_identification import truth_model, twin
 

@@ -14,7 +14,7 @@ from pinid.errors import SpecError
 from pinid.identification.cutoff import CutoffChoice, candidate_cutoffs, choose_cutoff
 from pinid.identification.run import identify
 from pinid.model.base import base_parameters
-from pinid.model.regressor import TermSelection
+from pinid.model.terms import TermSelection
 from pinid.problem.problem import prepare_dataset
 from test_identification import fourier_motion, truth_model
 

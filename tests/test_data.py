@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from conftest import assert_clean_error, load, run_cli
-from pinid.data.formats import DataWarning, format_spec, read_recording, write_recording
+from pinid.errors import DataWarning
+from pinid.data.formats import format_spec, read_recording, write_recording
 from pinid.data.dataset import Dataset
 from pinid.errors import DataError, SpecError
 from pinid.data.mapping import MappingSpec

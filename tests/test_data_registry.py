@@ -64,7 +64,7 @@ def test_unknown_suffixes_name_the_registered_ones(tmp_path):
 
 
 def test_flexible_recordings_use_the_same_readers_and_writers(tmp_path):
-    from pinid.flexible.output_error import FlexRecording
+    from pinid.flexible.recording import FlexRecording
 
     t = np.arange(20) * 0.01
     rec = FlexRecording(t, np.sin(t)[:, None], np.cos(t)[:, None], ["j"], qm=np.cos(2 * t)[:, None])

@@ -83,7 +83,7 @@ def test_sdp_stays_consistent_where_ols_is_not(arm_problem):
     ols = OLS().fit(arm_problem)
     names = arm_problem.model.joint_names
     # OLS's base parameters are not realisable: no consistent standard set reproduces them
-    from pinid.estimators.sdp import consistent_completion
+    from pinid.model.lmi import consistent_completion
 
     theta, why = consistent_completion(arm_problem, ols.base_)
     assert theta is None and why

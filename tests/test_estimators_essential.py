@@ -9,7 +9,7 @@ from pinid.errors import SpecError
 from pinid.estimators import ESTIMATORS, make_estimator
 from pinid.estimators.essential import Essential
 from pinid.identification.result import make_result
-from pinid.model.regressor import TermSelection
+from pinid.model.terms import TermSelection
 from pinid.problem.problem import IdentificationProblem
 
 from test_identification import relative_errors, true_base, truth_model, twin

@@ -15,7 +15,7 @@ from conftest import load
 
 def perturbed_theta(model, terms, seed=0):
     """A consistent standard vector different from the URDF's (each body's mass distribution moved)."""
-    from pinid.simulation.twin import perturb
+    from pinid.simulation.cad import perturb
 
     theta = standard_parameters(perturb(model, 20.0, np.random.default_rng(seed)), terms)
     theta[10 * model.nv :] = np.random.default_rng(seed).uniform(0.05, 0.5, model.nv * len(terms))

@@ -13,19 +13,19 @@ import pinocchio as pin
 import pytest
 
 from pinid import DataError, JointError, RobotModel, SpecError
-from pinid.flexible.model import Drive, FlexibleModel, TrigDynamics, flexible_model
+from pinid.flexible.model import Drive, FlexibleModel, flexible_model
+from pinid.flexible.link import TrigDynamics
+from pinid.flexible.recording import FlexRecording
 from pinid.flexible.output_error import (
-    FlexRecording,
     OutputErrorProblem,
-    OutputErrorResult,
     classify,
     fit_output_error,
-    load_flex_spec,
     make_twin,
-    methods,
     problem_from_spec,
     sensitivity,
 )
+from pinid.flexible.result import OutputErrorResult
+from pinid.flexible.spec import load_flex_spec, methods
 
 from conftest import assert_clean_error, load, run_cli
 

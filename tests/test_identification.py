@@ -19,7 +19,8 @@ from pinid.errors import DataError, SpecError
 from pinid.identification.metrics import METRIC_NAMES
 from pinid.identification.result import Identification, IdentificationResult
 from pinid.identification.run import identify
-from pinid.problem.problem import IdentificationProblem, rest_thresholds
+from pinid.problem.problem import IdentificationProblem
+from pinid.problem.rows import rest_thresholds
 
 from conftest import assert_clean_error, load, run_cli, shared_data
 

@@ -20,7 +20,8 @@ from pinid import RobotModel
 from pinid.data.dataset import Dataset
 from pinid.data.formats import write_recording
 from pinid.identification.run import identify
-from pinid.model.regressor import TermSelection, regressor, standard_parameters
+from pinid.model.regressor import regressor, standard_parameters
+from pinid.model.terms import TermSelection
 
 SAMPLES = (10_000, 40_000)
 #: Bytes per sample allowed (measured 2026-11-27: 57; what the data path holds at its peak, about 110 B:

@@ -15,7 +15,7 @@ from pinid.model.bundled import example_robot_data_dir
 from pinid.model.physical import com_inertia
 from pinid.model.mjcf import exported_pin_model, identified_mjcf, joint_fields
 from pinid.model.terms import values as term_values
-from pinid.simulation.twin import perturb
+from pinid.simulation.cad import perturb
 
 from conftest import assert_clean_error, load, run_cli
 

@@ -17,7 +17,7 @@ from pinid.data.formats import write_recording
 from pinid.errors import PinidError, SpecError
 from pinid.identification.compare import compare
 from pinid.parallel import check_workers, default_workers, run_parallel
-from pinid.simulation.twin import perturb
+from pinid.simulation.cad import perturb
 
 from conftest import assert_clean_error, run_cli
 from test_identification import true_base, truth_model, twin

@@ -7,7 +7,7 @@ import warnings
 import numpy as np
 import pytest
 
-from pinid.data.formats import DataWarning
+from pinid.errors import DataWarning
 from pinid.data.dataset import Dataset
 from pinid.errors import DataError, SpecError
 from pinid.data.preprocess import PRESETS, default_cutoff, prepare

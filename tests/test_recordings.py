@@ -22,7 +22,8 @@ from pinid.data.formats import write_recording
 from pinid.data.manifest import Manifest
 from pinid.errors import DataError, ModelError, ModelWarning, SpecError
 from pinid.identification.delay import estimate_delay
-from pinid.problem.problem import IdentificationProblem, motor_kept_rows, rest_thresholds
+from pinid.problem.problem import IdentificationProblem
+from pinid.problem.rows import motor_kept_rows, rest_thresholds
 from pinid.identification.outputs import identification_text
 from pinid.identification.run import identify
 from pinid.model.robot import RobotModel, nearest_physical_inertia

@@ -15,12 +15,13 @@ import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
-from pinid.control.controllers import ComputedTorque, nominal_model, track  # noqa: E402
+from pinid.control.controllers import ComputedTorque, Tracking, nominal_model, track  # noqa: E402
 from pinid.errors import SpecError  # noqa: E402
 from pinid.excitation.design import design_excitation  # noqa: E402
 from pinid.excitation.spec import spec_for  # noqa: E402
 from pinid.excitation.trajectory import FourierTrajectory  # noqa: E402
-from pinid.flexible.output_error import fit_output_error, load_flex_spec, make_twin, problem_from_spec  # noqa: E402
+from pinid.flexible.output_error import fit_output_error, make_twin, problem_from_spec
+from pinid.flexible.spec import load_flex_spec
 from pinid.identification.compare import compare  # noqa: E402
 from pinid import Identification, identify  # noqa: E402
 from pinid.identification.result import IdentificationResult  # noqa: E402
@@ -141,7 +142,7 @@ def test_output_error_result_plots_cost_and_parameter_errors():
 
 def test_tracking_result_plots_position_error_torque(exo):
     ref = FourierTrajectory(["hip", "knee"], 0.5 * np.pi, [0.61, -0.87], [[0.5], [0.5]], [[0.0], [0.0]])
-    r = track(exo, ComputedTorque(nominal_model(exo)), ref, seconds=0.5)
+    r = track(exo, ComputedTorque(nominal_model(exo)), ref, Tracking(0.5))
     fig = r.plot()
     assert isinstance(fig, Figure) and visible(fig) == 3 * exo.nv  # rows q, error, torque; a column per joint
     assert titles(fig)[: exo.nv] == ["hip", "knee"]

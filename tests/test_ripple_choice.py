@@ -9,10 +9,11 @@ import pytest
 
 from pinid.errors import SpecError
 from pinid.identification.ripple_choice import choose_ripple_periods, is_auto
-from pinid.model.regressor import TermSelection
+from pinid.model.terms import TermSelection
 from pinid.model.robot import RobotModel
 from pinid.problem.problem import load_datasets
-from pinid.simulation.twin import load_trajectory, simulate
+from pinid.simulation.trajectories import load_trajectory
+from pinid.simulation.twin import simulate
 
 TERMS = TermSelection(names=["fc", "fv", "ripple_s1", "ripple_c1"])
 

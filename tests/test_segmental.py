@@ -77,7 +77,8 @@ def test_segmental_on_the_simulated_apal_leg_recovers_the_hip():
     """Seed 000's Table 1 trajectories 1 and 3 on the twin (closed loop, noise, 10 Hz zero-phase filter)."""
     from pinid import RobotModel
     from pinid.data.preprocess import prepare
-    from pinid.simulation.twin import load_trajectory, simulate
+    from pinid.simulation.trajectories import load_trajectory
+    from pinid.simulation.twin import simulate
 
     model = RobotModel.from_urdf("apal_leg")
     recs = {}

@@ -14,7 +14,9 @@ from pinid import base_parameters, parameter_names
 from pinid.data.formats import read_recording, write_recording
 from pinid.errors import SpecError
 from pinid.data.preprocess import lowpass, prepare
-from pinid.simulation.twin import ZHA2019_TABLE1, friction_torque, load_trajectory, perturb, simulate, truth_json
+from pinid.simulation.twin import ZHA2019_TABLE1, friction_torque, simulate, truth_json
+from pinid.simulation.trajectories import load_trajectory
+from pinid.simulation.cad import perturb
 from pinid.excitation.trajectory import FourierTrajectory
 
 

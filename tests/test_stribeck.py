@@ -17,7 +17,7 @@ from pinid.data.dataset import Dataset
 from pinid.errors import SpecError
 from pinid.identification.run import identify
 from pinid.identification.result import Identification
-from pinid.model.terms import Stribeck, parameter_names, stribeck_settings
+from pinid.model.terms import Stribeck, term_parameter_names, stribeck_settings
 from pinid.data.formats import write_recording
 
 from conftest import assert_clean_error, run_cli
@@ -40,7 +40,7 @@ def twin(m, terms: TermSelection, seconds=30.0, rate=200.0, seed=0, shape=SHAPE)
     t, q, dq, ddq = fourier_motion(m, seconds, rate, seed)
     tau = m.rnea(q, dq, ddq) + m.coulomb * np.sign(dq) + m.viscous * dq
     theta = standard_parameters(m, terms)
-    names = m.inertial_names + parameter_names(m, terms)
+    names = m.inertial_names + term_parameter_names(m, terms)
     if "fs" in terms:
         tau += FS * stribeck(dq, VS, shape)
         theta[[i for i, n in enumerate(names) if n in [f"{j}.fs" for j in m.joint_names]]] = FS

@@ -64,7 +64,7 @@ def check_term(name: str, m: RobotModel | None = None) -> None:
     sel = T.TermSelection(names=[name])
     q, dq, ddq = states(m, term.space)
     n_own = m.nv if term.space == "joint" else len(m.drives.motor_names)
-    names = T.parameter_names(m, sel)
+    names = T.term_parameter_names(m, sel)
     assert len(names) == n_own and all(p.endswith("." + term.suffix) for p in names)
 
     # regressor · (inertial, known values) = RNEA + the term's law, mapped into joint space

@@ -21,7 +21,8 @@ from pinid.model.base import base_parameters
 from pinid.model.robot import RobotModel
 from pinid.model.serialize import robot_from_dict, robot_to_dict
 from pinid.model.terms_ripple import periods
-from pinid.simulation.twin import load_trajectory, simulate
+from pinid.simulation.trajectories import load_trajectory
+from pinid.simulation.twin import simulate
 
 RIPPLE = {"ripple_s1": [0.3, -0.2], "ripple_c1": [-0.15, 0.25], "ripple_s2": [0.08, 0.05], "ripple_c2": [0.04, -0.06]}
 FL = [0.06, 0.09]  # load-dependent Coulomb per joint (dimensionless)
@@ -50,7 +51,7 @@ def twin(m: RobotModel, terms: dict, seconds: float = 6.0):
 
 def truth_theta(m: RobotModel, sel: T.TermSelection, terms: dict) -> np.ndarray:
     theta = np.concatenate([m.inertial_parameters(), T.nominal(m, sel)])
-    names = m.inertial_names + T.parameter_names(m, sel)
+    names = m.inertial_names + T.term_parameter_names(m, sel)
     for name, v in terms.items():
         for j, joint in enumerate(m.joint_names):
             theta[names.index(f"{joint}.{T.TERMS[name].suffix}")] = v[j]
@@ -124,7 +125,7 @@ def test_the_twin_simulates_the_term_and_identification_gives_it_back(case):
 def test_friction_of_the_identified_model_leaves_the_load_term_out_and_gravity_has_the_ripple():
     m = model()
     sel = T.TermSelection.from_names("fc,fv,ripple,fl")
-    theta = np.concatenate([m.inertial_parameters(), np.ones(T.count(m, sel))])
+    theta = np.concatenate([m.inertial_parameters(), np.ones(T.term_count(m, sel))])
     im = IdentifiedModel(m, sel, theta)
     dq = np.array([0.3, -0.4])
     np.testing.assert_allclose(im.friction(dq), np.sign(dq) + dq)

@@ -13,7 +13,8 @@ from pinid.errors import ModelError, PinidError
 from pinid.model.drives import urdf_transmissions
 from pinid.model.export import identified_urdf
 from pinid.model.mjcf import identified_mjcf
-from pinid.model.regressor import TermSelection, standard_parameters
+from pinid.model.regressor import standard_parameters
+from pinid.model.terms import TermSelection
 from pinid.model.robot import RobotModel
 from pinid.model.urdf import UrdfDocument
 from pinid.wearer.attach import wearer_links, wearer_urdf

@@ -12,7 +12,8 @@ import pytest
 from conftest import assert_clean_error, run_cli
 from pinid.identification.identified import IdentifiedModel
 from pinid.model.base import base_parameters
-from pinid.model.regressor import TermSelection, standard_parameters
+from pinid.model.regressor import standard_parameters
+from pinid.model.terms import TermSelection
 from pinid.model.robot import RobotModel
 from pinid.wearer.attach import wearer_urdf
 

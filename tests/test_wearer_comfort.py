@@ -14,7 +14,7 @@ from pinid.wearer import comfort
 
 
 def test_default_file_has_hip_knee_ankle():
-    c = comfort.read()
+    c = comfort.read_limits()
     assert set(c) == {"hip", "knee", "ankle"}
     assert c["knee"]["min"] >= 0 and c["hip"]["max"] <= 120  # inside the normal range of motion (AAOS)
     assert "Source" in comfort.default_path().read_text() or "Sources" in comfort.default_path().read_text()
@@ -23,7 +23,7 @@ def test_default_file_has_hip_knee_ankle():
 def test_design_limits_are_the_intersection(exo):
     spec = default_spec(exo)
     s = comfort.within_comfort(spec, exo)
-    c = comfort.read()
+    c = comfort.read_limits()
     # exo_leg: hip flexion positive (s = +1), knee flexion negative (s = −1)
     assert s.q_min[0] == max(spec.q_min[0], math.radians(c["hip"]["min"]))
     assert s.q_max[0] == min(spec.q_max[0], math.radians(c["hip"]["max"]))

@@ -112,7 +112,8 @@ def test_stage2_identifies_both_legs_of_the_wearer(tmp_path):
     scales comes back."""
     from pinid.identification.identified import IdentifiedModel
     from pinid.model.base import base_parameters
-    from pinid.model.regressor import TermSelection, regressor, standard_parameters
+    from pinid.model.regressor import regressor, standard_parameters
+    from pinid.model.terms import TermSelection
     from pinid.wearer.attach import ROBOT_ATTACH, wearer_urdf
     from pinid.wearer.prior import drawn, wearer_prior
     from pinid.wearer.stage import identify_wearer

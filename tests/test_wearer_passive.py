@@ -7,7 +7,8 @@ import pinocchio as pin
 import pytest
 
 from pinid.model.base import base_parameters
-from pinid.model.regressor import TermSelection, parameter_names, regressor, standard_parameters
+from pinid.model.regressor import parameter_names, regressor, standard_parameters
+from pinid.model.terms import TermSelection
 from pinid.model.robot import RobotModel
 from pinid.wearer import passive
 
@@ -42,11 +43,11 @@ def test_exo_leg_mapping_and_regressor_identity():
     assert "hip.kp" in names and "knee.kp" in names
     tau = (regressor(robot, q, dq, ddq, terms) @ theta).reshape(50, 2)
     want = np.array([pin.rnea(robot.pin_model, robot.pin_model.createData(), q[k], dq[k], ddq[k]) for k in range(50)])
-    want += robot.coulomb * np.sign(dq) + robot.viscous * dq - passive.torque(q, robot)
+    want += robot.coulomb * np.sign(dq) + robot.viscous * dq - passive.passive_torque(q, robot)
     np.testing.assert_allclose(tau, want, atol=1e-9)
     # knee flexion is negative on exo_leg: its anatomical knee angle is -q
     M = passive.moment("knee", np.degrees(q[:, 0]), np.degrees(-q[:, 1]), 0)
-    np.testing.assert_allclose(passive.torque(q, robot)[:, 1], -M)
+    np.testing.assert_allclose(passive.passive_torque(q, robot)[:, 1], -M)
 
 
 def test_scale_factors_recovered_by_least_squares():

@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from pinid.identification.identified import IdentifiedModel
-from pinid.model.regressor import TermSelection, regressor, standard_parameters
+from pinid.model.regressor import regressor, standard_parameters
+from pinid.model.terms import TermSelection
 from pinid.model.robot import RobotModel
 from pinid.wearer.attach import wearer_urdf
 from pinid.wearer.prior import drawn as _perturbed, wearer_prior

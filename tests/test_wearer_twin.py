@@ -8,12 +8,13 @@ import numpy as np
 import pytest
 
 from conftest import assert_clean_error, run_cli
-from pinid.data.formats import DataWarning
+from pinid.errors import DataWarning
 from pinid.errors import SpecError
 from pinid.model import terms as T
-from pinid.model.regressor import TermSelection
+from pinid.model.terms import TermSelection
 from pinid.model.robot import RobotModel
-from pinid.simulation.twin import load_trajectory, simulate
+from pinid.simulation.trajectories import load_trajectory
+from pinid.simulation.twin import simulate
 from pinid.wearer.attach import wearer_links, wearer_urdf
 
 
@@ -143,7 +144,7 @@ def test_model_with_passive_terms_for_control(worn):
 def test_track_plant_carries_the_wearer(worn):
     """pinid.control's plant applies the passive moments: a model without them tracks worse than with them."""
     from pinid.control.tracking import sine_reference
-    from pinid.control.controllers import ComputedTorque, nominal_model, track
+    from pinid.control.controllers import ComputedTorque, Tracking, nominal_model, track
     from pinid.identification.identified import IdentifiedModel
     from pinid.model.regressor import standard_parameters
 
@@ -152,6 +153,6 @@ def test_track_plant_carries_the_wearer(worn):
     full = IdentifiedModel(m, terms, standard_parameters(m, terms))
     ref = sine_reference(m)
     worn_by = wearer_links(m.urdf_text)  # the plant's wearer, handed to the twin
-    e_full = track(m, ComputedTorque(full), ref, seconds=2.0, wearer=worn_by).metrics(after=1.0)
-    e_rigid = track(m, ComputedTorque(nominal_model(m)), ref, seconds=2.0, wearer=worn_by).metrics(after=1.0)
+    e_full = track(m, ComputedTorque(full), ref, Tracking(2.0), wearer=worn_by).metrics(after=1.0)
+    e_rigid = track(m, ComputedTorque(nominal_model(m)), ref, Tracking(2.0), wearer=worn_by).metrics(after=1.0)
     assert all(e_rigid[j]["rms"] > 100 * e_full[j]["rms"] for j in m.joint_names)

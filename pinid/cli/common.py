@@ -13,10 +13,16 @@ from pinid.errors import SpecError
 from pinid.estimators import ESTIMATORS
 from pinid.identification.run import parse_methods
 from pinid.model.bundled import EXAMPLE_ROBOTS
-from pinid.model.regressor import TermSelection
+from pinid.model.terms import TermSelection
 from pinid.model.robot import RobotModel
 from pinid.model.terms import TERM_GROUPS, TERMS
 from pinid.resources import bundled_robots
+
+
+def names_text(names, conjunction: str = "or") -> str:
+    """Names as prose for help texts and messages: ``"ols, wls or sdp"``."""
+    names = list(names)
+    return names[0] if len(names) == 1 else f"{', '.join(names[:-1])} {conjunction} {names[-1]}"
 
 
 def add_robot_arguments(p: argparse.ArgumentParser, *, default: str | None = "exo_leg", base: bool = False) -> None:

@@ -9,6 +9,7 @@ from pathlib import Path
 
 from pinid.cli.common import (
     add_floating_arguments,
+    names_text,
     estimators_text,
     floating_inputs,
     add_mapping_arguments,
@@ -28,7 +29,7 @@ from pinid.cli.common import (
     terms_from_args,
 )
 from pinid.errors import SpecError
-from pinid.estimators import ESTIMATORS, names_text, quick_methods
+from pinid.estimators import ESTIMATORS, quick_methods
 from pinid.io import check_outputs
 from pinid.parallel import default_workers
 
@@ -113,7 +114,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "--box",
         choices=("nominal", "rls", "ls"),
         default=None,
-        help=f"search box of {', '.join(_with_box('nominal'))} ({names_text('and', _with_box('rls'))} always "
+        help=f"search box of {', '.join(_with_box('nominal'))} ({names_text(_with_box('rls'), 'and')} always "
         "searches its RLS box): nominal (default; "
         "around the URDF's values), rls (range of an RLS run), ls (around least squares — circular, "
         "for experiments)",
@@ -129,7 +130,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "--forgetting",
         type=float,
         default=None,
-        help=f"{names_text('and', ['rls', *_with_box('rls')])}: forgetting factor λ in (0, 1] (default 1)",
+        help=f"{names_text(['rls', *_with_box('rls')], 'and')}: forgetting factor λ in (0, 1] (default 1)",
     )
     g = p.add_argument_group("segmental strategy (seed 000 §3.1)")
     g.add_argument(

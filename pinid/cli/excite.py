@@ -7,6 +7,7 @@ import math
 
 from pinid.cli.common import (
     add_robot_arguments,
+    names_text,
     add_terms_argument,
     parse_option,
     positive_float,
@@ -17,7 +18,7 @@ from pinid.cli.common import (
 )
 from pinid.errors import SolverError, SpecError
 from pinid.io import check_outputs
-from pinid.optimizers import OPTIMIZERS, names_text
+from pinid.optimizers import OPTIMIZERS
 
 HELP = "design an excitation trajectory (Fourier series) that conditions the identification best"
 DESCRIPTION = """\
@@ -94,7 +95,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="also keep |torque| (nominal URDF parameters) within the URDF's effort limits",
     )
     o = p.add_argument_group("optimiser")
-    o.add_argument("--optimizer", default=None, help=f"slsqp (gradient-based multistart, default), {names_text()}")
+    o.add_argument(
+        "--optimizer", default=None, help=f"slsqp (gradient-based multistart, default), {names_text(OPTIMIZERS)}"
+    )
     o.add_argument(
         "--seed", type=seed_int, default=None, help="random seed (default 0): the same seed gives the same result"
     )
@@ -129,7 +132,9 @@ def _options(args: argparse.Namespace) -> dict:
     name = args.optimizer.lower()
     if name == "slsqp":
         if args.population is not None or args.iterations is not None:
-            raise SpecError(f"--population and --iterations apply to {names_text('and')}, not to slsqp (use --starts)")
+            raise SpecError(
+                f"--population and --iterations apply to {names_text(OPTIMIZERS, 'and')}, not to slsqp (use --starts)"
+            )
         if args.starts is not None:
             opts["starts"] = args.starts
     else:

@@ -149,14 +149,15 @@ def _output(p: argparse.ArgumentParser, metavar: str, text: str) -> None:
 
 
 def _spec(args):
-    from pinid.flexible.output_error import load_flex_spec  # deferred (see above)
+    from pinid.flexible.spec import load_flex_spec
 
     return load_flex_spec(DEFAULT_SPEC if args.spec is None else args.spec)
 
 
 def _recording(args, spec, *, motor: bool = True):
     """--data, or a twin of the spec with --noise and --seed (default: the spec's [fit] noise and seed)."""
-    from pinid.flexible.output_error import FlexRecording, make_twin  # deferred (see above)
+    from pinid.flexible.recording import FlexRecording
+    from pinid.flexible.output_error import make_twin
 
     if getattr(args, "data", None):
         return FlexRecording.load(args.data)
@@ -170,7 +171,7 @@ def _recording(args, spec, *, motor: bool = True):
 
 
 def _fit_options(args, spec) -> tuple[str, dict, int]:
-    from pinid.flexible.output_error import methods  # deferred (see above)
+    from pinid.flexible.spec import methods
 
     method = args.method or spec.fit.method
     if method not in methods():
@@ -196,7 +197,7 @@ def _outputs(args, spec):
 
 
 def _x0(args, spec, problem):
-    from pinid.flexible.output_error import OutputErrorResult  # deferred (see above)
+    from pinid.flexible.result import OutputErrorResult
 
     if args.x0 is None:
         return None
@@ -278,7 +279,7 @@ def _fit(args) -> int:
 def _compare(args) -> int:
     # deferred (see above)
     from pinid.flexible.output_error import compare_rigid_flexible
-    from pinid.flexible.outputs import result_text, write_comparison
+    from pinid.flexible.outputs import result_text, write_fit_comparison
 
     check_outputs(args.out, *([args.plot] if args.plot else []))  # before the work, creating nothing
     spec = _spec(args)
@@ -297,6 +298,6 @@ def _compare(args) -> int:
             f"{j}: flexible {1e3 * f.metrics[j]['rms']:.4g}, rigid {1e3 * r.metrics[j]['rms']:.4g}" for j in f.metrics
         )
     )
-    written = write_comparison(out, args.out, spec=spec, recording=rec, plot=args.plot)
+    written = write_fit_comparison(out, args.out, spec=spec, recording=rec, plot=args.plot)
     print("wrote " + " and ".join(map(str, written)))
     return 0

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import warnings
 from pathlib import Path
 
 from pinid.cli.common import nonnegative_float, robot_from_args, seed_int, wrote_line
@@ -68,18 +67,6 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument("-o", "--output", default=None, metavar="FOLDER", help="write tracking.json and plots here")
     p.add_argument("--no-figures", action="store_true", help="with -o: write tracking.json only (no PNG)")
-
-
-def sine_reference(plant):
-    """Deprecated here (kept for one release): :func:`pinid.control.tracking.sine_reference`."""
-    from pinid.control.tracking import sine_reference as reference  # deferred: as in run()
-
-    warnings.warn(
-        "pinid.cli.track.sine_reference moved to pinid.control.tracking.sine_reference",
-        DeprecationWarning,
-        stacklevel=2,
-    )
-    return reference(plant)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -29,6 +29,7 @@ from typing import Protocol
 
 import numpy as np
 
+from pinid.checks import count, number
 from pinid.errors import SpecError
 from pinid.model.robot import RobotModel
 from pinid.errors import SolverError
@@ -37,8 +38,10 @@ from pinid.identification.run import identify
 from pinid.identification.identified import IdentifiedModel
 from pinid.io import read_json
 from pinid.model.base import base_parameters
-from pinid.model.regressor import TermSelection, standard_parameters
-from pinid.simulation.twin import Plant, perturb, plant_terms, simulate
+from pinid.model.regressor import standard_parameters
+from pinid.model.terms import TermSelection
+from pinid.simulation.twin import Plant, plant_terms, simulate
+from pinid.simulation.cad import perturb
 from pinid.model.robot import as_robot
 from pinid.result_protocol import ResultProtocol, panel
 
@@ -248,32 +251,51 @@ class TrackingResult(ResultProtocol):
         return out
 
 
+@dataclass(frozen=True)
+class Tracking:
+    """How a closed-loop run is simulated (:func:`track`): ``seconds`` [s] of it; the controller's ``rate``
+    [Hz], the plant integrated at ``rate·substeps`` [Hz] with Coulomb friction fc·tanh(dq/``coulomb_velocity``
+    [rad/s]); the torque clipped to ``torque_limit`` [N·m] (None: the URDF's effort limits); Gaussian
+    measurement noise σ ``position_noise`` [rad] and ``velocity_noise`` [rad/s], seeded by ``seed``."""
+
+    seconds: float
+    rate: float = 1000.0
+    substeps: int = 4
+    coulomb_velocity: float = 0.01
+    torque_limit: np.ndarray | float | None = None
+    position_noise: float = 0.0
+    velocity_noise: float = 0.0
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        number(self.seconds, "seconds", low=0, low_open=True)
+        number(self.rate, "rate", low=0, low_open=True)
+        count(self.substeps, "substeps", low=1)
+        number(self.coulomb_velocity, "coulomb_velocity", low=0, low_open=True)
+        number(self.position_noise, "position_noise", low=0)
+        number(self.velocity_noise, "velocity_noise", low=0)
+        count(self.seed, "seed")
+
+
 def track(
     plant: RobotModel,
     controller,
     reference,
+    run: Tracking,
     *,
-    seconds: float,
-    rate: float = 1000.0,
-    substeps: int = 4,
-    coulomb_velocity: float = 0.01,
-    torque_limit: np.ndarray | float | None = None,
-    position_noise: float = 0.0,
-    velocity_noise: float = 0.0,
     q0: np.ndarray | None = None,
-    seed: int = 0,
     lyapunov: bool = False,
     terms: dict | None = None,
     disturbance=None,
     wearer: Mapping | None = None,
 ) -> TrackingResult:
-    """Simulate ``plant`` (a URDF model with its true friction) under ``controller`` following ``reference``.
+    """Simulate ``plant`` (a URDF model with its true friction) under ``controller`` following ``reference``
+    as ``run`` (:class:`Tracking`: duration, rates, torque limit, noise, seed) says.
 
     ``reference`` has ``evaluate(t) -> (q, dq, ddq)`` (a :class:`~pinid.excitation.trajectory.FourierTrajectory`).
-    The controller runs at ``rate`` [Hz] on noisy measurements (Gaussian, σ ``position_noise`` [rad] and
-    ``velocity_noise`` [rad/s]); its torque is held for the period (zero-order hold) and clipped to
-    ``torque_limit`` [N·m] (default: the URDF's effort limits).  The plant is the digital twin's
-    (:class:`pinid.simulation.twin.Plant`: ABA-equivalent dynamics, Coulomb friction fc·tanh(dq/``coulomb_velocity``),
+    The controller runs at ``run.rate`` [Hz] on noisy measurements; its torque is held for the period
+    (zero-order hold) and clipped to ``run.torque_limit``.  The plant is the digital twin's
+    (:class:`pinid.simulation.twin.Plant`: ABA-equivalent dynamics, Coulomb friction,
     implicit when stiff) integrated at ``rate·substeps`` [Hz].  Starts at ``q0`` (default the reference at
     t = 0) at rest.  Seeded: the same arguments give the same run.  ``terms``: the plant's extra joint
     terms (:func:`pinid.simulation.twin.plant_terms`; default the wearer's passive moments when ``wearer``, the
@@ -282,6 +304,11 @@ def track(
     wearer's, :func:`pinid.simulation.twin.wearer_disturbance`).
     """
     plant = as_robot(plant)
+    if not isinstance(run, Tracking):
+        raise SpecError(f"run: got {type(run).__name__}, expected a pinid.control.controllers.Tracking(seconds=…)")
+    seconds, rate, substeps, seed = run.seconds, run.rate, run.substeps, run.seed
+    torque_limit, coulomb_velocity = run.torque_limit, run.coulomb_velocity
+    position_noise, velocity_noise = run.position_noise, run.velocity_noise
     rng = np.random.default_rng(seed)
     nv = plant.nv
     limit = plant.effort_limit if torque_limit is None else np.broadcast_to(np.asarray(torque_limit, float), (nv,))
@@ -396,9 +423,7 @@ def compare_models(
             plant,
             CONTROLLERS[c](model),
             reference,
-            seconds=seconds,
-            position_noise=position_noise,
-            seed=seed,
+            Tracking(seconds, position_noise=position_noise, seed=seed),
             wearer=wearer,
         )
 

@@ -60,7 +60,7 @@ def butter_sos(order: int, cutoff: float, fs: float) -> np.ndarray:
     return sos
 
 
-def sos_initial_state(sos: np.ndarray) -> np.ndarray:
+def _sos_initial_state(sos: np.ndarray) -> np.ndarray:
     """Steady-state initial conditions ``(n_sections, 2)`` of a cascade (transposed direct form II) for a
     unit step input, as scipy.signal.sosfilt_zi."""
     zi = np.empty((len(sos), 2))
@@ -135,7 +135,7 @@ def default_padlen(sos: np.ndarray) -> int:
 def filtfilt_sos(sos: np.ndarray, x: np.ndarray, padlen: int) -> np.ndarray:
     """Zero-phase filtering of ``x`` along axis 0 by the cascade ``sos``, forward then backward, as
     scipy.signal.sosfiltfilt(padtype="odd"): odd extension by ``padlen`` samples at each end, and each
-    pass started from the steady state of its first sample (:func:`sos_initial_state`).  Same shape as ``x``."""
+    pass started from the steady state of its first sample (:func:`_sos_initial_state`).  Same shape as ``x``."""
     x = np.asarray(x, dtype=float)
     sos = np.asarray(sos, dtype=float)
     n = x.shape[0]
@@ -147,7 +147,7 @@ def filtfilt_sos(sos: np.ndarray, x: np.ndarray, padlen: int) -> np.ndarray:
     if padlen:
         ext[:padlen] = 2 * flat[0] - flat[padlen:0:-1]
         ext[padlen + n :] = 2 * flat[-1] - flat[-2 : -(padlen + 2) : -1]
-    zi = sos_initial_state(sos)
+    zi = _sos_initial_state(sos)
     spare, band = np.empty_like(ext), np.empty((3, len(ext)), order="F")
     y = _pass(sos, zi, ext, spare, band, forward=True)
     y = _pass(sos, zi, y, spare if y is ext else ext, band, forward=False)

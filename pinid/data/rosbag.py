@@ -103,7 +103,7 @@ FIELDS = {"q_": "position", "dq_": "velocity", "tau_": "effort"}
 _OPTION_KEYS = {"topic", "effort_topic", "time", "ignore_topics"}
 
 
-def is_bag_folder(path: Path) -> bool:
+def _is_bag_folder(path: Path) -> bool:
     """A rosbag2 folder: a directory with a ``metadata.yaml``."""
     return path.is_dir() and (path / "metadata.yaml").is_file()
 
@@ -252,7 +252,7 @@ def _read_topics(file: Path, topics: list[str | None], clock: str) -> dict[str, 
     return out
 
 
-def columns(file: Path) -> list[str]:
+def _columns(file: Path) -> list[str]:
     """The dataset-format columns of the default JointState topic: t, q_<joint>, dq_<joint>, tau_<joint>."""
     topic = next(iter(_read_topics(file, [None], "header").values()))
     names = ["t"]
@@ -264,7 +264,7 @@ def columns(file: Path) -> list[str]:
     return names
 
 
-def read(file: Path, source, wanted, origin: str) -> Table:
+def _read(file: Path, source, wanted, origin: str) -> Table:
     """The ``wanted`` columns (``t``, ``q_<joint>``, ``dq_<joint>``, ``tau_<joint>``) of a bag."""
     opts = options(source, origin)
     effort_apart = opts["effort_topic"] is not None
@@ -383,10 +383,10 @@ def example(path: Path, names: list[str], data: np.ndarray) -> Path:
 register_reader(
     Reader(
         "ros2bag",
-        read,
+        _read,
         suffixes=(".mcap", ".db3"),
-        columns=columns,
-        match=is_bag_folder,
+        columns=_columns,
+        match=_is_bag_folder,
         folder=True,
         example=example,
     )

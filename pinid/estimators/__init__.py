@@ -61,12 +61,6 @@ def quick_methods() -> list[str]:
     return [name for name, cls in ESTIMATORS.items() if cls.in_defaults and not cls.simulates]
 
 
-def names_text(conjunction: str = "or", names=None) -> str:
-    """Registered method names (or ``names``) as prose for help texts and messages: ``"ols, wls or sdp"``."""
-    names = list(ESTIMATORS if names is None else names)
-    return names[0] if len(names) == 1 else f"{', '.join(names[:-1])} {conjunction} {names[-1]}"
-
-
 def make_estimator(name: str, **settings) -> Estimator:
     """An estimator from the registry by name, with checked settings (:meth:`Estimator.create`); SpecError
     for an unknown name or a bad setting."""
@@ -100,6 +94,5 @@ __all__ = [
     "WLS",
     "WOAEstimator",
     "make_estimator",
-    "names_text",
     "quick_methods",
 ]

@@ -36,7 +36,6 @@ import numpy as np
 
 from pinid.errors import SpecError
 from pinid.problem.problem import Problem
-from pinid.linalg import augmented_r, solve_r, weighted_lstsq
 
 
 @dataclass(frozen=True)
@@ -125,7 +124,7 @@ class Estimator:
     #: True when the estimator fits the full standard parameters and runs the stages of a staged
     #: (segmental) fit itself with ``fit_stage`` (see :class:`~pinid.estimators.sdp.SDP`).
     fits_standard: ClassVar[bool] = False
-    #: True when the least-squares sandwich covariance (:func:`pinid.problem.problem.base_statistics`)
+    #: True when the least-squares sandwich covariance (:func:`pinid.problem.statistics.base_statistics`)
     #: describes the estimate's spread; False (metaheuristics): the result prints no σ.
     calibrated_std: ClassVar[bool] = True
     #: True when the result does not depend on a random seed (a comparison runs it once).
@@ -209,4 +208,4 @@ def joint_weights(problem, residual: np.ndarray, floor: float = 1e-12) -> tuple[
     return (1.0 / sigma**2)[problem.joint], sigma
 
 
-__all__ = ["Estimator", "Setting", "augmented_r", "joint_weights", "solve_r", "weighted_lstsq"]
+__all__ = ["Estimator", "Setting", "joint_weights"]

@@ -37,7 +37,7 @@ from pinid.linalg import solve_r, weighted_lstsq
 TUNING = {"huber": 1.345, "tukey": 4.685}
 
 
-def robust_weights(u: np.ndarray, loss: str, k: float) -> np.ndarray:
+def _robust_weights(u: np.ndarray, loss: str, k: float) -> np.ndarray:
     """Row weights ``ψ(u)/u`` of the Huber or Tukey loss for standardised residuals ``u``."""
     a = np.abs(u)
     if loss == "huber":
@@ -45,7 +45,7 @@ def robust_weights(u: np.ndarray, loss: str, k: float) -> np.ndarray:
     return np.where(a < k, (1.0 - (u / k) ** 2) ** 2, 0.0)
 
 
-def joint_mad(problem, r: np.ndarray) -> np.ndarray:
+def _joint_mad(problem, r: np.ndarray) -> np.ndarray:
     """Per row, the robust scale ``1.4826·MAD`` of its joint's residuals (floored at 1e-12·RMS τ_j) [N·m]."""
     s = np.ones(problem.nv)
     for j in range(problem.nv):
@@ -106,8 +106,8 @@ class IRLS(Estimator):
             k = TUNING[loss] * float(self.tuning)
             for _ in range(int(self.iterations)):
                 r = tau - W @ x
-                u = r / joint_mad(problem, r)
-                rw = robust_weights(u, loss, k)
+                u = r / _joint_mad(problem, r)
+                rw = _robust_weights(u, loss, k)
                 if np.count_nonzero(rw * w0) <= problem.nb:
                     break  # too few rows left to determine the parameters: keep the last fit
                 weights = w0 * rw

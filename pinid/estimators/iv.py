@@ -222,7 +222,7 @@ class ModelSimulation:
         )
 
 
-def iv_solve(Z: np.ndarray, W: np.ndarray, tau: np.ndarray, weights: np.ndarray) -> np.ndarray:
+def _iv_solve(Z: np.ndarray, W: np.ndarray, tau: np.ndarray, weights: np.ndarray) -> np.ndarray:
     """``β`` of ``Zᵀ·diag(w)·W·β = Zᵀ·diag(w)·τ`` (columns scaled to unit norm; SolverError when singular)."""
     sw = np.linalg.norm(W * np.sqrt(weights)[:, None], axis=0)
     sz = np.linalg.norm(Z * np.sqrt(weights)[:, None], axis=0)
@@ -344,7 +344,7 @@ class InstrumentalVariables(SimulatingEstimator):
                 coef, *_ = np.linalg.lstsq(Zs, W * np.sqrt(w)[:, None], rcond=None)
                 x_new, standard = physical_fit(problem, Z @ coef)
             else:
-                x_new = iv_solve(Z, W, tau, w)
+                x_new = _iv_solve(Z, W, tau, w)
             change = float(np.linalg.norm(x_new - x) / max(np.linalg.norm(x_new), 1e-300))
             history.append(change)
             x = x_new

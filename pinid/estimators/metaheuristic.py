@@ -6,7 +6,7 @@ Each estimator searches the nb base parameters inside a box with a population op
 ``r = τ − W_b·x`` over the training rows (row weights ``w``, ones unless given):
 
 ``"sse"``  ½·Σ w·r²  — seed 001 Eq. (22).  Evaluated for the whole swarm at once in the compressed
-           form ``½(‖R·(s∘x) − c‖² + ρ²)`` (:func:`~pinid.estimators.base.augmented_r`: R is nb × nb),
+           form ``½(‖R·(s∘x) − c‖² + ρ²)`` (:func:`~pinid.linalg.augmented_r`: R is nb × nb),
            so an iteration costs one (P × nb)·(nb × nb) product whatever the number of samples, and
            there is no cancellation near the minimum.
 ``"sae"``  Σ √w·|r|  — seed 000 (its PSO minimises the sum of absolute torque errors, "ΔT1 + ΔT2").
@@ -58,7 +58,8 @@ import numpy as np
 from pinid.errors import SpecError
 from pinid.estimators.base import Estimator, Setting
 from pinid.estimators.rls import RLS
-from pinid.problem.problem import Problem, base_statistics
+from pinid.problem.problem import Problem
+from pinid.problem.statistics import base_statistics
 from pinid.linalg import solve_r, weighted_lstsq
 from pinid.optimizers import get_optimizer
 

@@ -9,7 +9,7 @@ consistency can be imposed on every body.  Problem::
                 m_lo ≤ m_i ≤ m_hi                              optional mass bounds
 
 * The data term is ‖W_b·P·θ − τ‖ (rows weighted), compressed by one pass over the column-scaled
-  ``[W_b | τ]`` (:func:`~pinid.estimators.base.augmented_r`): ``‖W_b x − τ‖² = ‖R·C·x − c‖² + ρ²`` with
+  ``[W_b | τ]`` (:func:`~pinid.linalg.augmented_r`): ``‖W_b x − τ‖² = ‖R·C·x − c‖² + ρ²`` with
   ``R`` only nb × nb, so the solver never sees the tall regressor (docs/benchmarks.md, memory).  It is the *norm* of the excess
   residual, not its square: the minimiser is the same, but the cost has a kink where the excess is
   zero, so when the least-squares solution is physically realisable it is returned exactly (an exact
@@ -39,8 +39,8 @@ from pinid.errors import SolverError, SpecError
 from pinid.estimators.base import Estimator, Setting, joint_weights
 from pinid.problem.problem import IdentificationProblem, Problem
 from pinid.linalg import augmented_r, solve_r
-from pinid.model.conic import CLARABEL_OPTIONS, ConicProblem
-from pinid.model.lmi import add_consistency_constraints, clip_terms, consistent_completion, null_projector
+from pinid.model.conic import ConicProblem
+from pinid.model.lmi import add_consistency_constraints, clip_terms, null_projector
 from pinid.model.physical import check_consistency, parameter_scale
 
 
@@ -204,4 +204,4 @@ class SDP(Estimator):
         return theta, {"status": status, "rows": sub.rows}
 
 
-__all__ = ["CLARABEL_OPTIONS", "SDP", "add_consistency_constraints", "consistent_completion"]
+__all__ = ["SDP"]

@@ -49,7 +49,7 @@ from pinid.checks import option_numbers
 from pinid.errors import SpecError
 from pinid.model.robot import RobotModel, as_robot
 from pinid.excitation.trajectory import FourierTrajectory
-from pinid.model.regressor import TermSelection
+from pinid.model.terms import TermSelection
 from pinid.result_protocol import ResultProtocol
 from pinid.optimizers import OPTIMIZERS, get_optimizer
 from pinid.progress import progress as progress_bar

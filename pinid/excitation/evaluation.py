@@ -21,7 +21,8 @@ from pinid.model.base import BaseParameters, base_parameters
 from pinid.checks import as_floats, count, number
 from pinid.errors import SpecError
 from pinid.model.robot import RobotModel, as_robot
-from pinid.model.regressor import TermSelection, regressor, standard_parameters
+from pinid.model.regressor import regressor, standard_parameters
+from pinid.model.terms import TermSelection
 from pinid.excitation.trajectory import FourierTrajectory
 from pinid.excitation.spec import DEFAULT_SAMPLES, ExcitationSpec
 
@@ -44,7 +45,7 @@ def clean_rest(dq: np.ndarray) -> np.ndarray:
     return np.where(np.abs(dq) < _REST_TOL, 0.0, dq)
 
 
-def base_regressor(
+def _base_regressor(
     model: RobotModel,
     trajectory: FourierTrajectory,
     terms: TermSelection = TermSelection(),
@@ -67,7 +68,7 @@ def condition_number(
 ) -> float:
     """Condition number of the base regressor (friction columns included, unscaled) over one period,
     ``samples`` equally spaced instants from t = 0 — the figure seed 001 minimises (its Eq. (20))."""
-    return float(np.linalg.cond(base_regressor(model, trajectory, terms, samples, base)))
+    return float(np.linalg.cond(_base_regressor(model, trajectory, terms, samples, base)))
 
 
 def log_det_information(
@@ -78,7 +79,7 @@ def log_det_information(
     base: BaseParameters | None = None,
 ) -> float:
     """``log det(W_bᵀ W_b)`` of the base regressor (the D-optimal criterion maximises it)."""
-    s = np.linalg.svd(base_regressor(model, trajectory, terms, samples, base), compute_uv=False)
+    s = np.linalg.svd(_base_regressor(model, trajectory, terms, samples, base), compute_uv=False)
     return float(2 * np.sum(np.log(s))) if s[-1] > 0 else -np.inf
 
 

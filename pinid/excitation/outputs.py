@@ -33,7 +33,7 @@ def spec_text(model: RobotModel, spec: ExcitationSpec) -> str:
     )
 
 
-def usage_table(spec: ExcitationSpec, extremes: dict, usage: dict, q0) -> str:
+def _usage_table(spec: ExcitationSpec, extremes: dict, usage: dict, q0) -> str:
     """A table of how much of each limit a trajectory uses: q reached and its limits [rad], the share of the
     range and toward each limit from ``q0``, |dq| [rad/s], |ddq| [rad/s²] and |tau| [N·m] maxima and their use."""
     if not isinstance(spec, ExcitationSpec):
@@ -95,7 +95,7 @@ def evaluate_excitation(
 
 def evaluation_text(source: str, spec: ExcitationSpec, ev: dict, q0, *, usage: bool = True) -> str:
     """:func:`evaluate_excitation`'s result as text: condition number, log det, inside the limits or not,
-    the :func:`usage_table` (with ``usage``) and every limit the trajectory leaves."""
+    the :func:`_usage_table` (with ``usage``) and every limit the trajectory leaves."""
     if not isinstance(spec, ExcitationSpec):
         raise SpecError(f"spec: got {type(spec).__name__}, expected an ExcitationSpec")
     lines = [
@@ -104,14 +104,14 @@ def evaluation_text(source: str, spec: ExcitationSpec, ev: dict, q0, *, usage: b
         + (", starts at rest" if ev["rest_start"] else "")
     ]
     if usage:
-        lines.append(usage_table(spec, ev["extremes"], ev["usage"], q0))
+        lines.append(_usage_table(spec, ev["extremes"], ev["usage"], q0))
     lines += [f"  outside: {line}" for line in limit_violations(ev["extremes"], spec)]
     return "\n".join(lines)
 
 
 def design_text(result, spec: ExcitationSpec, *, usage: bool = True) -> str:
     """A design's result as text: condition number (and log det with the logdet criterion), time,
-    evaluations, and with ``usage`` the :func:`usage_table`."""
+    evaluations, and with ``usage`` the :func:`_usage_table`."""
     if not isinstance(spec, ExcitationSpec):
         raise SpecError(f"spec: got {type(spec).__name__}, expected an ExcitationSpec")
     crit = "" if spec.criterion == "cond" else f", log det(WᵀW) {result.log_det:.6g} (criterion logdet)"
@@ -120,7 +120,7 @@ def design_text(result, spec: ExcitationSpec, *, usage: bool = True) -> str:
         f"({result.nfev} criterion evaluations, {result.details['regressor_samples']} regressor samples)"
     )
     if usage:
-        text += "\n" + usage_table(spec, result.extremes, result.usage, result.trajectory.q0)
+        text += "\n" + _usage_table(spec, result.extremes, result.usage, result.trajectory.q0)
     return text
 
 

@@ -29,7 +29,7 @@ from pinid.memory import check_fits
 from pinid.model.robot import RobotModel
 from pinid.model.regressor import regressor, standard_parameters
 from pinid.model.terms import columns as _term_columns
-from pinid.model.terms import count as _term_count
+from pinid.model.terms import term_count as _term_count
 from pinid.excitation.trajectory import FourierTrajectory
 from pinid.excitation.spec import ExcitationSpec
 from pinid.excitation.evaluation import clean_rest, sample_times

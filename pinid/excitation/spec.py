@@ -22,9 +22,9 @@ import numpy as np
 from pinid.model.base import BaseParameters, base_parameters
 from pinid.errors import SpecError
 from pinid.io import as_path, display_path, parse_spec_text, read_bounded_file
-from pinid.resources import EXCITATION_DIR as BUNDLED_EXCITATION_DIR
+from pinid.resources import EXCITATION_DIR
 from pinid.model.robot import RobotModel, as_robot
-from pinid.model.regressor import TermSelection
+from pinid.model.terms import TermSelection
 from pinid.model.bundled import BUNDLED_URDF_DIR
 
 #: Acceleration limit [rad/s² or m/s²] when neither the spec nor the URDF gives one.
@@ -47,8 +47,6 @@ CRITERIA = {
 }
 #: Spec files used by default for bundled robots (in the repository's ``excitation/`` folder).
 DEFAULT_SPECS = {"exo_leg": "exo_leg_table2.toml"}
-#: The repository's ``excitation/`` folder.
-EXCITATION_DIR = BUNDLED_EXCITATION_DIR
 
 _SPEC_KEYS = {
     "description",
@@ -308,10 +306,10 @@ def load_spec(path: str | os.PathLike, model: RobotModel) -> ExcitationSpec:
     data = parse_spec_text(text, str(p), "excitation spec", kind=kind)
     if not isinstance(data, dict):
         raise SpecError(f"{p}: expected a table of settings at the top level")
-    return spec_from_dict(data, model, source=display_path(p))
+    return _spec_from_dict(data, model, source=display_path(p))
 
 
-def spec_from_dict(data: dict, model: RobotModel, *, source: str = "<spec>") -> ExcitationSpec:
+def _spec_from_dict(data: dict, model: RobotModel, *, source: str = "<spec>") -> ExcitationSpec:
     """Build a spec from the plain-dict form of a spec file (see ``excitation/exo_leg_table2.toml``)."""
     if not isinstance(data, dict):
         raise SpecError(f"{source}: data: got {type(data).__name__}, expected a table of settings")

@@ -328,21 +328,6 @@ class FlexibleModel:
         """A parameter by name ``<joint>.<K1|K2|C|Jm|…>`` [SI]."""
         return float(self.values[self.index(name)])
 
-    def with_values(self, values: Mapping[str, float] | np.ndarray) -> "FlexibleModel":
-        """A copy with other parameter values (a mapping by name, or a full vector)."""
-        new = object.__new__(FlexibleModel)
-        new.__dict__.update(self.__dict__)
-        if isinstance(values, Mapping):
-            vec = self.values.copy()
-            for n, v in values.items():
-                vec[self.index(n)] = float(v)
-        else:
-            vec = np.asarray(values, dtype=float).copy()
-            if vec.shape != self.values.shape:
-                raise ValueError(f"expected {self.values.size} values, got shape {vec.shape}")
-        new.values = vec
-        return new
-
     def rigid(self) -> "FlexibleModel":
         """The same robot with every drive rigid (motor locked to the link): seed 003's rigid model.
 

@@ -38,17 +38,14 @@ import numpy as np
 from pinid.errors import DataError, SolverError, SpecError
 from pinid.flexible.model import FLEX_PARAMS, FlexibleModel, FlexSimulation
 from pinid.optimizers import get_optimizer
-from pinid.flexible.recording import FlexRecording as FlexRecording, InputSignal as InputSignal
-from pinid.flexible.result import OutputErrorResult as OutputErrorResult
+from pinid.flexible.recording import FlexRecording, InputSignal
+from pinid.flexible.result import OutputErrorResult
 from pinid.flexible.spec import (
-    COSTS as COSTS,
-    LEAST_SQUARES as LEAST_SQUARES,
-    OUTPUTS as OUTPUTS,
-    FitSettings as FitSettings,
-    FlexSpec as FlexSpec,
-    load_flex_spec as load_flex_spec,
-    methods as methods,
-    spec_from_dict as spec_from_dict,
+    COSTS,
+    LEAST_SQUARES,
+    OUTPUTS,
+    FlexSpec,
+    methods,
 )
 
 

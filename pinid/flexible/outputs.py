@@ -7,15 +7,10 @@ import os
 from dataclasses import replace
 from pathlib import Path
 
-from pinid.flexible.output_error import (
-    FlexRecording,
-    FlexSpec,
-    OutputErrorProblem,
-    OutputErrorResult,
-    classify,
-    problem_from_spec,
-    sensitivity,
-)
+from pinid.flexible.recording import FlexRecording
+from pinid.flexible.spec import FlexSpec
+from pinid.flexible.output_error import OutputErrorProblem, classify, problem_from_spec, sensitivity
+from pinid.flexible.result import OutputErrorResult
 from pinid.io import Artefacts, json_text
 from pinid.report.figures import save_figure
 from pinid.report.plot_flexible import plot_angles
@@ -113,7 +108,7 @@ def write_fit(
     return arts.write()
 
 
-def write_comparison(
+def write_fit_comparison(
     comparison: dict,
     path: str | os.PathLike,
     *,

@@ -190,10 +190,10 @@ def load_flex_spec(path: str | os.PathLike, *, robot: RobotModel | None = None) 
     from pinid.io import read_toml
 
     data = read_toml(p, "flexible-joint spec (TOML)")
-    return spec_from_dict(data, source=str(p), robot=robot, spec_path=p)
+    return _spec_from_dict(data, source=str(p), robot=robot, spec_path=p)
 
 
-def spec_from_dict(
+def _spec_from_dict(
     data: Mapping, *, source: str = "<spec>", robot: RobotModel | None = None, spec_path: Path | None = None
 ) -> FlexSpec:
     """Build a :class:`FlexSpec` from the plain-dict form of a spec file."""

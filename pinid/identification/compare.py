@@ -55,7 +55,7 @@ from pinid.identification.run import (
 )
 from pinid.identification.truth import true_base
 from pinid.io import jsonable, read_json
-from pinid.model.regressor import TermSelection
+from pinid.model.terms import TermSelection
 from pinid.model.robot import RobotModel
 from pinid.model.terms import as_terms, stribeck_settings
 from pinid.model.serialize import robot_to_dict
@@ -477,7 +477,7 @@ def _truth_vector(truth, names: list[str], st) -> np.ndarray | None:
     return a
 
 
-def parameter_errors(x: np.ndarray, truth: np.ndarray, scale: np.ndarray, names: list[str]) -> tuple[dict, dict]:
+def _parameter_errors(x: np.ndarray, truth: np.ndarray, scale: np.ndarray, names: list[str]) -> tuple[dict, dict]:
     """Errors against the truth: ``({name: 100·|x − x_true| / max(|x_true|, 0.01·scale)} [%] for the
     parameters whose truth is not zero, {name: |x − x_true|} [the parameter's unit] for all})``.
 
@@ -685,7 +685,7 @@ def _run_of(fit: Fit, problem, val_W: dict, truth_x, scale, segmental: bool) -> 
     if "not_realisable" in res.info:
         info["not_realisable"] = res.info["not_realisable"]
     names = problem.names
-    errors = (None, None) if truth_x is None else parameter_errors(res.base, truth_x, scale, names)
+    errors = (None, None) if truth_x is None else _parameter_errors(res.base, truth_x, scale, names)
     return Run(
         method=fit.method,
         seed=fit.seed,

@@ -21,7 +21,7 @@ import numpy as np
 
 from pinid.data.dataset import Dataset
 from pinid.model.base import BaseParameters
-from pinid.model.regressor import TermSelection
+from pinid.model.terms import TermSelection
 from pinid.model.robot import RobotModel
 from pinid.problem.problem import IdentificationProblem, base_regressor, check_dataset, recorded_torque
 

@@ -37,7 +37,7 @@ from pinid.data.dataset import Dataset
 from pinid.data.formats import read_recording
 from pinid.errors import DataError, DataWarning, SpecError
 from pinid.model.base import BaseParameters
-from pinid.model.regressor import TermSelection
+from pinid.model.terms import TermSelection
 from pinid.model.robot import RobotModel
 from pinid.identification.crossval import (
     FOLDS,

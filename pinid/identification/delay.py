@@ -25,17 +25,10 @@ import numpy as np
 from pinid.data.dataset import Dataset
 from pinid.data.delay import DELAY_RANGE, shifted
 from pinid.errors import DataError, SpecError
-from pinid.problem.problem import (
-    REST_FRACTION,
-    base_regressor,
-    check_dataset,
-    fit_mask,
-    kept_rows,
-    motor_kept_rows,
-    rest_threshold,
-)
+from pinid.problem.problem import REST_FRACTION, base_regressor, check_dataset
+from pinid.problem.rows import fit_mask, kept_rows, motor_kept_rows, rest_threshold
 from pinid.model.base import BaseParameters, base_parameters
-from pinid.model.regressor import TermSelection
+from pinid.model.terms import TermSelection
 from pinid.model.robot import RobotModel
 
 _COARSE = 201  # most candidates of the first grid

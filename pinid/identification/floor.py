@@ -14,7 +14,7 @@ from pinid.data.dataset import Dataset
 from pinid.estimators import make_estimator
 from pinid.identification.metrics import TorqueMetrics, joint_units, torque_metrics
 from pinid.model.base import base_parameters
-from pinid.model.regressor import TermSelection
+from pinid.model.terms import TermSelection
 from pinid.model.robot import RobotModel
 from pinid.problem.problem import REST_FRACTION, IdentificationProblem, check_dataset, predict_torque, recorded_torque
 

@@ -37,7 +37,8 @@ from pinid.data.dataset import Dataset
 from pinid.errors import DataError, SpecError
 from pinid.problem.problem import IdentificationProblem
 from pinid.model.base import BaseParameters
-from pinid.model.regressor import TermSelection, regressor
+from pinid.model.regressor import regressor
+from pinid.model.terms import TermSelection
 from pinid.model.robot import INERTIA_TOL, RobotModel
 
 _KEYS = ("link", "mass", "com", "inertia")

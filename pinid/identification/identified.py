@@ -34,7 +34,8 @@ from pinid.io import read_json, write_json
 from pinid.model import terms as _terms
 from pinid.model.export import identified_urdf
 from pinid.model.physical import check_consistency
-from pinid.model.regressor import TermSelection, parameter_names
+from pinid.model.regressor import parameter_names
+from pinid.model.terms import TermSelection
 from pinid.model.robot import RobotModel, as_robot
 from pinid.model.terms import as_terms
 from pinid.model.serialize import robot_from_dict, robot_to_dict
@@ -60,7 +61,7 @@ class IdentifiedModel:
     ) -> None:
         robot, terms = as_robot(robot), as_terms(terms)
         theta = as_floats(theta, "theta", finite=False).reshape(-1)
-        nv, nt = robot.nv, _terms.count(robot, terms)
+        nv, nt = robot.nv, _terms.term_count(robot, terms)
         _terms.robot_layout(robot, terms)  # motor terms need drives
         if theta.shape != (10 * nv + nt,):
             raise ModelError(

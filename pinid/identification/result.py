@@ -15,13 +15,14 @@ from pinid.errors import PinidError, SpecError
 from pinid.identification.identified import IdentifiedModel
 from pinid.identification.metrics import TorqueMetrics, error_metrics, joint_units, torque_metrics
 from pinid.identification.uncertainty import uncertainty_warning
-from pinid.problem.problem import IdentificationProblem, base_statistics, least_norm_completion
+from pinid.problem.problem import IdentificationProblem
+from pinid.problem.statistics import base_statistics, least_norm_completion
 from pinid.io import display_path, jsonable, read_json
 from pinid.model.export import identified_urdf
 from pinid.model.base import MARKS
 from pinid.model.lmi import consistent_completion
 from pinid.model.physical import check_consistency
-from pinid.model.regressor import TermSelection
+from pinid.model.terms import TermSelection
 from pinid.model.robot import RobotModel
 from pinid.model.serialize import robot_from_dict, robot_to_dict
 from pinid.result_protocol import ResultProtocol
@@ -36,7 +37,7 @@ class IdentificationResult(ResultProtocol):
     """One method's result.  Arrays follow ``base_names`` / ``standard_names``.
 
     ``std``: standard deviations of the base parameters, the Newey–West sandwich of
-    :func:`~pinid.problem.problem.base_statistics` with the weights the method used; NaN (JSON null,
+    :func:`~pinid.problem.statistics.base_statistics` with the weights the method used; NaN (JSON null,
     printed "—") where no calibrated σ exists (metaheuristics; an sdp value on a bound);
     ``std_percent``: 100·std/|value| (inf for a zero value).
     ``standard``: full standard parameters — the estimator's own (``standard_source = "estimator"``),

@@ -27,7 +27,7 @@ from pinid.identification.crossval import (
     fold_sums,
 )
 from pinid.model.base import base_parameters
-from pinid.model.regressor import TermSelection
+from pinid.model.terms import TermSelection
 from pinid.model.robot import RobotModel
 from pinid.result_protocol import ResultProtocol, panel
 
@@ -112,7 +112,7 @@ def is_auto(model: RobotModel) -> bool:
     return isinstance(value, str) and value.strip().lower() == AUTO
 
 
-def ripple_terms(terms: TermSelection) -> list[str]:
+def _ripple_terms(terms: TermSelection) -> list[str]:
     """The ripple terms among ``terms``' names."""
     return [n for n in terms.names if n.startswith(RIPPLE_PREFIX)]
 
@@ -130,7 +130,7 @@ def choose_ripple_periods(
     module text); SpecError when ``terms`` has no ripple term."""
     if not isinstance(model, RobotModel) or not isinstance(terms, TermSelection):
         raise SpecError("choose_ripple_periods: expected a RobotModel and a TermSelection")
-    if not ripple_terms(terms):
+    if not _ripple_terms(terms):
         raise SpecError("ripple periods 'auto' without a ripple term; expected --terms …,ripple (or ripple2, ripple3)")
     tried = list(candidates if candidates is not None else CANDIDATES)
     drives = getattr(model, "drives", None)

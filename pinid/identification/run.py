@@ -31,17 +31,17 @@ from pinid.problem.problem import (
     REST_FRACTION,
     IdentificationProblem,
     check_dataset,
-    fit_mask,
     load_datasets,
     predict_torque,
     recorded_torque,
 )
+from pinid.problem.rows import fit_mask
 from pinid.identification.result import Identification, IdentificationResult, make_result
 from pinid.identification.segmental import Segmental, SegmentalProblem
 from pinid.identification.stribeck import fit_velocity
 from pinid.identification.truth import read_truth, true_base, truth_error
 from pinid.model.base import BaseParameters, base_parameters
-from pinid.model.regressor import TermSelection
+from pinid.model.terms import TermSelection
 from pinid.model.robot import RobotModel
 from pinid.model.terms import STRIBECK_TERMS, Stribeck, as_terms, stribeck, stribeck_settings
 from pinid.model.serialize import robot_to_dict
@@ -309,7 +309,7 @@ def bytes_per_sample(model: RobotModel, terms: TermSelection) -> float:
     exo_leg, ols,wls,sdp: 103 B per sample between 100 000 and 1 000 000 samples, 132 B above the imports at
     10 000 000 (estimate 140).  rls, the metaheuristics, the segmental strategy, the Stribeck search and drive
     gains build the tall regressor whole (8·nv·nb more, ``terms`` sets nb).  docs/benchmarks.md "Memory"."""
-    as_terms(terms)
+    model, _ = as_robot(model), as_terms(terms)
     return 8.0 * (1 + 4 * model.nv) + 34.0 * model.nv
 
 

@@ -45,19 +45,14 @@ from pinid.errors import DataError, SpecError
 from pinid.estimators import ESTIMATORS, make_estimator
 from pinid.estimators.base import Estimator
 from pinid.problem.cache import ProblemCache
-from pinid.problem.problem import (
-    REST_FRACTION,
-    IdentificationProblem,
-    check_dataset,
-    load_datasets,
-    rest_threshold,
-    stack_rows,
-)
+from pinid.problem.problem import REST_FRACTION, IdentificationProblem, check_dataset, load_datasets, stack_rows
+from pinid.problem.rows import rest_threshold
 from pinid.identification.result import IdentificationResult, make_result
 from pinid.linalg import augmented_r
 from pinid.model.robot import RobotModel
 from pinid.model.physical import parameter_scale
-from pinid.model.regressor import TermSelection, standard_parameters
+from pinid.model.regressor import standard_parameters
+from pinid.model.terms import TermSelection
 from pinid.model.robot import as_robot
 
 
@@ -102,7 +97,7 @@ class SubProblem:
         return len(self.tau)
 
     def compressed(self, weights: np.ndarray | None = None):
-        """``(R, c, rho, scale)`` of :func:`pinid.estimators.base.augmented_r`, cached for the own weights."""
+        """``(R, c, rho, scale)`` of :func:`pinid.linalg.augmented_r`, cached for the own weights."""
         if weights is not None and weights is not self.weights:
             return augmented_r(self.W, self.tau, weights)
         kept = self.cache.get("compressed")
@@ -115,7 +110,7 @@ def _natural_scale(model: RobotModel, terms: TermSelection, base: BaseParameters
     return np.abs(base.P) @ parameter_scale(standard_parameters(model, terms), model.nv, len(terms))
 
 
-def stack(
+def _stack(
     model: RobotModel,
     datasets: Dataset | Sequence[Dataset],
     terms: TermSelection,
@@ -187,7 +182,7 @@ class SegmentalProblem:
         self.problem = IdentificationProblem.from_datasets(
             model, second, terms=terms, base=self.base, rest_velocity=rest_velocity, rest_fraction=rest_fraction
         )
-        s1 = stack(model, first, terms, self.base, rest_velocity=rest_velocity, rest_fraction=rest_fraction)
+        s1 = _stack(model, first, terms, self.base, rest_velocity=rest_velocity, rest_fraction=rest_fraction)
         rows1 = np.isin(s1["joint"], self.first_rows_joints)
         W1 = s1["W"][rows1]
         leak = np.linalg.norm(W1[:, self.second_cols]) if self.second_cols.size else 0.0

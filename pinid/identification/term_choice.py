@@ -34,7 +34,7 @@ from pinid.identification.crossval import (
     not_worse,
 )
 from pinid.model.base import base_parameters
-from pinid.model.regressor import TermSelection
+from pinid.model.terms import TermSelection
 from pinid.model.robot import RobotModel
 from pinid.result_protocol import ResultProtocol, panel
 

@@ -4,7 +4,7 @@
 identified (its base map ``P``: ``x_true = P·θ_true``), so the truth fits whatever ``--terms`` the
 identification uses: a parameter of a term the twin did not simulate (not in the truth's ``terms``,
 e.g. motor friction on a twin without drives) is truly 0.  A truth of another robot (other joints, or
-a parameter of a simulated term missing) is a SpecError.  :func:`parameter_errors` gives the errors:
+a parameter of a simulated term missing) is a SpecError.  :func:`_parameter_errors` gives the errors:
 ``|x − x_true|`` in the parameter's unit and ``100·|x − x_true| / |x_true|`` [%] where the truth is not 0.
 """
 
@@ -20,7 +20,7 @@ from pinid.checks import as_floats
 from pinid.errors import SpecError
 from pinid.io import as_path
 from pinid.model.base import BaseParameters
-from pinid.model.regressor import TermSelection
+from pinid.model.terms import TermSelection
 from pinid.model.robot import RobotModel, as_robot
 from pinid.model.terms import as_terms, robot_layout
 
@@ -79,7 +79,7 @@ def true_base(
     return base.from_standard(theta)
 
 
-def parameter_errors(x: np.ndarray, truth: np.ndarray, scale: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _parameter_errors(x: np.ndarray, truth: np.ndarray, scale: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``(|x − x_true| [the parameter's unit], 100·|x − x_true| / |x_true| [%], NaN where the truth is 0)``;
     the truth counts as 0 when ``|x_true| ≤ 1e-9·scale`` (``scale``: the natural magnitudes)."""
     x, truth, scale = (as_floats(v, k, finite=False) for k, v in (("x", x), ("truth", truth), ("scale", scale)))
@@ -92,8 +92,8 @@ def parameter_errors(x: np.ndarray, truth: np.ndarray, scale: np.ndarray) -> tup
 
 def truth_error(x: np.ndarray, truth: np.ndarray, scale: np.ndarray, names: list[str]) -> dict:
     """A result's ``truth_error``: ``{"truth", "error", "error_percent"}``, each ``{name: value}`` (the
-    relative error None where the truth is 0; see :func:`parameter_errors`)."""
-    err, rel = parameter_errors(x, truth, scale)
+    relative error None where the truth is 0; see :func:`_parameter_errors`)."""
+    err, rel = _parameter_errors(x, truth, scale)
     if isinstance(names, (str, bytes)) or not isinstance(names, Sequence):
         raise SpecError(f"names: got {type(names).__name__}, expected a list of parameter names")
     return {

@@ -1,6 +1,6 @@
 """How well the data determine each base parameter, and the one-line warning when they do not.
 
-The standard deviations (:func:`pinid.problem.problem.base_statistics`) are the Newey–West sandwich of
+The standard deviations (:func:`pinid.problem.statistics.base_statistics`) are the Newey–West sandwich of
 least squares (:mod:`pinid.problem.covariance`), which holds for residuals correlated in time as those of
 filtered recordings are; ``std_i = √Cov_ii`` and the relative standard deviation ``%σ_i = 100·std_i / |θ_i|``.
 OLS uses unit weights, WLS its own final weights; the LMI method is scored at its own estimate, and a value

@@ -23,7 +23,8 @@ from pinid.checks import as_floats, count, number
 from pinid.errors import DataError, ModelError, SpecError
 from pinid.model.robot import RobotModel, as_robot
 from pinid.model.terms import STRIBECK_TERMS, as_terms
-from pinid.model.regressor import TermSelection, parameter_names, regressor
+from pinid.model.regressor import parameter_names, regressor
+from pinid.model.terms import TermSelection
 from pinid.io import read_bounded_file, write_json
 
 

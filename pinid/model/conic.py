@@ -124,7 +124,7 @@ class ConicProblem:
         opts = dict(CLARABEL_OPTIONS) if clarabel else {}
         opts.update(options or {})
         z, status, seconds = (self._clarabel if clarabel else self._cvxpy)(solver, opts, what)
-        check_status(status, solver, what)
+        _check_status(status, solver, what)
         if z is None:
             raise SolverError(f"{what}: solver {solver} returned status '{status}' without a solution")
         z = np.asarray(z, dtype=float).reshape(-1)
@@ -203,7 +203,7 @@ class ConicProblem:
         return z.value, str(prob.status), seconds
 
 
-def check_status(status: str, solver: str, what: str) -> None:
+def _check_status(status: str, solver: str, what: str) -> None:
     """SolverError unless ``status`` (cvxpy's names) is optimal or optimal_inaccurate."""
     if status in ("infeasible", "infeasible_inaccurate"):
         raise SolverError(

@@ -10,7 +10,8 @@ import numpy as np
 from pinid.errors import ModelError
 from pinid.model.base import base_parameters
 from pinid.model.floating import floating_base_parameters, floating_standard_parameters
-from pinid.model.regressor import TermSelection, standard_parameters
+from pinid.model.regressor import standard_parameters
+from pinid.model.terms import TermSelection
 from pinid.model.robot import RobotModel
 
 

@@ -33,7 +33,7 @@ from pinid.model.base import marks_summary
 from pinid.model.physical import check_consistency, com_inertia, tidy_inertial
 from pinid.model.robot import INERTIAL_NAMES
 from pinid.model import terms as _terms
-from pinid.model.regressor import TermSelection
+from pinid.model.terms import TermSelection
 from pinid.io import write_text
 from pinid.model.urdf import Element, xml_comment, new_element, sub_element, xml_text
 
@@ -111,7 +111,7 @@ def identified_urdf_tree(
     comment beside each inertial and joint's friction."""
     model = as_robot(model)
     theta = np.asarray(theta, dtype=float)
-    nv, nt = model.nv, _terms.count(model, terms)
+    nv, nt = model.nv, _terms.term_count(model, terms)
     if theta.shape != (10 * nv + nt,):
         raise ModelError(f"expected {10 * nv + nt} standard parameters, got {theta.size}")
     report = check_consistency(theta, model.joint_names, terms.names, model.motor_names)

@@ -240,7 +240,7 @@ def floating_parameter_names(model: FloatingRobotModel, terms: TermSelection = T
     model = as_floating(model)
     terms = _check_terms(model, terms)
     view = model.bodies
-    return view.inertial_names + _terms.parameter_names(view, terms)
+    return view.inertial_names + _terms.term_parameter_names(view, terms)
 
 
 def floating_standard_parameters(model: FloatingRobotModel, terms: TermSelection = TermSelection()) -> np.ndarray:

@@ -44,7 +44,7 @@ from pinid.io import write_text
 from pinid.model import terms as _terms
 from pinid.model.base import marks_summary
 from pinid.model.physical import NOISE, check_consistency, com_inertia, nonnegative_within_tolerance, tidy_inertial
-from pinid.model.regressor import TermSelection
+from pinid.model.terms import TermSelection
 from pinid.model.robot import INERTIAL_NAMES, MAX_BODY_MASS, RobotModel, as_robot
 from pinid.model.terms import as_terms
 from pinid.model.urdf import Element, UrdfDocument, is_element, new_element, sub_element, xml_comment, xml_text
@@ -117,7 +117,7 @@ def joint_fields(model: RobotModel, theta: np.ndarray, terms: TermSelection) -> 
     """The MJCF joint fields ``{"armature" [kg·m²], "damping" [N·m·s/rad], "frictionloss" [N·m]: (nv,)}`` of the
     term block of ``theta``, and the non-zero identified terms that have no MJCF field (``"hip.offset = 0.3 N·m"``)."""
     model, terms, theta = as_robot(model), as_terms(terms), as_floats(theta, "theta")
-    size = 10 * model.nv + _terms.count(model, terms)
+    size = 10 * model.nv + _terms.term_count(model, terms)
     if theta.shape != (size,):
         raise DataError(
             f"theta: shape {theta.shape}, expected ({size},) standard parameters of {model.name} with these terms"
@@ -241,7 +241,7 @@ def identified_mjcf(
     beside each identified body's inertial and each joint (which values the data determined).
     """
     model, terms, theta = as_robot(model), as_terms(terms), as_floats(theta, "theta", finite=False)
-    nv, nt = model.nv, _terms.count(model, terms)
+    nv, nt = model.nv, _terms.term_count(model, terms)
     base_theta, full = None, theta
     if getattr(model, "base", "fixed") == "floating" and theta.shape == (10 * (nv + 1) + len(terms.joint) * (nv + 1),):
         # a floating identification: the base link's 10 parameters first, the terms per body (base first)

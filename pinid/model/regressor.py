@@ -24,15 +24,15 @@ import pinocchio as pin
 from pinid.checks import as_states, as_vector, same_length
 from pinid.model import terms as _terms
 from pinid.model.robot import RobotModel, as_robot
-from pinid.model.terms import JOINT_TERM_NAMES, TermSelection, as_terms
+from pinid.model.terms import TermSelection, as_terms
 
-__all__ = ["JOINT_TERM_NAMES", "TermSelection", "parameter_names", "standard_parameters", "regressor", "joint_torque"]
+__all__ = ["parameter_names", "standard_parameters", "regressor", "joint_torque"]
 
 
 def parameter_names(model: RobotModel, terms: TermSelection = TermSelection()) -> list[str]:
     """Names of all standard parameters: inertial block, then the term parameters (``hip.fc``, ``m6.fc``)."""
     model, terms = as_robot(model), as_terms(terms)
-    return model.inertial_names + _terms.parameter_names(model, terms)
+    return model.inertial_names + _terms.term_parameter_names(model, terms)
 
 
 def standard_parameters(model: RobotModel, terms: TermSelection = TermSelection()) -> np.ndarray:
@@ -58,7 +58,7 @@ def regressor(
     same_length(q=q, dq=dq, ddq=ddq)
     n, nv = q.shape
     ni = 10 * nv
-    nt = _terms.count(model, terms)
+    nt = _terms.term_count(model, terms)
     out = np.empty((n, nv, ni + nt))
     inertial = out[:, :, :ni]
     m, d = model.pin_model, model.pin_model.createData()

@@ -10,7 +10,7 @@ import warnings
 from pathlib import Path
 
 from pinid.errors import ModelError, ModelWarning, SpecError
-from pinid.model.regressor import TermSelection
+from pinid.model.terms import TermSelection
 from pinid.model.robot import RobotModel
 from pinid.model.terms import TERMS, Term
 from pinid.model.robot import as_robot

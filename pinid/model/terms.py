@@ -448,14 +448,14 @@ def robot_layout(robot, terms: TermSelection) -> list[TermParameter]:
         ) from None
 
 
-def count(robot, terms: TermSelection) -> int:
+def term_count(robot, terms: TermSelection) -> int:
     """Number of term parameters of ``robot`` with ``terms``."""
     _robot(robot)
     terms = as_terms(terms)
     return len(terms.joint) * robot.nv + len(terms.motor) * len(_motors(robot))
 
 
-def parameter_names(robot, terms: TermSelection) -> list[str]:
+def term_parameter_names(robot, terms: TermSelection) -> list[str]:
     """Names of the term parameters (``hip.fc``, ``m6.fc``), in column order."""
     return [p.name for p in robot_layout(robot, terms)]
 

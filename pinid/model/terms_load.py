@@ -33,7 +33,7 @@ from pinid.model.terms import Motion, Term, register
 _DATA: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
-def load_torque(m: Motion) -> np.ndarray:
+def _load_torque(m: Motion) -> np.ndarray:
     """Rigid-body torque (N, nv) [N·m] of ``m.robot``'s inertial parameters at the motion ``m`` (no friction)."""
     robot = m.robot if isinstance(m, Motion) else None
     if not hasattr(robot, "rnea"):
@@ -47,11 +47,11 @@ def load_torque(m: Motion) -> np.ndarray:
 
 
 def _column(m: Motion) -> np.ndarray:
-    return np.abs(load_torque(m)) * np.sign(m.dq)
+    return np.abs(_load_torque(m)) * np.sign(m.dq)
 
 
 def _plant(values: np.ndarray, m: Motion, vs: float) -> np.ndarray:
-    return values * np.abs(load_torque(m)) * np.tanh(m.dq / vs)
+    return values * np.abs(_load_torque(m)) * np.tanh(m.dq / vs)
 
 
 register(

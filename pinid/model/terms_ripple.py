@@ -40,7 +40,7 @@ def _period(value, where: str) -> float:
     return float(value)
 
 
-def read_periods(saved, origin: str) -> float | dict[str, float]:
+def _read_periods(saved, origin: str) -> float | dict[str, float]:
     """The ripple periods as given or saved: a number > 0 for every joint, or ``{joint: number > 0}``;
     ``origin`` names the place in the SpecError."""
     if isinstance(saved, Mapping):
@@ -51,17 +51,17 @@ def read_periods(saved, origin: str) -> float | dict[str, float]:
 
 
 def periods_from_text(text: str, origin: str = "--ripple-periods") -> float | dict[str, float]:
-    """``"160"`` (every joint) or ``"A1=160,A2=100"`` as :func:`read_periods` returns it; SpecError otherwise."""
+    """``"160"`` (every joint) or ``"A1=160,A2=100"`` as :func:`_read_periods` returns it; SpecError otherwise."""
     if not isinstance(text, str) or not isinstance(origin, str):
         raise SpecError(f"text: got {type(text).__name__}, expected ripple periods 'R' or 'JOINT=R,…'")
     parts = [p.strip() for p in text.split(",") if p.strip()]
     try:
         if len(parts) == 1 and "=" not in parts[0]:
-            return read_periods(float(parts[0]), origin)
+            return _read_periods(float(parts[0]), origin)
         pairs = [p.partition("=") for p in parts]
         if not pairs or any(not sep or not k.strip() for k, sep, _ in pairs):
             raise ValueError
-        return read_periods({k.strip(): float(v) for k, _, v in pairs}, origin)
+        return _read_periods({k.strip(): float(v) for k, _, v in pairs}, origin)
     except ValueError as exc:
         if isinstance(exc, SpecError):
             raise
@@ -120,7 +120,7 @@ def _ripple_term(k: int, kind: str) -> Term:
         column,
         static=True,
         setting=SETTING,
-        read_setting=read_periods,
+        read_setting=_read_periods,
         write_setting=_write_periods,
     )
 

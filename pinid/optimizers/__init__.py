@@ -65,12 +65,6 @@ def get_optimizer(name: str, options=None, **kw) -> Optimizer:
     return cls(options, **kw)
 
 
-def names_text(conjunction: str = "or", names=None) -> str:
-    """The registered names as prose for help texts and messages: ``"pso, woa, ewoa or de"``."""
-    names = list(OPTIMIZERS if names is None else names)
-    return names[0] if len(names) == 1 else f"{', '.join(names[:-1])} {conjunction} {names[-1]}"
-
-
 __all__ = [
     "DEOptions",
     "DifferentialEvolution",
@@ -84,5 +78,4 @@ __all__ = [
     "WOA",
     "WOAOptions",
     "get_optimizer",
-    "names_text",
 ]

@@ -44,13 +44,6 @@ def bartlett_long_run(g: np.ndarray, lag: int) -> np.ndarray:
     return (h.T @ h) / (lag + 1)
 
 
-def sample_scores(W: np.ndarray, e: np.ndarray, sample: np.ndarray, samples: int) -> np.ndarray:
-    """Per-sample scores ``Σ_rows(t) e·W`` (samples, p) of rows with sample index ``sample``."""
-    g = np.zeros((samples, W.shape[1]))
-    np.add.at(g, sample, W * e[:, None])
-    return g
-
-
 def hac_covariance(
     Binv: np.ndarray, scores: np.ndarray, bounds: list[tuple[int, int]], dof_ratio: float = 1.0
 ) -> tuple[np.ndarray, list[int]]:

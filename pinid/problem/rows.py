@@ -10,7 +10,7 @@ import numpy as np
 from pinid.checks import array_like
 from pinid.data.dataset import Dataset, as_dataset
 from pinid.errors import SpecError
-from pinid.model.regressor import TermSelection
+from pinid.model.terms import TermSelection
 from pinid.model.robot import RobotModel, as_robot
 from pinid.model.terms import as_terms
 

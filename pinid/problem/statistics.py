@@ -15,7 +15,8 @@ from pinid.errors import SpecError
 from pinid.linalg import unit_weights
 from pinid.model.base import BaseParameters
 from pinid.model.physical import parameter_scale
-from pinid.model.regressor import TermSelection, standard_parameters
+from pinid.model.regressor import standard_parameters
+from pinid.model.terms import TermSelection
 from pinid.model.robot import RobotModel
 from pinid.problem.covariance import hac_std
 

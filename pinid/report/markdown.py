@@ -49,7 +49,7 @@ REPORT_FILES = (
 )
 
 
-def number(x, fmt: str = ".4g") -> str:
+def number_text(x, fmt: str = ".4g") -> str:
     """``x`` formatted with ``fmt``; ``–`` for None or a non-finite float."""
     if x is None or (isinstance(x, float) and not np.isfinite(x)):
         return "–"
@@ -214,15 +214,15 @@ def pooled(metrics, key: str, fmt: str = ".4g") -> str:
         return "–"
     pools = metrics.pools()
     if len(pools) == 1:
-        return number(pools["all"][key], fmt)
+        return number_text(pools["all"][key], fmt)
     unit = lambda label: "" if key.endswith("percent") else " " + label.split(" ", 1)[1]
-    return " / ".join(f"{number(m[key], fmt)}{unit(label)}" for label, m in pools.items())
+    return " / ".join(f"{number_text(m[key], fmt)}{unit(label)}" for label, m in pools.items())
 
 
-def truth_cell(err: dict, name: str) -> str:
+def _truth_cell(err: dict, name: str) -> str:
     """A parameter's error against the truth: ``12 %``, or the absolute error ``|e| 3e-05`` where the truth is 0."""
     rel = err["error_percent"].get(name)
-    return f"{number(rel, '.2g')} %" if rel is not None else f"|e| {number(err['error'].get(name), '.2g')}"
+    return f"{number_text(rel, '.2g')} %" if rel is not None else f"|e| {number_text(err['error'].get(name), '.2g')}"
 
 
 def _unit(ident) -> str:
@@ -242,18 +242,20 @@ def summary_table(ident, bold=lambda text: f"**{text}**") -> tuple[list[str], li
         v = r.validation
         mean_std = "–"
         if v is not None:
-            mean_std = " / ".join(f"{number(p['mean_abs'])} ± {number(p['std_abs'])}" for p in v.pools().values())
+            mean_std = " / ".join(
+                f"{number_text(p['mean_abs'])} ± {number_text(p['std_abs'])}" for p in v.pools().values()
+            )
         rows.append(
             [
                 bold(m) if m == ident.best else m,
                 "yes" if r.physically_consistent else bold("no"),
-                number(r.condition_number, ".3g"),
+                number_text(r.condition_number, ".3g"),
                 pooled(r.train, "rms"),
                 pooled(v, "rms"),
                 pooled(v, "rel_rms_percent", ".3g"),
                 pooled(r.validation_filtered, "rel_rms_percent", ".3g"),
                 mean_std,
-                number(r.seconds, ".3g"),
+                number_text(r.seconds, ".3g"),
                 r.status,
             ]
         )
@@ -284,8 +286,8 @@ def floor_line(ident) -> str | None:
         return None
     val = ident.results[ident.best].validation
     cells = [
-        f"{j} {number(m['rel_rms_percent'], '.3g')}"
-        + (f" ({ident.best} {number(val.per_joint[j]['rel_rms_percent'], '.3g')})" if val is not None else "")
+        f"{j} {number_text(m['rel_rms_percent'], '.3g')}"
+        + (f" ({ident.best} {number_text(val.per_joint[j]['rel_rms_percent'], '.3g')})" if val is not None else "")
         for j, m in floor.per_joint.items()
     ]
     return (
@@ -341,7 +343,7 @@ def _comparison_figures(ident, figures: dict[str, str]) -> list[str]:
     return lines
 
 
-def method_table(result, unit: str = "") -> tuple[list[str], list[list[str]]]:
+def _method_table(result, unit: str = "") -> tuple[list[str], list[list[str]]]:
     """One table of a method's torque error per joint (and pooled): RMS (RMS %) on the training and
     validation data, against the torque as recorded (raw) and the low-passed one (filtered), then the mean
     ± std and max of |e| (validation raw, else training raw).  ``unit``: the header's unit (" [N·m]")."""
@@ -358,7 +360,7 @@ def method_table(result, unit: str = "") -> tuple[list[str], list[list[str]]]:
     primary_name, primary = sets[1] if len(sets) > 1 and sets[1][0] == "valid. raw" else sets[0]
 
     def cell(m: dict | None) -> str:
-        return "–" if m is None else f"{number(m['rms'])} ({number(m['rel_rms_percent'], '.3g')} %)"
+        return "–" if m is None else f"{number_text(m['rms'])} ({number_text(m['rel_rms_percent'], '.3g')} %)"
 
     def row_of(metrics, name: str) -> dict | None:
         return metrics.per_joint.get(name) or metrics.pools().get(name)
@@ -370,16 +372,16 @@ def method_table(result, unit: str = "") -> tuple[list[str], list[list[str]]]:
         rows.append(
             [name]
             + [cell(row_of(m, name)) for _, m in sets]
-            + [f"{number(p['mean_abs'])} ± {number(p['std_abs'])}", number(p["max_abs"])]
+            + [f"{number_text(p['mean_abs'])} ± {number_text(p['std_abs'])}", number_text(p["max_abs"])]
         )
     header = ["joint"] + [f"RMS {n}{unit} (%)" for n, _ in sets]
     header += [f"{primary_name} |e| mean ± std{unit}", f"{primary_name} max |e|{unit}"]
     return header, rows
 
 
-def method_section(ident, m: str) -> list[str]:
+def _method_section(ident, m: str) -> list[str]:
     """Lines of method ``m``'s folded section: ``<details>`` (open for the best), a one-line summary, the
-    description, consistency, cond(W_b), time, and :func:`method_table`."""
+    description, consistency, cond(W_b), time, and :func:`_method_table`."""
     import html
 
     r = ident.results[m]
@@ -389,18 +391,18 @@ def method_section(ident, m: str) -> list[str]:
     flag = "" if r.physically_consistent else ", <strong>not physically consistent</strong>"
     headline = (
         f"<summary><strong>{html.escape(m)}</strong>{' (best)' if best else ''}: {kind} RMS raw "
-        f"{html.escape(pooled(v, 'rel_rms_percent', '.3g'))} %{flag}; {html.escape(number(r.seconds, '.3g'))} s"
+        f"{html.escape(pooled(v, 'rel_rms_percent', '.3g'))} %{flag}; {html.escape(number_text(r.seconds, '.3g'))} s"
         "</summary>"
     )
     lines = ["<details open>" if best else "<details>", headline, "", f"{r.description}.", ""]
     consistent = "physically consistent" if r.physically_consistent else "**not physically consistent**"
     lines.append(
-        f"- {consistent} ({r.standard_source}); cond(W_b) {number(r.condition_number, '.4g')}; "
-        f"{number(r.seconds, '.3g')} s; status {r.status}"
+        f"- {consistent} ({r.standard_source}); cond(W_b) {number_text(r.condition_number, '.4g')}; "
+        f"{number_text(r.seconds, '.3g')} s; status {r.status}"
     )
     for prob in (r.consistency.get("problems") or [])[:4]:
         lines.append(f"- problem: {prob}")
-    lines += ["", markdown_table(*method_table(r, _unit(ident))), "", "</details>", ""]
+    lines += ["", markdown_table(*_method_table(r, _unit(ident))), "", "</details>", ""]
     return lines
 
 
@@ -484,7 +486,7 @@ def report_markdown(ident, figures: dict[str, str] | None = None) -> str:
         lines.append(f"- sample rate(s): {', '.join(f'{r:.4g} Hz' for r in rates)}")
     if data.get("rows_dropped_at_rest") and any(data["rows_dropped_at_rest"].values()):
         rest = ", ".join(
-            f"`{j}` {n} (|dq| < {number(data['rest_velocity'][j], '.3g')} rad/s)"
+            f"`{j}` {n} (|dq| < {number_text(data['rest_velocity'][j], '.3g')} rad/s)"
             for j, n in data["rows_dropped_at_rest"].items()
         )
         lines.append(f"- rows dropped at rest (Coulomb friction undefined there): {rest}")
@@ -512,7 +514,7 @@ def report_markdown(ident, figures: dict[str, str] | None = None) -> str:
         "",
     ]
     for m in ident.results:
-        lines += method_section(ident, m)
+        lines += _method_section(ident, m)
     truth = next((r.truth_error for r in ident.results.values() if r.truth_error), None)
     lines += [
         "## Base parameters",
@@ -536,13 +538,13 @@ def report_markdown(ident, figures: dict[str, str] | None = None) -> str:
     header += [f"{m} (σ%" + (", err %)" if truth else ")") for m in ident.results]
     rows = []
     for i, n in enumerate(names):
-        cells = [f"`{n}`", exprs[i] if len(exprs[i]) < 70 else exprs[i][:67] + "…", number(nominal[i])]
+        cells = [f"`{n}`", exprs[i] if len(exprs[i]) < 70 else exprs[i][:67] + "…", number_text(nominal[i])]
         if truth:
-            cells.append(number(truth["truth"].get(n)))
+            cells.append(number_text(truth["truth"].get(n)))
         for r in ident.results.values():
-            cell = f"{number(r.base[i])} ({number(r.std_percent[i], '.2g')}"
+            cell = f"{number_text(r.base[i])} ({number_text(r.std_percent[i], '.2g')}"
             if truth and r.truth_error:
-                cell += ", " + truth_cell(r.truth_error, n)
+                cell += ", " + _truth_cell(r.truth_error, n)
             cells.append(cell + ")")
         rows.append(cells)
     lines.append(markdown_table(header, rows))
@@ -568,8 +570,13 @@ def report_markdown(ident, figures: dict[str, str] | None = None) -> str:
             ev[np.abs(ev) < NOISE * np.abs(ev).max()] = 0.0
             names = [f"{j}.{n}" for n in INERTIAL_NAMES] + [f"{j}.{t.suffix}" for t in joint_terms]
             rows.append(
-                [f"`{j}`", number(m), " ".join(number(x, ".3g") for x in c), " ".join(number(x, ".3g") for x in ev)]
-                + [number(jt[i, k]) for k in range(len(terms))]
+                [
+                    f"`{j}`",
+                    number_text(m),
+                    " ".join(number_text(x, ".3g") for x in c),
+                    " ".join(number_text(x, ".3g") for x in ev),
+                ]
+                + [number_text(jt[i, k]) for k in range(len(terms))]
                 + ([marks_summary(best.marks, names) or "–"] if best.marks else [])
             )
         units = [f"{t.name} [{t.unit}]" for t in joint_terms]  # revolute joints' units (pinid.model.terms)

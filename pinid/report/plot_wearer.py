@@ -14,7 +14,7 @@ from pinid.report.figures import new_figure
 PLANAR = 1e-3
 
 
-def zero_pose_points(urdf_text: str, segments: Mapping[str, Mapping]) -> tuple[list, dict]:
+def _zero_pose_points(urdf_text: str, segments: Mapping[str, Mapping]) -> tuple[list, dict]:
     """The robot of ``urdf_text`` in its zero pose (Pinocchio's neutral configuration, every joint of the
     URDF at 0), in the world frame [m]: ``(bones, placed)`` with ``bones`` the ``(start, end)`` pairs of
     the kinematic chain (each joint to its parent joint, each fixed link's frame to its joint; not the
@@ -52,9 +52,9 @@ def attachment_figure(urdf_text: str, segments: Mapping[str, Mapping], *, title:
     """Where the wearer's segments attach: the robot's kinematic chain in its zero pose (grey), each
     segment (a thick line from its proximal to its distal end), the exo link frame it is strapped to
     (square) and its centre of mass (circle), labelled; a sagittal x–z view, plus a frontal y–z view when
-    the robot leaves the sagittal plane (:func:`zero_pose_points`).  The CoM markers carry the gid
+    the robot leaves the sagittal plane (:func:`_zero_pose_points`).  The CoM markers carry the gid
     ``com:<segment>``, the attachment markers ``attach:<segment>``, the segments ``segment:<segment>``.  Returns the figure."""
-    bones, placed = zero_pose_points(urdf_text, segments)
+    bones, placed = _zero_pose_points(urdf_text, segments)
     points = np.array([p for b in bones for p in b] + [p for s in placed.values() for p in s.values()])
     frontal = bool(np.abs(points[:, 1] - points[:, 1].mean()).max() > PLANAR)
     views = [("sagittal (x forward, z up)", 0, "x [m]")] + ([("frontal (y left, z up)", 1, "y [m]")] if frontal else [])

@@ -17,7 +17,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from pinid.io import display_path
-from pinid.report.markdown import WINDOW, markdown_table, number
+from pinid.report.markdown import WINDOW, markdown_table, number_text
 
 #: Every file the stage-2 report writes (``pinid identify --stage wearer`` removes an earlier run's).
 WEARER_REPORT_FILES = ("report.md", "report.html", "torque_wearer.png", "attachment_wearer.png", "segments_wearer.png")
@@ -30,8 +30,8 @@ def _rms_table(rms: Mapping[str, Mapping[str, float]]) -> str:
     joints = list(next(iter(rms.values())))
     rows = [
         [MODELS[w]]
-        + [number(rms[w][j]) for j in joints]
-        + [number(float(np.sqrt(np.mean(np.square(list(rms[w].values()))))))]
+        + [number_text(rms[w][j]) for j in joints]
+        + [number_text(float(np.sqrt(np.mean(np.square(list(rms[w].values()))))))]
         for w in MODELS
         if w in rms
     ]
@@ -44,14 +44,14 @@ def _prior_weight_line(result: Mapping) -> str:
     lam = result.get("prior_weight", 0.0)
     if not cv:
         return f"Prior weight λ = {lam:g} (given)."
-    cells = ", ".join(f"{w:g}: {number(r)}" for w, r in zip(cv["weights"], cv["heldout_rms"]))
+    cells = ", ".join(f"{w:g}: {number_text(r)}" for w, r in zip(cv["weights"], cv["heldout_rms"]))
     return (
         f"Prior weight λ = {lam:g}, chosen by {cv['folds']}-fold blocked cross-validation on the recording "
         f"(held-out torque RMS [N·m] per λ: {cells})."
     )
 
 
-def wearer_markdown(result: Mapping, figures: Mapping[str, str] | None = None) -> str:
+def _wearer_markdown(result: Mapping, figures: Mapping[str, str] | None = None) -> str:
     """The report text of stage-2 ``result``; ``figures`` maps ``"torque"``, ``"attachment"`` and
     ``"segments"`` to the file names to link."""
     from pinid import __version__
@@ -101,9 +101,9 @@ def wearer_markdown(result: Mapping, figures: Mapping[str, str] | None = None) -
             [
                 [
                     f"`{n}`",
-                    number(v, ".6g"),
-                    number(table[n], ".6g"),
-                    number(100 * (v - table[n]) / table[n], "+.3g") if table[n] else "–",
+                    number_text(v, ".6g"),
+                    number_text(table[n], ".6g"),
+                    number_text(100 * (v - table[n]) / table[n], "+.3g") if table[n] else "–",
                 ]
                 for n, v in base.items()
             ],
@@ -132,7 +132,7 @@ def wearer_markdown(result: Mapping, figures: Mapping[str, str] | None = None) -
         markdown_table(
             ["parameter", "identified", "table"] + (["from these data"] if result.get("marks") else []),
             [
-                [f"`{n}`", number(v, ".6g"), number(result["table"][n], ".6g")]
+                [f"`{n}`", number_text(v, ".6g"), number_text(result["table"][n], ".6g")]
                 + ([result["marks"].get(n, "–")] if result.get("marks") else [])
                 for n, v in result["parameters"].items()
                 if v or result["table"][n]
@@ -146,15 +146,15 @@ def wearer_markdown(result: Mapping, figures: Mapping[str, str] | None = None) -
             joint, rest = name.split("[", 1)
             k, col = int(rest.split("]")[0]), " HKA".index(name[-1])
             pub, fit = exp["published"][joint][k][col], exp["fitted"][joint][k][col]
-            rows.append([f"`{name}`", number(pub, ".6g"), number(fit, ".6g"), number(fit / pub, ".4g")])
+            rows.append([f"`{name}`", number_text(pub, ".6g"), number_text(fit, ".6g"), number_text(fit / pub, ".4g")])
         lines += [
             "",
             "## Passive-moment exponents",
             "",
             f"Fitted by nonlinear least squares from the published values (Riener & Edrich 1999), within "
             f"0.5–2× of them: {len(exp['free'])} coefficients [1/deg], {exp['evaluations']} evaluations, "
-            f"{exp['seconds']:.2f} s. Torque RMS of the unconstrained fit: {number(exp['rms_published'])} N·m "
-            f"at the published exponents, {number(exp['rms_fitted'])} N·m at the fitted ones.",
+            f"{exp['seconds']:.2f} s. Torque RMS of the unconstrained fit: {number_text(exp['rms_published'])} N·m "
+            f"at the published exponents, {number_text(exp['rms_fitted'])} N·m at the fitted ones.",
             "",
             markdown_table(["coefficient", "published", "fitted", "fitted / published"], rows),
         ]
@@ -219,5 +219,5 @@ def wearer_report_files(
 
         pngs["segments_wearer.png"] = figure_png(segment_masses_figure(result))
         linked["segments"] = "segments_wearer.png"
-    text = wearer_markdown(result, linked)
+    text = _wearer_markdown(result, linked)
     return {"report.md": text, "report.html": markdown_to_html(text, pngs, title="pinid: stage 2, the wearer"), **pngs}

@@ -421,7 +421,7 @@ def simulate_floating(
     trajectory (:func:`pinid.simulation.twin.load_trajectory`) the suspended legs follow (:func:`simulate_suspended`)."""
     if excitation == "gait":
         return simulate_gait(model, seconds=seconds, rate=rate, noise=noise, seed=seed, imu_frame=imu_frame)
-    from pinid.simulation.twin import load_trajectory
+    from pinid.simulation.trajectories import load_trajectory
 
     trajectory = load_trajectory(excitation, model)
     return simulate_suspended(

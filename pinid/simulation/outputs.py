@@ -14,9 +14,11 @@ from pinid.data.formats import write_recording
 from pinid.io import Artefacts
 from pinid.model.base import base_parameters
 from pinid.model.export import identified_urdf
-from pinid.model.regressor import TermSelection, standard_parameters
+from pinid.model.regressor import standard_parameters
+from pinid.model.terms import TermSelection
 from pinid.model.robot import RobotModel
-from pinid.simulation.twin import perturb, save_truth
+from pinid.simulation.cad import perturb
+from pinid.simulation.twin import save_truth
 from pinid.errors import OutputError
 from pinid.io import as_path
 from pinid.model.robot import as_robot

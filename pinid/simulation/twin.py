@@ -63,7 +63,8 @@ from pinid.excitation.trajectory import FourierTrajectory
 from pinid.io import write_json
 from pinid.model import terms as _terms
 from pinid.model.base import base_parameters
-from pinid.model.regressor import TermSelection, parameter_names, standard_parameters
+from pinid.model.regressor import parameter_names, standard_parameters
+from pinid.model.terms import TermSelection
 from pinid.progress import progress as _progress
 from pinid.errors import OutputError
 from pinid.io import as_path

@@ -72,7 +72,7 @@ class Placement:
     frame: np.ndarray  # columns: sagittal, transverse, longitudinal axis
 
 
-def parse_attach(text: str) -> list[tuple[str, str]]:
+def _parse_attach(text: str) -> list[tuple[str, str]]:
     """``"hip:thigh,knee:shank"`` → ``[("hip", "thigh"), ("knee", "shank")]`` (exo joint or link : segment)."""
     if not isinstance(text, str):
         raise SpecError(
@@ -281,13 +281,13 @@ def wearer_urdf(
     from pinid.model.robot import RobotModel
 
     if attach is not None:
-        pairs = parse_attach(attach) if isinstance(attach, str) else check_pairs(attach)
+        pairs = _parse_attach(attach) if isinstance(attach, str) else check_pairs(attach)
     file, _ = resolve_robot(urdf)
 
     # the exoskeleton must be a URDF pinid loads (size, numbers, axes, nesting); its document is the start
     root = RobotModel.from_urdf(file).urdf_document.tree()
     if attach is None:
-        pairs = parse_attach(_default_attach(root))
+        pairs = _parse_attach(_default_attach(root))
     if root.find(f"link[@name='{PREFIX}thigh']") is not None or any(
         (lk.get("name") or "").startswith(PREFIX) for lk in root.findall("link")
     ):

@@ -27,7 +27,7 @@ def default_path() -> Path:
     return Path(str(resources.files("pinid.resources") / "anthropometry" / "comfort_limits.toml"))
 
 
-def read(path: str | Path | None = None) -> dict[str, dict[str, float]]:
+def read_limits(path: str | Path | None = None) -> dict[str, dict[str, float]]:
     """``{anatomical joint: {min, max [deg], speed [deg/s], acceleration [deg/s²]}}`` from ``path`` (default
     the shipped file), checked."""
     p = Path(path) if path is not None else default_path()
@@ -54,7 +54,7 @@ def within_comfort(spec, model, path: str | Path | None = None):
     """``spec`` (an ExcitationSpec for ``model``) restricted to the comfort limits of ``path``: position
     ranges intersected, speed and acceleration the smaller; offsets outside the new range move to its
     centre.  SpecError when a comfort range does not overlap the spec's (URDF's) range."""
-    limits = read(path)
+    limits = read_limits(path)
     lo, hi, dq, ddq, q0 = (getattr(spec, k).copy() for k in ("q_min", "q_max", "dq_max", "ddq_max", "q0"))
     src = str(path) if path is not None else "comfort_limits.toml (pinid's default)"
     for i, (kind, s) in enumerate(anatomy(model)):

@@ -23,7 +23,7 @@ import numpy as np
 
 from pinid.identification.identified import IdentifiedModel
 from pinid.problem.problem import prepare_dataset
-from pinid.model.regressor import TermSelection
+from pinid.model.terms import TermSelection
 from pinid.model.robot import RobotModel
 from pinid.simulation.twin import simulate
 from pinid.wearer.attach import wearer_links

@@ -160,7 +160,7 @@ def column(q: np.ndarray, robot, exps: dict[str, np.ndarray] | None = None) -> n
     return out
 
 
-def torque(q: np.ndarray, robot, scale: np.ndarray | float = 1.0) -> np.ndarray:
+def passive_torque(q: np.ndarray, robot, scale: np.ndarray | float = 1.0) -> np.ndarray:
     """Passive moment the wearer's tissues apply on the robot's joints [N·m], (N, nv): ``scale·s·M``."""
     array_like(q, "q")
     return -np.asarray(scale, dtype=float) * column(q, robot)

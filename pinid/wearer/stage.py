@@ -38,7 +38,8 @@ from pinid.io import Artefacts, as_path, json_text
 from pinid.model.base import base_parameters
 from pinid.model.conic import ConicProblem
 from pinid.model.physical import PSEUDO_INERTIA_BASIS
-from pinid.model.regressor import TermSelection, parameter_names, regressor
+from pinid.model.regressor import parameter_names, regressor
+from pinid.model.terms import TermSelection
 from pinid.model.robot import RobotModel, as_robot
 from pinid.problem.rows import rest_speeds
 from pinid.wearer.passive import anatomy

@@ -34,7 +34,7 @@ METHODS = ["ols", "wls", "sdp"]
 def one(seed: int, loop: str, seconds: float, folder: str) -> dict:
     import pinid.identification.result as result_module
     from pinid import identify
-    from pinid.problem.problem import base_statistics
+    from pinid.problem.statistics import base_statistics
 
     csv = Path(folder) / f"{loop}_{seed}.csv"
     cmd = [sys.executable, "-m", "pinid.cli", "simulate", "--urdf", "exo_leg", "--excitation", "exo_leg"]

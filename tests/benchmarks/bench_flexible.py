@@ -32,11 +32,11 @@ from pinid.flexible.output_error import (
     LEAST_SQUARES,
     classify,
     fit_output_error,
-    load_flex_spec,
     make_twin,
     problem_from_spec,
     sensitivity,
 )
+from pinid.flexible.spec import load_flex_spec
 from pinid.report.figures import save_figure
 from pinid.report.plot_flexible import plot_angles, plot_cost_curves, plot_parameter_errors
 

@@ -20,7 +20,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from test_stribeck import JOINT, MOTOR, exo_joint, exo_motor, twin  # noqa: E402
 
 from pinid import TermSelection  # noqa: E402
-from pinid.problem.problem import IdentificationProblem, base_statistics  # noqa: E402
+from pinid.problem.problem import IdentificationProblem
+from pinid.problem.statistics import base_statistics
 from pinid.identification.stribeck import with_stribeck  # noqa: E402
 from pinid.model.terms import Stribeck  # noqa: E402
 

@@ -23,7 +23,7 @@ from pinid import TermSelection, RobotModel, standard_parameters
 from pinid.identification.identified import IdentifiedModel
 from pinid.model.bundled import example_robot_data_dir
 from pinid.model.mjcf import exported_pin_model, joint_fields
-from pinid.simulation.twin import perturb
+from pinid.simulation.cad import perturb
 
 TERMS = TermSelection(coulomb=True, viscous=True, armature=True)
 

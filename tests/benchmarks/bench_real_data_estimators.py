@@ -51,7 +51,8 @@ from pinid.problem.problem import (
     prepare_dataset,
 )
 from pinid.model.physical import parameter_scale
-from pinid.simulation.twin import load_trajectory, simulate
+from pinid.simulation.trajectories import load_trajectory
+from pinid.simulation.twin import simulate
 
 ROOT = Path(__file__).resolve().parents[2]
 METHODS = ["ols", "wls", "sdp", "iv", "didim", "tls", "irls"]

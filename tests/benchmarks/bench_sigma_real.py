@@ -45,7 +45,7 @@ def recordings():
 def ratio(model, ds, k: int, kind: str) -> float:
     import pinid.identification.result as result_module
     from pinid import identify
-    from pinid.problem.problem import base_statistics
+    from pinid.problem.statistics import base_statistics
 
     result_module.base_statistics = functools.partial(base_statistics, kind=kind)
     whole = identify(model, ds, methods=["ols"], complete=False)["ols"]

@@ -45,7 +45,9 @@ from pinid import RobotModel
 from pinid.identification.compare import compare, lad
 from pinid.data.preprocess import prepare
 from pinid.identification.segmental import SegmentalProblem
-from pinid.simulation.twin import load_trajectory, perturb, simulate
+from pinid.simulation.trajectories import load_trajectory
+from pinid.simulation.cad import perturb
+from pinid.simulation.twin import simulate
 
 # The paper's numbers.  Validation: mean ± std of |e| [N·m]; Fig. 10 knee (trajectory 2), Fig. 13 hip (trajectory 4).
 PAPER_VALIDATION = {

@@ -41,7 +41,9 @@ from pinid.excitation.design import design_excitation
 from pinid.excitation.evaluation import evaluate_trajectory
 from pinid.excitation.spec import spec_for
 from pinid.data.preprocess import prepare
-from pinid.simulation.twin import load_trajectory, perturb, simulate
+from pinid.simulation.trajectories import load_trajectory
+from pinid.simulation.cad import perturb
+from pinid.simulation.twin import simulate
 
 ROOT = Path(__file__).resolve().parents[2]
 OPTIMIZERS = ("pso", "woa", "ewoa")
