@@ -15,7 +15,8 @@ from pinid.identification.delay import estimate_delay
 from pinid.identification.outputs import identification_text
 from pinid.identification.run import identify
 from pinid.model.robot import RobotModel
-from pinid.simulation.twin import load_trajectory, simulate
+from pinid.simulation.trajectories import load_trajectory
+from pinid.simulation.twin import simulate
 
 LAGS = np.array([0.010, 0.030])  # hip, knee [s]
 

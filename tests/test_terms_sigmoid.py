@@ -21,7 +21,8 @@ from pinid.model.base import base_parameters
 from pinid.model.robot import RobotModel
 from pinid.model.serialize import robot_from_dict, robot_to_dict
 from pinid.model.terms_sigmoid import read_shape, shape_from_text, shapes, sigmoid_column
-from pinid.simulation.twin import load_trajectory, simulate
+from pinid.simulation.trajectories import load_trajectory
+from pinid.simulation.twin import simulate
 
 FSIG = [0.8, 0.5]  # amplitudes φ1 per joint [N·m]
 SHAPE = {"hip": {"steepness": 30.0, "offset": 0.02}, "knee": {"steepness": 60.0, "offset": -0.01}}
@@ -51,7 +52,7 @@ def twin(m: RobotModel, seed: int = 2, noise: float = 0.0, seconds: float = 6.0)
 
 def truth_theta(m: RobotModel) -> np.ndarray:
     theta = np.concatenate([m.inertial_parameters(), T.nominal(m, SEL)])
-    names = m.inertial_names + T.parameter_names(m, SEL)
+    names = m.inertial_names + T.term_parameter_names(m, SEL)
     for j, joint in enumerate(m.joint_names):
         theta[names.index(f"{joint}.fsig")] = FSIG[j]
     return theta

@@ -32,7 +32,7 @@ COMPARISON_FILES = ("comparison.json", "comparison.md", "compare_*.png")
 
 
 # ============================================================================================ identify
-def _result_text(r) -> str:
+def result_detail(r) -> str:
     """One method's detail (``pinid identify --verbose``): consistency, cond(W_b), time, status; the base
     parameters with standard deviations; the training and validation torque metrics."""
     if not hasattr(r, "physically_consistent"):
@@ -76,7 +76,7 @@ def _parameter_text(r, *, indent: str = "") -> str:
 
 def identification_text(ident, *, verbose: bool = False) -> str:
     """What ``pinid identify`` prints after the work: the drive gains and the Stribeck velocities and shapes
-    (when identified), the data used, every method's detail with ``verbose`` (:func:`_result_text`), and the
+    (when identified), the data used, every method's detail with ``verbose`` (:func:`result_detail`), and the
     summary table."""
     if not hasattr(ident, "results"):
         raise SpecError(f"ident: got {type(ident).__name__}, expected an Identification")
@@ -99,7 +99,7 @@ def identification_text(ident, *, verbose: bool = False) -> str:
         + (f"; validation: {len(ident.validation_sources)} recording(s)" if ident.validation_sources else "")
     )
     if verbose:
-        lines += [_result_text(r) for r in ident] + [""]
+        lines += [result_detail(r) for r in ident] + [""]
     elif ident.results and (ident.results[ident.best].truth_error or ident.results[ident.best].warning):
         best = ident.results[ident.best]  # against the truth, or poorly determined: every parameter's σ %
         what = "against the truth" if best.truth_error else "and their relative standard deviations"

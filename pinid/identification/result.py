@@ -165,9 +165,9 @@ class IdentificationResult(ResultProtocol):
     def text(self) -> str:
         """This method's detail as ``pinid identify --verbose`` prints it (consistency, the base parameters
         with σ, the torque errors)."""
-        from pinid.identification.outputs import result_text
+        from pinid.identification.outputs import result_detail
 
-        return result_text(self).lstrip("\n")
+        return result_detail(self).lstrip("\n")
 
     def to_dict(self, *, include_robot: bool = True) -> dict:
         """Plain-dict form (the entry of ``identification.json`` under ``methods``)."""

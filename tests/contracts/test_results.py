@@ -73,7 +73,8 @@ def _comparison(leg, identification):
 
 
 def _output_error(leg, identification):
-    from pinid.flexible.output_error import fit_output_error, load_flex_spec, make_twin, problem_from_spec
+    from pinid.flexible.output_error import fit_output_error, make_twin, problem_from_spec
+    from pinid.flexible.spec import load_flex_spec
 
     spec = load_flex_spec(Path(__file__).resolve().parents[2] / "excitation" / "tracker_flex_spec.toml")
     s = replace(spec, input=replace(spec.input, duration=0.2))
@@ -83,12 +84,12 @@ def _output_error(leg, identification):
 
 
 def _tracking(leg, identification):
-    from pinid.control.controllers import ComputedTorque, nominal_model, track
+    from pinid.control.controllers import ComputedTorque, Tracking, nominal_model, track
     from pinid.excitation.trajectory import FourierTrajectory
 
     exo = leg[0]
     ref = FourierTrajectory(["hip", "knee"], 0.5 * np.pi, [0.61, -0.87], [[0.5], [0.5]], [[0.0], [0.0]])
-    return track(exo, ComputedTorque(nominal_model(exo)), ref, seconds=0.3)
+    return track(exo, ComputedTorque(nominal_model(exo)), ref, Tracking(0.3))
 
 
 def _optimize(leg, identification):
