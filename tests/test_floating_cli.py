@@ -54,7 +54,7 @@ def test_excite_simulate_identify_floating(tmp_path):
         ["export", "--model", "r/identification.json", "-o", "exo.xml"],
     ]
     for args in steps:
-        proc = run_cli(*args, cwd=tmp_path)
+        proc = run_cli(*args, cwd=tmp_path, figures=True)
         assert proc.returncode == 0, (args, proc.stderr)
     # the joints drawn beside each recording (prescribed, recorded, torque), none with --no-figures
     assert all((tmp_path / f).stat().st_size > 10_000 for f in ("s.png", "v.png", "g.png"))

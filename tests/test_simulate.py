@@ -374,7 +374,7 @@ def test_cli_draws_the_run_beside_the_recording(tmp_path):
     """OUTPUT with .png: written (a PNG), listed in what the command prints, left out with --no-figures; the
     figure's error column is the truth's tracking error (simulated − reference)."""
     args = ("simulate", "--urdf", "apal_leg", "--excitation", "zha2019-1", "--seconds", "1", "--seed", "2")
-    proc = run_cli(*args, "-o", str(tmp_path / "a.csv"))
+    proc = run_cli(*args, "-o", str(tmp_path / "a.csv"), figures=True)
     assert proc.returncode == 0, proc.stderr
     png = tmp_path / "a.png"
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 10_000
