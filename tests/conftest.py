@@ -19,6 +19,15 @@ import pytest
 
 from pinid import RobotModel
 
+# The tests mirror the package (tests/model/, tests/identification/, …; tests/contracts/, tests/architecture/,
+# tests/docs/ across it) and import shared twins from each other by module name (``from test_identification
+# import twin``): every test folder is on sys.path, whichever file pytest runs.  Test file names stay unique.
+_TESTS = Path(__file__).resolve().parent
+for _folder in sorted(_TESTS.iterdir()):
+    if _folder.is_dir() and _folder.name != "benchmarks" and any(_folder.glob("test_*.py")):
+        if str(_folder) not in sys.path:
+            sys.path.append(str(_folder))
+
 
 def shared_data() -> Path:
     """The project's shared recordings: ``$PINID_SHARED_DATA``, else ``../shared/data`` beside the clone,
