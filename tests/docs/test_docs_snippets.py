@@ -218,14 +218,12 @@ def _layout(folder: Path) -> None:
 
 
 RUN = [p for p in PAGES if any(b.lang and b.mark != "skip" for b in blocks(p))]
-SLOW = {"control.md", "simulate.md", "wearer.md"}  # 60 s twin runs, the shared recordings and identification
 
 
-@pytest.mark.parametrize(
-    "page",
-    [pytest.param(p, marks=[pytest.mark.slow] if p.name in SLOW else []) for p in RUN],
-    ids=[str(p.relative_to(ROOT)) for p in RUN],
-)
+# Every page runs twins, identifications or designs (the floating-base page minutes on a loaded 2-core
+# machine): slow, run by the README's whole-suite command and CI's 3.11 stage.
+@pytest.mark.slow
+@pytest.mark.parametrize("page", RUN, ids=[str(p.relative_to(ROOT)) for p in RUN])
 def test_page_blocks_run(page, tmp_path, request):
     """The page's blocks that are meant to run, in order, in one folder laid out like the repository."""
     _layout(tmp_path)
