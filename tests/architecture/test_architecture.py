@@ -73,14 +73,23 @@ def imports(name: str, path: Path, known: dict[str, Path]) -> list[tuple[str, st
     return out
 
 
+@functools.cache
+def _package_imports_by_module() -> dict[str, tuple[tuple[str, str | None, int], ...]]:
+    """:func:`imports` of every module of the package, found once per test run (the graph, the layers and
+    the private-name checks all walk them)."""
+    known = modules()
+    return {m: tuple(imports(m, path, known)) for m, path in known.items()}
+
+
 def graph() -> dict[str, set[str]]:
     """Module -> modules its import runs (a submodule's import also runs its packages' ``__init__``; the
     importer's own packages are already running and are not edges)."""
     known = modules()
+    found = _package_imports_by_module()
     edges: dict[str, set[str]] = {m: set() for m in known}
-    for m, path in known.items():
+    for m in known:
         mine = {".".join(m.split(".")[:k]) for k in range(1, m.count(".") + 1)} | {m}
-        for target, _, _ in imports(m, path, known):
+        for target, _, _ in found[m]:
             parts = target.split(".")
             for k in range(1, len(parts) + 1):
                 t = ".".join(parts[:k])
@@ -134,11 +143,10 @@ def test_no_import_cycles():
 
 
 def test_no_private_names_imported_across_modules():
-    known = modules()
     bad = [
         f"{m}:{line} imports {name} from {target}"
-        for m, path in known.items()
-        for target, name, line in imports(m, path, known)
+        for m, found in _package_imports_by_module().items()
+        for target, name, line in found
         if name is not None and name.startswith("_") and not name.startswith("__") and target != m
     ]
     assert not bad, "\n".join(bad)
@@ -179,8 +187,7 @@ def upward_imports(found: list[tuple[str, str, int]], layers: list[str]) -> list
 
 def package_imports() -> list[tuple[str, str, int]]:
     """``(module, imported module, line)`` for every pinid import of the package (in functions too)."""
-    known = modules()
-    return [(m, target, line) for m, path in known.items() for target, _, line in imports(m, path, known)]
+    return [(m, target, line) for m, found in _package_imports_by_module().items() for target, _, line in found]
 
 
 def test_the_layer_checker_finds_an_upward_import():
