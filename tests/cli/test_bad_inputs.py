@@ -240,6 +240,7 @@ def test_malformed_trajectory_json(tmp_path):
     assert not (tmp_path / "o.csv").exists()
 
 
+@pytest.mark.slow  # a real process: starts, simulates, is interrupted (7 s of CPU)
 def test_interrupted_run_leaves_nothing(tmp_path):
     """Ctrl-C in the middle of a long simulation: status 2, one line, no file."""
     out = tmp_path / "long.csv"

@@ -396,9 +396,17 @@ def test_simulation_figure_draws_the_tracking_error(apal_run):
     fig = simulation_figure(ds.t, reference, truth["signals"].q, ds.tau, ds.joints)
     try:
         error_axes = fig.axes[1::3]
+        error = 1e3 * (truth["signals"].q - reference)  # [mrad]
         for j, joint in enumerate(ds.joints):
-            drawn = error_axes[j].lines[0].get_ydata()
-            assert np.sqrt(np.mean(drawn**2)) == pytest.approx(1e3 * truth["tracking"]["rms_error"][joint], rel=1e-9)
+            # at most ~2000 points a line: each bucket's extremes, samples of the error at their own times
+            line = error_axes[j].lines[0]
+            at = np.searchsorted(ds.t, line.get_xdata())
+            assert len(at) <= 2000 and np.array_equal(ds.t[at], line.get_xdata())
+            assert np.array_equal(line.get_ydata(), error[at, j])
+            assert line.get_ydata().max() == error[:, j].max() and line.get_ydata().min() == error[:, j].min()
+            rms = 1e3 * truth["tracking"]["rms_error"][joint]
+            assert np.sqrt(np.mean(error[:, j] ** 2)) == pytest.approx(rms, rel=1e-9)
+            assert f"RMS {rms:.3g} mrad" in [t.get_text() for t in error_axes[j].texts]
         with pytest.raises(SpecError, match="reference: shape"):
             simulation_figure(ds.t, reference[:, :1], truth["signals"].q, ds.tau, ds.joints)
     finally:
