@@ -458,6 +458,7 @@ def test_polishing_never_returns_a_worse_design_than_its_start(monkeypatch):
     assert result.details["polished_values"] == pytest.approx(start_values, rel=1e-9)
 
 
+@pytest.mark.slow  # 12 s of CPU (docs/benchmarks.md, Test suite)
 def test_early_stop_and_workers_keep_the_design_deterministic():
     """Starts stopped early against the best of the batches before them, and the starts shared among worker
     processes: the same seed gives the same design whatever the number of workers."""

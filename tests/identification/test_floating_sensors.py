@@ -81,6 +81,7 @@ def noisy_orientation(rec, degrees: float, seed: int = 0):
     return out
 
 
+@pytest.mark.slow  # 5 s of CPU (docs/benchmarks.md, Test suite)
 def test_motion_capture_orientation_noise_is_warned(exo, tmp_path):
     """0.11° of motion-capture orientation noise (docs/floating-base.md: it biases base.mzR at the default
     cut-off) is estimated (0.109° measured on 10 s) and warned in one line suggesting a lower --cutoff or an

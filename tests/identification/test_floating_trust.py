@@ -44,6 +44,7 @@ def identified(model, runs, validate=None, **kw):
         )
 
 
+@pytest.mark.slow  # 11 s of CPU (docs/benchmarks.md, Test suite)
 def test_true_base_parameters_lie_within_two_sigma_at_about_the_nominal_rate(exo):
     """4 suspended twins (10 s at 200 Hz, torque, force and moment noise, default preprocessing) without
     Coulomb friction (the filtered Coulomb step is a model error no σ covers: docs/floating-base.md): the share

@@ -51,6 +51,7 @@ def test_auto_terms_refuse_what_they_cannot_combine_with():
         runner.setup(load("exo_leg"), noisy(), terms="auto", stribeck_auto={"fs": False})
 
 
+@pytest.mark.slow  # about 5 s of CPU (docs/benchmarks.md, Test suite)
 def test_kuka_chooses_the_offset_its_torque_sensors_need():
     folder = shared_data() / "kuka_med7"
     if not folder.is_dir():

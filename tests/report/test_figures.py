@@ -51,6 +51,7 @@ def test_fixed_layout_margins_and_gaps_are_in_inches(rows, cols):
         assert (boxes[0][1].x0 - boxes[0][0].x1) * w == pytest.approx(0.6)
 
 
+@pytest.mark.slow  # 5 s of CPU (docs/benchmarks.md, Test suite)
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="worker processes are forked on Linux only")
 def test_workers_started_ahead_draw_the_same_bytes_and_are_used_once():
     import pinid.report.figures as figures
@@ -113,6 +114,7 @@ def test_one_torque_figure_redrawn_per_method_gives_the_bytes_of_new_figures():
     assert torque_pngs(t, measured, predicted, joints, titles=titles, **rest) == fresh
 
 
+@pytest.mark.slow  # 5-9 s of CPU (docs/benchmarks.md, Test suite)
 @pytest.mark.parametrize("workers, count", [(1, 1), (2, 2), (4, 3)])
 def test_grouped_torque_figures_give_the_same_bytes(workers, count):
     """One worker redraws one torque figure for every method; more workers share the methods (the

@@ -137,6 +137,7 @@ def report(tmp_path_factory):
     return out, printed.getvalue()
 
 
+@pytest.mark.slow  # 6 s of CPU (docs/benchmarks.md, Test suite)
 def test_identify_writes_self_contained_html(report):
     """pinid identify's report.html: summary table first with one row per method, a section per method,
     the excitation and every figure embedded as a data: URI — the same figures as the PNG files."""

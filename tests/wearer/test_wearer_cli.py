@@ -136,6 +136,7 @@ def _check_report(out: Path, res: dict) -> None:
         assert (out / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and f"]({name})" in md, name
 
 
+@pytest.mark.slow  # 4.4 s of CPU (docs/benchmarks.md, Test suite)
 def test_stage2_report_options(twin, tmp_path):
     d = twin
     base = stage2(d, "--preprocess", "never")

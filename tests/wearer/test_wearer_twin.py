@@ -140,6 +140,7 @@ def test_model_with_passive_terms_for_control(worn):
     )
 
 
+@pytest.mark.slow  # 4.4 s of CPU (docs/benchmarks.md, Test suite)
 def test_track_plant_carries_the_wearer(worn):
     """pinid.control's plant applies the passive moments: a model without them tracks worse than with them."""
     from pinid.control.tracking import sine_reference
