@@ -10,6 +10,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import functools
+import io
 import subprocess
 import sys
 from pathlib import Path
@@ -17,6 +18,15 @@ from pathlib import Path
 import pytest
 
 from pinid import RobotModel
+
+# The tests mirror the package (tests/model/, tests/identification/, …; tests/contracts/, tests/architecture/,
+# tests/docs/ across it) and import shared twins from each other by module name (``from test_identification
+# import twin``): every test folder is on sys.path, whichever file pytest runs.  Test file names stay unique.
+_TESTS = Path(__file__).resolve().parent
+for _folder in sorted(_TESTS.iterdir()):
+    if _folder.is_dir() and _folder.name != "benchmarks" and any(_folder.glob("test_*.py")):
+        if str(_folder) not in sys.path:
+            sys.path.append(str(_folder))
 
 
 def shared_data() -> Path:
@@ -45,7 +55,53 @@ def exo() -> RobotModel:
     return load("exo_leg")
 
 
-def run_cli(*args: str, cwd=None) -> subprocess.CompletedProcess:
+class _Captured(io.StringIO):
+    """A captured stdout/stderr of an in-process run that reports the real file descriptor, so
+    code that captures what C++ prints on fd 2 (urdfdom, pinid.model.robot) works as in a process."""
+
+    def __init__(self, fd: int) -> None:
+        super().__init__()
+        self._fd = fd
+
+    def fileno(self) -> int:
+        return self._fd
+
+
+def run_cli(*args: str, cwd=None, figures: bool = False) -> subprocess.CompletedProcess:
+    """Run ``pinid ARGS`` in this process (``pinid.cli.main``, about 2 s cheaper than a subprocess that
+    loads numpy, scipy, Pinocchio and matplotlib again); return a completed process (text mode) with
+    the exit status, stdout and stderr.  ``pinid simulate`` gets ``--no-figures`` unless ``figures``
+    (its PNG costs about a second and few tests look at it).  :func:`run_cli_subprocess` runs a real
+    process."""
+    import contextlib
+    import signal
+
+    from pinid.cli.main import main
+    from pinid.io import OVERWRITE
+
+    out, err = _Captured(1), _Captured(2)
+    here, overwrite, sigterm = os.getcwd(), OVERWRITE.get(), signal.getsignal(signal.SIGTERM)
+    try:
+        if cwd is not None:
+            os.chdir(cwd)
+        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+            try:
+                argv = [str(a) for a in args]
+                if argv[:1] == ["simulate"] and not figures and "--no-figures" not in argv:
+                    argv.append("--no-figures")
+                status = main(argv)
+            except SystemExit as exc:  # argparse: --help, --version, usage errors
+                status = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
+                if isinstance(exc.code, str):
+                    print(exc.code, file=sys.stderr)
+    finally:
+        os.chdir(here)
+        OVERWRITE.set(overwrite)
+        signal.signal(signal.SIGTERM, sigterm)
+    return subprocess.CompletedProcess(["pinid", *args], status, out.getvalue(), err.getvalue())
+
+
+def run_cli_subprocess(*args: str, cwd=None) -> subprocess.CompletedProcess:
     """Run ``pinid ARGS`` in a subprocess; return the completed process (text mode)."""
     return subprocess.run(
         [sys.executable, "-m", "pinid.cli", *args], capture_output=True, text=True, cwd=cwd, timeout=600

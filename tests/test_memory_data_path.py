@@ -45,6 +45,7 @@ def _recording(path, samples: int) -> None:
     write_recording(path, Dataset(t, q, model.joint_names, dq, ddq, tau, source="memory"))
 
 
+@pytest.mark.slow  # 12 s of CPU (docs/benchmarks.md, Test suite)
 @pytest.mark.filterwarnings("ignore::pinid.errors.DataWarning")
 def test_identify_holds_no_big_copy_of_the_recording(tmp_path, monkeypatch):
     # the paths of long recordings, on moderate ones: small blocks, none kept, the scores streamed

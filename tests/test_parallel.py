@@ -131,6 +131,7 @@ def test_compare_gives_the_same_numbers_on_a_dask_cluster(study):
     assert _numbers(on_cluster) == _numbers(_compare(study, workers=1))
 
 
+@pytest.mark.slow  # 10 s waiting of CPU (docs/benchmarks.md, Test suite)
 def test_an_address_where_no_scheduler_answers_is_a_clear_error(study):
     pytest.importorskip("distributed")
     with pytest.raises(SpecError, match="no Dask scheduler answers"):

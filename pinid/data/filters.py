@@ -14,7 +14,7 @@ import and pulls scipy.stats); without it ``pinid identify --no-figures`` went 1
 Re-measured 2026-11-24 (scipy 1.17.1, 2 cores at load 4): 0.81 s, best of 5, after importing
 pinid's preprocessing and estimators.  The price: the zero-phase filter is 1.6× slower than
 ``sosfiltfilt`` (order 4, 60 000 × 6 samples: 12 against 8 ms), far less than the import; Savitzky–Golay
-is faster for long windows (301 samples: 7 against 51 ms).  tests/test_filters.py compares every
+is faster for long windows (301 samples: 7 against 51 ms).  tests/data/test_filters.py compares every
 function with scipy.signal, to tolerances derived from the round-off of what is compared.
 """
 

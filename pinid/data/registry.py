@@ -83,7 +83,7 @@ class Reader:
     claims a path whatever its suffix (e.g. a ROS 2 bag folder); ``folder``: the recording is a folder.
     ``example(path, names, data) -> path``: for a format pinid does not write, makes a small file of
     dataset-format columns (``names``, ``data`` (samples, columns)) at ``path`` (or beside it, returned),
-    so that the reader contract suite (tests/test_reader_contract.py) can read it back; a reader with a
+    so that the reader contract suite (tests/contracts/test_reader_contract.py) can read it back; a reader with a
     writer of the same name needs none.
     """
 

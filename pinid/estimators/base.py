@@ -144,7 +144,7 @@ class Estimator:
     history: ClassVar[str] = "none"
     #: Matplotlib colour of this method in every figure (:func:`pinid.report.colors.method_color`; None: a
     #: fallback colour from the method name).  Distinct from every registered method's and from grey and black
-    #: (the measurements), tests/test_report_colors.py.
+    #: (the measurements), tests/report/test_report_colors.py.
     colour: ClassVar[str | None] = None
     #: The settings ``__init__`` takes, each with its accepted values (checked by :meth:`create`).
     settings: ClassVar[dict[str, Setting]] = {}

@@ -23,7 +23,7 @@ RMS of that error [N·m] per iteration (its cost).
 On noise-free data the truth is a fixed point only up to the simulation's error (the measured torque is
 interpolated by cubic splines between samples; a Coulomb jump of the torque falls inside a sample
 interval and is smeared): DIDIM is *not* exact there.  Measured on the exo leg at 100 Hz: 1e-4
-relatively without Coulomb friction, about 1e-2 with it (tests/test_real_data_estimators.py).
+relatively without Coulomb friction, about 1e-2 with it (tests/estimators/test_real_data_estimators.py).
 
 ``physical=True``: each step is LMI-constrained least squares (:class:`~pinid.estimators.sdp.SDP`)
 on the simulated regressor, so the result is physically consistent.

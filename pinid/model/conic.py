@@ -18,7 +18,7 @@ Why beside cvxpy (measured; docs/benchmarks.md, "Without cvxpy"): importing cvxp
 at load 4, 0.83 s best of 5 after importing pinid's preprocessing and estimators), and its
 canonicalisation about 6 ms per problem: a warm ``sdp`` fit on exo_leg went 7.9 → 1.3 ms, of which
 Clarabel's own solve is 0.7 ms (re-measured: 30 ms through cvxpy, 1.1 ms here).
-tests/test_conic.py compares with cvxpy, to tolerances derived from the solvers' stopping rules.
+tests/model/test_conic.py compares with cvxpy, to tolerances derived from the solvers' stopping rules.
 """
 
 from __future__ import annotations

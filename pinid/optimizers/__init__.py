@@ -23,7 +23,7 @@ scipy's trust-region least squares also polishes the metaheuristic estimators). 
 (a multistart with its own ``starts`` setting), least_squares a residual vector and its Jacobian.  The
 interface here is derivative-free minimisation of a batch *scalar* function in a box, which gives them
 neither; their callers list them beside :data:`OPTIMIZERS` (``design_optimizers()``,
-``output_error.methods()``), and the contract suite (tests/test_optimizer_contract.py) covers the registry.
+``output_error.methods()``), and the contract suite (tests/contracts/test_optimizer_contract.py) covers the registry.
 """
 
 from __future__ import annotations

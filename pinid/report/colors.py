@@ -1,7 +1,7 @@
 """One colour per method in every figure: :func:`method_color`.
 
 A registered estimator declares its colour (:attr:`pinid.estimators.base.Estimator.colour`); every one
-differs from the others and from the greys and black that draw measurements (tests/test_report_colors.py
+differs from the others and from the greys and black that draw measurements (tests/report/test_report_colors.py
 checks a CIELAB distance of at least 20 between any two).  A method without a colour of its own (an
 unregistered name, an estimator that declares none) gets one of :data:`FALLBACK`, chosen from its name
 (CRC-32), so the same name has the same colour in every figure and every run.

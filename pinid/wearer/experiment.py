@@ -12,7 +12,7 @@
 
 No command calls it: it is the study behind docs/wearer.md's figures, kept in the package (not in the
 tests) so that they can be measured again from Python with other settings — tests/benchmarks/bench_wearer.py
-(the documented figures) and tests/test_wearer_experiment.py (the sensor-noise-only case) both call
+(the documented figures) and tests/wearer/test_wearer_experiment.py (the sensor-noise-only case) both call
 :func:`wearer_experiment`.  Everything it does goes through the public functions of the wearer stage, the
 twin and the identified model; its own code is only the bookkeeping of the four steps.
 """

@@ -1,6 +1,6 @@
 """The coupled joint: motor Coulomb friction with the rows of a motor at rest left out, or kept (issue 28).
 
-ur5 with 1:50 reductions and a differential wrist (motor 6 turns with q5 + q6; tests/test_drives.py's
+ur5 with 1:50 reductions and a differential wrist (motor 6 turns with q5 + q6; tests/model/test_drives.py's
 ``coupled``), terms fc,fv + motor fc, fv, offset, rotor inertia.  Training: 30 s at 250 Hz, exact torques,
 measured velocities with white noise σ = 0.02 rad/s (the sign of a velocity near zero is then a coin toss);
 validation: 10 s, exact.  Prints, per seed, the coupled joint's (wrist_3) validation RMS and motor 6's
@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+import conftest  # noqa: E402,F401  (puts the test folders on sys.path)
 
 import pinid.problem.problem as problem  # noqa: E402
 from pinid import base_parameters, standard_parameters  # noqa: E402

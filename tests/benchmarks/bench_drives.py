@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+import conftest  # noqa: E402,F401  (puts the test folders on sys.path)
 
 from test_drives import MOTOR_TERMS, coupled, twin  # noqa: E402
 

@@ -2,7 +2,7 @@
 
     python tests/benchmarks/bench_friction_conditioning.py
 
-The same noise-free twin recordings (tests/test_stribeck.py: analytic Fourier motion, 30 s at 200 Hz)
+The same noise-free twin recordings (tests/model/test_stribeck.py: analytic Fourier motion, 30 s at 200 Hz)
 for every row: exo_leg (joint terms) and exo_leg with the cable coupling G = [[30, 0], [12, 25]] (motor
 terms).  For each set of terms, the base regressor W_b of ``IdentificationProblem.from_datasets`` with
 every row kept (``rest_velocity=0``, so every row sees the same samples) and its condition number as it
@@ -16,6 +16,7 @@ import sys
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+import conftest  # noqa: E402,F401  (puts the test folders on sys.path)
 
 from test_stribeck import JOINT, MOTOR, exo_joint, exo_motor, twin  # noqa: E402
 

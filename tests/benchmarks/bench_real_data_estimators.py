@@ -15,12 +15,12 @@
    errors-in-variables case IV and DIDIM are meant for).  Each seed is a new recording (same trajectory); the default
    preprocessing (10 Hz zero-phase low-pass, Savitzky–Golay derivatives) makes dq and ddq.  Every
    estimator runs on the same problem.  Bias and spread of each base parameter, relative to its natural
-   magnitude (the errors of tests/test_identification.py::relative_errors), over the seeds.  Validation:
+   magnitude (the errors of tests/identification/test_identification.py::relative_errors), over the seeds.  Validation:
    the seed001_table3 trajectory (another seed, same noise), scored against the *raw recorded* torque:
    predictions on the prepared samples (same grid as the recording, trimmed ends left out) compared with
    the torque as recorded at those instants.
 2. **Real double pendulum** (``../shared/data/double_pendulum``, ``$PINID_SHARED_DATA``): trains on
-   trajectory_02, validates on trajectory_03 (as tests/test_identification.py::test_real_double_pendulum_recordings),
+   trajectory_02, validates on trajectory_03 (as tests/identification/test_identification.py::test_real_double_pendulum_recordings),
    mapping docs/examples/double_pendulum.toml, default preprocessing.  Scored against the raw measured
    torque: the prediction (on the prepared, resampled grid) is interpolated linearly onto the recorded
    time stamps inside the prepared span, and compared with the torque as recorded there.

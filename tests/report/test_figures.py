@@ -1,0 +1,185 @@
+"""The figure helpers: parallel rendering gives the same PNG bytes as one by one; fixed layouts in inches."""
+
+from __future__ import annotations
+
+import sys
+
+import numpy as np
+import pytest
+
+from pinid.report.figures import fixed_layout, new_figure, render_pngs
+from pinid.report.plot_identification import error_bars, recorded_motion, torque_comparison
+
+
+def _recipes():
+    t = np.arange(3000) / 1000.0
+    q = np.sin(np.outer(t, [1.0, 2.0, 3.0]))
+    joints = ["a", "b", "c"]
+    metrics = {
+        "ols": {"per_joint": {j: {"mean_abs": 0.1, "p5_abs": 0.01, "p95_abs": 0.3} for j in joints},
+                "all": {"mean_abs": 0.1, "p5_abs": 0.01, "p95_abs": 0.3}},
+    }  # fmt: skip
+    return {
+        "torque": (torque_comparison, (t, q, {"m": q + 0.01}, joints), {"title": "torque"}),
+        "motion": (recorded_motion, (t, q, q, joints), {"title": "motion"}),
+        "errors": (error_bars, (metrics,), {"title": "errors"}),
+    }
+
+
+def test_pool_and_one_by_one_give_the_same_bytes():
+    recipes = _recipes()
+    pooled = render_pngs(recipes, workers=2)
+    single = render_pngs(recipes, workers=1)
+    assert list(pooled) == list(recipes)
+    assert pooled == single
+    assert all(png.startswith(b"\x89PNG") for png in pooled.values())
+
+
+@pytest.mark.parametrize("rows, cols", [(1, 1), (3, 2), (5, 3)])
+def test_fixed_layout_margins_and_gaps_are_in_inches(rows, cols):
+    fig, axes = new_figure(rows, cols, figsize=(8.0, 2.0 * rows), squeeze=False)
+    fixed_layout(fig, left=0.9, right=0.2, bottom=0.5, top=0.4, hspace=0.3, wspace=0.6)
+    w, h = fig.get_size_inches()
+    boxes = [[axes[r, c].get_position() for c in range(cols)] for r in range(rows)]
+    assert boxes[0][0].x0 * w == pytest.approx(0.9)
+    assert (1 - boxes[0][-1].x1) * w == pytest.approx(0.2)
+    assert boxes[-1][0].y0 * h == pytest.approx(0.5)
+    assert (1 - boxes[0][0].y1) * h == pytest.approx(0.4)
+    if rows > 1:
+        assert (boxes[0][0].y0 - boxes[1][0].y1) * h == pytest.approx(0.3)
+    if cols > 1:
+        assert (boxes[0][1].x0 - boxes[0][0].x1) * w == pytest.approx(0.6)
+
+
+@pytest.mark.slow  # 5 s of CPU (docs/benchmarks.md, Test suite)
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="worker processes are forked on Linux only")
+def test_workers_started_ahead_draw_the_same_bytes_and_are_used_once():
+    import pinid.report.figures as figures
+
+    recipes = _recipes()
+    figures.start_figure_workers(2)
+    started = figures._started
+    assert started is not None
+    pooled = render_pngs(recipes)
+    assert figures._started is None
+    assert pooled == render_pngs(recipes, workers=1)
+    figures.start_figure_workers(2)
+    assert figures._started is not started
+    assert render_pngs(recipes, workers=1) == pooled  # an explicit count shuts the started workers down
+    assert figures._started is None
+
+
+def _torque_recipes(methods=("ols", "wls", "sdp")):
+    """Torque figures of several methods on one recording, keyed as the report's (``torque_<method>``)."""
+    t = np.arange(4000) / 1000.0
+    measured = np.column_stack([np.sin(t), 3 * np.cos(2 * t)]) + 0.1 * np.random.default_rng(0).normal(size=(4000, 2))
+    out = {}
+    for k, m in enumerate(methods):
+        pred = measured * (1 + 0.05 * k) + 0.2 * k
+        out[f"torque_{m}"] = (
+            torque_comparison,
+            (t, measured, {m: pred}, ["hip", "knee"]),
+            {"title": f"{m}: torque", "filtered": measured * 0.99, "units": ["N·m", "N·m"], "window": 3.0},
+        )
+    return out
+
+
+def test_png_bytes_have_the_pixels_of_savefig():
+    """Issue 35: the figures skip savefig's slow RGBA encoding; what a reader sees is the same."""
+    import io
+
+    from PIL import Image
+
+    from pinid.report.figures import DPI, png_bytes
+
+    fn, args, kwargs = _recipes()["torque"]
+    ours = Image.open(io.BytesIO(png_bytes(fn(*args, **kwargs))))
+    buf = io.BytesIO()
+    fn(*args, **kwargs).savefig(buf, format="png", dpi=DPI)
+    theirs = Image.open(buf)
+    assert ours.mode == "RGB" and ours.size == theirs.size
+    np.testing.assert_array_equal(np.asarray(ours), np.asarray(theirs.convert("RGB")))
+
+
+def test_one_torque_figure_redrawn_per_method_gives_the_bytes_of_new_figures():
+    from pinid.report.figures import figure_png
+    from pinid.report.plot_identification import torque_pngs
+
+    recipes = _torque_recipes()
+    fresh = [figure_png(fn(*args, **kw)) for fn, args, kw in recipes.values()]
+    _, (t, measured, _, joints), kw = recipes["torque_ols"]
+    predicted = {m: next(iter(args[2].values())) for m, (_, args, _) in zip(("ols", "wls", "sdp"), recipes.values())}
+    titles = {m: f"{m}: torque" for m in predicted}
+    rest = {k: v for k, v in kw.items() if k != "title"}
+    assert torque_pngs(t, measured, predicted, joints, titles=titles, **rest) == fresh
+
+
+@pytest.mark.slow  # 5-9 s of CPU (docs/benchmarks.md, Test suite)
+@pytest.mark.parametrize("workers, count", [(1, 1), (2, 2), (4, 3)])
+def test_grouped_torque_figures_give_the_same_bytes(workers, count):
+    """One worker redraws one torque figure for every method; more workers share the methods (the
+    groups that finish first by the cost model: 3 torque figures and 2 others on 2 workers: 2 groups)."""
+    from pinid.report.markdown import grouped_recipes
+
+    recipes = {**_torque_recipes(), **{k: v for k, v in _recipes().items() if k != "torque"}}
+    grouped = grouped_recipes(recipes, workers)
+    groups = [k for k in grouped if isinstance(k, tuple)]
+    assert sorted(sum(map(list, groups), [])) == sorted(k for k in recipes if k.startswith("torque_"))
+    assert len(groups) == count
+    expected = render_pngs(recipes, workers=1)
+    assert render_pngs(grouped, workers=1) == expected
+    if sys.platform.startswith("linux"):
+        assert render_pngs(grouped, workers=2) == expected
+
+
+def test_torque_figure_draws_the_prediction_above_the_measurements_and_both_errors():
+    """Issue 33: the prediction in the method's colour above the raw (light) and low-passed (thin) torque;
+    the error panel has the raw and the filtered error, labelled; the legend is outside every panel."""
+    from matplotlib.colors import to_hex
+
+    from pinid.report.colors import method_color
+
+    fn, args, kw = _torque_recipes(("sdp",))["torque_sdp"]
+    fig = fn(*args, **kw)
+    top, bottom = fig.axes[0], fig.axes[1]
+    lines = {ln.get_label(): ln for ln in top.get_lines()}
+    pred, raw, low = lines["sdp: predicted"], lines["measured (as recorded)"], lines["measured, low-passed"]
+    assert pred.get_zorder() > max(raw.get_zorder(), low.get_zorder())
+    assert to_hex(pred.get_color()) == to_hex(method_color("sdp"))
+    assert low.get_linewidth() < pred.get_linewidth()
+    errors = [ln.get_label() for ln in bottom.get_lines() if not ln.get_label().startswith("_")]
+    assert errors == ["sdp: error, raw", "sdp: error, filtered"]
+    assert all(ax.get_legend() is None for ax in fig.axes) and len(fig.legends) == 1
+    legend_box = fig.legends[0].get_window_extent(fig.canvas.get_renderer())
+    assert legend_box.y0 >= top.get_window_extent().y1  # above the first panel: it covers no data
+
+
+def test_parameter_plausibility_marks_sigma_truth_and_inconsistent_methods():
+    """The parameter figure: one row per base parameter, values divided by the natural scale; a ±2σ bar
+    where σ is known (none for a metaheuristic); the URDF and the truth; an inconsistent method hollow."""
+    from matplotlib.colors import to_hex
+
+    from pinid.report.colors import method_color
+    from pinid.report.plot_parameters import parameter_plausibility
+
+    names = ["hip.mx", "hip.Iyy", "hip.fv"]
+    scale = [2.0, 0.5, 1.0]
+    estimates = {
+        "sdp": {"value": [1.0, 0.25, 0.3], "std": [0.1, 0.01, 0.02], "consistent": True},
+        "pso": {"value": [1.2, -0.1, 0.35], "std": [np.nan] * 3, "consistent": False},
+    }
+    fig = parameter_plausibility(names, [1.1, 0.2, 0.25], scale, estimates, truth=[1.0, 0.25, None], title="p")
+    ax = fig.axes[0]
+    assert [t.get_text() for t in ax.get_yticklabels()] == names
+    labels = [t.get_text() for t in fig.legends[0].get_texts()]
+    assert labels == ["URDF", "truth", "sdp", "pso (not physically consistent)"]
+    dots = {ln.get_label().split(" (")[0]: ln for ln in ax.get_lines()}
+    np.testing.assert_allclose(dots["sdp"].get_xdata(), [0.5, 0.5, 0.3])  # divided by the natural scale
+    np.testing.assert_allclose(dots["URDF"].get_xdata(), [0.55, 0.4, 0.25])
+    assert np.isnan(dots["truth"].get_xdata()[2])
+    assert to_hex(dots["pso"].get_markerfacecolor()) == "#ffffff"  # hollow: not physically consistent
+    assert to_hex(dots["sdp"].get_markerfacecolor()) == to_hex(method_color("sdp"))
+    bars = [c for c in ax.collections if c.get_segments()]
+    assert len(bars) == 1 and len(bars[0].get_segments()) == 3  # ±2σ for sdp only, none for pso
+    half = [abs(seg[1][0] - seg[0][0]) / 2 for seg in bars[0].get_segments()]
+    np.testing.assert_allclose(half, [0.1, 0.04, 0.04])  # 2σ / scale
