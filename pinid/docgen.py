@@ -4,7 +4,7 @@
     python -m pinid.docgen api > docs/api.md      # the Python API reference, from the docstrings
     python -m pinid.docgen methods-table --write  # the methods' table of docs/identification.md
 
-A test checks that the files equal this output (tests/test_docs_registries.py for the table).
+A test checks that the files equal this output (tests/docs/test_docs_registries.py for the table).
 """
 
 from __future__ import annotations
