@@ -44,15 +44,14 @@ from pinid.estimators.metaheuristic import (
 from pinid.identification.metrics import joint_units, torque_metrics
 from pinid.problem.problem import base_regressor, check_dataset, predict_torque, recorded_torque
 from pinid.identification.run import (
-    Fit,
     as_model,
     check_options,
     check_recordings,
     parse_methods,
-    run_jobs,
     setup,
     use_manifest,
 )
+from pinid.identification.runner import Fit, run_jobs
 from pinid.identification.truth import true_base
 from pinid.io import jsonable, read_json, write_json
 from pinid.model.regressor import TermSelection

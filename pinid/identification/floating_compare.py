@@ -127,7 +127,7 @@ def compare_floating(
     """Run ``methods`` on the same floating recordings (see the module text); ``seeds``: a number (0, 1, …)
     or the seeds of the metaheuristics; ``metaheuristic``: settings of every metaheuristic (``population``,
     ``iterations``, ``fitness``, ``box`` …; ``options`` per method override them); the other arguments as
-    :func:`pinid.identification.floating.identify_floating`; ``workers``, ``scheduler``: where the runs go
+    :func:`pinid.identification.run.identify` with a floating robot; ``workers``, ``scheduler``: where the runs go
     (:mod:`pinid.parallel`), as in :func:`pinid.identification.compare.compare`."""
     start = time.perf_counter()
     model = as_floating(model)
