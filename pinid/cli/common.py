@@ -409,14 +409,3 @@ def floating_mapping_from_args(args: argparse.Namespace):
     if args.mapping is None:
         return None
     return floating_mapping(args.mapping, allow_outside_paths=args.allow_outside_paths)
-
-
-def floating_inputs(args: argparse.Namespace) -> tuple:
-    """``(mapping, model, terms)`` of a --base floating run: the [floating] mapping spec (or None), the robot
-    on its free flyer, and the terms (none with --rows base: no joint term enters the base rows)."""
-    mapping = floating_mapping_from_args(args)
-    model = robot_from_args(args)
-    terms = terms_from_args(args)
-    if args.rows == "base":
-        terms = type(terms).from_names("none")
-    return mapping, model, terms

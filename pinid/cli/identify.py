@@ -30,7 +30,6 @@ from pinid.cli.common import (
     terms_from_args,
 )
 from pinid.errors import DataWarning, SpecError
-from pinid.identification.floating import FloatingOptions
 from pinid.identification.run import identify
 from pinid.model.terms_ripple import periods_from_text
 from pinid.io import check_outputs
@@ -343,6 +342,8 @@ def _check_stage(args: argparse.Namespace) -> None:
 def _identify_arguments(args: argparse.Namespace, methods: list[str], terms) -> dict:
     """The keyword arguments of :func:`pinid.identification.run.identify` the options describe (read in this
     order: an error names the first bad option)."""
+    from pinid.identification.floating import FloatingOptions  # deferred: pinid --help does not load it
+
     floating = args.base == "floating"
     return dict(
         methods=methods,

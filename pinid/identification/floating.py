@@ -29,6 +29,7 @@ from pinid.identification.floating_checks import (
 )
 from pinid.identification.metrics import TorqueMetrics, error_metrics, joint_units
 from pinid.identification.plausibility import shared_excitation
+from pinid.io import read_json
 from pinid.model.floating import FloatingRobotModel, as_floating
 from pinid.model.terms import TermSelection, as_terms
 from pinid.problem.floating import floating_problem
@@ -56,6 +57,21 @@ class FloatingOptions:
             raise SpecError(f"base_weight: got {type(self.base_weight).__name__}, expected a number")
         if not isinstance(self.swing_rows, bool):
             raise SpecError(f"swing_rows: got {type(self.swing_rows).__name__}, expected True or False")
+
+
+#: The command-line option of a study argument whose name is not the option's (the rest: ``--name-with-dashes``).
+_OPTIONS = {"segmental": "--first-data", "terms": "--terms auto"}
+
+
+def refuse_fixed_only(arguments: Mapping) -> None:
+    """SpecError naming every argument of ``arguments`` (``{name: value}``) that is given (not None or False): options
+    of a fixed base a floating one does not take, named as in Python and on the command line."""
+    if not isinstance(arguments, Mapping):
+        raise SpecError(f"arguments: got {type(arguments).__name__}, expected a mapping of argument names to values")
+    given = [k for k, v in arguments.items() if v is not None and v is not False]
+    if given:
+        named = ", ".join(f"{k} ({_OPTIONS.get(k, '--' + k.replace('_', '-'))})" for k in given)
+        raise SpecError(f"{named}: not available with a floating base (docs/floating-base.md)")
 
 
 def as_floating_options(value) -> FloatingOptions:
@@ -119,6 +135,7 @@ class FloatingStack:
     problem: IdentificationProblem
     validation: IdentificationProblem | None
     train: list[FloatingSamples]
+    validation_samples: list[FloatingSamples]
     hints: list[str]
     flipped: list[str]
     sources: str
@@ -161,7 +178,7 @@ def stack_floating(
             "homogeneous (W·θ = 0) and identify nothing; expected wrench_<link>_* or plate_<link>_* columns (the "
             "wrench applied by the environment on the robot) or joint torques with --rows all"
         )
-    return FloatingStack(problem, val_problem, train, hints, flipped, _sources(data))
+    return FloatingStack(problem, val_problem, train, val if validate else [], hints, flipped, _sources(data))
 
 
 def validate_floating(run: FloatingStack, results: Mapping) -> TorqueMetrics | None:
@@ -191,6 +208,20 @@ def check_floating(run: FloatingStack, ident, model: FloatingRobotModel, rows: s
     if rows != "joints":
         posture = np.mean(np.concatenate([s.data.q for s in run.train]), axis=0)
         com_warning(ident, model, run.problem.terms, run.problem.base, posture, run.sources)
+
+
+def floating_truth(truth, problem) -> np.ndarray:
+    """The true base parameters of ``problem`` from a truth dict or its JSON path (``standard_names`` and
+    ``standard`` of ``pinid simulate --base floating``).  SpecError naming what is missing."""
+    origin = str(truth) if isinstance(truth, (str, os.PathLike)) else "truth"
+    d = read_json(truth, "truth") if isinstance(truth, (str, os.PathLike)) else truth
+    if not isinstance(d, Mapping) or d.get("base") != "floating" or "standard" not in d or "standard_names" not in d:
+        raise SpecError(f"{origin}: not the truth of a floating twin (pinid simulate --base floating)")
+    values = dict(zip(d["standard_names"], d["standard"]))
+    missing = [n for n in problem.standard_names if n not in values]
+    if missing:
+        raise SpecError(f"{origin}: no true value of {', '.join(missing[:3])} (another robot or other --terms)")
+    return problem.base.from_standard(np.array([float(values[n]) for n in problem.standard_names]))
 
 
 #: identified total mass / the URDF's: outside this band a warning, outside ``MASS_REFUSED`` (or ≤ 0 for every

@@ -586,11 +586,15 @@ def _identify_floating(
 ) -> Identification:
     """:func:`identify` of a floating-base robot: its recordings and rows (:mod:`pinid.identification.floating`),
     then the fixed base's fits, results and checks."""
-    given = [k for k, v in unsupported.items() if v is not None and v is not False]
-    if given:
-        named = ", ".join(f"{k} (--{k.replace('_', '-')})" for k in given)  # the Python and the CLI name
-        raise SpecError(f"{named}: not available with a floating base (docs/floating-base.md)")
-    from pinid.identification.floating import as_floating_options, check_floating, stack_floating, validate_floating
+    from pinid.identification.floating import (
+        as_floating_options,
+        check_floating,
+        refuse_fixed_only,
+        stack_floating,
+        validate_floating,
+    )
+
+    refuse_fixed_only(unsupported)
 
     t_start, opts = time.perf_counter(), as_floating_options(floating)
     if isinstance(inputs["preprocess"], Mapping) and isinstance(inputs["preprocess"].get("cutoff"), str):
