@@ -194,7 +194,8 @@ def _rows_of(s) -> int:
 
 
 def test_a_job_beside_the_fits_comes_back_last_on_one_or_two_processes():
-    from pinid.identification.run import run_jobs, setup
+    from pinid.identification.run import setup
+    from pinid.identification.runner import run_jobs
 
     truth = truth_model("exo_leg")
     s = setup(truth, [twin(truth, seconds=4, rate=100, seed=1, noise=0.5)])

@@ -419,16 +419,10 @@ def add_floating_arguments(p: argparse.ArgumentParser) -> None:
     )
 
 
-def floating_inputs(args: argparse.Namespace) -> tuple:
-    """``(mapping, model, terms)`` of a --base floating run: the [floating] mapping spec (or None), the robot
-    on its free flyer, and the terms (none with --rows base: no joint term enters the base rows)."""
+def floating_mapping_from_args(args: argparse.Namespace):
+    """The --mapping spec of a --base floating run, with its [floating] table (None without --mapping)."""
     from pinid.data.contacts import floating_mapping  # deferred: pinid --help does not load the contacts
 
-    mapping = (
-        None if args.mapping is None else floating_mapping(args.mapping, allow_outside_paths=args.allow_outside_paths)
-    )
-    model = robot_from_args(args)
-    terms = terms_from_args(args)
-    if args.rows == "base":
-        terms = type(terms).from_names("none")
-    return mapping, model, terms
+    if args.mapping is None:
+        return None
+    return floating_mapping(args.mapping, allow_outside_paths=args.allow_outside_paths)

@@ -11,7 +11,7 @@ from pinid.cli.common import (
     add_floating_arguments,
     names_text,
     estimators_text,
-    floating_inputs,
+    floating_mapping_from_args,
     add_mapping_arguments,
     add_method_arguments,
     add_preprocessing_arguments,
@@ -157,66 +157,10 @@ def _with_box(box: str) -> list[str]:
     return [name for name, cls in ESTIMATORS.items() if getattr(cls, "default_box", None) == box]
 
 
-def _run_floating(args: argparse.Namespace, out: Path) -> int:
-    """--base floating: every method on the same floating problem (pinid.identification.floating_compare)."""
-    from pinid.identification.floating_compare import compare_floating, write_floating_comparison
-
-    if args.seeds < 1:
-        raise SpecError(f"--seeds {args.seeds}: expected at least 1")
-    unused = [
-        f"--{k.replace('_', '-')}"
-        for k in (
-            "first_data",
-            "first_validate",
-            "manifest",
-            "fit_joints",
-            "delay",
-            "stribeck_velocity",
-            "stribeck_shape",
-        )
-        if getattr(args, k, None)
-    ]
-    if unused:
-        raise SpecError(f"{', '.join(unused)}: not available with --base floating (docs/floating-base.md)")
-    if not args.data:
-        raise SpecError("--base floating: expected --data FILE")
-    methods = methods_from_args(args)
-    meta = {
-        key: getattr(args, key)
-        for key in ("population", "iterations", "fitness", "box", "box_width", "box_floor")
-        if getattr(args, key) is not None
-    }
-    mapping, model, terms = floating_inputs(args)
-    print(f"comparing on {model.name}, floating base ({args.rows} rows): {', '.join(methods)}; seeds {args.seeds}")
-    comp = compare_floating(
-        model,
-        args.data,
-        args.validate or None,
-        methods=methods,
-        seeds=args.seeds,
-        truth=args.truth,
-        terms=terms,
-        rows=args.rows,
-        base_weight=args.base_weight,
-        preprocess=preprocess_from_args(args),
-        options=options_from_args(
-            args, {"rls": {"forgetting": args.forgetting}} if args.forgetting and "rls" in methods else {}
-        ),
-        metaheuristic=meta,
-        swing_rows=args.swing_rows,
-        rest_velocity=None if args.rest_velocity in (None, "auto") else rest_velocity_from_args(args.rest_velocity),
-        mapping=mapping,
-        workers=args.workers,
-        scheduler=args.scheduler,
-    )
-    print(comp.table())
-    written = write_floating_comparison(comp, out, command="pinid " + shlex.join(sys.argv[1:]))
-    print(f"\nwrote {len(written)} files to {out}/: " + ", ".join(Path(p).name for p in written))
-    return 0
-
-
 def _arguments(args: argparse.Namespace) -> dict:
     """The keyword arguments of :func:`pinid.identification.compare.compare` the options describe."""
+    from pinid.identification.floating import FloatingOptions  # deferred: pinid --help does not load it
+
     if args.seeds < 1:
         raise SpecError(f"--seeds {args.seeds}: expected at least 1")
     methods = methods_from_args(args)
@@ -237,7 +181,7 @@ def _arguments(args: argparse.Namespace) -> dict:
         validate["validation"] = args.validate
     if args.first_validate:
         validate["first-stage validation"] = args.first_validate
-    segmental = None
+    segmental, floating = None, args.base == "floating"
     if args.first_data:
         segmental = {
             "first": args.first_data,
@@ -252,7 +196,7 @@ def _arguments(args: argparse.Namespace) -> dict:
         options=options_from_args(args, {k: v for k, v in options.items() if k in methods}),
         metaheuristic=meta,
         segmental=segmental,
-        mapping=mapping_from_args(args),
+        mapping=floating_mapping_from_args(args) if floating else mapping_from_args(args),
         preprocess=preprocess_from_args(args),
         rest_velocity=rest_velocity_from_args(args.rest_velocity),
         show_progress=None,
@@ -261,6 +205,7 @@ def _arguments(args: argparse.Namespace) -> dict:
         stribeck_velocity=args.stribeck_velocity,
         stribeck_shape=args.stribeck_shape,
         **recording_options(args),
+        **({"floating": FloatingOptions(args.rows, args.base_weight, args.swing_rows)} if floating else {}),
     )
 
 
@@ -271,12 +216,11 @@ def run(args: argparse.Namespace) -> int:
 
     out = Path(args.output)
     check_outputs(*(out / name for name in COMPARISON_FILES[:2]))  # before the work, creating nothing
-    if args.base == "floating":
-        return _run_floating(args, out)
     kwargs = _arguments(args)
     model = robot_from_args(args)
+    floating = f", floating base ({args.rows} rows)" if args.base == "floating" else ""
     print(
-        f"comparing on {model.name} ({', '.join(model.joint_names)}): {args.methods}; seeds {args.seeds}"
+        f"comparing on {model.name}{floating} ({', '.join(model.joint_names)}): {args.methods}; seeds {args.seeds}"
         + ("; segmental" if kwargs["segmental"] else "")
     )
     comp = compare(model, args.data, **kwargs)

@@ -14,9 +14,8 @@ identified model (model_<method>.json) and writes it as MuJoCo MJCF (--format mj
 docs/mujoco.md) or as URDF.  A physically inconsistent model, or one with a body MuJoCo refuses (massless,
 a zero principal moment), is refused: one line, exit status 2, nothing written.  pinid identify already
 writes identified_<method>.xml beside identified_<method>.urdf for every consistent method.  A floating
-identification (pinid identify --base floating) is recognised from the file: the MJCF's root body then has
-a free joint and the identified base-link inertia (base.*), with or without --floating; its default method
-is the consistent one with the lowest validation (else training) RMS.
+identification (pinid identify --base floating) is recognised from its robot: the MJCF's root body then has
+a free joint and the identified base-link inertia (base.*), with or without --floating.
 
 examples:
   pinid export --model results/identification.json -o model.xml
@@ -42,36 +41,11 @@ def run(args: argparse.Namespace) -> int:
     if args.floating and args.format != "mjcf":
         raise SpecError("--floating is for --format mjcf (a URDF has no free joint)")
     out = check_writable(args.output)
-    if _is_floating(args.model):
-        return _export_floating(args, out)
     model = load_identified(args.model, method=args.method)
     if args.format == "mjcf":
         model.export_mjcf(out, floating=args.floating or None)
     else:
         model.export_urdf(out)
-    print(f"wrote {args.output} ({args.format}, method {model.meta.get('method', '?')})")
-    return 0
-
-
-def _is_floating(path) -> bool:
-    """Whether ``path`` is a floating identification (pinid identify --base floating)."""
-    from pinid.io import read_json
-
-    d = read_json(path, "pinid identification or identified model")
-    return isinstance(d, dict) and d.get("base") == "floating" and "results" in d
-
-
-def _export_floating(args: argparse.Namespace, out) -> int:
-    """A floating identification: MJCF with a free joint carrying the identified base link, or the URDF."""
-    from pinid.identification.floating import floating_marks, load_floating_identified
-    from pinid.model.floating import floating_urdf
-    from pinid.model.mjcf import identified_mjcf
-
-    model, terms, theta, method = load_floating_identified(args.model, method=args.method)
-    marks = floating_marks(args.model, method)
-    if args.format == "mjcf":
-        identified_mjcf(model, theta, terms, out, floating=True, comment=f"method {method}", marks=marks)
-    else:
-        floating_urdf(model, theta, terms, out, comment=method, marks=marks)
-    print(f"wrote {args.output} ({args.format}, floating base, method {method})")
+    floating = ", floating base" if getattr(model.nominal_robot, "base", "fixed") == "floating" else ""
+    print(f"wrote {args.output} ({args.format}{floating}, method {model.meta.get('method', '?')})")
     return 0

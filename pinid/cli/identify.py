@@ -9,7 +9,7 @@ from pathlib import Path
 from pinid.cli.common import (
     add_floating_arguments,
     estimators_text,
-    floating_inputs,
+    floating_mapping_from_args,
     add_mapping_arguments,
     add_method_arguments,
     wrote_line,
@@ -68,7 +68,8 @@ into the output folder (-o, default results/):
 
 With --base floating (docs/floating-base.md) the recordings also hold the base motion (motion capture or
 an IMU), contact wrenches (link-frame sensors or force plates) and contact phases; the fit uses the 6 base
-rows and the joint rows (--rows), and the folder gets identification.json and identified_<method>.urdf.
+rows and the joint rows (--rows), the files are the same (the URDF and MJCF with the base link's inertial
+and a free joint; errors per body, "base" the 6 wrench rows).
 
 Rows where a joint is nearly at rest are left out of the fit when Coulomb friction is in the model
 (--rest-velocity; with --stage wearer only when the option is given).  Torque errors are measured against the torque as recorded ("raw", the headline)
@@ -289,15 +290,14 @@ def run(args: argparse.Namespace) -> int:
         return _run_wearer(args, out)
     args.methods = DEFAULT_METHODS if args.methods is None else args.methods
     args.terms = DEFAULT_TERMS if args.terms is None else args.terms
-    if args.base == "floating":
-        return _run_floating(args, out)
     methods = methods_from_args(args)
     model = _model(args)
     terms = terms_from_args(args, auto=True)
 
     def started() -> None:  # the inputs are read and checked: say what runs
+        floating = f" on a floating base ({args.rows} rows)" if args.base == "floating" else ""
         print(
-            f"identifying {model.name} ({', '.join(model.joint_names)}) with {', '.join(methods)}; "
+            f"identifying {model.name}{floating} ({', '.join(model.joint_names)}) with {', '.join(methods)}; "
             f"terms {'auto' if terms == 'auto' else ', '.join(terms.names) or 'none'}",
             flush=True,
         )
@@ -356,11 +356,15 @@ def _check_stage(args: argparse.Namespace) -> None:
 def _identify_arguments(args: argparse.Namespace, methods: list[str], terms) -> dict:
     """The keyword arguments of :func:`pinid.identification.run.identify` the options describe (read in this
     order: an error names the first bad option)."""
+    from pinid.identification.floating import FloatingOptions  # deferred: pinid --help does not load it
+
+    floating = args.base == "floating"
     return dict(
         methods=methods,
         validate=args.validate or None,
         terms=terms,
-        mapping=mapping_from_args(args),
+        # a floating base's mapping spec has a [floating] table: base, IMU, wrench, plate, contact columns
+        mapping=floating_mapping_from_args(args) if floating else mapping_from_args(args),
         preprocess=preprocess_from_args(args),
         rest_velocity=rest_velocity_from_args(args.rest_velocity),
         options=options_from_args(args, _options(args, methods)),
@@ -371,57 +375,8 @@ def _identify_arguments(args: argparse.Namespace, methods: list[str], terms) -> 
         stribeck_shape=args.stribeck_shape,
         **recording_options(args),
         truth=args.truth,
+        **({"floating": FloatingOptions(args.rows, args.base_weight, args.swing_rows)} if floating else {}),
     )
-
-
-def _run_floating(args: argparse.Namespace, out: Path) -> int:
-    """A floating-base robot with contact wrenches (docs/floating-base.md): identification.json and the
-    identified URDFs of consistent results."""
-    from pinid.identification.floating import identify_floating, write_floating_identification  # deferred
-
-    unused = [
-        f"--{k.replace('_', '-')}"
-        for k in (
-            "manifest",
-            "fit_joints",
-            "delay",
-            "truth",
-            "payload",
-            "payload_data",
-            "stribeck_velocity",
-            "stribeck_shape",
-            "ripple_periods",
-            "sigmoid_shape",
-            "force_export",
-        )
-        if getattr(args, k, None)
-    ]
-    if unused:
-        raise SpecError(f"{', '.join(unused)}: not available with --base floating (docs/floating-base.md)")
-
-    # a mapping spec's [floating] table names the base, IMU, wrench, plate and contact columns (docs/data.md)
-    methods = methods_from_args(args)
-    mapping, model, terms = floating_inputs(args)
-    print(f"identifying {model.name} on a floating base ({args.rows} rows) with {', '.join(methods)}")
-    ident = identify_floating(
-        model,
-        args.data,
-        methods=methods,
-        validate=args.validate or None,
-        terms=terms,
-        rows=args.rows,
-        base_weight=args.base_weight,
-        preprocess=preprocess_from_args(args),
-        options=options_from_args(args, _options(args, methods)),
-        swing_rows=args.swing_rows,
-        # the fixed base's default "auto" keeps every row here (docs/floating-base.md); a speed applies
-        rest_velocity=None if args.rest_velocity in (None, "auto") else rest_velocity_from_args(args.rest_velocity),
-        mapping=mapping,
-    )
-    print(ident.text(verbose=args.verbose))
-    print(wrote_line(write_floating_identification(ident, out, model, terms), out))
-    warn_if_unvalidated(bool(args.validate))
-    return 0
 
 
 def _run_wearer(args: argparse.Namespace, out: Path) -> int:

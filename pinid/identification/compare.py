@@ -41,18 +41,23 @@ from pinid.estimators.metaheuristic import (
     natural_scale,
     training_costs,
 )
-from pinid.identification.metrics import joint_units, torque_metrics
-from pinid.problem.problem import base_regressor, check_dataset, predict_torque, recorded_torque
+from pinid.identification.metrics import error_metrics, joint_units, torque_metrics
+from pinid.problem.problem import (
+    IdentificationProblem,
+    base_regressor,
+    check_dataset,
+    predict_torque,
+    recorded_torque,
+)
 from pinid.identification.run import (
-    Fit,
     as_model,
     check_options,
     check_recordings,
     parse_methods,
-    run_jobs,
     setup,
     use_manifest,
 )
+from pinid.identification.runner import Fit, Setup, run_jobs
 from pinid.identification.truth import true_base
 from pinid.io import jsonable, read_json
 from pinid.model.terms import TermSelection
@@ -515,6 +520,7 @@ def compare(
     manifest=None,
     workers: int | None = 1,
     scheduler=None,
+    floating=None,
 ) -> Comparison:
     """Run ``methods`` on the same recordings with several seeds; validate; compare (module text).
 
@@ -532,7 +538,9 @@ def compare(
     ``complete``, ``stribeck_velocity``, ``stribeck_shape``, ``fit_joints``, ``delay``, ``manifest`` (without
     drive gains): as in :func:`pinid.identification.run.identify`.  ``workers``: local processes for the
     runs (None: every core); ``scheduler``: a Dask scheduler's address (or ``distributed.Client``) to run
-    them on a cluster instead (:mod:`pinid.parallel`).  The numbers do not depend on either.
+    them on a cluster instead (:mod:`pinid.parallel`).  The numbers do not depend on either.  A floating-base
+    ``model`` is compared on its base and joint rows (``floating``: as in :func:`~pinid.identification.run.identify`;
+    ``truth``: the truth of ``pinid simulate --base floating``).
     """
     t_start = time.perf_counter()
     model = as_model(model)
@@ -557,39 +565,51 @@ def compare(
         s.update(options.get(m, {}))
         return s
 
-    if manifest is not None:
-        got = use_manifest(
-            manifest, model, data=data, validate=validate, fit_joints=fit_joints, delay=delay, mapping=mapping
+    if getattr(model, "base", "fixed") == "floating":
+        unsupported = dict(manifest=manifest, segmental=segmental, stribeck_velocity=stribeck_velocity,
+                           stribeck_shape=stribeck_shape, fit_joints=fit_joints, delay=delay)  # fmt: skip
+        st, val_W, truth_x = _floating_study(model, data, validate, truth, terms, mapping, preprocess, rest_velocity,
+                                             floating, unsupported)  # fmt: skip
+        model, problem, seg, base, terms = st.model, st.problem, None, st.base, st.terms
+        names, scale = problem.names, natural_scale(problem)
+    else:
+        if floating is not None:
+            raise SpecError(f"floating: given for {model.name}, a fixed-base robot (base='floating' loads it floating)")
+        if manifest is not None:
+            got = use_manifest(
+                manifest, model, data=data, validate=validate, fit_joints=fit_joints, delay=delay, mapping=mapping
+            )
+            if got["payload"] is not None:
+                raise SpecError(
+                    f"{got['manifest'].path}: drive gains (payload) are not supported by compare; use identify"
+                )
+            model, data, validate, fit_joints, delay = (
+                got[k] for k in ("model", "data", "validate", "fit_joints", "delay")
+            )
+        shapes, auto = stribeck_settings(model, terms, stribeck_velocity, stribeck_shape)
+        model = model.with_stribeck(shapes) if shapes else model
+        st = setup(
+            model,
+            data,
+            validate,
+            terms=terms,
+            mapping=mapping,
+            preprocess=preprocess,
+            rest_velocity=rest_velocity,
+            segmental=segmental,
+            stribeck_auto=auto,
+            fit_joints=fit_joints,
+            delay=delay,
         )
-        if got["payload"] is not None:
-            raise SpecError(f"{got['manifest'].path}: drive gains (payload) are not supported by compare; use identify")
-        model, data, validate, fit_joints, delay = (
-            got[k] for k in ("model", "data", "validate", "fit_joints", "delay")
-        )
-    shapes, auto = stribeck_settings(model, terms, stribeck_velocity, stribeck_shape)
-    model = model.with_stribeck(shapes) if shapes else model
-    st = setup(
-        model,
-        data,
-        validate,
-        terms=terms,
-        mapping=mapping,
-        preprocess=preprocess,
-        rest_velocity=rest_velocity,
-        segmental=segmental,
-        stribeck_auto=auto,
-        fit_joints=fit_joints,
-        delay=delay,
-    )
-    model, problem, seg, base = st.model, st.problem, st.segmental, st.base  # the model with fitted shapes
-    check_recordings(st)  # as identify: a flipped torque sign, a validation recording that repeats training
-    names = problem.names
-    truth_x = _truth_vector(truth, names, st)
-    scale = natural_scale(problem)
-    val_W = {
-        label: [(ds, base_regressor(model, terms, base, ds)) for ds in (check_dataset(d, model) for d in sets)]
-        for label, sets in st.validation.items()
-    }
+        model, problem, seg, base = st.model, st.problem, st.segmental, st.base  # the model with fitted shapes
+        check_recordings(st)  # as identify: a flipped torque sign, a validation recording that repeats training
+        names = problem.names
+        truth_x = _truth_vector(truth, names, st)
+        scale = natural_scale(problem)
+        val_W = {
+            label: [(ds, base_regressor(model, terms, base, ds)) for ds in (check_dataset(d, model) for d in sets)]
+            for label, sets in st.validation.items()
+        }
     jobs = [(m, s, settings_for(m, s)) for m in methods for s in ([None] if ESTIMATORS[m].deterministic else seed_list)]
     runs: dict[str, list[Run]] = {m: [] for m in methods}
     *fits, reference = run_jobs(
@@ -637,6 +657,26 @@ def compare(
     )
 
 
+def _floating_study(model, data, validate, truth, terms, mapping, preprocess, rest_velocity, floating, unsupported):
+    """``(setup, validation rows, true base parameters)`` of a floating-base study (:mod:`pinid.identification.floating`)."""
+    from pinid.identification.floating import floating_truth, refuse_fixed_only, stack_floating
+
+    refuse_fixed_only(unsupported)
+    if isinstance(validate, Mapping):  # {label: recordings}: one set with a floating base
+        if set(validate) - {"validation"}:
+            raise SpecError(f"validate: sets {', '.join(map(str, validate))}; a floating base takes one set")
+        validate = validate.get("validation")
+    rest = None if isinstance(rest_velocity, str) else rest_velocity  # as identify: every row unless a speed
+
+    run = stack_floating(model, data, validate, terms=terms, preprocess=preprocess, rest_velocity=rest,
+                         mapping=mapping, floating=floating)  # fmt: skip
+    problem = run.problem
+    val = {} if run.validation is None else {"validation": [s.data for s in run.validation_samples]}
+    st = Setup(model, problem.terms, problem.base, problem, [s.data for s in run.train], val)
+    val_W = {} if run.validation is None else {"validation": run.validation}
+    return st, val_W, None if truth is None else floating_truth(truth, problem)
+
+
 _INFO_KEYS = (
     "fitness",
     "fitness_value",
@@ -664,6 +704,11 @@ def _run_of(fit: Fit, problem, val_W: dict, truth_x, scale, segmental: bool) -> 
     res, model = fit.result, problem.model
     validation, filtered = {}, {}
     for label, items in val_W.items():
+        if isinstance(items, IdentificationProblem):  # a floating base's validation rows, per body
+            joints, units = items.model.joint_names, joint_units(items.model)
+            m = error_metrics(items.tau, items.tau - items.predict(res.base), joints, items.joint, units).to_dict()
+            validation[label] = filtered[label] = m
+            continue
         tau = np.concatenate([ds.tau for ds, _ in items])
         recorded = np.concatenate([recorded_torque(ds) for ds, _ in items])
         pred = np.concatenate([_predicted(problem, ds, Wb, res.base) for ds, Wb in items])

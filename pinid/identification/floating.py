@@ -1,89 +1,93 @@
-"""Identify a floating-base robot from recordings with base motion and contact wrenches (``pinid identify
---base floating``): read, prepare, stack (:mod:`pinid.problem.floating`), fit every method,
-validate, and write ``identification.json`` and the identified URDFs and MJCFs of consistent results."""
+"""The floating base in the one pipeline (``pinid identify --base floating``, :func:`pinid.identification.run.identify`
+with a :class:`~pinid.model.floating.FloatingRobotModel`): a free flyer is a root joint, as in Pinocchio.
+
+What differs from a fixed base lives here and nowhere else: reading and preparing recordings with base motion
+and contact wrenches (:func:`load_floating`), stacking the 6 base rows with the joint rows
+(:func:`pinid.problem.floating.floating_problem`; :class:`FloatingOptions`), the validation rows, and the
+checks a floating recording needs (total mass, whole-body centre of mass, barely excited parameters, the
+convention errors a raw recording points to).  Fitting, σ, condition number, consistency, completion, the
+result (:class:`~pinid.identification.result.Identification`), its files, report and
+:class:`~pinid.identification.identified.IdentifiedModel` are the fixed base's own."""
 
 from __future__ import annotations
 
 import os
-import time
 import warnings
-from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
-from pathlib import Path
+from collections.abc import Mapping
+from dataclasses import dataclass
 
 import numpy as np
 
 from pinid.data.contacts import FloatingSamples, floating_mapping, prepare_floating, read_floating
-from pinid.errors import DataError, ModelError, SpecError
+from pinid.errors import DataError, SpecError
 from pinid.estimators import make_estimator
-from pinid.problem.floating import floating_problem
-from pinid.io import Artefacts, write_json
-from pinid.model.floating import FloatingRobotModel, as_floating, floating_parameter_names, floating_urdf
-from pinid.model.serialize import robot_from_dict, robot_to_dict
-from pinid.model.mjcf import identified_mjcf
-from pinid.model.terms import TermSelection, as_terms
 from pinid.identification.floating_checks import (
     com_warning,
     excitation_warning,
     flipped_floating_signs,
-    method_statistics,
     orientation_noise_warning,
-    parameters_text,
-    std_percent,
 )
+from pinid.identification.metrics import TorqueMetrics, error_metrics, joint_units
 from pinid.identification.plausibility import shared_excitation
+from pinid.io import read_json
+from pinid.model.floating import FloatingRobotModel, as_floating
+from pinid.model.terms import TermSelection, as_terms
+from pinid.problem.floating import floating_problem
+from pinid.problem.problem import IdentificationProblem
+
+#: The rows a floating identification fits (:func:`pinid.model.floating.row_mask`).
+ROWS = ("all", "base", "joints")
 
 
-@dataclass
-class FloatingIdentification:
-    """Every method's base (and, when it fits them, standard) parameters, training and validation RMS per row
-    (base rows by force/moment component, joint rows by joint) [N, N·m]."""
+@dataclass(frozen=True)
+class FloatingOptions:
+    """How a floating base's rows are stacked: ``rows`` (``all``: the 6 base rows and the joint rows; ``base``: the
+    base rows alone, no joint torque needed; ``joints``), ``base_weight`` (the base rows' weight against the
+    joint rows, in [1e-6, 1e6]: checked where the rows are stacked), ``swing_rows`` (links with contact phases but no measured wrench are legs without force sensing:
+    the rows their unknown wrench enters are left out while they are in contact)."""
 
-    robot: str
-    rows: str
-    names: list[str]
-    nominal: np.ndarray
-    results: dict[str, dict] = field(default_factory=dict)
-    data: dict = field(default_factory=dict)
-    #: The robot and terms (:func:`pinid.model.serialize.robot_to_dict`, URDF text included): what
-    #: ``pinid export`` rebuilds the model from.
-    model: dict | None = None
+    rows: str = "all"
+    base_weight: float = 1.0
+    swing_rows: bool = False
 
-    def to_dict(self) -> dict:
-        return {
-            "robot": self.robot,
-            "base": "floating",
-            "rows": self.rows,
-            "base_parameter_names": self.names,
-            "nominal_base": self.nominal.tolist(),
-            "data": self.data,
-            "results": self.results,
-            **({"model": self.model} if self.model is not None else {}),
-        }
+    def __post_init__(self) -> None:
+        if self.rows not in ROWS:
+            raise SpecError(f"rows: got {self.rows!r}, expected one of {', '.join(ROWS)}")
+        if isinstance(self.base_weight, bool) or not isinstance(self.base_weight, (int, float)):
+            raise SpecError(f"base_weight: got {type(self.base_weight).__name__}, expected a number")
+        if not isinstance(self.swing_rows, bool):
+            raise SpecError(f"swing_rows: got {type(self.swing_rows).__name__}, expected True or False")
 
-    def text(self, *, verbose: bool = False) -> str:
-        """A table of each method's RMS, cond(W_b) and total mass; each method's largest relative standard
-        deviation (``verbose``: every base parameter's value, σ and σ %)."""
-        out = [f"{'method':<8}{'train RMS':>12}{'valid. RMS':>12}{'cond(W_b)':>11}{'seconds':>10}   total mass [kg]"]
-        for m, r in self.results.items():
-            val = "-" if r["validation_rms"] is None else f"{r['validation_rms']:.4g}"
-            mass = r["base"][0] if self.names[0].startswith("base.m") else float("nan")
-            cond = r.get("condition_number", float("nan"))
-            out.append(f"{m:<8}{r['train_rms']:>12.4g}{val:>12}{cond:>11.4g}{r['seconds']:>10.3f}   {mass:.6g}")
-        for m, r in self.results.items():
-            out += parameters_text(m, self.names, r, verbose=verbose)
-        floor = self.data.get("floor")
-        if floor:
-            best = min(self.results, key=lambda m: self.results[m]["validation_rms"])
-            by = self.results[best]["validation_rms_by_row"]
-            cells = [f"all {floor['rms']:.3g} ({best} {self.results[best]['validation_rms']:.3g})"]
-            cells += [f"{k} {v:.3g} ({best} {by[k]:.3g})" for k, v in floor["rms_by_row"].items() if k in by]
-            out.append(
-                "model-class floor, valid. RMS [N·m; base: N and N·m] (the same terms fitted by OLS on the "
-                f"validation recording itself): {', '.join(cells)}; near the floor the model class limits the "
-                "result, far above it the identification"
+
+#: The command-line option of a study argument whose name is not the option's (the rest: ``--name-with-dashes``).
+_OPTIONS = {"segmental": "--first-data", "terms": "--terms auto"}
+
+
+def refuse_fixed_only(arguments: Mapping) -> None:
+    """SpecError naming every argument of ``arguments`` (``{name: value}``) that is given (not None or False): options
+    of a fixed base a floating one does not take, named as in Python and on the command line."""
+    if not isinstance(arguments, Mapping):
+        raise SpecError(f"arguments: got {type(arguments).__name__}, expected a mapping of argument names to values")
+    given = [k for k, v in arguments.items() if v is not None and v is not False]
+    if given:
+        named = ", ".join(f"{k} ({_OPTIONS.get(k, '--' + k.replace('_', '-'))})" for k in given)
+        raise SpecError(f"{named}: not available with a floating base (docs/floating-base.md)")
+
+
+def as_floating_options(value) -> FloatingOptions:
+    """``value`` as :class:`FloatingOptions` (None: the defaults; a mapping of its fields)."""
+    if value is None:
+        return FloatingOptions()
+    if isinstance(value, FloatingOptions):
+        return value
+    if isinstance(value, Mapping):
+        unknown = [k for k in value if k not in ("rows", "base_weight", "swing_rows")]
+        if unknown:
+            raise SpecError(
+                f"floating: unknown option(s) {', '.join(map(str, unknown))} (rows, base_weight, swing_rows)"
             )
-        return "\n".join(out)
+        return FloatingOptions(**value)
+    raise SpecError(f"floating: got {type(value).__name__}, expected FloatingOptions or a mapping of its fields")
 
 
 def load_floating(
@@ -123,91 +127,101 @@ def load_floating(
     return out
 
 
-def identify_floating(
+@dataclass
+class FloatingStack:
+    """What a floating identification adds to the fixed base's setup: the training and validation problems,
+    the convention hints of the raw recordings and the joints whose torque sign looks flipped."""
+
+    problem: IdentificationProblem
+    validation: IdentificationProblem | None
+    train: list[FloatingSamples]
+    validation_samples: list[FloatingSamples]
+    hints: list[str]
+    flipped: list[str]
+    sources: str
+
+
+def stack_floating(
     model: FloatingRobotModel,
     data,
-    *,
-    methods: Sequence[str] = ("ols", "sdp"),
     validate=None,
+    *,
     terms: TermSelection = TermSelection(),
-    rows: str = "all",
-    base_weight: float = 1.0,
     preprocess: Mapping | bool | None = None,
-    options: Mapping[str, Mapping] | None = None,
-    swing_rows: bool = False,
     rest_velocity=None,
     mapping=None,
-) -> FloatingIdentification:
-    """Fit every method on the training recordings and score it on the validation ones (RMS over the rows used).
-    ``swing_rows``: links with contact phases but no wrench are legs without force sensing; the rows their
-    unknown wrench enters are left out while they are in contact.  ``rest_velocity``: as
-    :func:`~pinid.problem.floating.floating_problem` (None keeps every row).  ``mapping``: how
-    to read recordings not in the dataset format (:func:`pinid.data.contacts.floating_mapping`)."""
-    model = as_floating(model)
-    terms = as_terms(terms)
+    floating: FloatingOptions | Mapping | None = None,
+) -> FloatingStack:
+    """Read, prepare and stack the floating recordings (``rest_velocity``: as
+    :func:`~pinid.problem.floating.floating_problem`, None keeps every row; ``mapping``: how to read recordings
+    not in the dataset format, :func:`pinid.data.contacts.floating_mapping`)."""
+    if preprocess is not None and not isinstance(preprocess, (bool, Mapping)):
+        raise SpecError(
+            f"preprocess: got {type(preprocess).__name__}, expected options (a mapping), True, False or None"
+        )
+    model, terms, opts = as_floating(model), as_terms(terms), as_floating_options(floating)
     if mapping is not None:
         mapping = floating_mapping(mapping)  # checked once, before any recording is read
     hints: list[str] = []  # convention errors the raw recordings point to (recording_hints)
-    train = load_floating(data, model, preprocess, swing_rows=swing_rows, mapping=mapping, hints=hints)
-    flipped = flipped_floating_signs(model, train) if rows != "base" else []  # one warning, as a fixed base's
-    problem = floating_problem(
-        model, train, terms=terms, rows=rows, base_weight=base_weight, rest_velocity=rest_velocity
-    )
+    train = load_floating(data, model, preprocess, swing_rows=opts.swing_rows, mapping=mapping, hints=hints)
+    flipped = flipped_floating_signs(model, train) if opts.rows != "base" else []  # one warning, as a fixed base's
+    stack = dict(rows=opts.rows, base_weight=opts.base_weight, rest_velocity=rest_velocity)
+    problem = floating_problem(model, train, terms=terms, **stack)
     val_problem = None
     if validate:
-        val = load_floating(validate, model, preprocess, "validation", swing_rows=swing_rows, mapping=mapping)
+        val = load_floating(validate, model, preprocess, "validation", swing_rows=opts.swing_rows, mapping=mapping)
         shared_excitation([r.data for r in train], [r.data for r in val])  # a repeat hides overfitting: warned
-        val_problem = floating_problem(
-            model,
-            val,
-            terms=problem.terms,
-            rows=rows,
-            base_weight=base_weight,
-            base=problem.base,
-            rest_velocity=rest_velocity,
-        )
+        val_problem = floating_problem(model, val, terms=problem.terms, base=problem.base, **stack)
     if not np.any(np.abs(problem.tau) > 1e-9 * max(1.0, float(np.max(np.abs(problem.tau), initial=0.0)))):
         raise DataError(
-            f"{_sources(data)}: no external wrench and no joint torque in the rows used ({rows}): they are "
+            f"{_sources(data)}: no external wrench and no joint torque in the rows used ({opts.rows}): they are "
             "homogeneous (W·θ = 0) and identify nothing; expected wrench_<link>_* or plate_<link>_* columns (the "
             "wrench applied by the environment on the robot) or joint torques with --rows all"
         )
-    ident = FloatingIdentification(model.name, rows, problem.names, problem.nominal_base)
-    ident.model = robot_to_dict(model, problem.terms)
-    ident.data = problem.summary() | {"rows_per_sample": int(problem.rows // max(problem.samples, 1))}
-    ident.data["flipped_torque_signs"] = flipped
-    for method in methods:
-        start = time.perf_counter()
-        est = make_estimator(method, **dict((options or {}).get(method, {}))).fit(problem)
-        seconds = time.perf_counter() - start
-        r = problem.tau - problem.predict(est.base_)
-        std, cond = method_statistics(problem, est, r)
-        entry = {
-            "base": est.base_.tolist(),
-            "std": std.tolist(),
-            "std_percent": dict(zip(problem.names, std_percent(est.base_, std).tolist())),
-            "condition_number": cond,
-            "standard": None if getattr(est, "standard_", None) is None else np.asarray(est.standard_).tolist(),
-            "standard_names": problem.standard_names,
-            "standard_marks": problem.base.marks(),
-            "train_rms": float(np.sqrt(np.mean(r * r))),
-            "train_rms_by_row": _by_row(problem, r),
-            "validation_rms": None,
-            "seconds": seconds,
-        }
-        if val_problem is not None:
-            rv = val_problem.tau - val_problem.predict(est.base_)
-            entry["validation_rms"] = float(np.sqrt(np.mean(rv * rv)))
-            entry["validation_rms_by_row"] = _by_row(val_problem, rv)
-        ident.results[method] = entry
-    if val_problem is not None:
-        ident.data["floor"] = _floor(val_problem)
-    _check_total_mass(ident, hints, _sources(data))
-    excitation_warning(ident, problem.natural_scale, _sources(data))
+    return FloatingStack(problem, val_problem, train, val if validate else [], hints, flipped, _sources(data))
+
+
+def validate_floating(run: FloatingStack, results: Mapping) -> TorqueMetrics | None:
+    """Each result's ``validation`` (RMS per body, the 6 base rows together as ``base`` [N and N·m mixed]) on the
+    validation rows, against their prepared wrench and torque; returns the model-class floor (:func:`_floor`),
+    None without validation."""
+    if not isinstance(run, FloatingStack) or not isinstance(results, Mapping):
+        raise SpecError("validate_floating: expected a FloatingStack and the results by method")
+    val = run.validation
+    if val is None:
+        return None
+    names, units = val.model.joint_names, joint_units(val.model)
+    for r in results.values():
+        r.validation = error_metrics(val.tau, val.tau - val.predict(r.base), names, val.joint, units)
+        r.validation_filtered = r.validation
+    return _floor(val)
+
+
+def check_floating(run: FloatingStack, ident, model: FloatingRobotModel, rows: str) -> None:
+    """The checks of a floating identification's results: the total mass (warned, or refused when every method's
+    is absurd), the barely excited base parameters, the whole-body centre of mass (``info["com"]``)."""
+    if not isinstance(run, FloatingStack) or not hasattr(ident, "results") or rows not in ROWS:
+        raise SpecError("check_floating: expected a FloatingStack, an Identification and the rows used")
+    ident.data["flipped_torque_signs"] = run.flipped
+    _check_total_mass(ident, run.hints, run.sources)
+    excitation_warning(ident, run.problem.natural_scale, run.sources)
     if rows != "joints":
-        posture = np.mean(np.concatenate([s.data.q for s in train]), axis=0)
-        com_warning(ident, model, problem.terms, problem.base, posture, _sources(data))
-    return ident
+        posture = np.mean(np.concatenate([s.data.q for s in run.train]), axis=0)
+        com_warning(ident, model, run.problem.terms, run.problem.base, posture, run.sources)
+
+
+def floating_truth(truth, problem) -> np.ndarray:
+    """The true base parameters of ``problem`` from a truth dict or its JSON path (``standard_names`` and
+    ``standard`` of ``pinid simulate --base floating``).  SpecError naming what is missing."""
+    origin = str(truth) if isinstance(truth, (str, os.PathLike)) else "truth"
+    d = read_json(truth, "truth") if isinstance(truth, (str, os.PathLike)) else truth
+    if not isinstance(d, Mapping) or d.get("base") != "floating" or "standard" not in d or "standard_names" not in d:
+        raise SpecError(f"{origin}: not the truth of a floating twin (pinid simulate --base floating)")
+    values = dict(zip(d["standard_names"], d["standard"]))
+    missing = [n for n in problem.standard_names if n not in values]
+    if missing:
+        raise SpecError(f"{origin}: no true value of {', '.join(missing[:3])} (another robot or other --terms)")
+    return problem.base.from_standard(np.array([float(values[n]) for n in problem.standard_names]))
 
 
 #: identified total mass / the URDF's: outside this band a warning, outside ``MASS_REFUSED`` (or ≤ 0 for every
@@ -261,13 +275,14 @@ def recording_hints(rec, model: FloatingRobotModel) -> list[str]:
     return hints
 
 
-def _check_total_mass(ident: FloatingIdentification, hints: list[str], source: str) -> None:
+def _check_total_mass(ident, hints: list[str], source: str) -> None:
     """Warn when a method's total mass is outside ``MASS_WARNED`` × the URDF's, refuse (DataError) when every
     method's is outside ``MASS_REFUSED`` × or negative, naming the likely cause."""
-    if not ident.names or ident.names[0] != "base.mR" or ident.rows == "joints":
+    names = ident.base.get("names") or []
+    if not names or names[0] != "base.mR":
         return
-    nominal = float(ident.nominal[0])
-    masses = {m: float(r["base"][0]) for m, r in ident.results.items()}
+    nominal = float(ident.base["nominal"][0])
+    masses = {m: float(r.base[0]) for m, r in ident.results.items()}
     if nominal <= 0 or not masses:
         return
     odd = {m: v for m, v in masses.items() if not MASS_WARNED[0] <= v / nominal <= MASS_WARNED[1]}
@@ -286,153 +301,15 @@ def _check_total_mass(ident: FloatingIdentification, hints: list[str], source: s
     warnings.warn(line, stacklevel=3)
 
 
-def _floor(problem) -> dict | None:
-    """The model-class floor (:mod:`pinid.identification.floor`): OLS fitted on the validation rows themselves
-    and its RMS over them, all rows and per body (``base``: the 6 wrench rows) [N·m, N]; None when they do not
-    determine the parameters alone."""
+def _floor(problem: IdentificationProblem) -> TorqueMetrics | None:
+    """The model-class floor (:mod:`pinid.identification.floor`): OLS fitted on the validation rows themselves,
+    its error over them per body (``base``: the 6 wrench rows) [N·m, N]; None when they do not determine the
+    parameters alone."""
     try:
-        r = problem.tau - problem.predict(make_estimator("ols").fit(problem).base_)
+        base = make_estimator("ols").fit(problem).base_
     except (np.linalg.LinAlgError, DataError, ValueError):
         return None
-    return {"rms": float(np.sqrt(np.mean(r * r))), "rms_by_row": _by_row(problem, r)}
-
-
-def _by_row(problem, r: np.ndarray) -> dict[str, float]:
-    """RMS of the residual per body (the 6 base rows together as ``base``) [N·m, or N and N·m mixed for base]."""
     names = problem.model.joint_names
-    return {names[j]: float(np.sqrt(np.mean(r[problem.joint == j] ** 2))) for j in np.unique(problem.joint)}
-
-
-def write_floating_identification(
-    ident: FloatingIdentification,
-    folder: str | os.PathLike,
-    model: FloatingRobotModel | None = None,
-    terms: TermSelection = TermSelection(),
-) -> list[Path]:
-    """Write ``identification.json`` into ``folder`` and, with ``model``, ``identified_<method>.urdf`` and the
-    MuJoCo MJCF ``identified_<method>.xml`` (a free joint on the base link, :func:`pinid.model.mjcf.identified_mjcf`;
-    a warning instead when MuJoCo would refuse a body) for every method that fits physically consistent standard
-    parameters (sdp): all or nothing
-    (:class:`pinid.io.Artefacts`).  ``terms``: those of the identification."""
-    from pinid.model.physical import check_consistency
-
-    folder = Path(folder)
-    arts = Artefacts()
-    arts.add(folder / "identification.json", lambda p: write_json(p, ident.to_dict()))
-    if model is not None:
-        terms = as_terms(terms)
-        for method, r in ident.results.items():
-            theta = r.get("standard")
-            if theta is None or len(theta) != len(r["standard_names"]):
-                continue
-            theta = np.asarray(theta)
-            if not check_consistency(theta, model.body_names, terms.names, []).consistent:
-                continue
-            arts.add(
-                folder / f"identified_{method}.urdf",
-                lambda p, th=theta, m=method, mk=r.get("standard_marks"): floating_urdf(
-                    model, th, terms, p, comment=m, marks=mk
-                ),
-            )
-            try:  # computed now: a body MuJoCo refuses (massless, a zero moment) costs the MJCF only
-                text = identified_mjcf(
-                    model, theta, terms, comment=f"method {method}", floating=True, marks=r.get("standard_marks")
-                )
-            except ModelError as exc:
-                warnings.warn(f"no MJCF for {method}: {exc}", stacklevel=2)
-                continue
-            arts.add(folder / f"identified_{method}.xml", text)
-    return arts.write()
-
-
-def load_floating_identified(
-    path: str | os.PathLike, *, method: str | None = None
-) -> tuple[FloatingRobotModel, TermSelection, np.ndarray, str]:
-    """The floating robot, its terms, the standard parameters (``base.*`` first) and the method of a floating
-    identification (``identification.json`` of ``pinid identify --base floating``): ``method``, or by default
-    the physically consistent method with the lowest validation (else training) RMS.  SpecError naming the
-    file when it has no robot description or no such result."""
-    from pinid.io import read_json
-    from pinid.model.physical import check_consistency
-
-    d = read_json(path, "floating identification")
-    if not isinstance(d, dict) or d.get("base") != "floating" or not isinstance(d.get("results"), dict):
-        raise SpecError(f"{path}: not a floating identification (pinid identify --base floating)")
-    if not isinstance(d.get("model"), dict):
-        raise SpecError(f"{path}: no robot description ('model'); identify again with this version of pinid")
-    try:
-        model, terms = robot_from_dict(d["model"])
-    except SpecError as exc:
-        raise SpecError(f"{path}: {exc}") from None
-    model = as_floating(model)
-    try:
-        expected = floating_parameter_names(model, terms)
-    except (ModelError, SpecError) as exc:
-        raise SpecError(f"{path}: 'model': {exc}") from None
-    usable = {}
-    for m, r in d["results"].items():
-        theta = _standard_of(path, m, r, expected)
-        if theta is not None and check_consistency(theta, model.body_names, terms.names, []).consistent:
-            usable[m] = (theta, r.get("validation_rms") or r.get("train_rms") or np.inf)
-    if method is not None:
-        if method not in d["results"]:
-            raise SpecError(f"{path}: no method '{method}' (methods: {', '.join(d['results'])})")
-        if method not in usable:
-            raise SpecError(
-                f"{path}: method '{method}' has no physically consistent standard parameters (identify with sdp)"
-            )
-    elif not usable:
-        raise SpecError(f"{path}: no method with physically consistent standard parameters (identify with sdp)")
-    else:
-        method = min(usable, key=lambda m: usable[m][1])
-    return model, terms, usable[method][0], method
-
-
-def _standard_of(path, method: str, r, expected: list[str]) -> np.ndarray | None:
-    """The standard parameters of one result of a floating identification file, in the order of ``expected``
-    (the model's names), matched by name; None when the method fits none (``standard`` null) or they are not
-    finite.  SpecError naming the file, the method and the field when the file does not say them properly."""
-    where = f"{path}: results.{method}"
-    if not isinstance(r, Mapping):
-        raise SpecError(f"{where}: expected an object, got {type(r).__name__}")
-    values, names = r.get("standard"), r.get("standard_names")
-    if values is None:
-        return None
-    if not isinstance(values, list) or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in values):
-        raise SpecError(f"{where}.standard: expected a list of numbers")
-    if not isinstance(names, list) or not all(isinstance(n, str) for n in names):
-        raise SpecError(f"{where}.standard_names: expected a list of parameter names")
-    if len(values) != len(names):
-        raise SpecError(f"{where}: {len(values)} standard values for {len(names)} standard_names")
-    if len(set(names)) != len(names):
-        raise SpecError(f"{where}.standard_names: a name appears twice")
-    missing = [n for n in expected if n not in set(names)]
-    extra = [n for n in names if n not in set(expected)]
-    if missing or extra:
-        said = "; ".join(
-            f"{label} {', '.join(ns[:3])}{' …' if len(ns) > 3 else ''}"
-            for label, ns in (("missing", missing), ("unknown", extra))
-            if ns
-        )
-        raise SpecError(
-            f"{where}.standard_names do not match the {len(expected)} parameters of the file's model and "
-            f"terms ('model'): {said}"
-        )
-    by_name = dict(zip(names, values))
-    theta = np.array([float(by_name[n]) for n in expected])
-    return theta if np.all(np.isfinite(theta)) else None
-
-
-def floating_marks(path: str | os.PathLike, method: str) -> dict[str, str] | None:
-    """``{standard name: mark}`` of ``method`` in a floating ``identification.json`` (which standard parameters
-    the data determined, :meth:`pinid.model.base.BaseParameters.marks`); None when the file has none (an older
-    pinid) or they do not match its standard names."""
-    from pinid.io import read_json
-    from pinid.model.base import MARKS
-
-    r = (read_json(path, "floating identification").get("results") or {}).get(method)
-    marks = r.get("standard_marks") if isinstance(r, dict) else None
-    names = r.get("standard_names") if isinstance(r, dict) else None
-    if not isinstance(marks, dict) or not isinstance(names, list) or set(marks) != set(names):
-        return None
-    return dict(marks) if set(marks.values()) <= set(MARKS) else None
+    return error_metrics(
+        problem.tau, problem.tau - problem.predict(base), names, problem.joint, joint_units(problem.model)
+    )

@@ -1,8 +1,7 @@
-"""What a floating-base identification can be trusted for (docs/floating-base.md, "Numbers you can trust"):
-each method's standard deviations and condition number (the fixed base's Newey–West sandwich,
-:func:`pinid.problem.statistics.base_statistics`, on the floating problem's rows, every row of a sample in one
-score), the one-line warning naming the base parameters the data barely excite, and the one about motion-capture
-orientation noise that biases the base parameters at the default cut-off."""
+"""What a floating-base identification can be trusted for (docs/floating-base.md, "Numbers you can trust"),
+beyond the σ and condition number every identification has: the one-line warnings naming the base parameters
+the data barely excite, a whole-body centre of mass far from the URDF's, joint torques whose sign looks flipped,
+and motion-capture orientation noise that biases the base parameters at the default cut-off."""
 
 from __future__ import annotations
 
@@ -13,62 +12,11 @@ import numpy as np
 
 from pinid.errors import SpecError
 from pinid.identification.plausibility import flipped_torque_signs
-from pinid.identification.result import BOUND_FRACTION
-from pinid.problem.statistics import base_statistics
-from pinid.report.text import text_table
 
 #: A base parameter is barely excited when 2σ exceeds this fraction of its natural scale (mass, mass·length,
 #: mass·length² of its bodies; 1 N·m or N·m·s/rad for a joint term): its 95 % interval then spans more than
 #: ±10 % of what such a parameter typically is, whatever its own value (which may be near 0).
 EXCITED_FRACTION = 0.10
-
-
-def method_statistics(problem, estimator, residual: np.ndarray) -> tuple[np.ndarray, float]:
-    """``(std, cond)`` of a method fitted on ``problem`` (a floating :class:`IdentificationProblem`): the HAC
-    standard deviations of its base parameters (NaN for a method without a calibrated σ, and for a value an
-    LMI method holds on a bound), as for a fixed base (:func:`pinid.identification.result.make_result`), and
-    cond(W_b) of its weighted rows; ``residual``: ``tau − W·base`` (rows,)."""
-    if not hasattr(problem, "natural_scale") or not hasattr(estimator, "base_"):
-        raise SpecError("method_statistics: expected an identification problem and a fitted estimator")
-    base = np.asarray(estimator.base_, dtype=float)
-    w = getattr(estimator, "weights_", None)  # wls: its final weights
-    std, cond, _ = base_statistics(problem, base, w, residual=np.asarray(residual, dtype=float))
-    if not getattr(estimator, "calibrated_std", True):
-        std = np.full_like(std, np.nan)
-    elif getattr(estimator, "consistent_by_construction", False):
-        std = np.where(np.abs(base) <= BOUND_FRACTION * problem.natural_scale, np.nan, std)
-    return std, float(cond)
-
-
-def std_percent(base, std) -> np.ndarray:
-    """``100·std/|value|`` (inf for a zero value, NaN where σ is NaN)."""
-    if isinstance(base, (str, bytes)) or isinstance(std, (str, bytes)):
-        raise SpecError("std_percent: expected arrays of values and standard deviations")
-    base, std = np.asarray(base, dtype=float), np.asarray(std, dtype=float)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return np.where(base != 0, 100 * std / np.abs(base), np.where(np.isnan(std), np.nan, np.inf))
-
-
-def parameters_text(method: str, names: list[str], result: dict, *, verbose: bool = False) -> list[str]:
-    """Lines of one method of a floating identification (a ``results`` entry of ``identification.json``): its
-    largest relative standard deviation σ %, or (``verbose``) every base parameter's value, σ and σ %."""
-    if not isinstance(method, str) or not isinstance(names, list) or not isinstance(result, dict):
-        raise SpecError("parameters_text: expected a method name, the base parameter names and a result dict")
-    std = result.get("std")
-    if std is None or not len(names):
-        return []
-    base, std = np.asarray(result["base"], dtype=float), np.asarray(std, dtype=float)
-    sp = std_percent(base, std)
-    if np.all(np.isnan(std)):
-        return [f"{method}: no calibrated standard deviation (σ —) for this method"]
-    if not verbose:
-        k = int(np.nanargmax(np.where(np.isnan(sp) | np.isfinite(sp), sp, np.inf)))
-        return [f"{method}: largest relative standard deviation σ % {sp[k]:.3g} ({names[k]}); every one with --verbose"]
-    rows = [
-        [n, f"{v:.6g}", *(["—", "—"] if np.isnan(s) else [f"{s:.3g}", f"{p:.3g}" if np.isfinite(p) else "inf"])]
-        for n, v, s, p in zip(names, base, std, sp)
-    ]
-    return [f"\n== {method}: base parameters", text_table(["parameter", "value", "std", "σ %"], rows, indent="   ")]
 
 
 def flipped_floating_signs(model, samples, *, limit: int = 5000) -> list[str]:
@@ -150,11 +98,12 @@ def com_warning(ident, model, terms, base, q: np.ndarray, source: str) -> str | 
     from pinid.errors import DataWarning
 
     if not hasattr(ident, "results") or not hasattr(model, "ff_model") or not isinstance(source, str):
-        raise SpecError("com_warning: expected a FloatingIdentification, its FloatingRobotModel and a source name")
-    if not ident.names or ident.names[0] != "base.mR" or not ident.results:
+        raise SpecError("com_warning: expected an Identification, its FloatingRobotModel and a source name")
+    names = ident.base.get("names") or []
+    if not names or names[0] != "base.mR" or not ident.results:
         return None
     methods = list(ident.results)
-    values = np.array([ident.nominal] + [ident.results[m]["base"] for m in methods])
+    values = np.array([ident.base["nominal"]] + [ident.results[m].base for m in methods])
     if np.any(values[:, 0] <= 0):
         return None  # the total mass's own check says it
     com = whole_body_com(model, terms, base, np.asarray(q, dtype=float), values)
@@ -163,7 +112,7 @@ def com_warning(ident, model, terms, base, q: np.ndarray, source: str) -> str | 
     size = max(float(np.linalg.norm(f.translation)) for f in d.oMf)
     off = {k: float(np.linalg.norm(c - com[0])) for k, c in zip(methods, com[1:])}
     for k, c in zip(methods, com[1:]):
-        ident.results[k]["com"] = c.tolist()
+        ident.results[k].info["com"] = c.tolist()
     ident.data["com_urdf"] = com[0].tolist()
     bad = {k: v for k, v in off.items() if v >= COM_WARNED * size}
     if not bad:
@@ -186,15 +135,17 @@ def excitation_warning(ident, natural_scale: np.ndarray, source: str) -> str | N
     natural scale (``natural_scale`` (nb,), :attr:`IdentificationProblem.natural_scale`) for the method with
     the lowest validation (else training) RMS among those with a σ; returns it, None when every one is excited."""
     if not hasattr(ident, "results") or not isinstance(source, str) or isinstance(natural_scale, (str, bytes)):
-        raise SpecError("excitation_warning: expected a FloatingIdentification, the natural scales and a source name")
+        raise SpecError("excitation_warning: expected an Identification, the natural scales and a source name")
     scale = np.asarray(natural_scale, dtype=float)
-    have = [m for m, r in ident.results.items() if r.get("std") is not None and np.any(np.isfinite(r["std"]))]
-    if not have or scale.shape != (len(ident.names),):
+    names = list(ident.base.get("names") or [])
+    have = [m for m, r in ident.results.items() if np.any(np.isfinite(r.std))]
+    if not have or scale.shape != (len(names),):
         return None
-    method = min(have, key=lambda m: ident.results[m]["validation_rms"] or ident.results[m]["train_rms"])
-    ratio = 2 * np.asarray(ident.results[method]["std"], dtype=float) / np.maximum(scale, 1e-300)
-    bad = sorted(((n, float(v)) for n, v in zip(ident.names, ratio) if v > EXCITED_FRACTION), key=lambda kv: -kv[1])
-    ident.results[method]["barely_excited"] = [n for n, _ in bad]
+    score = lambda m: (ident.results[m].validation or ident.results[m].train).headline()  # noqa: E731
+    method = min(have, key=score)
+    ratio = 2 * np.asarray(ident.results[method].std, dtype=float) / np.maximum(scale, 1e-300)
+    bad = sorted(((n, float(v)) for n, v in zip(names, ratio) if v > EXCITED_FRACTION), key=lambda kv: -kv[1])
+    ident.results[method].info["barely_excited"] = [n for n, _ in bad]
     if not bad:
         return None
     shown = ", ".join(f"{n} {100 * v:.3g} %" for n, v in bad[:4]) + (

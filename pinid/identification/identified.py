@@ -43,6 +43,25 @@ from pinid.model.serialize import robot_from_dict, robot_to_dict
 _FORMAT = "pinid.identified_model"
 
 
+def _floating(robot: RobotModel) -> bool:
+    return getattr(robot, "base", "fixed") == "floating"
+
+
+def _bodies(robot: RobotModel) -> list[str]:
+    """The moving bodies whose inertial parameters lead the standard vector: a floating robot's base first."""
+    return robot.body_names if _floating(robot) else robot.joint_names
+
+
+def _names(robot: RobotModel, terms: TermSelection) -> list[str]:
+    """The standard parameters' names: :func:`~pinid.model.regressor.parameter_names` (with ``base.*`` first on a
+    floating base, :func:`~pinid.model.floating.floating_parameter_names`)."""
+    if _floating(robot):
+        from pinid.model.floating import floating_parameter_names
+
+        return floating_parameter_names(robot, terms)
+    return parameter_names(robot, terms)
+
+
 class IdentifiedModel:
     """A robot model with identified parameters (see the module text).
 
@@ -61,16 +80,20 @@ class IdentifiedModel:
     ) -> None:
         robot, terms = as_robot(robot), as_terms(terms)
         theta = as_floats(theta, "theta", finite=False).reshape(-1)
-        nv, nt = robot.nv, _terms.term_count(robot, terms)
+        nv, floating = robot.nv, _floating(robot)
+        layout = robot.bodies if floating else robot  # a floating robot's base body comes first, in terms too
+        nt = _terms.term_count(layout, terms)
         _terms.robot_layout(robot, terms)  # motor terms need drives
-        if theta.shape != (10 * nv + nt,):
+        nb = 10 * (nv + floating)
+        if theta.shape != (nb + nt,):
             raise ModelError(
-                f"expected {10 * nv + nt} standard parameters for {robot.name} with terms "
-                f"{terms.names}, got {theta.size}"
+                f"expected {nb + nt} standard parameters for {robot.name} with terms {terms.names}, got {theta.size}"
             )
         if not np.all(np.isfinite(theta)):
             raise ModelError("identified parameters contain NaN or infinite values")
-        self._values = _terms.values(robot, terms, theta[10 * nv :])
+        self._values = _terms.values(layout, terms, theta[nb:])
+        if floating:  # the base's own terms (always 0: the free flyer has no friction) left out
+            self._values = {k: np.asarray(v)[1:] for k, v in self._values.items()}
         self.fc = self._values["fc"]
         self.fv = self._values["fv"]
         self.offset = self._values["offset"]
@@ -78,13 +101,13 @@ class IdentifiedModel:
         self.terms = terms
         self.theta = theta.copy()
         self.nominal_robot = robot
-        self.robot = robot.with_inertial_parameters(theta[: 10 * nv], coulomb=self.fc, viscous=self.fv)
+        if floating:  # the free flyer's inertias too (exports, pin_model of the joints with the base held)
+            robot = robot.with_floating_parameters(theta[:nb])
+        self.robot = robot.with_inertial_parameters(theta[nb - 10 * nv : nb], coulomb=self.fc, viscous=self.fv)
         self.pin_model: pin.Model = self.robot.pin_model
         self.pin_data = self.pin_model.createData()
         if physically_consistent is None:
-            physically_consistent = check_consistency(
-                theta, robot.joint_names, terms.names, robot.motor_names
-            ).consistent
+            physically_consistent = check_consistency(theta, _bodies(robot), terms.names, robot.motor_names).consistent
         self.physically_consistent = bool(physically_consistent)
         self.meta = dict(meta or {})
         self._plain = not robot.continuous
@@ -106,7 +129,7 @@ class IdentifiedModel:
     @property
     def standard_parameters(self) -> dict[str, float]:
         """``{name: value}`` of the standard parameters."""
-        return dict(zip(parameter_names(self.robot, self.terms), map(float, self.theta)))
+        return dict(zip(_names(self.robot, self.terms), map(float, self.theta)))
 
     def _states(self, *arrays: tuple[str, object]) -> tuple[list[np.ndarray], bool]:
         """The named arrays as (N, nv) float batches, and whether they were one sample each (nv,).
@@ -294,7 +317,7 @@ class IdentifiedModel:
         if flag is not None and not isinstance(flag, bool):
             raise SpecError(f"identified model: 'physically_consistent' is {flag!r}, expected true or false")
         robot, terms = robot_from_dict(d["robot"])
-        names = parameter_names(robot, terms)
+        names = _names(robot, terms)
         values = d["standard_parameters"]
         missing = [n for n in names if n not in values]
         if missing:
@@ -310,7 +333,7 @@ class IdentifiedModel:
         # the stored flag is never trusted: consistency is checked again on the parameters themselves (a
         # stored false stays false: the run may have found the standard set off its base parameters)
         consistent = (
-            flag is not False and check_consistency(theta, robot.joint_names, terms.names, robot.motor_names).consistent
+            flag is not False and check_consistency(theta, _bodies(robot), terms.names, robot.motor_names).consistent
         )
         return cls(robot, terms, theta, physically_consistent=consistent, meta=d.get("meta"))
 
@@ -331,7 +354,15 @@ class IdentifiedModel:
         return dict(marks) if isinstance(marks, dict) else None
 
     def export_urdf(self, path: str | os.PathLike | None = None, *, force: bool = False) -> str:
-        """The identified URDF text (see :func:`pinid.model.export.identified_urdf`); written to ``path`` when given."""
+        """The identified URDF text (see :func:`pinid.model.export.identified_urdf`; a floating robot's with its base
+        link's inertial too, :func:`pinid.model.floating.floating_urdf`); written to ``path`` when given."""
+        if _floating(self.nominal_robot):
+            from pinid.model.floating import floating_urdf
+
+            method = f"method {self.meta.get('method', '?')}"
+            return floating_urdf(
+                self.nominal_robot, self.theta, self.terms, path, force=force, comment=method, marks=self.marks
+            )
         return identified_urdf(
             self.nominal_robot,
             self.theta,

@@ -18,7 +18,6 @@ from pinid.identification.uncertainty import uncertainty_warning
 from pinid.problem.problem import IdentificationProblem
 from pinid.problem.statistics import base_statistics, least_norm_completion
 from pinid.io import display_path, jsonable, read_json
-from pinid.model.export import identified_urdf
 from pinid.model.base import MARKS
 from pinid.model.lmi import consistent_completion
 from pinid.model.physical import check_consistency
@@ -140,16 +139,8 @@ class IdentificationResult(ResultProtocol):
         return self._model_cache
 
     def export_urdf(self, path: str | os.PathLike | None = None, *, force: bool = False) -> str:
-        """The identified URDF (see :func:`pinid.model.export.identified_urdf`); written to ``path`` when given."""
-        return identified_urdf(
-            self.robot_model,
-            self.standard,
-            TermSelection.from_names(self.robot["terms"]),
-            path,
-            force=force,
-            comment=f"method {self.method}",
-            marks=self.marks,
-        )
+        """The identified URDF (:meth:`IdentifiedModel.export_urdf`); written to ``path`` when given."""
+        return self.model.export_urdf(path, force=force)
 
     def _plot(self, kind: str, ax):
         """The absolute torque error |e| of this method per joint and pooled: the mean and the [p5, p95]
@@ -399,13 +390,17 @@ class Identification(ResultProtocol):
 
 
 def make_result(
-    problem: IdentificationProblem, estimator, seconds: float, *, complete: bool = True
+    problem: IdentificationProblem, estimator, seconds: float, *, complete: bool = True, robot: RobotModel | None = None
 ) -> IdentificationResult:
-    """Check a fitted estimator and wrap it as an :class:`IdentificationResult` (training metrics included)."""
+    """Check a fitted estimator and wrap it as an :class:`IdentificationResult` (training metrics included).
+    ``robot``: the model the result belongs to when it is not ``problem.model`` (a floating base: the problem's
+    model is its body view)."""
     if not hasattr(problem, "base"):
         raise SpecError(
             f"problem: got {type(problem).__name__}, expected an identification problem (IdentificationProblem)"
         )
+    if robot is not None and not isinstance(robot, RobotModel):
+        raise SpecError(f"robot: got {type(robot).__name__}, expected a RobotModel or None")
     base = np.asarray(estimator.base_, dtype=float)
     if base.shape != (problem.nb,):
         raise PinidError(f"{estimator.name}: base_ has shape {base.shape}, expected ({problem.nb},)")
@@ -474,9 +469,9 @@ def make_result(
         status=str(getattr(estimator, "status_", "ok")),
         info=info,
         history=getattr(estimator, "history_", None),
-        robot=robot_to_dict(problem.model, problem.terms),
+        robot=robot_to_dict(robot or problem.model, problem.terms),
         marks=problem.base.marks(),
-        _robot_model=problem.model,
+        _robot_model=robot or problem.model,
     )
 
 

@@ -3,9 +3,8 @@
 
 * :func:`parse_methods`, :func:`check_options` (and :func:`pinid.model.terms.as_terms`) — the one place
   where method names, joint terms and per-method settings are read (the CLI passes its strings straight through);
-* :func:`setup` — the model, the training problem (or the segmental stages) and the validation sets;
-* :func:`run_jobs` — fits one estimator per ``(method, seed, settings)`` job on the setup, times each
-  fit and wraps it as an :class:`~pinid.identification.result.IdentificationResult`.
+* :func:`setup` — the model, the training problem (or the segmental stages) and the validation sets
+  (a :class:`~pinid.identification.runner.Setup`), fitted by :func:`pinid.identification.runner.run_jobs`.
 
 :func:`identify` runs each method once and validates; ``compare`` runs the metaheuristics once per seed
 and measures more (:mod:`pinid.identification.compare`).
@@ -15,17 +14,14 @@ from __future__ import annotations
 
 import os
 import time
-from dataclasses import dataclass, field
 from collections.abc import Callable, Iterable, Mapping, Sequence
-from typing import Any
 
 import numpy as np
 
 from pinid.data.dataset import Dataset, as_dataset
 from pinid.data.delay import parse_delay, shift_torque
 from pinid.errors import DataError, SpecError
-from pinid.parallel import run_parallel
-from pinid.estimators import ESTIMATORS, Estimator, make_estimator
+from pinid.estimators import ESTIMATORS, make_estimator
 from pinid.identification.metrics import joint_units, torque_metrics
 from pinid.problem.problem import (
     REST_FRACTION,
@@ -36,11 +32,12 @@ from pinid.problem.problem import (
     recorded_torque,
 )
 from pinid.problem.rows import fit_mask
-from pinid.identification.result import Identification, IdentificationResult, make_result
-from pinid.identification.segmental import Segmental, SegmentalProblem
+from pinid.identification.result import Identification
+from pinid.identification.runner import Setup, run_jobs
+from pinid.identification.segmental import SegmentalProblem
 from pinid.identification.stribeck import fit_velocity
 from pinid.identification.truth import read_truth, true_base, truth_error
-from pinid.model.base import BaseParameters, base_parameters
+from pinid.model.base import base_parameters
 from pinid.model.terms import TermSelection
 from pinid.model.robot import RobotModel
 from pinid.model.terms import STRIBECK_TERMS, Stribeck, as_terms, stribeck, stribeck_settings
@@ -102,25 +99,6 @@ def as_model(model: RobotModel | str | os.PathLike) -> RobotModel:
 
 
 # ====================================================================== the setup and the runner
-@dataclass
-class Setup:
-    """Everything the runs share: the model, the training problem (or segmental stages), validation sets."""
-
-    model: RobotModel
-    terms: TermSelection
-    base: BaseParameters
-    problem: IdentificationProblem
-    train: list[Dataset]
-    validation: dict[str, list[Dataset]] = field(default_factory=dict)
-    segmental: SegmentalProblem | None = None
-    stribeck: dict[str, dict] = field(default_factory=dict)  # the Stribeck shapes used (data["stribeck"])
-    delay: dict | None = None  # the torque delay used (data["delay"]): given or estimated
-    cutoff: dict | None = None  # the cut-off chosen by cross-validation (data["cutoff"]) when asked for "auto"
-    terms_choice: dict | None = None  # the terms chosen by cross-validation (data["terms_choice"]) for "auto"
-    ripple: dict | None = None  # the ripple periods chosen by cross-validation (data["ripple_periods"]) for "auto"
-    sigmoid: dict | None = None  # the sigmoid friction's shapes fitted for "auto" (data["sigmoid"])
-
-
 def setup(
     model: RobotModel,
     data,
@@ -395,66 +373,6 @@ def _distinct(items: list, what: str) -> dict:
     return seen
 
 
-@dataclass
-class Fit:
-    """One job's outcome: the fitted estimator, its wrapped result and the fit time [s]."""
-
-    method: str
-    seed: int | None
-    settings: dict
-    estimator: Estimator
-    result: IdentificationResult
-    seconds: float
-
-
-def run_jobs(
-    s: Setup,
-    jobs: Iterable[tuple[str, int | None, dict]],
-    *,
-    complete: bool = True,
-    show_progress: bool | None = False,
-    label: str = "methods",
-    workers: int | None = 1,
-    scheduler=None,
-    beside: Callable[[Setup], Any] | None = None,
-) -> list:
-    """Fit every ``(method, seed, settings)`` job on the setup's problem (or its segmental stages), in the
-    jobs' order, on ``workers`` local processes or a Dask ``scheduler`` (:func:`pinid.parallel.run_parallel`).
-    ``beside(s)``: one more job, run first on a worker while the fits run (a study's references, so that
-    they do not wait alone); its value is the list's last item."""
-    if not isinstance(s, Setup):
-        raise SpecError(f"s: got {type(s).__name__}, expected the Setup of pinid.identification.run.setup")
-    if beside is not None and not callable(beside):
-        raise SpecError(f"beside: got {type(beside).__name__}, expected a function of the setup")
-    items = [(method, seed, settings, complete) for method, seed, settings in jobs]
-    out = run_parallel(
-        _fit_job,
-        s,
-        ([(None, beside)] if beside is not None else []) + items,
-        workers=workers,
-        scheduler=scheduler,
-        show_progress=show_progress,
-        label=label,
-        describe=lambda job: "references" if job[0] is None else job[0] + ("" if job[1] is None else f" seed {job[1]}"),
-    )
-    return out[1:] + out[:1] if beside is not None else out
-
-
-def _fit_job(s: Setup, job: tuple) -> Any:
-    if job[0] is None:  # run_jobs' beside
-        return job[1](s)
-    method, seed, settings, complete = job
-    if s.segmental is not None:
-        est, target = Segmental(method, settings), s.segmental
-    else:
-        est, target = make_estimator(method, **settings), s.problem
-        s.problem.cache.forget("compressed")  # each run's time includes its QR compression
-    t0 = time.perf_counter()
-    est.fit(target)
-    seconds = time.perf_counter() - t0
-    return Fit(method, seed, settings, est, make_result(s.problem, est, seconds, complete=complete), seconds)
-
-
 # ====================================================================== identify
 def identify(
     model: RobotModel | str | os.PathLike,
@@ -479,6 +397,7 @@ def identify(
     manifest=None,
     started: Callable[[], None] | None = None,
     truth=None,
+    floating=None,
 ) -> Identification:
     """Identify ``model``'s dynamic parameters from recordings with several methods; validate; compare.
 
@@ -512,6 +431,11 @@ def identify(
     result gets ``truth_error``, its error against the true base parameters (:mod:`pinid.identification.truth`).
     Torque errors are against the torque as recorded (``result.validation``, ``result.train``) and after
     the preprocessing's low-pass (``validation_filtered``, ``train_filtered``).
+    A floating-base ``model`` (``RobotModel.from_urdf(path, base="floating")``) is identified the same way from
+    recordings with base motion and contact wrenches (docs/floating-base.md): ``floating``, a
+    :class:`~pinid.identification.floating.FloatingOptions` or a mapping of its fields (the rows used, the base
+    rows' weight, legs without force sensing); every row is kept unless ``rest_velocity`` is a speed; its
+    errors are per body (``base``: the 6 wrench rows) against the prepared wrenches and torques.
 
     Returns an :class:`~pinid.identification.result.Identification`; ``result.model`` is the best
     result's :class:`~pinid.identification.identified.IdentifiedModel`, ``result["sdp"]`` one method's result.
@@ -524,6 +448,29 @@ def identify(
     options = check_options(options, methods)
     for m in methods:  # bad settings fail before any recording is read
         make_estimator(m, **options.get(m, {}))
+    if getattr(model, "base", "fixed") == "floating":
+        return _identify_floating(
+            model,
+            dict(data=data, validate=validate, terms=terms, mapping=mapping, preprocess=preprocess),
+            dict(methods=methods, options=options, complete=complete, show_progress=show_progress, started=started),
+            rest_velocity,
+            floating,
+            unsupported=dict(
+                manifest=manifest,
+                payload=payload,
+                payload_data=payload_data,
+                stribeck_velocity=stribeck_velocity,
+                stribeck_shape=stribeck_shape,
+                fit_joints=fit_joints,
+                delay=delay,
+                truth=truth,
+                terms="auto" if auto_terms else None,
+            ),
+        )
+    if floating is not None:
+        raise SpecError(
+            f"floating: {floating!r} given for {model.name}, a fixed-base robot (base='floating' loads it floating)"
+        )
     if manifest is not None:
         given = dict(data=data, validate=validate, payload=payload, payload_data=payload_data, mapping=mapping)
         got = use_manifest(manifest, model, **given, fit_joints=fit_joints, delay=delay)
@@ -642,6 +589,75 @@ def identify(
         curves=curves,
         floor=floor,
     )
+
+
+def _identify_floating(
+    model, inputs: dict, running: dict, rest_velocity, floating, *, unsupported: dict
+) -> Identification:
+    """:func:`identify` of a floating-base robot: its recordings and rows (:mod:`pinid.identification.floating`),
+    then the fixed base's fits, results and checks."""
+    from pinid.identification.floating import (
+        as_floating_options,
+        check_floating,
+        refuse_fixed_only,
+        stack_floating,
+        validate_floating,
+    )
+
+    refuse_fixed_only(unsupported)
+
+    t_start, opts = time.perf_counter(), as_floating_options(floating)
+    if isinstance(inputs["preprocess"], Mapping) and isinstance(inputs["preprocess"].get("cutoff"), str):
+        raise SpecError(
+            "cut-off auto: not available with a floating base (docs/floating-base.md); give a frequency [Hz]"
+        )
+    if isinstance(model.setting("ripple_periods"), str):  # "auto": periods are numbers
+        raise SpecError("ripple periods auto: not available with a floating base; give the periods")
+    # every row unless a speed is given (the fixed base's "auto" validated worse here: docs/floating-base.md)
+    rest = None if isinstance(rest_velocity, str) else rest_velocity
+    run = stack_floating(
+        model,
+        inputs["data"],
+        inputs["validate"],
+        terms=inputs["terms"],
+        preprocess=inputs["preprocess"],
+        rest_velocity=rest,
+        mapping=inputs["mapping"],
+        floating=opts,
+    )
+    problem = run.problem
+    s = Setup(model, problem.terms, problem.base, problem, [r.data for r in run.train])
+    if running["started"] is not None:
+        running["started"]()
+    jobs = [(m, None, running["options"].get(m, {})) for m in running["methods"]]
+    fits = run_jobs(s, jobs, complete=running["complete"], show_progress=running["show_progress"])
+    results = {f.method: f.result for f in fits}
+    del fits
+    floor = validate_floating(run, results)
+    ds = run.train[0].data
+    ident = Identification(
+        robot=robot_to_dict(model, problem.terms),
+        results=results,
+        data=problem.summary()
+        | {
+            "base": "floating",
+            "rows": opts.rows,
+            "base_weight": opts.base_weight,
+            "rows_per_sample": int(problem.rows // max(problem.samples, 1)),
+        },
+        base={
+            "names": problem.names,
+            "expressions": problem.base.expressions(),
+            "nominal": problem.base.shown(problem.nominal).tolist(),
+            "scale": [float(v) for v in problem.natural_scale],
+        },
+        validation_sources=[] if run.validation is None else list(run.validation.sources),
+        curves={"motion": {"source": ds.source, "t": ds.t, "q": ds.q, "dq": ds.dq}},
+        floor=floor,
+    )
+    check_floating(run, ident, model, opts.rows)
+    ident.seconds = time.perf_counter() - t_start
+    return ident
 
 
 def check_recordings(s: Setup, samples: int = 5000) -> None:

@@ -8,7 +8,7 @@
    states of exo_lower_body (8 joints, 9 bodies) — target ≤ 1.3×.
 2. Identification with contacts of ``--seconds`` at 1 kHz of the 8-joint exoskeleton walking (the gait twin,
    two force plates): (a) from the prepared samples, stacking (6 + 8 rows per sample, contact wrenches' Jᵀf
-   on the right) + OLS; the same + SDP; (b) the whole :func:`identify_floating` from the CSV file (read,
+   on the right) + OLS; the same + SDP; (b) the whole :func:`pinid.identification.run.identify` from the CSV file (read,
    filter, differentiate, stack, OLS) — target ≤ 3 s.
 Best of ``--repeat``; the machine's load is printed (2 cores shared).
 """
@@ -27,7 +27,7 @@ import pinocchio as pin
 from pinid import RobotModel
 from pinid.data.contacts import write_floating
 from pinid.estimators import make_estimator
-from pinid.identification.floating import identify_floating
+from pinid.identification.run import identify
 from pinid.problem.floating import floating_problem
 from pinid.model.floating import floating_regressor, random_floating_states
 from pinid.model.terms import TermSelection
@@ -105,12 +105,12 @@ def main(argv=None) -> int:
     print(f"   stack + SDP (prepared samples)          {t_sdp:.2f} s wall, {CPU[-1]:.2f} s CPU")
     with tempfile.TemporaryDirectory() as tmp:
         path = write_floating(Path(tmp) / "gait.csv", run.recording)
-        t_file = best(lambda: identify_floating(model, path, methods=["ols"], terms=terms), args.repeat)
-        t_file2 = best(lambda: identify_floating(model, path, methods=["ols", "sdp"], terms=terms), args.repeat)
+        t_file = best(lambda: identify(model, path, methods=["ols"], terms=terms), args.repeat)
+        t_file2 = best(lambda: identify(model, path, methods=["ols", "sdp"], terms=terms), args.repeat)
     print(
-        f"   identify_floating from the CSV, ols     {t_file:.2f} s wall, {CPU[-2]:.2f} s CPU (read, filter, differentiate, stack, fit)"
+        f"   identify (floating) from the CSV, ols     {t_file:.2f} s wall, {CPU[-2]:.2f} s CPU (read, filter, differentiate, stack, fit)"
     )
-    print(f"   identify_floating from the CSV, ols,sdp {t_file2:.2f} s wall, {CPU[-1]:.2f} s CPU")
+    print(f"   identify (floating) from the CSV, ols,sdp {t_file2:.2f} s wall, {CPU[-1]:.2f} s CPU")
     return 0
 
 

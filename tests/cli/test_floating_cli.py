@@ -65,21 +65,24 @@ def test_excite_simulate_identify_floating(tmp_path):
     assert truth["base"] == "floating" and truth["standard_names"][0] == "base.m"
     for folder in ("r", "rb", "rg"):
         d = json.loads((tmp_path / folder / "identification.json").read_text())
-        assert d["base_parameter_names"][0] == "base.mR"
-        for r in d["results"].values():
-            assert r["base"][0] == pytest.approx(21.8, rel=0.01)  # the total mass
+        assert d["base"]["names"][0] == "base.mR" and d["data"]["base"] == "floating"
+        for r in d["methods"].values():
+            assert r["base_parameters"]["base.mR"] == pytest.approx(21.8, rel=0.01)  # the total mass
+            assert r["condition_number"] > 1 and set(r["std_percent"]) == set(d["base"]["names"])
     d = json.loads((tmp_path / "r" / "identification.json").read_text())
-    assert all(r["validation_rms"] < 1.0 for r in d["results"].values())
-    assert d["results"]["sdp"]["standard"] is not None
+    assert all(r["validation"]["all"]["rms"] < 1.0 for r in d["methods"].values())
+    assert "base" in d["methods"]["sdp"]["validation"]["per_joint"]  # the 6 wrench rows, then each joint
+    assert d["methods"]["sdp"]["physically_consistent"] and (tmp_path / "r" / "model_sdp.json").exists()
     back = RobotModel.from_urdf(tmp_path / "r" / "identified_sdp.urdf", base="floating")
-    assert sum(i.mass for i in back.ff_model.inertias) == pytest.approx(d["results"]["sdp"]["base"][0])
+    assert sum(i.mass for i in back.ff_model.inertias) == pytest.approx(
+        d["methods"]["sdp"]["base_parameters"]["base.mR"]
+    )
     # the MJCF written by identify (and again by pinid export) loads in MuJoCo: a free joint, the same mass
-    assert (tmp_path / "exo.xml").read_text() == (tmp_path / "r" / "identified_sdp.xml").read_text()
-    assert not (tmp_path / "r" / "identified_ols.xml").exists()  # OLS fits no standard parameters
+    assert (tmp_path / "exo.xml").read_text() == (tmp_path / "r" / f"identified_{d['best']}.xml").read_text()
     mujoco = pytest.importorskip("mujoco")
     m = mujoco.MjModel.from_xml_path(str(tmp_path / "exo.xml"))
     assert (m.nq, m.nv, m.nu) == (7 + back.nv, 6 + back.nv, back.nv) and m.jnt_type[0] == mujoco.mjtJoint.mjJNT_FREE
-    assert m.body_mass.sum() == pytest.approx(d["results"]["sdp"]["base"][0], rel=1e-9)
+    assert m.body_mass.sum() == pytest.approx(d["methods"][d["best"]]["base_parameters"]["base.mR"], rel=1e-9)
 
 
 @pytest.mark.slow
@@ -99,7 +102,7 @@ def test_bad_floating_inputs_are_one_line_and_write_nothing(tmp_path):
     proc = run_cli(
         "identify", *EXO, "--data", "bad.csv", "--payload", "p.toml", "--no-report", "-o", "out", cwd=tmp_path
     )
-    assert_clean_error(proc, "--payload: not available with --base floating")
+    assert_clean_error(proc, "payload (--payload): not available with a floating base")
     (tmp_path / "manifest.toml").write_text('[[recording]]\nfile = "bad.csv"\nrole = "train"\n')
     for extra, option in (
         (["--data", "bad.csv", "--fit-joints", "l_knee"], "--fit-joints"),
@@ -108,7 +111,7 @@ def test_bad_floating_inputs_are_one_line_and_write_nothing(tmp_path):
         (["--manifest", "manifest.toml"], "--manifest"),
     ):
         proc = run_cli("identify", *EXO, *extra, "--no-report", "-o", "out", cwd=tmp_path)
-        assert_clean_error(proc, f"{option}: not available with --base floating (docs/floating-base.md)")
+        assert_clean_error(proc, f"{option}): not available with a floating base (docs/floating-base.md)")
         assert not (tmp_path / "out").exists()
     proc = run_cli(
         "identify", *EXO, "--data", "bad.csv", "--mapping", "m.toml", "--no-report", "-o", "out", cwd=tmp_path

@@ -13,7 +13,7 @@ from conftest import assert_clean_error, run_cli
 from pinid import RobotModel
 from pinid.data.contacts import read_floating, write_floating
 from pinid.errors import DataError, SpecError
-from pinid.identification.floating import identify_floating
+from pinid.identification.run import identify
 from pinid.simulation.floating_twin import simulate_gait, simulate_suspended
 from test_floating_identification import excitation
 
@@ -89,7 +89,7 @@ def test_foreign_names_and_units_identify_as_the_dataset_format(exo, kind, tmp_p
     for name in ca:
         np.testing.assert_allclose(cb[name], ca[name], rtol=1e-10, atol=1e-9, err_msg=name)
     r = {
-        src: identify_floating(exo, tmp_path / src, methods=("ols",), mapping=m).results["ols"]["base"]
+        src: identify(exo, tmp_path / src, methods=("ols",), mapping=m).results["ols"].base
         for src, m in (("mine.csv", None), ("theirs.csv", tmp_path / "map.toml"))
     }
     np.testing.assert_allclose(r["theirs.csv"], r["mine.csv"], rtol=1e-6, atol=1e-8)

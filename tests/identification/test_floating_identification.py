@@ -355,18 +355,18 @@ def _flip_half(names, a):
 
 def test_quaternion_sign_flips_change_nothing(exo, gait, tmp_path):
     """A base quaternion that jumps to −q (motion capture keeping w ≥ 0) gives the same parameters as without."""
-    from pinid.identification.floating import identify_floating
+    from pinid.identification.run import identify
 
     plain = _edited(tmp_path, gait.recording, "plain", lambda n, a: None)
     flipped = _edited(tmp_path, gait.recording, "flipped", _flip_half)
-    a, b = (identify_floating(exo, p, methods=["ols"]).results["ols"]["base"] for p in (plain, flipped))
+    a, b = (identify(exo, p, methods=["ols"]).results["ols"].base for p in (plain, flipped))
     np.testing.assert_allclose(b, a, rtol=1e-9, atol=1e-9 * np.max(np.abs(a)))
 
 
 def test_given_joint_derivatives_do_not_skip_the_base_filter(exo, gait, tmp_path):
     """dq_/ddq_ columns for the joints: the noisy base pose is still filtered (--preprocess auto), so the total
     mass stays at 21.8 kg; with preprocessing off, exact data leave no residual at the ends."""
-    from pinid.identification.floating import identify_floating
+    from pinid.identification.run import identify
 
     rng = np.random.default_rng(0)
 
@@ -384,16 +384,16 @@ def test_given_joint_derivatives_do_not_skip_the_base_filter(exo, gait, tmp_path
     rows = [f"{line},{','.join(f'{v:.12g}' for v in e)}" for line, e in zip(text[1:], extra)]
     header = text[0] + "," + ",".join([f"dq_{j}" for j in joints] + [f"ddq_{j}" for j in joints])
     path.write_text("\n".join([header, *rows]) + "\n")
-    r = identify_floating(exo, path, methods=["ols"]).results["ols"]
-    assert r["base"][0] == pytest.approx(21.8, rel=2e-3)
+    r = identify(exo, path, methods=["ols"]).results["ols"]
+    assert r.base[0] == pytest.approx(21.8, rel=2e-3)
     exact = _edited(tmp_path, rec, "exact", lambda n, a: None)
     text = exact.read_text().splitlines()
     exact.write_text(
         "\n".join([header, *[f"{line},{','.join(f'{v:.12g}' for v in e)}" for line, e in zip(text[1:], extra)]]) + "\n"
     )
-    r = identify_floating(exo, exact, methods=["ols"], preprocess=False).results["ols"]
-    assert r["train_rms_by_row"]["base"] < 0.02  # [N, N·m]: no one-sided differences left at the ends
-    assert r["base"][0] == pytest.approx(21.8, rel=1e-3)
+    r = identify(exo, exact, methods=["ols"], preprocess=False).results["ols"]
+    assert r.train.per_joint["base"]["rms"] < 0.02  # [N, N·m]: no one-sided differences left at the ends
+    assert r.base[0] == pytest.approx(21.8, rel=1e-3)
 
 
 def _negate_plates(names, a):
@@ -429,7 +429,7 @@ def _millimetres(names, a):
 )
 def test_implausible_total_mass_names_the_cause(exo, gait, tmp_path, edit, cause):
     """A convention error in the recording never passes silently: an error (or a warning) naming the cause."""
-    from pinid.identification.floating import identify_floating
+    from pinid.identification.run import identify
 
     import re
 
@@ -438,7 +438,7 @@ def test_implausible_total_mass_names_the_cause(exo, gait, tmp_path, edit, cause
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
-            identify_floating(exo, path, methods=["ols", "sdp"])
+            identify(exo, path, methods=["ols", "sdp"])
         except DataError as exc:
             said.append(str(exc))
     said += [str(w.message) for w in caught]
@@ -446,7 +446,7 @@ def test_implausible_total_mass_names_the_cause(exo, gait, tmp_path, edit, cause
 
 
 def test_accelerometer_without_gravity_is_named(exo, suspended, tmp_path):
-    from pinid.identification.floating import identify_floating
+    from pinid.identification.run import identify
 
     def no_gravity(names, a):
         qi = [names.index(f"imu_imu_{c}") for c in ("qx", "qy", "qz", "qw")]
@@ -458,11 +458,11 @@ def test_accelerometer_without_gravity_is_named(exo, suspended, tmp_path):
     path = _edited(tmp_path, suspended.recording, "nog", no_gravity)
     with pytest.warns(UserWarning, match="must include gravity"):
         with pytest.raises(DataError, match="likely cause: .*must include gravity"):
-            identify_floating(exo, path, methods=["ols"], rows="base")
+            identify(exo, path, methods=["ols"], floating={"rows": "base"})
 
 
 def test_no_wrench_in_the_base_rows_is_refused(exo, suspended, tmp_path):
-    from pinid.identification.floating import identify_floating
+    from pinid.identification.run import identify
 
     path = write_floating(tmp_path / "src.csv", suspended.recording)
     names = path.read_text().splitlines()[0].split(",")
@@ -471,4 +471,4 @@ def test_no_wrench_in_the_base_rows_is_refused(exo, suspended, tmp_path):
     out = tmp_path / "nowrench.csv"
     np.savetxt(out, a[:, keep], delimiter=",", header=",".join(names[i] for i in keep), comments="", fmt="%.12g")
     with pytest.raises(DataError, match=r"no external wrench and no joint torque .*homogeneous"):
-        identify_floating(exo, out, methods=["ols"], rows="base")
+        identify(exo, out, methods=["ols"], floating={"rows": "base"})

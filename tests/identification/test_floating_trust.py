@@ -11,7 +11,7 @@ import pytest
 from pinid import RobotModel
 from pinid.data.contacts import prepare_floating
 from pinid.excitation.trajectory import FourierTrajectory
-from pinid.identification.floating import identify_floating
+from pinid.identification.run import identify
 from pinid.model.terms import TermSelection
 from pinid.simulation.floating_twin import Noise, simulate_suspended
 
@@ -34,7 +34,7 @@ def excitation(model, seed=0, harmonics=4, scale=0.08) -> FourierTrajectory:
 def identified(model, runs, validate=None, **kw):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        return identify_floating(
+        return identify(
             model,
             [prepare_floating(r.recording, model) for r in runs],
             validate=None if validate is None else [prepare_floating(r.recording, model) for r in validate],
@@ -56,12 +56,12 @@ def test_true_base_parameters_lie_within_two_sigma_at_about_the_nominal_rate(exo
     for seed in range(4):
         run = simulate_suspended(twin, excitation(exo, seed), seconds=10, rate=200, noise=NOISE, seed=seed)
         ident = identified(exo, [run])
-        truth = np.array([0.0 if n.endswith(".fc") else v for n, v in zip(ident.names, ident.nominal)])
+        truth = np.array([0.0 if n.endswith(".fc") else v for n, v in zip(ident.base["names"], ident.base["nominal"])])
         for m, r in ident.results.items():
-            std = np.asarray(r["std"])
-            assert r["condition_number"] > 1 and len(std) == len(ident.names) == len(r["std_percent"])
+            std = r.std
+            assert r.condition_number > 1 and len(std) == len(ident.base["names"]) == len(r.std_percent)
             ok = np.isfinite(std)
-            hits[m][0] += int(np.sum(np.abs(np.asarray(r["base"]) - truth)[ok] <= 2 * std[ok]))
+            hits[m][0] += int(np.sum(np.abs(r.base - truth)[ok] <= 2 * std[ok]))
             hits[m][1] += int(ok.sum())
     share = {m: h / n for m, (h, n) in hits.items()}
     assert share["ols"] >= 0.8 and share["wls"] >= 0.8 and share["sdp"] >= 0.85, share
@@ -78,7 +78,7 @@ def test_a_flipped_joint_torque_is_named(exo, suspended):
     rec = suspended.recording
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        identify_floating(exo, [prepare_floating(rec, exo)], methods=("ols",), terms=TERMS)
+        identify(exo, [prepare_floating(rec, exo)], methods=("ols",), terms=TERMS)
     assert not [w for w in caught if "check the sign" in str(w.message)]
     j = exo.joint_names.index("l_knee")
     tau = rec.data.tau.copy()
@@ -86,7 +86,7 @@ def test_a_flipped_joint_torque_is_named(exo, suspended):
     flipped = type(rec)(type(rec.data)(rec.data.t, rec.data.q, rec.data.joints, tau=tau, source="flipped"))
     flipped.base_pose, flipped.wrenches = rec.base_pose, rec.wrenches
     with pytest.warns(UserWarning, match="check the sign of tau_l_knee") as caught:
-        ident = identify_floating(exo, [prepare_floating(flipped, exo)], methods=("ols",), terms=TERMS)
+        ident = identify(exo, [prepare_floating(flipped, exo)], methods=("ols",), terms=TERMS)
     assert ident.data["flipped_torque_signs"] == ["l_knee"]
     assert sum("check the sign" in str(w.message) for w in caught) == 1
 
@@ -111,12 +111,12 @@ def test_whole_body_centre_of_mass_against_the_urdf(exo):
     rec = simulate_gait(exo, seconds=6, rate=200, noise=NOISE, seed=3).recording
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        ident = identify_floating(exo, [prepare_floating(rec, exo)], methods=("ols",), terms=TERMS)
+        ident = identify(exo, [prepare_floating(rec, exo)], methods=("ols",), terms=TERMS)
     assert not [w for w in caught if "centre of mass" in str(w.message)]
-    assert np.linalg.norm(np.subtract(ident.results["ols"]["com"], ident.data["com_urdf"])) < 2e-3
+    assert np.linalg.norm(np.subtract(ident.results["ols"].info["com"], ident.data["com_urdf"])) < 2e-3
     rec.plates = {k: v * np.r_[1, 1, 1, -1, -1, 1, 1] for k, v in rec.plates.items()}
     with pytest.warns(UserWarning, match="whole-body centre of mass .* ols .* the wrench's axes and frame"):
-        identify_floating(exo, [prepare_floating(rec, exo)], methods=("ols",), terms=TERMS)
+        identify(exo, [prepare_floating(rec, exo)], methods=("ols",), terms=TERMS)
 
 
 def test_model_class_floor_on_floating_validation(exo, suspended):
@@ -127,14 +127,17 @@ def test_model_class_floor_on_floating_validation(exo, suspended):
 
     held_out = simulate_suspended(exo, excitation(exo, 8), seconds=6, rate=200, noise=NOISE, seed=8)
     ident = identified(exo, [suspended], [held_out], methods=("ols", "sdp"))
-    floor = ident.data["floor"]
-    assert all(floor["rms"] <= r["validation_rms"] for r in ident.results.values())
+    floor = ident.floor
+    assert all(floor.all["rms"] <= r.validation.all["rms"] for r in ident.results.values())
     val = floating_problem(exo, prepare_floating(held_out.recording, exo), terms=TERMS)
     r = val.tau - val.predict(val.nominal_base)
     truth = float(np.sqrt(np.mean(r * r)))
-    assert 0.8 * truth <= floor["rms"] <= truth, (floor["rms"], truth)
-    assert set(floor["rms_by_row"]) == {"base", *exo.joint_names}
-    assert "model-class floor" in ident.text() and "base " in ident.text().splitlines()[-1]
+    assert 0.8 * truth <= floor.all["rms"] <= truth, (floor.all["rms"], truth)
+    assert set(floor.per_joint) == {"base", *exo.joint_names}
+    from pinid.identification.outputs import identification_text
+
+    text = identification_text(ident)
+    assert "model-class floor" in text and "base " in text[text.index("model-class floor") :]
 
 
 def test_barely_excited_parameters_are_named(exo):
@@ -146,11 +149,11 @@ def test_barely_excited_parameters_are_named(exo):
 
     run = simulate_gait(exo, seconds=10, rate=200, noise=NOISE, seed=7)
     with pytest.warns(UserWarning, match="barely excited") as caught:
-        ident = identify_floating(exo, [prepare_floating(run.recording, exo)], methods=("ols",), terms=TERMS)
+        ident = identify(exo, [prepare_floating(run.recording, exo)], methods=("ols",), terms=TERMS)
     assert sum("barely excited" in str(w.message) for w in caught) == 1
-    flagged = set(ident.results["ols"]["barely_excited"])
+    flagged = set(ident.results["ols"].info["barely_excited"])
     assert {f"{s}_hip_abduction.{p}" for s in "lr" for p in ("IxxR", "IyyR")} <= flagged
     scale = floating_problem(exo, run.exact, terms=TERMS).natural_scale
-    err = np.abs(np.asarray(ident.results["ols"]["base"]) - ident.nominal) / scale
-    big = [n for n, e in zip(ident.names, err) if e > 0.1 and not n.endswith((".fc", ".fv"))]
+    err = np.abs(np.asarray(ident.results["ols"].base) - np.asarray(ident.base["nominal"])) / scale
+    big = [n for n, e in zip(ident.base["names"], err) if e > 0.1 and not n.endswith((".fc", ".fv"))]
     assert sum(n in flagged for n in big) >= 0.9 * len(big)

@@ -4,7 +4,6 @@ dynamics in MuJoCo as Pinocchio's on the identified floating model."""
 from __future__ import annotations
 
 import json
-import re
 
 import numpy as np
 import pytest
@@ -12,8 +11,9 @@ import pytest
 from conftest import assert_clean_error, run_cli
 
 from pinid import RobotModel
-from pinid.errors import SpecError
-from pinid.identification.floating import identify_floating, load_floating_identified, write_floating_identification
+from pinid.identification.outputs import write_identification
+from pinid.identification.result import load_identified
+from pinid.identification.run import identify
 from pinid.model.terms import TermSelection
 from pinid.simulation.floating_twin import simulate_suspended
 from test_floating_identification import excitation
@@ -29,9 +29,9 @@ def identified(tmp_path_factory):
     """The noise-free suspended twin of exo_lower_body identified by SDP, written to a folder."""
     exo = RobotModel.from_urdf("exo_lower_body", base="floating")
     twin = simulate_suspended(exo, excitation(exo), seconds=3, rate=100, imu_frame="imu")
-    ident = identify_floating(exo, twin.exact, methods=("sdp",), terms=TERMS)
+    ident = identify(exo, twin.exact, methods=("sdp",), terms=TERMS)
     folder = tmp_path_factory.mktemp("floating_mjcf")
-    write_floating_identification(ident, folder, exo, TERMS)
+    write_identification(ident, folder, report=False)
     return exo, folder
 
 
@@ -40,8 +40,9 @@ def test_identify_writes_a_free_joint_mjcf_with_the_identified_dynamics(identifi
     MuJoCo's free joint has the root's linear velocity in the WORLD frame (Pinocchio: base frame), so with
     v_pin = T·v_mj, T = diag(Rᵀ, 1, 1): M_mj = Tᵀ·M_pin·T and the root's linear qacc = R·(a + ω × v)."""
     exo, folder = identified
-    model, terms, theta, method = load_floating_identified(folder / "identification.json")
-    assert method == "sdp" and terms.names == TERMS.names and model.base_link == exo.base_link
+    identified = load_identified(folder / "identification.json")
+    model, terms, theta = identified.nominal_robot, identified.terms, identified.theta
+    assert identified.meta["method"] == "sdp" and terms.names == TERMS.names and model.base_link == exo.base_link
     n = exo.nv
     total = sum(i.mass for i in exo.ff_model.inertias)
     assert theta[: 10 * (n + 1) : 10].sum() == pytest.approx(total, rel=1e-6)  # noise-free: the total mass
@@ -82,65 +83,24 @@ def test_export_reads_the_floating_identification(identified, tmp_path):
 
 
 def test_bad_floating_exports_are_one_line_and_write_nothing(identified, tmp_path):
+    """The fixed base's loader reads a floating identification: an unknown method, a tampered parameter list or an
+    inconsistent set is one line (exit 2), nothing written."""
     _, folder = identified
     d = json.loads((folder / "identification.json").read_text())
+    sdp = d["methods"]["sdp"]
+    short = dict(list(sdp["standard_parameters"].items())[:-1])
     cases = {
-        "--method ols": ({**d, "results": {**d["results"], "ols": {**d["results"]["sdp"], "standard": None}}}, "ols"),
-        "no method": (d, "nope"),
-        "no model": ({k: v for k, v in d.items() if k != "model"}, None),
+        "no method": (d, "nope", "no method 'nope'"),
+        "short": ({**d, "methods": {"sdp": {**sdp, "standard_parameters": short}}}, None, "result 'sdp'"),
         "inconsistent": (
-            {
-                **d,
-                "results": {"sdp": {**d["results"]["sdp"], "standard": [-1.0] + d["results"]["sdp"]["standard"][1:]}},
-            },
+            {**d, "methods": {"sdp": {**sdp, "standard_parameters": {**sdp["standard_parameters"], "base.m": -1.0}}}},
             None,
+            "physically inconsistent",
         ),
     }
-    fragments = {
-        "--method ols": "method 'ols' has no physically consistent standard parameters",
-        "no method": "no method 'nope'",
-        "no model": "no robot description",
-        "inconsistent": "no method with physically consistent standard parameters",
-    }
-    for case, (content, method) in cases.items():
+    for content, method, fragment in cases.values():
         (tmp_path / "i.json").write_text(json.dumps(content))
         extra = ["--method", method] if method else []
         proc = run_cli("export", "--model", "i.json", *extra, "-o", "x.xml", cwd=tmp_path)
-        assert_clean_error(proc, fragments[case])
+        assert_clean_error(proc, fragment)
         assert not (tmp_path / "x.xml").exists()
-
-
-def test_tampered_floating_identification_is_refused_and_names_are_matched_by_name(identified, tmp_path):
-    """Round 4 finding 09: a standard vector one short, a text value or other terms gave "internal error:
-    ValueError" (exit 1); a reversed ``standard_names`` list was ignored (values taken by position).  Now each
-    is one line naming the file and the field (exit 2, nothing written), and values are matched by name."""
-    _, folder = identified
-    d = json.loads((folder / "identification.json").read_text())
-    sdp = d["results"]["sdp"]
-
-    def with_sdp(**changes):
-        return {**d, "results": {"sdp": {**sdp, **changes}}}
-
-    cases = {
-        "short": (
-            with_sdp(standard=sdp["standard"][:-1], standard_names=sdp["standard_names"][:-1]),
-            f"short.json: results.sdp.standard_names do not match the {len(sdp['standard'])} parameters",
-        ),
-        "text": (with_sdp(standard=["x"] + sdp["standard"][1:]), "text.json: results.sdp.standard: expected a list"),
-        "terms": ({**d, "model": {**d["model"], "terms": ["fv"]}}, "terms.json: results.sdp.standard_names do not"),
-        "lengths": (with_sdp(standard=sdp["standard"][:-1]), "lengths.json: results.sdp: "),
-        "reversed": (with_sdp(standard_names=sdp["standard_names"][::-1]), "no method with physically consistent"),
-    }
-    for case, (content, fragment) in cases.items():
-        (tmp_path / f"{case}.json").write_text(json.dumps(content))
-        with pytest.raises(SpecError, match=re.escape(fragment)):
-            load_floating_identified(tmp_path / f"{case}.json")
-    proc = run_cli("export", "--model", "short.json", "-o", "x.xml", cwd=tmp_path)  # the CLI: one line, exit 2
-    assert_clean_error(proc, cases["short"][1])
-    assert not (tmp_path / "x.xml").exists()
-    # names and values reversed together: the same parameters, in the model's order
-    (tmp_path / "both.json").write_text(
-        json.dumps(with_sdp(standard=sdp["standard"][::-1], standard_names=sdp["standard_names"][::-1]))
-    )
-    theta = load_floating_identified(tmp_path / "both.json")[2]
-    np.testing.assert_array_equal(theta, load_floating_identified(folder / "identification.json")[2])

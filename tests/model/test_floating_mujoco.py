@@ -11,7 +11,8 @@ import pytest
 from pinid import RobotModel
 from pinid.estimators import make_estimator
 from pinid.excitation.trajectory import FourierTrajectory
-from pinid.identification.floating import identify_floating, load_floating
+from pinid.identification.floating import load_floating
+from pinid.identification.run import identify
 from pinid.model.terms import TermSelection
 from pinid.problem.floating import floating_problem
 from pinid.resources import URDF_DIR
@@ -103,10 +104,10 @@ def test_mujoco_suspended_recording_recovers_the_urdf(exo, tmp_path):
     66 base parameters to a median 1e-4 of their natural scale (measured 2.2e-5)."""
     mass = mujoco_suspended(tmp_path / "mj.csv", exo)
     assert mass == pytest.approx(21.8, abs=1e-12)
-    ident = identify_floating(exo, tmp_path / "mj.csv", methods=("ols", "sdp"), terms=NONE)
-    assert ident.names[0] == "base.mR"
+    ident = identify(exo, tmp_path / "mj.csv", methods=("ols", "sdp"), terms=NONE)
+    assert ident.base["names"][0] == "base.mR"
     for method in ("ols", "sdp"):
-        assert abs(ident.results[method]["base"][0] - mass) <= 1e-4, method
+        assert abs(ident.results[method].base[0] - mass) <= 1e-4, method
     problem = floating_problem(exo, load_floating(tmp_path / "mj.csv", exo), terms=NONE)
     error = np.abs(make_estimator("ols").fit(problem).base_ - problem.nominal_base) / problem.natural_scale
     assert problem.nb == 66 and np.median(error) <= 1e-4
