@@ -613,6 +613,8 @@ def _identify_floating(
         )
     if isinstance(model.setting("ripple_periods"), str):  # "auto": periods are numbers
         raise SpecError("ripple periods auto: not available with a floating base; give the periods")
+    if isinstance(model.setting("sigmoid"), str):
+        raise SpecError("sigmoid shape auto: not available with a floating base; give the shape")
     # every row unless a speed is given (the fixed base's "auto" validated worse here: docs/floating-base.md)
     rest = None if isinstance(rest_velocity, str) else rest_velocity
     run = stack_floating(
