@@ -24,11 +24,9 @@ SAME_NAME_ALLOWED: dict[str, set[str]] = {
     | {f"pinid.cli.{c}" for c in ("info", "simulate", "track", "wearer")},
 }
 
-#: Imports of a public name through a module that does not define it, left in the floating-base files the
-#: lead is merging away (pinid/problem/floating.py): ``(importing file, module, name)``.
-INDIRECT_IMPORTS_ALLOWED: set[tuple[str, str, str]] = {
-    ("pinid/problem/floating.py", "pinid.problem.problem", "rest_thresholds"),
-}
+#: Imports of a public name through a module that does not define it, allowed: ``(importing file, module, name)``
+#: (none left).
+INDIRECT_IMPORTS_ALLOWED: set[tuple[str, str, str]] = set()
 
 #: Public functions and methods with more than 10 parameters today: left to fix (group related options into
 #: a small frozen dataclass); the test fails when one of them is fixed and still listed, so the list only
