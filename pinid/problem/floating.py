@@ -36,7 +36,8 @@ import numpy as np
 
 from pinid.data.contacts import FloatingSamples
 from pinid.errors import DataError
-from pinid.problem.problem import IdentificationProblem, rest_thresholds
+from pinid.problem.problem import IdentificationProblem
+from pinid.problem.rows import rest_thresholds
 from pinid.model.base import BaseParameters
 from pinid.model.floating import (
     BASE_NV,

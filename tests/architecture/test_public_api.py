@@ -12,7 +12,7 @@ import collections
 import importlib
 from pathlib import Path
 
-PINID = Path(__file__).resolve().parents[1] / "pinid"
+PINID = Path(__file__).resolve().parents[2] / "pinid"
 TESTS = Path(__file__).resolve().parent
 
 #: Public names defined in more than one module on purpose: every ``pinid.cli`` subcommand module has the
