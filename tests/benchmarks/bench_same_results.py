@@ -46,6 +46,7 @@ def printed_lines(text: str, folder: str, tree: Path) -> list[str]:
     out, time_col, md_time_col = [], None, None
     for line in text.replace(str(tree), "TREE").replace(folder, "OUT").splitlines():
         line = re.sub(r"; [0-9.e+-]+ s; status", "; … s; status", line)
+        line = re.sub(r"; [0-9.e+-]+ s</summary>", "; … s</summary>", line)  # the report's folded method detail
         if line.startswith("pinid ") and "total time" in line:
             line = "pinid (date, total time masked)"
         elif line.startswith("|"):
