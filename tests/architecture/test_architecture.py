@@ -5,6 +5,7 @@ and inside functions alike: an import inside a function is still an edge of the 
 from __future__ import annotations
 
 import ast
+import collections
 import functools
 import re
 import subprocess
@@ -27,12 +28,17 @@ def modules() -> dict[str, Path]:
     return out
 
 
-def _type_checking_only(node: ast.AST, parents: dict) -> bool:
-    while node in parents:
-        node = parents[node]
-        if isinstance(node, ast.If) and "TYPE_CHECKING" in ast.unparse(node.test):
-            return True
-    return False
+def _runtime_imports(tree: ast.Module) -> list[ast.Import | ast.ImportFrom]:
+    """The import statements of a tree, in :func:`ast.walk`'s order, but those under an ``if TYPE_CHECKING``
+    (one walk: the flag is carried down instead of looking up every node's parents)."""
+    out, queue = [], collections.deque([(tree, False)])
+    while queue:
+        node, typing_only = queue.popleft()
+        if isinstance(node, (ast.Import, ast.ImportFrom)) and not typing_only:
+            out.append(node)
+        inner = typing_only or (isinstance(node, ast.If) and "TYPE_CHECKING" in ast.unparse(node.test))
+        queue.extend((child, inner) for child in ast.iter_child_nodes(node))
+    return out
 
 
 @functools.cache
@@ -53,12 +59,9 @@ def parsed(path: Path) -> ast.Module:
 def imports(name: str, path: Path, known: dict[str, Path]) -> list[tuple[str, str | None, int]]:
     """``(module, imported name or None, line)`` for every import of a pinid module in ``path``."""
     tree = parsed(path)
-    parents = {child: node for node in ast.walk(tree) for child in ast.iter_child_nodes(node)}
     is_package = path.name == "__init__.py"
     out = []
-    for node in ast.walk(tree):
-        if _type_checking_only(node, parents):
-            continue
+    for node in _runtime_imports(tree):
         if isinstance(node, ast.Import):
             out += [(a.name, None, node.lineno) for a in node.names if a.name.split(".")[0] == "pinid"]
         elif isinstance(node, ast.ImportFrom):

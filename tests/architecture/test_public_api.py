@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import ast
 import collections
+import functools
 import importlib
 from pathlib import Path
 
@@ -49,8 +50,10 @@ TOO_MANY_PARAMETERS: dict[str, int] = {
 MAX_PARAMETERS = 10
 
 
+@functools.cache
 def _modules() -> dict[str, ast.Module]:
-    """``{dotted module name: its syntax tree}`` of every module of pinid (a package as its own name)."""
+    """``{dotted module name: its syntax tree}`` of every module of pinid (a package as its own name), parsed
+    once per test run (the tests here only read the trees)."""
     out = {}
     for f in sorted(PINID.rglob("*.py")):
         name = ".".join(f.relative_to(PINID.parent).with_suffix("").parts).removesuffix(".__init__")

@@ -3,6 +3,7 @@ joints recorded 10 ms and 30 ms late give each delay back to within one sample."
 
 from __future__ import annotations
 
+import functools
 import warnings
 
 import numpy as np
@@ -21,13 +22,20 @@ from pinid.simulation.twin import simulate
 LAGS = np.array([0.010, 0.030])  # hip, knee [s]
 
 
-def recording(seed: int, noise: float = 0.0, seconds: float = 8.0) -> Dataset:
-    """The twin's true motion at 1 kHz, each torque channel recorded ``LAGS[j]`` late (plus noise)."""
+@functools.cache
+def _true_signals(seed: int, seconds: float):
+    """The twin's true signals at 1 kHz, simulated once per test run (only read: the recordings index copies)."""
     m = RobotModel.from_urdf("exo_leg")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # zha2019-4 is faster than exo_leg's URDF limits: a DataWarning
         _, truth = simulate(m, load_trajectory("zha2019-4", m), seconds=seconds, seed=seed, torque_noise=0.0)
-    s = truth["signals"]
+    return truth["signals"]
+
+
+def recording(seed: int, noise: float = 0.0, seconds: float = 8.0) -> Dataset:
+    """The twin's true motion at 1 kHz, each torque channel recorded ``LAGS[j]`` late (plus noise)."""
+    m = RobotModel.from_urdf("exo_leg")
+    s = _true_signals(seed, seconds)
     tau = np.column_stack([shifted(s.t, s.tau[:, j], s.t - LAGS[j]) for j in range(2)])
     tau += np.random.default_rng(seed).normal(size=tau.shape) * noise
     keep = s.t >= LAGS.max()

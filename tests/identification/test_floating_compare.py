@@ -26,6 +26,20 @@ def folder(tmp_path_factory):
     return d
 
 
+@pytest.fixture(scope="module")
+def small(tmp_path_factory):
+    """A folder for the bad inputs: a trajectory JSON (not a truth) and a 1 s twin recording."""
+    from pinid import RobotModel
+    from test_floating_identification import excitation
+
+    d = tmp_path_factory.mktemp("floating_compare_bad")
+    excitation(RobotModel.from_urdf("exo_lower_body", base="floating")).save(d / "exc.json")
+    proc = run_cli(*SIM, "--seconds", "1", "-o", "s.csv", cwd=d)
+    assert proc.returncode == 0, proc.stderr
+    return d
+
+
+@pytest.mark.slow  # pinid excite, two floating twins and a three-method comparison with its figures: 10-20 s of CPU
 def test_compare_floating_scores_every_run(folder):
     proc = run_cli("compare", *EXO, "--data", "s.csv", "--validate", "v.csv", "--truth", "s.truth.json",
                    "--methods", "ols,sdp,pso", "--seeds", "2", "--population", "10", "--iterations", "3",
@@ -81,7 +95,7 @@ def test_parameter_error_on_exact_samples():
         (["--seeds", "0"], "--seeds 0: expected at least 1"),
     ],
 )
-def test_bad_floating_compare_is_one_line_and_writes_nothing(folder, extra, words):
-    proc = run_cli("compare", *EXO, "--data", "s.csv", "--methods", "ols", *extra, "-o", "bad", cwd=folder)
+def test_bad_floating_compare_is_one_line_and_writes_nothing(small, extra, words):
+    proc = run_cli("compare", *EXO, "--data", "s.csv", "--methods", "ols", *extra, "-o", "bad", cwd=small)
     assert_clean_error(proc, words)
-    assert not (folder / "bad").exists()
+    assert not (small / "bad").exists()

@@ -4,6 +4,7 @@ model predicts the same, and on noisy data the fit reaches the noise floor (issu
 
 from __future__ import annotations
 
+import functools
 import json
 import warnings
 
@@ -50,6 +51,12 @@ def twin(m: RobotModel, seed: int = 2, noise: float = 0.0, seconds: float = 6.0)
     return rec, truth["signals"]
 
 
+@functools.cache
+def _noise_free():
+    """``twin(model())``, simulated once per test run for the tests that only read it."""
+    return twin(model())
+
+
 def truth_theta(m: RobotModel) -> np.ndarray:
     theta = np.concatenate([m.inertial_parameters(), T.nominal(m, SEL)])
     names = m.inertial_names + T.term_parameter_names(m, SEL)
@@ -88,7 +95,7 @@ def test_the_column_is_gaz_sigmoid_and_the_shape_is_a_saved_setting():
 
 def test_the_twin_simulates_it_and_ols_sdp_give_the_amplitude_back():
     m = model()
-    _, s = twin(m)
+    _, s = _noise_free()
     law = T.torque(m, T.TermSelection(names=["fsig"]), np.asarray(FSIG), s.q, s.dq, s.ddq, smoothing=VS)
     want = m.rnea(s.q, s.dq, s.ddq) + m.coulomb * np.tanh(s.dq / VS) + m.viscous * s.dq + law
     np.testing.assert_allclose(s.tau, want, atol=1e-9 * np.abs(s.tau).max())
@@ -116,7 +123,7 @@ def test_the_twin_simulates_it_and_ols_sdp_give_the_amplitude_back():
 
 def test_auto_fits_the_shape_back_on_noise_free_data():
     m = model()
-    _, s = twin(m)
+    _, s = _noise_free()
     start = model("auto")
     ident = identify(start, _dataset(s, "twin-fsig"), methods=["ols"], terms=SEL, rest_velocity=30 * VS)
     got = shapes(ident["ols"].model.robot)
