@@ -206,7 +206,7 @@ def add_recording_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def recording_options(args: argparse.Namespace) -> dict:
-    """The keyword arguments of identify()/compare() that --manifest, --fit-joints and --delay describe."""
+    """The fields of the Study (identify, compare) that --manifest, --fit-joints and --delay describe."""
     if args.manifest is not None and (args.data or args.validate or getattr(args, "mapping", None)):
         raise SpecError(
             f"--manifest {args.manifest} lists the recordings and their mapping specs; "

@@ -511,21 +511,20 @@ def compare(
     several seeds; validate; compare (module text).
 
     ``study.model``: the robot with its **nominal** (URDF/CAD) parameters — the metaheuristics' default box is
-    built around them, so on the twin pass the CAD model, not the truth.  ``data``: training
-    recordings (Datasets or paths).  ``validate``: held-out recordings — a list, or ``{label: recordings}``
+    built around them, so on the twin pass the CAD model, not the truth.  ``study.data``: training
+    recordings (Datasets or paths).  ``study.validate``: held-out recordings — a list, or ``{label: recordings}``
     to report several validation sets separately.  ``methods``: names of
     :data:`pinid.estimators.ESTIMATORS` (default: those that do not simulate the robot, :func:`~pinid.estimators.quick_methods`).  ``seeds``: a number of seeds (0, 1, …) or the
     seeds themselves, for the metaheuristics; deterministic methods run once.  ``truth``: true base
     parameters (array, dict, a truth dict of :func:`pinid.simulation.twin.simulate` or its JSON path).
     ``options``: settings per method; ``metaheuristic``: settings for every metaheuristic (``population``,
-    ``iterations``, ``fitness``, ``box`` …; ``options`` override them).  ``segmental``:
+    ``iterations``, ``fitness``, ``box`` …; ``options`` override them).  ``study.segmental``:
     ``{"first": recordings, "joints": ("knee",)}`` runs seed 000's segmental strategy (``data`` is then
-    the recording with every joint moving).  ``mapping``, ``preprocess``, ``rest_velocity``,
-    ``complete``, ``stribeck_velocity``, ``stribeck_shape``, ``fit_joints``, ``delay``, ``manifest`` (without
-    drive gains): as in :func:`pinid.identification.run.identify`.  ``workers``: local processes for the
+    the recording with every joint moving).  The study's other fields (without drive gains: a study with
+    ``payload`` is refused) and ``complete``: as in :func:`pinid.identification.run.identify`.  ``workers``: local processes for the
     runs (None: every core); ``scheduler``: a Dask scheduler's address (or ``distributed.Client``) to run
     them on a cluster instead (:mod:`pinid.parallel`).  The numbers do not depend on either.  A floating-base
-    ``model`` is compared on its base and joint rows (``floating``: as in :func:`~pinid.identification.run.identify`;
+    ``study.model`` is compared on its base and joint rows (``study.floating``: as in :func:`~pinid.identification.run.identify`;
     ``truth``: the truth of ``pinid simulate --base floating``).
     """
     t_start = time.perf_counter()
