@@ -72,6 +72,7 @@ API_MODULES: tuple[tuple[str, str], ...] = (
     ("pinid.simulation.plant_checks", "The twin's checks of the plant and of the run"),
     ("pinid.simulation.outputs", "The twin's files and CAD model (pinid simulate)"),
     ("pinid.simulation.run", "The twin's run in one call (pinid simulate)"),
+    ("pinid.identification.study", "The study: model, recordings, preprocessing, rows, terms"),
     ("pinid.identification.run", "Identification"),
     ("pinid.problem.problem", "The identification problem"),
     ("pinid.problem.rows", "Which rows enter the fit (fit joints, rest)"),
@@ -208,7 +209,8 @@ def api_reference() -> str:
         "",
         'leg = pinid.RobotModel.from_urdf("exo_leg")                    # or a path to any serial URDF',
         "design = design_excitation(leg)                                # Table 2 limits for exo_leg",
-        'result = pinid.identify(leg, ["run1.csv"], validate="run2.csv", methods=["ols", "sdp"])',
+        'study = pinid.Study(leg, ["run1.csv"], validate="run2.csv")     # the model, its recordings, their roles',
+        'result = pinid.identify(study, ["ols", "sdp"])',
         "model = result.model                                           # IdentifiedModel: M, C, g, friction",
         "```",
     ]

@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 import pinid.linalg as linalg
+from pinid.identification.study import Study
 import pinid.problem.covariance as covariance
 import pinid.problem.problem as problem_module
 from pinid import RobotModel
@@ -61,7 +62,7 @@ def test_identify_holds_no_big_copy_of_the_recording(tmp_path, monkeypatch):
         tracemalloc.start()
         try:
             start = tracemalloc.get_traced_memory()[0]
-            ident = identify(model, path)
+            ident = identify(Study(model, path))
             peaks.append(tracemalloc.get_traced_memory()[1] - start)
         finally:
             tracemalloc.stop()

@@ -16,6 +16,7 @@ from pinid.blas import single_threaded_blas
 from pinid.data.formats import write_recording
 from pinid.errors import PinidError, SpecError
 from pinid.identification.compare import compare
+from pinid.identification.study import Study
 from pinid.parallel import check_workers, default_workers, run_parallel
 from pinid.simulation.cad import perturb
 
@@ -111,9 +112,7 @@ def _numbers(comp) -> dict:
 def _compare(study, **where):
     cad, train, valid, xt = study
     with single_threaded_blas():  # the CLI's setting: the workers run with one BLAS thread too
-        return compare(
-            cad, train, valid, methods=["ols", "sdp", "pso", "de"], seeds=3, truth=xt, metaheuristic=SMALL, **where
-        )
+        return compare(Study(cad, train, valid), ["ols", "sdp", "pso", "de"], 3, truth=xt, metaheuristic=SMALL, **where)
 
 
 @pytest.mark.slow
@@ -198,7 +197,7 @@ def test_a_job_beside_the_fits_comes_back_last_on_one_or_two_processes():
     from pinid.identification.runner import run_jobs
 
     truth = truth_model("exo_leg")
-    s = setup(truth, [twin(truth, seconds=4, rate=100, seed=1, noise=0.5)])
+    s = setup(Study(truth, [twin(truth, seconds=4, rate=100, seed=1, noise=0.5)]))
     jobs = [("ols", None, {}), ("ridge", None, {})]
     one = run_jobs(s, jobs, beside=_rows_of)
     two = run_jobs(s, jobs, beside=_rows_of, workers=2)

@@ -206,7 +206,7 @@ def add_recording_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def recording_options(args: argparse.Namespace) -> dict:
-    """The keyword arguments of identify()/compare() that --manifest, --fit-joints and --delay describe."""
+    """The fields of the Study (identify, compare) that --manifest, --fit-joints and --delay describe."""
     if args.manifest is not None and (args.data or args.validate or getattr(args, "mapping", None)):
         raise SpecError(
             f"--manifest {args.manifest} lists the recordings and their mapping specs; "
@@ -215,6 +215,25 @@ def recording_options(args: argparse.Namespace) -> dict:
     if args.manifest is None and not args.data:
         raise SpecError("no training recording: expected --data FILE (repeatable) or --manifest TOML")
     return {"fit_joints": args.fit_joints, "delay": args.delay, "manifest": args.manifest}
+
+
+def study_from_args(args: argparse.Namespace, model: RobotModel, fields: dict):
+    """The :class:`~pinid.identification.study.Study` of identify and compare: ``model`` and ``fields`` (the
+    study's fields the options describe, with :func:`recording_options`'s) with ``--data``, or the recordings
+    of ``--manifest`` (:meth:`~pinid.identification.study.Study.from_manifest`)."""
+    from pinid.identification.study import Study  # deferred: pinid --help does not load it
+
+    if not isinstance(args, argparse.Namespace):
+        raise SpecError(f"args: got {type(args).__name__}, expected an argparse.Namespace")
+    if not isinstance(model, RobotModel):
+        raise SpecError(f"model: got {type(model).__name__}, expected a RobotModel")
+    if not isinstance(fields, dict):
+        raise SpecError(f"fields: got {type(fields).__name__}, expected a dict of the study's fields")
+    fields = dict(fields)
+    manifest = fields.pop("manifest", None)
+    if manifest is not None:
+        return Study.from_manifest(manifest, model, **fields)
+    return Study(model, args.data, **fields)
 
 
 def add_preprocessing_arguments(p: argparse.ArgumentParser) -> None:

@@ -23,6 +23,7 @@ from pinid.cli.common import (
     options_from_args,
     preprocess_from_args,
     recording_options,
+    study_from_args,
     rest_velocity_from_args,
     mapping_from_args,
     robot_from_args,
@@ -157,8 +158,9 @@ def _with_box(box: str) -> list[str]:
     return [name for name, cls in ESTIMATORS.items() if getattr(cls, "default_box", None) == box]
 
 
-def _arguments(args: argparse.Namespace) -> dict:
-    """The keyword arguments of :func:`pinid.identification.compare.compare` the options describe."""
+def _arguments(args: argparse.Namespace, model) -> tuple:
+    """``(study, methods, seeds, run keywords)`` of :func:`pinid.identification.compare.compare` the options
+    describe: the :class:`~pinid.identification.study.Study` and the runs' settings."""
     from pinid.identification.floating import FloatingOptions  # deferred: pinid --help does not load it
 
     if args.seeds < 1:
@@ -187,26 +189,27 @@ def _arguments(args: argparse.Namespace) -> dict:
             "first": args.first_data,
             "joints": tuple(j.strip() for j in args.first_joints.split(",") if j.strip()),
         }
-    return dict(
+    fields = dict(
         validate=validate or None,
-        methods=methods,
-        seeds=args.seeds,
-        truth=args.truth,
         terms=terms_from_args(args),
-        options=options_from_args(args, {k: v for k, v in options.items() if k in methods}),
-        metaheuristic=meta,
         segmental=segmental,
         mapping=floating_mapping_from_args(args) if floating else mapping_from_args(args),
         preprocess=preprocess_from_args(args),
         rest_velocity=rest_velocity_from_args(args.rest_velocity),
-        show_progress=None,
-        workers=args.workers,
-        scheduler=args.scheduler,
         stribeck_velocity=args.stribeck_velocity,
         stribeck_shape=args.stribeck_shape,
         **recording_options(args),
         **({"floating": FloatingOptions(args.rows, args.base_weight, args.swing_rows)} if floating else {}),
     )
+    run = dict(
+        truth=args.truth,
+        options=options_from_args(args, {k: v for k, v in options.items() if k in methods}),
+        metaheuristic=meta,
+        show_progress=None,
+        workers=args.workers,
+        scheduler=args.scheduler,
+    )
+    return study_from_args(args, model, fields), methods, args.seeds, run
 
 
 def run(args: argparse.Namespace) -> int:
@@ -216,14 +219,14 @@ def run(args: argparse.Namespace) -> int:
 
     out = Path(args.output)
     check_outputs(*(out / name for name in COMPARISON_FILES[:2]))  # before the work, creating nothing
-    kwargs = _arguments(args)
     model = robot_from_args(args)
+    study, methods, seeds, kwargs = _arguments(args, model)
     floating = f", floating base ({args.rows} rows)" if args.base == "floating" else ""
     print(
         f"comparing on {model.name}{floating} ({', '.join(model.joint_names)}): {args.methods}; seeds {args.seeds}"
-        + ("; segmental" if kwargs["segmental"] else "")
+        + ("; segmental" if study.segmental else "")
     )
-    comp = compare(model, args.data, **kwargs)
+    comp = compare(study, methods, seeds, **kwargs)
     print(comp.table())
     print()
     print(comp.values_table())

@@ -24,6 +24,7 @@ from pinid.cli.common import (
     positive_int,
     preprocess_from_args,
     recording_options,
+    study_from_args,
     rest_velocity_from_args,
     mapping_from_args,
     robot_from_args,
@@ -31,6 +32,7 @@ from pinid.cli.common import (
 )
 from pinid.errors import DataWarning, SpecError
 from pinid.identification.run import identify
+from pinid.identification.study import Study
 from pinid.model.terms_ripple import periods_from_text
 from pinid.io import check_outputs
 from pinid.report.figures import start_figure_workers
@@ -304,7 +306,9 @@ def run(args: argparse.Namespace) -> int:
         if not (args.no_report or args.no_figures):
             start_figure_workers()  # they load matplotlib while this process identifies
 
-    ident = identify(model, args.data, **_identify_arguments(args, methods, terms), started=started)
+    study = _study(args, model, terms)
+    options = options_from_args(args, _options(args, methods))
+    ident = identify(study, methods, options=options, show_progress=None, started=started, truth=args.truth)
     print(identification_text(ident, verbose=args.verbose))
     written = write_identification(
         ident, out, report=not args.no_report, figures=not args.no_figures, force_export=args.force_export
@@ -353,30 +357,27 @@ def _check_stage(args: argparse.Namespace) -> None:
         raise SpecError("--stage wearer with --base floating is not available (docs/floating-base.md)")
 
 
-def _identify_arguments(args: argparse.Namespace, methods: list[str], terms) -> dict:
-    """The keyword arguments of :func:`pinid.identification.run.identify` the options describe (read in this
-    order: an error names the first bad option)."""
+def _study(args: argparse.Namespace, model, terms) -> Study:
+    """The :class:`~pinid.identification.study.Study` the options describe (read in this order: an error names
+    the first bad option)."""
     from pinid.identification.floating import FloatingOptions  # deferred: pinid --help does not load it
 
     floating = args.base == "floating"
-    return dict(
-        methods=methods,
+    fields = dict(
         validate=args.validate or None,
         terms=terms,
         # a floating base's mapping spec has a [floating] table: base, IMU, wrench, plate, contact columns
         mapping=floating_mapping_from_args(args) if floating else mapping_from_args(args),
         preprocess=preprocess_from_args(args),
         rest_velocity=rest_velocity_from_args(args.rest_velocity),
-        options=options_from_args(args, _options(args, methods)),
-        show_progress=None,
         payload=args.payload,
         payload_data=args.payload_data,
         stribeck_velocity=args.stribeck_velocity,
         stribeck_shape=args.stribeck_shape,
         **recording_options(args),
-        truth=args.truth,
         **({"floating": FloatingOptions(args.rows, args.base_weight, args.swing_rows)} if floating else {}),
     )
+    return study_from_args(args, model, fields)
 
 
 def _run_wearer(args: argparse.Namespace, out: Path) -> int:

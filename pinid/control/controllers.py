@@ -35,6 +35,7 @@ from pinid.model.robot import RobotModel
 from pinid.errors import SolverError
 from pinid.identification.result import Identification
 from pinid.identification.run import identify
+from pinid.identification.study import Study
 from pinid.identification.identified import IdentifiedModel
 from pinid.io import read_json
 from pinid.model.base import base_parameters
@@ -483,7 +484,7 @@ def identified_vs_cad(
     run = dict(feedforward_model=cad_robot, wearer=wearer)
     train, _ = simulate(plant, excitation, seconds=record_seconds, seed=seed + 1, **run)
     valid, _ = simulate(plant, excitation, seconds=record_seconds / 2, seed=seed + 2, **run)
-    ident = identify(plant, train, validate=valid, methods=[method])
+    ident = identify(Study(plant, train, validate=valid), [method])
     terms = TermSelection()
     bp = base_parameters(plant, terms)
     truth = bp.from_standard(standard_parameters(plant, terms))

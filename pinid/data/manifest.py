@@ -136,11 +136,11 @@ class Manifest:
             description=desc,
         )
 
-    def read(self, model=None) -> "Study":
+    def read(self, model=None) -> "ManifestRecordings":
         """Read every recording (with ``model``: in its joint order, checked against it), cut to its range;
         DataError for an empty range or overlapping ranges of one file (see the module text)."""
         spans: list[tuple[str, int, int, Entry, np.ndarray]] = []
-        study = Study(self)
+        study = ManifestRecordings(self)
         for e in self.entries:
             ds = read_recording(e.file, mapping=e.mapping, model=model)
             first, stop = _span(ds, e, self.path)
@@ -168,7 +168,7 @@ class Manifest:
 
 
 @dataclass
-class Study:
+class ManifestRecordings:
     """The recordings of a manifest by role (``train``, ``validate``, ``payload``) and its settings."""
 
     manifest: Manifest

@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import os
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from collections.abc import Mapping, Sequence
 
@@ -50,18 +50,16 @@ from pinid.problem.problem import (
     recorded_torque,
 )
 from pinid.identification.run import (
-    as_model,
     check_options,
     check_recordings,
     parse_methods,
     setup,
-    use_manifest,
+    EXPECTED_STUDY,
 )
 from pinid.identification.runner import Fit, Setup, run_jobs
+from pinid.identification.study import Study
 from pinid.identification.truth import true_base
 from pinid.io import jsonable, read_json
-from pinid.model.terms import TermSelection
-from pinid.model.robot import RobotModel
 from pinid.model.terms import as_terms, stribeck_settings
 from pinid.model.serialize import robot_to_dict
 from pinid.checks import array_like
@@ -497,54 +495,56 @@ def _parameter_errors(x: np.ndarray, truth: np.ndarray, scale: np.ndarray, names
 
 
 def compare(
-    model: RobotModel | str,
-    data=None,
-    validate=None,
-    *,
+    study: Study,
     methods: Sequence[str] | str | None = None,
     seeds: int | Sequence[int] = DEFAULT_SEEDS,
+    *,
     truth=None,
-    terms: TermSelection | str = TermSelection(),
     options: Mapping[str, Mapping] | None = None,
     metaheuristic: Mapping | None = None,
-    segmental: Mapping | None = None,
-    mapping=None,
-    preprocess=None,
-    rest_velocity="auto",
     complete: bool = True,
     show_progress: bool | None = False,
-    stribeck_velocity=None,
-    stribeck_shape=None,
-    fit_joints=None,
-    delay=None,
-    manifest=None,
     workers: int | None = 1,
     scheduler=None,
-    floating=None,
 ) -> Comparison:
-    """Run ``methods`` on the same recordings with several seeds; validate; compare (module text).
+    """Run ``methods`` on the same recordings of ``study`` (a :class:`~pinid.identification.study.Study`) with
+    several seeds; validate; compare (module text).
 
-    ``model``: the robot with its **nominal** (URDF/CAD) parameters — the metaheuristics' default box is
-    built around them, so on the twin pass the CAD model, not the truth.  ``data``: training
-    recordings (Datasets or paths).  ``validate``: held-out recordings — a list, or ``{label: recordings}``
+    ``study.model``: the robot with its **nominal** (URDF/CAD) parameters — the metaheuristics' default box is
+    built around them, so on the twin pass the CAD model, not the truth.  ``study.data``: training
+    recordings (Datasets or paths).  ``study.validate``: held-out recordings — a list, or ``{label: recordings}``
     to report several validation sets separately.  ``methods``: names of
     :data:`pinid.estimators.ESTIMATORS` (default: those that do not simulate the robot, :func:`~pinid.estimators.quick_methods`).  ``seeds``: a number of seeds (0, 1, …) or the
     seeds themselves, for the metaheuristics; deterministic methods run once.  ``truth``: true base
     parameters (array, dict, a truth dict of :func:`pinid.simulation.twin.simulate` or its JSON path).
     ``options``: settings per method; ``metaheuristic``: settings for every metaheuristic (``population``,
-    ``iterations``, ``fitness``, ``box`` …; ``options`` override them).  ``segmental``:
+    ``iterations``, ``fitness``, ``box`` …; ``options`` override them).  ``study.segmental``:
     ``{"first": recordings, "joints": ("knee",)}`` runs seed 000's segmental strategy (``data`` is then
-    the recording with every joint moving).  ``mapping``, ``preprocess``, ``rest_velocity``,
-    ``complete``, ``stribeck_velocity``, ``stribeck_shape``, ``fit_joints``, ``delay``, ``manifest`` (without
-    drive gains): as in :func:`pinid.identification.run.identify`.  ``workers``: local processes for the
+    the recording with every joint moving).  The study's other fields (without drive gains: a study with
+    ``payload`` is refused) and ``complete``: as in :func:`pinid.identification.run.identify`.  ``workers``: local processes for the
     runs (None: every core); ``scheduler``: a Dask scheduler's address (or ``distributed.Client``) to run
     them on a cluster instead (:mod:`pinid.parallel`).  The numbers do not depend on either.  A floating-base
-    ``model`` is compared on its base and joint rows (``floating``: as in :func:`~pinid.identification.run.identify`;
+    ``study.model`` is compared on its base and joint rows (``study.floating``: as in :func:`~pinid.identification.run.identify`;
     ``truth``: the truth of ``pinid simulate --base floating``).
     """
     t_start = time.perf_counter()
-    model = as_model(model)
-    terms = as_terms(terms)
+    if not isinstance(study, Study):
+        raise SpecError(f"compare: got {type(study).__name__}, {EXPECTED_STUDY}")
+    model, data, validate, mapping, preprocess = (
+        study.model,
+        study.data,
+        study.validate,
+        study.mapping,
+        study.preprocess,
+    )
+    rest_velocity, segmental, floating, manifest = study.rest_velocity, study.segmental, study.floating, study.manifest
+    stribeck_velocity, stribeck_shape, fit_joints, delay = (
+        study.stribeck_velocity, study.stribeck_shape, study.fit_joints, study.delay
+    )  # fmt: skip
+    if study.payload is not None or study.payload_data is not None:
+        where = f"{manifest}: " if manifest is not None else ""
+        raise SpecError(f"{where}drive gains (payload) are not supported by compare; use identify")
+    terms = as_terms(study.terms)
     methods = parse_methods(methods, default=quick_methods())
     seed_list = list(range(int(seeds))) if np.ndim(seeds) == 0 else [int(s) for s in seeds]
     if not seed_list:
@@ -575,32 +575,9 @@ def compare(
     else:
         if floating is not None:
             raise SpecError(f"floating: given for {model.name}, a fixed-base robot (base='floating' loads it floating)")
-        if manifest is not None:
-            got = use_manifest(
-                manifest, model, data=data, validate=validate, fit_joints=fit_joints, delay=delay, mapping=mapping
-            )
-            if got["payload"] is not None:
-                raise SpecError(
-                    f"{got['manifest'].path}: drive gains (payload) are not supported by compare; use identify"
-                )
-            model, data, validate, fit_joints, delay = (
-                got[k] for k in ("model", "data", "validate", "fit_joints", "delay")
-            )
         shapes, auto = stribeck_settings(model, terms, stribeck_velocity, stribeck_shape)
         model = model.with_stribeck(shapes) if shapes else model
-        st = setup(
-            model,
-            data,
-            validate,
-            terms=terms,
-            mapping=mapping,
-            preprocess=preprocess,
-            rest_velocity=rest_velocity,
-            segmental=segmental,
-            stribeck_auto=auto,
-            fit_joints=fit_joints,
-            delay=delay,
-        )
+        st = setup(replace(study, model=model, terms=terms), stribeck_auto=auto)
         model, problem, seg, base = st.model, st.problem, st.segmental, st.base  # the model with fitted shapes
         check_recordings(st)  # as identify: a flipped torque sign, a validation recording that repeats training
         names = problem.names

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import os
 import time
+from dataclasses import replace
 from collections.abc import Callable, Iterable, Mapping, Sequence
 
 import numpy as np
@@ -24,7 +25,6 @@ from pinid.errors import DataError, SpecError
 from pinid.estimators import ESTIMATORS, make_estimator
 from pinid.identification.metrics import joint_units, torque_metrics
 from pinid.problem.problem import (
-    REST_FRACTION,
     IdentificationProblem,
     check_dataset,
     load_datasets,
@@ -35,6 +35,7 @@ from pinid.problem.rows import fit_mask
 from pinid.identification.result import Identification
 from pinid.identification.runner import Setup, run_jobs
 from pinid.identification.segmental import SegmentalProblem
+from pinid.identification.study import Study
 from pinid.identification.stribeck import fit_velocity
 from pinid.identification.truth import read_truth, true_base, truth_error
 from pinid.model.base import base_parameters
@@ -43,10 +44,11 @@ from pinid.model.robot import RobotModel
 from pinid.model.terms import STRIBECK_TERMS, Stribeck, as_terms, stribeck, stribeck_settings
 from pinid.model.serialize import robot_to_dict
 from pinid.model.robot import as_robot
-from pinid.io import as_path
 
 #: Default methods of :func:`identify` and ``pinid identify``.
 DEFAULT_METHODS: tuple[str, ...] = ("ols", "wls", "sdp")
+#: What :func:`identify`, ``compare`` and :func:`setup` say of a first argument that is not a Study.
+EXPECTED_STUDY = "expected a Study (pinid.Study(model, data, …))"
 #: Other names of registry methods that :func:`parse_methods` accepts (the docs call sdp "the LMI method").
 METHOD_ALIASES: dict[str, str] = {"lmi": "sdp"}
 
@@ -93,37 +95,24 @@ def check_options(options: Mapping[str, Mapping] | None, methods: Sequence[str])
     return options
 
 
-def as_model(model: RobotModel | str | os.PathLike) -> RobotModel:
-    """A RobotModel as it is, or loaded from a URDF path or a bundled robot's name."""
-    return model if isinstance(model, RobotModel) else RobotModel.from_urdf(model)
-
-
 # ====================================================================== the setup and the runner
 def setup(
-    model: RobotModel,
-    data,
-    validate=None,
-    *,
-    terms: TermSelection = TermSelection(),
-    mapping=None,
-    preprocess: Mapping | bool | None = None,
-    rest_velocity="auto",
-    rest_fraction: float = REST_FRACTION,
-    segmental: Mapping | None = None,
-    show_progress: bool | None = False,
-    stribeck_auto: Mapping[str, bool] | None = None,
-    fit_joints: Sequence[str] | str | None = None,
-    delay=None,
+    study: Study, *, show_progress: bool | None = False, stribeck_auto: Mapping[str, bool] | None = None
 ) -> Setup:
-    """Load and stack the recordings.  ``validate``: recordings, or ``{label: recordings}``;
-    ``segmental``: ``{"first": recordings, "joints": first joints}`` (seed 000's two stages);
-    ``stribeck_auto``: ``{Stribeck term: fit its shape too}`` — their velocities are fitted
-    (:mod:`pinid.identification.stribeck`); ``Setup.model`` is then a new model with the fitted shapes
-    (``model.with_stribeck``), the caller's is left as it is.
-    ``fit_joints``: the joints whose torque rows enter the fit (default all); ``delay``: the torque
-    channels' delay behind the positions (:func:`pinid.data.delay.parse_delay`; ``"auto"`` estimated on the
-    training recordings, ``"auto-per-joint"`` one per channel, :mod:`pinid.identification.delay`), applied to
-    every recording."""
+    """Load and stack the recordings of ``study`` (a :class:`~pinid.identification.study.Study`): its model,
+    training problem (or ``study.segmental``'s two stages: ``{"first": recordings, "joints": first joints}``,
+    seed 000's) and validation sets.  ``stribeck_auto``: ``{Stribeck term: fit its shape too}`` — their
+    velocities are fitted (:mod:`pinid.identification.stribeck`); ``Setup.model`` is then a new model with the
+    fitted shapes (``model.with_stribeck``), the study's is left as it is.  ``study.fit_joints``: the joints
+    whose torque rows enter the fit (default all); ``study.delay``: the torque channels' delay behind the
+    positions (:func:`pinid.data.delay.parse_delay`; ``"auto"`` estimated on the training recordings,
+    ``"auto-per-joint"`` one per channel, :mod:`pinid.identification.delay`), applied to every recording.
+    ``show_progress``: a progress bar while the rows are stacked."""
+    if not isinstance(study, Study):
+        raise SpecError(f"study: got {type(study).__name__}, {EXPECTED_STUDY}")
+    model, data, validate, terms, mapping = study.model, study.data, study.validate, study.terms, study.mapping
+    preprocess, rest_velocity, rest_fraction = study.preprocess, study.rest_velocity, study.rest_fraction
+    segmental, fit_joints, delay = study.segmental, study.fit_joints, study.delay
     auto_terms = _is_auto(terms)
     model, terms = as_robot(model), TermSelection() if auto_terms else as_terms(terms)  # resolved ones as they are
     auto = dict(stribeck_auto or {})
@@ -375,32 +364,20 @@ def _distinct(items: list, what: str) -> dict:
 
 # ====================================================================== identify
 def identify(
-    model: RobotModel | str | os.PathLike,
-    data: Dataset | str | os.PathLike | Iterable | None = None,
-    *,
+    study: Study,
     methods: Sequence[str] | str = DEFAULT_METHODS,
-    validate: Dataset | str | os.PathLike | Iterable | None = None,
-    terms: TermSelection | str = TermSelection(),
-    mapping=None,
-    preprocess: Mapping | bool | None = None,
-    rest_velocity: float | Sequence[float] | str | None = "auto",
-    rest_fraction: float = REST_FRACTION,
+    *,
     options: Mapping[str, Mapping] | None = None,
     complete: bool = True,
     show_progress: bool | None = False,
-    payload=None,
-    payload_data: Dataset | str | os.PathLike | Iterable | None = None,
-    stribeck_velocity: float | str | Mapping | None = None,
-    stribeck_shape: float | str | Mapping | None = None,
-    fit_joints: Sequence[str] | str | None = None,
-    delay=None,
-    manifest=None,
     started: Callable[[], None] | None = None,
     truth=None,
-    floating=None,
 ) -> Identification:
-    """Identify ``model``'s dynamic parameters from recordings with several methods; validate; compare.
+    """Identify the dynamic parameters of ``study``'s model from its recordings with several methods;
+    validate; compare.
 
+    ``study``: a :class:`~pinid.identification.study.Study` (``pinid.Study(model, data, validate=…, …)``, or
+    ``Study.from_manifest(manifest, model)``), whose fields are these.
     ``model``: a RobotModel, URDF path or robot name.  ``data`` / ``validate``: Datasets or recording
     paths (read with :func:`pinid.data.formats.read_recording` and ``mapping``).  Recordings without ``dq`` or
     ``ddq`` go through :func:`pinid.data.preprocess.prepare` (see
@@ -422,9 +399,9 @@ def identify(
     ``fit_joints``: the joints whose torque rows enter the fit (``"J1,J2"`` or a list; default all): the
     others still move, are in the regressor's columns and are predicted and validated.  ``delay``: seconds by
     which the torque channels lag the positions (``0.04``, ``"tau.knee=0.04"``, ``"auto"``:
-    :mod:`pinid.identification.delay`), in ``data["delay"]``.  ``manifest``: a dataset manifest (TOML path or
-    :class:`~pinid.data.manifest.Manifest`) listing the recordings, their ranges and roles instead of
-    ``data``, ``validate``, ``payload`` and ``payload_data`` (:mod:`pinid.data.manifest`).  ``started``: called
+    :mod:`pinid.identification.delay`), in ``data["delay"]``.  A study read from a dataset manifest (:meth:`Study.from_manifest
+    <pinid.identification.study.Study.from_manifest>`) has its path in ``data["manifest"]``.
+    The runs' arguments: ``started``: called
     once the inputs are read and checked, before the first method runs (the CLI says what it identifies then, so
     that a bad input prints only its error).
     ``truth``: the truth of a twin (``pinid simulate``'s ``run.truth.json``, its path or dict): every
@@ -441,7 +418,23 @@ def identify(
     result's :class:`~pinid.identification.identified.IdentifiedModel`, ``result["sdp"]`` one method's result.
     """
     t_start = time.perf_counter()
-    model = as_model(model)
+    if not isinstance(study, Study):
+        raise SpecError(f"identify: got {type(study).__name__}, {EXPECTED_STUDY}")
+    model, data, validate, terms, mapping = study.model, study.data, study.validate, study.terms, study.mapping
+    preprocess, rest_velocity, payload, payload_data = (
+        study.preprocess,
+        study.rest_velocity,
+        study.payload,
+        study.payload_data,
+    )
+    fit_joints, delay, manifest, floating = study.fit_joints, study.delay, study.manifest, study.floating
+    rest_fraction, stribeck_velocity, stribeck_shape = (
+        study.rest_fraction,
+        study.stribeck_velocity,
+        study.stribeck_shape,
+    )
+    if study.segmental is not None:
+        raise SpecError("segmental: the seed-000 strategy of compare, not of identify")
     auto_terms = _is_auto(terms)  # chosen by the training data
     terms = TermSelection() if auto_terms else as_terms(terms)
     methods = parse_methods(methods)
@@ -471,13 +464,6 @@ def identify(
         raise SpecError(
             f"floating: {floating!r} given for {model.name}, a fixed-base robot (base='floating' loads it floating)"
         )
-    if manifest is not None:
-        given = dict(data=data, validate=validate, payload=payload, payload_data=payload_data, mapping=mapping)
-        got = use_manifest(manifest, model, **given, fit_joints=fit_joints, delay=delay)
-        model, data, validate, fit_joints, delay = (
-            got[k] for k in ("model", "data", "validate", "fit_joints", "delay")
-        )
-        payload, payload_data, manifest = got["payload"], got["payload_data"], got["manifest"]
     if truth is not None:
         read_truth(truth)  # an unreadable truth fails before any recording is read
     settings, auto = stribeck_settings(model, terms, stribeck_velocity, stribeck_shape)
@@ -490,20 +476,17 @@ def identify(
             model, terms, data, validate, payload, payload_data, mapping, preprocess, rest_velocity
         )
         preprocess = False
-    s = setup(
-        model,
-        data,
-        validate,
+    used = replace(
+        study,
+        model=model,
+        data=data,
+        validate=validate,
         terms="auto" if auto_terms else terms,
-        mapping=mapping,
         preprocess=preprocess,
-        rest_velocity=rest_velocity,
-        rest_fraction=rest_fraction,
-        show_progress=show_progress,
-        stribeck_auto=auto,
-        fit_joints=fit_joints,
-        delay=delay,
+        payload=None,
+        payload_data=None,
     )
+    s = setup(used, show_progress=show_progress, stribeck_auto=auto)
     model = s.model  # with the fitted Stribeck shapes (auto): built once, used from here on
     terms = s.terms if auto_terms else terms
     x_true = None if truth is None else true_base(truth, model, s.terms, s.base)  # checked before the fits
@@ -573,7 +556,7 @@ def identify(
     if s.sigmoid is not None:
         summary["sigmoid"] = s.sigmoid
     if manifest is not None:
-        summary["manifest"] = str(getattr(manifest, "path", manifest))
+        summary["manifest"] = str(manifest)
     return Identification(
         robot=robot_to_dict(model, terms),
         results=results,
@@ -681,48 +664,6 @@ def check_recordings(s: Setup, samples: int = 5000) -> None:
     q, dq, ddq, tau = (np.concatenate([getattr(ds, k)[::step] for ds in train]) for k in ("q", "dq", "ddq", "tau"))
     nominal = model.rnea(q, dq, ddq) + model.coulomb * np.sign(dq) + model.viscous * dq
     flipped_torque_signs(model.joint_names, tau, nominal)
-
-
-def use_manifest(
-    manifest,
-    model: RobotModel,
-    *,
-    data=None,
-    validate=None,
-    payload=None,
-    payload_data=None,
-    fit_joints=None,
-    delay=None,
-    mapping=None,
-) -> dict:
-    """What a dataset manifest (a TOML path or :class:`~pinid.data.manifest.Manifest`) gives :func:`identify`
-    and ``compare``: ``{model, data, validate, payload, payload_data, fit_joints, delay, manifest}`` — the
-    model with the manifest's drives (a copy), its recordings by role, and its ``fit_joints`` and ``delay``
-    where the caller gives none.  SpecError when recordings (or a mapping spec: each recording of a manifest
-    has its own) are given besides the manifest."""
-    model = as_robot(model)
-    from pinid.data.manifest import Manifest
-
-    m = manifest if isinstance(manifest, Manifest) else Manifest.load(as_path(manifest, "manifest"))
-    given = {"data": data, "validate": validate, "payload": payload, "payload data": payload_data, "mapping": mapping}
-    clash = [k for k, v in given.items() if v is not None and not (isinstance(v, (list, tuple, dict)) and not v)]
-    if clash:
-        raise SpecError(
-            f"{m.path}: the manifest lists the recordings, and {', '.join(clash)} given too; expected one or the other"
-        )
-    if m.drives is not None:  # a copy: the caller's model keeps its own drives
-        model = model.with_drives(m.drives)
-    study = m.read(model)
-    return {
-        "model": model,
-        "data": study.train,
-        "validate": study.validate,
-        "payload": m.payload,
-        "payload_data": study.payload_data,
-        "fit_joints": m.fit_joints if fit_joints is None else fit_joints,
-        "delay": m.delay if delay is None else delay,
-        "manifest": m,
-    }
 
 
 def _check_payload_data_distinct(data, payload_data) -> None:

@@ -64,10 +64,11 @@ def wearer_experiment(
     """
     from pinid.control.controllers import compare_models
     from pinid.identification.run import identify
+    from pinid.identification.study import Study
 
     exo = RobotModel.from_urdf(exo_urdf)
     exo_run, _ = simulate(exo, excitation, seconds=seconds, seed=seed + 1)
-    stage1 = identify(exo, exo_run, methods=["sdp"])["sdp"].model
+    stage1 = identify(Study(exo, exo_run), ["sdp"])["sdp"].model
     table = RobotModel.from_urdf(exo_with_wearer)
     plant, _ = draw_wearer(table, seed)
     plant = plant.with_passive_exponents(dict(true_exponents or {}))

@@ -20,6 +20,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import conftest  # noqa: E402,F401  (puts the test folders on sys.path)
 
 import pinid.problem.problem as problem  # noqa: E402
+from pinid.identification.study import Study
 from pinid import base_parameters, standard_parameters  # noqa: E402
 from pinid.data.dataset import Dataset  # noqa: E402
 from pinid.identification.run import identify  # noqa: E402
@@ -41,7 +42,7 @@ def main() -> None:
         out = []
         for on in (True, False):
             problem.motor_kept_rows = rule if on else (lambda ds, *a, **k: np.ones(ds.dq.size, bool))
-            r = identify(m, train, validate=valid, methods="ols", terms=MOTOR_TERMS)["ols"]
+            r = identify(Study(m, train, validate=valid, terms=MOTOR_TERMS), methods="ols")["ols"]
             out.append((r.validation.per_joint["wrist_3_joint"]["rms"], r.base[i]))
         problem.motor_kept_rows = rule
         print(

@@ -16,6 +16,7 @@ seed, which no noise covariance can hold; |t| > 3 is a bias).
 from __future__ import annotations
 
 import argparse
+from pinid.identification.study import Study
 import functools
 import os
 import subprocess
@@ -45,7 +46,7 @@ def one(seed: int, loop: str, seconds: float, folder: str) -> dict:
     signed = {}
     for kind in ("hac", "white"):
         result_module.base_statistics = functools.partial(base_statistics, kind=kind)
-        ident = identify("exo_leg", str(csv), methods=METHODS, truth=truth, complete=False)
+        ident = identify(Study("exo_leg", str(csv)), methods=METHODS, truth=truth, complete=False)
         for m in METHODS:
             r = ident[m]
             err = np.array([r.truth_error["error"][n] for n in r.base_names])

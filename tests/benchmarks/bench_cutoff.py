@@ -95,7 +95,8 @@ def cases(folder: Path, wanted: list[str]) -> list[tuple[str, str, object, objec
 def score(urdf, train, val, terms, mapping, cutoff) -> tuple[float, float | None]:
     """Validation pooled relative RMS [%] against the torque as recorded, and the cut-off used."""
     ident = pinid.identify(
-        urdf, train, validate=val, methods="ols", terms=as_terms(terms), mapping=mapping, preprocess={"cutoff": cutoff}
+        pinid.Study(urdf, train, validate=val, terms=as_terms(terms), mapping=mapping, preprocess={"cutoff": cutoff}),
+        methods="ols",
     )
     chosen = ident.data.get("cutoff", {}).get("cutoff_hz", cutoff)
     return float(ident.results["ols"].validation.all["rel_rms_percent"]), chosen

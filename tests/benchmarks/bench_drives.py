@@ -28,6 +28,7 @@ import conftest  # noqa: E402,F401  (puts the test folders on sys.path)
 from test_drives import MOTOR_TERMS, coupled, twin  # noqa: E402
 
 from pinid import TermSelection  # noqa: E402
+from pinid.identification.study import Study
 from pinid.identification.run import identify  # noqa: E402
 
 
@@ -55,7 +56,7 @@ def main() -> None:
         ("with drives (+ 4 motor terms)", MOTOR_TERMS),
     )
     for label, terms in cases:
-        run = lambda: identify(model, train, validate=valid, methods=["ols", "sdp"], terms=terms)  # noqa: E731
+        run = lambda: identify(Study(model, train, validate=valid, terms=terms), methods=["ols", "sdp"])  # noqa: E731
         run()  # warm-up (imports, caches)
         t, res = best_of(run)
         times[label] = t

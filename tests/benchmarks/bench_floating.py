@@ -25,6 +25,7 @@ import numpy as np
 import pinocchio as pin
 
 from pinid import RobotModel
+from pinid.identification.study import Study
 from pinid.data.contacts import write_floating
 from pinid.estimators import make_estimator
 from pinid.identification.run import identify
@@ -105,8 +106,8 @@ def main(argv=None) -> int:
     print(f"   stack + SDP (prepared samples)          {t_sdp:.2f} s wall, {CPU[-1]:.2f} s CPU")
     with tempfile.TemporaryDirectory() as tmp:
         path = write_floating(Path(tmp) / "gait.csv", run.recording)
-        t_file = best(lambda: identify(model, path, methods=["ols"], terms=terms), args.repeat)
-        t_file2 = best(lambda: identify(model, path, methods=["ols", "sdp"], terms=terms), args.repeat)
+        t_file = best(lambda: identify(Study(model, path, terms=terms), methods=["ols"]), args.repeat)
+        t_file2 = best(lambda: identify(Study(model, path, terms=terms), methods=["ols", "sdp"]), args.repeat)
     print(
         f"   identify (floating) from the CSV, ols     {t_file:.2f} s wall, {CPU[-2]:.2f} s CPU (read, filter, differentiate, stack, fit)"
     )

@@ -14,6 +14,7 @@ model does not: a ratio somewhat below 1 is expected even of a right σ.
 from __future__ import annotations
 
 import argparse
+from pinid.identification.study import Study
 import functools
 import os
 import sys
@@ -48,11 +49,11 @@ def ratio(model, ds, k: int, kind: str) -> float:
     from pinid.problem.statistics import base_statistics
 
     result_module.base_statistics = functools.partial(base_statistics, kind=kind)
-    whole = identify(model, ds, methods=["ols"], complete=False)["ols"]
+    whole = identify(Study(model, ds), methods=["ols"], complete=False)["ols"]
     edges = np.linspace(0, ds.n, k + 1).astype(int)
     parts = np.array(
         [
-            identify(model, ds.select(slice(a, b)), methods=["ols"], complete=False)["ols"].base
+            identify(Study(model, ds.select(slice(a, b))), methods=["ols"], complete=False)["ols"].base
             for a, b in zip(edges[:-1], edges[1:])
         ]
     )

@@ -45,6 +45,7 @@ from pinid import RobotModel
 from pinid.identification.compare import compare, lad
 from pinid.data.preprocess import prepare
 from pinid.identification.segmental import SegmentalProblem
+from pinid.identification.study import Study
 from pinid.simulation.trajectories import load_trajectory
 from pinid.simulation.cad import perturb
 from pinid.simulation.twin import simulate
@@ -165,11 +166,11 @@ def run(args) -> dict:
         recs, truths = recordings(truth_model, cad, args.seconds, r)
         t_sim = time.perf_counter() - t0
         truth_base = dict(zip(truths[3]["base"]["names"], truths[3]["base"]["values"]))
-        common = dict(
-            validate={"traj2": recs[2], "traj4": recs[4]},
-            truth=truths[3],
+        study = Study(
+            cad,
+            recs[3],
+            {"traj2": recs[2], "traj4": recs[4]},
             segmental={"first": recs[1], "joints": ("knee",)},
-            seeds=[r],
         )
         runs = {}
         comps = {}
@@ -185,7 +186,7 @@ def run(args) -> dict:
             settings = {"fitness": fitness, "population": args.population, "iterations": iterations}
             if rls:
                 settings["rls"] = rls
-            comp = compare(cad, recs[3], methods=methods, metaheuristic=settings, workers=args.workers, **common)
+            comp = compare(study, methods, [r], truth=truths[3], metaheuristic=settings, workers=args.workers)
             comps[variant] = comp
             for m, rs in comp.runs.items():
                 key = m if m in ("ols", "sdp", "rls") else f"{m}/{variant}"

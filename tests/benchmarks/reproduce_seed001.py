@@ -35,6 +35,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 import numpy as np
 
 from pinid import RobotModel
+from pinid.identification.study import Study
 from pinid.parallel import run_parallel
 from pinid.identification.compare import compare
 from pinid.excitation.design import design_excitation
@@ -112,9 +113,7 @@ def identification_part(leg: RobotModel, train_traj, args) -> dict:
         train = prepare(rec, preset="shi2024")
         valid = prepare(val, preset="shi2024")
     comp = compare(
-        cad,
-        train,
-        {"Table 3 trajectory": valid},
+        Study(cad, train, {"Table 3 trajectory": valid}),
         methods=["ols", "sdp", "pso", "woa", "ewoa", "de"],
         seeds=args.seeds,
         truth=truth,

@@ -18,6 +18,7 @@ import pytest
 
 from conftest import assert_clean_error, load, run_cli
 from pinid.data.dataset import Dataset
+from pinid.identification.study import Study
 from pinid.data.formats import read_recording, write_recording
 from pinid.errors import DataError, ModelError, SpecError
 
@@ -442,13 +443,23 @@ def test_named_api_cases(tmp_path, recording):
         (lambda: segment("thigh", mass="75", height=1.78, sex="male"), SpecError, "mass='75'"),
         (lambda: Payload.from_dict(None), SpecError, "got NoneType"),
         (
-            lambda: identify(leg, ds, methods="ols", payload={"mass": 2.5, "com": [1e6, 0, 0]}, payload_data=loaded),
+            lambda: identify(
+                Study(leg, ds, payload={"mass": 2.5, "com": [1e6, 0, 0]}, payload_data=loaded), methods="ols"
+            ),
             SpecError,
             "com",
         ),
-        (lambda: identify(leg, ds, methods="ols", payload=3, payload_data=loaded), SpecError, "payload: got int"),
-        (lambda: identify(leg, ds, methods="ols", preprocess={"cutof": 5}), SpecError, "unknown option(s) ['cutof']"),
-        (lambda: identify(leg, ds, methods="ols", preprocess=[5]), SpecError, "preprocess: got list"),
+        (
+            lambda: identify(Study(leg, ds, payload=3, payload_data=loaded), methods="ols"),
+            SpecError,
+            "payload: got int",
+        ),
+        (
+            lambda: identify(Study(leg, ds, preprocess={"cutof": 5}), methods="ols"),
+            SpecError,
+            "unknown option(s) ['cutof']",
+        ),
+        (lambda: identify(Study(leg, ds, preprocess=[5]), methods="ols"), SpecError, "preprocess: got list"),
         (lambda: condition_number(leg, traj, samples=0), SpecError, "samples=0"),
         (lambda: condition_number(leg, "traj"), SpecError, "trajectory: got str"),
         (lambda: simulate(leg, traj, seconds=1, seed=-1), SpecError, "seed=-1"),
@@ -469,7 +480,7 @@ def test_named_api_cases(tmp_path, recording):
     assert not (tmp_path / "x.csv").exists()
     # what is right still works: a model given by name, a payload given as a table, preprocess=True
     assert read_recording(recording, model="exo_leg").joints == RobotModel.from_urdf("exo_leg").joint_names
-    assert list(identify(leg, ds, methods="ols", preprocess=True).results) == ["ols"]
+    assert list(identify(Study(leg, ds, preprocess=True), methods="ols").results) == ["ols"]
 
 
 #: Public functions of docs/api.md that do not yet refuse a wrong-type argument with a PinidError (they

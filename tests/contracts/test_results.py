@@ -21,6 +21,7 @@ import pytest  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
 import pinid  # noqa: E402
+from pinid.identification.study import Study
 from pinid.errors import SpecError  # noqa: E402
 from pinid.io import json_text  # noqa: E402
 from pinid.result_protocol import ResultProtocol  # noqa: E402
@@ -48,7 +49,7 @@ def leg():
 @pytest.fixture(scope="module")
 def identification(leg):
     truth, train, valid = leg
-    return pinid.identify(truth, train, validate=valid, methods=["ols"])
+    return pinid.identify(pinid.Study(truth, train, validate=valid), methods=["ols"])
 
 
 # ---------------------------------------------------------------------------------------- the instances
@@ -64,10 +65,7 @@ def _comparison(leg, identification):
     from pinid.identification.compare import compare
 
     truth, train, valid = leg
-    return compare(
-        truth, train, valid, methods=["ols", "pso"], seeds=1, truth=true_base(truth)[1],
-        metaheuristic={"population": 6, "iterations": 3},
-    )  # fmt: skip
+    return compare(Study(truth, train, valid), methods=["ols", "pso"], seeds=1, truth=true_base(truth)[1], metaheuristic={"population": 6, "iterations": 3})  # fmt: skip
 
 
 def _output_error(leg, identification):

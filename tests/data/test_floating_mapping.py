@@ -11,6 +11,7 @@ import pytest
 from conftest import assert_clean_error, run_cli
 
 from pinid import RobotModel
+from pinid.identification.study import Study
 from pinid.data.contacts import read_floating, write_floating
 from pinid.errors import DataError, SpecError
 from pinid.identification.run import identify
@@ -89,7 +90,7 @@ def test_foreign_names_and_units_identify_as_the_dataset_format(exo, kind, tmp_p
     for name in ca:
         np.testing.assert_allclose(cb[name], ca[name], rtol=1e-10, atol=1e-9, err_msg=name)
     r = {
-        src: identify(exo, tmp_path / src, methods=("ols",), mapping=m).results["ols"].base
+        src: identify(Study(exo, tmp_path / src, mapping=m), methods=("ols",)).results["ols"].base
         for src, m in (("mine.csv", None), ("theirs.csv", tmp_path / "map.toml"))
     }
     np.testing.assert_allclose(r["theirs.csv"], r["mine.csv"], rtol=1e-6, atol=1e-8)

@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from pinid import base_parameters, regressor, standard_parameters
+from pinid.identification.study import Study
 from pinid.cli.common import recording_options
 from pinid.data.dataset import Dataset
 from pinid.data.delay import parse_delay, shift_torque
@@ -65,8 +66,8 @@ def test_manifest_ranges_of_one_file_equal_the_file_split_by_hand(one_file, rang
         f'[[recording]]\nfile = "run.csv"\nrole = "train"\n{ranges[0]}\n'
         f'[[recording]]\nfile = "run.csv"\nrole = "validate"\n{ranges[1]}\n',
     )
-    by_hand = identify(m, folder / "train.csv", validate=folder / "valid.csv", methods="ols,sdp")
-    listed = identify(m, manifest=study, methods="ols,sdp")
+    by_hand = identify(Study(m, folder / "train.csv", validate=folder / "valid.csv"), methods="ols,sdp")
+    listed = identify(Study.from_manifest(study, m), methods="ols,sdp")
     for method in ("ols", "sdp"):
         assert np.array_equal(listed[method].base, by_hand[method].base), method
         assert listed[method].validation.all == by_hand[method].validation.all
@@ -141,7 +142,7 @@ def test_cli_manifest_and_its_errors(one_file, tmp_path):
     with pytest.raises(SpecError, match="without --data/--validate/--mapping"):
         recording_options(both)
     with pytest.raises(SpecError, match="and mapping given too"):
-        identify(m, manifest=good, mapping=folder / "x.toml")
+        identify(Study.from_manifest(good, m, mapping=folder / "x.toml"))
     with pytest.raises(SpecError, match="expected --data FILE"):
         recording_options(argparse.Namespace(**{**vars(both), "manifest": None, "data": None}))
     past = _write(folder, '[[recording]]\nfile = "run.csv"\nrole = "train"\nrows = [3000, 400000]\n', "e.toml")
@@ -158,7 +159,7 @@ def test_fit_joints_leaves_out_exactly_those_rows():
     m = truth_model("ur5")
     ds = twin(m, seconds=8, rate=100, seed=2, noise=0.05)
     fit = ["shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint", "wrist_3_joint"]
-    res = identify(m, ds, methods="ols", fit_joints=",".join(fit))
+    res = identify(Study(m, ds, fit_joints=",".join(fit)), methods="ols")
     full = IdentificationProblem.from_datasets(m, ds)  # every row, the same rest rule
     left = m.joint_names.index("wrist_2_joint")
     keep = full.joint != left
@@ -187,7 +188,7 @@ def test_base_parameters_of_fitted_rows_round_trip():
 def test_fit_joints_unknown_joint_names_the_joints():
     m = truth_model("exo_leg")
     with pytest.raises(SpecError, match="'ankle' is not an active joint.*expected some of hip, knee"):
-        identify(m, twin(m, seconds=2), methods="ols", fit_joints="knee,ankle")
+        identify(Study(m, twin(m, seconds=2), fit_joints="knee,ankle"), methods="ols")
 
 
 def test_left_out_joint_is_predicted_from_the_fitted_rows():
@@ -195,11 +196,8 @@ def test_left_out_joint_is_predicted_from_the_fitted_rows():
     identified parameters and the nominal values of what the knee rows cannot see."""
     m = truth_model("exo_leg")
     res = identify(
-        m,
-        twin(m, seconds=20, seed=1, noise=0.05),
-        validate=twin(m, seconds=10, seed=2),
+        Study(m, twin(m, seconds=20, seed=1, noise=0.05), validate=twin(m, seconds=10, seed=2), fit_joints=["knee"]),
         methods="ols",
-        fit_joints=["knee"],
     )
     assert res["ols"].base_names == ["knee.mx", "knee.mz", "knee.Iyy", "knee.fc", "knee.fv"]
     assert res["ols"].validation.per_joint["hip"]["rel_rms_percent"] < 0.1  # the nominal model is the truth here
@@ -219,7 +217,9 @@ def test_estimated_delay_recovers_a_known_delay_to_one_sample(name, k, rate):
     ds = _lagging(twin(m, seconds=20, rate=rate, seed=4, noise=0.05), k)
     found = estimate_delay(m, [ds])["delay"]
     assert abs(found - k / rate) <= 1 / rate, (found, k / rate)
-    res = identify(m, ds, validate=_lagging(twin(m, seconds=6, rate=rate, seed=5), k), methods="ols", delay="auto")
+    res = identify(
+        Study(m, ds, validate=_lagging(twin(m, seconds=6, rate=rate, seed=5), k), delay="auto"), methods="ols"
+    )
     assert res.data["delay"]["estimated"] and abs(res.data["delay"]["delay"] - k / rate) <= 1 / rate
     assert "torque delay behind the positions: " in identification_text(res)
 
@@ -246,9 +246,9 @@ def test_given_delay_moves_the_raw_yardstick_too():
     unshifted torque: 4.42 % against 0.68 %."""
     m = truth_model("exo_leg")
     train, valid = twin(m, seconds=12, rate=200, seed=4, noise=0.05), twin(m, seconds=6, rate=200, seed=5, noise=0.05)
-    ref = identify(m, train, validate=valid, methods="ols", preprocess=True)["ols"]
+    ref = identify(Study(m, train, validate=valid, preprocess=True), methods="ols")["ols"]
     got = identify(
-        m, _lagging(train, 8), validate=_lagging(valid, 8), methods="ols", preprocess=True, delay="tau=0.04"
+        Study(m, _lagging(train, 8), validate=_lagging(valid, 8), preprocess=True, delay="tau=0.04"), methods="ols"
     )["ols"]
     for a, b in ((got.validation, ref.validation), (got.train, ref.train)):
         assert a.all["rel_rms_percent"] == pytest.approx(b.all["rel_rms_percent"], rel=0.03)
@@ -341,9 +341,9 @@ def test_coupled_motor_at_rest_drops_the_rows_of_its_joints(monkeypatch):
     keep = motor_kept_rows(train, m, MOTOR_TERMS).reshape(-1, m.nv)
     assert still[:, 5].any() and not keep[still[:, 5], 4:].any()  # motor 6 at rest: rows of q5 and q6 out
     assert np.array_equal(keep, ~((still @ (G != 0)) > 0))  # and nothing else than motors at rest
-    new = identify(m, train, validate=valid, methods="ols", terms=MOTOR_TERMS)
+    new = identify(Study(m, train, validate=valid, terms=MOTOR_TERMS), methods="ols")
     monkeypatch.setattr(problem, "motor_kept_rows", lambda ds, *a, **k: np.ones(ds.dq.size, bool))
-    old = identify(m, train, validate=valid, methods="ols", terms=MOTOR_TERMS)
+    old = identify(Study(m, train, validate=valid, terms=MOTOR_TERMS), methods="ols")
     j = "wrist_3_joint"
     assert 3 * new["ols"].validation.per_joint[j]["rms"] <= old["ols"].validation.per_joint[j]["rms"]
     bp = base_parameters(m, MOTOR_TERMS)
@@ -371,5 +371,7 @@ def test_documented_study_manifest_on_the_real_double_pendulum(tmp_path):
     study = Manifest.load(tmp_path / "double_pendulum_study.toml").read(model)
     assert [ds.t[-1] < 7.0 for ds in study.train] == [False, True]
     assert study.validate[0].t[0] >= 7.0 and len(study.validate) == 2
-    res = identify(model, manifest=tmp_path / "double_pendulum_study.toml", methods="ols", terms="fc,fv,armature")
+    res = identify(
+        Study.from_manifest(tmp_path / "double_pendulum_study.toml", model, terms="fc,fv,armature"), methods="ols"
+    )
     assert res.validation_sources[0].endswith("trajectory_01.csv[t 7–10 s]")

@@ -16,6 +16,7 @@ from rosbags.rosbag2 import StoragePlugin, Writer  # noqa: E402
 from rosbags.typesys import Stores, get_typestore  # noqa: E402
 
 from pinid import identify  # noqa: E402
+from pinid.identification.study import Study
 from pinid.data.dataset import Dataset  # noqa: E402
 from pinid.data.formats import read_recording  # noqa: E402
 from pinid.errors import DataError, SpecError  # noqa: E402
@@ -89,8 +90,8 @@ def test_bag_folder_reads_as_the_dataset_and_identifies_the_same(tmp_path, twin,
     _same(ds, back)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        a = identify(model, ds, methods=["ols"])
-        b = identify(model, bag, methods=["ols"])
+        a = identify(Study(model, ds), methods=["ols"])
+        b = identify(Study(model, bag), methods=["ols"])
     np.testing.assert_allclose(b["ols"].base, a["ols"].base, rtol=1e-9, atol=1e-12)
 
 

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from pinid.errors import SpecError
+from pinid.identification.study import Study
 from pinid.estimators import ESTIMATORS, OLS, RLS, RLSPSO, Metaheuristic, PSOEstimator, make_estimator
 from pinid.estimators.metaheuristic import fitness_function, natural_scale, nominal_box, search_box, training_costs
 from pinid.identification.run import identify
@@ -195,7 +196,7 @@ def test_identify_runs_the_metaheuristics_through_the_common_result(noisy):
     train = twin(model, seconds=20, rate=100, seed=2, noise=0.5)
     valid = twin(model, seconds=8, rate=100, seed=3, noise=0.5)
     res = identify(
-        model, train, validate=valid, methods=["ols", "pso", "rls-pso"], options={"pso": SMALL, "rls-pso": SMALL}
+        Study(model, train, validate=valid), methods=["ols", "pso", "rls-pso"], options={"pso": SMALL, "rls-pso": SMALL}
     )
     for m in ("pso", "rls-pso"):
         r = res[m]

@@ -25,6 +25,7 @@ from pinid import (
     regressor,
     standard_parameters,
 )
+from pinid.identification.study import Study
 from pinid.data.dataset import Dataset
 from pinid.data.preprocess import prepare
 from pinid.errors import DataError, SpecError
@@ -150,7 +151,7 @@ def test_named_api_cases(leg, identified):
         "TermSelection.from_names('foo')": lambda: TermSelection.from_names("foo"),
         "prepare([1, 2, 3])": lambda: prepare([1, 2, 3]),
         "IdentifiedModel.mass_matrix(zeros(3))": lambda: identified.mass_matrix(np.zeros(3)),
-        "identify(leg, [ndarray])": lambda: identify(leg, [np.zeros((10, 5))]),
+        "identify(leg, [ndarray])": lambda: identify(Study(leg, [np.zeros((10, 5))])),
         "configuration(zeros(5))": lambda: leg.configuration(np.zeros(5)),
     }
     cases.update({f"base_parameters(samples={n})": (lambda n=n: base_parameters(leg, samples=n)) for n in range(0, 6)})
@@ -238,7 +239,9 @@ def test_generated_wrong_inputs_give_pinid_errors(leg, identified, seed):
                     TermSelection.from_names(w) if not (isinstance(w, list) and not w) else TermSelection.from_names(3)
                 ),
                 f"prepare #{k}": lambda w=w: prepare(w),
-                f"identify #{k}": lambda w=w: identify(leg, [w]) if not isinstance(w, str) else identify(leg, [3]),
+                f"identify #{k}": lambda w=w: (
+                    identify(Study(leg, [w])) if not isinstance(w, str) else identify(Study(leg, [3]))
+                ),
                 f"IdentifiedModel(theta) #{k}": lambda w=w: IdentifiedModel(leg, None, w),
                 f"mass_matrix #{k}": lambda w=w: identified.mass_matrix(w),
                 f"gravity #{k}": lambda w=w: identified.gravity(w),
@@ -281,13 +284,13 @@ def test_generated_wrong_inputs_give_pinid_errors(leg, identified, seed):
             {
                 f"regressor terms #{k}": lambda w=w: regressor(leg, good, good, good, w),
                 f"standard_parameters terms #{k}": lambda w=w: standard_parameters(leg, w),
-                f"identify terms #{k}": lambda w=w: identify(leg, "missing.csv", terms=w),
+                f"identify terms #{k}": lambda w=w: identify(Study(leg, "missing.csv", terms=w)),
             }
         )
     for k, w in enumerate([3, object(), [3], "nope", ""]):
-        calls[f"identify methods #{k}"] = lambda w=w: identify(leg, "missing.csv", methods=w)
+        calls[f"identify methods #{k}"] = lambda w=w: identify(Study(leg, "missing.csv"), methods=w)
     for k, w in enumerate([[1], "ols", {"ols": 3}, {"ols": [1]}, 3]):
-        calls[f"identify options #{k}"] = lambda w=w: identify(leg, "missing.csv", methods="ols", options=w)
+        calls[f"identify options #{k}"] = lambda w=w: identify(Study(leg, "missing.csv"), methods="ols", options=w)
     for k, w in enumerate([3, None, 2.5, ["a.json"], b"\x00", "missing.json"]):
         calls[f"IdentifiedModel.load #{k}"] = lambda w=w: IdentifiedModel.load(w)
         calls[f"Identification.load #{k}"] = lambda w=w: Identification.load(w)
@@ -364,7 +367,7 @@ def test_estimator_settings_checked_when_made(tmp_path):
         with pytest.raises(SpecError, match=f"setting {key}="):
             make_estimator(method, **setting)
         with pytest.raises(SpecError, match=f"setting {key}="):  # identify: before the (missing) recording
-            identify(load("exo_leg"), tmp_path / "missing.csv", methods=method, options={method: setting})
+            identify(Study(load("exo_leg"), tmp_path / "missing.csv"), methods=method, options={method: setting})
 
 
 def test_duplicate_training_data_refused(tmp_path, recording):
@@ -374,7 +377,7 @@ def test_duplicate_training_data_refused(tmp_path, recording):
     assert_clean_error(proc, "given twice as training data")
     assert not out.exists()
     with pytest.raises(DataError, match="given twice"):  # the same through another spelling of the path
-        identify(load("exo_leg"), [recording, recording.parent / "." / recording.name])
+        identify(Study(load("exo_leg"), [recording, recording.parent / "." / recording.name]))
 
 
 def test_validation_equal_to_training_warns(recording):

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from pinid.identification.compare import DETERMINISTIC, Comparison, compare, lad
+from pinid.identification.study import Study
 from pinid.errors import SpecError
 from pinid.estimators.metaheuristic import training_costs
 from pinid.problem.problem import IdentificationProblem
@@ -36,9 +37,7 @@ def comparison(setting):
     truth, cad, train, valid = setting
     _, xt = true_base(truth)
     return compare(
-        cad,
-        train,
-        valid,
+        Study(cad, train, valid),
         methods=["ols", "sdp", "rls", "pso", "rls-pso", "woa", "ewoa", "de"],
         seeds=2,
         truth=xt,
@@ -95,7 +94,7 @@ def test_zero_truth_gets_an_absolute_error(setting):
     _, xt = true_base(truth)
     xt = xt.copy()
     xt[0] = 0.0
-    comp = compare(cad, train, valid, methods=["ols"], seeds=1, truth=xt)
+    comp = compare(Study(cad, train, valid), methods=["ols"], seeds=1, truth=xt)
     r = comp.runs["ols"][0]
     name = comp.base_names[0]
     assert comp.zero_truth() == [name] and name not in r.parameter_error
@@ -147,13 +146,15 @@ def test_segmental_comparison_and_truth_from_a_truth_dict(setting):
     truth, cad, train, valid = setting
     bp, xt = true_base(truth)
     c = compare(
-        cad,
-        train,
-        {"both": valid, "knee only": hip_fixed(truth, seed=4)},
+        Study(
+            cad,
+            train,
+            {"both": valid, "knee only": hip_fixed(truth, seed=4)},
+            segmental={"first": hip_fixed(truth, seed=3, noise=0.2)},
+        ),
         methods=["ols", "sdp", "pso"],
         seeds=[7],
         truth={"base": {"names": bp.names, "values": xt.tolist()}},
-        segmental={"first": hip_fixed(truth, seed=3, noise=0.2)},
         metaheuristic=SMALL,
     )
     assert c.segmental["first_joints"] == ["knee"] and set(c.validation_sources) == {"both", "knee only"}
@@ -168,13 +169,13 @@ def test_segmental_comparison_and_truth_from_a_truth_dict(setting):
 def test_errors(setting):
     truth, cad, train, valid = setting
     with pytest.raises(SpecError, match="unknown method"):
-        compare(cad, train, methods="ols,magic")
+        compare(Study(cad, train), methods="ols,magic")
     with pytest.raises(SpecError, match="not run"):
-        compare(cad, train, methods="ols", options={"pso": {}})
+        compare(Study(cad, train), methods="ols", options={"pso": {}})
     with pytest.raises(SpecError, match="truth"):
-        compare(cad, train, methods="ols", truth=[1.0, 2.0])
+        compare(Study(cad, train), methods="ols", truth=[1.0, 2.0])
     with pytest.raises(SpecError, match="seeds"):
-        compare(cad, train, methods="pso", seeds=[])
+        compare(Study(cad, train), methods="pso", seeds=[])
 
 
 @pytest.mark.slow
@@ -269,8 +270,7 @@ def test_box_choice_leaves_rls_pso_in_its_rls_box_and_keeps_forgetting(setting):
     """--box applies to pso/woa/ewoa/de only; the RLS settings reach an RLS box whoever asks for it."""
     truth, cad, train, valid = setting
     c = compare(
-        cad,
-        train,
+        Study(cad, train),
         methods=["pso", "rls-pso"],
         seeds=1,
         metaheuristic={**SMALL, "box": "ls", "rls": {"forgetting": 0.999}},
@@ -279,7 +279,7 @@ def test_box_choice_leaves_rls_pso_in_its_rls_box_and_keeps_forgetting(setting):
     assert c.runs["rls-pso"][0].info["box"]["kind"] == "rls"
     assert c.runs["rls-pso"][0].info["box"]["rls"]["forgetting"] == 0.999
     c = compare(
-        cad, train, methods=["pso"], seeds=1, metaheuristic={**SMALL, "box": "rls", "rls": {"forgetting": 0.99}}
+        Study(cad, train), methods=["pso"], seeds=1, metaheuristic={**SMALL, "box": "rls", "rls": {"forgetting": 0.99}}
     )
     assert c.runs["pso"][0].info["box"]["rls"]["forgetting"] == 0.99
 
@@ -289,9 +289,9 @@ def test_bad_truth_file_and_rest_velocity_are_clean_errors(tmp_path, setting):
     bad = tmp_path / "truth.json"
     bad.write_text(json.dumps({"base": {"values": [1.0]}}))
     with pytest.raises(SpecError, match="names"):
-        compare(cad, train, methods="ols", truth=str(bad))
+        compare(Study(cad, train), methods="ols", truth=str(bad))
     with pytest.raises(SpecError, match="one per joint"):
-        compare(cad, train, methods="ols", rest_velocity=[0.1, 0.2, 0.3])
+        compare(Study(cad, train, rest_velocity=[0.1, 0.2, 0.3]), methods="ols")
 
 
 def test_a_truth_of_other_joint_terms_is_mapped_through_the_runs_base_map(setting):
@@ -306,7 +306,7 @@ def test_a_truth_of_other_joint_terms_is_mapped_through_the_runs_base_map(settin
         "standard": {"names": bp.standard_names, "values": standard_parameters(truth, TermSelection()).tolist()},
         "base": {"names": bp.names, "values": xt.tolist()},
     }
-    c = compare(cad, train, valid, methods=["ols"], seeds=1, truth=doc, terms="fc,fv,armature")
+    c = compare(Study(cad, train, valid, terms="fc,fv,armature"), methods=["ols"], seeds=1, truth=doc)
     expected = dict(zip(bp.names, xt))
     got = dict(zip(c.base_names, c.truth))
     assert set(got) - set(expected) == {"knee.armature"} and got["knee.armature"] == 0.0
@@ -321,7 +321,11 @@ def test_fit_joints_validation_is_the_one_identify_reports():
 
     m = truth_model("exo_leg")
     train, valid = twin(m, seconds=12, rate=200, seed=1, noise=0.05), twin(m, seconds=6, rate=200, seed=2)
-    ident = identify(m, train, validate=valid, methods="ols", fit_joints="knee")["ols"].validation
-    got = compare(m, train, valid, methods=["ols"], seeds=1, fit_joints="knee").runs["ols"][0].validation["validation"]
+    ident = identify(Study(m, train, validate=valid, fit_joints="knee"), methods="ols")["ols"].validation
+    got = (
+        compare(Study(m, train, valid, fit_joints="knee"), methods=["ols"], seeds=1)
+        .runs["ols"][0]
+        .validation["validation"]
+    )
     for j in ("hip", "knee"):
         assert got["per_joint"][j]["rms"] == pytest.approx(ident.per_joint[j]["rms"], rel=1e-9)

@@ -10,6 +10,7 @@ import pytest
 
 from conftest import assert_clean_error, load, run_cli, shared_data
 from pinid.data.dataset import Dataset
+from pinid.identification.study import Study
 from pinid.errors import SpecError
 from pinid.identification.cutoff import CutoffChoice, candidate_cutoffs, choose_cutoff
 from pinid.identification.run import identify
@@ -52,7 +53,7 @@ def test_auto_cutoff_is_as_good_as_the_best_fixed_one_on_held_out_data():
     # the oracle: every fixed cut-off validated on the other recording (which auto never saw)
     errors = {}
     for c in choice.candidates:
-        ident = identify(model, train, validate=val, methods="ols", terms=TERMS, preprocess={"cutoff": c})
+        ident = identify(Study(model, train, validate=val, terms=TERMS, preprocess={"cutoff": c}), methods="ols")
         errors[c] = ident.results["ols"].validation.all["rel_rms_percent"]
     best = min(errors, key=errors.get)
     assert max(best, choice.cutoff) / min(best, choice.cutoff) <= 2.0, (best, choice, errors)
@@ -64,11 +65,13 @@ def test_auto_cutoff_is_as_good_as_the_best_fixed_one_on_held_out_data():
 def test_identify_records_the_choice_and_uses_it_for_validation():
     model = load("exo_leg")
     train, val = position_recording(0, seconds=10.0), position_recording(1, seconds=6.0)
-    ident = identify(model, train, validate=val, methods="ols", terms=TERMS, preprocess={"cutoff": "auto"})
+    ident = identify(Study(model, train, validate=val, terms=TERMS, preprocess={"cutoff": "auto"}), methods="ols")
     chosen = ident.data["cutoff"]
     assert chosen["cutoff_hz"] in chosen["candidates_hz"]
     assert len(chosen["cv_rel_rms_percent"]) == len(chosen["candidates_hz"])
-    fixed = identify(model, train, validate=val, methods="ols", terms=TERMS, preprocess={"cutoff": chosen["cutoff_hz"]})
+    fixed = identify(
+        Study(model, train, validate=val, terms=TERMS, preprocess={"cutoff": chosen["cutoff_hz"]}), methods="ols"
+    )
     np.testing.assert_allclose(ident.results["ols"].base, fixed.results["ols"].base, rtol=1e-12)
     choice = CutoffChoice(chosen["cutoff_hz"], chosen["candidates_hz"], chosen["cv_rel_rms_percent"], 5)
     assert f"cut-off {chosen['cutoff_hz']:g} Hz" in choice.text()
@@ -78,7 +81,9 @@ def test_auto_is_refused_where_nothing_chooses_it_and_bad_text_is_named():
     with pytest.raises(SpecError, match="only identify and compare choose the cut-off"):
         prepare_dataset(position_recording(0, seconds=2.0), {"cutoff": "auto"})
     with pytest.raises(SpecError, match="expected a frequency"):
-        identify(load("exo_leg"), position_recording(0, seconds=4.0), methods="ols", preprocess={"cutoff": "fast"})
+        identify(
+            Study(load("exo_leg"), position_recording(0, seconds=4.0), preprocess={"cutoff": "fast"}), methods="ols"
+        )
 
 
 def test_cli_cutoff_takes_auto_or_a_number(tmp_path):
@@ -95,12 +100,14 @@ def test_auto_cutoff_on_the_real_double_pendulum():
         pytest.skip("the shared double-pendulum recordings are not beside the clone")
     mapping = str(Path(__file__).resolve().parents[2] / "docs/examples/double_pendulum.toml")
     ident = identify(
-        str(folder / "double_pendulum.urdf"),
-        str(folder / "trajectory_02.csv"),
-        validate=str(folder / "trajectory_03.csv"),
+        Study(
+            str(folder / "double_pendulum.urdf"),
+            str(folder / "trajectory_02.csv"),
+            validate=str(folder / "trajectory_03.csv"),
+            mapping=mapping,
+            preprocess={"cutoff": "auto"},
+        ),
         methods="sdp",
-        mapping=mapping,
-        preprocess={"cutoff": "auto"},
     )
     assert ident.data["cutoff"]["cutoff_hz"] == 3.0
     per_joint = ident.results["sdp"].validation.per_joint

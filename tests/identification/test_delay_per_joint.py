@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from pinid.data.dataset import Dataset
+from pinid.identification.study import Study
 from pinid.data.delay import parse_delay, shifted
 from pinid.errors import SpecError
 from pinid.identification.delay import estimate_delay
@@ -56,13 +57,13 @@ def test_each_channels_delay_is_found_to_within_one_sample(noise):
 @pytest.mark.filterwarnings("ignore:.*repeats the trajectory")  # one excitation, two noise draws: the point here
 def test_identify_applies_the_per_channel_delays_and_reports_them():
     m = RobotModel.from_urdf("exo_leg")
-    res = identify(m, recording(2), validate=recording(3, seconds=5.0), methods="ols", delay="auto-per-joint")
+    res = identify(Study(m, recording(2), validate=recording(3, seconds=5.0), delay="auto-per-joint"), methods="ols")
     d = res.data["delay"]
     assert d["estimated"] and d["per_channel"]
     np.testing.assert_allclose([d["per_joint"][j] for j in m.joint_names], LAGS, atol=1e-3)
     assert res["ols"].validation.all["rel_rms_percent"] < 1.0
     assert "hip 10" in identification_text(res) and "knee 30" in identification_text(res)
-    shared = identify(m, recording(2), validate=recording(3, seconds=5.0), methods="ols", delay="auto")
+    shared = identify(Study(m, recording(2), validate=recording(3, seconds=5.0), delay="auto"), methods="ols")
     assert shared["ols"].validation.all["rms"] > 5 * res["ols"].validation.all["rms"]
 
 

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from pinid import TermSelection, regressor, standard_parameters
+from pinid.identification.study import Study
 from pinid.data.dataset import Dataset
 from pinid.data.formats import write_recording
 from pinid.errors import DataError, SpecError
@@ -96,12 +97,14 @@ def test_identify_turns_currents_into_torques_and_reports_gains():
     gains = np.array([2.0, 3.5])
     payload = Payload.from_dict(PAYLOAD)
     ident = identify(
-        m,
-        recording(m, gains, None, 1),
-        validate=recording(m, gains, None, 3),
+        Study(
+            m,
+            recording(m, gains, None, 1),
+            validate=recording(m, gains, None, 3),
+            payload=payload,
+            payload_data=recording(m, gains, payload, 2),
+        ),
         methods="ols",
-        payload=payload,
-        payload_data=recording(m, gains, payload, 2),
     )
     np.testing.assert_allclose(ident.data["drive_gains"]["gains"], gains, rtol=1e-6)
     assert ident["ols"].validation.all["rms"] < 1e-6

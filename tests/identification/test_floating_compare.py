@@ -4,6 +4,7 @@ against the held-out recording and the truth."""
 from __future__ import annotations
 
 import json
+from pinid.identification.study import Study
 
 import pytest
 
@@ -79,10 +80,7 @@ def test_parameter_error_on_exact_samples():
         "standard_names": floating_parameter_names(exo, terms),
         "standard": floating_standard_parameters(exo, terms).tolist(),
     }
-    comp = compare(
-        exo, twin.exact, {"validation": twin.exact}, methods=["ols", "sdp", "pso"], seeds=1, truth=truth,
-        terms=terms, metaheuristic={"population": 10, "iterations": 3},
-    )  # fmt: skip
+    comp = compare(Study(exo, twin.exact, {"validation": twin.exact}, terms=terms), methods=["ols", "sdp", "pso"], seeds=1, truth=truth, metaheuristic={"population": 10, "iterations": 3})  # fmt: skip
     err = {m: max(rs[0].parameter_error.values()) for m, rs in comp.runs.items()}  # [%] of max(|truth|, scale/100)
     assert err["ols"] <= 1e-4 and err["sdp"] <= 1e-4 and err["pso"] > 0.1, err
 

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from pinid.errors import SolverError, SpecError
+from pinid.identification.study import Study
 from pinid import DataError, RobotModel
 from pinid.data.contacts import prepare_floating, read_floating, write_floating
 from pinid.estimators import ESTIMATORS, make_estimator
@@ -359,7 +360,7 @@ def test_quaternion_sign_flips_change_nothing(exo, gait, tmp_path):
 
     plain = _edited(tmp_path, gait.recording, "plain", lambda n, a: None)
     flipped = _edited(tmp_path, gait.recording, "flipped", _flip_half)
-    a, b = (identify(exo, p, methods=["ols"]).results["ols"].base for p in (plain, flipped))
+    a, b = (identify(Study(exo, p), methods=["ols"]).results["ols"].base for p in (plain, flipped))
     np.testing.assert_allclose(b, a, rtol=1e-9, atol=1e-9 * np.max(np.abs(a)))
 
 
@@ -384,14 +385,14 @@ def test_given_joint_derivatives_do_not_skip_the_base_filter(exo, gait, tmp_path
     rows = [f"{line},{','.join(f'{v:.12g}' for v in e)}" for line, e in zip(text[1:], extra)]
     header = text[0] + "," + ",".join([f"dq_{j}" for j in joints] + [f"ddq_{j}" for j in joints])
     path.write_text("\n".join([header, *rows]) + "\n")
-    r = identify(exo, path, methods=["ols"]).results["ols"]
+    r = identify(Study(exo, path), methods=["ols"]).results["ols"]
     assert r.base[0] == pytest.approx(21.8, rel=2e-3)
     exact = _edited(tmp_path, rec, "exact", lambda n, a: None)
     text = exact.read_text().splitlines()
     exact.write_text(
         "\n".join([header, *[f"{line},{','.join(f'{v:.12g}' for v in e)}" for line, e in zip(text[1:], extra)]]) + "\n"
     )
-    r = identify(exo, exact, methods=["ols"], preprocess=False).results["ols"]
+    r = identify(Study(exo, exact, preprocess=False), methods=["ols"]).results["ols"]
     assert r.train.per_joint["base"]["rms"] < 0.02  # [N, N·m]: no one-sided differences left at the ends
     assert r.base[0] == pytest.approx(21.8, rel=1e-3)
 
@@ -438,7 +439,7 @@ def test_implausible_total_mass_names_the_cause(exo, gait, tmp_path, edit, cause
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
-            identify(exo, path, methods=["ols", "sdp"])
+            identify(Study(exo, path), methods=["ols", "sdp"])
         except DataError as exc:
             said.append(str(exc))
     said += [str(w.message) for w in caught]
@@ -458,7 +459,7 @@ def test_accelerometer_without_gravity_is_named(exo, suspended, tmp_path):
     path = _edited(tmp_path, suspended.recording, "nog", no_gravity)
     with pytest.warns(UserWarning, match="must include gravity"):
         with pytest.raises(DataError, match="likely cause: .*must include gravity"):
-            identify(exo, path, methods=["ols"], floating={"rows": "base"})
+            identify(Study(exo, path, floating={"rows": "base"}), methods=["ols"])
 
 
 def test_no_wrench_in_the_base_rows_is_refused(exo, suspended, tmp_path):
@@ -471,4 +472,4 @@ def test_no_wrench_in_the_base_rows_is_refused(exo, suspended, tmp_path):
     out = tmp_path / "nowrench.csv"
     np.savetxt(out, a[:, keep], delimiter=",", header=",".join(names[i] for i in keep), comments="", fmt="%.12g")
     with pytest.raises(DataError, match=r"no external wrench and no joint torque .*homogeneous"):
-        identify(exo, out, methods=["ols"], floating={"rows": "base"})
+        identify(Study(exo, out, floating={"rows": "base"}), methods=["ols"])

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from pinid import RobotModel
+from pinid.identification.study import Study
 from pinid.data.contacts import prepare_floating
 from pinid.excitation.trajectory import FourierTrajectory
 from pinid.identification.run import identify
@@ -34,14 +35,15 @@ def excitation(model, seed=0, harmonics=4, scale=0.08) -> FourierTrajectory:
 def identified(model, runs, validate=None, **kw):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        return identify(
+        methods = kw.pop("methods", ("ols", "wls", "sdp"))
+        study = Study(
             model,
             [prepare_floating(r.recording, model) for r in runs],
             validate=None if validate is None else [prepare_floating(r.recording, model) for r in validate],
-            methods=kw.pop("methods", ("ols", "wls", "sdp")),
             terms=TERMS,
             **kw,
         )
+        return identify(study, methods)
 
 
 @pytest.mark.slow  # 11 s of CPU (docs/benchmarks.md, Test suite)
@@ -78,7 +80,7 @@ def test_a_flipped_joint_torque_is_named(exo, suspended):
     rec = suspended.recording
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        identify(exo, [prepare_floating(rec, exo)], methods=("ols",), terms=TERMS)
+        identify(Study(exo, [prepare_floating(rec, exo)], terms=TERMS), methods=("ols",))
     assert not [w for w in caught if "check the sign" in str(w.message)]
     j = exo.joint_names.index("l_knee")
     tau = rec.data.tau.copy()
@@ -86,7 +88,7 @@ def test_a_flipped_joint_torque_is_named(exo, suspended):
     flipped = type(rec)(type(rec.data)(rec.data.t, rec.data.q, rec.data.joints, tau=tau, source="flipped"))
     flipped.base_pose, flipped.wrenches = rec.base_pose, rec.wrenches
     with pytest.warns(UserWarning, match="check the sign of tau_l_knee") as caught:
-        ident = identify(exo, [prepare_floating(flipped, exo)], methods=("ols",), terms=TERMS)
+        ident = identify(Study(exo, [prepare_floating(flipped, exo)], terms=TERMS), methods=("ols",))
     assert ident.data["flipped_torque_signs"] == ["l_knee"]
     assert sum("check the sign" in str(w.message) for w in caught) == 1
 
@@ -111,12 +113,12 @@ def test_whole_body_centre_of_mass_against_the_urdf(exo):
     rec = simulate_gait(exo, seconds=6, rate=200, noise=NOISE, seed=3).recording
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        ident = identify(exo, [prepare_floating(rec, exo)], methods=("ols",), terms=TERMS)
+        ident = identify(Study(exo, [prepare_floating(rec, exo)], terms=TERMS), methods=("ols",))
     assert not [w for w in caught if "centre of mass" in str(w.message)]
     assert np.linalg.norm(np.subtract(ident.results["ols"].info["com"], ident.data["com_urdf"])) < 2e-3
     rec.plates = {k: v * np.r_[1, 1, 1, -1, -1, 1, 1] for k, v in rec.plates.items()}
     with pytest.warns(UserWarning, match="whole-body centre of mass .* ols .* the wrench's axes and frame"):
-        identify(exo, [prepare_floating(rec, exo)], methods=("ols",), terms=TERMS)
+        identify(Study(exo, [prepare_floating(rec, exo)], terms=TERMS), methods=("ols",))
 
 
 def test_model_class_floor_on_floating_validation(exo, suspended):
@@ -149,7 +151,7 @@ def test_barely_excited_parameters_are_named(exo):
 
     run = simulate_gait(exo, seconds=10, rate=200, noise=NOISE, seed=7)
     with pytest.warns(UserWarning, match="barely excited") as caught:
-        ident = identify(exo, [prepare_floating(run.recording, exo)], methods=("ols",), terms=TERMS)
+        ident = identify(Study(exo, [prepare_floating(run.recording, exo)], terms=TERMS), methods=("ols",))
     assert sum("barely excited" in str(w.message) for w in caught) == 1
     flagged = set(ident.results["ols"].info["barely_excited"])
     assert {f"{s}_hip_abduction.{p}" for s in "lr" for p in ("IxxR", "IyyR")} <= flagged

@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 from pinid import TermSelection, base_parameters, standard_parameters
+from pinid.identification.study import Study
 from pinid.data.dataset import Dataset
 from pinid.errors import DataError, SpecError
 from pinid.identification.metrics import METRIC_NAMES
@@ -96,7 +97,7 @@ def relative_errors(model, estimate, truth, terms=TermSelection()):
 def test_noise_free_twin_recovers_base_parameters(name):
     model = truth_model(name)
     train, valid = twin(model, seed=1), twin(model, seconds=8, seed=2)
-    res = identify(model, train, validate=valid)
+    res = identify(Study(model, train, validate=valid))
     _, truth = true_base(model)
     for method, r in res.results.items():
         err = relative_errors(model, r.base, truth)
@@ -109,7 +110,7 @@ def test_noise_free_twin_recovers_base_parameters(name):
 
 def test_noise_free_twin_recovers_panda_base_parameters():
     model = truth_model("panda")
-    res = identify(model, twin(model, seconds=15, rate=200, seed=3), methods=["ols", "wls", "sdp"])
+    res = identify(Study(model, twin(model, seconds=15, rate=200, seed=3)), methods=["ols", "wls", "sdp"])
     _, truth = true_base(model)
     for method, r in res.results.items():
         err = relative_errors(model, r.base, truth)
@@ -133,7 +134,7 @@ def test_noisy_twin_validation_rms_is_at_the_noise_floor(name, sigma):
         source="valid",
     )
     floor = float(np.sqrt(np.mean(noise**2)))
-    res = identify(model, train, validate=valid, methods=["ols", "sdp"])
+    res = identify(Study(model, train, validate=valid), methods=["ols", "sdp"])
     for method, r in res.results.items():
         assert r.validation.all["rms"] <= 1.05 * floor, (method, r.validation.all["rms"], floor)
         assert r.train.all["rms"] <= 1.05 * floor
@@ -167,7 +168,7 @@ def test_simulated_twin_validation_rms_is_at_the_noise_floor():
     floor = float(np.sqrt(np.mean((valid.tau - truth["signals"].tau) ** 2)))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        res = identify(model, train, validate=valid, methods=["ols", "sdp"])
+        res = identify(Study(model, train, validate=valid), methods=["ols", "sdp"])
     for method, r in res.results.items():  # the low-passed yardstick (the raw one also sees the PD's chatter)
         assert r.validation_filtered.all["rms"] <= 1.05 * floor, (method, r.validation_filtered.all["rms"] / floor)
     assert res["sdp"].physically_consistent
@@ -176,7 +177,7 @@ def test_simulated_twin_validation_rms_is_at_the_noise_floor():
 def test_wls_weights_joints_by_their_noise():
     model = truth_model("exo_leg")
     sigma = np.array([2.0, 0.05])
-    res = identify(model, twin(model, seconds=40, rate=500, seed=6, noise=sigma), methods=["ols", "wls"])
+    res = identify(Study(model, twin(model, seconds=40, rate=500, seed=6, noise=sigma)), methods=["ols", "wls"])
     est = res["wls"].info["joint_sigma"]
     assert est["hip"] == pytest.approx(2.0, rel=0.05) and est["knee"] == pytest.approx(0.05, rel=0.05)
     # the knee-only parameters are much better determined once the noisy hip no longer dominates
@@ -189,7 +190,7 @@ def test_standard_deviations_and_condition_number_follow_the_formulas():
     model = truth_model("exo_leg")
     train = twin(model, seconds=10, rate=200, seed=7, noise=0.3)
     problem = IdentificationProblem.from_datasets(model, train)
-    res = identify(model, train, methods=["ols"])
+    res = identify(Study(model, train), methods=["ols"])
     r = res["ols"]
     W, tau = problem.W, problem.tau
     x, *_ = np.linalg.lstsq(W, tau, rcond=None)
@@ -221,7 +222,7 @@ def test_poorly_excited_data_ols_is_reported_inconsistent():
     data = twin(
         model, seconds=15, rate=200, seed=0, noise=0.05, amplitude=0.05, around=[0.3, -1.0, 1.0, -0.5, 0.8, 0.2]
     )
-    res = identify(model, data, methods=["ols", "sdp"])
+    res = identify(Study(model, data), methods=["ols", "sdp"])
     assert not res["ols"].physically_consistent
     assert res["ols"].standard_source == "least-norm completion"
     assert res["ols"].consistency["problems"]
@@ -264,17 +265,17 @@ def test_nan_mismatched_joints_few_samples_and_rank_deficiency_are_named():
     bad = Dataset(good.t, good.q, good.joints, dq=good.dq, ddq=good.ddq, tau=good.tau.copy(), source="bad.csv")
     bad.tau[17, 1] = np.nan
     with pytest.raises(DataError, match=r"bad\.csv: tau of joint 'knee' has 1 NaN.*sample 17"):
-        identify(model, bad)
+        identify(Study(model, bad))
     other = Dataset(good.t, good.q, ["hip", "ankle"], dq=good.dq, ddq=good.ddq, tau=good.tau, source="other.csv")
     with pytest.raises(DataError, match=r"other\.csv: no data for joint\(s\) \['knee'\]"):
-        identify(model, other)
+        identify(Study(model, other))
     with pytest.raises(DataError, match="for 10 base parameters"):
-        identify(model, good.select(slice(0, 4)))
+        identify(Study(model, good.select(slice(0, 4))))
     still = Dataset(good.t, good.q.copy(), good.joints, dq=good.dq.copy(), ddq=good.ddq.copy(), source="still")
     still.q[:, 1], still.dq[:, 1], still.ddq[:, 1] = -0.5, 0.0, 0.0
     still.tau = model.rnea(still.q, still.dq, still.ddq) + model.coulomb * np.sign(still.dq) + model.viscous * still.dq
     with pytest.raises(DataError, match=r"rank-deficient.*knee\.fc.*knee\.fv.*knee at rest"):
-        identify(model, still)
+        identify(Study(model, still))
     # collinear (not zero) columns: the pivoted QR names the parameters left over
     p = IdentificationProblem.from_datasets(model, good)
     p.W = p.W.copy()
@@ -286,9 +287,9 @@ def test_nan_mismatched_joints_few_samples_and_rank_deficiency_are_named():
     ):
         p.check()
     with pytest.raises(DataError, match="no torque"):
-        identify(model, Dataset(good.t, good.q, good.joints, dq=good.dq, ddq=good.ddq))
+        identify(Study(model, Dataset(good.t, good.q, good.joints, dq=good.dq, ddq=good.ddq)))
     with pytest.raises(SpecError, match="unknown method 'lsq'"):
-        identify(model, good, methods="ols,lsq")
+        identify(Study(model, good), methods="ols,lsq")
 
 
 def test_lmi_is_an_alias_of_sdp():
@@ -306,7 +307,7 @@ def test_recordings_without_derivatives_are_prepared():
     raw = Dataset(full.t, full.q, full.joints, tau=full.tau, source="raw")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        res = identify(model, raw, validate=twin(model, seconds=10, rate=1000, seed=11), methods=["ols"])
+        res = identify(Study(model, raw, validate=twin(model, seconds=10, rate=1000, seed=11)), methods=["ols"])
     assert res["ols"].validation.all["rel_rms_percent"] < 2.0
 
 
@@ -314,9 +315,11 @@ def test_recordings_without_derivatives_are_prepared():
 def test_results_round_trip_through_json(tmp_path):
     model = truth_model("exo_leg")
     res = identify(
-        model,
-        twin(model, seconds=8, rate=100, seed=12, noise=0.1),
-        validate=twin(model, seconds=4, rate=100, seed=13, noise=0.1),
+        Study(
+            model,
+            twin(model, seconds=8, rate=100, seed=12, noise=0.1),
+            validate=twin(model, seconds=4, rate=100, seed=13, noise=0.1),
+        )
     )
     d = res.to_dict()
     assert set(d["methods"]) == {"ols", "wls", "sdp"}
@@ -355,15 +358,14 @@ def test_estimator_options_reach_the_estimators():
     model = truth_model("exo_leg")
     data = twin(model, seconds=8, rate=100, seed=14, noise=0.1)
     res = identify(
-        model,
-        data,
+        Study(model, data),
         methods=["wls", "sdp"],
         options={"wls": {"iterations": 3}, "sdp": {"mass_bounds": (0.5, 50.0), "regularization": 0.0}},
     )
     assert res["wls"].settings["iterations"] == 3 and len(res["wls"].history) >= 1
     assert res["sdp"].settings["mass_bounds"] == (0.5, 50.0)
     with pytest.raises(SpecError, match="not run"):
-        identify(model, data, methods=["ols"], options={"sdp": {}})
+        identify(Study(model, data), methods=["ols"], options={"sdp": {}})
 
 
 # ---------------------------------------------------------------------------------------------- CLI
@@ -449,7 +451,7 @@ def test_real_double_pendulum_recordings(tmp_path):
     model = RobotModel.from_urdf(DP / "double_pendulum.urdf")  # the rig's URDF as it is (undeclared "world")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        res = identify(model, DP / "trajectory_02.csv", validate=DP / "trajectory_03.csv", mapping=mapping)
+        res = identify(Study(model, DP / "trajectory_02.csv", validate=DP / "trajectory_03.csv", mapping=mapping))
     sdp = res["sdp"]
     assert sdp.physically_consistent and sdp.status == "optimal"
     assert sdp.validation.per_joint["Joint2"]["rel_rms_percent"] < 40
@@ -527,7 +529,7 @@ def test_default_preprocessing_on_a_6dof_arm_at_100_hz_and_5_khz(rate):
     assert train.dq is None and train.ddq is None
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        res = identify(model, train, validate=valid, methods=["ols", "sdp"])
+        res = identify(Study(model, train, validate=valid), methods=["ols", "sdp"])
         p = prepare(valid)
     truth = model.rnea(p.q, p.dq, p.ddq) + fc * np.sign(p.dq) + fv * p.dq
     floor = float(np.sqrt(np.mean((p.tau - truth) ** 2)))
@@ -545,9 +547,9 @@ def test_the_model_class_floor_is_the_noise_on_the_twin():
     model = truth_model("exo_leg")
     noise = 0.05
     ident = identify(
-        model,
-        twin(model, seconds=10, seed=0, noise=noise),
-        validate=twin(model, seconds=10, seed=1, noise=noise),
+        Study(
+            model, twin(model, seconds=10, seed=0, noise=noise), validate=twin(model, seconds=10, seed=1, noise=noise)
+        ),
         methods="ols,sdp",
     )
     floor = ident.floor.per_joint
@@ -563,4 +565,4 @@ def test_the_model_class_floor_is_the_noise_on_the_twin():
         f"model-class floor, valid. RMS raw % (the same terms fitted by OLS on the validation recording itself): {hip}"
         in " ".join(text.split())
     )
-    assert identify(model, twin(model, seconds=5, seed=0), methods="ols").floor is None
+    assert identify(Study(model, twin(model, seconds=5, seed=0)), methods="ols").floor is None

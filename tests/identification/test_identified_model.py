@@ -7,6 +7,7 @@ import pinocchio as pin
 import pytest
 
 from pinid import TermSelection, standard_parameters
+from pinid.identification.study import Study
 from pinid.errors import ModelError, SpecError
 from pinid.identification.identified import IdentifiedModel
 
@@ -56,7 +57,7 @@ def test_coriolis_matrix_makes_mdot_minus_2c_skew():
 
 def test_model_matches_the_truth_after_identification():
     truth = truth_model("exo_leg")
-    res = identify(truth, twin(truth, seconds=10, rate=200, seed=1), methods=["sdp"])
+    res = identify(Study(truth, twin(truth, seconds=10, rate=200, seed=1)), methods=["sdp"])
     m = res.model
     assert m.physically_consistent and res.best == "sdp"
     q, dq, ddq = truth.random_states(20, np.random.default_rng(3))
@@ -85,7 +86,7 @@ def test_save_and_load(tmp_path):
 def test_computed_torque_example_tracks():
     """The computed-torque controller of docs/identification.md, on the identified model of a twin."""
     truth = truth_model("exo_leg")
-    result = identify(truth, twin(truth, seconds=20, rate=200, seed=5, noise=0.2), methods=["ols", "sdp"])
+    result = identify(Study(truth, twin(truth, seconds=20, rate=200, seed=5, noise=0.2)), methods=["ols", "sdp"])
     model = result.model
     Kp, Kd = np.diag([400.0, 400.0]), np.diag([40.0, 40.0])
 

@@ -12,6 +12,7 @@ import pytest
 
 from conftest import load
 from pinid.data.dataset import Dataset
+from pinid.identification.study import Study
 from pinid.errors import DataWarning
 from pinid.identification.plausibility import aligned_difference, flipped_torque_signs, shared_excitation
 
@@ -86,4 +87,4 @@ def test_compare_warns_of_a_flipped_torque_sign_as_identify_does():
     tau[:, 0] *= -1
     flipped = Dataset(t, q, ["hip", "knee"], dq, ddq, tau, source="flipped.csv")
     with pytest.warns(DataWarning, match=r"check the sign of tau_hip"):
-        compare(model, [flipped], methods=["ols"], seeds=1, preprocess=False)
+        compare(Study(model, [flipped], preprocess=False), methods=["ols"], seeds=1)

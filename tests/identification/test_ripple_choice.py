@@ -8,6 +8,7 @@ import warnings
 import pytest
 
 from pinid.errors import SpecError
+from pinid.identification.study import Study
 from pinid.identification.ripple_choice import choose_ripple_periods, is_auto
 from pinid.model.terms import TermSelection
 from pinid.model.robot import RobotModel
@@ -49,7 +50,7 @@ def test_identify_uses_the_chosen_periods_and_keeps_the_choice(tmp_path):
 
     train = write_recording(tmp_path / "train.csv", _recording({"ripple_s1": [0.4, -0.25], "ripple_c1": [-0.2, 0.3]}))
     auto = RobotModel.from_urdf("exo_leg").with_setting("ripple_periods", "auto")
-    ident = identify(auto, str(train), methods=["ols"], terms=TERMS)
+    ident = identify(Study(auto, str(train), terms=TERMS), methods=["ols"])
     assert ident.data["ripple_periods"]["periods"] == 12.0
     names = ident["ols"].base_names
     amp = dict(zip(names, ident["ols"].base))

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from pinid.data.dataset import Dataset
+from pinid.identification.study import Study
 from pinid.identification.metrics import torque_metrics
 from pinid.problem.problem import prepare_dataset, recorded_torque
 from pinid.identification.run import identify
@@ -32,7 +33,7 @@ def fit(model, train, valid, cutoff=None):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         pre = None if cutoff is None else {"cutoff": cutoff}
-        return identify(model, train, validate=valid, methods=["ols"], preprocess=pre)["ols"]
+        return identify(Study(model, train, validate=valid, preprocess=pre), methods=["ols"])["ols"]
 
 
 def test_noise_free_twin_raw_error_is_the_filters_effect_only():

@@ -8,6 +8,7 @@ import pytest
 
 from conftest import load, shared_data
 from pinid.data.dataset import Dataset
+from pinid.identification.study import Study
 from pinid.errors import SpecError
 from pinid.identification import run as runner  # not `setup` by name: pytest 7 runs a module's setup()
 from pinid.identification.run import identify
@@ -38,7 +39,7 @@ def test_no_term_the_truth_lacks_is_chosen():
 
 def test_identify_with_auto_terms_recovers_the_offset():
     truth = [0.8, -0.5]
-    ident = identify(load("exo_leg"), noisy(offset=truth), validate=noisy(offset=truth, seed=1), terms="auto")
+    ident = identify(Study(load("exo_leg"), noisy(offset=truth), validate=noisy(offset=truth, seed=1), terms="auto"))
     assert ident.data["terms_choice"]["terms"] == ["fc", "fv", "offset"]
     names = ident.results["sdp"].base_names
     got = [ident.results["sdp"].base[names.index(f"{j}.offset")] for j in ("hip", "knee")]
@@ -48,7 +49,7 @@ def test_identify_with_auto_terms_recovers_the_offset():
 
 def test_auto_terms_refuse_what_they_cannot_combine_with():
     with pytest.raises(SpecError, match="terms auto with Stribeck velocity 'auto'"):
-        runner.setup(load("exo_leg"), noisy(), terms="auto", stribeck_auto={"fs": False})
+        runner.setup(Study(load("exo_leg"), noisy(), terms="auto"), stribeck_auto={"fs": False})
 
 
 @pytest.mark.slow  # about 5 s of CPU (docs/benchmarks.md, Test suite)

@@ -11,6 +11,7 @@ import pinocchio as pin
 import pytest
 
 from pinid import RobotModel, TermSelection, standard_parameters
+from pinid.identification.study import Study
 from pinid.errors import SpecError
 from pinid.identification.identified import IdentifiedModel
 from pinid.identification.result import IdentificationResult
@@ -132,7 +133,7 @@ def test_marks_in_the_json_outputs_round_trip(tmp_path):
     from test_identification import identify, truth_model, twin
 
     truth = truth_model("exo_leg")
-    ident = identify(truth, twin(truth, seconds=3, rate=200, seed=1), methods=["ols"])
+    ident = identify(Study(truth, twin(truth, seconds=3, rate=200, seed=1)), methods=["ols"])
     r = ident.results["ols"]
     assert r.marks["hip.m"] == "not identified" and r.marks["knee.Iyy"] == "identified"
     d = json.loads(json.dumps(r.to_dict()))

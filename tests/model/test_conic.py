@@ -279,7 +279,7 @@ def test_identify_with_sdp_does_not_import_cvxpy(tmp_path):
     code = f"""
 import sys
 import pinid
-result = pinid.identify("exo_leg", {str(tmp_path / "t.csv")!r}, methods=["ols", "sdp"])
+result = pinid.identify(pinid.Study("exo_leg", {str(tmp_path / "t.csv")!r}), methods=["ols", "sdp"])
 print(result["sdp"].status, result["ols"].standard_source.replace(" ", "_"), "cvxpy" in sys.modules)
 """
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)

@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from pinid import TermSelection, base_parameters, regressor, standard_parameters
+from pinid.identification.study import Study
 from pinid.data.dataset import Dataset
 from pinid.errors import ModelError, ModelWarning, SpecError
 from pinid.identification.run import identify
@@ -122,7 +123,7 @@ def test_noise_free_coupled_twin_recovers_base_parameters(name):
     m = coupled(name)
     bp = base_parameters(m, MOTOR_TERMS)
     truth = bp.from_standard(standard_parameters(m, MOTOR_TERMS))
-    res = identify(m, twin(m, MOTOR_TERMS), methods=["ols", "sdp"], terms=MOTOR_TERMS)
+    res = identify(Study(m, twin(m, MOTOR_TERMS), terms=MOTOR_TERMS), methods=["ols", "sdp"])
     for method, r in res.results.items():
         err = np.abs(r.base - truth) / np.maximum(np.abs(truth), 1e-3)
         assert err.max() <= 1e-6, (method, bp.names[int(err.argmax())], err.max())
@@ -138,10 +139,10 @@ def test_noisy_coupled_twin_at_noise_floor_and_motor_terms_matter(name, sigma):
     noise = np.random.default_rng(99).normal(size=clean.tau.shape) * sigma
     valid = Dataset(clean.t, clean.q, clean.joints, dq=clean.dq, ddq=clean.ddq, tau=clean.tau + noise, source="valid")
     floor = float(np.sqrt(np.mean(noise**2)))
-    res = identify(m, train, validate=valid, methods=["ols", "sdp"], terms=MOTOR_TERMS)
+    res = identify(Study(m, train, validate=valid, terms=MOTOR_TERMS), methods=["ols", "sdp"])
     for method, r in res.results.items():
         assert r.validation.all["rms"] <= 1.05 * floor, (method, r.validation.all["rms"], floor)
-    without = identify(m, train, validate=valid, methods=["ols"], terms="fc,fv,armature")
+    without = identify(Study(m, train, validate=valid, terms="fc,fv,armature"), methods=["ols"])
     for j in m.joint_names[-2:]:  # the coupled joints
         with_rms = res["ols"].validation.per_joint[j]["rms"]
         assert without["ols"].validation.per_joint[j]["rms"] >= 3 * with_rms, j

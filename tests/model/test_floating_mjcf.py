@@ -11,6 +11,7 @@ import pytest
 from conftest import assert_clean_error, run_cli
 
 from pinid import RobotModel
+from pinid.identification.study import Study
 from pinid.identification.outputs import write_identification
 from pinid.identification.result import load_identified
 from pinid.identification.run import identify
@@ -29,7 +30,7 @@ def identified(tmp_path_factory):
     """The noise-free suspended twin of exo_lower_body identified by SDP, written to a folder."""
     exo = RobotModel.from_urdf("exo_lower_body", base="floating")
     twin = simulate_suspended(exo, excitation(exo), seconds=3, rate=100, imu_frame="imu")
-    ident = identify(exo, twin.exact, methods=("sdp",), terms=TERMS)
+    ident = identify(Study(exo, twin.exact, terms=TERMS), methods=("sdp",))
     folder = tmp_path_factory.mktemp("floating_mjcf")
     write_identification(ident, folder, report=False)
     return exo, folder

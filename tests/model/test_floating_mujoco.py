@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from pinid import RobotModel
+from pinid.identification.study import Study
 from pinid.estimators import make_estimator
 from pinid.excitation.trajectory import FourierTrajectory
 from pinid.identification.floating import load_floating
@@ -104,7 +105,7 @@ def test_mujoco_suspended_recording_recovers_the_urdf(exo, tmp_path):
     66 base parameters to a median 1e-4 of their natural scale (measured 2.2e-5)."""
     mass = mujoco_suspended(tmp_path / "mj.csv", exo)
     assert mass == pytest.approx(21.8, abs=1e-12)
-    ident = identify(exo, tmp_path / "mj.csv", methods=("ols", "sdp"), terms=NONE)
+    ident = identify(Study(exo, tmp_path / "mj.csv", terms=NONE), methods=("ols", "sdp"))
     assert ident.base["names"][0] == "base.mR"
     for method in ("ols", "sdp"):
         assert abs(ident.results[method].base[0] - mass) <= 1e-4, method

@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from pinid import TermSelection, base_parameters, standard_parameters
+from pinid.identification.study import Study
 from pinid.data.dataset import Dataset
 from pinid.errors import SpecError
 from pinid.identification.run import identify
@@ -69,16 +70,18 @@ def test_noise_free_twin_velocity_given_and_fitted(make, terms, key, vs):
     m = make()
     ds, theta = twin(m, terms)
     truth = base_parameters(m, terms).from_standard(theta)
-    given = identify(m, ds, methods=["ols", "sdp"], terms=terms, stribeck_velocity={key: vs}, stribeck_shape=SHAPE)
+    given = identify(
+        Study(m, ds, terms=terms, stribeck_velocity={key: vs}, stribeck_shape=SHAPE), methods=["ols", "sdp"]
+    )
     for method in ("ols", "sdp"):
         assert _relative(given[method].base, truth) <= 1e-6, method
     assert given.data["stribeck"][key] == {"velocity": vs, "shape": SHAPE, "fitted": False}
     assert m.stribeck == {}  # the caller's model is left as it was
 
-    wrong = identify(m, ds, methods=["ols"], terms=terms, stribeck_velocity={key: 3 * vs})
+    wrong = identify(Study(m, ds, terms=terms, stribeck_velocity={key: 3 * vs}), methods=["ols"])
     assert _relative(wrong["ols"].base, truth) > 1e-2  # the velocity matters
 
-    fitted = identify(m, ds, methods=["ols"], terms=terms, stribeck_velocity={key: "auto"})
+    fitted = identify(Study(m, ds, terms=terms, stribeck_velocity={key: "auto"}), methods=["ols"])
     found = fitted.data["stribeck"][key]
     assert found["fitted"] and abs(found["velocity"] / vs - 1) <= 0.01
     assert found["bounds"][0] < vs < found["bounds"][1]
@@ -101,14 +104,14 @@ def test_noisy_twin_velocity_found():
         source="noisy",
         tau=ds.tau + np.random.default_rng(7).normal(size=ds.tau.shape) * 0.1,
     )  # σ = fs / 6
-    found = identify(m, noisy, methods=["ols"], terms=JOINT, stribeck_velocity="auto").data["stribeck"]["fs"]
+    found = identify(Study(m, noisy, terms=JOINT, stribeck_velocity="auto"), methods=["ols"]).data["stribeck"]["fs"]
     assert abs(found["velocity"] / VS - 1) <= 0.02
 
 
 def test_noise_free_twin_shape_fitted_with_the_velocity():
     m = exo_joint()
     ds, theta = twin(m, JOINT, shape=1.5)
-    fitted = identify(m, ds, methods=["ols"], terms=JOINT, stribeck_velocity="auto", stribeck_shape="auto")
+    fitted = identify(Study(m, ds, terms=JOINT, stribeck_velocity="auto", stribeck_shape="auto"), methods=["ols"])
     found = fitted.data["stribeck"]["fs"]
     assert found["shape_fitted"] and abs(found["shape"] / 1.5 - 1) <= 0.01 and abs(found["velocity"] / VS - 1) <= 0.01
     truth = base_parameters(m, JOINT).from_standard(theta)
@@ -145,7 +148,8 @@ def test_bad_settings(velocity, shape, message):
 def test_setting_without_a_stribeck_term():
     with pytest.raises(SpecError, match="no Stribeck term is selected"):
         identify(
-            exo_joint(), twin(exo_joint(), JOINT, seconds=5)[0], methods=["ols"], terms="fc,fv", stribeck_velocity=0.1
+            Study(exo_joint(), twin(exo_joint(), JOINT, seconds=5)[0], terms="fc,fv", stribeck_velocity=0.1),
+            methods=["ols"],
         )
     with pytest.raises(SpecError, match="velocity"):
         Stribeck(float("nan"))
@@ -228,10 +232,10 @@ def test_compare_fits_the_velocity_too():
 
     m = exo_joint()
     ds, _ = twin(m, JOINT, seconds=20)
-    comp = compare(m, ds, methods="ols", terms=JOINT, stribeck_velocity="auto")
+    comp = compare(Study(m, ds, terms=JOINT, stribeck_velocity="auto"), methods="ols")
     assert abs(comp.data["stribeck"]["fs"]["velocity"] / VS - 1) <= 0.01
     assert comp.robot["stribeck"]["fs"]["velocity"] == comp.data["stribeck"]["fs"]["velocity"]
-    given = identify(m, ds, methods=["ols"], terms=JOINT)  # no setting: the default is used and reported
+    given = identify(Study(m, ds, terms=JOINT), methods=["ols"])  # no setting: the default is used and reported
     assert given.data["stribeck"] == {"fs": {"velocity": 0.1, "shape": 2.0, "fitted": False}}
 
 

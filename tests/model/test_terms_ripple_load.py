@@ -12,6 +12,7 @@ import pytest
 
 from conftest import assert_clean_error, run_cli
 from pinid import regressor
+from pinid.identification.study import Study
 from pinid.data.dataset import Dataset
 from pinid.errors import ModelError, SpecError
 from pinid.identification.identified import IdentifiedModel
@@ -106,7 +107,7 @@ def test_the_twin_simulates_the_term_and_identification_gives_it_back(case):
     # the noise-free twin gives the values back (rows within 30·VS of rest left out: fc is in the model)
     ds = Dataset(s.t, s.q, m.joint_names, dq=s.dq, ddq=s.ddq, tau=s.tau, source=f"twin-{case}")
     truth = base_parameters(m, sel).from_standard(theta)
-    ident = identify(m, ds, methods=["ols", "sdp"], terms=sel, rest_velocity=30 * VS)
+    ident = identify(Study(m, ds, terms=sel, rest_velocity=30 * VS), methods=["ols", "sdp"])
     for method in ("ols", "sdp"):
         assert _relative(ident[method].base, truth) <= 1e-6, method
         found = ident[method].model.standard_parameters

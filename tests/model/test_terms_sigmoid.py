@@ -13,6 +13,7 @@ import pytest
 
 from conftest import assert_clean_error, run_cli
 from pinid import regressor
+from pinid.identification.study import Study
 from pinid.data.dataset import Dataset
 from pinid.errors import SpecError
 from pinid.identification.identified import IdentifiedModel
@@ -105,7 +106,7 @@ def test_the_twin_simulates_it_and_ols_sdp_give_the_amplitude_back():
     far = (np.abs(s.dq) > 30 * VS).reshape(-1)
     np.testing.assert_allclose((W @ theta)[far], s.tau.reshape(-1)[far], atol=1e-9 * np.abs(s.tau).max())
     truth = base_parameters(m, SEL).from_standard(theta)
-    ident = identify(m, _dataset(s, "twin-fsig"), methods=["ols", "sdp"], terms=SEL, rest_velocity=30 * VS)
+    ident = identify(Study(m, _dataset(s, "twin-fsig"), terms=SEL, rest_velocity=30 * VS), methods=["ols", "sdp"])
     for method in ("ols", "sdp"):
         rel = np.max(np.abs(ident[method].base - truth) / np.maximum(np.abs(truth), 1e-3))
         assert rel <= 1e-6, method
@@ -125,7 +126,7 @@ def test_auto_fits_the_shape_back_on_noise_free_data():
     m = model()
     _, s = _noise_free()
     start = model("auto")
-    ident = identify(start, _dataset(s, "twin-fsig"), methods=["ols"], terms=SEL, rest_velocity=30 * VS)
+    ident = identify(Study(start, _dataset(s, "twin-fsig"), terms=SEL, rest_velocity=30 * VS), methods=["ols"])
     got = shapes(ident["ols"].model.robot)
     np.testing.assert_allclose(got[:, 0], [30.0, 60.0], rtol=1e-4)
     np.testing.assert_allclose(got[:, 1], [0.02, -0.01], atol=1e-6)
@@ -143,7 +144,9 @@ def test_on_noisy_data_the_validation_rms_reaches_the_noise_floor():
         rec, s = twin(m, seed=seed, noise=0.3, seconds=seconds)
         sets.append(Dataset(s.t, s.q, ["hip", "knee"], dq=s.dq, ddq=s.ddq, tau=rec.tau, source=f"noisy-{seed}"))
     train, val = sets
-    ident = identify(model("auto"), train, validate=val, methods=["ols", "sdp"], terms=SEL, rest_velocity=30 * VS)
+    ident = identify(
+        Study(model("auto"), train, validate=val, terms=SEL, rest_velocity=30 * VS), methods=["ols", "sdp"]
+    )
     true = IdentifiedModel(m, SEL, truth_theta(m)).inverse_dynamics(val.q, val.dq, val.ddq)
     floor = float(np.sqrt(np.mean((true - val.tau) ** 2)))
     assert 0.25 < floor < 0.35

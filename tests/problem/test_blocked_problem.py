@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 import pinid.problem.problem as problem_module
+from pinid.identification.study import Study
 from pinid.estimators import make_estimator
 from pinid.problem.problem import IdentificationProblem, RegressorRows, check_dataset, stack_rows
 from pinid.problem.rows import rest_threshold
@@ -114,11 +115,11 @@ def test_identify_with_ols_and_sdp_never_builds_the_whole_regressor(monkeypatch)
         raise AssertionError("the whole regressor was built")
 
     monkeypatch.setattr(RegressorRows, "build", refuse)
-    res = identify(model, recordings(model), methods=["ols", "sdp"])
+    res = identify(Study(model, recordings(model)), methods=["ols", "sdp"])
     assert set(res.results) == {"ols", "sdp"}
     # wls reads problem.W: built on demand, so every estimator still works
     monkeypatch.undo()
-    assert identify(model, recordings(model), methods=["ols", "wls"])["wls"].train.all["rms"] > 0
+    assert identify(Study(model, recordings(model)), methods=["ols", "wls"])["wls"].train.all["rms"] > 0
 
 
 def test_ill_conditioned_gram_falls_back_to_qr_of_the_whole_regressor():

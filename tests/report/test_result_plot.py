@@ -16,6 +16,7 @@ import pytest  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
 from pinid.control.controllers import ComputedTorque, Tracking, nominal_model, track  # noqa: E402
+from pinid.identification.study import Study
 from pinid.errors import SpecError  # noqa: E402
 from pinid.excitation.design import design_excitation  # noqa: E402
 from pinid.excitation.spec import spec_for  # noqa: E402
@@ -54,7 +55,7 @@ def leg():
 @pytest.fixture(scope="module")
 def identification(leg):
     truth, train, valid = leg
-    return identify(truth, train, validate=valid, methods=["ols", "sdp"])
+    return identify(Study(truth, train, validate=valid), methods=["ols", "sdp"])
 
 
 def test_identification_result_plots_its_error_bars(identification):
@@ -104,9 +105,7 @@ def test_comparison_plots_its_three_figures(leg):
     truth, train, valid = leg
     _, xt = true_base(truth)
     comparison = compare(
-        truth,
-        train,
-        valid,
+        Study(truth, train, valid),
         methods=["ols", "pso"],
         seeds=2,
         truth=xt,
