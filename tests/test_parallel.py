@@ -206,3 +206,30 @@ def test_a_job_beside_the_fits_comes_back_last_on_one_or_two_processes():
     assert np.array_equal(one[0].estimator.base_, two[0].estimator.base_)
     with pytest.raises(SpecError, match="beside"):
         run_jobs(s, jobs, beside="rows")
+
+
+def test_workers_forked_after_an_sdp_fit_do_not_hang():
+    """Clarabel's default thread pool, started by an SDP fit in this process, left forked workers waiting for
+    ever (the in-process CLI test of `pinid compare --base floating` hung once in three): the conic solver
+    runs on one thread.  In a child process with a time limit, so that a hang fails instead of blocking."""
+    import subprocess
+    import sys
+
+    script = """
+import numpy as np
+from pinid import RobotModel, Study
+from pinid.estimators import make_estimator
+from pinid.identification.run import setup
+from pinid.identification.runner import run_jobs
+from pinid.simulation.twin import simulate
+from pinid.simulation.trajectories import load_trajectory
+model = RobotModel.from_urdf("exo_leg")
+ds, _ = simulate(model, load_trajectory("zha2019-1", model), seconds=4, seed=1)
+s = setup(Study(model, ds))
+make_estimator("sdp").fit(s.problem)
+out = run_jobs(s, [("sdp", None, {}), ("sdp", None, {})], workers=2)
+print(np.max(np.abs(out[0].result.base - out[1].result.base)))
+"""
+    proc = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert float(proc.stdout.split()[-1]) == 0.0

@@ -163,6 +163,10 @@ class ConicProblem:
         P = scipy.sparse.csc_matrix((n + k, n + k))
         settings = clarabel.DefaultSettings()
         settings.verbose = False
+        # one thread: Clarabel's default starts a thread pool at the first PSD solve, and a worker process
+        # forked after that (pinid.parallel: compare, excitation) waits for ever on the pool's absent threads;
+        # these problems are small, so the result is the same (to the bit) and faster
+        settings.max_threads = 1
         for key, value in opts.items():
             try:
                 setattr(settings, key, value)
