@@ -44,6 +44,14 @@ GRID = tuple(float(x) for x in np.logspace(-8, 2, 11))
 FOLDS = 5
 
 
+def _one_thread() -> dict:
+    """Clarabel on one thread, as :mod:`pinid.model.conic`: a thread pool started here would leave a worker
+    process forked after it waiting for ever (Clarabel ≥ 0.10 has ``max_threads``; 0.9 has no pool)."""
+    import clarabel
+
+    return {"max_threads": 1} if hasattr(clarabel.DefaultSettings(), "max_threads") else {}
+
+
 class LogDet(Estimator):
     """Physically consistent least squares with the log-det divergence toward the URDF (see the module text).
 
@@ -177,7 +185,7 @@ class _Program:
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
-                self.cp_problem.solve(solver="CLARABEL", **self.options)
+                self.cp_problem.solve(solver="CLARABEL", **{**_one_thread(), **self.options})
         except cp.error.SolverError as exc:
             raise SolverError(f"logdet: solver CLARABEL failed ({str(exc).strip().splitlines()[0]})") from None
         except OverflowError:  # older cvxpy (1.5) indexes a large parameterised problem's tensors in int32

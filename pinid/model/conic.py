@@ -166,7 +166,8 @@ class ConicProblem:
         # one thread: Clarabel's default starts a thread pool at the first PSD solve, and a worker process
         # forked after that (pinid.parallel: compare, excitation) waits for ever on the pool's absent threads;
         # these problems are small, so the result is the same (to the bit) and faster
-        settings.max_threads = 1
+        if hasattr(settings, "max_threads"):  # Clarabel ≥ 0.10; 0.9 has no thread pool
+            settings.max_threads = 1
         for key, value in opts.items():
             try:
                 setattr(settings, key, value)
