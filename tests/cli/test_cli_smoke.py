@@ -4,6 +4,8 @@ line and no traceback."""
 
 from __future__ import annotations
 
+import pytest
+
 from conftest import assert_clean_error, run_cli_subprocess
 
 from pinid import __version__
@@ -22,6 +24,7 @@ def test_version():
     assert proc.returncode == 0 and proc.stdout.strip() == f"pinid {__version__}", (proc.stdout, proc.stderr)
 
 
+@pytest.mark.slow  # a real process: 2.2 s; the full suite runs it
 def test_one_identification(recording, tmp_path):
     out = tmp_path / "r"
     proc = run_cli_subprocess(

@@ -86,7 +86,7 @@ def test_the_group_names_the_harmonics_and_the_periods_come_from_setting_or_driv
     assert robot_from_dict(json.loads(json.dumps(saved)))[0].setting("ripple_periods") == {"hip": 9.0, "knee": 13.0}
 
 
-@pytest.mark.parametrize("case", ["ripple", "fl"])
+@pytest.mark.parametrize("case", ["ripple", pytest.param("fl", marks=pytest.mark.slow)])  # fl: 4 s
 def test_the_twin_simulates_the_term_and_identification_gives_it_back(case):
     m = model()
     terms = RIPPLE if case == "ripple" else {"fl": FL}

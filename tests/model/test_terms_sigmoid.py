@@ -137,6 +137,7 @@ def test_auto_fits_the_shape_back_on_noise_free_data():
 
 
 @pytest.mark.filterwarnings("ignore:.*repeats the trajectory")  # one excitation, two noise draws: the point here
+@pytest.mark.slow  # 3–4.5 s on a quiet 2-core machine: the quick run (-m "not slow") stays within 3 min
 def test_on_noisy_data_the_validation_rms_reaches_the_noise_floor():
     m = model()
     sets = []

@@ -26,6 +26,7 @@ def _recipes():
     }
 
 
+@pytest.mark.slow  # 3–4.5 s on a quiet 2-core machine: the quick run (-m "not slow") stays within 3 min
 def test_pool_and_one_by_one_give_the_same_bytes():
     recipes = _recipes()
     pooled = render_pngs(recipes, workers=2)

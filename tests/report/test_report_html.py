@@ -202,6 +202,7 @@ def _browser():
         return None, f"Chromium did not start: {type(exc).__name__}: {str(exc).splitlines()[0]}"
 
 
+@pytest.mark.slow  # 4.4 s with its report (Chromium): the README's full command, CI's browser stage, runs it
 def test_report_opens_in_a_headless_browser(report):
     """A real browser (headless Chromium through selenium) opens report.html from disk: every image decodes,
     nothing is fetched (no resource entries at all), the summary table has one row per method and comes first.
