@@ -233,3 +233,32 @@ print(np.max(np.abs(out[0].result.base - out[1].result.base)))
     proc = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr[-2000:]
     assert float(proc.stdout.split()[-1]) == 0.0
+
+
+def test_a_fit_that_jobs_share_runs_once_on_two_processes_with_the_serial_numbers(study, tmp_path, monkeypatch):
+    """rls and every RLS-PSO seed need one RLS run (kept in the problem's cache): on two processes it runs once,
+    before the jobs that need it, not once per worker; the numbers are the serial run's."""
+    from pinid.estimators.rls import RLS
+
+    runs = tmp_path / "rls_runs.txt"
+    recursion = RLS._run
+
+    def counted(self, *args):  # the forked workers inherit the patch and append to the same file
+        with open(runs, "a") as f:
+            f.write(f"{os.getpid()}\n")
+        return recursion(self, *args)
+
+    monkeypatch.setattr(RLS, "_run", counted)
+    cad, train, valid, xt = study
+
+    def run(workers: int):
+        runs.write_text("")
+        with single_threaded_blas():
+            comp = compare(Study(cad, train, valid), ["ols", "rls", "rls-pso"], 2, truth=xt, metaheuristic=SMALL,
+                           workers=workers)  # fmt: skip
+        return comp, len(runs.read_text().split())
+
+    (one, serial_runs), (two, parallel_runs) = run(1), run(2)
+    assert serial_runs == 1 and parallel_runs == 1
+    assert _numbers(one) == _numbers(two)
+    assert [r.seed for r in two.runs["rls-pso"]] == [0, 1]

@@ -173,6 +173,13 @@ class Estimator:
         """Estimate the base parameters of ``problem`` (a :class:`~pinid.problem.problem.Problem`); set the fitted attributes (``base_`` …) and return ``self``."""
         raise NotImplementedError
 
+    def shared_work(self) -> tuple[tuple[str, tuple], ...]:
+        """The fits this estimator's ``fit`` makes and keeps in the problem's ``cache``, as ``(method,
+        settings)`` pairs (``settings``: sorted ``(name, value)`` pairs): a study on parallel processes, which
+        do not share a cache, runs each once before its jobs (:func:`pinid.identification.runner.run_jobs`).
+        Default: none."""
+        return ()
+
     def get_params(self) -> dict:
         """The settings given to ``__init__`` (scikit-learn style)."""
         sig = inspect.signature(type(self).__init__)

@@ -56,6 +56,7 @@ import time
 import numpy as np
 
 from pinid.errors import SpecError
+from pinid.problem.cache import data_key
 from pinid.estimators.base import Estimator, Setting
 from pinid.estimators.rls import RLS
 from pinid.problem.problem import Problem
@@ -129,7 +130,7 @@ def least_squares(problem) -> np.ndarray:
 def cached_lad(problem) -> np.ndarray:
     """:func:`least_absolute_deviations` of ``problem``, kept in its ``cache`` (a
     :class:`~pinid.problem.cache.ProblemCache`, when it has one): every seed of a comparison needs it."""
-    key = (id(problem.W), id(problem.tau), id(problem.weights))
+    key = data_key(problem)
     cache = getattr(problem, "cache", None)
     kept = None if cache is None else cache.get("lad", key)
     if kept is None:
@@ -293,6 +294,11 @@ class Metaheuristic(Estimator):
         self.rls = rls
         self.x0 = x0
         self.progress = progress
+
+    def shared_work(self) -> tuple[tuple[str, tuple], ...]:
+        """The RLS run behind an ``"rls"`` box (kept in the problem's cache; every seed shares it)."""
+        box = self.default_box if self.box is None else self.box
+        return RLS.create(**dict(self.rls or {})).shared_work() if isinstance(box, str) and box.lower() == "rls" else ()
 
     def fit(self, problem: Problem) -> "Metaheuristic":
         """Search the box for the base parameters with the lowest fitness; sets ``base_``, ``history_``, ``path_``, ``box_``, ``info_``."""

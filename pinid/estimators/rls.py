@@ -41,6 +41,7 @@ import copy
 import numpy as np
 
 from pinid.errors import SpecError
+from pinid.problem.cache import data_key
 from pinid.estimators.base import Estimator, Setting
 from pinid.problem.problem import Problem
 
@@ -108,7 +109,7 @@ class RLS(Estimator):
         lam, skip = self._check(problem)
         cache = getattr(problem, "cache", None)
         x0 = self.x0 if isinstance(self.x0, str) else np.asarray(self.x0, dtype=float).tobytes()
-        key = (id(problem.W), id(problem.tau), id(problem.weights), lam, self.init, self.p0, x0, skip, self.widen)
+        key = (*data_key(problem), lam, self.init, self.p0, x0, skip, self.widen)
         kept = None if cache is None else cache.get("rls", key)
         if kept is None:
             self._run(problem, lam, skip)
@@ -117,6 +118,11 @@ class RLS(Estimator):
         else:
             self.__dict__.update(copy.deepcopy(kept))
         return self
+
+    def shared_work(self) -> tuple[tuple[str, tuple], ...]:
+        """This run, kept in the problem's cache by :meth:`fit`: the ``rls`` method and RLS-PSO's box share it."""
+        params = self.get_params()  # x0 may be numbers: as a tuple, so that equal runs compare equal
+        return (("rls", tuple((k, tuple(np.ravel(v).tolist()) if np.ndim(v) else v) for k, v in params.items())),)
 
     def _run(self, problem: Problem, lam: float, skip: int) -> None:
         W = np.asarray(problem.W, dtype=float)

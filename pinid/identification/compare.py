@@ -24,6 +24,7 @@ measure across runs), prints a table and saves/loads JSON; :mod:`pinid.report.pl
 
 from __future__ import annotations
 
+from functools import partial
 import os
 import time
 from dataclasses import dataclass, field, replace
@@ -589,7 +590,7 @@ def compare(
         }
     jobs = [(m, s, settings_for(m, s)) for m in methods for s in ([None] if ESTIMATORS[m].deterministic else seed_list)]
     runs: dict[str, list[Run]] = {m: [] for m in methods}
-    *fits, reference = run_jobs(
+    *done, reference = run_jobs(
         st,
         jobs,
         complete=complete,
@@ -598,9 +599,11 @@ def compare(
         workers=workers,
         scheduler=scheduler,
         beside=_study_references,
+        # each run validated where it was fitted (on the workers too)
+        after=partial(_run_of, problem=problem, val_W=val_W, truth_x=truth_x, scale=scale, segmental=seg is not None),
     )
-    for fit in fits:
-        runs[fit.method].append(_run_of(fit, problem, val_W, truth_x, scale, seg is not None))
+    for run in done:
+        runs[run.method].append(run)
     settings_out = {
         "metaheuristic": {k: v for k, v in meta.items() if k != "progress"},
         "options": options,

@@ -18,7 +18,7 @@ from pinid.identification.segmental import Segmental, SegmentalProblem
 from pinid.model.base import BaseParameters
 from pinid.model.terms import TermSelection
 from pinid.model.robot import RobotModel
-from pinid.parallel import run_parallel
+from pinid.parallel import check_workers, run_parallel
 from pinid.problem.problem import IdentificationProblem
 
 
@@ -63,32 +63,92 @@ def run_jobs(
     workers: int | None = 1,
     scheduler=None,
     beside: Callable[[Setup], Any] | None = None,
+    after: Callable[[Fit], Any] | None = None,
 ) -> list:
     """Fit every ``(method, seed, settings)`` job on the setup's problem (or its segmental stages), in the
     jobs' order, on ``workers`` local processes or a Dask ``scheduler`` (:func:`pinid.parallel.run_parallel`).
     ``beside(s)``: one more job, run first on a worker while the fits run (a study's references, so that
-    they do not wait alone); its value is the list's last item."""
+    they do not wait alone); its value is the list's last item.  ``after(fit)``: what each job returns
+    instead of its :class:`Fit`, computed where the job ran (a study's validation of each run).
+
+    On local processes, which share no cache, the fits that several jobs keep in the problem's cache
+    (:meth:`~pinid.estimators.base.Estimator.shared_work`: the RLS run of ``rls`` and of every RLS-PSO seed)
+    run first, once each, beside ``beside`` and the jobs that need none; their values are kept in this
+    process's cache, and the jobs that need them run in a second round of workers forked from it, so that no
+    worker redoes them (the same numbers: the same computation)."""
     if not isinstance(s, Setup):
         raise SpecError(f"s: got {type(s).__name__}, expected the Setup of pinid.identification.run.setup")
-    if beside is not None and not callable(beside):
-        raise SpecError(f"beside: got {type(beside).__name__}, expected a function of the setup")
-    items = [(method, seed, settings, complete) for method, seed, settings in jobs]
-    out = run_parallel(
-        _fit_job,
-        s,
-        ([(None, beside)] if beside is not None else []) + items,
-        workers=workers,
-        scheduler=scheduler,
-        show_progress=show_progress,
-        label=label,
-        describe=lambda job: "references" if job[0] is None else job[0] + ("" if job[1] is None else f" seed {job[1]}"),
-    )
-    return out[1:] + out[:1] if beside is not None else out
+    for name, fn in (("beside", beside), ("after", after)):
+        if fn is not None and not callable(fn):
+            raise SpecError(f"{name}: got {type(fn).__name__}, expected a function")
+    fits = [("fit", (method, seed, settings, complete)) for method, seed, settings in jobs]
+    local = check_workers(workers) > 1 and scheduler is None and len(fits) > 1
+    shared = _shared_work(s, [job for _, job in fits]) if local else {}
+    head = [("beside", beside)] if beside is not None else []
+    later = [i for i, (_, job) in enumerate(fits) if shared.get(job[0], ())] if shared else []
+    now = [i for i in range(len(fits)) if i not in set(later)]
+    rounds = [head + [("shared", task) for task in dict.fromkeys(t for ts in shared.values() for t in ts)]]
+    rounds[0] += [fits[i] for i in now]
+    if later:  # the jobs that need a shared fit: after it, on workers forked from this process's cache
+        rounds.append([fits[i] for i in later])
+        s.problem.W  # noqa: B018 -- the shared fit reads the whole W: built here once, not in each round's workers
+    out: list = [None] * len(fits)
+    value = None
+    for k, items in enumerate(rounds):
+        done = run_parallel(
+            _fit_job,
+            (s, after),
+            items,
+            workers=workers,
+            scheduler=scheduler,
+            show_progress=show_progress,
+            label=label if len(rounds) == 1 else f"{label} ({k + 1}/{len(rounds)})",
+            describe=_describe,
+        )
+        for (kind, _), result in zip(items, done):
+            if kind == "shared":
+                s.problem.cache.keep(result)
+            elif kind == "beside":
+                value = result
+        fitted = iter(r for (kind, _), r in zip(items, done) if kind == "fit")
+        for i in now if k == 0 else later:
+            out[i] = next(fitted)
+    return out + ([value] if beside is not None else [])
 
 
-def _fit_job(s: Setup, job: tuple) -> Any:
-    if job[0] is None:  # run_jobs' beside
-        return job[1](s)
+def _describe(job: tuple) -> str:
+    kind, what = job
+    if kind == "beside":
+        return "references"
+    if kind == "shared":
+        return f"{what[0]} (shared)"
+    return what[0] + ("" if what[1] is None else f" seed {what[1]}")
+
+
+def _shared_work(s: Setup, jobs: list) -> dict[str, tuple]:
+    """``{method: the (method, settings) fits its estimator keeps in the problem's cache}`` for the jobs'
+    methods that keep any (none for a segmental study, whose stages are problems of their own)."""
+    if s.segmental is not None:
+        return {}
+    work = {}
+    for method, _, settings, _ in jobs:
+        tasks = make_estimator(method, **settings).shared_work()
+        if tasks:
+            work[method] = work.get(method, ()) + tuple(t for t in tasks if t not in work.get(method, ()))
+    return work
+
+
+def _fit_job(shared: tuple[Setup, Callable | None], job: tuple) -> Any:
+    """One item of :func:`run_jobs`: a fit (its :class:`Fit`, or ``after(fit)``), ``beside``'s value, or a
+    shared fit (the problem cache's entries it made, for the caller's cache)."""
+    s, after = shared
+    kind, job = job
+    if kind == "beside":
+        return job(s)
+    if kind == "shared":
+        before = s.problem.cache.entries()
+        make_estimator(job[0], **dict(job[1])).fit(s.problem)
+        return {k: v for k, v in s.problem.cache.entries().items() if before.get(k) is not v}
     method, seed, settings, complete = job
     if s.segmental is not None:
         est, target = Segmental(method, settings), s.segmental
@@ -100,4 +160,5 @@ def _fit_job(s: Setup, job: tuple) -> Any:
     seconds = time.perf_counter() - t0
     robot = s.model if getattr(s.model, "base", "fixed") == "floating" else None  # not the problem's body view
     result = make_result(s.problem, est, seconds, complete=complete, robot=robot)
-    return Fit(method, seed, settings, est, result, seconds)
+    fit = Fit(method, seed, settings, est, result, seconds)
+    return fit if after is None else after(fit)

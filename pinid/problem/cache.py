@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pinid.errors import SpecError
+
 
 class ProblemCache:
     """What is computed once from a problem's rows and kept with it: its Gram sums (``"gram"``), their
@@ -22,7 +24,30 @@ class ProblemCache:
         self._values[name] = (key, value)
         return value
 
+    def entries(self) -> dict[str, tuple[object, object]]:
+        """Every kept value with its key, ``{name: (key, value)}``: what a worker process sends back to be
+        kept by the parent's cache (:meth:`keep`)."""
+        return dict(self._values)
+
+    def keep(self, entries: dict[str, tuple[object, object]]) -> None:
+        """Keep the ``{name: (key, value)}`` of another cache's :meth:`entries` (replacing what was kept)."""
+        if not isinstance(entries, dict):
+            raise TypeError(f"entries: got {type(entries).__name__}, expected the dict of ProblemCache.entries")
+        self._values.update(entries)
+
     def forget(self, *names: str) -> None:
         """Drop the values kept under ``names`` (every value when none is named)."""
         for name in names or tuple(self._values):
             self._values.pop(name, None)
+
+
+def data_key(problem) -> tuple:
+    """The key of a value computed from ``problem``'s rows: its ``source_key()`` where it has one (an
+    :class:`~pinid.problem.problem.IdentificationProblem`: the same before and after its ``W`` is built, and in a
+    forked worker), else the identities of its ``W``, ``tau`` and ``weights``."""
+    key = getattr(problem, "source_key", None)
+    if callable(key):
+        return key()
+    if not all(hasattr(problem, a) for a in ("W", "tau", "weights")):
+        raise SpecError(f"problem: got {type(problem).__name__}, expected a problem (W, tau, weights)")
+    return (id(problem.W), id(problem.tau), id(problem.weights))

@@ -422,7 +422,8 @@ class IdentificationProblem:
         """True while ``W`` is not built and its rows come from ``regressor_rows`` block by block."""
         return self.__dict__.get("_W") is None and self.regressor_rows is not None
 
-    def _source_key(self) -> tuple:
+    def source_key(self) -> tuple:
+        """The key of the :attr:`cache`'s values: ids of the rows' source, tau, weights (the same in a fork)."""
         source = self.regressor_rows if self.regressor_rows is not None else self.__dict__.get("_W")
         return (id(source), id(self.tau), id(self.weights))
 
@@ -431,7 +432,7 @@ class IdentificationProblem:
         over blocks of ``_CHUNK`` samples rebuilt from the recordings while ``W`` is not built (``bar``
         advanced by their samples), else over row blocks of ``W``.  Cached for the problem's own weights."""
         own = weights is None or weights is self.weights
-        key = self._source_key()
+        key = self.source_key()
         kept = self.cache.get("gram", key) if own else None
         if kept is not None:
             return kept
@@ -456,7 +457,7 @@ class IdentificationProblem:
         own = weights is None or weights is self.weights
         if not own:  # the same sums as augmented_r(W, tau, weights), W built or not
             return self.weighted_compressed(weights)
-        key = self._source_key()
+        key = self.source_key()
         kept = self.cache.get("compressed", key) if own else None
         if kept is not None:
             return kept
@@ -482,7 +483,7 @@ class IdentificationProblem:
         (it is not to be changed in place in between)."""
         if not self.blocked:
             return augmented_r(self.W, self.tau, weights)
-        kept = self.cache.get("weighted", self._source_key())  # (weak reference to the weights, result)
+        kept = self.cache.get("weighted", self.source_key())  # (weak reference to the weights, result)
         if kept is not None and kept[0]() is weights:  # the same array again (wls: its fit, then its result)
             return kept[1]
         w = unit_weights(weights)
@@ -490,7 +491,7 @@ class IdentificationProblem:
         out = cholesky_r(G, b, yy)
         out = out if out is not None else qr_r(self.W, self.tau, w, column_scale(G))
         if isinstance(weights, np.ndarray):
-            self.cache.put("weighted", (weakref.ref(weights), out), self._source_key())
+            self.cache.put("weighted", (weakref.ref(weights), out), self.source_key())
         return out
 
     def predict(self, base: np.ndarray) -> np.ndarray:

@@ -180,3 +180,22 @@ def test_a_pass_left_unfinished_keeps_nothing():
     next(blocks)
     blocks.close()
     assert p.regressor_rows.kept is None
+
+
+def test_the_cache_key_is_the_same_before_and_after_w_is_built_and_entries_travel():
+    """data_key (what RLS and the LAD reference keep their runs under) does not change when W is built, so a
+    value computed in a worker and kept by the parent's cache (entries → keep) is found there."""
+    from pinid.problem.cache import ProblemCache, data_key
+
+    model = truth_model("exo_leg")
+    problem = IdentificationProblem.from_datasets(model, [twin(model, seconds=4, seed=1)])
+    assert problem.blocked
+    key = data_key(problem)
+    problem.W  # noqa: B018 -- builds W
+    assert data_key(problem) == key
+    other = ProblemCache()
+    other.put("rls", 42, key)
+    problem.cache.keep(other.entries())
+    assert problem.cache.get("rls", data_key(problem)) == 42 and problem.cache.get("rls", ("else",)) is None
+    with pytest.raises(TypeError, match="entries"):
+        problem.cache.keep([("rls", 1)])
