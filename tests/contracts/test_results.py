@@ -130,6 +130,31 @@ def _exponents(leg, identification):
     return ExponentFit(fitted, published, ["knee[0].cK", "knee[1].cK"], 2.0, 1.5, 12, "converged", 0.1)
 
 
+def _wearer_stage(leg, identification):
+    """Stage 2 on a short noise-free twin of exo_leg with a wearer: λ cross-validated and the passive
+    exponents refined, so that every figure has what it draws."""
+    import tempfile
+
+    from pinid.identification.identified import IdentifiedModel
+    from pinid.model.regressor import standard_parameters
+    from pinid.model.terms import TermSelection
+    from pinid.wearer.attach import wearer_urdf
+    from pinid.wearer.stage import identify_wearer_stage
+
+    path = Path(tempfile.mkdtemp()) / "exo_with_wearer.urdf"
+    wearer_urdf("exo_leg", "hip:thigh,knee:shank", mass=75, height=1.78, sex="male", path=path)
+    exo, robot = pinid.RobotModel.from_urdf("exo_leg"), pinid.RobotModel.from_urdf(path)
+    stage1 = IdentifiedModel(exo, TermSelection(), standard_parameters(exo, TermSelection()))
+    train, valid = twin(robot, seconds=2, rate=50, seed=1), twin(robot, seconds=1, rate=50, seed=2)
+    return identify_wearer_stage(stage1, robot, [train], validate=[valid], passive_exponents=True)
+
+
+def _wearer_fit(leg, identification):
+    if "pinid.wearer.stage.WearerStage" not in _built:
+        _built["pinid.wearer.stage.WearerStage"] = _wearer_stage(leg, identification)
+    return _built["pinid.wearer.stage.WearerStage"].fit
+
+
 #: ``{qualified class name: builder(leg, identification)}``: every result class of pinid.
 CASES = {
     "pinid.identification.result.Identification": _identification,
@@ -143,6 +168,8 @@ CASES = {
     "pinid.identification.term_choice.TermsChoice": _terms,
     "pinid.identification.ripple_choice.RippleChoice": _ripple,
     "pinid.wearer.exponents.ExponentFit": _exponents,
+    "pinid.wearer.stage.WearerFit": _wearer_fit,
+    "pinid.wearer.stage.WearerStage": _wearer_stage,
 }
 
 _built: dict = {}
