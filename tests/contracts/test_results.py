@@ -26,30 +26,15 @@ from pinid.errors import SpecError  # noqa: E402
 from pinid.io import json_text  # noqa: E402
 from pinid.result_protocol import ResultProtocol  # noqa: E402
 
-from test_identification import true_base, truth_model, twin  # noqa: E402
+from test_identification import true_base, twin  # noqa: E402
 
 #: The classes with ``to_dict`` and ``plot`` that do not follow the protocol (none: the floating base's results
 #: are the fixed base's since the pipelines merged).
 EXCEPTIONS: set[str] = set()
 
 
-@pytest.fixture(autouse=True)
-def close_figures():
-    yield
-    plt.close("all")
-
-
-@pytest.fixture(scope="module")
-def leg():
-    """The exo leg with friction, a short training and a held-out recording (noise-free twin)."""
-    truth = truth_model("exo_leg")
-    return truth, twin(truth, seconds=3, rate=100, seed=1), twin(truth, seconds=2, rate=100, seed=2)
-
-
-@pytest.fixture(scope="module")
-def identification(leg):
-    truth, train, valid = leg
-    return pinid.identify(pinid.Study(truth, train, validate=valid), methods=["ols"])
+#: The instances are built on conftest's leg_twins (the exo leg's twins) and leg_identification.
+pytestmark = pytest.mark.usefixtures("close_figures")
 
 
 # ---------------------------------------------------------------------------------------- the instances
@@ -176,11 +161,11 @@ _built: dict = {}
 
 
 @pytest.fixture(params=sorted(CASES), ids=lambda n: n.rsplit(".", 1)[1])
-def result(request, leg, identification):
+def result(request, leg_twins, leg_identification):
     """A small real instance of each result class (built once)."""
     name = request.param
     if name not in _built:
-        _built[name] = CASES[name](leg, identification)
+        _built[name] = CASES[name](leg_twins, leg_identification)
     r = _built[name]
     assert f"{type(r).__module__}.{type(r).__qualname__}" == name
     return r
