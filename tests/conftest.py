@@ -55,6 +55,53 @@ def exo() -> RobotModel:
     return load("exo_leg")
 
 
+@pytest.fixture
+def close_figures():
+    """Closes every matplotlib figure after the test (``pytestmark = pytest.mark.usefixtures(...)``)."""
+    yield
+    import matplotlib.pyplot as plt
+
+    plt.close("all")
+
+
+@pytest.fixture(scope="session")
+def leg_twins():
+    """``(truth, training, validation)``: the exo leg with friction, an 8 s training and a 4 s held-out
+    recording of it at 100 Hz (noise-free twins), for the result objects' tests."""
+    from test_identification import truth_model, twin
+
+    truth = truth_model("exo_leg")
+    return truth, twin(truth, seconds=8, rate=100, seed=1), twin(truth, seconds=4, rate=100, seed=2)
+
+
+@pytest.fixture(scope="session")
+def leg_identification(leg_twins):
+    """:func:`pinid.identify` with ols and sdp on :func:`leg_twins` (validated on its held-out recording)."""
+    from pinid import Study, identify
+
+    truth, train, valid = leg_twins
+    return identify(Study(truth, train, validate=valid), methods=["ols", "sdp"])
+
+
+@pytest.fixture(scope="module")
+def floating_exo() -> RobotModel:
+    """exo_lower_body on a free-flyer root joint, loaded once per test module."""
+    return RobotModel.from_urdf("exo_lower_body", base="floating")
+
+
+def floating_excitation(model, seed: int = 0, harmonics: int = 4, scale: float = 0.08):
+    """A seeded Fourier excitation of every joint of ``model`` about the middle of its range (0.2 Hz base
+    frequency, ``harmonics`` terms, amplitudes up to ``scale`` of each joint's span)."""
+    import numpy as np
+
+    from pinid.excitation.trajectory import FourierTrajectory
+
+    rng = np.random.default_rng(seed)
+    span = (model.upper - model.lower)[:, None]
+    a, b = (rng.uniform(-1, 1, (model.nv, harmonics)) * scale * span for _ in range(2))
+    return FourierTrajectory(model.joint_names, 2 * np.pi * 0.2, 0.5 * (model.lower + model.upper), a, b)
+
+
 class _Captured(io.StringIO):
     """A captured stdout/stderr of an in-process run that reports the real file descriptor, so
     code that captures what C++ prints on fd 2 (urdfdom, pinid.model.robot) works as in a process."""

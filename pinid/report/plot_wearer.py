@@ -152,3 +152,81 @@ def segment_masses_figure(result: Mapping, *, title: str = ""):
     fig.suptitle(title or "stage 2 against the tables: the wearer's share of each body", fontsize=11)
     fig.tight_layout()
     return fig
+
+
+def _panel(ax, figsize: tuple[float, float] = (6.0, 3.5)):
+    """``(figure, axes)``: ``ax`` and its figure, or a new figure of one panel."""
+    return new_figure(figsize=figsize) if ax is None else (ax.figure, ax)
+
+
+def base_parameters_figure(names: list[str], base, table, *, ax=None):
+    """Stage 2's base parameters: each one identified (bar) and from the tables (black mark), on a
+    symmetric-log axis (masses [kg], first moments [kg·m], inertias [kg·m²] and scale factors share it);
+    into ``ax`` when given.  Returns the figure."""
+    base, table = np.asarray(base, dtype=float), np.asarray(table, dtype=float)
+    if not (len(names) == len(base) == len(table)):
+        raise SpecError(f"names, base, table: lengths {len(names)}, {len(base)}, {len(table)}, expected equal ones")
+    fig, ax = _panel(ax, (6.0, 1.2 + 0.28 * len(names)))
+    y = np.arange(len(names))
+    ax.barh(y, base, 0.6, color="C0", label="identified")
+    ax.vlines(table, y - 0.38, y + 0.38, color="k", lw=2, label="table", gid="table")
+    ax.set_yticks(y, [str(n) for n in names], fontsize=7)
+    ax.invert_yaxis()
+    scale = np.abs(np.concatenate([base, table]))
+    ax.set_xscale("symlog", linthresh=max(1e-2 * float(scale.max(initial=0.0)), 1e-9))
+    ax.axvline(0, color="0.3", lw=0.6)
+    ax.set_xlabel("value (SI units of each parameter; symmetric log)")
+    ax.set_title("stage 2: the wearer's base parameters against the tables", fontsize=10)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    return fig
+
+
+def prior_weight_figure(cross_validation: Mapping, chosen: float, *, ax=None):
+    """The held-out torque RMS [N·m] per prior weight λ of stage 2's blocked cross-validation
+    (``cross_validation``: ``{"weights", "heldout_rms", "folds"}``), the ``chosen`` λ marked; λ = 0 drawn at
+    the left end of the log axis.  Into ``ax`` when given.  Returns the figure."""
+    if not isinstance(cross_validation, Mapping) or not {"weights", "heldout_rms"} <= set(cross_validation):
+        raise SpecError("cross_validation: expected the dict of choose_prior_weight (weights, heldout_rms, folds)")
+    fig, ax = _panel(ax)
+    w = np.asarray(cross_validation["weights"], dtype=float)
+    rms = np.asarray(cross_validation["heldout_rms"], dtype=float)
+    floor = 0.1 * w[w > 0].min() if np.any(w > 0) else 1.0  # where λ = 0 sits on the log axis
+    x = np.where(w > 0, w, floor)
+    ax.plot(x, rms, "o-", color="C0", label="held-out torque RMS")
+    pick = int(np.argmin(np.abs(w - chosen)))
+    ax.plot(x[pick], rms[pick], "o", ms=11, mfc="none", mec="C3", mew=2, label=f"chosen λ = {chosen:g}")
+    ax.set_xscale("log")
+    ax.set_xticks(x, [f"{v:g}" for v in w], fontsize=8)
+    ax.set_xlabel("prior weight λ")
+    ax.set_ylabel("held-out torque RMS [N·m]")
+    ax.set_title(f"stage 2: λ by {cross_validation.get('folds', '?')}-fold blocked cross-validation", fontsize=10)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    return fig
+
+
+def rms_figure(rms: Mapping[str, Mapping[str, float]], kind: str = "validation", *, ax=None):
+    """Stage 2's torque RMS error [N·m] per joint (``rms``: ``{model: {joint: rms}}``, :meth:`WearerFit.rms`'s
+    form) of exo + identified wearer, exo + table wearer and exo alone, grouped bars; ``kind`` names the
+    recordings in the title.  Into ``ax`` when given.  Returns the figure."""
+    if not isinstance(rms, Mapping) or not rms:
+        raise SpecError("rms: expected {model: {joint: torque RMS}} (WearerFit.rms)")
+    models = list(rms)
+    joints = list(next(iter(rms.values())))
+    fig, ax = _panel(ax)
+    x = np.arange(len(joints))
+    width = 0.8 / len(models)
+    labels = {"identified": "exo + identified wearer", "table": "exo + table wearer", "exo": "exo alone"}
+    for k, m in enumerate(models):
+        ax.bar(
+            x - 0.4 + (k + 0.5) * width, [rms[m][j] for j in joints], width * 0.9, color=f"C{k}", label=labels.get(m, m)
+        )
+    ax.set_xticks(x, joints, fontsize=8)
+    ax.set_ylabel("torque RMS error [N·m]")
+    ax.set_title(f"stage 2: torque RMS error per joint ({kind})", fontsize=10)
+    ax.grid(axis="y", alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    return fig

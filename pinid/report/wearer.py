@@ -16,6 +16,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from pinid.errors import SpecError
 from pinid.io import display_path
 from pinid.report.markdown import WINDOW, markdown_table, number_text
 
@@ -57,10 +58,11 @@ def _wearer_markdown(result: Mapping, figures: Mapping[str, str] | None = None) 
     from pinid import __version__
 
     figures = figures or {}
+    exo = f"`{display_path(result['exo'])}`" if result.get("exo") else "a stage-1 model given in Python"
     lines = [
         f"# Stage 2: the wearer of `{display_path(result['urdf'])}`",
         "",
-        f"pinid {__version__}; the exoskeleton fixed to `{display_path(result['exo'])}` (stage 1); "
+        f"pinid {__version__}; the exoskeleton fixed to {exo} (stage 1); "
         f"solver status {result['status']}, {result['seconds']:.2f} s.",
         "",
         _prior_weight_line(result),
@@ -174,6 +176,27 @@ def _wearer_markdown(result: Mapping, figures: Mapping[str, str] | None = None) 
     return "\n".join(lines)
 
 
+def torque_figure(curves: Mapping):
+    """``torque_wearer.png``'s figure: the measured torque of ``curves`` (:func:`wearer_report_files`' form)
+    and the three models' predictions per joint, the first :data:`~pinid.report.markdown.WINDOW` seconds."""
+    from pinid.report.plot_identification import torque_comparison  # loads matplotlib: on use only
+
+    if not isinstance(curves, Mapping) or not all(k in curves for k in ("t", "measured", "predicted", "joints")):
+        raise SpecError(
+            "curves: expected the dict of pinid.wearer.stage.torque_curves (t, measured, predicted, joints)"
+        )
+    t = np.asarray(curves["t"], dtype=float)
+    span = f", first {WINDOW:g} s" if len(t) and t[-1] - t[0] > WINDOW else ""
+    return torque_comparison(
+        t,
+        curves["measured"],
+        {MODELS[w]: p for w, p in curves["predicted"].items()},
+        list(curves["joints"]),
+        window=WINDOW,
+        title=f"measured and predicted torque ({curves.get('kind', 'training')}, {curves.get('source', '')}{span})",
+    )
+
+
 def wearer_report_files(
     result: Mapping, curves: Mapping | None = None, *, figures: bool = True, attachment: tuple | None = None
 ) -> dict[str, str | bytes]:
@@ -199,19 +222,8 @@ def wearer_report_files(
         linked["attachment"] = "attachment_wearer.png"
     if figures and curves:
         from pinid.report.figures import figure_png
-        from pinid.report.plot_identification import torque_comparison
 
-        t = np.asarray(curves["t"], dtype=float)
-        span = f", first {WINDOW:g} s" if len(t) and t[-1] - t[0] > WINDOW else ""
-        fig = torque_comparison(
-            t,
-            curves["measured"],
-            {MODELS[w]: p for w, p in curves["predicted"].items()},
-            list(curves["joints"]),
-            window=WINDOW,
-            title=f"measured and predicted torque ({curves['kind']}, {curves['source']}{span})",
-        )
-        pngs["torque_wearer.png"] = figure_png(fig)
+        pngs["torque_wearer.png"] = figure_png(torque_figure(curves))
         linked["torque"] = "torque_wearer.png"
     if figures:
         from pinid.report.figures import figure_png

@@ -34,23 +34,27 @@ import numpy as np
 from pinid.checks import as_floats, count
 from pinid.data.dataset import as_dataset
 from pinid.errors import DataError, SpecError
-from pinid.io import Artefacts, as_path, json_text
+from pinid.io import Artefacts, as_path, json_text, jsonable
 from pinid.model.base import base_parameters
 from pinid.model.conic import ConicProblem
 from pinid.model.physical import PSEUDO_INERTIA_BASIS
 from pinid.model.regressor import parameter_names, regressor
 from pinid.model.terms import TermSelection
 from pinid.model.robot import RobotModel, as_robot
+from pinid.model.serialize import robot_from_dict, robot_to_dict
 from pinid.problem.rows import rest_speeds
+from pinid.result_protocol import ResultProtocol
 from pinid.wearer.passive import anatomy
 from pinid.wearer.prior import MASS_RANGE, BodyPrior, wearer_prior
 
 
 @dataclass
-class WearerFit:
+class WearerFit(ResultProtocol):
     """Stage-2 result: the wearer's standard parameters ``theta`` (10·nv inertial, then ``kp`` per joint
     when ``passive``), the table's ``table``, their base parameters ``base`` / ``base_table`` named
-    ``base_names``, the solver status and time [s]."""
+    ``base_names``, the solver status and time [s].  Follows :mod:`pinid.result_protocol` (``save``,
+    ``load``, ``text``, ``plot``): its dict form carries the exo + wearer robot and the stage-1 model, so
+    that a saved fit needs no other file."""
 
     robot: RobotModel
     exo: object  # the stage-1 IdentifiedModel
@@ -67,6 +71,9 @@ class WearerFit:
     prior_weight: float = 0.0  # λ used (chosen by cross-validation with prior_weight="auto")
     cross_validation: dict | None = None  # choose_prior_weight's table, with prior_weight="auto"
     marks: dict | None = None  # {name: "identified" | "partly" | "not identified"} (BaseParameters.marks)
+
+    PLOTS = {"segments": False, "base": True, "prior_weight": True, "exponents": True, "attachment": False}
+    FILE_KIND = "wearer fit"
 
     @property
     def names(self) -> list[str]:
@@ -110,7 +117,9 @@ class WearerFit:
         }
 
     def to_dict(self) -> dict:
-        """Plain-dict form (for JSON)."""
+        """Plain-dict form (for JSON): the parameters by name, the solver's account and, under ``robot`` and
+        ``exo_model``, the exo + wearer robot (:func:`~pinid.model.serialize.robot_to_dict`) and the stage-1
+        model (:meth:`~pinid.identification.identified.IdentifiedModel.to_dict`)."""
         return {
             "parameters": dict(zip(self.names, self.theta.tolist())),
             **({"marks": dict(self.marks)} if self.marks else {}),
@@ -123,7 +132,94 @@ class WearerFit:
             **({"passive_exponents": self.exponents.to_dict()} if self.exponents is not None else {}),
             "prior_weight": self.prior_weight,
             **({"prior_weight_cross_validation": self.cross_validation} if self.cross_validation else {}),
+            "robot": robot_to_dict(self.robot, self.terms),
+            "exo_model": self.exo.to_dict(),
         }
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "WearerFit":
+        """Inverse of :meth:`to_dict` (the priors read again from the robot's URDF text)."""
+        from pinid.identification.identified import IdentifiedModel
+        from pinid.wearer.exponents import ExponentFit
+
+        if not isinstance(d, dict) or not isinstance(d.get("robot"), dict) or not isinstance(d.get("exo_model"), dict):
+            raise SpecError(
+                "expected a stage-2 result with 'robot' and 'exo_model' (WearerFit.to_dict; an identification.json "
+                "of an earlier pinid has neither: run stage 2 again)"
+            )
+        robot, terms = robot_from_dict(d["robot"])
+        names = parameter_names(robot, terms)
+        values = lambda key, keys: np.array([float(d[key][n]) for n in keys])
+        cv = d.get("prior_weight_cross_validation")
+        return cls(
+            robot,
+            IdentifiedModel.from_dict(d["exo_model"]),
+            wearer_prior(robot.urdf_text, robot),
+            terms,
+            values("parameters", names),
+            values("table", names),
+            list(d["base"]),
+            values("base", list(d["base"])),
+            values("base_table", list(d["base"])),
+            str(d["status"]),
+            float(d["seconds"]),
+            ExponentFit.from_dict(d["passive_exponents"]) if d.get("passive_exponents") else None,
+            float(d["prior_weight"]),
+            dict(cv) if cv else None,
+            dict(d["marks"]) if d.get("marks") else None,
+        )
+
+    def text(self) -> str:
+        """Status and time, how λ was chosen and the exponents refined, each base parameter identified and
+        from the table (what ``pinid identify --stage wearer`` prints before the torque errors)."""
+        width = max(len(n) for n in self.base_names)
+        lines = [
+            f"stage 2 (wearer) of {self.robot.name}: status {self.status}, {self.seconds:.2f} s",
+            f"   {'base parameter':<{width}} {'identified':>13} {'table':>13}",
+        ]
+        if self.cross_validation is not None:
+            cv = self.cross_validation
+            lines.insert(
+                1,
+                f"   prior weight {self.prior_weight:g}: held-out RMS {min(cv['heldout_rms']):.4g} N·m, the least "
+                f"of λ = {cv['weights'][0]:g} … {cv['weights'][-1]:g} ({cv['folds']}-fold blocked cross-validation)",
+            )
+        if self.exponents is not None:
+            e = self.exponents
+            lines.insert(
+                1,
+                f"   passive exponents: {len(e.free)} fitted in {e.evaluations} evaluations ({e.seconds:.2f} s); "
+                f"torque RMS {e.rms_published:.4g} N·m at the published, {e.rms_fitted:.4g} at the fitted",
+            )
+        lines += [
+            f"   {n:<{width}} {v:13.6g} {t:13.6g}" for n, v, t in zip(self.base_names, self.base, self.base_table)
+        ]
+        return "\n".join(lines)
+
+    def _plot(self, kind: str, ax):
+        """``"segments"``: the wearer's mass and centre of mass per body against the tables
+        (:func:`~pinid.report.plot_wearer.segment_masses_figure`); ``"base"``: each base parameter identified
+        and from the table; ``"prior_weight"``: the held-out torque RMS per λ of the cross-validation
+        (``prior_weight="auto"`` only); ``"exponents"``: the refined passive exponents' change
+        (``passive_exponents=True`` only); ``"attachment"``: where the segments attach (zero pose)."""
+        from pinid.report import plot_wearer  # loads matplotlib: on use only
+
+        if kind == "segments":
+            keys = ("parameters", "table", "bodies", "marks")
+            return plot_wearer.segment_masses_figure({k: v for k, v in self.to_dict().items() if k in keys})
+        if kind == "base":
+            return plot_wearer.base_parameters_figure(self.base_names, self.base, self.base_table, ax=ax)
+        if kind == "prior_weight":
+            if self.cross_validation is None:
+                raise SpecError(f"kind 'prior_weight': λ = {self.prior_weight:g} was given, not cross-validated")
+            return plot_wearer.prior_weight_figure(self.cross_validation, self.prior_weight, ax=ax)
+        if kind == "exponents":
+            if self.exponents is None:
+                raise SpecError("kind 'exponents': the passive exponents were not refined (passive_exponents=False)")
+            return self.exponents.plot("change", ax=ax)
+        from pinid.wearer.attach import wearer_segments
+
+        return plot_wearer.attachment_figure(self.robot.urdf_text, wearer_segments(self.robot.urdf_text))
 
 
 def _scale(priors: list[BodyPrior], nv: int, nt: int) -> np.ndarray:
@@ -397,45 +493,32 @@ def stack(datasets) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     return tuple(np.vstack([getattr(d, k) for d in datasets]) for k in ("q", "dq", "ddq", "tau"))
 
 
-def stage_summary(fit: WearerFit, exo: str | os.PathLike, train, validation=None) -> dict:
-    """What ``pinid identify --stage wearer`` writes as ``identification.json``: the stage, the stage-1
-    model's path ``exo``, the URDF, :meth:`WearerFit.to_dict` and the torque RMS errors [N·m] of the three
-    models on the ``train`` and ``validation`` datasets (None without)."""
-    _as_fit(fit), as_path(exo, "exo")
-    return {
-        "stage": "wearer",
-        "exo": exo,
-        "urdf": str(fit.robot.urdf_path),
-        **fit.to_dict(),
-        "train_rms": fit.rms(train),
-        "validation_rms": fit.rms(validation) if validation else None,
-    }
+def stage_summary(fit: WearerFit, exo, train, validation=None) -> dict:
+    """What ``pinid identify --stage wearer`` writes as ``identification.json`` (:meth:`WearerStage.to_dict`):
+    the stage, the stage-1 model's path ``exo`` (None when given as an IdentifiedModel), the URDF,
+    :meth:`WearerFit.to_dict` and the torque RMS errors [N·m] of the three models on the ``train`` and
+    ``validation`` datasets (None without)."""
+    from pinid.identification.identified import IdentifiedModel
+
+    _as_fit(fit)
+    path = None if isinstance(exo, IdentifiedModel) else str(as_path(exo, "exo"))
+    return jsonable(
+        {
+            "stage": "wearer",
+            "exo": path,
+            "urdf": str(fit.robot.urdf_path),
+            **fit.to_dict(),
+            "train_rms": fit.rms(train),
+            "validation_rms": fit.rms(validation) if validation else None,
+        }
+    )
 
 
 def stage_text(fit: WearerFit, summary: dict) -> str:
-    """A stage-2 fit as text: status and time, each base parameter identified and from the table, and the
-    RMS errors of :func:`stage_summary`."""
+    """A stage-2 fit as text: :meth:`WearerFit.text` (status and time, each base parameter identified and
+    from the table), then the RMS errors of :func:`stage_summary`."""
     _as_fit(fit), _as_summary(summary)
-    width = max(len(n) for n in fit.base_names)
-    lines = [
-        f"stage 2 (wearer) of {fit.robot.name}: status {fit.status}, {fit.seconds:.2f} s",
-        f"   {'base parameter':<{width}} {'identified':>13} {'table':>13}",
-    ]
-    if fit.cross_validation is not None:
-        cv = fit.cross_validation
-        lines.insert(
-            1,
-            f"   prior weight {fit.prior_weight:g}: held-out RMS {min(cv['heldout_rms']):.4g} N·m, the least of "
-            f"λ = {cv['weights'][0]:g} … {cv['weights'][-1]:g} ({cv['folds']}-fold blocked cross-validation)",
-        )
-    if fit.exponents is not None:
-        e = fit.exponents
-        lines.insert(
-            1,
-            f"   passive exponents: {len(e.free)} fitted in {e.evaluations} evaluations ({e.seconds:.2f} s); "
-            f"torque RMS {e.rms_published:.4g} N·m at the published, {e.rms_fitted:.4g} at the fitted",
-        )
-    lines += [f"   {n:<{width}} {v:13.6g} {t:13.6g}" for n, v, t in zip(fit.base_names, fit.base, fit.base_table)]
+    lines = [fit.text()]
     for kind in ("train_rms", "validation_rms"):
         if summary[kind]:
             lines.append(
@@ -443,6 +526,21 @@ def stage_text(fit: WearerFit, summary: dict) -> str:
                 + "; ".join(f"{w} " + ", ".join(f"{j} {v:.4g}" for j, v in r.items()) for w, r in summary[kind].items())
             )
     return "\n".join(lines)
+
+
+def torque_curves(fit: WearerFit, kind: str, datasets) -> dict:
+    """The measured torque of the first of ``datasets`` and the three models' predictions of it, as the
+    report draws them (:func:`pinid.report.wearer.torque_figure`); ``kind``: "training" or "validation"."""
+    _as_fit(fit)
+    q, dq, ddq, tau = stack(datasets[:1])
+    return {
+        "t": datasets[0].t,
+        "measured": tau,
+        "joints": fit.robot.joint_names,
+        "kind": str(kind),
+        "source": Path(str(datasets[0].source)).name,
+        "predicted": {w: fit.model(w).inverse_dynamics(q, dq, ddq) for w in ("identified", "table", "exo")},
+    }
 
 
 def write_stage(
@@ -470,15 +568,7 @@ def write_stage(
     arts.add(out / "model_table.json", json_text(fit.model("table").to_dict()))
     if report and shown:
         kind, datasets = shown
-        q, dq, ddq, tau = stack(datasets[:1])
-        curves = {
-            "t": datasets[0].t,
-            "measured": tau,
-            "joints": fit.robot.joint_names,
-            "kind": kind,
-            "source": Path(str(datasets[0].source)).name,
-            "predicted": {w: fit.model(w).inverse_dynamics(q, dq, ddq) for w in ("identified", "table", "exo")},
-        }
+        curves = torque_curves(fit, kind, datasets)
         text = fit.robot.urdf_text
         attachment = (text, wearer_segments(text)) if figures and text else None
         for name, content in wearer_report_files(summary, curves, figures=figures, attachment=attachment).items():
@@ -488,18 +578,57 @@ def write_stage(
 
 
 @dataclass
-class WearerStage:
+class WearerStage(ResultProtocol):
     """A stage-2 run on recordings (:func:`identify_wearer_stage`): the ``fit``, its ``summary``
-    (:func:`stage_summary`) and the prepared ``train`` and ``validation`` datasets."""
+    (:func:`stage_summary`) and the prepared ``train`` and ``validation`` datasets.  Follows
+    :mod:`pinid.result_protocol`: its dict form is the ``summary`` (``identification.json``), so
+    ``WearerStage.load("identification.json")`` reads a run back, without its recordings (``train`` and
+    ``validation`` empty: no ``"torque"`` figure)."""
 
     fit: WearerFit
     summary: dict
     train: list
     validation: list
 
+    PLOTS = {"rms": True, "torque": False, "segments": False}
+    FILE_KIND = "stage-2 identification.json"
+
+    def to_dict(self) -> dict:
+        """The ``summary``: what ``pinid identify --stage wearer`` writes as ``identification.json``."""
+        return jsonable(self.summary)
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "WearerStage":
+        """Inverse of :meth:`to_dict` (no recordings: ``train`` and ``validation`` empty)."""
+        if not isinstance(d, dict) or d.get("stage") != "wearer":
+            got = d.get("stage") if isinstance(d, dict) else type(d).__name__
+            raise SpecError(
+                f"stage {got!r}, expected a stage-2 result ('stage': 'wearer', pinid identify --stage wearer)"
+            )
+        return cls(WearerFit.from_dict(d), dict(d), [], [])
+
     def text(self) -> str:
         """What ``pinid identify --stage wearer`` prints (:func:`stage_text`)."""
         return stage_text(self.fit, self.summary)
+
+    def _plot(self, kind: str, ax):
+        """``"rms"``: the torque RMS error [N·m] per joint of exo + identified wearer, exo + table wearer and
+        exo alone (validation, else training); ``"torque"``: their predicted torque against the measured on
+        the first validation (else training) recording, the report's figure (needs the recordings: not after
+        :meth:`load`); ``"segments"``: :meth:`WearerFit.plot`'s."""
+        from pinid.report import plot_wearer  # loads matplotlib: on use only
+
+        if kind == "rms":
+            kind = "validation" if self.summary.get("validation_rms") else "train"
+            return plot_wearer.rms_figure(self.summary[f"{kind}_rms"], kind, ax=ax)
+        if kind == "torque":
+            from pinid.report.wearer import torque_figure
+
+            if not (self.validation or self.train):
+                raise SpecError("kind 'torque' needs the recordings, which a loaded stage has not (identify again)")
+            shown = ("validation", self.validation) if self.validation else ("training", self.train)
+            return torque_figure(torque_curves(self.fit, *shown))
+        return self.fit.plot(kind)
 
     def write(
         self, folder: str | os.PathLike, *, report: bool = True, figures: bool = True, overwrite: bool | None = None

@@ -26,30 +26,15 @@ from pinid.errors import SpecError  # noqa: E402
 from pinid.io import json_text  # noqa: E402
 from pinid.result_protocol import ResultProtocol  # noqa: E402
 
-from test_identification import true_base, truth_model, twin  # noqa: E402
+from test_identification import true_base, twin  # noqa: E402
 
 #: The classes with ``to_dict`` and ``plot`` that do not follow the protocol (none: the floating base's results
 #: are the fixed base's since the pipelines merged).
 EXCEPTIONS: set[str] = set()
 
 
-@pytest.fixture(autouse=True)
-def close_figures():
-    yield
-    plt.close("all")
-
-
-@pytest.fixture(scope="module")
-def leg():
-    """The exo leg with friction, a short training and a held-out recording (noise-free twin)."""
-    truth = truth_model("exo_leg")
-    return truth, twin(truth, seconds=3, rate=100, seed=1), twin(truth, seconds=2, rate=100, seed=2)
-
-
-@pytest.fixture(scope="module")
-def identification(leg):
-    truth, train, valid = leg
-    return pinid.identify(pinid.Study(truth, train, validate=valid), methods=["ols"])
+#: The instances are built on conftest's leg_twins (the exo leg's twins) and leg_identification.
+pytestmark = pytest.mark.usefixtures("close_figures")
 
 
 # ---------------------------------------------------------------------------------------- the instances
@@ -130,6 +115,31 @@ def _exponents(leg, identification):
     return ExponentFit(fitted, published, ["knee[0].cK", "knee[1].cK"], 2.0, 1.5, 12, "converged", 0.1)
 
 
+def _wearer_stage(leg, identification):
+    """Stage 2 on a short noise-free twin of exo_leg with a wearer: λ cross-validated and the passive
+    exponents refined, so that every figure has what it draws."""
+    import tempfile
+
+    from pinid.identification.identified import IdentifiedModel
+    from pinid.model.regressor import standard_parameters
+    from pinid.model.terms import TermSelection
+    from pinid.wearer.attach import wearer_urdf
+    from pinid.wearer.stage import identify_wearer_stage
+
+    path = Path(tempfile.mkdtemp()) / "exo_with_wearer.urdf"
+    wearer_urdf("exo_leg", "hip:thigh,knee:shank", mass=75, height=1.78, sex="male", path=path)
+    exo, robot = pinid.RobotModel.from_urdf("exo_leg"), pinid.RobotModel.from_urdf(path)
+    stage1 = IdentifiedModel(exo, TermSelection(), standard_parameters(exo, TermSelection()))
+    train, valid = twin(robot, seconds=2, rate=50, seed=1), twin(robot, seconds=1, rate=50, seed=2)
+    return identify_wearer_stage(stage1, robot, [train], validate=[valid], passive_exponents=True)
+
+
+def _wearer_fit(leg, identification):
+    if "pinid.wearer.stage.WearerStage" not in _built:
+        _built["pinid.wearer.stage.WearerStage"] = _wearer_stage(leg, identification)
+    return _built["pinid.wearer.stage.WearerStage"].fit
+
+
 #: ``{qualified class name: builder(leg, identification)}``: every result class of pinid.
 CASES = {
     "pinid.identification.result.Identification": _identification,
@@ -143,17 +153,19 @@ CASES = {
     "pinid.identification.term_choice.TermsChoice": _terms,
     "pinid.identification.ripple_choice.RippleChoice": _ripple,
     "pinid.wearer.exponents.ExponentFit": _exponents,
+    "pinid.wearer.stage.WearerFit": _wearer_fit,
+    "pinid.wearer.stage.WearerStage": _wearer_stage,
 }
 
 _built: dict = {}
 
 
 @pytest.fixture(params=sorted(CASES), ids=lambda n: n.rsplit(".", 1)[1])
-def result(request, leg, identification):
+def result(request, leg_twins, leg_identification):
     """A small real instance of each result class (built once)."""
     name = request.param
     if name not in _built:
-        _built[name] = CASES[name](leg, identification)
+        _built[name] = CASES[name](leg_twins, leg_identification)
     r = _built[name]
     assert f"{type(r).__module__}.{type(r).__qualname__}" == name
     return r

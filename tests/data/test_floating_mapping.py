@@ -16,7 +16,7 @@ from pinid.data.contacts import read_floating, write_floating
 from pinid.errors import DataError, SpecError
 from pinid.identification.run import identify
 from pinid.simulation.floating_twin import simulate_gait, simulate_suspended
-from test_floating_identification import excitation
+from conftest import floating_excitation as excitation
 
 EXO = ["--urdf", "exo_lower_body", "--base", "floating"]
 #: dataset-format column → (foreign name, factor raw = factor · SI)

@@ -379,57 +379,35 @@ def test_problem_checks(spec):
 
 # ---------------------------------------------------------------------------------------------- CLI
 @pytest.mark.slow
-def test_cli_twin_fit_compare(spec, tmp_path):
-    text = (
+def short_spec_file(folder: Path) -> Path:
+    """The tracker spec with a 0.3 s input and absolute URDF paths, written to ``folder``/s.toml."""
+    sp = folder / "s.toml"
+    sp.write_text(
         SPEC.read_text()
         .replace("duration = 2.0", "duration = 0.3")
         .replace('urdf = "../urdf/', f'urdf = "{ROOT}/urdf/')
     )
-    sp = tmp_path / "s.toml"
-    sp.write_text(text)
+    return sp
+
+
+def test_cli_twin_fit_compare(spec, tmp_path):
+    sp = short_spec_file(tmp_path)
     rec = tmp_path / "rec.csv"
     p = run_cli("flex", "twin", "--spec", str(sp), "-o", str(rec), "--seed", "3")
     assert p.returncode == 0, p.stderr
     assert rec.exists() and (tmp_path / "rec.csv.json").exists()
     out, fig = tmp_path / "fit.json", tmp_path / "fit.png"
-    p = run_cli(
-        "flex",
-        "fit",
-        "--spec",
-        str(sp),
-        "--data",
-        str(rec),
-        "--method",
-        "pso",
-        "--population",
-        "6",
-        "--iterations",
-        "2",
-        "-o",
-        str(out),
-        "--plot",
-        str(fig),
-    )
+
+    def fit(*args: str):  # pinid flex fit of the spec on the recording
+        return run_cli("flex", "fit", "--spec", str(sp), "--data", str(rec), *args)
+
+    p = fit("--method", "pso", "--population", "6", "--iterations", "2", "-o", str(out), "--plot", str(fig))
     assert p.returncode == 0, p.stderr
     d = json.loads(out.read_text())
     assert d["method"] == "pso" and d["model"] == "flexible" and set(d["values"]) == set(spec.free)
     assert d["truth"]["base.K1"] == 91.66 and fig.stat().st_size > 1000
-    p = run_cli(
-        "flex",
-        "fit",
-        "--spec",
-        str(sp),
-        "--data",
-        str(rec),
-        "--method",
-        "least_squares",
-        "--x0",
-        "truth",
-        "--max-nfev",
-        "2",
-        "--rigid",
-        "-o",
-        str(tmp_path / "rigid.json"),
+    p = fit(
+        "--method", "least_squares", "--x0", "truth", "--max-nfev", "2", "--rigid", "-o", str(tmp_path / "rigid.json")
     )
     assert p.returncode == 2 and "--x0 truth" in p.stderr  # the rigid model has no truth
     cmp_ = tmp_path / "cmp.json"
@@ -461,12 +439,7 @@ def test_flex_output_option_is_o_like_every_command_and_out_still_works(tmp_path
     import subprocess
     import sys
 
-    sp = tmp_path / "s.toml"
-    sp.write_text(
-        SPEC.read_text()
-        .replace("duration = 2.0", "duration = 0.3")
-        .replace('urdf = "../urdf/', f'urdf = "{ROOT}/urdf/')
-    )
+    sp = short_spec_file(tmp_path)
     a, b = tmp_path / "a.csv", tmp_path / "b.csv"
     assert run_cli("flex", "twin", "--spec", str(sp), "-o", str(a), "--seed", "3").returncode == 0
     proc = subprocess.run(

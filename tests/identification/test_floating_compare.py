@@ -31,7 +31,7 @@ def folder(tmp_path_factory):
 def small(tmp_path_factory):
     """A folder for the bad inputs: a trajectory JSON (not a truth) and a 1 s twin recording."""
     from pinid import RobotModel
-    from test_floating_identification import excitation
+    from conftest import floating_excitation as excitation
 
     d = tmp_path_factory.mktemp("floating_compare_bad")
     excitation(RobotModel.from_urdf("exo_lower_body", base="floating")).save(d / "exc.json")
@@ -70,7 +70,7 @@ def test_parameter_error_on_exact_samples():
     from pinid.model.floating import floating_parameter_names, floating_standard_parameters
     from pinid.model.terms import TermSelection
     from pinid.simulation.floating_twin import simulate_suspended
-    from test_floating_identification import excitation
+    from conftest import floating_excitation as excitation
 
     exo = RobotModel.from_urdf("exo_lower_body", base="floating")
     terms = TermSelection.from_names("fc,fv")

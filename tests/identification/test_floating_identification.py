@@ -7,12 +7,12 @@ import warnings
 import numpy as np
 import pytest
 
+from conftest import floating_excitation
 from pinid.errors import SolverError, SpecError
 from pinid.identification.study import Study
 from pinid import DataError, RobotModel
 from pinid.data.contacts import prepare_floating, read_floating, write_floating
 from pinid.estimators import ESTIMATORS, make_estimator
-from pinid.excitation.trajectory import FourierTrajectory
 from pinid.problem.floating import floating_problem
 from pinid.model.floating import floating_base_parameters
 from pinid.model.terms import TermSelection
@@ -22,25 +22,13 @@ TERMS = TermSelection.from_names("fc,fv")
 
 
 @pytest.fixture(scope="module")
-def exo():
-    return RobotModel.from_urdf("exo_lower_body", base="floating")
-
-
-def excitation(model, seed=0, harmonics=4, scale=0.08) -> FourierTrajectory:
-    rng = np.random.default_rng(seed)
-    span = (model.upper - model.lower)[:, None]
-    a, b = (rng.uniform(-1, 1, (model.nv, harmonics)) * scale * span for _ in range(2))
-    return FourierTrajectory(model.joint_names, 2 * np.pi * 0.2, 0.5 * (model.lower + model.upper), a, b)
+def suspended(floating_exo):
+    return simulate_suspended(floating_exo, floating_excitation(floating_exo), seconds=5, rate=200, imu_frame="imu")
 
 
 @pytest.fixture(scope="module")
-def suspended(exo):
-    return simulate_suspended(exo, excitation(exo), seconds=5, rate=200, imu_frame="imu")
-
-
-@pytest.fixture(scope="module")
-def gait(exo):
-    return simulate_gait(exo, seconds=3, rate=200)
+def gait(floating_exo):
+    return simulate_gait(floating_exo, seconds=3, rate=200)
 
 
 def error(problem, estimate):
@@ -50,24 +38,24 @@ def error(problem, estimate):
 
 @pytest.mark.parametrize("method", ["ols", "sdp"])
 @pytest.mark.parametrize("rows", ["all", "base"])
-def test_suspended_twin_recovers_the_base_parameters(exo, suspended, method, rows):
+def test_suspended_twin_recovers_the_base_parameters(floating_exo, suspended, method, rows):
     """Noise-free suspended twin: joint torques + harness wrench (rows all), or the wrench and motion alone (rows base)."""
-    problem = floating_problem(exo, suspended.exact, terms=TERMS, rows=rows)
+    problem = floating_problem(floating_exo, suspended.exact, terms=TERMS, rows=rows)
     assert error(problem, make_estimator(method).fit(problem).base_) <= 1e-6
     if rows == "base":  # Ayusawa et al. 2014: the base rows identify every inertial base parameter
-        assert problem.nb == floating_base_parameters(exo, TermSelection.from_names("none")).count
+        assert problem.nb == floating_base_parameters(floating_exo, TermSelection.from_names("none")).count
         assert problem.names[0] == "base.mR"  # the total mass among them
 
 
 @pytest.mark.parametrize("method", ["ols", "sdp"])
-def test_gait_twin_recovers_the_base_parameters(exo, gait, method):
-    problem = floating_problem(exo, gait.exact, terms=TERMS)
+def test_gait_twin_recovers_the_base_parameters(floating_exo, gait, method):
+    problem = floating_problem(floating_exo, gait.exact, terms=TERMS)
     assert error(problem, make_estimator(method).fit(problem).base_) <= 1e-6
     left, right = (gait.recording.contacts[s] for s in ("l_sole", "r_sole"))
     assert (left & right).any() and (left & ~right).any() and (right & ~left).any()  # double and single support
 
 
-def test_gait_double_support_split_sums_to_the_total_wrench(exo, gait):
+def test_gait_double_support_split_sums_to_the_total_wrench(floating_exo, gait):
     """The two soles' wrenches carry exactly what the motion needs (the base rows of the RNEA)."""
     from pinid.problem.floating import floating_targets
 
@@ -75,22 +63,22 @@ def test_gait_double_support_split_sums_to_the_total_wrench(exo, gait):
     tau_free = s.data.tau
     s.data.tau = None
     try:
-        y = floating_targets(exo, s)
+        y = floating_targets(floating_exo, s)
     finally:
         s.data.tau = tau_free
     from pinid.model.floating import floating_rnea
 
-    rnea = floating_rnea(exo, s.base_q, s.base_v, s.base_a, s.data.q, s.data.dq, s.data.ddq)
+    rnea = floating_rnea(floating_exo, s.base_q, s.base_v, s.base_a, s.data.q, s.data.dq, s.data.ddq)
     np.testing.assert_allclose(y[:, :6], rnea[:, :6], atol=1e-8 * np.abs(rnea[:, :6]).max())
 
 
 @pytest.mark.parametrize(
     "method", [pytest.param(m, marks=pytest.mark.slow) if m == "logdet" else m for m in sorted(ESTIMATORS)]
 )  # logdet: 3.5 s (its cross-validation)
-def test_every_estimator_takes_the_floating_problem(exo, method):
+def test_every_estimator_takes_the_floating_problem(floating_exo, method):
     """Every registered estimator fits the floating problem (the population ones briefly); the least-squares
     family recovers the noise-free walk."""
-    problem = floating_problem(exo, simulate_gait(exo, seconds=2, rate=100).exact, terms=TERMS)
+    problem = floating_problem(floating_exo, simulate_gait(floating_exo, seconds=2, rate=100).exact, terms=TERMS)
     settings = {"iterations": 5, "population": 10} if method in ("pso", "woa", "ewoa", "de") else {}
     if ESTIMATORS[method].simulates:  # iv, didim simulate a fixed-base robot: refused with one line
         with pytest.raises(SpecError, match="floating base"):
@@ -107,14 +95,14 @@ def test_every_estimator_takes_the_floating_problem(exo, method):
         assert error(problem, est.base_) <= 1e-6
 
 
-def test_recording_round_trip_and_imu(exo, suspended, tmp_path):
+def test_recording_round_trip_and_imu(floating_exo, suspended, tmp_path):
     """Written, read back and filtered: the base rows give the total mass to 0.5 %, from an IMU and a load cell."""
     path = write_floating(tmp_path / "s.csv", suspended.recording)
-    rec = read_floating(path, exo)
+    rec = read_floating(path, floating_exo)
     assert rec.imu_frame == "imu" and list(rec.wrenches) == ["pelvis"]
     np.testing.assert_allclose(rec.wrenches["pelvis"], suspended.recording.wrenches["pelvis"], rtol=1e-10, atol=1e-9)
-    samples = prepare_floating(rec, exo, {"cutoff": 20.0})
-    problem = floating_problem(exo, samples, rows="base")
+    samples = prepare_floating(rec, floating_exo, {"cutoff": 20.0})
+    problem = floating_problem(floating_exo, samples, rows="base")
     base = make_estimator("ols").fit(problem).base_
     assert base[0] == pytest.approx(21.8, rel=5e-3)
 
@@ -160,14 +148,14 @@ POSE = ["base_x", "base_y", "base_z", "base_qx", "base_qy", "base_qz", "base_qw"
         ([], [], "no base motion"),
     ],
 )
-def test_bad_floating_recordings(exo, tmp_path, header, row, fragment):
+def test_bad_floating_recordings(floating_exo, tmp_path, header, row, fragment):
     with pytest.raises(DataError, match=fragment.replace("*", r"\*")):
-        read_floating(_csv(tmp_path, header, row), exo)
+        read_floating(_csv(tmp_path, header, row), floating_exo)
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("kind", ["suspended", "gait"])
-def test_noisy_twin_validates_at_the_noise_floor(exo, kind, tmp_path):
+def test_noisy_twin_validates_at_the_noise_floor(floating_exo, kind, tmp_path):
     """Noisy twin through files, filtering and differentiation: on a held-out recording the identified model's
     RMS is within 5 % of the true parameters' own RMS (the noise floor on that data); the SDP is consistent."""
     from pinid.model.physical import check_consistency
@@ -175,16 +163,23 @@ def test_noisy_twin_validates_at_the_noise_floor(exo, kind, tmp_path):
 
     noise = Noise(2e-5, 0.3, 2.0, 0.2, 0.005, 0.05)
     if kind == "suspended":
-        runs = [simulate_suspended(exo, excitation(exo, k), seconds=8, rate=250, noise=noise, seed=k) for k in (0, 1)]
+        runs = [
+            simulate_suspended(
+                floating_exo, floating_excitation(floating_exo, k), seconds=8, rate=250, noise=noise, seed=k
+            )
+            for k in (0, 1)
+        ]
     else:
-        runs = [simulate_gait(exo, seconds=10, rate=500, noise=noise, seed=1)]
-        runs.append(simulate_gait(exo, seconds=6, rate=500, noise=noise, seed=2, pattern={"period": 1.0, "speed": 0.9}))
+        runs = [simulate_gait(floating_exo, seconds=10, rate=500, noise=noise, seed=1)]
+        runs.append(
+            simulate_gait(floating_exo, seconds=6, rate=500, noise=noise, seed=2, pattern={"period": 1.0, "speed": 0.9})
+        )
     samples = []
     for k, run in enumerate(runs):
         path = write_floating(tmp_path / f"{k}.csv", run.recording)
-        samples.append(prepare_floating(read_floating(path, exo), exo))
-    train = floating_problem(exo, samples[0], terms=TERMS)
-    held = floating_problem(exo, samples[1], terms=TERMS, base=train.base)
+        samples.append(prepare_floating(read_floating(path, floating_exo), floating_exo))
+    train = floating_problem(floating_exo, samples[0], terms=TERMS)
+    held = floating_problem(floating_exo, samples[1], terms=TERMS, base=train.base)
     floor = np.sqrt(np.mean((held.tau - held.predict(held.nominal_base)) ** 2))
     for method in ("ols", "sdp"):
         est = make_estimator(method).fit(train)
@@ -193,51 +188,53 @@ def test_noisy_twin_validates_at_the_noise_floor(exo, kind, tmp_path):
     assert check_consistency(est.standard_, train.model.joint_names, train.terms.names, []).consistent
 
 
-def test_swing_rows_of_a_leg_without_force_sensing(exo, tmp_path):
+def test_swing_rows_of_a_leg_without_force_sensing(floating_exo, tmp_path):
     """The right foot's wrench unknown (contact phases only): its contact rows are left out, and the rest still
     recovers the noise-free walk; from a file, --swing-rows accepts what is otherwise refused."""
     import dataclasses
 
-    run = simulate_gait(exo, seconds=6, rate=200)
+    run = simulate_gait(floating_exo, seconds=6, rate=200)
     right = run.recording.contacts["r_sole"]
     s = dataclasses.replace(
         run.exact, wrenches=[w for w in run.exact.wrenches if w.link == "l_sole"], unsensed={"r_sole": right}
     )
-    problem = floating_problem(exo, s, terms=TERMS)
+    problem = floating_problem(floating_exo, s, terms=TERMS)
     assert problem.rows == s.n * 14 - int(right.sum()) * (6 + 4)  # base rows and the right leg's 4 joints
     assert error(problem, make_estimator("ols").fit(problem).base_) <= 1e-6
     rec = run.recording
     rec.plates.pop("r_sole")
     path = write_floating(tmp_path / "g.csv", rec)
     with pytest.raises(DataError, match="--swing-rows"):
-        read_floating(path, exo)
-    samples = prepare_floating(read_floating(path, exo, swing_rows=True), exo)
+        read_floating(path, floating_exo)
+    samples = prepare_floating(read_floating(path, floating_exo, swing_rows=True), floating_exo)
     assert set(samples.unsensed) == {"r_sole"} and samples.unsensed["r_sole"].sum() >= right[: samples.n].sum() * 0.9
 
 
-def test_no_joint_torque_uses_the_base_rows_only(exo, suspended, tmp_path):
+def test_no_joint_torque_uses_the_base_rows_only(floating_exo, suspended, tmp_path):
     """The wearer's case: no tau_ columns; --rows base identifies from the harness wrench and the IMU, joint rows
     are refused with a one-line reason."""
     import dataclasses
 
     rec = dataclasses.replace(suspended.recording, data=dataclasses.replace(suspended.recording.data, tau=None))
-    samples = prepare_floating(read_floating(write_floating(tmp_path / "w.csv", rec), exo), exo, {"cutoff": 20.0})
+    samples = prepare_floating(
+        read_floating(write_floating(tmp_path / "w.csv", rec), floating_exo), floating_exo, {"cutoff": 20.0}
+    )
     assert samples.data.tau is None
-    base = make_estimator("ols").fit(floating_problem(exo, samples, rows="base")).base_
+    base = make_estimator("ols").fit(floating_problem(floating_exo, samples, rows="base")).base_
     assert base[0] == pytest.approx(21.8, rel=5e-3)
     with pytest.raises(DataError, match="only the base rows can be used"):
-        floating_problem(exo, samples, rows="all")
+        floating_problem(floating_exo, samples, rows="all")
 
 
-def test_rest_rows_left_out_on_request(exo, gait):
-    problem = floating_problem(exo, gait.exact, terms=TERMS, rest_velocity=0.05)
+def test_rest_rows_left_out_on_request(floating_exo, gait):
+    problem = floating_problem(floating_exo, gait.exact, terms=TERMS, rest_velocity=0.05)
     slow = int((np.abs(gait.exact.data.dq) < 0.05).sum())
     assert slow > 0 and problem.rows == gait.exact.n * 14 - slow
     assert error(problem, make_estimator("ols").fit(problem).base_) <= 1e-6
 
 
 @pytest.mark.parametrize("raw_topic", [False, True])
-def test_ros2_bag_with_imu_and_wrench_messages(exo, suspended, tmp_path, raw_topic):
+def test_ros2_bag_with_imu_and_wrench_messages(floating_exo, suspended, tmp_path, raw_topic):
     """JointState + sensor_msgs/Imu (frame "imu") + geometry_msgs/WrenchStamped (frame "pelvis") in a rosbag2
     folder read as the same floating recording as the CSV (Imu and wrench interpolated onto the joint stamps).
     ``raw_topic``: a second WrenchStamped topic in the same frame (a F/T driver's uncompensated /harness_raw,
@@ -306,7 +303,7 @@ def test_ros2_bag_with_imu_and_wrench_messages(exo, suspended, tmp_path, raw_top
     mapping = None
     if raw_topic:
         with pytest.raises(SpecError, match=r"topics /harness and /harness_raw both give the wrench_pelvis_\* col"):
-            read_floating(path, exo)
+            read_floating(path, floating_exo)
         side = [f"imu_imu_{c}" for c in ("qx", "qy", "qz", "qw", "wx", "wy", "wz", "ax", "ay", "az")]
         side += [f"wrench_pelvis_{c}" for c in ("fx", "fy", "fz", "tx", "ty", "tz")]
         mapping = {
@@ -314,8 +311,8 @@ def test_ros2_bag_with_imu_and_wrench_messages(exo, suspended, tmp_path, raw_top
             "joints": {j: {"q": f"q_{j}", "tau": f"tau_{j}"} for j in ds.joints},
             "floating": {c: c for c in side},
         }
-    from_bag = read_floating(path, exo, mapping=mapping)
-    from_csv = read_floating(write_floating(tmp_path / "s.csv", rec), exo)
+    from_bag = read_floating(path, floating_exo, mapping=mapping)
+    from_csv = read_floating(write_floating(tmp_path / "s.csv", rec), floating_exo)
     assert from_bag.imu_frame == "imu" and list(from_bag.wrenches) == ["pelvis"]
     for key in ("q", "w", "a"):
         np.testing.assert_allclose(from_bag.imu[key], from_csv.imu[key], atol=1e-9)
@@ -323,21 +320,21 @@ def test_ros2_bag_with_imu_and_wrench_messages(exo, suspended, tmp_path, raw_top
     np.testing.assert_allclose(from_bag.data.tau, from_csv.data.tau, atol=1e-9)
 
 
-def test_always_in_contact_and_base_weight_out_of_range_are_named(exo):
+def test_always_in_contact_and_base_weight_out_of_range_are_named(floating_exo):
     """Issue 33 (minor): a leg without force sensing in contact in every sample is named (in contact, not "at
     rest", not a list of unexcited columns); --base-weight 1e300 is out of range, not "columns are zero"."""
     import dataclasses
 
-    run = simulate_gait(exo, seconds=1, rate=100)
+    run = simulate_gait(floating_exo, seconds=1, rate=100)
     s = dataclasses.replace(
         run.exact,
         wrenches=[w for w in run.exact.wrenches if w.link == "l_sole"],
         unsensed={"r_sole": np.ones(run.exact.n, bool)},
     )
     with pytest.raises(DataError, match="r_sole in contact in every sample without a measured wrench"):
-        floating_problem(exo, s, terms=TERMS)
+        floating_problem(floating_exo, s, terms=TERMS)
     with pytest.raises(DataError, match=r"base_weight=1e\+300 is out of range, expected a number in \[1e-06, 1e\+06\]"):
-        floating_problem(exo, run.exact, terms=TERMS, base_weight=1e300)
+        floating_problem(floating_exo, run.exact, terms=TERMS, base_weight=1e300)
 
 
 def _edited(tmp_path, recording, name, edit):
@@ -356,17 +353,17 @@ def _flip_half(names, a):
     a[len(a) // 2 :, qi] *= -1  # q -> -q: the same rotations, the other hemisphere
 
 
-def test_quaternion_sign_flips_change_nothing(exo, gait, tmp_path):
+def test_quaternion_sign_flips_change_nothing(floating_exo, gait, tmp_path):
     """A base quaternion that jumps to −q (motion capture keeping w ≥ 0) gives the same parameters as without."""
     from pinid.identification.run import identify
 
     plain = _edited(tmp_path, gait.recording, "plain", lambda n, a: None)
     flipped = _edited(tmp_path, gait.recording, "flipped", _flip_half)
-    a, b = (identify(Study(exo, p), methods=["ols"]).results["ols"].base for p in (plain, flipped))
+    a, b = (identify(Study(floating_exo, p), methods=["ols"]).results["ols"].base for p in (plain, flipped))
     np.testing.assert_allclose(b, a, rtol=1e-9, atol=1e-9 * np.max(np.abs(a)))
 
 
-def test_given_joint_derivatives_do_not_skip_the_base_filter(exo, gait, tmp_path):
+def test_given_joint_derivatives_do_not_skip_the_base_filter(floating_exo, gait, tmp_path):
     """dq_/ddq_ columns for the joints: the noisy base pose is still filtered (--preprocess auto), so the total
     mass stays at 21.8 kg; with preprocessing off, exact data leave no residual at the ends."""
     from pinid.identification.run import identify
@@ -387,14 +384,14 @@ def test_given_joint_derivatives_do_not_skip_the_base_filter(exo, gait, tmp_path
     rows = [f"{line},{','.join(f'{v:.12g}' for v in e)}" for line, e in zip(text[1:], extra)]
     header = text[0] + "," + ",".join([f"dq_{j}" for j in joints] + [f"ddq_{j}" for j in joints])
     path.write_text("\n".join([header, *rows]) + "\n")
-    r = identify(Study(exo, path), methods=["ols"]).results["ols"]
+    r = identify(Study(floating_exo, path), methods=["ols"]).results["ols"]
     assert r.base[0] == pytest.approx(21.8, rel=2e-3)
     exact = _edited(tmp_path, rec, "exact", lambda n, a: None)
     text = exact.read_text().splitlines()
     exact.write_text(
         "\n".join([header, *[f"{line},{','.join(f'{v:.12g}' for v in e)}" for line, e in zip(text[1:], extra)]]) + "\n"
     )
-    r = identify(Study(exo, exact, preprocess=False), methods=["ols"]).results["ols"]
+    r = identify(Study(floating_exo, exact, preprocess=False), methods=["ols"]).results["ols"]
     assert r.train.per_joint["base"]["rms"] < 0.02  # [N, N·m]: no one-sided differences left at the ends
     assert r.base[0] == pytest.approx(21.8, rel=1e-3)
 
@@ -430,7 +427,7 @@ def _millimetres(names, a):
         (_millimetres, r"units \(m expected, not mm\)"),
     ],
 )
-def test_implausible_total_mass_names_the_cause(exo, gait, tmp_path, edit, cause):
+def test_implausible_total_mass_names_the_cause(floating_exo, gait, tmp_path, edit, cause):
     """A convention error in the recording never passes silently: an error (or a warning) naming the cause."""
     from pinid.identification.run import identify
 
@@ -441,14 +438,14 @@ def test_implausible_total_mass_names_the_cause(exo, gait, tmp_path, edit, cause
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
-            identify(Study(exo, path), methods=["ols", "sdp"])
+            identify(Study(floating_exo, path), methods=["ols", "sdp"])
         except DataError as exc:
             said.append(str(exc))
     said += [str(w.message) for w in caught]
     assert any(re.search(cause, line) for line in said), said
 
 
-def test_accelerometer_without_gravity_is_named(exo, suspended, tmp_path):
+def test_accelerometer_without_gravity_is_named(floating_exo, suspended, tmp_path):
     from pinid.identification.run import identify
 
     def no_gravity(names, a):
@@ -461,10 +458,10 @@ def test_accelerometer_without_gravity_is_named(exo, suspended, tmp_path):
     path = _edited(tmp_path, suspended.recording, "nog", no_gravity)
     with pytest.warns(UserWarning, match="must include gravity"):
         with pytest.raises(DataError, match="likely cause: .*must include gravity"):
-            identify(Study(exo, path, floating={"rows": "base"}), methods=["ols"])
+            identify(Study(floating_exo, path, floating={"rows": "base"}), methods=["ols"])
 
 
-def test_no_wrench_in_the_base_rows_is_refused(exo, suspended, tmp_path):
+def test_no_wrench_in_the_base_rows_is_refused(floating_exo, suspended, tmp_path):
     from pinid.identification.run import identify
 
     path = write_floating(tmp_path / "src.csv", suspended.recording)
@@ -474,4 +471,4 @@ def test_no_wrench_in_the_base_rows_is_refused(exo, suspended, tmp_path):
     out = tmp_path / "nowrench.csv"
     np.savetxt(out, a[:, keep], delimiter=",", header=",".join(names[i] for i in keep), comments="", fmt="%.12g")
     with pytest.raises(DataError, match=r"no external wrench and no joint torque .*homogeneous"):
-        identify(Study(exo, out, floating={"rows": "base"}), methods=["ols"])
+        identify(Study(floating_exo, out, floating={"rows": "base"}), methods=["ols"])

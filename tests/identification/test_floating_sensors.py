@@ -91,7 +91,8 @@ def test_motion_capture_orientation_noise_is_warned(exo, tmp_path):
     from pinid.identification.floating import load_floating
     from pinid.identification.floating_checks import orientation_noise, orientation_noise_warning
 
-    from test_floating_trust import NOISE, excitation
+    from conftest import floating_excitation as excitation
+    from test_floating_trust import NOISE
 
     run = simulate_suspended(exo, excitation(exo, 0), seconds=4, rate=1000, noise=NOISE, seed=0)
     noisy = noisy_orientation(run.recording, 0.11)

@@ -17,7 +17,7 @@ from pinid.identification.result import load_identified
 from pinid.identification.run import identify
 from pinid.model.terms import TermSelection
 from pinid.simulation.floating_twin import simulate_suspended
-from test_floating_identification import excitation
+from conftest import floating_excitation as excitation
 from test_mjcf import free_joint_errors
 
 mujoco = pytest.importorskip("mujoco")

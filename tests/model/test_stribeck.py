@@ -155,53 +155,27 @@ def test_setting_without_a_stribeck_term():
         Stribeck(float("nan"))
 
 
+def identify_stribeck(folder, model, seconds: float, velocity: str):
+    """``pinid identify --terms fc,fv,fs --stribeck-velocity=velocity`` (ols, no report) on a ``seconds``
+    twin recording of ``model`` written to ``folder``; returns ``(process, output folder)``."""
+    write_recording(folder / "train.csv", twin(model, JOINT, seconds=seconds)[0])
+    out = folder / "out"
+    args = ("--urdf", "exo_leg", "--data", str(folder / "train.csv"), "--terms", "fc,fv,fs", "--methods", "ols")
+    return run_cli("identify", *args, "--no-report", f"--stribeck-velocity={velocity}", "-o", str(out)), out
+
+
 @pytest.mark.parametrize(
     "value,fragment",
     [("0", "expected a number > 0"), ("nan", "expected a number > 0"), ("-1", "expected a number > 0")],
 )
 def test_cli_bad_velocity_exits_2_and_writes_nothing(tmp_path, value, fragment):
-    m = exo_joint()
-    write_recording(tmp_path / "train.csv", twin(m, JOINT, seconds=5)[0])
-    out = tmp_path / "out"
-    proc = run_cli(
-        "identify",
-        "--urdf",
-        "exo_leg",
-        "--data",
-        str(tmp_path / "train.csv"),
-        "--terms",
-        "fc,fv,fs",
-        "--methods",
-        "ols",
-        "--no-report",
-        f"--stribeck-velocity={value}",
-        "-o",
-        str(out),
-    )
+    proc, out = identify_stribeck(tmp_path, exo_joint(), 5, value)
     assert_clean_error(proc, fragment)
     assert not out.exists()
 
 
 def test_cli_identify_fits_the_velocity(tmp_path):
-    m = truth_model("exo_leg")
-    write_recording(tmp_path / "train.csv", twin(m, JOINT, seconds=20)[0])
-    out = tmp_path / "out"
-    proc = run_cli(
-        "identify",
-        "--urdf",
-        "exo_leg",
-        "--data",
-        str(tmp_path / "train.csv"),
-        "--terms",
-        "fc,fv,fs",
-        "--methods",
-        "ols",
-        "--no-report",
-        "--stribeck-velocity",
-        "auto",
-        "-o",
-        str(out),
-    )
+    proc, out = identify_stribeck(tmp_path, truth_model("exo_leg"), 20, "auto")
     assert proc.returncode == 0, proc.stderr
     assert "Stribeck fs: velocity" in proc.stdout and "(fitted)" in proc.stdout
     d = json.loads((out / "identification.json").read_text())

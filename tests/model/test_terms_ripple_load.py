@@ -137,41 +137,16 @@ def test_friction_of_the_identified_model_leaves_the_load_term_out_and_gravity_h
 
 def test_cli_ripple_periods_reach_the_saved_model_and_bad_ones_are_refused(recording, tmp_path):
     out = tmp_path / "r"
-    p = run_cli(
-        "identify",
-        "--urdf",
-        "exo_leg",
-        "--data",
-        str(recording),
-        "--terms",
-        "fc,fv,ripple",
-        "--ripple-periods",
-        "hip=9,knee=13",
-        "--methods",
-        "ols",
-        "--no-report",
-        "-o",
-        str(out),
-    )
+
+    def identify(*args: str):  # pinid identify of the ripple terms on the recording
+        return run_cli("identify", "--urdf", "exo_leg", "--data", str(recording), "--terms", "fc,fv,ripple", *args)
+
+    p = identify("--ripple-periods", "hip=9,knee=13", "--methods", "ols", "--no-report", "-o", str(out))
     assert p.returncode == 0, p.stderr
     saved = json.loads((out / "model_ols.json").read_text())
     assert saved["robot"]["ripple_periods"] == {"hip": 9.0, "knee": 13.0}
     assert "hip.ripple_s1" in json.dumps(saved)
-    p = run_cli(
-        "identify",
-        "--urdf",
-        "exo_leg",
-        "--data",
-        str(recording),
-        "--terms",
-        "fc,fv,ripple",
-        "--ripple-periods",
-        "-3",
-        "-o",
-        str(tmp_path / "x"),
-    )
+    p = identify("--ripple-periods", "-3", "-o", str(tmp_path / "x"))
     assert_clean_error(p, "--ripple-periods", "> 0")
-    p = run_cli(
-        "identify", "--urdf", "exo_leg", "--data", str(recording), "--terms", "fc,fv,ripple", "-o", str(tmp_path / "y")
-    )
+    p = identify("-o", str(tmp_path / "y"))
     assert_clean_error(p, "ripple periods", "--ripple-periods")

@@ -10,7 +10,6 @@ import matplotlib
 
 matplotlib.use("Agg")
 
-import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
@@ -24,10 +23,10 @@ from pinid.excitation.trajectory import FourierTrajectory  # noqa: E402
 from pinid.flexible.output_error import fit_output_error, make_twin, problem_from_spec
 from pinid.flexible.spec import load_flex_spec
 from pinid.identification.compare import compare  # noqa: E402
-from pinid import Identification, identify  # noqa: E402
+from pinid import Identification  # noqa: E402
 from pinid.identification.result import IdentificationResult  # noqa: E402
 
-from test_identification import true_base, truth_model, twin  # noqa: E402
+from test_identification import true_base  # noqa: E402
 
 
 def titles(fig: Figure) -> list[str]:
@@ -39,27 +38,12 @@ def visible(fig: Figure) -> int:
     return sum(ax.get_visible() for ax in fig.axes)
 
 
-@pytest.fixture(autouse=True)
-def close_figures():
-    yield
-    plt.close("all")
+#: The exo leg's twins and their identification are conftest's leg_twins and leg_identification.
+pytestmark = pytest.mark.usefixtures("close_figures")
 
 
-@pytest.fixture(scope="module")
-def leg():
-    """The exo leg with friction, a training and a held-out recording of it (noise-free twin)."""
-    truth = truth_model("exo_leg")
-    return truth, twin(truth, seconds=8, rate=100, seed=1), twin(truth, seconds=4, rate=100, seed=2)
-
-
-@pytest.fixture(scope="module")
-def identification(leg):
-    truth, train, valid = leg
-    return identify(Study(truth, train, validate=valid), methods=["ols", "sdp"])
-
-
-def test_identification_result_plots_its_error_bars(identification):
-    r = identification["ols"]
+def test_identification_result_plots_its_error_bars(leg_identification):
+    r = leg_identification["ols"]
     fig = r.plot()
     assert isinstance(fig, Figure)
     # one panel per joint and one pooling them (a 2-joint leg: hip, knee, all joints)
@@ -70,30 +54,30 @@ def test_identification_result_plots_its_error_bars(identification):
         r.plot("test")
 
 
-def test_identification_plots_the_report_figures(identification):
-    errors = identification.plot()
+def test_identification_plots_the_report_figures(leg_identification):
+    errors = leg_identification.plot()
     assert titles(errors) == ["hip", "knee", "all joints"]
     assert {t.get_text() for t in errors.axes[0].get_yticklabels()} == {"ols", "sdp"}  # a row per method
-    torque = identification.plot("torque:sdp")
+    torque = leg_identification.plot("torque:sdp")
     # per joint a torque panel and the error under it
     assert visible(torque) == 4 and torque.get_suptitle().startswith("sdp: measured and predicted torque")
-    best = identification.plot("torque")  # the best method's, by default
-    assert best.get_suptitle().startswith(f"{identification.best}: measured and predicted torque")
-    motion = identification.plot("motion")
+    best = leg_identification.plot("torque")  # the best method's, by default
+    assert best.get_suptitle().startswith(f"{leg_identification.best}: measured and predicted torque")
+    motion = leg_identification.plot("motion")
     assert titles(motion) == ["hip", "knee", "", ""] and visible(motion) == 4
-    params = identification.plot("parameters")  # the best method's and ols's base parameters ± 2σ
+    params = leg_identification.plot("parameters")  # the best method's and ols's base parameters ± 2σ
     names = [t.get_text() for t in params.axes[0].get_yticklabels()]
-    assert names == identification.base["names"] and params.get_suptitle().startswith("base parameters")
-    overlay = identification.plot("predictions")  # every method's prediction, its difference to the best's
+    assert names == leg_identification.base["names"] and params.get_suptitle().startswith("base parameters")
+    overlay = leg_identification.plot("predictions")  # every method's prediction, its difference to the best's
     assert visible(overlay) == 4 and {t.get_text() for t in overlay.legends[0].get_texts()} >= {"ols", "sdp"}
     with pytest.raises(SpecError, match="method"):
-        identification.plot("torque:pso")
+        leg_identification.plot("torque:pso")
     with pytest.raises(SpecError, match="kind"):
-        identification.plot("bars")
+        leg_identification.plot("bars")
 
 
-def test_a_loaded_identification_plots_without_curves(identification, tmp_path):
-    back = Identification.load(identification.save(tmp_path / "identification.json"))
+def test_a_loaded_identification_plots_without_curves(leg_identification, tmp_path):
+    back = Identification.load(leg_identification.save(tmp_path / "identification.json"))
     assert titles(back.plot()) == ["hip", "knee", "all joints"]
     assert titles(IdentificationResult.from_dict(back["ols"].to_dict()).plot()) == ["hip", "knee", "all joints"]
     with pytest.raises(SpecError, match="torque curves"):
@@ -101,8 +85,8 @@ def test_a_loaded_identification_plots_without_curves(identification, tmp_path):
     assert [t.get_text() for t in back.plot("parameters").axes[0].get_yticklabels()] == back.base["names"]
 
 
-def test_comparison_plots_its_three_figures(leg):
-    truth, train, valid = leg
+def test_comparison_plots_its_three_figures(leg_twins):
+    truth, train, valid = leg_twins
     _, xt = true_base(truth)
     comparison = compare(
         Study(truth, train, valid),

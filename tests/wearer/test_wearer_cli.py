@@ -90,6 +90,16 @@ def test_noise_free_stage2_recovers_wearer_base_parameters(twin):
         "torque_wearer.png",
     ]
     _check_report(d / "out", whole)
+    # the command's file reads back as the stage (one result protocol): what it printed, the same models
+    from pinid.wearer.stage import WearerStage
+
+    back = WearerStage.load(d / "out" / "identification.json")
+    assert back.text() in p.stdout and back.to_dict() == res
+    np.testing.assert_allclose(back.fit.base, [got[n] for n in back.fit.base_names], rtol=0, atol=0)
+    assert (
+        back.fit.model().to_dict()["standard_parameters"]
+        == json.loads((d / "out" / "model_wearer.json").read_text())["standard_parameters"]
+    )
     m = IdentifiedModel.load(d / "out" / "model_wearer.json")
     assert "passive" in m.terms
     # closed loop on the same true wearer (--wearer-draw, same seed): identified vs table-based model
