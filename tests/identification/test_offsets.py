@@ -150,3 +150,27 @@ def test_cli_refuses_offsets_with_the_offset_term(tmp_path):
     )  # fmt: skip
     assert_clean_error(proc, "collinear")
     assert not (tmp_path / "out" / "identification.json").exists()
+
+
+def test_simulating_estimators_and_compare_refuse_offsets_per_recording():
+    from pinid.identification.compare import compare
+
+    model = load("exo_leg")
+    _, _, days = twin_days(model, 60)
+    study = Study(model, days[:2], terms=TERMS, rest_velocity=0, offsets="per-recording")
+    with pytest.raises(SpecError, match="iv, didim with offsets per recording: not supported"):
+        identify(study, "ols,iv,didim")
+    with pytest.raises(SpecError, match="not supported by compare; use identify"):
+        compare(study, "ols")
+
+
+def test_cli_refuses_a_fraction_above_one_half(tmp_path):
+    model = load("exo_leg")
+    _, _, days = twin_days(model, 60)
+    files = [write_recording(tmp_path / f"day{k + 1}.npz", ds) for k, ds in enumerate(days)]
+    proc = run_cli(
+        "identify", "--urdf", "exo_leg", "--data", files[0], "--validate", files[2], "--terms", TERMS,
+        "--offsets", "per-recording", "--calibrate-offsets", "0.6", "-o", tmp_path / "out",
+    )  # fmt: skip
+    assert_clean_error(proc, "calibrate offsets 0.6", "0 < f ≤ 0.5")
+    assert not (tmp_path / "out").exists()
