@@ -11,6 +11,7 @@ from pinid import Study, base_parameters, regressor, standard_parameters
 from pinid.data.dataset import Dataset
 from pinid.data.formats import write_recording
 from pinid.errors import SpecError
+from pinid.estimators import make_estimator
 from pinid.identification.offsets import calibrate_offsets, identify_recording_offsets
 from pinid.identification.run import identify
 from pinid.report.markdown import report_markdown
@@ -174,3 +175,29 @@ def test_cli_refuses_a_fraction_above_one_half(tmp_path):
     )  # fmt: skip
     assert_clean_error(proc, "calibrate offsets 0.6", "0 < f ≤ 0.5")
     assert not (tmp_path / "out").exists()
+
+
+def test_profiled_offsets_give_the_standard_deviations_of_the_explicit_offset_columns():
+    """σ ("white") of the base parameters with the offsets profiled out equals that of OLS on the regressor with
+    the offset columns written out (Frisch–Waugh–Lovell; the degrees of freedom count the offset columns)."""
+    from pinid.identification.run import setup
+    from pinid.problem.statistics import base_statistics
+
+    model = load("exo_leg")
+    _, _, days = twin_days(model, 80)
+    rng = np.random.default_rng(7)
+    noisy = [Dataset(t=d.t, q=d.q, dq=d.dq, ddq=d.ddq, tau=d.tau + rng.normal(0, 0.05, d.tau.shape), joints=d.joints, source=d.source) for d in days[:2]]  # fmt: skip
+    s = setup(Study(model, noisy, terms=TERMS, rest_velocity=0, offsets="per-recording"))
+    x = make_estimator("ols").fit(s.problem).base_
+    std = base_statistics(s.problem, x, kind="white")[0]
+    nv, blocks = model.nv, []
+    for r, ds in enumerate(noisy):  # the explicit regressor [W | O] and its OLS covariance
+        O = np.zeros((ds.n * nv, 2 * nv))
+        O[:, r * nv : (r + 1) * nv] = np.tile(np.eye(nv), (ds.n, 1))
+        blocks.append(np.hstack([regressor(model, ds.q, ds.dq, ds.ddq, TERMS)[:, s.base.independent], O]))
+    X, y = np.vstack(blocks), np.concatenate([ds.tau.reshape(-1) for ds in noisy])
+    b, *_ = np.linalg.lstsq(X, y, rcond=None)
+    e = y - X @ b
+    cov = e @ e / (len(y) - X.shape[1]) * np.linalg.inv(X.T @ X)
+    assert np.allclose(b[: s.base.count], x, rtol=1e-9, atol=1e-12)
+    assert np.allclose(std, np.sqrt(np.diag(cov))[: s.base.count], rtol=1e-6)
