@@ -103,6 +103,8 @@ STAGE1_ONLY = (
     ("force_export", "--force-export"),
     ("stribeck_velocity", "--stribeck-velocity"),
     ("stribeck_shape", "--stribeck-shape"),
+    ("offsets", "--offsets"),
+    ("calibrate_offsets", "--calibrate-offsets"),
     ("ripple_periods", "--ripple-periods"),
     ("sigmoid_shape", "--sigmoid-shape"),
 )
@@ -212,6 +214,23 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "the currents of every recording turned into torques; repeatable",
     )
     add_stribeck_arguments(p)
+    g = p.add_argument_group("torque offsets per recording (docs/identification.md#torque-offsets-per-recording)")
+    g.add_argument(
+        "--offsets",
+        default=None,
+        choices=("per-recording",),
+        help="per-recording: one torque offset per joint per training recording (sensor offsets that move from "
+        "one recording day to the next), the inertial and friction parameters shared; not with --terms …,offset",
+    )
+    g.add_argument(
+        "--calibrate-offsets",
+        type=float,
+        default=None,
+        metavar="FRACTION",
+        help="with --offsets per-recording: each validation recording's offsets are fitted on its first FRACTION "
+        "(0 < FRACTION ≤ 0.5) with every other parameter fixed, and it is scored on the rest; without it a "
+        "validation recording gets the training recordings' mean offsets",
+    )
     p.add_argument(
         "--ripple-periods",
         default=None,
@@ -374,6 +393,8 @@ def _study(args: argparse.Namespace, model, terms) -> Study:
         payload_data=args.payload_data,
         stribeck_velocity=args.stribeck_velocity,
         stribeck_shape=args.stribeck_shape,
+        offsets=args.offsets,
+        calibrate_offsets=args.calibrate_offsets,
         **recording_options(args),
         **({"floating": FloatingOptions(args.rows, args.base_weight, args.swing_rows)} if floating else {}),
     )

@@ -9,6 +9,8 @@ gains).  So one file can give a training and a validation range without a conver
     payload = "payload.toml"                # with role = "payload" recordings: drive gains from currents
     delay = 0.04                            # optional: torque delay [s], "auto", "auto-per-joint" or { tau = 0.04 }
     fit_joints = ["shoulder", "elbow"]      # optional: joints whose torque rows enter the fit
+    offsets = "per-recording"               # optional: one torque offset per joint per training recording
+    calibrate_offsets = 0.1                 # optional: validation offsets fitted on each one's first 10 %
     allow_overlap = false                   # optional: true turns overlapping ranges into a warning
 
     [[recording]]
@@ -49,7 +51,17 @@ from pinid.data.formats import read_recording, warn
 from pinid.errors import DataError, SpecError
 
 ROLES: tuple[str, ...] = ("train", "validate", "payload")
-_TOP = {"description", "drives", "payload", "delay", "fit_joints", "allow_overlap", "recording"}
+_TOP = {
+    "description",
+    "drives",
+    "payload",
+    "delay",
+    "fit_joints",
+    "offsets",
+    "calibrate_offsets",
+    "allow_overlap",
+    "recording",
+}
 _ENTRY = {"file", "mapping", "role", "time", "rows", "label"}
 
 
@@ -86,6 +98,8 @@ class Manifest:
     payload: Path | None = None
     delay: Any = None
     fit_joints: list[str] | None = None
+    offsets: str | None = None
+    calibrate_offsets: float | None = None
     allow_overlap: bool = False
     description: str = ""
 
@@ -132,6 +146,8 @@ class Manifest:
             payload=payload,
             delay=d.get("delay"),
             fit_joints=fit,
+            offsets=d.get("offsets"),
+            calibrate_offsets=d.get("calibrate_offsets"),
             allow_overlap=overlap,
             description=desc,
         )

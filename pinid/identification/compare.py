@@ -545,6 +545,8 @@ def compare(
     if study.payload is not None or study.payload_data is not None:
         where = f"{manifest}: " if manifest is not None else ""
         raise SpecError(f"{where}drive gains (payload) are not supported by compare; use identify")
+    if study.offsets is not None or study.calibrate_offsets is not None:
+        raise SpecError("offsets per recording (and their calibration) are not supported by compare; use identify")
     terms = as_terms(study.terms)
     methods = parse_methods(methods, default=quick_methods())
     seed_list = list(range(int(seeds))) if np.ndim(seeds) == 0 else [int(s) for s in seeds]

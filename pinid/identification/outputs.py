@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from pinid.errors import ModelError, SpecError
-from pinid.io import Artefacts, json_text
+from pinid.io import Artefacts, display_path, json_text
 from pinid.report.figures import save_figure
 from pinid.report.markdown import REPORT_FILES, floor_line, report_files, summary_table
 from pinid.report.plot_compare import comparison_figures
@@ -98,6 +98,7 @@ def identification_text(ident, *, verbose: bool = False) -> str:
         f"training: {d['samples']} samples from {len(d['sources'])} recording(s), {d['rows']} torque rows used"
         + (f"; validation: {len(ident.validation_sources)} recording(s)" if ident.validation_sources else "")
     )
+    lines += _offsets_lines(ident)
     if verbose:
         lines += [result_detail(r) for r in ident] + [""]
     elif ident.results and (ident.results[ident.best].truth_error or ident.results[ident.best].warning):
@@ -277,3 +278,19 @@ def write_comparison(
         arts.add(out / name, lambda p, fig=fig: save_figure(fig, p))
     arts.clean(out, COMPARISON_FILES)
     return arts.write()
+
+
+def _offsets_lines(ident) -> list[str]:
+    """With offsets per recording: the best method's offsets [N·m] of each recording, one line each."""
+    info = ident.data.get("offsets")
+    best = ident.results.get(ident.best) if ident.results else None
+    if not info or best is None:
+        return []
+    fraction = info.get("calibrate_fraction")
+    how = f"calibrated on the first {100 * fraction:.3g} %, scored on the rest" if fraction else "training mean"
+    lines = [f"torque offsets per recording ({ident.best}, N·m; validation: {how}):"]
+    for role, items in (best.info.get("offsets") or {}).items():
+        for item in items:
+            values = ", ".join(f"{j} {'–' if v is None else format(v, '.4g')}" for j, v in item["offsets"].items())
+            lines.append(f"  {role} {display_path(item['source'])}: {values}")
+    return lines

@@ -447,8 +447,12 @@ def make_result(
         std = np.where(np.abs(base) <= BOUND_FRACTION * problem.natural_scale, np.nan, std)  # on a bound
     info["condition_number_scaled"] = cond_scaled
     joints, units = problem.model.joint_names, joint_units(problem.model)
-    filtered = error_metrics(problem.tau, residual, joints, problem.joint, units)  # overwrites the residual
+    shift = getattr(problem, "offset_shift", None)  # offsets per recording: their means back in (yardsticks)
+    tau = problem.tau if shift is None else problem.tau + shift
+    filtered = error_metrics(tau, residual, joints, problem.joint, units)  # overwrites the residual
     del residual
+    if recorded is not None and shift is not None:
+        recorded, predicted = recorded + shift, predicted + shift
     train = filtered if recorded is None else torque_metrics(recorded, predicted, joints, problem.joint, units)
     return IdentificationResult(
         method=estimator.name,

@@ -24,6 +24,7 @@ from pinid.data.delay import parse_delay, shift_torque
 from pinid.errors import DataError, SpecError
 from pinid.estimators import ESTIMATORS, make_estimator
 from pinid.identification.metrics import joint_units, torque_metrics
+from pinid.identification.offsets import check_offset_options, offset_validation, offsets_summary, profile_offsets
 from pinid.problem.problem import (
     IdentificationProblem,
     check_dataset,
@@ -126,6 +127,12 @@ def setup(
         raise SpecError("fit joints and torque delays with the segmental strategy: not supported")
     if auto and segmental:
         raise SpecError("Stribeck velocity 'auto' with the segmental strategy: give the velocity instead")
+    if auto_terms and study.offsets is not None:
+        raise SpecError("terms auto with offsets per recording: give the terms instead")
+    validated = validate is not None and any(
+        _items(v) for v in (validate.values() if isinstance(validate, Mapping) else [validate])
+    )
+    offsets = check_offset_options(study.offsets, study.calibrate_offsets, terms, len(_items(data)), validated)
     final_terms, terms = terms, TermSelection(names=[n for n in terms.names if n not in auto])
     check_distinct(data, validate)
     ripple_auto = _is_auto(model.setting("ripple_periods"))  # chosen below; the cut-off's choice goes without
@@ -260,6 +267,7 @@ def setup(
         terms_choice and terms_choice.to_dict(),
         ripple and ripple.to_dict(),
         sigmoid,
+        None if offsets is None else profile_offsets(problem, study.calibrate_offsets),
     )
 
 
@@ -441,6 +449,11 @@ def identify(
     options = check_options(options, methods)
     for m in methods:  # bad settings fail before any recording is read
         make_estimator(m, **options.get(m, {}))
+    simulating = [m for m in methods if m in ("iv", "didim")] if study.offsets is not None else []
+    if simulating:
+        raise SpecError(
+            f"{', '.join(simulating)} with offsets per recording: not supported (they simulate the recordings)"
+        )
     if getattr(model, "base", "fixed") == "floating":
         return _identify_floating(
             model,
@@ -458,6 +471,8 @@ def identify(
                 delay=delay,
                 truth=truth,
                 terms="auto" if auto_terms else None,
+                offsets=study.offsets,
+                calibrate_offsets=study.calibrate_offsets,
             ),
         )
     if floating is not None:
@@ -506,7 +521,10 @@ def identify(
     val_sets, floor = s.validation.get("validation", []), None
     if val_sets:
         checked = [check_dataset(ds, model) for ds in val_sets]
-        preds = [predict_torque(model, terms, s.base, ds, values) for ds in checked]
+        if s.offsets is not None:  # calibrated on each one's first fraction and scored on the rest, or not
+            checked, preds, val_offsets = offset_validation(s.offsets, model, terms, s.base, checked, values)
+        else:
+            preds = [predict_torque(model, terms, s.base, ds, values) for ds in checked]
         tau_all = np.concatenate([ds.tau for ds in checked])
         recorded = np.concatenate([recorded_torque(ds) for ds in checked])
         units = joint_units(model)
@@ -516,7 +534,8 @@ def identify(
             r.validation_filtered = torque_metrics(tau_all, pred, model.joint_names, units=units)
         from pinid.identification.floor import validation_floor
 
-        floor = validation_floor(model, terms, checked, rest_velocity=rest_velocity, rest_fraction=rest_fraction)
+        floor_terms = terms if s.offsets is None else TermSelection(names=[*terms.names, "offset"])
+        floor = validation_floor(model, floor_terms, checked, rest_velocity=rest_velocity, rest_fraction=rest_fraction)
         first = checked[0]
         curves = {
             "kind": "validation",
@@ -538,6 +557,10 @@ def identify(
             "units": joint_units(model),
             "predicted": predict_torque(model, terms, s.base, ds, values),
         }
+        if s.offsets is not None:  # the first training recording's own offsets
+            curves["predicted"] = {
+                m: p + np.nan_to_num(s.offsets.offsets(values[m])[0]) for m, p in curves["predicted"].items()
+            }
     if s.train:  # the training motion, drawn as the report's "excitation" figure
         ds = s.train[0]
         curves["motion"] = {"source": ds.source, "t": ds.t, "q": ds.q, "dq": ds.dq}
@@ -557,6 +580,12 @@ def identify(
         summary["sigmoid"] = s.sigmoid
     if manifest is not None:
         summary["manifest"] = str(manifest)
+    if s.offsets is not None:
+        summary["offsets"] = {"per_recording": s.offsets.sources, "calibrate_fraction": s.offsets.calibrate}
+        for m, r in results.items():
+            got = val_offsets[m] if val_sets else []
+            sources = [d.source for d in checked] if val_sets else []
+            r.info["offsets"] = offsets_summary(s.offsets, s.offsets.offsets(r.base), got, sources)
     return Identification(
         robot=robot_to_dict(model, terms),
         results=results,

@@ -39,6 +39,7 @@ class Setup:
     terms_choice: dict | None = None  # the terms chosen by cross-validation (data["terms_choice"]) for "auto"
     ripple: dict | None = None  # the ripple periods chosen by cross-validation (data["ripple_periods"]) for "auto"
     sigmoid: dict | None = None  # the sigmoid friction's shapes fitted for "auto" (data["sigmoid"])
+    offsets: Any = None  # the offsets per recording profiled out of the problem (identification.offsets)
 
 
 @dataclass

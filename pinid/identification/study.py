@@ -84,6 +84,8 @@ _CHECKS: dict[str, tuple] = {
         "pinid.identification.floating.FloatingOptions or None",
     ),
     "segmental": (_optional(Mapping), "{'first': recordings, 'joints': first joints}"),
+    "offsets": (_optional(str), '"per-recording" or None (the terms\' offset, if any)'),
+    "calibrate_offsets": (lambda v: v is None or _real(v), "a fraction 0 < f ≤ 0.5 or None"),
     "manifest": (_optional(*_PATH), "the path of the manifest the study was read from"),
 }
 
@@ -97,8 +99,10 @@ class Study:
     and ``rest_fraction`` (the rows at rest dropped), ``payload`` with ``payload_data`` (drive gains from
     currents), ``stribeck_velocity`` [rad/s] and ``stribeck_shape``, ``fit_joints``, ``delay`` [s],
     ``floating`` (:class:`~pinid.identification.floating.FloatingOptions` of a floating base), ``segmental``
-    (``compare``'s seed-000 two-stage strategy) and ``manifest`` (the file the study was read from, set by
-    :meth:`from_manifest`).  See :func:`pinid.identification.run.identify` for what each one does.
+    (``compare``'s seed-000 two-stage strategy), ``offsets`` (``"per-recording"``: one torque offset per joint
+    per training recording, :mod:`pinid.identification.offsets`) with ``calibrate_offsets`` (a fraction f: each
+    validation recording's offsets fitted on its first f, the rest scored) and ``manifest`` (the file the study
+    was read from, set by :meth:`from_manifest`).  See :func:`pinid.identification.run.identify` for what each one does.
     A wrong type or an unknown field: SpecError (one line)."""
 
     model: RobotModel
@@ -117,6 +121,8 @@ class Study:
     delay: Any = None
     floating: Any = None
     segmental: Any = None
+    offsets: Any = None
+    calibrate_offsets: Any = None
     manifest: Any = None
 
     def __new__(cls, *args, **fields):
@@ -140,8 +146,8 @@ class Study:
     def from_manifest(cls, manifest, model=None, **fields) -> "Study":
         """The study a dataset manifest (a TOML path or :class:`~pinid.data.manifest.Manifest`) describes:
         ``model`` (a RobotModel, URDF path or robot name) with the manifest's drives (a copy), its recordings
-        by role (training, validation, payload), its payload, ``fit_joints`` and ``delay`` where ``fields`` give
-        none; ``fields``: the study's other fields (terms, preprocessing …).  SpecError when recordings (or a
+        by role (training, validation, payload), its payload, ``fit_joints``, ``delay``, ``offsets`` and
+        ``calibrate_offsets`` where ``fields`` give none; ``fields``: the study's other fields (terms, preprocessing …).  SpecError when recordings (or a
         mapping spec: each recording of a manifest has its own) are given besides the manifest."""
         from pinid.data.manifest import Manifest
         from pinid.io import as_path
@@ -168,8 +174,9 @@ class Study:
         read = m.read(model)
         if fields.get("fit_joints") is None:
             fields["fit_joints"] = m.fit_joints
-        if fields.get("delay") is None:
-            fields["delay"] = m.delay
+        for k in ("delay", "offsets", "calibrate_offsets"):
+            if fields.get(k) is None:
+                fields[k] = getattr(m, k)
         return cls(
             model,
             read.train,

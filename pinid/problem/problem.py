@@ -73,9 +73,7 @@ from pinid.model.terms import TermSelection
 from pinid.model.robot import RobotModel, as_robot
 from pinid.problem.cache import ProblemCache
 from pinid.progress import progress
-from pinid.problem.statistics import (
-    completed_standard,
-)
+from pinid.problem.statistics import completed_standard
 from pinid.problem.rows import (
     REST_FRACTION,
     fit_mask,
@@ -200,6 +198,7 @@ class IdentificationProblem:
     ``nominal``  (p,) the URDF's standard parameters (inertias, ``<dynamics>`` friction)
     ``recorded_tau`` (rows,) the torque as recorded at each row's sample (:func:`recorded_torque`), the
                  yardstick of the training error; None: ``tau`` is the torque as recorded
+    ``offset_shift`` (rows,) the mean torque taken out of each recording and joint (offsets per recording)
     ``cache``    what is computed once from the rows and kept (:class:`ProblemCache`; not an argument)
     """
 
@@ -222,6 +221,7 @@ class IdentificationProblem:
     regressor_rows: RegressorRows | None = field(default=None, repr=False, compare=False)
     fit_joints: list[str] | None = None  # the joints whose torque rows enter the fit (None: all)
     recorded_tau: np.ndarray | None = field(default=None, repr=False, compare=False)
+    offset_shift: np.ndarray | None = field(default=None, repr=False, compare=False)
     #: predictions summed as over the whole ``W`` (rows in blocks of ``GRAM_BLOCK_ROWS``, the same digits as
     #: ``W @ base``) from the first estimator that fits on the whole rows (wls): what they were when it built W
     as_whole: bool = field(default=False, repr=False, compare=False)

@@ -45,7 +45,7 @@ def base_statistics(
         )
     w = problem.weights if weights is None else weights
     r = problem.tau - problem.W @ base if residual is None else residual
-    dof = max(problem.rows - problem.nb, 1)
+    dof = max(problem.rows - problem.nb - _offset_columns(problem), 1)
     R, _, _, scale = problem.compressed(weights)
     try:
         Rinv = scipy.linalg.solve_triangular(R, np.eye(len(R)))
@@ -81,3 +81,13 @@ def least_norm_completion(problem: IdentificationProblem, base: np.ndarray) -> n
     z0 = problem.nominal / S
     dz = np.linalg.lstsq(A, base - A @ z0, rcond=None)[0]
     return (z0 + dz) * S
+
+
+def _offset_columns(problem) -> int:
+    """The offset columns profiled out of ``problem`` (offsets per recording: one per recording and joint with
+    rows, :func:`pinid.identification.offsets.profile_offsets`), which the degrees of freedom count; 0 without."""
+    sizes = getattr(problem, "recording_sizes", None)
+    if getattr(problem, "offset_shift", None) is None or sizes is None:
+        return 0
+    recording = np.searchsorted(np.cumsum(sizes), problem.sample, side="right")
+    return int(np.unique(recording * problem.nv + np.asarray(problem.joint)).size)

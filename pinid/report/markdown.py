@@ -439,6 +439,38 @@ def _choices_section(ident, figures: dict[str, str]) -> list[str]:
     return lines
 
 
+def _offsets_section(ident) -> list[str]:
+    """Lines of "Torque offsets per recording" (``--offsets per-recording``): which offsets were estimated per
+    recording and each method's values [N·m] per joint; nothing without them."""
+    info = (ident.data or {}).get("offsets")
+    if not info:
+        return []
+    fraction = info.get("calibrate_fraction")
+    how = (
+        f"calibrated on its first {100 * fraction:.3g} % (every other parameter fixed) and scored on the rest"
+        if fraction
+        else "given the training recordings' mean offsets (no calibration)"
+    )
+    lines = [
+        "",
+        "### Torque offsets per recording",
+        "",
+        f"One torque offset per joint estimated for each training recording ({len(info['per_recording'])}), the "
+        f"other parameters shared; each validation recording {how}.  Values [N·m]:",
+        "",
+    ]
+    joints = list(ident.robot["joints"])
+    rows = []
+    for m, r in ident.results.items():
+        for role in ("training", "validation"):
+            for item in (r.info.get("offsets") or {}).get(role, []):
+                values = [item["offsets"].get(j) for j in joints]
+                cells = ["–" if v is None else number_text(v, ".4g") for v in values]
+                rows.append([m, role, f"`{display_path(item['source'])}`"] + cells)
+    lines.append(markdown_table(["method", "role", "recording"] + [f"`{j}`" for j in joints], rows))
+    return lines
+
+
 def report_markdown(ident, figures: dict[str, str] | None = None) -> str:
     """The report text; ``figures`` maps figure keys to the file names to link (missing keys are skipped)."""
     from pinid import __version__
@@ -493,6 +525,7 @@ def report_markdown(ident, figures: dict[str, str] | None = None) -> str:
     lines.append(
         f"- validation: {', '.join(f'`{s}`' for s in ident.validation_sources) or 'none (metrics are on the training data)'}"
     )
+    lines += _offsets_section(ident)
     if "motion" in figures:
         lines += [
             "",
