@@ -14,7 +14,7 @@ from pinid.data.contacts import prepare_floating, read_floating, write_floating
 from pinid.estimators import ESTIMATORS, make_estimator
 from pinid.excitation.trajectory import FourierTrajectory
 from pinid.problem.floating import floating_problem
-from pinid.model.floating import floating_base_parameters
+from pinid.model.base import base_parameters
 from pinid.model.terms import TermSelection
 from pinid.simulation.floating_twin import simulate_gait, simulate_suspended
 
@@ -55,7 +55,7 @@ def test_suspended_twin_recovers_the_base_parameters(exo, suspended, method, row
     problem = floating_problem(exo, suspended.exact, terms=TERMS, rows=rows)
     assert error(problem, make_estimator(method).fit(problem).base_) <= 1e-6
     if rows == "base":  # Ayusawa et al. 2014: the base rows identify every inertial base parameter
-        assert problem.nb == floating_base_parameters(exo, TermSelection.from_names("none")).count
+        assert problem.nb == base_parameters(exo, TermSelection.from_names("none")).count
         assert problem.names[0] == "base.mR"  # the total mass among them
 
 

@@ -101,12 +101,13 @@ def test_whole_body_centre_of_mass_against_the_urdf(exo):
     import pinocchio as pin
 
     from pinid.identification.floating_checks import whole_body_com
-    from pinid.model.floating import floating_base_parameters, floating_standard_parameters
+    from pinid.model.base import base_parameters
+    from pinid.model.regressor import standard_parameters
     from pinid.simulation.floating_twin import simulate_gait
 
-    base = floating_base_parameters(exo, TERMS)
+    base = base_parameters(exo, TERMS)
     q = 0.5 * (exo.lower + exo.upper) + 0.1
-    com = whole_body_com(exo, TERMS, base, q, base.P @ floating_standard_parameters(exo, TERMS))[0]
+    com = whole_body_com(exo, TERMS, base, q, base.P @ standard_parameters(exo, TERMS))[0]
     d = exo.ff_model.createData()
     assert np.allclose(com, pin.centerOfMass(exo.ff_model, d, np.r_[0, 0, 0, 0, 0, 0, 1.0, exo.configuration(q)]))
 
