@@ -113,6 +113,8 @@ def setup(
     if not isinstance(study, Study):
         raise SpecError(f"study: got {type(study).__name__}, {EXPECTED_STUDY}")
     if getattr(study.model, "base", "fixed") == "floating":
+        if stribeck_auto:
+            raise SpecError("Stribeck velocity 'auto': not available with a floating base; give the velocity")
         return _setup_floating(study)
     model, data, validate, terms, mapping = study.model, study.data, study.validate, study.terms, study.mapping
     preprocess, rest_velocity, rest_fraction = study.preprocess, study.rest_velocity, study.rest_fraction
@@ -583,12 +585,17 @@ def _setup_floating(study: Study) -> Setup:
     ``study.rest_velocity`` is a speed (the fixed base's "auto" validated worse: docs/floating-base.md), and the
     validation rows.  ``Setup.floating`` keeps what the fits' validation and checks read."""
     from pinid.data.contacts import floating_mapping
-    from pinid.identification.floating import FloatingStack, as_floating_options, load_floating
+    from pinid.identification.floating import FloatingStack, as_floating_options, load_floating, refuse_fixed_only
     from pinid.identification.floating_checks import flipped_floating_signs
     from pinid.identification.plausibility import shared_excitation
     from pinid.model.floating import as_floating
     from pinid.problem.floating import floating_problem
 
+    fixed_only = ("manifest", "segmental", "payload", "payload_data", "stribeck_velocity", "stribeck_shape")
+    refuse_fixed_only(
+        {k: getattr(study, k) for k in (*fixed_only, "fit_joints", "delay")}
+        | {"terms": "auto" if _is_auto(study.terms) else None}
+    )  # identify and compare refuse theirs first, with their own arguments: this is for setup's own callers
     model, terms, opts = as_floating(study.model), as_terms(study.terms), as_floating_options(study.floating)
     preprocess, mapping, validate = study.preprocess, study.mapping, study.validate
     if preprocess is not None and not isinstance(preprocess, (bool, Mapping)):

@@ -475,3 +475,18 @@ def test_no_wrench_in_the_base_rows_is_refused(exo, suspended, tmp_path):
     np.savetxt(out, a[:, keep], delimiter=",", header=",".join(names[i] for i in keep), comments="", fmt="%.12g")
     with pytest.raises(DataError, match=r"no external wrench and no joint torque .*homogeneous"):
         identify(Study(exo, out, floating={"rows": "base"}), methods=["ols"])
+
+
+def test_setup_is_the_floating_bases_one_setup_path(exo, suspended, tmp_path):
+    """setup(study) of a floating robot stacks its rows (Setup.floating holds the validation rows and the raw
+    recordings' hints), as identify and compare use it; what it cannot do is refused before anything is read."""
+    from pinid.identification.run import setup
+
+    s = setup(Study(exo, data=[suspended.exact], terms=TERMS))
+    assert s.floating is not None and s.problem is s.floating.problem and s.floating.validation is None
+    assert s.problem.rows == suspended.exact.n * (6 + exo.nv) and s.problem.names[0] == "base.mR"
+    missing = str(tmp_path / "never_read.csv")
+    with pytest.raises(SpecError, match=r"^fit_joints \(--fit-joints\): not available with a floating base"):
+        setup(Study(exo, data=missing, fit_joints=["l_knee"]))
+    with pytest.raises(SpecError, match="Stribeck velocity 'auto': not available with a floating base"):
+        setup(Study(exo, data=missing), stribeck_auto={"fs": False})
