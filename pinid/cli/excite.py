@@ -250,6 +250,9 @@ def run(args: argparse.Namespace) -> int:
 
     opts = _check(args)
     model = robot_from_args(args)
+    floating = model.base == "floating"
+    if floating:  # designed on the joints with the base held still (the base's own rows come from the gait)
+        model = model.fixed_base
     output = args.output
     if output is None and not args.evaluate:
         output = f"{model.name}_excitation.json"
@@ -258,7 +261,7 @@ def run(args: argparse.Namespace) -> int:
     say = (lambda *a: None) if args.quiet else print
     say(spec_text(model, spec))
     traj, report = _evaluate(args, model, spec) if args.evaluate else _design(args, model, spec, opts, say)
-    if model.base == "floating":
+    if floating:
         traj, report = _clear_of_collision(args, model, spec, traj, report)
     write_excitation(
         traj, spec, report, json=output, plot=args.plot, csv=args.csv, rate=args.rate, periods=args.periods

@@ -47,6 +47,7 @@ import numpy as np
 from pinid.blas import single_threaded_blas
 from pinid.checks import option_numbers
 from pinid.errors import SpecError
+from pinid.model.floating import FloatingRobotModel
 from pinid.model.robot import RobotModel, as_robot
 from pinid.excitation.trajectory import FourierTrajectory
 from pinid.model.terms import TermSelection
@@ -304,9 +305,12 @@ def design_excitation(
     Raises SpecError when the limits cannot be met; returns an :class:`ExcitationResult` whose trajectory
     is inside the limits on a dense grid (``feasible`` is False only if torque limits could not be met).
     BLAS runs single-threaded meanwhile: the work is many small matrix operations, which OpenBLAS's
-    threads slow down (up to 4× on 2 cores) and make irreproducible.
+    threads slow down (up to 4× on 2 cores) and make irreproducible.  A floating robot's trajectory is designed
+    on its joints with the base held still (``model.fixed_base``), as ``pinid excite --base floating`` does.
     """
     model = as_robot(model)
+    if isinstance(model, FloatingRobotModel):
+        model = model.fixed_base
     spec = spec or spec_for(model)
     with single_threaded_blas():
         return _design(model, spec, optimizer, options, seed, progress, x0)

@@ -16,6 +16,7 @@ from pinid.model.robot import RobotModel
 from pinid.report.figures import save_figure
 from pinid.report.plot_excitation import plot_excitation
 from pinid.model.robot import as_robot
+from pinid.model.floating import FloatingRobotModel
 from pinid.errors import SpecError
 
 
@@ -69,8 +70,11 @@ def evaluate_excitation(
 ) -> tuple[FourierTrajectory, dict]:
     """Evaluate a given trajectory under ``spec`` (designing nothing): the trajectory with the evaluation
     in its ``meta`` (condition number, log det, feasibility, limits, extremes, usage: the JSON ``pinid
-    excite --evaluate`` writes) and :func:`~pinid.excitation.evaluation.evaluate_trajectory`'s dict."""
+    excite --evaluate`` writes) and :func:`~pinid.excitation.evaluation.evaluate_trajectory`'s dict.  A floating
+    robot's on its joints with the base held still (``model.fixed_base``), as its design."""
     model = as_robot(model)
+    if isinstance(model, FloatingRobotModel):
+        model = model.fixed_base
     spec.validate(model)
     started = time.perf_counter()
     ev = evaluate_trajectory(model, trajectory, spec)

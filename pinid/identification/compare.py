@@ -57,7 +57,7 @@ from pinid.identification.run import (
     setup,
     EXPECTED_STUDY,
 )
-from pinid.identification.runner import Fit, Setup, run_jobs
+from pinid.identification.runner import Fit, run_jobs
 from pinid.identification.study import Study
 from pinid.identification.truth import true_base
 from pinid.io import jsonable, read_json
@@ -531,14 +531,8 @@ def compare(
     t_start = time.perf_counter()
     if not isinstance(study, Study):
         raise SpecError(f"compare: got {type(study).__name__}, {EXPECTED_STUDY}")
-    model, data, validate, mapping, preprocess = (
-        study.model,
-        study.data,
-        study.validate,
-        study.mapping,
-        study.preprocess,
-    )
-    rest_velocity, segmental, floating, manifest = study.rest_velocity, study.segmental, study.floating, study.manifest
+    model, rest_velocity, segmental, floating = study.model, study.rest_velocity, study.segmental, study.floating
+    manifest = study.manifest
     stribeck_velocity, stribeck_shape, fit_joints, delay = (
         study.stribeck_velocity, study.stribeck_shape, study.fit_joints, study.delay
     )  # fmt: skip
@@ -571,8 +565,7 @@ def compare(
     if getattr(model, "base", "fixed") == "floating":
         unsupported = dict(manifest=manifest, segmental=segmental, stribeck_velocity=stribeck_velocity,
                            stribeck_shape=stribeck_shape, fit_joints=fit_joints, delay=delay)  # fmt: skip
-        st, val_W, truth_x = _floating_study(model, data, validate, truth, terms, mapping, preprocess, rest_velocity,
-                                             floating, unsupported)  # fmt: skip
+        st, val_W, truth_x = _floating_study(replace(study, terms=terms), truth, unsupported)
         model, problem, seg, base, terms = st.model, st.problem, None, st.base, st.terms
         names, scale = problem.names, natural_scale(problem)
     else:
@@ -639,24 +632,15 @@ def compare(
     )
 
 
-def _floating_study(model, data, validate, truth, terms, mapping, preprocess, rest_velocity, floating, unsupported):
-    """``(setup, validation rows, true base parameters)`` of a floating-base study (:mod:`pinid.identification.floating`)."""
-    from pinid.identification.floating import floating_truth, refuse_fixed_only, stack_floating
+def _floating_study(study: Study, truth, unsupported: dict):
+    """``(setup, validation rows, true base parameters)`` of a floating-base study (:func:`~pinid.identification.run.setup`,
+    :mod:`pinid.identification.floating`)."""
+    from pinid.identification.floating import floating_truth, refuse_fixed_only
 
     refuse_fixed_only(unsupported)
-    if isinstance(validate, Mapping):  # {label: recordings}: one set with a floating base
-        if set(validate) - {"validation"}:
-            raise SpecError(f"validate: sets {', '.join(map(str, validate))}; a floating base takes one set")
-        validate = validate.get("validation")
-    rest = None if isinstance(rest_velocity, str) else rest_velocity  # as identify: every row unless a speed
-
-    run = stack_floating(model, data, validate, terms=terms, preprocess=preprocess, rest_velocity=rest,
-                         mapping=mapping, floating=floating)  # fmt: skip
-    problem = run.problem
-    val = {} if run.validation is None else {"validation": [s.data for s in run.validation_samples]}
-    st = Setup(model, problem.terms, problem.base, problem, [s.data for s in run.train], val)
-    val_W = {} if run.validation is None else {"validation": run.validation}
-    return st, val_W, None if truth is None else floating_truth(truth, problem)
+    st = setup(study)
+    val_W = {} if st.floating.validation is None else {"validation": st.floating.validation}
+    return st, val_W, None if truth is None else floating_truth(truth, st.problem)
 
 
 _INFO_KEYS = (

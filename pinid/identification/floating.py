@@ -2,8 +2,8 @@
 with a :class:`~pinid.model.floating.FloatingRobotModel`): a free flyer is a root joint, as in Pinocchio.
 
 What differs from a fixed base lives here and nowhere else: reading and preparing recordings with base motion
-and contact wrenches (:func:`load_floating`), stacking the 6 base rows with the joint rows
-(:func:`pinid.problem.floating.floating_problem`; :class:`FloatingOptions`), the validation rows, and the
+and contact wrenches (:func:`load_floating`, in :func:`pinid.identification.run.setup`), stacking the 6 base rows
+with the joint rows (:func:`pinid.problem.floating.floating_problem`; :class:`FloatingOptions`), the validation rows, and the
 checks a floating recording needs (total mass, whole-body centre of mass, barely excited parameters, the
 convention errors a raw recording points to).  Fitting, σ, condition number, consistency, completion, the
 result (:class:`~pinid.identification.result.Identification`), its files, report and
@@ -18,21 +18,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pinid.data.contacts import FloatingSamples, floating_mapping, prepare_floating, read_floating
+from pinid.data.contacts import FloatingSamples, prepare_floating, read_floating
 from pinid.errors import DataError, SpecError
 from pinid.estimators import make_estimator
 from pinid.identification.floating_checks import (
     com_warning,
     excitation_warning,
-    flipped_floating_signs,
     orientation_noise_warning,
 )
 from pinid.identification.metrics import TorqueMetrics, error_metrics, joint_units
-from pinid.identification.plausibility import shared_excitation
 from pinid.io import read_json
-from pinid.model.floating import FloatingRobotModel, as_floating
-from pinid.model.terms import TermSelection, as_terms
-from pinid.problem.floating import floating_problem
+from pinid.model.floating import FloatingRobotModel
 from pinid.problem.problem import IdentificationProblem
 
 #: The rows a floating identification fits (:func:`pinid.model.floating.row_mask`).
@@ -129,8 +125,9 @@ def load_floating(
 
 @dataclass
 class FloatingStack:
-    """What a floating identification adds to the fixed base's setup: the training and validation problems,
-    the convention hints of the raw recordings and the joints whose torque sign looks flipped."""
+    """What a floating identification adds to the fixed base's setup (``Setup.floating`` of
+    :func:`pinid.identification.run.setup`): the training and validation problems, the prepared recordings, the
+    convention hints of the raw recordings, the joints whose torque sign looks flipped and the sources' names."""
 
     problem: IdentificationProblem
     validation: IdentificationProblem | None
@@ -139,46 +136,6 @@ class FloatingStack:
     hints: list[str]
     flipped: list[str]
     sources: str
-
-
-def stack_floating(
-    model: FloatingRobotModel,
-    data,
-    validate=None,
-    *,
-    terms: TermSelection = TermSelection(),
-    preprocess: Mapping | bool | None = None,
-    rest_velocity=None,
-    mapping=None,
-    floating: FloatingOptions | Mapping | None = None,
-) -> FloatingStack:
-    """Read, prepare and stack the floating recordings (``rest_velocity``: as
-    :func:`~pinid.problem.floating.floating_problem`, None keeps every row; ``mapping``: how to read recordings
-    not in the dataset format, :func:`pinid.data.contacts.floating_mapping`)."""
-    if preprocess is not None and not isinstance(preprocess, (bool, Mapping)):
-        raise SpecError(
-            f"preprocess: got {type(preprocess).__name__}, expected options (a mapping), True, False or None"
-        )
-    model, terms, opts = as_floating(model), as_terms(terms), as_floating_options(floating)
-    if mapping is not None:
-        mapping = floating_mapping(mapping)  # checked once, before any recording is read
-    hints: list[str] = []  # convention errors the raw recordings point to (recording_hints)
-    train = load_floating(data, model, preprocess, swing_rows=opts.swing_rows, mapping=mapping, hints=hints)
-    flipped = flipped_floating_signs(model, train) if opts.rows != "base" else []  # one warning, as a fixed base's
-    stack = dict(rows=opts.rows, base_weight=opts.base_weight, rest_velocity=rest_velocity)
-    problem = floating_problem(model, train, terms=terms, **stack)
-    val_problem = None
-    if validate:
-        val = load_floating(validate, model, preprocess, "validation", swing_rows=opts.swing_rows, mapping=mapping)
-        shared_excitation([r.data for r in train], [r.data for r in val])  # a repeat hides overfitting: warned
-        val_problem = floating_problem(model, val, terms=problem.terms, base=problem.base, **stack)
-    if not np.any(np.abs(problem.tau) > 1e-9 * max(1.0, float(np.max(np.abs(problem.tau), initial=0.0)))):
-        raise DataError(
-            f"{_sources(data)}: no external wrench and no joint torque in the rows used ({opts.rows}): they are "
-            "homogeneous (W·θ = 0) and identify nothing; expected wrench_<link>_* or plate_<link>_* columns (the "
-            "wrench applied by the environment on the robot) or joint torques with --rows all"
-        )
-    return FloatingStack(problem, val_problem, train, val if validate else [], hints, flipped, _sources(data))
 
 
 def validate_floating(run: FloatingStack, results: Mapping) -> TorqueMetrics | None:
@@ -228,12 +185,6 @@ def floating_truth(truth, problem) -> np.ndarray:
 #: method) an error: nothing sensible can come out of such a recording (docs/floating-base.md)
 MASS_WARNED = (0.5, 2.0)
 MASS_REFUSED = (0.2, 5.0)
-
-
-def _sources(data) -> str:
-    items = [data] if isinstance(data, (str, os.PathLike, FloatingSamples)) else list(data or [])
-    names = [str(d) if isinstance(d, (str, os.PathLike)) else d.data.source for d in items]
-    return ", ".join(names) or "floating recording"
 
 
 def recording_hints(rec, model: FloatingRobotModel) -> list[str]:

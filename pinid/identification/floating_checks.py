@@ -65,7 +65,7 @@ def whole_body_com(model, terms, base, q: np.ndarray, values: np.ndarray) -> np.
     base frame), divided by the mass."""
     import pinocchio as pin
 
-    from pinid.model.floating import floating_regressor
+    from pinid.model.regressor import regressor
 
     if not hasattr(model, "ff_model") or not hasattr(base, "independent"):
         raise SpecError("whole_body_com: expected a FloatingRobotModel, its terms and base parameters")
@@ -80,7 +80,7 @@ def whole_body_com(model, terms, base, q: np.ndarray, values: np.ndarray) -> np.
     ):
         R = pin.exp3(axis * angle)
         quat = pin.Quaternion(R).coeffs()  # x, y, z, w
-        W = floating_regressor(model, np.r_[0, 0, 0, quat][None], zero6, zero6, q[None], zero, zero, terms)
+        W = regressor(model, *model.full_state(np.r_[0, 0, 0, quat][None], zero6, zero6, q[None], zero, zero), terms)
         Y.append(W[3:6][:, base.independent])
         gb = R.T @ g
         A.append(pin.skew(gb))  # the moment the base must receive to hold the robot still: g_b × h

@@ -32,7 +32,7 @@ from pinid.checks import as_floats
 from pinid.errors import DataError, ModelError, SpecError
 from pinid.io import read_json, write_json
 from pinid.model import terms as _terms
-from pinid.model.export import identified_urdf
+from pinid.model.export import floating_urdf, identified_urdf
 from pinid.model.physical import check_consistency
 from pinid.model.regressor import parameter_names
 from pinid.model.terms import TermSelection
@@ -54,11 +54,7 @@ def _bodies(robot: RobotModel) -> list[str]:
 
 def _names(robot: RobotModel, terms: TermSelection) -> list[str]:
     """The standard parameters' names: :func:`~pinid.model.regressor.parameter_names` (with ``base.*`` first on a
-    floating base, :func:`~pinid.model.floating.floating_parameter_names`)."""
-    if _floating(robot):
-        from pinid.model.floating import floating_parameter_names
-
-        return floating_parameter_names(robot, terms)
+    floating base)."""
     return parameter_names(robot, terms)
 
 
@@ -355,10 +351,8 @@ class IdentifiedModel:
 
     def export_urdf(self, path: str | os.PathLike | None = None, *, force: bool = False) -> str:
         """The identified URDF text (see :func:`pinid.model.export.identified_urdf`; a floating robot's with its base
-        link's inertial too, :func:`pinid.model.floating.floating_urdf`); written to ``path`` when given."""
+        link's inertial too, :func:`pinid.model.export.floating_urdf`); written to ``path`` when given."""
         if _floating(self.nominal_robot):
-            from pinid.model.floating import floating_urdf
-
             method = f"method {self.meta.get('method', '?')}"
             return floating_urdf(
                 self.nominal_robot, self.theta, self.terms, path, force=force, comment=method, marks=self.marks

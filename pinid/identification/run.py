@@ -108,9 +108,15 @@ def setup(
     whose torque rows enter the fit (default all); ``study.delay``: the torque channels' delay behind the
     positions (:func:`pinid.data.delay.parse_delay`; ``"auto"`` estimated on the training recordings,
     ``"auto-per-joint"`` one per channel, :mod:`pinid.identification.delay`), applied to every recording.
-    ``show_progress``: a progress bar while the rows are stacked."""
+    ``show_progress``: a progress bar while the rows are stacked.  A floating-base ``study.model``: its recordings
+    with base motion and contact wrenches, stacked in its 6 + n rows per sample (``study.floating``), the
+    validation rows and the raw recordings' convention hints in ``Setup.floating``."""
     if not isinstance(study, Study):
         raise SpecError(f"study: got {type(study).__name__}, {EXPECTED_STUDY}")
+    if getattr(study.model, "base", "fixed") == "floating":
+        if stribeck_auto:
+            raise SpecError("Stribeck velocity 'auto': not available with a floating base; give the velocity")
+        return _setup_floating(study)
     model, data, validate, terms, mapping = study.model, study.data, study.validate, study.terms, study.mapping
     preprocess, rest_velocity, rest_fraction = study.preprocess, study.rest_velocity, study.rest_fraction
     segmental, fit_joints, delay = study.segmental, study.fit_joints, study.delay
@@ -456,11 +462,8 @@ def identify(
         )
     if getattr(model, "base", "fixed") == "floating":
         return _identify_floating(
-            model,
-            dict(data=data, validate=validate, terms=terms, mapping=mapping, preprocess=preprocess),
+            replace(study, terms=terms),
             dict(methods=methods, options=options, complete=complete, show_progress=show_progress, started=started),
-            rest_velocity,
-            floating,
             unsupported=dict(
                 manifest=manifest,
                 payload=payload,
@@ -603,23 +606,32 @@ def identify(
     )
 
 
-def _identify_floating(
-    model, inputs: dict, running: dict, rest_velocity, floating, *, unsupported: dict
-) -> Identification:
-    """:func:`identify` of a floating-base robot: its recordings and rows (:mod:`pinid.identification.floating`),
-    then the fixed base's fits, results and checks."""
-    from pinid.identification.floating import (
-        as_floating_options,
-        check_floating,
-        refuse_fixed_only,
-        stack_floating,
-        validate_floating,
-    )
+def _setup_floating(study: Study) -> Setup:
+    """:func:`setup` of a floating-base robot (:mod:`pinid.identification.floating`): its recordings read, checked
+    and prepared (base motion, contact wrenches; ``study.mapping``: :func:`pinid.data.contacts.floating_mapping`),
+    their 6 base rows stacked with the joint rows (:func:`~pinid.problem.floating.floating_problem`;
+    ``study.floating``: the rows used, the base rows' weight, legs without force sensing), every row kept unless
+    ``study.rest_velocity`` is a speed (the fixed base's "auto" validated worse: docs/floating-base.md), and the
+    validation rows.  ``Setup.floating`` keeps what the fits' validation and checks read."""
+    from pinid.data.contacts import floating_mapping
+    from pinid.identification.floating import FloatingStack, as_floating_options, load_floating, refuse_fixed_only
+    from pinid.identification.floating_checks import flipped_floating_signs
+    from pinid.identification.plausibility import shared_excitation
+    from pinid.model.floating import as_floating
+    from pinid.problem.floating import floating_problem
 
-    refuse_fixed_only(unsupported)
-
-    t_start, opts = time.perf_counter(), as_floating_options(floating)
-    if isinstance(inputs["preprocess"], Mapping) and isinstance(inputs["preprocess"].get("cutoff"), str):
+    fixed_only = ("manifest", "segmental", "payload", "payload_data", "stribeck_velocity", "stribeck_shape")
+    refuse_fixed_only(
+        {k: getattr(study, k) for k in (*fixed_only, "fit_joints", "delay")}
+        | {"terms": "auto" if _is_auto(study.terms) else None}
+    )  # identify and compare refuse theirs first, with their own arguments: this is for setup's own callers
+    model, terms, opts = as_floating(study.model), as_terms(study.terms), as_floating_options(study.floating)
+    preprocess, mapping, validate = study.preprocess, study.mapping, study.validate
+    if preprocess is not None and not isinstance(preprocess, (bool, Mapping)):
+        raise SpecError(
+            f"preprocess: got {type(preprocess).__name__}, expected options (a mapping), True, False or None"
+        )
+    if isinstance(preprocess, Mapping) and isinstance(preprocess.get("cutoff"), str):
         raise SpecError(
             "cut-off auto: not available with a floating base (docs/floating-base.md); give a frequency [Hz]"
         )
@@ -627,20 +639,42 @@ def _identify_floating(
         raise SpecError("ripple periods auto: not available with a floating base; give the periods")
     if isinstance(model.setting("sigmoid"), str):
         raise SpecError("sigmoid shape auto: not available with a floating base; give the shape")
-    # every row unless a speed is given (the fixed base's "auto" validated worse here: docs/floating-base.md)
-    rest = None if isinstance(rest_velocity, str) else rest_velocity
-    run = stack_floating(
-        model,
-        inputs["data"],
-        inputs["validate"],
-        terms=inputs["terms"],
-        preprocess=inputs["preprocess"],
-        rest_velocity=rest,
-        mapping=inputs["mapping"],
-        floating=opts,
-    )
-    problem = run.problem
-    s = Setup(model, problem.terms, problem.base, problem, [r.data for r in run.train])
+    if isinstance(validate, Mapping):  # {label: recordings}: one set with a floating base
+        if set(validate) - {"validation"}:
+            raise SpecError(f"validate: sets {', '.join(map(str, validate))}; a floating base takes one set")
+        validate = validate.get("validation")
+    rest = None if isinstance(study.rest_velocity, str) else study.rest_velocity
+    mapping = None if mapping is None else floating_mapping(mapping)  # checked once, before any recording is read
+    hints: list[str] = []  # convention errors the raw recordings point to (recording_hints)
+    train = load_floating(study.data, model, preprocess, swing_rows=opts.swing_rows, mapping=mapping, hints=hints)
+    flipped = flipped_floating_signs(model, train) if opts.rows != "base" else []  # one warning, as a fixed base's
+    rows = dict(rows=opts.rows, base_weight=opts.base_weight, rest_velocity=rest)
+    problem = floating_problem(model, train, terms=terms, **rows)
+    val, val_problem, sources = [], None, ", ".join(s.source for s in train)
+    if validate:
+        val = load_floating(validate, model, preprocess, "validation", swing_rows=opts.swing_rows, mapping=mapping)
+        shared_excitation([r.data for r in train], [r.data for r in val])  # a repeat hides overfitting: warned
+        val_problem = floating_problem(model, val, terms=problem.terms, base=problem.base, **rows)
+    if not np.any(np.abs(problem.tau) > 1e-9 * max(1.0, float(np.max(np.abs(problem.tau), initial=0.0)))):
+        raise DataError(
+            f"{sources}: no external wrench and no joint torque in the rows used ({opts.rows}): they are "
+            "homogeneous (W·θ = 0) and identify nothing; expected wrench_<link>_* or plate_<link>_* columns (the "
+            "wrench applied by the environment on the robot) or joint torques with --rows all"
+        )
+    stack = FloatingStack(problem, val_problem, train, val, hints, flipped, sources)
+    validation = {"validation": [s.data for s in val]} if val_problem is not None else {}
+    return Setup(model, problem.terms, problem.base, problem, [s.data for s in train], validation, floating=stack)
+
+
+def _identify_floating(study: Study, running: dict, *, unsupported: dict) -> Identification:
+    """:func:`identify` of a floating-base robot: its recordings and rows (:func:`setup`), then the fixed base's
+    fits, results and checks (:mod:`pinid.identification.floating`)."""
+    from pinid.identification.floating import as_floating_options, check_floating, refuse_fixed_only, validate_floating
+
+    refuse_fixed_only(unsupported)
+    t_start, opts, model = time.perf_counter(), as_floating_options(study.floating), study.model
+    s = setup(study)
+    run, problem = s.floating, s.problem
     if running["started"] is not None:
         running["started"]()
     jobs = [(m, None, running["options"].get(m, {})) for m in running["methods"]]

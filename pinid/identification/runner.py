@@ -8,7 +8,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from pinid.data.dataset import Dataset
 from pinid.errors import SpecError
@@ -20,6 +20,9 @@ from pinid.model.terms import TermSelection
 from pinid.model.robot import RobotModel
 from pinid.parallel import check_workers, run_parallel
 from pinid.problem.problem import IdentificationProblem
+
+if TYPE_CHECKING:
+    from pinid.identification.floating import FloatingStack
 
 
 @dataclass
@@ -40,6 +43,7 @@ class Setup:
     ripple: dict | None = None  # the ripple periods chosen by cross-validation (data["ripple_periods"]) for "auto"
     sigmoid: dict | None = None  # the sigmoid friction's shapes fitted for "auto" (data["sigmoid"])
     offsets: Any = None  # the offsets per recording profiled out of the problem (identification.offsets)
+    floating: FloatingStack | None = None  # a floating base's recordings, validation rows and convention hints
 
 
 @dataclass

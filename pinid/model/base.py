@@ -21,6 +21,7 @@ import scipy.linalg
 
 from pinid.checks import as_floats, count, number
 from pinid.errors import DataError, ModelError, SpecError
+from pinid.model.floating import ROW_SETS, FloatingRobotModel, random_floating_states, row_mask
 from pinid.model.robot import RobotModel, as_robot
 from pinid.model.terms import STRIBECK_TERMS, as_terms
 from pinid.model.regressor import parameter_names, regressor
@@ -187,12 +188,32 @@ def base_parameters(
     seed: int = 0,
     tol: float = 1e-8,
     joints: Sequence[str] | None = None,
+    rows: str = "all",
 ) -> BaseParameters:
-    """Compute the base parameters of ``model`` with joint ``terms`` from random states (seeded).
+    """Compute the base parameters of ``model`` with joint ``terms`` from random states (seeded); a floating
+    model's from the ``rows`` measured (below).
 
     ``joints``: only these joints' torque rows are measured (``--fit-joints``): the base parameters are
-    those their rows identify (a left-out joint's own friction, say, is not among them)."""
+    those their rows identify (a left-out joint's own friction, say, is not among them).
+
+    A floating model (:class:`~pinid.model.floating.FloatingRobotModel`): those of its standard parameters
+    (:func:`~pinid.model.regressor.parameter_names`, base link first) from random free-flyer states; ``rows``
+    says which rows are measured: ``"all"`` (the 6 base rows and the joint rows), ``"base"`` (what contact
+    wrenches and motion identify without any joint torque) or ``"joints"``.  On a fixed base ``rows`` is "all"."""
+    if rows not in ROW_SETS:
+        raise SpecError(f"rows={rows!r}, expected one of {', '.join(ROW_SETS)}")
+    if isinstance(model, FloatingRobotModel):
+        if joints is not None and set(joints) != set(model.joint_names):
+            raise SpecError(
+                f"joints={list(joints)!r}: not available with a floating base (rows picks base or joint rows)"
+            )
+        return _free_flyer_base(model, terms, rows, samples, seed, tol)
     model, terms = as_robot(model), as_terms(terms)
+    if rows != "all":
+        raise SpecError(
+            f"rows={rows!r}: the rows of a floating base; {model.name} has a fixed base (expected 'all', or "
+            "RobotModel.from_urdf(path, base='floating'))"
+        )
     names = parameter_names(model, terms)
     p = len(names)
     tol = number(tol, "tol", low=0, low_open=True, high=0.01)
@@ -212,6 +233,18 @@ def base_parameters(
         fit = [j for j in model.joint_names if j in set(joints)]
         W = W.reshape(n, model.nv, p)[:, [model.joint_names.index(j) for j in fit], :].reshape(-1, p)
     return base_parameters_of(W, names, tol, fit, robot=model.name)
+
+
+def _free_flyer_base(model: FloatingRobotModel, terms, rows: str, samples, seed, tol) -> BaseParameters:
+    """:func:`base_parameters` of a floating model from the rows ``rows`` of random free-flyer states."""
+    names = parameter_names(model, terms)
+    tol = number(tol, "tol", low=0, low_open=True, high=0.01)
+    mask = row_mask(model.nv, rows)
+    per = int(mask.sum())
+    n = max(60, -(-4 * len(names) // per)) if samples is None else count(samples, "samples", low=1)
+    states = random_floating_states(model, n, np.random.default_rng(count(seed, "seed")))
+    W = regressor(model, *model.full_state(*states), terms)
+    return base_parameters_of(W.reshape(n, -1, len(names))[:, mask].reshape(-1, len(names)), names, tol)
 
 
 def base_parameters_of(

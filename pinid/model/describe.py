@@ -9,7 +9,6 @@ import numpy as np
 
 from pinid.errors import ModelError
 from pinid.model.base import base_parameters
-from pinid.model.floating import floating_base_parameters, floating_standard_parameters
 from pinid.model.regressor import standard_parameters
 from pinid.model.terms import TermSelection
 from pinid.model.robot import RobotModel
@@ -19,13 +18,10 @@ def describe(model: RobotModel, terms: TermSelection) -> dict:
     """Plain-dict description of a model and its base parameters (with their expressions in the standard
     parameters, their nominal values and where those come from: the URDF, the drives file or both)."""
     floating = getattr(model, "base", "fixed") == "floating"
+    bp = base_parameters(model, terms)  # a floating robot's: base link first (they dispatch on the model)
+    nominal = bp.from_standard(standard_parameters(model, terms))
     if floating:
-        bp = floating_base_parameters(model, terms)
-        nominal = bp.from_standard(floating_standard_parameters(model, terms))
-        from_base_rows = floating_base_parameters(model, terms, rows="base")
-    else:
-        bp = base_parameters(model, terms)
-        nominal = bp.from_standard(standard_parameters(model, terms))
+        from_base_rows = base_parameters(model, terms, rows="base")
     motors = set(model.motor_names)
     drives = None if model.drives is None else Path(model.drives.origin.split(" <")[0]).name
 

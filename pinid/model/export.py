@@ -18,6 +18,8 @@ a constant offset have no URDF field: they are written as a comment in the joint
 the JSON outputs).
 
 A physically inconsistent set is refused unless ``force=True``.  Comments of the input are kept.
+
+A floating base (:func:`floating_urdf`): the base link's ``<inertial>`` is the identified ``base.*`` body too.
 """
 
 from __future__ import annotations
@@ -27,7 +29,9 @@ import os
 import numpy as np
 
 from pinid.errors import ModelError
-from pinid.checks import number as finite_number
+from pinid.checks import as_floats, number as finite_number
+from pinid.model.floating import FloatingRobotModel, as_floating, free_flyer_terms
+from pinid.model.regressor import parameter_names
 from pinid.model.robot import RobotModel, as_robot
 from pinid.model.base import marks_summary
 from pinid.model.physical import check_consistency, com_inertia, tidy_inertial
@@ -106,7 +110,7 @@ def identified_urdf_tree(
     marks: dict[str, str] | None = None,
 ) -> Element:
     """The element tree of :func:`identified_urdf` (the model's URDF document edited), for a writer that
-    edits it further (:func:`pinid.model.floating.floating_urdf`); not yet checked to load back.
+    edits it further (:func:`floating_urdf`); not yet checked to load back.
     ``marks``: ``{standard name: mark}`` (:meth:`pinid.model.base.BaseParameters.marks`), written as a
     comment beside each inertial and joint's friction."""
     model = as_robot(model)
@@ -275,3 +279,65 @@ def _q(name: str) -> str:
         else:
             out.append(c)
     return '"' + "".join(out) + '"'
+
+
+def floating_urdf(
+    model: FloatingRobotModel,
+    theta: np.ndarray,
+    terms: TermSelection = TermSelection(),
+    path=None,
+    *,
+    force: bool = False,
+    comment: str | None = None,
+    marks: dict[str, str] | None = None,
+) -> str:
+    """The URDF text of ``model`` with the floating standard parameters ``theta`` (base link first, as
+    :func:`~pinid.model.regressor.parameter_names`): the joints' bodies and friction as
+    :func:`pinid.model.export.identified_urdf` writes them, and the base link's ``<inertial>`` from ``theta[:10]``
+    (the links welded to it — fixed joints, locked joints — lose theirs: they are part of that body).  ModelError
+    for a physically inconsistent set unless ``force``.  Written atomically to ``path`` when given."""
+    model = as_floating(model)
+    terms = free_flyer_terms(model, terms)
+    theta = as_floats(theta, "theta").reshape(-1)
+    names = parameter_names(model, terms)
+    if theta.shape != (len(names),):
+        raise ModelError(f"expected {len(names)} floating standard parameters, got {theta.size}")
+    report = check_consistency(theta, model.body_names, terms.names, [])
+    if not report.consistent and not force:
+        raise ModelError(
+            "refusing to export physically inconsistent parameters (" + "; ".join(report.problems[:3]) + ")"
+        )
+    k = len(terms.joint)
+    fixed = np.r_[theta[10 : 10 * (model.nv + 1)], theta[10 * (model.nv + 1) + k :]]
+    root = identified_urdf_tree(
+        model, fixed, terms, force=True, comment=comment, origin="identified by pinid (floating base)", marks=marks
+    )
+    links = {link.get("name"): link for link in root.findall("link")}
+    welded, changed = {model.base_link}, True
+    while changed:  # links reached from the base link through joints that are not active
+        changed = False
+        for j in root.findall("joint"):
+            parent, child = j.find("parent").get("link"), j.find("child").get("link")
+            if parent in welded and child not in welded and j.get("name") not in model.joint_names:
+                welded.add(child)
+                changed = True
+    for name in welded:
+        for el in links[name].findall("inertial"):
+            links[name].remove(el)
+    m, c, I = tidy_inertial(*com_inertia(theta[:10]))
+    links[model.base_link].insert(0, inertial_element(m, c, I))
+    note = marks_summary(marks, [f"base.{n}" for n in INERTIAL_NAMES])
+    if note:
+        links[model.base_link].insert(
+            0, xml_comment(f" pinid, from these data (standard parameters m, m·c, I about the base frame): {note} ")
+        )
+    links[model.base_link].insert(
+        0,
+        xml_comment(
+            f" pinid: identified inertia of the floating base, links welded to it: {', '.join(sorted(welded))} "
+        ),
+    )
+    out = xml_text(root, '<?xml version="1.0" encoding="utf-8"?>\n')
+    if path is not None:
+        write_text(path, out)
+    return out

@@ -19,6 +19,12 @@ the *classical* acceleration of its origin ``a_o = a_lin + ω × v_lin`` (base f
 linear part and ``base_a`` with ``a_o`` as linear part give the same regressor; that is how base motion known
 from an IMU alone (no linear velocity) enters (:mod:`pinid.data.contacts`).
 
+The model layer's functions take the model and dispatch, as Pinocchio's algorithms do (a free flyer is a root
+joint): :func:`~pinid.model.regressor.parameter_names`, :func:`~pinid.model.regressor.standard_parameters`,
+:func:`~pinid.model.regressor.regressor` (on the free-flyer state of :meth:`FloatingRobotModel.full_state`) and
+:func:`~pinid.model.base.base_parameters` (``rows``) give the floating robot's; ``model.fixed_base`` is the
+joints-only view with the base held still.
+
 Parameters.  The standard parameter vector of a floating robot is that of its *body view*
 (:func:`body_view`): the base link first, as a pseudo-joint named ``base`` (``base.m`` … ``base.Izz``, about
 the base-link frame), then 10 per actuated joint's body, then the joint terms per joint of the body view.  The
@@ -39,8 +45,6 @@ import pinocchio as pin
 
 from pinid.checks import as_floats, count
 from pinid.errors import DataError, ModelError, SpecError
-from pinid.model.base import BaseParameters, base_parameters_of
-from pinid.model import terms as _terms
 from pinid.model.robot import BASE_BUILDERS, JointInfo, RobotModel
 from pinid.model.terms import TermSelection, as_terms
 
@@ -76,19 +80,22 @@ class FloatingRobotModel(RobotModel):
         self.ff_data = ff_model.createData()
         self.base_link = base_link
         self._bodies: RobotModel | None = None
+        self._fixed: RobotModel | None = None
 
     def __getstate__(self) -> dict:
         state = super().__getstate__()
         state.pop("ff_data", None)
+        state["_fixed"] = None  # built again on use
         return state
 
     def __setstate__(self, state: dict) -> None:
         super().__setstate__(state)
         self.ff_data = self.ff_model.createData()
+        self._fixed = None
 
     def _copy_with(self, **attributes) -> "FloatingRobotModel":
         out = super()._copy_with(**attributes)
-        out._bodies = None  # the body view carries the settings: built again for the copy
+        out._bodies = out._fixed = None  # the views carry the settings: built again for the copy
         return out
 
     @property
@@ -97,6 +104,28 @@ class FloatingRobotModel(RobotModel):
         if self._bodies is None:
             self._bodies = body_view(self)
         return self._bodies
+
+    @property
+    def fixed_base(self) -> RobotModel:
+        """The same robot with its base link held still: a fixed-base :class:`RobotModel` of the actuated joints,
+        built once.  The model-layer functions dispatch on the model (:func:`pinid.model.regressor.regressor`
+        takes a floating model's free-flyer state); this is the joints-only view for what treats the robot as fixed
+        (``pinid excite --base floating`` designs on it)."""
+        if self._fixed is None:
+            self._fixed = RobotModel(
+                self.pin_model,
+                self.joints,
+                coulomb=self.coulomb,
+                viscous=self.viscous,
+                urdf_path=self.urdf_path,
+                urdf_text=self.urdf_text,
+                locked=self.locked,
+                drives=self.drives,
+                urdf_document=self.urdf_document,
+                settings=self.settings,
+            )
+            self._fixed.repair_inertia = self.repair_inertia
+        return self._fixed
 
     @property
     def body_names(self) -> list[str]:
@@ -213,7 +242,9 @@ def body_view(model: FloatingRobotModel) -> RobotModel:
     return view
 
 
-def _check_terms(model: FloatingRobotModel, terms: TermSelection) -> TermSelection:
+def free_flyer_terms(model: FloatingRobotModel, terms: TermSelection) -> TermSelection:
+    """``terms`` (a TermSelection or names) if a free flyer takes them: ModelError for motor-side terms and the
+    wearer's passive term."""
     terms = as_terms(terms)
     if terms.motor:
         raise ModelError(
@@ -233,46 +264,6 @@ def as_floating(model) -> FloatingRobotModel:
             "(RobotModel.from_urdf(path, base='floating'))"
         )
     return model
-
-
-def floating_parameter_names(model: FloatingRobotModel, terms: TermSelection = TermSelection()) -> list[str]:
-    """Names of the floating robot's standard parameters: ``base.m`` … then per joint body, then the terms."""
-    model = as_floating(model)
-    terms = _check_terms(model, terms)
-    view = model.bodies
-    return view.inertial_names + _terms.term_parameter_names(view, terms)
-
-
-def floating_standard_parameters(model: FloatingRobotModel, terms: TermSelection = TermSelection()) -> np.ndarray:
-    """Nominal standard parameters of the floating robot (URDF inertias of every body, ``<dynamics>`` friction)."""
-    model = as_floating(model)
-    terms = _check_terms(model, terms)
-    return np.concatenate([model.floating_parameters(), _terms.nominal(model.bodies, terms)])
-
-
-def floating_regressor(
-    model: FloatingRobotModel, base_q, base_v, base_a, q, dq, ddq, terms: TermSelection = TermSelection()
-) -> np.ndarray:
-    """Stacked regressor ``(N·(6 + n), p)``: per sample the 6 base rows, then the ``n`` joint rows.
-
-    ``W @ floating_standard_parameters(model, terms)`` is the generalised force of Pinocchio's RNEA on the free
-    flyer (``[base wrench; joint torques]``, no external force) plus the joint terms in the joint rows."""
-    model = as_floating(model)
-    terms = _check_terms(model, terms)
-    Q, V, A = model.full_state(base_q, base_v, base_a, q, dq, ddq)
-    n, nv = len(Q), model.nv
-    names = floating_parameter_names(model, terms)
-    ni = 10 * (nv + 1)
-    out = np.zeros((n, BASE_NV + nv, len(names)))
-    m, d = model.ff_model, model.ff_data
-    compute = pin.computeJointTorqueRegressor
-    inertial = out[:, :, :ni]
-    for k in range(n):
-        inertial[k] = compute(m, d, Q[k], V[k], A[k])
-    if terms.joint:  # joint-major term columns: the base's (zero) first, then the joints' in the fixed order
-        qj = np.atleast_2d(np.asarray(q, dtype=float))
-        _terms.columns(model, terms, qj, V[:, BASE_NV:], A[:, BASE_NV:], out=out[:, BASE_NV:, ni + len(terms.joint) :])
-    return out.reshape(n * (BASE_NV + nv), len(names))
 
 
 def floating_rnea(model: FloatingRobotModel, base_q, base_v, base_a, q, dq, ddq) -> np.ndarray:
@@ -363,95 +354,21 @@ def row_mask(nv: int, rows: str) -> np.ndarray:
     return mask
 
 
-def floating_base_parameters(
-    model: FloatingRobotModel,
-    terms: TermSelection = TermSelection(),
-    *,
-    rows: str = "all",
-    samples: int | None = None,
-    seed: int = 0,
-    tol: float = 1e-8,
-) -> BaseParameters:
-    """Base parameters of the floating robot from random states (seeded), as
-    :func:`pinid.model.base.base_parameters`: from all ``6 + n`` rows, the 6 base rows only (``rows="base"``:
-    what contact wrenches and motion identify without any joint torque) or the joint rows only."""
-    model = as_floating(model)
-    terms = _check_terms(model, terms)
-    names = floating_parameter_names(model, terms)
-    mask = row_mask(model.nv, rows)
-    per = int(mask.sum())
-    n = max(60, -(-4 * len(names) // per)) if samples is None else count(samples, "samples", low=1)
-    W = floating_regressor(model, *random_floating_states(model, n, np.random.default_rng(count(seed, "seed"))), terms)
-    return base_parameters_of(W.reshape(n, -1, len(names))[:, mask].reshape(-1, len(names)), names, tol)
-
-
 BASE_BUILDERS["floating"] = build_floating
 
+#: Names this module had, removed (issue 32: one function dispatching on the model, as Pinocchio's algorithms do)
+#: or moved, with what to use instead.
+_REMOVED = {
+    "floating_parameter_names": "pinid.model.regressor.parameter_names(model, terms)",
+    "floating_standard_parameters": "pinid.model.regressor.standard_parameters(model, terms)",
+    "floating_regressor": "pinid.model.regressor.regressor(model, *model.full_state(base_q, base_v, base_a, q, dq, "
+    "ddq), terms)",
+    "floating_base_parameters": "pinid.model.base.base_parameters(model, terms, rows=...)",
+    "floating_urdf": "pinid.model.export.floating_urdf",
+}
 
-def floating_urdf(
-    model: FloatingRobotModel,
-    theta: np.ndarray,
-    terms: TermSelection = TermSelection(),
-    path=None,
-    *,
-    force: bool = False,
-    comment: str | None = None,
-    marks: dict[str, str] | None = None,
-) -> str:
-    """The URDF text of ``model`` with the floating standard parameters ``theta`` (base link first, as
-    :func:`floating_parameter_names`): the joints' bodies and friction as
-    :func:`pinid.model.export.identified_urdf` writes them, and the base link's ``<inertial>`` from ``theta[:10]``
-    (the links welded to it — fixed joints, locked joints — lose theirs: they are part of that body).  ModelError
-    for a physically inconsistent set unless ``force``.  Written atomically to ``path`` when given."""
-    from pinid.io import write_text
-    from pinid.model.export import identified_urdf_tree, inertial_element
-    from pinid.model.urdf import xml_comment, xml_text
-    from pinid.model.base import marks_summary
-    from pinid.model.physical import check_consistency, com_inertia, tidy_inertial
-    from pinid.model.robot import INERTIAL_NAMES
 
-    model = as_floating(model)
-    terms = _check_terms(model, terms)
-    theta = as_floats(theta, "theta").reshape(-1)
-    names = floating_parameter_names(model, terms)
-    if theta.shape != (len(names),):
-        raise ModelError(f"expected {len(names)} floating standard parameters, got {theta.size}")
-    report = check_consistency(theta, model.body_names, terms.names, [])
-    if not report.consistent and not force:
-        raise ModelError(
-            "refusing to export physically inconsistent parameters (" + "; ".join(report.problems[:3]) + ")"
-        )
-    k = len(terms.joint)
-    fixed = np.r_[theta[10 : 10 * (model.nv + 1)], theta[10 * (model.nv + 1) + k :]]
-    root = identified_urdf_tree(
-        model, fixed, terms, force=True, comment=comment, origin="identified by pinid (floating base)", marks=marks
-    )
-    links = {link.get("name"): link for link in root.findall("link")}
-    welded, changed = {model.base_link}, True
-    while changed:  # links reached from the base link through joints that are not active
-        changed = False
-        for j in root.findall("joint"):
-            parent, child = j.find("parent").get("link"), j.find("child").get("link")
-            if parent in welded and child not in welded and j.get("name") not in model.joint_names:
-                welded.add(child)
-                changed = True
-    for name in welded:
-        for el in links[name].findall("inertial"):
-            links[name].remove(el)
-    m, c, I = tidy_inertial(*com_inertia(theta[:10]))
-    links[model.base_link].insert(0, inertial_element(m, c, I))
-    note = marks_summary(marks, [f"base.{n}" for n in INERTIAL_NAMES])
-    if note:
-        links[model.base_link].insert(
-            0, xml_comment(f" pinid, from these data (standard parameters m, m·c, I about the base frame): {note} ")
-        )
-    links[model.base_link].insert(
-        0,
-        xml_comment(
-            f" pinid: identified inertia of the floating base, links welded to it: {', '.join(sorted(welded))} "
-        ),
-    )
-    out = xml_text(root, '<?xml version="1.0" encoding="utf-8"?>\n')
-    if path is not None:
-        write_text(path, out)
-    return out
+def __getattr__(name: str):
+    if name in _REMOVED:
+        raise AttributeError(f"pinid.model.floating.{name} is gone: use {_REMOVED[name]} (CHANGELOG, issue 32)")
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

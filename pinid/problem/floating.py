@@ -10,7 +10,7 @@ Per sample the free-flyer equations of motion, linear in the standard parameters
 * **joint rows** (n): the joint torques with the wrenches' ``J_cᵀ f_c`` moved to the right-hand side.
 
 ``rows`` picks ``"all"`` (both), ``"base"`` or ``"joints"``; the base parameters are those of the rows used
-(:func:`pinid.model.floating.floating_base_parameters`).  Weighting: every joint row has weight 1 and every
+(:func:`pinid.model.base.base_parameters` with ``rows``).  Weighting: every joint row has weight 1 and every
 base row ``base_weight`` (default 1: plain least squares in SI units, N and N·m alike); WLS
 (``weighting="joint"``) re-weights per body, the 6 base rows together counting as the body ``base``.
 
@@ -38,17 +38,9 @@ from pinid.data.contacts import FloatingSamples
 from pinid.errors import DataError
 from pinid.problem.problem import IdentificationProblem
 from pinid.problem.rows import rest_thresholds
-from pinid.model.base import BaseParameters
-from pinid.model.floating import (
-    BASE_NV,
-    FloatingRobotModel,
-    as_floating,
-    contact_forces,
-    floating_base_parameters,
-    floating_regressor,
-    floating_standard_parameters,
-    row_mask,
-)
+from pinid.model.base import BaseParameters, base_parameters
+from pinid.model.floating import BASE_NV, FloatingRobotModel, as_floating, contact_forces, row_mask
+from pinid.model.regressor import regressor, standard_parameters
 from pinid.model.terms import TermSelection, as_terms
 
 _CHUNK = 2000  # samples per regressor block (2000 × (6 + n) rows × p columns of the standard regressor)
@@ -80,16 +72,8 @@ class FloatingRows:
         for s, keep in zip(self.samples, self.keeps):
             for start in range(0, s.n, _CHUNK):
                 sl = slice(start, min(s.n, start + _CHUNK))
-                W = floating_regressor(
-                    self.model,
-                    s.base_q[sl],
-                    s.base_v[sl],
-                    s.base_a[sl],
-                    s.data.q[sl],
-                    s.data.dq[sl],
-                    s.data.ddq[sl],
-                    self.terms,
-                )
+                state = (s.base_q[sl], s.base_v[sl], s.base_a[sl], s.data.q[sl], s.data.dq[sl], s.data.ddq[sl])
+                W = regressor(self.model, *self.model.full_state(*state), self.terms)
                 k = sl.stop - sl.start
                 rows = keep[sl].reshape(-1)
                 if rows.all():
@@ -179,7 +163,7 @@ def floating_problem(
                 f"{s.source}: no joint torque (tau_<joint> columns); without it only the base rows can be used "
                 "(rows='base', --rows base: contact wrenches and motion)"
             )
-    base = base if base is not None else floating_base_parameters(model, terms, rows=rows)
+    base = base if base is not None else base_parameters(model, terms, rows=rows)
     width = BASE_NV + model.nv
     body = np.r_[np.zeros(BASE_NV, int), np.arange(1, model.nv + 1)]
     weight_row = np.r_[np.full(BASE_NV, float(base_weight)), np.ones(model.nv)]
@@ -220,7 +204,7 @@ def floating_problem(
         np.concatenate(joints),
         np.concatenate(sample_idx),
         np.concatenate(weights),
-        floating_standard_parameters(model, terms),
+        standard_parameters(model, terms),
         samples=offset,
         sources=[s.source for s in samples],
         sample_rates=[s.data.sample_rate for s in samples],

@@ -390,7 +390,7 @@ def _plate(w: np.ndarray, model, s: FloatingSamples, link: str) -> np.ndarray:
 
 
 def _truth(model, kind, seconds, rate, noise, seed) -> dict:
-    from pinid.model.floating import floating_parameter_names, floating_standard_parameters
+    from pinid.model.regressor import parameter_names, standard_parameters
 
     return {
         "kind": kind,
@@ -401,8 +401,8 @@ def _truth(model, kind, seconds, rate, noise, seed) -> dict:
         "rate_hz": rate,
         "seed": seed,
         "noise": {k: np.asarray(v).tolist() for k, v in noise.__dict__.items()},
-        "standard_names": floating_parameter_names(model),
-        "standard": floating_standard_parameters(model).tolist(),
+        "standard_names": parameter_names(model),
+        "standard": standard_parameters(model).tolist(),
     }
 
 

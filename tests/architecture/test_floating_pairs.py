@@ -14,12 +14,7 @@ from test_public_api import _modules, public_definitions
 #: recording's preparation and stacking), the twin and its writer, the CLI's mapping option.  Identification,
 #: comparison, results, files and loaders are one pipeline already (issue 32, fifth session).
 LEFT_TO_MERGE: dict[str, str] = {
-    "floating_parameter_names": "parameter_names",
-    "floating_standard_parameters": "standard_parameters",
-    "floating_base_parameters": "base_parameters",
-    "floating_regressor": "regressor",
     "prepare_floating": "prepare",
-    "stack_floating": "stack",
     "simulate_floating": "simulate",
     "simulate_floating_and_write": "simulate_and_write",
     "FloatingRun": "Run",

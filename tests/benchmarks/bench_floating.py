@@ -2,8 +2,8 @@
 
     python tests/benchmarks/bench_floating.py [--samples 20000] [--seconds 60] [--repeat 3]
 
-1. Regressor stacking with a free flyer: :func:`pinid.model.floating.floating_regressor` (checks, state
-   assembly, terms fc, fv) against the bare Pinocchio loop (``computeJointTorqueRegressor`` on pre-assembled
+1. Regressor stacking with a free flyer: :func:`pinid.model.regressor.regressor` of the floating model on
+   ``model.full_state(...)`` (checks, state assembly, terms fc, fv) against the bare Pinocchio loop (``computeJointTorqueRegressor`` on pre-assembled
    configuration, velocity and acceleration arrays, written into a preallocated array) on the same random
    states of exo_lower_body (8 joints, 9 bodies) — target ≤ 1.3×.
 2. Identification with contacts of ``--seconds`` at 1 kHz of the 8-joint exoskeleton walking (the gait twin,
@@ -30,7 +30,8 @@ from pinid.data.contacts import write_floating
 from pinid.estimators import make_estimator
 from pinid.identification.run import identify
 from pinid.problem.floating import floating_problem
-from pinid.model.floating import floating_regressor, random_floating_states
+from pinid.model.floating import random_floating_states
+from pinid.model.regressor import regressor
 from pinid.model.terms import TermSelection
 from pinid.simulation.floating_twin import Noise, simulate_gait
 
@@ -71,18 +72,18 @@ def main(argv=None) -> int:
         return out
 
     t_bare = best(bare, args.repeat)
-    t_none = best(lambda: floating_regressor(model, *states, TermSelection.from_names("none")), args.repeat)
-    t_terms = best(lambda: floating_regressor(model, *states, terms), args.repeat)
+    t_none = best(lambda: regressor(model, *model.full_state(*states), TermSelection.from_names("none")), args.repeat)
+    t_terms = best(lambda: regressor(model, *model.full_state(*states), terms), args.repeat)
     print(f"\n1. regressor stacking, exo_lower_body floating, {args.samples} samples ({args.samples * rows} rows)")
     c_bare, c_none, c_terms = CPU[-3:]
     print(
         f"   bare Pinocchio loop            {t_bare:.3f} s wall, {c_bare:.3f} s CPU ({1e6 * c_bare / args.samples:.2f} µs/sample)"
     )
     print(
-        f"   floating_regressor, no terms   {t_none:.3f} s wall, {c_none:.3f} s CPU; ratio {c_none / c_bare:.2f} CPU (target ≤ 1.3)"
+        f"   regressor, floating, no terms {t_none:.3f} s wall, {c_none:.3f} s CPU; ratio {c_none / c_bare:.2f} CPU (target ≤ 1.3)"
     )
     print(
-        f"   floating_regressor, fc fv      {t_terms:.3f} s wall, {c_terms:.3f} s CPU; ratio {c_terms / c_bare:.2f} CPU"
+        f"   regressor, floating, fc fv    {t_terms:.3f} s wall, {c_terms:.3f} s CPU; ratio {c_terms / c_bare:.2f} CPU"
     )
 
     t0 = time.perf_counter()

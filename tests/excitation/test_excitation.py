@@ -533,3 +533,21 @@ def test_the_design_problems_regressor_is_the_public_one():
         rng = np.random.default_rng(1)
         q, dq, ddq = (rng.standard_normal((7, model.nv)) for _ in range(3))
         assert np.array_equal(problem._stacked(q, dq, ddq), regressor(model, q, dq, ddq, terms))
+
+
+def test_a_floating_robot_is_evaluated_on_its_joints_with_the_base_held():
+    """evaluate_excitation of a floating robot is that of its fixed-base view (``model.fixed_base``): the regressor
+    dispatches on the model, the excitation keeps designing on the joints (as pinid excite --base floating)."""
+    from pinid.excitation.outputs import evaluate_excitation
+    from pinid.excitation.spec import spec_for
+    from pinid.excitation.trajectory import FourierTrajectory
+
+    floating = RobotModel.from_urdf("exo_lower_body", base="floating")
+    spec = spec_for(floating.fixed_base).replace(samples=60)
+    rng = np.random.default_rng(0)
+    span = (floating.upper - floating.lower)[:, None]
+    a, b = (rng.uniform(-1, 1, (floating.nv, 3)) * 0.05 * span for _ in range(2))
+    traj = FourierTrajectory(floating.joint_names, 0.4 * np.pi, 0.5 * (floating.lower + floating.upper), a, b)
+    _, ev = evaluate_excitation(floating, traj, spec)
+    _, ref = evaluate_excitation(floating.fixed_base, traj, spec)
+    assert np.isfinite(ev["condition_number"]) and ev["condition_number"] == ref["condition_number"]

@@ -67,7 +67,7 @@ def test_parameter_error_on_exact_samples():
     scale) and a 3-iteration PSO does not; the truth given as a dict."""
     from pinid import RobotModel
     from pinid.identification.compare import compare
-    from pinid.model.floating import floating_parameter_names, floating_standard_parameters
+    from pinid.model.regressor import parameter_names, standard_parameters
     from pinid.model.terms import TermSelection
     from pinid.simulation.floating_twin import simulate_suspended
     from conftest import floating_excitation as excitation
@@ -77,8 +77,8 @@ def test_parameter_error_on_exact_samples():
     twin = simulate_suspended(exo, excitation(exo), seconds=3, rate=100, imu_frame="imu")
     truth = {
         "base": "floating",
-        "standard_names": floating_parameter_names(exo, terms),
-        "standard": floating_standard_parameters(exo, terms).tolist(),
+        "standard_names": parameter_names(exo, terms),
+        "standard": standard_parameters(exo, terms).tolist(),
     }
     comp = compare(Study(exo, twin.exact, {"validation": twin.exact}, terms=terms), methods=["ols", "sdp", "pso"], seeds=1, truth=truth, metaheuristic={"population": 10, "iterations": 3})  # fmt: skip
     err = {m: max(rs[0].parameter_error.values()) for m, rs in comp.runs.items()}  # [%] of max(|truth|, scale/100)

@@ -14,7 +14,7 @@ from pinid import DataError, RobotModel
 from pinid.data.contacts import prepare_floating, read_floating, write_floating
 from pinid.estimators import ESTIMATORS, make_estimator
 from pinid.problem.floating import floating_problem
-from pinid.model.floating import floating_base_parameters
+from pinid.model.base import base_parameters
 from pinid.model.terms import TermSelection
 from pinid.simulation.floating_twin import simulate_gait, simulate_suspended
 
@@ -43,7 +43,7 @@ def test_suspended_twin_recovers_the_base_parameters(floating_exo, suspended, me
     problem = floating_problem(floating_exo, suspended.exact, terms=TERMS, rows=rows)
     assert error(problem, make_estimator(method).fit(problem).base_) <= 1e-6
     if rows == "base":  # Ayusawa et al. 2014: the base rows identify every inertial base parameter
-        assert problem.nb == floating_base_parameters(floating_exo, TermSelection.from_names("none")).count
+        assert problem.nb == base_parameters(floating_exo, TermSelection.from_names("none")).count
         assert problem.names[0] == "base.mR"  # the total mass among them
 
 
@@ -472,3 +472,18 @@ def test_no_wrench_in_the_base_rows_is_refused(floating_exo, suspended, tmp_path
     np.savetxt(out, a[:, keep], delimiter=",", header=",".join(names[i] for i in keep), comments="", fmt="%.12g")
     with pytest.raises(DataError, match=r"no external wrench and no joint torque .*homogeneous"):
         identify(Study(floating_exo, out, floating={"rows": "base"}), methods=["ols"])
+
+
+def test_setup_is_the_floating_bases_one_setup_path(floating_exo, suspended, tmp_path):
+    """setup(study) of a floating robot stacks its rows (Setup.floating holds the validation rows and the raw
+    recordings' hints), as identify and compare use it; what it cannot do is refused before anything is read."""
+    from pinid.identification.run import setup
+
+    s = setup(Study(floating_exo, data=[suspended.exact], terms=TERMS))
+    assert s.floating is not None and s.problem is s.floating.problem and s.floating.validation is None
+    assert s.problem.rows == suspended.exact.n * (6 + floating_exo.nv) and s.problem.names[0] == "base.mR"
+    missing = str(tmp_path / "never_read.csv")
+    with pytest.raises(SpecError, match=r"^fit_joints \(--fit-joints\): not available with a floating base"):
+        setup(Study(floating_exo, data=missing, fit_joints=["l_knee"]))
+    with pytest.raises(SpecError, match="Stribeck velocity 'auto': not available with a floating base"):
+        setup(Study(floating_exo, data=missing), stribeck_auto={"fs": False})

@@ -93,12 +93,13 @@ def test_whole_body_centre_of_mass_against_the_urdf(floating_exo):
     import pinocchio as pin
 
     from pinid.identification.floating_checks import whole_body_com
-    from pinid.model.floating import floating_base_parameters, floating_standard_parameters
+    from pinid.model.base import base_parameters
+    from pinid.model.regressor import standard_parameters
     from pinid.simulation.floating_twin import simulate_gait
 
-    base = floating_base_parameters(floating_exo, TERMS)
+    base = base_parameters(floating_exo, TERMS)
     q = 0.5 * (floating_exo.lower + floating_exo.upper) + 0.1
-    com = whole_body_com(floating_exo, TERMS, base, q, base.P @ floating_standard_parameters(floating_exo, TERMS))[0]
+    com = whole_body_com(floating_exo, TERMS, base, q, base.P @ standard_parameters(floating_exo, TERMS))[0]
     d = floating_exo.ff_model.createData()
     assert np.allclose(
         com, pin.centerOfMass(floating_exo.ff_model, d, np.r_[0, 0, 0, 0, 0, 0, 1.0, floating_exo.configuration(q)])

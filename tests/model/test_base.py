@@ -151,3 +151,26 @@ def test_marks_in_the_json_outputs_round_trip(tmp_path):
     table = report_markdown(ident).split("## Link parameters")[1]
     assert "| from these data |" in table
     assert "identified: mx, mz, Iyy, fc, fv; partly (in combinations): m; not identified" in table  # the knee
+
+
+def test_rows_are_the_floating_bases_choice():
+    """``rows`` picks a floating base's measured rows (the base rows alone: the total mass among the base
+    parameters); on a fixed base anything but "all" is a SpecError, as are an unknown row set and a subset of
+    joints with a floating base."""
+    from pinid.model.floating import random_floating_states
+    from pinid.model.regressor import parameter_names
+
+    floating = RobotModel.from_urdf("exo_lower_body", base="floating")
+    none = TermSelection.from_names("none")
+    bp = base_parameters(floating, none, rows="base")
+    assert bp.standard_names == parameter_names(floating, none) and bp.names[0] == "base.mR"
+    theta = standard_parameters(floating, none)
+    W = regressor(floating, *floating.full_state(*random_floating_states(floating, 5, np.random.default_rng(1))), none)
+    base_rows = W.reshape(5, 6 + floating.nv, -1)[:, :6].reshape(-1, len(theta))
+    np.testing.assert_allclose(bp.columns(base_rows) @ bp.from_standard(theta), base_rows @ theta, atol=1e-9)
+    with pytest.raises(SpecError, match=r"rows='base': the rows of a floating base; exo_leg has a fixed base"):
+        base_parameters(load("exo_leg"), rows="base")
+    with pytest.raises(SpecError, match="rows='feet', expected one of all, base, joints"):
+        base_parameters(floating, rows="feet")
+    with pytest.raises(SpecError, match="not available with a floating base"):
+        base_parameters(floating, joints=floating.joint_names[:2])

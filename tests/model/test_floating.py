@@ -7,16 +7,9 @@ import pinocchio as pin
 import pytest
 
 from pinid import FloatingRobotModel, ModelError, RobotModel
-from pinid.model.floating import (
-    Wrench,
-    contact_forces,
-    floating_base_parameters,
-    floating_parameter_names,
-    floating_regressor,
-    floating_rnea,
-    floating_standard_parameters,
-    random_floating_states,
-)
+from pinid.model.base import base_parameters
+from pinid.model.floating import Wrench, contact_forces, floating_rnea, random_floating_states
+from pinid.model.regressor import parameter_names, regressor, standard_parameters
 from pinid.model.terms import TermSelection
 
 NONE = TermSelection.from_names("none")
@@ -32,9 +25,9 @@ def test_regressor_times_parameters_is_rnea_on_the_free_flyer(name):
     """6 + n rows per sample; W·θ equals Pinocchio's RNEA (base wrench and joint torques) to rounding."""
     model = RobotModel.from_urdf(name, base="floating")
     states = random_floating_states(model, 12, np.random.default_rng(3))
-    W = floating_regressor(model, *states, NONE)
+    W = regressor(model, *model.full_state(*states), NONE)
     assert W.shape == (12 * (6 + model.nv), 10 * (model.nv + 1))
-    tau = (W @ floating_standard_parameters(model, NONE)).reshape(12, 6 + model.nv)
+    tau = (W @ standard_parameters(model, NONE)).reshape(12, 6 + model.nv)
     ref = floating_rnea(model, *states)
     assert np.abs(tau - ref).max() <= 1e-9 * max(1.0, np.abs(ref).max())
     assert np.abs(ref[:, :6]).max() > 1.0  # the base rows carry signal
@@ -43,16 +36,16 @@ def test_regressor_times_parameters_is_rnea_on_the_free_flyer(name):
 def test_joint_rows_add_the_joint_terms(exo):
     terms = TermSelection.from_names("fc,fv")
     states = random_floating_states(exo, 8, np.random.default_rng(4))
-    theta = floating_standard_parameters(exo, terms)
-    names = floating_parameter_names(exo, terms)
+    theta = standard_parameters(exo, terms)
+    names = parameter_names(exo, terms)
     assert names[:2] == ["base.m", "base.mx"] and "l_knee.fc" in names and "base.fc" in names
-    tau = (floating_regressor(exo, *states, terms) @ theta).reshape(8, -1)
+    tau = (regressor(exo, *exo.full_state(*states), terms) @ theta).reshape(8, -1)
     dq = states[4]
     friction = exo.coulomb * np.sign(dq) + exo.viscous * dq
     ref = floating_rnea(exo, *states)
     np.testing.assert_allclose(tau[:, 6:], ref[:, 6:] + friction, atol=1e-9)
     np.testing.assert_allclose(tau[:, :6], ref[:, :6], atol=1e-9)  # no friction on the free flyer
-    bp = floating_base_parameters(exo, terms)
+    bp = base_parameters(exo, terms)
     assert {"base.fc", "base.fv"} <= set(bp.unidentifiable)
 
 
@@ -79,10 +72,10 @@ def test_contact_forces_match_rnea_with_external_forces(exo):
 
 def test_base_rows_alone_identify_the_total_mass(exo):
     """The 6 base rows (no joint torque) determine the total mass: base.mR = Σ masses; the joint rows alone do not."""
-    base_rows = floating_base_parameters(exo, NONE, rows="base")
-    joint_rows = floating_base_parameters(exo, NONE, rows="joints")
-    both = floating_base_parameters(exo, NONE)
-    theta = floating_standard_parameters(exo, NONE)
+    base_rows = base_parameters(exo, NONE, rows="base")
+    joint_rows = base_parameters(exo, NONE, rows="joints")
+    both = base_parameters(exo, NONE)
+    theta = standard_parameters(exo, NONE)
     total = sum(theta[10 * i] for i in range(exo.nv + 1))
     assert base_rows.names[0] == "base.mR"
     assert base_rows.from_standard(theta)[0] == pytest.approx(total)
@@ -147,17 +140,17 @@ def test_self_collision_between_the_legs(exo):
 @pytest.mark.parametrize("name", ["exo_lower_body", "talos_legs"])
 def test_floating_urdf_round_trip(name, tmp_path):
     """The exported URDF loads back (floating) with the given parameters, the base link's included."""
-    from pinid.model.floating import floating_urdf
+    from pinid.model.export import floating_urdf
 
     model = RobotModel.from_urdf(name, base="floating")
     terms = TermSelection.from_names("fc,fv")
-    theta = floating_standard_parameters(model, terms)
+    theta = standard_parameters(model, terms)
     theta[0] *= 1.1  # a heavier base (first moments unchanged: its centre of mass moves in)
     theta[10 + 10 * 2] *= 1.2  # and a heavier third body
     path = tmp_path / "id.urdf"
     floating_urdf(model, theta, terms, path)
     back = RobotModel.from_urdf(path, base="floating", locked=model.locked or None)
-    np.testing.assert_allclose(floating_standard_parameters(back, terms), theta, atol=1e-12)
+    np.testing.assert_allclose(standard_parameters(back, terms), theta, atol=1e-12)
     theta[0] = -1.0
     with pytest.raises(ModelError, match="inconsistent"):
         floating_urdf(model, theta, terms)

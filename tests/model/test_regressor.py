@@ -113,3 +113,92 @@ def test_joint_terms_from_names():
     assert TermSelection.from_names("none").names == []
     with pytest.raises(ValueError, match="unknown term"):
         TermSelection.from_names("fc,stiction")
+
+
+# ---------------------------------------------------------------- a floating model: dispatched on (issue 32)
+FLOATING = ["exo_lower_body", "solo12", "double_pendulum_continuous"]
+
+
+def _floating(name):
+    from pinid import RobotModel
+
+    if name == "double_pendulum_continuous":  # continuous joints: Pinocchio's cos, sin in the free-flyer q
+        return RobotModel.from_urdf(load("double_pendulum").urdf_path.with_name(name + ".urdf"), base="floating")
+    return RobotModel.from_urdf(name, base="floating")
+
+
+@pytest.mark.parametrize("name", FLOATING)
+def test_floating_model_gives_the_free_flyers_pinocchio_numbers(name):
+    """parameter_names / standard_parameters / regressor of a FloatingRobotModel are the free flyer's, computed
+    here with Pinocchio directly: the base body first, the inertial block equal to computeJointTorqueRegressor on
+    ff_model bit for bit, W·θ equal to pin.rnea (base wrench, joint torques), friction in the joint rows only."""
+    import pinocchio as pin
+
+    from pinid.model.floating import random_floating_states
+
+    model = _floating(name)
+    terms = TermSelection.from_names("fc,fv")
+    n, nv, ff = 9, model.nv, model.ff_model
+    names = parameter_names(model, terms)
+    inertial = [f"{b}.{p}" for b in ["base", *model.joint_names] for p in ("m", "mx", "my", "mz")]
+    assert [x for x in names if x.split(".")[1] in ("m", "mx", "my", "mz")] == inertial
+    assert names[10 * (nv + 1) :] == [f"{b}.{t}" for b in ["base", *model.joint_names] for t in ("fc", "fv")]
+    theta = standard_parameters(model, terms)
+    direct = np.concatenate([ff.inertias[i].toDynamicParameters() for i in range(1, ff.njoints)])
+    assert np.array_equal(theta[: 10 * (nv + 1)], direct) and len(theta) == len(names)
+    rng = np.random.default_rng(2)
+    theta[10 * (nv + 1) :] = rng.uniform(0.1, 2.0, 2 * (nv + 1))  # friction values, the base's too (no column)
+    Q, V, A = model.full_state(*random_floating_states(model, n, rng))
+    assert Q.shape == (n, ff.nq) and V.shape == A.shape == (n, 6 + nv)
+    W = regressor(model, Q, V, A, terms).reshape(n, 6 + nv, -1)
+    data = ff.createData()
+    for k in range(n):
+        assert np.array_equal(W[k, :, : 10 * (nv + 1)], pin.computeJointTorqueRegressor(ff, data, Q[k], V[k], A[k]))
+    rnea = np.array([pin.rnea(ff, data, Q[k], V[k], A[k]) for k in range(n)])
+    fc, fv = theta[10 * (nv + 1) + 2 :: 2], theta[10 * (nv + 1) + 3 :: 2]
+    friction = fc * np.sign(V[:, 6:]) + fv * V[:, 6:]
+    tau = W @ theta
+    assert np.abs(tau - np.hstack([rnea[:, :6], rnea[:, 6:] + friction])).max() <= 1e-9 * max(1, np.abs(rnea).max())
+    assert np.abs(rnea[:, :6]).max() > 1.0  # the base rows carry signal
+    np.testing.assert_allclose(joint_torque(model, Q, V, A, theta, terms), tau, rtol=0, atol=1e-12)
+
+
+def test_floating_regressor_refuses_joint_states_naming_the_free_flyer_shape():
+    model = _floating("exo_lower_body")
+    q, dq, ddq = model.random_states(4, np.random.default_rng(0))
+    with pytest.raises(DataError, match=r"q: shape \(4, 8\), expected \(N, 15\) for the floating .*full_state") as e:
+        regressor(model, q, dq, ddq)
+    assert "\n" not in str(e.value)
+    Q, V, A = model.full_state(np.tile([0, 0, 0, 0, 0, 0, 1.0], (4, 1)), np.zeros((4, 6)), np.zeros((4, 6)), q, dq, ddq)
+    with pytest.raises(DataError, match=r"ddq: shape \(4, 8\), expected \(N, 14\)"):
+        regressor(model, Q, V, ddq)
+    Q[2, 3:7] *= 1.5
+    with pytest.raises(DataError, match="q: base quaternion of sample 2 has norm"):
+        regressor(model, Q, V, A)
+
+
+@pytest.mark.parametrize("name", ["exo_lower_body", "solo12"])
+def test_fixed_model_and_the_fixed_base_view_are_unchanged(name):
+    """A fixed-base model's regressor is Pinocchio's on its model (joint rows only); a floating model's
+    ``fixed_base`` (the base held still) gives exactly the fixed-base robot's names, values and regressor."""
+    import pinocchio as pin
+
+    from pinid import RobotModel
+
+    fixed, floating = RobotModel.from_urdf(name), _floating(name)
+    view = floating.fixed_base
+    assert type(view) is RobotModel and view is floating.fixed_base  # built once
+    terms = TermSelection.from_names("fc,fv")
+    q, dq, ddq = fixed.random_states(6, np.random.default_rng(5))
+    W = regressor(fixed, q, dq, ddq, terms)
+    assert np.array_equal(W, regressor(view, q, dq, ddq, terms))
+    assert (
+        parameter_names(view, terms)
+        == parameter_names(fixed, terms)
+        == fixed.inertial_names + [f"{j}.{t}" for j in fixed.joint_names for t in ("fc", "fv")]
+    )
+    assert np.array_equal(standard_parameters(view, terms), standard_parameters(fixed, terms))
+    data = fixed.pin_model.createData()
+    for k in range(6):
+        ref = pin.computeJointTorqueRegressor(fixed.pin_model, data, q[k], dq[k], ddq[k])
+        assert np.array_equal(W.reshape(6, fixed.nv, -1)[k, :, : 10 * fixed.nv], ref)

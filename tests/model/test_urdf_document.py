@@ -72,11 +72,12 @@ def test_a_model_parses_its_urdf_once(parses):
 
 
 def test_the_floating_model_and_its_urdf_reuse_the_document(parses):
-    from pinid.model.floating import floating_standard_parameters, floating_urdf
+    from pinid.model.export import floating_urdf
+    from pinid.model.regressor import standard_parameters
 
     model = RobotModel.from_urdf("exo_leg", base="floating")
     assert parses.count("fromstring") == 1
-    floating_urdf(model, floating_standard_parameters(model, TERMS), TERMS)
+    floating_urdf(model, standard_parameters(model, TERMS), TERMS)
     assert parses.count("fromstring") == 1
 
 
