@@ -323,7 +323,7 @@ class Metaheuristic(Estimator):
         population: int = 100,
         iterations: int = 200,
         fitness: str = "sse",
-        box: SearchBox | Any = SearchBox(),
+        box: SearchBox | str | tuple | dict | None = SearchBox(),
         seed: int = 0,
         tol: float | None = None,
         options: dict | None = None,
