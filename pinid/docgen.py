@@ -104,6 +104,7 @@ API_MODULES: tuple[tuple[str, str], ...] = (
     ("pinid.wearer.passive", "Wearer: passive joint moments"),
     ("pinid.wearer.prior", "Wearer: table values as a prior"),
     ("pinid.wearer.stage", "Wearer: stage-2 identification"),
+    ("pinid.wearer.options", "Wearer: the options of stage 2"),
     ("pinid.wearer.exponents", "Wearer: passive-moment exponents by nonlinear least squares"),
     ("pinid.wearer.experiment", "Wearer: the end-to-end study behind docs/wearer.md's figures"),
     ("pinid.flexible.model", "Flexible joints"),

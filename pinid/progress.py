@@ -6,7 +6,8 @@ long work ends, so a log shows that work goes on; from Python, nothing.
 
 Who decides, first match wins:
 
-1. a caller's explicit ``enabled=True``/``False`` (e.g. ``show_progress=False``);
+1. a caller's explicit ``enabled=True``/``False`` (e.g. ``show_progress=False``), or, for work given none,
+   the choice of an enclosing :func:`choose` block (a comparison's runs on workers: off);
 2. ``PINID_PROGRESS=1`` (always on) or ``PINID_PROGRESS=0`` (always off);
 3. the command line's ``--progress`` (on) / ``--no-progress`` (off) — :data:`MODE`;
 4. otherwise: the command line shows progress (bar or lines); Python shows a bar on a terminal only,
@@ -15,10 +16,12 @@ Who decides, first match wins:
 
 from __future__ import annotations
 
+import contextlib
 import contextvars
 import os
 import sys
 import time
+from collections.abc import Iterator
 
 #: Seconds between two progress lines when stderr is not a terminal.
 INTERVAL = 5.0
@@ -28,7 +31,29 @@ INTERVAL = 5.0
 MODE: contextvars.ContextVar[bool | str | None] = contextvars.ContextVar("pinid_progress", default=None)
 
 
+#: The choice of the innermost :func:`choose` block (None: none).
+_CHOICE: contextvars.ContextVar[bool | None] = contextvars.ContextVar("pinid_progress_choice", default=None)
+
+
+@contextlib.contextmanager
+def choose(enabled: bool | None) -> Iterator[None]:
+    """Within the block, long work given no ``enabled`` of its own (an estimator's fit, a metaheuristic's
+    search) shows its progress as ``enabled`` says (None: as outside the block, the rules of the module
+    text).  SpecError for anything but True, False or None."""
+    if enabled is not None and not isinstance(enabled, bool):
+        from pinid.errors import SpecError
+
+        raise SpecError(f"enabled: got {enabled!r}, expected True, False or None")
+    token = _CHOICE.set(_CHOICE.get() if enabled is None else enabled)
+    try:
+        yield
+    finally:
+        _CHOICE.reset(token)
+
+
 def _wanted(enabled: bool | None) -> bool:
+    if enabled is None:
+        enabled = _CHOICE.get()
     if enabled is not None:
         return bool(enabled)
     env = os.environ.get("PINID_PROGRESS")

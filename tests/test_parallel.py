@@ -208,6 +208,34 @@ def test_a_job_beside_the_fits_comes_back_last_on_one_or_two_processes():
         run_jobs(s, jobs, beside="rows")
 
 
+def test_each_fit_shows_its_progress_as_the_caller_chose_on_one_or_two_processes(tmp_path, monkeypatch):
+    """run_jobs(fit_progress=) reaches the fits where they run (compare: its show_progress on one process, off
+    on workers), even against PINID_PROGRESS; None leaves the rules of pinid.progress."""
+    import pinid.optimizers.pso as pso
+    from pinid.identification.run import setup
+    from pinid.identification.runner import run_jobs
+    from pinid.progress import shown
+
+    real, seen = pso.progress_bar, tmp_path / "seen.txt"
+
+    def recording(*args, **kwargs):
+        with open(seen, "a") as f:  # appended from the workers too (forked: the patch goes with them)
+            f.write(f"{shown(kwargs.get('enabled'))}\n")
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(pso, "progress_bar", recording)
+    truth = truth_model("exo_leg")
+    s = setup(Study(truth, [twin(truth, seconds=4, rate=100, seed=1, noise=0.5)]))
+    jobs = [("pso", seed, {"population": 6, "iterations": 3, "seed": seed}) for seed in (0, 1)]
+    for env, choice, workers, want in (("1", False, 2, "False"), ("0", True, 1, "True"), ("0", None, 1, "False")):
+        monkeypatch.setenv("PINID_PROGRESS", env)
+        seen.write_text("")
+        run_jobs(s, jobs, workers=workers, fit_progress=choice)
+        assert seen.read_text().split() == [want, want], (env, choice, workers)
+    with pytest.raises(SpecError, match="fit_progress"):
+        run_jobs(s, jobs, fit_progress="yes")
+
+
 def test_workers_forked_after_an_sdp_fit_do_not_hang():
     """Clarabel's default thread pool, started by an SDP fit in this process, left forked workers waiting for
     ever (the in-process CLI test of `pinid compare --base floating` hung once in three): the conic solver

@@ -8,7 +8,7 @@ import time
 import pytest
 
 from pinid import progress as progress_module
-from pinid.progress import MODE, Lines, progress
+from pinid.progress import MODE, Lines, choose, progress
 
 
 def test_lines_are_sparse_and_end_with_the_final_state(capsys):
@@ -59,6 +59,31 @@ def test_who_decides(monkeypatch, mode, env, kind):
         forced.close()
     finally:
         MODE.reset(token)
+
+
+def test_a_choose_block_decides_for_work_given_no_choice(monkeypatch):
+    """Inside ``choose(False)`` even PINID_PROGRESS=1 shows nothing for work that is given no ``enabled`` (a
+    metaheuristic's search in a comparison's worker); ``choose(None)`` keeps the outer block's choice; a
+    caller's explicit ``enabled`` still wins; a wrong value is a SpecError."""
+    from pinid.errors import SpecError
+
+    monkeypatch.setenv("PINID_PROGRESS", "1")
+    with choose(False):
+        assert progress(5, "x").disable
+        with choose(None):
+            assert progress(5, "x").disable
+        forced = progress(5, "x", enabled=True)
+        assert isinstance(forced, Lines)
+        forced.close()
+    monkeypatch.setenv("PINID_PROGRESS", "0")
+    with choose(True):
+        bar = progress(5, "x")
+        assert isinstance(bar, Lines)
+        bar.close()
+    assert progress(5, "x").disable  # after the block: the rules again
+    with pytest.raises(SpecError, match="enabled"):
+        with choose("yes"):
+            pass
 
 
 def test_cli_flag_on_a_long_command(tmp_path, monkeypatch, capsys):

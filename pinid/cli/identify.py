@@ -403,7 +403,8 @@ def _study(args: argparse.Namespace, model, terms) -> Study:
 
 def _run_wearer(args: argparse.Namespace, out: Path) -> int:
     """Stage 2: the wearer of ``--urdf`` identified with the exoskeleton fixed to ``--exo``."""
-    from pinid.wearer.prior import MASS_RANGE  # deferred: pinid --help does not load the wearer's stage 2
+    from pinid.wearer.options import WearerOptions  # deferred: pinid --help does not load the wearer's stage 2
+    from pinid.wearer.prior import MASS_RANGE
     from pinid.wearer.stage import identify_wearer_stage
 
     if not args.data or args.manifest or args.fit_joints or args.delay:
@@ -415,12 +416,14 @@ def _run_wearer(args: argparse.Namespace, out: Path) -> int:
         validate=args.validate or None,
         preprocess=preprocess_from_args(args),
         mapping=mapping_from_args(args),
-        passive=not args.no_passive,
-        mass_range=MASS_RANGE if args.mass_range is None else args.mass_range,
-        prior_weight="auto" if args.prior_weight is None else args.prior_weight,
-        passive_exponents=args.passive_exponents,
-        # every row unless asked: the documented stage 2 (docs/wearer.md)
-        rest_velocity=None if args.rest_velocity is None else rest_velocity_from_args(args.rest_velocity),
+        options=WearerOptions(
+            passive=not args.no_passive,
+            mass_range=MASS_RANGE if args.mass_range is None else args.mass_range,
+            prior_weight="auto" if args.prior_weight is None else args.prior_weight,
+            passive_exponents=args.passive_exponents,
+            # every row unless asked: the documented stage 2 (docs/wearer.md)
+            rest_velocity=None if args.rest_velocity is None else rest_velocity_from_args(args.rest_velocity),
+        ),
     )
     print(stage.text())
     print(wrote_line(stage.write(out, report=not args.no_report, figures=not args.no_figures), out))

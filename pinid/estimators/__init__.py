@@ -15,7 +15,15 @@ from pinid.estimators.essential import Essential
 from pinid.estimators.irls import IRLS
 from pinid.estimators.iv import InstrumentalVariables
 from pinid.estimators.logdet import LogDet
-from pinid.estimators.metaheuristic import DEEstimator, EWOAEstimator, Metaheuristic, PSOEstimator, RLSPSO, WOAEstimator
+from pinid.estimators.metaheuristic import (
+    DEEstimator,
+    EWOAEstimator,
+    Metaheuristic,
+    PSOEstimator,
+    RLSPSO,
+    SearchBox,
+    WOAEstimator,
+)
 from pinid.estimators.ols import OLS
 from pinid.estimators.ridge import Ridge
 from pinid.estimators.rls import RLS
@@ -88,6 +96,7 @@ __all__ = [
     "RLS",
     "RLSPSO",
     "Ridge",
+    "SearchBox",
     "SDP",
     "Setting",
     "TLS",

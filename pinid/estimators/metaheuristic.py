@@ -22,17 +22,19 @@ distance to the optimum is visible.
 The search box
 --------------
 The seeds do not give a usable box (seed 000's plain PSO searches an "infinite domain", which cannot be
-sampled).  ``box`` chooses it:
+sampled).  ``box``, a :class:`SearchBox` (``kind``, ``width``, ``floor``, ``rls``; or its kind alone), chooses
+it; ``make_estimator`` and ``--option`` also take its fields as the flat settings ``box_width``,
+``box_floor`` and ``rls`` (:data:`BOX_SETTINGS`).  Its kind:
 
-``"nominal"`` (default)  the URDF's base parameters ``x_nom`` ± ``max(box_width·|x_nom|, box_floor·s)``,
+``"nominal"`` (default)  the URDF's base parameters ``x_nom`` ± ``max(width·|x_nom|, floor·s)``,
                          ``s`` the natural magnitude of each base parameter (its standard combination
                          with mass M, first moments M·L, inertias M·L² of each body,
                          :func:`pinid.model.physical.parameter_scale`; 1 for friction).  Defaults
-                         ``box_width = 1`` (±100 %) and ``box_floor = 0.5``.  It uses only prior
+                         ``width = 1`` (±100 %) and ``floor = 0.5``.  It uses only prior
                          knowledge, never the data.
 ``"rls"``                each parameter's [min, max] of a recursive least-squares run on the same data
                          (:class:`~pinid.estimators.rls.RLS`, settings in ``rls``), seed 000's RLS-PSO.
-``"ls"``                 the least-squares estimate ± ``box_width``·(its standard deviation)·10 — circular
+``"ls"``                 the least-squares estimate ± ``width``·(its standard deviation)·10 — circular
                          (the box is centred on the answer of the method it is compared with); for
                          experiments only.
 ``(lower, upper)``       explicit arrays (nb each), or a dict ``{name: (lo, hi)}`` overriding the nominal box.
@@ -41,6 +43,8 @@ The settings ``population`` (100) and ``iterations`` (200) are seed 001's; ``see
 optimiser's ``numpy.random.Generator`` (same seed → same result, bit for bit); ``tol`` stops when the
 best fitness falls below it (seed 000's ε); ``options`` passes the optimiser's own settings (PSO's
 ``w_max``, ``w_min``, ``c1``, ``c2``; WOA's ``spiral``; EWOA's ``mutation_fraction`` and ``scale``; …).
+The progress bar is not a setting of the estimate: it follows :mod:`pinid.progress` (``with
+pinid.progress.choose(False): est.fit(problem)`` hides it).
 
 Fitted values: ``base_``; ``history_`` (best fitness after the initial population and after every
 iteration); ``path_`` (iterations, nb): the best particle after each iteration (seed 000 Figs. 8,
@@ -51,7 +55,12 @@ both training costs and the least-squares ones).
 from __future__ import annotations
 
 
+import math
+import numbers
 import time
+from collections.abc import Mapping
+from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 
@@ -230,6 +239,46 @@ def search_box(problem, box="nominal", *, width: float = 1.0, floor: float = 0.5
     return lower, upper, info
 
 
+# ------------------------------------------------------------------------------------------- the box
+@dataclass(frozen=True)
+class SearchBox:
+    """The box a metaheuristic searches (module text): ``kind`` "nominal", "rls", "ls", ``(lower, upper)``
+    arrays or ``{name: (lo, hi)}`` overriding the nominal box (None: the estimator's own,
+    :attr:`Metaheuristic.default_box`); ``width``: the nominal box's ± fraction of ``|x_nom|`` (the "ls"
+    box: × 10 σ); ``floor``: the nominal box's least ± fraction of the natural magnitude; ``rls``: the
+    settings of the :class:`~pinid.estimators.rls.RLS` run behind an "rls" box.  A wrong type: SpecError
+    (one line); the kind and the bounds are checked against the problem when the box is built."""
+
+    kind: Any = None
+    width: float = 1.0
+    floor: float = 0.5
+    rls: Mapping | None = None
+
+    def __post_init__(self) -> None:
+        kind = self.kind
+        if kind is not None and not isinstance(kind, (str, Mapping)) and not np.iterable(kind):
+            raise SpecError(
+                f"SearchBox kind: got {type(kind).__name__}, expected 'nominal', 'rls', 'ls', (lower, upper) or "
+                "{name: (lo, hi)}"
+            )
+        for key in ("width", "floor"):
+            v = getattr(self, key)
+            if isinstance(v, bool) or not isinstance(v, numbers.Real) or not math.isfinite(v) or v < 0:
+                raise SpecError(f"SearchBox {key}={v!r}, expected a number ≥ 0")
+        if self.rls is not None and not isinstance(self.rls, Mapping):
+            raise SpecError(f"SearchBox rls: got {type(self.rls).__name__}, expected a table of RLS settings")
+
+    @classmethod
+    def of(cls, box) -> "SearchBox":
+        """``box`` as a SearchBox: itself, or its ``kind`` (None: the defaults)."""
+        return box if isinstance(box, SearchBox) else cls(kind=box)
+
+
+#: The box's fields as flat settings of a metaheuristic (``make_estimator("pso", box_width=0.5)``,
+#: ``--option pso.box_width=0.5``, ``pinid compare --box-width``): setting -> :class:`SearchBox` field.
+BOX_SETTINGS = {"box_width": "width", "box_floor": "floor", "rls": "rls"}
+
+
 # ------------------------------------------------------------------------------------------- estimators
 class Metaheuristic(Estimator):
     """Base class: a population optimiser searching the base parameters in a box (module text).
@@ -245,26 +294,28 @@ class Metaheuristic(Estimator):
     deterministic = False
     history = "fitness"
     assumptions = (
-        "as OLS; the optimum inside the search box (`box`, `box_width`) and reached in "
+        "as OLS; the optimum inside the search box (`box`) and reached in "
         "`iterations` (seeded: `pinid compare` runs several seeds)"
     )
     settings_summary = (
-        '`population` (100), `iterations` (200), `fitness` ("sse"; "sae"), `box` ("nominal"; "rls", "ls", '
-        "bounds), `box_width` (1.0), `box_floor` (0.5), `seed` (0), `tol`, `options`, `x0` ([metaheuristics](metaheuristics.md))"
+        '`population` (100), `iterations` (200), `fitness` ("sse"; "sae"), `box` (a `SearchBox`: kind "nominal"; '
+        '"rls", "ls", bounds; width 1.0, floor 0.5, rls; flat: `box_width`, `box_floor`, `rls`), `seed` (0), `tol`, '
+        "`options`, `x0` ([metaheuristics](metaheuristics.md))"
     )
     settings = {
         "population": Setting("int", low=2, help="particles per iteration"),
         "iterations": Setting("int", low=1, help="iterations"),
         "fitness": Setting("str", choices=tuple(FITNESS), help="sse: ½Σr² (seed 001); sae: Σ|r| (seed 000)"),
-        "box": Setting("any", optional=True, help="'nominal', 'rls', 'ls', (lower, upper) or {name: (lo, hi)}"),
-        "box_width": Setting("float", low=0.0, help="nominal box: ± this fraction of |value|"),
-        "box_floor": Setting("float", low=0.0, help="nominal box: at least ± this fraction of the natural magnitude"),
+        "box": Setting(
+            "any",
+            optional=True,
+            help="a SearchBox (kind, width, floor, rls) or its kind: 'nominal', 'rls', 'ls', (lower, upper) or "
+            "{name: (lo, hi)}; its fields also as box_width, box_floor, rls",
+        ),
         "seed": Setting("int", low=0, optional=True, help="seed of the random generator"),
         "tol": Setting("float", optional=True, help="stop when the best fitness falls below it"),
         "options": Setting("dict", optional=True, help="the optimiser's own settings"),
-        "rls": Setting("dict", optional=True, help="settings of the RLS run behind an 'rls' box"),
         "x0": Setting("any", optional=True, help="'nominal' or nb numbers: a particle of the first population"),
-        "progress": Setting("bool", optional=True, help="progress bar"),
     }
 
     def __init__(
@@ -272,40 +323,52 @@ class Metaheuristic(Estimator):
         population: int = 100,
         iterations: int = 200,
         fitness: str = "sse",
-        box=None,
-        box_width: float = 1.0,
-        box_floor: float = 0.5,
+        box: SearchBox | str | tuple | dict | None = SearchBox(),
         seed: int = 0,
         tol: float | None = None,
         options: dict | None = None,
-        rls: dict | None = None,
         x0=None,
-        progress: bool | None = None,
     ) -> None:
         self.population = population
         self.iterations = iterations
         self.fitness = fitness
         self.box = box
-        self.box_width = box_width
-        self.box_floor = box_floor
         self.seed = seed
         self.tol = tol
         self.options = options
-        self.rls = rls
         self.x0 = x0
-        self.progress = progress
+
+    @classmethod
+    def create(cls, **settings) -> "Metaheuristic":
+        """As :meth:`Estimator.create`, ``box`` made a :class:`SearchBox` with the flat settings of
+        :data:`BOX_SETTINGS` (``box_width``, ``box_floor``, ``rls``) set on it."""
+        flat = {k: settings.pop(k) for k in list(settings) if k in BOX_SETTINGS}
+        if flat or "box" in settings:
+            try:
+                box = SearchBox.of(settings.get("box"))
+                settings["box"] = replace(box, **{BOX_SETTINGS[k]: v for k, v in flat.items()})
+            except SpecError as exc:
+                raise SpecError(f"method '{cls.name}': {exc}") from None
+        return super().create(**settings)
+
+    def _box(self) -> tuple[Any, SearchBox]:
+        """``(kind, box)``: the box's kind (the estimator's default when it names none) and the box."""
+        box = SearchBox.of(self.box)
+        return (self.default_box if box.kind is None else box.kind), box
 
     def shared_work(self) -> tuple[tuple[str, tuple], ...]:
         """The RLS run behind an ``"rls"`` box (kept in the problem's cache; every seed shares it)."""
-        box = self.default_box if self.box is None else self.box
-        return RLS.create(**dict(self.rls or {})).shared_work() if isinstance(box, str) and box.lower() == "rls" else ()
+        kind, box = self._box()
+        return (
+            RLS.create(**dict(box.rls or {})).shared_work() if isinstance(kind, str) and kind.lower() == "rls" else ()
+        )
 
     def fit(self, problem: Problem) -> "Metaheuristic":
         """Search the box for the base parameters with the lowest fitness; sets ``base_``, ``history_``, ``path_``, ``box_``, ``info_``."""
         if self.fitness not in FITNESS:
             raise SpecError(f"{self.name}: fitness {self.fitness!r}, expected one of {', '.join(FITNESS)}")
-        box = self.default_box if self.box is None else self.box
-        lower, upper, box_info = search_box(problem, box, width=self.box_width, floor=self.box_floor, rls=self.rls)
+        kind, b = self._box()
+        lower, upper, box_info = search_box(problem, kind, width=b.width, floor=b.floor, rls=b.rls)
         extra = dict(self.options or {})
         clash = sorted({"population", "iterations"} & set(extra))
         if clash:
@@ -329,7 +392,7 @@ class Metaheuristic(Estimator):
                 x0 = np.asarray(self.x0, float)
         rng = np.random.default_rng(self.seed)
         t0 = time.perf_counter()
-        res = opt.minimize(f, lower, upper, rng=rng, x0=x0, callback=callback, progress=self.progress)
+        res = opt.minimize(f, lower, upper, rng=rng, x0=x0, callback=callback)  # progress: pinid.progress
         seconds = time.perf_counter() - t0
         x = np.asarray(res.x, float)
         history = [float(h) for h in res.history]

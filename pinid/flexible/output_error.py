@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -98,11 +99,31 @@ def make_twin(
 
 
 # ====================================================================== the problem
+@dataclass(frozen=True)
+class FreeParameters:
+    """The parameters an :class:`OutputErrorProblem` fits: their ``names`` (of the model's parameters) and
+    their box, one ``lower`` and one ``upper`` bound per name (the problem checks the shapes and the
+    order).  A wrong type: SpecError (one line)."""
+
+    names: Sequence[str]
+    lower: Sequence[float]
+    upper: Sequence[float]
+
+    def __post_init__(self) -> None:
+        names = self.names
+        if isinstance(names, str) or not isinstance(names, Sequence) or not all(isinstance(n, str) for n in names):
+            raise SpecError(f"FreeParameters names: got {names!r}, expected a list of parameter names")
+        for key in ("lower", "upper"):
+            value = getattr(self, key)
+            if isinstance(value, (str, Mapping)) or not np.iterable(value):
+                raise SpecError(f"FreeParameters {key}: got {type(value).__name__}, expected one number per name")
+
+
 class OutputErrorProblem:
     """Simulated against measured angles, as a function of the free parameters.
 
     ``model``: gives the fixed values and the structure; ``recording``: input and measured angles;
-    ``free``: names of the fitted parameters, with box ``lower``/``upper``; ``cost``: ``"abs"`` or ``"sq"``;
+    ``free``: the fitted parameters and their box (:class:`FreeParameters`); ``cost``: ``"abs"`` or ``"sq"``;
     ``outputs``: ``("link",)`` (seed 003) and/or ``"motor"``; ``rest_time`` [s]: the initial link angles
     are the mean of the measured ones over ``[t0, t0 + rest_time]`` (at least the first sample).
     The RK4 step is fixed for the problem, from the worst corner of the box (:meth:`_choose_step`), so that
@@ -113,9 +134,7 @@ class OutputErrorProblem:
         self,
         model: FlexibleModel,
         recording: FlexRecording,
-        free: Sequence[str],
-        lower,
-        upper,
+        free: FreeParameters,
         *,
         cost: str = "abs",
         outputs: Sequence[str] = ("link",),
@@ -124,6 +143,8 @@ class OutputErrorProblem:
         truth: Mapping[str, float] | None = None,
         label: str = "",
     ) -> None:
+        if not isinstance(free, FreeParameters):
+            raise SpecError(f"free: got {type(free).__name__}, expected FreeParameters(names, lower, upper)")
         if cost not in COSTS:
             raise SpecError(f"cost {cost!r}, expected one of {', '.join(COSTS)}")
         outputs = tuple(outputs)
@@ -136,10 +157,10 @@ class OutputErrorProblem:
                 f"{recording.source}: no motor angles qm_<joint>, but the fit compares motor angles "
                 "(outputs = ['link', 'motor']); use outputs = ['link']"
             )
-        self.free = list(free)
+        self.free = list(free.names)
         self.idx = np.array([model.index(n) for n in self.free], dtype=int)
-        self.lower = np.asarray(lower, dtype=float).reshape(-1)
-        self.upper = np.asarray(upper, dtype=float).reshape(-1)
+        self.lower = np.asarray(free.lower, dtype=float).reshape(-1)
+        self.upper = np.asarray(free.upper, dtype=float).reshape(-1)
         if self.lower.shape != (len(self.free),) or self.upper.shape != (len(self.free),):
             raise SpecError(f"bounds of shapes {self.lower.shape}, {self.upper.shape}, expected ({len(self.free)},)")
         if np.any(self.lower >= self.upper):
@@ -471,9 +492,7 @@ def problem_from_spec(
     return OutputErrorProblem(
         model,
         recording,
-        s.free,
-        s.lower,
-        s.upper,
+        FreeParameters(s.free, s.lower, s.upper),
         cost=cost or s.fit.cost,
         outputs=outputs or s.fit.outputs,
         rest_time=s.fit.rest_time,

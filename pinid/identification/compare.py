@@ -27,7 +27,7 @@ from __future__ import annotations
 from functools import partial
 import os
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from collections.abc import Mapping, Sequence
 
@@ -36,6 +36,7 @@ import numpy as np
 from pinid.errors import SpecError
 from pinid.estimators import ESTIMATORS, Metaheuristic, quick_methods
 from pinid.estimators.metaheuristic import (
+    SearchBox,
     cached_lad,
     least_absolute_deviations,
     least_squares,
@@ -555,10 +556,10 @@ def compare(
         s = {}
         if issubclass(ESTIMATORS[m], Metaheuristic):
             s.update(meta)
-            if ESTIMATORS[m].default_box != "nominal":
-                s.pop("box", None)  # rls-pso is PSO in *its* RLS box: a box choice for the others leaves it alone
+            if ESTIMATORS[m].default_box != "nominal" and "box" in s:
+                # rls-pso is PSO in *its* RLS box: a box choice for the others leaves it alone (not the RLS settings)
+                s["box"] = replace(SearchBox.of(s["box"]), kind=None)
             s["seed"] = seed
-            s.setdefault("progress", show_progress if serial else False)  # in parallel: jobs done / total only
         s.update(options.get(m, {}))
         return s
 
@@ -594,13 +595,14 @@ def compare(
         workers=workers,
         scheduler=scheduler,
         beside=_study_references,
+        fit_progress=show_progress if serial else False,  # in parallel: jobs done / total only
         # each run validated where it was fitted (on the workers too)
         after=partial(_run_of, problem=problem, val_W=val_W, truth_x=truth_x, scale=scale, segmental=seg is not None),
     )
     for run in done:
         runs[run.method].append(run)
     settings_out = {
-        "metaheuristic": {k: v for k, v in meta.items() if k != "progress"},
+        "metaheuristic": {k: (asdict(v) if isinstance(v, SearchBox) else v) for k, v in meta.items()},
         "options": options,
         "terms": terms.names,
         "rest_velocity": rest_velocity if isinstance(rest_velocity, str) else np.asarray(rest_velocity).tolist(),

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import os
 import time
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field, is_dataclass
 from pathlib import Path
 
 import numpy as np
@@ -166,7 +166,13 @@ class IdentificationResult(ResultProtocol):
             "method": self.method,
             "description": self.description,
             "settings": {
-                k: (v if isinstance(v, (int, float, str, bool, type(None), dict, list, tuple)) else repr(v))
+                k: (
+                    v
+                    if isinstance(v, (int, float, str, bool, type(None), dict, list, tuple))
+                    else asdict(v)
+                    if is_dataclass(v) and not isinstance(v, type)
+                    else repr(v)
+                )
                 for k, v in self.settings.items()
             },
             "status": self.status,

@@ -20,6 +20,7 @@ from pinid.model.terms import TermSelection
 from pinid.model.robot import RobotModel
 from pinid.parallel import check_workers, run_parallel
 from pinid.problem.problem import IdentificationProblem
+from pinid.progress import choose
 
 if TYPE_CHECKING:
     from pinid.identification.floating import FloatingStack
@@ -69,12 +70,15 @@ def run_jobs(
     scheduler=None,
     beside: Callable[[Setup], Any] | None = None,
     after: Callable[[Fit], Any] | None = None,
+    fit_progress: bool | None = None,
 ) -> list:
     """Fit every ``(method, seed, settings)`` job on the setup's problem (or its segmental stages), in the
     jobs' order, on ``workers`` local processes or a Dask ``scheduler`` (:func:`pinid.parallel.run_parallel`).
     ``beside(s)``: one more job, run first on a worker while the fits run (a study's references, so that
     they do not wait alone); its value is the list's last item.  ``after(fit)``: what each job returns
     instead of its :class:`Fit`, computed where the job ran (a study's validation of each run).
+    ``fit_progress``: whether each fit shows its own progress (a metaheuristic's search; None: the rules of
+    :mod:`pinid.progress`), set around it with :func:`pinid.progress.choose`, on the workers too.
 
     On local processes, which share no cache, the fits that several jobs keep in the problem's cache
     (:meth:`~pinid.estimators.base.Estimator.shared_work`: the RLS run of ``rls`` and of every RLS-PSO seed)
@@ -86,6 +90,8 @@ def run_jobs(
     for name, fn in (("beside", beside), ("after", after)):
         if fn is not None and not callable(fn):
             raise SpecError(f"{name}: got {type(fn).__name__}, expected a function")
+    if fit_progress is not None and not isinstance(fit_progress, bool):
+        raise SpecError(f"fit_progress: got {fit_progress!r}, expected True, False or None")
     fits = [("fit", (method, seed, settings, complete)) for method, seed, settings in jobs]
     local = check_workers(workers) > 1 and scheduler is None and len(fits) > 1
     shared = _shared_work(s, [job for _, job in fits]) if local else {}
@@ -102,7 +108,7 @@ def run_jobs(
     for k, items in enumerate(rounds):
         done = run_parallel(
             _fit_job,
-            (s, after),
+            (s, after, fit_progress),
             items,
             workers=workers,
             scheduler=scheduler,
@@ -143,10 +149,10 @@ def _shared_work(s: Setup, jobs: list) -> dict[str, tuple]:
     return work
 
 
-def _fit_job(shared: tuple[Setup, Callable | None], job: tuple) -> Any:
+def _fit_job(shared: tuple[Setup, Callable | None, bool | None], job: tuple) -> Any:
     """One item of :func:`run_jobs`: a fit (its :class:`Fit`, or ``after(fit)``), ``beside``'s value, or a
     shared fit (the problem cache's entries it made, for the caller's cache)."""
-    s, after = shared
+    s, after, fit_progress = shared
     kind, job = job
     if kind == "beside":
         return job(s)
@@ -161,7 +167,8 @@ def _fit_job(shared: tuple[Setup, Callable | None], job: tuple) -> Any:
         est, target = make_estimator(method, **settings), s.problem
         s.problem.cache.forget("compressed")  # each run's time includes its QR compression
     t0 = time.perf_counter()
-    est.fit(target)
+    with choose(fit_progress):
+        est.fit(target)
     seconds = time.perf_counter() - t0
     robot = s.model if getattr(s.model, "base", "fixed") == "floating" else None  # not the problem's body view
     result = make_result(s.problem, est, seconds, complete=complete, robot=robot)

@@ -122,8 +122,6 @@ class RobotModel:
         urdf_text: str | None = None,
         locked: Mapping[str, float] | None = None,
         drives=None,
-        stribeck: Mapping | None = None,
-        passive_exponents: Mapping | None = None,
         urdf_document: UrdfDocument | None = None,
         settings: Mapping[str, object] | None = None,
     ) -> None:
@@ -139,8 +137,7 @@ class RobotModel:
         # setting name → value, a private copy (read through .setting): "stribeck" {term: Stribeck},
         # "passive_exponents" {anatomical joint: (terms, 4) exponent coefficients} (pinid.wearer.passive), …
         self._settings: dict[str, object] = {}
-        named = {"stribeck": stribeck, "passive_exponents": passive_exponents}  # the settings' own arguments
-        for name, value in {**(settings or {}), **{k: v for k, v in named.items() if v}}.items():
+        for name, value in (settings or {}).items():
             self._settings = _with_setting(self._settings, name, value)
         self._data = pin_model.createData()
         self._continuous = tuple(i for i, j in enumerate(self.joints) if j.kind == "continuous")

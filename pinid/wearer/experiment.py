@@ -19,14 +19,20 @@ twin and the identified model; its own code is only the bookkeeping of the four 
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+from dataclasses import dataclass
+
 import numpy as np
 
+from pinid.checks import count, number
+from pinid.errors import SpecError
 from pinid.identification.identified import IdentifiedModel
 from pinid.problem.problem import prepare_dataset
 from pinid.model.terms import TermSelection
 from pinid.model.robot import RobotModel
 from pinid.simulation.twin import simulate
 from pinid.wearer.attach import wearer_links
+from pinid.wearer.options import WearerOptions, as_wearer_options
 from pinid.wearer.prior import draw_wearer
 from pinid.wearer.stage import identify_wearer, stack
 
@@ -36,6 +42,32 @@ def _rms(model, datasets) -> np.ndarray:
     return np.sqrt(np.mean((tau - model.inverse_dynamics(q, dq, ddq)) ** 2, axis=0))
 
 
+@dataclass(frozen=True)
+class WearerTrial:
+    """The twin side of :func:`wearer_experiment`: the identification recording's length ``seconds`` [s]
+    (validation: half), the wearer's involuntary active torque ``wearer_torque`` [% of the gravity RMS], the
+    tracking runs' length ``track_seconds`` [s], the ``seed`` of everything random, and ``true_exponents``,
+    the true wearer's passive-moment exponents ``{anatomical joint: (terms, 4)}`` (default the published).
+    A wrong type: SpecError (one line)."""
+
+    seconds: float = 60.0
+    wearer_torque: float = 5.0
+    track_seconds: float = 8.0
+    seed: int = 0
+    true_exponents: dict | None = None
+
+    def __post_init__(self) -> None:
+        number(self.seconds, "WearerTrial seconds", low=0.0, low_open=True)
+        number(self.wearer_torque, "WearerTrial wearer_torque", low=0.0)
+        number(self.track_seconds, "WearerTrial track_seconds", low=0.0, low_open=True)
+        count(self.seed, "WearerTrial seed")
+        if self.true_exponents is not None and not isinstance(self.true_exponents, Mapping):
+            raise SpecError(
+                f"WearerTrial true_exponents: got {type(self.true_exponents).__name__}, "
+                "expected {anatomical joint: exponents} or None"
+            )
+
+
 def wearer_experiment(
     exo_urdf,
     exo_with_wearer,
@@ -43,22 +75,17 @@ def wearer_experiment(
     validation,
     reference,
     *,
-    seconds: float = 60.0,
-    wearer_torque: float = 5.0,
-    track_seconds: float = 8.0,
-    seed: int = 0,
-    true_exponents: dict | None = None,
-    passive_exponents: bool = False,
-    prior_weight: float | str = "auto",
+    trial: WearerTrial | None = None,
+    options: WearerOptions | None = None,
 ) -> dict:
     """Run the experiment (see the module text) and return its figures.
 
     ``exo_urdf``: the bare exoskeleton (URDF path or bundled name); ``exo_with_wearer``: its URDF from
     ``pinid wearer``; ``excitation`` / ``validation``: trajectories (FourierTrajectory) of the
-    identification and validation recordings, ``seconds`` long (validation: half); ``reference``: the
-    tracking reference; ``true_exponents`` the true wearer's passive-moment exponents ``{anatomical joint:
-    (terms, 4)}`` (default the published); ``passive_exponents``: stage 2 fits them; ``prior_weight``: stage
-    2's λ (a number, or "auto": blocked cross-validation).  Returns ``{"rms": {model: per-joint validation RMS [N·m]}, "floor": per joint
+    identification and validation recordings; ``reference``: the tracking reference; ``trial``: the
+    twin's settings (:class:`WearerTrial`, default its defaults); ``options``: stage 2's
+    (:class:`~pinid.wearer.options.WearerOptions`: e.g. ``passive_exponents`` fits the exponents,
+    ``prior_weight`` its λ).  Returns ``{"rms": {model: per-joint validation RMS [N·m]}, "floor": per joint
     [N·m], "ratio": {model: RMS / floor, joints pooled}, "tracking": {controller: {model: per-joint RMS
     [rad]}}, "fit": WearerFit}`` with models ``identified``, ``table``, ``exo``.
     """
@@ -66,6 +93,10 @@ def wearer_experiment(
     from pinid.identification.run import identify
     from pinid.identification.study import Study
 
+    if trial is not None and not isinstance(trial, WearerTrial):
+        raise SpecError(f"trial: got {type(trial).__name__}, expected WearerTrial (pinid.wearer.experiment)")
+    tr = trial or WearerTrial()
+    seconds, wearer_torque, seed, true_exponents = tr.seconds, tr.wearer_torque, tr.seed, tr.true_exponents
     exo = RobotModel.from_urdf(exo_urdf)
     exo_run, _ = simulate(exo, excitation, seconds=seconds, seed=seed + 1)
     stage1 = identify(Study(exo, exo_run), ["sdp"])["sdp"].model
@@ -76,9 +107,7 @@ def wearer_experiment(
     train, _ = simulate(plant, excitation, seconds=seconds, seed=seed + 2, wearer_torque=wearer_torque, wearer=worn)
     valid, _ = simulate(plant, validation, seconds=seconds / 2, seed=seed + 3, wearer_torque=wearer_torque, wearer=worn)
     train, valid = prepare_dataset(train), prepare_dataset(valid)
-    fit = identify_wearer(
-        stage1, table, *stack([train]), passive_exponents=passive_exponents, prior_weight=prior_weight
-    )
+    fit = identify_wearer(stage1, table, *stack([train]), options=as_wearer_options(options))
     terms = TermSelection.from_names("fc,fv,passive")
     truth = IdentifiedModel(
         plant,
@@ -91,7 +120,7 @@ def wearer_experiment(
     rms = {w: _rms(m, [valid]) for w, m in models.items()}
     floor = _rms(truth, [valid])
     pooled = lambda r: float(np.sqrt(np.mean(r**2) / np.mean(floor**2)))  # noqa: E731
-    runs = compare_models(plant, models, reference, seconds=track_seconds, seed=seed, wearer=worn)
+    runs = compare_models(plant, models, reference, seconds=tr.track_seconds, seed=seed, wearer=worn)
     tracking = {
         c: {w: np.array([v["rms"] for v in r["metrics"].values()]) for w, r in by.items()} for c, by in runs.items()
     }

@@ -44,8 +44,9 @@ from pinid.model.robot import RobotModel, as_robot
 from pinid.model.serialize import robot_from_dict, robot_to_dict
 from pinid.problem.rows import rest_speeds
 from pinid.result_protocol import ResultProtocol
+from pinid.wearer.options import WearerOptions, as_wearer_options
 from pinid.wearer.passive import anatomy
-from pinid.wearer.prior import MASS_RANGE, BodyPrior, wearer_prior
+from pinid.wearer.prior import BodyPrior, wearer_prior
 
 
 @dataclass
@@ -308,17 +309,13 @@ def identify_wearer(
     ddq: np.ndarray,
     tau: np.ndarray,
     *,
-    passive: bool = True,
-    mass_range: float = MASS_RANGE,
-    prior_weight: float | str = "auto",
-    passive_exponents: bool = False,
-    rest_velocity=None,
-    solver: str = "CLARABEL",
+    options: WearerOptions | None = None,
 ) -> WearerFit:
     """Stage 2: the wearer's parameters from (N, nv) arrays ``q`` [rad], ``dq``, ``ddq``, ``tau`` [N·m].
 
     ``exo``: the stage-1 IdentifiedModel (or its JSON path); ``prior_urdf``: the URDF of
-    ``pinid wearer`` (the table values, the bounds); ``mass_range`` ρ; ``prior_weight`` λ (see the module text), or
+    ``pinid wearer`` (the table values, the bounds); ``options``: :class:`~pinid.wearer.options.WearerOptions`
+    (default all defaults): ``passive``, ``mass_range`` ρ; ``prior_weight`` λ (see the module text), or
     ``"auto"`` (the default): chosen by blocked cross-validation (:func:`choose_prior_weight`);
     ``passive_exponents``: first fit the passive moments' exponents (:mod:`pinid.wearer.exponents`), then
     solve the SDP with them (the returned model carries them); ``rest_velocity``: leave out each joint's rows
@@ -328,6 +325,9 @@ def identify_wearer(
     """
     from pinid.identification.identified import IdentifiedModel
 
+    o = as_wearer_options(options)
+    passive, mass_range, prior_weight = o.passive, o.mass_range, o.prior_weight
+    passive_exponents, rest_velocity, solver = o.passive_exponents, o.rest_velocity, o.solver
     origin = "stage-1 model" if isinstance(exo, IdentifiedModel) else f"{exo}: stage-1 model"
     exo = exo if isinstance(exo, IdentifiedModel) else IdentifiedModel.load(exo)
     robot = prior_urdf if isinstance(prior_urdf, RobotModel) else RobotModel.from_urdf(prior_urdf)
@@ -649,19 +649,14 @@ def identify_wearer_stage(
     validate=None,
     mapping=None,
     preprocess=None,
-    passive: bool = True,
-    mass_range: float = MASS_RANGE,
-    prior_weight: float | str = "auto",
-    passive_exponents: bool = False,
-    rest_velocity=None,
+    options: WearerOptions | None = None,
 ) -> WearerStage:
     """``pinid identify --stage wearer`` in one call: the training recordings ``data`` and the ``validate``
     ones (paths or Datasets, each given once: :func:`~pinid.identification.run.check_distinct`) read with
     ``mapping`` and prepared with ``preprocess`` (:func:`~pinid.problem.problem.load_datasets`), the
     wearer of ``robot`` (the exo + wearer URDF) identified with the exoskeleton fixed to ``exo`` (the
-    stage-1 IdentifiedModel or its JSON path; :func:`identify_wearer` with ``passive``, ``mass_range``,
-    ``prior_weight``, ``passive_exponents``, ``rest_velocity``) and its errors on both sets of recordings
-    summarised."""
+    stage-1 IdentifiedModel or its JSON path; :func:`identify_wearer` with ``options``, a
+    :class:`~pinid.wearer.options.WearerOptions`) and its errors on both sets of recordings summarised."""
     from pinid.problem.problem import load_datasets  # deferred: stage 2 on arrays does not need them
     from pinid.identification.run import check_distinct
 
@@ -673,10 +668,6 @@ def identify_wearer_stage(
         exo,
         robot,
         *stack(train),
-        passive=passive,
-        mass_range=mass_range,
-        prior_weight=prior_weight,
-        passive_exponents=passive_exponents,
-        rest_velocity=rest_velocity,
+        options=options,
     )
     return WearerStage(fit, stage_summary(fit, exo, train, val), train, val)

@@ -34,15 +34,9 @@ INDIRECT_IMPORTS_ALLOWED: set[tuple[str, str, str]] = set()
 #: shrinks.
 TOO_MANY_PARAMETERS: dict[str, int] = {
     "pinid.simulation.run.simulate_and_write": 19,
-    "pinid.estimators.metaheuristic.Metaheuristic.__init__": 12,
-    "pinid.model.robot.RobotModel.__init__": 12,
     "pinid.simulation.twin.simulate": 12,
-    "pinid.wearer.experiment.wearer_experiment": 12,
-    "pinid.wearer.stage.identify_wearer": 12,
     "pinid.data.preprocess.prepare": 11,
-    "pinid.flexible.output_error.OutputErrorProblem.__init__": 11,
     "pinid.simulation.run.simulate_floating_and_write": 11,
-    "pinid.wearer.stage.identify_wearer_stage": 11,
 }
 MAX_PARAMETERS = 10
 

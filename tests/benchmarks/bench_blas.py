@@ -21,7 +21,7 @@ import numpy as np
 from threadpoolctl import threadpool_info, threadpool_limits
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_metaheuristics import best_time, data  # noqa: E402
+from bench_metaheuristics import best_time, data, quiet  # noqa: E402
 
 from pinid import RobotModel  # noqa: E402
 from pinid.estimators import make_estimator  # noqa: E402
@@ -55,8 +55,8 @@ def main(argv=None) -> int:
         "identification problem (QR)": lambda: IdentificationProblem.from_datasets(model, ds),
         "ols": lambda: make_estimator("ols").fit(problem),
         "sdp (LMI, Clarabel)": lambda: make_estimator("sdp").fit(problem),
-        "pso, sse, 100 × 200": lambda: make_estimator("pso", progress=False).fit(problem),
-        "pso, sae, 100 × 200": lambda: make_estimator("pso", fitness="sae", progress=False).fit(problem),
+        "pso, sse, 100 × 200": lambda: quiet(make_estimator("pso"), problem),
+        "pso, sae, 100 × 200": lambda: quiet(make_estimator("pso", fitness="sae"), problem),
         "rls": lambda: make_estimator("rls").fit(problem),
     }
     print(f"| workload | 1 thread [s] | {threads} threads [s] | {threads} threads / 1 thread |")

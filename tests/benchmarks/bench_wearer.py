@@ -24,7 +24,8 @@ from pinid.control.controllers import CONTROLLERS
 from pinid.excitation.trajectory import FourierTrajectory
 from pinid.model.robot import RobotModel
 from pinid.wearer.attach import wearer_urdf
-from pinid.wearer.experiment import wearer_experiment
+from pinid.wearer.experiment import WearerTrial, wearer_experiment
+from pinid.wearer.options import WearerOptions
 from pinid.wearer.exponents import perturbed
 
 HERE = Path(__file__).resolve().parents[2]
@@ -71,12 +72,13 @@ def main() -> None:
                 exc,
                 val,
                 ref,
-                seconds=args.seconds,
-                seed=seed,
-                wearer_torque=args.wearer_torque,
-                true_exponents=true,
-                passive_exponents=args.passive_exponents,
-                prior_weight="auto" if args.prior_weight == "auto" else float(args.prior_weight),
+                trial=WearerTrial(
+                    seconds=args.seconds, seed=seed, wearer_torque=args.wearer_torque, true_exponents=true
+                ),
+                options=WearerOptions(
+                    passive_exponents=args.passive_exponents,
+                    prior_weight="auto" if args.prior_weight == "auto" else float(args.prior_weight),
+                ),
             )
 
         if args.seeds > 1:

@@ -7,7 +7,7 @@ import pytest
 
 from pinid.errors import SpecError
 from pinid.identification.study import Study
-from pinid.estimators import ESTIMATORS, OLS, RLS, RLSPSO, Metaheuristic, PSOEstimator, make_estimator
+from pinid.estimators import ESTIMATORS, OLS, RLS, RLSPSO, Metaheuristic, PSOEstimator, SearchBox, make_estimator
 from pinid.estimators.metaheuristic import fitness_function, natural_scale, nominal_box, search_box, training_costs
 from pinid.identification.run import identify
 from pinid.problem.problem import IdentificationProblem
@@ -15,7 +15,7 @@ from pinid.problem.problem import IdentificationProblem
 from test_identification import relative_errors, true_base, truth_model, twin
 
 METAHEURISTICS = ["pso", "rls-pso", "woa", "ewoa", "de"]
-SMALL = {"population": 20, "iterations": 30, "progress": False}
+SMALL = {"population": 20, "iterations": 30}
 
 
 @pytest.fixture(scope="module")
@@ -86,7 +86,7 @@ def test_pso_on_noise_free_twin_data_converges_toward_least_squares(clean):
     assert relative_errors(clean.model, ls, truth).max() < 1e-6
     errors = []
     for iterations in (20, 100, 400):
-        est = PSOEstimator(population=40, iterations=iterations, seed=0, progress=False).fit(clean)
+        est = PSOEstimator(population=40, iterations=iterations, seed=0).fit(clean)
         errors.append(relative_errors(clean.model, est.base_, ls).max())
         assert est.info_["fitness_value"] >= est.info_["ls_fitness"]
     assert errors[0] > errors[1] > errors[2]
@@ -148,7 +148,7 @@ def test_rls_settings_are_checked(noisy):
 
 def test_rls_pso_searches_the_rls_box(noisy):
     rls = RLS(burn_in=0.2).fit(noisy)
-    est = RLSPSO(rls={"burn_in": 0.2}, **SMALL).fit(noisy)
+    est = RLSPSO(box=SearchBox(rls={"burn_in": 0.2}), **SMALL).fit(noisy)
     np.testing.assert_array_equal(est.box_[0], rls.box_[0])
     np.testing.assert_array_equal(est.box_[1], rls.box_[1])
     assert est.info_["box"]["kind"] == "rls" and est.info_["optimizer"] == "pso"
@@ -175,9 +175,27 @@ def test_default_box_is_around_the_urdf_and_options_override_it(noisy):
         nominal_box(p, 0.0, 0.0)
 
 
+def test_the_box_is_one_setting_and_its_flat_spelling_still_works(noisy):
+    """``box`` is a SearchBox (kind, width, floor, rls); ``make_estimator`` (so ``--option`` and ``pinid
+    compare``'s flags) also takes its fields as box_width, box_floor and rls, with the same result, bit for
+    bit; a bad one is a one-line SpecError naming the method and the field."""
+    flat = make_estimator("pso", box="ls", box_width=0.5, seed=2, **SMALL)
+    assert flat.box == SearchBox("ls", width=0.5) and set(flat.get_params()) == set(Metaheuristic.settings)
+    grouped = PSOEstimator(box=SearchBox("ls", width=0.5), seed=2, **SMALL)
+    np.testing.assert_array_equal(flat.fit(noisy).base_, grouped.fit(noisy).base_)
+    rls = make_estimator("rls-pso", rls={"burn_in": 0.2}, box_floor=0.1, **SMALL)
+    assert rls.box == SearchBox(floor=0.1, rls={"burn_in": 0.2}) and rls.fit(noisy).info_["box"]["kind"] == "rls"
+    assert make_estimator("woa", box="rls").box == SearchBox("rls")
+    for bad, fragment in (({"box_width": -1.0}, "width=-1.0"), ({"rls": 3}, "rls"), ({"box": 3.0}, "kind")):
+        with pytest.raises(SpecError, match=f"method 'pso': SearchBox {fragment}"):
+            make_estimator("pso", **bad)
+    with pytest.raises(SpecError, match="bad settings"):
+        make_estimator("pso", progress=False)  # not a setting of the estimate: pinid.progress.choose
+
+
 def test_tol_stops_early_like_seed_000s_epsilon(noisy):
     first = PSOEstimator(**SMALL).fit(noisy).history_[0]
-    est = PSOEstimator(population=20, iterations=500, tol=first * 0.999, progress=False).fit(noisy)
+    est = PSOEstimator(population=20, iterations=500, tol=first * 0.999).fit(noisy)
     assert len(est.history_) < 501 and "tol" in est.info_["message"]
 
 
@@ -187,7 +205,7 @@ def test_sae_fitness_heads_for_the_least_absolute_deviations_fit(noisy):
     x_lad = lad(noisy)
     sae = training_costs(noisy, x_lad)["sae"]
     assert sae <= training_costs(noisy, OLS().fit(noisy).base_)["sae"]
-    est = PSOEstimator(fitness="sae", population=30, iterations=150, box="ls", progress=False).fit(noisy)
+    est = PSOEstimator(fitness="sae", population=30, iterations=150, box="ls").fit(noisy)
     assert sae <= est.info_["fitness_value"] <= 1.01 * sae
 
 

@@ -17,6 +17,7 @@ from pinid.flexible.model import Drive, FlexibleModel, flexible_model
 from pinid.flexible.link import TrigDynamics
 from pinid.flexible.recording import FlexRecording
 from pinid.flexible.output_error import (
+    FreeParameters,
     OutputErrorProblem,
     classify,
     fit_output_error,
@@ -372,7 +373,11 @@ def test_problem_checks(spec):
     with pytest.raises(DataError, match="motor angles"):
         problem_from_spec(s, twin, outputs=("link", "motor"))
     with pytest.raises(SpecError, match="cost"):
-        OutputErrorProblem(s.model(), twin, s.free, s.lower, s.upper, cost="l1")
+        OutputErrorProblem(s.model(), twin, FreeParameters(s.free, s.lower, s.upper), cost="l1")
+    with pytest.raises(SpecError, match="expected FreeParameters"):
+        OutputErrorProblem(s.model(), twin, s.free)
+    with pytest.raises(SpecError, match="FreeParameters names"):
+        FreeParameters("ks", [1.0], [2.0])
     with pytest.raises(SpecError, match="unknown method"):
         fit_output_error(problem_from_spec(s, twin), "ga")
 

@@ -66,7 +66,7 @@ def test_noise_free_twin_segmental_recovers_every_parameter(seg, leg, method):
 
 
 def test_segmental_metaheuristics_run_both_stages(seg):
-    est = Segmental("rls-pso", {"population": 20, "iterations": 20, "progress": False}).fit(seg)
+    est = Segmental("rls-pso", {"population": 20, "iterations": 20}).fit(seg)
     first, second = est.stages_
     assert first.base_.shape == (5,) and second.base_.shape == (5,)
     assert len(est.history_) == 21 and est.info_["segmental"]["first_stage"]["history"]

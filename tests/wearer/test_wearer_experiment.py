@@ -11,9 +11,23 @@ from pinid.control.tracking import sine_reference
 from pinid.excitation.trajectory import FourierTrajectory
 from pinid.model.robot import RobotModel
 from pinid.wearer.attach import wearer_urdf
-from pinid.wearer.experiment import wearer_experiment
+from pinid.wearer.experiment import WearerTrial, wearer_experiment
 
 HERE = Path(__file__).resolve().parents[2] / "excitation"
+
+
+def test_trial_settings_are_checked():
+    from pinid.errors import SpecError
+
+    for bad, field in (
+        ({"seconds": 0}, "seconds"),
+        ({"seed": 1.5}, "seed"),
+        ({"true_exponents": [1]}, "true_exponents"),
+    ):
+        with pytest.raises(SpecError, match=f"WearerTrial {field}"):
+            WearerTrial(**bad)
+    with pytest.raises(SpecError, match="expected WearerTrial"):
+        wearer_experiment("exo_leg", "exo_leg", None, None, None, trial={"seconds": 10})
 
 
 @pytest.mark.slow
@@ -27,9 +41,7 @@ def test_identified_wearer_beats_tables_in_torque_and_tracking(tmp_path, active)
         FourierTrajectory.load(HERE / "exo_leg.json"),
         FourierTrajectory.load(HERE / "seed001_table3.json"),
         sine_reference(RobotModel.from_urdf(path)),
-        seconds=10.0 if active == 0 else 20.0,
-        wearer_torque=active,
-        track_seconds=4.0,
+        trial=WearerTrial(seconds=10.0 if active == 0 else 20.0, wearer_torque=active, track_seconds=4.0),
     )
     ratio = r["ratio"]
     if active == 0:  # sensor noise only: the identified wearer is at the floor, the tables far above it

@@ -11,6 +11,7 @@ from pinid.model.terms import TermSelection
 from pinid.model.robot import RobotModel
 from pinid.wearer.attach import wearer_urdf
 from pinid.wearer.prior import drawn as _perturbed, wearer_prior
+from pinid.wearer.options import WearerOptions
 from pinid.wearer.stage import identify_wearer
 
 
@@ -72,7 +73,7 @@ def test_passive_exponents_recovered_by_nonlinear_least_squares(setup, tmp_path)
     tau = tau + (passive.column(q, true_robot) - passive.column(q, robot)) * truth[20:]
     data = (q, dq, ddq, tau)
     scale_only = identify_wearer(stage1, path, *data)
-    fit = identify_wearer(stage1, path, *data, passive_exponents=True)
+    fit = identify_wearer(stage1, path, *data, options=WearerOptions(passive_exponents=True))
 
     def rms(f) -> float:
         return max(np.sqrt(np.mean((f.model().inverse_dynamics(q, dq, ddq) - tau) ** 2, axis=0)))
@@ -115,7 +116,7 @@ def test_passive_exponents_need_the_passive_term(setup):
 
     stage1, path, robot, truth, data = setup
     with pytest.raises(SpecError, match="passive"):
-        identify_wearer(stage1, path, *data, passive=False, passive_exponents=True)
+        identify_wearer(stage1, path, *data, options=WearerOptions(passive=False, passive_exponents=True))
 
 
 def test_auto_prior_weight_on_noise_free_data_is_zero_and_recovers_the_wearer(setup):
@@ -123,7 +124,7 @@ def test_auto_prior_weight_on_noise_free_data_is_zero_and_recovers_the_wearer(se
     from pinid.wearer.stage import PRIOR_WEIGHTS
 
     stage1, path, robot, truth, data = setup
-    fit = identify_wearer(stage1, path, *data, prior_weight="auto")
+    fit = identify_wearer(stage1, path, *data, options=WearerOptions(prior_weight="auto"))
     assert fit.prior_weight == 0.0
     cv = fit.cross_validation
     assert cv["weights"] == list(PRIOR_WEIGHTS)
@@ -145,10 +146,26 @@ def test_auto_prior_weight_pulls_toward_tables_that_are_right_when_data_are_nois
     noisy = clean + np.random.default_rng(7).normal(0.0, 8.0, clean.shape)
     bp = base_parameters(robot, terms)
     want = bp.from_standard(table)
-    alone = identify_wearer(stage1, path, q, dq, ddq, noisy, prior_weight=0.0)
-    auto = identify_wearer(stage1, path, q, dq, ddq, noisy, prior_weight="auto")
+    alone = identify_wearer(stage1, path, q, dq, ddq, noisy, options=WearerOptions(prior_weight=0.0))
+    auto = identify_wearer(stage1, path, q, dq, ddq, noisy, options=WearerOptions(prior_weight="auto"))
     assert auto.prior_weight > 0
     assert np.linalg.norm(auto.base - want) < np.linalg.norm(alone.base - want)
+
+
+def test_options_are_one_checked_group(setup):
+    """The stage-2 options come as one WearerOptions (a wrong type: a one-line SpecError naming the field)."""
+    from pinid.errors import SpecError
+
+    stage1, path, _, _, data = setup
+    for bad, field in (
+        ({"passive": "yes"}, "passive"),
+        ({"mass_range": "0.3"}, "mass_range"),
+        ({"solver": 1}, "solver"),
+    ):
+        with pytest.raises(SpecError, match=f"WearerOptions {field}"):
+            WearerOptions(**bad)
+    with pytest.raises(SpecError, match="expected WearerOptions"):
+        identify_wearer(stage1, path, *data, options={"passive": False})
 
 
 @pytest.mark.parametrize("bad", ["often", -0.1, float("nan")])
@@ -157,7 +174,7 @@ def test_prior_weight_must_be_a_number_or_auto(setup, bad):
 
     stage1, path, _, _, data = setup
     with pytest.raises(SpecError, match="prior_weight"):
-        identify_wearer(stage1, path, *data, prior_weight=bad)
+        identify_wearer(stage1, path, *data, options=WearerOptions(prior_weight=bad))
 
 
 def test_rows_at_rest_are_left_out_when_asked(setup):
@@ -178,14 +195,14 @@ def test_rows_at_rest_are_left_out_when_asked(setup):
         return float(np.max(np.abs(fit.base - want) / np.maximum(np.abs(want), 1e-3)))
 
     biased = identify_wearer(stage1, path, q, dq, ddq, tau_static)
-    kept = identify_wearer(stage1, path, q, dq, ddq, tau_static, rest_velocity=0.3)
-    per_joint = identify_wearer(stage1, path, q, dq, ddq, tau_static, rest_velocity=[0.3, 0.3])
+    kept = identify_wearer(stage1, path, q, dq, ddq, tau_static, options=WearerOptions(rest_velocity=0.3))
+    per_joint = identify_wearer(stage1, path, q, dq, ddq, tau_static, options=WearerOptions(rest_velocity=[0.3, 0.3]))
     assert error(biased) > 1e-2 and error(kept) <= 1e-6, (error(biased), error(kept))
     np.testing.assert_array_equal(per_joint.base, kept.base)
     np.testing.assert_array_equal(
-        identify_wearer(stage1, path, q, dq, ddq, tau, rest_velocity=0).base,
+        identify_wearer(stage1, path, q, dq, ddq, tau, options=WearerOptions(rest_velocity=0)).base,
         identify_wearer(stage1, path, q, dq, ddq, tau).base,
     )
     for bad in ("fast", -1.0, [0.1, 0.2, 0.3], float("nan")):
         with pytest.raises(SpecError, match="rest_velocity"):
-            identify_wearer(stage1, path, q, dq, ddq, tau, rest_velocity=bad)
+            identify_wearer(stage1, path, q, dq, ddq, tau, options=WearerOptions(rest_velocity=bad))
