@@ -158,9 +158,15 @@ def add_mapping_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def mapping_from_args(args: argparse.Namespace):
-    """The MappingSpec of --mapping (None without it), with the --allow-outside-paths choice."""
+    """The mapping spec of --mapping (None without it), with the --allow-outside-paths choice: a
+    :class:`MappingSpec`, or with ``--base floating`` the spec with its [floating] table
+    (:func:`pinid.data.contacts.floating_mapping`)."""
     if args.mapping is None:
         return None
+    if getattr(args, "base", "fixed") == "floating":
+        from pinid.data.contacts import floating_mapping  # deferred: pinid --help does not load the contacts
+
+        return floating_mapping(args.mapping, allow_outside_paths=args.allow_outside_paths)
     return MappingSpec.load(args.mapping, allow_outside_paths=args.allow_outside_paths)
 
 
@@ -436,12 +442,3 @@ def add_floating_arguments(p: argparse.ArgumentParser) -> None:
         help="accept contact_<link> phases without a wrench (a leg without force sensing): the rows that "
         "foot's unknown wrench enters (base rows, its leg's joints) are left out while it is in contact",
     )
-
-
-def floating_mapping_from_args(args: argparse.Namespace):
-    """The --mapping spec of a --base floating run, with its [floating] table (None without --mapping)."""
-    from pinid.data.contacts import floating_mapping  # deferred: pinid --help does not load the contacts
-
-    if args.mapping is None:
-        return None
-    return floating_mapping(args.mapping, allow_outside_paths=args.allow_outside_paths)

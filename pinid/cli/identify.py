@@ -9,7 +9,6 @@ from pathlib import Path
 from pinid.cli.common import (
     add_floating_arguments,
     estimators_text,
-    floating_mapping_from_args,
     add_mapping_arguments,
     add_method_arguments,
     wrote_line,
@@ -386,7 +385,7 @@ def _study(args: argparse.Namespace, model, terms) -> Study:
         validate=args.validate or None,
         terms=terms,
         # a floating base's mapping spec has a [floating] table: base, IMU, wrench, plate, contact columns
-        mapping=floating_mapping_from_args(args) if floating else mapping_from_args(args),
+        mapping=mapping_from_args(args),
         preprocess=preprocess_from_args(args),
         rest_velocity=rest_velocity_from_args(args.rest_velocity),
         payload=args.payload,

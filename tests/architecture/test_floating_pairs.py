@@ -18,7 +18,6 @@ LEFT_TO_MERGE: dict[str, str] = {
     "simulate_floating": "simulate",
     "simulate_floating_and_write": "simulate_and_write",
     "FloatingRun": "Run",
-    "floating_mapping_from_args": "mapping_from_args",
 }
 #: Names that match the pattern without being twins: what each is instead.
 NOT_TWINS: dict[str, str] = {

@@ -132,7 +132,9 @@ def _wearer_stage(leg, identification):
     exo, robot = pinid.RobotModel.from_urdf("exo_leg"), pinid.RobotModel.from_urdf(path)
     stage1 = IdentifiedModel(exo, TermSelection(), standard_parameters(exo, TermSelection()))
     train, valid = twin(robot, seconds=2, rate=50, seed=1), twin(robot, seconds=1, rate=50, seed=2)
-    return identify_wearer_stage(stage1, robot, [train], validate=[valid], options=WearerOptions(passive_exponents=True))
+    return identify_wearer_stage(
+        stage1, robot, [train], validate=[valid], options=WearerOptions(passive_exponents=True)
+    )
 
 
 def _wearer_fit(leg, identification):
