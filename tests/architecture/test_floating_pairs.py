@@ -9,10 +9,10 @@ import re
 
 from test_public_api import _modules, public_definitions
 
-#: Twin pairs still to merge into one (floating name → its fixed-base twin): the model layer's names and
-#: regressor (they should dispatch on the model, as Pinocchio's algorithms do), the data layer (the floating
-#: recording's preparation and stacking), the twin and its writer, the CLI's mapping option.  Identification,
-#: comparison, results, files and loaders are one pipeline already (issue 32, fifth session).
+#: Twin pairs still to merge into one (floating name → its fixed-base twin): the floating recording's
+#: preparation (one recording type), the twin and its writer.  The model layer (names, values, regressor, base
+#: parameters dispatch on the model, as Pinocchio's algorithms do), the setup, identification, comparison,
+#: results, files, loaders and the CLI's mapping option are one pipeline already (issue 32, sixth session).
 LEFT_TO_MERGE: dict[str, str] = {
     "prepare_floating": "prepare",
     "simulate_floating": "simulate",
