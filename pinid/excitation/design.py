@@ -16,7 +16,10 @@ Optimisers
 ----------
 ``slsqp`` (default) is a gradient-based multistart made for this problem.  With the offsets fixed (or
 free), q, dq and ddq are *linear* in the design variables, so the kinematic limits on a grid of the
-period (twice as fine as the samples) are linear inequality constraints, handed to scipy's SLSQP exactly.
+period (twice as fine as the samples) are linear inequality constraints, handed to scipy's SLSQP exactly
+— on robots of more than ``SMALL_ROBOT`` joints, only at each signal's local maxima over the period
+(:mod:`pinid.excitation.peaks`: the same limits with 6·nv·harmonics rows, SLSQP's subproblem being most
+of a design's time).
 The gradient of log cond(W_b) comes from the singular vectors of W_b and the derivatives of each
 sample's regressor row with respect to that sample's state (:meth:`DesignProblem.objective_and_gradient`).
 The landscape has many local minima, so the search has two phases (:class:`MultistartOptions`): many
@@ -63,6 +66,7 @@ from pinid.excitation.evaluation import (
     trajectory_extremes,
 )
 from pinid.excitation.problem import DesignProblem
+from pinid.excitation.peaks import PeakConstraints
 from pinid.excitation.workers import SearchWorkers, pool_size
 
 #: robots with up to this many joints get the full default multistart (128 starts, 2 polished)
@@ -102,6 +106,13 @@ class MultistartOptions:
     ``SMALL_ROBOT`` joints, ``samples`` above — SLSQP's subproblem grows faster than its 6·nv·grid rows;
     the design is scaled inside the limits at every instant afterwards whatever the grid).
 
+    ``limits``: how SLSQP sees the kinematic limits — ``"grid"``, one linear row per point of the constraint
+    grid, or ``"peaks"``, one row per local maximum of each joint's q, dq, ddq over the period
+    (:class:`~pinid.excitation.peaks.PeakConstraints`: 6·nv·harmonics rows, 2–3× less CPU on a 6-DOF arm).
+    None: ``"grid"`` up to ``SMALL_ROBOT`` joints (the designs of small robots stay as they were), ``"peaks"``
+    above.  The two follow different paths to different local minima (docs/benchmarks.md, "Issue 35,
+    fourth step").
+
     ``starts``, ``polish`` and ``stop_ratio`` left at None depend on the robot's size (:meth:`resolved`):
     128, 2 and 1.25 up to ``SMALL_ROBOT`` (4) joints, 12, 2 and 0 above — on a 6- or 7-DOF arm one search
     start costs 0.3–1.5 s and one polish 3–10 s here (the two polishes run on two cores at once), and the
@@ -121,15 +132,18 @@ class MultistartOptions:
     stop_ratio: float | None = None
     workers: int | None = None
     polish_grid: int | None = None
+    limits: str | None = None
 
     def resolved(self, nv: int) -> "MultistartOptions":
-        """These options with ``starts``, ``polish`` and ``stop_ratio`` filled in for a robot of ``nv`` joints."""
+        """These options with ``starts``, ``polish``, ``stop_ratio`` and ``limits`` filled in for a robot of
+        ``nv`` joints."""
         small = nv <= SMALL_ROBOT
         return replace(
             self,
             starts=(128 if small else 12) if self.starts is None else self.starts,
             polish=2 if self.polish is None else self.polish,
             stop_ratio=(1.25 if small else 0.0) if self.stop_ratio is None else self.stop_ratio,
+            limits=("grid" if small else "peaks") if self.limits is None else self.limits,
         )
 
 
@@ -383,8 +397,10 @@ def _local_search(
     maxiter: int,
     ftol: float,
     stop: tuple[int, float] | None = None,
+    peaks: bool = False,
 ) -> tuple[np.ndarray, float, int]:
-    """SLSQP from ``x`` with the kinematic limits as linear constraints (and torque limits as nonlinear ones);
+    """SLSQP from ``x`` with the kinematic limits as linear constraints on the check grid — or, with ``peaks``,
+    at each signal's local maxima (:class:`PeakConstraints`) — and torque limits as nonlinear ones;
     returns the result scaled into the limits on the check grid, its criterion value and the SLSQP
     iterations (−1: stopped early).  Gradients: :meth:`DesignProblem.objective_and_gradient`.
 
@@ -415,8 +431,12 @@ def _local_search(
         g = gradient(x)[1]
         return np.where(np.isfinite(g), g, 0.0)
 
-    minus_A = -A  # once: SLSQP asks for the constraints' Jacobian at every iterate
-    constraints = [{"type": "ineq", "fun": lambda x: b - A @ x, "jac": lambda x: minus_A}]
+    if peaks:
+        at_peaks = PeakConstraints(problem, A, b)
+        constraints = [{"type": "ineq", "fun": at_peaks.fun, "jac": at_peaks.jac}]
+    else:
+        minus_A = -A  # once: SLSQP asks for the constraints' Jacobian at every iterate
+        constraints = [{"type": "ineq", "fun": lambda x: b - A @ x, "jac": lambda x: minus_A}]
     if torque:
         limit = problem.spec.torque
         finite = np.isfinite(np.tile(limit, len(problem.times)))
@@ -487,6 +507,9 @@ def _multistart(
         raise SpecError(f"slsqp: stop_ratio {opts.stop_ratio!r}, expected ≥ 1 (or 0: never stop a start early)")
     if opts.workers is not None and (int(opts.workers) != opts.workers or opts.workers < 1):
         raise SpecError(f"slsqp: workers {opts.workers!r}, expected a positive integer")
+    if opts.limits not in ("grid", "peaks"):
+        raise SpecError(f"slsqp: limits {opts.limits!r}, expected 'grid' or 'peaks'")
+    peaks = opts.limits == "peaks"
     start_time = time.perf_counter()
     spec = problem.spec
     ns = opts.search_samples or max(50, 12 * spec.harmonics)
@@ -521,7 +544,7 @@ def _multistart(
             # iterations is given up; the batches make that independent of the number of workers
             limit = best * opts.stop_ratio if opts.stop_ratio and np.isfinite(best) else np.inf
             tasks = [
-                ("search", xs, opts.maxiter, opts.ftol, (opts.stop_after, limit))
+                ("search", xs, opts.maxiter, opts.ftol, (opts.stop_after, limit), peaks)
                 for xs in starts[first : first + BATCH]
             ]
             for (x, value, nit), _ in workers.map(tasks, each=tell.first_start):
@@ -541,7 +564,7 @@ def _multistart(
             if all(np.linalg.norm(x - c) > 1e-6 * (1 + np.linalg.norm(c)) for c in chosen):
                 chosen.append(x)
         chosen = [problem.scale_into_limits(x[None, :])[0] for x in chosen]
-        tasks = [("polish", x, opts.polish_maxiter, opts.polish_ftol) for x in chosen]
+        tasks = [("polish", x, opts.polish_maxiter, opts.polish_ftol, None, peaks) for x in chosen]
         best_x, best_f = None, np.inf
         polished = []
         for x_start, ((x, value, _), _) in zip(chosen, workers.map(tasks)):

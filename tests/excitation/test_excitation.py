@@ -439,9 +439,9 @@ def test_polishing_never_returns_a_worse_design_than_its_start(monkeypatch):
 
     real, starts = design._local_search, []
 
-    def bad_polish(problem, x, maxiter, ftol, stop=None):
+    def bad_polish(problem, x, maxiter, ftol, stop=None, peaks=False):
         if maxiter != FAST["polish_maxiter"]:  # phase 1: the real search
-            return real(problem, x, maxiter, ftol, stop)
+            return real(problem, x, maxiter, ftol, stop, peaks)
         starts.append(x.copy())
         worse = problem.scale_into_limits((0.05 * x)[None, :])  # 5 % of the motion: far worse conditioned
         return worse[0], float(problem.evaluate(worse)[0]), 1
@@ -513,10 +513,10 @@ def test_a_long_design_says_its_expected_time_before_it_runs(monkeypatch, capsys
     said_before_polish = []
     real = design._local_search
 
-    def watch(problem, x, maxiter, ftol, stop=None):
+    def watch(problem, x, maxiter, ftol, stop=None, peaks=False):
         if stop is None:  # a polish: the expected time was said before
             said_before_polish.append("pinid: slsqp: about" in capsys.readouterr().err)
-        return real(problem, x, maxiter, ftol, stop)
+        return real(problem, x, maxiter, ftol, stop, peaks)
 
     monkeypatch.setattr(design, "_local_search", watch)
     leg = RobotModel.from_urdf("exo_leg")
