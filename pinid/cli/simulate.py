@@ -291,8 +291,9 @@ def _wearer(args: argparse.Namespace, model):
 
 def _simulate_floating(args: argparse.Namespace, model, files: dict) -> int:
     """--base floating: the suspended twin on --excitation, or the gait twin with --excitation gait."""
-    from pinid.simulation.floating_twin import Noise  # deferred (see above)
-    from pinid.simulation.run import simulate_floating_and_write
+    from pinid.simulation.floating_twin import BaseSensors, Noise  # deferred (see above)
+    from pinid.simulation.run import simulate_and_write
+    from pinid.simulation.twin import Rates
 
     unused = [f"--{k.replace('_', '-')}" for k in _FIXED_ONLY if getattr(args, k) not in (None, False, 0.0)]
     if unused:
@@ -303,16 +304,15 @@ def _simulate_floating(args: argparse.Namespace, model, files: dict) -> int:
     noise = Noise(
         args.position_noise, 0.0 if torque is None else torque, force, moment, gyro, accel, None if torque else pct
     )
-    text = simulate_floating_and_write(
+    text = simulate_and_write(
         model,
         args.excitation,
         files["path"],
         truth_path=files["truth_path"],
         seconds=args.seconds,
-        rate=args.sample_rate or args.control_rate,
-        noise=noise,
+        rates=Rates(control=args.control_rate, sample=args.sample_rate or args.control_rate),
+        sensors=BaseSensors(noise, args.imu),
         seed=args.seed,
-        imu_frame=args.imu,
         figure=files["figure"],
         command="pinid simulate " + " ".join(_argv_of(args)),
     )

@@ -69,14 +69,29 @@ class Noise:
     torque_percent: float | None = None  # when given: torque noise this % of each joint's peak torque instead
 
 
+@dataclass(frozen=True)
+class BaseSensors:
+    """What a floating-base rig measures beyond the joints, the floating twin's sensor options of
+    :func:`pinid.simulation.twin.simulate` (``sensors=``): the sensors' ``noise`` (:class:`Noise`) and, with
+    ``imu_frame``, an IMU in that URDF frame instead of motion capture of the base."""
+
+    noise: Noise = field(default_factory=Noise)
+    imu_frame: str | None = None
+
+
 @dataclass
-class FloatingRun:
-    """A twin run: the exact samples (``exact``, for noise-free identification and as the truth), the
-    recording with noise (``recording``, what would be written) and the truth (``truth``, plain dict)."""
+class TwinRun:
+    """A floating-base twin run, what :func:`pinid.simulation.twin.simulate` returns for a floating model: the
+    exact samples (``exact``, for noise-free identification and as the truth), the recording with noise
+    (``recording``, what would be written) and the truth (``truth``, plain dict).  It unpacks as the fixed-base
+    run's ``(recording, truth)`` pair: ``rec, truth = simulate(model, ...)`` reads either kind of model."""
 
     exact: FloatingSamples
     recording: FloatingRecording
     truth: dict = field(default_factory=dict)
+
+    def __iter__(self):
+        return iter((self.recording, self.truth))
 
 
 def _rk4_hold(model, t, traj, harness, base0):
@@ -149,7 +164,7 @@ def simulate_suspended(
     noise: Noise = Noise(),
     seed: int = 0,
     imu_frame: str | None = None,
-) -> FloatingRun:
+) -> TwinRun:
     """The exoskeleton in a harness, its joints following ``trajectory`` (see the module text)."""
     model = as_floating(model)
     t = _times(seconds, rate)
@@ -169,7 +184,7 @@ def simulate_suspended(
     rec = _recording(model, exact, noise, seed, imu_frame, plates=False)
     truth = _truth(model, "suspended", seconds, rate, noise, seed)
     truth["harness"] = harness.__dict__ | {"anchor": list(harness.anchor), "attach": list(harness.attach)}
-    return FloatingRun(exact, rec, truth)
+    return TwinRun(exact, rec, truth)
 
 
 def _times(seconds: float, rate: float) -> np.ndarray:
@@ -279,7 +294,7 @@ def simulate_gait(
     soles: tuple[str, str] = ("l_sole", "r_sole"),
     imu_frame: str | None = None,
     pattern: dict | None = None,
-) -> FloatingRun:
+) -> TwinRun:
     """The exoskeleton walking (see the module text): ground reaction on the soles, torques by inverse dynamics."""
     model = as_floating(model)
     t = _times(seconds, rate)
@@ -317,7 +332,7 @@ def simulate_gait(
     rec = _recording(model, exact, noise, seed, imu_frame, plates=True, contacts=contacts)
     truth = _truth(model, "gait", seconds, rate, noise, seed)
     truth["gait"] = {**GAIT, **(pattern or {})}
-    return FloatingRun(exact, rec, truth)
+    return TwinRun(exact, rec, truth)
 
 
 # ------------------------------------------------------------------------------------------------- recording
@@ -407,76 +422,30 @@ def _truth(model, kind, seconds, rate, noise, seed) -> dict:
 
 
 # ------------------------------------------------------------------------------------------------- the command
-def simulate_floating(
-    model: FloatingRobotModel,
-    excitation: str,
-    *,
-    seconds: float = 10.0,
-    rate: float = 1000.0,
-    noise: Noise = Noise(),
-    seed: int = 0,
-    imu_frame: str | None = None,
-) -> FloatingRun:
-    """``pinid simulate --base floating``: ``excitation`` "gait" walks (:func:`simulate_gait`); anything else is a
-    trajectory (:func:`pinid.simulation.twin.load_trajectory`) the suspended legs follow (:func:`simulate_suspended`)."""
-    if excitation == "gait":
-        return simulate_gait(model, seconds=seconds, rate=rate, noise=noise, seed=seed, imu_frame=imu_frame)
-    from pinid.simulation.trajectories import load_trajectory
+def simulate_free_flyer(
+    model: FloatingRobotModel, excitation, seconds: float, seed: int, rates, sensors, options: dict
+) -> TwinRun:
+    """The floating branch of :func:`pinid.simulation.twin.simulate` (call that): ``excitation`` "gait" walks
+    (:func:`simulate_gait`); a trajectory (or its path, name or preset) the suspended legs follow
+    (:func:`simulate_suspended`).  ``options``: the other keywords, ``noise`` and ``imu_frame`` (when ``sensors``
+    is None), ``control_rate`` and ``sample_rate`` (over ``rates``'), and the fixed-base ones (not None: refused)."""
+    clock = {"control": 1000.0, "sample": None} | ({"control": rates.control, "sample": rates.sample} if rates else {})
+    clock |= {k[:-5]: options.pop(k) for k in ("control_rate", "sample_rate") if k in options}
+    rate = clock["sample"] or clock["control"]
+    wrong = [k for k, v in options.items() if k not in ("noise", "imu_frame") and v is not None]
+    if wrong:
+        raise SpecError(f"{wrong[0]}: for a fixed-base model only, {model.name} has a floating base")
+    if sensors is None:
+        sensors = BaseSensors(**{k: options[k] for k in ("noise", "imu_frame") if k in options})
+    elif not isinstance(sensors, BaseSensors) or "noise" in options or "imu_frame" in options:
+        raise SpecError(
+            f"sensors: got {type(sensors).__name__}, expected BaseSensors (or noise=, imu_frame=) for a floating model"
+        )
+    kw = {"seconds": seconds, "rate": rate, "noise": sensors.noise, "seed": seed, "imu_frame": sensors.imu_frame}
+    if isinstance(excitation, str) and excitation == "gait":
+        return simulate_gait(model, **kw)
+    if isinstance(excitation, str):
+        from pinid.simulation.trajectories import load_trajectory
 
-    trajectory = load_trajectory(excitation, model)
-    return simulate_suspended(
-        model, trajectory, seconds=seconds, rate=rate, noise=noise, seed=seed, imu_frame=imu_frame
-    )
-
-
-def write_floating_run(run: FloatingRun, path, truth_path=None, *, figure=None, overwrite: bool | None = None) -> list:
-    """Write the recording (CSV or NPZ) and the truth JSON (default ``<path stem>.truth.json``) and, with
-    ``figure``, a PNG of the joints (:func:`_figure_png`), all or nothing."""
-    from pinid.data.contacts import write_floating
-    from pinid.io import Artefacts, write_json
-    from pinid.simulation.outputs import truth_path_for
-
-    if not isinstance(run, FloatingRun):
-        raise SpecError(f"run: got {type(run).__name__}, expected a FloatingRun of simulate_floating")
-    arts = Artefacts(overwrite=overwrite)
-    arts.add(path, lambda p: write_floating(p, run.recording))
-    arts.add(truth_path or truth_path_for(path), lambda p: write_json(p, run.truth))
-    if figure:
-        arts.add(figure, _figure_png(run))
-    return arts.write()
-
-
-def _figure_png(run: FloatingRun) -> bytes:
-    """Per joint: the prescribed position (the legs follow it exactly), the recorded one, their difference
-    (the encoder noise) and the recorded torque (the exact one when none is recorded)."""
-    from pinid.report.figures import figure_png
-    from pinid.report.plot_simulation import simulation_figure
-
-    exact, rec = run.exact.data, run.recording.data
-    tau = rec.tau if rec.tau is not None else exact.tau
-    title = f"pinid simulate --base floating: {run.truth['kind']} {run.truth['robot']}, {exact.n} samples"
-    fig = simulation_figure(
-        exact.t,
-        exact.q,
-        rec.q,
-        tau,
-        exact.joints,
-        title=title,
-        error_label="recorded − prescribed (encoder noise)",
-        position_labels=("prescribed", "recorded"),
-    )
-    return figure_png(fig)
-
-
-def floating_text(run: FloatingRun, written) -> str:
-    """What ``pinid simulate --base floating`` prints."""
-    rec, s = run.recording, run.exact
-    what = [f"{len(s.data.joints)} joints"]
-    what.append(f"IMU on {rec.imu_frame}" if rec.imu_frame else "base pose (motion capture)")
-    what += [f"wrench on {k} (link frame)" for k in rec.wrenches] + [f"force plate under {k}" for k in rec.plates]
-    if rec.contacts:
-        what.append("contact phases")
-    return (
-        f"simulated {run.truth['kind']} {run.truth['robot']} on a floating base: {s.n} samples, "
-        f"{s.data.duration:.3g} s; recorded {', '.join(what)}\nwrote " + ", ".join(str(p) for p in written)
-    )
+        excitation = load_trajectory(excitation, model)
+    return simulate_suspended(model, excitation, **kw)

@@ -19,6 +19,7 @@ from pinid.model.terms import TermSelection
 from pinid.model.robot import RobotModel
 from pinid.simulation.cad import perturb
 from pinid.simulation.twin import save_truth
+from pinid.simulation.floating_twin import TwinRun
 from pinid.errors import OutputError
 from pinid.io import as_path
 from pinid.model.robot import as_robot
@@ -173,3 +174,55 @@ def simulation_text(
     if figure:
         lines.append(f"wrote {figure} (per joint: reference and simulated q, tracking error, measured torque)")
     return "\n".join(lines)
+
+
+def write_floating_run(run: TwinRun, path, truth_path=None, *, figure=None, overwrite: bool | None = None) -> list:
+    """Write the recording (CSV or NPZ) and the truth JSON (default ``<path stem>.truth.json``) and, with
+    ``figure``, a PNG of the joints (:func:`_floating_figure_png`), all or nothing."""
+    from pinid.data.contacts import write_floating
+    from pinid.io import Artefacts, write_json
+
+    if not isinstance(run, TwinRun):
+        raise SpecError(f"run: got {type(run).__name__}, expected the TwinRun simulate gives for a floating model")
+    arts = Artefacts(overwrite=overwrite)
+    arts.add(path, lambda p: write_floating(p, run.recording))
+    arts.add(truth_path or truth_path_for(path), lambda p: write_json(p, run.truth))
+    if figure:
+        arts.add(figure, _floating_figure_png(run))
+    return arts.write()
+
+
+def _floating_figure_png(run: TwinRun) -> bytes:
+    """Per joint: the prescribed position (the legs follow it exactly), the recorded one, their difference
+    (the encoder noise) and the recorded torque (the exact one when none is recorded)."""
+    from pinid.report.figures import figure_png
+    from pinid.report.plot_simulation import simulation_figure
+
+    exact, rec = run.exact.data, run.recording.data
+    tau = rec.tau if rec.tau is not None else exact.tau
+    title = f"pinid simulate --base floating: {run.truth['kind']} {run.truth['robot']}, {exact.n} samples"
+    fig = simulation_figure(
+        exact.t,
+        exact.q,
+        rec.q,
+        tau,
+        exact.joints,
+        title=title,
+        error_label="recorded − prescribed (encoder noise)",
+        position_labels=("prescribed", "recorded"),
+    )
+    return figure_png(fig)
+
+
+def floating_text(run: TwinRun, written) -> str:
+    """What ``pinid simulate --base floating`` prints."""
+    rec, s = run.recording, run.exact
+    what = [f"{len(s.data.joints)} joints"]
+    what.append(f"IMU on {rec.imu_frame}" if rec.imu_frame else "base pose (motion capture)")
+    what += [f"wrench on {k} (link frame)" for k in rec.wrenches] + [f"force plate under {k}" for k in rec.plates]
+    if rec.contacts:
+        what.append("contact phases")
+    return (
+        f"simulated {run.truth['kind']} {run.truth['robot']} on a floating base: {s.n} samples, "
+        f"{s.data.duration:.3g} s; recorded {', '.join(what)}\nwrote " + ", ".join(str(p) for p in written)
+    )

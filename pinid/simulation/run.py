@@ -12,8 +12,16 @@ from collections.abc import Sequence
 from pinid.errors import SpecError
 from pinid.io import as_path
 from pinid.model.robot import RobotModel, as_robot
-from pinid.simulation.floating_twin import Noise, floating_text, simulate_floating, write_floating_run
-from pinid.simulation.outputs import cad_model, cad_truth, drawn_wearer_truth, simulation_text, write_simulation
+from pinid.simulation.floating_twin import BaseSensors
+from pinid.simulation.outputs import (
+    floating_text,
+    write_floating_run,
+    cad_model,
+    cad_truth,
+    drawn_wearer_truth,
+    simulation_text,
+    write_simulation,
+)
 from pinid.simulation.trajectories import load_trajectory
 from pinid.simulation.twin import Controller, Friction, Rates, Sensors, simulate
 
@@ -29,7 +37,7 @@ def simulate_and_write(
     rates: Rates | None = None,
     controller: Controller | None = None,
     friction: Friction | None = None,
-    sensors: Sensors | None = None,
+    sensors: Sensors | BaseSensors | None = None,
     wearer: dict | None = None,
     drawn_wearer: tuple[dict, dict] | None = None,
     wearer_torque: float = 0.0,
@@ -54,11 +62,28 @@ def simulate_and_write(
     that far from the truth (``truth["cad"]``; ``cad_urdf`` writes it); ``figure``: a PNG of the run (per
     joint the reference and simulated position, the tracking error, the recorded torque); ``command``: the
     command line kept in ``truth["command"]``.
+
+    A floating model (``pinid simulate --base floating``) runs the floating twin (:func:`~pinid.simulation.twin.simulate`;
+    ``excitation`` also "gait"; ``sensors`` a :class:`~pinid.simulation.floating_twin.BaseSensors`, the rate
+    ``rates.sample`` or ``rates.control``) and writes its recording and truth
+    (:func:`~pinid.simulation.outputs.write_floating_run`); the fixed-base options (``flip``,
+    ``controller``, ``friction``, the wearer's, ``perturb``, ``true_signals``, ``cad_urdf``) raise SpecError.
     """
     model = as_robot(model)
     path = as_path(path)
     if not isinstance(excitation, str):
         raise SpecError(f"excitation: got {type(excitation).__name__}, expected a trajectory path, name or preset")
+    if model.base == "floating":
+        fixed = {"flip": flip or None, "controller": controller, "friction": friction, "wearer": wearer}
+        fixed |= {"drawn_wearer": drawn_wearer, "wearer_torque": wearer_torque or None, "perturb": perturb}
+        fixed |= {"true_signals": true_signals, "cad_urdf": cad_urdf}
+        wrong = [k for k, v in fixed.items() if v is not None]
+        if wrong:
+            raise SpecError(f"{wrong[0]}: for a fixed-base model only, {model.name} has a floating base")
+        run = simulate(model, excitation, seconds=seconds, seed=seed, rates=rates, sensors=sensors or BaseSensors())
+        if command is not None:
+            run.truth["command"] = command
+        return floating_text(run, write_floating_run(run, path, truth_path, figure=figure))
     trajectory = load_trajectory(excitation, model, flip=flip)
     cad = None if perturb is None else cad_model(model, perturb, seed)
     if cad is not None:  # the feed-forward's model
@@ -86,30 +111,3 @@ def simulate_and_write(
     reference = trajectory.for_joints(model.joint_names, model.name).evaluate(ds.t)[0] if figure else None
     write_simulation(ds, truth, path, cad=cad, reference=reference, **files)
     return simulation_text(ds, truth, path, **files)
-
-
-def simulate_floating_and_write(
-    model: RobotModel,
-    excitation: str,
-    path: str | os.PathLike,
-    *,
-    truth_path: str | os.PathLike | None = None,
-    seconds: float = 10.0,
-    rate: float = 1000.0,
-    noise: Noise = Noise(),
-    seed: int = 0,
-    imu_frame: str | None = None,
-    figure: str | os.PathLike | None = None,
-    command: str | None = None,
-) -> str:
-    """``pinid simulate --base floating`` in one call: :func:`~pinid.simulation.floating_twin.simulate_floating`
-    (``excitation`` "gait", or a trajectory the suspended legs follow), ``command`` kept in the truth, the
-    recording and its truth written (:func:`~pinid.simulation.floating_twin.write_floating_run`, with
-    ``figure`` a PNG of the joints); returns what the command prints
-    (:func:`~pinid.simulation.floating_twin.floating_text`)."""
-    model = as_robot(model)
-    path = as_path(path)
-    run = simulate_floating(model, excitation, seconds=seconds, rate=rate, noise=noise, seed=seed, imu_frame=imu_frame)
-    if command is not None:
-        run.truth["command"] = command
-    return floating_text(run, write_floating_run(run, path, truth_path, figure=figure))

@@ -59,6 +59,7 @@ from pinid.checks import as_floats, count, number
 from pinid.data.dataset import Dataset
 from pinid.errors import DataError, DataWarning, SpecError
 from pinid.model.robot import RobotModel, as_robot
+from pinid.model.floating import FloatingRobotModel
 from pinid.excitation.trajectory import FourierTrajectory
 from pinid.io import write_json
 from pinid.model import terms as _terms
@@ -352,7 +353,19 @@ def simulate(
     truth lists them).  ``wearer_torque`` [%]: the wearer's involuntary active torque, per joint that percentage of
     the RMS gravity torque along the trajectory (:func:`wearer_disturbance`); it acts on the plant but is
     not in the recorded (motor) torque.  Everything random comes from ``seed``; more in the module text.
+    A floating model runs :mod:`pinid.simulation.floating_twin` (``trajectory`` also "gait"; ``sensors`` a
+    ``BaseSensors`` or ``noise=``, ``imu_frame=``; rate ``rates.sample`` or ``rates.control``) and returns a
+    ``TwinRun``, unpacked as ``(FloatingRecording, truth)``; an option of the other kind raises SpecError.
     """
+    if isinstance(model, FloatingRobotModel):  # a free flyer is a root joint: one call, the floating twin
+        from pinid.simulation.floating_twin import simulate_free_flyer
+
+        fixed = {"controller": controller, "friction": friction, "terms": terms, "wearer": wearer}
+        fixed |= {"wearer_torque": wearer_torque or None, **options}
+        return simulate_free_flyer(model, trajectory, seconds, seed, rates, sensors, fixed)
+    wrong = [k for k in ("noise", "imu_frame") if k in options] + [t for t in [trajectory] if t == "gait"]
+    if wrong or not isinstance(sensors, (Sensors, type(None))):
+        raise SpecError(f"{(wrong or ['sensors'])[0]}: for a floating-base model only, {model.name} has a fixed base")
     groups = {
         "rates": rates or Rates(),
         "friction": friction or Friction(),

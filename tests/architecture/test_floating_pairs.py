@@ -15,9 +15,6 @@ from test_public_api import _modules, public_definitions
 #: results, files, loaders and the CLI's mapping option are one pipeline already (issue 32, sixth session).
 LEFT_TO_MERGE: dict[str, str] = {
     "prepare_floating": "prepare",
-    "simulate_floating": "simulate",
-    "simulate_floating_and_write": "simulate_and_write",
-    "FloatingRun": "Run",
 }
 #: Names that match the pattern without being twins: what each is instead.
 NOT_TWINS: dict[str, str] = {

@@ -36,7 +36,6 @@ TOO_MANY_PARAMETERS: dict[str, int] = {
     "pinid.simulation.run.simulate_and_write": 19,
     "pinid.simulation.twin.simulate": 12,
     "pinid.data.preprocess.prepare": 11,
-    "pinid.simulation.run.simulate_floating_and_write": 11,
 }
 MAX_PARAMETERS = 10
 

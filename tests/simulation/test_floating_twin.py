@@ -1,0 +1,113 @@
+"""Issue 32: one twin entry point whatever the base.  ``simulate`` and ``simulate_and_write`` of a floating
+model give exactly what the floating twin's own functions give (seeded, exact equality), unpack as the
+fixed-base ``(recording, truth)``, and refuse an option of the other kind of model with a one-line SpecError."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from conftest import floating_excitation, load
+from pinid.data.contacts import read_floating
+from pinid.errors import SpecError
+from pinid.simulation.floating_twin import BaseSensors, Noise, TwinRun, simulate_gait, simulate_suspended
+from pinid.simulation.run import simulate_and_write
+from pinid.simulation.twin import Controller, Friction, Rates, Sensors, simulate
+
+NOISE = Noise(1e-4, 0.2, 1.0, 0.1, 0.004, 0.04)
+
+
+def same_run(a: TwinRun, b: TwinRun) -> None:
+    """Exact equality of two floating runs: every recorded column, the exact joint samples and the truth."""
+    ca, cb = a.recording.columns(), b.recording.columns()
+    assert list(ca) == list(cb)
+    for k in ca:
+        np.testing.assert_array_equal(ca[k], cb[k], err_msg=k)
+    for k in ("t", "q", "tau"):
+        np.testing.assert_array_equal(getattr(a.recording.data, k), getattr(b.recording.data, k), err_msg=k)
+    for k in ("q", "dq", "ddq", "tau"):
+        np.testing.assert_array_equal(getattr(a.exact.data, k), getattr(b.exact.data, k), err_msg=k)
+    np.testing.assert_array_equal(a.exact.base_a, b.exact.base_a)
+    assert json.dumps(a.truth, sort_keys=True) == json.dumps(b.truth, sort_keys=True)
+
+
+@pytest.mark.parametrize("seed", [0, 3])
+def test_simulate_of_a_floating_model_is_the_gait_twin(floating_exo, seed):
+    old = simulate_gait(floating_exo, seconds=1.0, rate=200, noise=NOISE, seed=seed, imu_frame="imu")
+    new = simulate(floating_exo, "gait", seconds=1.0, seed=seed, rates=Rates(sample=200), noise=NOISE, imu_frame="imu")
+    same_run(old, new)
+    same = simulate(floating_exo, "gait", seconds=1.0, seed=seed, sample_rate=200, sensors=BaseSensors(NOISE, "imu"))
+    same_run(old, same)
+    rec, truth = new  # unpacks as the fixed-base (recording, truth)
+    assert rec is new.recording and truth is new.truth and rec.imu_frame == "imu"
+
+
+def test_simulate_of_a_floating_model_is_the_suspended_twin(floating_exo):
+    traj = floating_excitation(floating_exo)
+    old = simulate_suspended(floating_exo, traj, seconds=1.0, rate=250, noise=NOISE, seed=1)
+    same_run(old, simulate(floating_exo, traj, seconds=1.0, seed=1, rates=Rates(control=250), noise=NOISE))
+
+
+@pytest.mark.parametrize(
+    "option",
+    [
+        {"controller": Controller()},
+        {"controller": "pid"},
+        {"friction": Friction()},
+        {"wearer_torque": 5.0},
+        {"terms": {}},
+        {"bandwidth": 8.0},
+        {"position_noise": 0.0},
+        {"sensors": Sensors()},
+    ],
+)
+def test_fixed_base_options_refused_for_a_floating_model(floating_exo, option):
+    with pytest.raises(SpecError) as e:
+        simulate(floating_exo, "gait", seconds=0.5, **option)
+    name = next(iter(option))
+    assert name in str(e.value) and "\n" not in str(e.value)
+
+
+@pytest.mark.parametrize(
+    ("trajectory", "option", "name"),
+    [
+        ("gait", {}, "gait"),
+        (None, {"noise": Noise()}, "noise"),
+        (None, {"imu_frame": "imu"}, "imu_frame"),
+        (None, {"sensors": BaseSensors()}, "sensors"),
+    ],
+)
+def test_floating_options_refused_for_a_fixed_model(trajectory, option, name):
+    from pinid.simulation.trajectories import load_trajectory
+
+    model = load("exo_leg")
+    with pytest.raises(SpecError) as e:
+        simulate(model, trajectory or load_trajectory("exo_leg", model), seconds=0.5, **option)
+    assert str(e.value).startswith(f"{name}: for a floating-base model only") and "\n" not in str(e.value)
+
+
+def test_simulate_and_write_of_a_floating_model(floating_exo, tmp_path):
+    path = tmp_path / "gait.csv"
+    text = simulate_and_write(
+        floating_exo,
+        "gait",
+        path,
+        seconds=1.0,
+        seed=2,
+        rates=Rates(sample=200),
+        sensors=BaseSensors(NOISE),
+        command="pinid simulate --base floating",
+    )
+    assert text.startswith("simulated gait exo_lower_body on a floating base")
+    old = simulate_gait(floating_exo, seconds=1.0, rate=200, noise=NOISE, seed=2)
+    written = read_floating(path, floating_exo)
+    for k, v in old.recording.columns().items():
+        np.testing.assert_allclose(written.columns()[k], v, rtol=1e-9, atol=1e-12, err_msg=k)
+    truth = json.loads(path.with_name("gait.truth.json").read_text())
+    assert truth["command"] == "pinid simulate --base floating" and truth["seed"] == 2
+    for option in ({"perturb": 5.0}, {"flip": ["hip_l"]}, {"controller": Controller()}, {"wearer_torque": 1.0}):
+        with pytest.raises(SpecError, match=f"^{next(iter(option))}: for a fixed-base model only"):
+            simulate_and_write(floating_exo, "gait", tmp_path / "x.csv", seconds=0.5, **option)
+    assert not (tmp_path / "x.csv").exists()
