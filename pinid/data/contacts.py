@@ -93,6 +93,7 @@ class FloatingRecording:
     wrenches: dict[str, np.ndarray] = field(default_factory=dict)  # link -> (N, 6), link frame
     plates: dict[str, np.ndarray] = field(default_factory=dict)  # link -> (N, 7) fx fy fz copx copy copz tz
     contacts: dict[str, np.ndarray] = field(default_factory=dict)  # link -> (N,) booleans
+    model: FloatingRobotModel | None = None  # the robot it was read or simulated for (read_floating, the twin)
 
     @property
     def source(self) -> str:
@@ -114,6 +115,127 @@ class FloatingRecording:
         for link, c in self.contacts.items():
             out[f"contact_{link}"] = c.astype(float)
         return out
+
+    def samples(
+        self, preprocess: dict | bool | None = None, model: FloatingRobotModel | None = None, *, threshold: float = 0.0
+    ) -> FloatingSamples:
+        """Filter and differentiate joints and base motion together, zero the wrenches out of contact (phases, or
+        force norm below ``threshold`` [N]), and give the base state in Pinocchio's free-flyer convention:
+        what :func:`pinid.data.preprocess.prepare` gives for a floating recording (call that).
+
+        ``preprocess``: options of :func:`pinid.data.preprocess.prepare` (None or True: filter every signal, the
+        joints' ``dq_``/``ddq_`` columns unused; False: use the recording as it is, which then needs ``dq_`` and
+        ``ddq_`` columns, takes the base and wrench derivatives from central differences and drops the two samples
+        at each end, whose differences would be one-sided).  ``model``: default the recording's own."""
+        rec = self
+        if model is None and rec.model is None:
+            raise DataError(
+                f"{rec.source}: a floating recording without its model; read it with read_floating(path, model)"
+            )
+        model = as_floating(rec.model if model is None else model)
+        ds = rec.data.reorder(model.joint_names)
+        extra = rec.columns()
+        for link, p7 in rec.plates.items():  # force plates as world wrenches before filtering (linear in the signals)
+            for c in PLATE:
+                extra.pop(f"plate_{link}_{c}")
+            moment = np.cross(p7[:, 3:6], p7[:, :3]) + np.column_stack([np.zeros((len(p7), 2)), p7[:, 6]])
+            extra.update({f"plate_{link}_{c}": v for c, v in zip(WRENCH, np.hstack([p7[:, :3], moment]).T)})
+        # every signal goes through the same filter, differentiation and trimming as the joints
+        names = list(extra)
+        n, nv = ds.n, model.nv
+        q = np.hstack([ds.q, np.column_stack([extra[c] for c in names])]) if names else ds.q
+        width = q.shape[1]
+
+        def widen(a):
+            return None if a is None else np.hstack([a, np.zeros((n, width - nv))])
+
+        tau = ds.tau if ds.tau is not None else np.zeros((n, nv))
+        big = Dataset(
+            ds.t, q, [*ds.joints, *names], dq=widen(ds.dq), ddq=widen(ds.ddq), tau=widen(tau), source=ds.source
+        )
+        needs = ds.dq is None or ds.ddq is None
+        # "auto" (None) filters every signal here, whatever dq_/ddq_ columns the joints have: the base pose, IMU and
+        # wrenches have no given derivatives, and differentiating them unfiltered amplifies their noise
+        if preprocess is False:
+            if needs:
+                raise DataError(
+                    f"{ds.source}: no dq_/ddq_ columns and preprocessing off; expected both or preprocessing"
+                )
+            if n < 5:
+                raise DataError(f"{ds.source}: {n} samples; expected at least 5 with preprocessing off")
+            sig_dq = np.gradient(q[:, nv:], ds.t, axis=0)
+            sig_ddq = np.gradient(sig_dq, ds.t, axis=0)
+            keep = slice(2, n - 2)  # the two end samples of each side hold one-sided differences: dropped
+            t, jq, jdq, jddq, sig = ds.t[keep], ds.q[keep], ds.dq[keep], ds.ddq[keep], q[keep, nv:]
+            jtau = None if ds.tau is None else ds.tau[keep]
+            sig_dq, sig_ddq = sig_dq[keep], sig_ddq[keep]
+        else:
+            from pinid.data.preprocess import prepare  # only when a recording is filtered
+
+            opts = {} if preprocess in (None, True) else dict(preprocess)
+            opts = {"use_measured_velocity": False, "use_measured_acceleration": False, **opts}
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                p = prepare(big, **opts)
+            for w in caught:  # the filter's warnings about the joints, not about the base and wrench signals
+                if not any(f"'{c}'" in str(w.message) for c in names):
+                    warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+            t, jq, jdq, jddq = p.t, p.q[:, :nv], p.dq[:, :nv], p.ddq[:, :nv]
+            jtau = None if ds.tau is None else p.tau[:, :nv]
+            sig, sig_dq, sig_ddq = p.q[:, nv:], p.dq[:, nv:], p.ddq[:, nv:]
+        col = {c: i for i, c in enumerate(names)}
+
+        def block(prefix, keys, arr=sig):
+            return np.column_stack([arr[:, col[f"{prefix}{k}"]] for k in keys])
+
+        m = len(t)
+        if rec.base_pose is not None:
+            pos = block("base_", ("x", "y", "z"))
+            quat = block("base_", QUAT)
+            quat /= np.linalg.norm(quat, axis=1, keepdims=True)
+            conj = quat * np.array([-1, -1, -1, 1.0])
+            omega = 2 * quat_mul(conj, block("base_", QUAT, sig_dq))[:, :3]
+            domega = 2 * quat_mul(conj, block("base_", QUAT, sig_ddq))[:, :3]
+            R = quat_matrix(quat)
+            acc = np.einsum("nji,nj->ni", R, block("base_", ("x", "y", "z"), sig_ddq))  # Rᵀ p̈
+        else:
+            f = rec.imu_frame
+            frame = model.ff_model.frames[model.frame_id(f)]
+            R_bi, r = frame.placement.rotation, frame.placement.translation
+            q_i = block(f"imu_{f}_", QUAT)
+            q_i /= np.linalg.norm(q_i, axis=1, keepdims=True)
+            R_wb = quat_matrix(q_i) @ R_bi.T
+            quat, pos = matrix_quat(R_wb), np.zeros((m, 3))
+            omega = block(f"imu_{f}_", GYRO) @ R_bi.T
+            domega = block(f"imu_{f}_", GYRO, sig_dq) @ R_bi.T
+            s_b = block(f"imu_{f}_", ACC) @ R_bi.T
+            g = np.asarray(model.ff_model.gravity.linear)
+            a_imu = s_b + np.einsum("nji,j->ni", R_wb, g)
+            acc = a_imu - np.cross(domega, r) - np.cross(omega, np.cross(omega, r))
+        base_q = np.hstack([pos, quat])
+        base_v = np.hstack([np.zeros((m, 3)), omega])
+        base_a = np.hstack([acc, domega])
+        wrenches = []
+        # the filter spreads a phase's step over a few samples: a measured wrench is zeroed below 0.5; where a foot
+        # switch chatters (its filtered phase hovers between 0 and 1 for the whole bounce) the rows the wrench enters
+        # are left out (``uncertain``); a link without a measured wrench counts as in contact above 0.05 (its rows
+        # are left out: conservative)
+        phase = {link: sig[:, col[f"contact_{link}"]] for link in rec.contacts}
+        contact = {link: p > 0.5 for link, p in phase.items()}
+        uncertain = {
+            link: _chattering(ds.t, rec.contacts[link], t, np.abs(p - 0.5) < 0.5 - CONTACT_MARGIN)
+            for link, p in phase.items()
+            if link in rec.wrenches or link in rec.plates
+        }
+        for link in rec.wrenches:
+            w = block(f"wrench_{link}_", WRENCH)
+            wrenches.append(Wrench(link, _gate(w, contact.get(link), threshold), "local"))
+        for link in rec.plates:
+            w = block(f"plate_{link}_", WRENCH)  # world wrench about the origin (converted above)
+            wrenches.append(Wrench(link, _gate(w, contact.get(link), threshold), "world"))
+        data = Dataset(t, jq, list(model.joint_names), dq=jdq, ddq=jddq, tau=jtau, source=ds.source, meta=dict(ds.meta))
+        unsensed = {link: p > 0.05 for link, p in phase.items() if link not in uncertain}
+        return FloatingSamples(data, base_q, base_v, base_a, wrenches, unsensed, uncertain)
 
 
 def _groups(names: list[str], source: str) -> dict:
@@ -250,7 +372,7 @@ def read_floating(
         extra += [c for d in (*g["imu"].values(), *g["wrench"].values(), *g["plate"].values()) for c in d.values()]
         extra += list(g["contact"].values())
         values = _read_columns(path, extra, data.n) if extra else {}
-    rec = FloatingRecording(data)
+    rec = FloatingRecording(data, model=as_floating(model))
     if g["base"]:
         _need(g["base"], POSE, "the base pose", source)
         rec.base_pose = np.column_stack([values[g["base"][c]] for c in POSE])
@@ -461,118 +583,6 @@ def matrix_quat(R: np.ndarray) -> np.ndarray:
 
     out = np.array([pin.Quaternion(r).coeffs() for r in R])
     return out * np.where(out[:, 3:] < 0, -1.0, 1.0)
-
-
-def prepare_floating(
-    rec: FloatingRecording, model: FloatingRobotModel, preprocess: dict | bool | None = None, *, threshold: float = 0.0
-) -> FloatingSamples:
-    """Filter and differentiate joints and base motion together, zero the wrenches out of contact (phases, or
-    force norm below ``threshold`` [N]), and give the base state in Pinocchio's free-flyer convention.
-
-    ``preprocess``: options of :func:`pinid.data.preprocess.prepare` (None or True: filter every signal, the
-    joints' ``dq_``/``ddq_`` columns unused; False: use the recording as it is, which then needs ``dq_`` and
-    ``ddq_`` columns, takes the base and wrench derivatives from central differences and drops the two samples
-    at each end, whose differences would be one-sided)."""
-    model = as_floating(model)
-    ds = rec.data.reorder(model.joint_names)
-    extra = rec.columns()
-    for link, p7 in rec.plates.items():  # force plates as world wrenches before filtering (linear in the signals)
-        for c in PLATE:
-            extra.pop(f"plate_{link}_{c}")
-        moment = np.cross(p7[:, 3:6], p7[:, :3]) + np.column_stack([np.zeros((len(p7), 2)), p7[:, 6]])
-        extra.update({f"plate_{link}_{c}": v for c, v in zip(WRENCH, np.hstack([p7[:, :3], moment]).T)})
-    # every signal goes through the same filter, differentiation and trimming as the joints
-    names = list(extra)
-    n, nv = ds.n, model.nv
-    q = np.hstack([ds.q, np.column_stack([extra[c] for c in names])]) if names else ds.q
-    width = q.shape[1]
-
-    def widen(a):
-        return None if a is None else np.hstack([a, np.zeros((n, width - nv))])
-
-    tau = ds.tau if ds.tau is not None else np.zeros((n, nv))
-    big = Dataset(ds.t, q, [*ds.joints, *names], dq=widen(ds.dq), ddq=widen(ds.ddq), tau=widen(tau), source=ds.source)
-    needs = ds.dq is None or ds.ddq is None
-    # "auto" (None) filters every signal here, whatever dq_/ddq_ columns the joints have: the base pose, IMU and
-    # wrenches have no given derivatives, and differentiating them unfiltered amplifies their noise
-    if preprocess is False:
-        if needs:
-            raise DataError(f"{ds.source}: no dq_/ddq_ columns and preprocessing off; expected both or preprocessing")
-        if n < 5:
-            raise DataError(f"{ds.source}: {n} samples; expected at least 5 with preprocessing off")
-        sig_dq = np.gradient(q[:, nv:], ds.t, axis=0)
-        sig_ddq = np.gradient(sig_dq, ds.t, axis=0)
-        keep = slice(2, n - 2)  # the two end samples of each side hold one-sided differences: dropped
-        t, jq, jdq, jddq, sig = ds.t[keep], ds.q[keep], ds.dq[keep], ds.ddq[keep], q[keep, nv:]
-        jtau = None if ds.tau is None else ds.tau[keep]
-        sig_dq, sig_ddq = sig_dq[keep], sig_ddq[keep]
-    else:
-        from pinid.data.preprocess import prepare  # only when a recording is filtered
-
-        opts = {} if preprocess in (None, True) else dict(preprocess)
-        opts = {"use_measured_velocity": False, "use_measured_acceleration": False, **opts}
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always")
-            p = prepare(big, **opts)
-        for w in caught:  # the filter's warnings about the joints, not about the base and wrench signals
-            if not any(f"'{c}'" in str(w.message) for c in names):
-                warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
-        t, jq, jdq, jddq = p.t, p.q[:, :nv], p.dq[:, :nv], p.ddq[:, :nv]
-        jtau = None if ds.tau is None else p.tau[:, :nv]
-        sig, sig_dq, sig_ddq = p.q[:, nv:], p.dq[:, nv:], p.ddq[:, nv:]
-    col = {c: i for i, c in enumerate(names)}
-
-    def block(prefix, keys, arr=sig):
-        return np.column_stack([arr[:, col[f"{prefix}{k}"]] for k in keys])
-
-    m = len(t)
-    if rec.base_pose is not None:
-        pos = block("base_", ("x", "y", "z"))
-        quat = block("base_", QUAT)
-        quat /= np.linalg.norm(quat, axis=1, keepdims=True)
-        conj = quat * np.array([-1, -1, -1, 1.0])
-        omega = 2 * quat_mul(conj, block("base_", QUAT, sig_dq))[:, :3]
-        domega = 2 * quat_mul(conj, block("base_", QUAT, sig_ddq))[:, :3]
-        R = quat_matrix(quat)
-        acc = np.einsum("nji,nj->ni", R, block("base_", ("x", "y", "z"), sig_ddq))  # Rᵀ p̈
-    else:
-        f = rec.imu_frame
-        frame = model.ff_model.frames[model.frame_id(f)]
-        R_bi, r = frame.placement.rotation, frame.placement.translation
-        q_i = block(f"imu_{f}_", QUAT)
-        q_i /= np.linalg.norm(q_i, axis=1, keepdims=True)
-        R_wb = quat_matrix(q_i) @ R_bi.T
-        quat, pos = matrix_quat(R_wb), np.zeros((m, 3))
-        omega = block(f"imu_{f}_", GYRO) @ R_bi.T
-        domega = block(f"imu_{f}_", GYRO, sig_dq) @ R_bi.T
-        s_b = block(f"imu_{f}_", ACC) @ R_bi.T
-        g = np.asarray(model.ff_model.gravity.linear)
-        a_imu = s_b + np.einsum("nji,j->ni", R_wb, g)
-        acc = a_imu - np.cross(domega, r) - np.cross(omega, np.cross(omega, r))
-    base_q = np.hstack([pos, quat])
-    base_v = np.hstack([np.zeros((m, 3)), omega])
-    base_a = np.hstack([acc, domega])
-    wrenches = []
-    # the filter spreads a phase's step over a few samples: a measured wrench is zeroed below 0.5; where a foot
-    # switch chatters (its filtered phase hovers between 0 and 1 for the whole bounce) the rows the wrench enters
-    # are left out (``uncertain``); a link without a measured wrench counts as in contact above 0.05 (its rows
-    # are left out: conservative)
-    phase = {link: sig[:, col[f"contact_{link}"]] for link in rec.contacts}
-    contact = {link: p > 0.5 for link, p in phase.items()}
-    uncertain = {
-        link: _chattering(ds.t, rec.contacts[link], t, np.abs(p - 0.5) < 0.5 - CONTACT_MARGIN)
-        for link, p in phase.items()
-        if link in rec.wrenches or link in rec.plates
-    }
-    for link in rec.wrenches:
-        w = block(f"wrench_{link}_", WRENCH)
-        wrenches.append(Wrench(link, _gate(w, contact.get(link), threshold), "local"))
-    for link in rec.plates:
-        w = block(f"plate_{link}_", WRENCH)  # world wrench about the origin (converted above)
-        wrenches.append(Wrench(link, _gate(w, contact.get(link), threshold), "world"))
-    data = Dataset(t, jq, list(model.joint_names), dq=jdq, ddq=jddq, tau=jtau, source=ds.source, meta=dict(ds.meta))
-    unsensed = {link: p > 0.05 for link, p in phase.items() if link not in uncertain}
-    return FloatingSamples(data, base_q, base_v, base_a, wrenches, unsensed, uncertain)
 
 
 def _chattering(t_raw: np.ndarray, raw: np.ndarray, t: np.ndarray, band: np.ndarray) -> np.ndarray:

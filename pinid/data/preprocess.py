@@ -40,6 +40,7 @@ given is kept in ``meta["recorded"]``: torque errors are measured against it
 from __future__ import annotations
 
 import warnings
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -52,6 +53,9 @@ from pinid.errors import DataError, SpecError
 from pinid.data.formats import warn
 from pinid.data.dataset import as_dataset
 from pinid.checks import array_like
+
+if TYPE_CHECKING:
+    from pinid.data.contacts import FloatingSamples
 
 #: Named recipes, after the paper they reproduce.  ``zha2019``: Zha et al. 2019 — 1 kHz sampling, zero-phase 10 Hz low-pass (the paper
 #: gives no order: 4 here; it differentiates by forward differences, which lag half a sample: central
@@ -180,13 +184,13 @@ def prepare(
     cutoff: float | None = None,
     order: int = 4,
     differentiation: str = "savgol",
-    use_measured_velocity: bool = True,
-    use_measured_acceleration: bool = True,
+    use_measured_velocity: bool | None = None,
+    use_measured_acceleration: bool | None = None,
     trim: float | None = None,
     decimate: int | None = None,
     rate: float | None = None,
     unwrap: tuple[str, ...] | list[str] = (),
-) -> Dataset:
+) -> Dataset | FloatingSamples:
     """Filter, differentiate, trim and decimate a recording; return a dataset with q, dq, ddq, tau filled.
 
     ``cutoff`` [Hz] (default ``min(10, fs/10)``), ``order`` of the Butterworth filter run forward and
@@ -197,7 +201,24 @@ def prepare(
     unwrapped first (2π jumps removed; angles without limits).  ``preset`` ("zha2019", "shi2024"; the old "seed000", "seed001" are deprecated) fills
     the options left at their defaults.  The options used are recorded in ``meta["preprocess"]``.
     Raises DataError when there is no torque, too few samples, or a cut-off the sample rate cannot carry.
+
+    A floating recording (:class:`~pinid.data.contacts.FloatingRecording`, whatever carries more channels than
+    the joints and prepares them with its ``samples(options)``) gives its
+    :class:`~pinid.data.contacts.FloatingSamples`: the base motion, IMU and wrenches filtered and differentiated
+    with the joints, with the same options, the wrenches zeroed out of contact.  ``use_measured_velocity`` and
+    ``use_measured_acceleration`` (default None): true for a Dataset, false for a floating recording (its base
+    and wrench signals have no measured derivatives).
     """
+    if not isinstance(ds, Dataset) and callable(getattr(ds, "samples", None)):  # one prepare whatever the base
+        given = {"preset": preset, "cutoff": cutoff, "order": order, "differentiation": differentiation}
+        given |= {"trim": trim, "decimate": decimate, "rate": rate, "unwrap": unwrap}
+        given |= {
+            "use_measured_velocity": use_measured_velocity,
+            "use_measured_acceleration": use_measured_acceleration,
+        }
+        return ds.samples({k: v for k, v in given.items() if v is not None})
+    use_measured_velocity = True if use_measured_velocity is None else use_measured_velocity
+    use_measured_acceleration = True if use_measured_acceleration is None else use_measured_acceleration
     if not isinstance(ds, Dataset):
         raise DataError(f"prepare: got {type(ds).__name__}, expected a pinid Dataset (pinid.data.read_recording)")
     cutoff, trim, rate = (

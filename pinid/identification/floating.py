@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pinid.data.contacts import FloatingSamples, prepare_floating, read_floating
+from pinid.data.contacts import FloatingSamples, read_floating
 from pinid.errors import DataError, SpecError
 from pinid.estimators import make_estimator
 from pinid.identification.floating_checks import (
@@ -115,7 +115,7 @@ def load_floating(
             if hints is not None:
                 hints.extend(found)
             orientation_noise_warning(rec, preprocess, str(item))
-            out.append(prepare_floating(rec, model, preprocess))
+            out.append(rec.samples(preprocess, model))  # prepare(rec, **preprocess), or as it is with False
         else:
             raise DataError(f"{what} recording: got {type(item).__name__}, expected a path or FloatingSamples")
     if not out:

@@ -350,7 +350,7 @@ def _recording(model, s: FloatingSamples, noise: Noise, seed: int, imu_frame, *,
         tau=ds.tau + sigma * rng.standard_normal(ds.tau.shape),
         source=ds.source,
     )
-    rec = FloatingRecording(data)
+    rec = FloatingRecording(data, model=model)
     if imu_frame is None:
         rec.base_pose = s.base_q.copy()
     else:

@@ -9,13 +9,12 @@ import re
 
 from test_public_api import _modules, public_definitions
 
-#: Twin pairs still to merge into one (floating name → its fixed-base twin): the floating recording's
-#: preparation (one recording type), the twin and its writer.  The model layer (names, values, regressor, base
-#: parameters dispatch on the model, as Pinocchio's algorithms do), the setup, identification, comparison,
-#: results, files, loaders and the CLI's mapping option are one pipeline already (issue 32, sixth session).
-LEFT_TO_MERGE: dict[str, str] = {
-    "prepare_floating": "prepare",
-}
+#: Twin pairs still to merge into one (floating name → its fixed-base twin).  The model layer (names, values,
+#: regressor, base parameters dispatch on the model, as Pinocchio's algorithms do), the setup, identification,
+#: comparison, results, files, loaders and the CLI's mapping option are one pipeline already (issue 32, sixth
+#: session); the preparation (``prepare``), the twin (``simulate``) and its writer (``simulate_and_write``)
+#: dispatch on the recording and the model (seventh session).
+LEFT_TO_MERGE: dict[str, str] = {}
 #: Names that match the pattern without being twins: what each is instead.
 NOT_TWINS: dict[str, str] = {
     "FloatingRobotModel": "a RobotModel subclass: the floating robot is a RobotModel with a free-flyer root",

@@ -18,6 +18,7 @@ import numpy as np
 
 import pinid.data.contacts as contacts
 from pinid import RobotModel
+from pinid.data.preprocess import prepare
 from pinid.estimators import make_estimator
 from pinid.model.terms import TermSelection
 from pinid.problem.floating import floating_problem
@@ -51,7 +52,7 @@ def main(argv=None) -> int:
     held = simulate_gait(exo, seconds=6, rate=args.rate, noise=noise, seed=2, pattern={"period": 1.0, "speed": 0.9})
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        hs = contacts.prepare_floating(held.recording, exo)  # clean phases, no chatter: every row kept
+        hs = prepare(held.recording)  # clean phases, no chatter: every row kept
         contacts.CONTACT_MARGIN = args.margin
         out = {}
         for kind in ("clean", "chatter", "none"):
@@ -61,7 +62,7 @@ def main(argv=None) -> int:
             elif kind == "chatter":
                 rng = np.random.default_rng(0)
                 rec.contacts = {k: chatter(v, args.rate, rng, args.place) for k, v in rec.contacts.items()}
-            p = floating_problem(exo, contacts.prepare_floating(rec, exo), terms=terms)
+            p = floating_problem(exo, prepare(rec), terms=terms)
             hp = floating_problem(exo, hs, terms=terms, base=p.base)
             r = hp.tau - hp.predict(make_estimator("ols").fit(p).base_)
             out[kind] = (np.sqrt(np.mean(r[hp.joint >= 1] ** 2)), np.sqrt(np.mean(r**2)), len(p.tau))

@@ -14,7 +14,8 @@ from pathlib import Path
 import numpy as np
 
 from pinid import RobotModel
-from pinid.data.contacts import prepare_floating, read_floating, write_floating
+from pinid.data.contacts import read_floating, write_floating
+from pinid.data.preprocess import prepare
 from pinid.estimators import make_estimator
 from pinid.problem.floating import floating_problem
 from pinid.model.terms import TermSelection
@@ -58,7 +59,7 @@ def main(argv=None) -> int:
     terms = TermSelection.from_names("fc,fv")
     with tempfile.TemporaryDirectory() as tmp:
         samples = [
-            prepare_floating(read_floating(write_floating(Path(tmp) / f"{k}.csv", r.recording), model), model)
+            prepare(read_floating(write_floating(Path(tmp) / f"{k}.csv", r.recording), model))
             for k, r in enumerate((run, held))
         ]
     train = floating_problem(model, samples[0], terms=terms)

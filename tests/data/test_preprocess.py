@@ -172,3 +172,39 @@ def test_millisecond_time_stamps_suggest_the_time_scale():
         r'time = \{ column = "t", scale = "ms" \}',
     ):
         prepare(ds)
+
+
+# ---------------------------------------------------------------------------------------- one prepare (issue 32)
+def test_prepare_of_a_floating_recording_filters_its_channels_with_the_same_options():
+    """``prepare`` of a floating recording is its ``samples`` with the same options, exactly (before issue 32:
+    ``prepare_floating(rec, model, options)``; measured identical to it on gait runs, seeds 0-2, motion capture
+    and IMU, cut-off default and 20 Hz, and unfiltered); a recording without its model is refused in one line."""
+    from dataclasses import replace
+
+    from pinid import RobotModel
+    from pinid.data.contacts import FloatingRecording
+    from pinid.errors import DataError
+    from pinid.simulation.floating_twin import Noise, simulate_gait
+
+    model = RobotModel.from_urdf("exo_lower_body", base="floating")
+    rec = simulate_gait(model, seconds=1.5, rate=200, noise=Noise(1e-4, 0.2, 1.0, 0.1), seed=1).recording
+    assert rec.model is model
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for opts in ({}, {"cutoff": 20.0}, {"cutoff": 5.0, "order": 2, "differentiation": "central"}):
+            a, b = prepare(rec, **opts), rec.samples(opts, model)
+            for k in ("base_q", "base_v", "base_a"):
+                np.testing.assert_array_equal(getattr(a, k), getattr(b, k))
+            for k in ("q", "dq", "ddq", "tau"):
+                np.testing.assert_array_equal(getattr(a.data, k), getattr(b.data, k))
+            for wa, wb in zip(a.wrenches, b.wrenches):
+                assert wa.link == wb.link and wa.frame == wb.frame
+                np.testing.assert_array_equal(wa.values, wb.values)
+            assert a.wrenches and a.unsensed.keys() == b.unsensed.keys()
+        slow, fast = prepare(rec, cutoff=5.0), prepare(rec, cutoff=20.0)
+        assert not np.allclose(slow.base_a, fast.base_a[: len(slow.base_a)])  # the base is filtered with the options
+        with pytest.raises(DataError, match="without its model") as e:
+            prepare(replace(rec, model=None))
+        assert "\n" not in str(e.value)
+        with pytest.raises(DataError, match="without its model"):
+            prepare(FloatingRecording(rec.data))

@@ -11,7 +11,8 @@ from conftest import floating_excitation
 from pinid.errors import SolverError, SpecError
 from pinid.identification.study import Study
 from pinid import DataError, RobotModel
-from pinid.data.contacts import prepare_floating, read_floating, write_floating
+from pinid.data.contacts import read_floating, write_floating
+from pinid.data.preprocess import prepare
 from pinid.estimators import ESTIMATORS, make_estimator
 from pinid.problem.floating import floating_problem
 from pinid.model.base import base_parameters
@@ -101,7 +102,7 @@ def test_recording_round_trip_and_imu(floating_exo, suspended, tmp_path):
     rec = read_floating(path, floating_exo)
     assert rec.imu_frame == "imu" and list(rec.wrenches) == ["pelvis"]
     np.testing.assert_allclose(rec.wrenches["pelvis"], suspended.recording.wrenches["pelvis"], rtol=1e-10, atol=1e-9)
-    samples = prepare_floating(rec, floating_exo, {"cutoff": 20.0})
+    samples = prepare(rec, cutoff=20.0)
     problem = floating_problem(floating_exo, samples, rows="base")
     base = make_estimator("ols").fit(problem).base_
     assert base[0] == pytest.approx(21.8, rel=5e-3)
@@ -177,7 +178,7 @@ def test_noisy_twin_validates_at_the_noise_floor(floating_exo, kind, tmp_path):
     samples = []
     for k, run in enumerate(runs):
         path = write_floating(tmp_path / f"{k}.csv", run.recording)
-        samples.append(prepare_floating(read_floating(path, floating_exo), floating_exo))
+        samples.append(prepare(read_floating(path, floating_exo)))
     train = floating_problem(floating_exo, samples[0], terms=TERMS)
     held = floating_problem(floating_exo, samples[1], terms=TERMS, base=train.base)
     floor = np.sqrt(np.mean((held.tau - held.predict(held.nominal_base)) ** 2))
@@ -206,7 +207,7 @@ def test_swing_rows_of_a_leg_without_force_sensing(floating_exo, tmp_path):
     path = write_floating(tmp_path / "g.csv", rec)
     with pytest.raises(DataError, match="--swing-rows"):
         read_floating(path, floating_exo)
-    samples = prepare_floating(read_floating(path, floating_exo, swing_rows=True), floating_exo)
+    samples = prepare(read_floating(path, floating_exo, swing_rows=True))
     assert set(samples.unsensed) == {"r_sole"} and samples.unsensed["r_sole"].sum() >= right[: samples.n].sum() * 0.9
 
 
@@ -216,9 +217,7 @@ def test_no_joint_torque_uses_the_base_rows_only(floating_exo, suspended, tmp_pa
     import dataclasses
 
     rec = dataclasses.replace(suspended.recording, data=dataclasses.replace(suspended.recording.data, tau=None))
-    samples = prepare_floating(
-        read_floating(write_floating(tmp_path / "w.csv", rec), floating_exo), floating_exo, {"cutoff": 20.0}
-    )
+    samples = prepare(read_floating(write_floating(tmp_path / "w.csv", rec), floating_exo), cutoff=20.0)
     assert samples.data.tau is None
     base = make_estimator("ols").fit(floating_problem(floating_exo, samples, rows="base")).base_
     assert base[0] == pytest.approx(21.8, rel=5e-3)

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from pinid import RobotModel
-from pinid.data.contacts import prepare_floating
+from pinid.data.preprocess import prepare
 from pinid.estimators import make_estimator
 from pinid.model.terms import TermSelection
 from pinid.problem.floating import floating_problem
@@ -53,10 +53,10 @@ def test_a_chattering_foot_switch_costs_no_accuracy(exo):
     bouncing.contacts = {k: chatter(v, rng) for k, v in train.recording.contacts.items()}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        hs = prepare_floating(held.recording, exo)
+        hs = prepare(held.recording)
         rms, left_out = {}, {}
         for kind, rec in (("clean", train.recording), ("chatter", bouncing)):
-            s = prepare_floating(rec, exo)
+            s = prepare(rec)
             left_out[kind] = sum(int(u.sum()) for u in s.uncertain.values())
             problem = floating_problem(exo, s, terms=TERMS)
             hp = floating_problem(exo, hs, terms=TERMS, base=problem.base)

@@ -11,7 +11,7 @@ import pytest
 from conftest import floating_excitation
 from pinid import RobotModel
 from pinid.identification.study import Study
-from pinid.data.contacts import prepare_floating
+from pinid.data.preprocess import prepare
 from pinid.identification.run import identify
 from pinid.model.terms import TermSelection
 from pinid.simulation.floating_twin import Noise, simulate_suspended
@@ -26,8 +26,8 @@ def identified(model, runs, validate=None, **kw):
         methods = kw.pop("methods", ("ols", "wls", "sdp"))
         study = Study(
             model,
-            [prepare_floating(r.recording, model) for r in runs],
-            validate=None if validate is None else [prepare_floating(r.recording, model) for r in validate],
+            [prepare(r.recording) for r in runs],
+            validate=None if validate is None else [prepare(r.recording) for r in validate],
             terms=TERMS,
             **kw,
         )
@@ -72,15 +72,17 @@ def test_a_flipped_joint_torque_is_named(floating_exo, suspended):
     rec = suspended.recording
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        identify(Study(floating_exo, [prepare_floating(rec, floating_exo)], terms=TERMS), methods=("ols",))
+        identify(Study(floating_exo, [prepare(rec)], terms=TERMS), methods=("ols",))
     assert not [w for w in caught if "check the sign" in str(w.message)]
     j = floating_exo.joint_names.index("l_knee")
     tau = rec.data.tau.copy()
     tau[:, j] *= -1
-    flipped = type(rec)(type(rec.data)(rec.data.t, rec.data.q, rec.data.joints, tau=tau, source="flipped"))
+    flipped = type(rec)(
+        type(rec.data)(rec.data.t, rec.data.q, rec.data.joints, tau=tau, source="flipped"), model=rec.model
+    )
     flipped.base_pose, flipped.wrenches = rec.base_pose, rec.wrenches
     with pytest.warns(UserWarning, match="check the sign of tau_l_knee") as caught:
-        ident = identify(Study(floating_exo, [prepare_floating(flipped, floating_exo)], terms=TERMS), methods=("ols",))
+        ident = identify(Study(floating_exo, [prepare(flipped)], terms=TERMS), methods=("ols",))
     assert ident.data["flipped_torque_signs"] == ["l_knee"]
     assert sum("check the sign" in str(w.message) for w in caught) == 1
 
@@ -108,12 +110,12 @@ def test_whole_body_centre_of_mass_against_the_urdf(floating_exo):
     rec = simulate_gait(floating_exo, seconds=6, rate=200, noise=NOISE, seed=3).recording
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        ident = identify(Study(floating_exo, [prepare_floating(rec, floating_exo)], terms=TERMS), methods=("ols",))
+        ident = identify(Study(floating_exo, [prepare(rec)], terms=TERMS), methods=("ols",))
     assert not [w for w in caught if "centre of mass" in str(w.message)]
     assert np.linalg.norm(np.subtract(ident.results["ols"].info["com"], ident.data["com_urdf"])) < 2e-3
     rec.plates = {k: v * np.r_[1, 1, 1, -1, -1, 1, 1] for k, v in rec.plates.items()}
     with pytest.warns(UserWarning, match="whole-body centre of mass .* ols .* the wrench's axes and frame"):
-        identify(Study(floating_exo, [prepare_floating(rec, floating_exo)], terms=TERMS), methods=("ols",))
+        identify(Study(floating_exo, [prepare(rec)], terms=TERMS), methods=("ols",))
 
 
 def test_model_class_floor_on_floating_validation(floating_exo, suspended):
@@ -128,7 +130,7 @@ def test_model_class_floor_on_floating_validation(floating_exo, suspended):
     ident = identified(floating_exo, [suspended], [held_out], methods=("ols", "sdp"))
     floor = ident.floor
     assert all(floor.all["rms"] <= r.validation.all["rms"] for r in ident.results.values())
-    val = floating_problem(floating_exo, prepare_floating(held_out.recording, floating_exo), terms=TERMS)
+    val = floating_problem(floating_exo, prepare(held_out.recording), terms=TERMS)
     r = val.tau - val.predict(val.nominal_base)
     truth = float(np.sqrt(np.mean(r * r)))
     assert 0.8 * truth <= floor.all["rms"] <= truth, (floor.all["rms"], truth)
@@ -148,9 +150,7 @@ def test_barely_excited_parameters_are_named(floating_exo):
 
     run = simulate_gait(floating_exo, seconds=10, rate=200, noise=NOISE, seed=7)
     with pytest.warns(UserWarning, match="barely excited") as caught:
-        ident = identify(
-            Study(floating_exo, [prepare_floating(run.recording, floating_exo)], terms=TERMS), methods=("ols",)
-        )
+        ident = identify(Study(floating_exo, [prepare(run.recording)], terms=TERMS), methods=("ols",))
     assert sum("barely excited" in str(w.message) for w in caught) == 1
     flagged = set(ident.results["ols"].info["barely_excited"])
     assert {f"{s}_hip_abduction.{p}" for s in "lr" for p in ("IxxR", "IyyR")} <= flagged
