@@ -216,6 +216,8 @@ def _floating_figure_png(run: TwinRun) -> bytes:
 
 def floating_text(run: TwinRun, written) -> str:
     """What ``pinid simulate --base floating`` prints."""
+    if not isinstance(run, TwinRun):
+        raise SpecError(f"run: got {type(run).__name__}, expected the TwinRun simulate gives for a floating model")
     rec, s = run.recording, run.exact
     what = [f"{len(s.data.joints)} joints"]
     what.append(f"IMU on {rec.imu_frame}" if rec.imu_frame else "base pose (motion capture)")
