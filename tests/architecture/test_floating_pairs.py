@@ -16,14 +16,14 @@ from test_public_api import _modules, public_definitions
 LEFT_TO_MERGE: dict[str, str] = {
     "prepare_floating": "prepare",
     "simulate_floating": "simulate",
-    "simulate_floating_and_write": "simulate_and_write",
-    "FloatingRun": "Run",
     "floating_mapping_from_args": "mapping_from_args",
 }
 #: Names that match the pattern without being twins: what each is instead.
 NOT_TWINS: dict[str, str] = {
     "FloatingRobotModel": "a RobotModel subclass: the floating robot is a RobotModel with a free-flyer root",
     "add_floating_arguments": "the --rows/--base-weight/--swing-rows option group, not a command's arguments",
+    "FloatingRun": "the floating twin's run (exact samples, noisy FloatingRecording, truth), of the FloatingSamples/"
+    "FloatingRecording family; compare.Run is one method's fit in a comparison, no twin of it",
 }
 
 
