@@ -9,10 +9,13 @@ import re
 
 from test_public_api import _modules, public_definitions
 
-#: Twin pairs still to merge into one (floating name → its fixed-base twin): the model layer's names and
-#: regressor (they should dispatch on the model, as Pinocchio's algorithms do), the data layer (the floating
-#: recording's preparation and stacking), the twin and its writer, the CLI's mapping option.  Identification,
-#: comparison, results, files and loaders are one pipeline already (issue 32, fifth session).
+#: Twin pairs still to merge into one (floating name → its fixed-base twin): the data layer (the floating
+#: recording's preparation), the twin, the CLI's mapping option.  Identification, comparison, results, files,
+#: loaders, the model layer and the twin's writer (simulate_and_write) are one pipeline already (issue 32).
+#: simulate_floating → simulate waits for: one return (simulate gives ``(Dataset, truth)``, the floating twin
+#: a FloatingRun, and takes "gait" in place of a trajectory), simulate at <= 10 parameters with the floating
+#: options (its own groups regrouped), and no cycle (twin → floating_twin → outputs → twin, through
+#: write_floating_run's import of truth_path_for: move write_floating_run/floating_text to outputs.py first).
 LEFT_TO_MERGE: dict[str, str] = {
     "prepare_floating": "prepare",
     "simulate_floating": "simulate",
