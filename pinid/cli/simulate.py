@@ -222,29 +222,18 @@ def _torque_noise(args: argparse.Namespace, model) -> tuple:
 
 def run(args: argparse.Namespace) -> int:
     from pinid.simulation.outputs import simulation_paths  # deferred (see above)
-    from pinid.simulation.run import simulate_and_write
+    from pinid.simulation.run import Outputs, simulate_and_write
 
     files = _files(args)
     check_outputs(*simulation_paths(**files))  # no two on one path, none exists unless --force; creates nothing
     if args.encoder_bits < 0 or args.encoder_bits > 40:
         raise SpecError(f"--encoder-bits {args.encoder_bits}, expected 0 (no quantisation) to 40")
     model = robot_from_args(args)
-    if model.base == "floating":
-        return _simulate_floating(args, model, files)
-    model, wearer, drawn = _wearer(args, model)
+    path = files.pop("path")
+    outputs = Outputs(**files, command="pinid simulate " + " ".join(_argv_of(args)))
+    model, options = (_floating_options if model.base == "floating" else _fixed_options)(args, model)
     text = simulate_and_write(  # warnings: one line each (main)
-        model,
-        args.excitation,
-        flip=args.flip,
-        seconds=args.seconds,
-        seed=args.seed,
-        **_twin_options(args, model),
-        wearer=wearer,
-        drawn_wearer=drawn,
-        wearer_torque=args.wearer_torque,
-        perturb=args.perturb,
-        command="pinid simulate " + " ".join(_argv_of(args)),
-        **files,
+        model, args.excitation, path, seconds=args.seconds, seed=args.seed, **options, outputs=outputs
     )
     print(text)
     return 0
@@ -273,6 +262,19 @@ _FIXED_ONLY = (
 )
 
 
+def _fixed_options(args: argparse.Namespace, model) -> tuple:
+    """``(model, options)``: the model with its wearer drawn (--wearer-draw, :func:`_wearer`), the fixed-base
+    twin's option groups, the wearer it carries and --flip."""
+    from pinid.simulation.run import FixedBase, WearerLoad  # deferred (see above)
+
+    model, segments, drawn = _wearer(args, model)
+    return model, {
+        "flip": args.flip,
+        "fixed": FixedBase(**_twin_options(args, model), perturb=args.perturb),
+        "wearer": WearerLoad(segments, drawn, args.wearer_torque),
+    }
+
+
 def _wearer(args: argparse.Namespace, model):
     """``(model, wearer segments or None, (table, drawn) or None)``: the wearer the twin carries
     (:func:`pinid.wearer.attach.wearer_links`) and, with --wearer-draw, the model with its wearer drawn away
@@ -289,11 +291,11 @@ def _wearer(args: argparse.Namespace, model):
     return model, (wearer_links(model.urdf_text) if model.urdf_text else None), drawn
 
 
-def _simulate_floating(args: argparse.Namespace, model, files: dict) -> int:
-    """--base floating: the suspended twin on --excitation, or the gait twin with --excitation gait."""
-    from pinid.simulation.floating_twin import BaseSensors, Noise  # deferred (see above)
-    from pinid.simulation.run import simulate_and_write
-    from pinid.simulation.twin import Rates
+def _floating_options(args: argparse.Namespace, model) -> tuple:
+    """``(model, options)``, --base floating: the floating twin's options (:class:`~pinid.simulation.run.FreeFlyer`);
+    the fixed-base twin's options refused."""
+    from pinid.simulation.floating_twin import Noise  # deferred (see above)
+    from pinid.simulation.run import FreeFlyer
 
     unused = [f"--{k.replace('_', '-')}" for k in _FIXED_ONLY if getattr(args, k) not in (None, False, 0.0)]
     if unused:
@@ -304,20 +306,7 @@ def _simulate_floating(args: argparse.Namespace, model, files: dict) -> int:
     noise = Noise(
         args.position_noise, 0.0 if torque is None else torque, force, moment, gyro, accel, None if torque else pct
     )
-    text = simulate_and_write(
-        model,
-        args.excitation,
-        files["path"],
-        truth_path=files["truth_path"],
-        seconds=args.seconds,
-        rates=Rates(control=args.control_rate, sample=args.sample_rate or args.control_rate),
-        sensors=BaseSensors(noise, args.imu),
-        seed=args.seed,
-        figure=files["figure"],
-        command="pinid simulate " + " ".join(_argv_of(args)),
-    )
-    print(text)
-    return 0
+    return model, {"floating": FreeFlyer(noise, args.sample_rate or args.control_rate, args.imu)}
 
 
 #: Entries of the parsed namespace that do not define the run: the command and its parser, --force.

@@ -180,6 +180,11 @@ class Estimator:
         Default: none."""
         return ()
 
+    def lazy_imports(self) -> tuple[str, ...]:
+        """Modules ``fit`` imports on first use: a study on local processes imports them before it forks its
+        workers, so that each worker does not import them again (:func:`pinid.identification.runner.run_jobs`)."""
+        return ()
+
     def get_params(self) -> dict:
         """The settings given to ``__init__`` (scikit-learn style)."""
         sig = inspect.signature(type(self).__init__)

@@ -320,6 +320,10 @@ class InstrumentalVariables(SimulatingEstimator):
     description = "instrumental variables (IDIM-IV): instruments from a simulation of the previous estimate"
     colour = "#800000"
 
+    def lazy_imports(self) -> tuple[str, ...]:
+        """The splines of its simulation (scipy.interpolate)."""
+        return ("scipy.interpolate",)
+
     def fit(self, problem: Problem) -> "InstrumentalVariables":
         """OLS, then IV with instruments simulated from the previous estimate until it settles; sets ``base_``."""
         sim = ModelSimulation(problem, self.bandwidth, self.substeps, self.sim_rate)

@@ -71,7 +71,7 @@ from pinid.estimators.rls import RLS
 from pinid.problem.problem import Problem
 from pinid.problem.statistics import base_statistics
 from pinid.linalg import solve_r, weighted_lstsq
-from pinid.optimizers import get_optimizer
+from pinid.optimizers import OPTIMIZERS, get_optimizer
 
 #: Fitness functions: name -> description.
 FITNESS = {"sse": "½·Σ r² (seed 001 Eq. (22))", "sae": "Σ |r| (seed 000)"}
@@ -355,6 +355,10 @@ class Metaheuristic(Estimator):
         """``(kind, box)``: the box's kind (the estimator's default when it names none) and the box."""
         box = SearchBox.of(self.box)
         return (self.default_box if box.kind is None else box.kind), box
+
+    def lazy_imports(self) -> tuple[str, ...]:
+        """What its optimiser imports on first use (``Optimizer.imports``)."""
+        return OPTIMIZERS[self.optimizer].imports
 
     def shared_work(self) -> tuple[tuple[str, tuple], ...]:
         """The RLS run behind an ``"rls"`` box (kept in the problem's cache; every seed shares it)."""

@@ -5,6 +5,7 @@ processes or a Dask cluster — and wraps each as an :class:`~pinid.identificati
 
 from __future__ import annotations
 
+import importlib
 import time
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
@@ -95,6 +96,9 @@ def run_jobs(
     fits = [("fit", (method, seed, settings, complete)) for method, seed, settings in jobs]
     local = check_workers(workers) > 1 and scheduler is None and len(fits) > 1
     shared = _shared_work(s, [job for _, job in fits]) if local else {}
+    if local:  # what the fits import on first use, imported once here rather than in every forked worker
+        for module in dict.fromkeys(m for _, job in fits for m in make_estimator(job[0], **job[2]).lazy_imports()):
+            importlib.import_module(module)
     head = [("beside", beside)] if beside is not None else []
     later = [i for i, (_, job) in enumerate(fits) if shared.get(job[0], ())] if shared else []
     now = [i for i in range(len(fits)) if i not in set(later)]

@@ -129,6 +129,8 @@ class Optimizer(ABC):
     name: ClassVar[str] = ""
     #: The options dataclass of this method.
     Options: ClassVar[type]
+    #: Modules a run imports on first use (a study imports them once before it forks its workers).
+    imports: ClassVar[tuple[str, ...]] = ()
 
     def __init__(self, options=None, **kw) -> None:
         if options is None:

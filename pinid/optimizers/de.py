@@ -36,6 +36,7 @@ class DifferentialEvolution(Optimizer):
     """scipy's differential evolution, vectorised over the population."""
 
     name = "de"
+    imports = ("scipy.optimize",)
     Options = DEOptions
 
     def _check_options(self) -> None:

@@ -1,7 +1,10 @@
-"""``pinid simulate`` in one call: the twin follows a trajectory, its truth is completed (the CAD model of
-``--perturb``, the wearer drawn by ``--wearer-draw``, the command) and the run's files are written, all or
-nothing; the call returns what the command prints.  The twin itself is :mod:`pinid.simulation.twin` (a
-floating base: :mod:`pinid.simulation.floating_twin`), the files :mod:`pinid.simulation.outputs`."""
+"""``pinid simulate`` in one call, whatever the base: the twin follows a trajectory, its truth is completed (the
+CAD model of ``--perturb``, the wearer drawn by ``--wearer-draw``, the command) and the run's files are written,
+all or nothing; the call returns what the command prints.  The twin itself is :mod:`pinid.simulation.twin` (a
+floating base, a :class:`~pinid.model.floating.FloatingRobotModel`: :mod:`pinid.simulation.floating_twin`),
+the files :mod:`pinid.simulation.outputs`.  The options come in groups, each for the base it fits:
+:class:`FixedBase` and :class:`WearerLoad` for a fixed base, :class:`FreeFlyer` for a floating one,
+:class:`Outputs` for both; a group given for the other base is refused (SpecError, one line)."""
 
 from __future__ import annotations
 
@@ -11,19 +14,107 @@ from collections.abc import Sequence
 
 from pinid.errors import SpecError
 from pinid.io import as_path
+from pinid.model.floating import FloatingRobotModel
 from pinid.model.robot import RobotModel, as_robot
-from pinid.simulation.floating_twin import BaseSensors
+from pinid.simulation.floating_twin import Noise
 from pinid.simulation.outputs import (
-    floating_text,
-    write_floating_run,
     cad_model,
     cad_truth,
     drawn_wearer_truth,
     simulation_text,
     write_simulation,
+    floating_text,
+    write_floating_run,
 )
 from pinid.simulation.trajectories import load_trajectory
 from pinid.simulation.twin import Controller, Friction, Rates, Sensors, simulate
+
+
+def _typed(owner: str, key: str, value, kind: type | tuple, expected: str, *, none: bool = True) -> None:
+    if (value is None and none) or (isinstance(value, kind) and not isinstance(value, bool)):
+        return
+    raise SpecError(f"{owner} {key}: got {type(value).__name__}, expected {expected}")
+
+
+@dataclasses.dataclass(frozen=True)
+class FixedBase:
+    """The fixed-base twin's options (:func:`~pinid.simulation.twin.simulate`): its ``rates``, ``controller``,
+    ``friction`` and ``sensors`` groups (None: their defaults) and ``perturb`` [%]: the feed-forward from a CAD
+    model that far from the truth (``truth["cad"]``; :attr:`Outputs.cad_urdf` writes it)."""
+
+    rates: Rates | None = None
+    controller: Controller | None = None
+    friction: Friction | None = None
+    sensors: Sensors | None = None
+    perturb: float | None = None
+
+    def __post_init__(self) -> None:
+        for key, kind in (("rates", Rates), ("controller", Controller), ("friction", Friction), ("sensors", Sensors)):
+            _typed("FixedBase", key, getattr(self, key), kind, f"a {kind.__name__} or None")
+        _typed("FixedBase", "perturb", self.perturb, (int, float), "a percentage or None")
+
+
+@dataclasses.dataclass(frozen=True)
+class FreeFlyer:
+    """The floating-base twin's options (:mod:`~pinid.simulation.floating_twin`): the sensors' ``noise``, the
+    sample ``rate`` [Hz] and ``imu_frame``, the link an IMU is on (None: the base pose as motion capture)."""
+
+    noise: Noise = Noise()
+    rate: float = 1000.0
+    imu_frame: str | None = None
+
+    def __post_init__(self) -> None:
+        _typed("FreeFlyer", "noise", self.noise, Noise, "a Noise", none=False)
+        _typed("FreeFlyer", "rate", self.rate, (int, float), "a rate [Hz]", none=False)
+        _typed("FreeFlyer", "imu_frame", self.imu_frame, str, "a link's name or None")
+
+
+@dataclasses.dataclass(frozen=True)
+class WearerLoad:
+    """The wearer a fixed-base twin carries: its ``segments`` (:func:`pinid.wearer.attach.wearer_links`; the
+    caller finds them: the wearer is a layer above the twin), ``drawn``: ``(table values, drawn values)`` when
+    the model's wearer was drawn away from the tables (:func:`pinid.wearer.prior.draw_wearer`), kept in
+    ``truth["wearer"]["drawn"]``, and ``torque`` [%]: the wearer's involuntary torque."""
+
+    segments: dict | None = None
+    drawn: tuple[dict, dict] | None = None
+    torque: float = 0.0
+
+    def __post_init__(self) -> None:
+        _typed("WearerLoad", "segments", self.segments, dict, "the wearer's segments (a dict) or None")
+        _typed("WearerLoad", "drawn", self.drawn, tuple, "(table values, drawn values) or None")
+        _typed("WearerLoad", "torque", self.torque, (int, float), "a percentage", none=False)
+
+
+@dataclasses.dataclass(frozen=True)
+class Outputs:
+    """What a run writes besides the recording: ``truth_path`` (default ``<path stem>.truth.json``),
+    ``figure`` (a PNG of the run: per joint the reference and simulated position, their difference, the
+    recorded torque), for a fixed base ``true_signals`` (the noise-free signals) and ``cad_urdf`` (the CAD
+    model of :attr:`FixedBase.perturb`); ``command``: the command line kept in ``truth["command"]``."""
+
+    truth_path: str | os.PathLike | None = None
+    true_signals: str | os.PathLike | None = None
+    cad_urdf: str | os.PathLike | None = None
+    figure: str | os.PathLike | None = None
+    command: str | None = None
+
+    def __post_init__(self) -> None:
+        for key in ("truth_path", "true_signals", "cad_urdf", "figure"):
+            _typed("Outputs", key, getattr(self, key), (str, os.PathLike), "a path or None")
+        _typed("Outputs", "command", self.command, str, "a command line or None")
+
+    def files(self) -> dict:
+        """The paths, as :func:`~pinid.simulation.outputs.write_simulation` takes them."""
+        return {k: getattr(self, k) for k in ("truth_path", "true_signals", "cad_urdf", "figure")}
+
+
+def _group(value, kind: type, name: str):
+    if value is None:
+        return kind()
+    if not isinstance(value, kind):
+        raise SpecError(f"{name}: got {type(value).__name__}, expected {kind.__name__} or None")
+    return value
 
 
 def simulate_and_write(
@@ -31,83 +122,90 @@ def simulate_and_write(
     excitation: str,
     path: str | os.PathLike,
     *,
-    seconds: float = 60.0,
+    seconds: float | None = None,
     seed: int = 0,
     flip: Sequence[str] = (),
-    rates: Rates | None = None,
-    controller: Controller | None = None,
-    friction: Friction | None = None,
-    sensors: Sensors | BaseSensors | None = None,
-    wearer: dict | None = None,
-    drawn_wearer: tuple[dict, dict] | None = None,
-    wearer_torque: float = 0.0,
-    perturb: float | None = None,
-    truth_path: str | os.PathLike | None = None,
-    true_signals: str | os.PathLike | None = None,
-    cad_urdf: str | os.PathLike | None = None,
-    figure: str | os.PathLike | None = None,
-    command: str | None = None,
+    fixed: FixedBase | None = None,
+    floating: FreeFlyer | None = None,
+    wearer: WearerLoad | None = None,
+    outputs: Outputs | None = None,
 ) -> str:
-    """Simulate ``model`` (the truth) following ``excitation`` (:func:`~pinid.simulation.trajectories.load_trajectory`:
-    a trajectory JSON, a bundled name or a preset, ``flip`` negating joints) for ``seconds`` [s], write the
-    recording at ``path`` with its truth (:func:`~pinid.simulation.outputs.write_simulation`) and return the
-    summary :func:`~pinid.simulation.outputs.simulation_text` gives.
+    """Simulate ``model`` (the truth) following ``excitation`` for ``seconds`` [s] (default 60 on a fixed base,
+    10 on a floating one), write the recording at ``path`` with its truth and return what ``pinid simulate``
+    prints.
 
-    ``rates``, ``controller``, ``friction``, ``sensors``: the twin's option groups (:func:`~pinid.simulation.twin.simulate`);
-    ``wearer``: the wearer segments the twin carries (:func:`pinid.wearer.attach.wearer_links`; the caller
-    finds them: the wearer is a layer above the twin); ``drawn_wearer``: ``(table values, drawn values)`` when
-    ``model``'s wearer was drawn away from the tables (:func:`pinid.wearer.prior.draw_wearer`), kept in
-    ``truth["wearer"]["drawn"]``;
-    ``wearer_torque`` [%]: the wearer's involuntary torque; ``perturb`` [%]: the feed-forward from a CAD model
-    that far from the truth (``truth["cad"]``; ``cad_urdf`` writes it); ``figure``: a PNG of the run (per
-    joint the reference and simulated position, the tracking error, the recorded torque); ``command``: the
-    command line kept in ``truth["command"]``.
-
-    A floating model (``pinid simulate --base floating``) runs the floating twin (:func:`~pinid.simulation.twin.simulate`;
-    ``excitation`` also "gait"; ``sensors`` a :class:`~pinid.simulation.floating_twin.BaseSensors`, the rate
-    ``rates.sample`` or ``rates.control``) and writes its recording and truth
-    (:func:`~pinid.simulation.outputs.write_floating_run`); the fixed-base options (``flip``,
-    ``controller``, ``friction``, the wearer's, ``perturb``, ``true_signals``, ``cad_urdf``) raise SpecError.
-    """
+    A fixed base (:func:`~pinid.simulation.twin.simulate`): ``excitation`` as
+    :func:`~pinid.simulation.trajectories.load_trajectory` takes it (a trajectory JSON, a bundled name or a
+    preset, ``flip`` negating joints), the twin's options ``fixed`` (:class:`FixedBase`), the ``wearer`` it
+    carries (:class:`WearerLoad`); written by :func:`~pinid.simulation.outputs.write_simulation`, summed up
+    by :func:`~pinid.simulation.outputs.simulation_text`.  A floating base
+    (:class:`~pinid.model.floating.FloatingRobotModel`, :mod:`pinid.simulation.floating_twin`): ``excitation``
+    "gait" walks, anything else is a trajectory the suspended legs follow
+    (:func:`~pinid.simulation.twin.simulate` of a floating model; no ``flip``), with the options ``floating``
+    (:class:`FreeFlyer`); written by :func:`~pinid.simulation.outputs.write_floating_run`.
+    ``outputs``: the other files and the command line (:class:`Outputs`).  A group for the other base:
+    SpecError."""
     model = as_robot(model)
     path = as_path(path)
     if not isinstance(excitation, str):
         raise SpecError(f"excitation: got {type(excitation).__name__}, expected a trajectory path, name or preset")
-    if model.base == "floating":
-        fixed = {"flip": flip or None, "controller": controller, "friction": friction, "wearer": wearer}
-        fixed |= {"drawn_wearer": drawn_wearer, "wearer_torque": wearer_torque or None, "perturb": perturb}
-        fixed |= {"true_signals": true_signals, "cad_urdf": cad_urdf}
-        wrong = [k for k, v in fixed.items() if v is not None]
-        if wrong:
-            raise SpecError(f"{wrong[0]}: for a fixed-base model only, {model.name} has a floating base")
-        run = simulate(model, excitation, seconds=seconds, seed=seed, rates=rates, sensors=sensors or BaseSensors())
-        if command is not None:
-            run.truth["command"] = command
-        return floating_text(run, write_floating_run(run, path, truth_path, figure=figure))
+    outputs = _group(outputs, Outputs, "outputs")
+    if isinstance(model, FloatingRobotModel):
+        for name, value in (("fixed", fixed), ("wearer", wearer)):
+            if value is not None:
+                raise SpecError(
+                    f"{name}: a {type(value).__name__} is for a fixed-base twin, not the floating {model.name}"
+                )
+        return _floating_and_write(
+            model, excitation, path, seconds, seed, flip, _group(floating, FreeFlyer, "floating"), outputs
+        )
+    if floating is not None:
+        raise SpecError(
+            f"floating: a {type(floating).__name__} is for a floating-base twin, not the fixed-base {model.name}"
+        )
+    fixed, wearer = _group(fixed, FixedBase, "fixed"), _group(wearer, WearerLoad, "wearer")
     trajectory = load_trajectory(excitation, model, flip=flip)
-    cad = None if perturb is None else cad_model(model, perturb, seed)
+    cad = None if fixed.perturb is None else cad_model(model, fixed.perturb, seed)
+    controller = fixed.controller
     if cad is not None:  # the feed-forward's model
         controller = dataclasses.replace(controller or Controller(), feedforward_model=cad)
     ds, truth = simulate(
         model,
         trajectory,
-        seconds=seconds,
+        seconds=60.0 if seconds is None else seconds,
         seed=seed,
-        rates=rates,
+        rates=fixed.rates,
         controller=controller,
-        friction=friction,
-        sensors=sensors,
-        wearer_torque=wearer_torque,
-        wearer=wearer,
+        friction=fixed.friction,
+        sensors=fixed.sensors,
+        wearer_torque=wearer.torque,
+        wearer=wearer.segments,
         progress=None,
     )
     if cad is not None:
-        truth["cad"] = cad_truth(truth, model, cad, perturb)
-    if drawn_wearer is not None:
-        truth["wearer"]["drawn"] = drawn_wearer_truth(*drawn_wearer)
-    if command is not None:
-        truth["command"] = command
-    files = {"truth_path": truth_path, "true_signals": true_signals, "cad_urdf": cad_urdf, "figure": figure}
-    reference = trajectory.for_joints(model.joint_names, model.name).evaluate(ds.t)[0] if figure else None
+        truth["cad"] = cad_truth(truth, model, cad, fixed.perturb)
+    if wearer.drawn is not None:
+        truth["wearer"]["drawn"] = drawn_wearer_truth(*wearer.drawn)
+    if outputs.command is not None:
+        truth["command"] = outputs.command
+    files = outputs.files()
+    reference = trajectory.for_joints(model.joint_names, model.name).evaluate(ds.t)[0] if outputs.figure else None
     write_simulation(ds, truth, path, cad=cad, reference=reference, **files)
     return simulation_text(ds, truth, path, **files)
+
+
+def _floating_and_write(model, excitation, path, seconds, seed, flip, options: FreeFlyer, outputs: Outputs) -> str:
+    """``pinid simulate --base floating``: the gait or suspended twin, its truth and files."""
+    unused = [k for k in ("true_signals", "cad_urdf") if getattr(outputs, k) is not None]
+    if unused:
+        raise SpecError(
+            f"outputs {', '.join(unused)}: written by a fixed-base twin only, not the floating {model.name}"
+        )
+    if flip:
+        raise SpecError(f"flip {list(flip)}: the floating twin takes the trajectory as it is (flip it in its JSON)")
+    seconds = 10.0 if seconds is None else seconds
+    kw = {"sample_rate": options.rate, "noise": options.noise, "imu_frame": options.imu_frame}
+    run = simulate(model, excitation, seconds=seconds, seed=seed, **kw)
+    if outputs.command is not None:
+        run.truth["command"] = outputs.command
+    return floating_text(run, write_floating_run(run, path, outputs.truth_path, figure=outputs.figure))

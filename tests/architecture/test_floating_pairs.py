@@ -9,11 +9,11 @@ import re
 
 from test_public_api import _modules, public_definitions
 
-#: Twin pairs still to merge into one (floating name → its fixed-base twin).  The model layer (names, values,
-#: regressor, base parameters dispatch on the model, as Pinocchio's algorithms do), the setup, identification,
-#: comparison, results, files, loaders and the CLI's mapping option are one pipeline already (issue 32, sixth
-#: session); the preparation (``prepare``), the twin (``simulate``) and its writer (``simulate_and_write``)
-#: dispatch on the recording and the model (seventh session).
+#: Twin pairs still to merge into one (floating name → its fixed-base twin): none.  Identification, comparison,
+#: results, files, loaders, the model layer, the setup, the CLI's mapping option, the twin's writer
+#: (simulate_and_write), the preparation (``prepare`` hands a floating recording to its ``samples``) and the twin
+#: (``simulate`` of a floating model runs the floating twin; its run is ``TwinRun``, unpacked as ``(recording,
+#: truth)``) are one pipeline (issue 32).
 LEFT_TO_MERGE: dict[str, str] = {}
 #: Names that match the pattern without being twins: what each is instead.
 NOT_TWINS: dict[str, str] = {

@@ -67,6 +67,20 @@ def test_class_declares_what_the_rest_needs(name):
 
 
 @pytest.mark.parametrize("name", list(ESTIMATORS))
+def test_lazy_imports_and_shared_work_are_what_a_study_can_use(name):
+    """lazy_imports() names modules that import (a study imports them before forking its workers), and
+    shared_work() gives hashable (method, settings) fits of registered methods (run once per study)."""
+    import importlib
+
+    est = make_estimator(name)
+    for module in est.lazy_imports():
+        importlib.import_module(module)
+    for method, settings in est.shared_work():
+        assert method in ESTIMATORS and hash((method, settings)) is not None
+        make_estimator(method, **dict(settings))
+
+
+@pytest.mark.parametrize("name", list(ESTIMATORS))
 def test_init_only_stores_settings_and_they_round_trip(name):
     est = make_estimator(name, **fast(ESTIMATORS[name]))
     params = est.get_params()
