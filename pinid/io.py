@@ -390,3 +390,28 @@ def _existing_ancestor(folder: Path) -> Path:
     while not f.exists() and f != f.parent:
         f = f.parent
     return f
+
+
+@contextlib.contextmanager
+def deferred_interrupts() -> Iterator[None]:
+    """Hold Ctrl-C and SIGTERM while worker processes are forked: a pool interrupted while its workers
+    start never starts the thread that ends them, and the interpreter's exit (or the caller reading the
+    command's output) would wait for them for ever.  A signal that came is raised when the block ends, to
+    the handler that was in place.  Outside the main thread: no change.  Forked children inherit the holding
+    handler: their initializer sets their own."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    came: list[int] = []
+    kinds = (signal.SIGINT, signal.SIGTERM)
+    previous = {kind: signal.signal(kind, lambda signum, frame: came.append(signum)) for kind in kinds}
+    try:
+        yield
+    finally:
+        for kind, handler in previous.items():
+            signal.signal(kind, handler)
+        if came:
+            signal.raise_signal(came[0])

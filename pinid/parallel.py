@@ -28,6 +28,7 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 from typing import Any
 
 from pinid.errors import PinidError, SpecError
+from pinid.io import deferred_interrupts
 from pinid.progress import progress
 
 #: What :func:`run_parallel`'s local workers run: ``(fn, shared)``, set once per worker process.
@@ -138,7 +139,7 @@ class LocalWorkers:
             # every worker forked now (with fork, the executor starts them all at its first job, before its own
             # thread), not at the first real job, after a progress bar has started its thread.  Python ≥ 3.12
             # warns of any fork in a process with threads; these workers only run fn, so that warning is muted.
-            with warnings.catch_warnings():
+            with warnings.catch_warnings(), deferred_interrupts():  # an interrupt: raised once they are up
                 warnings.filterwarnings("ignore", message=_FORK_WARNING, category=DeprecationWarning)
                 self.executor.submit(int)
 
@@ -168,15 +169,22 @@ class LocalWorkers:
         if kind is None:
             executor.shutdown(wait=True)
             return
-        # Ctrl-C or a job's error: stop every worker now, then let it reach the caller.  The executor's own
-        # shutdown would wait for the running jobs (Python < 3.14 has no terminate_workers), so the worker
-        # processes are killed here; the executor sees them gone and cleans up without waiting.
-        processes = list((getattr(executor, "_processes", None) or {}).values())
-        executor.shutdown(wait=False, cancel_futures=True)
-        for process in processes:
-            process.kill()
-        for process in processes:
-            process.join()
+        # Ctrl-C or a job's error: stop every worker now, then let it reach the caller
+        stop_workers(executor)
+
+
+def stop_workers(executor: ProcessPoolExecutor) -> None:
+    """Stop a process pool's workers at once, killed then joined: its own shutdown would wait for the running
+    jobs (Python < 3.14 has no terminate_workers), and a pool interrupted while its workers start (SIGTERM,
+    Ctrl-C) never starts the thread that would end them, so the interpreter's exit would wait for ever."""
+    if not isinstance(executor, ProcessPoolExecutor):
+        raise SpecError(f"executor: got {type(executor).__name__}, expected a ProcessPoolExecutor")
+    processes = list((getattr(executor, "_processes", None) or {}).values())
+    executor.shutdown(wait=False, cancel_futures=True)
+    for process in processes:
+        process.kill()
+    for process in processes:
+        process.join()
 
 
 def _on_processes(fn: Callable, shared: Any, items: Sequence, workers: int, bar) -> list:

@@ -184,3 +184,23 @@ def test_excite_outputs_on_one_path_refused(tmp_path):
     proc = run_cli("excite", "--urdf", "exo_leg", "-o", "e.json", "--csv", "e.json", "--force", cwd=tmp_path)
     assert_clean_error(proc, "same file")
     assert (tmp_path / "e.json").read_text() == "keep"
+
+
+def test_an_interrupt_while_workers_start_is_raised_once_they_are_up():
+    """deferred_interrupts holds SIGTERM/Ctrl-C while a pool forks its workers (an interrupt there left
+    workers no thread would end: the command never exited) and raises it to the handler in place after."""
+    import os
+    import signal
+
+    from pinid.io import deferred_interrupts
+
+    seen: list[str] = []
+    previous = signal.signal(signal.SIGTERM, lambda signum, frame: seen.append("handled"))
+    try:
+        with deferred_interrupts():
+            os.kill(os.getpid(), signal.SIGTERM)
+            seen.append("block ended")
+        assert seen == ["block ended", "handled"]
+        assert signal.getsignal(signal.SIGTERM) is not None and seen.count("handled") == 1
+    finally:
+        signal.signal(signal.SIGTERM, previous)

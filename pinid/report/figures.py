@@ -10,7 +10,7 @@ import warnings
 from collections.abc import Callable, Mapping
 from pathlib import Path
 
-from pinid.io import atomic_path
+from pinid.io import atomic_path, deferred_interrupts
 
 #: A figure to draw: ``(function, args, kwargs)``; the function returns a matplotlib figure.
 Recipe = tuple[Callable, tuple, dict]
@@ -121,6 +121,7 @@ def _import_matplotlib() -> None:
 
 def _worker_start() -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's to handle: no worker traceback
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)  # not the parent's deferred_interrupts handler
     _import_matplotlib()
 
 
@@ -137,8 +138,9 @@ def _new_pool(n: int):
 
     with warnings.catch_warnings():  # Python ≥ 3.12 warns about fork with threads (BLAS); workers only draw
         warnings.simplefilter("ignore", DeprecationWarning)
-        pool = ProcessPoolExecutor(n, mp_context=multiprocessing.get_context("fork"), initializer=_worker_start)
-        pool.submit(int)  # a fork pool starts all its workers at the first task: now
+        with deferred_interrupts():  # an interrupt while the workers start: raised once they are up
+            pool = ProcessPoolExecutor(n, mp_context=multiprocessing.get_context("fork"), initializer=_worker_start)
+            pool.submit(int)  # a fork pool starts all its workers at the first task: now
     return pool
 
 
