@@ -56,6 +56,12 @@ BASE_NQ = 7
 BASE_NV = 6
 
 
+def _robot_fields(model: RobotModel) -> dict:
+    """The keyword fields of ``RobotModel(pin_model, joints, **fields)`` that rebuild ``model``'s joints-only robot."""
+    names = ("coulomb", "viscous", "urdf_path", "urdf_text", "locked", "drives", "urdf_document", "settings")
+    return {name: getattr(model, name) for name in names}
+
+
 class FloatingRobotModel(RobotModel):
     """A robot whose base link floats (free flyer).  ``pin_model`` / ``rnea`` / ``nv`` are those of the actuated
     joints with the base held still (as for a fixed base); ``ff_model`` is the free-flyer model (``nq = 7 + n``,
@@ -64,18 +70,7 @@ class FloatingRobotModel(RobotModel):
     base = "floating"
 
     def __init__(self, fixed: RobotModel, ff_model: pin.Model, base_link: str) -> None:
-        super().__init__(
-            fixed.pin_model,
-            fixed.joints,
-            coulomb=fixed.coulomb,
-            viscous=fixed.viscous,
-            urdf_path=fixed.urdf_path,
-            urdf_text=fixed.urdf_text,
-            locked=fixed.locked,
-            drives=fixed.drives,
-            urdf_document=fixed.urdf_document,
-            settings=fixed.settings,
-        )
+        super().__init__(fixed.pin_model, fixed.joints, **_robot_fields(fixed))
         self.ff_model = ff_model
         self.ff_data = ff_model.createData()
         self.base_link = base_link
@@ -112,18 +107,7 @@ class FloatingRobotModel(RobotModel):
         takes a floating model's free-flyer state); this is the joints-only view for what treats the robot as fixed
         (``pinid excite --base floating`` designs on it)."""
         if self._fixed is None:
-            self._fixed = RobotModel(
-                self.pin_model,
-                self.joints,
-                coulomb=self.coulomb,
-                viscous=self.viscous,
-                urdf_path=self.urdf_path,
-                urdf_text=self.urdf_text,
-                locked=self.locked,
-                drives=self.drives,
-                urdf_document=self.urdf_document,
-                settings=self.settings,
-            )
+            self._fixed = RobotModel(self.pin_model, self.joints, **_robot_fields(self))
             self._fixed.repair_inertia = self.repair_inertia
         return self._fixed
 
