@@ -95,14 +95,14 @@ def run_jobs(
         raise SpecError(f"fit_progress: got {fit_progress!r}, expected True, False or None")
     fits = [("fit", (method, seed, settings, complete)) for method, seed, settings in jobs]
     local = check_workers(workers) > 1 and scheduler is None and len(fits) > 1
-    shared = _shared_work(s, [job for _, job in fits]) if local else {}
-    if local:  # what the fits import on first use, imported once here rather than in every forked worker
-        for module in dict.fromkeys(m for _, job in fits for m in make_estimator(job[0], **job[2]).lazy_imports()):
-            importlib.import_module(module)
+    made = [make_estimator(job[0], **job[2]) for _, job in fits] if local else []
+    shared = [est.shared_work() for est in made] if local and s.segmental is None else []
+    for module in dict.fromkeys(m for est in made for m in est.lazy_imports()):
+        importlib.import_module(module)  # what the fits import on first use: once here, not in every worker
     head = [("beside", beside)] if beside is not None else []
-    later = [i for i, (_, job) in enumerate(fits) if shared.get(job[0], ())] if shared else []
+    later = [i for i, tasks in enumerate(shared) if tasks]
     now = [i for i in range(len(fits)) if i not in set(later)]
-    rounds = [head + [("shared", task) for task in dict.fromkeys(t for ts in shared.values() for t in ts)]]
+    rounds = [head + [("shared", task) for task in dict.fromkeys(t for i in later for t in shared[i])]]
     rounds[0] += [fits[i] for i in now]
     if later:  # the jobs that need a shared fit: after it, on workers forked from this process's cache
         rounds.append([fits[i] for i in later])
@@ -138,19 +138,6 @@ def _describe(job: tuple) -> str:
     if kind == "shared":
         return f"{what[0]} (shared)"
     return what[0] + ("" if what[1] is None else f" seed {what[1]}")
-
-
-def _shared_work(s: Setup, jobs: list) -> dict[str, tuple]:
-    """``{method: the (method, settings) fits its estimator keeps in the problem's cache}`` for the jobs'
-    methods that keep any (none for a segmental study, whose stages are problems of their own)."""
-    if s.segmental is not None:
-        return {}
-    work = {}
-    for method, _, settings, _ in jobs:
-        tasks = make_estimator(method, **settings).shared_work()
-        if tasks:
-            work[method] = work.get(method, ()) + tuple(t for t in tasks if t not in work.get(method, ()))
-    return work
 
 
 def _fit_job(shared: tuple[Setup, Callable | None, bool | None], job: tuple) -> Any:
