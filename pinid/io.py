@@ -263,14 +263,16 @@ class Artefacts:
 
     def __init__(self, *, overwrite: bool | None = None) -> None:
         self.overwrite = OVERWRITE.get() if overwrite is None else overwrite
-        self._planned: list[tuple[Path, Any]] = []
+        self._planned: list[tuple[Path, Any, bool]] = []
         self._stale: list[tuple[Path, tuple[str, ...]]] = []
 
-    def add(self, path: str | os.PathLike, write) -> Path:
-        """Plan ``path``; ``write`` is called with a temporary path of the same name and writes the file
-        (str or bytes: written as they are).  Returns ``path`` as a Path."""
+    def add(self, path: str | os.PathLike, write, *, behind: bool = False) -> Path:
+        """Plan ``path``: ``write`` is its content (str or bytes), or a function called with a temporary
+        path of the same name that writes the file or returns its content.  ``behind``: a file that can be
+        written after the others (a figure, a report): inside :func:`written_behind`, by a forked process
+        while the caller goes on.  Returns ``path`` as a Path."""
         p = Path(path)
-        self._planned.append((p, write))
+        self._planned.append((p, write, bool(behind)))
         return p
 
     def clean(self, folder: str | os.PathLike, patterns) -> None:
@@ -281,12 +283,12 @@ class Artefacts:
     @property
     def paths(self) -> list[Path]:
         """The planned output paths, in order."""
-        return [p for p, _ in self._planned]
+        return [p for p, _, _ in self._planned]
 
     def check(self) -> list[Path]:
         """Check every planned output (see the class docstring) without writing or creating anything."""
         seen: dict[Any, Path] = {}
-        for p, _ in self._planned:
+        for p, _, _ in self._planned:
             key = _same_file_key(p)
             if key in seen:
                 raise OutputError(
@@ -306,50 +308,16 @@ class Artefacts:
         return self.paths
 
     def write(self) -> list[Path]:
-        """Check, write into a temporary folder, move into place; returns the written paths."""
-        import shutil
-
+        """Check, write into a temporary folder, move into place; returns the written paths.  Inside
+        :func:`written_behind`, the files added with ``behind=True`` are left to a forked process."""
         self.check()
         if not self._planned:
             return []
-        first = self._planned[0][0]
-        stage = Path(tempfile.mkdtemp(prefix=".pinid-", dir=_existing_ancestor(first.parent)))
-        created: list[Path] = []
-        try:
-            staged = []
-            for i, (p, write) in enumerate(self._planned):
-                tmp = stage / str(i) / p.name
-                tmp.parent.mkdir()
-                if isinstance(write, str):
-                    tmp.write_text(write, encoding="utf-8")
-                elif isinstance(write, bytes):
-                    tmp.write_bytes(write)
-                else:
-                    write(tmp)
-                if not tmp.is_file():
-                    raise OutputError(f"{p}: its writer produced no file")
-                staged.append((tmp, p))
-            for _, p in staged:  # create the missing folders, remembering them to undo on failure
-                missing = []
-                f = p.parent
-                while str(f) and not f.exists():
-                    missing.append(f)
-                    f = f.parent
-                for f in reversed(missing):
-                    f.mkdir()
-                    created.append(f)
-            for tmp, p in staged:
-                try:
-                    os.replace(tmp, p)
-                except OSError:  # another file system
-                    shutil.move(str(tmp), str(p))
-        except BaseException:
-            for f in reversed(created):
-                with contextlib.suppress(OSError):
-                    f.rmdir()
-            raise
-        finally:
-            shutil.rmtree(stage, ignore_errors=True)
+        behind = _BEHIND is not None and _BEHIND[0] == os.getpid()
+        later = [(p, w) for p, w, b in self._planned if b and behind]
+        _stage_and_move([(p, w) for p, w, b in self._planned if not (b and behind)])
+        if later:
+            _write_later(later, self.overwrite)
         written = {_same_file_key(p) for p in self.paths}
         for folder, patterns in self._stale:
             for pattern in patterns:
@@ -358,6 +326,51 @@ class Artefacts:
                         with contextlib.suppress(OSError):
                             old.unlink()
         return self.paths
+
+
+def _stage_and_move(entries: list[tuple[Path, Any]]) -> None:
+    """Write ``entries`` (:meth:`Artefacts.add`'s path and content) into a temporary folder next to the
+    first, then move them into place; on an error or interrupt, remove what was created."""
+    import shutil
+
+    if not entries:
+        return
+    stage = Path(tempfile.mkdtemp(prefix=".pinid-", dir=_existing_ancestor(entries[0][0].parent)))
+    created: list[Path] = []
+    try:
+        staged = []
+        for i, (p, write) in enumerate(entries):
+            tmp = stage / str(i) / p.name
+            tmp.parent.mkdir()
+            content = write if isinstance(write, (str, bytes)) else write(tmp)
+            if isinstance(content, str):
+                tmp.write_text(content, encoding="utf-8")
+            elif isinstance(content, bytes):
+                tmp.write_bytes(content)
+            if not tmp.is_file():
+                raise OutputError(f"{p}: its writer produced no file")
+            staged.append((tmp, p))
+        for _, p in staged:  # create the missing folders, remembering them to undo on failure
+            missing = []
+            f = p.parent
+            while str(f) and not f.exists():
+                missing.append(f)
+                f = f.parent
+            for f in reversed(missing):
+                f.mkdir()
+                created.append(f)
+        for tmp, p in staged:
+            try:
+                os.replace(tmp, p)
+            except OSError:  # another file system
+                shutil.move(str(tmp), str(p))
+    except BaseException:
+        for f in reversed(created):
+            with contextlib.suppress(OSError):
+                f.rmdir()
+        raise
+    finally:
+        shutil.rmtree(stage, ignore_errors=True)
 
 
 def check_outputs(*paths: str | os.PathLike) -> None:
@@ -415,3 +428,91 @@ def deferred_interrupts() -> Iterator[None]:
             signal.signal(kind, handler)
         if came:
             signal.raise_signal(came[0])
+
+
+# ------------------------------------------------------------------------------------------ written behind
+#: Inside :func:`written_behind`: ``(the pid of the process that opened it, [(process, pipe, paths), …])``.
+_BEHIND: tuple[int, list] | None = None
+#: True in a process forked by :func:`written_behind` to write files (it draws its figures itself).
+_WRITING_LATER = False
+
+
+def writing_behind() -> bool:
+    """True inside :func:`written_behind` in the process that opened it: files added with ``behind=True``
+    are written by other processes (so a command need not start figure workers of its own)."""
+    return _BEHIND is not None and _BEHIND[0] == os.getpid()
+
+
+def in_writer_process() -> bool:
+    """True in a process forked by :func:`written_behind` to write files: draw in this one process."""
+    return _WRITING_LATER
+
+
+@contextlib.contextmanager
+def written_behind() -> Iterator[None]:
+    """Inside the block, :meth:`Artefacts.write` leaves the files added with ``behind=True`` (figures, a
+    report) to a forked process and returns at once, so that the caller goes on while they are drawn (Linux
+    with more than one core; elsewhere they are written in turn as usual).  ``pinid demo`` runs its steps in
+    such a block.  The block's end waits for every such process and raises the first one's error as an
+    :class:`OutputError` (the files written before stay: the caller's own all-or-nothing undoes them); an
+    error or interrupt inside the block stops them first."""
+    global _BEHIND
+    previous = _BEHIND
+    if sys.platform.startswith("linux") and (os.cpu_count() or 1) > 1:
+        _BEHIND = (os.getpid(), [])
+    running = _BEHIND[1] if _BEHIND is not previous else []
+    try:
+        yield
+        for proc, pipe, paths in running:
+            try:
+                error = pipe.recv()
+            except EOFError:
+                error = "the process writing them ended without a word"
+            proc.join()
+            if error:
+                raise OutputError(f"{display_path(paths[0])} (written behind): {error}")
+    finally:
+        for proc, pipe, _ in running:
+            if proc.is_alive():
+                proc.terminate()
+            proc.join()
+            pipe.close()
+        _BEHIND = previous
+
+
+def _write_later(entries: list[tuple[Path, Any]], overwrite: bool) -> None:
+    """Fork the process that writes ``entries`` for :func:`written_behind`."""
+    import multiprocessing
+    import warnings
+
+    ctx = multiprocessing.get_context("fork")
+    pipe, child = ctx.Pipe(duplex=False)
+    sys.stdout.flush()  # what is buffered now would be written again by the child
+    sys.stderr.flush()
+    with warnings.catch_warnings():  # Python ≥ 3.12 warns about fork with threads (BLAS)
+        warnings.simplefilter("ignore", DeprecationWarning)
+        with deferred_interrupts():
+            proc = ctx.Process(target=_writer, args=(entries, overwrite, child), daemon=True)
+            proc.start()
+    child.close()
+    _BEHIND[1].append((proc, pipe, [p for p, _ in entries]))
+
+
+def _writer(entries: list[tuple[Path, Any]], overwrite: bool, conn) -> None:
+    """The forked process of :func:`_write_later`: write ``entries`` all or nothing, send None or the error."""
+    import signal
+
+    global _BEHIND, _WRITING_LATER
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's: it stops this process
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    _BEHIND, _WRITING_LATER = None, True
+    try:
+        arts = Artefacts(overwrite=overwrite)
+        for p, write in entries:
+            arts.add(p, write)
+        arts.write()
+        conn.send(None)
+    except BaseException as exc:  # noqa: BLE001 - sent to the parent, which raises it
+        conn.send(str(exc).splitlines()[0] if str(exc) else type(exc).__name__)
+    finally:
+        conn.close()

@@ -204,3 +204,75 @@ def test_an_interrupt_while_workers_start_is_raised_once_they_are_up():
         assert signal.getsignal(signal.SIGTERM) is not None and seen.count("handled") == 1
     finally:
         signal.signal(signal.SIGTERM, previous)
+
+
+# ------------------------------------------------------------------------------------------ written behind
+def _pid_text(_):
+    return str(os.getpid())
+
+
+def test_behind_files_are_written_by_another_process_and_waited_for(tmp_path):
+    from pinid.io import written_behind, writing_behind
+
+    def slow(_):
+        import time
+
+        time.sleep(0.3)
+        return str(os.getpid())
+
+    assert not writing_behind()
+    with written_behind():
+        assert writing_behind()
+        arts = Artefacts()
+        arts.add(tmp_path / "now.txt", _pid_text)
+        arts.add(tmp_path / "later.txt", slow, behind=True)
+        assert arts.write() == [tmp_path / "now.txt", tmp_path / "later.txt"]
+        assert (tmp_path / "now.txt").read_text() == str(os.getpid())  # written before write() returned
+        assert not (tmp_path / "later.txt").exists()  # still being drawn
+    assert (tmp_path / "later.txt").read_text() not in ("", str(os.getpid()))  # another process wrote it
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["later.txt", "now.txt"]  # no staging folder left
+
+
+def test_behind_files_outside_the_block_are_written_in_turn(tmp_path):
+    arts = Artefacts()
+    arts.add(tmp_path / "a.txt", _pid_text, behind=True)
+    arts.add(tmp_path / "b.bin", b"\x00\x01")
+    arts.write()
+    assert (tmp_path / "a.txt").read_text() == str(os.getpid())
+    assert (tmp_path / "b.bin").read_bytes() == b"\x00\x01"
+
+
+def test_an_error_behind_is_raised_at_the_end_of_the_block(tmp_path):
+    from pinid.io import written_behind
+
+    def broken(_):
+        raise ValueError("the figure could not be drawn")
+
+    with pytest.raises(OutputError, match=r"bad.png \(written behind\): the figure could not be drawn"):
+        with written_behind():
+            arts = Artefacts()
+            arts.add(tmp_path / "ok.txt", "fine")
+            arts.add(tmp_path / "bad.png", broken, behind=True)
+            arts.write()
+    assert not (tmp_path / "bad.png").exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["ok.txt"]
+
+
+def test_an_error_in_the_block_stops_the_writers(tmp_path):
+    import time
+
+    from pinid.io import written_behind
+
+    def forever(_):
+        time.sleep(60)
+        return "never"
+
+    t0 = time.perf_counter()
+    with pytest.raises(KeyboardInterrupt):
+        with written_behind():
+            arts = Artefacts()
+            arts.add(tmp_path / "late.txt", forever, behind=True)
+            arts.write()
+            raise KeyboardInterrupt
+    assert time.perf_counter() - t0 < 10
+    assert not (tmp_path / "late.txt").exists()

@@ -14,7 +14,7 @@ from pathlib import Path
 
 from pinid.cli.common import methods_from_args, seed_int
 from pinid.estimators import ESTIMATORS, quick_methods
-from pinid.io import check_outputs
+from pinid.io import check_outputs, written_behind
 
 HELP = "run the whole loop on the bundled exoskeleton leg: excite, simulate, identify, validate, track"
 
@@ -165,7 +165,8 @@ def run(args: argparse.Namespace) -> int:
     methods = ",".join(methods_from_args(args)) if args.methods else ",".join(quick_methods())
     started = time.perf_counter()
     plan = steps(args.output, args.seed, methods, args.verbose)
-    with all_or_nothing(Path(args.output), replace=args.force), _Ahead(args, plan[AHEAD][1]) as ahead:
+    folder = all_or_nothing(Path(args.output), replace=args.force)
+    with folder, written_behind(), _Ahead(args, plan[AHEAD][1]) as ahead:  # figures drawn beside the next step
         for i, (title, argv) in enumerate(plan, 1):
             print(f"\n[{i}/{len(plan)}] {title}\n$ pinid {' '.join(argv)}", flush=True)
             if i - 1 == AHEAD and ahead.done():

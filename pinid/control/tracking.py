@@ -6,6 +6,7 @@ the same noise); its result ``{controller: {model: {"metrics", "result"}}}`` is 
 
 from __future__ import annotations
 
+import functools
 import os
 from pathlib import Path
 
@@ -124,6 +125,7 @@ def write_tracking(
     }
     title = f"RMS tracking error per joint after t = {after:g} s: every model × controller"
     recipes["tracking_models.png"] = (tracking_models_figure, (rms,), {"title": title})
-    for name, png in render_pngs(recipes).items():  # one figure per core (pinid.report.figures)
-        arts.add(out / name, png)
+    drawn = functools.cache(lambda: render_pngs(recipes))  # one figure per core (pinid.report.figures)
+    for name in recipes:  # drawn when the first is written (behind tracking.json in pinid demo)
+        arts.add(out / name, lambda _, name=name: drawn()[name], behind=True)
     return arts.write()

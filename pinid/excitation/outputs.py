@@ -159,7 +159,7 @@ def write_excitation(
             title = f"{len(trajectory.joints)}-joint excitation, condition number {cond:.4g}" if cond else None
             save_figure(plot_excitation(trajectory, spec, title=title), p)
 
-        arts.add(plot, draw)
+        arts.add(plot, draw, behind=True)
     if csv:
         arts.add(csv, lambda p: trajectory.to_csv(p, rate, periods * trajectory.period))
     if json:

@@ -4,6 +4,7 @@ terminal summary and its files, a comparison's files.  Each set of files is plan
 
 from __future__ import annotations
 
+import functools
 import os
 import textwrap
 import warnings
@@ -14,7 +15,7 @@ import numpy as np
 from pinid.errors import ModelError, SpecError
 from pinid.io import Artefacts, display_path, json_text
 from pinid.report.figures import save_figure
-from pinid.report.markdown import REPORT_FILES, floor_line, report_files, summary_table
+from pinid.report.markdown import REPORT_FILES, floor_line, report_file_names, report_files, summary_table
 from pinid.report.plot_compare import comparison_figures
 from pinid.report.text import text_table
 
@@ -228,7 +229,6 @@ def write_identification(
             except ModelError as exc:  # consistent, yet a body MuJoCo refuses (massless, a zero moment)
                 warnings.warn(f"no MJCF for {m}: {exc}", stacklevel=2)
     models = {m: r.model.to_dict() for m, r in ident.results.items()}
-    files = report_files(ident, figures=figures) if report else {}
     out = Path(folder)
     arts = Artefacts(overwrite=overwrite)
     arts.add(out / "identification.json", json_text(ident.to_dict()))
@@ -240,8 +240,10 @@ def write_identification(
         arts.add(out / f"identified_{m}_drives.toml", text)
     for m, text in mjcfs.items():
         arts.add(out / f"identified_{m}.xml", text)
-    for name, content in files.items():
-        arts.add(out / name, content)
+    if report:  # drawn once, when the first of its files is written (behind the others in pinid demo)
+        files = functools.cache(lambda: report_files(ident, figures=figures))
+        for name in report_file_names(ident, figures=figures):
+            arts.add(out / name, lambda _, name=name: files()[name], behind=True)
     arts.clean(out, IDENTIFICATION_FILES)  # a --force re-run leaves none of an earlier run's outputs behind
     return arts.write()
 

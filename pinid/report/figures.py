@@ -10,7 +10,7 @@ import warnings
 from collections.abc import Callable, Mapping
 from pathlib import Path
 
-from pinid.io import atomic_path, deferred_interrupts
+from pinid.io import atomic_path, deferred_interrupts, in_writer_process, writing_behind
 
 #: A figure to draw: ``(function, args, kwargs)``; the function returns a matplotlib figure.
 Recipe = tuple[Callable, tuple, dict]
@@ -126,7 +126,10 @@ def _worker_start() -> None:
 
 
 def _pool_size(workers: int | None, jobs: int | None = None) -> int:
-    """Worker processes to draw with: 0 (draw in this process) off Linux or on one core."""
+    """Worker processes to draw with: 0 (draw in this process) off Linux, on one core, or in a process that
+    writes files behind its parent (:func:`pinid.io.written_behind`: the parent's core is busy)."""
+    if in_writer_process():
+        return 0
     n = workers if workers is not None else (os.cpu_count() or 1)
     n = n if jobs is None else min(n, jobs)
     return n if n > 1 and sys.platform.startswith("linux") else 0
@@ -154,7 +157,7 @@ def start_figure_workers(workers: int | None = None) -> None:
     figures are drawn in this process, or when workers are already waiting."""
     global _started
     n = _pool_size(workers)
-    if _started is None and n:
+    if _started is None and n and not writing_behind():  # files written behind: drawn by another process
         _started = _new_pool(n)
 
 

@@ -641,6 +641,18 @@ def report_markdown(ident, figures: dict[str, str] | None = None) -> str:
     return "\n".join(lines)
 
 
+def report_file_names(ident, *, figures: bool = True) -> list[str]:
+    """The names of :func:`report_files`' files, in its order, without drawing anything."""
+    names = figure_names(ident)
+    return ["report.md", "report.html", *((names[key] for key in _shown_recipes(ident)) if figures else ())]
+
+
+def _shown_recipes(ident) -> dict[str, Recipe]:
+    """The recipes of the figures the report shows (:func:`shown_figures`), in :func:`figure_recipes`' order."""
+    shown = set(shown_figures(ident))
+    return {k: r for k, r in figure_recipes(ident).items() if k in shown}
+
+
 def report_files(ident, *, figures: bool = True) -> dict[str, str | bytes]:
     """The report's files by name: ``report.md``, ``report.html`` (the same text, figures embedded) and the
     PNG figures (rendered once; none with ``figures=False``, which does not load matplotlib)."""
@@ -650,9 +662,7 @@ def report_files(ident, *, figures: bool = True) -> dict[str, str | bytes]:
     if figures:
         from pinid.report.figures import figure_workers, render_pngs
 
-        names, recipes = figure_names(ident), figure_recipes(ident)
-        shown = set(shown_figures(ident))
-        recipes = {k: r for k, r in recipes.items() if k in shown}
+        names, recipes = figure_names(ident), _shown_recipes(ident)
         drawn = render_pngs(grouped_recipes(recipes, figure_workers()))
         pngs = {names[key]: drawn[key] for key in recipes}  # in the recipes' order, whatever the groups
         text = report_markdown(ident, {k: n for k, n in names.items() if n in pngs})

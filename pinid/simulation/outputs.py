@@ -119,7 +119,7 @@ def write_simulation(
             ),
         )
     if figure:
-        arts.add(figure, _figure_png(recording, truth, reference))
+        arts.add(figure, lambda _: _figure_png(recording, truth, reference), behind=True)
     return arts.write()
 
 
