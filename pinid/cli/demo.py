@@ -139,6 +139,8 @@ def steps(out: str, seed: int, methods: str, verbose: bool = False) -> list[tupl
             f"{out}/validate.csv",
             "--methods",
             methods,
+            "--workers",
+            str(min(2, os.cpu_count() or 1)),
             "-o",
             f"{out}/identification",
         ]

@@ -253,6 +253,14 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         action="store_true",
         help="write report.md and report.html without figures (faster: matplotlib is not loaded)",
     )
+    p.add_argument(
+        "--workers",
+        type=positive_int,
+        default=1,
+        metavar="N",
+        help="local processes fitting the methods in parallel (default 1: one after the other; worth it with "
+        "several slow methods, e.g. the metaheuristics); the numbers do not depend on it",
+    )
 
 
 def _options(args, methods) -> dict:
@@ -299,6 +307,11 @@ def _prior_weight(text: str) -> float | str:
     return "auto" if text.strip().lower() == "auto" else nonnegative_float(text)
 
 
+def _run_options(args: argparse.Namespace) -> dict:
+    """identify()'s keywords read straight from the command line: the truth, the worker processes."""
+    return {"truth": args.truth, "workers": args.workers}
+
+
 def run(args: argparse.Namespace) -> int:
     # deferred: the report modules, ~8 ms that pinid --help would pay
     from pinid.identification.outputs import identification_text, write_identification
@@ -326,7 +339,7 @@ def run(args: argparse.Namespace) -> int:
 
     study = _study(args, model, terms)
     options = options_from_args(args, _options(args, methods))
-    ident = identify(study, methods, options=options, show_progress=None, started=started, truth=args.truth)
+    ident = identify(study, methods, options=options, show_progress=None, started=started, **_run_options(args))
     print(identification_text(ident, verbose=args.verbose))
     written = write_identification(
         ident, out, report=not args.no_report, figures=not args.no_figures, force_export=args.force_export

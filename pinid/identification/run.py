@@ -35,6 +35,7 @@ from pinid.problem.problem import (
 from pinid.problem.rows import fit_mask
 from pinid.identification.result import Identification
 from pinid.identification.runner import Setup, run_jobs
+from pinid.parallel import check_workers
 from pinid.identification.segmental import SegmentalProblem
 from pinid.identification.study import Study
 from pinid.identification.stribeck import fit_velocity
@@ -386,6 +387,7 @@ def identify(
     show_progress: bool | None = False,
     started: Callable[[], None] | None = None,
     truth=None,
+    workers: int | None = 1,
 ) -> Identification:
     """Identify the dynamic parameters of ``study``'s model from its recordings with several methods;
     validate; compare.
@@ -418,6 +420,8 @@ def identify(
     The runs' arguments: ``started``: called
     once the inputs are read and checked, before the first method runs (the CLI says what it identifies then, so
     that a bad input prints only its error).
+    ``workers``: local processes fitting the methods in parallel (default 1: one after the other; None: every
+    core); the numbers do not depend on it (:func:`~pinid.identification.runner.run_jobs`).
     ``truth``: the truth of a twin (``pinid simulate``'s ``run.truth.json``, its path or dict): every
     result gets ``truth_error``, its error against the true base parameters (:mod:`pinid.identification.truth`).
     Torque errors are against the torque as recorded (``result.validation``, ``result.train``) and after
@@ -434,6 +438,7 @@ def identify(
     t_start = time.perf_counter()
     if not isinstance(study, Study):
         raise SpecError(f"identify: got {type(study).__name__}, {EXPECTED_STUDY}")
+    check_workers(workers)
     model, data, validate, terms, mapping = study.model, study.data, study.validate, study.terms, study.mapping
     preprocess, rest_velocity, payload, payload_data = (
         study.preprocess,
@@ -463,7 +468,8 @@ def identify(
     if getattr(model, "base", "fixed") == "floating":
         return _identify_floating(
             replace(study, terms=terms),
-            dict(methods=methods, options=options, complete=complete, show_progress=show_progress, started=started),
+            dict(methods=methods, options=options, complete=complete, show_progress=show_progress, started=started)
+            | {"workers": workers},
             unsupported=dict(
                 manifest=manifest,
                 payload=payload,
@@ -511,7 +517,8 @@ def identify(
     check_recordings(s)
     if started is not None:
         started()
-    fits = run_jobs(s, [(m, None, options.get(m, {})) for m in methods], complete=complete, show_progress=show_progress)
+    jobs = [(m, None, options.get(m, {})) for m in methods]
+    fits = run_jobs(s, jobs, complete=complete, show_progress=show_progress, workers=workers)
     results = {f.method: f.result for f in fits}
     del fits  # the estimators (wls: its row weights)
     if x_true is not None:
@@ -678,7 +685,9 @@ def _identify_floating(study: Study, running: dict, *, unsupported: dict) -> Ide
     if running["started"] is not None:
         running["started"]()
     jobs = [(m, None, running["options"].get(m, {})) for m in running["methods"]]
-    fits = run_jobs(s, jobs, complete=running["complete"], show_progress=running["show_progress"])
+    fits = run_jobs(
+        s, jobs, complete=running["complete"], show_progress=running["show_progress"], workers=running["workers"]
+    )
     results = {f.method: f.result for f in fits}
     del fits
     floor = validate_floating(run, results)

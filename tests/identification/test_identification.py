@@ -566,3 +566,21 @@ def test_the_model_class_floor_is_the_noise_on_the_twin():
         in " ".join(text.split())
     )
     assert identify(Study(model, twin(model, seconds=5, seed=0)), methods="ols").floor is None
+
+
+def test_identify_on_two_workers_gives_the_same_numbers(leg_twins):
+    """identify(workers=2): the methods fitted on two processes (the shared RLS run once, rls-pso after
+    it), the same numbers as one after the other; a bad count is one SpecError line."""
+    from pinid import Study, identify
+
+    truth, train, val = leg_twins
+    study = Study(truth, [train], validate=[val])
+    methods = ["ols", "sdp", "rls", "rls-pso", "pso"]
+    options = {m: {"seed": 3} for m in ("rls-pso", "pso")}
+    one = identify(study, methods, options=options, workers=1)
+    two = identify(study, methods, options=options, workers=2)
+    for m in methods:
+        np.testing.assert_array_equal(two[m].base, one[m].base)
+        assert two[m].validation == one[m].validation
+    with pytest.raises(SpecError, match="workers: got 0"):
+        identify(study, methods, workers=0)
