@@ -93,6 +93,15 @@ def number(value, name: str, *, low: float | None = None, low_open: bool = False
     return float(value)
 
 
+def of_type(value, kind: type | tuple, name: str, expected: str, *, none: bool = True):
+    """``value`` unchanged if it is a ``kind`` (a bool is not a number) or, with ``none``, None; SpecError
+    ``"<name>: got <its type>, expected <expected>"`` otherwise (an option group's fields, e.g. ``name``
+    "WearerLoad torque")."""
+    if (value is None and none) or (isinstance(value, kind) and not isinstance(value, bool)):
+        return value
+    raise SpecError(f"{name}: got {type(value).__name__}, expected {expected}")
+
+
 def option_numbers(options, where: str) -> None:
     """Check the numeric fields of the options dataclass ``options`` (annotated ``int`` or ``float``, maybe
     ``| None``): each must hold a finite number (an integer for ``int``); SpecError naming ``where`` and the
@@ -128,6 +137,7 @@ __all__ = [
     "as_vector",
     "count",
     "number",
+    "of_type",
     "option_numbers",
     "same_length",
 ]

@@ -57,7 +57,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         action="append",
         default=[],
         metavar="JOINT",
-        help="negate a preset's angle for JOINT (robot axis opposite to the paper's); repeatable",
+        help="negate a preset's angle for JOINT (robot axis opposite to the paper's); repeatable; "
+        "not with --base floating",
     )
     p.add_argument("--seconds", type=float, default=60.0, help="duration [s]; default 60")
     p.add_argument("--seed", type=seed_int, default=0, help="random seed (noise, perturbation); default 0")
@@ -251,6 +252,7 @@ def _pair(text: str, option: str) -> tuple[float, float]:
 
 #: Options of the fixed-base twin that the floating twin does not take (refused rather than ignored).
 _FIXED_ONLY = (
+    "flip",
     "perturb",
     "cad_urdf",
     "true_signals",
@@ -265,7 +267,8 @@ _FIXED_ONLY = (
 def _fixed_options(args: argparse.Namespace, model) -> tuple:
     """``(model, options)``: the model with its wearer drawn (--wearer-draw, :func:`_wearer`), the fixed-base
     twin's option groups, the wearer it carries and --flip."""
-    from pinid.simulation.run import FixedBase, WearerLoad  # deferred (see above)
+    from pinid.simulation.run import FixedBase  # deferred (see above)
+    from pinid.simulation.twin import WearerLoad
 
     model, segments, drawn = _wearer(args, model)
     return model, {
@@ -292,12 +295,12 @@ def _wearer(args: argparse.Namespace, model):
 
 
 def _floating_options(args: argparse.Namespace, model) -> tuple:
-    """``(model, options)``, --base floating: the floating twin's options (:class:`~pinid.simulation.run.FreeFlyer`);
-    the fixed-base twin's options refused."""
-    from pinid.simulation.floating_twin import Noise  # deferred (see above)
-    from pinid.simulation.run import FreeFlyer
+    """``(model, options)``, --base floating: the floating twin's options
+    (:class:`~pinid.simulation.floating_twin.BaseSensors`); the fixed-base twin's options refused (--flip too:
+    the floating twin takes the trajectory as it is)."""
+    from pinid.simulation.floating_twin import BaseSensors, Noise  # deferred (see above)
 
-    unused = [f"--{k.replace('_', '-')}" for k in _FIXED_ONLY if getattr(args, k) not in (None, False, 0.0)]
+    unused = [f"--{k.replace('_', '-')}" for k in _FIXED_ONLY if getattr(args, k) not in (None, False, 0.0, [])]
     if unused:
         raise SpecError(f"{', '.join(unused)}: not available with --base floating (docs/floating-base.md)")
     torque, pct = _torque_noise(args, model)
@@ -306,7 +309,7 @@ def _floating_options(args: argparse.Namespace, model) -> tuple:
     noise = Noise(
         args.position_noise, 0.0 if torque is None else torque, force, moment, gyro, accel, None if torque else pct
     )
-    return model, {"floating": FreeFlyer(noise, args.sample_rate or args.control_rate, args.imu)}
+    return model, {"floating": BaseSensors(noise, args.imu, args.sample_rate or args.control_rate)}
 
 
 #: Entries of the parsed namespace that do not define the run: the command and its parser, --force.

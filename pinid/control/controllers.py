@@ -41,7 +41,7 @@ from pinid.io import read_json
 from pinid.model.base import base_parameters
 from pinid.model.regressor import standard_parameters
 from pinid.model.terms import TermSelection
-from pinid.simulation.twin import Plant, plant_terms, simulate
+from pinid.simulation.twin import Plant, WearerLoad, plant_terms, simulate
 from pinid.simulation.cad import perturb
 from pinid.model.robot import as_robot
 from pinid.result_protocol import ResultProtocol, panel
@@ -481,7 +481,8 @@ def identified_vs_cad(
     rng = np.random.default_rng(seed)
     cad_robot = perturb(plant, percent, rng)
     cad = nominal_model(cad_robot, friction=False)
-    run = dict(feedforward_model=cad_robot, wearer=wearer)
+    carried = None if wearer is None else WearerLoad(dict(wearer) if isinstance(wearer, Mapping) else wearer)
+    run = dict(feedforward_model=cad_robot, wearer=carried)
     train, _ = simulate(plant, excitation, seconds=record_seconds, seed=seed + 1, **run)
     valid, _ = simulate(plant, excitation, seconds=record_seconds / 2, seed=seed + 2, **run)
     ident = identify(Study(plant, train, validate=valid), [method])

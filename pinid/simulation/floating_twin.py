@@ -37,6 +37,7 @@ import pinocchio as pin
 
 from pinid.data.contacts import FloatingRecording, FloatingSamples, matrix_quat
 from pinid.data.dataset import Dataset
+from pinid.checks import of_type
 from pinid.errors import SpecError
 from pinid.excitation.trajectory import FourierTrajectory
 from pinid.model.floating import BASE_NV, FloatingRobotModel, Wrench, as_floating, contact_forces, floating_rnea
@@ -71,12 +72,20 @@ class Noise:
 
 @dataclass(frozen=True)
 class BaseSensors:
-    """What a floating-base rig measures beyond the joints, the floating twin's sensor options of
-    :func:`pinid.simulation.twin.simulate` (``sensors=``): the sensors' ``noise`` (:class:`Noise`) and, with
-    ``imu_frame``, an IMU in that URDF frame instead of motion capture of the base."""
+    """What a floating-base rig measures and how often, the floating twin's options: ``sensors=`` of
+    :func:`pinid.simulation.twin.simulate` and ``floating=`` of :func:`pinid.simulation.run.simulate_and_write`.
+    The sensors' ``noise`` (:class:`Noise`); with ``imu_frame``, an IMU in that URDF frame instead of motion
+    capture of the base; the sample ``rate`` [Hz] (None: ``simulate``'s ``rates``, their sample rate, else
+    their control rate, 1 kHz by default; a rate given there too is refused)."""
 
     noise: Noise = field(default_factory=Noise)
     imu_frame: str | None = None
+    rate: float | None = None
+
+    def __post_init__(self) -> None:
+        of_type(self.noise, Noise, "BaseSensors noise", "a Noise", none=False)
+        of_type(self.imu_frame, str, "BaseSensors imu_frame", "a link's name or None")
+        of_type(self.rate, (int, float), "BaseSensors rate", "a rate [Hz] or None")
 
 
 @dataclass
@@ -428,10 +437,16 @@ def simulate_free_flyer(
     """The floating branch of :func:`pinid.simulation.twin.simulate` (call that): ``excitation`` "gait" walks
     (:func:`simulate_gait`); a trajectory (or its path, name or preset) the suspended legs follow
     (:func:`simulate_suspended`).  ``options``: the other keywords, ``noise`` and ``imu_frame`` (when ``sensors``
-    is None), ``control_rate`` and ``sample_rate`` (over ``rates``'), and the fixed-base ones (not None: refused)."""
+    is None), ``control_rate`` and ``sample_rate`` (over ``rates``'; not with ``sensors.rate``), and the
+    fixed-base ones (not None: refused)."""
     clock = {"control": 1000.0, "sample": None} | ({"control": rates.control, "sample": rates.sample} if rates else {})
-    clock |= {k[:-5]: options.pop(k) for k in ("control_rate", "sample_rate") if k in options}
+    given = {k[:-5]: options.pop(k) for k in ("control_rate", "sample_rate") if k in options}
+    clock |= given
     rate = clock["sample"] or clock["control"]
+    if isinstance(sensors, BaseSensors) and sensors.rate is not None:
+        if rates is not None or given:
+            raise SpecError(f"sensors rate {sensors.rate:g} Hz: a second rate in rates or *_rate=, expected one")
+        rate = sensors.rate
     wrong = [k for k, v in options.items() if k not in ("noise", "imu_frame") and v is not None]
     if wrong:
         raise SpecError(f"{wrong[0]}: for a fixed-base model only, {model.name} has a floating base")

@@ -24,7 +24,6 @@ from pinid.errors import OutputError
 from pinid.io import as_path
 from pinid.model.robot import as_robot
 from pinid.errors import SpecError
-from pinid.checks import array_like
 
 
 def cad_model(model: RobotModel, percent: float, seed: int) -> RobotModel:
@@ -44,21 +43,6 @@ def cad_truth(truth: dict, model: RobotModel, cad: RobotModel, percent: float) -
         "percent": float(percent),
         "standard": {"names": truth["standard"]["names"], "values": theta.tolist()},
         "base": {"names": bp.names, "values": bp.from_standard(theta).tolist()},
-    }
-
-
-def drawn_wearer_truth(table: np.ndarray, drawn: dict) -> dict:
-    """The ``wearer["drawn"]`` entry of a twin's truth when its wearer was drawn away from the tables
-    (:func:`pinid.wearer.prior.draw_wearer`'s defaults: mass ±25 %, centre of mass ±20 %): the drawn
-    wearer's standard parameters per joint and the robot's table (URDF) standard parameters."""
-    array_like(table, "table")
-    if not isinstance(drawn, dict):
-        raise SpecError(f"drawn: got {type(drawn).__name__}, expected the dict of draw_wearer")
-    return {
-        "mass_percent": 25.0,
-        "com_percent": 20.0,
-        "wearer_standard": {j: w.tolist() for j, w in drawn.items()},
-        "table_standard": table.tolist(),
     }
 
 

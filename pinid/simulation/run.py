@@ -3,8 +3,9 @@ CAD model of ``--perturb``, the wearer drawn by ``--wearer-draw``, the command) 
 all or nothing; the call returns what the command prints.  The twin itself is :mod:`pinid.simulation.twin` (a
 floating base, a :class:`~pinid.model.floating.FloatingRobotModel`: :mod:`pinid.simulation.floating_twin`),
 the files :mod:`pinid.simulation.outputs`.  The options come in groups, each for the base it fits:
-:class:`FixedBase` and :class:`WearerLoad` for a fixed base, :class:`FreeFlyer` for a floating one,
-:class:`Outputs` for both; a group given for the other base is refused (SpecError, one line)."""
+:class:`FixedBase` and :class:`~pinid.simulation.twin.WearerLoad` for a fixed base,
+:class:`~pinid.simulation.floating_twin.BaseSensors` for a floating one, :class:`Outputs` for both; a group
+given for the other base is refused (SpecError, one line)."""
 
 from __future__ import annotations
 
@@ -12,28 +13,22 @@ import dataclasses
 import os
 from collections.abc import Sequence
 
+from pinid.checks import of_type
 from pinid.errors import SpecError
 from pinid.io import as_path
 from pinid.model.floating import FloatingRobotModel
 from pinid.model.robot import RobotModel, as_robot
-from pinid.simulation.floating_twin import Noise
+from pinid.simulation.floating_twin import BaseSensors
 from pinid.simulation.outputs import (
     cad_model,
     cad_truth,
-    drawn_wearer_truth,
     simulation_text,
     write_simulation,
     floating_text,
     write_floating_run,
 )
 from pinid.simulation.trajectories import load_trajectory
-from pinid.simulation.twin import Controller, Friction, Rates, Sensors, simulate
-
-
-def _typed(owner: str, key: str, value, kind: type | tuple, expected: str, *, none: bool = True) -> None:
-    if (value is None and none) or (isinstance(value, kind) and not isinstance(value, bool)):
-        return
-    raise SpecError(f"{owner} {key}: got {type(value).__name__}, expected {expected}")
+from pinid.simulation.twin import Controller, Friction, Rates, Sensors, WearerLoad, simulate
 
 
 @dataclasses.dataclass(frozen=True)
@@ -50,40 +45,8 @@ class FixedBase:
 
     def __post_init__(self) -> None:
         for key, kind in (("rates", Rates), ("controller", Controller), ("friction", Friction), ("sensors", Sensors)):
-            _typed("FixedBase", key, getattr(self, key), kind, f"a {kind.__name__} or None")
-        _typed("FixedBase", "perturb", self.perturb, (int, float), "a percentage or None")
-
-
-@dataclasses.dataclass(frozen=True)
-class FreeFlyer:
-    """The floating-base twin's options (:mod:`~pinid.simulation.floating_twin`): the sensors' ``noise``, the
-    sample ``rate`` [Hz] and ``imu_frame``, the link an IMU is on (None: the base pose as motion capture)."""
-
-    noise: Noise = Noise()
-    rate: float = 1000.0
-    imu_frame: str | None = None
-
-    def __post_init__(self) -> None:
-        _typed("FreeFlyer", "noise", self.noise, Noise, "a Noise", none=False)
-        _typed("FreeFlyer", "rate", self.rate, (int, float), "a rate [Hz]", none=False)
-        _typed("FreeFlyer", "imu_frame", self.imu_frame, str, "a link's name or None")
-
-
-@dataclasses.dataclass(frozen=True)
-class WearerLoad:
-    """The wearer a fixed-base twin carries: its ``segments`` (:func:`pinid.wearer.attach.wearer_links`; the
-    caller finds them: the wearer is a layer above the twin), ``drawn``: ``(table values, drawn values)`` when
-    the model's wearer was drawn away from the tables (:func:`pinid.wearer.prior.draw_wearer`), kept in
-    ``truth["wearer"]["drawn"]``, and ``torque`` [%]: the wearer's involuntary torque."""
-
-    segments: dict | None = None
-    drawn: tuple[dict, dict] | None = None
-    torque: float = 0.0
-
-    def __post_init__(self) -> None:
-        _typed("WearerLoad", "segments", self.segments, dict, "the wearer's segments (a dict) or None")
-        _typed("WearerLoad", "drawn", self.drawn, tuple, "(table values, drawn values) or None")
-        _typed("WearerLoad", "torque", self.torque, (int, float), "a percentage", none=False)
+            of_type(getattr(self, key), kind, f"FixedBase {key}", f"a {kind.__name__} or None")
+        of_type(self.perturb, (int, float), "FixedBase perturb", "a percentage or None")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -101,8 +64,8 @@ class Outputs:
 
     def __post_init__(self) -> None:
         for key in ("truth_path", "true_signals", "cad_urdf", "figure"):
-            _typed("Outputs", key, getattr(self, key), (str, os.PathLike), "a path or None")
-        _typed("Outputs", "command", self.command, str, "a command line or None")
+            of_type(getattr(self, key), (str, os.PathLike), f"Outputs {key}", "a path or None")
+        of_type(self.command, str, "Outputs command", "a command line or None")
 
     def files(self) -> dict:
         """The paths, as :func:`~pinid.simulation.outputs.write_simulation` takes them."""
@@ -126,7 +89,7 @@ def simulate_and_write(
     seed: int = 0,
     flip: Sequence[str] = (),
     fixed: FixedBase | None = None,
-    floating: FreeFlyer | None = None,
+    floating: BaseSensors | None = None,
     wearer: WearerLoad | None = None,
     outputs: Outputs | None = None,
 ) -> str:
@@ -137,12 +100,12 @@ def simulate_and_write(
     A fixed base (:func:`~pinid.simulation.twin.simulate`): ``excitation`` as
     :func:`~pinid.simulation.trajectories.load_trajectory` takes it (a trajectory JSON, a bundled name or a
     preset, ``flip`` negating joints), the twin's options ``fixed`` (:class:`FixedBase`), the ``wearer`` it
-    carries (:class:`WearerLoad`); written by :func:`~pinid.simulation.outputs.write_simulation`, summed up
+    carries (:class:`~pinid.simulation.twin.WearerLoad`); written by :func:`~pinid.simulation.outputs.write_simulation`, summed up
     by :func:`~pinid.simulation.outputs.simulation_text`.  A floating base
     (:class:`~pinid.model.floating.FloatingRobotModel`, :mod:`pinid.simulation.floating_twin`): ``excitation``
     "gait" walks, anything else is a trajectory the suspended legs follow
     (:func:`~pinid.simulation.twin.simulate` of a floating model; no ``flip``), with the options ``floating``
-    (:class:`FreeFlyer`); written by :func:`~pinid.simulation.outputs.write_floating_run`.
+    (:class:`~pinid.simulation.floating_twin.BaseSensors`: noise, IMU, sample rate); written by :func:`~pinid.simulation.outputs.write_floating_run`.
     ``outputs``: the other files and the command line (:class:`Outputs`).  A group for the other base:
     SpecError."""
     model = as_robot(model)
@@ -157,7 +120,7 @@ def simulate_and_write(
                     f"{name}: a {type(value).__name__} is for a fixed-base twin, not the floating {model.name}"
                 )
         return _floating_and_write(
-            model, excitation, path, seconds, seed, flip, _group(floating, FreeFlyer, "floating"), outputs
+            model, excitation, path, seconds, seed, flip, _group(floating, BaseSensors, "floating"), outputs
         )
     if floating is not None:
         raise SpecError(
@@ -178,14 +141,11 @@ def simulate_and_write(
         controller=controller,
         friction=fixed.friction,
         sensors=fixed.sensors,
-        wearer_torque=wearer.torque,
-        wearer=wearer.segments,
+        wearer=wearer,
         progress=None,
     )
     if cad is not None:
         truth["cad"] = cad_truth(truth, model, cad, fixed.perturb)
-    if wearer.drawn is not None:
-        truth["wearer"]["drawn"] = drawn_wearer_truth(*wearer.drawn)
     if outputs.command is not None:
         truth["command"] = outputs.command
     files = outputs.files()
@@ -194,7 +154,7 @@ def simulate_and_write(
     return simulation_text(ds, truth, path, **files)
 
 
-def _floating_and_write(model, excitation, path, seconds, seed, flip, options: FreeFlyer, outputs: Outputs) -> str:
+def _floating_and_write(model, excitation, path, seconds, seed, flip, sensors: BaseSensors, outputs: Outputs) -> str:
     """``pinid simulate --base floating``: the gait or suspended twin, its truth and files."""
     unused = [k for k in ("true_signals", "cad_urdf") if getattr(outputs, k) is not None]
     if unused:
@@ -204,8 +164,7 @@ def _floating_and_write(model, excitation, path, seconds, seed, flip, options: F
     if flip:
         raise SpecError(f"flip {list(flip)}: the floating twin takes the trajectory as it is (flip it in its JSON)")
     seconds = 10.0 if seconds is None else seconds
-    kw = {"sample_rate": options.rate, "noise": options.noise, "imu_frame": options.imu_frame}
-    run = simulate(model, excitation, seconds=seconds, seed=seed, **kw)
+    run = simulate(model, excitation, seconds=seconds, seed=seed, sensors=sensors)
     if outputs.command is not None:
         run.truth["command"] = outputs.command
     return floating_text(run, write_floating_run(run, path, outputs.truth_path, figure=outputs.figure))

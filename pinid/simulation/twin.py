@@ -9,9 +9,10 @@ Model, exactly the regressor's (:mod:`pinid.model.regressor`)::
 
     tau_applied (+ d) = M(q)·ddq + h(q, dq) + fc·sign(dq) + fv·dq (+ Σ more joint terms)   (fc, fv ≥ 0)
 
-More joint terms of the registry (``terms=``, e.g. the wearer's passive moments, on by default when the
-caller hands over the wearer strapped to the robot, ``wearer=``) act through their own plant laws (:class:`Plant`); ``d`` is the wearer's
-involuntary active torque (``wearer_torque``), which moves the leg but is not in the recorded torque.
+More joint terms of the registry (``Friction.terms``, e.g. the wearer's passive moments, on by default when the
+caller hands over the wearer strapped to the robot, :class:`WearerLoad`) act through their own plant laws
+(:class:`Plant`); ``d`` is the wearer's involuntary active torque (``WearerLoad.torque``), which moves the leg
+but is not in the recorded torque.
 
 **Coulomb friction near zero velocity.**  ``sign(dq)`` makes the equations of motion stiff (set-valued
 at dq = 0).  The simulator uses ``fc·tanh(dq / v_s)`` with ``v_s = coulomb_velocity`` (default
@@ -55,7 +56,7 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 import pinocchio as pin
 
-from pinid.checks import as_floats, count, number
+from pinid.checks import as_floats, count, number, of_type
 from pinid.data.dataset import Dataset
 from pinid.errors import DataError, DataWarning, SpecError
 from pinid.model.robot import RobotModel, as_robot
@@ -271,12 +272,15 @@ class Controller:
 
 @dataclass(frozen=True)
 class Friction:
-    """The plant's joint friction: ``coulomb`` [N·m] and ``viscous`` [N·m·s/rad] per joint (default the
-    URDF's ``<dynamics>``), Coulomb smoothed as ``fc·tanh(dq/coulomb_velocity)`` [rad/s]."""
+    """The plant's joint friction, the laws of :class:`Plant`: ``coulomb`` [N·m] and ``viscous`` [N·m·s/rad]
+    per joint (default the URDF's ``<dynamics>``), Coulomb smoothed as ``fc·tanh(dq/coulomb_velocity)``
+    [rad/s], and ``terms``: more true joint terms, ``{term name: per-joint values}`` (:func:`plant_terms`;
+    None: the wearer's passive moments at their nominal scale 1 when :class:`WearerLoad` carries segments)."""
 
     coulomb: float | Sequence[float] | None = None
     viscous: float | Sequence[float] | None = None
     coulomb_velocity: float = 0.01
+    terms: dict[str, Sequence[float]] | None = None
 
 
 @dataclass(frozen=True)
@@ -294,6 +298,26 @@ class Sensors:
     velocity_noise: float = 0.01
 
 
+@dataclass(frozen=True)
+class WearerLoad:
+    """The wearer a fixed-base twin carries: its ``segments`` strapped to the model, ``{segment: (exo link, mass
+    [kg], CoM [m], inertia about the CoM [kg·m²])}`` (:func:`pinid.wearer.attach.wearer_links` of a URDF from
+    ``pinid wearer``; the caller finds them: the wearer is a layer above the twin; the truth lists them),
+    ``drawn``: ``(table values, drawn values)`` when the model's wearer was drawn away from the tables
+    (:func:`pinid.wearer.prior.draw_wearer`), kept in ``truth["wearer"]["drawn"]`` (:func:`drawn_wearer_truth`),
+    and ``torque`` [%]: the wearer's involuntary active torque, per joint that percentage of the RMS gravity
+    torque along the trajectory (:func:`wearer_disturbance`), which acts on the plant but is not recorded."""
+
+    segments: dict | None = None
+    drawn: tuple[dict, dict] | None = None
+    torque: float = 0.0
+
+    def __post_init__(self) -> None:
+        of_type(self.segments, dict, "WearerLoad segments", "the wearer's segments (a dict) or None")
+        of_type(self.drawn, tuple, "WearerLoad drawn", "(table values, drawn values) or None")
+        of_type(self.torque, (int, float), "WearerLoad torque", "a percentage", none=False)
+
+
 #: The flat keywords :func:`simulate` also takes: which option group and field each one sets.
 _FLAT = {
     "control_rate": ("rates", "control"),
@@ -306,7 +330,7 @@ _FLAT = {
     "feedforward": ("controller", "feedforward"),
     "feedforward_model": ("controller", "feedforward_model"),
     "velocity_cutoff": ("controller", "velocity_cutoff"),
-    **{k: ("friction", k) for k in ("coulomb", "viscous", "coulomb_velocity")},
+    **{k: ("friction", k) for k in ("coulomb", "viscous", "coulomb_velocity", "terms")},
     **{
         k: ("sensors", k)
         for k in (
@@ -331,9 +355,7 @@ def simulate(
     controller: Controller | str | None = None,
     friction: Friction | None = None,
     sensors: Sensors | None = None,
-    terms: dict[str, Sequence[float]] | None = None,
-    wearer_torque: float = 0.0,
-    wearer: Mapping | None = None,
+    wearer: WearerLoad | None = None,
     progress: bool | None = False,
     **options,
 ) -> tuple[Dataset, dict]:
@@ -343,29 +365,28 @@ def simulate(
     recording velocities.  ``truth`` is JSON-ready except ``truth["signals"]``, a Dataset of the true
     q, dq, ddq (instantaneous) and applied torque at the sample times (see :func:`truth_json`).
     The options come in groups: :class:`Rates`, :class:`Controller` (or its kind, "pd" or "pid"),
-    :class:`Friction` (default the URDF's ``<dynamics>``) and :class:`Sensors`; each field can also be
-    given as a keyword (``bandwidth=8``, ``position_noise=0``, ``control_rate=500``, ``coulomb=…``; the
-    rates as ``control_rate``, ``sample_rate``, ``integration_rate``), which overrides the group's.
-    ``terms``: more true joint terms for the plant, ``{term name: per-joint values}`` (see :class:`Plant`;
-    default: the wearer's passive moments at their nominal scale 1 when ``wearer`` is given, else none).
-    ``wearer``: the wearer segments strapped to ``model``, ``{segment: (exo link, mass [kg], CoM [m], inertia
-    about the CoM [kg·m²])}`` (:func:`pinid.wearer.attach.wearer_links` of a URDF from ``pinid wearer``; the
-    truth lists them).  ``wearer_torque`` [%]: the wearer's involuntary active torque, per joint that percentage of
-    the RMS gravity torque along the trajectory (:func:`wearer_disturbance`); it acts on the plant but is
-    not in the recorded (motor) torque.  Everything random comes from ``seed``; more in the module text.
+    :class:`Friction` (default the URDF's ``<dynamics>``; more plant ``terms``), :class:`Sensors` and the
+    :class:`WearerLoad` the robot carries; a group of another type is a one-line SpecError.  Each field of
+    the first four can also be given as a keyword (``bandwidth=8``, ``position_noise=0``, ``terms=…``,
+    ``coulomb=…``; the rates as ``control_rate``, ``sample_rate``, ``integration_rate``), which overrides the
+    group's.  Everything random comes from ``seed``; more in the module text.
     A floating model runs :mod:`pinid.simulation.floating_twin` (``trajectory`` also "gait"; ``sensors`` a
-    ``BaseSensors`` or ``noise=``, ``imu_frame=``; rate ``rates.sample`` or ``rates.control``) and returns a
-    ``TwinRun``, unpacked as ``(FloatingRecording, truth)``; an option of the other kind raises SpecError.
+    ``BaseSensors`` or ``noise=``, ``imu_frame=``; rate ``BaseSensors.rate``, else ``rates.sample`` or
+    ``rates.control``) and returns a ``TwinRun``, unpacked as ``(FloatingRecording, truth)``; an option of
+    the other kind raises SpecError.
     """
     if isinstance(model, FloatingRobotModel):  # a free flyer is a root joint: one call, the floating twin
         from pinid.simulation.floating_twin import simulate_free_flyer
 
-        fixed = {"controller": controller, "friction": friction, "terms": terms, "wearer": wearer}
-        fixed |= {"wearer_torque": wearer_torque or None, **options}
+        fixed = {"controller": controller, "friction": friction, "wearer": wearer, **options}
         return simulate_free_flyer(model, trajectory, seconds, seed, rates, sensors, fixed)
     wrong = [k for k in ("noise", "imu_frame") if k in options] + [t for t in [trajectory] if t == "gait"]
     if wrong or not isinstance(sensors, (Sensors, type(None))):
         raise SpecError(f"{(wrong or ['sensors'])[0]}: for a floating-base model only, {model.name} has a fixed base")
+    of_type(rates, Rates, "rates", "a Rates or None")
+    of_type(controller, (Controller, str), "controller", "a Controller, its kind ('pd' or 'pid') or None")
+    of_type(friction, Friction, "friction", "a Friction or None")
+    wearer = of_type(wearer, WearerLoad, "wearer", "a WearerLoad or None") or WearerLoad()
     groups = {
         "rates": rates or Rates(),
         "friction": friction or Friction(),
@@ -379,70 +400,30 @@ def simulate(
         group, name = _FLAT[key]
         changes.setdefault(group, {})[name] = value
     r, c, f, s = (replace(groups[g], **changes.get(g, {})) for g in ("rates", "controller", "friction", "sensors"))
-    return _simulate(
-        model,
-        trajectory,
-        seconds=seconds,
-        seed=seed,
-        control_rate=r.control,
-        sample_rate=r.sample,
-        integration_rate=r.integration,
-        controller=c.kind,
-        bandwidth=c.bandwidth,
-        kp=c.kp,
-        kd=c.kd,
-        ki=c.ki,
-        feedforward=c.feedforward,
-        feedforward_model=c.feedforward_model,
-        velocity_cutoff=c.velocity_cutoff,
-        coulomb=f.coulomb,
-        viscous=f.viscous,
-        coulomb_velocity=f.coulomb_velocity,
-        position_noise=s.position_noise,
-        encoder_resolution=s.encoder_resolution,
-        torque_noise=s.torque_noise,
-        torque_noise_percent=s.torque_noise_percent,
-        record_velocity=s.record_velocity,
-        velocity_noise=s.velocity_noise,
-        terms=terms,
-        wearer_torque=wearer_torque,
-        wearer=wearer,
-        progress=progress,
-    )
+    recording, truth = _simulate(model, trajectory, seconds, seed, (r, c, f, s), wearer, progress)
+    if wearer.drawn is not None:
+        truth.setdefault("wearer", {})["drawn"] = drawn_wearer_truth(*wearer.drawn)
+    return recording, truth
 
 
 def _simulate(
     model: RobotModel,
     trajectory: FourierTrajectory,
-    *,
     seconds: float,
     seed: int,
-    control_rate: float,
-    sample_rate: float | None,
-    integration_rate: float | None,
-    controller: str,
-    bandwidth: float,
-    kp,
-    kd,
-    ki,
-    feedforward: str,
-    feedforward_model: RobotModel | None,
-    velocity_cutoff: float,
-    coulomb,
-    viscous,
-    coulomb_velocity: float,
-    position_noise: float,
-    encoder_resolution: float,
-    torque_noise,
-    torque_noise_percent: float,
-    record_velocity: bool,
-    velocity_noise: float,
-    terms: dict[str, Sequence[float]] | None,
-    wearer_torque: float,
-    wearer: Mapping | None,
+    groups: tuple[Rates, Controller, Friction, Sensors],
+    wearer: WearerLoad,
     progress: bool | None,
 ) -> tuple[Dataset, dict]:
-    """:func:`simulate` with every option resolved (one keyword each, as the body uses them)."""
+    """:func:`simulate` with every option resolved, its groups unpacked into one name each, as the body uses them."""
+    r, c, f, s = groups
+    control_rate, sample_rate, integration_rate = r.control, r.sample, r.integration
+    controller, bandwidth, kp, kd, ki = c.kind, c.bandwidth, c.kp, c.kd, c.ki
+    feedforward, feedforward_model, velocity_cutoff = c.feedforward, c.feedforward_model, c.velocity_cutoff
+    coulomb, viscous, coulomb_velocity, terms = f.coulomb, f.viscous, f.coulomb_velocity, f.terms
+    position_noise, encoder_resolution, torque_noise = s.position_noise, s.encoder_resolution, s.torque_noise
+    torque_noise_percent, record_velocity, velocity_noise = s.torque_noise_percent, s.record_velocity, s.velocity_noise
+    wearer_torque, wearer = wearer.torque, wearer.segments
     model = as_robot(model)
     if not isinstance(trajectory, FourierTrajectory):
         raise SpecError(f"trajectory: got {type(trajectory).__name__}, expected a FourierTrajectory")
@@ -732,6 +713,21 @@ def wearer_disturbance(t: np.ndarray, rms: np.ndarray, rng: np.random.Generator,
     amp = rng.normal(0, 1, (components, rms.size))
     x = np.einsum("kj,nkj->nj", amp, np.sin(2 * np.pi * t[:, None, None] * f + phase))
     return x * (rms / np.maximum(np.sqrt(np.mean(x**2, axis=0)), 1e-300))
+
+
+def drawn_wearer_truth(table: np.ndarray, drawn: dict) -> dict:
+    """The ``wearer["drawn"]`` entry of a twin's truth when its wearer was drawn away from the tables
+    (:func:`pinid.wearer.prior.draw_wearer`'s defaults: mass ±25 %, centre of mass ±20 %): the drawn
+    wearer's standard parameters per joint and the robot's table (URDF) standard parameters."""
+    array_like(table, "table")
+    if not isinstance(drawn, dict):
+        raise SpecError(f"drawn: got {type(drawn).__name__}, expected the dict of draw_wearer")
+    return {
+        "mass_percent": 25.0,
+        "com_percent": 20.0,
+        "wearer_standard": {j: w.tolist() for j, w in drawn.items()},
+        "table_standard": table.tolist(),
+    }
 
 
 def plant_terms(model: RobotModel, terms: dict | None = None, wearer: Mapping | None = None) -> dict[str, np.ndarray]:

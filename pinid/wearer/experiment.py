@@ -30,7 +30,7 @@ from pinid.identification.identified import IdentifiedModel
 from pinid.problem.problem import prepare_dataset
 from pinid.model.terms import TermSelection
 from pinid.model.robot import RobotModel
-from pinid.simulation.twin import simulate
+from pinid.simulation.twin import WearerLoad, simulate
 from pinid.wearer.attach import wearer_links
 from pinid.wearer.options import WearerOptions, as_wearer_options
 from pinid.wearer.prior import draw_wearer
@@ -104,8 +104,9 @@ def wearer_experiment(
     plant, _ = draw_wearer(table, seed)
     plant = plant.with_passive_exponents(dict(true_exponents or {}))
     worn = wearer_links(plant.urdf_text)
-    train, _ = simulate(plant, excitation, seconds=seconds, seed=seed + 2, wearer_torque=wearer_torque, wearer=worn)
-    valid, _ = simulate(plant, validation, seconds=seconds / 2, seed=seed + 3, wearer_torque=wearer_torque, wearer=worn)
+    carried = WearerLoad(worn, torque=wearer_torque)
+    train, _ = simulate(plant, excitation, seconds=seconds, seed=seed + 2, wearer=carried)
+    valid, _ = simulate(plant, validation, seconds=seconds / 2, seed=seed + 3, wearer=carried)
     train, valid = prepare_dataset(train), prepare_dataset(valid)
     fit = identify_wearer(stage1, table, *stack([train]), options=as_wearer_options(options))
     terms = TermSelection.from_names("fc,fv,passive")

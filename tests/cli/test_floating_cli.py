@@ -85,6 +85,17 @@ def test_excite_simulate_identify_floating(tmp_path):
     assert m.body_mass.sum() == pytest.approx(d["methods"][d["best"]]["base_parameters"]["base.mR"], rel=1e-9)
 
 
+def test_simulate_floating_refuses_flip(tmp_path):
+    """--flip negates a preset's joints for a fixed-base twin; the floating twin takes the trajectory as it is,
+    so --base floating refuses it in one line (it was silently ignored) and writes nothing."""
+    walk = ["simulate", *EXO, "--excitation", "gait", "--seconds", "0.3", "--control-rate", "100", "-o", "w.csv"]
+    proc = run_cli(*walk, "--flip", "l_knee", cwd=tmp_path)
+    assert_clean_error(proc, "--flip: not available with --base floating")
+    assert not list(tmp_path.iterdir())
+    assert run_cli(*walk, cwd=tmp_path).returncode == 0  # the same run without --flip
+    assert (tmp_path / "w.csv").exists()
+
+
 @pytest.mark.slow
 def test_bad_floating_inputs_are_one_line_and_write_nothing(tmp_path):
     (tmp_path / "bad.csv").write_text(

@@ -13,7 +13,7 @@ from conftest import floating_excitation, load
 from pinid.data.contacts import read_floating
 from pinid.errors import SpecError
 from pinid.simulation.floating_twin import BaseSensors, Noise, TwinRun, simulate_gait, simulate_suspended
-from pinid.simulation.run import FreeFlyer, Outputs, simulate_and_write
+from pinid.simulation.run import Outputs, simulate_and_write
 from pinid.simulation.twin import Controller, Friction, Rates, Sensors, simulate
 
 NOISE = Noise(1e-4, 0.2, 1.0, 0.1, 0.004, 0.04)
@@ -40,6 +40,7 @@ def test_simulate_of_a_floating_model_is_the_gait_twin(floating_exo, seed):
     same_run(old, new)
     same = simulate(floating_exo, "gait", seconds=1.0, seed=seed, sample_rate=200, sensors=BaseSensors(NOISE, "imu"))
     same_run(old, same)
+    same_run(old, simulate(floating_exo, "gait", seconds=1.0, seed=seed, sensors=BaseSensors(NOISE, "imu", 200)))
     rec, truth = new  # unpacks as the fixed-base (recording, truth)
     assert rec is new.recording and truth is new.truth and rec.imu_frame == "imu"
 
@@ -70,6 +71,13 @@ def test_fixed_base_options_refused_for_a_floating_model(floating_exo, option):
     assert name in str(e.value) and "\n" not in str(e.value)
 
 
+@pytest.mark.parametrize("rate", [{"rates": Rates(sample=200)}, {"sample_rate": 200}, {"control_rate": 500}])
+def test_a_rate_in_base_sensors_and_in_rates_is_refused(floating_exo, rate):
+    """BaseSensors.rate is the floating twin's sample rate; another one beside it is refused, not chosen."""
+    with pytest.raises(SpecError, match=r"^sensors rate 250 Hz: a second rate in rates or \*_rate=, expected one$"):
+        simulate(floating_exo, "gait", seconds=0.5, sensors=BaseSensors(rate=250), **rate)
+
+
 @pytest.mark.parametrize(
     ("trajectory", "option", "name"),
     [
@@ -92,7 +100,7 @@ def test_simulate_and_write_of_a_floating_model(floating_exo, tmp_path):
     """simulate_and_write's floating branch runs the one simulate: its file holds the gait twin's recording."""
     path = tmp_path / "gait.csv"
     outputs = Outputs(command="pinid simulate --base floating")
-    floating = FreeFlyer(noise=NOISE, rate=200.0)
+    floating = BaseSensors(noise=NOISE, rate=200.0)
     text = simulate_and_write(floating_exo, "gait", path, seconds=1.0, seed=2, floating=floating, outputs=outputs)
     assert text.startswith("simulated gait exo_lower_body on a floating base")
     old = simulate_gait(floating_exo, seconds=1.0, rate=200, noise=NOISE, seed=2)

@@ -11,9 +11,9 @@ import pytest
 from conftest import load
 from pinid.data.formats import read_recording
 from pinid.errors import SpecError
-from pinid.simulation.floating_twin import Noise
-from pinid.simulation.run import FixedBase, FreeFlyer, Outputs, WearerLoad, simulate_and_write
-from pinid.simulation.twin import Rates, Sensors
+from pinid.simulation.floating_twin import BaseSensors, Noise
+from pinid.simulation.run import FixedBase, Outputs, simulate_and_write
+from pinid.simulation.twin import Rates, Sensors, WearerLoad
 
 
 def test_fixed_base_groups_reach_the_twin(tmp_path):
@@ -31,8 +31,8 @@ def test_fixed_base_groups_reach_the_twin(tmp_path):
 
 
 def test_floating_base_dispatches_to_the_floating_twin(floating_exo, tmp_path):
-    """A FloatingRobotModel walks ("gait") at the FreeFlyer's rate with its noise; the truth says so."""
-    options = FreeFlyer(noise=Noise(position=1e-4), rate=200.0)
+    """A FloatingRobotModel walks ("gait") at the BaseSensors' rate with their noise; the truth says so."""
+    options = BaseSensors(noise=Noise(position=1e-4), rate=200.0)
     text = simulate_and_write(floating_exo, "gait", tmp_path / "g.csv", seconds=0.5, seed=1, floating=options)
     truth = json.loads((tmp_path / "g.truth.json").read_text())
     assert truth["base"] == "floating" and truth["kind"] == "gait" and truth["rate_hz"] == 200.0
@@ -43,7 +43,7 @@ def test_floating_base_dispatches_to_the_floating_twin(floating_exo, tmp_path):
 @pytest.mark.parametrize(
     "case, match",
     [
-        ("floating group, fixed model", "floating: a FreeFlyer is for a floating-base twin"),
+        ("floating group, fixed model", "floating: a BaseSensors is for a floating-base twin"),
         ("fixed group, floating model", "fixed: a FixedBase is for a fixed-base twin"),
         ("wearer, floating model", "wearer: a WearerLoad is for a fixed-base twin"),
         ("true signals, floating model", "outputs true_signals: written by a fixed-base twin only"),
@@ -53,7 +53,7 @@ def test_floating_base_dispatches_to_the_floating_twin(floating_exo, tmp_path):
 def test_a_group_for_the_other_base_is_refused(case, match, floating_exo, tmp_path):
     fixed, path = load("exo_leg"), tmp_path / "x.csv"
     calls = {
-        "floating group, fixed model": lambda: simulate_and_write(fixed, "exo_leg", path, floating=FreeFlyer()),
+        "floating group, fixed model": lambda: simulate_and_write(fixed, "exo_leg", path, floating=BaseSensors()),
         "fixed group, floating model": lambda: simulate_and_write(floating_exo, "gait", path, fixed=FixedBase()),
         "wearer, floating model": lambda: simulate_and_write(floating_exo, "gait", path, wearer=WearerLoad()),
         "true signals, floating model": lambda: simulate_and_write(
@@ -71,9 +71,9 @@ def test_a_group_for_the_other_base_is_refused(case, match, floating_exo, tmp_pa
     [
         (lambda: FixedBase(rates=500.0), "FixedBase rates: got float, expected a Rates or None"),
         (lambda: FixedBase(perturb="10"), "FixedBase perturb: got str"),
-        (lambda: FreeFlyer(noise=0.1), "FreeFlyer noise: got float, expected a Noise"),
-        (lambda: FreeFlyer(rate=None), "FreeFlyer rate: got NoneType"),
-        (lambda: WearerLoad(torque=None), "WearerLoad torque: got NoneType"),
+        (lambda: BaseSensors(noise=0.1), "BaseSensors noise: got float, expected a Noise"),
+        (lambda: BaseSensors(rate="200"), "BaseSensors rate: got str, expected a rate"),
+        (lambda: BaseSensors(imu_frame=3), "BaseSensors imu_frame: got int"),
         (lambda: Outputs(figure=3), "Outputs figure: got int, expected a path or None"),
     ],
 )

@@ -14,7 +14,14 @@ from pinid import base_parameters, parameter_names
 from pinid.data.formats import read_recording, write_recording
 from pinid.errors import SpecError
 from pinid.data.preprocess import lowpass, prepare
-from pinid.simulation.twin import ZHA2019_TABLE1, friction_torque, simulate, truth_json
+from pinid.simulation.twin import (
+    ZHA2019_TABLE1,
+    WearerLoad,
+    drawn_wearer_truth,
+    friction_torque,
+    simulate,
+    truth_json,
+)
 from pinid.simulation.trajectories import load_trajectory
 from pinid.simulation.cad import perturb
 from pinid.excitation.trajectory import FourierTrajectory
@@ -218,6 +225,61 @@ def test_api_errors():
         simulate(model, tr, seconds=1, viscous=-1.0)
     with pytest.raises(SpecError, match="duration 0"):
         simulate(model, tr, seconds=0)
+
+
+@pytest.mark.parametrize(
+    ("option", "message"),
+    [
+        (
+            {"wearer": {"thigh": ("hip", 7.0, np.zeros(3), np.eye(3))}},
+            "wearer: got dict, expected a WearerLoad or None",
+        ),
+        ({"wearer": 5.0}, "wearer: got float, expected a WearerLoad or None"),
+        ({"rates": 500}, "rates: got int, expected a Rates or None"),
+        ({"friction": {"coulomb": 0.1}}, "friction: got dict, expected a Friction or None"),
+        ({"controller": 3}, "controller: got int, expected a Controller"),
+    ],
+)
+def test_option_groups_of_another_type_are_one_line_spec_errors(option, message):
+    """simulate (in docs/api.md) refuses a group of the wrong type, the wearer's segments given bare (its
+    keyword before WearerLoad) included, in one line naming the group."""
+    model = load("apal_leg")
+    with pytest.raises(SpecError) as e:
+        simulate(model, load_trajectory("zha2019-3", model), seconds=1, **option)
+    assert str(e.value) == message or str(e.value).startswith(message), str(e.value)
+    assert "\n" not in str(e.value)
+
+
+@pytest.mark.parametrize(
+    ("make", "message"),
+    [
+        (lambda: WearerLoad(segments=[("thigh", "hip")]), "WearerLoad segments: got list, expected the wearer's"),
+        (lambda: WearerLoad(drawn={"hip": 1}), "WearerLoad drawn: got dict, expected (table values, drawn values)"),
+        (lambda: WearerLoad(torque="5"), "WearerLoad torque: got str, expected a percentage"),
+        (lambda: WearerLoad(torque=None), "WearerLoad torque: got NoneType, expected a percentage"),
+        (lambda: WearerLoad(torque=True), "WearerLoad torque: got bool, expected a percentage"),
+    ],
+)
+def test_wearer_load_refuses_wrong_types(make, message):
+    with pytest.raises(SpecError) as e:
+        make()
+    assert str(e.value).startswith(message) and "\n" not in str(e.value), str(e.value)
+
+
+def test_wearer_load_torque_moves_the_plant_and_its_draw_is_kept():
+    """A WearerLoad's torque acts on the plant (the recorded torque is the motor's: the tracked motion changes,
+    the truth states the percentage) and its ``drawn`` values are kept in ``truth["wearer"]["drawn"]``."""
+    model = load("apal_leg")
+    tr = load_trajectory("zha2019-3", model)
+    table = model.inertial_parameters()
+    drawn = {"hip": np.arange(10.0), "knee": np.ones(10)}
+    plain, _ = simulate(model, tr, seconds=1.0, seed=1)
+    rec, truth = simulate(model, tr, seconds=1.0, seed=1, wearer=WearerLoad(torque=20.0, drawn=(table, drawn)))
+    assert truth["wearer"]["active_torque"]["percent_of_gravity_rms"] == 20.0
+    assert not np.array_equal(rec.q, plain.q)
+    assert truth["wearer"]["drawn"] == drawn_wearer_truth(table, drawn)
+    assert truth["wearer"]["drawn"]["wearer_standard"]["hip"] == list(range(10))
+    json.dumps(truth_json(truth))
 
 
 # ---------------------------------------------------------------------------------------------- CLI

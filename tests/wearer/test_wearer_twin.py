@@ -14,7 +14,7 @@ from pinid.model import terms as T
 from pinid.model.terms import TermSelection
 from pinid.model.robot import RobotModel
 from pinid.simulation.trajectories import load_trajectory
-from pinid.simulation.twin import simulate
+from pinid.simulation.twin import Friction, WearerLoad, simulate
 from pinid.wearer.attach import wearer_links, wearer_urdf
 
 
@@ -38,7 +38,12 @@ def test_wearer_twin_applies_passive_moments(worn):
     _, m = worn
     with pytest.warns(DataWarning, match="above its URDF velocity limit"):  # zha2019-2 is faster than exo_leg allows
         _, truth = simulate(
-            m, load_trajectory("zha2019-2", m), seconds=1.0, seed=2, torque_noise=0.0, wearer=wearer_links(m.urdf_text)
+            m,
+            load_trajectory("zha2019-2", m),
+            seconds=1.0,
+            seed=2,
+            torque_noise=0.0,
+            wearer=WearerLoad(wearer_links(m.urdf_text)),
         )
     assert truth["terms"] == ["fc", "fv", "passive"]
     assert truth["wearer"]["terms"] == {"passive": {"hip": 1.0, "knee": 1.0}}
@@ -52,7 +57,12 @@ def test_every_registered_joint_term_acts_through_its_law(exo):
     extra = {"fc_pos": [0.6, 0.4], "fc_neg": [0.3, 0.2], "offset": [0.5, -0.7]}
     with pytest.warns(DataWarning, match="above its URDF velocity limit"):  # zha2019-2 is faster than exo_leg allows
         _, truth = simulate(exo, load_trajectory("zha2019-2", exo), seconds=1.0, seed=2, terms=extra, torque_noise=0.0)
+        group = Friction(terms=extra)  # terms= is the keyword form of the Friction group's terms
+        _, same = simulate(
+            exo, load_trajectory("zha2019-2", exo), seconds=1.0, seed=2, friction=group, torque_noise=0.0
+        )
     assert np.max(np.abs(_residual(exo, truth, extra=extra))) < 1e-8
+    np.testing.assert_array_equal(same["signals"].tau, truth["signals"].tau)
     names = truth["standard"]["names"]
     assert truth["standard"]["values"][names.index("knee.fc_pos")] == 0.4
     with pytest.raises(SpecError, match="plant term 'fc'"):
@@ -67,9 +77,8 @@ def test_active_wearer_torque_has_its_rms_and_is_not_recorded(worn):
             load_trajectory("zha2019-2", m),
             seconds=2.0,
             seed=3,
-            wearer_torque=5.0,
             torque_noise=0.0,
-            wearer=wearer_links(m.urdf_text),
+            wearer=WearerLoad(wearer_links(m.urdf_text), torque=5.0),
         )
     rms = np.array(list(truth["wearer"]["active_torque"]["rms"].values()))
     s = truth["signals"]
