@@ -475,6 +475,9 @@ def written_behind() -> Iterator[None]:
         for proc, pipe, _ in running:
             if proc.is_alive():
                 proc.terminate()
+                proc.join(timeout=2)  # a SIGTERM that came before the process set its handlers is held
+            if proc.is_alive():
+                proc.kill()
             proc.join()
             pipe.close()
         _BEHIND = previous
