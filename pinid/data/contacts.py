@@ -176,7 +176,7 @@ class FloatingRecording:
             opts = {"use_measured_velocity": False, "use_measured_acceleration": False, **opts}
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always")
-                p = prepare(big, **opts)
+                p = prepare(big, opts)
             for w in caught:  # the filter's warnings about the joints, not about the base and wrench signals
                 if not any(f"'{c}'" in str(w.message) for c in names):
                     warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)

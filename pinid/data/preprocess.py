@@ -40,11 +40,11 @@ given is kept in ``meta["recorded"]``: torque errors are measured against it
 from __future__ import annotations
 
 import warnings
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, fields, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
-
-from dataclasses import replace
 
 from pinid.checks import as_floats, count, number
 from pinid.data.dataset import Dataset
@@ -177,46 +177,79 @@ def uniform_grid(ds: Dataset, rate: float | None = None) -> tuple[Dataset, dict]
     return out, report
 
 
-def prepare(
-    ds: Dataset,
-    *,
-    preset: str | None = None,
-    cutoff: float | None = None,
-    order: int = 4,
-    differentiation: str = "savgol",
-    use_measured_velocity: bool | None = None,
-    use_measured_acceleration: bool | None = None,
-    trim: float | None = None,
-    decimate: int | None = None,
-    rate: float | None = None,
-    unwrap: tuple[str, ...] | list[str] = (),
-) -> Dataset | FloatingSamples:
+@dataclass(frozen=True)
+class Preprocessing:
+    """The options of :func:`prepare`, one object (the ``preprocess`` dict of :func:`pinid.identify`, a
+    manifest's ``[preprocess]`` table and the CLI options in Python form, with the same keys).
+
+    ``preset`` ("zha2019", "shi2024"; the old "seed000", "seed001" are deprecated) fills the options left at
+    their defaults; ``cutoff`` [Hz] (default ``min(10, fs/10)``), ``order`` of the Butterworth filter run forward
+    and backward; ``differentiation`` "savgol" or "central"; ``use_measured_velocity``,
+    ``use_measured_acceleration`` (default None: true for a Dataset, false for a floating recording, whose base
+    and wrench signals have no measured derivatives); ``trim`` [s] dropped at each end (default the filter's
+    settling time plus the derivative window); ``decimate`` keep every n-th sample (default: down to
+    ``max(1 kHz, 20·cutoff)``); ``rate`` [Hz] resample to this uniform rate first (by default only jittered
+    recordings are resampled, at their median rate); ``unwrap``: joints whose angles are unwrapped first (2π
+    jumps removed; angles without limits).  The values are checked by :func:`prepare`.
+    """
+
+    preset: str | None = None
+    cutoff: float | None = None
+    order: int = 4
+    differentiation: str = "savgol"
+    use_measured_velocity: bool | None = None
+    use_measured_acceleration: bool | None = None
+    trim: float | None = None
+    decimate: int | None = None
+    rate: float | None = None
+    unwrap: tuple[str, ...] = ()
+
+    @classmethod
+    def from_dict(cls, options: Mapping) -> "Preprocessing":
+        """The options of a ``preprocess`` dict (its keys: the field names); SpecError naming an unknown key."""
+        if isinstance(options, Preprocessing):
+            return options
+        if not isinstance(options, Mapping):
+            raise SpecError(
+                f"preprocess: got {type(options).__name__}, expected a dict of preprocessing options or a Preprocessing"
+            )
+        known = [f.name for f in fields(cls)]
+        unknown = [k for k in options if k not in known]
+        if unknown:
+            raise SpecError(f"preprocess: unknown option(s) {unknown}, expected some of {', '.join(known)}")
+        out = dict(options)
+        if "unwrap" in out and out["unwrap"] is not None:
+            u = out["unwrap"]
+            if isinstance(u, str) or not isinstance(u, Iterable):
+                raise SpecError(f"unwrap {u!r}, expected a list of joint names")
+            out["unwrap"] = tuple(u)
+        return cls(**out)
+
+    def to_dict(self) -> dict:
+        """The options set (not None), by name: the ``preprocess`` dict form."""
+        return {f.name: getattr(self, f.name) for f in fields(self) if getattr(self, f.name) is not None}
+
+
+def prepare(ds: Dataset, options: Preprocessing | Mapping | None = None) -> Dataset | FloatingSamples:
     """Filter, differentiate, trim and decimate a recording; return a dataset with q, dq, ddq, tau filled.
 
-    ``cutoff`` [Hz] (default ``min(10, fs/10)``), ``order`` of the Butterworth filter run forward and
-    backward; ``differentiation`` "savgol" or "central"; ``trim`` [s] dropped at each end (default
-    the filter's settling time plus the derivative window); ``decimate`` keep every n-th sample (default: down to
-    ``max(1 kHz, 20·cutoff)``); ``rate`` [Hz] resample to this uniform rate first (by default only
-    jittered recordings are resampled, at their median rate).  ``unwrap``: joints whose angles are
-    unwrapped first (2π jumps removed; angles without limits).  ``preset`` ("zha2019", "shi2024"; the old "seed000", "seed001" are deprecated) fills
-    the options left at their defaults.  The options used are recorded in ``meta["preprocess"]``.
-    Raises DataError when there is no torque, too few samples, or a cut-off the sample rate cannot carry.
+    ``options``: a :class:`Preprocessing` or its dict form (``{"cutoff": 20.0, "order": 2}``, the keys of a
+    manifest's ``[preprocess]`` table); None: the defaults.  The options used are recorded in
+    ``meta["preprocess"]``.  Raises DataError when there is no torque, too few samples, or a cut-off the sample
+    rate cannot carry.
 
     A floating recording (:class:`~pinid.data.contacts.FloatingRecording`, whatever carries more channels than
     the joints and prepares them with its ``samples(options)``) gives its
     :class:`~pinid.data.contacts.FloatingSamples`: the base motion, IMU and wrenches filtered and differentiated
-    with the joints, with the same options, the wrenches zeroed out of contact.  ``use_measured_velocity`` and
-    ``use_measured_acceleration`` (default None): true for a Dataset, false for a floating recording (its base
-    and wrench signals have no measured derivatives).
+    with the joints, with the same options, the wrenches zeroed out of contact.
     """
+    options = Preprocessing() if options is None else Preprocessing.from_dict(options)
+    preset, cutoff, order, differentiation = options.preset, options.cutoff, options.order, options.differentiation
+    use_measured_velocity = options.use_measured_velocity
+    use_measured_acceleration = options.use_measured_acceleration
+    trim, decimate, rate, unwrap = options.trim, options.decimate, options.rate, options.unwrap
     if not isinstance(ds, Dataset) and callable(getattr(ds, "samples", None)):  # one prepare whatever the base
-        given = {"preset": preset, "cutoff": cutoff, "order": order, "differentiation": differentiation}
-        given |= {"trim": trim, "decimate": decimate, "rate": rate, "unwrap": unwrap}
-        given |= {
-            "use_measured_velocity": use_measured_velocity,
-            "use_measured_acceleration": use_measured_acceleration,
-        }
-        return ds.samples({k: v for k, v in given.items() if v is not None})
+        return ds.samples(options.to_dict())
     use_measured_velocity = True if use_measured_velocity is None else use_measured_velocity
     use_measured_acceleration = True if use_measured_acceleration is None else use_measured_acceleration
     if not isinstance(ds, Dataset):

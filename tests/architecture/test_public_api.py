@@ -34,7 +34,6 @@ INDIRECT_IMPORTS_ALLOWED: set[tuple[str, str, str]] = set()
 #: shrinks.
 TOO_MANY_PARAMETERS: dict[str, int] = {
     "pinid.simulation.twin.simulate": 12,
-    "pinid.data.preprocess.prepare": 11,
 }
 MAX_PARAMETERS = 10
 

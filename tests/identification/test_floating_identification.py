@@ -102,7 +102,7 @@ def test_recording_round_trip_and_imu(floating_exo, suspended, tmp_path):
     rec = read_floating(path, floating_exo)
     assert rec.imu_frame == "imu" and list(rec.wrenches) == ["pelvis"]
     np.testing.assert_allclose(rec.wrenches["pelvis"], suspended.recording.wrenches["pelvis"], rtol=1e-10, atol=1e-9)
-    samples = prepare(rec, cutoff=20.0)
+    samples = prepare(rec, {"cutoff": 20.0})
     problem = floating_problem(floating_exo, samples, rows="base")
     base = make_estimator("ols").fit(problem).base_
     assert base[0] == pytest.approx(21.8, rel=5e-3)
@@ -217,7 +217,7 @@ def test_no_joint_torque_uses_the_base_rows_only(floating_exo, suspended, tmp_pa
     import dataclasses
 
     rec = dataclasses.replace(suspended.recording, data=dataclasses.replace(suspended.recording.data, tau=None))
-    samples = prepare(read_floating(write_floating(tmp_path / "w.csv", rec), floating_exo), cutoff=20.0)
+    samples = prepare(read_floating(write_floating(tmp_path / "w.csv", rec), floating_exo), {"cutoff": 20.0})
     assert samples.data.tau is None
     base = make_estimator("ols").fit(floating_problem(floating_exo, samples, rows="base")).base_
     assert base[0] == pytest.approx(21.8, rel=5e-3)
