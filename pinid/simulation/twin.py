@@ -355,7 +355,7 @@ def simulate(
     not in the recorded (motor) torque.  Everything random comes from ``seed``; more in the module text.
     A floating model runs :mod:`pinid.simulation.floating_twin` (``trajectory`` also "gait"; ``sensors`` a
     ``BaseSensors`` or ``noise=``, ``imu_frame=``; rate ``rates.sample`` or ``rates.control``) and returns a
-    ``TwinRun``, unpacked as ``(FloatingRecording, truth)``; an option of the other kind raises SpecError.
+    ``TwinRun``, unpacked as ``(recording, truth)`` (a Dataset with floating channels); the other kind's options: SpecError.
     """
     if isinstance(model, FloatingRobotModel):  # a free flyer is a root joint: one call, the floating twin
         from pinid.simulation.floating_twin import simulate_free_flyer

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import warnings
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -178,38 +179,35 @@ def test_millisecond_time_stamps_suggest_the_time_scale():
 
 # ---------------------------------------------------------------------------------------- one prepare (issue 32)
 def test_prepare_of_a_floating_recording_filters_its_channels_with_the_same_options():
-    """``prepare`` of a floating recording is its ``samples`` with the same options, exactly (before issue 32:
-    ``prepare_floating(rec, model, options)``; measured identical to it on gait runs, seeds 0-2, motion capture
-    and IMU, cut-off default and 20 Hz, and unfiltered); a recording without its model is refused in one line."""
-    from dataclasses import replace
-
+    """``prepare`` of a Dataset with floating channels gives its FloatingSamples, the base filtered with the
+    options given (a 5 Hz and a 20 Hz cut-off differ), the joints exactly as ``prepare`` of the joints alone with
+    ``use_measured_*`` false (one filter for every signal); the base state is the twin's exact one to the filter's
+    error; a recording without its model is refused in one line."""
     from pinid import RobotModel
-    from pinid.data.contacts import FloatingRecording
-    from pinid.errors import DataError
+    from pinid.data.dataset import FloatingChannels
     from pinid.simulation.floating_twin import Noise, simulate_gait
 
     model = RobotModel.from_urdf("exo_lower_body", base="floating")
-    rec = simulate_gait(model, seconds=1.5, rate=200, noise=Noise(1e-4, 0.2, 1.0, 0.1), seed=1).recording
-    assert rec.model is model
+    run = simulate_gait(model, seconds=1.5, rate=200, noise=Noise(1e-4, 0.2, 1.0, 0.1), seed=1)
+    rec = run.recording
+    assert rec.floating.model is model
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         for opts in ({}, {"cutoff": 20.0}, {"cutoff": 5.0, "order": 2, "differentiation": "central"}):
-            a, b = prepare(rec, opts), rec.samples(opts, model)
-            for k in ("base_q", "base_v", "base_a"):
-                np.testing.assert_array_equal(getattr(a, k), getattr(b, k))
+            s = prepare(rec, opts)
+            joints = prepare(replace(rec, floating=None), {**opts, "use_measured_velocity": False})
             for k in ("q", "dq", "ddq", "tau"):
-                np.testing.assert_array_equal(getattr(a.data, k), getattr(b.data, k))
-            for wa, wb in zip(a.wrenches, b.wrenches):
-                assert wa.link == wb.link and wa.frame == wb.frame
-                np.testing.assert_array_equal(wa.values, wb.values)
-            assert a.wrenches and a.unsensed.keys() == b.unsensed.keys()
+                np.testing.assert_array_equal(getattr(s.data, k), getattr(joints, k))
+            assert s.wrenches and set(s.uncertain) | set(s.unsensed) == set(rec.floating.contacts)
         slow, fast = prepare(rec, {"cutoff": 5.0}), prepare(rec, {"cutoff": 20.0})
         assert not np.allclose(slow.base_a, fast.base_a[: len(slow.base_a)])  # the base is filtered with the options
+        k = np.searchsorted(run.exact.data.t, fast.data.t)
+        assert np.max(np.abs(fast.base_q[:, :3] - run.exact.base_q[k, :3])) < 1e-3  # [m]
         with pytest.raises(DataError, match="without its model") as e:
-            prepare(replace(rec, model=None))
+            prepare(replace(rec, floating=replace(rec.floating, model=None)))
         assert "\n" not in str(e.value)
         with pytest.raises(DataError, match="without its model"):
-            prepare(FloatingRecording(rec.data))
+            prepare(replace(rec, floating=FloatingChannels(base_pose=rec.floating.base_pose)))
 
 
 def test_prepare_takes_its_options_as_one_object_or_its_dict_form():
