@@ -1,4 +1,9 @@
-"""Recordings of a floating-base robot: base motion (motion capture or an IMU), external wrenches, contacts.
+"""The floating channels of a recording: base motion (motion capture or an IMU), external wrenches, contacts.
+
+:func:`~pinid.data.formats.read_recording` of a floating model calls :func:`read_floating_channels`, which reads
+them into the recording's ``floating`` field (:class:`~pinid.data.dataset.FloatingChannels`);
+:func:`~pinid.data.formats.write_recording` writes them back; :func:`~pinid.data.preprocess.prepare` turns them
+into :class:`FloatingSamples`, the prepared state.
 
 A floating recording is a file in pinid's dataset format (``t``, ``q_<joint>``, optional ``dq_``, ``ddq_``,
 ``tau_`` per joint; ``docs/data.md``) with more columns (``docs/floating-base.md``):
@@ -38,20 +43,11 @@ from pathlib import Path
 
 import numpy as np
 
-from pinid.data.dataset import Dataset
-from pinid.data.formats import read_recording
+from pinid.data.dataset import ACC, GYRO, PLATE, POSE, QUAT, WRENCH, Dataset, FloatingChannels
 from pinid.data.mapping import ColumnRef, MappingSpec, peek_columns
-from pinid.data.registry import writer_for
 from pinid.errors import DataError
-from pinid.io import atomic_path
 from pinid.model.floating import FloatingRobotModel, Wrench, as_floating
 
-POSE = ("x", "y", "z", "qx", "qy", "qz", "qw")
-QUAT = ("qx", "qy", "qz", "qw")
-GYRO = ("wx", "wy", "wz")
-ACC = ("ax", "ay", "az")
-WRENCH = ("fx", "fy", "fz", "tx", "ty", "tz")
-PLATE = ("fx", "fy", "fz", "copx", "copy", "copz", "tz")
 PLATE_OPTIONAL = ("copz", "tz")
 #: Tolerance on the norm of a recorded quaternion (1 ± this).
 QUATERNION_TOL = 1e-3
@@ -72,170 +68,8 @@ FLOATING_SCALE_WORDS: dict[str, float] = {
     "N·mm": 1e-3,
     "Nmm": 1e-3,
 }
-#: A filtered contact phase within this of 0 or 1 is clear.  Where it is not (``CONTACT_MARGIN < phase <
-#: 1 − CONTACT_MARGIN``) and the raw phase changes more than once there (a foot switch that chatters), the rows
-#: the link's wrench enters are left out; a single clean step is gated at 0.5.  A clean step through the default
-#: 10 Hz low-pass is in that band for about 40 ms, and rings to −0.07 / 1.07 outside it.
-CONTACT_MARGIN = 0.1
 #: Top-level keys of a mapping spec that describe the joints, not the main file or the sources.
 _JOINT_KEYS = ("joints", "motors", "transmission", "checks", "description")
-
-
-@dataclass
-class FloatingRecording:
-    """A floating-base recording: the joints (``data``, a Dataset; ``tau`` None when no joint torque is
-    measured), the base motion (``base_pose`` (N, 7) or ``imu``), wrenches and contact phases, (N, ·) arrays."""
-
-    data: Dataset
-    base_pose: np.ndarray | None = None
-    imu_frame: str | None = None
-    imu: dict[str, np.ndarray] = field(default_factory=dict)  # "q" (N, 4) optional, "w" (N, 3), "a" (N, 3)
-    wrenches: dict[str, np.ndarray] = field(default_factory=dict)  # link -> (N, 6), link frame
-    plates: dict[str, np.ndarray] = field(default_factory=dict)  # link -> (N, 7) fx fy fz copx copy copz tz
-    contacts: dict[str, np.ndarray] = field(default_factory=dict)  # link -> (N,) booleans
-    model: FloatingRobotModel | None = None  # the robot it was read or simulated for (read_floating, the twin)
-
-    @property
-    def source(self) -> str:
-        return self.data.source
-
-    def columns(self) -> dict[str, np.ndarray]:
-        """The extra columns by name (the dataset-format names of the table above)."""
-        out: dict[str, np.ndarray] = {}
-        if self.base_pose is not None:
-            out.update({f"base_{c}": self.base_pose[:, i] for i, c in enumerate(POSE)})
-        if self.imu_frame is not None:
-            for key, names in (("q", QUAT), ("w", GYRO), ("a", ACC)):
-                if key in self.imu:
-                    out.update({f"imu_{self.imu_frame}_{c}": self.imu[key][:, i] for i, c in enumerate(names)})
-        for link, w in self.wrenches.items():
-            out.update({f"wrench_{link}_{c}": w[:, i] for i, c in enumerate(WRENCH)})
-        for link, w in self.plates.items():
-            out.update({f"plate_{link}_{c}": w[:, i] for i, c in enumerate(PLATE)})
-        for link, c in self.contacts.items():
-            out[f"contact_{link}"] = c.astype(float)
-        return out
-
-    def samples(
-        self, preprocess: dict | bool | None = None, model: FloatingRobotModel | None = None, *, threshold: float = 0.0
-    ) -> FloatingSamples:
-        """Filter and differentiate joints and base motion together, zero the wrenches out of contact (phases, or
-        force norm below ``threshold`` [N]), and give the base state in Pinocchio's free-flyer convention:
-        what :func:`pinid.data.preprocess.prepare` gives for a floating recording (call that).
-
-        ``preprocess``: options of :func:`pinid.data.preprocess.prepare` (None or True: filter every signal, the
-        joints' ``dq_``/``ddq_`` columns unused; False: use the recording as it is, which then needs ``dq_`` and
-        ``ddq_`` columns, takes the base and wrench derivatives from central differences and drops the two samples
-        at each end, whose differences would be one-sided).  ``model``: default the recording's own."""
-        rec = self
-        if model is None and rec.model is None:
-            raise DataError(
-                f"{rec.source}: a floating recording without its model; read it with read_floating(path, model)"
-            )
-        model = as_floating(rec.model if model is None else model)
-        ds = rec.data.reorder(model.joint_names)
-        extra = rec.columns()
-        for link, p7 in rec.plates.items():  # force plates as world wrenches before filtering (linear in the signals)
-            for c in PLATE:
-                extra.pop(f"plate_{link}_{c}")
-            moment = np.cross(p7[:, 3:6], p7[:, :3]) + np.column_stack([np.zeros((len(p7), 2)), p7[:, 6]])
-            extra.update({f"plate_{link}_{c}": v for c, v in zip(WRENCH, np.hstack([p7[:, :3], moment]).T)})
-        # every signal goes through the same filter, differentiation and trimming as the joints
-        names = list(extra)
-        n, nv = ds.n, model.nv
-        q = np.hstack([ds.q, np.column_stack([extra[c] for c in names])]) if names else ds.q
-        width = q.shape[1]
-
-        def widen(a):
-            return None if a is None else np.hstack([a, np.zeros((n, width - nv))])
-
-        tau = ds.tau if ds.tau is not None else np.zeros((n, nv))
-        big = Dataset(
-            ds.t, q, [*ds.joints, *names], dq=widen(ds.dq), ddq=widen(ds.ddq), tau=widen(tau), source=ds.source
-        )
-        needs = ds.dq is None or ds.ddq is None
-        # "auto" (None) filters every signal here, whatever dq_/ddq_ columns the joints have: the base pose, IMU and
-        # wrenches have no given derivatives, and differentiating them unfiltered amplifies their noise
-        if preprocess is False:
-            if needs:
-                raise DataError(
-                    f"{ds.source}: no dq_/ddq_ columns and preprocessing off; expected both or preprocessing"
-                )
-            if n < 5:
-                raise DataError(f"{ds.source}: {n} samples; expected at least 5 with preprocessing off")
-            sig_dq = np.gradient(q[:, nv:], ds.t, axis=0)
-            sig_ddq = np.gradient(sig_dq, ds.t, axis=0)
-            keep = slice(2, n - 2)  # the two end samples of each side hold one-sided differences: dropped
-            t, jq, jdq, jddq, sig = ds.t[keep], ds.q[keep], ds.dq[keep], ds.ddq[keep], q[keep, nv:]
-            jtau = None if ds.tau is None else ds.tau[keep]
-            sig_dq, sig_ddq = sig_dq[keep], sig_ddq[keep]
-        else:
-            from pinid.data.preprocess import prepare  # only when a recording is filtered
-
-            opts = {} if preprocess in (None, True) else dict(preprocess)
-            opts = {"use_measured_velocity": False, "use_measured_acceleration": False, **opts}
-            with warnings.catch_warnings(record=True) as caught:
-                warnings.simplefilter("always")
-                p = prepare(big, **opts)
-            for w in caught:  # the filter's warnings about the joints, not about the base and wrench signals
-                if not any(f"'{c}'" in str(w.message) for c in names):
-                    warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
-            t, jq, jdq, jddq = p.t, p.q[:, :nv], p.dq[:, :nv], p.ddq[:, :nv]
-            jtau = None if ds.tau is None else p.tau[:, :nv]
-            sig, sig_dq, sig_ddq = p.q[:, nv:], p.dq[:, nv:], p.ddq[:, nv:]
-        col = {c: i for i, c in enumerate(names)}
-
-        def block(prefix, keys, arr=sig):
-            return np.column_stack([arr[:, col[f"{prefix}{k}"]] for k in keys])
-
-        m = len(t)
-        if rec.base_pose is not None:
-            pos = block("base_", ("x", "y", "z"))
-            quat = block("base_", QUAT)
-            quat /= np.linalg.norm(quat, axis=1, keepdims=True)
-            conj = quat * np.array([-1, -1, -1, 1.0])
-            omega = 2 * quat_mul(conj, block("base_", QUAT, sig_dq))[:, :3]
-            domega = 2 * quat_mul(conj, block("base_", QUAT, sig_ddq))[:, :3]
-            R = quat_matrix(quat)
-            acc = np.einsum("nji,nj->ni", R, block("base_", ("x", "y", "z"), sig_ddq))  # Rᵀ p̈
-        else:
-            f = rec.imu_frame
-            frame = model.ff_model.frames[model.frame_id(f)]
-            R_bi, r = frame.placement.rotation, frame.placement.translation
-            q_i = block(f"imu_{f}_", QUAT)
-            q_i /= np.linalg.norm(q_i, axis=1, keepdims=True)
-            R_wb = quat_matrix(q_i) @ R_bi.T
-            quat, pos = matrix_quat(R_wb), np.zeros((m, 3))
-            omega = block(f"imu_{f}_", GYRO) @ R_bi.T
-            domega = block(f"imu_{f}_", GYRO, sig_dq) @ R_bi.T
-            s_b = block(f"imu_{f}_", ACC) @ R_bi.T
-            g = np.asarray(model.ff_model.gravity.linear)
-            a_imu = s_b + np.einsum("nji,j->ni", R_wb, g)
-            acc = a_imu - np.cross(domega, r) - np.cross(omega, np.cross(omega, r))
-        base_q = np.hstack([pos, quat])
-        base_v = np.hstack([np.zeros((m, 3)), omega])
-        base_a = np.hstack([acc, domega])
-        wrenches = []
-        # the filter spreads a phase's step over a few samples: a measured wrench is zeroed below 0.5; where a foot
-        # switch chatters (its filtered phase hovers between 0 and 1 for the whole bounce) the rows the wrench enters
-        # are left out (``uncertain``); a link without a measured wrench counts as in contact above 0.05 (its rows
-        # are left out: conservative)
-        phase = {link: sig[:, col[f"contact_{link}"]] for link in rec.contacts}
-        contact = {link: p > 0.5 for link, p in phase.items()}
-        uncertain = {
-            link: _chattering(ds.t, rec.contacts[link], t, np.abs(p - 0.5) < 0.5 - CONTACT_MARGIN)
-            for link, p in phase.items()
-            if link in rec.wrenches or link in rec.plates
-        }
-        for link in rec.wrenches:
-            w = block(f"wrench_{link}_", WRENCH)
-            wrenches.append(Wrench(link, _gate(w, contact.get(link), threshold), "local"))
-        for link in rec.plates:
-            w = block(f"plate_{link}_", WRENCH)  # world wrench about the origin (converted above)
-            wrenches.append(Wrench(link, _gate(w, contact.get(link), threshold), "world"))
-        data = Dataset(t, jq, list(model.joint_names), dq=jdq, ddq=jddq, tau=jtau, source=ds.source, meta=dict(ds.meta))
-        unsensed = {link: p > 0.05 for link, p in phase.items() if link not in uncertain}
-        return FloatingSamples(data, base_q, base_v, base_a, wrenches, unsensed, uncertain)
 
 
 def _groups(names: list[str], source: str) -> dict:
@@ -283,14 +117,20 @@ class FloatingMapping:
 
 
 def floating_mapping(
-    spec: "str | os.PathLike | dict | MappingSpec | FloatingMapping", *, allow_outside_paths: bool = False
+    spec: "str | os.PathLike | dict | MappingSpec | FloatingMapping",
+    *,
+    allow_outside_paths: bool = False,
+    path: str | os.PathLike | None = None,
 ) -> FloatingMapping:
     """A mapping spec (TOML file or dict, ``docs/data.md``) with a ``[floating]`` table: each key a floating
     column's dataset-format name (``base_x``, ``imu_<frame>_wx``, ``wrench_<link>_fz``, ``plate_<link>_copx``,
     ``contact_<link>`` …, the table in the module text), each value where it is, as a joint signal is (a
     column name, an index, or ``{ column, source, index, scale, sign, offset }``; ``scale`` a number or a
     word of :data:`FLOATING_SCALE_WORDS` or the joints').  The rest is an ordinary mapping spec (the joints,
-    time, sources).  SpecError naming the key for a name that is no floating column."""
+    time, sources).  SpecError naming the key for a name that is no floating column.  With ``path`` (the
+    recording it is read from), both specs keep only the samples inside every source of either."""
+    if path is not None:
+        return _common_span(Path(path), floating_mapping(spec, allow_outside_paths=allow_outside_paths))
     from pinid.errors import SpecError
     from pinid.io import read_toml
 
@@ -339,40 +179,38 @@ def floating_mapping(
     return FloatingMapping(joints, columns, list(table))
 
 
-def read_floating(
+def read_floating_channels(
     path: str | os.PathLike,
+    data: Dataset,
     model: FloatingRobotModel,
+    mapping: FloatingMapping | None = None,
     *,
     swing_rows: bool = False,
-    mapping: "str | os.PathLike | dict | FloatingMapping | None" = None,
-    **kwargs,
-) -> FloatingRecording:
-    """Read a floating recording in the dataset format (the table in the module text), or any file a
-    ``mapping`` spec describes (:func:`floating_mapping`: the joints as for a fixed base, the floating
-    columns in its ``[floating]`` table), and check it against ``model``: every link and frame named exists,
-    the IMU is fixed to the base link, quaternions are unit, contact phases have a wrench (unless
-    ``swing_rows``: then a link with contact phases and no wrench is a leg without force sensing, whose
-    contact rows are left out, see :func:`pinid.problem.floating.floating_problem`), force
-    plates have the base position.  ``kwargs`` go to :func:`~pinid.data.formats.read_recording` (the joint
-    columns)."""
+) -> Dataset:
+    """``data`` (the joints of ``path``, read and checked by :func:`~pinid.data.formats.read_recording`, which
+    calls this for a floating ``model``) with its floating channels (:class:`~pinid.data.dataset.FloatingChannels`):
+    read from the dataset format's columns (the table in the module text) or, with ``mapping``
+    (:func:`floating_mapping` of the file), from its ``[floating]`` table, and checked against ``model``: every
+    link and frame named exists, the IMU is fixed to the base link, quaternions are unit, contact phases have a
+    wrench (unless ``swing_rows``: then a link with contact phases and no wrench is a leg without force sensing,
+    whose contact rows are left out, see :func:`pinid.problem.floating.floating_problem`), force plates have the
+    base position."""
     model = as_floating(model)
     path = Path(path)
     source = str(path)
     if mapping is not None:
-        fm = floating_mapping(mapping, allow_outside_paths=kwargs.get("allow_outside_paths", False))
-        g = _groups(fm.names, source)
-        fm = _common_span(path, fm)
-        data = read_recording(path, model=model, mapping=fm.joints, **kwargs)
-        values = _read_mapped(path, fm, data.n) if fm.names else {}
+        g = _groups(mapping.names, source)
+        values = _read_mapped(path, mapping, data.n) if mapping.names else {}
     else:
         _, names = peek_columns(path)
         g = _groups(names, source)
-        data = read_recording(path, model=model, **kwargs)
         extra = [c for grp in ("base",) for c in g[grp].values()]
         extra += [c for d in (*g["imu"].values(), *g["wrench"].values(), *g["plate"].values()) for c in d.values()]
         extra += list(g["contact"].values())
         values = _read_columns(path, extra, data.n) if extra else {}
-    rec = FloatingRecording(data, model=as_floating(model))
+        if "ignored_columns" in data.meta:  # read here, not ignored
+            data.meta["ignored_columns"] = [c for c in data.meta["ignored_columns"] if c not in extra]
+    rec = FloatingChannels(model=model)
     if g["base"]:
         _need(g["base"], POSE, "the base pose", source)
         rec.base_pose = np.column_stack([values[g["base"][c]] for c in POSE])
@@ -431,7 +269,7 @@ def read_floating(
         if not np.all((c == 0) | (c == 1)):
             raise DataError(f"{source}: column {col} has values other than 0 and 1; expected contact phases")
         rec.contacts[link] = c.astype(bool)
-    return rec
+    return replace(data, floating=rec)
 
 
 def _check_unit(quat: np.ndarray, what: str, source: str) -> None:
@@ -489,27 +327,6 @@ def _read_mapped(path: Path, fm: FloatingMapping, n: int) -> dict[str, np.ndarra
         k, j = (int(x) for x in np.argwhere(bad)[0])
         raise DataError(f"{path}: [floating] {fm.names[j]} has NaN or infinite values (first at sample {k})")
     return {c: ds.q[:, i] for i, c in enumerate(fm.names)}
-
-
-def write_floating(path: str | os.PathLike, rec: FloatingRecording, *, digits: int = 12) -> Path:
-    """Write a floating recording in the dataset format (CSV or NPZ by suffix), atomically."""
-    path = Path(path)
-    ds = rec.data
-    names, blocks = ["t"], [ds.t[:, None]]
-    for qty, pre in (("q", "q_"), ("dq", "dq_"), ("ddq", "ddq_"), ("tau", "tau_")):
-        a = getattr(ds, qty)
-        if a is not None:
-            names += [f"{pre}{j}" for j in ds.joints]
-            blocks.append(a)
-    extra = rec.columns()
-    names += list(extra)
-    blocks += [np.column_stack(list(extra.values()))] if extra else []
-    data = np.hstack(blocks)
-    if not np.all(np.isfinite(data)):
-        raise DataError(f"{path}: the recording holds NaN or infinite values, refusing to write them")
-    with atomic_path(path) as tmp:
-        writer_for(path).write(tmp, names, data, digits)
-    return path
 
 
 # ---------------------------------------------------------------------------------------------- prepared
@@ -583,26 +400,3 @@ def matrix_quat(R: np.ndarray) -> np.ndarray:
 
     out = np.array([pin.Quaternion(r).coeffs() for r in R])
     return out * np.where(out[:, 3:] < 0, -1.0, 1.0)
-
-
-def _chattering(t_raw: np.ndarray, raw: np.ndarray, t: np.ndarray, band: np.ndarray) -> np.ndarray:
-    """(N,) booleans: the samples of ``band`` (the filtered phase neither clearly 0 nor 1, at times ``t`` [s]) in a
-    run of it within which the raw phase (``raw`` at ``t_raw``) changes more than once: a chattering switch.  A
-    single clean step keeps its samples (gated at 0.5), so a recording whose phases do not chatter is unchanged."""
-    changes = np.flatnonzero(np.diff(np.asarray(raw, dtype=int)))
-    edges = 0.5 * (t_raw[changes] + t_raw[changes + 1])  # [s], between the samples either side of a change
-    d = np.diff(np.r_[0, band.astype(int), 0])
-    out = np.zeros(len(band), bool)
-    for a, b in zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1)):
-        lo, hi = t[a - 1] if a else -np.inf, t[b] if b < len(t) else np.inf  # the run and half a sample each side
-        if np.count_nonzero((edges > lo) & (edges < hi)) > 1:
-            out[a:b] = True
-    return out
-
-
-def _gate(w: np.ndarray, contact: np.ndarray | None, threshold: float) -> np.ndarray:
-    """The wrench with zeros out of contact (phase 0, or force norm below ``threshold`` [N])."""
-    off = np.zeros(len(w), bool) if contact is None else ~contact
-    if threshold > 0:
-        off |= np.linalg.norm(w[:, :3], axis=1) < threshold
-    return np.where(off[:, None], 0.0, w)

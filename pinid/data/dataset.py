@@ -1,14 +1,18 @@
-"""A recording in memory: time, joint positions, optional velocities and accelerations, torques.
+"""A recording in memory: time, joint positions, optional velocities and accelerations, torques, and for a
+floating base its optional channels (base motion, IMU, contact wrenches, force plates, contact phases).
 
 This is the one object the data path hands to identification.  Arrays are ``(N, nv)`` in the order of
 ``joints``; units are SI: t [s], q [rad or m], dq [rad/s], ddq [rad/s²], tau [N·m].  Reading files,
-checking them and preprocessing live in :mod:`pinid.data.formats`.
+checking them and preprocessing live in :mod:`pinid.data.formats` (:func:`~pinid.data.formats.read_recording`
+reads the floating channels too when its model is floating, :mod:`pinid.data.contacts`) and
+:mod:`pinid.data.preprocess`.
 """
 
 from __future__ import annotations
 
 from collections.abc import Iterable
 from dataclasses import dataclass, field, replace
+from typing import Any
 
 import numpy as np
 
@@ -16,9 +20,64 @@ from pinid.checks import as_floats
 from pinid.errors import DataError
 
 
+POSE = ("x", "y", "z", "qx", "qy", "qz", "qw")
+QUAT = ("qx", "qy", "qz", "qw")
+GYRO = ("wx", "wy", "wz")
+ACC = ("ax", "ay", "az")
+WRENCH = ("fx", "fy", "fz", "tx", "ty", "tz")
+PLATE = ("fx", "fy", "fz", "copx", "copy", "copz", "tz")
+
+
+@dataclass
+class FloatingChannels:
+    """The channels of a floating-base recording beside its joints, ``(N, ·)`` arrays on the recording's time
+    stamps (the column names of docs/floating-base.md): ``base_pose`` (N, 7) ``x y z qx qy qz qw`` (motion
+    capture) or an IMU on ``imu_frame`` (``imu``: "q" (N, 4), "w" (N, 3) gyro, "a" (N, 3) accelerometer),
+    ``wrenches`` link → (N, 6) in the link frame, ``plates`` link → (N, 7) ``fx fy fz copx copy copz tz``,
+    ``contacts`` link → (N,) booleans, and ``model``: the floating robot model it was read or simulated for."""
+
+    base_pose: np.ndarray | None = None
+    imu_frame: str | None = None
+    imu: dict[str, np.ndarray] = field(default_factory=dict)
+    wrenches: dict[str, np.ndarray] = field(default_factory=dict)
+    plates: dict[str, np.ndarray] = field(default_factory=dict)
+    contacts: dict[str, np.ndarray] = field(default_factory=dict)
+    model: Any = None
+
+    def columns(self) -> dict[str, np.ndarray]:
+        """The channels by column name (the dataset format's names: ``base_x``, ``imu_<frame>_wx``,
+        ``wrench_<link>_fz``, ``plate_<link>_copx``, ``contact_<link>`` …)."""
+        out: dict[str, np.ndarray] = {}
+        if self.base_pose is not None:
+            out.update({f"base_{c}": self.base_pose[:, i] for i, c in enumerate(POSE)})
+        if self.imu_frame is not None:
+            for key, names in (("q", QUAT), ("w", GYRO), ("a", ACC)):
+                if key in self.imu:
+                    out.update({f"imu_{self.imu_frame}_{c}": self.imu[key][:, i] for i, c in enumerate(names)})
+        for link, w in self.wrenches.items():
+            out.update({f"wrench_{link}_{c}": w[:, i] for i, c in enumerate(WRENCH)})
+        for link, w in self.plates.items():
+            out.update({f"plate_{link}_{c}": w[:, i] for i, c in enumerate(PLATE)})
+        for link, c in self.contacts.items():
+            out[f"contact_{link}"] = c.astype(float)
+        return out
+
+    def select(self, index) -> "FloatingChannels":
+        """The channels at the samples ``index`` (slice, boolean mask or indices)."""
+        return replace(
+            self,
+            base_pose=None if self.base_pose is None else self.base_pose[index],
+            imu={k: v[index] for k, v in self.imu.items()},
+            wrenches={k: v[index] for k, v in self.wrenches.items()},
+            plates={k: v[index] for k, v in self.plates.items()},
+            contacts={k: v[index] for k, v in self.contacts.items()},
+        )
+
+
 @dataclass
 class Dataset:
-    """One recording; ``dq``, ``ddq`` and ``tau`` may be None when not measured."""
+    """One recording; ``dq``, ``ddq`` and ``tau`` may be None when not measured; ``floating`` the channels of a
+    floating base (:class:`FloatingChannels`), None for a fixed base."""
 
     t: np.ndarray
     q: np.ndarray
@@ -28,6 +87,7 @@ class Dataset:
     tau: np.ndarray | None = None
     source: str = "<memory>"
     meta: dict = field(default_factory=dict)
+    floating: FloatingChannels | None = None
 
     def __post_init__(self) -> None:
         self.t = as_floats(self.t, f"{self.source}: t", finite=False).reshape(-1)
@@ -56,6 +116,14 @@ class Dataset:
                     f"{self.source}: {name} has shape {a.shape}, expected ({n}, {nv}) for {n} time stamps "
                     f"and joints {self.joints}"
                 )
+        if self.floating is not None:
+            if not isinstance(self.floating, FloatingChannels):
+                raise DataError(
+                    f"{self.source}: floating: got {type(self.floating).__name__}, expected FloatingChannels or None"
+                )
+            for name, a in self.floating.columns().items():
+                if len(a) != n:
+                    raise DataError(f"{self.source}: column {name} has {len(a)} samples, expected {n} (one per t)")
 
     @property
     def n(self) -> int:
@@ -90,6 +158,7 @@ class Dataset:
             ddq=pick(self.ddq),
             tau=pick(self.tau),
             meta=dict(self.meta),
+            floating=None if self.floating is None else self.floating.select(index),
         )
 
     def reorder(self, joints: list[str]) -> "Dataset":

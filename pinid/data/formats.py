@@ -127,6 +127,7 @@ def read_recording(
     limits: str | None = None,
     degrees: str | None = None,
     allow_outside_paths: bool = False,
+    swing_rows: bool = False,
 ) -> Dataset:
     """Read a recording into a :class:`~pinid.data.dataset.Dataset` and check it.
 
@@ -138,11 +139,28 @@ def read_recording(
     ``[checks]`` table sets them too (the keyword wins).  ``allow_outside_paths``: let the mapping spec's
     ``[sources.*]`` paths leave the recording's folder (refused by default, ``docs/checks.md``).
     Raises DataError (bad data) or SpecError (bad mapping spec), one-line messages.
+
+    With a floating ``model`` (:class:`~pinid.model.floating.FloatingRobotModel`) the base motion, IMU, contact
+    wrenches, force plates and contact phases are read too, into ``floating``
+    (:class:`~pinid.data.dataset.FloatingChannels`; the columns of docs/floating-base.md, or a mapping spec's
+    ``[floating]`` table) and checked against the model (:func:`pinid.data.contacts.read_floating_channels`;
+    ``swing_rows``: contact phases without a wrench are legs without force sensing).
     """
     if not isinstance(path, (str, os.PathLike)) or "\x00" in os.fspath(path):
         raise DataError(f"path: got {path!r:.60}, expected the path of a recording (a file name without NUL)")
     model = _robot_or_none(model)
     path = Path(path)
+    floating = fm = None
+    if model is not None and _is_floating(model):
+        # deferred: the floating channels' reader is needed for a floating model only
+        from pinid.data.contacts import floating_mapping, read_floating_channels
+
+        floating = read_floating_channels
+        if mapping is not None:
+            fm = floating_mapping(mapping, allow_outside_paths=allow_outside_paths, path=path)
+            mapping = fm.joints
+    elif swing_rows:
+        raise SpecError("swing_rows: only for a floating model (contact phases of legs without force sensing)")
     if mapping is None:
         _, names = peek_columns(path)
         spec_dict, ignored = format_spec(names, str(path))
@@ -158,7 +176,8 @@ def read_recording(
         checks["limits"] = limits
     if degrees is not None:
         checks["degrees"] = degrees
-    return check_recording(ds, model, limits=checks.get("limits", "error"), degrees=checks.get("degrees", "error"))
+    ds = check_recording(ds, model, limits=checks.get("limits", "error"), degrees=checks.get("degrees", "error"))
+    return ds if floating is None else floating(path, ds, model, fm, swing_rows=swing_rows)
 
 
 def _at(ds: Dataset, k: int) -> str:
@@ -223,6 +242,13 @@ def check_recording(ds: Dataset, model=None, *, limits: str = "error", degrees: 
     if model is None:
         return ds
     return _check_against_model(ds, model, limits, degrees)
+
+
+def _is_floating(model) -> bool:
+    """Whether the RobotModel ``model`` is a floating one (its module is loaded then: no import otherwise)."""
+    from pinid.model.floating import FloatingRobotModel  # deferred, as the model itself (pinocchio)
+
+    return isinstance(model, FloatingRobotModel)
 
 
 def _robot_or_none(model):
@@ -332,12 +358,16 @@ def _columns(ds: Dataset) -> tuple[list[str], np.ndarray]:
             continue
         names += [f"{PREFIXES[qty]}{j}" for j in ds.joints]
         blocks.append(a)
+    extra = {} if ds.floating is None else ds.floating.columns()  # base motion, IMU, wrenches, plates, contacts
+    names += list(extra)
+    blocks += [np.column_stack(list(extra.values()))] if extra else []
     return names, np.hstack(blocks)
 
 
 def write_recording(path: str | os.PathLike, ds: Dataset, *, digits: int = 12) -> Path:
     """Write ``ds`` in the dataset format, atomically, with the writer of ``path``'s suffix (CSV or NPZ;
-    :mod:`pinid.data.registry`).
+    :mod:`pinid.data.registry`); a floating recording's channels (``ds.floating``) as the columns of
+    docs/floating-base.md (``base_x``, ``imu_<frame>_wx``, ``wrench_<link>_fz``, ``contact_<link>`` …).
 
     CSV values carry ``digits`` significant digits, the time as many as its steps need
     (:func:`time_digits`: epoch time stamps keep their milliseconds); NPZ keeps full precision.  The output depends only on

@@ -139,7 +139,7 @@ class MappingSpec:
     origin: str = "<mapping>"
     allow_outside_paths: bool = False  # True: [sources.*] paths may leave the main file's folder
     #: (start, stop) [s] on the main file's clock: keep only the samples inside it too (a floating mapping's
-    #: common span of the joint and [floating] sources, :func:`pinid.data.contacts.read_floating`)
+    #: common span of the joint and [floating] sources, :func:`pinid.data.contacts.floating_mapping`)
     span: tuple[float, float] | None = None
 
     # ------------------------------------------------------------------ construction

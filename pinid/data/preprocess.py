@@ -40,14 +40,14 @@ given is kept in ``meta["recorded"]``: torque errors are measured against it
 from __future__ import annotations
 
 import warnings
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, fields, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from dataclasses import replace
-
 from pinid.checks import as_floats, count, number
-from pinid.data.dataset import Dataset
+from pinid.data.dataset import ACC, GYRO, PLATE, QUAT, WRENCH, Dataset
 from pinid.data.filters import butter_sos, default_padlen, filtfilt_sos, savgol
 from pinid.errors import DataError, SpecError
 from pinid.data.formats import warn
@@ -177,50 +177,92 @@ def uniform_grid(ds: Dataset, rate: float | None = None) -> tuple[Dataset, dict]
     return out, report
 
 
-def prepare(
-    ds: Dataset,
-    *,
-    preset: str | None = None,
-    cutoff: float | None = None,
-    order: int = 4,
-    differentiation: str = "savgol",
-    use_measured_velocity: bool | None = None,
-    use_measured_acceleration: bool | None = None,
-    trim: float | None = None,
-    decimate: int | None = None,
-    rate: float | None = None,
-    unwrap: tuple[str, ...] | list[str] = (),
-) -> Dataset | FloatingSamples:
+@dataclass(frozen=True)
+class Preprocessing:
+    """The options of :func:`prepare`, one object (the ``preprocess`` dict of :func:`pinid.identify`, a
+    manifest's ``[preprocess]`` table and the CLI options in Python form, with the same keys).
+
+    ``preset`` ("zha2019", "shi2024"; the old "seed000", "seed001" are deprecated) fills the options left at
+    their defaults; ``cutoff`` [Hz] (default ``min(10, fs/10)``), ``order`` of the Butterworth filter run forward
+    and backward; ``differentiation`` "savgol" or "central"; ``use_measured_velocity``,
+    ``use_measured_acceleration`` (default None: true for a Dataset, false for a floating recording, whose base
+    and wrench signals have no measured derivatives); ``trim`` [s] dropped at each end (default the filter's
+    settling time plus the derivative window); ``decimate`` keep every n-th sample (default: down to
+    ``max(1 kHz, 20·cutoff)``); ``rate`` [Hz] resample to this uniform rate first (by default only jittered
+    recordings are resampled, at their median rate); ``unwrap``: joints whose angles are unwrapped first (2π
+    jumps removed; angles without limits).  The values are checked by :func:`prepare`.
+    """
+
+    preset: str | None = None
+    cutoff: float | None = None
+    order: int = 4
+    differentiation: str = "savgol"
+    use_measured_velocity: bool | None = None
+    use_measured_acceleration: bool | None = None
+    trim: float | None = None
+    decimate: int | None = None
+    rate: float | None = None
+    unwrap: tuple[str, ...] = ()
+
+    @classmethod
+    def from_dict(cls, options: Mapping) -> "Preprocessing":
+        """The options of a ``preprocess`` dict (its keys: the field names); SpecError naming an unknown key."""
+        if isinstance(options, Preprocessing):
+            return options
+        if not isinstance(options, Mapping):
+            raise SpecError(
+                f"preprocess: got {type(options).__name__}, expected a dict of preprocessing options or a Preprocessing"
+            )
+        known = [f.name for f in fields(cls)]
+        unknown = [k for k in options if k not in known]
+        if unknown:
+            raise SpecError(f"preprocess: unknown option(s) {unknown}, expected some of {', '.join(known)}")
+        out = dict(options)
+        if "unwrap" in out and out["unwrap"] is not None:
+            u = out["unwrap"]
+            if isinstance(u, str) or not isinstance(u, Iterable):
+                raise SpecError(f"unwrap {u!r}, expected a list of joint names")
+            out["unwrap"] = tuple(u)
+        return cls(**out)
+
+    def to_dict(self) -> dict:
+        """The options set (not None), by name: the ``preprocess`` dict form."""
+        return {f.name: getattr(self, f.name) for f in fields(self) if getattr(self, f.name) is not None}
+
+
+def prepare(ds: Dataset, options: Preprocessing | Mapping | bool | None = None) -> Dataset | FloatingSamples:
     """Filter, differentiate, trim and decimate a recording; return a dataset with q, dq, ddq, tau filled.
 
-    ``cutoff`` [Hz] (default ``min(10, fs/10)``), ``order`` of the Butterworth filter run forward and
-    backward; ``differentiation`` "savgol" or "central"; ``trim`` [s] dropped at each end (default
-    the filter's settling time plus the derivative window); ``decimate`` keep every n-th sample (default: down to
-    ``max(1 kHz, 20·cutoff)``); ``rate`` [Hz] resample to this uniform rate first (by default only
-    jittered recordings are resampled, at their median rate).  ``unwrap``: joints whose angles are
-    unwrapped first (2π jumps removed; angles without limits).  ``preset`` ("zha2019", "shi2024"; the old "seed000", "seed001" are deprecated) fills
-    the options left at their defaults.  The options used are recorded in ``meta["preprocess"]``.
-    Raises DataError when there is no torque, too few samples, or a cut-off the sample rate cannot carry.
+    ``options``: a :class:`Preprocessing` or its dict form (``{"cutoff": 20.0, "order": 2}``, the keys of a
+    manifest's ``[preprocess]`` table); None or True: the defaults; False: the recording as it is (a fixed-base
+    one returned unchanged).  The options used are recorded in ``meta["preprocess"]``.  Raises DataError when
+    there is no torque, too few samples, or a cut-off the sample rate cannot carry.
 
-    A floating recording (:class:`~pinid.data.contacts.FloatingRecording`, whatever carries more channels than
-    the joints and prepares them with its ``samples(options)``) gives its
-    :class:`~pinid.data.contacts.FloatingSamples`: the base motion, IMU and wrenches filtered and differentiated
-    with the joints, with the same options, the wrenches zeroed out of contact.  ``use_measured_velocity`` and
-    ``use_measured_acceleration`` (default None): true for a Dataset, false for a floating recording (its base
-    and wrench signals have no measured derivatives).
+    A floating recording (a Dataset whose ``floating`` channels are set, :class:`~pinid.data.dataset.FloatingChannels`)
+    gives its :class:`~pinid.data.contacts.FloatingSamples`: the base motion, IMU and wrenches filtered and
+    differentiated with the joints, with the same options, the wrenches zeroed out of contact (phase 0; where a
+    foot switch chatters, :data:`CONTACT_MARGIN`, the rows its wrench enters are left out), the base state in
+    Pinocchio's free-flyer convention.  Its joints' measured ``dq_``/``ddq_`` columns are not used unless
+    ``use_measured_velocity``/``use_measured_acceleration`` say so (its base and wrench signals have none);
+    with False it needs them, takes the base and wrench derivatives from central differences and drops the two
+    samples at each end.
     """
-    if not isinstance(ds, Dataset) and callable(getattr(ds, "samples", None)):  # one prepare whatever the base
-        given = {"preset": preset, "cutoff": cutoff, "order": order, "differentiation": differentiation}
-        given |= {"trim": trim, "decimate": decimate, "rate": rate, "unwrap": unwrap}
-        given |= {
-            "use_measured_velocity": use_measured_velocity,
-            "use_measured_acceleration": use_measured_acceleration,
-        }
-        return ds.samples({k: v for k, v in given.items() if v is not None})
-    use_measured_velocity = True if use_measured_velocity is None else use_measured_velocity
-    use_measured_acceleration = True if use_measured_acceleration is None else use_measured_acceleration
     if not isinstance(ds, Dataset):
         raise DataError(f"prepare: got {type(ds).__name__}, expected a pinid Dataset (pinid.data.read_recording)")
+    if not isinstance(options, bool):
+        options = Preprocessing() if options is None else Preprocessing.from_dict(options)
+    if ds.floating is not None:  # one prepare whatever the base
+        return _prepare_floating(ds, options)
+    if options is False:
+        return ds
+    if options is True:
+        options = Preprocessing()
+    preset, cutoff, order, differentiation = options.preset, options.cutoff, options.order, options.differentiation
+    use_measured_velocity = options.use_measured_velocity
+    use_measured_acceleration = options.use_measured_acceleration
+    trim, decimate, rate, unwrap = options.trim, options.decimate, options.rate, options.unwrap
+    use_measured_velocity = True if use_measured_velocity is None else use_measured_velocity
+    use_measured_acceleration = True if use_measured_acceleration is None else use_measured_acceleration
     cutoff, trim, rate = (
         None if v is None else number(v, name) for name, v in (("cutoff", cutoff), ("trim", trim), ("rate", rate))
     )
@@ -413,3 +455,148 @@ def _warn_content_above_cutoff(ds: Dataset, q_filtered: np.ndarray, fs: float, c
             f"{ds.source}: the {cutoff:g} Hz low-pass removes {100 * frac[j]:.2g} % of the position variance of "
             f"joint '{ds.joints[j]}': the motion may be faster than the cut-off (pass a higher cut-off)",
         )
+
+
+#: A filtered contact phase within this of 0 or 1 is clear.  Where it is not (``CONTACT_MARGIN < phase <
+#: 1 − CONTACT_MARGIN``) and the raw phase changes more than once there (a foot switch that chatters), the rows
+#: the link's wrench enters are left out; a single clean step is gated at 0.5.  A clean step through the default
+#: 10 Hz low-pass is in that band for about 40 ms, and rings to −0.07 / 1.07 outside it.
+CONTACT_MARGIN = 0.1
+
+
+def _prepare_floating(ds: Dataset, preprocess: Preprocessing | bool | None) -> FloatingSamples:
+    """A floating recording (``ds.floating``) prepared: joints and base motion filtered and differentiated together,
+    wrenches zeroed out of contact, the base state in Pinocchio's free-flyer convention.  ``preprocess`` None or
+    True: filter every signal with the defaults, the joints' ``dq_``/``ddq_`` columns unused; options: the same with
+    them; False: the recording as it is, which then needs ``dq_`` and ``ddq_`` columns, takes the base and wrench
+    derivatives from central differences and drops the two samples at each end, whose differences would be
+    one-sided."""
+    # deferred: the floating channels' helpers load pinocchio, which a fixed-base preparation does not need
+    from pinid.data.contacts import FloatingSamples, matrix_quat, quat_matrix, quat_mul
+    from pinid.model.floating import Wrench, as_floating
+
+    rec = ds.floating
+    if rec.model is None:
+        raise DataError(
+            f"{ds.source}: a floating recording without its model; read it with read_recording(path, model=model) "
+            "of a floating model"
+        )
+    model = as_floating(rec.model)
+    ds = replace(ds, floating=None).reorder(model.joint_names)
+    extra = rec.columns()
+    for link, p7 in rec.plates.items():  # force plates as world wrenches before filtering (linear in the signals)
+        for c in PLATE:
+            extra.pop(f"plate_{link}_{c}")
+        moment = np.cross(p7[:, 3:6], p7[:, :3]) + np.column_stack([np.zeros((len(p7), 2)), p7[:, 6]])
+        extra.update({f"plate_{link}_{c}": v for c, v in zip(WRENCH, np.hstack([p7[:, :3], moment]).T)})
+    # every signal goes through the same filter, differentiation and trimming as the joints
+    names = list(extra)
+    n, nv = ds.n, model.nv
+    q = np.hstack([ds.q, np.column_stack([extra[c] for c in names])]) if names else ds.q
+    width = q.shape[1]
+
+    def widen(a):
+        return None if a is None else np.hstack([a, np.zeros((n, width - nv))])
+
+    tau = ds.tau if ds.tau is not None else np.zeros((n, nv))
+    big = Dataset(ds.t, q, [*ds.joints, *names], dq=widen(ds.dq), ddq=widen(ds.ddq), tau=widen(tau), source=ds.source)
+    needs = ds.dq is None or ds.ddq is None
+    # "auto" (None) filters every signal here, whatever dq_/ddq_ columns the joints have: the base pose, IMU and
+    # wrenches have no given derivatives, and differentiating them unfiltered amplifies their noise
+    if preprocess is False:
+        if needs:
+            raise DataError(f"{ds.source}: no dq_/ddq_ columns and preprocessing off; expected both or preprocessing")
+        if n < 5:
+            raise DataError(f"{ds.source}: {n} samples; expected at least 5 with preprocessing off")
+        sig_dq = np.gradient(q[:, nv:], ds.t, axis=0)
+        sig_ddq = np.gradient(sig_dq, ds.t, axis=0)
+        keep = slice(2, n - 2)  # the two end samples of each side hold one-sided differences: dropped
+        t, jq, jdq, jddq, sig = ds.t[keep], ds.q[keep], ds.dq[keep], ds.ddq[keep], q[keep, nv:]
+        jtau = None if ds.tau is None else ds.tau[keep]
+        sig_dq, sig_ddq = sig_dq[keep], sig_ddq[keep]
+    else:
+        opts = {} if preprocess in (None, True) else preprocess.to_dict()
+        opts = {"use_measured_velocity": False, "use_measured_acceleration": False, **opts}
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            p = prepare(big, opts)
+        for w in caught:  # the filter's warnings about the joints, not about the base and wrench signals
+            if not any(f"'{c}'" in str(w.message) for c in names):
+                warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+        t, jq, jdq, jddq = p.t, p.q[:, :nv], p.dq[:, :nv], p.ddq[:, :nv]
+        jtau = None if ds.tau is None else p.tau[:, :nv]
+        sig, sig_dq, sig_ddq = p.q[:, nv:], p.dq[:, nv:], p.ddq[:, nv:]
+    col = {c: i for i, c in enumerate(names)}
+
+    def block(prefix, keys, arr=sig):
+        return np.column_stack([arr[:, col[f"{prefix}{k}"]] for k in keys])
+
+    m = len(t)
+    if rec.base_pose is not None:
+        pos = block("base_", ("x", "y", "z"))
+        quat = block("base_", QUAT)
+        quat /= np.linalg.norm(quat, axis=1, keepdims=True)
+        conj = quat * np.array([-1, -1, -1, 1.0])
+        omega = 2 * quat_mul(conj, block("base_", QUAT, sig_dq))[:, :3]
+        domega = 2 * quat_mul(conj, block("base_", QUAT, sig_ddq))[:, :3]
+        R = quat_matrix(quat)
+        acc = np.einsum("nji,nj->ni", R, block("base_", ("x", "y", "z"), sig_ddq))  # Rᵀ p̈
+    else:
+        f = rec.imu_frame
+        frame = model.ff_model.frames[model.frame_id(f)]
+        R_bi, r = frame.placement.rotation, frame.placement.translation
+        q_i = block(f"imu_{f}_", QUAT)
+        q_i /= np.linalg.norm(q_i, axis=1, keepdims=True)
+        R_wb = quat_matrix(q_i) @ R_bi.T
+        quat, pos = matrix_quat(R_wb), np.zeros((m, 3))
+        omega = block(f"imu_{f}_", GYRO) @ R_bi.T
+        domega = block(f"imu_{f}_", GYRO, sig_dq) @ R_bi.T
+        s_b = block(f"imu_{f}_", ACC) @ R_bi.T
+        g = np.asarray(model.ff_model.gravity.linear)
+        a_imu = s_b + np.einsum("nji,j->ni", R_wb, g)
+        acc = a_imu - np.cross(domega, r) - np.cross(omega, np.cross(omega, r))
+    base_q = np.hstack([pos, quat])
+    base_v = np.hstack([np.zeros((m, 3)), omega])
+    base_a = np.hstack([acc, domega])
+    wrenches = []
+    # the filter spreads a phase's step over a few samples: a measured wrench is zeroed below 0.5; where a foot
+    # switch chatters (its filtered phase hovers between 0 and 1 for the whole bounce) the rows the wrench enters
+    # are left out (``uncertain``); a link without a measured wrench counts as in contact above 0.05 (its rows
+    # are left out: conservative)
+    phase = {link: sig[:, col[f"contact_{link}"]] for link in rec.contacts}
+    contact = {link: p > 0.5 for link, p in phase.items()}
+    uncertain = {
+        link: _chattering(ds.t, rec.contacts[link], t, np.abs(p - 0.5) < 0.5 - CONTACT_MARGIN)
+        for link, p in phase.items()
+        if link in rec.wrenches or link in rec.plates
+    }
+    for link in rec.wrenches:
+        w = block(f"wrench_{link}_", WRENCH)
+        wrenches.append(Wrench(link, _gate(w, contact.get(link)), "local"))
+    for link in rec.plates:
+        w = block(f"plate_{link}_", WRENCH)  # world wrench about the origin (converted above)
+        wrenches.append(Wrench(link, _gate(w, contact.get(link)), "world"))
+    data = Dataset(t, jq, list(model.joint_names), dq=jdq, ddq=jddq, tau=jtau, source=ds.source, meta=dict(ds.meta))
+    unsensed = {link: p > 0.05 for link, p in phase.items() if link not in uncertain}
+    return FloatingSamples(data, base_q, base_v, base_a, wrenches, unsensed, uncertain)
+
+
+def _chattering(t_raw: np.ndarray, raw: np.ndarray, t: np.ndarray, band: np.ndarray) -> np.ndarray:
+    """(N,) booleans: the samples of ``band`` (the filtered phase neither clearly 0 nor 1, at times ``t`` [s]) in a
+    run of it within which the raw phase (``raw`` at ``t_raw``) changes more than once: a chattering switch.  A
+    single clean step keeps its samples (gated at 0.5), so a recording whose phases do not chatter is unchanged."""
+    changes = np.flatnonzero(np.diff(np.asarray(raw, dtype=int)))
+    edges = 0.5 * (t_raw[changes] + t_raw[changes + 1])  # [s], between the samples either side of a change
+    d = np.diff(np.r_[0, band.astype(int), 0])
+    out = np.zeros(len(band), bool)
+    for a, b in zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1)):
+        lo, hi = t[a - 1] if a else -np.inf, t[b] if b < len(t) else np.inf  # the run and half a sample each side
+        if np.count_nonzero((edges > lo) & (edges < hi)) > 1:
+            out[a:b] = True
+    return out
+
+
+def _gate(w: np.ndarray, contact: np.ndarray | None) -> np.ndarray:
+    """The wrench with zeros out of contact (phase 0)."""
+    off = np.zeros(len(w), bool) if contact is None else ~contact
+    return np.where(off[:, None], 0.0, w)

@@ -14,11 +14,14 @@ from __future__ import annotations
 import os
 import warnings
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
-from pinid.data.contacts import FloatingSamples, read_floating
+from pinid.data.contacts import FloatingSamples
+from pinid.data.dataset import Dataset
+from pinid.data.formats import read_recording
+from pinid.data.preprocess import prepare
 from pinid.errors import DataError, SpecError
 from pinid.estimators import make_estimator
 from pinid.identification.floating_checks import (
@@ -96,28 +99,34 @@ def load_floating(
     mapping=None,
     hints: list[str] | None = None,
 ) -> list[FloatingSamples]:
-    """Floating recordings (paths or prepared :class:`FloatingSamples`) read, checked and prepared
-    (``swing_rows``: accept contact phases without a wrench; ``mapping``: a mapping spec with a ``[floating]``
-    table for files not in the dataset format, :func:`pinid.data.contacts.read_floating`; ``hints``: a list
+    """Floating recordings (paths, Datasets with floating channels or prepared :class:`FloatingSamples`) read,
+    checked and prepared (``swing_rows``: accept contact phases without a wrench; ``mapping``: a mapping spec with
+    a ``[floating]`` table for files not in the dataset format, :func:`pinid.data.formats.read_recording`; ``hints``: a list
     :func:`recording_hints` appends to; motion-capture orientation noise that biases at the default cut-off is
     warned, :func:`~pinid.identification.floating_checks.orientation_noise_warning`)."""
     if items is None:
         return []
-    if isinstance(items, (FloatingSamples, str, os.PathLike)):
+    if isinstance(items, (FloatingSamples, Dataset, str, os.PathLike)):
         items = [items]
     out = []
     for item in items:
         if isinstance(item, FloatingSamples):
             out.append(item)
-        elif isinstance(item, (str, os.PathLike)):
-            rec = read_floating(item, model, swing_rows=swing_rows, mapping=mapping)
+        elif isinstance(item, (str, os.PathLike)) or (isinstance(item, Dataset) and item.floating is not None):
+            if isinstance(item, Dataset):  # read or simulated for this model, or built by hand without one
+                rec = replace(item, floating=replace(item.floating, model=item.floating.model or model))
+            else:
+                rec = read_recording(item, model=model, swing_rows=swing_rows, mapping=mapping)
             found = recording_hints(rec, model)
             if hints is not None:
                 hints.extend(found)
-            orientation_noise_warning(rec, preprocess, str(item))
-            out.append(rec.samples(preprocess, model))  # prepare(rec, **preprocess), or as it is with False
+            orientation_noise_warning(rec, preprocess, rec.source if isinstance(item, Dataset) else str(item))
+            out.append(prepare(rec, preprocess))  # filtered with the options, or as it is with False
         else:
-            raise DataError(f"{what} recording: got {type(item).__name__}, expected a path or FloatingSamples")
+            raise DataError(
+                f"{what} recording: got {type(item).__name__}, expected a path, a Dataset with floating channels "
+                "or FloatingSamples"
+            )
     if not out:
         raise DataError(f"no {what} recording given")
     return out
@@ -195,6 +204,7 @@ def recording_hints(rec, model: FloatingRobotModel) -> list[str]:
     x).  Each is also warned about at once (one line)."""
     weight = sum(float(i.mass) for i in model.ff_model.inertias) * 9.81
     src, hints = rec.source, []
+    rec = rec.floating
     for link, phase in rec.contacts.items():
         w = rec.wrenches.get(link, rec.plates.get(link))
         off = ~np.asarray(phase, bool)

@@ -194,20 +194,23 @@ def orientation_noise(t: np.ndarray, quat: np.ndarray, cutoff: float | None = No
 
 
 def orientation_noise_warning(rec, preprocess, source: str) -> str | None:
-    """One DataWarning line when the base orientation comes from motion capture (``rec.base_pose``; an IMU's
+    """One DataWarning line when the base orientation comes from motion capture (``rec.floating.base_pose``; an IMU's
     gyro needs one differentiation fewer), the cut-off is the default (``preprocess`` None, True, or options
     without ``cutoff`` or ``preset``) and :func:`orientation_noise` puts more than
     :data:`ORIENTATION_NOISE_WARNED` on the base angular acceleration; returns it, else None."""
-    if not hasattr(rec, "base_pose") or not isinstance(source, str) or isinstance(preprocess, (str, bytes)):
-        raise SpecError("orientation_noise_warning: expected a FloatingRecording, preprocessing options and a source")
-    if rec.base_pose is None or preprocess is False:
+    if getattr(rec, "floating", None) is None or not isinstance(source, str) or isinstance(preprocess, (str, bytes)):
+        raise SpecError(
+            "orientation_noise_warning: expected a Dataset with floating channels, preprocessing options and a source"
+        )
+    pose = rec.floating.base_pose
+    if pose is None or preprocess is False:
         return None
     if isinstance(preprocess, Mapping) and (preprocess.get("cutoff") is not None or preprocess.get("preset")):
         return None
-    sigma, noise = orientation_noise(rec.data.t, rec.base_pose[:, 3:])
+    sigma, noise = orientation_noise(rec.t, pose[:, 3:])
     if noise <= ORIENTATION_NOISE_WARNED:
         return None
-    fs = 1.0 / float(np.median(np.diff(rec.data.t)))
+    fs = 1.0 / float(np.median(np.diff(rec.t)))
     safe = (ORIENTATION_NOISE_WARNED / noise) ** 0.4 * min(10.0, fs / 10)  # σ_ω̇ ∝ fc^2.5
     line = (
         f"{source}: motion-capture orientation noise {sigma:.2g}° per axis puts {noise:.2g} rad/s² of noise on the "

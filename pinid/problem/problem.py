@@ -45,7 +45,7 @@ from __future__ import annotations
 
 import os
 import weakref
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from typing import ClassVar, Protocol, runtime_checkable
 from collections.abc import Iterator, Mapping, Sequence
 
@@ -717,26 +717,24 @@ def prepare_dataset(ds: Dataset, preprocess: Mapping | bool | None = None, *, un
     # imported only when a recording is actually filtered
     from pinid.data.preprocess import prepare
 
-    return prepare(ds, **{"unwrap": list(unwrap), **(dict(preprocess) if isinstance(preprocess, Mapping) else {})})
+    return prepare(ds, {"unwrap": list(unwrap), **(dict(preprocess) if isinstance(preprocess, Mapping) else {})})
 
 
 def _check_preprocess(preprocess) -> None:
     """SpecError unless ``preprocess`` is None, True, False or a dict of :func:`pinid.data.preprocess.prepare`
     options (``{"cutof": 5}`` names the unknown key and the known ones)."""
-    import inspect
-
     if preprocess is None or isinstance(preprocess, bool):
         return
     if not isinstance(preprocess, Mapping):
         raise SpecError(f"preprocess: got {type(preprocess).__name__}, expected a dict of options, True, False or None")
-    from pinid.data.preprocess import prepare
+    from pinid.data.preprocess import Preprocessing
 
     if isinstance(preprocess.get("cutoff"), str):
         raise SpecError(
             f"cut-off {preprocess['cutoff']!r} here: only identify and compare choose the cut-off (auto); "
             "expected a frequency [Hz]"
         )
-    known = [p for p in inspect.signature(prepare).parameters if p not in ("ds", "unwrap")]
+    known = [f.name for f in fields(Preprocessing) if f.name != "unwrap"]
     unknown = [k for k in preprocess if k not in known]
     if unknown:
         raise SpecError(f"preprocess: unknown option(s) {unknown}, expected some of {', '.join(known)}")

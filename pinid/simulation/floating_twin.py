@@ -35,8 +35,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import pinocchio as pin
 
-from pinid.data.contacts import FloatingRecording, FloatingSamples, matrix_quat
-from pinid.data.dataset import Dataset
+from pinid.data.contacts import FloatingSamples, matrix_quat
+from pinid.data.dataset import Dataset, FloatingChannels
 from pinid.checks import of_type
 from pinid.errors import SpecError
 from pinid.excitation.trajectory import FourierTrajectory
@@ -92,11 +92,11 @@ class BaseSensors:
 class TwinRun:
     """A floating-base twin run, what :func:`pinid.simulation.twin.simulate` returns for a floating model: the
     exact samples (``exact``, for noise-free identification and as the truth), the recording with noise
-    (``recording``, what would be written) and the truth (``truth``, plain dict).  It unpacks as the fixed-base
+    (``recording``, a Dataset with its floating channels, what would be written) and the truth (``truth``, plain dict).  It unpacks as the fixed-base
     run's ``(recording, truth)`` pair: ``rec, truth = simulate(model, ...)`` reads either kind of model."""
 
     exact: FloatingSamples
-    recording: FloatingRecording
+    recording: Dataset
     truth: dict = field(default_factory=dict)
 
     def __iter__(self):
@@ -352,14 +352,9 @@ def _recording(model, s: FloatingSamples, noise: Noise, seed: int, imu_frame, *,
     sigma = np.asarray(noise.torque, dtype=float)
     if noise.torque_percent is not None:
         sigma = noise.torque_percent / 100 * np.abs(ds.tau).max(axis=0)
-    data = Dataset(
-        ds.t,
-        ds.q + noise.position * rng.standard_normal(ds.q.shape),
-        ds.joints,
-        tau=ds.tau + sigma * rng.standard_normal(ds.tau.shape),
-        source=ds.source,
-    )
-    rec = FloatingRecording(data, model=model)
+    q = ds.q + noise.position * rng.standard_normal(ds.q.shape)
+    tau = ds.tau + sigma * rng.standard_normal(ds.tau.shape)
+    rec = FloatingChannels(model=model)
     if imu_frame is None:
         rec.base_pose = s.base_q.copy()
     else:
@@ -391,7 +386,7 @@ def _recording(model, s: FloatingSamples, noise: Noise, seed: int, imu_frame, *,
             rec.plates[wr.link] = _plate(noisy, model, s, wr.link)
         if contacts is not None:
             rec.contacts[wr.link] = contacts[wr.link]
-    return rec
+    return Dataset(ds.t, q, ds.joints, tau=tau, source=ds.source, floating=rec)
 
 
 def _plate(w: np.ndarray, model, s: FloatingSamples, link: str) -> np.ndarray:

@@ -163,13 +163,12 @@ def simulation_text(
 def write_floating_run(run: TwinRun, path, truth_path=None, *, figure=None, overwrite: bool | None = None) -> list:
     """Write the recording (CSV or NPZ) and the truth JSON (default ``<path stem>.truth.json``) and, with
     ``figure``, a PNG of the joints (:func:`_floating_figure_png`), all or nothing."""
-    from pinid.data.contacts import write_floating
     from pinid.io import Artefacts, write_json
 
     if not isinstance(run, TwinRun):
         raise SpecError(f"run: got {type(run).__name__}, expected the TwinRun simulate gives for a floating model")
     arts = Artefacts(overwrite=overwrite)
-    arts.add(path, lambda p: write_floating(p, run.recording))
+    arts.add(path, lambda p: write_recording(p, run.recording))
     arts.add(truth_path or truth_path_for(path), lambda p: write_json(p, run.truth))
     if figure:
         arts.add(figure, _floating_figure_png(run))
@@ -182,7 +181,7 @@ def _floating_figure_png(run: TwinRun) -> bytes:
     from pinid.report.figures import figure_png
     from pinid.report.plot_simulation import simulation_figure
 
-    exact, rec = run.exact.data, run.recording.data
+    exact, rec = run.exact.data, run.recording
     tau = rec.tau if rec.tau is not None else exact.tau
     title = f"pinid simulate --base floating: {run.truth['kind']} {run.truth['robot']}, {exact.n} samples"
     fig = simulation_figure(
@@ -202,7 +201,7 @@ def floating_text(run: TwinRun, written) -> str:
     """What ``pinid simulate --base floating`` prints."""
     if not isinstance(run, TwinRun):
         raise SpecError(f"run: got {type(run).__name__}, expected the TwinRun simulate gives for a floating model")
-    rec, s = run.recording, run.exact
+    rec, s = run.recording.floating, run.exact
     what = [f"{len(s.data.joints)} joints"]
     what.append(f"IMU on {rec.imu_frame}" if rec.imu_frame else "base pose (motion capture)")
     what += [f"wrench on {k} (link frame)" for k in rec.wrenches] + [f"force plate under {k}" for k in rec.plates]

@@ -372,8 +372,8 @@ def simulate(
     group's.  Everything random comes from ``seed``; more in the module text.
     A floating model runs :mod:`pinid.simulation.floating_twin` (``trajectory`` also "gait"; ``sensors`` a
     ``BaseSensors`` or ``noise=``, ``imu_frame=``; rate ``BaseSensors.rate``, else ``rates.sample`` or
-    ``rates.control``) and returns a ``TwinRun``, unpacked as ``(FloatingRecording, truth)``; an option of
-    the other kind raises SpecError.
+    ``rates.control``) and returns a ``TwinRun``, unpacked as ``(recording, truth)`` (a Dataset with floating
+    channels); an option of the other kind raises SpecError.
     """
     if isinstance(model, FloatingRobotModel):  # a free flyer is a root joint: one call, the floating twin
         from pinid.simulation.floating_twin import simulate_free_flyer

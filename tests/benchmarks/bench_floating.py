@@ -26,7 +26,7 @@ import pinocchio as pin
 
 from pinid import RobotModel
 from pinid.identification.study import Study
-from pinid.data.contacts import write_floating
+from pinid.data.formats import write_recording
 from pinid.estimators import make_estimator
 from pinid.identification.run import identify
 from pinid.problem.floating import floating_problem
@@ -106,7 +106,7 @@ def main(argv=None) -> int:
     print(f"   stack + OLS (prepared samples)          {t_ols:.2f} s wall, {CPU[-2]:.2f} s CPU (target ≤ 3)")
     print(f"   stack + SDP (prepared samples)          {t_sdp:.2f} s wall, {CPU[-1]:.2f} s CPU")
     with tempfile.TemporaryDirectory() as tmp:
-        path = write_floating(Path(tmp) / "gait.csv", run.recording)
+        path = write_recording(Path(tmp) / "gait.csv", run.recording)
         t_file = best(lambda: identify(Study(model, path, terms=terms), methods=["ols"]), args.repeat)
         t_file2 = best(lambda: identify(Study(model, path, terms=terms), methods=["ols", "sdp"]), args.repeat)
     print(

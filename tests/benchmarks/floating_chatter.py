@@ -16,7 +16,7 @@ import warnings
 
 import numpy as np
 
-import pinid.data.contacts as contacts
+import pinid.data.preprocess as preprocess
 from pinid import RobotModel
 from pinid.data.preprocess import prepare
 from pinid.estimators import make_estimator
@@ -43,7 +43,7 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--rate", type=float, default=1000.0)
     ap.add_argument("--place", choices=("inside", "centre"), default="inside")
-    ap.add_argument("--margin", type=float, default=contacts.CONTACT_MARGIN)
+    ap.add_argument("--margin", type=float, default=preprocess.CONTACT_MARGIN)
     args = ap.parse_args(argv)
     exo = RobotModel.from_urdf("exo_lower_body", base="floating")
     terms = TermSelection.from_names("fc,fv")
@@ -53,15 +53,18 @@ def main(argv=None) -> int:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         hs = prepare(held.recording)  # clean phases, no chatter: every row kept
-        contacts.CONTACT_MARGIN = args.margin
+        preprocess.CONTACT_MARGIN = args.margin
         out = {}
         for kind in ("clean", "chatter", "none"):
             rec = copy.copy(train.recording)
+            rec.floating = copy.copy(rec.floating)
             if kind == "none":
-                rec.contacts = {}
+                rec.floating.contacts = {}
             elif kind == "chatter":
                 rng = np.random.default_rng(0)
-                rec.contacts = {k: chatter(v, args.rate, rng, args.place) for k, v in rec.contacts.items()}
+                rec.floating.contacts = {
+                    k: chatter(v, args.rate, rng, args.place) for k, v in rec.floating.contacts.items()
+                }
             p = floating_problem(exo, prepare(rec), terms=terms)
             hp = floating_problem(exo, hs, terms=terms, base=p.base)
             r = hp.tau - hp.predict(make_estimator("ols").fit(p).base_)

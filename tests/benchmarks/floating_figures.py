@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from pinid import RobotModel
-from pinid.data.contacts import read_floating, write_floating
+from pinid.data.formats import read_recording, write_recording
 from pinid.data.preprocess import prepare
 from pinid.estimators import make_estimator
 from pinid.problem.floating import floating_problem
@@ -44,9 +44,11 @@ def main(argv=None) -> int:
     t = s.data.t[keep]
     for w, colour in zip(s.wrenches, ("tab:blue", "tab:orange")):
         axes[0].plot(t, w.values[keep, 2], colour, label=f"{w.link} (exact)")
-        axes[0].plot(t, rec.plates[w.link][keep, 2], colour, alpha=0.35, lw=0.8, label=f"{w.link} plate (noisy)")
+        axes[0].plot(
+            t, rec.floating.plates[w.link][keep, 2], colour, alpha=0.35, lw=0.8, label=f"{w.link} plate (noisy)"
+        )
         axes[1].fill_between(
-            t, 0, rec.contacts[w.link][keep], step="mid", color=colour, alpha=0.3, label=f"{w.link} in contact"
+            t, 0, rec.floating.contacts[w.link][keep], step="mid", color=colour, alpha=0.3, label=f"{w.link} in contact"
         )
     axes[0].set_ylabel("vertical force [N]")
     axes[0].legend(fontsize=8, ncol=2)
@@ -59,7 +61,7 @@ def main(argv=None) -> int:
     terms = TermSelection.from_names("fc,fv")
     with tempfile.TemporaryDirectory() as tmp:
         samples = [
-            prepare(read_floating(write_floating(Path(tmp) / f"{k}.csv", r.recording), model))
+            prepare(read_recording(write_recording(Path(tmp) / f"{k}.csv", r.recording), model=model))
             for k, r in enumerate((run, held))
         ]
     train = floating_problem(model, samples[0], terms=terms)

@@ -123,7 +123,7 @@ def recordings(truth: RobotModel, cad: RobotModel, seconds: float, seed: int) ->
         )
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # "the low-pass removes most of the hip's variance" (it is fixed)
-            recs[k] = prepare(rec, preset="zha2019")
+            recs[k] = prepare(rec, {"preset": "zha2019"})
         truths[k] = tr
     return recs, truths
 

@@ -110,8 +110,8 @@ def identification_part(leg: RobotModel, train_traj, args) -> dict:
         val, _ = simulate(
             leg, val_traj, seconds=min(args.seconds, 30.0), seed=12, controller="pid", feedforward_model=cad
         )
-        train = prepare(rec, preset="shi2024")
-        valid = prepare(val, preset="shi2024")
+        train = prepare(rec, {"preset": "shi2024"})
+        valid = prepare(val, {"preset": "shi2024"})
     comp = compare(
         Study(cad, train, {"Table 3 trajectory": valid}),
         methods=["ols", "sdp", "pso", "woa", "ewoa", "de"],

@@ -257,7 +257,7 @@ def scipy_prepare(ds: Dataset, monkeypatch, **options) -> Dataset:
         m.setattr(preprocess, "butter_sos", lambda order, cutoff, fs: signal.butter(order, cutoff, fs=fs, output="sos"))
         m.setattr(preprocess, "filtfilt_sos", lambda sos, a, pad: signal.sosfiltfilt(sos, a, axis=0, padlen=pad))
         m.setattr(preprocess, "savgol", scipy_savgol)
-        return preprocess.prepare(ds, **options)
+        return preprocess.prepare(ds, options)
 
 
 def prepare_tolerances(ds: Dataset, prepared: Dataset) -> dict[str, float]:
@@ -296,7 +296,7 @@ def prepare_tolerances(ds: Dataset, prepared: Dataset) -> dict[str, float]:
 def test_prepare_gives_what_the_scipy_signal_path_gave(fs, velocity, monkeypatch):
     ds = twin(fs, velocity)
     for options in ({}, {"cutoff": 3.0, "order": 3}, {"differentiation": "central"}):
-        new = preprocess.prepare(ds, **options)
+        new = preprocess.prepare(ds, options)
         old = scipy_prepare(ds, monkeypatch, **options)
         assert new.meta == old.meta
         np.testing.assert_array_equal(new.t, old.t)

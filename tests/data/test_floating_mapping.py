@@ -12,7 +12,7 @@ from conftest import assert_clean_error, run_cli
 
 from pinid import RobotModel
 from pinid.identification.study import Study
-from pinid.data.contacts import read_floating, write_floating
+from pinid.data.formats import read_recording, write_recording
 from pinid.errors import DataError, SpecError
 from pinid.identification.run import identify
 from pinid.simulation.floating_twin import simulate_gait, simulate_suspended
@@ -79,13 +79,13 @@ def test_foreign_names_and_units_identify_as_the_dataset_format(exo, kind, tmp_p
         twin = simulate_suspended(exo, excitation(exo), seconds=3, rate=100, imu_frame="imu")
     else:
         twin = simulate_gait(exo, seconds=3, rate=100)
-    write_floating(tmp_path / "mine.csv", twin.recording)
+    write_recording(tmp_path / "mine.csv", twin.recording)
     foreign(tmp_path / "mine.csv", tmp_path / "theirs.csv", tmp_path / "map.toml")
-    a = read_floating(tmp_path / "mine.csv", exo)
-    b = read_floating(tmp_path / "theirs.csv", exo, mapping=tmp_path / "map.toml")
-    np.testing.assert_allclose(b.data.t, a.data.t, rtol=1e-12, atol=1e-12)
-    np.testing.assert_allclose(b.data.q, a.data.q, rtol=1e-10, atol=1e-12)
-    ca, cb = a.columns(), b.columns()
+    a = read_recording(tmp_path / "mine.csv", model=exo)
+    b = read_recording(tmp_path / "theirs.csv", model=exo, mapping=tmp_path / "map.toml")
+    np.testing.assert_allclose(b.t, a.t, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(b.q, a.q, rtol=1e-10, atol=1e-12)
+    ca, cb = a.floating.columns(), b.floating.columns()
     assert sorted(ca) == sorted(cb)
     for name in ca:
         np.testing.assert_allclose(cb[name], ca[name], rtol=1e-10, atol=1e-9, err_msg=name)
@@ -113,7 +113,7 @@ def test_bad_floating_mapping_is_one_line_and_writes_nothing(exo, table, words, 
     spec.write_text('time = "t"\n[joints.l_knee]\nq = "k"\n[floating]\n' + table + "\n")
     (tmp_path / "d.csv").write_text("t,k\n0,0\n0.01,0\n")
     with pytest.raises(SpecError, match=words.replace("[", r"\[").replace("]", r"\]")):
-        read_floating(tmp_path / "d.csv", exo, mapping=spec)
+        read_recording(tmp_path / "d.csv", model=exo, mapping=spec)
     proc = run_cli(
         "identify", *EXO, "--data", "d.csv", "--mapping", "map.toml", "--no-report", "-o", "out", cwd=tmp_path
     )
@@ -127,7 +127,7 @@ def test_joint_and_floating_sources_keep_one_common_time_span(exo, tmp_path):
     paired with motion 0.5 s away, train RMS × 20).  Now both keep the samples inside every source: the same
     signals as the one-file recording cut to the common span."""
     twin = simulate_suspended(exo, excitation(exo), seconds=3, rate=100, imu_frame="imu")
-    full = read_floating(write_floating(tmp_path / "s.csv", twin.recording), exo)
+    full = read_recording(write_recording(tmp_path / "s.csv", twin.recording), model=exo)
     with open(tmp_path / "s.csv") as f:
         rows = list(csv.reader(f))
     head, a = rows[0], np.array(rows[1:], dtype=float)
@@ -152,13 +152,13 @@ def test_joint_and_floating_sources_keep_one_common_time_span(exo, tmp_path):
     spec += ["[floating]"] + [f'{c} = "{c}"' for c in base] + [f'{c} = {{ source = "ft", column = "{c}" }}' for c in wc]
     (tmp_path / "map.toml").write_text("\n".join(spec) + "\n")
     with pytest.warns(UserWarning, match=f"kept {int((late & early).sum())} of {len(t)} samples"):
-        rec = read_floating(tmp_path / "main.csv", exo, mapping=tmp_path / "map.toml")
+        rec = read_recording(tmp_path / "main.csv", model=exo, mapping=tmp_path / "map.toml")
     inside = late & early
-    np.testing.assert_allclose(rec.data.t, t[inside], atol=1e-12)
-    np.testing.assert_allclose(rec.data.tau, full.data.tau[inside], atol=1e-9)
-    np.testing.assert_allclose(rec.wrenches["pelvis"], full.wrenches["pelvis"][inside], atol=1e-9)
-    np.testing.assert_allclose(rec.data.q, full.data.q[inside], atol=1e-9)
+    np.testing.assert_allclose(rec.t, t[inside], atol=1e-12)
+    np.testing.assert_allclose(rec.tau, full.tau[inside], atol=1e-9)
+    np.testing.assert_allclose(rec.floating.wrenches["pelvis"], full.floating.wrenches["pelvis"][inside], atol=1e-9)
+    np.testing.assert_allclose(rec.q, full.q[inside], atol=1e-9)
     # no common span: one line
     write("ft.csv", ["t"] + wc, t <= 0.4)
     with pytest.raises(DataError, match=r"no common time span"):
-        read_floating(tmp_path / "main.csv", exo, mapping=tmp_path / "map.toml")
+        read_recording(tmp_path / "main.csv", model=exo, mapping=tmp_path / "map.toml")

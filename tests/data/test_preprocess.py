@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import warnings
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -10,7 +11,7 @@ import pytest
 from pinid.errors import DataWarning
 from pinid.data.dataset import Dataset
 from pinid.errors import DataError, SpecError
-from pinid.data.preprocess import PRESETS, default_cutoff, prepare
+from pinid.data.preprocess import PRESETS, Preprocessing, default_cutoff, prepare
 from pinid.excitation.trajectory import FourierTrajectory
 
 TRAJ = FourierTrajectory(
@@ -47,7 +48,7 @@ def rel_rms(a, b):
 @pytest.mark.parametrize("fs", [100.0, 1000.0, 5000.0])
 @pytest.mark.parametrize("differentiation", ["savgol", "central"])
 def test_defaults_work_from_100_hz_to_5_khz(fs, differentiation):
-    out = prepare(recording(fs), differentiation=differentiation)
+    out = prepare(recording(fs), {"differentiation": differentiation})
     q, dq, ddq = TRAJ.evaluate(out.t)
     pp = out.meta["preprocess"]
     assert pp["cutoff"] == default_cutoff(fs) == 10.0
@@ -94,7 +95,7 @@ def test_jittered_time_is_resampled():
 def test_measured_velocity_used_when_asked():
     ds = recording(1000.0, velocity=True)
     a = prepare(ds)
-    b = prepare(ds, use_measured_velocity=False)
+    b = prepare(ds, {"use_measured_velocity": False})
     assert a.meta["preprocess"]["measured_velocity"] and not b.meta["preprocess"]["measured_velocity"]
     _, dq, ddq = TRAJ.evaluate(a.t)
     assert rel_rms(a.dq, dq) < 2e-3 and rel_rms(a.ddq, ddq) < 3e-2
@@ -103,52 +104,54 @@ def test_measured_velocity_used_when_asked():
 
 def test_presets():
     assert set(PRESETS) == {"zha2019", "shi2024"}  # the source papers by author and year
-    out = prepare(recording(500.0), preset="zha2019")
+    out = prepare(recording(500.0), {"preset": "zha2019"})
     pp = out.meta["preprocess"]
     assert (pp["cutoff"], pp["order"], pp["sample_rate"], pp["resampled"]) == (10.0, 4, pytest.approx(1000.0), True)
-    out = prepare(recording(5000.0, seconds=4.0), preset="zha2019")  # downsampled with an anti-alias filter
+    out = prepare(recording(5000.0, seconds=4.0), {"preset": "zha2019"})  # downsampled with an anti-alias filter
     assert out.meta["preprocess"]["sample_rate"] == pytest.approx(1000.0)
     _, dq, ddq = TRAJ.evaluate(out.t)
     assert rel_rms(out.dq, dq) < 2e-3 and rel_rms(out.ddq, ddq) < 2e-2
-    out = prepare(recording(500.0), preset="shi2024", cutoff=3.0)  # explicit options win over the preset
+    out = prepare(recording(500.0), {"preset": "shi2024", "cutoff": 3.0})  # explicit options win over the preset
     assert out.meta["preprocess"]["cutoff"] == 3.0 and out.meta["preprocess"]["preset"] == "shi2024"
     with pytest.raises(SpecError, match="preset 'seed002' is unknown"):
-        prepare(recording(500.0), preset="seed002")
+        prepare(recording(500.0), {"preset": "seed002"})
 
 
 def test_decimate_and_trim_options():
-    out = prepare(recording(1000.0), decimate=4, trim=0.5)
+    out = prepare(recording(1000.0), {"decimate": 4, "trim": 0.5})
     assert out.meta["preprocess"]["output_rate"] == pytest.approx(250.0)
     assert out.t[0] == pytest.approx(0.5) and np.diff(out.t)[0] == pytest.approx(0.004)
-    assert prepare(recording(5000.0, seconds=3.0), decimate=1).meta["preprocess"]["output_rate"] == pytest.approx(
+    assert prepare(recording(5000.0, seconds=3.0), {"decimate": 1}).meta["preprocess"]["output_rate"] == pytest.approx(
         5000.0
     )
 
 
 def test_errors():
     with pytest.raises(DataError, match="sample rate 15 Hz is too low for a 10 Hz low-pass"):
-        prepare(recording(15.0, seconds=60.0), cutoff=10.0)
+        prepare(recording(15.0, seconds=60.0), {"cutoff": 10.0})
     with pytest.raises(DataError, match="no torque"):
         ds = recording(100.0)
         prepare(Dataset(t=ds.t, q=ds.q, joints=ds.joints))
     with pytest.raises(DataError, match="too few"):
         prepare(recording(100.0, seconds=0.5))
     with pytest.raises(DataError, match="500 samples .* fewer than the 1201-sample Savitzky–Golay window"):
-        prepare(recording(1000.0, seconds=0.5), cutoff=0.5, trim=0)
+        prepare(recording(1000.0, seconds=0.5), {"cutoff": 0.5, "trim": 0})
     with pytest.warns(DataWarning, match="0.5 Hz low-pass removes"):  # the motion is faster than 0.5 Hz: said
-        assert prepare(recording(1000.0, seconds=0.5), cutoff=0.5, trim=0, differentiation="central").n == 500
+        assert (
+            prepare(recording(1000.0, seconds=0.5), {"cutoff": 0.5, "trim": 0, "differentiation": "central"}).n == 500
+        )
     with pytest.raises(DataError, match="decimating 1000 Hz by 60 leaves 16.67 Hz"):
-        prepare(recording(1000.0, seconds=3.0), decimate=60)
+        prepare(recording(1000.0, seconds=3.0), {"decimate": 60})
     with pytest.raises(SpecError, match="differentiation 'spline'"):
-        prepare(recording(100.0), differentiation="spline")
+        prepare(recording(100.0), {"differentiation": "spline"})
     with pytest.raises(SpecError, match="filter order 0"):
-        prepare(recording(100.0), order=0)
+        prepare(recording(100.0), {"order": 0})
 
 
 def test_warns_when_motion_is_faster_than_the_cutoff():
     ds = recording(200.0, seconds=20.0)
     with pytest.warns(DataWarning, match="removes 26 % of the position variance of joint 'knee'"):
-        prepare(ds, cutoff=0.8)
+        prepare(ds, {"cutoff": 0.8})
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         prepare(ds)
@@ -156,8 +159,8 @@ def test_warns_when_motion_is_faster_than_the_cutoff():
 
 def test_old_preset_names_still_work_with_a_deprecation_warning():
     with pytest.warns(DeprecationWarning, match="'seed000' is deprecated, use 'zha2019'"):
-        old = prepare(recording(500.0), preset="seed000")
-    new = prepare(recording(500.0), preset="zha2019")
+        old = prepare(recording(500.0), {"preset": "seed000"})
+    new = prepare(recording(500.0), {"preset": "zha2019"})
     np.testing.assert_array_equal(old.ddq, new.ddq)
     assert old.meta["preprocess"]["preset"] == "zha2019"
 
@@ -176,35 +179,50 @@ def test_millisecond_time_stamps_suggest_the_time_scale():
 
 # ---------------------------------------------------------------------------------------- one prepare (issue 32)
 def test_prepare_of_a_floating_recording_filters_its_channels_with_the_same_options():
-    """``prepare`` of a floating recording is its ``samples`` with the same options, exactly (before issue 32:
-    ``prepare_floating(rec, model, options)``; measured identical to it on gait runs, seeds 0-2, motion capture
-    and IMU, cut-off default and 20 Hz, and unfiltered); a recording without its model is refused in one line."""
-    from dataclasses import replace
-
+    """``prepare`` of a Dataset with floating channels gives its FloatingSamples, the base filtered with the
+    options given (a 5 Hz and a 20 Hz cut-off differ), the joints exactly as ``prepare`` of the joints alone with
+    ``use_measured_*`` false (one filter for every signal); the base state is the twin's exact one to the filter's
+    error; a recording without its model is refused in one line."""
     from pinid import RobotModel
-    from pinid.data.contacts import FloatingRecording
-    from pinid.errors import DataError
+    from pinid.data.dataset import FloatingChannels
     from pinid.simulation.floating_twin import Noise, simulate_gait
 
     model = RobotModel.from_urdf("exo_lower_body", base="floating")
-    rec = simulate_gait(model, seconds=1.5, rate=200, noise=Noise(1e-4, 0.2, 1.0, 0.1), seed=1).recording
-    assert rec.model is model
+    run = simulate_gait(model, seconds=1.5, rate=200, noise=Noise(1e-4, 0.2, 1.0, 0.1), seed=1)
+    rec = run.recording
+    assert rec.floating.model is model
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         for opts in ({}, {"cutoff": 20.0}, {"cutoff": 5.0, "order": 2, "differentiation": "central"}):
-            a, b = prepare(rec, **opts), rec.samples(opts, model)
-            for k in ("base_q", "base_v", "base_a"):
-                np.testing.assert_array_equal(getattr(a, k), getattr(b, k))
+            s = prepare(rec, opts)
+            joints = prepare(replace(rec, floating=None), {**opts, "use_measured_velocity": False})
             for k in ("q", "dq", "ddq", "tau"):
-                np.testing.assert_array_equal(getattr(a.data, k), getattr(b.data, k))
-            for wa, wb in zip(a.wrenches, b.wrenches):
-                assert wa.link == wb.link and wa.frame == wb.frame
-                np.testing.assert_array_equal(wa.values, wb.values)
-            assert a.wrenches and a.unsensed.keys() == b.unsensed.keys()
-        slow, fast = prepare(rec, cutoff=5.0), prepare(rec, cutoff=20.0)
+                np.testing.assert_array_equal(getattr(s.data, k), getattr(joints, k))
+            assert s.wrenches and set(s.uncertain) | set(s.unsensed) == set(rec.floating.contacts)
+        slow, fast = prepare(rec, {"cutoff": 5.0}), prepare(rec, {"cutoff": 20.0})
         assert not np.allclose(slow.base_a, fast.base_a[: len(slow.base_a)])  # the base is filtered with the options
+        k = np.searchsorted(run.exact.data.t, fast.data.t)
+        assert np.max(np.abs(fast.base_q[:, :3] - run.exact.base_q[k, :3])) < 1e-3  # [m]
         with pytest.raises(DataError, match="without its model") as e:
-            prepare(replace(rec, model=None))
+            prepare(replace(rec, floating=replace(rec.floating, model=None)))
         assert "\n" not in str(e.value)
         with pytest.raises(DataError, match="without its model"):
-            prepare(FloatingRecording(rec.data))
+            prepare(replace(rec, floating=FloatingChannels(base_pose=rec.floating.base_pose)))
+
+
+def test_prepare_takes_its_options_as_one_object_or_its_dict_form():
+    """``prepare(ds, options)``: a Preprocessing and its dict form (the keys of a manifest's [preprocess] table)
+    give the same arrays; the options are those a keyword gave (a 20 Hz cut-off differs from the default); an
+    unknown key is one line naming the known ones (issue 32: prepare had 11 parameters)."""
+    ds = recording(1000.0)
+    a = prepare(ds, {"cutoff": 20.0, "order": 2})
+    b = prepare(ds, Preprocessing(cutoff=20.0, order=2))
+    np.testing.assert_array_equal(a.ddq, b.ddq)
+    assert a.meta["preprocess"]["cutoff"] == 20.0 and a.meta["preprocess"]["order"] == 2
+    assert prepare(ds).meta["preprocess"]["cutoff"] == 10.0  # the default, not the options'
+    assert Preprocessing.from_dict({"cutoff": 20.0, "order": 2}).to_dict()["cutoff"] == 20.0
+    with pytest.raises(SpecError, match="unknown option") as e:
+        prepare(ds, {"cutof": 20.0})
+    assert "\n" not in str(e.value) and "cutoff" in str(e.value)
+    with pytest.raises(SpecError, match="expected a dict of preprocessing options"):
+        prepare(ds, 20.0)

@@ -49,7 +49,7 @@ def test_reads_and_prepares(nn, model):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         out = prepare(ds)
-        from_q = prepare(ds, use_measured_velocity=False)
+        from_q = prepare(ds, {"use_measured_velocity": False})
     pp = out.meta["preprocess"]
     assert pp["resampled"] and pp["jitter"] > 0.5  # steps from 1.2 to 3.8 ms
     assert np.ptp(np.diff(out.t)) < 1e-9

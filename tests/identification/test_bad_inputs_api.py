@@ -258,8 +258,8 @@ def test_generated_wrong_inputs_give_pinid_errors(leg, identified, seed):
         calls.update(
             {
                 f"base_parameters tol #{k}": lambda s=s: base_parameters(leg, tol=s),
-                f"prepare cutoff #{k}": lambda s=s: prepare(ds, cutoff=s),
-                f"prepare trim #{k}": lambda s=s: prepare(ds, trim=s),
+                f"prepare cutoff #{k}": lambda s=s: prepare(ds, {"cutoff": s}),
+                f"prepare trim #{k}": lambda s=s: prepare(ds, {"trim": s}),
             }
         )
     for k, s in enumerate(_wrong_numbers(rng) + [2.5]):  # counts

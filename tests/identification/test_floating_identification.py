@@ -9,9 +9,10 @@ import pytest
 
 from conftest import floating_excitation
 from pinid.errors import SolverError, SpecError
+from pinid.identification.run import identify
 from pinid.identification.study import Study
 from pinid import DataError, RobotModel
-from pinid.data.contacts import read_floating, write_floating
+from pinid.data.formats import read_recording, write_recording
 from pinid.data.preprocess import prepare
 from pinid.estimators import ESTIMATORS, make_estimator
 from pinid.problem.floating import floating_problem
@@ -52,7 +53,7 @@ def test_suspended_twin_recovers_the_base_parameters(floating_exo, suspended, me
 def test_gait_twin_recovers_the_base_parameters(floating_exo, gait, method):
     problem = floating_problem(floating_exo, gait.exact, terms=TERMS)
     assert error(problem, make_estimator(method).fit(problem).base_) <= 1e-6
-    left, right = (gait.recording.contacts[s] for s in ("l_sole", "r_sole"))
+    left, right = (gait.recording.floating.contacts[s] for s in ("l_sole", "r_sole"))
     assert (left & right).any() and (left & ~right).any() and (right & ~left).any()  # double and single support
 
 
@@ -98,14 +99,37 @@ def test_every_estimator_takes_the_floating_problem(floating_exo, method):
 
 def test_recording_round_trip_and_imu(floating_exo, suspended, tmp_path):
     """Written, read back and filtered: the base rows give the total mass to 0.5 %, from an IMU and a load cell."""
-    path = write_floating(tmp_path / "s.csv", suspended.recording)
-    rec = read_floating(path, floating_exo)
-    assert rec.imu_frame == "imu" and list(rec.wrenches) == ["pelvis"]
-    np.testing.assert_allclose(rec.wrenches["pelvis"], suspended.recording.wrenches["pelvis"], rtol=1e-10, atol=1e-9)
-    samples = prepare(rec, cutoff=20.0)
+    path = write_recording(tmp_path / "s.csv", suspended.recording)
+    rec = read_recording(path, model=floating_exo)
+    assert rec.floating.imu_frame == "imu" and list(rec.floating.wrenches) == ["pelvis"]
+    np.testing.assert_allclose(
+        rec.floating.wrenches["pelvis"], suspended.recording.floating.wrenches["pelvis"], rtol=1e-10, atol=1e-9
+    )
+    samples = prepare(rec, {"cutoff": 20.0})
     problem = floating_problem(floating_exo, samples, rows="base")
     base = make_estimator("ols").fit(problem).base_
     assert base[0] == pytest.approx(21.8, rel=5e-3)
+
+
+def test_a_floating_recording_is_one_dataset_in_memory_and_on_disk(floating_exo, suspended, tmp_path):
+    """One recording type (issue 32): the twin's recording is a Dataset with floating channels; written and read
+    back it writes the same bytes; ``select`` cuts its channels with the joints; identify takes it as it takes its
+    file (the same base parameters, exactly)."""
+    rec = suspended.recording
+    path = write_recording(tmp_path / "s.csv", rec)
+    back = read_recording(path, model=floating_exo)
+    assert back.floating.model is floating_exo and "imu_imu_wx" not in back.meta.get("ignored_columns", [])
+    assert write_recording(tmp_path / "again.csv", back).read_bytes() == path.read_bytes()
+    part = back.select(slice(100, 400))
+    assert part.n == 300 and part.floating.wrenches["pelvis"].shape == (300, 6)
+    np.testing.assert_array_equal(part.floating.imu["w"], back.floating.imu["w"][100:400])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        from_file = identify(Study(floating_exo, path, terms=TermSelection()), methods=["ols"])
+        from_memory = identify(Study(floating_exo, [back], terms=TermSelection()), methods=["ols"])
+    np.testing.assert_array_equal(from_file.results["ols"].base, from_memory.results["ols"].base)
+    with pytest.raises(SpecError, match="swing_rows: only for a floating model"):
+        read_recording(path, model=RobotModel.from_urdf("exo_lower_body"), swing_rows=True)
 
 
 def _csv(tmp_path, header, row):
@@ -151,7 +175,7 @@ POSE = ["base_x", "base_y", "base_z", "base_qx", "base_qy", "base_qz", "base_qw"
 )
 def test_bad_floating_recordings(floating_exo, tmp_path, header, row, fragment):
     with pytest.raises(DataError, match=fragment.replace("*", r"\*")):
-        read_floating(_csv(tmp_path, header, row), floating_exo)
+        read_recording(_csv(tmp_path, header, row), model=floating_exo)
 
 
 @pytest.mark.slow
@@ -177,8 +201,8 @@ def test_noisy_twin_validates_at_the_noise_floor(floating_exo, kind, tmp_path):
         )
     samples = []
     for k, run in enumerate(runs):
-        path = write_floating(tmp_path / f"{k}.csv", run.recording)
-        samples.append(prepare(read_floating(path, floating_exo)))
+        path = write_recording(tmp_path / f"{k}.csv", run.recording)
+        samples.append(prepare(read_recording(path, model=floating_exo)))
     train = floating_problem(floating_exo, samples[0], terms=TERMS)
     held = floating_problem(floating_exo, samples[1], terms=TERMS, base=train.base)
     floor = np.sqrt(np.mean((held.tau - held.predict(held.nominal_base)) ** 2))
@@ -195,7 +219,7 @@ def test_swing_rows_of_a_leg_without_force_sensing(floating_exo, tmp_path):
     import dataclasses
 
     run = simulate_gait(floating_exo, seconds=6, rate=200)
-    right = run.recording.contacts["r_sole"]
+    right = run.recording.floating.contacts["r_sole"]
     s = dataclasses.replace(
         run.exact, wrenches=[w for w in run.exact.wrenches if w.link == "l_sole"], unsensed={"r_sole": right}
     )
@@ -203,11 +227,11 @@ def test_swing_rows_of_a_leg_without_force_sensing(floating_exo, tmp_path):
     assert problem.rows == s.n * 14 - int(right.sum()) * (6 + 4)  # base rows and the right leg's 4 joints
     assert error(problem, make_estimator("ols").fit(problem).base_) <= 1e-6
     rec = run.recording
-    rec.plates.pop("r_sole")
-    path = write_floating(tmp_path / "g.csv", rec)
+    rec.floating.plates.pop("r_sole")
+    path = write_recording(tmp_path / "g.csv", rec)
     with pytest.raises(DataError, match="--swing-rows"):
-        read_floating(path, floating_exo)
-    samples = prepare(read_floating(path, floating_exo, swing_rows=True))
+        read_recording(path, model=floating_exo)
+    samples = prepare(read_recording(path, model=floating_exo, swing_rows=True))
     assert set(samples.unsensed) == {"r_sole"} and samples.unsensed["r_sole"].sum() >= right[: samples.n].sum() * 0.9
 
 
@@ -216,8 +240,8 @@ def test_no_joint_torque_uses_the_base_rows_only(floating_exo, suspended, tmp_pa
     are refused with a one-line reason."""
     import dataclasses
 
-    rec = dataclasses.replace(suspended.recording, data=dataclasses.replace(suspended.recording.data, tau=None))
-    samples = prepare(read_floating(write_floating(tmp_path / "w.csv", rec), floating_exo), cutoff=20.0)
+    rec = dataclasses.replace(suspended.recording, tau=None)
+    samples = prepare(read_recording(write_recording(tmp_path / "w.csv", rec), model=floating_exo), {"cutoff": 20.0})
     assert samples.data.tau is None
     base = make_estimator("ols").fit(floating_problem(floating_exo, samples, rows="base")).base_
     assert base[0] == pytest.approx(21.8, rel=5e-3)
@@ -246,7 +270,7 @@ def test_ros2_bag_with_imu_and_wrench_messages(floating_exo, suspended, tmp_path
     store = get_typestore(Stores.LATEST)
     T = store.types
     rec = suspended.recording
-    ds = rec.data
+    ds = rec
     t0 = 1_700_000_000_000_000_000
 
     def header(ns, frame=""):
@@ -274,7 +298,7 @@ def test_ros2_bag_with_imu_and_wrench_messages(floating_exo, suspended, tmp_path
                     js,
                 ),
             )
-            q, g, a = rec.imu["q"][k], rec.imu["w"][k], rec.imu["a"][k]
+            q, g, a = rec.floating.imu["q"][k], rec.floating.imu["w"][k], rec.floating.imu["a"][k]
             orient = T["geometry_msgs/msg/Quaternion"](x=q[0], y=q[1], z=q[2], w=q[3])
             zero9 = np.zeros(9)
             msg = T[imu](
@@ -287,7 +311,7 @@ def test_ros2_bag_with_imu_and_wrench_messages(floating_exo, suspended, tmp_path
                 linear_acceleration_covariance=zero9,
             )
             w.write(ci, ns, store.serialize_cdr(msg, imu))
-            f = rec.wrenches["pelvis"][k]
+            f = rec.floating.wrenches["pelvis"][k]
             msg = T[wr](
                 header=header(ns, "pelvis"), wrench=T["geometry_msgs/msg/Wrench"](force=vec(f[:3]), torque=vec(f[3:]))
             )
@@ -302,7 +326,7 @@ def test_ros2_bag_with_imu_and_wrench_messages(floating_exo, suspended, tmp_path
     mapping = None
     if raw_topic:
         with pytest.raises(SpecError, match=r"topics /harness and /harness_raw both give the wrench_pelvis_\* col"):
-            read_floating(path, floating_exo)
+            read_recording(path, model=floating_exo)
         side = [f"imu_imu_{c}" for c in ("qx", "qy", "qz", "qw", "wx", "wy", "wz", "ax", "ay", "az")]
         side += [f"wrench_pelvis_{c}" for c in ("fx", "fy", "fz", "tx", "ty", "tz")]
         mapping = {
@@ -310,13 +334,13 @@ def test_ros2_bag_with_imu_and_wrench_messages(floating_exo, suspended, tmp_path
             "joints": {j: {"q": f"q_{j}", "tau": f"tau_{j}"} for j in ds.joints},
             "floating": {c: c for c in side},
         }
-    from_bag = read_floating(path, floating_exo, mapping=mapping)
-    from_csv = read_floating(write_floating(tmp_path / "s.csv", rec), floating_exo)
-    assert from_bag.imu_frame == "imu" and list(from_bag.wrenches) == ["pelvis"]
+    from_bag = read_recording(path, model=floating_exo, mapping=mapping)
+    from_csv = read_recording(write_recording(tmp_path / "s.csv", rec), model=floating_exo)
+    assert from_bag.floating.imu_frame == "imu" and list(from_bag.floating.wrenches) == ["pelvis"]
     for key in ("q", "w", "a"):
-        np.testing.assert_allclose(from_bag.imu[key], from_csv.imu[key], atol=1e-9)
-    np.testing.assert_allclose(from_bag.wrenches["pelvis"], from_csv.wrenches["pelvis"], atol=1e-9)
-    np.testing.assert_allclose(from_bag.data.tau, from_csv.data.tau, atol=1e-9)
+        np.testing.assert_allclose(from_bag.floating.imu[key], from_csv.floating.imu[key], atol=1e-9)
+    np.testing.assert_allclose(from_bag.floating.wrenches["pelvis"], from_csv.floating.wrenches["pelvis"], atol=1e-9)
+    np.testing.assert_allclose(from_bag.tau, from_csv.tau, atol=1e-9)
 
 
 def test_always_in_contact_and_base_weight_out_of_range_are_named(floating_exo):
@@ -338,7 +362,7 @@ def test_always_in_contact_and_base_weight_out_of_range_are_named(floating_exo):
 
 def _edited(tmp_path, recording, name, edit):
     """The twin recording written, its columns edited by ``edit(names, array)`` in place, written as ``name``."""
-    path = write_floating(tmp_path / f"{name}_src.csv", recording)
+    path = write_recording(tmp_path / f"{name}_src.csv", recording)
     names = path.read_text().splitlines()[0].split(",")
     a = np.loadtxt(path, delimiter=",", skiprows=1)
     names = edit(names, a) or names
@@ -377,9 +401,9 @@ def test_given_joint_derivatives_do_not_skip_the_base_filter(floating_exo, gait,
     rec = gait.recording
     path = _edited(tmp_path, rec, "noisy", noisy_with_derivatives)
     text = path.read_text().splitlines()
-    joints = rec.data.joints
+    joints = rec.joints
     extra = np.hstack([gait.exact.data.dq, gait.exact.data.ddq])  # the twin's exact joint derivatives
-    assert len(extra) == rec.data.n
+    assert len(extra) == rec.n
     rows = [f"{line},{','.join(f'{v:.12g}' for v in e)}" for line, e in zip(text[1:], extra)]
     header = text[0] + "," + ",".join([f"dq_{j}" for j in joints] + [f"ddq_{j}" for j in joints])
     path.write_text("\n".join([header, *rows]) + "\n")
@@ -463,7 +487,7 @@ def test_accelerometer_without_gravity_is_named(floating_exo, suspended, tmp_pat
 def test_no_wrench_in_the_base_rows_is_refused(floating_exo, suspended, tmp_path):
     from pinid.identification.run import identify
 
-    path = write_floating(tmp_path / "src.csv", suspended.recording)
+    path = write_recording(tmp_path / "src.csv", suspended.recording)
     names = path.read_text().splitlines()[0].split(",")
     a = np.loadtxt(path, delimiter=",", skiprows=1)
     keep = [i for i, c in enumerate(names) if not c.startswith(("wrench_", "plate_", "contact_"))]

@@ -3,7 +3,7 @@ orientation noise."""
 
 from __future__ import annotations
 
-import copy
+from dataclasses import replace
 import warnings
 
 import numpy as np
@@ -49,8 +49,10 @@ def test_a_chattering_foot_switch_costs_no_accuracy(exo):
     train = simulate_gait(exo, seconds=6, rate=RATE, noise=noise, seed=1)
     held = simulate_gait(exo, seconds=4, rate=RATE, noise=noise, seed=2, pattern={"period": 1.0, "speed": 0.9})
     rng = np.random.default_rng(0)
-    bouncing = copy.copy(train.recording)
-    bouncing.contacts = {k: chatter(v, rng) for k, v in train.recording.contacts.items()}
+    channels = train.recording.floating
+    bouncing = replace(
+        train.recording, floating=replace(channels, contacts={k: chatter(v, rng) for k, v in channels.contacts.items()})
+    )
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         hs = prepare(held.recording)
@@ -72,13 +74,10 @@ def noisy_orientation(rec, degrees: float, seed: int = 0):
     from pinid.data.contacts import quat_mul
 
     rng = np.random.default_rng(seed)
-    out = copy.copy(rec)
-    out.base_pose = rec.base_pose.copy()
-    turn = np.radians(degrees) * rng.standard_normal((len(rec.base_pose), 3))
-    out.base_pose[:, 3:] = quat_mul(
-        rec.base_pose[:, 3:], np.array([pin.Quaternion(pin.exp3(v)).coeffs() for v in turn])
-    )
-    return out
+    pose = rec.floating.base_pose.copy()
+    turn = np.radians(degrees) * rng.standard_normal((len(pose), 3))
+    pose[:, 3:] = quat_mul(pose[:, 3:], np.array([pin.Quaternion(pin.exp3(v)).coeffs() for v in turn]))
+    return replace(rec, floating=replace(rec.floating, base_pose=pose))
 
 
 @pytest.mark.slow  # 5 s of CPU (docs/benchmarks.md, Test suite)
@@ -86,7 +85,7 @@ def test_motion_capture_orientation_noise_is_warned(exo, tmp_path):
     """0.11° of motion-capture orientation noise (docs/floating-base.md: it biases base.mzR at the default
     cut-off) is estimated (0.109° measured on 10 s) and warned in one line suggesting a lower --cutoff or an
     IMU; noise-free motion capture, an IMU or a given cut-off are not warned."""
-    from pinid.data.contacts import write_floating
+    from pinid.data.formats import write_recording
     from pinid.errors import DataWarning
     from pinid.identification.floating import load_floating
     from pinid.identification.floating_checks import orientation_noise, orientation_noise_warning
@@ -96,9 +95,9 @@ def test_motion_capture_orientation_noise_is_warned(exo, tmp_path):
 
     run = simulate_suspended(exo, excitation(exo, 0), seconds=4, rate=1000, noise=NOISE, seed=0)
     noisy = noisy_orientation(run.recording, 0.11)
-    sigma, on_acc = orientation_noise(noisy.data.t, noisy.base_pose[:, 3:])
+    sigma, on_acc = orientation_noise(noisy.t, noisy.floating.base_pose[:, 3:])
     assert 0.1 < sigma < 0.12 and on_acc > 0.3, (sigma, on_acc)
-    path = write_floating(tmp_path / "noisy.csv", noisy)
+    path = write_recording(tmp_path / "noisy.csv", noisy)
     with pytest.warns(DataWarning, match=r"orientation noise 0\.1\d?° per axis .* --cutoff .* IMU"):
         load_floating(path, exo)
     with warnings.catch_warnings():

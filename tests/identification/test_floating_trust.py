@@ -3,6 +3,8 @@ the recordings against a known truth, the floating twin (:mod:`pinid.simulation.
 
 from __future__ import annotations
 
+import dataclasses
+
 import warnings
 
 import numpy as np
@@ -75,12 +77,9 @@ def test_a_flipped_joint_torque_is_named(floating_exo, suspended):
         identify(Study(floating_exo, [prepare(rec)], terms=TERMS), methods=("ols",))
     assert not [w for w in caught if "check the sign" in str(w.message)]
     j = floating_exo.joint_names.index("l_knee")
-    tau = rec.data.tau.copy()
+    tau = rec.tau.copy()
     tau[:, j] *= -1
-    flipped = type(rec)(
-        type(rec.data)(rec.data.t, rec.data.q, rec.data.joints, tau=tau, source="flipped"), model=rec.model
-    )
-    flipped.base_pose, flipped.wrenches = rec.base_pose, rec.wrenches
+    flipped = dataclasses.replace(rec, tau=tau, source="flipped")
     with pytest.warns(UserWarning, match="check the sign of tau_l_knee") as caught:
         ident = identify(Study(floating_exo, [prepare(flipped)], terms=TERMS), methods=("ols",))
     assert ident.data["flipped_torque_signs"] == ["l_knee"]
@@ -113,7 +112,7 @@ def test_whole_body_centre_of_mass_against_the_urdf(floating_exo):
         ident = identify(Study(floating_exo, [prepare(rec)], terms=TERMS), methods=("ols",))
     assert not [w for w in caught if "centre of mass" in str(w.message)]
     assert np.linalg.norm(np.subtract(ident.results["ols"].info["com"], ident.data["com_urdf"])) < 2e-3
-    rec.plates = {k: v * np.r_[1, 1, 1, -1, -1, 1, 1] for k, v in rec.plates.items()}
+    rec.floating.plates = {k: v * np.r_[1, 1, 1, -1, -1, 1, 1] for k, v in rec.floating.plates.items()}
     with pytest.warns(UserWarning, match="whole-body centre of mass .* ols .* the wrench's axes and frame"):
         identify(Study(floating_exo, [prepare(rec)], terms=TERMS), methods=("ols",))
 

@@ -86,7 +86,7 @@ def test_segmental_on_the_simulated_apal_leg_recovers_the_hip():
         warnings.simplefilter("ignore")
         for k in (1, 3):
             rec, truth = simulate(model, load_trajectory(f"seed000-{k}", model), seconds=8, seed=10 + k)
-            recs[k] = prepare(rec, preset="zha2019")
+            recs[k] = prepare(rec, {"preset": "zha2019"})
     r = segmental_identify(model, recs[1], recs[3], method="ols")
     true = dict(zip(truth["base"]["names"], truth["base"]["values"]))
     got = r.base_parameters

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from conftest import floating_excitation, load
-from pinid.data.contacts import read_floating
+from pinid.data.formats import read_recording
 from pinid.errors import SpecError
 from pinid.simulation.floating_twin import BaseSensors, Noise, TwinRun, simulate_gait, simulate_suspended
 from pinid.simulation.run import Outputs, simulate_and_write
@@ -21,12 +21,12 @@ NOISE = Noise(1e-4, 0.2, 1.0, 0.1, 0.004, 0.04)
 
 def same_run(a: TwinRun, b: TwinRun) -> None:
     """Exact equality of two floating runs: every recorded column, the exact joint samples and the truth."""
-    ca, cb = a.recording.columns(), b.recording.columns()
+    ca, cb = a.recording.floating.columns(), b.recording.floating.columns()
     assert list(ca) == list(cb)
     for k in ca:
         np.testing.assert_array_equal(ca[k], cb[k], err_msg=k)
     for k in ("t", "q", "tau"):
-        np.testing.assert_array_equal(getattr(a.recording.data, k), getattr(b.recording.data, k), err_msg=k)
+        np.testing.assert_array_equal(getattr(a.recording, k), getattr(b.recording, k), err_msg=k)
     for k in ("q", "dq", "ddq", "tau"):
         np.testing.assert_array_equal(getattr(a.exact.data, k), getattr(b.exact.data, k), err_msg=k)
     np.testing.assert_array_equal(a.exact.base_a, b.exact.base_a)
@@ -42,7 +42,7 @@ def test_simulate_of_a_floating_model_is_the_gait_twin(floating_exo, seed):
     same_run(old, same)
     same_run(old, simulate(floating_exo, "gait", seconds=1.0, seed=seed, sensors=BaseSensors(NOISE, "imu", 200)))
     rec, truth = new  # unpacks as the fixed-base (recording, truth)
-    assert rec is new.recording and truth is new.truth and rec.imu_frame == "imu"
+    assert rec is new.recording and truth is new.truth and rec.floating.imu_frame == "imu"
 
 
 def test_simulate_of_a_floating_model_is_the_suspended_twin(floating_exo):
@@ -104,8 +104,8 @@ def test_simulate_and_write_of_a_floating_model(floating_exo, tmp_path):
     text = simulate_and_write(floating_exo, "gait", path, seconds=1.0, seed=2, floating=floating, outputs=outputs)
     assert text.startswith("simulated gait exo_lower_body on a floating base")
     old = simulate_gait(floating_exo, seconds=1.0, rate=200, noise=NOISE, seed=2)
-    written = read_floating(path, floating_exo)
-    for k, v in old.recording.columns().items():
-        np.testing.assert_allclose(written.columns()[k], v, rtol=1e-9, atol=1e-12, err_msg=k)
+    written = read_recording(path, model=floating_exo)
+    for k, v in old.recording.floating.columns().items():
+        np.testing.assert_allclose(written.floating.columns()[k], v, rtol=1e-9, atol=1e-12, err_msg=k)
     truth = json.loads(path.with_name("gait.truth.json").read_text())
     assert truth["command"] == "pinid simulate --base floating" and truth["seed"] == 2
