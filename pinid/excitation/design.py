@@ -76,10 +76,12 @@ SMALL_ROBOT = 4
 #: that the design does not depend on the number of worker processes
 BATCH = 8
 
-#: for the expected time (:class:`_Estimate`): the share of phase 1's starts' time that is spent when
-#: starts are stopped early, and the time of one polish in search starts (measured: 0.4–0.6 and 4–13 on
-#: exo_leg, UR5, Panda; docs/excitation.md)
-SEARCH_SHARE, POLISH_COST = 0.5, 8.0
+#: for the expected time (:class:`_Estimate`), per way of seeing the limits (``MultistartOptions.limits``):
+#: the share of phase 1's starts' time that is spent when starts are stopped early, and the time of one
+#: polish in search starts, the first start's time the unit.  Measured 2026-11-27 (docs/benchmarks.md, issue
+#: 35): on the grid (exo_leg, 88 of 128 starts stopped early) 0.15 and 3.8; at the peaks (UR5, Panda: no
+#: start stopped early) 0.7–1.5 and 1.9–2.3.  Earlier (the grid before the peaks merge): 0.5 and 8.
+ESTIMATE_COSTS: dict[str, tuple[float, float]] = {"grid": (0.15, 4.0), "peaks": (1.0, 2.5)}
 
 #: a design expected to take longer than this [s] says so on stderr first
 LONG = 5.0
@@ -528,7 +530,7 @@ def _multistart(
     history: list[float] = []
     best, stopped = np.inf, 0
     n_workers = pool_size(opts.workers, min(len(starts), BATCH))
-    tell = _Estimate(len(starts), opts.polish, n_workers, start_time, enabled=progress)
+    tell = _Estimate(len(starts), opts.polish, n_workers, start_time, enabled=progress, limits=opts.limits)
     polish = problem
     if len(problem.check_times) != opts.polish_grid:
         polish = DesignProblem(problem.model, spec, check_samples=int(opts.polish_grid), base=problem.base)
@@ -609,19 +611,23 @@ def _never_worse(problem: DesignProblem, x_start: np.ndarray, x: np.ndarray, val
 class _Estimate:
     """Says on stderr, once the first start of phase 1 is done, how long the design will take when that
     is more than :data:`LONG` seconds: phase 1 from the first start's time (a fraction
-    :data:`SEARCH_SHARE` of the starts run to the end), each polish :data:`POLISH_COST` starts."""
+    share of the starts run to the end), each polish some starts: :data:`ESTIMATE_COSTS` of ``limits``."""
 
-    def __init__(self, starts: int, polish: int, workers: int, start_time: float, enabled: bool | None) -> None:
+    def __init__(
+        self, starts: int, polish: int, workers: int, start_time: float, enabled: bool | None, limits: str = "grid"
+    ) -> None:
         from pinid.progress import shown
 
         self.starts, self.polish, self.workers, self.start_time = starts, polish, max(workers, 1), start_time
         self.enabled, self.said = shown(enabled), False
+        self.costs = ESTIMATE_COSTS[limits]
 
     def first_start(self, index: int, seconds: float) -> None:
         if self.said or not self.enabled:
             return
         self.said = True
-        rounds = -(-self.starts // self.workers) * SEARCH_SHARE + -(-self.polish // self.workers) * POLISH_COST
+        share, polish_cost = self.costs
+        rounds = -(-self.starts // self.workers) * share + -(-self.polish // self.workers) * polish_cost
         total = time.perf_counter() - self.start_time + max(rounds - 1, 0) * seconds
         if total >= LONG:
             print(
