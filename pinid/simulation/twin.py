@@ -396,7 +396,8 @@ def simulate(
     changes: dict[str, dict] = {}
     for key, value in options.items():
         if key not in _FLAT:
-            raise TypeError(f"simulate() got an unexpected keyword argument {key!r}")
+            moved = " (the wearer's options are fields of wearer=WearerLoad(...))" if key.startswith("wearer") else ""
+            raise SpecError(f"simulate: unknown option {key!r}{moved}; expected one of {', '.join(sorted(_FLAT))}")
         group, name = _FLAT[key]
         changes.setdefault(group, {})[name] = value
     r, c, f, s = (replace(groups[g], **changes.get(g, {})) for g in ("rates", "controller", "friction", "sensors"))

@@ -238,6 +238,8 @@ def test_api_errors():
         ({"rates": 500}, "rates: got int, expected a Rates or None"),
         ({"friction": {"coulomb": 0.1}}, "friction: got dict, expected a Friction or None"),
         ({"controller": 3}, "controller: got int, expected a Controller"),
+        ({"wearer_torque": 5.0}, "simulate: unknown option 'wearer_torque' (the wearer's options are fields of"),
+        ({"bandwith": 5.0}, "simulate: unknown option 'bandwith'; expected one of "),
     ],
 )
 def test_option_groups_of_another_type_are_one_line_spec_errors(option, message):
