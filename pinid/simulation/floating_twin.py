@@ -434,6 +434,9 @@ def simulate_free_flyer(
     (:func:`simulate_suspended`).  ``options``: the other keywords, ``noise`` and ``imu_frame`` (when ``sensors``
     is None), ``control_rate`` and ``sample_rate`` (over ``rates``'; not with ``sensors.rate``), and the
     fixed-base ones (not None: refused)."""
+    if (rates is not None and rates.integration is not None) or options.get("integration_rate") is not None:
+        raise SpecError("integration rate: for a fixed-base model only (the floating twin samples its motion)")
+    options.pop("integration_rate", None)
     clock = {"control": 1000.0, "sample": None} | ({"control": rates.control, "sample": rates.sample} if rates else {})
     given = {k[:-5]: options.pop(k) for k in ("control_rate", "sample_rate") if k in options}
     clock |= given

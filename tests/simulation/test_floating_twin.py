@@ -109,3 +109,11 @@ def test_simulate_and_write_of_a_floating_model(floating_exo, tmp_path):
         np.testing.assert_allclose(written.floating.columns()[k], v, rtol=1e-9, atol=1e-12, err_msg=k)
     truth = json.loads(path.with_name("gait.truth.json").read_text())
     assert truth["command"] == "pinid simulate --base floating" and truth["seed"] == 2
+
+
+@pytest.mark.parametrize("rate", [{"rates": Rates(integration=4000)}, {"integration_rate": 4000}])
+def test_an_integration_rate_is_refused_for_a_floating_model(floating_exo, rate):
+    """The floating twin computes the torques of a prescribed motion (inverse dynamics): no integration grid,
+    so an integration rate is refused, not ignored."""
+    with pytest.raises(SpecError, match=r"^integration rate: for a fixed-base model only"):
+        simulate(floating_exo, "gait", seconds=0.5, **rate)
