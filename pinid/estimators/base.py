@@ -135,6 +135,9 @@ class Estimator:
     #: True when a fit simulates the robot (iv, didim: tens of seconds on a long recording): the defaults
     #: that run every method (``pinid compare``, ``pinid demo``) leave it out; ``--methods`` or "all" names it.
     simulates: ClassVar[bool] = False
+    #: A fit's time relative to a least-squares fit's (1), roughly: parallel runs start the costliest jobs
+    #: first, so that no long job is left to end alone on one worker (:func:`~pinid.identification.runner.run_jobs`).
+    cost: ClassVar[float] = 1.0
     #: False when the defaults that run every method (``pinid compare``, ``pinid demo``) leave it out though it
     #: does not simulate (``essential``: a variant of ``ols`` that would add a fit to every default run; ``logdet``: its weight
     #: cross-validated, some 50 conic solves, seconds on a 7-joint arm).

@@ -270,6 +270,7 @@ class SimulatingEstimator(Estimator):
     defaults)."""
 
     simulates = True
+    cost = 1000.0  # a simulation of the robot per pass: seconds to tens of seconds
     history = "passes"
     settings = {
         "iterations": Setting("int", low=1, help="iterations at most"),

@@ -102,6 +102,8 @@ def run_jobs(
     head = [("beside", beside)] if beside is not None else []
     later = [i for i, tasks in enumerate(shared) if tasks]
     now = [i for i in range(len(fits)) if i not in set(later)]
+    if local:  # the costliest first (Estimator.cost), so that no long job ends alone; results kept in job order
+        now, later = (sorted(ids, key=lambda i: -type(made[i]).cost) for ids in (now, later))
     rounds = [head + [("shared", task) for task in dict.fromkeys(t for i in later for t in shared[i])]]
     rounds[0] += [fits[i] for i in now]
     if later:  # the jobs that need a shared fit: after it, on workers forked from this process's cache
