@@ -78,11 +78,15 @@ def jsonable(obj: Any) -> Any:
 
     import numpy as np
 
+    if type(obj) is float:  # the common leaf first
+        return obj if math.isfinite(obj) else None
     if isinstance(obj, dict):
         return {str(k): jsonable(v) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):
         return [jsonable(v) for v in obj]
     if isinstance(obj, np.ndarray):
+        if obj.dtype.kind in "iu" or (obj.dtype.kind == "f" and np.isfinite(obj).all()):
+            return obj.tolist()  # plain ints and finite floats already: nothing to change element by element
         return jsonable(obj.tolist())
     if isinstance(obj, (bool, np.bool_)):
         return bool(obj)
