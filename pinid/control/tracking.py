@@ -6,7 +6,6 @@ the same noise); its result ``{controller: {model: {"metrics", "result"}}}`` is 
 
 from __future__ import annotations
 
-import functools
 import os
 from pathlib import Path
 
@@ -125,7 +124,6 @@ def write_tracking(
     }
     title = f"RMS tracking error per joint after t = {after:g} s: every model × controller"
     recipes["tracking_models.png"] = (tracking_models_figure, (rms,), {"title": title})
-    drawn = functools.cache(lambda: render_pngs(recipes))  # one figure per core (pinid.report.figures)
-    for name in recipes:  # drawn when the first is written (behind tracking.json in pinid demo)
-        arts.add(out / name, lambda _, name=name: drawn()[name], behind=True)
+    for name, png in render_pngs(recipes).items():  # one figure per core (pinid.report.figures); not written
+        arts.add(out / name, png)  # behind: the demo's last step, whose figures nothing else would wait beside
     return arts.write()
