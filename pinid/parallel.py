@@ -24,7 +24,7 @@ import pickle
 import signal
 import warnings
 from collections.abc import Callable, Iterator, Sequence
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, as_completed, wait
 from typing import Any
 
 from pinid.errors import PinidError, SpecError
@@ -143,8 +143,15 @@ class LocalWorkers:
                 warnings.filterwarnings("ignore", message=_FORK_WARNING, category=DeprecationWarning)
                 self.executor.submit(int)
 
-    def results(self, items: Sequence, *, ordered: bool = True) -> Iterator[tuple[int, Any]]:
-        """``(index, result)`` of every item: in the items' order, or as they finish (``ordered=False``)."""
+    def results(
+        self, items: Sequence, *, ordered: bool = True, more: Callable | None = None
+    ) -> Iterator[tuple[int, Any]]:
+        """``(index, result)`` of every item: in the items' order, or as they finish (``ordered=False``).
+        ``more(item, result)``: the items that can start now that ``item`` is done (a list, often empty),
+        submitted at once behind those waiting and indexed after every item before them (as they finish)."""
+        if more is not None:
+            yield from self._growing(list(items), more)
+            return
         if self.executor is None:
             yield from ((i, self.fn(self.shared, item)) for i, item in enumerate(items))
             return
@@ -153,6 +160,32 @@ class LocalWorkers:
             for future in futures if ordered else as_completed(futures):
                 index, data = future.result()
                 yield index, _unpickled(data, items[index])
+        finally:
+            for future in futures:  # left early (an error, Ctrl-C, the caller stopped): nothing more starts
+                future.cancel()
+
+    def _growing(self, items: list, more: Callable) -> Iterator[tuple[int, Any]]:
+        """:meth:`results` with ``more``: ``items`` grows as the jobs they wait for finish."""
+        if self.executor is None:
+            i = 0
+            while i < len(items):
+                value = self.fn(self.shared, items[i])
+                items += more(items[i], value)
+                yield i, value
+                i += 1
+            return
+        futures = {self.executor.submit(_run_in_worker, (i, item)): i for i, item in enumerate(items)}
+        try:
+            while futures:
+                finished, _ = wait(futures, return_when=FIRST_COMPLETED)
+                for future in finished:
+                    del futures[future]
+                    index, data = future.result()
+                    value = _unpickled(data, items[index])
+                    for item in more(items[index], value):
+                        items.append(item)
+                        futures[self.executor.submit(_run_in_worker, (len(items) - 1, item))] = len(items) - 1
+                    yield index, value
         finally:
             for future in futures:  # left early (an error, Ctrl-C, the caller stopped): nothing more starts
                 future.cancel()

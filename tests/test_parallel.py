@@ -290,3 +290,22 @@ def test_a_fit_that_jobs_share_runs_once_on_two_processes_with_the_serial_number
     assert serial_runs == 1 and parallel_runs == 1
     assert _numbers(one) == _numbers(two)
     assert [r.seed for r in two.runs["rls-pso"]] == [0, 1]
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_local_workers_start_the_items_a_finished_one_releases(workers):
+    """LocalWorkers.results(more=): an item's follow-ups are submitted when it is done and indexed after
+    the items before them; every result arrives once, the same on one process and on two."""
+    from pinid.parallel import LocalWorkers
+
+    def more(item, result):
+        return [item * 10, item * 100] if item in (1, 3) else []
+
+    with LocalWorkers(_square_plus, 0.5, workers) as pool:
+        got = dict(pool.results([1, 2, 3], more=more))
+    values = {i: v for i, (_, v) in got.items()}
+    assert sorted(values) == list(range(7))
+    assert sorted(values.values()) == sorted(0.5 + x * x for x in (1, 2, 3, 10, 100, 30, 300))
+    assert {values[i] for i in range(3)} == {1.5, 4.5, 9.5}  # the first items keep their indices
+    if workers == 1:  # one process: in the order they were queued
+        assert [values[i] for i in range(7)] == [0.5 + x * x for x in (1, 2, 3, 10, 100, 30, 300)]

@@ -19,9 +19,9 @@ from pinid.identification.segmental import Segmental, SegmentalProblem
 from pinid.model.base import BaseParameters
 from pinid.model.terms import TermSelection
 from pinid.model.robot import RobotModel
-from pinid.parallel import check_workers, run_parallel
+from pinid.parallel import LocalWorkers, check_workers, run_parallel
 from pinid.problem.problem import IdentificationProblem
-from pinid.progress import choose
+from pinid.progress import choose, progress
 
 if TYPE_CHECKING:
     from pinid.identification.floating import FloatingStack
@@ -83,9 +83,9 @@ def run_jobs(
 
     On local processes, which share no cache, the fits that several jobs keep in the problem's cache
     (:meth:`~pinid.estimators.base.Estimator.shared_work`: the RLS run of ``rls`` and of every RLS-PSO seed)
-    run first, once each, beside ``beside`` and the jobs that need none; their values are kept in this
-    process's cache, and the jobs that need them run in a second round of workers forked from it, so that no
-    worker redoes them (the same numbers: the same computation)."""
+    run first, once each, beside ``beside`` and the jobs that need none (the costliest first:
+    :attr:`~pinid.estimators.base.Estimator.cost`); the jobs that need them are sent with their values as soon
+    as they are done, so that no worker redoes them and none waits (the same numbers: the same computation)."""
     if not isinstance(s, Setup):
         raise SpecError(f"s: got {type(s).__name__}, expected the Setup of pinid.identification.run.setup")
     for name, fn in (("beside", beside), ("after", after)):
@@ -104,14 +104,13 @@ def run_jobs(
     now = [i for i in range(len(fits)) if i not in set(later)]
     if local:  # the costliest first (Estimator.cost), so that no long job ends alone; results kept in job order
         now, later = (sorted(ids, key=lambda i: -type(made[i]).cost) for ids in (now, later))
-    rounds = [head + [("shared", task) for task in dict.fromkeys(t for i in later for t in shared[i])]]
-    rounds[0] += [fits[i] for i in now]
-    if later:  # the jobs that need a shared fit: after it, on workers forked from this process's cache
-        rounds.append([fits[i] for i in later])
-        s.problem.W  # noqa: B018 -- the shared fit reads the whole W: built here once, not in each round's workers
-    out: list = [None] * len(fits)
-    value = None
-    for k, items in enumerate(rounds):
+    items = head + [("shared", task) for task in dict.fromkeys(t for i in later for t in shared[i])]
+    items += [fits[i] for i in now]
+    if later:  # the jobs that need a shared fit start as soon as it is done, its values sent along
+        s.problem.W  # noqa: B018 -- the shared fit reads the whole W: built here once, not in each worker
+        waiting = [(i, fits[i][1], shared[i]) for i in later]
+        out, value = _with_shared(s, items, now, waiting, (after, fit_progress), (workers, show_progress, label))
+    else:
         done = run_parallel(
             _fit_job,
             (s, after, fit_progress),
@@ -119,18 +118,54 @@ def run_jobs(
             workers=workers,
             scheduler=scheduler,
             show_progress=show_progress,
-            label=label if len(rounds) == 1 else f"{label} ({k + 1}/{len(rounds)})",
+            label=label,
             describe=_describe,
         )
-        for (kind, _), result in zip(items, done):
-            if kind == "shared":
-                s.problem.cache.keep(result)
-            elif kind == "beside":
-                value = result
-        fitted = iter(r for (kind, _), r in zip(items, done) if kind == "fit")
-        for i in now if k == 0 else later:
-            out[i] = next(fitted)
+        value = next((r for (kind, _), r in zip(items, done) if kind == "beside"), None)
+        out = [None] * len(fits)
+        for i, r in zip(now, (r for (kind, _), r in zip(items, done) if kind == "fit")):
+            out[i] = r
     return out + ([value] if beside is not None else [])
+
+
+def _with_shared(s: Setup, items: list, now: list[int], waiting: list[tuple], how: tuple, run: tuple) -> tuple:
+    """``(results by job, beside's value)`` of :func:`run_jobs` on local workers when some jobs need a shared
+    fit: ``items`` (``beside``, the shared fits, the jobs ``now``) first; each ``waiting`` job (its index, job
+    and the shared fits it needs) is sent with the shared values as soon as the fits it needs are done, behind
+    the jobs not yet started (the same computation as if its worker had made them: the same numbers)."""
+    workers, show_progress, label = run
+    kept, finished, queued = {}, set(), list(items)
+    slot = dict(zip([k for k, (kind, _) in enumerate(items) if kind == "fit"], now))
+
+    def more(item: tuple, result) -> list:
+        if item[0] != "shared":
+            return []
+        s.problem.cache.keep(result)  # this process's cache too: what is read after the fits
+        kept.update(result)
+        finished.add(item[1])
+        ready = [w for w in waiting if set(w[2]) <= finished]
+        waiting[:] = [w for w in waiting if w not in ready]
+        new = [("after shared", (i, job, dict(kept))) for i, job, _ in ready]
+        queued.extend(new)
+        return new
+
+    out: list = [None] * (len(now) + len(waiting))
+    value = None
+    n = min(check_workers(workers), len(items) + len(waiting))
+    with (
+        LocalWorkers(_fit_job, (s, *how), n) as pool,
+        progress(len(items) + len(waiting), label, enabled=show_progress) as bar,
+    ):
+        for index, result in pool.results(items, more=more):
+            kind, what = queued[index]
+            if kind == "beside":
+                value = result
+            elif kind == "fit":
+                out[slot[index]] = result
+            elif kind == "after shared":
+                out[what[0]] = result
+            bar.update(1)
+    return out, value
 
 
 def _describe(job: tuple) -> str:
@@ -147,6 +182,10 @@ def _fit_job(shared: tuple[Setup, Callable | None, bool | None], job: tuple) -> 
     shared fit (the problem cache's entries it made, for the caller's cache)."""
     s, after, fit_progress = shared
     kind, job = job
+    if kind == "after shared":  # a job that needs shared fits, sent with their values
+        _, job, entries = job
+        s.problem.cache.keep(entries)
+        kind = "fit"
     if kind == "beside":
         return job(s)
     if kind == "shared":
