@@ -191,7 +191,7 @@ def simulate_suspended(
         Dataset(t, q_j, model.joint_names, dq=dq_j, ddq=ddq_j, tau=tau, source="suspended twin"), Qb, Vb, Ab, wrenches
     )
     rec = _recording(model, exact, noise, seed, imu_frame, plates=False)
-    truth = _truth(model, "suspended", seconds, rate, noise, seed)
+    truth = _truth(model, "suspended", seconds, rate, noise, seed, exact)
     truth["harness"] = harness.__dict__ | {"anchor": list(harness.anchor), "attach": list(harness.attach)}
     return TwinRun(exact, rec, truth)
 
@@ -339,7 +339,7 @@ def simulate_gait(
     )
     contacts = {soles[0]: alpha > 0, soles[1]: alpha < 1}
     rec = _recording(model, exact, noise, seed, imu_frame, plates=True, contacts=contacts)
-    truth = _truth(model, "gait", seconds, rate, noise, seed)
+    truth = _truth(model, "gait", seconds, rate, noise, seed, exact)
     truth["gait"] = {**GAIT, **(pattern or {})}
     return TwinRun(exact, rec, truth)
 
@@ -408,7 +408,9 @@ def _plate(w: np.ndarray, model, s: FloatingSamples, link: str) -> np.ndarray:
     return out
 
 
-def _truth(model, kind, seconds, rate, noise, seed) -> dict:
+def _truth(model, kind, seconds, rate, noise, seed, exact: FloatingSamples) -> dict:
+    """The run's truth, JSON-ready but for ``"signals"``: the exact joint signals (``exact.data``; the fixed
+    twin's truth carries its own the same way, :func:`pinid.simulation.twin.truth_json` leaves them out)."""
     from pinid.model.regressor import parameter_names, standard_parameters
 
     return {
@@ -422,6 +424,7 @@ def _truth(model, kind, seconds, rate, noise, seed) -> dict:
         "noise": {k: np.asarray(v).tolist() for k, v in noise.__dict__.items()},
         "standard_names": parameter_names(model),
         "standard": standard_parameters(model).tolist(),
+        "signals": exact.data,
     }
 
 

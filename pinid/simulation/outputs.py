@@ -19,7 +19,6 @@ from pinid.model.terms import TermSelection
 from pinid.model.robot import RobotModel
 from pinid.simulation.cad import perturb
 from pinid.simulation.twin import save_truth
-from pinid.simulation.floating_twin import TwinRun
 from pinid.errors import OutputError
 from pinid.io import as_path
 from pinid.model.robot import as_robot
@@ -73,15 +72,23 @@ def write_simulation(
     reference: np.ndarray | None = None,
     overwrite: bool | None = None,
 ) -> list[Path]:
-    """Write a twin's run, all or nothing: the ``recording`` at ``path`` (CSV or NPZ), the ``truth`` as
-    JSON (default :func:`truth_path_for`), with ``true_signals`` the noise-free signals, with ``cad_urdf``
-    the URDF of the ``cad`` model (its percent from ``truth["cad"]``), with ``figure`` a PNG of the run
-    (:func:`pinid.report.plot_simulation.simulation_figure`: the ``reference`` positions (N, nv) [rad] at
-    the recording's times, the simulated ones ``truth["signals"].q``, their difference, the recorded
-    torque).  ``overwrite``: replace existing files (None: the :data:`pinid.io.OVERWRITE` policy, which
-    the CLI's ``--force`` sets)."""
+    """Write a twin's run (:func:`pinid.simulation.twin.simulate`'s ``(recording, truth)``, fixed or floating
+    base), all or nothing: the ``recording`` at ``path`` (CSV or NPZ; a floating one with its floating
+    channels), the ``truth`` as JSON (default :func:`truth_path_for`; without its in-memory ``signals``),
+    with ``true_signals`` the noise-free signals ``truth["signals"]``, with ``cad_urdf`` the URDF of the
+    ``cad`` model (its percent from ``truth["cad"]``), with ``figure`` a PNG of the run
+    (:func:`pinid.report.plot_simulation.simulation_figure`; written behind, :func:`pinid.io.written_behind`):
+    per joint, on a fixed base the ``reference`` positions (N, nv) [rad] at the recording's times and the
+    simulated ones ``truth["signals"].q``, on a floating base (no ``reference``: the legs follow it exactly)
+    the prescribed ones ``truth["signals"].q`` and the recorded ones; their difference and the recorded
+    torque.  ``overwrite``: replace existing files (None: the :data:`pinid.io.OVERWRITE` policy, which the
+    CLI's ``--force`` sets)."""
     recording = as_dataset(recording, "recording")
-    if figure is not None and reference is None:
+    if not isinstance(truth, dict):
+        raise SpecError(f"truth: got {type(truth).__name__}, expected the truth dict of simulate")
+    if (figure or true_signals) and "signals" not in truth:
+        raise SpecError('truth: no "signals", expected the truth dict of simulate (its JSON leaves them out)')
+    if figure is not None and reference is None and recording.floating is None:
         raise SpecError("reference: got None, expected the reference positions (N, nv) [rad] to draw the figure")
     arts = Artefacts(overwrite=overwrite)
     arts.add(path, lambda p: write_recording(p, recording))
@@ -113,8 +120,23 @@ def _figure_png(recording: Dataset, truth: dict, reference) -> bytes:
     from pinid.report.plot_simulation import simulation_figure
 
     true = truth["signals"]
-    title = f"pinid simulate: {truth['robot']}, seed {truth['seed']}, {recording.n} samples"
-    return figure_png(simulation_figure(recording.t, reference, true.q, recording.tau, recording.joints, title=title))
+    if recording.floating is None:
+        title = f"pinid simulate: {truth['robot']}, seed {truth['seed']}, {recording.n} samples"
+        fig = simulation_figure(recording.t, reference, true.q, recording.tau, recording.joints, title=title)
+        return figure_png(fig)
+    # a floating base: the legs follow the prescribed positions exactly, the recorded ones differ by the noise
+    title = f"pinid simulate --base floating: {truth['kind']} {truth['robot']}, {true.n} samples"
+    fig = simulation_figure(
+        true.t,
+        true.q,
+        recording.q,
+        recording.tau if recording.tau is not None else true.tau,  # the exact torque when none is recorded
+        true.joints,
+        title=title,
+        error_label="recorded − prescribed (encoder noise)",
+        position_labels=("prescribed", "recorded"),
+    )
+    return figure_png(fig)
 
 
 #: Width of what ``pinid simulate`` prints [columns].
@@ -138,8 +160,11 @@ def simulation_text(
     recording: Dataset, truth: dict, path, *, truth_path=None, true_signals=None, cad_urdf=None, figure=None
 ) -> str:
     """What ``pinid simulate`` prints after :func:`write_simulation`: each file written, with the samples,
-    rate, joints and tracking error [rad] of the recording and the parameter counts of the truth."""
+    rate, joints and tracking error [rad] of the recording and the parameter counts of the truth; of a floating
+    base's run what was simulated and recorded, then the files."""
     recording = as_dataset(recording, "recording")
+    if recording.floating is not None:
+        return _floating_text(recording, truth, simulation_paths(path, truth_path=truth_path, figure=figure))
     track = [f"{j} {v:.2g}" for j, v in truth["tracking"]["rms_error"].items()]
     first = "\n".join(  # one labelled block each, wrapped at WIDTH and aligned (a UR5's names are long)
         [f"wrote {path} ({recording.n} samples at {truth['rates']['sample']} Hz)"]
@@ -160,54 +185,15 @@ def simulation_text(
     return "\n".join(lines)
 
 
-def write_floating_run(run: TwinRun, path, truth_path=None, *, figure=None, overwrite: bool | None = None) -> list:
-    """Write the recording (CSV or NPZ) and the truth JSON (default ``<path stem>.truth.json``) and, with
-    ``figure``, a PNG of the joints (:func:`_floating_figure_png`), all or nothing."""
-    from pinid.io import Artefacts, write_json
-
-    if not isinstance(run, TwinRun):
-        raise SpecError(f"run: got {type(run).__name__}, expected the TwinRun simulate gives for a floating model")
-    arts = Artefacts(overwrite=overwrite)
-    arts.add(path, lambda p: write_recording(p, run.recording))
-    arts.add(truth_path or truth_path_for(path), lambda p: write_json(p, run.truth))
-    if figure:
-        arts.add(figure, _floating_figure_png(run))
-    return arts.write()
-
-
-def _floating_figure_png(run: TwinRun) -> bytes:
-    """Per joint: the prescribed position (the legs follow it exactly), the recorded one, their difference
-    (the encoder noise) and the recorded torque (the exact one when none is recorded)."""
-    from pinid.report.figures import figure_png
-    from pinid.report.plot_simulation import simulation_figure
-
-    exact, rec = run.exact.data, run.recording
-    tau = rec.tau if rec.tau is not None else exact.tau
-    title = f"pinid simulate --base floating: {run.truth['kind']} {run.truth['robot']}, {exact.n} samples"
-    fig = simulation_figure(
-        exact.t,
-        exact.q,
-        rec.q,
-        tau,
-        exact.joints,
-        title=title,
-        error_label="recorded − prescribed (encoder noise)",
-        position_labels=("prescribed", "recorded"),
-    )
-    return figure_png(fig)
-
-
-def floating_text(run: TwinRun, written) -> str:
-    """What ``pinid simulate --base floating`` prints."""
-    if not isinstance(run, TwinRun):
-        raise SpecError(f"run: got {type(run).__name__}, expected the TwinRun simulate gives for a floating model")
-    rec, s = run.recording.floating, run.exact
-    what = [f"{len(s.data.joints)} joints"]
+def _floating_text(recording: Dataset, truth: dict, written: list[Path]) -> str:
+    """:func:`simulation_text` of a floating base's run (``pinid simulate --base floating``)."""
+    rec, s = recording.floating, truth["signals"]
+    what = [f"{len(s.joints)} joints"]
     what.append(f"IMU on {rec.imu_frame}" if rec.imu_frame else "base pose (motion capture)")
     what += [f"wrench on {k} (link frame)" for k in rec.wrenches] + [f"force plate under {k}" for k in rec.plates]
     if rec.contacts:
         what.append("contact phases")
     return (
-        f"simulated {run.truth['kind']} {run.truth['robot']} on a floating base: {s.n} samples, "
-        f"{s.data.duration:.3g} s; recorded {', '.join(what)}\nwrote " + ", ".join(str(p) for p in written)
+        f"simulated {truth['kind']} {truth['robot']} on a floating base: {s.n} samples, "
+        f"{s.duration:.3g} s; recorded {', '.join(what)}\nwrote " + ", ".join(str(p) for p in written)
     )

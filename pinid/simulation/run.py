@@ -19,14 +19,7 @@ from pinid.io import as_path
 from pinid.model.floating import FloatingRobotModel
 from pinid.model.robot import RobotModel, as_robot
 from pinid.simulation.floating_twin import BaseSensors
-from pinid.simulation.outputs import (
-    cad_model,
-    cad_truth,
-    simulation_text,
-    write_simulation,
-    floating_text,
-    write_floating_run,
-)
+from pinid.simulation.outputs import cad_model, cad_truth, simulation_text, write_simulation
 from pinid.simulation.trajectories import load_trajectory
 from pinid.simulation.twin import Controller, Friction, Rates, Sensors, WearerLoad, simulate
 
@@ -105,8 +98,8 @@ def simulate_and_write(
     (:class:`~pinid.model.floating.FloatingRobotModel`, :mod:`pinid.simulation.floating_twin`): ``excitation``
     "gait" walks, anything else is a trajectory the suspended legs follow
     (:func:`~pinid.simulation.twin.simulate` of a floating model; no ``flip``), with the options ``floating``
-    (:class:`~pinid.simulation.floating_twin.BaseSensors`: noise, IMU, sample rate); written by :func:`~pinid.simulation.outputs.write_floating_run`.
-    ``outputs``: the other files and the command line (:class:`Outputs`).  A group for the other base:
+    (:class:`~pinid.simulation.floating_twin.BaseSensors`: noise, IMU, sample rate); written and summed up by the
+    same two.  ``outputs``: the other files and the command line (:class:`Outputs`).  A group for the other base:
     SpecError."""
     model = as_robot(model)
     path = as_path(path)
@@ -164,7 +157,8 @@ def _floating_and_write(model, excitation, path, seconds, seed, flip, sensors: B
     if flip:
         raise SpecError(f"flip {list(flip)}: the floating twin takes the trajectory as it is (flip it in its JSON)")
     seconds = 10.0 if seconds is None else seconds
-    run = simulate(model, excitation, seconds=seconds, seed=seed, sensors=sensors)
+    recording, truth = simulate(model, excitation, seconds=seconds, seed=seed, sensors=sensors)
     if outputs.command is not None:
-        run.truth["command"] = outputs.command
-    return floating_text(run, write_floating_run(run, path, outputs.truth_path, figure=outputs.figure))
+        truth["command"] = outputs.command
+    write_simulation(recording, truth, path, truth_path=outputs.truth_path, figure=outputs.figure)
+    return simulation_text(recording, truth, path, truth_path=outputs.truth_path, figure=outputs.figure)

@@ -14,7 +14,7 @@ from pinid.data.formats import read_recording
 from pinid.errors import SpecError
 from pinid.simulation.floating_twin import BaseSensors, Noise, TwinRun, simulate_gait, simulate_suspended
 from pinid.simulation.run import Outputs, simulate_and_write
-from pinid.simulation.twin import Controller, Friction, Rates, Sensors, simulate
+from pinid.simulation.twin import Controller, Friction, Rates, Sensors, simulate, truth_json
 
 NOISE = Noise(1e-4, 0.2, 1.0, 0.1, 0.004, 0.04)
 
@@ -30,7 +30,7 @@ def same_run(a: TwinRun, b: TwinRun) -> None:
     for k in ("q", "dq", "ddq", "tau"):
         np.testing.assert_array_equal(getattr(a.exact.data, k), getattr(b.exact.data, k), err_msg=k)
     np.testing.assert_array_equal(a.exact.base_a, b.exact.base_a)
-    assert json.dumps(a.truth, sort_keys=True) == json.dumps(b.truth, sort_keys=True)
+    assert json.dumps(truth_json(a.truth), sort_keys=True) == json.dumps(truth_json(b.truth), sort_keys=True)
 
 
 @pytest.mark.parametrize("seed", [0, 3])
@@ -43,6 +43,7 @@ def test_simulate_of_a_floating_model_is_the_gait_twin(floating_exo, seed):
     same_run(old, simulate(floating_exo, "gait", seconds=1.0, seed=seed, sensors=BaseSensors(NOISE, "imu", 200)))
     rec, truth = new  # unpacks as the fixed-base (recording, truth)
     assert rec is new.recording and truth is new.truth and rec.floating.imu_frame == "imu"
+    assert truth["signals"] is new.exact.data  # the exact signals, as the fixed twin's truth carries them
 
 
 def test_simulate_of_a_floating_model_is_the_suspended_twin(floating_exo):
