@@ -634,11 +634,7 @@ def _setup_floating(study: Study) -> Setup:
     )  # identify and compare refuse theirs first, with their own arguments: this is for setup's own callers
     model, terms, opts = as_floating(study.model), as_terms(study.terms), as_floating_options(study.floating)
     preprocess, mapping, validate = study.preprocess, study.mapping, study.validate
-    if preprocess is not None and not isinstance(preprocess, (bool, Mapping)):
-        raise SpecError(
-            f"preprocess: got {type(preprocess).__name__}, expected options (a mapping), True, False or None"
-        )
-    if isinstance(preprocess, Mapping) and isinstance(preprocess.get("cutoff"), str):
+    if isinstance(preprocess, Mapping) and isinstance(preprocess.get("cutoff"), str):  # the dict form: Study's
         raise SpecError(
             "cut-off auto: not available with a floating base (docs/floating-base.md); give a frequency [Hz]"
         )
