@@ -159,14 +159,9 @@ def add_mapping_arguments(p: argparse.ArgumentParser) -> None:
 
 def mapping_from_args(args: argparse.Namespace):
     """The mapping spec of --mapping (None without it), with the --allow-outside-paths choice: a
-    :class:`MappingSpec`, or with ``--base floating`` the spec with its [floating] table
-    (:func:`pinid.data.contacts.floating_mapping`)."""
+    :class:`MappingSpec` (with ``--base floating``, its [floating] table maps the floating columns)."""
     if args.mapping is None:
         return None
-    if getattr(args, "base", "fixed") == "floating":
-        from pinid.data.contacts import floating_mapping  # deferred: pinid --help does not load the contacts
-
-        return floating_mapping(args.mapping, allow_outside_paths=args.allow_outside_paths)
     return MappingSpec.load(args.mapping, allow_outside_paths=args.allow_outside_paths)
 
 

@@ -36,64 +36,19 @@ pressure is in the world.  Every check raises :class:`~pinid.errors.DataError` n
 from __future__ import annotations
 
 import os
-import re
-import warnings
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 
 from pinid.data.dataset import ACC, GYRO, PLATE, POSE, QUAT, WRENCH, Dataset, FloatingChannels
-from pinid.data.mapping import ColumnRef, MappingSpec, peek_columns
+from pinid.data.mapping import MappingSpec, peek_columns
 from pinid.errors import DataError
 from pinid.model.floating import FloatingRobotModel, Wrench, as_floating
 
 PLATE_OPTIONAL = ("copz", "tz")
 #: Tolerance on the norm of a recorded quaternion (1 ± this).
 QUATERNION_TOL = 1e-3
-#: Unit words of a ``scale`` in a mapping spec's ``[floating]`` table (factor to SI), beside the joints' words.
-FLOATING_SCALE_WORDS: dict[str, float] = {
-    "m": 1.0,
-    "cm": 1e-2,
-    "mm": 1e-3,
-    "rad/s": 1.0,
-    "deg/s": np.pi / 180.0,
-    "m/s²": 1.0,
-    "m/s^2": 1.0,
-    "g": 9.80665,
-    "N": 1.0,
-    "kN": 1e3,
-    "N·m": 1.0,
-    "Nm": 1.0,
-    "N·mm": 1e-3,
-    "Nmm": 1e-3,
-}
-#: Top-level keys of a mapping spec that describe the joints, not the main file or the sources.
-_JOINT_KEYS = ("joints", "motors", "transmission", "checks", "description")
-
-
-def _groups(names: list[str], source: str) -> dict:
-    """The extra columns grouped: {"base": {...}, "imu": {frame: {...}}, "wrench"/"plate": {link: {...}}, "contact": {link: col}}."""
-    out: dict = {"base": {}, "imu": {}, "wrench": {}, "plate": {}, "contact": {}}
-    for n in names:
-        if n.startswith("base_") and n[5:] in POSE:
-            out["base"][n[5:]] = n
-            continue
-        m = re.fullmatch(r"imu_(.+)_(qx|qy|qz|qw|wx|wy|wz|ax|ay|az)", n)
-        if m:
-            out["imu"].setdefault(m.group(1), {})[m.group(2)] = n
-            continue
-        m = re.fullmatch(r"wrench_(.+)_(fx|fy|fz|tx|ty|tz)", n)
-        if m:
-            out["wrench"].setdefault(m.group(1), {})[m.group(2)] = n
-            continue
-        m = re.fullmatch(r"plate_(.+)_(fx|fy|fz|copx|copy|copz|tz)", n)
-        if m:
-            out["plate"].setdefault(m.group(1), {})[m.group(2)] = n
-            continue
-        if n.startswith("contact_") and len(n) > 8:
-            out["contact"][n[8:]] = n
-    return out
 
 
 def _need(have: dict, wanted, what: str, source: str, optional=()) -> None:
@@ -105,92 +60,19 @@ def _need(have: dict, wanted, what: str, source: str, optional=()) -> None:
         )
 
 
-@dataclass
-class FloatingMapping:
-    """A mapping spec of a floating recording (:func:`floating_mapping`): ``joints`` the joints' spec,
-    ``columns`` the ``[floating]`` table's spec (one pseudo-joint per floating column, its ``q`` the column),
-    ``names`` the floating columns' dataset-format names in that order."""
-
-    joints: MappingSpec
-    columns: MappingSpec | None
-    names: list[str]
-
-
-def floating_mapping(
-    spec: "str | os.PathLike | dict | MappingSpec | FloatingMapping",
-    *,
-    allow_outside_paths: bool = False,
-    path: str | os.PathLike | None = None,
-) -> FloatingMapping:
-    """A mapping spec (TOML file or dict, ``docs/data.md``) with a ``[floating]`` table: each key a floating
-    column's dataset-format name (``base_x``, ``imu_<frame>_wx``, ``wrench_<link>_fz``, ``plate_<link>_copx``,
-    ``contact_<link>`` …, the table in the module text), each value where it is, as a joint signal is (a
-    column name, an index, or ``{ column, source, index, scale, sign, offset }``; ``scale`` a number or a
-    word of :data:`FLOATING_SCALE_WORDS` or the joints').  The rest is an ordinary mapping spec (the joints,
-    time, sources).  SpecError naming the key for a name that is no floating column.  With ``path`` (the
-    recording it is read from), both specs keep only the samples inside every source of either."""
-    if path is not None:
-        return _common_span(Path(path), floating_mapping(spec, allow_outside_paths=allow_outside_paths))
-    from pinid.errors import SpecError
-    from pinid.io import read_toml
-
-    if isinstance(spec, FloatingMapping):
-        return spec
-    if isinstance(spec, MappingSpec):
-        return FloatingMapping(MappingSpec.load(spec, allow_outside_paths=allow_outside_paths), None, [])
-    if isinstance(spec, dict):
-        d, origin = dict(spec), "mapping spec"
-    else:
-        p = Path(spec)
-        if not p.is_file():
-            raise SpecError(f"{p}: mapping spec not found, expected a TOML file")
-        d, origin = dict(read_toml(p, "TOML mapping spec")), str(p)
-    table = d.pop("floating", {})
-    joints = MappingSpec.from_dict(d, origin=origin)
-    joints.allow_outside_paths = allow_outside_paths
-    if not isinstance(table, dict):
-        raise SpecError(f'{origin}: [floating] must be a table of floating columns, e.g. base_x = "mocap_x"')
-    if not table:
-        return FloatingMapping(joints, None, [])
-    refs = {}
-    for name, ref in table.items():
-        g = _groups([name], origin)
-        if not any(g[k] for k in g):
-            raise SpecError(
-                f"{origin}: [floating] {name}: not a floating column; expected base_x … base_qw, imu_<frame>_qx … _az, "
-                "wrench_<link>_fx … _tz, plate_<link>_fx … _tz or contact_<link> (docs/floating-base.md)"
-            )
-        if isinstance(ref, dict) and isinstance(ref.get("scale"), str) and ref["scale"] in FLOATING_SCALE_WORDS:
-            ref = {**ref, "scale": FLOATING_SCALE_WORDS[ref["scale"]]}
-        refs[f"c{len(refs)}"] = {"q": ref}
-    source = {k: v for k, v in d.items() if k not in _JOINT_KEYS}
-    try:
-        columns = MappingSpec.from_dict({**source, "joints": refs}, origin=origin)
-    except SpecError as exc:  # name the [floating] key, not the pseudo-joint
-        keys = list(table)
-        text = re.sub(r"\[joints\.c(\d+)\.q\]", lambda m: f"[floating.{keys[int(m.group(1))]}]", str(exc))
-        raise SpecError(text) from None
-    columns.allow_outside_paths = allow_outside_paths
-    for old, new in zip(refs, table):  # messages name the [floating] key, not the pseudo-joint
-        ref = columns.joints[old]["q"]
-        columns.joints[old]["q"] = ColumnRef(
-            ref.source, ref.column, ref.index, ref.scale, ref.sign, ref.offset, f"[floating.{new}]"
-        )
-    return FloatingMapping(joints, columns, list(table))
-
-
 def read_floating_channels(
     path: str | os.PathLike,
     data: Dataset,
     model: FloatingRobotModel,
-    mapping: FloatingMapping | None = None,
+    columns: dict[str, np.ndarray] | None = None,
     *,
     swing_rows: bool = False,
 ) -> Dataset:
     """``data`` (the joints of ``path``, read and checked by :func:`~pinid.data.formats.read_recording`, which
     calls this for a floating ``model``) with its floating channels (:class:`~pinid.data.dataset.FloatingChannels`):
-    read from the dataset format's columns (the table in the module text) or, with ``mapping``
-    (:func:`floating_mapping` of the file), from its ``[floating]`` table, and checked against ``model``: every
+    read from the dataset format's columns (the table in the module text) or given as ``columns`` (the floating
+    columns by dataset-format name [SI] on the samples of ``data``, read through a mapping spec's ``[floating]``
+    table: :meth:`~pinid.data.mapping.MappingSpec.read_all`), and checked against ``model``: every
     link and frame named exists, the IMU is fixed to the base link, quaternions are unit, contact phases have a
     wrench (unless ``swing_rows``: then a link with contact phases and no wrench is a leg without force sensing,
     whose contact rows are left out, see :func:`pinid.problem.floating.floating_problem`), force plates have the
@@ -198,12 +80,16 @@ def read_floating_channels(
     model = as_floating(model)
     path = Path(path)
     source = str(path)
-    if mapping is not None:
-        g = _groups(mapping.names, source)
-        values = _read_mapped(path, mapping, data.n) if mapping.names else {}
+    if columns is not None:
+        g, values = FloatingChannels.groups(columns), columns
+        short = [c for c, v in columns.items() if np.shape(v) != (data.n,)]
+        if short:
+            raise DataError(
+                f"{source}: floating column {short[0]} is not one value per sample ({data.n}); expected equal lengths"
+            )
     else:
         _, names = peek_columns(path)
-        g = _groups(names, source)
+        g = FloatingChannels.groups(names)
         extra = [c for grp in ("base",) for c in g[grp].values()]
         extra += [c for d in (*g["imu"].values(), *g["wrench"].values(), *g["plate"].values()) for c in d.values()]
         extra += list(g["contact"].values())
@@ -296,37 +182,6 @@ def _read_columns(path: Path, columns: list[str], n: int) -> dict[str, np.ndarra
         k, j = (int(x) for x in np.argwhere(bad)[0])
         raise DataError(f"{path}: column {columns[j]} has NaN or infinite values (first at sample {k})")
     return {c: ds.q[:, i] for i, c in enumerate(columns)}
-
-
-def _common_span(path: Path, fm: FloatingMapping) -> FloatingMapping:
-    """``fm`` with its joint and ``[floating]`` specs both keeping only the samples inside every source of
-    either (read apart, each would keep those inside its own sources: the wrench paired with other motion)."""
-    if fm.columns is None or not fm.names:
-        return fm
-    if not any(src.time is not None for spec in (fm.joints, fm.columns) for src in spec.sources.values()):
-        return fm  # every column on the main file's rows: nothing to align
-    (a0, a1), (b0, b1) = fm.joints.time_span(path), fm.columns.time_span(path)
-    lo, hi = max(a0, b0), min(a1, b1)
-    if lo > hi:
-        raise DataError(
-            f"{path}: the joint sources cover [{a0:g}, {a1:g}] s and the [floating] sources [{b0:g}, {b1:g}] s: "
-            "no common time span, expected recordings of the same run"
-        )
-    return replace(fm, joints=replace(fm.joints, span=(lo, hi)), columns=replace(fm.columns, span=(lo, hi)))
-
-
-def _read_mapped(path: Path, fm: FloatingMapping, n: int) -> dict[str, np.ndarray]:
-    """The floating columns of ``path`` through the ``[floating]`` table of ``fm``, in SI units, by name."""
-    with warnings.catch_warnings():  # the same samples as the joints' (:func:`_common_span`), already said
-        warnings.filterwarnings("ignore", message=".*those inside every source's time span")
-        ds = fm.columns.read(path)
-    if ds.n != n:
-        raise DataError(f"{path}: {ds.n} rows of [floating] columns for {n} samples; expected equal lengths")
-    bad = ~np.isfinite(ds.q)
-    if bad.any():
-        k, j = (int(x) for x in np.argwhere(bad)[0])
-        raise DataError(f"{path}: [floating] {fm.names[j]} has NaN or infinite values (first at sample {k})")
-    return {c: ds.q[:, i] for i, c in enumerate(fm.names)}
 
 
 # ---------------------------------------------------------------------------------------------- prepared

@@ -10,6 +10,7 @@ reads the floating channels too when its model is floating, :mod:`pinid.data.con
 
 from __future__ import annotations
 
+import re
 from collections.abc import Iterable
 from dataclasses import dataclass, field, replace
 from typing import Any
@@ -60,6 +61,32 @@ class FloatingChannels:
             out.update({f"plate_{link}_{c}": w[:, i] for i, c in enumerate(PLATE)})
         for link, c in self.contacts.items():
             out[f"contact_{link}"] = c.astype(float)
+        return out
+
+    @staticmethod
+    def groups(names: Iterable[str]) -> dict:
+        """The floating columns among ``names`` (dataset-format names), grouped: ``{"base": {pose key: name},
+        "imu": {frame: {key: name}}, "wrench"/"plate": {link: {key: name}}, "contact": {link: name}}``; a name
+        that is no floating column is in none."""
+        out: dict = {"base": {}, "imu": {}, "wrench": {}, "plate": {}, "contact": {}}
+        for n in names:
+            if n.startswith("base_") and n[5:] in POSE:
+                out["base"][n[5:]] = n
+                continue
+            m = re.fullmatch(r"imu_(.+)_(qx|qy|qz|qw|wx|wy|wz|ax|ay|az)", n)
+            if m:
+                out["imu"].setdefault(m.group(1), {})[m.group(2)] = n
+                continue
+            m = re.fullmatch(r"wrench_(.+)_(fx|fy|fz|tx|ty|tz)", n)
+            if m:
+                out["wrench"].setdefault(m.group(1), {})[m.group(2)] = n
+                continue
+            m = re.fullmatch(r"plate_(.+)_(fx|fy|fz|copx|copy|copz|tz)", n)
+            if m:
+                out["plate"].setdefault(m.group(1), {})[m.group(2)] = n
+                continue
+            if n.startswith("contact_") and len(n) > 8:
+                out["contact"][n[8:]] = n
         return out
 
     def select(self, index) -> "FloatingChannels":

@@ -150,16 +150,8 @@ def read_recording(
         raise DataError(f"path: got {path!r:.60}, expected the path of a recording (a file name without NUL)")
     model = _robot_or_none(model)
     path = Path(path)
-    floating = fm = None
-    if model is not None and _is_floating(model):
-        # deferred: the floating channels' reader is needed for a floating model only
-        from pinid.data.contacts import floating_mapping, read_floating_channels
-
-        floating = read_floating_channels
-        if mapping is not None:
-            fm = floating_mapping(mapping, allow_outside_paths=allow_outside_paths, path=path)
-            mapping = fm.joints
-    elif swing_rows:
+    floating = model is not None and _is_floating(model)
+    if swing_rows and not floating:
         raise SpecError("swing_rows: only for a floating model (contact phases of legs without force sensing)")
     if mapping is None:
         _, names = peek_columns(path)
@@ -168,7 +160,13 @@ def read_recording(
     else:
         spec = MappingSpec.load(mapping, allow_outside_paths=allow_outside_paths)
         ignored = []
-    ds = spec.read(path)
+        if spec.floating and not floating:
+            raise SpecError(
+                f"{spec.origin}: a [floating] table ({', '.join(spec.floating)}) for "
+                f"{'no model' if model is None else model.name + ', a fixed-base robot'}; expected a floating "
+                "model (RobotModel.from_urdf(..., base='floating'), --base floating) or no [floating] table"
+            )
+    ds, columns = spec.read_all(path)
     if ignored:
         ds.meta["ignored_columns"] = ignored
     checks = dict(ds.meta.get("checks", {}))
@@ -177,7 +175,12 @@ def read_recording(
     if degrees is not None:
         checks["degrees"] = degrees
     ds = check_recording(ds, model, limits=checks.get("limits", "error"), degrees=checks.get("degrees", "error"))
-    return ds if floating is None else floating(path, ds, model, fm, swing_rows=swing_rows)
+    if not floating:
+        return ds
+    # deferred: the floating channels' reader is needed for a floating model only
+    from pinid.data.contacts import read_floating_channels
+
+    return read_floating_channels(path, ds, model, None if mapping is None else columns, swing_rows=swing_rows)
 
 
 def _at(ds: Dataset, k: int) -> str:

@@ -53,7 +53,7 @@ from pinid.data.registry import READERS, Table, reader_for
 from pinid.errors import DataError, DataWarning, SpecError
 from pinid.io import read_toml
 from pinid.model.drives import Transmission, transmission_from_table
-from pinid.data.dataset import Dataset
+from pinid.data.dataset import Dataset, FloatingChannels
 from pinid.io import as_path
 
 QUANTITIES: tuple[str, ...] = ("q", "dq", "ddq", "tau")
@@ -69,11 +69,37 @@ SCALE_WORDS: dict[str, float] = {
     "Nm": 1.0,
     "mNm": 1e-3,
 }
+#: Unit words of a ``scale`` in the ``[floating]`` table (factor to SI), beside the joints' words.
+FLOATING_SCALE_WORDS: dict[str, float] = {
+    "m": 1.0,
+    "cm": 1e-2,
+    "mm": 1e-3,
+    "rad/s": 1.0,
+    "deg/s": np.pi / 180.0,
+    "m/s²": 1.0,
+    "m/s^2": 1.0,
+    "g": 9.80665,
+    "N": 1.0,
+    "kN": 1e3,
+    "N·m": 1.0,
+    "Nm": 1.0,
+    "N·mm": 1e-3,
+    "Nmm": 1e-3,
+}
+_FLOATING_WORDS = {**SCALE_WORDS, **FLOATING_SCALE_WORDS}
 #: Unit words accepted as ``scale`` of the time column (factor to seconds).
 TIME_WORDS: dict[str, float] = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "µs": 1e-6, "ns": 1e-9}
 
 _SOURCE_KEYS = {"path", "format", "delimiter", "header", "skip_rows", "comment", "names", "rows", "time", "ros"}
-_TOP_KEYS = (_SOURCE_KEYS - {"path"}) | {"joints", "motors", "sources", "transmission", "checks", "description"}
+_TOP_KEYS = (_SOURCE_KEYS - {"path"}) | {
+    "joints",
+    "motors",
+    "sources",
+    "transmission",
+    "checks",
+    "description",
+    "floating",
+}
 _COLUMN_KEYS = {"column", "source", "index", "scale", "sign", "offset"}
 _TIME_KEYS = {"column", "index", "scale", "offset", "rate"}
 _CHECK_VALUES = ("error", "warn", "off")
@@ -128,7 +154,14 @@ class SourceSpec:
 
 @dataclass
 class MappingSpec:
-    """A parsed, validated mapping spec; :meth:`read` turns a file into a :class:`~pinid.data.dataset.Dataset`."""
+    """A parsed, validated mapping spec; :meth:`read` turns a file into a :class:`~pinid.data.dataset.Dataset`.
+
+    ``floating``: the ``[floating]`` table of a floating base's recording, each floating column's
+    dataset-format name (``base_x``, ``imu_<frame>_wx``, ``wrench_<link>_fz``, ``plate_<link>_copx``,
+    ``contact_<link>`` …, docs/floating-base.md) → where it is, as a joint signal is (a column name, an index,
+    or ``{ column, source, index, scale, sign, offset }``; ``scale`` a number or a word of
+    :data:`FLOATING_SCALE_WORDS` or :data:`SCALE_WORDS`); :meth:`read_all` reads them with the joints, on the
+    samples inside every source of either.  Empty for a fixed base."""
 
     main: SourceSpec
     sources: dict[str, SourceSpec] = field(default_factory=dict)
@@ -138,9 +171,7 @@ class MappingSpec:
     checks: dict[str, str] = field(default_factory=dict)
     origin: str = "<mapping>"
     allow_outside_paths: bool = False  # True: [sources.*] paths may leave the main file's folder
-    #: (start, stop) [s] on the main file's clock: keep only the samples inside it too (a floating mapping's
-    #: common span of the joint and [floating] sources, :func:`pinid.data.contacts.floating_mapping`)
-    span: tuple[float, float] | None = None
+    floating: dict[str, ColumnRef] = field(default_factory=dict)
 
     # ------------------------------------------------------------------ construction
     @classmethod
@@ -206,7 +237,8 @@ class MappingSpec:
         for k, v in checks.items():
             if v not in _CHECK_VALUES:
                 raise SpecError(f"{origin}: [checks] {k} = {v!r}, expected one of {', '.join(_CHECK_VALUES)}")
-        return cls(main, sources, joints, motors, transmission, dict(checks), origin)
+        floating = _floating_table(d.get("floating", {}), origin, known_sources)
+        return cls(main, sources, joints, motors, transmission, dict(checks), origin, floating=floating)
 
     @property
     def joint_names(self) -> list[str]:
@@ -221,7 +253,7 @@ class MappingSpec:
         """The main file's time [s], the mask of its samples inside every timed source, the values of every
         column reference (sources interpolated onto the main time) and the main file's table."""
         refs_by_source: dict[str, list[ColumnRef]] = {}
-        for table in (self.joints, self.motors):
+        for table in (self.joints, self.motors, {"": self.floating}):
             for sig in table.values():
                 for ref in sig.values():
                     refs_by_source.setdefault(ref.source, []).append(ref)
@@ -267,17 +299,22 @@ class MappingSpec:
             raise DataError(f"{path}: no sample lies inside every source's time span ({self.origin})")
         return float(t[keep][0]), float(t[keep][-1])
 
-    def read(self, path: str | os.PathLike):
+    def read(self, path: str | os.PathLike) -> Dataset:
         """Read the main file ``path`` (and the other sources) into a Dataset (not yet checked against a model)."""
+        return self.read_all(path)[0]
+
+    def read_all(self, path: str | os.PathLike) -> tuple[Dataset, dict[str, np.ndarray]]:
+        """:meth:`read`, and the ``[floating]`` columns by name [SI units] on the Dataset's samples (``{}``
+        without a ``[floating]`` table): the joints and the floating columns keep one common time span, the
+        samples inside every source of either."""
         path = Path(path)
         t, keep, values, main_tab = self._load(path)
-        if self.span is not None:
-            keep &= (t >= self.span[0]) & (t <= self.span[1])
-            if not keep.any():
-                raise DataError(
-                    f"{path}: no sample lies inside every source's time span (joint and [floating] sources: "
-                    f"[{self.span[0]:g}, {self.span[1]:g}] s), expected recordings of the same run"
-                )
+        if self.floating and not keep.any():
+            raise DataError(
+                f"{path}: the joint and [floating] sources have no common time span (no sample lies inside every "
+                "source's time span); expected recordings of the same run"
+            )
+        floating = {name: _convert(values[ref], ref) for name, ref in self.floating.items()}
         columns_desc: dict[str, str] = {}
         for ref in values:
             columns_desc.setdefault(ref.where, f"{ref.source}:{ref.column!r}")
@@ -328,10 +365,11 @@ class MappingSpec:
             )
             t = t[idx]
             arrays = {k: (None if v is None else v[idx]) for k, v in arrays.items()}
+            floating = {k: v[idx] for k, v in floating.items()}
         meta = {"mapping": self.origin, "columns": columns_desc, "checks": dict(self.checks)}
         if main_tab.line0 is not None and idx.size == n:
             meta["line0"] = main_tab.line0 + main_tab.row0  # file line of sample 0, for messages
-        return Dataset(
+        ds = Dataset(
             t=t,
             q=arrays["q"],
             joints=joint_names,
@@ -341,6 +379,7 @@ class MappingSpec:
             source=str(path),
             meta=meta,
         )
+        return ds, floating
 
 
 # ---------------------------------------------------------------------------------------------- parsing
@@ -488,7 +527,7 @@ def _source(name: str, d: dict, origin: str, *, main: bool = False) -> SourceSpe
     return s
 
 
-def _column(v: Any, origin: str, where: str, sources: set[str]) -> ColumnRef:
+def _column(v: Any, origin: str, where: str, sources: set[str], words: dict[str, float] = SCALE_WORDS) -> ColumnRef:
     if isinstance(v, (str, int)) and not isinstance(v, bool):
         return ColumnRef(MAIN, _column_key(v, origin, where), where=where)
     if not isinstance(v, dict):
@@ -511,7 +550,7 @@ def _column(v: Any, origin: str, where: str, sources: set[str]) -> ColumnRef:
     sign = _number(v.get("sign", 1.0), origin, f"{where}.sign")
     if sign not in (1.0, -1.0):
         raise SpecError(f"{origin}: {where}.sign = {sign:g}, expected 1 or -1")
-    scale = _number(v.get("scale", 1.0), origin, f"{where}.scale", words=SCALE_WORDS)
+    scale = _number(v.get("scale", 1.0), origin, f"{where}.scale", words=words)
     if scale == 0:
         raise SpecError(f"{origin}: {where}.scale = 0, expected a non-zero factor to SI units")
     return ColumnRef(source, col, index, scale, sign, _number(v.get("offset", 0.0), origin, f"{where}.offset"), where)
@@ -526,6 +565,21 @@ def _signal_tables(d: Any, kind: str, origin: str, sources: set[str]) -> dict[st
             raise SpecError(f"{origin}: [{kind}.{name}] must be a table with q = ..., and optionally dq, ddq, tau")
         _unknown(sig, set(QUANTITIES), origin, f"[{kind}.{name}]")
         out[name] = {qty: _column(v, origin, f"[{kind}.{name}.{qty}]", sources) for qty, v in sig.items()}
+    return out
+
+
+def _floating_table(d: Any, origin: str, sources: set[str]) -> dict[str, ColumnRef]:
+    """The ``[floating]`` table: each key a floating column's dataset-format name, each value where it is."""
+    if not isinstance(d, dict):
+        raise SpecError(f'{origin}: [floating] must be a table of floating columns, e.g. base_x = "mocap_x"')
+    out = {}
+    for name, ref in d.items():
+        if not any(FloatingChannels.groups([name]).values()):
+            raise SpecError(
+                f"{origin}: [floating] {name}: not a floating column; expected base_x … base_qw, imu_<frame>_qx … _az, "
+                "wrench_<link>_fx … _tz, plate_<link>_fx … _tz or contact_<link> (docs/floating-base.md)"
+            )
+        out[name] = _column(ref, origin, f"[floating.{name}]", sources, words=_FLOATING_WORDS)
     return out
 
 

@@ -229,6 +229,23 @@ class Preprocessing:
         """The options set (not None), by name: the ``preprocess`` dict form."""
         return {f.name: getattr(self, f.name) for f in fields(self) if getattr(self, f.name) is not None}
 
+    @classmethod
+    def normalize(cls, value: "Preprocessing | Mapping | bool | None", what: str = "preprocess") -> dict | bool | None:
+        """The one form the runners carry the preprocessing in (:class:`~pinid.identification.study.Study`,
+        :func:`~pinid.problem.problem.prepare_dataset`): None, True and False as they are, a mapping as a dict
+        (its keys checked where it is used), a :class:`Preprocessing` as the dict of the options it sets (those
+        other than their defaults: ``Preprocessing(cutoff=8.0)`` → ``{"cutoff": 8.0}``, the numbers of the dict
+        form).  SpecError (one line, naming ``what``) for anything else."""
+        if value is None or isinstance(value, bool):
+            return value
+        if isinstance(value, Preprocessing):
+            return {f.name: getattr(value, f.name) for f in fields(cls) if getattr(value, f.name) != f.default}
+        if isinstance(value, Mapping):
+            return dict(value)
+        raise SpecError(
+            f"{what}: got {type(value).__name__}, expected a Preprocessing, a dict of its options, True, False or None"
+        )
+
 
 def prepare(ds: Dataset, options: Preprocessing | Mapping | bool | None = None) -> Dataset | FloatingSamples:
     """Filter, differentiate, trim and decimate a recording; return a dataset with q, dq, ddq, tau filled.

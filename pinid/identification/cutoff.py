@@ -35,6 +35,7 @@ import numpy as np
 
 from pinid.data.dataset import Dataset
 from pinid.data.formats import read_recording
+from pinid.data.preprocess import Preprocessing
 from pinid.errors import DataError, DataWarning, SpecError
 from pinid.model.base import BaseParameters
 from pinid.model.terms import TermSelection
@@ -131,13 +132,13 @@ def choose_cutoff(
     terms: TermSelection,
     base: BaseParameters,
     mapping=None,
-    preprocess: Mapping | None = None,
+    preprocess: "Preprocessing | Mapping | None" = None,
     problem_options: Mapping | None = None,
     candidates: Sequence[float] | None = None,
     folds: int = FOLDS,
 ) -> CutoffChoice:
     """The cut-off [Hz] the training ``recordings`` (paths or Datasets) choose by blocked cross-validation
-    (module text).  ``preprocess``: the other preprocessing options; ``problem_options``: ``rest_velocity``,
+    (module text).  ``preprocess``: the other preprocessing options (a Preprocessing or its dict form); ``problem_options``: ``rest_velocity``,
     ``rest_fraction``, ``fit_joints`` as the identification uses them; ``candidates`` [Hz]: default the
     grid the slowest recording's sample rate carries.  DataError when no candidate can be used."""
     if isinstance(folds, bool) or not isinstance(folds, (int, np.integer)) or folds < 2:
@@ -151,7 +152,8 @@ def choose_cutoff(
     if not candidates:
         raise DataError("cut-off auto: the sample rate carries no candidate cut-off (at least 1 Hz)")
     edges = block_edges(raw, folds)
-    options = {k: v for k, v in dict(preprocess or {}).items() if k != "cutoff"}
+    given = Preprocessing.normalize(preprocess)
+    options = {k: v for k, v in (given if isinstance(given, dict) else {}).items() if k != "cutoff"}
     fits, reasons, unwrap = {}, {}, free_angles(model)
     for c in candidates:
         try:

@@ -21,7 +21,7 @@ import numpy as np
 from pinid.data.contacts import FloatingSamples
 from pinid.data.dataset import Dataset
 from pinid.data.formats import read_recording
-from pinid.data.preprocess import prepare
+from pinid.data.preprocess import Preprocessing, prepare
 from pinid.errors import DataError, SpecError
 from pinid.estimators import make_estimator
 from pinid.identification.floating_checks import (
@@ -106,6 +106,7 @@ def load_floating(
     warned, :func:`~pinid.identification.floating_checks.orientation_noise_warning`)."""
     if items is None:
         return []
+    preprocess = Preprocessing.normalize(preprocess)
     if isinstance(items, (FloatingSamples, Dataset, str, os.PathLike)):
         items = [items]
     out = []

@@ -615,12 +615,12 @@ def identify(
 
 def _setup_floating(study: Study) -> Setup:
     """:func:`setup` of a floating-base robot (:mod:`pinid.identification.floating`): its recordings read, checked
-    and prepared (base motion, contact wrenches; ``study.mapping``: :func:`pinid.data.contacts.floating_mapping`),
+    and prepared (base motion, contact wrenches; ``study.mapping``: a :class:`~pinid.data.mapping.MappingSpec` with its ``[floating]`` table),
     their 6 base rows stacked with the joint rows (:func:`~pinid.problem.floating.floating_problem`;
     ``study.floating``: the rows used, the base rows' weight, legs without force sensing), every row kept unless
     ``study.rest_velocity`` is a speed (the fixed base's "auto" validated worse: docs/floating-base.md), and the
     validation rows.  ``Setup.floating`` keeps what the fits' validation and checks read."""
-    from pinid.data.contacts import floating_mapping
+    from pinid.data.mapping import MappingSpec
     from pinid.identification.floating import FloatingStack, as_floating_options, load_floating, refuse_fixed_only
     from pinid.identification.floating_checks import flipped_floating_signs
     from pinid.identification.plausibility import shared_excitation
@@ -634,11 +634,7 @@ def _setup_floating(study: Study) -> Setup:
     )  # identify and compare refuse theirs first, with their own arguments: this is for setup's own callers
     model, terms, opts = as_floating(study.model), as_terms(study.terms), as_floating_options(study.floating)
     preprocess, mapping, validate = study.preprocess, study.mapping, study.validate
-    if preprocess is not None and not isinstance(preprocess, (bool, Mapping)):
-        raise SpecError(
-            f"preprocess: got {type(preprocess).__name__}, expected options (a mapping), True, False or None"
-        )
-    if isinstance(preprocess, Mapping) and isinstance(preprocess.get("cutoff"), str):
+    if isinstance(preprocess, Mapping) and isinstance(preprocess.get("cutoff"), str):  # the dict form: Study's
         raise SpecError(
             "cut-off auto: not available with a floating base (docs/floating-base.md); give a frequency [Hz]"
         )
@@ -651,7 +647,7 @@ def _setup_floating(study: Study) -> Setup:
             raise SpecError(f"validate: sets {', '.join(map(str, validate))}; a floating base takes one set")
         validate = validate.get("validation")
     rest = None if isinstance(study.rest_velocity, str) else study.rest_velocity
-    mapping = None if mapping is None else floating_mapping(mapping)  # checked once, before any recording is read
+    mapping = None if mapping is None else MappingSpec.load(mapping)  # checked once, before any recording is read
     hints: list[str] = []  # convention errors the raw recordings point to (recording_hints)
     train = load_floating(study.data, model, preprocess, swing_rows=opts.swing_rows, mapping=mapping, hints=hints)
     flipped = flipped_floating_signs(model, train) if opts.rows != "base" else []  # one warning, as a fixed base's

@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from pinid.data.dataset import Dataset
+from pinid.data.preprocess import Preprocessing
 from pinid.errors import SpecError
 from pinid.model.robot import RobotModel
 from pinid.model.terms import TermSelection
@@ -59,7 +60,10 @@ _CHECKS: dict[str, tuple] = {
     ),
     "terms": (lambda v: isinstance(v, (TermSelection, str, list, tuple)), 'a TermSelection, "fc,fv", a list or "auto"'),
     "mapping": (lambda v: v is None or not isinstance(v, (bool, numbers.Number)), "a mapping spec, its TOML or dict"),
-    "preprocess": (_optional(bool, Mapping), "True, False, None or a mapping of preprocessing settings"),
+    "preprocess": (
+        _optional(bool, Mapping, Preprocessing),
+        "a Preprocessing, a dict of its options, True, False or None",
+    ),
     "rest_velocity": (
         lambda v: v is None or _real(v) or isinstance(v, (str, list, tuple, np.ndarray)),
         'a speed [rad/s], one per joint, "auto" or None',
@@ -95,7 +99,8 @@ class Study:
     """What is identified, from what: ``model`` (a RobotModel, URDF path or bundled robot's name, resolved once
     to a RobotModel), ``data`` (training recordings: Datasets, paths, a floating base's samples), ``validate``
     (recordings or ``{label: recordings}``), ``terms`` (default Coulomb and viscous friction; ``"auto"``),
-    ``mapping`` (the recordings' mapping spec), ``preprocess``, ``rest_velocity`` [rad/s] (default ``"auto"``)
+    ``mapping`` (the recordings' mapping spec), ``preprocess`` (a :class:`~pinid.data.preprocess.Preprocessing`
+    or its dict form, kept as the dict: :meth:`~pinid.data.preprocess.Preprocessing.normalize`), ``rest_velocity`` [rad/s] (default ``"auto"``)
     and ``rest_fraction`` (the rows at rest dropped), ``payload`` with ``payload_data`` (drive gains from
     currents), ``stribeck_velocity`` [rad/s] and ``stribeck_shape``, ``fit_joints``, ``delay`` [s],
     ``floating`` (:class:`~pinid.identification.floating.FloatingOptions` of a floating base), ``segmental``
@@ -141,6 +146,8 @@ class Study:
             value = getattr(self, name)
             if not accepts(value):
                 raise SpecError(f"Study {name}: got {type(value).__name__}, expected {expected}")
+        # carried as its dict form from here on (the numbers of the dict form): the one conversion
+        object.__setattr__(self, "preprocess", Preprocessing.normalize(self.preprocess, "Study preprocess"))
 
     @classmethod
     def from_manifest(cls, manifest, model=None, **fields) -> "Study":

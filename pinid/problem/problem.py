@@ -45,7 +45,7 @@ from __future__ import annotations
 
 import os
 import weakref
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field
 from typing import ClassVar, Protocol, runtime_checkable
 from collections.abc import Iterator, Mapping, Sequence
 
@@ -705,39 +705,39 @@ def free_angles(model: RobotModel) -> list[str]:
 def prepare_dataset(ds: Dataset, preprocess: Mapping | bool | None = None, *, unwrap=()) -> Dataset:
     """Fill ``dq`` and ``ddq`` when missing (pinid.data.preprocess.prepare with defaults from the sample rate).
 
-    ``preprocess``: None — prepare only recordings without ``dq`` or ``ddq``; a dict — always prepare,
-    with these options (``cutoff``, ``preset``, ``differentiation``, ``trim`` …); False — never.
+    ``preprocess``: None — prepare only recordings without ``dq`` or ``ddq``; a Preprocessing or its dict form
+    — always prepare, with these options (``cutoff``, ``preset``, ``trim`` …); False — never.
     ``unwrap``: joints whose angles are unwrapped when the recording is prepared (:func:`free_angles`).
     """
     ds = as_dataset(ds)
-    _check_preprocess(preprocess)
+    preprocess = _check_preprocess(preprocess)
     needs = ds.dq is None or ds.ddq is None
     if preprocess is False or (preprocess is None and not needs):
         return ds
     # imported only when a recording is actually filtered
     from pinid.data.preprocess import prepare
 
-    return prepare(ds, {"unwrap": list(unwrap), **(dict(preprocess) if isinstance(preprocess, Mapping) else {})})
+    options = dict(preprocess) if isinstance(preprocess, dict) else {}
+    unwrap = list(dict.fromkeys([*unwrap, *options.pop("unwrap", ())]))  # the model's free angles and the options'
+    return prepare(ds, {"unwrap": unwrap, **options})
 
 
-def _check_preprocess(preprocess) -> None:
-    """SpecError unless ``preprocess`` is None, True, False or a dict of :func:`pinid.data.preprocess.prepare`
-    options (``{"cutof": 5}`` names the unknown key and the known ones)."""
-    if preprocess is None or isinstance(preprocess, bool):
-        return
-    if not isinstance(preprocess, Mapping):
-        raise SpecError(f"preprocess: got {type(preprocess).__name__}, expected a dict of options, True, False or None")
+def _check_preprocess(preprocess) -> dict | bool | None:
+    """``preprocess`` in its dict form (:meth:`pinid.data.preprocess.Preprocessing.normalize`); SpecError unless
+    it is None, True, False, a Preprocessing or a dict of :func:`pinid.data.preprocess.prepare` options
+    (``{"cutof": 5}`` names the unknown key and the known ones)."""
     from pinid.data.preprocess import Preprocessing
 
+    preprocess = Preprocessing.normalize(preprocess)
+    if preprocess is None or isinstance(preprocess, bool):
+        return preprocess
     if isinstance(preprocess.get("cutoff"), str):
         raise SpecError(
             f"cut-off {preprocess['cutoff']!r} here: only identify and compare choose the cut-off (auto); "
             "expected a frequency [Hz]"
         )
-    known = [f.name for f in fields(Preprocessing) if f.name != "unwrap"]
-    unknown = [k for k in preprocess if k not in known]
-    if unknown:
-        raise SpecError(f"preprocess: unknown option(s) {unknown}, expected some of {', '.join(known)}")
+    Preprocessing.from_dict(preprocess)  # an unknown key, an unwrap that is no list: SpecError naming it
+    return preprocess
 
 
 def recorded_torque(ds: Dataset) -> np.ndarray:

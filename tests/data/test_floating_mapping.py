@@ -162,3 +162,41 @@ def test_joint_and_floating_sources_keep_one_common_time_span(exo, tmp_path):
     write("ft.csv", ["t"] + wc, t <= 0.4)
     with pytest.raises(DataError, match=r"no common time span"):
         read_recording(tmp_path / "main.csv", model=exo, mapping=tmp_path / "map.toml")
+
+
+def test_one_mapping_class_for_fixed_and_floating_bases(exo, tmp_path):
+    """Issue 32: a mapping spec is one MappingSpec whatever the base; its [floating] table is an optional field
+    (floating column → ColumnRef, units converted to SI), read with the joints by read_all; a [floating] table
+    for a fixed-base robot (or no model) is one line."""
+    import pinid.data.contacts as contacts
+    from pinid.data.mapping import MappingSpec
+
+    assert not hasattr(contacts, "FloatingMapping") and not hasattr(contacts, "floating_mapping")
+    spec = MappingSpec.load(
+        {
+            "time": "t",
+            "joints": {"l_knee": {"q": "k"}},
+            "floating": {"wrench_pelvis_fz": {"column": "f", "scale": "kN"}, "contact_r_sole": "c"},
+        }
+    )
+    assert (
+        list(spec.floating) == ["wrench_pelvis_fz", "contact_r_sole"] and spec.floating["wrench_pelvis_fz"].scale == 1e3
+    )
+    assert MappingSpec.load({"time": "t", "joints": {"l_knee": {"q": "k"}}}).floating == {}
+    (tmp_path / "d.csv").write_text("t,k,f,c\n0,0.1,0.5,1\n0.01,0.2,0.25,0\n")
+    ds, columns = spec.read_all(tmp_path / "d.csv")
+    np.testing.assert_array_equal(ds.q[:, 0], [0.1, 0.2])
+    np.testing.assert_array_equal(columns["wrench_pelvis_fz"], [500.0, 250.0])  # kN → N
+    np.testing.assert_array_equal(columns["contact_r_sole"], [1.0, 0.0])
+    assert spec.read(tmp_path / "d.csv").n == 2
+    for model in (RobotModel.from_urdf("exo_leg"), None):
+        with pytest.raises(SpecError) as err:
+            read_recording(tmp_path / "d.csv", model=model, mapping=spec)
+        assert "a [floating] table (wrench_pelvis_fz, contact_r_sole)" in str(err.value)
+        assert "expected a floating model" in str(err.value) and "\n" not in str(err.value)
+    (tmp_path / "map.toml").write_text('time = "t"\n[joints.knee]\nq = "k"\n[floating]\ncontact_r_sole = "c"\n')
+    proc = run_cli(
+        "identify", "--urdf", "exo_leg", "--data", "d.csv", "--mapping", "map.toml", "-o", "out", cwd=tmp_path
+    )
+    assert_clean_error(proc, "expected a floating model")
+    assert not (tmp_path / "out").exists()

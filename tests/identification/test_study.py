@@ -107,3 +107,34 @@ def test_ols_of_a_study_is_least_squares_on_its_rows(leg):
     x, *_ = np.linalg.lstsq(s.problem.W, s.problem.tau, rcond=None)
     got = identify(study, ["ols"])["ols"].base
     np.testing.assert_allclose(got, x, rtol=1e-10, atol=1e-10 * np.abs(x).max())
+
+
+def test_a_preprocessing_object_gives_the_numbers_of_its_dict_form(leg):
+    """``Study(preprocess=Preprocessing(...))`` is carried as the dict of the options it sets: the prepared rows
+    and the fit are those of the dict form, bit for bit (identify and compare alike); a wrong type is one line."""
+    from pinid.data.preprocess import Preprocessing
+
+    data = twin(leg, seconds=8, rate=500, seed=4, noise=0.05)
+    data = Dataset(data.t, data.q, data.joints, tau=data.tau, source="raw")  # no dq, ddq: prepared
+    val = twin(leg, seconds=4, rate=500, seed=5, noise=0.05)
+    as_object = Study(leg, data, validate=val, preprocess=Preprocessing(cutoff=6.0, order=2, trim=0.5))
+    as_dict = Study(leg, data, validate=val, preprocess={"cutoff": 6.0, "order": 2, "trim": 0.5})
+    assert as_object.preprocess == {"cutoff": 6.0, "order": 2, "trim": 0.5} == as_dict.preprocess
+    assert Study(leg, data, preprocess=Preprocessing()).preprocess == {}  # the defaults: prepared as with {}
+    a, b = runner.setup(as_object), runner.setup(as_dict)
+    assert np.array_equal(a.problem.W, b.problem.W) and np.array_equal(a.problem.tau, b.problem.tau)
+    default = runner.setup(Study(leg, data, validate=val, preprocess={}))
+    assert a.problem.W.shape != default.problem.W.shape  # the options do act (trim 0.5 s, not the default)
+    got, want = identify(as_object, "ols"), identify(as_dict, "ols")
+    assert np.array_equal(got["ols"].base, want["ols"].base)
+    assert got["ols"].validation == want["ols"].validation
+    # the truth is recovered through the object form: validation error at the torque noise (0.05 N·m)
+    assert got["ols"].validation.all["rms"] < 0.08
+    c1, c2 = compare(as_object, ["ols"], seeds=1), compare(as_dict, ["ols"], seeds=1)
+    r1, r2 = c1.to_dict()["runs"]["ols"][0], c2.to_dict()["runs"]["ols"][0]
+    assert r1["base"] == r2["base"] and r1["validation"] == r2["validation"]
+    with pytest.raises(SpecError) as err:
+        Study(leg, data, preprocess="cutoff=6")
+    assert str(err.value).startswith("Study preprocess: got str, expected a Preprocessing") and "\n" not in str(
+        err.value
+    )
