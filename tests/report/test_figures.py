@@ -70,6 +70,23 @@ def test_workers_started_ahead_draw_the_same_bytes_and_are_used_once():
     assert figures._started is None
 
 
+def _no_figure(message: str):
+    raise ValueError(message)
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="worker processes are forked on Linux only")
+def test_a_recipe_failing_in_the_workers_started_ahead_raises_here_and_they_stop():
+    import pinid.report.figures as figures
+
+    figures.start_figure_workers(2)
+    loader = figures._started
+    with pytest.raises(ValueError, match="no such figure"):
+        render_pngs({"bad": (_no_figure, ("no such figure",), {})})
+    assert figures._started is None
+    loader._process.join(timeout=10)
+    assert loader._process.exitcode == 0
+
+
 def _torque_recipes(methods=("ols", "wls", "sdp")):
     """Torque figures of several methods on one recording, keyed as the report's (``torque_<method>``)."""
     t = np.arange(4000) / 1000.0
