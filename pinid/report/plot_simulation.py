@@ -9,7 +9,7 @@ import numpy as np
 
 from pinid.checks import as_floats
 from pinid.errors import SpecError
-from pinid.report.figures import fixed_layout, new_figure
+from pinid.report.figures import envelope, fixed_layout, new_figure
 
 
 def _columns(x, name: str, n: int, nv: int) -> np.ndarray:
@@ -22,29 +22,9 @@ def _columns(x, name: str, n: int, nv: int) -> np.ndarray:
 
 
 #: At most this many points per drawn line: a 60 s recording at 1 kHz is 60 000 samples a line, which
-#: matplotlib draws in about a second per figure; 2000 points look the same at the figure's width.
+#: matplotlib draws in about a second per figure; 2000 points (each of 1000 runs' minimum and maximum,
+#: :func:`pinid.report.figures.envelope`) look the same at the figure's width.
 _MAX_POINTS = 2_000
-
-
-def _envelope(n: int, max_points: int = _MAX_POINTS) -> np.ndarray | None:
-    """Bucket edges for :func:`_decimated`: None when ``n`` samples need no thinning."""
-    if n <= max_points:
-        return None
-    return np.linspace(0, n, max_points // 2 + 1).astype(int)
-
-
-def _decimated(t: np.ndarray, y: np.ndarray, edges: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
-    """``(t, y)`` thinned to each bucket's minimum and maximum, in time order (peaks and spikes stay
-    visible, unlike every k-th sample); unchanged when ``edges`` is None."""
-    if edges is None:
-        return t, y
-    keep = []
-    for a, b in zip(edges[:-1], edges[1:]):
-        seg = y[a:b]
-        i, k = a + int(np.argmin(seg)), a + int(np.argmax(seg))
-        keep += [min(i, k), max(i, k)] if i != k else [i]
-    idx = np.asarray(keep)
-    return t[idx], y[idx]
 
 
 def simulation_figure(
@@ -79,13 +59,12 @@ def simulation_figure(
         _columns(x, k, n, nv) for x, k in ((reference, "reference"), (simulated, "simulated"), (torque, "torque"))
     )
     err = 1e3 * (sim - ref)
-    edges = _envelope(n)
     fig, axes = new_figure(nv, 3, figsize=(12.0, 0.9 + 1.9 * nv), sharex=True, squeeze=False)
     for j, joint in enumerate(joints):
         ax_q, ax_e, ax_t = axes[j]
-        ax_q.plot(*_decimated(t, ref[:, j], edges), "k--", lw=1.0, label=position_labels[0])
-        ax_q.plot(*_decimated(t, sim[:, j], edges), lw=0.9, color="C0", label=position_labels[1])
-        ax_e.plot(*_decimated(t, err[:, j], edges), lw=0.7, color="C3")
+        ax_q.plot(*envelope(t, ref[:, j], _MAX_POINTS // 2), "k--", lw=1.0, label=position_labels[0])
+        ax_q.plot(*envelope(t, sim[:, j], _MAX_POINTS // 2), lw=0.9, color="C0", label=position_labels[1])
+        ax_e.plot(*envelope(t, err[:, j], _MAX_POINTS // 2), lw=0.7, color="C3")
         rms = float(np.sqrt(np.mean(err[:, j] ** 2)))
         ax_e.text(
             0.99,
@@ -97,7 +76,7 @@ def simulation_figure(
             ha="right",
             bbox={"fc": "white", "alpha": 0.8, "lw": 0},
         )
-        ax_t.plot(*_decimated(t, tau[:, j], edges), lw=0.6, color="C2")
+        ax_t.plot(*envelope(t, tau[:, j], _MAX_POINTS // 2), lw=0.6, color="C2")
         ax_q.set_ylabel(f"{joint}\nq [rad]")
         ax_e.set_ylabel("error [mrad]")
         ax_t.set_ylabel("τ [N·m]")

@@ -70,6 +70,23 @@ def test_workers_started_ahead_draw_the_same_bytes_and_are_used_once():
     assert figures._started is None
 
 
+def _no_figure(message: str):
+    raise ValueError(message)
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="worker processes are forked on Linux only")
+def test_a_recipe_failing_in_the_workers_started_ahead_raises_here_and_they_stop():
+    import pinid.report.figures as figures
+
+    figures.start_figure_workers(2)
+    loader = figures._started
+    with pytest.raises(ValueError, match="no such figure"):
+        render_pngs({"bad": (_no_figure, ("no such figure",), {})})
+    assert figures._started is None
+    loader._process.join(timeout=10)
+    assert loader._process.exitcode == 0
+
+
 def _torque_recipes(methods=("ols", "wls", "sdp")):
     """Torque figures of several methods on one recording, keyed as the report's (``torque_<method>``)."""
     t = np.arange(4000) / 1000.0
@@ -184,3 +201,97 @@ def test_parameter_plausibility_marks_sigma_truth_and_inconsistent_methods():
     assert len(bars) == 1 and len(bars[0].get_segments()) == 3  # ±2σ for sdp only, none for pso
     half = [abs(seg[1][0] - seg[0][0]) / 2 for seg in bars[0].get_segments()]
     np.testing.assert_allclose(half, [0.1, 0.04, 0.04])  # 2σ / scale
+
+
+def test_envelope_keeps_every_runs_first_minimum_and_maximum_in_time_order():
+    """Issue 35: a thinned line covers the pixels of every sample: each run keeps its extremes."""
+    from pinid.report.figures import envelope
+
+    rng = np.random.default_rng(0)
+    n, columns = 26_001, 950
+    t = np.arange(n) / 5000.0
+    y = np.cumsum(rng.normal(size=n))
+    y[[5, 12_345, n - 1]] = [80.0, -90.0, 70.0]  # single-sample spikes that every 13th sample would miss
+    te, ye = envelope(t, y, columns)
+    assert len(te) <= 2 * columns and np.all(np.diff(te) > 0)
+    idx = np.searchsorted(t, te)
+    np.testing.assert_array_equal(y[idx], ye)  # samples of the line, not new points
+    starts = np.linspace(0, n, columns + 1).astype(int)
+    for a, b in zip(starts[:-1], starts[1:]):
+        kept = idx[(idx >= a) & (idx < b)]
+        assert a + np.argmin(y[a:b]) in kept and a + np.argmax(y[a:b]) in kept
+        assert len(kept) <= 2
+    assert {80.0, -90.0, 70.0} <= set(ye)
+    short = np.arange(10.0)
+    assert envelope(short, short, 5)[1] is not None and len(envelope(short, short, 5)[1]) == 10  # no thinning
+    gap = y.copy()
+    gap[100] = np.nan  # a gap stays a gap: drawn as recorded
+    assert len(envelope(t, gap, columns)[1]) == n
+
+
+def _panels(plt):
+    fig, axes = plt.subplots(3, 1, figsize=(6, 6), sharex=True)
+    t = np.linspace(0.0, 7.3, 500)
+    axes[0].plot(t, np.sin(t) * 3.7)
+    axes[1].plot(t, np.exp(t))
+    axes[1].set_yscale("log")
+    axes[2].plot(t, 100 * np.cos(3 * t))
+    axes[2].set_yticks([-100, 0, 50])
+    fig.tight_layout()
+    return fig
+
+
+def test_ticks_in_view_draw_the_same_pixels_with_fewer_ticks():
+    """Issue 35: ticks outside the view are never drawn; without their objects the picture is the same."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.figure
+    import matplotlib.pyplot as plt
+
+    from pinid.report.figures import DPI, ticks_in_view
+
+    real = matplotlib.figure.Figure.tight_layout
+
+    def tight(self, *args, **kwargs):  # wrapped before the layout pass, as new_figure does
+        ticks_in_view(self)
+        return real(self, *args, **kwargs)
+
+    def drawn(wrap: bool):
+        matplotlib.figure.Figure.tight_layout = tight if wrap else real
+        try:
+            fig = _panels(plt)
+        finally:
+            matplotlib.figure.Figure.tight_layout = real
+        fig.set_dpi(DPI)
+        fig.canvas.draw()
+        pixels = np.asarray(fig.canvas.buffer_rgba()).copy()
+        ticks = sum(len(a.majorTicks) + len(a.minorTicks) for ax in fig.axes for a in (ax.xaxis, ax.yaxis))
+        plt.close(fig)
+        return pixels, ticks
+
+    plain, plain_ticks = drawn(False)
+    ours, our_ticks = drawn(True)
+    np.testing.assert_array_equal(ours, plain)
+    assert our_ticks < plain_ticks
+
+
+def test_ticks_in_view_follow_the_view_and_the_locator_params():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from pinid.report.figures import png_bytes
+
+    fig, ax = new_figure()
+    ax.plot([0.0, 10.0], [0.0, 1.0])
+    png_bytes(fig)
+    assert list(ax.get_xticks()) == [0.0, 2.0, 4.0, 6.0, 8.0, 10.0]
+    ax.set_xlim(0.0, 100.0)
+    png_bytes(fig)
+    assert list(ax.get_xticks()) == [0.0, 20.0, 40.0, 60.0, 80.0, 100.0]
+    ax.locator_params(axis="x", nbins=2)
+    png_bytes(fig)
+    assert list(ax.get_xticks()) == [0.0, 50.0, 100.0]
+    import matplotlib.pyplot as plt
+
+    plt.close(fig)
