@@ -2,7 +2,7 @@
 public function or method takes more than 10 parameters (today's offenders listed, so the list only shrinks).
 
 That docs/api.md is the current ``python -m pinid.docgen api`` output is
-tests/test_demo.py::test_api_reference_is_generated_from_docstrings (docs/cli.md: the test beside it).
+tests/cli/test_demo_command.py::test_api_reference_is_generated_from_docstrings (docs/cli.md: the test beside it).
 """
 
 from __future__ import annotations

@@ -175,3 +175,25 @@ def test_cli_drive_gain_errors(tmp_path, extra, fragment):
     r = _identify(tmp_path, *[e.format(d=tmp_path) for e in extra])
     assert_clean_error(r, fragment)
     assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize(
+    "toml, fragment",
+    [
+        ("mass = 1e300", "expected a mass from 0.001 to 10000 kg"),
+        ("mass = true", "mass = True, expected 1 finite number"),
+        ('mass = "2"', "expected 1 finite number"),
+        ("mass = 2\ncom = [0, 0, true]", "com = [0, 0, True]"),
+        ("mass = 2\ncom = [1e200, 0, 0]", "within ±10 m"),
+        ("mass = 2\ninertia = [1, 0.1, 0.1, 0, 0, 0]", "larger than the sum of the other two"),
+        ("mass = 2\ninertia = [-1, 0, 0, 0, 0, 0]", "negative principal moment"),
+        ("mass = 0.001\ninertia = [1, 1, 1, 0, 0, 0]", "above mass × (10 m)²"),
+    ],
+)
+def test_payload_values_checked(tmp_path, toml, fragment):
+    """Item 6: payload numbers are numbers (not booleans), finite, in physical ranges; a physical inertia."""
+    path = tmp_path / "p.toml"
+    path.write_text(toml + "\n")
+    with pytest.raises(SpecError) as err:
+        Payload.load(path)
+    assert fragment in str(err.value) and str(path) in str(err.value)

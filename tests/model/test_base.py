@@ -12,7 +12,7 @@ import pytest
 
 from pinid import RobotModel, TermSelection, standard_parameters
 from pinid.identification.study import Study
-from pinid.errors import SpecError
+from pinid.errors import ModelError, SpecError
 from pinid.identification.identified import IdentifiedModel
 from pinid.identification.result import IdentificationResult
 from pinid.model.base import base_parameters, identifiability
@@ -174,3 +174,19 @@ def test_rows_are_the_floating_bases_choice():
         base_parameters(floating, rows="feet")
     with pytest.raises(SpecError, match="not available with a floating base"):
         base_parameters(floating, joints=floating.joint_names[:2])
+
+
+def test_overflowing_regressor_is_a_model_error(monkeypatch):
+    """base.py itself refuses columns that overflow (whatever made them), instead of an IndexError."""
+    import pinid.model.base as base
+
+    real = base.regressor
+
+    def overflowing(*args, **kwargs):
+        W = real(*args, **kwargs)
+        W[:, -1] = np.inf  # what a ratio of 1e200 made of the motor columns
+        return W
+
+    monkeypatch.setattr(base, "regressor", overflowing)
+    with pytest.raises(ModelError, match=r"exo_leg: the regressor columns of knee.fv overflow"):
+        base.base_parameters(load("exo_leg"))

@@ -13,6 +13,8 @@ from pinid.wearer.attach import wearer_urdf
 from pinid.wearer.prior import drawn as _perturbed, wearer_prior
 from pinid.wearer.options import WearerOptions
 from pinid.wearer.stage import identify_wearer
+from pinid.errors import SpecError
+from conftest import load
 
 
 @pytest.fixture(scope="module")
@@ -206,3 +208,17 @@ def test_rows_at_rest_are_left_out_when_asked(setup):
     for bad in ("fast", -1.0, [0.1, 0.2, 0.3], float("nan")):
         with pytest.raises(SpecError, match="rest_velocity"):
             identify_wearer(stage1, path, q, dq, ddq, tau, options=WearerOptions(rest_velocity=bad))
+
+
+def test_consistency_check_names_problem():
+    """Item 3 from Python: identify_wearer refuses the inconsistent model before reading any data."""
+    from pinid.wearer.stage import check_stage1
+
+    exo = load("exo_leg")
+    terms = TermSelection.from_names("fv")
+    theta = standard_parameters(exo, terms)
+    theta[10] = -50.0
+    bad = IdentifiedModel(exo, terms, theta)
+    with pytest.raises(SpecError, match="knee: pseudo-inertia"):
+        check_stage1(bad, exo)
+    check_stage1(IdentifiedModel(exo, terms, standard_parameters(exo, terms)), exo)  # the exo itself passes

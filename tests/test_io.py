@@ -8,7 +8,7 @@ import os
 import pytest
 
 from conftest import assert_clean_error, run_cli
-from pinid.errors import OutputError, PinidError
+from pinid.errors import ModelError, OutputError, PinidError, SpecError
 from pinid.io import Artefacts
 
 
@@ -276,3 +276,16 @@ def test_an_error_in_the_block_stops_the_writers(tmp_path):
             raise KeyboardInterrupt
     assert time.perf_counter() - t0 < 10
     assert not (tmp_path / "late.txt").exists()
+
+
+def test_bounded_reader(tmp_path):
+    from pinid.io import read_bounded_file
+
+    (tmp_path / "a.toml").write_bytes(b"x" * 100)
+    assert read_bounded_file(tmp_path / "a.toml", "spec", limit=100) == b"x" * 100
+    with pytest.raises(SpecError, match="100 bytes, larger than a spec should be"):
+        read_bounded_file(tmp_path / "a.toml", "spec", limit=99)
+    with pytest.raises(SpecError, match="--spec .*: is a folder"):
+        read_bounded_file(tmp_path, "spec", option="--spec")
+    with pytest.raises(ModelError, match="file not found"):
+        read_bounded_file(tmp_path / "none.urdf", "URDF", error=ModelError)
