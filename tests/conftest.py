@@ -179,3 +179,21 @@ def recording(tmp_path_factory) -> Path:
     ]
     path.write_text("\n".join(rows) + "\n")
     return path
+
+
+@pytest.fixture(scope="session")
+def good_csv(tmp_path_factory) -> Path:
+    """A short, valid recording of exo_leg (CSV, 2 s at 1 kHz: t, q_hip, q_knee, tau_hip, tau_knee); the CLI's
+    bad-input tests change one thing in it."""
+    import numpy as np
+
+    folder = tmp_path_factory.mktemp("good")
+    t = np.arange(2000) / 1000.0
+    q = np.c_[0.6 + 0.4 * np.sin(2 * t), -0.9 + 0.4 * np.sin(3 * t)]
+    tau = np.c_[5 + np.sin(2 * t), 1 + np.cos(3 * t)]
+    path = folder / "good.csv"
+    rows = ["t,q_hip,q_knee,tau_hip,tau_knee"] + [
+        ",".join(f"{v:.9g}" for v in (ti, *qi, *ti_)) for ti, qi, ti_ in zip(t, q, tau)
+    ]
+    path.write_text("\n".join(rows) + "\n")
+    return path

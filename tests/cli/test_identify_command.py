@@ -23,21 +23,6 @@ from pinid.model.terms import TermSelection
 from pinid.wearer.attach import wearer_urdf
 
 
-@pytest.fixture(scope="module")
-def good_csv(tmp_path_factory) -> Path:
-    """A short, valid twin recording of exo_leg (2 s, 1 kHz)."""
-    folder = tmp_path_factory.mktemp("good")
-    t = np.arange(2000) / 1000.0
-    q = np.c_[0.6 + 0.4 * np.sin(2 * t), -0.9 + 0.4 * np.sin(3 * t)]
-    tau = np.c_[5 + np.sin(2 * t), 1 + np.cos(3 * t)]
-    path = folder / "good.csv"
-    rows = ["t,q_hip,q_knee,tau_hip,tau_knee"] + [
-        ",".join(f"{v:.9g}" for v in (ti, *qi, *ti_)) for ti, qi, ti_ in zip(t, q, tau)
-    ]
-    path.write_text("\n".join(rows) + "\n")
-    return path
-
-
 def _identify(tmp_path, data: Path, *extra: str):
     out = tmp_path / "results"
     proc = run_cli("identify", "--urdf", "exo_leg", "--data", str(data), "--methods", "ols", "-o", str(out), *extra)

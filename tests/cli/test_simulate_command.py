@@ -6,29 +6,12 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
-import numpy as np
-import pytest
 from conftest import assert_clean_error, run_cli
 
 ROOT = Path(__file__).resolve().parents[2]
 EXO = (ROOT / "urdf" / "exo_leg.urdf").read_text()
 KNEE_ORIGIN = '<origin xyz="0 0 -0.42" rpy="0 0 0"/>'
 EXCITATION = str(ROOT / "excitation" / "exo_leg.json")
-
-
-@pytest.fixture(scope="module")
-def good_csv(tmp_path_factory) -> Path:
-    """A short, valid twin recording of exo_leg (2 s, 1 kHz)."""
-    folder = tmp_path_factory.mktemp("good")
-    t = np.arange(2000) / 1000.0
-    q = np.c_[0.6 + 0.4 * np.sin(2 * t), -0.9 + 0.4 * np.sin(3 * t)]
-    tau = np.c_[5 + np.sin(2 * t), 1 + np.cos(3 * t)]
-    path = folder / "good.csv"
-    rows = ["t,q_hip,q_knee,tau_hip,tau_knee"] + [
-        ",".join(f"{v:.9g}" for v in (ti, *qi, *ti_)) for ti, qi, ti_ in zip(t, q, tau)
-    ]
-    path.write_text("\n".join(rows) + "\n")
-    return path
 
 
 def _write(tmp_path, text: str | bytes, name: str = "rec.csv") -> Path:
