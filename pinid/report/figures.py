@@ -4,6 +4,7 @@ never call ``plt.show()``, take ``ax=None`` where a single axes fits, and return
 from __future__ import annotations
 
 import functools
+import contextlib
 import gc
 import os
 import signal
@@ -266,8 +267,11 @@ def _load_and_draw(conn, caller_end, n: int) -> None:
             out = ("error", exc)
         try:
             conn.send(out)
+        except (BrokenPipeError, ConnectionResetError):  # the caller is gone (interrupted): nothing to say
+            pass
         except Exception as exc:  # noqa: BLE001 (an exception that does not pickle)
-            conn.send(("error", RuntimeError(f"drawing a figure failed: {type(exc).__name__}: {exc}")))
+            with contextlib.suppress(OSError):
+                conn.send(("error", RuntimeError(f"drawing a figure failed: {type(exc).__name__}: {exc}")))
     pool.shutdown(cancel_futures=True)
 
 
