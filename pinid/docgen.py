@@ -75,6 +75,7 @@ API_MODULES: tuple[tuple[str, str], ...] = (
     ("pinid.identification.study", "The study: model, recordings, preprocessing, rows, terms"),
     ("pinid.identification.run", "Identification"),
     ("pinid.problem.problem", "The identification problem"),
+    ("pinid.problem.recordings", "Recordings read and prepared for the problem, whatever the base"),
     ("pinid.problem.rows", "Which rows enter the fit (fit joints, rest)"),
     ("pinid.problem.cache", "What a problem computes once and keeps"),
     ("pinid.identification.result", "Identification results"),

@@ -3,7 +3,7 @@
 :func:`prepare` does, in this order:
 
 0. **Unwrapping.**  Joints named in ``unwrap`` (angles without limits: continuous joints, and revolute
-   joints whose URDF gives no limits; :func:`~pinid.problem.problem.load_datasets` passes them)
+   joints whose URDF gives no limits; :func:`~pinid.problem.recordings.load_datasets` passes them)
    are unwrapped first (``numpy.unwrap``): a logger that wraps them to [−π, π) makes a 2π jump that
    the filter and the derivatives would otherwise turn into a huge spike.  The joints changed are
    recorded in ``meta["preprocess"]["unwrapped"]``.
@@ -232,7 +232,7 @@ class Preprocessing:
     @classmethod
     def normalize(cls, value: "Preprocessing | Mapping | bool | None", what: str = "preprocess") -> dict | bool | None:
         """The one form the runners carry the preprocessing in (:class:`~pinid.identification.study.Study`,
-        :func:`~pinid.problem.problem.prepare_dataset`): None, True and False as they are, a mapping as a dict
+        :func:`~pinid.problem.recordings.prepare_dataset`): None, True and False as they are, a mapping as a dict
         (its keys checked where it is used), a :class:`Preprocessing` as the dict of the options it sets (those
         other than their defaults: ``Preprocessing(cutoff=8.0)`` → ``{"cutoff": 8.0}``, the numbers of the dict
         form).  SpecError (one line, naming ``what``) for anything else."""

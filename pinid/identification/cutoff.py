@@ -49,7 +49,7 @@ from pinid.identification.crossval import (
     fold_sums,
     not_worse,
 )
-from pinid.problem.problem import free_angles, prepare_dataset
+from pinid.problem.recordings import free_angles, prepare_dataset
 from pinid.result_protocol import ResultProtocol, panel
 
 #: Candidate cut-offs [Hz] (about three per decade); those the sample rate cannot carry are left out.

@@ -1,8 +1,9 @@
 """The floating base in the one pipeline (``pinid identify --base floating``, :func:`pinid.identification.run.identify`
 with a :class:`~pinid.model.floating.FloatingRobotModel`): a free flyer is a root joint, as in Pinocchio.
 
-What differs from a fixed base lives here and nowhere else: reading and preparing recordings with base motion
-and contact wrenches (:func:`load_floating`, in :func:`pinid.identification.run.setup`), stacking the 6 base rows
+What differs from a fixed base lives here and nowhere else: the convention errors a raw recording points to
+(:func:`recording_hints`, run by :func:`pinid.identification.run.setup` on each recording the one loader,
+:func:`pinid.problem.recordings.load_datasets`, reads and prepares for a floating model), stacking the 6 base rows
 with the joint rows (:func:`pinid.problem.floating.floating_problem`; :class:`FloatingOptions`), the validation rows, and the
 checks a floating recording needs (total mass, whole-body centre of mass, barely excited parameters, the
 convention errors a raw recording points to).  Fitting, σ, condition number, consistency, completion, the
@@ -14,20 +15,16 @@ from __future__ import annotations
 import os
 import warnings
 from collections.abc import Mapping
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
 from pinid.data.contacts import FloatingSamples
-from pinid.data.dataset import Dataset
-from pinid.data.formats import read_recording
-from pinid.data.preprocess import Preprocessing, prepare
 from pinid.errors import DataError, SpecError
 from pinid.estimators import make_estimator
 from pinid.identification.floating_checks import (
     com_warning,
     excitation_warning,
-    orientation_noise_warning,
 )
 from pinid.identification.metrics import TorqueMetrics, error_metrics, joint_units
 from pinid.io import read_json
@@ -87,50 +84,6 @@ def as_floating_options(value) -> FloatingOptions:
             )
         return FloatingOptions(**value)
     raise SpecError(f"floating: got {type(value).__name__}, expected FloatingOptions or a mapping of its fields")
-
-
-def load_floating(
-    items,
-    model: FloatingRobotModel,
-    preprocess=None,
-    what: str = "training",
-    *,
-    swing_rows: bool = False,
-    mapping=None,
-    hints: list[str] | None = None,
-) -> list[FloatingSamples]:
-    """Floating recordings (paths, Datasets with floating channels or prepared :class:`FloatingSamples`) read,
-    checked and prepared (``swing_rows``: accept contact phases without a wrench; ``mapping``: a mapping spec with
-    a ``[floating]`` table for files not in the dataset format, :func:`pinid.data.formats.read_recording`; ``hints``: a list
-    :func:`recording_hints` appends to; motion-capture orientation noise that biases at the default cut-off is
-    warned, :func:`~pinid.identification.floating_checks.orientation_noise_warning`)."""
-    if items is None:
-        return []
-    preprocess = Preprocessing.normalize(preprocess)
-    if isinstance(items, (FloatingSamples, Dataset, str, os.PathLike)):
-        items = [items]
-    out = []
-    for item in items:
-        if isinstance(item, FloatingSamples):
-            out.append(item)
-        elif isinstance(item, (str, os.PathLike)) or (isinstance(item, Dataset) and item.floating is not None):
-            if isinstance(item, Dataset):  # read or simulated for this model, or built by hand without one
-                rec = replace(item, floating=replace(item.floating, model=item.floating.model or model))
-            else:
-                rec = read_recording(item, model=model, swing_rows=swing_rows, mapping=mapping)
-            found = recording_hints(rec, model)
-            if hints is not None:
-                hints.extend(found)
-            orientation_noise_warning(rec, preprocess, rec.source if isinstance(item, Dataset) else str(item))
-            out.append(prepare(rec, preprocess))  # filtered with the options, or as it is with False
-        else:
-            raise DataError(
-                f"{what} recording: got {type(item).__name__}, expected a path, a Dataset with floating channels "
-                "or FloatingSamples"
-            )
-    if not out:
-        raise DataError(f"no {what} recording given")
-    return out
 
 
 @dataclass

@@ -28,10 +28,10 @@ from pinid.identification.offsets import check_offset_options, offset_validation
 from pinid.problem.problem import (
     IdentificationProblem,
     check_dataset,
-    load_datasets,
     predict_torque,
     recorded_torque,
 )
+from pinid.problem.recordings import load_datasets
 from pinid.problem.rows import fit_mask
 from pinid.identification.result import Identification
 from pinid.identification.runner import Setup, run_jobs
@@ -397,7 +397,7 @@ def identify(
     ``model``: a RobotModel, URDF path or robot name.  ``data`` / ``validate``: Datasets or recording
     paths (read with :func:`pinid.data.formats.read_recording` and ``mapping``).  Recordings without ``dq`` or
     ``ddq`` go through :func:`pinid.data.preprocess.prepare` (see
-    :func:`~pinid.problem.problem.prepare_dataset` for ``preprocess``).
+    :func:`~pinid.problem.recordings.prepare_dataset` for ``preprocess``).
     ``methods``: names from :data:`pinid.estimators.ESTIMATORS` (default ols, wls, sdp).  ``terms``: the
     joint terms in the model (default Coulomb and viscous friction; ``"auto"``: chosen on the training
     recordings, :mod:`pinid.identification.term_choice`).  ``rest_velocity``,
@@ -621,8 +621,9 @@ def _setup_floating(study: Study) -> Setup:
     ``study.rest_velocity`` is a speed (the fixed base's "auto" validated worse: docs/floating-base.md), and the
     validation rows.  ``Setup.floating`` keeps what the fits' validation and checks read."""
     from pinid.data.mapping import MappingSpec
-    from pinid.identification.floating import FloatingStack, as_floating_options, load_floating, refuse_fixed_only
-    from pinid.identification.floating_checks import flipped_floating_signs
+    from pinid.data.preprocess import Preprocessing
+    from pinid.identification.floating import FloatingStack, as_floating_options, recording_hints, refuse_fixed_only
+    from pinid.identification.floating_checks import flipped_floating_signs, orientation_noise_warning
     from pinid.identification.plausibility import shared_excitation
     from pinid.model.floating import as_floating
     from pinid.problem.floating import floating_problem
@@ -648,14 +649,20 @@ def _setup_floating(study: Study) -> Setup:
         validate = validate.get("validation")
     rest = None if isinstance(study.rest_velocity, str) else study.rest_velocity
     mapping = None if mapping is None else MappingSpec.load(mapping)  # checked once, before any recording is read
-    hints: list[str] = []  # convention errors the raw recordings point to (recording_hints)
-    train = load_floating(study.data, model, preprocess, swing_rows=opts.swing_rows, mapping=mapping, hints=hints)
+    hints: list[str] = []  # convention errors the raw training recordings point to (recording_hints)
+
+    def check(rec, found: list | None = None) -> None:  # each raw recording: its conventions, orientation noise
+        (hints if found is None else found).extend(recording_hints(rec, model))
+        orientation_noise_warning(rec, Preprocessing.normalize(preprocess), rec.source)
+
+    load = dict(swing_rows=opts.swing_rows)
+    train = load_datasets(study.data, model, mapping, preprocess, check=check, **load)
     flipped = flipped_floating_signs(model, train) if opts.rows != "base" else []  # one warning, as a fixed base's
     rows = dict(rows=opts.rows, base_weight=opts.base_weight, rest_velocity=rest)
     problem = floating_problem(model, train, terms=terms, **rows)
     val, val_problem, sources = [], None, ", ".join(s.source for s in train)
     if validate:
-        val = load_floating(validate, model, preprocess, "validation", swing_rows=opts.swing_rows, mapping=mapping)
+        val = load_datasets(validate, model, mapping, preprocess, "validation", check=lambda r: check(r, []), **load)
         shared_excitation([r.data for r in train], [r.data for r in val])  # a repeat hides overfitting: warned
         val_problem = floating_problem(model, val, terms=problem.terms, base=problem.base, **rows)
     if not np.any(np.abs(problem.tau) > 1e-9 * max(1.0, float(np.max(np.abs(problem.tau), initial=0.0)))):

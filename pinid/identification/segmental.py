@@ -45,7 +45,8 @@ from pinid.errors import DataError, SpecError
 from pinid.estimators import ESTIMATORS, make_estimator
 from pinid.estimators.base import Estimator
 from pinid.problem.cache import ProblemCache
-from pinid.problem.problem import REST_FRACTION, IdentificationProblem, check_dataset, load_datasets, stack_rows
+from pinid.problem.problem import REST_FRACTION, IdentificationProblem, check_dataset, stack_rows
+from pinid.problem.recordings import load_datasets
 from pinid.problem.rows import rest_threshold
 from pinid.identification.result import IdentificationResult, make_result
 from pinid.linalg import augmented_r
@@ -354,7 +355,7 @@ def segmental_identify(
 
     ``first``: recording(s) with only ``first_joints`` moving (seed 000: trajectory 1, hip fixed);
     ``second``: recording(s) with every joint moving (trajectory 3).  Recordings without ``dq``/``ddq``
-    are prepared (:func:`pinid.problem.problem.prepare_dataset`).  The result's training metrics are over
+    are prepared (:func:`pinid.problem.recordings.prepare_dataset`).  The result's training metrics are over
     the second recordings' rows (both joints); ``info["segmental"]`` describes the stages.
     """
     if not isinstance(model, RobotModel):

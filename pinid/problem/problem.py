@@ -43,7 +43,6 @@ and read again by the Gram sums, the HAC σ and the predictions (issue 35); larg
 
 from __future__ import annotations
 
-import os
 import weakref
 from dataclasses import dataclass, field
 from typing import ClassVar, Protocol, runtime_checkable
@@ -53,8 +52,7 @@ import numpy as np
 import scipy.linalg
 
 from pinid.data.dataset import Dataset, as_dataset
-from pinid.data.formats import read_recording
-from pinid.errors import DataError, SpecError
+from pinid.errors import DataError
 from pinid.linalg import (
     RANK_TOL,
     augmented_r,
@@ -672,72 +670,6 @@ def base_regressor(
         if bar is not None:
             bar.update(stop - start)
     return out
-
-
-# ====================================================================== recordings
-def load_datasets(
-    items, model: RobotModel, mapping=None, preprocess: Mapping | bool | None = None, what: str = "training"
-) -> list[Dataset]:
-    """Recordings (Datasets or paths, one or several) read with ``mapping`` and prepared
-    (:func:`~pinid.problem.problem.prepare_dataset`); DataError when none is given."""
-    model = as_robot(model)
-    if items is None:
-        return []
-    if isinstance(items, (Dataset, str, os.PathLike)):
-        items = [items]
-    out = []
-    for item in items:
-        if not isinstance(item, (Dataset, str, os.PathLike)):
-            raise DataError(f"{what} recording: got {type(item).__name__}, expected a Dataset or a recording's path")
-        ds = item if isinstance(item, Dataset) else read_recording(item, mapping=mapping, model=model)
-        out.append(prepare_dataset(ds, preprocess, unwrap=free_angles(model)))
-    if not out:
-        raise DataError(f"no {what} recording given")
-    return out
-
-
-def free_angles(model: RobotModel) -> list[str]:
-    """Joints whose angle has no limits (continuous, or revolute without URDF limits): unwrapped in preprocessing."""
-    model = as_robot(model)
-    return [j.name for j in model.joints if j.kind != "prismatic" and np.isinf(j.lower) and np.isinf(j.upper)]
-
-
-def prepare_dataset(ds: Dataset, preprocess: Mapping | bool | None = None, *, unwrap=()) -> Dataset:
-    """Fill ``dq`` and ``ddq`` when missing (pinid.data.preprocess.prepare with defaults from the sample rate).
-
-    ``preprocess``: None — prepare only recordings without ``dq`` or ``ddq``; a Preprocessing or its dict form
-    — always prepare, with these options (``cutoff``, ``preset``, ``trim`` …); False — never.
-    ``unwrap``: joints whose angles are unwrapped when the recording is prepared (:func:`free_angles`).
-    """
-    ds = as_dataset(ds)
-    preprocess = _check_preprocess(preprocess)
-    needs = ds.dq is None or ds.ddq is None
-    if preprocess is False or (preprocess is None and not needs):
-        return ds
-    # imported only when a recording is actually filtered
-    from pinid.data.preprocess import prepare
-
-    options = dict(preprocess) if isinstance(preprocess, dict) else {}
-    unwrap = list(dict.fromkeys([*unwrap, *options.pop("unwrap", ())]))  # the model's free angles and the options'
-    return prepare(ds, {"unwrap": unwrap, **options})
-
-
-def _check_preprocess(preprocess) -> dict | bool | None:
-    """``preprocess`` in its dict form (:meth:`pinid.data.preprocess.Preprocessing.normalize`); SpecError unless
-    it is None, True, False, a Preprocessing or a dict of :func:`pinid.data.preprocess.prepare` options
-    (``{"cutof": 5}`` names the unknown key and the known ones)."""
-    from pinid.data.preprocess import Preprocessing
-
-    preprocess = Preprocessing.normalize(preprocess)
-    if preprocess is None or isinstance(preprocess, bool):
-        return preprocess
-    if isinstance(preprocess.get("cutoff"), str):
-        raise SpecError(
-            f"cut-off {preprocess['cutoff']!r} here: only identify and compare choose the cut-off (auto); "
-            "expected a frequency [Hz]"
-        )
-    Preprocessing.from_dict(preprocess)  # an unknown key, an unwrap that is no list: SpecError naming it
-    return preprocess
 
 
 def recorded_torque(ds: Dataset) -> np.ndarray:

@@ -27,7 +27,7 @@ import numpy as np
 from pinid.checks import count, number
 from pinid.errors import SpecError
 from pinid.identification.identified import IdentifiedModel
-from pinid.problem.problem import prepare_dataset
+from pinid.problem.recordings import prepare_dataset
 from pinid.model.terms import TermSelection
 from pinid.model.robot import RobotModel
 from pinid.simulation.twin import WearerLoad, simulate

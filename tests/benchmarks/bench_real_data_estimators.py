@@ -44,12 +44,8 @@ from pinid import TermSelection, RobotModel, base_parameters, standard_parameter
 from pinid.data.dataset import Dataset
 from pinid.data.formats import read_recording
 from pinid.estimators import make_estimator
-from pinid.problem.problem import (
-    IdentificationProblem,
-    free_angles,
-    predict_torque,
-    prepare_dataset,
-)
+from pinid.problem.problem import IdentificationProblem, predict_torque
+from pinid.problem.recordings import free_angles, prepare_dataset
 from pinid.model.physical import parameter_scale
 from pinid.simulation.trajectories import load_trajectory
 from pinid.simulation.twin import simulate

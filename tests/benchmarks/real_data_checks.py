@@ -21,7 +21,8 @@ from pinid import RobotModel
 from pinid.data.formats import read_recording
 from pinid.data.dataset import Dataset
 from pinid.estimators import make_estimator
-from pinid.problem.problem import IdentificationProblem, prepare_dataset
+from pinid.problem.problem import IdentificationProblem
+from pinid.problem.recordings import prepare_dataset
 
 ROOT = Path(__file__).resolve().parents[2]
 SPEC = ROOT / "docs" / "examples" / "double_pendulum.toml"

@@ -414,7 +414,7 @@ def test_track_model_with_other_joint_names(tmp_path):
 # ------------------------------------------------------------------ 15. continuous joints: wrapped data unwrapped
 def test_wrapped_continuous_joint_is_unwrapped(tmp_path):
     from pinid.data.dataset import Dataset
-    from pinid.problem.problem import free_angles, load_datasets
+    from pinid.problem.recordings import free_angles, load_datasets
 
     p = tmp_path / "continuous_hip.urdf"
     p.write_text(_exo_with('<joint name="hip" type="revolute">', '<joint name="hip" type="continuous">'))

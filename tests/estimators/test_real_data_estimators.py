@@ -17,7 +17,8 @@ import pytest
 from pinid.data.dataset import Dataset
 from pinid.errors import SpecError
 from pinid.estimators import make_estimator
-from pinid.problem.problem import IdentificationProblem, prepare_dataset
+from pinid.problem.problem import IdentificationProblem
+from pinid.problem.recordings import prepare_dataset
 from pinid.model.physical import check_consistency
 
 from test_identification import relative_errors, true_base, truth_model, twin

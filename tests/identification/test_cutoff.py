@@ -16,7 +16,7 @@ from pinid.identification.cutoff import CutoffChoice, candidate_cutoffs, choose_
 from pinid.identification.run import identify
 from pinid.model.base import base_parameters
 from pinid.model.terms import TermSelection
-from pinid.problem.problem import prepare_dataset
+from pinid.problem.recordings import prepare_dataset
 from test_identification import fourier_motion, truth_model
 
 TERMS = TermSelection(coulomb=True, viscous=True)

@@ -87,7 +87,8 @@ def test_motion_capture_orientation_noise_is_warned(exo, tmp_path):
     IMU; noise-free motion capture, an IMU or a given cut-off are not warned."""
     from pinid.data.formats import write_recording
     from pinid.errors import DataWarning
-    from pinid.identification.floating import load_floating
+    from pinid.identification.run import setup
+    from pinid.identification.study import Study
     from pinid.identification.floating_checks import orientation_noise, orientation_noise_warning
 
     from conftest import floating_excitation as excitation
@@ -99,7 +100,7 @@ def test_motion_capture_orientation_noise_is_warned(exo, tmp_path):
     assert 0.1 < sigma < 0.12 and on_acc > 0.3, (sigma, on_acc)
     path = write_recording(tmp_path / "noisy.csv", noisy)
     with pytest.warns(DataWarning, match=r"orientation noise 0\.1\d?° per axis .* --cutoff .* IMU"):
-        load_floating(path, exo)
+        setup(Study(exo, path))  # the floating setup checks each raw recording the loader reads
     with warnings.catch_warnings():
         warnings.simplefilter("error", DataWarning)
         assert orientation_noise_warning(run.recording, None, "clean") is None

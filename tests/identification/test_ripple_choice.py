@@ -12,7 +12,7 @@ from pinid.identification.study import Study
 from pinid.identification.ripple_choice import choose_ripple_periods, is_auto
 from pinid.model.terms import TermSelection
 from pinid.model.robot import RobotModel
-from pinid.problem.problem import load_datasets
+from pinid.problem.recordings import load_datasets
 from pinid.simulation.trajectories import load_trajectory
 from pinid.simulation.twin import simulate
 

@@ -13,7 +13,8 @@ import pytest
 from pinid.data.dataset import Dataset
 from pinid.identification.study import Study
 from pinid.identification.metrics import torque_metrics
-from pinid.problem.problem import prepare_dataset, recorded_torque
+from pinid.problem.problem import recorded_torque
+from pinid.problem.recordings import prepare_dataset
 from pinid.identification.run import identify
 from pinid.identification.uncertainty import COND_WARN, STD_WARN_PERCENT
 from conftest import assert_clean_error, run_cli

@@ -59,7 +59,7 @@ def test_kuka_chooses_the_offset_its_torque_sensors_need():
         pytest.skip("the shared KUKA recordings are not beside the clone")
     from pinid.data.formats import read_recording
     from pinid.model.robot import RobotModel
-    from pinid.problem.problem import prepare_dataset
+    from pinid.problem.recordings import prepare_dataset
 
     model = RobotModel.from_urdf(str(folder / "robot.urdf"))
     ds = read_recording(str(folder / "mext.csv"), model=model)

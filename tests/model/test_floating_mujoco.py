@@ -12,7 +12,7 @@ from pinid import RobotModel
 from pinid.identification.study import Study
 from pinid.estimators import make_estimator
 from pinid.excitation.trajectory import FourierTrajectory
-from pinid.identification.floating import load_floating
+from pinid.problem.recordings import load_datasets
 from pinid.identification.run import identify
 from pinid.model.terms import TermSelection
 from pinid.problem.floating import floating_problem
@@ -109,7 +109,7 @@ def test_mujoco_suspended_recording_recovers_the_urdf(exo, tmp_path):
     assert ident.base["names"][0] == "base.mR"
     for method in ("ols", "sdp"):
         assert abs(ident.results[method].base[0] - mass) <= 1e-4, method
-    problem = floating_problem(exo, load_floating(tmp_path / "mj.csv", exo), terms=NONE)
+    problem = floating_problem(exo, load_datasets(tmp_path / "mj.csv", exo), terms=NONE)
     error = np.abs(make_estimator("ols").fit(problem).base_ - problem.nominal_base) / problem.natural_scale
     assert problem.nb == 66 and np.median(error) <= 1e-4
 
@@ -118,6 +118,6 @@ def test_mujoco_force_left_in_the_world_frame_is_visibly_wrong(exo, tmp_path):
     """The same check fails when a convention is wrong (here MuJoCo's world-frame force written as the
     pelvis-frame wrench): the check is able to fail."""
     mujoco_suspended(tmp_path / "mj.csv", exo, world_frame_force=True)
-    problem = floating_problem(exo, load_floating(tmp_path / "mj.csv", exo), terms=NONE)
+    problem = floating_problem(exo, load_datasets(tmp_path / "mj.csv", exo), terms=NONE)
     error = np.abs(make_estimator("ols").fit(problem).base_ - problem.nominal_base) / problem.natural_scale
     assert np.median(error) > 1e-2
