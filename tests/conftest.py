@@ -197,3 +197,81 @@ def good_csv(tmp_path_factory) -> Path:
     ]
     path.write_text("\n".join(rows) + "\n")
     return path
+
+
+@pytest.fixture(scope="module")
+def rec(tmp_path_factory) -> Path:
+    """A 2 s exo_leg recording in the dataset format, in a folder of its own (``run.csv``, beside it
+    ``run_torque.csv`` with the torques as k_hip, k_knee for mapping specs to point at)."""
+    import numpy as np
+
+    folder = tmp_path_factory.mktemp("rec") / "data"
+    folder.mkdir()
+    t = np.arange(2000) / 1000.0
+    q = np.c_[0.6 + 0.4 * np.sin(2 * t), -0.9 + 0.4 * np.sin(3 * t)]
+    tau = np.c_[5 + np.sin(2 * t), 1 + np.cos(3 * t)]
+    rows = ["t,q_hip,q_knee,tau_hip,tau_knee"] + [
+        ",".join(f"{v:.9g}" for v in (a, *b, *c)) for a, b, c in zip(t, q, tau)
+    ]
+    (folder / "run.csv").write_text("\n".join(rows) + "\n")
+    (folder / "run_torque.csv").write_text("\n".join(["k_hip,k_knee"] + [f"{a:.9g},{b:.9g}" for a, b in tau]) + "\n")
+    return folder / "run.csv"
+
+
+def trajectory_file(path: Path, joints: list[str]) -> Path:
+    """A two-joint Fourier trajectory file at ``path`` for ``joints`` (in that order): q0 = [-0.9, 0.6] and one
+    0.3 rad harmonic, both in the order of ``joints``; the second joint does not move."""
+    import json
+
+    path.write_text(
+        json.dumps(
+            {
+                "joints": joints,
+                "base_frequency": 0.5,
+                "harmonics": 1,
+                "q0": [-0.9, 0.6],
+                "a": [[0.3], [0.0]],
+                "b": [[0.0], [0.0]],
+            }
+        )
+    )
+    return path
+
+
+@pytest.fixture(scope="module")
+def leg() -> RobotModel:
+    """exo_leg, loaded once per test module."""
+    return load("exo_leg")
+
+
+@pytest.fixture(scope="module")
+def model_json(tmp_path_factory) -> dict:
+    """An identified exo_leg model (its standard parameters) as saved to JSON and read back as a dict."""
+    import json
+
+    from pinid import IdentifiedModel, standard_parameters
+
+    leg = load("exo_leg")
+    path = tmp_path_factory.mktemp("model") / "model_sdp.json"
+    IdentifiedModel(leg, None, standard_parameters(leg)).save(path)
+    return json.loads(path.read_text())
+
+
+def tampered_json(tmp_path: Path, d: dict, change) -> Path:
+    """A copy of the JSON dict ``d`` with ``change(copy)`` applied, written to ``tmp_path / "model.json"``."""
+    import json
+
+    d = json.loads(json.dumps(d))
+    change(d)
+    path = tmp_path / "model.json"
+    path.write_text(json.dumps(d))
+    return path
+
+
+def knee_mass(value):
+    """A change for :func:`tampered_json`: the knee mass of a saved model set to ``value``."""
+
+    def change(d):
+        d["standard_parameters"]["knee.m"] = value
+
+    return change

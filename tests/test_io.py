@@ -1,15 +1,22 @@
 """The one output writer (pinid.io.Artefacts) and the CLI cases of issue 14 it fixes: outputs are all or
-nothing, collisions are refused, a failed run leaves no folder, --force removes an earlier run's outputs."""
+nothing, collisions are refused, a failed run leaves no folder, --force removes an earlier run's outputs; and
+pinid.io's reading of TOML and JSON specs (too deep a nesting is one line, not a RecursionError)."""
 
 from __future__ import annotations
 
 import os
+from pathlib import Path
 
 import pytest
 
 from conftest import assert_clean_error, run_cli
 from pinid.errors import ModelError, OutputError, PinidError, SpecError
+from pinid.data.mapping import MappingSpec
 from pinid.io import Artefacts
+
+
+def _files(folder: Path) -> list[str]:
+    return sorted(str(p.relative_to(folder)) for p in folder.rglob("*") if p.is_file())
 
 
 def test_writes_all_into_new_folder(tmp_path):
@@ -289,3 +296,81 @@ def test_bounded_reader(tmp_path):
         read_bounded_file(tmp_path, "spec", option="--spec")
     with pytest.raises(ModelError, match="file not found"):
         read_bounded_file(tmp_path / "none.urdf", "URDF", error=ModelError)
+
+
+def _identify(tmp_path: Path, *args: str):
+    out = tmp_path / "results"
+    return run_cli("identify", "--urdf", "exo_leg", "--methods", "ols", "--no-report", "-o", str(out), *args), out
+
+
+@pytest.mark.parametrize("kind", ["arrays", "inline tables", "dotted tables"])
+def test_deeply_nested_toml_is_one_line(tmp_path, rec, kind):
+    n = 5000
+    body = {
+        "arrays": "x = " + "[" * n + "]" * n,
+        "inline tables": "x = " + "{a = " * n + "1" + "}" * n,
+        "dotted tables": "[" + ".".join(["a"] * n) + "]\nb = 1",
+    }[kind]
+    spec = tmp_path / "deep.toml"
+    spec.write_text(body + "\n")
+    with pytest.raises(SpecError, match="nested deeper than 64 levels|not valid TOML"):
+        MappingSpec.load(spec)
+    proc, out = _identify(tmp_path, "--data", str(rec), "--mapping", str(spec))
+    assert_clean_error(proc, str(spec))
+    assert not out.exists()
+    for args in (
+        ["info", "--urdf", "exo_leg", "--drives", str(spec)],
+        ["excite", "--urdf", "exo_leg", "--spec", str(spec), "-o", str(tmp_path / "e.json")],
+        ["flex", "check", "--spec", str(spec)],
+    ):
+        proc = run_cli(*args)
+        assert proc.returncode == 2 and "RecursionError" not in proc.stderr, (args, proc.stderr)
+        assert len(proc.stderr.strip().splitlines()) == 1, proc.stderr
+    assert _files(tmp_path) == ["deep.toml"]
+
+
+def test_deeply_nested_json_spec(tmp_path):
+    spec = tmp_path / "deep.json"
+    spec.write_text("[" * 100000 + "]" * 100000)
+    proc = run_cli("excite", "--urdf", "exo_leg", "--spec", str(spec), "-o", str(tmp_path / "e.json"))
+    assert_clean_error(proc, "nested deeper")
+    assert _files(tmp_path) == ["deep.json"]
+
+
+@pytest.mark.parametrize(
+    "argv, folder",
+    [
+        (["simulate", "--urdf", "exo_leg", "--excitation", "missing.json", "-o", "new/run.csv"], "new"),
+        (["compare", "--urdf", "exo_leg", "--data", "missing.csv", "-o", "new"], "new"),
+        (["track", "--model", "missing.json", "-o", "new"], "new"),
+        (
+            ["wearer", "--urdf", "exo_leg", "--mass", "10", "--height", "1.8", "--sex", "male", "-o", "new/w.urdf"],
+            "new",
+        ),
+        (["flex", "twin", "--spec", "missing.toml", "-o", "new/t.csv"], "new"),
+        (["flex", "fit", "--spec", "missing.toml", "-o", "new/f.json"], "new"),
+        (["flex", "compare", "--spec", "missing.toml", "-o", "new/c.json"], "new"),
+        (["flex", "check", "--spec", "missing.toml", "--json", "new/c.json"], "new"),
+    ],
+)
+def test_failed_runs_leave_no_folder(tmp_path, argv, folder):
+    """Case 24: a failed run of any command that writes leaves no (empty) output folder."""
+    proc = run_cli(*argv, cwd=tmp_path)
+    assert proc.returncode == 2, proc.stderr
+    assert not (tmp_path / folder).exists()
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["simulate", "--urdf", "exo_leg", "--excitation", "zha2019-1", "-o", "x.csv", "--truth", "x.csv"],
+        ["simulate", "--urdf", "exo_leg", "--excitation", "zha2019-1", "-o", "x.csv", "--true-signals", "./x.csv"],
+        ["flex", "fit", "-o", "x.png", "--plot", "x.png"],
+        ["flex", "compare", "-o", "x.png", "--plot", "x.png"],
+    ],
+)
+def test_outputs_on_one_path_refused(tmp_path, argv):
+    """Case 18 for the other commands: two outputs on one path are refused before the work."""
+    assert_clean_error(run_cli(*argv, cwd=tmp_path), "same file")
+    assert list(tmp_path.iterdir()) == []

@@ -317,3 +317,36 @@ def test_payload_data_equal_to_data(tmp_path, payload_runs):
         )  # fmt: skip
         assert_clean_error(proc, "--payload-data", "is also a training recording")
         assert not out.exists()
+
+
+def test_validation_equal_to_training_warns_in_one_line(tmp_path, recording):
+    """Case 14 through the CLI: the run goes on, the warning is one line naming the file."""
+    proc = run_cli(
+        "identify",
+        "--urdf",
+        "exo_leg",
+        "--data",
+        str(recording),
+        "--validate",
+        str(recording),
+        "--methods",
+        "ols",
+        "--no-report",
+        "-o",
+        str(tmp_path / "run"),
+    )
+    assert proc.returncode == 0, proc.stderr
+    lines = [ln for ln in proc.stderr.splitlines() if "also a training recording" in ln]
+    assert len(lines) == 1 and lines[0].startswith("pinid identify: warning: ") and recording.name in lines[0]
+
+
+def test_zero_torques_refused(tmp_path, recording):
+    """Case 11: a recording without torque signal is refused, nothing is written."""
+    text = recording.read_text().splitlines()
+    zero = [text[0]] + [",".join(line.split(",")[:3] + ["0", "0"]) for line in text[1:]]
+    path = tmp_path / "zero.csv"
+    path.write_text("\n".join(zero) + "\n")
+    out = tmp_path / "run"
+    proc = run_cli("identify", "--urdf", "exo_leg", "--data", str(path), "--methods", "ols", "-o", str(out))
+    assert_clean_error(proc, "zero.csv", "no torque signal")
+    assert not out.exists()

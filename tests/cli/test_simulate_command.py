@@ -1,12 +1,15 @@
 """pinid simulate (pinid/cli/simulate.py): bad outputs, trajectories and robots give one line and exit status 2,
-with nothing written or replaced."""
+with nothing written or replaced; a trajectory's joints are mapped by name."""
 
 from __future__ import annotations
 
 import re
 from pathlib import Path
 
+import numpy as np
+import pytest
 from conftest import assert_clean_error, run_cli
+from conftest import trajectory_file as _trajectory
 
 ROOT = Path(__file__).resolve().parents[2]
 EXO = (ROOT / "urdf" / "exo_leg.urdf").read_text()
@@ -72,3 +75,23 @@ def test_massless_last_link_named_before_simulating(tmp_path):
     )
     assert_clean_error(proc, "joint 'knee' moves no mass or inertia", "link 'shank'", "singular")
     assert _files(tmp_path) == ["m.urdf"]
+
+
+def test_simulate_maps_trajectory_joints_by_name(tmp_path):
+    tr = _trajectory(tmp_path / "tr.json", ["knee", "hip"])
+    out = tmp_path / "out.csv"
+    proc = run_cli("simulate", "--urdf", "exo_leg", "--excitation", str(tr), "--seconds", "1", "-o", str(out))
+    assert proc.returncode == 0, proc.stderr
+    d = np.genfromtxt(out, delimiter=",", names=True)
+    assert d["q_hip"][0] == pytest.approx(0.6, abs=1e-3)  # hip's q0, not knee's
+    assert d["q_knee"][0] == pytest.approx(-0.9, abs=1e-3)
+    assert np.ptp(d["q_hip"]) < 0.01 < np.ptp(d["q_knee"])  # the knee carries the 0.3 rad harmonic
+
+
+def test_simulate_unknown_trajectory_joint(tmp_path):
+    tr = _trajectory(tmp_path / "tr.json", ["knee", "foo"])
+    proc = run_cli(
+        "simulate", "--urdf", "exo_leg", "--excitation", str(tr), "--seconds", "1", "-o", str(tmp_path / "o.csv")
+    )
+    assert_clean_error(proc, "['knee', 'foo']", "['hip', 'knee']")
+    assert _files(tmp_path) == ["tr.json"]

@@ -1,13 +1,23 @@
-"""Controllers on a model: exact models track to the noise level; backstepping's Lyapunov function decreases."""
+"""Controllers on a model: exact models track to the noise level; backstepping's Lyapunov function decreases;
+`pinid track --model` refuses a model of other joints or one that is not physically consistent."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
+from conftest import assert_clean_error, knee_mass as _param, run_cli, tampered_json as _tampered
 
 from pinid.control.controllers import Backstepping, ComputedTorque, Tracking, nominal_model, track
 from pinid.errors import SpecError
 from pinid.excitation.trajectory import FourierTrajectory
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def _files(folder: Path) -> list[str]:
+    return sorted(str(p.relative_to(folder)) for p in folder.rglob("*") if p.is_file())
 
 
 REF = FourierTrajectory(["hip", "knee"], 0.5 * np.pi, [0.61, -0.87], [[0.5], [0.5]], [[0.0], [0.0]])
@@ -149,3 +159,39 @@ def test_compare_models_in_worker_processes_gives_the_serial_results(exo, monkey
         for name in models:
             np.testing.assert_equal(parallel[c][name]["metrics"], serial[c][name]["metrics"])  # NaN: never settled
             np.testing.assert_array_equal(parallel[c][name]["result"].q, serial[c][name]["result"].q)
+
+
+EXO = (ROOT / "urdf" / "exo_leg.urdf").read_text()
+
+
+def _exo_with(old: str, new: str) -> str:
+    assert old in EXO, old
+    return EXO.replace(old, new, 1)
+
+
+_KNEE_JOINT = '<joint name="knee" type="revolute">'
+
+
+def test_track_model_with_other_joint_types(tmp_path):
+    p = tmp_path / "prismatic_knee.urdf"
+    p.write_text(_exo_with(_KNEE_JOINT, '<joint name="knee" type="prismatic">'))
+    proc = run_cli("track", "--model", str(p), "--seconds", "1", "--after", "0.5", "-o", str(tmp_path / "t"))
+    assert_clean_error(proc, "joint 'knee' is prismatic in the model but revolute in the plant")
+    assert _files(tmp_path) == ["prismatic_knee.urdf"]
+
+
+def test_track_model_with_other_joint_names(tmp_path):
+    p = tmp_path / "renamed.urdf"
+    p.write_text(EXO.replace('"knee"', '"shin"'))
+    proc = run_cli("track", "--model", str(p), "--seconds", "1", "--after", "0.5", "-o", str(tmp_path / "t"))
+    assert_clean_error(proc, "knee")
+    assert _files(tmp_path) == ["renamed.urdf"]
+
+
+def test_track_refuses_inconsistent_model(tmp_path, model_json):
+    """Case 9: track refuses a model with a negative mass (its closed loop errs by 15-25 rad otherwise)."""
+    path = _tampered(tmp_path, model_json, _param(-50.0))
+    out = tmp_path / "track"
+    proc = run_cli("track", "--model", str(path), "--seconds", "3", "-o", str(out))
+    assert_clean_error(proc, "not physically consistent")
+    assert not out.exists()

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -13,6 +14,9 @@ from pinid.data.dataset import Dataset
 from pinid.errors import DataError, SpecError
 from pinid.data.preprocess import PRESETS, Preprocessing, default_cutoff, prepare
 from pinid.excitation.trajectory import FourierTrajectory
+from pinid.model.robot import RobotModel
+
+ROOT = Path(__file__).resolve().parents[2]
 
 TRAJ = FourierTrajectory(
     ["hip", "knee"],
@@ -226,3 +230,58 @@ def test_prepare_takes_its_options_as_one_object_or_its_dict_form():
     assert "\n" not in str(e.value) and "cutoff" in str(e.value)
     with pytest.raises(SpecError, match="expected a dict of preprocessing options"):
         prepare(ds, 20.0)
+
+
+EXO = (ROOT / "urdf" / "exo_leg.urdf").read_text()
+
+
+def _exo_with(old: str, new: str) -> str:
+    assert old in EXO, old
+    return EXO.replace(old, new, 1)
+
+
+def test_wrapped_continuous_joint_is_unwrapped(tmp_path):
+    from pinid.data.dataset import Dataset
+    from pinid.problem.recordings import free_angles, load_datasets
+
+    p = tmp_path / "continuous_hip.urdf"
+    p.write_text(_exo_with('<joint name="hip" type="revolute">', '<joint name="hip" type="continuous">'))
+    model = RobotModel.from_urdf(p)
+    free = free_angles(model)
+    assert free == ["hip"]
+    j = 0
+    t = np.arange(4000) / 1000.0
+    q = np.zeros((t.size, model.nv))
+    q[:, j] = 1.5 * t  # 6 rad: wraps once
+    q[:, 1] = -0.9 + 0.2 * np.sin(t)
+    tau = np.ones_like(q)
+    wrapped = q.copy()
+    wrapped[:, j] = (q[:, j] + np.pi) % (2 * np.pi) - np.pi
+    ds = Dataset(t=t, q=wrapped, joints=model.joint_names, tau=tau, source="wrapped")
+    out = load_datasets(ds, model)[0]
+    assert out.meta["preprocess"]["unwrapped"] == [free[0]]
+    assert np.allclose(out.dq[:, j], 1.5, atol=1e-3)  # without unwrapping: a spike of ~2π·1000 rad/s
+    with pytest.warns(DataWarning):  # the plain preprocessing step unwraps only when told
+        plain = prepare(ds)
+    assert np.abs(plain.dq[:, j]).max() > 100
+
+
+def test_no_lowpass_warning_on_a_still_joint():
+    from pinid.data.dataset import Dataset
+
+    rng = np.random.default_rng(0)
+    t = np.arange(5000) / 1000.0
+    q = np.c_[1e-4 * rng.standard_normal(t.size), 0.5 * np.sin(2 * t)]  # hip held: encoder noise only
+    ds = Dataset(t=t, q=q, joints=["hip", "knee"], tau=np.ones_like(q), source="still")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", DataWarning)
+        prepare(ds)
+    moving = Dataset(
+        t=t,
+        q=np.c_[0.05 * np.sin(2 * np.pi * 40 * t), q[:, 1]],
+        joints=["hip", "knee"],
+        tau=np.ones_like(q),
+        source="fast",
+    )
+    with pytest.warns(DataWarning, match="removes .* of joint 'hip'"):
+        prepare(moving)

@@ -5,12 +5,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pinid import TermSelection
+from pinid import TermSelection, identify
 from pinid.errors import SolverError, SpecError
+from pinid.identification.study import Study
 from pinid.estimators import ESTIMATORS, OLS, WLS, Estimator, SDP, make_estimator
 from pinid.problem.problem import IdentificationProblem
 from pinid.model.physical import check_consistency
 
+from conftest import load
 from test_identification import relative_errors, true_base, truth_model, twin
 
 
@@ -154,3 +156,21 @@ def test_iv_sim_rate_too_low_is_named_not_a_divergence():
         SpecError, match=r"sim_rate=1e-06 Hz is too low for the PD bandwidth 2 Hz: expected sim_rate ≥ 5.03 Hz"
     ):
         make_estimator("iv", sim_rate=1e-6).fit(problem)
+
+
+def test_estimator_settings_checked_when_made(tmp_path):
+    """Case 6: a bad setting is a SpecError naming it when the estimator is made, before any data is read."""
+    from pinid.estimators import make_estimator
+
+    for method, setting in (
+        ("wls", {"iterations": 0}),
+        ("wls", {"iterations": -1}),
+        ("sdp", {"regularization": -1}),
+        ("sdp", {"regularization": float("nan")}),
+        ("pso", {"population": "many"}),
+    ):
+        key = next(iter(setting))
+        with pytest.raises(SpecError, match=f"setting {key}="):
+            make_estimator(method, **setting)
+        with pytest.raises(SpecError, match=f"setting {key}="):  # identify: before the (missing) recording
+            identify(Study(load("exo_leg"), tmp_path / "missing.csv"), methods=method, options={method: setting})

@@ -508,3 +508,22 @@ def test_flex_force_and_progress_before_or_after_the_action():
         assert args.force is True and args.progress is False, argv
     args = parser.parse_args(["flex", "twin", "-o", "x.csv"])
     assert args.force is False and args.progress is None
+
+
+def _flex_spec(tmp_path, f_max: str):
+    from pinid.model.bundled import BUNDLED_URDF_DIR
+
+    src = BUNDLED_URDF_DIR.parent / "excitation" / "tracker_flex_spec.toml"
+    text = src.read_text().replace("f_max = 12.0", f"f_max = {f_max}")
+    assert f"f_max = {f_max}" in text
+    path = tmp_path / "spec.toml"
+    path.write_text(text.replace('urdf = "', f'urdf = "{src.parent}/') if 'urdf = "../' in text else text)
+    return path
+
+
+def test_flex_f_max_above_nyquist_refused(tmp_path):
+    """Case 25: f_max at or above half the input rate (500 Hz) is refused."""
+    for f_max in ("1e9", "250.0"):
+        spec = _flex_spec(tmp_path, f_max)
+        proc = run_cli("flex", "check", "--spec", str(spec), cwd=tmp_path)
+        assert_clean_error(proc, "f_max", "Nyquist")

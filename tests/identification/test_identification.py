@@ -584,3 +584,44 @@ def test_identify_on_two_workers_gives_the_same_numbers(leg_twins):
         assert two[m].validation == one[m].validation
     with pytest.raises(SpecError, match="workers: got 0"):
         identify(study, methods, workers=0)
+
+
+def test_duplicate_training_data_refused(tmp_path, recording):
+    """Case 14: --data X --data X is an error (the std would shrink by √2 without a word)."""
+    out = tmp_path / "run"
+    proc = run_cli("identify", "--urdf", "exo_leg", "--data", str(recording), "--data", str(recording), "-o", str(out))
+    assert_clean_error(proc, "given twice as training data")
+    assert not out.exists()
+    with pytest.raises(DataError, match="given twice"):  # the same through another spelling of the path
+        identify(Study(load("exo_leg"), [recording, recording.parent / "." / recording.name]))
+
+
+def test_validation_equal_to_training_warns(recording):
+    """Case 14: --validate equal to a --data file: a clear warning (its error is a training error)."""
+    from pinid.errors import DataWarning
+    from pinid.identification.run import check_distinct
+
+    with pytest.warns(DataWarning, match="also a training recording"):
+        check_distinct([recording], [str(recording)])
+    with pytest.warns(DataWarning, match="also a training recording"):
+        check_distinct([recording], {"validation": [recording]})
+
+
+def test_tampered_identification_json(tmp_path, model_json):
+    """Identification.load on a tampered file: a SpecError naming the file, never a bare KeyError/TypeError."""
+    from pinid import Identification
+
+    path = tmp_path / "identification.json"
+    for methods in (
+        {"ols": {"method": "ols"}},
+        {"ols": {"method": "ols", "physically_consistent": True}},
+        {"ols": {"physically_consistent": True, "base_parameters": {"a": "abc"}}},
+        [1],
+        "x",
+        {},
+    ):
+        path.write_text(json.dumps({"robot": model_json["robot"], "methods": methods}))
+        with pytest.raises(SpecError, match="identification.json"):
+            Identification.load(path)
+    with pytest.raises(SpecError, match="not a valid identification"):
+        Identification.from_dict({"robot": model_json["robot"], "methods": {"ols": 3}})

@@ -1,6 +1,9 @@
-"""IdentifiedModel: the equation of motion holds term by term; save/load; the docs' computed-torque example."""
+"""IdentifiedModel: the equation of motion holds term by term; save/load (a tampered file is a SpecError, its
+consistency is checked again on load); the docs' computed-torque example."""
 
 from __future__ import annotations
+
+import json
 
 import numpy as np
 import pinocchio as pin
@@ -11,7 +14,7 @@ from pinid.identification.study import Study
 from pinid.errors import ModelError, SpecError
 from pinid.identification.identified import IdentifiedModel
 
-from conftest import load
+from conftest import knee_mass as _param, load, tampered_json as _tampered
 from test_identification import identify, truth_model, twin
 
 ALL = TermSelection(coulomb=True, viscous=True, offset=True, armature=True)
@@ -248,3 +251,59 @@ def test_model_of_a_repaired_urdf_loads_back(tmp_path):
     (tmp_path / "plain.json").write_text(json.dumps(d))
     with pytest.raises(ModelError, match="^the saved URDF text: the body moved by joint 'knee'"):
         IdentifiedModel.load(tmp_path / "plain.json")
+
+
+def _set(key, value):
+    def change(d):
+        d[key] = value
+
+    return change
+
+
+@pytest.mark.parametrize(
+    "change, fragment",
+    [
+        (lambda d: d.pop("robot"), "'robot'"),
+        (_set("robot", [1, 2]), "'robot' is list"),
+        (_set("meta", [1]), "'meta' is list"),
+        (lambda d: d["robot"].__setitem__("terms", "fc,fv"), "'terms' is str"),
+        (lambda d: d["robot"].pop("terms"), "'terms'"),
+        (lambda d: d["robot"].__setitem__("joints", "hip"), "'joints' is str"),
+        (_param("abc"), "knee.m is 'abc'"),
+        (_param(None), "knee.m is None"),
+        (_param(True), "knee.m is True"),
+        (_set("standard_parameters", [1.0]), "'standard_parameters' is list"),
+        (_set("physically_consistent", "no"), "'physically_consistent' is 'no'"),
+    ],
+)
+def test_tampered_model_json(tmp_path, model_json, change, fragment):
+    with pytest.raises(SpecError) as info:
+        IdentifiedModel.load(_tampered(tmp_path, model_json, change))
+    assert fragment in str(info.value)
+
+
+def test_model_json_not_an_object(tmp_path):
+    path = tmp_path / "m.json"
+    path.write_text("[1, 2]")
+    with pytest.raises(SpecError, match="expected a JSON object"):
+        IdentifiedModel.load(path)
+    with pytest.raises(SpecError, match="expected a JSON object"):
+        IdentifiedModel.from_dict([1, 2])
+
+
+def test_identification_json_points_to_identification_load(tmp_path, model_json):
+    """Case 26: the message names Identification.load."""
+    path = tmp_path / "identification.json"
+    path.write_text(json.dumps({"robot": model_json["robot"], "methods": {}}))
+    with pytest.raises(SpecError, match=r"Identification\.load"):
+        IdentifiedModel.load(path)
+
+
+def test_stored_consistency_flag_not_trusted(tmp_path, model_json):
+    """Case 9: a knee mass of −50 with the flag true loads as NOT consistent; a true model stays true."""
+    assert IdentifiedModel.from_dict(model_json).physically_consistent
+    path = _tampered(tmp_path, model_json, _param(-50.0))
+    assert json.loads(path.read_text())["physically_consistent"] is True
+    assert not IdentifiedModel.load(path).physically_consistent
+    stored_false = _tampered(tmp_path, model_json, _set("physically_consistent", False))
+    assert not IdentifiedModel.load(stored_false).physically_consistent

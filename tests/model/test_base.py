@@ -190,3 +190,9 @@ def test_overflowing_regressor_is_a_model_error(monkeypatch):
     monkeypatch.setattr(base, "regressor", overflowing)
     with pytest.raises(ModelError, match=r"exo_leg: the regressor columns of knee.fv overflow"):
         base.base_parameters(load("exo_leg"))
+
+
+def test_base_parameters_few_samples_message(leg):
+    with pytest.raises(SpecError, match="expected at least 12 samples"):
+        base_parameters(leg, samples=5)
+    assert base_parameters(leg, samples=12).count == base_parameters(leg).count  # the minimum still works

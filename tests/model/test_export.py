@@ -102,3 +102,17 @@ def test_identified_model_and_result_export(tmp_path):
     ident = IdentifiedModel(model, terms, perturbed_theta(model, terms, seed=3), meta={"method": "sdp"})
     text = ident.export_urdf(tmp_path / "m.urdf")
     assert "method sdp" in text and (tmp_path / "m.urdf").is_file()
+
+
+def test_export_refuses_urdf_pinid_cannot_read(leg):
+    """Case 11: a parameter set that passes the consistency tolerance but gives a URDF pinid refuses
+    (mass −1e-12 kg) is not exported."""
+    from pinid.errors import ModelError
+    from pinid.model.export import identified_urdf
+    from pinid.model.physical import check_consistency
+
+    theta = standard_parameters(leg).copy()
+    theta[10:20] = [-1e-12, 0, 0, 0, 0.01, 0, 0.01, 0, 0, 0.01]  # knee mass −1e-12 kg as OLS gave on zero torques
+    assert check_consistency(theta, leg.joint_names, ["fc", "fv"]).consistent  # within the tolerance
+    with pytest.raises(ModelError, match="would not load back"):
+        identified_urdf(leg, theta, TermSelection())

@@ -8,8 +8,15 @@ import numpy as np
 import pytest
 
 from pinid import JointError, ModelError, RobotModel
+from pinid.model.urdf import MAX_URDF_JOINTS
 
 from conftest import assert_clean_error, load, run_cli
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def _files(folder: Path) -> list[str]:
+    return sorted(str(p.relative_to(folder)) for p in folder.rglob("*") if p.is_file())
 
 
 def test_exo_leg_has_table2_limits(exo):
@@ -200,3 +207,125 @@ def test_a_model_is_built_once_and_read_only_afterwards(tmp_path):
     moved = m.with_urdf_path("/elsewhere/exo_leg.urdf")
     assert moved.urdf_path == Path("/elsewhere/exo_leg.urdf") and m.urdf_path != moved.urdf_path
     assert moved.urdf_text == m.urdf_text and m.with_urdf_path(None).urdf_path is None
+
+
+EXO = (ROOT / "urdf" / "exo_leg.urdf").read_text()
+
+
+def _chain(n: int) -> str:
+    links = "".join(f'<link name="l{i}"/>' for i in range(n + 1))
+    joints = "".join(
+        f'<joint name="j{i}" type="fixed"><parent link="l{i}"/><child link="l{i + 1}"/></joint>' for i in range(n)
+    )
+    movable = (
+        '<link name="tip"><inertial><mass value="1"/><inertia ixx="0.1" ixy="0" ixz="0" iyy="0.1" iyz="0" '
+        f'izz="0.1"/></inertial></link><joint name="q" type="revolute"><parent link="l{n}"/><child link="tip"/>'
+        '<axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="10" velocity="1"/></joint>'
+    )
+    return f'<robot name="chain">{links}{joints}{movable}</robot>'
+
+
+def _exo_with(old: str, new: str) -> str:
+    assert old in EXO, old
+    return EXO.replace(old, new, 1)
+
+
+_KNEE_JOINT = '<joint name="knee" type="revolute">'
+
+
+URDF_CASES = {
+    # 3: urdfdom recurses once per joint and crashes (segfault) on thousands of them
+    "6000 fixed joints": (_chain(6000), f"more than pinid accepts ({MAX_URDF_JOINTS})"),
+    # 4
+    "lower above upper": (
+        _exo_with('lower="-0.087" upper="1.309"', 'lower="1.309" upper="-0.087"'),
+        "joint 'hip' has lower limit 1.309 above its upper limit -0.087",
+    ),
+    "two parent joints": (
+        _exo_with(
+            "</robot>",
+            '<joint name="loop" type="revolute"><parent link="trunk"/>'
+            '<child link="shank"/><axis xyz="0 1 0"/>'
+            '<limit lower="-1" upper="1" effort="1" velocity="1"/></joint></robot>',
+        ),
+        "link 'shank' is the child of joints 'knee' and 'loop'",
+    ),
+    "zero axis": (_exo_with('<axis xyz="0 -1 0"/>', '<axis xyz="0 0 0"/>'), "joint 'hip' has axis xyz=\"0 0 0\""),
+}
+
+
+def _bad_inertia(text: str, ixx: str, iyy: str, izz: str) -> str:
+    import re
+
+    return re.sub(
+        r"<inertia [^>]*/>", f'<inertia ixx="{ixx}" ixy="0" ixz="0" iyy="{iyy}" iyz="0" izz="{izz}"/>', text, count=2
+    )
+
+
+URDF_CASES["negative moment"] = (_bad_inertia(EXO, "-0.1", "0.1", "0.1"), "a negative principal moment")
+
+
+URDF_CASES["triangle inequality"] = (
+    _bad_inertia(EXO, "0.01", "0.01", "0.5"),
+    "one moment larger than the sum of the other two",
+)
+
+
+@pytest.mark.parametrize("case", sorted(URDF_CASES))
+def test_bad_urdf_is_refused(tmp_path, case):
+    text, fragment = URDF_CASES[case]
+    p = tmp_path / "robot.urdf"
+    p.write_text(text)
+    with pytest.raises(ModelError, match=None) as info:
+        RobotModel.from_urdf(p)
+    assert fragment in str(info.value)
+    assert_clean_error(run_cli("info", "--urdf", str(p), "--json", str(tmp_path / "i.json")), fragment)
+    assert_clean_error(
+        run_cli(
+            "simulate", "--urdf", str(p), "--excitation", "zha2019-1", "--seconds", "1", "-o", str(tmp_path / "s.csv")
+        ),
+        fragment,
+    )
+    assert _files(tmp_path) == ["robot.urdf"]
+
+
+def test_urdf_joint_limit_boundary_and_deep_elements(tmp_path):
+    p = tmp_path / "chain.urdf"
+    p.write_text(_chain(MAX_URDF_JOINTS - 1))  # 1000 joints in all: loads (in about 0.04 s)
+    assert RobotModel.from_urdf(p).joint_names == ["q"]
+    deep = tmp_path / "deep.urdf"  # deeply nested elements (not joints): the XML parser's own limit
+    deep.write_text(EXO.replace("</robot>", "<a>" * 200000 + "</a>" * 200000 + "</robot>"))
+    assert_clean_error(run_cli("info", "--urdf", str(deep)), "nesting is too deep")
+
+
+def test_inertia_tolerance_accepts_rounding_and_thin_rods(tmp_path):
+    p = tmp_path / "robot.urdf"
+    # a thin rod (Izz = 0, Ixx = Iyy: the triangle inequality holds with equality) and a CAD rounding below 1e-6
+    p.write_text(_bad_inertia(EXO, "0.02", "0.0200000001", "0"))
+    assert RobotModel.from_urdf(p).nv == 2
+
+
+@pytest.mark.parametrize("name", ["exo_leg", "apal_leg", "tracker_2dof", "ur5", "panda", "double_pendulum"])
+def test_shipped_and_example_robots_still_load(name):
+    assert RobotModel.from_urdf(name).nv >= 2  # panda: its mimic finger joint is locked
+
+
+# 10: a mimic joint is locked (issue 28: without --joints), refused when named active
+MIMIC_KNEE = _exo_with(_KNEE_JOINT, _KNEE_JOINT + '<mimic joint="hip" multiplier="1"/>')
+
+
+def test_locked_mimic_joint_is_fine(tmp_path):
+    p = tmp_path / "robot.urdf"
+    p.write_text(MIMIC_KNEE)
+    assert RobotModel.from_urdf(p, locked={"knee": -0.5}).joint_names == ["hip"]
+    assert RobotModel.from_urdf(p).joint_names == ["hip"]  # locked at its neutral value
+    with pytest.raises(ModelError, match="mimic joints are not supported: joint 'knee' mimics 'hip'"):
+        RobotModel.from_urdf(p, joints=["hip", "knee"])
+
+
+def test_ok_urdf_through_identify_refused_when_inertia_bad(tmp_path, rec):
+    p = tmp_path / "robot.urdf"
+    p.write_text(URDF_CASES["triangle inequality"][0])
+    proc = run_cli("identify", "--urdf", str(p), "--data", str(rec), "--methods", "ols", "-o", str(tmp_path / "r"))
+    assert_clean_error(proc, "one moment larger than the sum")
+    assert _files(tmp_path) == ["robot.urdf"]
