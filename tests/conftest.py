@@ -165,15 +165,14 @@ def assert_clean_error(proc: subprocess.CompletedProcess, *fragments: str) -> No
         assert f in err, (f, err)
 
 
-@pytest.fixture(scope="session")
-def recording(tmp_path_factory) -> Path:
-    """A short exo_leg recording (CSV, 3 s at 500 Hz: t, q_hip, q_knee, tau_hip, tau_knee; torques with signal)."""
+def leg_csv(path: Path, samples: int, rate: float) -> Path:
+    """Write a smooth exo_leg recording to ``path`` (CSV: t, q_hip, q_knee, tau_hip, tau_knee; ``samples`` at
+    ``rate`` [Hz], torques with signal) and return it."""
     import numpy as np
 
-    t = np.arange(1500) / 500.0
+    t = np.arange(samples) / rate
     q = np.c_[0.6 + 0.4 * np.sin(2 * t), -0.9 + 0.4 * np.sin(3 * t)]
     tau = np.c_[5 + np.sin(2 * t), 1 + np.cos(3 * t)]
-    path = tmp_path_factory.mktemp("rec") / "r.csv"
     rows = ["t,q_hip,q_knee,tau_hip,tau_knee"] + [
         ",".join(f"{v:.9g}" for v in (a, *b, *c)) for a, b, c in zip(t, q, tau)
     ]
@@ -182,21 +181,16 @@ def recording(tmp_path_factory) -> Path:
 
 
 @pytest.fixture(scope="session")
-def good_csv(tmp_path_factory) -> Path:
-    """A short, valid recording of exo_leg (CSV, 2 s at 1 kHz: t, q_hip, q_knee, tau_hip, tau_knee); the CLI's
-    bad-input tests change one thing in it."""
-    import numpy as np
+def recording(tmp_path_factory) -> Path:
+    """A short exo_leg recording (:func:`leg_csv`, 3 s at 500 Hz)."""
+    return leg_csv(tmp_path_factory.mktemp("rec") / "r.csv", 1500, 500.0)
 
-    folder = tmp_path_factory.mktemp("good")
-    t = np.arange(2000) / 1000.0
-    q = np.c_[0.6 + 0.4 * np.sin(2 * t), -0.9 + 0.4 * np.sin(3 * t)]
-    tau = np.c_[5 + np.sin(2 * t), 1 + np.cos(3 * t)]
-    path = folder / "good.csv"
-    rows = ["t,q_hip,q_knee,tau_hip,tau_knee"] + [
-        ",".join(f"{v:.9g}" for v in (ti, *qi, *ti_)) for ti, qi, ti_ in zip(t, q, tau)
-    ]
-    path.write_text("\n".join(rows) + "\n")
-    return path
+
+@pytest.fixture(scope="session")
+def good_csv(tmp_path_factory) -> Path:
+    """A short, valid recording of exo_leg (:func:`leg_csv`, 2 s at 1 kHz); the CLI's bad-input tests change
+    one thing in it."""
+    return leg_csv(tmp_path_factory.mktemp("good") / "good.csv", 2000, 1000.0)
 
 
 @pytest.fixture(scope="module")
