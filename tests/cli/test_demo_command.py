@@ -149,19 +149,17 @@ def test_help_names_the_papers_it_cites():
     assert cited >= 5  # excite, compare, demo, track, flex and its actions cite them
 
 
-@pytest.mark.slow
-def test_demo_interrupted_leaves_nothing(tmp_path):
-    """Cases 5 and 17: Ctrl-C during the demo's second step leaves no excitation file, no folder."""
+def _demo_at_step_two(out, *options: str):
+    """``pinid demo -o out --methods ols --no-progress *options`` in a process, returned once it has printed
+    its second step's title (the first step's outputs are written then)."""
     import os
-    import signal
     import subprocess
     import sys
 
-    out = tmp_path / "demo"
     proc = subprocess.Popen(
         # --no-progress: under load a step can outlast the 5 s between progress lines, and those lines on
-        # stderr are not what this test is about (it checks the one "interrupted" line exactly)
-        [sys.executable, "-m", "pinid.cli", "demo", "-o", str(out), "--methods", "ols", "--no-progress"],
+        # stderr are not what these tests are about (they check the one "interrupted" line exactly)
+        [sys.executable, "-m", "pinid.cli", "demo", "-o", str(out), "--methods", "ols", *options, "--no-progress"],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
@@ -170,6 +168,16 @@ def test_demo_interrupted_leaves_nothing(tmp_path):
     for line in proc.stdout:
         if line.startswith("[2/5]"):
             break
+    return proc
+
+
+@pytest.mark.slow
+def test_demo_interrupted_leaves_nothing(tmp_path):
+    """Cases 5 and 17: Ctrl-C during the demo's second step leaves no excitation file, no folder."""
+    import signal
+
+    out = tmp_path / "demo"
+    proc = _demo_at_step_two(out)
     assert (out / "excitation.json").is_file()  # the first step's outputs exist now
     proc.send_signal(signal.SIGINT)
     _, err = proc.communicate(timeout=120)
@@ -181,25 +189,13 @@ def test_demo_interrupted_leaves_nothing(tmp_path):
 @pytest.mark.slow
 def test_demo_force_failure_restores_earlier_run(tmp_path):
     """The demo's folder is all or nothing: a --force run stopped by Ctrl-C puts the earlier files back."""
-    import os
     import signal
-    import subprocess
-    import sys
 
     out = tmp_path / "demo"
     out.mkdir()
     (out / "excitation.json").write_text("earlier run")
     (out / "notes.txt").write_text("mine")
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "pinid.cli", "demo", "-o", str(out), "--methods", "ols", "--force", "--no-progress"],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-        env={**os.environ, "PYTHONUNBUFFERED": "1"},
-    )
-    for line in proc.stdout:
-        if line.startswith("[2/5]"):
-            break
+    proc = _demo_at_step_two(out, "--force")
     proc.send_signal(signal.SIGINT)
     proc.communicate(timeout=120)
     assert proc.returncode == 2
