@@ -67,6 +67,7 @@ API_MODULES: tuple[tuple[str, str], ...] = (
     ("pinid.data.registry", "File formats (reader and writer registry)"),
     ("pinid.data.preprocess", "Preprocessing"),
     ("pinid.simulation.twin", "The digital twin"),
+    ("pinid.simulation.plant", "The twin's plant: equations of motion and one integration step"),
     ("pinid.simulation.trajectories", "The twin's trajectories by name"),
     ("pinid.simulation.cad", "The twin's CAD model"),
     ("pinid.simulation.plant_checks", "The twin's checks of the plant and of the run"),

@@ -41,7 +41,8 @@ from pinid.io import read_json
 from pinid.model.base import base_parameters
 from pinid.model.regressor import standard_parameters
 from pinid.model.terms import TermSelection
-from pinid.simulation.twin import Plant, WearerLoad, plant_terms, simulate
+from pinid.simulation.plant import Plant
+from pinid.simulation.twin import WearerLoad, plant_terms, simulate
 from pinid.simulation.cad import perturb
 from pinid.model.robot import as_robot
 from pinid.result_protocol import ResultProtocol, panel
@@ -296,7 +297,7 @@ def track(
     ``reference`` has ``evaluate(t) -> (q, dq, ddq)`` (a :class:`~pinid.excitation.trajectory.FourierTrajectory`).
     The controller runs at ``run.rate`` [Hz] on noisy measurements; its torque is held for the period
     (zero-order hold) and clipped to ``run.torque_limit``.  The plant is the digital twin's
-    (:class:`pinid.simulation.twin.Plant`: ABA-equivalent dynamics, Coulomb friction,
+    (:class:`pinid.simulation.plant.Plant`: ABA-equivalent dynamics, Coulomb friction,
     implicit when stiff) integrated at ``rate·substeps`` [Hz].  Starts at ``q0`` (default the reference at
     t = 0) at rest.  Seeded: the same arguments give the same run.  ``terms``: the plant's extra joint
     terms (:func:`pinid.simulation.twin.plant_terms`; default the wearer's passive moments when ``wearer``, the
@@ -313,6 +314,7 @@ def track(
     rng = np.random.default_rng(seed)
     nv = plant.nv
     limit = plant.effort_limit if torque_limit is None else np.broadcast_to(np.asarray(torque_limit, float), (nv,))
+    low = -limit
     dynamics = Plant(plant, plant.coulomb, plant.viscous, coulomb_velocity, plant_terms(plant, terms, wearer))
     n = int(round(seconds * rate))
     t = np.arange(n) / rate
@@ -325,14 +327,14 @@ def track(
     for k in range(n):
         q_meas = q + rng.normal(0.0, position_noise, nv) if position_noise else q
         dq_meas = dq + rng.normal(0.0, velocity_noise, nv) if velocity_noise else dq
-        tau = np.clip(controller(t[k], q_meas, dq_meas, q_d[k], dq_d[k], ddq_d[k]), -limit, limit)
+        tau = np.asarray(controller(t[k], q_meas, dq_meas, q_d[k], dq_d[k], ddq_d[k]), dtype=float).clip(low, limit)
         Q[k], DQ[k], TAU[k] = q, dq, tau
         if lyapunov:
             V[k] = controller.lyapunov(q, dq, q_d[k], dq_d[k])
         applied = tau if disturbance is None else tau + disturbance(t[k])
         for _ in range(substeps):
             _, q, dq = dynamics.step(q, dq, applied, h)
-        if not (np.all(np.isfinite(q)) and np.all(np.isfinite(dq))):
+        if not (np.isfinite(q).all() and np.isfinite(dq).all()):  # array methods: the np.* wrappers cost more
             raise SolverError(f"closed loop diverged at t = {t[k]:.3f} s; lower the gains or raise the rate")
     return TrackingResult(
         t,

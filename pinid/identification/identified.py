@@ -22,6 +22,7 @@ Any standard parameter set with the identified base parameters gives exactly the
 
 from __future__ import annotations
 
+import math
 import os
 from pathlib import Path
 
@@ -110,6 +111,7 @@ class IdentifiedModel:
         self._nv = robot.nv
         self._upper = np.triu_indices(robot.nv, 1)
         self._term_inertia = self._inertia_of_terms()
+        self._static = any(t.static for t in terms.joint)  # gravity(q) adds terms that depend on q only
 
     # ---------------------------------------------------------------- description
     @property
@@ -150,6 +152,25 @@ class IdentifiedModel:
     def _config(self, q: np.ndarray) -> np.ndarray:
         return q if self._plain else self.robot.configuration(q)
 
+    def _one(self, x: object) -> bool:
+        """Whether ``x`` is one finite float sample (nv,) — a controller's call at every step, answered
+        without the batch machinery of :meth:`_states` (the same numbers; anything else takes that path)."""
+        # a finite sum has no NaN and no infinity (an overflowing one takes the checked path, which decides)
+        return type(x) is np.ndarray and x.shape == (self._nv,) and x.dtype == np.float64 and math.isfinite(x.sum())
+
+    def _velocity_terms(self) -> list | None:
+        """``[(term, values)]`` of :meth:`friction`'s joint terms, or None when a motor term is among them."""
+        if "_friction_terms" not in self.__dict__:
+            keep = [t for t in self.terms.joint + self.terms.motor if self._is_friction(t)]
+            self._friction_terms = (
+                None if any(t.space != "joint" for t in keep) else [(t, self._values[t.name]) for t in keep]
+            )
+        return self._friction_terms
+
+    @staticmethod
+    def _is_friction(t) -> bool:
+        return not (t.inertia or t.static or t.load) and t.suffix != "offset"
+
     # ---------------------------------------------------------------- dynamics
     def _term_torque(self, q, dq, ddq, keep=lambda t: True) -> np.ndarray:
         """Torque (N, nv) of the selected terms for which ``keep(term)`` holds, with their values of
@@ -165,25 +186,40 @@ class IdentifiedModel:
         """Friction torque [N·m] at joint velocities ``dq`` (nv,) or (N, nv): the velocity-dependent
         terms, joint side (fc·sign(dq) + fv·dq) plus ``Gᵀ·`` motor side; not the load-dependent ``fl``
         (it needs q and ddq: :meth:`inverse_dynamics` has it)."""
+        if self._one(dq) and self._velocity_terms() is not None:  # terms.torque's joint sum, for one sample
+            d = dq[None]
+            zero = np.zeros((1, self._nv))
+            motion = _terms.Motion(zero, d, zero, self.nominal_robot.joint_names, self.nominal_robot)
+            tau = np.zeros((1, self._nv))
+            for t, values in self._velocity_terms():
+                tau += t.torque(values, motion)
+            return tau[0]
         (dq,), single = self._states(("dq", dq))
         zero = np.zeros_like(dq)
-        tau = self._term_torque(
-            zero, dq, zero, lambda t: not (t.inertia or t.static or t.load) and t.suffix != "offset"
-        )
+        tau = self._term_torque(zero, dq, zero, self._is_friction)
         return tau[0] if single else tau
 
     def gravity(self, q: np.ndarray) -> np.ndarray:
         """Static torque g(q) [N·m], (nv,) or (N, nv): gravity, plus the terms that depend on q only (the
         wearer's passive moments)."""
+        static = self._static
+        if not static and self._one(q):
+            return np.array(pin.computeGeneralizedGravity(self.pin_model, self.pin_data, self._config(q)))
         (q,), single = self._states(("q", q))
         g = np.array([pin.computeGeneralizedGravity(self.pin_model, self.pin_data, self._config(x)) for x in q])
-        if any(t.static for t in self.terms.joint):
+        if static:
             zero = np.zeros_like(q)
             g += self._term_torque(q, zero, zero, lambda t: t.static)
         return g[0] if single else g
 
     def mass_matrix(self, q: np.ndarray) -> np.ndarray:
         """Joint-space mass matrix M(q) + the terms' inertia [kg·m²]: symmetric (nv, nv), or (N, nv, nv)."""
+        if self._one(q):
+            M = np.array(pin.crba(self.pin_model, self.pin_data, self._config(q)))
+            i, j = self._upper
+            M[j, i] = M[i, j]  # crba fills the upper triangle
+            M += self._term_inertia
+            return M
         (q,), single = self._states(("q", q))
         M = np.empty((len(q), self.nv, self.nv))
         for i, x in enumerate(q):
@@ -205,6 +241,8 @@ class IdentifiedModel:
     def coriolis(self, q: np.ndarray, dq: np.ndarray) -> np.ndarray:
         """Coriolis/centrifugal matrix C(q, dq) (nv, nv) or (N, nv, nv), with Ṁ − 2C skew-symmetric; C·dq
         is the torque [N·m]."""
+        if self._one(q) and self._one(dq):
+            return np.array(pin.computeCoriolisMatrix(self.pin_model, self.pin_data, self._config(q), dq))
         (q, dq), single = self._states(("q", q), ("dq", dq))
         C = np.array(
             [pin.computeCoriolisMatrix(self.pin_model, self.pin_data, self._config(a), b) for a, b in zip(q, dq)]

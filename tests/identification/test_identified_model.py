@@ -155,6 +155,29 @@ def test_every_dynamics_method_takes_batches(make):
     np.testing.assert_allclose(m.forward_dynamics(q, dq, tau), ddq, atol=1e-8)
 
 
+def nominal_leg():
+    """exo_leg's URDF values with Coulomb and viscous friction: what a controller's model usually is."""
+    robot = load("exo_leg")
+    return IdentifiedModel(robot, TermSelection(), standard_parameters(robot, TermSelection()))
+
+
+@pytest.mark.parametrize("make", [nominal_leg, model_with_terms, coupled_model])
+def test_one_sample_gives_the_batch_rows_to_the_last_bit(make):
+    """A controller's call (one float sample) takes a short path: the numbers of the checked path (a list
+    goes there) bit for bit, and a NaN is still refused."""
+    m = make()
+    q, dq, _ = m.robot.random_states(5, np.random.default_rng(7))
+    for method, args in [("mass_matrix", (q,)), ("coriolis", (q, dq)), ("gravity", (q,)), ("friction", (dq,))]:
+        for k, row in enumerate(zip(*args)):
+            checked = getattr(m, method)(*[x.tolist() for x in row])
+            assert np.array_equal(getattr(m, method)(*row), checked), (method, k)
+    from pinid.errors import DataError
+
+    for method in ("mass_matrix", "gravity", "friction"):
+        with pytest.raises(DataError, match="finite|NaN"):
+            getattr(m, method)(np.full(m.nv, np.nan))
+
+
 def _numeric_jacobian(f, args, k, h=1e-6):
     """Central-difference Jacobian of ``f(*args)`` with respect to ``args[k]``."""
 
