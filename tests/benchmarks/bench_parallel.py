@@ -1,13 +1,15 @@
 """Benchmark: ``pinid compare`` on 1 and N local processes and on a Dask LocalCluster (issue 35).
 
-    python tests/benchmarks/bench_parallel.py [--seeds 8] [--workers 2] [--no-dask]
+    python tests/benchmarks/bench_parallel.py [--seeds 8] [--workers 2] [--no-dask] [--repeat 7]
 
 Simulates an exo_leg twin recording and a validation recording (``pinid simulate``), then runs
 ``pinid compare --seeds N`` with every quick method (the registry's methods that do not simulate the robot)
-three times, in one run of this script: ``--workers 1``, ``--workers N`` and ``--scheduler`` on a Dask
+three ways, in one run of this script: ``--workers 1``, ``--workers N`` and ``--scheduler`` on a Dask
 ``LocalCluster`` of N single-threaded worker processes.  Prints the wall-clock time of each, the speed-up
 over one worker, the machine's load, and whether the three ``comparison.json`` agree to the last digit
-(every number except the clock).  Target (issue 35): ≥ 1.7× on 2 workers, the same numbers.
+(every number except the clock).  With ``--repeat K`` the 1- and N-process runs alternate K times: the
+table gives their medians (a shared machine's speed drifts by ±30 % within minutes), then every pair.
+Target (issue 35): ≥ 1.7× on 2 workers, the same numbers.
 """
 
 from __future__ import annotations
@@ -15,6 +17,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import statistics
 import subprocess
 import sys
 import tempfile
@@ -45,6 +48,7 @@ def main() -> None:
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--seconds", type=float, default=20.0, help="length of the training recording [s]")
     ap.add_argument("--no-dask", action="store_true", help="skip the Dask LocalCluster run")
+    ap.add_argument("--repeat", type=int, default=1, help="pairs of 1- and N-process runs, alternating (medians)")
     a = ap.parse_args()
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     with tempfile.TemporaryDirectory() as tmp:
@@ -92,14 +96,12 @@ def main() -> None:
             "--no-progress",
         ]
         load = os.getloadavg()
-        rows = [("1 process", pinid(*common, "--workers", "1", "-o", str(folder / "one")), folder / "one")]
-        rows.append(
-            (
-                f"{a.workers} processes",
-                pinid(*common, "--workers", str(a.workers), "-o", str(folder / "many")),
-                folder / "many",
-            )
-        )
+        one, many = [], []
+        for _ in range(a.repeat):  # alternating, so that a drift of the machine's speed touches both alike
+            one.append(pinid(*common, "--workers", "1", "-o", str(folder / "one"), "--force"))
+            many.append(pinid(*common, "--workers", str(a.workers), "-o", str(folder / "many"), "--force"))
+        rows = [("1 process", statistics.median(one), folder / "one")]
+        rows.append((f"{a.workers} processes", statistics.median(many), folder / "many"))
         if not a.no_dask:
             from distributed import LocalCluster
 
@@ -118,6 +120,13 @@ def main() -> None:
         for name, seconds, out in rows:
             same = numbers(out / "comparison.json") == reference
             print(f"| {name} | {seconds:.1f} | {rows[0][1] / seconds:.2f}× | {'yes' if same else 'NO'} |")
+        if a.repeat > 1:
+            pairs = ", ".join(f"{x:.2f}/{y:.2f}" for x, y in zip(one, many))
+            print(
+                f"\nwall [s] of the {a.repeat} pairs (1 process / {a.workers}): {pairs}; the table gives their medians; "
+                f"speed-up of the best runs {min(one) / min(many):.2f}×, of the means {sum(one) / sum(many):.2f}×; "
+                f"load average after: {os.getloadavg()[0]:.2f}"
+            )
 
 
 if __name__ == "__main__":
