@@ -41,7 +41,7 @@ class Plant:
         self._ivs = 1.0 / coulomb_velocity
         self._data = model.pin_model.createData()
         self._eye = np.eye(model.nv)
-        self._conf = model.configuration if model.continuous else (lambda x: x)
+        self._conf = model.configuration if model.continuous else None  # q is Pinocchio's configuration
         extra = [(_terms.TERMS[n], np.asarray(v, dtype=float)) for n, v in (terms or {}).items()]
         self.extra = [(t, v) for t, v in extra if not t.inertia]
         self._load = any(t.load for t, _ in self.extra)  # a term reads the acceleration (fl): solved by iteration
@@ -57,7 +57,6 @@ class Plant:
             rotor = G.T @ (self.motor["armature"][:, None] * G)  # Gᵀ·diag(Im)·G [kg·m²]
             self.rotor = rotor if self.rotor is None else rotor + self.rotor
         self._fc_ivs = self.fc * self._ivs  # fc/v_s: the slope of the smoothed Coulomb law at zero velocity
-        self._lean = not self.extra and self.rotor is None and not model.continuous  # the lean step applies
 
     def _extra(self, q: np.ndarray, v: np.ndarray, a: np.ndarray, slope: bool = True) -> tuple[np.ndarray, np.ndarray]:
         """Torque [N·m] of the extra terms at (q, v, a), and its velocity derivative (diagonal) [N·m·s/rad]."""
@@ -77,10 +76,8 @@ class Plant:
         self, q: np.ndarray, v: np.ndarray, tau: np.ndarray, h: float
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(ddq, q_next, v_next)``: the acceleration at (q, v) under ``tau`` and the state ``h`` [s] later."""
-        if self._lean:
-            return self._lean_step(q, v, tau, h)
         pm, pdata = self.model.pin_model, self._data
-        qc = self._conf(q)
+        qc = q if self._conf is None else self._conf(q)
         nle = pin.nonLinearEffects(pm, pdata, qc, v)
         th = np.tanh(v * self._ivs)
         Dx = 0.0
@@ -90,7 +87,9 @@ class Plant:
         if self.rotor is None:
             Minv = pin.computeMinverse(pm, pdata, qc)
             a = Minv @ (tau - nle - self.fc * th - self.fv * v)
-            D = self.fc * self._ivs * (1.0 - th * th) + self.fv + Dx
+            D = self._fc_ivs * (1.0 - th * th) + self.fv
+            if self.extra:
+                D = D + Dx
             stiff = h * float((Minv.diagonal() * D).max()) > 0.1
             D = np.diag(D) if stiff else D
         else:
@@ -98,7 +97,7 @@ class Plant:
             M = np.triu(M) + np.triu(M, 1).T + self.rotor
             Minv = np.linalg.inv(M)
             f = self.fc * th + self.fv * v
-            D = np.diag(self.fc * self._ivs * (1.0 - th * th) + self.fv + Dx)
+            D = np.diag(self._fc_ivs * (1.0 - th * th) + self.fv + Dx)
             if self.motor is not None:
                 m, G = self.motor, self.G
                 vm = G @ v
@@ -126,22 +125,4 @@ class Plant:
         else:
             dv = h * a
         v_new = v + dv
-        return a, q + (0.5 * h) * (v + v_new), v_new
-
-    def _lean_step(
-        self, q: np.ndarray, v: np.ndarray, tau: np.ndarray, h: float
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """:meth:`step` of a plant with joint friction only (no extra terms, drives or added inertia) and no
-        continuous joint: the same operations in the same order, the same numbers to the last bit, without
-        the general step's branches (the twin's and the closed loops' inner loop: 1–2·10⁵ calls a run)."""
-        pm, pdata = self.model.pin_model, self._data
-        nle = pin.nonLinearEffects(pm, pdata, q, v)
-        th = np.tanh(v * self._ivs)
-        Minv = pin.computeMinverse(pm, pdata, q)
-        a = Minv @ (tau - nle - self.fc * th - self.fv * v)
-        D = self._fc_ivs * (1.0 - th * th) + self.fv
-        if h * float((Minv.diagonal() * D).max()) > 0.1:  # near zero velocity: implicit friction
-            v_new = v + np.linalg.solve(self._eye + (h * Minv) @ np.diag(D), h * a)
-        else:
-            v_new = v + h * a
         return a, q + (0.5 * h) * (v + v_new), v_new
