@@ -112,6 +112,11 @@ class IdentifiedModel:
         self._upper = np.triu_indices(robot.nv, 1)
         self._term_inertia = self._inertia_of_terms()
         self._static = any(t.static for t in terms.joint)  # gravity(q) adds terms that depend on q only
+        friction = [t for t in terms.joint + terms.motor if self._is_friction(t)]
+        # friction(dq)'s terms with their values, for one sample's short path (None: a motor term among them)
+        self._friction_terms = (
+            None if any(t.space != "joint" for t in friction) else [(t, self._values[t.name]) for t in friction]
+        )
 
     # ---------------------------------------------------------------- description
     @property
@@ -158,15 +163,6 @@ class IdentifiedModel:
         # a finite sum has no NaN and no infinity (an overflowing one takes the checked path, which decides)
         return type(x) is np.ndarray and x.shape == (self._nv,) and x.dtype == np.float64 and math.isfinite(x.sum())
 
-    def _velocity_terms(self) -> list | None:
-        """``[(term, values)]`` of :meth:`friction`'s joint terms, or None when a motor term is among them."""
-        if "_friction_terms" not in self.__dict__:
-            keep = [t for t in self.terms.joint + self.terms.motor if self._is_friction(t)]
-            self._friction_terms = (
-                None if any(t.space != "joint" for t in keep) else [(t, self._values[t.name]) for t in keep]
-            )
-        return self._friction_terms
-
     @staticmethod
     def _is_friction(t) -> bool:
         return not (t.inertia or t.static or t.load) and t.suffix != "offset"
@@ -186,12 +182,12 @@ class IdentifiedModel:
         """Friction torque [N·m] at joint velocities ``dq`` (nv,) or (N, nv): the velocity-dependent
         terms, joint side (fc·sign(dq) + fv·dq) plus ``Gᵀ·`` motor side; not the load-dependent ``fl``
         (it needs q and ddq: :meth:`inverse_dynamics` has it)."""
-        if self._one(dq) and self._velocity_terms() is not None:  # terms.torque's joint sum, for one sample
+        if self._friction_terms is not None and self._one(dq):  # terms.torque's joint sum, for one sample
             d = dq[None]
             zero = np.zeros((1, self._nv))
             motion = _terms.Motion(zero, d, zero, self.nominal_robot.joint_names, self.nominal_robot)
             tau = np.zeros((1, self._nv))
-            for t, values in self._velocity_terms():
+            for t, values in self._friction_terms:
                 tau += t.torque(values, motion)
             return tau[0]
         (dq,), single = self._states(("dq", dq))
