@@ -13,7 +13,7 @@ from pinid.model.robot import RobotModel
 
 class Plant:
     """The twin's equations of motion, M(q)·ddq + h(q, dq) + fc·tanh(dq/v_s) + fv·dq + Σ terms = τ, and one
-    integration step (see the module text: implicit friction when stiff, velocity first, trapezoidal
+    integration step (see :mod:`pinid.simulation.twin`'s text: implicit friction when stiff, velocity first, trapezoidal
     position).  ``coulomb`` [N·m], ``viscous`` [N·m·s/rad] per joint, ``coulomb_velocity`` v_s [rad/s].
 
     With drives (``model.drives`` with nominal motor values) the motors add, through ``G``:
