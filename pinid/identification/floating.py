@@ -155,9 +155,18 @@ def recording_hints(rec, model: FloatingRobotModel) -> list[str]:
     (not in contact) on most samples where the measured force exceeds half the robot's weight (phase logic
     inverted), an accelerometer whose mean specific force is far below g (gravity left out), base positions
     beyond 20 m (millimetres), a quaternion whose x is near ±1 on average (w first: an upright robot's w read as
-    x).  Each is also warned about at once (one line)."""
+    x); and (issue 47) a loaded contact whose sensor reads zero for a stretch (:func:`~pinid.identification.
+    floating_checks.plate_dropouts`), a plate's centre of pressure far from its foot and plates on the wrong
+    feet (:func:`~pinid.identification.floating_checks.foot_hints`), a gyro in deg/s and an accelerometer of
+    flipped sign (:func:`~pinid.identification.floating_checks.imu_hints`).  Each is also warned about at once
+    (one line)."""
+    from pinid.identification.floating_checks import foot_hints, imu_hints, plate_dropouts
+
     weight = sum(float(i.mass) for i in model.ff_model.inertias) * 9.81
-    src, hints = rec.source, []
+    src, raw = rec.source, rec
+    hints = [*plate_dropouts(raw, weight), *foot_hints(raw, model, weight), *imu_hints(raw)]
+    for line in hints:
+        warnings.warn(line, stacklevel=3)
     rec = rec.floating
     for link, phase in rec.contacts.items():
         w = rec.wrenches.get(link, rec.plates.get(link))

@@ -155,7 +155,8 @@ def setup(
             model, _items(data), terms=cv_terms, base=base, mapping=mapping, preprocess=preprocess, problem_options=rows
         )
         preprocess = {**preprocess, "cutoff": chosen.cutoff}
-    train = load_datasets(data, model, mapping, preprocess, "training")
+    glitches = _glitch_check(model)  # an encoder glitch in a raw recording: named (issue 47)
+    train = load_datasets(data, model, mapping, preprocess, "training", check=glitches)
     terms_choice = None
     if auto_terms:
         from pinid.identification.term_choice import choose_terms  # loaded on use
@@ -177,9 +178,12 @@ def setup(
     if validate is None:
         val = {}
     elif isinstance(validate, Mapping):
-        val = {str(k): load_datasets(v, model, mapping, preprocess, f"validation ({k})") for k, v in validate.items()}
+        val = {
+            str(k): load_datasets(v, model, mapping, preprocess, f"validation ({k})", check=glitches)
+            for k, v in validate.items()
+        }
     else:
-        val = {"validation": load_datasets(validate, model, mapping, preprocess, "validation")}
+        val = {"validation": load_datasets(validate, model, mapping, preprocess, "validation", check=glitches)}
     base = base_parameters(model, terms, joints=fitted)
     used_delay = None
     if delays is not None:
@@ -623,7 +627,11 @@ def _setup_floating(study: Study) -> Setup:
     from pinid.data.mapping import MappingSpec
     from pinid.data.preprocess import Preprocessing
     from pinid.identification.floating import FloatingStack, as_floating_options, recording_hints, refuse_fixed_only
-    from pinid.identification.floating_checks import flipped_floating_signs, orientation_noise_warning
+    from pinid.identification.floating_checks import (
+        cop_offset_warning,
+        flipped_floating_signs,
+        orientation_noise_warning,
+    )
     from pinid.identification.plausibility import shared_excitation
     from pinid.model.floating import as_floating
     from pinid.problem.floating import floating_problem
@@ -651,13 +659,20 @@ def _setup_floating(study: Study) -> Setup:
     mapping = None if mapping is None else MappingSpec.load(mapping)  # checked once, before any recording is read
     hints: list[str] = []  # convention errors the raw training recordings point to (recording_hints)
 
+    glitches = _glitch_check(model)
+
     def check(rec, found: list | None = None) -> None:  # each raw recording: its conventions, orientation noise
+        glitches(rec)
         (hints if found is None else found).extend(recording_hints(rec, model))
         orientation_noise_warning(rec, Preprocessing.normalize(preprocess), rec.source)
 
     load = dict(swing_rows=opts.swing_rows)
     train = load_datasets(study.data, model, mapping, preprocess, check=check, **load)
-    flipped = flipped_floating_signs(model, train) if opts.rows != "base" else []  # one warning, as a fixed base's
+    # the joint torques' sign and scale, and the plates' centres of pressure, are judged against the measured
+    # wrenches: not when the raw recordings already doubt those (hints name the cause instead)
+    flipped = flipped_floating_signs(model, train) if opts.rows != "base" and not hints else []
+    if not hints:
+        cop_offset_warning(model, train, ", ".join(s.source for s in train))
     rows = dict(rows=opts.rows, base_weight=opts.base_weight, rest_velocity=rest)
     problem = floating_problem(model, train, terms=terms, **rows)
     val, val_problem, sources = [], None, ", ".join(s.source for s in train)
@@ -729,7 +744,7 @@ def check_recordings(s: Setup, samples: int = 5000) -> None:
         raise SpecError(f"s: got {type(s).__name__}, expected the Setup of pinid.identification.run.setup")
     if isinstance(samples, bool) or not isinstance(samples, int) or samples < 1:
         raise SpecError(f"samples: got {samples!r}, expected a whole number ≥ 1")
-    from pinid.identification.plausibility import flipped_torque_signs, shared_excitation
+    from pinid.identification.plausibility import flipped_torque_signs, shared_excitation, torque_scale
 
     model = s.model
     train = [check_dataset(ds, model) for ds in s.train]
@@ -739,6 +754,16 @@ def check_recordings(s: Setup, samples: int = 5000) -> None:
     q, dq, ddq, tau = (np.concatenate([getattr(ds, k)[::step] for ds in train]) for k in ("q", "dq", "ddq", "tau"))
     nominal = model.rnea(q, dq, ddq) + model.coulomb * np.sign(dq) + model.viscous * dq
     flipped_torque_signs(model.joint_names, tau, nominal)
+    torque_scale(model.joint_names, tau, nominal, ", ".join(ds.source for ds in train))
+
+
+def _glitch_check(model) -> Callable:
+    """The raw-recording check of :func:`load_datasets` that names an encoder glitch
+    (:func:`pinid.identification.plausibility.position_glitches`)."""
+    from pinid.identification.plausibility import position_glitches
+
+    limit, units = model.velocity_limit, ["m" if u == "N" else "rad" for u in joint_units(model)]
+    return lambda ds: position_glitches(ds, limit, units)
 
 
 def _check_payload_data_distinct(data, payload_data) -> None:
