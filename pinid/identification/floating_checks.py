@@ -239,6 +239,8 @@ COP_FAR = 1.0
 #: A gyro's angular speed this many times that of its own orientation stream (or fewer times the inverse): in
 #: deg/s (×57.3).
 GYRO_RATIO = 10.0
+#: ... judged only when the orientation stream turns at this median angular speed [rad/s] or more.
+GYRO_MOVING = 0.05
 
 
 def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
@@ -373,7 +375,7 @@ def imu_hints(ds) -> list[str]:
         w_q = np.linalg.norm(2 * r[:, :3] * np.sign(r[:, 3:] + (r[:, 3:] == 0)), axis=1) / np.diff(t)
         w_g = np.linalg.norm(np.asarray(rec.imu["w"], dtype=float), axis=1)
         a, b = float(np.median(w_g)), float(np.median(w_q))
-        if b > 1e-3 and a / b > GYRO_RATIO:
+        if b > GYRO_MOVING and a / b > GYRO_RATIO:  # a still robot's gyro reads its noise: no verdict
             out.append(
                 f"{ds.source}: the gyro reads {a / b:.3g} × the angular speed of the IMU's orientation (median "
                 f"{a:.3g} against {b:.3g} rad/s): units: the gyro in deg/s (rad/s expected)"

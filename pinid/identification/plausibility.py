@@ -39,6 +39,8 @@ TORQUE_SCALE = (0.1, 10.0)
 GLITCH_FACTOR = 5.0
 GLITCH_SPEED = 20.0
 GLITCH_SAMPLES = 20
+#: ... and by at least this much [rad or m] (an encoder count flickering at a high rate is no glitch).
+GLITCH_MIN = 0.01
 
 
 def _uniform(t: np.ndarray, q: np.ndarray, step: float) -> np.ndarray:
@@ -160,8 +162,8 @@ def torque_scale(joints: Sequence[str], recorded: np.ndarray, nominal: np.ndarra
 
 def position_glitches(ds, velocity_limit: np.ndarray, units: Sequence[str] | None = None) -> list[str]:
     """One DataWarning naming the joints of the raw recording ``ds`` (t, q (N, nv), joints, source) whose
-    position jumps at a speed above :data:`GLITCH_FACTOR` × ``velocity_limit`` [rad/s or m/s] (per joint;
-    :data:`GLITCH_SPEED` where inf or 0) and jumps back within :data:`GLITCH_SAMPLES` samples: an encoder glitch
+    position jumps (by :data:`GLITCH_MIN` or more) at a speed above :data:`GLITCH_FACTOR` × ``velocity_limit``
+    [rad/s or m/s] (per joint; :data:`GLITCH_SPEED` where inf or 0) and jumps back within :data:`GLITCH_SAMPLES` samples: an encoder glitch
     (a spike no filter removes, which the fit then reads as a huge acceleration).  Each named with its time
     [s], the jump (``units`` per joint, default rad), its length in samples and its speed; returns the joints
     named."""
@@ -176,7 +178,7 @@ def position_glitches(ds, velocity_limit: np.ndarray, units: Sequence[str] | Non
     dq = np.diff(q, axis=0)
     found, named = [], []
     for j, name in enumerate(ds.joints):
-        fast = np.flatnonzero(np.abs(dq[:, j]) > limit[j] * dt)
+        fast = np.flatnonzero((np.abs(dq[:, j]) > limit[j] * dt) & (np.abs(dq[:, j]) >= GLITCH_MIN))
         for a, b in zip(fast[:-1], fast[1:]):  # a jump, then the next fast step, back the other way, soon after
             if b - a <= GLITCH_SAMPLES and np.sign(dq[b, j]) != np.sign(dq[a, j]):
                 u, size = units[j], float(dq[a, j])

@@ -147,3 +147,25 @@ def test_torques_scaled_by_1e_minus_9_keep_ols_and_name_the_scale(floating_exo, 
     ident, said = _run(floating_exo, _variant(walk, tiny))
     assert "ols" in ident.results and np.isfinite(ident.results["ols"].base).all()
     assert any("1e-09 × the URDF's torque" in s and "units or scale" in s for s in said), said
+
+
+def test_what_is_not_a_glitch_or_a_unit_error():
+    """An angle wrapping by 2π (no jump back), an encoder count flickering at 10 kHz and a fast but legal motion
+    are no glitch; torques 3 × the URDF's (friction the URDF lacks) are no unit error; 1000 × names N·mm."""
+    from pinid.data.dataset import Dataset
+    from pinid.identification.plausibility import position_glitches, torque_scale
+
+    t = np.arange(0, 1, 1e-4)
+    count = 2 * np.pi / 2**16
+    q = np.column_stack([np.where(t > 0.5, 2 * np.pi, 0.0), count * (np.arange(len(t)) % 2), 1.5 * np.sin(t)])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert position_glitches(Dataset(t, q, ["a", "b", "c"], tau=0 * q), np.array([1.0, 0.1, 2.0])) == []
+        assert torque_scale(["a"], 3 * np.sin(t)[:, None], np.sin(t)[:, None]) == pytest.approx(3)
+    q[5000:5003, 2] += 0.5
+    with pytest.warns(
+        UserWarning, match=r"q_c jumps \+0.5 rad at t = 0.5 s for 3 samples .*its velocity limit 2 rad/s"
+    ):
+        assert position_glitches(Dataset(t, q, ["a", "b", "c"], tau=0 * q), np.array([1.0, 0.1, 2.0])) == ["c"]
+    with pytest.warns(UserWarning, match=r"1e\+03 × the URDF's torque.*N·mm"):
+        torque_scale(["a"], 1000 * np.sin(t)[:, None], np.sin(t)[:, None])
