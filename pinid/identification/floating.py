@@ -127,7 +127,7 @@ def check_floating(run: FloatingStack, ident, model: FloatingRobotModel, rows: s
     excitation_warning(ident, run.problem.natural_scale, run.sources)
     if rows != "joints":
         posture = np.mean(np.concatenate([s.data.q for s in run.train]), axis=0)
-        com_warning(ident, model, run.problem.terms, run.problem.base, posture, run.sources)
+        com_warning(ident, model, run.problem.terms, run.problem.base, posture, run.sources, run.hints)
 
 
 def floating_truth(truth, problem) -> np.ndarray:

@@ -91,10 +91,11 @@ def whole_body_com(model, terms, base, q: np.ndarray, values: np.ndarray) -> np.
     return h / values[:, :1]
 
 
-def com_warning(ident, model, terms, base, q: np.ndarray, source: str) -> str | None:
+def com_warning(ident, model, terms, base, q: np.ndarray, source: str, hints=()) -> str | None:
     """One DataWarning line when a method's whole-body centre of mass (:func:`whole_body_com`, at the mean
     training posture ``q``) is :data:`COM_WARNED` × the robot's size or more from the URDF's, naming the likely
-    causes; returns it (None when every method's is plausible or the rows have no ``base.mR``)."""
+    causes (``hints``: what the raw recordings point to, :func:`pinid.identification.floating.recording_hints`,
+    named instead when given); returns it (None when every method's is plausible or the rows have no ``base.mR``)."""
     import pinocchio as pin
 
     from pinid.errors import DataWarning
@@ -125,8 +126,13 @@ def com_warning(ident, model, terms, base, q: np.ndarray, source: str) -> str | 
             f"{k} ({', '.join(f'{x:.3g}' for x in com[1 + methods.index(k)])}) m, {v:.3g} m off" for k, v in bad.items()
         )
         + f" against the URDF's ({', '.join(f'{x:.3g}' for x in com[0])}) m; more than {COM_WARNED:.0%} of the robot's "
-        f"size ({size:.3g} m): check the wrench's axes and frame (link or world, force plate x/y), the sign of its "
-        "moments and the point they are taken about (centre of pressure, sensor origin)"
+        f"size ({size:.3g} m): "
+        + (
+            "likely cause: " + "; ".join(hints)
+            if hints
+            else "check the wrench's axes and frame (link or world, force plate x/y), the sign of its moments and the "
+            "point they are taken about (centre of pressure, sensor origin)"
+        )
     )
     warnings.warn(line, DataWarning, stacklevel=3)
     return line
@@ -282,7 +288,7 @@ def plate_dropouts(ds, weight: float) -> list[str]:
     return out
 
 
-def _link_positions(model, ds, links, limit: int = 3000) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+def _link_positions(model, ds, links, limit: int = 1500) -> tuple[np.ndarray, dict[str, np.ndarray]]:
     """Sample indices (at most ``limit``, evenly spaced) and each link's world position (k, 3) there, from the
     base pose and the joint positions of the raw recording ``ds``."""
     import pinocchio as pin

@@ -78,6 +78,7 @@ def test_a_plate_frame_turned_90_degrees_is_named_for_every_method(floating_exo,
     _, said = _run(floating_exo, _variant(walk, turn))
     assert "plate_l_sole's centre of pressure lies a median" in said[0] and "the plate's frame" in said[0], said
     assert not any("check the sign" in s for s in said)
+    assert all("the plate's frame" in s for s in said if "centre of mass" in s), said  # named as its cause too
 
 
 def test_a_centre_of_pressure_in_mm_is_named_not_the_wrench_sign(floating_exo, walk):
@@ -96,7 +97,7 @@ def test_a_gyro_in_degrees_per_second_is_named(floating_exo, hung):
 
     _, said = _run(floating_exo, _variant(hung, deg))
     assert "the gyro in deg/s" in said[0] and "57.3 ×" in said[0], said
-    assert not any("sign of the wrench" in s for s in said)
+    assert not any("sign of the wrench" in s or "wrench's axes" in s for s in said), said  # the CoM's line too
 
 
 def test_an_accelerometer_of_flipped_sign_is_named_not_the_wrench_sign(floating_exo, hung):
