@@ -99,6 +99,7 @@ class FloatingStack:
     hints: list[str]
     flipped: list[str]
     sources: str
+    torque_scale: float | None = None  # recorded / the URDF's joint torque (plausibility.torque_scale)
 
 
 def validate_floating(run: FloatingStack, results: Mapping) -> TorqueMetrics | None:

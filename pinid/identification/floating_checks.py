@@ -19,12 +19,14 @@ from pinid.identification.plausibility import flipped_torque_signs, torque_scale
 EXCITED_FRACTION = 0.10
 
 
-def flipped_floating_signs(model, samples, *, limit: int = 5000) -> list[str]:
+def flipped_floating_signs(model, samples, *, limit: int = 5000, found: dict | None = None) -> list[str]:
     """The joints whose recorded torque is anti-correlated with the URDF's for the same motion and wrenches
     (``RNEA_joints − (Σ J_cᵀ f_c)_joints`` plus the URDF's friction, on at most ``limit`` samples of the
     prepared training recordings ``samples``; samples where a foot without a measured wrench is in contact, or a
     foot's contact phase is uncertain, are left out): one DataWarning "check the sign of tau_<joint>" (:func:`pinid.identification.plausibility.
-    flipped_torque_signs`, the fixed base's check)."""
+    flipped_torque_signs`, the fixed base's check).  The torques' scale against the same torque is checked too
+    (:func:`~pinid.identification.plausibility.torque_scale`); ``found`` (a dict), when given, gets it under
+    ``"torque_scale"``."""
     from pinid.model.floating import BASE_NV, contact_forces, floating_rnea
 
     if not hasattr(model, "ff_model") or isinstance(samples, (str, bytes)) or not hasattr(samples, "__iter__"):
@@ -50,7 +52,9 @@ def flipped_floating_signs(model, samples, *, limit: int = 5000) -> list[str]:
     if not recorded:
         return []
     recorded, nominal = np.concatenate(recorded), np.concatenate(nominal)
-    torque_scale(model.joint_names, recorded, nominal, ", ".join(s.source for s in samples))
+    ratio = torque_scale(model.joint_names, recorded, nominal, ", ".join(s.source for s in samples))
+    if isinstance(found, dict):
+        found["torque_scale"] = ratio
     return flipped_torque_signs(model.joint_names, recorded, nominal)
 
 

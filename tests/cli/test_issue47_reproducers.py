@@ -103,3 +103,19 @@ def test_nan_in_a_plate_column_is_named_as_the_file_names_it(gait):
     _rewrite(gait / "gait.csv", gait / "nan.csv", nan)
     proc = _identify(gait, gait / "nan.csv", "--urdf", "exo_lower_body", "--base", "floating")
     assert proc.returncode == 2 and "plate_l_sole_fx" in proc.stderr and "joints.c" not in proc.stderr, proc.stderr
+
+
+def test_torques_times_1e_minus_9_keep_ols_and_name_the_scale(fixed_run):
+    """Torques × 1e-9: SDP's solver fails (Clarabel 'InsufficientProgress'); OLS still comes out (exit 0,
+    model_ols.json) and SDP is left out in one line naming the torques' scale; SDP alone is refused naming it."""
+    tmp = fixed_run
+    _rewrite(tmp / "run.csv", tmp / "tiny.csv", lambda a, ix: a.__setitem__((slice(None), [3, 4]), a[:, 3:5] * 1e-9))
+    said = _warnings(_identify(tmp, tmp / "tiny.csv", "--urdf", "exo_leg"))
+    assert any("sdp left out; likely cause: the torques' scale" in s for s in said), said
+    assert (tmp / "r_tiny" / "model_ols.json").exists()
+    alone = run_cli(
+        "identify", "--urdf", "exo_leg", "--data", tmp / "tiny.csv", "--methods", "sdp", "-o", tmp / "r_alone",
+        "--no-progress", "--no-report", cwd=tmp,
+    )  # fmt: skip
+    assert alone.returncode == 2 and "likely cause: the torques' scale" in alone.stderr, alone.stderr
+    assert not (tmp / "r_alone").exists()
