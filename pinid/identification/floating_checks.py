@@ -1,7 +1,10 @@
 """What a floating-base identification can be trusted for (docs/floating-base.md, "Numbers you can trust"),
 beyond the σ and condition number every identification has: the one-line warnings naming the base parameters
 the data barely excite, a whole-body centre of mass far from the URDF's, joint torques whose sign looks flipped,
-and motion-capture orientation noise that biases the base parameters at the default cut-off."""
+and motion-capture orientation noise that biases the base parameters at the default cut-off; and (issue 47) the
+wrench faults that pass those: a loaded contact sensor reading zero (:func:`plate_dropouts`), plates on the wrong
+feet or a centre of pressure far from its foot (:func:`foot_hints`), a gyro in deg/s or an accelerometer of
+flipped sign (:func:`imu_hints`), one plate's centre of pressure offset against another's (:func:`cop_offsets`)."""
 
 from __future__ import annotations
 
