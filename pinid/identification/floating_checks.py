@@ -271,6 +271,8 @@ def plate_dropouts(ds, weight: float) -> list[str]:
     about zero (< :data:`NEAR_ZERO` × ``weight`` [N]) for :data:`DROPOUT_SECONDS` or longer while its contact
     phase is 1 and the sample just before or after carries load (> :data:`LOADED` × ``weight``): the sensor
     dropped out (an amplifier disconnected, a plate zeroed mid-trial)."""
+    if getattr(ds, "floating", None) is None:
+        raise SpecError("plate_dropouts: expected a Dataset with floating channels")
     rec, t, out = ds.floating, np.asarray(ds.t, dtype=float), []
     fs = 1.0 / float(np.median(np.diff(t)))
     for link, phase in rec.contacts.items():
@@ -320,6 +322,8 @@ def foot_hints(ds, model, weight: float) -> list[str]:
     CoP / 1000 lies near it, else the plate's frame: axes turned, origin not the world's), and links that move
     faster while their plate and contact phase say they carry the load than while they are off the ground
     (plates and contacts on the wrong feet)."""
+    if getattr(ds, "floating", None) is None:
+        raise SpecError("foot_hints: expected a Dataset with floating channels")
     rec = ds.floating
     links = [link for link in rec.plates if link in rec.contacts] or list(rec.plates)
     if rec.base_pose is None or not rec.plates or ds.n < 10 or not np.all(np.isfinite(rec.base_pose)):
@@ -377,6 +381,8 @@ def imu_hints(ds) -> list[str]:
     turned to the world by that orientation, points down on average: an IMU at rest reads +9.81 m/s² up)."""
     from pinid.data.contacts import continuous_quat, quat_matrix, quat_mul
 
+    if getattr(ds, "floating", None) is None:
+        raise SpecError("imu_hints: expected a Dataset with floating channels")
     rec, out = ds.floating, []
     q = rec.imu.get("q")
     if q is None or ds.n < 10 or not np.all(np.isfinite(q)):

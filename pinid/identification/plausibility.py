@@ -18,7 +18,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from pinid.errors import DataWarning
+from pinid.errors import DataError, DataWarning
 
 #: RMS of the aligned position difference, relative to the training positions' spread, below which a
 #: validation recording repeats a training trajectory.  The same excitation run twice differs by the
@@ -142,7 +142,11 @@ def torque_scale(joints: Sequence[str], recorded: np.ndarray, nominal: np.ndarra
     the median over the joints of RMS(recorded) / RMS(nominal) (joints whose nominal torque is ~0 left out);
     one DataWarning naming the likely units when it is outside :data:`TORQUE_SCALE` (N·mm gives ~1000, kN·m
     ~0.001).  Returns the ratio (None when no joint can be judged)."""
-    recorded, nominal = np.asarray(recorded, dtype=float), np.asarray(nominal, dtype=float)
+    from pinid.checks import as_floats
+
+    recorded, nominal = as_floats(recorded, "recorded", finite=False), as_floats(nominal, "nominal", finite=False)
+    if recorded.ndim != 2 or recorded.shape != nominal.shape or recorded.shape[1] != len(joints):
+        raise DataError(f"recorded {recorded.shape}, nominal {nominal.shape}: expected (N, {len(joints)}) both")
     rms_r = np.sqrt(np.mean(recorded**2, axis=0))
     rms_n = np.sqrt(np.mean(nominal**2, axis=0))
     ok = rms_n > 1e-6 * max(float(rms_n.max(initial=0.0)), 1e-300)
@@ -167,6 +171,8 @@ def position_glitches(ds, velocity_limit: np.ndarray, units: Sequence[str] | Non
     (a spike no filter removes, which the fit then reads as a huge acceleration).  Each named with its time
     [s], the jump (``units`` per joint, default rad), its length in samples and its speed; returns the joints
     named."""
+    if not all(hasattr(ds, k) for k in ("t", "q", "joints", "source")):
+        raise DataError(f"position_glitches: got {type(ds).__name__}, expected a Dataset (t, q, joints, source)")
     t, q = np.asarray(ds.t, dtype=float), np.asarray(ds.q, dtype=float)
     if q.ndim != 2 or len(t) < 3 or not np.all(np.isfinite(q)) or np.any(np.diff(t) <= 0):
         return []
