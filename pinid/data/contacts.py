@@ -35,6 +35,8 @@ pressure is in the world.  Every check raises :class:`~pinid.errors.DataError` n
 
 from __future__ import annotations
 
+import re
+
 import os
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -174,7 +176,12 @@ def _read_columns(path: Path, columns: list[str], n: int) -> dict[str, np.ndarra
     spec = MappingSpec.from_dict(
         {"time": "t", "joints": {f"c{i}": {"q": c} for i, c in enumerate(columns)}}, origin=f"{path} (floating columns)"
     )
-    ds = spec.read(path)
+    try:
+        ds = spec.read(path)
+    except DataError as e:  # name the column as the file does, not the pseudo-joint it was read through
+        raise DataError(
+            re.sub(r" \(joints\.c\d+\.q\)", " (a base, IMU, wrench, plate or contact column)", str(e))
+        ) from None
     if ds.n != n:
         raise DataError(f"{path}: {ds.n} rows of base and wrench columns for {n} samples; expected equal lengths")
     bad = ~np.isfinite(ds.q)

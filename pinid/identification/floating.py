@@ -99,6 +99,7 @@ class FloatingStack:
     hints: list[str]
     flipped: list[str]
     sources: str
+    torque_scale: float | None = None  # recorded / the URDF's joint torque (plausibility.torque_scale)
 
 
 def validate_floating(run: FloatingStack, results: Mapping) -> TorqueMetrics | None:
@@ -127,7 +128,7 @@ def check_floating(run: FloatingStack, ident, model: FloatingRobotModel, rows: s
     excitation_warning(ident, run.problem.natural_scale, run.sources)
     if rows != "joints":
         posture = np.mean(np.concatenate([s.data.q for s in run.train]), axis=0)
-        com_warning(ident, model, run.problem.terms, run.problem.base, posture, run.sources)
+        com_warning(ident, model, run.problem.terms, run.problem.base, posture, run.sources, run.hints)
 
 
 def floating_truth(truth, problem) -> np.ndarray:
@@ -155,9 +156,18 @@ def recording_hints(rec, model: FloatingRobotModel) -> list[str]:
     (not in contact) on most samples where the measured force exceeds half the robot's weight (phase logic
     inverted), an accelerometer whose mean specific force is far below g (gravity left out), base positions
     beyond 20 m (millimetres), a quaternion whose x is near ±1 on average (w first: an upright robot's w read as
-    x).  Each is also warned about at once (one line)."""
+    x); and (issue 47) a loaded contact whose sensor reads zero for a stretch (:func:`~pinid.identification.
+    floating_checks.plate_dropouts`), a plate's centre of pressure far from its foot and plates on the wrong
+    feet (:func:`~pinid.identification.floating_checks.foot_hints`), a gyro in deg/s and an accelerometer of
+    flipped sign (:func:`~pinid.identification.floating_checks.imu_hints`).  Each is also warned about at once
+    (one line)."""
+    from pinid.identification.floating_checks import foot_hints, imu_hints, plate_dropouts
+
     weight = sum(float(i.mass) for i in model.ff_model.inertias) * 9.81
-    src, hints = rec.source, []
+    src, raw = rec.source, rec
+    hints = [*plate_dropouts(raw, weight), *foot_hints(raw, model, weight), *imu_hints(raw)]
+    for line in hints:
+        warnings.warn(line, stacklevel=3)
     rec = rec.floating
     for link, phase in rec.contacts.items():
         w = rec.wrenches.get(link, rec.plates.get(link))

@@ -4,7 +4,11 @@
 * :func:`shared_excitation` — a validation recording that repeats a training trajectory (the same excitation
   run again) validates as well as it trains: it cannot show overfitting;
 * :func:`flipped_torque_signs` — a torque channel anti-correlated with the URDF's own torque for the motion
-  recorded: its sign is flipped (the fit then wants negative friction on that joint).
+  recorded: its sign is flipped (the fit then wants negative friction on that joint);
+* :func:`torque_scale` — torques whose size is orders of magnitude from the URDF's torque for the motion
+  recorded: their units (N·mm, kN·m) or a gear ratio (issue 47);
+* :func:`position_glitches` — a joint position that jumps far faster than the URDF's velocity limit allows
+  and comes back: an encoder glitch (issue 47).
 """
 
 from __future__ import annotations
@@ -14,7 +18,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from pinid.errors import DataWarning
+from pinid.errors import DataError, DataWarning
 
 #: RMS of the aligned position difference, relative to the training positions' spread, below which a
 #: validation recording repeats a training trajectory.  The same excitation run twice differs by the
@@ -26,6 +30,17 @@ GRID_STEP = 0.01
 MIN_OVERLAP = 0.5
 #: Correlation of a torque channel with the URDF's torque below which its sign is called flipped.
 FLIPPED = -0.5
+#: Recorded torque / the URDF's (median over the joints of their RMS ratio) outside this band is warned about:
+#: unmodelled friction or payload move it by a factor of a few at most; units off move it by 1000 (N·mm or mN·m
+#: for N·m) or 0.001 (kN·m), a motor-side torque by the gear ratio.
+TORQUE_SCALE = (0.1, 10.0)
+#: A joint's position jumps when its sample-to-sample speed exceeds this multiple of the URDF's velocity limit
+#: (:data:`GLITCH_SPEED` [rad/s or m/s] where the URDF gives none) and comes back within :data:`GLITCH_SAMPLES`.
+GLITCH_FACTOR = 5.0
+GLITCH_SPEED = 20.0
+GLITCH_SAMPLES = 20
+#: ... and by at least this much [rad or m] (an encoder count flickering at a high rate is no glitch).
+GLITCH_MIN = 0.01
 
 
 def _uniform(t: np.ndarray, q: np.ndarray, step: float) -> np.ndarray:
@@ -109,3 +124,82 @@ def flipped_torque_signs(joints: Sequence[str], recorded: np.ndarray, nominal: n
             stacklevel=2,
         )
     return [n for n, _ in flipped]
+
+
+def _unit_guess(ratio: float) -> str:
+    """The likely cause of recorded / URDF torque ``ratio`` (> 1 or < 1 by an order of magnitude or more)."""
+    if 300 <= ratio <= 3000:
+        return "torques in N·mm (or mN·m) instead of N·m (scale = 0.001 in a mapping spec)"
+    if 3e-4 <= ratio <= 3e-3:
+        return "torques in kN·m instead of N·m (scale = 1000 in a mapping spec)"
+    if ratio > 1:
+        return "the torque's units or scale (a motor-side torque times the gear ratio, a current read as torque)"
+    return "the torque's units or scale (a motor-side torque, a torque constant missing, a current in mA)"
+
+
+def torque_scale(joints: Sequence[str], recorded: np.ndarray, nominal: np.ndarray, source: str = "") -> float | None:
+    """The recorded torques' scale against ``nominal``, the URDF's torque for the same motion (both (N, nv)):
+    the median over the joints of RMS(recorded) / RMS(nominal) (joints whose nominal torque is ~0 left out);
+    one DataWarning naming the likely units when it is outside :data:`TORQUE_SCALE` (N·mm gives ~1000, kN·m
+    ~0.001).  Returns the ratio (None when no joint can be judged)."""
+    from pinid.checks import as_floats
+
+    recorded, nominal = as_floats(recorded, "recorded", finite=False), as_floats(nominal, "nominal", finite=False)
+    if recorded.ndim != 2 or recorded.shape != nominal.shape or recorded.shape[1] != len(joints):
+        raise DataError(f"recorded {recorded.shape}, nominal {nominal.shape}: expected (N, {len(joints)}) both")
+    rms_r = np.sqrt(np.mean(recorded**2, axis=0))
+    rms_n = np.sqrt(np.mean(nominal**2, axis=0))
+    ok = rms_n > 1e-6 * max(float(rms_n.max(initial=0.0)), 1e-300)
+    if not ok.any() or not np.all(np.isfinite(rms_r[ok])):
+        return None
+    ratio = float(np.median(rms_r[ok] / rms_n[ok]))
+    if not TORQUE_SCALE[0] <= ratio <= TORQUE_SCALE[1]:
+        named = ", ".join(f"tau_{n}" for n, k in zip(joints, ok) if k)
+        warnings.warn(
+            f"{source + ': ' if source else ''}the recorded joint torques are {ratio:.3g} × the URDF's torque for "
+            f"this motion (median RMS ratio over {named}; expected about 1): likely cause: {_unit_guess(ratio)}",
+            DataWarning,
+            stacklevel=2,
+        )
+    return ratio
+
+
+def position_glitches(ds, velocity_limit: np.ndarray, units: Sequence[str] | None = None) -> list[str]:
+    """One DataWarning naming the joints of the raw recording ``ds`` (t, q (N, nv), joints, source) whose
+    position jumps (by :data:`GLITCH_MIN` or more) at a speed above :data:`GLITCH_FACTOR` × ``velocity_limit``
+    [rad/s or m/s] (per joint; :data:`GLITCH_SPEED` where inf or 0) and jumps back within :data:`GLITCH_SAMPLES` samples: an encoder glitch
+    (a spike no filter removes, which the fit then reads as a huge acceleration).  Each named with its time
+    [s], the jump (``units`` per joint, default rad), its length in samples and its speed; returns the joints
+    named."""
+    if not all(hasattr(ds, k) for k in ("t", "q", "joints", "source")):
+        raise DataError(f"position_glitches: got {type(ds).__name__}, expected a Dataset (t, q, joints, source)")
+    t, q = np.asarray(ds.t, dtype=float), np.asarray(ds.q, dtype=float)
+    if q.ndim != 2 or len(t) < 3 or not np.all(np.isfinite(q)) or np.any(np.diff(t) <= 0):
+        return []
+    units = list(units) if units is not None else ["rad"] * q.shape[1]
+    vlim = np.asarray(velocity_limit, dtype=float)
+    has = np.isfinite(vlim) & (vlim > 0)
+    limit = np.where(has, GLITCH_FACTOR * np.where(has, vlim, 1.0), GLITCH_SPEED)
+    dt = np.diff(t)
+    dq = np.diff(q, axis=0)
+    found, named = [], []
+    for j, name in enumerate(ds.joints):
+        fast = np.flatnonzero((np.abs(dq[:, j]) > limit[j] * dt) & (np.abs(dq[:, j]) >= GLITCH_MIN))
+        for a, b in zip(fast[:-1], fast[1:]):  # a jump, then the next fast step, back the other way, soon after
+            if b - a <= GLITCH_SAMPLES and np.sign(dq[b, j]) != np.sign(dq[a, j]):
+                u, size = units[j], float(dq[a, j])
+                against = f"its velocity limit {vlim[j]:.3g} {u}/s" if has[j] else "no velocity limit in the URDF"
+                found.append(
+                    f"q_{name} jumps {size:+.3g} {u} at t = {t[a + 1]:.4g} s for {b - a} sample"
+                    f"{'s' if b - a > 1 else ''} ({abs(size) / dt[a]:.3g} {u}/s, {against})"
+                )
+                named.append(name)
+                break
+    if found:
+        warnings.warn(
+            f"{ds.source}: an encoder glitch: " + "; ".join(found) + "; repair or drop those samples (rows = "
+            "[start, stop] in a mapping spec): the fit reads a glitch as a huge acceleration",
+            DataWarning,
+            stacklevel=2,
+        )
+    return named

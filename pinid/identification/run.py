@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import os
 import time
+import warnings
 from dataclasses import replace
 from collections.abc import Callable, Iterable, Mapping, Sequence
 
@@ -155,7 +156,8 @@ def setup(
             model, _items(data), terms=cv_terms, base=base, mapping=mapping, preprocess=preprocess, problem_options=rows
         )
         preprocess = {**preprocess, "cutoff": chosen.cutoff}
-    train = load_datasets(data, model, mapping, preprocess, "training")
+    glitches = _glitch_check(model)  # an encoder glitch in a raw recording: named (issue 47)
+    train = load_datasets(data, model, mapping, preprocess, "training", check=glitches)
     terms_choice = None
     if auto_terms:
         from pinid.identification.term_choice import choose_terms  # loaded on use
@@ -177,9 +179,12 @@ def setup(
     if validate is None:
         val = {}
     elif isinstance(validate, Mapping):
-        val = {str(k): load_datasets(v, model, mapping, preprocess, f"validation ({k})") for k, v in validate.items()}
+        val = {
+            str(k): load_datasets(v, model, mapping, preprocess, f"validation ({k})", check=glitches)
+            for k, v in validate.items()
+        }
     else:
-        val = {"validation": load_datasets(validate, model, mapping, preprocess, "validation")}
+        val = {"validation": load_datasets(validate, model, mapping, preprocess, "validation", check=glitches)}
     base = base_parameters(model, terms, joints=fitted)
     used_delay = None
     if delays is not None:
@@ -514,11 +519,11 @@ def identify(
     model = s.model  # with the fitted Stribeck shapes (auto): built once, used from here on
     terms = s.terms if auto_terms else terms
     x_true = None if truth is None else true_base(truth, model, s.terms, s.base)  # checked before the fits
-    check_recordings(s)
+    ratio = check_recordings(s)
     if started is not None:
         started()
     jobs = [(m, None, options.get(m, {})) for m in methods]
-    fits = run_jobs(s, jobs, complete=complete, show_progress=show_progress, workers=workers)
+    fits = _fit_jobs(s, jobs, ratio, complete=complete, show_progress=show_progress, workers=workers)
     results = {f.method: f.result for f in fits}
     del fits  # the estimators (wls: its row weights)
     if x_true is not None:
@@ -623,7 +628,11 @@ def _setup_floating(study: Study) -> Setup:
     from pinid.data.mapping import MappingSpec
     from pinid.data.preprocess import Preprocessing
     from pinid.identification.floating import FloatingStack, as_floating_options, recording_hints, refuse_fixed_only
-    from pinid.identification.floating_checks import flipped_floating_signs, orientation_noise_warning
+    from pinid.identification.floating_checks import (
+        cop_offset_warning,
+        flipped_floating_signs,
+        orientation_noise_warning,
+    )
     from pinid.identification.plausibility import shared_excitation
     from pinid.model.floating import as_floating
     from pinid.problem.floating import floating_problem
@@ -651,13 +660,21 @@ def _setup_floating(study: Study) -> Setup:
     mapping = None if mapping is None else MappingSpec.load(mapping)  # checked once, before any recording is read
     hints: list[str] = []  # convention errors the raw training recordings point to (recording_hints)
 
+    glitches = _glitch_check(model)
+
     def check(rec, found: list | None = None) -> None:  # each raw recording: its conventions, orientation noise
+        glitches(rec)
         (hints if found is None else found).extend(recording_hints(rec, model))
         orientation_noise_warning(rec, Preprocessing.normalize(preprocess), rec.source)
 
     load = dict(swing_rows=opts.swing_rows)
     train = load_datasets(study.data, model, mapping, preprocess, check=check, **load)
-    flipped = flipped_floating_signs(model, train) if opts.rows != "base" else []  # one warning, as a fixed base's
+    # the joint torques' sign and scale, and the plates' centres of pressure, are judged against the measured
+    # wrenches: not when the raw recordings already doubt those (hints name the cause instead)
+    found: dict = {}
+    flipped = flipped_floating_signs(model, train, found=found) if opts.rows != "base" and not hints else []
+    if not hints:
+        cop_offset_warning(model, train, ", ".join(s.source for s in train))
     rows = dict(rows=opts.rows, base_weight=opts.base_weight, rest_velocity=rest)
     problem = floating_problem(model, train, terms=terms, **rows)
     val, val_problem, sources = [], None, ", ".join(s.source for s in train)
@@ -671,7 +688,7 @@ def _setup_floating(study: Study) -> Setup:
             "homogeneous (W·θ = 0) and identify nothing; expected wrench_<link>_* or plate_<link>_* columns (the "
             "wrench applied by the environment on the robot) or joint torques with --rows all"
         )
-    stack = FloatingStack(problem, val_problem, train, val, hints, flipped, sources)
+    stack = FloatingStack(problem, val_problem, train, val, hints, flipped, sources, found.get("torque_scale"))
     validation = {"validation": [s.data for s in val]} if val_problem is not None else {}
     return Setup(model, problem.terms, problem.base, problem, [s.data for s in train], validation, floating=stack)
 
@@ -688,8 +705,13 @@ def _identify_floating(study: Study, running: dict, *, unsupported: dict) -> Ide
     if running["started"] is not None:
         running["started"]()
     jobs = [(m, None, running["options"].get(m, {})) for m in running["methods"]]
-    fits = run_jobs(
-        s, jobs, complete=running["complete"], show_progress=running["show_progress"], workers=running["workers"]
+    fits = _fit_jobs(
+        s,
+        jobs,
+        run.torque_scale,
+        complete=running["complete"],
+        show_progress=running["show_progress"],
+        workers=running["workers"],
     )
     results = {f.method: f.result for f in fits}
     del fits
@@ -720,16 +742,17 @@ def _identify_floating(study: Study, running: dict, *, unsupported: dict) -> Ide
     return ident
 
 
-def check_recordings(s: Setup, samples: int = 5000) -> None:
+def check_recordings(s: Setup, samples: int = 5000) -> float | None:
     """The one-line warnings of :mod:`pinid.identification.plausibility` (``identify`` and ``compare``): a
     validation recording that repeats a training trajectory; a torque channel whose sign is flipped against
     the URDF's torque (rigid bodies and the URDF's friction, on at most ``samples`` samples of the training
-    recordings)."""
+    recordings), torques whose scale is far from it (their units).  Returns that scale
+    (:func:`~pinid.identification.plausibility.torque_scale`)."""
     if not isinstance(s, Setup):
         raise SpecError(f"s: got {type(s).__name__}, expected the Setup of pinid.identification.run.setup")
     if isinstance(samples, bool) or not isinstance(samples, int) or samples < 1:
         raise SpecError(f"samples: got {samples!r}, expected a whole number ≥ 1")
-    from pinid.identification.plausibility import flipped_torque_signs, shared_excitation
+    from pinid.identification.plausibility import flipped_torque_signs, shared_excitation, torque_scale
 
     model = s.model
     train = [check_dataset(ds, model) for ds in s.train]
@@ -739,6 +762,42 @@ def check_recordings(s: Setup, samples: int = 5000) -> None:
     q, dq, ddq, tau = (np.concatenate([getattr(ds, k)[::step] for ds in train]) for k in ("q", "dq", "ddq", "tau"))
     nominal = model.rnea(q, dq, ddq) + model.coulomb * np.sign(dq) + model.viscous * dq
     flipped_torque_signs(model.joint_names, tau, nominal)
+    return torque_scale(model.joint_names, tau, nominal, ", ".join(ds.source for ds in train))
+
+
+def _fit_jobs(s: Setup, jobs: list, ratio: float | None, **run) -> list:
+    """:func:`~pinid.identification.runner.run_jobs`; when the torques' scale is far off the URDF's (``ratio``,
+    :func:`~pinid.identification.plausibility.torque_scale`) and a solver fails, each method is fitted alone and
+    those whose solver fails are left out with one warning naming the scale (OLS still comes out); SolverError
+    naming it when none comes out."""
+    from pinid.errors import DataWarning, SolverError
+    from pinid.identification.plausibility import TORQUE_SCALE
+
+    try:
+        return run_jobs(s, jobs, **run)
+    except SolverError as exc:
+        if ratio is None or TORQUE_SCALE[0] <= ratio <= TORQUE_SCALE[1]:
+            raise
+        first = exc
+    cause = f"likely cause: the torques' scale, {ratio:.3g} × the URDF's torque for this motion (their units)"
+    fits = []
+    for job in jobs:
+        try:
+            fits += run_jobs(s, [job], **run)
+        except SolverError as exc:
+            warnings.warn(f"{exc}: {job[0]} left out; {cause}", DataWarning, stacklevel=3)
+    if not fits:
+        raise SolverError(f"{first}; {cause}") from None
+    return fits
+
+
+def _glitch_check(model) -> Callable:
+    """The raw-recording check of :func:`load_datasets` that names an encoder glitch
+    (:func:`pinid.identification.plausibility.position_glitches`)."""
+    from pinid.identification.plausibility import position_glitches
+
+    limit, units = model.velocity_limit, ["m" if u == "N" else "rad" for u in joint_units(model)]
+    return lambda ds: position_glitches(ds, limit, units)
 
 
 def _check_payload_data_distinct(data, payload_data) -> None:
