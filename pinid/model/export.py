@@ -160,6 +160,7 @@ def identified_urdf_tree(
             link.remove(el)
         link.insert(0, xml_comment(f" pinid: inertial removed; it is part of the identified body of joint '{owner}' "))
     params = _terms.robot_layout(model, terms)
+    kept = _terms.kept_friction(model, terms)
     for i, jname in enumerate(active):
         jel = joints[jname]
         mine = [(p.term, theta[10 * nv + k]) for k, p in enumerate(params) if p.term.space == "joint" and p.index == i]
@@ -176,14 +177,38 @@ def identified_urdf_tree(
         note = marks_summary(marks, [f"{jname}.{t.suffix}" for t, _ in mine])
         if note:
             jel.append(xml_comment(f" pinid, from these data: {note} "))
+        if jname in kept:
+            jel.append(xml_comment(f" pinid: {kept_friction_text(kept[jname], 'friction', 'damping')} "))
     head = (
-        f" {origin}{' (' + comment + ')' if comment else ''}: inertials of the moving links and "
-        f"joint friction replaced; physically consistent: {'yes' if report.consistent else 'NO (forced)'}"
+        f" {origin}{' (' + comment + ')' if comment else ''}: {friction_summary(terms, kept, 'friction', 'damping')}"
+        f"; physically consistent: {'yes' if report.consistent else 'NO (forced)'}"
         + (f"; locked joints: {', '.join(f'{k}={v:g}' for k, v in model.locked.items())}" if model.locked else "")
         + " "
     )
     root.insert(0, xml_comment(head))
     return root
+
+
+def kept_friction_text(kept: dict[str, float], coulomb: str, viscous: str) -> str:
+    """``"friction 1.2, damping 0.8: not identified (URDF value kept)"`` for one joint's :func:`kept_friction`
+    values, with the file's own field names (URDF ``friction``/``damping``, MJCF ``frictionloss``/``damping``)."""
+    fields = {"fc": coulomb, "fv": viscous}
+    values = ", ".join(f"{fields[k]} {_num(v) if len(_num(v)) < 12 else f'{v:.6g}'}" for k, v in kept.items())
+    return f"{values}: not identified (URDF value kept; no {', '.join(kept)} term in this identification)"
+
+
+def friction_summary(terms: TermSelection, kept: dict, coulomb: str, viscous: str, *, no_field: bool = True) -> str:
+    """What the file's first comment says of the inertials and the joint friction: replaced, or the URDF's
+    values kept (:func:`pinid.model.terms.kept_friction`), and the friction terms that have no field."""
+    replaced = [f for t, f in (("fc", coulomb), ("fv", viscous)) if t in terms]
+    kept_names = sorted({f for values in kept.values() for f in ({"fc": coulomb, "fv": viscous}[k] for k in values)})
+    out = "inertials of the moving links" + (f" and joint {', '.join(replaced)}" if replaced else "") + " replaced"
+    if kept_names:
+        out += f"; joint {', '.join(kept_names)}: the URDF's values kept, not identified (see each joint)"
+    nofield = [t.name for t in terms.joint if not t.field]
+    if nofield and no_field:
+        out += f"; identified terms with no URDF field (a comment in each joint): {', '.join(nofield)}"
+    return out
 
 
 def _check_loads(text: str, model: RobotModel) -> None:

@@ -43,6 +43,7 @@ from pinid.errors import DataError, ModelError
 from pinid.io import write_text
 from pinid.model import terms as _terms
 from pinid.model.base import marks_summary
+from pinid.model.export import friction_summary, kept_friction_text
 from pinid.model.physical import NOISE, check_consistency, com_inertia, nonnegative_within_tolerance, tidy_inertial
 from pinid.model.terms import TermSelection
 from pinid.model.robot import INERTIAL_NAMES, MAX_BODY_MASS, RobotModel, as_robot
@@ -266,13 +267,20 @@ def identified_mjcf(
     if base_theta is not None:  # the identified base link, with every link welded to it
         pm.inertias[1] = pin.Inertia.FromDynamicParameters(base_theta)
     fields, lost = joint_fields(model, theta, terms)
+    kept = _terms.kept_friction(model, terms)  # the URDF's friction where no fc/fv was identified: as the URDF export
+    for jname, values in kept.items():
+        i = model.joint_names.index(jname)
+        fields["frictionloss"][i] += values.get("fc", 0.0)
+        fields["damping"][i] += values.get("fv", 0.0)
     links, child_link, root_link = _urdf_links(model.urdf_document)
     active = {name: i for i, name in enumerate(model.joint_names)}
 
     mj = new_element("mujoco", model=model.name)
     head = (
-        f" {origin}{' (' + comment + ')' if comment else ''} from {model.name}: inertials, armature, damping "
-        f"(viscous friction), frictionloss (Coulomb friction); base {'floating (free joint)' if floating else 'fixed'}"
+        f" {origin}{' (' + comment + ')' if comment else ''} from {model.name}: "
+        f"{friction_summary(terms, kept, 'frictionloss', 'damping', no_field=False)}; armature (rotor inertia) "
+        "where identified; "
+        f"damping is viscous friction, frictionloss Coulomb friction; base {'floating (free joint)' if floating else 'fixed'}"
         + (f"; locked joints: {', '.join(f'{k}={v:g}' for k, v in model.locked.items())}" if model.locked else "")
         + f"; not exported: {'; '.join(lost) if lost else 'nothing'} "
     )
@@ -333,6 +341,10 @@ def identified_mjcf(
             note = marks_summary(marks, own)
             if note:
                 body.append(xml_comment(f" pinid, joint '{jname}' terms from these data: {note} "))
+        if jname in kept:
+            body.append(
+                xml_comment(f" pinid, joint '{jname}': {kept_friction_text(kept[jname], 'frictionloss', 'damping')} ")
+            )
     _geoms(pm, links, bodies, names)
     act = sub_element(mj, "actuator")
     for j in model.joints:
