@@ -302,6 +302,23 @@ def _model(args: argparse.Namespace):
     return model.with_setting("ripple_periods", periods_from_text(args.ripple_periods))
 
 
+def _check_term_settings(args: argparse.Namespace, terms) -> None:
+    """SpecError for a term's setting given without its term (it would be silently ignored): --ripple-periods
+    without a ripple term, --sigmoid-shape without fsig (--terms auto chooses neither)."""
+    names = [] if isinstance(terms, str) else terms.names
+    given = f"--terms {args.terms}"
+    if args.ripple_periods is not None and not any(n.startswith("ripple_") for n in names):
+        raise SpecError(
+            f"--ripple-periods {args.ripple_periods}: {given} has no ripple term, so it would be ignored; "
+            "add ripple, ripple2 or ripple3 to --terms (e.g. --terms fc,fv,ripple) or leave --ripple-periods out"
+        )
+    if args.sigmoid_shape is not None and "fsig" not in names:
+        raise SpecError(
+            f"--sigmoid-shape {args.sigmoid_shape}: {given} has no fsig term, so it would be ignored; "
+            "add fsig to --terms (e.g. --terms fc,fv,fsig) or leave --sigmoid-shape out"
+        )
+
+
 def _prior_weight(text: str) -> float | str:
     """``--prior-weight``: a number ≥ 0 or ``auto``."""
     return "auto" if text.strip().lower() == "auto" else nonnegative_float(text)
@@ -326,6 +343,7 @@ def run(args: argparse.Namespace) -> int:
     methods = methods_from_args(args)
     model = _model(args)
     terms = terms_from_args(args, auto=True)
+    _check_term_settings(args, terms)
 
     def started() -> None:  # the inputs are read and checked: say what runs
         floating = f" on a floating base ({args.rows} rows)" if args.base == "floating" else ""

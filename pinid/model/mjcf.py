@@ -298,7 +298,10 @@ def identified_mjcf(
             return root_link
         return child_link.get(pm.names[jid], pm.names[jid])
 
-    unique = _unique_body_names([link_name(j) for j in range(pm.njoints)], set(links))
+    # the bodies written: with a free joint, the root link is joint 1's body and the universe (0) has none, so
+    # the root link's name is counted once (it was twice: the floating root body came out as "pelvis_1")
+    ids = [j for j in range(pm.njoints) if not (floating and j == 0)]
+    unique = dict(zip(ids, _unique_body_names([link_name(j) for j in ids], set(links))))
 
     def body_name(jid: int) -> str:
         return unique[jid]

@@ -191,3 +191,130 @@ def test_check_writable_refuses_an_input_only_when_it_is_the_same_file(tmp_path)
     assert check_writable(b, inputs=(a,)) == b  # another path
     with pytest.raises(pinid.OutputError, match="is the input file"):
         check_writable(a, overwrite=True, inputs=(a,))
+
+
+# ------------------------------------------------------------------ unclear messages
+def test_sigmoid_shape_starting_with_a_minus_reaches_pinid_and_names_the_steepness(run_csv, tmp_path):
+    for argv in (["--sigmoid-shape", "-1,0"], ["--sigmoid-shape=-1,0"]):
+        r = run_cli(
+            "identify", "--urdf", "exo_leg", "--data", str(run_csv), "--terms", "fc,fv,fsig", *argv,
+            "--methods", "ols", "-o", str(tmp_path / "r"), "--no-progress", "--no-report",
+        )  # fmt: skip
+        assert r.returncode == 2 and "expected one argument" not in r.stderr, r.stderr
+        assert "steepness φ2 = -1 [s/rad], expected > 0" in r.stderr and "may be negative: 40,-0.01" in r.stderr
+    assert not (tmp_path / "r").exists()
+
+
+def test_negative_values_are_option_values_for_every_command():
+    from pinid.cli.main import build_parser
+
+    args = build_parser().parse_args(["identify", "--urdf", "exo_leg", "--data", "x.csv", "--sigmoid-shape", "-1,0"])
+    assert args.sigmoid_shape == "-1,0"
+    args = build_parser().parse_args(["identify", "--data", "x.csv", "--sigmoid-shape", "-1e-3:2"])
+    assert args.sigmoid_shape == "-1e-3:2"
+    with pytest.raises(SystemExit):  # an unknown option is still one
+        build_parser().parse_args(["identify", "--data", "x.csv", "--sigmoid-shape", "-x"])
+
+
+@pytest.mark.parametrize(
+    "terms, option, term",
+    [("fc,fv", ["--ripple-periods", "100"], "ripple"), ("fc,fv", ["--sigmoid-shape", "40,0"], "fsig")],
+)
+def test_a_term_setting_without_its_term_is_refused(run_csv, tmp_path, terms, option, term):
+    r = run_cli(
+        "identify", "--urdf", "exo_leg", "--data", str(run_csv), "--terms", terms, *option, "--methods", "ols",
+        "-o", str(tmp_path / "r"), "--no-progress", "--no-report",
+    )  # fmt: skip
+    assert r.returncode == 2, r.stderr
+    assert f"{option[0]} {option[1]}: --terms {terms} has no {term} term, so it would be ignored" in r.stderr
+    r = run_cli(
+        "identify", "--urdf", "exo_leg", "--data", str(run_csv), "--terms", "auto", "--ripple-periods", "auto",
+        "--methods", "ols", "-o", str(tmp_path / "r"), "--no-progress", "--no-report",
+    )  # fmt: skip
+    assert r.returncode == 2 and "has no ripple term" in r.stderr, r.stderr
+
+
+def test_ripple_periods_auto_on_a_short_recording_names_the_ripple(tmp_path):
+    """0.8 s: fc,fv identify, and some ripple periods are rank-deficient there; before, the choice ended in a rank
+    error naming hip.mx.  Now the periods the recording cannot tell apart get no score, and the choice is made
+    among the others (or, when none is left, the error names the ripple terms)."""
+    from pinid.data.formats import read_recording
+    from pinid.data.preprocess import prepare
+    from pinid.identification.ripple_choice import choose_ripple_periods
+
+    csv = tmp_path / "short.csv"
+    r = run_cli(
+        "simulate", "--urdf", "exo_leg", "--excitation", "exo_leg", "--seconds", "0.8", "--seed", "1",
+        "-o", str(csv), "--no-progress",
+    )  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    r = run_cli(
+        "identify", "--urdf", "exo_leg", "--data", str(csv), "--terms", "fc,fv,ripple", "--ripple-periods", "auto",
+        "--methods", "ols", "-o", str(tmp_path / "r"), "--no-progress", "--no-report",
+    )  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    choice = json.loads((tmp_path / "r" / "identification.json").read_text())["data"]["ripple_periods"]
+    scores = choice["cv_rel_rms_percent"]
+    assert None in scores and any(s is not None for s in scores)  # some periods refused, the choice among the rest
+    assert scores[choice["candidates"].index(choice["periods"])] is not None
+    # only rank-deficient periods: the error names the ripple terms and what to do
+    exo = pinid.RobotModel.from_urdf("exo_leg").with_setting("ripple_periods", "auto")
+    ds = prepare(read_recording(csv))
+    terms = pinid.TermSelection.from_names("fc,fv,ripple")
+    bad = [c for c, s in zip(choice["candidates"], scores) if s is None]
+    with pytest.raises(
+        pinid.DataError, match=r"--ripple-periods auto: .*ripple_s1, ripple_c1.*give --ripple-periods R"
+    ):
+        choose_ripple_periods(exo, [ds], terms, candidates=bad)
+
+
+def test_wearer_height_in_centimetres_is_suggested():
+    from pinid.wearer.anthropometry import check_person
+
+    with pytest.raises(pinid.SpecError, match=r"height 175 m: .*in centimetres\? 175 cm is 1.75 m"):
+        check_person(75, 175, "male")
+    with pytest.raises(pinid.SpecError, match=r"in millimetres\? 1780 mm is 1.78 m"):
+        check_person(75, 1780, "male")
+    with pytest.raises(pinid.SpecError) as info:
+        check_person(75, 3.0, "male")
+    assert "centimetres" not in str(info.value)
+    r = run_cli("wearer", "--urdf", "exo_leg", "--mass", "75", "--height", "175", "--sex", "male", "-o", "x.urdf")
+    assert r.returncode == 2 and "175 cm is 1.75 m" in r.stderr
+
+
+def test_simulate_gait_with_an_imu_is_refused_as_identify_would(tmp_path):
+    r = run_cli(
+        "simulate", "--urdf", "exo_lower_body", "--base", "floating", "--excitation", "gait", "--imu", "pelvis",
+        "--seconds", "1", "-o", str(tmp_path / "g.csv"), "--no-progress",
+    )  # fmt: skip
+    assert r.returncode == 2, r.stderr
+    assert "force plates need the base position in the world" in r.stderr
+    assert not list(tmp_path.iterdir())
+
+
+def test_wearer_worse_than_the_tables_is_said():
+    from pinid.errors import DataWarning
+    from pinid.wearer.stage import warn_if_worse_than_table
+
+    rms = {"identified": {"hip": 5.09, "knee": 1.0}, "table": {"hip": 3.57, "knee": 1.0}, "exo": {"hip": 9, "knee": 9}}
+    with pytest.warns(DataWarning, match=r"worse than the anthropometric tables at hip \(5.09 vs 3.57 N·m RMS\)"):
+        assert warn_if_worse_than_table(rms) == ["hip"]
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert warn_if_worse_than_table({"identified": {"hip": 3.6}, "table": {"hip": 3.57}}) == []
+
+
+def test_floating_mjcf_root_body_keeps_the_root_link_name(tmp_path):
+    """The root link was counted twice in _unique_body_names: the floating MJCF named its root body "pelvis_1"."""
+    from pinid.model.mjcf import identified_mjcf
+
+    for name, root in (("exo_leg", "trunk"), ("exo_lower_body", "pelvis")):
+        robot = pinid.RobotModel.from_urdf(name)
+        theta = pinid.standard_parameters(robot)
+        xml = identified_mjcf(robot, theta, pinid.TermSelection(), floating=True)
+        bodies = re.findall(r'<body name="([^"]+)"', xml)
+        assert bodies[0] == root and not any(b.endswith("_1") for b in bodies), bodies
+        fixed = re.findall(r'<body name="([^"]+)"', identified_mjcf(robot, theta, pinid.TermSelection()))
+        assert fixed == bodies
