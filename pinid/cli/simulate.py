@@ -37,9 +37,9 @@ The same arguments give the same files.  Defaults: 1 kHz control and sampling, 1
 2e-5 rad noise, torque noise 1 % of each joint's peak, the URDF's <dynamics> friction.
 
 examples:
-  pinid simulate --urdf urdf/exo_leg.urdf --excitation excitation/exo_leg.json --seconds 60 --seed 1 -o data/run1.csv
+  pinid simulate --urdf exo_leg --excitation exo_leg --seconds 60 --seed 1 -o data/run1.csv
   pinid simulate --urdf apal_leg --excitation zha2019-3 --seconds 20 -o data/apal3.csv --perturb 20
-  pinid simulate --urdf exo_leg --excitation excitation/exo_leg.json -o data/run1.csv --perturb 30 --cad-urdf data/cad.urdf
+  pinid simulate --urdf exo_leg --excitation exo_leg -o data/run1.csv --perturb 30 --cad-urdf data/cad.urdf
   pinid simulate --urdf exo_lower_body --base floating --excitation gait --seconds 20 -o data/walk.csv
 """
 

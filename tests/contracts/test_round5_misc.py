@@ -318,3 +318,57 @@ def test_floating_mjcf_root_body_keeps_the_root_link_name(tmp_path):
         assert bodies[0] == root and not any(b.endswith("_1") for b in bodies), bodies
         fixed = re.findall(r'<body name="([^"]+)"', identified_mjcf(robot, theta, pinid.TermSelection()))
         assert fixed == bodies
+
+
+# ------------------------------------------------------------------ docs, as a new user found them
+def test_report_html_renders_emphasis_and_spans_that_wrap(leg_identification, tmp_path):
+    from pinid.identification.outputs import write_identification
+    from pinid.report.html import markdown_to_html
+
+    page = markdown_to_html("a **bold\nwraps** and *em\nwraps*, *From these data*: 2 * 3, a*b*c, `x*y*`")
+    body = page.split("<body>")[1]
+    assert "<strong>bold wraps</strong>" in body and "<em>em wraps</em>" in body and "<em>From these data</em>" in body
+    assert "2 * 3, a*b*c, <code>x*y*</code>" in body
+    write_identification(leg_identification, tmp_path, report=True, figures=False)
+    text = re.sub(r"<code>.*?</code>|<pre>.*?</pre>", "", (tmp_path / "report.html").read_text(), flags=re.S)
+    assert "*" not in text.split("<body>")[1]  # no Markdown asterisk left for a reader to see
+
+
+def test_no_doc_names_a_missing_page():
+    """docs/estimators.md was linked from --option's help (docs/cli.md); every docs/X.md named in the code and in
+    the docs exists."""
+    root = Path(__file__).resolve().parents[2]
+    texts = [p.read_text() for p in [*root.joinpath("pinid").rglob("*.py"), *root.joinpath("docs").glob("*.md")]]
+    named = {m for t in texts for m in re.findall(r"docs/([\w.-]+\.md)", t)}
+    missing = sorted(n for n in named if not (root / "docs" / n).exists())
+    assert not missing, missing
+
+
+@pytest.mark.parametrize(
+    "page, line, needle",
+    [
+        ("wearer.md", 97, "--excitation exo_leg "),
+        ("simulate.md", 151, "--excitation exo_leg "),
+        ("simulate.md", 152, "--excitation seed001_table3 "),
+        ("metaheuristics.md", 201, "--excitation seed001_table3 "),
+    ],
+)
+def test_doc_commands_name_bundled_files_not_repository_paths(page, line, needle):
+    """docs/getting-started.md says every command works in any folder: the bundled names, not excitation/…"""
+    root = Path(__file__).resolve().parents[2]
+    lines = (root / "docs" / page).read_text().splitlines()
+    near = "\n".join(lines[line - 3 : line + 2])
+    assert needle in near and "excitation/" not in near, near
+
+
+def test_bundled_names_of_the_doc_commands_resolve_outside_the_repository(tmp_path):
+    from pinid.simulation.trajectories import load_trajectory
+
+    leg = pinid.RobotModel.from_urdf("exo_leg")
+    cwd = os.getcwd()
+    try:
+        os.chdir(tmp_path)
+        for name in ("exo_leg", "seed001_table3"):
+            assert list(load_trajectory(name, leg).joints) == leg.joint_names
+    finally:
+        os.chdir(cwd)
