@@ -253,7 +253,7 @@ class RobotModel:
             jid = full.getJointId(n)
             _set_coordinate(q_ref, full.joints[jid], info.kind, value)
             to_lock.append(jid)
-        silent = sorted(n for n in mimics if n not in chosen)  # locked by pinid, not by the user or a preset
+        silent = sorted(n for n in mimics if n in lock and n not in chosen)  # locked by pinid, not the user or a preset
         if silent:
             followed = document.mimic_joints()
             warnings.warn(
