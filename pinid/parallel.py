@@ -52,13 +52,18 @@ def check_workers(workers: int | None) -> int:
     return workers
 
 
-def check_scheduler(scheduler: Any) -> Any:
+def check_scheduler(scheduler: Any | None) -> Any | None:
     """``scheduler`` unchanged if it is None, a ``distributed.Client`` or a well-formed Dask address
     (``tcp://host:port``, ``host:port``, ``tls://…``, ``inproc://…``); a SpecError naming it otherwise.
 
     Checks the address's form only (no connection): a host name typed alone fails here, before any work."""
-    if scheduler is None or not isinstance(scheduler, str):
+    if scheduler is None:
         return scheduler
+    if not isinstance(scheduler, str):
+        client = getattr(__import__("sys").modules.get("distributed"), "Client", None)
+        if client is not None and isinstance(scheduler, client):
+            return scheduler
+        raise SpecError(f"scheduler: got {type(scheduler).__name__}, expected an address 'tcp://host:port'")
     expected = "expected an address tcp://host:port (e.g. tcp://127.0.0.1:8786)"
     if not scheduler.strip() or any(c.isspace() for c in scheduler):
         raise SpecError(f"scheduler {scheduler!r}: {expected}")

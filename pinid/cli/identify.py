@@ -289,7 +289,8 @@ def _options(args, methods) -> dict:
 
 def _model(args: argparse.Namespace):
     """The robot of the options, with the ripple terms' periods (--ripple-periods) and the sigmoid friction's
-    shape (--sigmoid-shape) as its settings."""
+    shape (--sigmoid-shape) as its settings; each refused without its term."""
+    _check_term_settings(args, terms_from_args(args, auto=True))
     model = robot_from_args(args)
     if args.sigmoid_shape is not None:
         from pinid.model.terms_sigmoid import shape_from_text  # the plug-in term, loaded on use
@@ -343,7 +344,6 @@ def run(args: argparse.Namespace) -> int:
     methods = methods_from_args(args)
     model = _model(args)
     terms = terms_from_args(args, auto=True)
-    _check_term_settings(args, terms)
 
     def started() -> None:  # the inputs are read and checked: say what runs
         floating = f" on a floating base ({args.rows} rows)" if args.base == "floating" else ""

@@ -25,6 +25,7 @@ A floating base (:func:`floating_urdf`): the base link's ``<inertial>`` is the i
 from __future__ import annotations
 
 import os
+from collections.abc import Mapping
 
 import numpy as np
 
@@ -189,9 +190,20 @@ def identified_urdf_tree(
     return root
 
 
+def _check_kept(kept, coulomb, viscous) -> None:
+    """ModelError unless ``kept`` is ``{"fc" | "fv": number}`` and the field names are text."""
+    if not isinstance(coulomb, str) or not isinstance(viscous, str):
+        raise ModelError("coulomb, viscous: expected the file's field names (text), e.g. 'friction', 'damping'")
+    if not isinstance(kept, Mapping) or not all(
+        k in ("fc", "fv") and isinstance(v, (int, float)) and not isinstance(v, bool) for k, v in kept.items()
+    ):
+        raise ModelError(f"kept: got {type(kept).__name__}, expected {{'fc' or 'fv': value}} of one joint")
+
+
 def kept_friction_text(kept: dict[str, float], coulomb: str, viscous: str) -> str:
     """``"friction 1.2, damping 0.8: not identified (URDF value kept)"`` for one joint's :func:`kept_friction`
     values, with the file's own field names (URDF ``friction``/``damping``, MJCF ``frictionloss``/``damping``)."""
+    _check_kept(kept, coulomb, viscous)
     fields = {"fc": coulomb, "fv": viscous}
     values = ", ".join(f"{fields[k]} {_num(v) if len(_num(v)) < 12 else f'{v:.6g}'}" for k, v in kept.items())
     return f"{values}: not identified (URDF value kept; no {', '.join(kept)} term in this identification)"
@@ -200,6 +212,11 @@ def kept_friction_text(kept: dict[str, float], coulomb: str, viscous: str) -> st
 def friction_summary(terms: TermSelection, kept: dict, coulomb: str, viscous: str, *, no_field: bool = True) -> str:
     """What the file's first comment says of the inertials and the joint friction: replaced, or the URDF's
     values kept (:func:`pinid.model.terms.kept_friction`), and the friction terms that have no field."""
+    terms = _terms.as_terms(terms)
+    if not isinstance(kept, Mapping):
+        raise ModelError(f"kept: got {type(kept).__name__}, expected {{joint: {{term: value}}}} (kept_friction)")
+    for values in kept.values():
+        _check_kept(values, coulomb, viscous)
     replaced = [f for t, f in (("fc", coulomb), ("fv", viscous)) if t in terms]
     kept_names = sorted({f for values in kept.values() for f in ({"fc": coulomb, "fv": viscous}[k] for k in values)})
     out = "inertials of the moving links" + (f" and joint {', '.join(replaced)}" if replaced else "") + " replaced"

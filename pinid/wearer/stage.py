@@ -530,6 +530,8 @@ def warn_if_worse_than_table(rms: dict[str, dict[str, float]]) -> list[str]:
 
     from pinid.errors import DataWarning
 
+    if not isinstance(rms, dict) or not all(isinstance(v, dict) for v in rms.values()):
+        raise SpecError(f"rms: got {type(rms).__name__}, expected {{'identified' | 'table' | 'exo': {{joint: rms}}}}")
     ident, table = rms.get("identified") or {}, rms.get("table") or {}
     worse = [j for j, v in ident.items() if j in table and v > WORSE_THAN_TABLE * table[j]]
     if worse:
