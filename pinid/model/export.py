@@ -13,7 +13,8 @@ model.  The export is therefore valid for the locked configuration used in ident
 fixed to the world are left as they are (they do not move).
 
 Joint terms.  Coulomb (``fc``) and viscous (``fv``) friction go to ``<dynamics friction=… damping=…/>``
-of each active joint when they are in the model (otherwise the URDF's values stay).  Armature and
+of each active joint when they are in the model (otherwise the URDF's values stay, marked "not identified
+(URDF value kept)", and the MJCF export carries the same values: :func:`pinid.model.terms.kept_friction`).  Armature and
 a constant offset have no URDF field: they are written as a comment in the joint element (and kept in
 the JSON outputs).
 

@@ -10,7 +10,8 @@ at its joint frame relative to the parent body (``pos``, ``quat`` w x y z), with
   strictly positive eigenvalues and its own eigen-decomposition adds rounding;
 * a ``hinge`` or ``slide`` joint along the Pinocchio joint's axis, with ``range`` from the URDF limits
   (continuous joints: none), ``armature`` (rotor inertia), ``damping`` (viscous friction ``fv``) and
-  ``frictionloss`` (Coulomb friction ``fc``); motor-side terms of drives whose ``G`` has one joint per
+  ``frictionloss`` (Coulomb friction ``fc``) — without an ``fc``/``fv`` term the URDF's ``<dynamics>`` value,
+  as the identified URDF keeps it, marked "not identified (URDF value kept)" in both; motor-side terms of drives whose ``G`` has one joint per
   motor are reflected (``G²·Im``, ``G²·fv``, ``|G|·fc``);
 * the URDF's box, cylinder and sphere ``<collision>`` shapes as geoms (contacts; MuJoCo never collides a
   body with its parent), its ``<visual>`` ones for display only (``contype="0" conaffinity="0"``,
