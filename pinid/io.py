@@ -24,16 +24,25 @@ from pinid.errors import SpecError
 OVERWRITE: contextvars.ContextVar[bool] = contextvars.ContextVar("pinid_overwrite", default=True)
 
 
-def check_writable(path: str | os.PathLike, *, overwrite: bool | None = None) -> Path:
+def check_writable(
+    path: str | os.PathLike,
+    *,
+    overwrite: bool | None = None,
+    inputs: tuple[str | os.PathLike, ...] = (),
+) -> Path:
     """Check before any work that ``path`` can be written; return it as a Path.
 
-    Raises OutputError if the folder cannot be created or written, if the path is a folder, or if it
-    exists and ``overwrite`` is False (None: the current :data:`OVERWRITE` policy).
+    Raises OutputError if the folder cannot be created or written, if the path is a folder, if it is one
+    of ``inputs`` (the same file, also through a symbolic or hard link: never replaced, even with
+    ``overwrite``), or if it exists and ``overwrite`` is False (None: the current :data:`OVERWRITE` policy).
     """
     overwrite = OVERWRITE.get() if overwrite is None else overwrite
     p = Path(path)
     if p.is_dir():
         raise OutputError(f"{p}: is a folder, expected a file path")
+    for source in inputs:
+        if _same_file(p, Path(source)):
+            raise OutputError(f"{p}: is the input file {source}; expected a different output path (even with --force)")
     if p.exists() and not overwrite:
         raise OutputError(f"{p}: already exists (use --force to overwrite)")
     folder = p.parent if str(p.parent) else Path(".")
@@ -44,6 +53,14 @@ def check_writable(path: str | os.PathLike, *, overwrite: bool | None = None) ->
     if not os.access(folder, os.W_OK):
         raise OutputError(f"{folder}: output folder is not writable")
     return p
+
+
+def _same_file(a: Path, b: Path) -> bool:
+    """Whether ``a`` and ``b`` are the same existing file (the same inode, through any link)."""
+    try:
+        return a.exists() and b.exists() and os.path.samefile(a, b)
+    except OSError:
+        return False
 
 
 @contextlib.contextmanager

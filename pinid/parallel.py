@@ -52,6 +52,36 @@ def check_workers(workers: int | None) -> int:
     return workers
 
 
+def check_scheduler(scheduler: Any | None) -> Any | None:
+    """``scheduler`` unchanged if it is None, a ``distributed.Client`` or a well-formed Dask address
+    (``tcp://host:port``, ``host:port``, ``tls://…``, ``inproc://…``); a SpecError naming it otherwise.
+
+    Checks the address's form only (no connection): a host name typed alone fails here, before any work."""
+    if scheduler is None:
+        return scheduler
+    if not isinstance(scheduler, str):
+        client = getattr(__import__("sys").modules.get("distributed"), "Client", None)
+        if client is not None and isinstance(scheduler, client):
+            return scheduler
+        raise SpecError(f"scheduler: got {type(scheduler).__name__}, expected an address 'tcp://host:port'")
+    expected = "expected an address tcp://host:port (e.g. tcp://127.0.0.1:8786)"
+    if not scheduler.strip() or any(c.isspace() for c in scheduler):
+        raise SpecError(f"scheduler {scheduler!r}: {expected}")
+    try:
+        from distributed.comm.addressing import parse_address, parse_host_port
+    except ImportError:  # no Dask: _on_dask says how to install it
+        return scheduler
+    try:
+        protocol, location = parse_address(scheduler)
+        if protocol in ("tcp", "tls", "ws", "wss", "ucx"):
+            host, port = parse_host_port(location)
+            if not host or port is None:
+                raise ValueError("no host or port")
+    except (ValueError, TypeError) as e:
+        raise SpecError(f"scheduler {scheduler!r}: {expected} ({e})") from None
+    return scheduler
+
+
 def run_parallel(
     fn: Callable[[Any, Any], Any],
     shared: Any,
@@ -244,6 +274,7 @@ def _on_dask(fn: Callable, shared: Any, items: Sequence, scheduler: Any, bar) ->
         raise SpecError(
             f'scheduler {scheduler!r}: Dask is not installed; install it with: pip install "pinid[dask]"'
         ) from None
+    check_scheduler(scheduler)
     own = isinstance(scheduler, str)
     if not own and not isinstance(scheduler, distributed.Client):
         raise SpecError(f"scheduler: got {type(scheduler).__name__}, expected an address 'tcp://host:port'")
@@ -251,6 +282,8 @@ def _on_dask(fn: Callable, shared: Any, items: Sequence, scheduler: Any, bar) ->
         client = distributed.Client(scheduler, timeout="10s") if own else scheduler
     except (OSError, TimeoutError) as e:
         raise SpecError(f"scheduler {scheduler!r}: no Dask scheduler answers there ({e})") from None
+    except ValueError as e:  # an address Dask cannot parse that check_scheduler let through
+        raise SpecError(f"scheduler {scheduler!r}: expected an address tcp://host:port ({e})") from None
     futures = []
     try:
         shared_future = client.scatter(shared, broadcast=True)

@@ -336,7 +336,7 @@ def add_method_arguments(p: argparse.ArgumentParser, default: str) -> None:
         default=[],
         metavar="METHOD.KEY=VALUE",
         help="a setting of one method, e.g. sdp.regularization=0.01 or pso.population=50 (VALUE in JSON: "
-        "numbers, true/false, null, [lists], or plain text); repeatable; see docs/estimators.md",
+        "numbers, true/false, null, [lists], or plain text); repeatable; every method's settings: docs/identification.md#estimators",
     )
 
 

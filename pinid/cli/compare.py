@@ -31,7 +31,7 @@ from pinid.cli.common import (
 from pinid.errors import SpecError
 from pinid.estimators import ESTIMATORS, quick_methods
 from pinid.io import check_outputs
-from pinid.parallel import default_workers
+from pinid.parallel import check_scheduler, default_workers
 
 HELP = f"compare estimators ({', '.join(ESTIMATORS)}) on the same data, several seeds"
 DESCRIPTION = f"""\
@@ -88,7 +88,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     add_mapping_arguments(p)
     p.add_argument("-o", "--output", default="results", metavar="FOLDER", help="output folder; default results/")
-    p.add_argument("--no-plots", action="store_true", help="do not write the figures")
+    p.add_argument(
+        "--no-figures",
+        "--no-plots",
+        dest="no_figures",
+        action="store_true",
+        help="do not write the figures (--no-plots: the former name, still accepted)",
+    )
     p.add_argument(
         "--workers",
         type=int,
@@ -164,6 +170,7 @@ def _arguments(args: argparse.Namespace, model) -> tuple:
 
     if args.seeds < 1:
         raise SpecError(f"--seeds {args.seeds}: expected at least 1")
+    check_scheduler(args.scheduler)  # a malformed address fails here, before any work
     methods = methods_from_args(args)
     if args.first_validate and not args.first_data:
         raise SpecError("--first-validate needs --first-data (the segmental strategy)")
@@ -229,6 +236,6 @@ def run(args: argparse.Namespace) -> int:
     print(comp.table())
     print()
     print(comp.values_table())
-    written = write_comparison(comp, out, command="pinid " + shlex.join(sys.argv[1:]), figures=not args.no_plots)
+    written = write_comparison(comp, out, command="pinid " + shlex.join(sys.argv[1:]), figures=not args.no_figures)
     print(f"\nwrote {len(written)} files to {out}/: " + ", ".join(Path(p).name for p in written))
     return 0

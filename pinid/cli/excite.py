@@ -38,7 +38,7 @@ With --evaluate TRAJ it designs nothing: it reports the condition number and lim
 examples:
   pinid excite --urdf urdf/exo_leg.urdf -o excitation/exo_leg.json --csv exo_leg.csv --plot exo_leg.png
   pinid excite --urdf exo_leg --optimizer ewoa --population 100 --iterations 200 --seed 1
-  pinid excite --urdf exo_leg --evaluate excitation/seed001_table3.json
+  pinid excite --urdf exo_leg --evaluate seed001_table3
   pinid excite --urdf panda --harmonics 5 -o panda_excitation.json
 """
 

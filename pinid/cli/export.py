@@ -40,7 +40,7 @@ def run(args: argparse.Namespace) -> int:
 
     if args.floating and args.format != "mjcf":
         raise SpecError("--floating is for --format mjcf (a URDF has no free joint)")
-    out = check_writable(args.output)
+    out = check_writable(args.output, inputs=(args.model,))  # never the file it reads, --force or not
     model = load_identified(args.model, method=args.method)
     if args.format == "mjcf":
         model.export_mjcf(out, floating=args.floating or None)

@@ -289,7 +289,8 @@ def _options(args, methods) -> dict:
 
 def _model(args: argparse.Namespace):
     """The robot of the options, with the ripple terms' periods (--ripple-periods) and the sigmoid friction's
-    shape (--sigmoid-shape) as its settings."""
+    shape (--sigmoid-shape) as its settings; each refused without its term."""
+    _check_term_settings(args, terms_from_args(args, auto=True))
     model = robot_from_args(args)
     if args.sigmoid_shape is not None:
         from pinid.model.terms_sigmoid import shape_from_text  # the plug-in term, loaded on use
@@ -300,6 +301,23 @@ def _model(args: argparse.Namespace):
     if args.ripple_periods.strip().lower() == "auto":  # chosen by cross-validation (identification.ripple_choice)
         return model.with_setting("ripple_periods", "auto")
     return model.with_setting("ripple_periods", periods_from_text(args.ripple_periods))
+
+
+def _check_term_settings(args: argparse.Namespace, terms) -> None:
+    """SpecError for a term's setting given without its term (it would be silently ignored): --ripple-periods
+    without a ripple term, --sigmoid-shape without fsig (--terms auto chooses neither)."""
+    names = [] if isinstance(terms, str) else terms.names
+    given = f"--terms {args.terms}"
+    if args.ripple_periods is not None and not any(n.startswith("ripple_") for n in names):
+        raise SpecError(
+            f"--ripple-periods {args.ripple_periods}: {given} has no ripple term, so it would be ignored; "
+            "add ripple, ripple2 or ripple3 to --terms (e.g. --terms fc,fv,ripple) or leave --ripple-periods out"
+        )
+    if args.sigmoid_shape is not None and "fsig" not in names:
+        raise SpecError(
+            f"--sigmoid-shape {args.sigmoid_shape}: {given} has no fsig term, so it would be ignored; "
+            "add fsig to --terms (e.g. --terms fc,fv,fsig) or leave --sigmoid-shape out"
+        )
 
 
 def _prior_weight(text: str) -> float | str:

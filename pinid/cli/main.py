@@ -14,6 +14,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import importlib
+import re
 import os
 import signal
 import sys
@@ -81,6 +82,15 @@ def _add_sources(p: argparse.ArgumentParser) -> None:
 
 
 class _Parser(argparse.ArgumentParser):
+    #: Values that start with "-" but are numbers or lists of them ("-1,0", "-0.5", "-1e-3:2"): read as an option's
+    #: value, not as an unknown option (argparse's own pattern takes only "-1" and "-1.5"; pinid has no option
+    #: that looks like a number).
+    NEGATIVE_VALUE = re.compile(r"^-\.?\d[\d.,:eE+\-]*$")
+
+    def __init__(self, *args, **kwargs) -> None:
+        super().__init__(*args, **kwargs)
+        self._negative_number_matcher = self.NEGATIVE_VALUE
+
     def error(self, message: str) -> None:  # argparse's own errors: one line, exit 2
         self.exit(2, f"{self.prog}: error: {message}\n")
 

@@ -30,15 +30,16 @@ adds sensor noise and encoder quantisation, and writes
 
 With --base floating (docs/floating-base.md): the legs follow the excitation exactly while the pelvis hangs
 in a spring-damper harness (its load cell recorded as wrench_<base link>_*), or, with --excitation gait, a
-prescribed walk with force plates under the soles; the base motion is recorded as motion capture or --imu.
+prescribed walk with force plates under the soles; the base motion is recorded as motion capture or, in the
+harness only, --imu (the gait's force plates need the base position, which an IMU does not give).
 
 The same arguments give the same files.  Defaults: 1 kHz control and sampling, 16-bit encoders plus
 2e-5 rad noise, torque noise 1 % of each joint's peak, the URDF's <dynamics> friction.
 
 examples:
-  pinid simulate --urdf urdf/exo_leg.urdf --excitation excitation/exo_leg.json --seconds 60 --seed 1 -o data/run1.csv
+  pinid simulate --urdf exo_leg --excitation exo_leg --seconds 60 --seed 1 -o data/run1.csv
   pinid simulate --urdf apal_leg --excitation zha2019-3 --seconds 20 -o data/apal3.csv --perturb 20
-  pinid simulate --urdf exo_leg --excitation excitation/exo_leg.json -o data/run1.csv --perturb 30 --cad-urdf data/cad.urdf
+  pinid simulate --urdf exo_leg --excitation exo_leg -o data/run1.csv --perturb 30 --cad-urdf data/cad.urdf
   pinid simulate --urdf exo_lower_body --base floating --excitation gait --seconds 20 -o data/walk.csv
 """
 
@@ -149,7 +150,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "--imu",
         default=None,
         metavar="FRAME",
-        help="record the base motion as an IMU on FRAME (a link fixed to the base) instead of motion capture",
+        help="record the base motion as an IMU on FRAME (a link fixed to the base) instead of motion capture "
+        "(the harness only: not with --excitation gait, whose force plates need motion capture)",
     )
     g.add_argument("--wrench-noise", default="2,0.2", metavar="F,M", help="wrench noise std [N, N·m]; default 2,0.2")
     g.add_argument(

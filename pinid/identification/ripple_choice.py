@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from pinid.data.dataset import Dataset
-from pinid.errors import SpecError
+from pinid.errors import DataError, SpecError
 from pinid.identification.crossval import (
     FOLDS,
     better,
@@ -144,18 +144,35 @@ def choose_ripple_periods(
             base_model, prepared, plain, base_parameters(base_model, plain, joints=fit_joints), problem_options
         )
     ]
+    usable, refused = [], []  # a period whose ripple columns these recordings cannot tell from the rest: no score
     for r in tried:
         m = model.with_setting("ripple_periods", float(r))
-        rows.append(candidate_rows(m, prepared, terms, base_parameters(m, terms, joints=fit_joints), problem_options))
+        try:
+            rows.append(
+                candidate_rows(m, prepared, terms, base_parameters(m, terms, joints=fit_joints), problem_options)
+            )
+            usable.append(r)
+        except DataError as exc:
+            if "rank-deficient" not in str(exc):
+                raise
+            refused.append((r, str(exc)))
+    if not usable:
+        r, why = refused[0]
+        raise DataError(
+            f"--ripple-periods auto: the training recordings cannot tell the ripple terms ({', '.join(_ripple_terms(terms))}) "
+            f"from the other parameters at any candidate period (at {r:g}: {why}); record longer or with more motion, "
+            "give --ripple-periods R, or leave the ripple terms out"
+        )
     edges = block_edges(prepared)
     spans = common_spans(rows)
     sums = np.array([fold_sums(c, edges, spans) for c in rows])
     pooled, per_fold = fold_scores(sums)
+    scores = dict(zip(usable, pooled[1:]))
     k = int(np.nanargmin(pooled[1:])) + 1
     return RippleChoice(
-        periods=float(tried[k - 1]),
+        periods=float(usable[k - 1]),
         candidates=[float(r) for r in tried],
-        scores=[float(s) for s in pooled[1:]],
+        scores=[float(scores.get(r, np.nan)) for r in tried],
         without=float(pooled[0]),
         helps=better(per_fold[k], per_fold[0]),
     )

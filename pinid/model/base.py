@@ -12,7 +12,6 @@ standard parameters are folded into it (``hip.IyyR = hip.Iyy + 0.1764·knee.m + 
 
 from __future__ import annotations
 
-import json
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
@@ -26,7 +25,7 @@ from pinid.model.robot import RobotModel, as_robot
 from pinid.model.terms import STRIBECK_TERMS, as_terms
 from pinid.model.regressor import parameter_names, regressor
 from pinid.model.terms import TermSelection
-from pinid.io import read_bounded_file, write_json
+from pinid.io import read_json, write_json
 
 
 @dataclass
@@ -111,21 +110,44 @@ class BaseParameters:
         write_json(path, self.to_dict())
 
     @classmethod
-    def from_dict(cls, d: dict) -> "BaseParameters":
-        """Inverse of :meth:`to_dict`."""
+    def from_dict(cls, d: dict, *, source: str = "base parameters") -> "BaseParameters":
+        """Inverse of :meth:`to_dict`; DataError naming ``source`` and the field if ``d`` is not of that form."""
+        if not isinstance(d, Mapping):
+            raise DataError(f"{source}: got {type(d).__name__}, expected an object with standard_names, independent, P")
+        missing = [k for k in ("standard_names", "independent", "P", "names") if k not in d]
+        if missing:
+            raise DataError(f"{source}: no {', '.join(missing)}, expected the fields BaseParameters.to_dict writes")
         names = d["standard_names"]
+        if not isinstance(names, list) or not all(isinstance(n, str) for n in names):
+            raise DataError(f"{source}: standard_names is not a list of parameter names")
+        if not isinstance(d["independent"], list) or any(n not in names for n in d["independent"]):
+            raise DataError(f"{source}: independent must list names that are in standard_names")
+        if not isinstance(d["names"], list) or len(d["names"]) != len(d["independent"]):
+            raise DataError(f"{source}: names must list one name per independent parameter")
+        try:
+            P = np.array(d["P"], dtype=float)
+        except (TypeError, ValueError):
+            raise DataError(f"{source}: P is not a matrix of numbers") from None
+        if P.shape != (len(d["independent"]), len(names)) or not np.all(np.isfinite(P)):
+            raise DataError(
+                f"{source}: P of shape {P.shape}, expected finite numbers of shape "
+                f"({len(d['independent'])}, {len(names)}) (base × standard)"
+            )
+        joints = d.get("fit_joints")
+        if joints is not None and (not isinstance(joints, list) or not all(isinstance(j, str) for j in joints)):
+            raise DataError(f"{source}: fit_joints is not a list of joint names")
         return cls(
             names,
             np.array([names.index(n) for n in d["independent"]], dtype=int),
-            np.array(d["P"], dtype=float),
+            P,
             list(d["names"]),
-            None if d.get("fit_joints") is None else list(d["fit_joints"]),
+            None if joints is None else list(joints),
         )
 
     @classmethod
     def load(cls, path) -> "BaseParameters":
-        """Read from JSON written by :meth:`save`."""
-        return cls.from_dict(json.loads(read_bounded_file(path, "base-parameter JSON file")))
+        """Read from JSON written by :meth:`save`; a pinid error naming the file if it is not such a file."""
+        return cls.from_dict(read_json(path, "base-parameter"), source=str(path))
 
 
 #: The three marks of a standard parameter (:func:`identifiability`).

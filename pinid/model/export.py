@@ -13,7 +13,8 @@ model.  The export is therefore valid for the locked configuration used in ident
 fixed to the world are left as they are (they do not move).
 
 Joint terms.  Coulomb (``fc``) and viscous (``fv``) friction go to ``<dynamics friction=… damping=…/>``
-of each active joint when they are in the model (otherwise the URDF's values stay).  Armature and
+of each active joint when they are in the model (otherwise the URDF's values stay, marked "not identified
+(URDF value kept)", and the MJCF export carries the same values: :func:`pinid.model.terms.kept_friction`).  Armature and
 a constant offset have no URDF field: they are written as a comment in the joint element (and kept in
 the JSON outputs).
 
@@ -25,6 +26,7 @@ A floating base (:func:`floating_urdf`): the base link's ``<inertial>`` is the i
 from __future__ import annotations
 
 import os
+from collections.abc import Mapping
 
 import numpy as np
 
@@ -160,6 +162,7 @@ def identified_urdf_tree(
             link.remove(el)
         link.insert(0, xml_comment(f" pinid: inertial removed; it is part of the identified body of joint '{owner}' "))
     params = _terms.robot_layout(model, terms)
+    kept = _terms.kept_friction(model, terms)
     for i, jname in enumerate(active):
         jel = joints[jname]
         mine = [(p.term, theta[10 * nv + k]) for k, p in enumerate(params) if p.term.space == "joint" and p.index == i]
@@ -176,14 +179,54 @@ def identified_urdf_tree(
         note = marks_summary(marks, [f"{jname}.{t.suffix}" for t, _ in mine])
         if note:
             jel.append(xml_comment(f" pinid, from these data: {note} "))
+        if jname in kept:
+            jel.append(xml_comment(f" pinid: {kept_friction_text(kept[jname], 'friction', 'damping')} "))
     head = (
-        f" {origin}{' (' + comment + ')' if comment else ''}: inertials of the moving links and "
-        f"joint friction replaced; physically consistent: {'yes' if report.consistent else 'NO (forced)'}"
+        f" {origin}{' (' + comment + ')' if comment else ''}: {friction_summary(terms, kept, 'friction', 'damping')}"
+        f"; physically consistent: {'yes' if report.consistent else 'NO (forced)'}"
         + (f"; locked joints: {', '.join(f'{k}={v:g}' for k, v in model.locked.items())}" if model.locked else "")
         + " "
     )
     root.insert(0, xml_comment(head))
     return root
+
+
+def _check_kept(kept, coulomb, viscous) -> None:
+    """ModelError unless ``kept`` is ``{"fc" | "fv": number}`` and the field names are text."""
+    if not isinstance(coulomb, str) or not isinstance(viscous, str):
+        raise ModelError("coulomb, viscous: expected the file's field names (text), e.g. 'friction', 'damping'")
+    if not isinstance(kept, Mapping) or not all(
+        k in ("fc", "fv") and isinstance(v, (int, float)) and not isinstance(v, bool) for k, v in kept.items()
+    ):
+        raise ModelError(f"kept: got {type(kept).__name__}, expected {{'fc' or 'fv': value}} of one joint")
+
+
+def kept_friction_text(kept: dict[str, float], coulomb: str, viscous: str) -> str:
+    """``"friction 1.2, damping 0.8: not identified (URDF value kept)"`` for one joint's :func:`kept_friction`
+    values, with the file's own field names (URDF ``friction``/``damping``, MJCF ``frictionloss``/``damping``)."""
+    _check_kept(kept, coulomb, viscous)
+    fields = {"fc": coulomb, "fv": viscous}
+    values = ", ".join(f"{fields[k]} {_num(v) if len(_num(v)) < 12 else f'{v:.6g}'}" for k, v in kept.items())
+    return f"{values}: not identified (URDF value kept; no {', '.join(kept)} term in this identification)"
+
+
+def friction_summary(terms: TermSelection, kept: dict, coulomb: str, viscous: str, *, no_field: bool = True) -> str:
+    """What the file's first comment says of the inertials and the joint friction: replaced, or the URDF's
+    values kept (:func:`pinid.model.terms.kept_friction`), and the friction terms that have no field."""
+    terms = _terms.as_terms(terms)
+    if not isinstance(kept, Mapping):
+        raise ModelError(f"kept: got {type(kept).__name__}, expected {{joint: {{term: value}}}} (kept_friction)")
+    for values in kept.values():
+        _check_kept(values, coulomb, viscous)
+    replaced = [f for t, f in (("fc", coulomb), ("fv", viscous)) if t in terms]
+    kept_names = sorted({f for values in kept.values() for f in ({"fc": coulomb, "fv": viscous}[k] for k in values)})
+    out = "inertials of the moving links" + (f" and joint {', '.join(replaced)}" if replaced else "") + " replaced"
+    if kept_names:
+        out += f"; joint {', '.join(kept_names)}: the URDF's values kept, not identified (see each joint)"
+    nofield = [t.name for t in terms.joint if not t.field]
+    if nofield and no_field:
+        out += f"; identified terms with no URDF field (a comment in each joint): {', '.join(nofield)}"
+    return out
 
 
 def _check_loads(text: str, model: RobotModel) -> None:

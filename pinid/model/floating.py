@@ -70,6 +70,15 @@ class FloatingRobotModel(RobotModel):
     base = "floating"
 
     def __init__(self, fixed: RobotModel, ff_model: pin.Model, base_link: str) -> None:
+        if not isinstance(fixed, RobotModel):
+            raise ModelError(
+                f"FloatingRobotModel: fixed is {type(fixed).__name__}, expected a RobotModel "
+                "(build one with pinid.RobotModel.from_urdf(urdf, base='floating'))"
+            )
+        if not isinstance(ff_model, pin.Model):
+            raise ModelError(f"FloatingRobotModel: ff_model is {type(ff_model).__name__}, expected a pinocchio.Model")
+        if not isinstance(base_link, str) or not base_link:
+            raise ModelError(f"FloatingRobotModel: base_link is {base_link!r}, expected the root link's name")
         super().__init__(fixed.pin_model, fixed.joints, **_robot_fields(fixed))
         self.ff_model = ff_model
         self.ff_data = ff_model.createData()

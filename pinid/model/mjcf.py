@@ -10,7 +10,8 @@ at its joint frame relative to the parent body (``pos``, ``quat`` w x y z), with
   strictly positive eigenvalues and its own eigen-decomposition adds rounding;
 * a ``hinge`` or ``slide`` joint along the Pinocchio joint's axis, with ``range`` from the URDF limits
   (continuous joints: none), ``armature`` (rotor inertia), ``damping`` (viscous friction ``fv``) and
-  ``frictionloss`` (Coulomb friction ``fc``); motor-side terms of drives whose ``G`` has one joint per
+  ``frictionloss`` (Coulomb friction ``fc``) — without an ``fc``/``fv`` term the URDF's ``<dynamics>`` value,
+  as the identified URDF keeps it, marked "not identified (URDF value kept)" in both; motor-side terms of drives whose ``G`` has one joint per
   motor are reflected (``G²·Im``, ``G²·fv``, ``|G|·fc``);
 * the URDF's box, cylinder and sphere ``<collision>`` shapes as geoms (contacts; MuJoCo never collides a
   body with its parent), its ``<visual>`` ones for display only (``contype="0" conaffinity="0"``,
@@ -43,6 +44,7 @@ from pinid.errors import DataError, ModelError
 from pinid.io import write_text
 from pinid.model import terms as _terms
 from pinid.model.base import marks_summary
+from pinid.model.export import friction_summary, kept_friction_text
 from pinid.model.physical import NOISE, check_consistency, com_inertia, nonnegative_within_tolerance, tidy_inertial
 from pinid.model.terms import TermSelection
 from pinid.model.robot import INERTIAL_NAMES, MAX_BODY_MASS, RobotModel, as_robot
@@ -266,13 +268,20 @@ def identified_mjcf(
     if base_theta is not None:  # the identified base link, with every link welded to it
         pm.inertias[1] = pin.Inertia.FromDynamicParameters(base_theta)
     fields, lost = joint_fields(model, theta, terms)
+    kept = _terms.kept_friction(model, terms)  # the URDF's friction where no fc/fv was identified: as the URDF export
+    for jname, values in kept.items():
+        i = model.joint_names.index(jname)
+        fields["frictionloss"][i] += values.get("fc", 0.0)
+        fields["damping"][i] += values.get("fv", 0.0)
     links, child_link, root_link = _urdf_links(model.urdf_document)
     active = {name: i for i, name in enumerate(model.joint_names)}
 
     mj = new_element("mujoco", model=model.name)
     head = (
-        f" {origin}{' (' + comment + ')' if comment else ''} from {model.name}: inertials, armature, damping "
-        f"(viscous friction), frictionloss (Coulomb friction); base {'floating (free joint)' if floating else 'fixed'}"
+        f" {origin}{' (' + comment + ')' if comment else ''} from {model.name}: "
+        f"{friction_summary(terms, kept, 'frictionloss', 'damping', no_field=False)}; armature (rotor inertia) "
+        "where identified; "
+        f"damping is viscous friction, frictionloss Coulomb friction; base {'floating (free joint)' if floating else 'fixed'}"
         + (f"; locked joints: {', '.join(f'{k}={v:g}' for k, v in model.locked.items())}" if model.locked else "")
         + f"; not exported: {'; '.join(lost) if lost else 'nothing'} "
     )
@@ -290,7 +299,10 @@ def identified_mjcf(
             return root_link
         return child_link.get(pm.names[jid], pm.names[jid])
 
-    unique = _unique_body_names([link_name(j) for j in range(pm.njoints)], set(links))
+    # the bodies written: with a free joint, the root link is joint 1's body and the universe (0) has none, so
+    # the root link's name is counted once (it was twice: the floating root body came out as "pelvis_1")
+    ids = [j for j in range(pm.njoints) if not (floating and j == 0)]
+    unique = dict(zip(ids, _unique_body_names([link_name(j) for j in ids], set(links))))
 
     def body_name(jid: int) -> str:
         return unique[jid]
@@ -333,6 +345,10 @@ def identified_mjcf(
             note = marks_summary(marks, own)
             if note:
                 body.append(xml_comment(f" pinid, joint '{jname}' terms from these data: {note} "))
+        if jname in kept:
+            body.append(
+                xml_comment(f" pinid, joint '{jname}': {kept_friction_text(kept[jname], 'frictionloss', 'damping')} ")
+            )
     _geoms(pm, links, bodies, names)
     act = sub_element(mj, "actuator")
     for j in model.joints:

@@ -227,6 +227,7 @@ class RobotModel:
             if n not in names:
                 raise JointError(f"joint '{n}' is not in {path.name} (its joints: {', '.join(names)})")
         mimics = set(document.mimic_joints()) if joints is None else set()
+        chosen = set(lock)  # locked by the user or the robot's preset (panda's fingers), before pinid adds its own
         active = list(joints) if joints is not None else [n for n in names if n not in lock and n not in mimics]
         if not active:
             raise ModelError(f"{path}: every movable joint is locked, expected at least one active joint")
@@ -252,6 +253,17 @@ class RobotModel:
             jid = full.getJointId(n)
             _set_coordinate(q_ref, full.joints[jid], info.kind, value)
             to_lock.append(jid)
+        silent = sorted(n for n in mimics if n in lock and n not in chosen)  # locked by pinid, not the user or a preset
+        if silent:
+            followed = document.mimic_joints()
+            warnings.warn(
+                f"{path.name}: mimic joint(s) locked: "
+                + ", ".join(f"'{n}' (mimics '{followed[n]}') at {lock[n]:g}" for n in silent)
+                + "; pinid identifies independent joints only, so their motion and torque are not in the model "
+                f"(lock them yourself, --lock {silent[0]}=VALUE, to choose the value and silence this)",
+                ModelWarning,
+                stacklevel=2,
+            )
         # keep the URDF friction of the active joints before reducing
         coul = np.array([full.friction[full.joints[full.getJointId(n)].idx_v] for n in active])
         visc = np.array([full.damping[full.joints[full.getJointId(n)].idx_v] for n in active])

@@ -550,6 +550,23 @@ def values(robot, terms: TermSelection, theta_terms: np.ndarray) -> dict[str, np
     return out
 
 
+def kept_friction(robot, terms: TermSelection) -> dict[str, dict[str, float]]:
+    """``{joint: {"fc": value, "fv": value}}``: the URDF's ``<dynamics>`` friction [N·m] and damping [N·m·s/rad]
+    (``robot.coulomb``, ``robot.viscous``) of the joint terms that ``terms`` does not identify (``fc`` or ``fv``
+    not selected), non-zero ones only.  The identified URDF and MJCF both keep these values, marked "not
+    identified (URDF value kept)", so that the two files of one result carry the same friction."""
+    _robot(robot)
+    terms = as_terms(terms)
+    out: dict[str, dict[str, float]] = {}
+    for name, nominal in (("fc", getattr(robot, "coulomb", None)), ("fv", getattr(robot, "viscous", None))):
+        if name in terms or nominal is None:
+            continue
+        for joint, v in zip(robot.joint_names, np.asarray(nominal, dtype=float)):
+            if v != 0:
+                out.setdefault(joint, {})[name] = float(v)
+    return out
+
+
 def torque(
     robot,
     terms: TermSelection,

@@ -63,16 +63,27 @@ def shape_from_text(text: str, origin: str = "--sigmoid-shape") -> dict | str:
         raise SpecError(f"text: got {type(text).__name__}, expected a sigmoid shape 'PHI2,PHI3' or 'auto'")
     if text.strip().lower() == "auto":
         return "auto"
+
+    def steep(a: float, where: str = "") -> float:
+        if not a > 0:  # the likely slip: a sign on the wrong number ("-1,0" for "1,-0" or "40,-0.01")
+            raise SpecError(
+                f"{origin} {text!r}: steepness φ2{where} = {a:g} [s/rad], expected > 0 "
+                "(the offset φ3, the second number, may be negative: 40,-0.01)"
+            )
+        return a
+
     try:
         if "=" not in text:
             a, b = (float(x) for x in text.split(","))
-            return read_shape({"steepness": a, "offset": b}, origin)
+            return read_shape({"steepness": steep(a), "offset": b}, origin)
         out = {}
         for part in (p.strip() for p in text.split(",") if p.strip()):
             joint, _, pair = part.partition("=")
             a, b = (float(x) for x in pair.split(":"))
-            out[joint.strip()] = {"steepness": a, "offset": b}
+            out[joint.strip()] = {"steepness": steep(a, f" of {joint.strip()}"), "offset": b}
         return read_shape(out, origin)
+    except SpecError:
+        raise
     except ValueError:
         raise SpecError(
             f"{origin} {text!r}: expected PHI2,PHI3 (steepness > 0 [s/rad], offset [rad/s]; every joint), "

@@ -3,7 +3,7 @@ from one text.
 
 Renders the small subset of Markdown the reports use — ``#``/``##``/``###`` headings, paragraphs,
 ``- `` lists, pipe tables (``\\|`` for a ``|`` in a cell), fenced code, a paragraph that is one image ``![alt](file)``, and inline
-`` `code` `` and ``**bold**`` — plus the raw HTML lines that fold a section (``<details>``, ``<details open>``,
+`` `code` ``, ``**bold**`` and ``*emphasis*`` — plus the raw HTML lines that fold a section (``<details>``, ``<details open>``,
 ``<summary>…</summary>``, ``</details>``: GitHub renders them in report.md too), passed through as they
 are; and embeds every image as a ``data:`` URI: the page needs no server, no other file and no network (no
 external style sheet, font or script).  Every table scrolls sideways inside its own block, so that the
@@ -18,7 +18,7 @@ import re
 from collections.abc import Mapping
 
 _IMAGE = re.compile(r"^!\[(?P<alt>.*)\]\((?P<src>[^)\s]+)\)$")
-_INLINE = re.compile(r"`([^`]+)`|\*\*(.+?)\*\*")
+_INLINE = re.compile(r"`([^`]+)`|\*\*(.+?)\*\*|(?<![\w*])\*(?![\s*])([^*]+?)(?<!\s)\*(?![\w*])")
 #: Raw HTML lines passed through: the folding of a report's sections.
 _RAW = re.compile(r"^(<details( open)?>|</details>|<summary>.*</summary>)$")
 
@@ -38,14 +38,17 @@ details[open] { padding-bottom: 0.5em; } summary { cursor: pointer; padding: 0.3
 
 
 def _inline(text: str) -> str:
-    """Escape ``text`` and render its `` `code` `` and ``**bold**`` spans."""
+    """Escape ``text`` and render its `` `code` ``, ``**bold**`` and ``*emphasis*`` spans (a ``*`` between
+    words or spaces, as in ``2 * 3``, stays a ``*``)."""
     out, pos = [], 0
     for m in _INLINE.finditer(text):
         out.append(html.escape(text[pos : m.start()]))
         if m.group(1) is not None:
             out.append(f"<code>{html.escape(m.group(1))}</code>")
-        else:
+        elif m.group(2) is not None:
             out.append(f"<strong>{_inline(m.group(2))}</strong>")
+        else:
+            out.append(f"<em>{_inline(m.group(3))}</em>")
         pos = m.end()
     out.append(html.escape(text[pos:]))
     return "".join(out)
@@ -115,7 +118,7 @@ def markdown_to_html(text: str, images: Mapping[str, bytes] | None = None, *, ti
             j = i + 1
             while j < len(lines) and lines[j].strip() and not re.match(r"^(#|\||- |```|!\[|<)", lines[j]):
                 j += 1
-            body.append("<p>" + " ".join(_inline(r) for r in lines[i:j]) + "</p>")
+            body.append("<p>" + _inline(" ".join(lines[i:j])) + "</p>")  # a span may wrap onto the next line
             i = j
     return (
         '<!DOCTYPE html>\n<html lang="en">\n<head>\n<meta charset="utf-8">\n'

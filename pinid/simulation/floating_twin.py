@@ -304,8 +304,16 @@ def simulate_gait(
     imu_frame: str | None = None,
     pattern: dict | None = None,
 ) -> TwinRun:
-    """The exoskeleton walking (see the module text): ground reaction on the soles, torques by inverse dynamics."""
+    """The exoskeleton walking (see the module text): ground reaction on the soles, torques by inverse dynamics.
+    The base motion is recorded as motion capture: ``imu_frame`` is refused, since force plates need the base
+    position in the world, which an IMU does not give (pinid identify would refuse the recording)."""
     model = as_floating(model)
+    if imu_frame is not None:
+        raise SpecError(
+            f"IMU frame '{imu_frame}' with the gait: its force plates need the base position in the world "
+            "(motion capture), which an IMU alone does not give, so pinid identify would refuse the recording; "
+            "leave the IMU out (--imu) for the gait, or use it with a trajectory (the harness)"
+        )
     t = _times(seconds, rate)
     states, (left, right), ph = gait_motion(model, t, pattern)
     base_q, base_v, base_a, q, dq, ddq = states

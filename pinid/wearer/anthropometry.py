@@ -64,7 +64,12 @@ def check_person(mass: float, height: float, sex: str) -> None:
         raise SpecError(f"body mass {mass:g} kg: outside the anthropometric table's range [{lo:g}, {hi:g}] kg")
     lo, hi = lim["height"]
     if not (np.isfinite(height) and lo <= height <= hi):
-        raise SpecError(f"height {height:g} m: outside the anthropometric table's range [{lo:g}, {hi:g}] m")
+        hint = ""
+        if np.isfinite(height) and lo <= height / 100 <= hi:  # the likely slip: a stature in centimetres
+            hint = f"; in centimetres? {height:g} cm is {height / 100:g} m (--height {height / 100:g})"
+        elif np.isfinite(height) and lo <= height / 1000 <= hi:
+            hint = f"; in millimetres? {height:g} mm is {height / 1000:g} m (--height {height / 1000:g})"
+        raise SpecError(f"height {height:g} m: outside the anthropometric table's range [{lo:g}, {hi:g}] m{hint}")
 
 
 def segment(name: str, *, mass: float, height: float, sex: str) -> Segment:

@@ -502,6 +502,9 @@ def stage_summary(fit: WearerFit, exo, train, validation=None) -> dict:
 
     _as_fit(fit)
     path = None if isinstance(exo, IdentifiedModel) else str(as_path(exo, "exo"))
+    validation_rms = fit.rms(validation) if validation else None
+    if validation_rms:
+        warn_if_worse_than_table(validation_rms)
     return jsonable(
         {
             "stage": "wearer",
@@ -509,9 +512,38 @@ def stage_summary(fit: WearerFit, exo, train, validation=None) -> dict:
             "urdf": str(fit.robot.urdf_path),
             **fit.to_dict(),
             "train_rms": fit.rms(train),
-            "validation_rms": fit.rms(validation) if validation else None,
+            "validation_rms": validation_rms,
         }
     )
+
+
+#: How much worse [ratio of RMS] than the table wearer a joint's held-out torque error may be before it is said.
+WORSE_THAN_TABLE = 1.05
+
+
+def warn_if_worse_than_table(rms: dict[str, dict[str, float]]) -> list[str]:
+    """A DataWarning when the identified wearer's held-out torque RMS of a joint is above the table wearer's by
+    more than :data:`WORSE_THAN_TABLE` (``rms``: :meth:`WearerFit.rms` on the validation recordings): the fit
+    then generalises worse than the anthropometric tables, and the table wearer (model_table.json) is the one to
+    use.  Returns the joints named."""
+    import warnings
+
+    from pinid.errors import DataWarning
+
+    if not isinstance(rms, dict) or not all(isinstance(v, dict) for v in rms.values()):
+        raise SpecError(f"rms: got {type(rms).__name__}, expected {{'identified' | 'table' | 'exo': {{joint: rms}}}}")
+    ident, table = rms.get("identified") or {}, rms.get("table") or {}
+    worse = [j for j, v in ident.items() if j in table and v > WORSE_THAN_TABLE * table[j]]
+    if worse:
+        warnings.warn(
+            "wearer: the identified wearer predicts the validation torque worse than the anthropometric tables at "
+            + ", ".join(f"{j} ({ident[j]:.3g} vs {table[j]:.3g} N·m RMS)" for j in worse)
+            + "; the training recordings did not determine it well (too short or too little motion, or a prior "
+            "weight too small): prefer the table wearer (model_table.json), or record more and a larger --prior-weight",
+            DataWarning,
+            stacklevel=2,
+        )
+    return worse
 
 
 def stage_text(fit: WearerFit, summary: dict) -> str:

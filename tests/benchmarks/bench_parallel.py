@@ -92,7 +92,7 @@ def main() -> None:
             str(train.with_suffix(".truth.json")),
             "--seeds",
             str(a.seeds),
-            "--no-plots",
+            "--no-figures",
             "--no-progress",
         ]
         load = os.getloadavg()

@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from pinid import JointError, ModelError, RobotModel
+from pinid.errors import ModelWarning
 from pinid.model.urdf import MAX_URDF_JOINTS
 
 from conftest import assert_clean_error, load, run_cli
@@ -317,8 +319,12 @@ MIMIC_KNEE = _exo_with(_KNEE_JOINT, _KNEE_JOINT + '<mimic joint="hip" multiplier
 def test_locked_mimic_joint_is_fine(tmp_path):
     p = tmp_path / "robot.urdf"
     p.write_text(MIMIC_KNEE)
-    assert RobotModel.from_urdf(p, locked={"knee": -0.5}).joint_names == ["hip"]
-    assert RobotModel.from_urdf(p).joint_names == ["hip"]  # locked at its neutral value
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # locked by the user: no word
+        assert RobotModel.from_urdf(p, locked={"knee": -0.5}).joint_names == ["hip"]
+    # locked at its neutral value, and said so (issue 47)
+    with pytest.warns(ModelWarning, match=r"mimic joint\(s\) locked: 'knee' \(mimics 'hip'\) at -0.87"):
+        assert RobotModel.from_urdf(p).joint_names == ["hip"]
     with pytest.raises(ModelError, match="mimic joints are not supported: joint 'knee' mimics 'hip'"):
         RobotModel.from_urdf(p, joints=["hip", "knee"])
 

@@ -35,15 +35,24 @@ def same_run(a: TwinRun, b: TwinRun) -> None:
 
 @pytest.mark.parametrize("seed", [0, 3])
 def test_simulate_of_a_floating_model_is_the_gait_twin(floating_exo, seed):
-    old = simulate_gait(floating_exo, seconds=1.0, rate=200, noise=NOISE, seed=seed, imu_frame="imu")
-    new = simulate(floating_exo, "gait", seconds=1.0, seed=seed, rates=Rates(sample=200), noise=NOISE, imu_frame="imu")
+    old = simulate_gait(floating_exo, seconds=1.0, rate=200, noise=NOISE, seed=seed)
+    new = simulate(floating_exo, "gait", seconds=1.0, seed=seed, rates=Rates(sample=200), noise=NOISE)
     same_run(old, new)
-    same = simulate(floating_exo, "gait", seconds=1.0, seed=seed, sample_rate=200, sensors=BaseSensors(NOISE, "imu"))
+    same = simulate(floating_exo, "gait", seconds=1.0, seed=seed, sample_rate=200, sensors=BaseSensors(NOISE))
     same_run(old, same)
-    same_run(old, simulate(floating_exo, "gait", seconds=1.0, seed=seed, sensors=BaseSensors(NOISE, "imu", 200)))
+    same_run(old, simulate(floating_exo, "gait", seconds=1.0, seed=seed, sensors=BaseSensors(NOISE, None, 200)))
     rec, truth = new  # unpacks as the fixed-base (recording, truth)
-    assert rec is new.recording and truth is new.truth and rec.floating.imu_frame == "imu"
+    assert rec is new.recording and truth is new.truth and rec.floating.imu_frame is None
+    assert rec.floating.base_pose is not None  # motion capture: what the force plates need
     assert truth["signals"] is new.exact.data  # the exact signals, as the fixed twin's truth carries them
+
+
+def test_the_gait_twin_refuses_an_imu_identify_would_refuse(floating_exo):
+    """Issue 47: an IMU alone does not locate the force plates; the gait with one wrote a file identify refused."""
+    with pytest.raises(SpecError, match="IMU frame 'imu' with the gait: its force plates need the base position"):
+        simulate_gait(floating_exo, seconds=1.0, rate=200, imu_frame="imu")
+    with pytest.raises(SpecError, match="with the gait"):
+        simulate(floating_exo, "gait", seconds=1.0, sensors=BaseSensors(NOISE, "imu", 200))
 
 
 def test_simulate_of_a_floating_model_is_the_suspended_twin(floating_exo):
