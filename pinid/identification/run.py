@@ -622,6 +622,7 @@ def _setup_floating(study: Study) -> Setup:
     validation rows.  ``Setup.floating`` keeps what the fits' validation and checks read."""
     from pinid.data.mapping import MappingSpec
     from pinid.data.preprocess import Preprocessing
+    from pinid.identification.calibration import fit_calibration
     from pinid.identification.floating import FloatingStack, as_floating_options, recording_hints, refuse_fixed_only
     from pinid.identification.floating_checks import flipped_floating_signs, orientation_noise_warning
     from pinid.identification.plausibility import shared_excitation
@@ -651,18 +652,25 @@ def _setup_floating(study: Study) -> Setup:
     mapping = None if mapping is None else MappingSpec.load(mapping)  # checked once, before any recording is read
     hints: list[str] = []  # convention errors the raw training recordings point to (recording_hints)
 
+    motion_capture: list[bool] = []  # per raw training recording: its base orientation is the motion capture's
+
     def check(rec, found: list | None = None) -> None:  # each raw recording: its conventions, orientation noise
+        if found is None:
+            motion_capture.append(rec.floating is not None and rec.floating.base_pose is not None)
         (hints if found is None else found).extend(recording_hints(rec, model))
         orientation_noise_warning(rec, Preprocessing.normalize(preprocess), rec.source)
 
     load = dict(swing_rows=opts.swing_rows)
     train = load_datasets(study.data, model, mapping, preprocess, check=check, **load)
+    calibration = fit_calibration(model, train, opts.calibration, motion_capture=all(motion_capture))
+    train = calibration.apply(train)  # the same calibration for the validation recordings, below
     flipped = flipped_floating_signs(model, train) if opts.rows != "base" else []  # one warning, as a fixed base's
     rows = dict(rows=opts.rows, base_weight=opts.base_weight, rest_velocity=rest)
     problem = floating_problem(model, train, terms=terms, **rows)
     val, val_problem, sources = [], None, ", ".join(s.source for s in train)
     if validate:
         val = load_datasets(validate, model, mapping, preprocess, "validation", check=lambda r: check(r, []), **load)
+        val = calibration.apply(val)
         shared_excitation([r.data for r in train], [r.data for r in val])  # a repeat hides overfitting: warned
         val_problem = floating_problem(model, val, terms=problem.terms, base=problem.base, **rows)
     if not np.any(np.abs(problem.tau) > 1e-9 * max(1.0, float(np.max(np.abs(problem.tau), initial=0.0)))):
@@ -671,7 +679,7 @@ def _setup_floating(study: Study) -> Setup:
             "homogeneous (W·θ = 0) and identify nothing; expected wrench_<link>_* or plate_<link>_* columns (the "
             "wrench applied by the environment on the robot) or joint torques with --rows all"
         )
-    stack = FloatingStack(problem, val_problem, train, val, hints, flipped, sources)
+    stack = FloatingStack(problem, val_problem, train, val, hints, flipped, sources, calibration)
     validation = {"validation": [s.data for s in val]} if val_problem is not None else {}
     return Setup(model, problem.terms, problem.base, problem, [s.data for s in train], validation, floating=stack)
 
@@ -704,7 +712,12 @@ def _identify_floating(study: Study, running: dict, *, unsupported: dict) -> Ide
             "rows": opts.rows,
             "base_weight": opts.base_weight,
             "rows_per_sample": int(problem.rows // max(problem.samples, 1)),
-        },
+        }
+        | (
+            {"calibration": run.calibration.to_dict(), "calibration_text": run.calibration.text()}
+            if run.calibration is not None
+            else {}
+        ),
         base={
             "names": problem.names,
             "expressions": problem.base.expressions(),
