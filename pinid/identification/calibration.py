@@ -134,17 +134,21 @@ class _Rows:
     """The stacked rows of prepared recordings (held terms applied) with what turns gravity (module text)."""
 
     def __init__(self, model, samples, *, terms, base, rows, base_weight, rest_velocity, gravity: bool) -> None:
-        from pinid.problem.floating import FloatingRows, floating_problem, floating_targets
+        from pinid.model.floating import row_mask
+        from pinid.problem.floating import FloatingRows, floating_targets, swing_rows
 
-        problem = floating_problem(
-            model, samples, terms=terms, rows=rows, base_weight=base_weight, base=base, rest_velocity=rest_velocity
+        # the rows as floating_problem stacks them, without its excitation check: a periodic gait leaves some
+        # base parameters of the base rows undetermined (their Gram is then solved by pseudo-inverse)
+        mask = row_mask(model.nv, rows)
+        self.model, self.base, self.samples = model, base, list(samples)
+        self.keeps = [swing_rows(model, s, mask) for s in samples]
+        self.W0 = FloatingRows(model, terms, base, self.samples, self.keeps).build()
+        self.y = np.concatenate([floating_targets(model, s)[k] for s, k in zip(samples, self.keeps)])
+        self.w = np.full(len(self.y), float(base_weight))
+        offsets = np.cumsum([0, *[s.n for s in samples]])
+        self.sample = np.concatenate(
+            [o + np.broadcast_to(np.arange(s.n)[:, None], k.shape)[k] for o, s, k in zip(offsets, samples, self.keeps)]
         )
-        self.model, self.problem, self.samples = model, problem, list(samples)
-        self.keeps = problem.regressor_rows.keeps
-        self.W0 = np.asarray(problem.W)
-        self.y = np.asarray(problem.tau, dtype=float)
-        self.w = np.asarray(problem.weights, dtype=float)
-        self.sample = np.asarray(problem.sample, dtype=int)
         self.base_q = np.concatenate([s.base_q for s in samples])
         self.times = np.concatenate([s.data.t for s in samples])
         self.recording = np.concatenate([np.full(s.n, i) for i, s in enumerate(samples)])
@@ -161,7 +165,7 @@ class _Rows:
                         a[:, k] = 1.0
                     z = np.zeros_like(s.data.q)
                     mod.append(replace(s, base_v=np.zeros((s.n, 6)), base_a=a, data=replace(s.data, dq=z, ddq=z)))
-                built.append(FloatingRows(model, problem.terms, problem.base, mod, self.keeps).build())
+                built.append(FloatingRows(model, terms, base, mod, self.keeps).build())
             self.A = [built[k] - built[3] for k in range(3)]
 
     def targets(self, samples) -> np.ndarray:
@@ -385,7 +389,7 @@ def fit_calibration(
         gravity=gravity,
     )
     g = np.asarray(model.ff_model.gravity.linear, dtype=float)
-    cmass = total_mass_vector(R.problem.base)
+    cmass = total_mass_vector(R.base)
     nominal_mass = urdf_mass(model)
     everything = R.w > 0
 
