@@ -103,7 +103,7 @@ class Calibration:
         lines = [f"calibration: {', '.join(self.terms)} ({self.chosen_by})"]
         for name, d in ((n, self.to_dict()[n]) for n in self.terms):
             vals = ", ".join(
-                f"{k.split('.', 1)[1]} {v:.4g} ± {d['std'][k] if d['std'][k] is not None else float('nan'):.2g} {d['units'][k]}"
+                f"{k.removeprefix('gravity.')} {v:.4g} ± {d['std'][k] if d['std'][k] is not None else float('nan'):.2g} {d['units'][k]}"
                 for k, v in d["values"].items()
             )
             lines.append(f"  {name}: {vals}")

@@ -8,7 +8,8 @@ flat, and six free offsets per sensor buy accuracy with an unphysical total mass
 each sensor over its swing samples, where the true wrench is zero, with its Newey–West σ.
 
 Swing samples: those whose force lies within :data:`SWING_FRACTION` of the robot's (URDF) weight of the sensor's
-lowest readings (the median of its 5 % smallest |f|: its offset, to a first guess), at least
+lowest readings (the median of its 5 % smallest |f|: its offset, to a first guess, which must itself be below
+:data:`OFFSET_FRACTION` of the weight: a harness's load cell is never unloaded), at least
 :data:`SWING_MARGIN` s from a loaded sample (the low-pass filter smears the heel strike).  A sensor with less
 than :data:`MIN_SWING` s of swing (a harness's load cell, always loaded) is left as it is; so are samples gated
 by contact phases (exactly zero).  Wrenches in the world (force plates) have no offsets term.
@@ -27,6 +28,8 @@ from pinid.problem.covariance import andrews_bandwidth, bartlett_long_run
 AXES = ("fx", "fy", "fz", "tx", "ty", "tz")
 #: Swing: force within this fraction of the robot's weight of the sensor's lowest readings.
 SWING_FRACTION = 0.05
+#: A sensor whose lowest readings exceed this fraction of the robot's weight is never unloaded: it has no swing.
+OFFSET_FRACTION = 0.1
 #: Swing samples are at least this far [s] from a loaded one.
 SWING_MARGIN = 0.05
 #: Shortest swing [s, summed over the recordings] that holds a sensor's offsets.
@@ -47,6 +50,8 @@ def swing_mask(values: np.ndarray, weight: float, rate: float) -> np.ndarray:
     norm = np.linalg.norm(f, axis=1)
     low = live & (norm <= np.percentile(norm[live], 5))
     guess = np.median(f[low], axis=0)
+    if np.linalg.norm(guess) > OFFSET_FRACTION * weight:  # never unloaded (a harness's load cell): no swing
+        return np.zeros(len(values), bool)
     near = live & (np.linalg.norm(f - guess, axis=1) < SWING_FRACTION * weight)
     k = int(np.ceil(SWING_MARGIN * rate))
     if k > 0:  # erode: a swing sample has no loaded (or gated) sample within k samples

@@ -154,3 +154,21 @@ def test_calibration_names():
     assert calibration_names("tilt,offsets") == ["offsets", "tilt"]
     with pytest.raises(SpecError, match="calibration term 'gains'"):
         calibration_names("gains")
+
+
+def test_placeholder_velocity_limits_keep_the_total_mass(tmp_path):
+    """A URDF whose velocity limits are placeholders (iCub's 5e4 rad/s) still has the total mass among its base
+    parameters: the random states they are computed from cap the speed (RobotModel.random_states)."""
+    import re
+
+    from pinid import TermSelection, base_parameters
+    from pinid.identification.calibration import total_mass_vector
+    from pinid.model.bundled import resolve_robot
+
+    text = re.sub(r'velocity="[^"]*"', 'velocity="50000"', resolve_robot("exo_lower_body")[0].read_text())
+    path = tmp_path / "exo_fast.urdf"
+    path.write_text(text)
+    model = RobotModel.from_urdf(path, base="floating")
+    assert np.max(model.velocity_limit) == 50000
+    base = base_parameters(model, TermSelection.from_names("none"), rows="base")
+    assert "base.mR" in base.names and total_mass_vector(base) is not None
