@@ -172,3 +172,15 @@ def test_placeholder_velocity_limits_keep_the_total_mass(tmp_path):
     assert np.max(model.velocity_limit) == 50000
     base = base_parameters(model, TermSelection.from_names("none"), rows="base")
     assert "base.mR" in base.names and total_mass_vector(base) is not None
+
+
+def test_an_unknown_calibration_term_is_one_line(tmp_path):
+    from conftest import assert_clean_error, run_cli
+
+    (tmp_path / "run.csv").write_text("t,q_l_knee\n0,0\n")
+    proc = run_cli(
+        "identify", "--urdf", "exo_lower_body", "--base", "floating", "--data", "run.csv", "--calibration", "gains",
+        "-o", "out", cwd=tmp_path,
+    )  # fmt: skip
+    assert_clean_error(proc, "calibration term 'gains'", "offsets, tilt")
+    assert not (tmp_path / "out").exists()
