@@ -95,6 +95,10 @@ def test_offsets_and_tilt_come_back_within_sigma(model, walks):
     for method in ("ols", "sdp"):  # the calibrated model is the twin's: total mass and held-out error
         assert ident.results[method].base[ident.base["names"].index("base.mR")] == pytest.approx(21.8, rel=0.01)
     assert not [w for w in caught if "calibration" in str(w.message)]
+    from pinid.report.markdown import report_markdown
+
+    report = report_markdown(ident)
+    assert "Sensor calibration" in report and "tilt_y 5.6" in report and "l_sole.offset_fz 6." in report
 
 
 def test_without_calibration_the_same_recording_is_worse(model, walks):
