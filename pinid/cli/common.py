@@ -432,6 +432,13 @@ def add_floating_arguments(p: argparse.ArgumentParser) -> None:
         "--base-weight", type=float, default=1.0, help="weight of every base row (joint rows weigh 1); default 1"
     )
     g.add_argument(
+        "--calibration",
+        default="auto",
+        help="sensor calibration (docs/floating-base.md): auto (default: the terms chosen by blocked "
+        "cross-validation on the training recordings), none, or some of offsets,tilt (F/T sensor offsets held by "
+        "the swing phases; gravity's direction in the motion-capture world)",
+    )
+    g.add_argument(
         "--swing-rows",
         action="store_true",
         help="accept contact_<link> phases without a wrench (a leg without force sensing): the rows that "

@@ -205,7 +205,11 @@ def _arguments(args: argparse.Namespace, model) -> tuple:
         stribeck_velocity=args.stribeck_velocity,
         stribeck_shape=args.stribeck_shape,
         **recording_options(args),
-        **({"floating": FloatingOptions(args.rows, args.base_weight, args.swing_rows)} if floating else {}),
+        **(
+            {"floating": FloatingOptions(args.rows, args.base_weight, args.swing_rows, args.calibration)}
+            if floating
+            else {}
+        ),
     )
     run = dict(
         truth=args.truth,

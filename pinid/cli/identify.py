@@ -359,6 +359,8 @@ def run(args: argparse.Namespace) -> int:
     options = options_from_args(args, _options(args, methods))
     ident = identify(study, methods, options=options, show_progress=None, started=started, **_run_options(args))
     print(identification_text(ident, verbose=args.verbose))
+    if args.base == "floating" and ident.data.get("calibration_text"):
+        print(ident.data["calibration_text"])
     written = write_identification(
         ident, out, report=not args.no_report, figures=not args.no_figures, force_export=args.force_export
     )
@@ -426,7 +428,11 @@ def _study(args: argparse.Namespace, model, terms) -> Study:
         offsets=args.offsets,
         calibrate_offsets=args.calibrate_offsets,
         **recording_options(args),
-        **({"floating": FloatingOptions(args.rows, args.base_weight, args.swing_rows)} if floating else {}),
+        **(
+            {"floating": FloatingOptions(args.rows, args.base_weight, args.swing_rows, args.calibration)}
+            if floating
+            else {}
+        ),
     )
     return study_from_args(args, model, fields)
 

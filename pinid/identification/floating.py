@@ -40,13 +40,19 @@ class FloatingOptions:
     """How a floating base's rows are stacked: ``rows`` (``all``: the 6 base rows and the joint rows; ``base``: the
     base rows alone, no joint torque needed; ``joints``), ``base_weight`` (the base rows' weight against the
     joint rows, in [1e-6, 1e6]: checked where the rows are stacked), ``swing_rows`` (links with contact phases but no measured wrench are legs without force sensing:
-    the rows their unknown wrench enters are left out while they are in contact)."""
+    the rows their unknown wrench enters are left out while they are in contact), ``calibration`` (the sensor
+    calibration: ``"auto"`` chosen by the data, ``"none"``, or terms such as ``"offsets,tilt"``:
+    :mod:`pinid.identification.calibration`)."""
 
     rows: str = "all"
     base_weight: float = 1.0
     swing_rows: bool = False
+    calibration: object = "auto"
 
     def __post_init__(self) -> None:
+        from pinid.model.calibration import calibration_names
+
+        calibration_names(self.calibration)  # SpecError for an unknown term
         if self.rows not in ROWS:
             raise SpecError(f"rows: got {self.rows!r}, expected one of {', '.join(ROWS)}")
         if isinstance(self.base_weight, bool) or not isinstance(self.base_weight, (int, float)):
@@ -77,10 +83,11 @@ def as_floating_options(value) -> FloatingOptions:
     if isinstance(value, FloatingOptions):
         return value
     if isinstance(value, Mapping):
-        unknown = [k for k in value if k not in ("rows", "base_weight", "swing_rows")]
+        unknown = [k for k in value if k not in ("rows", "base_weight", "swing_rows", "calibration")]
         if unknown:
             raise SpecError(
-                f"floating: unknown option(s) {', '.join(map(str, unknown))} (rows, base_weight, swing_rows)"
+                f"floating: unknown option(s) {', '.join(map(str, unknown))} (rows, base_weight, swing_rows, "
+                "calibration)"
             )
         return FloatingOptions(**value)
     raise SpecError(f"floating: got {type(value).__name__}, expected FloatingOptions or a mapping of its fields")
@@ -100,6 +107,7 @@ class FloatingStack:
     flipped: list[str]
     sources: str
     torque_scale: float | None = None  # recorded / the URDF's joint torque (plausibility.torque_scale)
+    calibration: object = None  # the Calibration applied to the training and validation recordings
 
 
 def validate_floating(run: FloatingStack, results: Mapping) -> TorqueMetrics | None:

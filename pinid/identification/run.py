@@ -627,6 +627,7 @@ def _setup_floating(study: Study) -> Setup:
     validation rows.  ``Setup.floating`` keeps what the fits' validation and checks read."""
     from pinid.data.mapping import MappingSpec
     from pinid.data.preprocess import Preprocessing
+    from pinid.identification.calibration import fit_calibration
     from pinid.identification.floating import FloatingStack, as_floating_options, recording_hints, refuse_fixed_only
     from pinid.identification.floating_checks import (
         cop_offset_warning,
@@ -661,14 +662,19 @@ def _setup_floating(study: Study) -> Setup:
     hints: list[str] = []  # convention errors the raw training recordings point to (recording_hints)
 
     glitches = _glitch_check(model)
+    motion_capture: list[bool] = []  # per raw training recording: its base orientation is the motion capture's
 
     def check(rec, found: list | None = None) -> None:  # each raw recording: its conventions, orientation noise
         glitches(rec)
+        if found is None:
+            motion_capture.append(rec.floating is not None and rec.floating.base_pose is not None)
         (hints if found is None else found).extend(recording_hints(rec, model))
         orientation_noise_warning(rec, Preprocessing.normalize(preprocess), rec.source)
 
     load = dict(swing_rows=opts.swing_rows)
     train = load_datasets(study.data, model, mapping, preprocess, check=check, **load)
+    calibration = fit_calibration(model, train, opts.calibration, motion_capture=all(motion_capture))
+    train = calibration.apply(train)  # the same calibration for the validation recordings, below
     # the joint torques' sign and scale, and the plates' centres of pressure, are judged against the measured
     # wrenches: not when the raw recordings already doubt those (hints name the cause instead)
     found: dict = {}
@@ -680,6 +686,7 @@ def _setup_floating(study: Study) -> Setup:
     val, val_problem, sources = [], None, ", ".join(s.source for s in train)
     if validate:
         val = load_datasets(validate, model, mapping, preprocess, "validation", check=lambda r: check(r, []), **load)
+        val = calibration.apply(val)
         shared_excitation([r.data for r in train], [r.data for r in val])  # a repeat hides overfitting: warned
         val_problem = floating_problem(model, val, terms=problem.terms, base=problem.base, **rows)
     if not np.any(np.abs(problem.tau) > 1e-9 * max(1.0, float(np.max(np.abs(problem.tau), initial=0.0)))):
@@ -688,7 +695,9 @@ def _setup_floating(study: Study) -> Setup:
             "homogeneous (W·θ = 0) and identify nothing; expected wrench_<link>_* or plate_<link>_* columns (the "
             "wrench applied by the environment on the robot) or joint torques with --rows all"
         )
-    stack = FloatingStack(problem, val_problem, train, val, hints, flipped, sources, found.get("torque_scale"))
+    stack = FloatingStack(
+        problem, val_problem, train, val, hints, flipped, sources, found.get("torque_scale"), calibration
+    )
     validation = {"validation": [s.data for s in val]} if val_problem is not None else {}
     return Setup(model, problem.terms, problem.base, problem, [s.data for s in train], validation, floating=stack)
 
@@ -726,7 +735,12 @@ def _identify_floating(study: Study, running: dict, *, unsupported: dict) -> Ide
             "rows": opts.rows,
             "base_weight": opts.base_weight,
             "rows_per_sample": int(problem.rows // max(problem.samples, 1)),
-        },
+        }
+        | (
+            {"calibration": run.calibration.to_dict(), "calibration_text": run.calibration.text()}
+            if run.calibration is not None
+            else {}
+        ),
         base={
             "names": problem.names,
             "expressions": problem.base.expressions(),

@@ -502,12 +502,16 @@ class RobotModel:
     def random_states(
         self, n: int, rng: np.random.Generator, *, acceleration: float = 5.0
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """``n`` random (q, dq, ddq) inside the position and velocity limits; |ddq| ≤ ``acceleration``."""
+        """``n`` random (q, dq, ddq) inside the position and velocity limits; |ddq| ≤ ``acceleration``.  A velocity
+        limit above :data:`RANDOM_VELOCITY_CAP` (a URDF's placeholder: iCub's 5e4 rad/s, solo12's 1000) is taken as
+        that cap: at such speeds the velocity-squared columns drown gravity's below the rank tolerance, and the base
+        parameters computed from these states lose the total mass (issue 46)."""
         n = count(n, "n", low=1)
         acceleration = number(acceleration, "acceleration", low=0)
         lo = np.where(np.isfinite(self.lower), self.lower, -np.pi)
         hi = np.where(np.isfinite(self.upper), self.upper, np.pi)
         vmax = np.where(np.isfinite(self.velocity_limit) & (self.velocity_limit > 0), self.velocity_limit, 2.0)
+        vmax = np.minimum(vmax, RANDOM_VELOCITY_CAP)
         q = rng.uniform(lo, hi, size=(n, self.nv))
         dq = rng.uniform(-vmax, vmax, size=(n, self.nv))
         ddq = rng.uniform(-acceleration, acceleration, size=(n, self.nv))
@@ -515,6 +519,10 @@ class RobotModel:
 
     def __repr__(self) -> str:
         return f"RobotModel({self.name!r}, joints={self.joint_names})"
+
+
+#: The largest speed [rad/s or m/s] of :meth:`RobotModel.random_states` (the states base parameters are computed from).
+RANDOM_VELOCITY_CAP = 20.0
 
 
 def _with_setting(settings: dict[str, object], name: str, value: object) -> dict[str, object]:

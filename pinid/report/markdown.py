@@ -489,6 +489,9 @@ def report_markdown(ident, figures: dict[str, str] | None = None) -> str:
     floor = floor_line(ident)
     if floor is not None:
         lines += ["", floor[0].upper() + floor[1:] + "."]
+    if data.get("calibration_text"):  # a floating recording's sensor calibration (docs/floating-base.md)
+        lines += ["", "Sensor calibration, applied to the training and validation recordings (value ± σ):", ""]
+        lines += ["```", str(data["calibration_text"]), "```"]
     warned = [r.warning for r in ident.results.values() if r.warning]
     if warned:
         lines += [""] + [f"**{w}**" + ("" if k == len(warned) - 1 else "  ") for k, w in enumerate(warned)]
