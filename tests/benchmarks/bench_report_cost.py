@@ -10,6 +10,7 @@ each a fresh interpreter, on
 * ``kuka``: the KUKA LBR Med 7 ``mext.csv`` (100 Hz, 7 joints), first 70 % → last 30 %, ``--terms
   fc,fv,offset`` (docs/identification.md), when ``--kuka`` names its folder.
 
+A warm-up run per tree and data set first (not timed; it writes the bytecode, as an installed package has it).
 Paired runs: each repeat runs, per data set, this tree with and without figures and (``--before``) the old
 tree with and without figures, one after the other, so that a ratio compares runs made seconds apart on the
 same (shared) machine.  Prints, per run, wall and CPU (the process and every worker it waited for) and the
@@ -41,6 +42,7 @@ def load() -> float:
 def run(tree: Path, args: list[str], cwd: Path) -> tuple[float, float]:
     """Wall and CPU [s] of ``python -m pinid.cli *args`` with ``tree`` first on the path."""
     env = dict(os.environ, PYTHONPATH=str(tree), MPLBACKEND="Agg", OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1")
+    env.pop("PYTHONDONTWRITEBYTECODE", None)  # an installed package has its bytecode: the warm-up run writes it
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
     subprocess.run([sys.executable, "-m", "pinid.cli", *args], cwd=cwd, env=env, check=True, stdout=subprocess.DEVNULL)
@@ -94,6 +96,9 @@ def main() -> None:
             cases["KUKA Med7 mext.csv, fc,fv,offset"] = [
                 *("--urdf", str(k / "robot.urdf"), "--manifest", "kuka70.toml", "--terms", "fc,fv,offset"),
             ]
+        for tree in trees.values():  # warm-up, not timed: bytecode written, files in the page cache
+            for args in cases.values():
+                run(tree, ["identify", *args, "--methods", "ols,sdp", "--force", "-o", "out_warm_up"], d)
         times: dict[tuple[str, str, str], list[tuple[float, float, float]]] = {}
         print(f"nproc {os.cpu_count()}; each line: case, tree, figures?, wall [s], CPU [s], load before\n")
         for r in range(a.repeat):
