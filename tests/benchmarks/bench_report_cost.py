@@ -56,7 +56,7 @@ def numbers(path: Path):
 
     def strip(x):
         if isinstance(x, dict):
-            return {k: strip(v) for k, v in x.items() if k not in ("seconds", "time", "elapsed", "created", "pinid")}
+            return {k: strip(v) for k, v in x.items() if not k.endswith("seconds") and k not in ("created", "pinid")}
         if isinstance(x, list):
             return [strip(v) for v in x]
         return x
