@@ -38,8 +38,9 @@ def torque_comparison(
     torque as recorded (light grey); ``filtered``, when given, the torque after pinid's low-pass (a thin
     dark line).  The error panel shows τ_meas − τ_pred against the torque as recorded (raw, light) and,
     with ``filtered``, against the low-passed torque (filtered, full colour).  ``units``: each joint's
-    unit (default N·m).  Only the first ``window`` seconds are drawn (None: all), thinned to
-    ``max_points`` samples (each run's minimum and maximum: :func:`_line`).  The legend sits above the panels.  Returns the figure.
+    unit (default N·m).  Only the first ``window`` seconds are drawn (None: all), thinned to ``max_points``
+    samples (each run's minimum and maximum: :func:`_line`).  The legend sits above the panels.  Returns the
+    figure.
     """
     preds = dict(predicted) if isinstance(predicted, Mapping) else {"predicted": predicted}
     fig, _ = _torque_figure(
@@ -200,7 +201,8 @@ def prediction_overlay(
     """Every method's predicted torque [N·m] in one figure, per joint: the predictions over the torque as
     recorded (light grey), and below each prediction minus ``reference``'s (the best method's), where the
     methods differ.  One colour per method (:func:`pinid.report.colors.method_color`), the legend above the
-    panels; the first ``window`` seconds (None: all), thinned to ``max_points``.  Returns the figure."""
+    panels; the first ``window`` seconds (None: all), thinned to ``max_points`` (min/max envelopes: :func:`_line`).
+    Returns the figure."""
     from pinid.report.colors import method_color
 
     if reference not in predicted:
