@@ -8,13 +8,15 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from pinid.report.figures import fixed_layout, new_figure, png_bytes
+from pinid.report.figures import close_figure, envelope, fixed_layout, new_figure, png_bytes
 
 
-def _thin(n: int, max_points: int) -> np.ndarray:
-    """Indices that keep at most ``max_points`` evenly spread samples (plots, not analysis)."""
-    step = max(1, int(np.ceil(n / max_points)))
-    return np.arange(0, n, step)
+def _line(t: np.ndarray, y: np.ndarray, max_points: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(t, y)`` for a line of at most ``max_points`` points that the eye cannot tell from every sample's:
+    :func:`~pinid.report.figures.envelope` over ``max_points // 2`` runs (about one per pixel column of the
+    report's time series at :data:`~pinid.report.figures.DPI`), each run's minimum and maximum in time order,
+    so that peaks and noise bands stay (every k-th sample would drop them)."""
+    return envelope(t, y, max(1, max_points // 2))
 
 
 def torque_comparison(
@@ -27,7 +29,7 @@ def torque_comparison(
     units: list[str] | None = None,
     title: str | None = None,
     window: float | None = 30.0,
-    max_points: int = 2_000,
+    max_points: int = 1_600,
 ):
     """Per joint: measured and predicted torque [N·m] against time, and the prediction error below.
 
@@ -36,8 +38,9 @@ def torque_comparison(
     torque as recorded (light grey); ``filtered``, when given, the torque after pinid's low-pass (a thin
     dark line).  The error panel shows τ_meas − τ_pred against the torque as recorded (raw, light) and,
     with ``filtered``, against the low-passed torque (filtered, full colour).  ``units``: each joint's
-    unit (default N·m).  Only the first ``window`` seconds are drawn (None: all), thinned to
-    ``max_points`` samples.  The legend sits above the panels.  Returns the figure.
+    unit (default N·m).  Only the first ``window`` seconds are drawn (None: all), thinned to ``max_points``
+    samples (each run's minimum and maximum: :func:`_line`).  The legend sits above the panels.  Returns the
+    figure.
     """
     preds = dict(predicted) if isinstance(predicted, Mapping) else {"predicted": predicted}
     fig, _ = _torque_figure(
@@ -72,7 +75,7 @@ def _legend_above(fig, handles: list, top: float) -> tuple[object, float]:
 
 
 def _torque_figure(
-    t, measured, preds: dict, joints, *, filtered=None, units=None, title=None, window=30.0, max_points: int = 2_000
+    t, measured, preds: dict, joints, *, filtered=None, units=None, title=None, window=30.0, max_points: int = 1_600
 ):
     """:func:`torque_comparison`'s figure and a function ``redraw(method, prediction, title)`` that puts
     another single method's prediction into it (lines, errors, colours, legend, title, autoscaled y)."""
@@ -88,29 +91,32 @@ def _torque_figure(
     fig, axes = new_figure(
         2 * nv,
         1,
-        figsize=(9, 2.6 * 2 * nv + head - 0.2),
+        figsize=(9, 2.0 * 2 * nv + head - 0.2),
         sharex=True,
         squeeze=False,
         gridspec_kw={"height_ratios": [2, 1] * nv},
     )
-    idx = _thin(len(t), max_points)
     lines: list[tuple] = []  # per joint: (top, bottom, prediction, raw error, filtered error) of the last method
     for j, name in enumerate(joints):
         top, bottom = axes[2 * j, 0], axes[2 * j + 1, 0]
         bottom.axhline(0.0, color="grey", lw=0.5)  # first: in the data limits, as after a redraw's relim
-        top.plot(t[idx], measured[idx, j], color="0.75", lw=0.8, zorder=1, label="measured (as recorded)")
+        top.plot(*_line(t, measured[:, j], max_points), color="0.75", lw=0.8, zorder=1, label="measured (as recorded)")
         if filtered is not None:
-            top.plot(t[idx], filtered[idx, j], color="0.3", lw=0.5, zorder=2, label="measured, low-passed")
+            top.plot(*_line(t, filtered[:, j], max_points), color="0.3", lw=0.5, zorder=2, label="measured, low-passed")
         line = err = ferr = None
         for m, p in preds.items():
             c = method_color(m)
-            (line,) = top.plot(t[idx], p[idx, j], color=c, lw=1.1, zorder=3, label=f"{m}: predicted")
+            (line,) = top.plot(*_line(t, p[:, j], max_points), color=c, lw=1.1, zorder=3, label=f"{m}: predicted")
             (err,) = bottom.plot(
-                t[idx], measured[idx, j] - p[idx, j], color=c, lw=0.6, alpha=0.35, label=f"{m}: error, raw"
+                *_line(t, measured[:, j] - p[:, j], max_points), color=c, lw=0.6, alpha=0.35, label=f"{m}: error, raw"
             )
             if filtered is not None:
                 (ferr,) = bottom.plot(
-                    t[idx], filtered[idx, j] - p[idx, j], color=c, lw=0.9, zorder=3, label=f"{m}: error, filtered"
+                    *_line(t, filtered[:, j] - p[:, j], max_points),
+                    color=c,
+                    lw=0.9,
+                    zorder=3,
+                    label=f"{m}: error, filtered",
                 )
         lines.append((top, bottom, line, err, ferr))
         unit = "N·m" if units is None else units[j]
@@ -134,14 +140,14 @@ def _torque_figure(
         p = np.asarray(prediction, dtype=float)[:n]
         c = method_color(method)
         for j, (top, bottom, line, err, ferr) in enumerate(lines):
-            line.set_ydata(p[idx, j])
-            err.set_ydata(measured[idx, j] - p[idx, j])
+            line.set_data(*_line(t, p[:, j], max_points))
+            err.set_data(*_line(t, measured[:, j] - p[:, j], max_points))
             line.set_label(f"{method}: predicted")
             err.set_label(f"{method}: error, raw")
             for ln in (line, err) + ((ferr,) if ferr is not None else ()):
                 ln.set_color(c)
             if ferr is not None:
-                ferr.set_ydata(filtered[idx, j] - p[idx, j])
+                ferr.set_data(*_line(t, filtered[:, j] - p[:, j], max_points))
                 ferr.set_label(f"{method}: error, filtered")
             for ax in (top, bottom):
                 ax.relim()
@@ -167,8 +173,6 @@ def torque_pngs(
     one figure redrawn with each method's lines: its axes and ticks are made once (the same bytes as a new
     figure per method, tested; on a 6-DOF arm 0.3 s instead of 0.45 s for each method after the first).
     ``kwargs``: :func:`torque_comparison`'s ``filtered``, ``units``, ``window``, ``max_points``."""
-    import matplotlib.pyplot as plt
-
     methods = list(predicted)
     first = methods[0]
     fig, redraw = _torque_figure(t, measured, {first: predicted[first]}, joints, title=titles[first], **kwargs)
@@ -178,7 +182,7 @@ def torque_pngs(
             redraw(m, predicted[m], titles[m])
             pngs.append(png_bytes(fig))
     finally:
-        plt.close(fig)
+        close_figure(fig)
     return pngs
 
 
@@ -197,7 +201,8 @@ def prediction_overlay(
     """Every method's predicted torque [N·m] in one figure, per joint: the predictions over the torque as
     recorded (light grey), and below each prediction minus ``reference``'s (the best method's), where the
     methods differ.  One colour per method (:func:`pinid.report.colors.method_color`), the legend above the
-    panels; the first ``window`` seconds (None: all), thinned to ``max_points``.  Returns the figure."""
+    panels; the first ``window`` seconds (None: all), thinned to ``max_points`` (min/max envelopes: :func:`_line`).
+    Returns the figure."""
     from pinid.report.colors import method_color
 
     if reference not in predicted:
@@ -209,21 +214,20 @@ def prediction_overlay(
     fig, axes = new_figure(
         2 * nv,
         1,
-        figsize=(9, 2.2 * 2 * nv + head),
+        figsize=(9, 1.8 * 2 * nv + head),
         sharex=True,
         squeeze=False,
         gridspec_kw={"height_ratios": [2, 1] * nv},
     )
-    idx = _thin(len(t), max_points)
     ref = cut[reference]
     for j, name in enumerate(joints):
         top, bottom = axes[2 * j, 0], axes[2 * j + 1, 0]
-        top.plot(t[idx], measured[idx, j], color="0.75", lw=0.8, zorder=1, label="measured (as recorded)")
+        top.plot(*_line(t, measured[:, j], max_points), color="0.75", lw=0.8, zorder=1, label="measured (as recorded)")
         for m, p in cut.items():
             c, lw = method_color(m), (1.3 if m == reference else 0.8)
-            top.plot(t[idx], p[idx, j], color=c, lw=lw, zorder=3 if m == reference else 2, label=m)
+            top.plot(*_line(t, p[:, j], max_points), color=c, lw=lw, zorder=3 if m == reference else 2, label=m)
             if m != reference:
-                bottom.plot(t[idx], p[idx, j] - ref[idx, j], color=c, lw=0.8)
+                bottom.plot(*_line(t, p[:, j] - ref[:, j], max_points), color=c, lw=0.8)
         unit = "N·m" if units is None else units[j]
         top.set_ylabel(f"{name}\nτ [{unit}]")
         bottom.set_ylabel(f"τ − τ_{reference} [{unit}]")
@@ -308,16 +312,16 @@ def recorded_motion(
     *,
     title: str | None = None,
     window: float | None = 30.0,
-    max_points: int = 2_000,
+    max_points: int = 1_600,
 ):
     """The excitation as recorded: q [rad] (top row) and dq [rad/s] (bottom row, when known) against time,
     one column per joint, the first ``window`` seconds (None: all) thinned to ``max_points``.  Returns the figure.
     """
     t = np.asarray(t, dtype=float)
     n = int(np.searchsorted(t, t[0] + window)) if window is not None and len(t) and t[-1] - t[0] > window else len(t)
-    idx = _thin(n, max_points)
-    rows = [("q [rad]", np.asarray(q, dtype=float))] + (
-        [] if dq is None else [("dq [rad/s]", np.asarray(dq, dtype=float))]
+    t = t[:n]
+    rows = [("q [rad]", np.asarray(q, dtype=float)[:n])] + (
+        [] if dq is None else [("dq [rad/s]", np.asarray(dq, dtype=float)[:n])]
     )
     nv = len(joints)
     ncols = min(nv, 3)
@@ -328,7 +332,7 @@ def recorded_motion(
     for j, name in enumerate(joints):
         for r, (label, y) in enumerate(rows):
             ax = axes[(j // ncols) * len(rows) + r, j % ncols]
-            ax.plot(t[idx], y[idx, j], lw=1.0, color="C0")
+            ax.plot(*_line(t, y[:, j], max_points), lw=1.0, color="C0")
             ax.grid(alpha=0.3)
             if r == 0:
                 ax.set_title(name, fontsize="medium")

@@ -295,3 +295,72 @@ def test_ticks_in_view_follow_the_view_and_the_locator_params():
     import matplotlib.pyplot as plt
 
     plt.close(fig)
+
+
+def test_figures_without_pyplot_give_the_bytes_of_pyplot_figures(monkeypatch):
+    """Issue 45: a drawing worker makes its figures without pyplot (figures._BARE), the same pixels."""
+    import pinid.report.figures as figures
+
+    recipes = _recipes()
+    with_pyplot = {k: figures._render(r) for k, r in recipes.items()}
+    monkeypatch.setattr(figures, "_BARE", True)
+    fig, _ = figures.new_figure(2, 1, figsize=(3, 2), sharex=True, gridspec_kw={"height_ratios": [2, 1]})
+    assert fig.canvas.manager is None and len(fig.axes) == 2  # not one of pyplot's figures
+    assert {k: figures._render(r) for k, r in recipes.items()} == with_pyplot
+
+
+def _worker_state():
+    import pinid.report.figures as figures
+
+    fig, _ = figures.new_figure()
+    return [figures._BARE, fig.canvas.manager is None, "matplotlib.figure" in sys.modules]
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="worker processes are forked on Linux only")
+def test_drawing_workers_make_figures_without_pyplot():
+    """Issue 45: the process that forks the drawing workers loads matplotlib (without pyplot unless its parent
+    had it) and draws a figure once (fonts loaded) before it forks them; their figures are not pyplot's."""
+    import pinid.report.figures as figures
+
+    figures.start_figure_workers(2)
+    loader = figures._started
+    try:
+        out = loader.map(figures._render, [(_worker_state, (), {})] * 2)
+    finally:
+        loader.shutdown()
+        figures._started = None
+    assert out == [[True, True, True]] * 2
+
+
+@pytest.mark.parametrize("kind", ["torque", "overlay", "motion"])
+def test_time_series_lines_keep_each_pixel_columns_minimum_and_maximum(kind):
+    """Issue 45: a long trace is drawn as its envelope (figures.envelope): per run of samples (about one pixel
+    column) the drawn line reaches the original's minimum and maximum, so spikes stay; at most max_points."""
+    from pinid.report.plot_identification import prediction_overlay
+
+    rng = np.random.default_rng(1)
+    n, max_points = 45_000, 1_600
+    t = np.arange(n) / 5000.0
+    y = np.column_stack([np.cumsum(rng.normal(size=n)), np.sin(t) + 0.01 * rng.normal(size=n)])
+    y[[7, 22_222, n - 2], 0] = [500.0, -400.0, 300.0]  # one-sample spikes that every 28th sample would miss
+    if kind == "torque":
+        fig = torque_comparison(t, y, {"ols": 0.5 * y}, ["a", "b"], window=None, max_points=max_points)
+        line = fig.axes[0].lines[0]  # the measured torque of joint a
+    elif kind == "overlay":
+        fig = prediction_overlay(t, y, {"ols": y, "sdp": 0.5 * y}, ["a", "b"], reference="ols", window=None)
+        max_points = 1_000
+        line = fig.axes[0].lines[0]
+    else:
+        fig = recorded_motion(t, y, None, ["a", "b"], window=None, max_points=max_points)
+        line = fig.axes[0].lines[0]
+    x, drawn = np.asarray(line.get_xdata()), np.asarray(line.get_ydata())
+    assert len(drawn) <= max_points
+    runs = max_points // 2
+    starts = np.linspace(0, n, runs + 1).astype(int)
+    idx = np.searchsorted(t, x)
+    np.testing.assert_array_equal(y[idx, 0], drawn)  # samples of the trace, in time order
+    assert np.all(np.diff(idx) > 0)
+    for a, b in zip(starts[:-1], starts[1:]):
+        kept = drawn[(idx >= a) & (idx < b)]
+        assert kept.min() == y[a:b, 0].min() and kept.max() == y[a:b, 0].max()
+    assert {500.0, -400.0, 300.0} <= set(drawn)
