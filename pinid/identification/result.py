@@ -445,9 +445,11 @@ def make_result(
     else:
         residual = problem.tau - (problem.predict(base) if predicted is None else predicted)
     w = getattr(estimator, "weights_", None)  # wls: formed when read, let go before the metrics
-    std, cond, cond_scaled = base_statistics(problem, base, w, residual=residual)
+    calibrated = getattr(estimator, "calibrated_std", True)
+    # no calibrated σ (metaheuristics): the white formula for the condition numbers, no HAC lag to refuse
+    std, cond, cond_scaled = base_statistics(problem, base, w, residual=residual, kind="hac" if calibrated else "white")
     del w
-    if not getattr(estimator, "calibrated_std", True):
+    if not calibrated:
         std = np.full_like(std, np.nan)  # no calibrated σ: none printed rather than a wrong one
     elif getattr(estimator, "consistent_by_construction", False):
         std = np.where(np.abs(base) <= BOUND_FRACTION * problem.natural_scale, np.nan, std)  # on a bound
