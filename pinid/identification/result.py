@@ -493,6 +493,12 @@ def make_result(
 UNDETERMINED_SIGMA = 0.5
 
 
+def _identification_problem(problem) -> None:
+    """SpecError unless ``problem`` is an identification problem (its base map, joints and model)."""
+    if not all(hasattr(problem, a) for a in ("base", "nv", "nb", "model", "terms", "natural_scale")):
+        raise SpecError(f"problem: got {type(problem).__name__}, expected an identification problem")
+
+
 def still_joints(problem) -> list[int]:
     """The joints (indices) that stand still in ``problem``'s recordings: peak speed below
     :data:`~pinid.problem.rows.REST_FRACTION` (2 %) of the fastest joint's of the same unit (rad/s or m/s) — the
@@ -500,6 +506,7 @@ def still_joints(problem) -> list[int]:
     recordings (a segmental stage's sub-problem)."""
     from pinid.problem.rows import REST_FRACTION
 
+    _identification_problem(problem)
     rows = getattr(problem, "regressor_rows", None)
     if rows is None or not rows.datasets:
         return []
@@ -534,6 +541,9 @@ def data_marks(problem, std: np.ndarray, theta: np.ndarray | None = None) -> dic
     from pinid.model.base import identifiability
     from pinid.model.terms import robot_layout
 
+    _identification_problem(problem)
+    if isinstance(std, (str, bytes)) or np.ndim(std) != 1 or len(std) != problem.nb:
+        raise SpecError(f"std: got {type(std).__name__}, expected one standard deviation per base parameter")
     base = problem.base
     P = np.array(base.P, dtype=float)
     names = base.standard_names
