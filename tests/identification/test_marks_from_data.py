@@ -47,6 +47,10 @@ def test_a_joint_held_still_has_its_friction_not_identified(knee_still, tmp_path
     sdp = ident["sdp"].model
     for text in (sdp.export_urdf(), sdp.export_mjcf()):
         assert "not identified (no information in these data): fc, fv" in text
+    from pinid.report.markdown import report_markdown
+
+    knee = [line for line in report_markdown(ident, {}).splitlines() if line.startswith("| `knee` |")]
+    assert knee and "not identified (no information in these data): my, Ixx, Ixy, Ixz, Iyz, Izz, fc, fv" in knee[0]
 
 
 def test_clean_twin_marks_equal_the_structural_ones():
