@@ -445,9 +445,13 @@ def make_result(
     else:
         residual = problem.tau - (problem.predict(base) if predicted is None else predicted)
     w = getattr(estimator, "weights_", None)  # wls: formed when read, let go before the metrics
-    std, cond, cond_scaled = base_statistics(problem, base, w, residual=residual)
+    calibrated = getattr(estimator, "calibrated_std", True)
+    # no calibrated σ (metaheuristics): the white formula for the condition numbers, no HAC lag to refuse
+    kind = {} if calibrated else {"kind": "white"}  # (bench_coverage.py swaps base_statistics' default kind)
+    std, cond, cond_scaled = base_statistics(problem, base, w, residual=residual, **kind)
     del w
-    if not getattr(estimator, "calibrated_std", True):
+    raw_std = std  # the information in the data, for the marks (data_marks), before any σ is withheld
+    if not calibrated:
         std = np.full_like(std, np.nan)  # no calibrated σ: none printed rather than a wrong one
     elif getattr(estimator, "consistent_by_construction", False):
         std = np.where(np.abs(base) <= BOUND_FRACTION * problem.natural_scale, np.nan, std)  # on a bound
@@ -480,9 +484,87 @@ def make_result(
         info=info,
         history=getattr(estimator, "history_", None),
         robot=robot_to_dict(robot or problem.model, problem.terms),
-        marks=problem.base.marks(),
+        marks=data_marks(problem, raw_std, theta if getattr(estimator, "consistent_by_construction", False) else None),
         _robot_model=robot or problem.model,
     )
+
+
+#: A base parameter whose σ exceeds this share of its natural magnitude (:attr:`IdentificationProblem.natural_scale`:
+#: M, M·L, M·L² per body, 1 in its unit for a joint term) is not determined by the data (:func:`data_marks`).
+UNDETERMINED_SIGMA = 0.5
+
+
+def _identification_problem(problem) -> None:
+    """SpecError unless ``problem`` is an identification problem (its base map, joints and model)."""
+    if not all(hasattr(problem, a) for a in ("base", "nv", "nb", "model", "terms", "natural_scale")):
+        raise SpecError(f"problem: got {type(problem).__name__}, expected an identification problem")
+
+
+def still_joints(problem) -> list[int]:
+    """The joints (indices) that stand still in ``problem``'s recordings: peak speed below
+    :data:`~pinid.problem.rows.REST_FRACTION` (2 %) of the fastest joint's of the same unit (rad/s or m/s) — the
+    rest rule of :mod:`pinid.problem.problem` taken over the robot instead of the joint.  [] without the
+    recordings (a segmental stage's sub-problem)."""
+    from pinid.problem.rows import REST_FRACTION
+
+    _identification_problem(problem)
+    rows = getattr(problem, "regressor_rows", None)
+    if rows is None or not rows.datasets:
+        return []
+    try:
+        peak = np.max([np.max(np.abs(ds.dq), axis=0) for ds in rows.datasets if ds.n], axis=0)
+        units = joint_units(problem.model)
+    except (AttributeError, TypeError, ValueError):  # recordings without joint velocities of this model's shape
+        return []
+    if len(peak) != len(units):
+        return []
+    out = []
+    for j, u in enumerate(units):
+        same = [k for k, v in enumerate(units) if v == u]
+        if peak[j] < REST_FRACTION * max(peak[k] for k in same):
+            out.append(j)
+    return out
+
+
+def data_marks(problem, std: np.ndarray, theta: np.ndarray | None = None) -> dict[str, str]:
+    """``{standard name: mark}`` from the information in these data (issue 47), not from the model's structure
+    alone.  Three steps:
+
+    1. A joint that stands still (:func:`still_joints`) gives no information on its motion terms (friction,
+       armature …; not its offset): their columns are dropped from ``P``.
+    2. A base parameter whose σ (``std``, the method's own sandwich) exceeds :data:`UNDETERMINED_SIGMA` of its
+       natural magnitude is not determined by the data (its ±2σ interval spans its whole size): its row of
+       ``P`` is dropped.  NaN σ (none given) drops nothing.
+    3. :func:`~pinid.model.base.identifiability` of what is left: ``"identified"``, ``"partly"``, ``"not
+       identified"``.  With ``theta`` (an estimator that holds bounds, sdp): a non-negative joint term that is
+       not "not identified" and sits on its bound 0 (≤ :data:`BOUND_FRACTION` in its unit) is ``"at bound"``.
+    """
+    from pinid.model.base import identifiability
+    from pinid.model.terms import robot_layout
+
+    _identification_problem(problem)
+    if isinstance(std, (str, bytes)) or np.ndim(std) != 1 or len(std) != problem.nb:
+        raise SpecError(f"std: got {type(std).__name__}, expected one standard deviation per base parameter")
+    base = problem.base
+    P = np.array(base.P, dtype=float)
+    names = base.standard_names
+    layout = robot_layout(problem.model, problem.terms)
+    first = len(names) - len(layout)
+    still = set(still_joints(problem))
+    for k, prm in enumerate(layout):
+        if prm.term.space == "joint" and prm.index in still and prm.term.name != "offset" and not prm.term.static:
+            P[:, first + k] = 0.0
+    std = np.asarray(std, dtype=float)
+    scale = problem.natural_scale
+    undetermined = np.isfinite(std) & (std > UNDETERMINED_SIGMA * scale)
+    P[undetermined] = 0.0
+    marks = dict(zip(names, identifiability(P)))
+    if theta is not None:
+        for k, prm in enumerate(layout):
+            n = names[first + k]
+            if prm.term.nonnegative and marks[n] != MARKS[2] and abs(theta[first + k]) <= BOUND_FRACTION:
+                marks[n] = MARKS[3]
+    return marks
 
 
 def _marks(value, names: list[str], method) -> dict[str, str] | None:

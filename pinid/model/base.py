@@ -150,8 +150,9 @@ class BaseParameters:
         return cls.from_dict(read_json(path, "base-parameter"), source=str(path))
 
 
-#: The three marks of a standard parameter (:func:`identifiability`).
-MARKS = ("identified", "partly", "not identified")
+#: The marks of a standard parameter: the three of :func:`identifiability`, and "at bound" (a value an
+#: estimator held on its constraint, e.g. sdp's friction ≥ 0: :func:`pinid.identification.result.data_marks`).
+MARKS = ("identified", "partly", "not identified", "at bound")
 
 
 def identifiability(P: np.ndarray, tol: float = 1e-9) -> list[str]:
@@ -198,6 +199,7 @@ def marks_summary(marks: dict[str, str] | None, names: Sequence[str]) -> str:
         MARKS[0]: "identified",
         MARKS[1]: "partly (in combinations)",
         MARKS[2]: "not identified (no information in these data)",
+        MARKS[3]: "at bound (held on the estimator's constraint, e.g. friction ≥ 0)",
     }
     return "; ".join(f"{label[k]}: {', '.join(v)}" for k, v in groups.items() if v)
 

@@ -624,8 +624,10 @@ def report_markdown(ident, figures: dict[str, str] | None = None) -> str:
                 "*From these data*: which standard parameters (m, m·c, I about the joint frame, the joint terms) "
                 "the recordings determine: *identified* (a base parameter by itself), *partly* (only in "
                 "combinations with others: its value here is one completion of the base parameters), *not "
-                "identified* (in no base parameter: the data say nothing about it: the value is the URDF's, carried through by the completion unless "
-                "physical consistency moved it).",
+                "identified* (in no base parameter these recordings determine — a joint that stands still, or a σ "
+                "above half the parameter's natural size: the data say nothing about it: the value is the URDF's, "
+                "carried through by the completion unless physical consistency moved it, or the estimator's), *at "
+                "bound* (held by the estimator on its constraint, e.g. friction ≥ 0).",
             ]
 
     lines += [

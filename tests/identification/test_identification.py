@@ -195,16 +195,17 @@ def test_standard_deviations_and_condition_number_follow_the_formulas():
     W, tau = problem.W, problem.tau
     x, *_ = np.linalg.lstsq(W, tau, rcond=None)
     resid = tau - W @ x
-    from pinid.problem.covariance import andrews_bandwidth
+    from pinid.problem.covariance import choose_lag, fixed_b_factor
 
     g = np.zeros((problem.sample.max() + 1, W.shape[1]))  # Newey–West: per-sample scores, explicit lag sum
     np.add.at(g, problem.sample, W * resid[:, None])
-    lag = andrews_bandwidth(g / problem.compressed()[3])  # chosen in unit-column coordinates
+    lag = choose_lag(g / problem.compressed()[3])  # chosen in unit-column coordinates
     S = g.T @ g
     for k in range(1, lag + 1):
         G = g[k:].T @ g[:-k]
         S += (1 - k / (lag + 1)) * (G + G.T)
     Binv = np.linalg.inv(W.T @ W)
+    S /= fixed_b_factor(lag, len(g))
     std = np.sqrt(np.diag(Binv @ S @ Binv) * len(tau) / (len(tau) - W.shape[1]))
     np.testing.assert_allclose(r.base, x, rtol=1e-9, atol=1e-12)
     np.testing.assert_allclose(r.std, std, rtol=1e-6)

@@ -100,3 +100,40 @@ def test_sdp_parameter_on_a_bound_gives_no_sigma():
     assert np.all(np.isnan(r.std[fv]))
     others = [i for i in range(len(r.base)) if i not in fv]
     assert np.all(np.isfinite(r.std[others]))
+
+
+def test_kernel_bias_lag_follows_slow_correlation_where_andrews_stops():
+    """Issue 47: the kernel-bias lag (5 % bias: L + 1 = ŝ₁/(0.05·ŝ₀), for AR(1) ŝ₁/ŝ₀ = 2ρ/(1 − ρ²)) follows
+    slow correlation; Andrews' AR(1) rule, its ρ clipped at 0.97, stops near 320 at 20 000 samples."""
+    from pinid.problem.covariance import bias_bandwidth, choose_lag
+
+    rng = np.random.default_rng(3)
+    white = rng.normal(size=(20000, 3))
+    assert choose_lag(white) <= 3
+    slow = _ar1(rng, 20000, 0.995, 3).T
+    theory = 2 * 0.995 / (1 - 0.995**2) / 0.05
+    assert andrews_bandwidth(slow) < 400
+    assert 0.7 * theory < bias_bandwidth(slow) < 2 * theory
+    assert choose_lag(slow) == bias_bandwidth(slow)
+    assert choose_lag(slow[:300]) <= 299  # never past the recording
+
+
+def test_binned_autocorrelation_gives_the_same_lag(monkeypatch):
+    """Long recordings: the autocorrelation on bins of summed scores (the streamed path's) gives about the
+    whole-sample lag when the correlation is longer than a bin."""
+    from pinid.problem import covariance as cv
+
+    g = _ar1(np.random.default_rng(4), 20000, 0.995, 2).T
+    whole = cv.bias_bandwidth(g)
+    monkeypatch.setattr(cv, "ACF_BINS", 1000)
+    binned, m = cv.binned_scores(g)
+    assert m == 20 and len(binned) == 1000
+    assert cv.bias_bandwidth(binned, m) == pytest.approx(whole, rel=0.1)
+
+
+def test_fixed_b_factor():
+    from pinid.problem.covariance import fixed_b_factor
+
+    assert fixed_b_factor(0, 100) == 1.0
+    assert fixed_b_factor(49, 100) == pytest.approx(1 - 0.5 + 0.25 / 3)
+    assert fixed_b_factor(10**6, 100) == pytest.approx(1 / 3)
