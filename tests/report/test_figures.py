@@ -295,3 +295,19 @@ def test_ticks_in_view_follow_the_view_and_the_locator_params():
     import matplotlib.pyplot as plt
 
     plt.close(fig)
+
+
+def test_wearer_torque_figure_draws_each_model_in_its_own_colour():
+    """Issue 47: torque_wearer.png's three models (exo + identified wearer, + table wearer, exo alone) had colours
+    chosen from their names, two of them the same green; each has its own now, none a grey of the measurements."""
+    import matplotlib.colors as mc
+
+    from pinid.report.wearer import MODELS, torque_figure
+
+    t = np.linspace(0, 2, 50)
+    tau = np.c_[np.sin(t), np.cos(t)]
+    curves = {"t": t, "measured": tau, "predicted": {w: tau + k for k, w in enumerate(MODELS)}, "joints": ["a", "b"]}
+    fig = torque_figure(curves)
+    colours = {ln.get_label(): mc.to_hex(ln.get_color()) for ln in fig.axes[0].get_lines()}
+    predicted = [colours[f"{MODELS[w]}: predicted"] for w in MODELS]
+    assert len(set(predicted)) == 3 and colours["measured (as recorded)"] not in predicted, colours
