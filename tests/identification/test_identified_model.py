@@ -272,7 +272,7 @@ def test_model_of_a_repaired_urdf_loads_back(tmp_path):
     d = json.loads((tmp_path / "model_sdp.json").read_text())
     d["robot"].pop("repair_inertia")
     (tmp_path / "plain.json").write_text(json.dumps(d))
-    with pytest.raises(ModelError, match="^the saved URDF text: the body moved by joint 'knee'"):
+    with pytest.raises(ModelError, match=r"plain\.json: the saved URDF text: the body moved by joint 'knee'"):
         IdentifiedModel.load(tmp_path / "plain.json")
 
 
