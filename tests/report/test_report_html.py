@@ -331,7 +331,11 @@ def _quiet_main(args: list[str]) -> int:
 
     from pinid.cli.main import main
 
-    with contextlib.redirect_stdout(io.StringIO()), warnings.catch_warnings():
+    with (
+        contextlib.redirect_stdout(io.StringIO()),
+        contextlib.redirect_stderr(io.StringIO()),
+        warnings.catch_warnings(),
+    ):
         warnings.simplefilter("ignore")
         return main(args)
 
