@@ -72,13 +72,20 @@ def whole_body_com(model, terms, base, q: np.ndarray, values: np.ndarray) -> np.
     ``values`` (k, nb) whose first entry is the total mass ``base.mR``: the first moments ``h = Σ mᵢcᵢ`` read
     from the moment rows of the base at rest in three base orientations (``moment = g_b × h``, g in the
     base frame), divided by the mass."""
+    if not hasattr(model, "ff_model") or not hasattr(base, "independent"):
+        raise SpecError("whole_body_com: expected a FloatingRobotModel, its terms and base parameters")
+    values = np.atleast_2d(np.asarray(values, dtype=float))
+    return values @ first_moment_map(model, terms, base, q).T / values[:, :1]
+
+
+def first_moment_map(model, terms, base, q: np.ndarray) -> np.ndarray:
+    """The (3, nb) matrix ``H`` that gives the whole-body first moments ``h = Σ mᵢcᵢ = H @ values`` [kg·m] (base
+    frame, joint positions ``q``) of a base vector: read from the moment rows of the base at rest in three base
+    orientations (``moment = g_b × h``, g in the base frame); :func:`whole_body_com` divides by the mass."""
     import pinocchio as pin
 
     from pinid.model.regressor import regressor
 
-    if not hasattr(model, "ff_model") or not hasattr(base, "independent"):
-        raise SpecError("whole_body_com: expected a FloatingRobotModel, its terms and base parameters")
-    values = np.atleast_2d(np.asarray(values, dtype=float))
     g = np.asarray(model.ff_model.gravity.linear)
     A, Y = [], []
     zero6, zero = np.zeros((1, 6)), np.zeros((1, model.nv))
@@ -94,13 +101,34 @@ def whole_body_com(model, terms, base, q: np.ndarray, values: np.ndarray) -> np.
         gb = R.T @ g
         A.append(pin.skew(gb))  # the moment the base must receive to hold the robot still: g_b × h
     A, Y = np.vstack(A), np.vstack(Y)
-    h = np.linalg.lstsq(A, Y @ values.T, rcond=None)[0].T  # (k, 3)
-    return h / values[:, :1]
+    return np.linalg.lstsq(A, Y, rcond=None)[0]  # (3, nb)
+
+
+#: ... and when the offset is this many of its standard deviations or more (:func:`com_offset_std`): an offset
+#: within a few σ is the centre of mass the data leave undetermined, not a wrong wrench — unless it exceeds the
+#: robot's size (a centre of mass outside the robot), which is warned whatever its σ.
+COM_SIGMAS = 3.0
+
+
+def com_offset_std(H: np.ndarray, values: np.ndarray, std: np.ndarray, offset: np.ndarray) -> float:
+    """The standard deviation [m] of a method's whole-body centre of mass ``c = H @ values / values[0]`` along its
+    ``offset`` from the URDF's, from the base parameters' σ ``std`` (first order: ``J = (H − c e₀ᵀ) / m``).  The
+    σ are per parameter (their correlations are not kept), so it is bounded by the sum ``Σ |uᵀJⱼ| σⱼ``, which holds
+    for any correlation; NaN where a σ is not known (a metaheuristic's, an SDP value on a bound)."""
+    values, std = np.asarray(values, dtype=float), np.asarray(std, dtype=float)
+    norm = float(np.linalg.norm(offset))
+    if norm == 0 or values[0] <= 0 or std.shape != values.shape or not np.all(np.isfinite(std)):
+        return float("nan")
+    c = H @ values / values[0]
+    J = (H - np.outer(c, np.eye(len(values))[0])) / values[0]
+    return float(np.abs((offset / norm) @ J) @ std)
 
 
 def com_warning(ident, model, terms, base, q: np.ndarray, source: str, hints=()) -> str | None:
     """One DataWarning line when a method's whole-body centre of mass (:func:`whole_body_com`, at the mean
-    training posture ``q``) is :data:`COM_WARNED` × the robot's size or more from the URDF's, naming the likely
+    training posture ``q``) is :data:`COM_WARNED` × the robot's size or more from the URDF's, and
+    :data:`COM_SIGMAS` of its σ along the offset (:func:`com_offset_std`, ``info["com_offset_std"]``) or more when
+    the method has σ (or the robot's size or more, whatever the σ), naming the likely
     causes (``hints``: what the raw recordings point to, :func:`pinid.identification.floating.recording_hints`,
     named instead when given); returns it (None when every method's is plausible or the rows have no ``base.mR``)."""
     import pinocchio as pin
@@ -116,15 +144,25 @@ def com_warning(ident, model, terms, base, q: np.ndarray, source: str, hints=())
     values = np.array([ident.base["nominal"]] + [ident.results[m].base for m in methods])
     if np.any(values[:, 0] <= 0):
         return None  # the total mass's own check says it
-    com = whole_body_com(model, terms, base, np.asarray(q, dtype=float), values)
+    if not hasattr(base, "independent"):
+        raise SpecError("com_warning: expected a FloatingRobotModel, its terms and base parameters")
+    H = first_moment_map(model, terms, base, np.asarray(q, dtype=float))
+    com = values @ H.T / values[:, :1]
     m, d = model.ff_model, model.ff_model.createData()
     pin.framesForwardKinematics(m, d, np.r_[0, 0, 0, 0, 0, 0, 1.0, model.configuration(q)])
     size = max(float(np.linalg.norm(f.translation)) for f in d.oMf)
     off = {k: float(np.linalg.norm(c - com[0])) for k, c in zip(methods, com[1:])}
+    sigma = {}
     for k, c in zip(methods, com[1:]):
         ident.results[k].info["com"] = c.tolist()
+        sigma[k] = com_offset_std(H, values[1 + methods.index(k)], ident.results[k].std, c - com[0])
+        ident.results[k].info["com_offset_std"] = sigma[k] if np.isfinite(sigma[k]) else None
     ident.data["com_urdf"] = com[0].tolist()
-    bad = {k: v for k, v in off.items() if v >= COM_WARNED * size}
+    # far (COM_WARNED of the size) and known to be far (COM_SIGMAS σ): a centre of mass the data leave
+    # undetermined (a suspended robot that barely tilts shows little of the height of its centre of mass)
+    # is no sign of a wrong wrench, however far its value lies; one farther than the robot's size lies outside the
+    # robot, which no σ makes plausible (a force plate turned by 180°: metres off, with σ as large from its misfit)
+    bad = {k: v for k, v in off.items() if v >= COM_WARNED * size and (v >= size or not v < COM_SIGMAS * sigma[k])}
     if not bad:
         return None
     line = (

@@ -30,7 +30,7 @@ import numpy as np
 import pinocchio as pin
 
 from pinid.checks import as_floats
-from pinid.errors import DataError, ModelError, SpecError
+from pinid.errors import DataError, ModelError, PinidError, SpecError
 from pinid.io import read_json, write_json
 from pinid.model import terms as _terms
 from pinid.model.export import floating_urdf, identified_urdf
@@ -132,7 +132,7 @@ class IdentifiedModel:
     @property
     def standard_parameters(self) -> dict[str, float]:
         """``{name: value}`` of the standard parameters."""
-        return dict(zip(_names(self.robot, self.terms), map(float, self.theta)))
+        return dict(zip(_names(self.nominal_robot, self.terms), map(float, self.theta), strict=True))
 
     def _states(self, *arrays: tuple[str, object]) -> tuple[list[np.ndarray], bool]:
         """The named arrays as (N, nv) float batches, and whether they were one sample each (nv,).
@@ -373,8 +373,16 @@ class IdentifiedModel:
 
     @classmethod
     def load(cls, path: str | os.PathLike) -> "IdentifiedModel":
-        """Read a JSON file written by :meth:`save` (or by ``pinid identify``: ``model_<method>.json``)."""
-        return cls.from_dict(read_json(path, "identified model"))
+        """Read a JSON file written by :meth:`save` (or by ``pinid identify``: ``model_<method>.json``); a pinid
+        error naming the file if it is not such a file."""
+        d = read_json(path, "identified model")  # its errors name the file already
+        try:
+            return cls.from_dict(d)
+        except PinidError as exc:
+            if str(path) in str(exc):
+                raise
+            error = type(exc)(f"{path}: {exc}")
+            raise error.with_traceback(exc.__traceback__) from None
 
     @property
     def marks(self) -> dict[str, str] | None:

@@ -2,12 +2,13 @@
 from one text.
 
 Renders the small subset of Markdown the reports use — ``#``/``##``/``###`` headings, paragraphs,
-``- `` lists, pipe tables (``\\|`` for a ``|`` in a cell), fenced code, a paragraph that is one image ``![alt](file)``, and inline
+``- `` lists, hard line breaks (a line ending in two spaces), pipe tables (``\\|`` for a ``|`` in a cell), fenced code, a paragraph that is one image ``![alt](file)``, and inline
 `` `code` ``, ``**bold**`` and ``*emphasis*`` — plus the raw HTML lines that fold a section (``<details>``, ``<details open>``,
 ``<summary>…</summary>``, ``</details>``: GitHub renders them in report.md too), passed through as they
 are; and embeds every image as a ``data:`` URI: the page needs no server, no other file and no network (no
-external style sheet, font or script).  Every table scrolls sideways inside its own block, so that the
-page stays readable on a narrow window (1000 px).
+external style sheet, font or script).  Numbers stay on one line and prose cells (a list of names) wrap, so
+that the tables fit the page's column (1250 px); on a narrower window a wider table scrolls sideways inside its
+own block, so that the page stays readable (1000 px).
 """
 
 from __future__ import annotations
@@ -29,6 +30,7 @@ h1 { border-bottom: 2px solid #ccc; } h2 { border-bottom: 1px solid #ddd; margin
 table { border-collapse: collapse; margin: 0.6em 0; font-size: 0.92em; }
 th, td { border: 1px solid #ccc; padding: 0.2em 0.55em; text-align: right; }
 th { background: #f2f2f2; } td { white-space: nowrap; } td:first-child, th:first-child { text-align: left; }
+td.text { white-space: normal; text-align: left; min-width: 18em; }
 code { background: #f4f4f4; padding: 0 0.2em; } pre { background: #f4f4f4; padding: 0.7em; overflow-x: auto; }
 img { max-width: 100%; height: auto; display: block; margin: 0.6em 0; }
 .table { overflow-x: auto; max-width: 100%; } figure { margin: 0.6em 0; }
@@ -59,6 +61,16 @@ def _cells(line: str) -> list[str]:
     inner = line.strip()[1:]
     inner = inner[:-1] if inner.endswith("|") and not inner.endswith("\\|") else inner
     return [c.strip().replace("\\|", "|") for c in re.split(r"(?<!\\)\|", inner)]
+
+
+#: A cell longer than this is prose (a list of names, a sentence): it wraps, where numbers stay on one line.
+TEXT_CELL = 40
+
+
+def _cell(text: str) -> str:
+    """One ``<td>``: numbers and short words on one line, prose (:data:`TEXT_CELL`) wrapped so that the table
+    fits the page instead of scrolling sideways."""
+    return f'<td class="text">{_inline(text)}</td>' if len(text) > TEXT_CELL else f"<td>{_inline(text)}</td>"
 
 
 def _image(alt: str, src: str, images: Mapping[str, bytes]) -> str:
@@ -101,7 +113,7 @@ def markdown_to_html(text: str, images: Mapping[str, bytes] | None = None, *, ti
                 '<div class="table"><table><thead><tr>'
                 + "".join(f"<th>{_inline(c)}</th>" for c in head)
                 + "</tr></thead><tbody>"
-                + "".join("<tr>" + "".join(f"<td>{_inline(c)}</td>" for c in r) + "</tr>" for r in rest)
+                + "".join("<tr>" + "".join(_cell(c) for c in r) + "</tr>" for r in rest)
                 + "</tbody></table></div>"
             )
             i = j
@@ -118,7 +130,13 @@ def markdown_to_html(text: str, images: Mapping[str, bytes] | None = None, *, ti
             j = i + 1
             while j < len(lines) and lines[j].strip() and not re.match(r"^(#|\||- |```|!\[|<)", lines[j]):
                 j += 1
-            body.append("<p>" + _inline(" ".join(lines[i:j])) + "</p>")  # a span may wrap onto the next line
+            # a span may wrap onto the next line; a line ending in two spaces breaks there (Markdown's hard break)
+            groups, start = [], i
+            for k in range(i, j):
+                if lines[k].endswith("  ") or k == j - 1:
+                    groups.append(_inline(" ".join(x.strip() for x in lines[start : k + 1])))
+                    start = k + 1
+            body.append("<p>" + "<br>\n".join(groups) + "</p>")
             i = j
     return (
         '<!DOCTYPE html>\n<html lang="en">\n<head>\n<meta charset="utf-8">\n'

@@ -595,24 +595,29 @@ def report_markdown(ident, figures: dict[str, str] | None = None) -> str:
             "the centre of mass; joint friction.",
             "",
         ]
-        nv = len(robot["joints"])
         rows = []
         joint_terms = TermSelection.from_names(robot["terms"]).joint  # the motor block follows
-        terms = [t.name for t in joint_terms]
-        jt = best.standard[10 * nv : 10 * nv + nv * len(terms)].reshape(nv, len(terms)) if terms else np.zeros((nv, 0))
-        for i, j in enumerate(robot["joints"]):
-            m, c, I = tidy_inertial(*com_inertia(best.standard[10 * i : 10 * i + 10]))
+        # by name: a floating base's standard vector leads with its base link (base.*, no joint terms), so the
+        # joints' blocks are not at 10·i (issue 47: the floating report's table was one body off)
+        value = dict(zip(best.standard_names, map(float, best.standard)))
+        floating = best.standard_names[:1] == ["base.m"]
+        for j in (["base"] if floating else []) + list(robot["joints"]):
+            m, c, I = tidy_inertial(*com_inertia(np.array([value[f"{j}.{n}"] for n in INERTIAL_NAMES])))
             ev = np.linalg.eigvalsh(0.5 * (I + I.T))
             ev[np.abs(ev) < NOISE * np.abs(ev).max()] = 0.0
-            names = [f"{j}.{n}" for n in INERTIAL_NAMES] + [f"{j}.{t.suffix}" for t in joint_terms]
+            root = floating and j == "base"  # the free flyer: no joint, no joint terms
+            names = [f"{j}.{n}" for n in INERTIAL_NAMES] + ([] if root else [f"{j}.{t.suffix}" for t in joint_terms])
             rows.append(
                 [
-                    f"`{j}`",
+                    "`base` (root link)" if root else f"`{j}`",
                     number_text(m),
                     " ".join(number_text(x, ".3g") for x in c),
                     " ".join(number_text(x, ".3g") for x in ev),
                 ]
-                + [number_text(jt[i, k]) for k in range(len(terms))]
+                + [
+                    number_text(value[f"{j}.{t.suffix}"]) if f"{j}.{t.suffix}" in value and not root else "–"
+                    for t in joint_terms
+                ]
                 + ([marks_summary(best.marks, names) or "–"] if best.marks else [])
             )
         units = [f"{t.name} [{t.unit}]" for t in joint_terms]  # revolute joints' units (pinid.model.terms)

@@ -30,6 +30,7 @@ def torque_comparison(
     title: str | None = None,
     window: float | None = 30.0,
     max_points: int = 1_600,
+    colors: Mapping[str, str] | None = None,
 ):
     """Per joint: measured and predicted torque [N·m] against time, and the prediction error below.
 
@@ -39,12 +40,23 @@ def torque_comparison(
     dark line).  The error panel shows τ_meas − τ_pred against the torque as recorded (raw, light) and,
     with ``filtered``, against the low-passed torque (filtered, full colour).  ``units``: each joint's
     unit (default N·m).  Only the first ``window`` seconds are drawn (None: all), thinned to ``max_points``
-    samples (each run's minimum and maximum: :func:`_line`).  The legend sits above the panels.  Returns the
+    samples (each run's minimum and maximum: :func:`_line`).  The legend sits above the panels.  ``colors``:
+    ``{name: colour}`` for predictions that are not methods (the wearer's three models; default: each name's
+    :func:`method_color`).  Returns the
     figure.
     """
     preds = dict(predicted) if isinstance(predicted, Mapping) else {"predicted": predicted}
     fig, _ = _torque_figure(
-        t, measured, preds, joints, filtered=filtered, units=units, title=title, window=window, max_points=max_points
+        t,
+        measured,
+        preds,
+        joints,
+        filtered=filtered,
+        units=units,
+        title=title,
+        window=window,
+        max_points=max_points,
+        colors=colors,
     )
     return fig
 
@@ -58,10 +70,18 @@ def _window(t, arrays: dict, window: float | None) -> tuple[np.ndarray, dict, in
     return t[:n], {k: None if v is None else np.asarray(v, dtype=float)[:n] for k, v in arrays.items()}, n
 
 
+def _legend_columns(labels: list[str], width: float) -> int:
+    """How many legend columns (at most 4) of ``labels`` fit a figure ``width`` inches wide at fontsize "small"
+    (about 0.05 in per character and 0.5 in for the line and the gaps, measured on the figures): long model names (the wearer's "exo + table
+    wearer: error, raw") take fewer, so that the last column is not cut at the figure's edge (issue 47)."""
+    longest = max((len(label) for label in labels), default=0)
+    return max(1, min(4, len(labels), int(0.97 * width // (0.05 * longest + 0.5))))
+
+
 def _legend_above(fig, handles: list, top: float) -> tuple[object, float]:
     """A figure legend of ``handles`` centred above the panels, ``top`` inches below the figure's top edge;
     returns it and the height it takes [in]."""
-    ncol = max(1, min(4, len(handles)))
+    ncol = _legend_columns([h.get_label() for h in handles], fig.get_figwidth())
     rows = -(-len(handles) // ncol)
     legend = fig.legend(
         handles=handles,
@@ -75,7 +95,17 @@ def _legend_above(fig, handles: list, top: float) -> tuple[object, float]:
 
 
 def _torque_figure(
-    t, measured, preds: dict, joints, *, filtered=None, units=None, title=None, window=30.0, max_points: int = 1_600
+    t,
+    measured,
+    preds: dict,
+    joints,
+    *,
+    filtered=None,
+    units=None,
+    title=None,
+    window=30.0,
+    max_points: int = 1_600,
+    colors: Mapping[str, str] | None = None,
 ):
     """:func:`torque_comparison`'s figure and a function ``redraw(method, prediction, title)`` that puts
     another single method's prediction into it (lines, errors, colours, legend, title, autoscaled y)."""
@@ -86,7 +116,10 @@ def _torque_figure(
     preds = cut
     nv = len(joints)
     f = filtered is not None
-    legend_rows = -(-(1 + f + len(preds) * (2 + f)) // 4)  # measured, low-passed; per method: 2 or 3 lines
+    labels = ["measured (as recorded)", *(["measured, low-passed"] if f else [])] + [
+        f"{m}: {kind}" for m in preds for kind in ("predicted", "error, raw", "error, filtered")[: 2 + f]
+    ]  # measured, low-passed; per method: 2 or 3 lines
+    legend_rows = -(-len(labels) // _legend_columns(labels, 9))
     head = (0.5 if title else 0.1) + 0.24 * legend_rows + 0.1
     fig, axes = new_figure(
         2 * nv,
@@ -105,7 +138,7 @@ def _torque_figure(
             top.plot(*_line(t, filtered[:, j], max_points), color="0.3", lw=0.5, zorder=2, label="measured, low-passed")
         line = err = ferr = None
         for m, p in preds.items():
-            c = method_color(m)
+            c = (colors or {}).get(m) or method_color(m)
             (line,) = top.plot(*_line(t, p[:, j], max_points), color=c, lw=1.1, zorder=3, label=f"{m}: predicted")
             (err,) = bottom.plot(
                 *_line(t, measured[:, j] - p[:, j], max_points), color=c, lw=0.6, alpha=0.35, label=f"{m}: error, raw"

@@ -25,6 +25,9 @@ WEARER_REPORT_FILES = ("report.md", "report.html", "torque_wearer.png", "attachm
 
 #: The three models of stage 2, in the report's order, and what to call them.
 MODELS = {"identified": "exo + identified wearer", "table": "exo + table wearer", "exo": "exo alone"}
+#: Their colours in torque_wearer.png, one each (issue 47: the method colours chosen from the names drew two of the
+#: three in the same green), none a grey of the measurements.
+MODEL_COLORS = {"identified": "tab:blue", "table": "tab:orange", "exo": "tab:purple"}
 
 
 def _rms_table(rms: Mapping[str, Mapping[str, float]]) -> str:
@@ -193,6 +196,7 @@ def torque_figure(curves: Mapping):
         {MODELS[w]: p for w, p in curves["predicted"].items()},
         list(curves["joints"]),
         window=WINDOW,
+        colors={MODELS[w]: MODEL_COLORS[w] for w in curves["predicted"] if w in MODEL_COLORS},
         title=f"measured and predicted torque ({curves.get('kind', 'training')}, {curves.get('source', '')}{span})",
     )
 

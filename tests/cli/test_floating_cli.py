@@ -52,6 +52,7 @@ def test_excite_simulate_identify_floating(tmp_path):
         ["identify", *EXO, "--data", "s.csv", "--rows", "base", "--methods", "ols", "--no-report", "-o", "rb"],
         ["identify", *EXO, "--data", "g.csv", "--methods", "ols", "--no-report", "-o", "rg"],
         ["export", "--model", "r/identification.json", "-o", "exo.xml"],
+        ["export", "--model", "r/model_sdp.json", "-o", "exo_sdp.xml"],  # issue 47: "missing parameter(s) base.m…"
     ]
     for args in steps:
         proc = run_cli(*args, cwd=tmp_path, figures=True)
@@ -79,6 +80,7 @@ def test_excite_simulate_identify_floating(tmp_path):
     )
     # the MJCF written by identify (and again by pinid export) loads in MuJoCo: a free joint, the same mass
     assert (tmp_path / "exo.xml").read_text() == (tmp_path / "r" / f"identified_{d['best']}.xml").read_text()
+    assert (tmp_path / "exo_sdp.xml").read_text() == (tmp_path / "r" / "identified_sdp.xml").read_text()
     mujoco = pytest.importorskip("mujoco")
     m = mujoco.MjModel.from_xml_path(str(tmp_path / "exo.xml"))
     assert (m.nq, m.nv, m.nu) == (7 + back.nv, 6 + back.nv, back.nv) and m.jnt_type[0] == mujoco.mjtJoint.mjJNT_FREE

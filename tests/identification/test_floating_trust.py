@@ -157,3 +157,61 @@ def test_barely_excited_parameters_are_named(floating_exo):
     err = np.abs(np.asarray(ident.results["ols"].base) - np.asarray(ident.base["nominal"])) / scale
     big = [n for n, e in zip(ident.base["names"], err) if e > 0.1 and not n.endswith((".fc", ".fv"))]
     assert sum(n in flagged for n in big) >= 0.9 * len(big)
+
+
+#: pinid excite --urdf exo_lower_body --base floating's default design (docs/floating-base.md, the suspended
+#: exoskeleton; shrunk by 0.409 for self-collision), to 4 significant digits: a motion that tilts the pelvis so
+#: little that the base rows leave the height of the whole-body centre of mass poorly determined.
+SUSPENDED_Q0 = [0.085, 0.785, 1.045, -0.085, 0.085, 0.785, 1.045, -0.085]
+SUSPENDED_A = [
+    [-0.0441, -0.02696, 0.1164, -0.06282],
+    [-0.1895, 0.1681, -0.1837, 0.1011],
+    [0.1844, -0.07708, 0.02227, -0.02426],
+    [0.02109, 0.06574, -0.0948, 0.03296],
+    [0.02735, 0.05688, 0.09984, -0.1102],
+    [0.05767, -0.1094, -0.007421, 0.04587],
+    [-0.1356, 0.002665, 0.07269, -0.02195],
+    [0.01855, -0.08132, -0.01286, 0.04567],
+]
+SUSPENDED_B = [
+    [0.001499, 0.0011, -0.01165, 0.006182],
+    [-0.2738, -0.3586, 0.003944, 0.1045],
+    [0.3507, 0.1104, 0.0123, -0.05644],
+    [-0.03463, -0.05379, 0.02414, 0.002032],
+    [-0.001207, 0.002463, -0.003016, 0.001156],
+    [-0.5446, -0.02136, 0.03276, 0.02095],
+    [0.453, 0.02046, -0.04442, -0.008438],
+    [-0.09211, -0.06266, -0.07653, 0.06447],
+]
+
+
+def test_clean_suspended_twin_on_the_base_rows_gets_no_centre_of_mass_warning(floating_exo, tmp_path):
+    """Issue 47: the clean suspended twin identified from its base rows alone (``--rows base``, IMU, the docs'
+    excitation, here 10 s at 200 Hz) has a whole-body centre of mass 0.27 m off the URDF's (its height: the
+    pelvis barely tilts), which warned "check the wrench's axes"; that offset is within 3 σ of the CoM
+    (σ 0.10 m along it, from the base parameters' σ), so it is the data's indeterminacy, not the wrench: no
+    warning, and the σ is kept (``info["com_offset_std"]``)."""
+    import contextlib
+    import io
+
+    from pinid.cli.main import main
+    from pinid.excitation.trajectory import FourierTrajectory
+    from pinid.identification.floating import FloatingOptions
+    from pinid.identification.floating_checks import COM_SIGMAS
+
+    traj = FourierTrajectory(floating_exo.joint_names, 0.2 * np.pi, SUSPENDED_Q0, SUSPENDED_A, SUSPENDED_B)
+    traj.save(tmp_path / "exc.json")
+    exo = ["--urdf", "exo_lower_body", "--base", "floating"]
+    sim = ["simulate", *exo, "--excitation", str(tmp_path / "exc.json"), "--seconds", "10", "--control-rate", "200"]
+    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+        assert main([*sim, "--imu", "imu", "--no-figures", "-o", str(tmp_path / "s.csv")]) == 0
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        study = Study(floating_exo, [tmp_path / "s.csv"], terms=TERMS, floating=FloatingOptions(rows="base"))
+        ident = identify(study, methods=("ols",))
+    said = [str(w.message) for w in caught]
+    assert not [s for s in said if "centre of mass" in s or "wrench's axes" in s], said
+    r = ident.results["ols"]
+    off = float(np.linalg.norm(np.subtract(r.info["com"], ident.data["com_urdf"])))
+    sigma = r.info["com_offset_std"]
+    assert off > 0.1 and off < COM_SIGMAS * sigma, (off, sigma)  # the old check (>= 0.094 m here) warned

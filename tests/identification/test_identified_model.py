@@ -272,7 +272,7 @@ def test_model_of_a_repaired_urdf_loads_back(tmp_path):
     d = json.loads((tmp_path / "model_sdp.json").read_text())
     d["robot"].pop("repair_inertia")
     (tmp_path / "plain.json").write_text(json.dumps(d))
-    with pytest.raises(ModelError, match="^the saved URDF text: the body moved by joint 'knee'"):
+    with pytest.raises(ModelError, match=r"plain\.json: the saved URDF text: the body moved by joint 'knee'"):
         IdentifiedModel.load(tmp_path / "plain.json")
 
 
@@ -330,3 +330,35 @@ def test_stored_consistency_flag_not_trusted(tmp_path, model_json):
     assert not IdentifiedModel.load(path).physically_consistent
     stored_false = _tampered(tmp_path, model_json, _set("physically_consistent", False))
     assert not IdentifiedModel.load(stored_false).physically_consistent
+
+
+def test_load_errors_name_the_file(tmp_path):
+    """Issue 47: a JSON object that is not an identified model ('{}') is a pinid error naming the file."""
+    from pinid.errors import PinidError
+
+    path = tmp_path / "empty.json"
+    path.write_text("{}")
+    with pytest.raises(PinidError, match=f"^{path}: not an identified model") as info:
+        IdentifiedModel.load(path)
+    assert isinstance(info.value, SpecError) and "\n" not in str(info.value)
+    with pytest.raises(SpecError, match=r"^\S*m\.json: identified model: missing parameter"):
+        (tmp_path / "m.json").write_text(json.dumps({**model_with_terms().to_dict(), "standard_parameters": {}}))
+        IdentifiedModel.load(tmp_path / "m.json")
+
+
+def test_floating_model_saves_and_loads_back(tmp_path):
+    """Issue 47: a floating robot's model_<method>.json holds its base link's parameters (base.*, first) and
+    loads back to the same theta; before, the names of the fixed-base robot were zipped with theta, which
+    dropped the last 10 values and named the base's after the first joint's."""
+    from pinid import RobotModel
+
+    robot = RobotModel.from_urdf("exo_lower_body", base="floating")
+    terms = TermSelection.from_names("fc,fv")
+    theta = standard_parameters(robot, terms)
+    theta[0] *= 1.1  # the base link 10 % heavier: its value must stay under base.m
+    m = IdentifiedModel(robot, terms, theta, meta={"method": "sdp"})
+    names = list(m.standard_parameters)
+    assert len(names) == theta.size and names[0] == "base.m" and m.standard_parameters["base.m"] == theta[0]
+    back = IdentifiedModel.load(m.save(tmp_path / "model_sdp.json"))
+    np.testing.assert_array_equal(back.theta, theta)
+    assert back.nominal_robot.base == "floating" and back.physically_consistent

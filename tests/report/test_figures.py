@@ -364,3 +364,19 @@ def test_time_series_lines_keep_each_pixel_columns_minimum_and_maximum(kind):
         kept = drawn[(idx >= a) & (idx < b)]
         assert kept.min() == y[a:b, 0].min() and kept.max() == y[a:b, 0].max()
     assert {500.0, -400.0, 300.0} <= set(drawn)
+
+
+def test_wearer_torque_figure_draws_each_model_in_its_own_colour():
+    """Issue 47: torque_wearer.png's three models (exo + identified wearer, + table wearer, exo alone) had colours
+    chosen from their names, two of them the same green; each has its own now, none a grey of the measurements."""
+    import matplotlib.colors as mc
+
+    from pinid.report.wearer import MODELS, torque_figure
+
+    t = np.linspace(0, 2, 50)
+    tau = np.c_[np.sin(t), np.cos(t)]
+    curves = {"t": t, "measured": tau, "predicted": {w: tau + k for k, w in enumerate(MODELS)}, "joints": ["a", "b"]}
+    fig = torque_figure(curves)
+    colours = {ln.get_label(): mc.to_hex(ln.get_color()) for ln in fig.axes[0].get_lines()}
+    predicted = [colours[f"{MODELS[w]}: predicted"] for w in MODELS]
+    assert len(set(predicted)) == 3 and colours["measured (as recorded)"] not in predicted, colours

@@ -6,6 +6,7 @@ from __future__ import annotations
 import base64
 import json
 from html.parser import HTMLParser
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -74,6 +75,15 @@ def test_renderer_subset():
     assert external_resources(page) == []
     with pytest.raises(KeyError, match="missing.png"):
         markdown_to_html("![x](missing.png)", {})
+
+
+def test_hard_line_breaks_and_prose_cells():
+    """Issue 47: a line ending in two spaces (the report's warnings, one per line) breaks the paragraph there, as
+    GitHub renders report.md, instead of running the warnings together; a long prose cell wraps (class text)
+    while numbers stay on one line."""
+    out = markdown_to_html("**w1**  \n**w2**\nmore\n\n| a | b |\n|---|---|\n| 1.5 | " + "name, " * 10 + "|\n")
+    assert "<p><strong>w1</strong><br>\n<strong>w2</strong> more</p>" in out
+    assert "<td>1.5</td>" in out and '<td class="text">name, name' in out
 
 
 def test_folded_sections_and_scrolling_tables():
@@ -176,6 +186,13 @@ def test_identify_writes_self_contained_html(report):
             assert line.lstrip("# ").replace("`", "") in "".join(page.text), line
 
 
+#: How a new user gets the browser the test needs (the skip says it).
+BROWSER_HINT = (
+    "to run it: apt-get install chromium chromium-driver (Debian/Ubuntu; the selenium package comes with "
+    "pip install -e '.[test]'), then PINID_BROWSER_TEST=required python -m pytest tests/report/test_report_html.py"
+)
+
+
 def _browser():
     """A headless Chromium driven by selenium, or the reason there is none."""
     import os
@@ -185,11 +202,11 @@ def _browser():
         from selenium import webdriver
         from selenium.webdriver.chrome.service import Service
     except ImportError:
-        return None, "selenium is not installed (pip install selenium)"
+        return None, f"selenium is not installed; {BROWSER_HINT}"
     binary = next((b for b in map(shutil.which, ("chromium", "chromium-browser", "google-chrome")) if b), None)
     driver = shutil.which("chromedriver")
     if binary is None or driver is None:
-        return None, "no Chromium with its driver (Debian: apt-get install chromium chromium-driver)"
+        return None, f"no Chromium with its driver (chromedriver) on PATH; {BROWSER_HINT}"
     opts = webdriver.ChromeOptions()
     opts.binary_location = binary
     for arg in ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage", "--window-size=1400,900"):
@@ -199,49 +216,205 @@ def _browser():
     except Exception as exc:  # a browser that does not start is a skip, unless CI installed it on purpose
         if os.environ.get("PINID_BROWSER_TEST") == "required":
             raise
-        return None, f"Chromium did not start: {type(exc).__name__}: {str(exc).splitlines()[0]}"
+        return None, f"Chromium did not start: {type(exc).__name__}: {str(exc).splitlines()[0]}; {BROWSER_HINT}"
 
 
-@pytest.mark.slow  # 4.4 s with its report (Chromium): the README's full command, CI's browser stage, runs it
-def test_report_opens_in_a_headless_browser(report):
-    """A real browser (headless Chromium through selenium) opens report.html from disk: every image decodes,
-    nothing is fetched (no resource entries at all), the summary table has one row per method and comes first.
-    CI installs Chromium (.ci/run) and makes this test required there; elsewhere it is skipped without one."""
+@pytest.fixture(scope="module")
+def browser():
+    """One headless Chromium for the module's page tests; skipped (failed with PINID_BROWSER_TEST=required)
+    without one, the skip saying how to get it."""
     import os
 
-    out, _ = report
-    browser, reason = _browser()
-    if browser is None:
+    driver, reason = _browser()
+    if driver is None:
         if os.environ.get("PINID_BROWSER_TEST") == "required":
             pytest.fail(reason)
         pytest.skip(reason)
-    try:
-        browser.get((out / "report.html").as_uri())
-        state = browser.execute_script("""
-            const imgs = Array.from(document.images);
-            const first = document.querySelector('table');
-            return {
-              images: imgs.length,
-              decoded: imgs.filter(i => i.complete && i.naturalWidth > 0).length,
-              widths: imgs.map(i => i.naturalWidth),
-              fetched: performance.getEntriesByType('resource').map(e => e.name),
-              rows: Array.from(first.tBodies[0].rows).map(r => r.cells[0].textContent),
-              tableFirst: !!(first.compareDocumentPosition(imgs[0]) & Node.DOCUMENT_POSITION_FOLLOWING),
-              title: document.title,
-            };""")
-        browser.set_window_size(1000, 900)  # a narrow window: wide tables scroll in their block, not the page
-        narrow = browser.execute_script(
-            "return [document.documentElement.scrollWidth, document.documentElement.clientWidth];"
-        )
-    finally:
-        browser.quit()
-    pngs = list(out.glob("*.png"))
-    assert state["images"] == state["decoded"] == len(pngs), state
-    assert max(state["widths"]) <= 1600
+    yield driver
+    driver.quit()
+
+
+def test_skip_says_how_to_get_the_browser(monkeypatch):
+    """Issue 47: without Chromium the skip tells a new user the apt-get line and the variable that requires it."""
+    import shutil
+
+    monkeypatch.setattr(shutil, "which", lambda name: None)
+    monkeypatch.delenv("PINID_BROWSER_TEST", raising=False)
+    driver, reason = _browser()
+    assert driver is None
+    assert "apt-get install chromium chromium-driver" in reason and "PINID_BROWSER_TEST=required" in reason, reason
+
+
+#: What a person sees, measured in the page: every image decoded and inside the viewport, no horizontal
+#: overflow of the page, of a table's block or of a figure (a wider table scrolls in its block only if the
+#: window is narrower than the page's column).
+LOOK = """
+const vw = document.documentElement.clientWidth;
+const imgs = Array.from(document.images);
+const over = (e) => e.scrollWidth > e.clientWidth + 1;
+const name = (e) => (e.querySelector('th') || e.querySelector('img') || e).textContent.slice(0, 40)
+  || (e.querySelector('img') || {}).alt;
+return {
+  images: imgs.length,
+  broken: imgs.filter(i => !(i.complete && i.naturalWidth > 0)).map(i => i.alt),
+  outside: imgs.filter(i => i.getBoundingClientRect().right > vw + 1 || i.getBoundingClientRect().width <= 0)
+    .map(i => [i.alt, i.getBoundingClientRect().right, vw]),
+  page: [document.documentElement.scrollWidth, vw, document.body.scrollWidth, document.body.clientWidth],
+  tables: Array.from(document.querySelectorAll('div.table, figure, pre')).filter(over)
+    .map(e => [e.tagName, name(e), e.scrollWidth, e.clientWidth]),
+  fetched: performance.getEntriesByType('resource').map(e => e.name),
+  height: document.documentElement.scrollHeight,
+  title: document.title,
+};"""
+
+
+def screenshot_folder(tmp_path_factory) -> Path:
+    """Where the screenshots go: $PINID_SCREENSHOTS if set (CI keeps it as an artefact), else a pytest temporary
+    folder (printed; ``pytest -s`` shows it)."""
+    import os
+
+    folder = Path(os.environ.get("PINID_SCREENSHOTS") or tmp_path_factory.mktemp("screenshots"))
+    folder.mkdir(parents=True, exist_ok=True)
+    return folder
+
+
+def look_at(browser, page: Path, shot: Path, width: int = 1400) -> dict:
+    """Open ``page`` at ``width`` px, measure it (:data:`LOOK`) and keep a full-page screenshot in ``shot``."""
+    browser.set_window_size(width, 900)
+    browser.get(page.as_uri())
+    state = browser.execute_script(LOOK)
+    browser.set_window_size(width, min(state["height"] + 200, 30_000))  # the whole page in one picture
+    browser.save_screenshot(str(shot))
+    print(f"screenshot of {page.name}: {shot}")
+    return state
+
+
+def assert_looks_right(state: dict, images: int) -> None:
+    assert state["images"] == images and state["broken"] == [], state
+    assert state["outside"] == [] and state["tables"] == [], state
+    assert state["page"][0] <= state["page"][1] and state["page"][2] <= state["page"][3], state["page"]
     assert state["fetched"] == [], state["fetched"]
+
+
+@pytest.mark.slow  # 4.4 s with its report (Chromium): the README's full command, CI's browser stage, runs it
+def test_report_opens_in_a_headless_browser(report, browser, tmp_path_factory):
+    """A real browser (headless Chromium through selenium) opens report.html from disk: every image decodes and
+    fits, nothing overflows sideways, nothing is fetched (no resource entries at all), the summary table has one
+    row per method and comes first.  CI installs Chromium (.ci/run) and makes this test required there; elsewhere
+    it is skipped without one, saying how to get it."""
+    out, _ = report
+    state = look_at(browser, out / "report.html", screenshot_folder(tmp_path_factory) / "report_fixed.png")
+    assert_looks_right(state, len(list(out.glob("*.png"))))
+    state = browser.execute_script("""
+        const imgs = Array.from(document.images);
+        const first = document.querySelector('table');
+        return {
+          widths: imgs.map(i => i.naturalWidth),
+          rows: Array.from(first.tBodies[0].rows).map(r => r.cells[0].textContent),
+          tableFirst: !!(first.compareDocumentPosition(imgs[0]) & Node.DOCUMENT_POSITION_FOLLOWING),
+          title: document.title,
+        };""")
+    assert max(state["widths"]) <= 1600
     assert state["rows"] == METHODS and state["tableFirst"], state
     assert state["title"] == "pinid: identification of exo_leg"
+    browser.set_window_size(1000, 900)  # a narrow window: wide tables scroll in their block, not the page
+    narrow = browser.execute_script(
+        "return [document.documentElement.scrollWidth, document.documentElement.clientWidth];"
+    )
     assert narrow[0] <= narrow[1], narrow
+
+
+def _quiet_main(args: list[str]) -> int:
+    import contextlib
+    import io
+    import warnings
+
+    from pinid.cli.main import main
+
+    with (
+        contextlib.redirect_stdout(io.StringIO()),
+        contextlib.redirect_stderr(io.StringIO()),
+        warnings.catch_warnings(),
+    ):
+        warnings.simplefilter("ignore")
+        return main(args)
+
+
+@pytest.fixture(scope="module")
+def floating_report(tmp_path_factory):
+    """``pinid identify --base floating`` on a 3 s walk of the floating twin (force plates, 200 Hz)."""
+    tmp = tmp_path_factory.mktemp("floating")
+    exo = ["--urdf", "exo_lower_body", "--base", "floating"]
+    sim = ["simulate", *exo, "--excitation", "gait", "--seconds", "3", "--control-rate", "200", "--no-figures"]
+    assert _quiet_main([*sim, "-o", str(tmp / "g.csv")]) == 0
+    assert (
+        _quiet_main(["identify", *exo, "--data", str(tmp / "g.csv"), "--methods", "ols,sdp", "-o", str(tmp / "r")]) == 0
+    )
+    return tmp / "r"
+
+
+@pytest.fixture(scope="module")
+def wearer_report(tmp_path_factory):
+    """``pinid identify --stage wearer`` on a 4 s noise-free twin of exo_leg with a drawn wearer (docs/wearer.md),
+    the stage-1 model the exo's URDF values."""
+    from pinid.identification.identified import IdentifiedModel
+    from pinid.model.regressor import standard_parameters
+    from pinid.model.terms import TermSelection
+    from pinid.wearer.attach import wearer_urdf
+
+    tmp = tmp_path_factory.mktemp("wearer")
+    (tmp / "eww.urdf").write_text(
+        wearer_urdf("exo_leg", "hip:thigh,knee:shank,knee:foot", mass=75, height=1.78, sex="male")
+    )
+    exo, terms = load("exo_leg"), TermSelection.from_names("fc,fv")
+    IdentifiedModel(exo, terms, standard_parameters(exo, terms)).save(tmp / "exo.json")
+    excitation = str(Path(__file__).resolve().parents[2] / "excitation" / "exo_leg.json")
+    sim = [
+        "simulate",
+        "--urdf",
+        str(tmp / "eww.urdf"),
+        "--excitation",
+        excitation,
+        "--wearer-draw",
+        "--control-rate",
+        "200",
+        "--no-figures",
+    ]
+    assert _quiet_main([*sim, "--seconds", "4", "--seed", "4", "-o", str(tmp / "rec.csv")]) == 0
+    assert _quiet_main([*sim, "--seconds", "3", "--seed", "5", "-o", str(tmp / "val.csv")]) == 0
+    stage2 = ["identify", "--stage", "wearer", "--exo", str(tmp / "exo.json"), "--urdf", str(tmp / "eww.urdf")]
+    args = [*stage2, "--data", str(tmp / "rec.csv"), "--validate", str(tmp / "val.csv"), "-o", str(tmp / "r")]
+    assert _quiet_main(args) == 0
+    return tmp / "r"
+
+
+@pytest.fixture(scope="module")
+def compare_report(report, tmp_path_factory):
+    """``pinid compare`` (ols, wls) on the fixed report's recordings; its comparison.md with its figures as one
+    page (:func:`pinid.report.html.markdown_to_html`, as report.html is made)."""
+    out, _ = report
+    tmp = tmp_path_factory.mktemp("compare")
+    data = ["--data", str(out.parent / "run0.csv"), "--validate", str(out.parent / "run1.csv")]
+    assert _quiet_main(["compare", "--urdf", "exo_leg", *data, "--methods", "ols,wls", "-o", str(tmp / "c")]) == 0
+    md = (tmp / "c" / "comparison.md").read_text()
+    pngs = {p.name: p.read_bytes() for p in (tmp / "c").glob("*.png")}
+    (tmp / "c" / "comparison.html").write_text(markdown_to_html(md, pngs, title="pinid: comparison"))
+    return tmp / "c"
+
+
+@pytest.mark.slow  # the floating walk, the wearer's twin and the comparison: 10-20 s with Chromium
+@pytest.mark.parametrize("kind", ["floating", "compare", "wearer"])
+def test_every_report_kind_looks_right_in_a_browser(kind, request, browser, tmp_path_factory):
+    """Issue 47: each kind of report (the fixed base's is the test above) opened in Chromium: every image decodes
+    and fits the window, nothing overflows sideways; a full-page screenshot of each is kept
+    (``report_<kind>.png`` in $PINID_SCREENSHOTS, else a printed temporary folder)."""
+    out = request.getfixturevalue(f"{kind}_report")
+    page = out / ("comparison.html" if kind == "compare" else "report.html")
+    parsed = Page(page.read_text())
+    assert external_resources(parsed) == []
+    state = look_at(browser, page, screenshot_folder(tmp_path_factory) / f"report_{kind}.png")
+    assert_looks_right(state, parsed.tags.count("img"))
+    assert len(list(out.glob("*.png"))) >= 1 and state["images"] >= 1
 
 
 def test_errors_figure_fits_a_page_and_stays_above_zero():
@@ -335,3 +508,26 @@ def test_choices_by_cross_validation_are_drawn_and_said(report):
     ]
     red = [p.get_width() for p in terms.patches if p.get_facecolor()[:3] == matplotlib.colors.to_rgb("tab:red")]
     assert red == [3.5]  # the candidate added
+
+
+@pytest.mark.slow  # the floating walk's identification (its fixture): 5-10 s
+def test_floating_link_parameters_are_each_bodys_own(floating_report):
+    """Issue 47: on a floating base the link-parameter table read the standard vector from index 0 as the first
+    joint's, so every row showed the body before it (the pelvis's 8 kg as l_hip_abduction's); each row is its
+    body's values by name now, the root link first and without joint terms."""
+    import json
+
+    out = floating_report
+    md = (out / "report.md").read_text()
+    section = md.split("## Link parameters", 1)[1].split("\n## ", 1)[0]
+    rows = [[c.strip() for c in line.strip("|").split("|")] for line in section.splitlines() if line.startswith("| `")]
+    d = json.loads((out / "identification.json").read_text())
+    r = d["methods"][d["best"]]
+    value = r["standard_parameters"]
+    joints = d["robot"]["joints"]
+    assert [row[0] for row in rows] == ["`base` (root link)"] + [f"`{j}`" for j in joints]
+    assert rows[0][4:6] == ["–", "–"] and "fc" not in rows[0][-1]  # the free flyer has no friction
+    for row, body in zip(rows, ["base"] + joints):
+        assert float(row[1]) == pytest.approx(value[f"{body}.m"], rel=1e-3), (body, row)
+    for row, j in zip(rows[1:], joints):
+        assert float(row[4]) == pytest.approx(value[f"{j}.fc"], rel=1e-3, abs=1e-9), (j, row)
