@@ -471,7 +471,6 @@ def identify(
             dict(methods=methods, options=options, complete=complete, show_progress=show_progress, started=started)
             | {"workers": workers},
             unsupported=dict(
-                manifest=manifest,
                 payload=payload,
                 payload_data=payload_data,
                 stribeck_velocity=stribeck_velocity,
@@ -628,7 +627,7 @@ def _setup_floating(study: Study) -> Setup:
     from pinid.model.floating import as_floating
     from pinid.problem.floating import floating_problem
 
-    fixed_only = ("manifest", "segmental", "payload", "payload_data", "stribeck_velocity", "stribeck_shape")
+    fixed_only = ("segmental", "payload", "payload_data", "stribeck_velocity", "stribeck_shape")
     refuse_fixed_only(
         {k: getattr(study, k) for k in (*fixed_only, "fit_joints", "delay")}
         | {"terms": "auto" if _is_auto(study.terms) else None}
