@@ -99,6 +99,7 @@ class FloatingStack:
     hints: list[str]
     flipped: list[str]
     sources: str
+    rows: str = "all"  # the rows used: the options', or "base" for recordings without joint torque
 
 
 def validate_floating(run: FloatingStack, results: Mapping) -> TorqueMetrics | None:

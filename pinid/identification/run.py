@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import os
 import time
+import warnings
 from dataclasses import replace
 from collections.abc import Callable, Iterable, Mapping, Sequence
 
@@ -21,7 +22,7 @@ import numpy as np
 
 from pinid.data.dataset import Dataset, as_dataset
 from pinid.data.delay import parse_delay, shift_torque
-from pinid.errors import DataError, SpecError
+from pinid.errors import DataError, DataWarning, SpecError
 from pinid.estimators import ESTIMATORS, make_estimator
 from pinid.identification.metrics import joint_units, torque_metrics
 from pinid.identification.offsets import check_offset_options, offset_validation, offsets_summary, profile_offsets
@@ -656,6 +657,14 @@ def _setup_floating(study: Study) -> Setup:
 
     load = dict(swing_rows=opts.swing_rows)
     train = load_datasets(study.data, model, mapping, preprocess, check=check, **load)
+    if opts.rows == "all" and all(r.data.tau is None for r in train):  # the common case of a legged robot's lab
+        warnings.warn(
+            f"{', '.join(r.source for r in train)}: no joint torque (tau_<joint> columns): the 6 base rows alone are "
+            "used (rows='base', --rows base: contact wrenches and motion)",
+            DataWarning,
+            stacklevel=2,
+        )
+        opts = replace(opts, rows="base")
     flipped = flipped_floating_signs(model, train) if opts.rows != "base" else []  # one warning, as a fixed base's
     rows = dict(rows=opts.rows, base_weight=opts.base_weight, rest_velocity=rest)
     problem = floating_problem(model, train, terms=terms, **rows)
@@ -670,7 +679,7 @@ def _setup_floating(study: Study) -> Setup:
             "homogeneous (W·θ = 0) and identify nothing; expected wrench_<link>_* or plate_<link>_* columns (the "
             "wrench applied by the environment on the robot) or joint torques with --rows all"
         )
-    stack = FloatingStack(problem, val_problem, train, val, hints, flipped, sources)
+    stack = FloatingStack(problem, val_problem, train, val, hints, flipped, sources, rows=opts.rows)
     validation = {"validation": [s.data for s in val]} if val_problem is not None else {}
     return Setup(model, problem.terms, problem.base, problem, [s.data for s in train], validation, floating=stack)
 
@@ -700,7 +709,7 @@ def _identify_floating(study: Study, running: dict, *, unsupported: dict) -> Ide
         data=problem.summary()
         | {
             "base": "floating",
-            "rows": opts.rows,
+            "rows": run.rows,
             "base_weight": opts.base_weight,
             "rows_per_sample": int(problem.rows // max(problem.samples, 1)),
         },
@@ -714,7 +723,7 @@ def _identify_floating(study: Study, running: dict, *, unsupported: dict) -> Ide
         curves={"motion": {"source": ds.source, "t": ds.t, "q": ds.q, "dq": ds.dq}},
         floor=floor,
     )
-    check_floating(run, ident, model, opts.rows)
+    check_floating(run, ident, model, run.rows)
     ident.seconds = time.perf_counter() - t_start
     return ident
 
