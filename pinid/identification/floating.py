@@ -24,6 +24,8 @@ from pinid.errors import DataError, SpecError
 from pinid.estimators import make_estimator
 from pinid.identification.floating_checks import (
     com_warning,
+    mass_and_com,
+    total_mass_combination,
     excitation_warning,
 )
 from pinid.identification.metrics import TorqueMetrics, error_metrics, joint_units
@@ -124,11 +126,12 @@ def check_floating(run: FloatingStack, ident, model: FloatingRobotModel, rows: s
     if not isinstance(run, FloatingStack) or not hasattr(ident, "results") or rows not in ROWS:
         raise SpecError("check_floating: expected a FloatingStack, an Identification and the rows used")
     ident.data["flipped_torque_signs"] = run.flipped
-    _check_total_mass(ident, run.hints, run.sources)
+    _check_total_mass(ident, run.hints, run.sources, run.problem.base)
     excitation_warning(ident, run.problem.natural_scale, run.sources)
     if rows != "joints":
         posture = np.mean(np.concatenate([s.data.q for s in run.train]), axis=0)
         com_warning(ident, model, run.problem.terms, run.problem.base, posture, run.sources)
+        mass_and_com(ident, model, run.problem, posture)  # with σ, for the text, the JSON and the report
 
 
 def floating_truth(truth, problem) -> np.ndarray:
@@ -191,14 +194,14 @@ def recording_hints(rec, model: FloatingRobotModel) -> list[str]:
     return hints
 
 
-def _check_total_mass(ident, hints: list[str], source: str) -> None:
+def _check_total_mass(ident, hints: list[str], source: str, base) -> None:
     """Warn when a method's total mass is outside ``MASS_WARNED`` × the URDF's, refuse (DataError) when every
     method's is outside ``MASS_REFUSED`` × or negative, naming the likely cause."""
-    names = ident.base.get("names") or []
-    if not names or names[0] != "base.mR":
+    c = total_mass_combination(base)  # base.mR on most robots; any combination the rows determine
+    if c is None:
         return
-    nominal = float(ident.base["nominal"][0])
-    masses = {m: float(r.base[0]) for m, r in ident.results.items()}
+    nominal = float(c @ np.asarray(ident.base["nominal"], dtype=float))
+    masses = {m: float(c @ np.asarray(r.base, dtype=float)) for m, r in ident.results.items()}
     if nominal <= 0 or not masses:
         return
     odd = {m: v for m, v in masses.items() if not MASS_WARNED[0] <= v / nominal <= MASS_WARNED[1]}

@@ -58,18 +58,32 @@ def flipped_floating_signs(model, samples, *, limit: int = 5000) -> list[str]:
 COM_WARNED = 0.10
 
 
-def whole_body_com(model, terms, base, q: np.ndarray, values: np.ndarray) -> np.ndarray:
-    """The whole-body centre of mass [m] in the base frame at joint positions ``q`` (nv,) of each base vector
-    ``values`` (k, nb) whose first entry is the total mass ``base.mR``: the first moments ``h = Σ mᵢcᵢ`` read
-    from the moment rows of the base at rest in three base orientations (``moment = g_b × h``, g in the
-    base frame), divided by the mass."""
+def total_mass_combination(base) -> np.ndarray | None:
+    """(nb,) the combination c of the base parameters that is the total mass, ``Σ mᵢ = cᵀ·x`` (the sum of every
+    body's ``.m`` standard parameter, in the row space of the base map ``P``); None when the rows used do not
+    determine the total mass (a fixed base, the joint rows alone).  On a floating base with the base rows the QR
+    may lead the mass group with any body's mass (``torso_roll.mR`` on the iCub), so its name does not say it."""
+    names = list(getattr(base, "standard_names", []))
+    e = np.array([n.endswith(".m") for n in names], dtype=float)
+    if not e.any():
+        return None
+    P = np.asarray(base.P, dtype=float)
+    c = np.linalg.lstsq(P.T, e, rcond=None)[0]
+    if np.linalg.norm(P.T @ c - e) > 1e-8 * np.linalg.norm(e):
+        return None
+    return np.where(np.abs(c) < 1e-12, 0.0, c)
+
+
+def first_moments_map(model, terms, base, q: np.ndarray) -> np.ndarray:
+    """(3, nb): the whole-body first moments ``h = Σ mᵢcᵢ = L·x`` [kg·m] of base parameters x, in the base frame
+    at joint positions ``q`` (nv,): read from the moment rows of the base at rest in three base orientations
+    (``moment = g_b × h``, g in the base frame), by least squares."""
     import pinocchio as pin
 
     from pinid.model.regressor import regressor
 
     if not hasattr(model, "ff_model") or not hasattr(base, "independent"):
         raise SpecError("whole_body_com: expected a FloatingRobotModel, its terms and base parameters")
-    values = np.atleast_2d(np.asarray(values, dtype=float))
     g = np.asarray(model.ff_model.gravity.linear)
     A, Y = [], []
     zero6, zero = np.zeros((1, 6)), np.zeros((1, model.nv))
@@ -84,9 +98,61 @@ def whole_body_com(model, terms, base, q: np.ndarray, values: np.ndarray) -> np.
         Y.append(W[3:6][:, base.independent])
         gb = R.T @ g
         A.append(pin.skew(gb))  # the moment the base must receive to hold the robot still: g_b × h
-    A, Y = np.vstack(A), np.vstack(Y)
-    h = np.linalg.lstsq(A, Y @ values.T, rcond=None)[0].T  # (k, 3)
-    return h / values[:, :1]
+    return np.linalg.lstsq(np.vstack(A), np.vstack(Y), rcond=None)[0]
+
+
+def whole_body_com(model, terms, base, q: np.ndarray, values: np.ndarray, mass: np.ndarray | None = None) -> np.ndarray:
+    """The whole-body centre of mass [m] in the base frame at joint positions ``q`` (nv,) of each base vector
+    ``values`` (k, nb): the first moments ``h`` (:func:`first_moments_map`) divided by the total mass ``cᵀ·x``
+    (``mass``: c, :func:`total_mass_combination`; default the first entry, ``base.mR``)."""
+    values = np.atleast_2d(np.asarray(values, dtype=float))
+    L = first_moments_map(model, terms, base, q)
+    c = np.eye(values.shape[1])[0] if mass is None else np.asarray(mass, dtype=float)
+    return (values @ L.T) / (values @ c)[:, None]
+
+
+def mass_and_com(ident, model, problem, q: np.ndarray) -> dict | None:
+    """Each method's total mass and whole-body centre of mass (base frame, posture ``q``) with σ, into its
+    ``info["total_mass"]`` (``{"value", "std"}`` [kg]) and ``info["com"]``, ``info["com_std"]`` [m]; the URDF's into
+    ``ident.data["total_mass_urdf"]`` and ``["com_urdf"]``.  The mass is ``m = cᵀ·x`` (c:
+    :func:`total_mass_combination`), the centre of mass ``L·x / m`` (L: :func:`first_moments_map`); their σ by
+    linearising at the estimate, with the Newey–West covariance of the base parameters
+    (:func:`pinid.problem.statistics.base_covariance`) scaled to each method's own σ (for a single base parameter,
+    such as ``base.mR``, exactly its σ).  Returns ``{method: {"mass", "mass_std", "com", "com_std"}}``; None when the
+    rows used do not determine the mass."""
+    from pinid.problem.statistics import base_covariance
+
+    c = total_mass_combination(problem.base)
+    if c is None or not ident.results:
+        return None
+    q = np.asarray(q, dtype=float)
+    L = first_moments_map(model, problem.terms, problem.base, q)
+    nominal = np.asarray(ident.base["nominal"], dtype=float)
+    ident.data["total_mass_urdf"] = float(c @ nominal)
+    ident.data["com_urdf"] = (L @ nominal / (c @ nominal)).tolist()
+    out = {}
+    for method, r in ident.results.items():
+        x, std = np.asarray(r.base, dtype=float), np.asarray(r.std, dtype=float)
+        m = float(c @ x)
+        com = L @ x / m if m > 0 else np.full(3, np.nan)
+        m_std, com_std = np.nan, np.full(3, np.nan)
+        if np.any(np.isfinite(std)):
+            C = base_covariance(problem, x)
+            d = np.sqrt(np.clip(np.diag(C), 0.0, None))
+            k = np.where(d > 0, std / np.where(d > 0, d, 1.0), np.nan)  # each method's σ, the sandwich's correlation
+            Cm = C * np.outer(k, k)
+            J = np.vstack([c, (L / m - np.outer(L @ x, c) / m**2) if m > 0 else np.zeros((3, len(x)))])
+            used = np.any(J != 0, axis=0)
+            sub = Cm[np.ix_(used, used)]
+            if np.all(np.isfinite(sub)):
+                var = np.diag(J[:, used] @ sub @ J[:, used].T)
+                m_std = float(np.sqrt(max(var[0], 0.0)))
+                if m > 0:
+                    com_std = np.sqrt(np.clip(var[1:], 0.0, None))
+        r.info["total_mass"] = {"value": m, "std": m_std}
+        r.info["com"], r.info["com_std"] = com.tolist(), com_std.tolist()
+        out[method] = {"mass": m, "mass_std": m_std, "com": com, "com_std": com_std}
+    return out
 
 
 def com_warning(ident, model, terms, base, q: np.ndarray, source: str) -> str | None:
@@ -99,14 +165,14 @@ def com_warning(ident, model, terms, base, q: np.ndarray, source: str) -> str | 
 
     if not hasattr(ident, "results") or not hasattr(model, "ff_model") or not isinstance(source, str):
         raise SpecError("com_warning: expected an Identification, its FloatingRobotModel and a source name")
-    names = ident.base.get("names") or []
-    if not names or names[0] != "base.mR" or not ident.results:
+    c = total_mass_combination(base)
+    if c is None or not ident.results:
         return None
     methods = list(ident.results)
     values = np.array([ident.base["nominal"]] + [ident.results[m].base for m in methods])
-    if np.any(values[:, 0] <= 0):
+    if np.any(values @ c <= 0):
         return None  # the total mass's own check says it
-    com = whole_body_com(model, terms, base, np.asarray(q, dtype=float), values)
+    com = whole_body_com(model, terms, base, np.asarray(q, dtype=float), values, mass=c)
     m, d = model.ff_model, model.ff_model.createData()
     pin.framesForwardKinematics(m, d, np.r_[0, 0, 0, 0, 0, 0, 1.0, model.configuration(q)])
     size = max(float(np.linalg.norm(f.translation)) for f in d.oMf)

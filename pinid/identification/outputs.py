@@ -118,6 +118,8 @@ def identification_text(ident, *, verbose: bool = False) -> str:
     floor = floor_line(ident)
     if floor is not None:
         lines += textwrap.wrap(floor, 120, subsequent_indent="  ", break_on_hyphens=False)
+    for line in mass_lines(ident):
+        lines += textwrap.wrap(line, 120, subsequent_indent="  ", break_on_hyphens=False)
     best = ident.results.get(ident.best) if ident.results else None
     if best is not None and len(best.base) and not np.all(np.isnan(best.std)):
         sp = best.std_percent
@@ -132,6 +134,31 @@ def identification_text(ident, *, verbose: bool = False) -> str:
     if best is not None and best.warning:  # one warning, wrapped to the terminal's 120 columns
         lines += textwrap.wrap(best.warning, 120, subsequent_indent="  ", break_on_hyphens=False)
     return "\n".join(lines)
+
+
+def _pm(value: float, std: float, digits: str = ".4g") -> str:
+    """``value ± σ`` (σ to 2 digits; "σ —" when there is none)."""
+    return f"{value:{digits}} ± {std:.2g}" if np.isfinite(std) else f"{value:{digits}} (σ —)"
+
+
+def mass_lines(ident) -> list[str]:
+    """The total mass and the whole-body centre of mass of each method with σ (a floating base whose rows determine
+    them: ``info["total_mass"]``, ``info["com"]``, ``info["com_std"]``), beside the URDF's; [] otherwise."""
+    have = {m: r for m, r in ident.results.items() if "total_mass" in r.info}
+    if not have:
+        return []
+    d = ident.data
+    urdf = f" (URDF {d['total_mass_urdf']:.4g} kg)" if "total_mass_urdf" in d else ""
+    lines = ["total mass [kg]: " + ", ".join(f"{m} {_pm(**r.info['total_mass'])}" for m, r in have.items()) + urdf]
+    com = [
+        f"{m} ({', '.join(_pm(c, s, '.3g') for c, s in zip(r.info['com'], r.info.get('com_std', [np.nan] * 3)))})"
+        for m, r in have.items()
+        if "com" in r.info
+    ]
+    if com:
+        urdf = f"; URDF ({', '.join(f'{c:.3g}' for c in d['com_urdf'])})" if "com_urdf" in d else ""
+        lines.append("centre of mass [m] (x, y, z in the base frame, mean training posture): " + ", ".join(com) + urdf)
+    return lines
 
 
 def _held_out_lines(curve: str) -> list[str]:

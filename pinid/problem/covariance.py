@@ -66,14 +66,22 @@ STREAM_SCORES_BYTES = 32 * 2**20
 
 
 def hac_std(
-    problem, e: np.ndarray, Rinv: np.ndarray, scale: np.ndarray, dof: int, *, weights: np.ndarray | None = None
+    problem,
+    e: np.ndarray,
+    Rinv: np.ndarray,
+    scale: np.ndarray,
+    dof: int,
+    *,
+    weights: np.ndarray | None = None,
+    full: bool = False,
 ) -> np.ndarray:
     """HAC standard deviations of the base parameters of ``problem`` (an identification problem) from its
     weighted residuals ``e = w·r`` (rows,), per recording; ``Rinv``, ``scale``: the inverse of the compressed
     ``R`` and its column scale (:meth:`~pinid.problem.problem.IdentificationProblem.compressed`); ``dof``:
     rows − nb; ``weights``: when given, ``e`` is the residual ``r`` and ``w·r`` is formed block by block.
     The scores are summed per sample (all joints); while the problem holds no tall ``W`` they are formed
-    block by block, twice (the bandwidths, then the Bartlett sums), and never held whole (issue 35)."""
+    block by block, twice (the bandwidths, then the Bartlett sums), and never held whole (issue 35).  ``full``:
+    the whole covariance matrix (nb, nb) instead of the standard deviations (for a combination's σ, issue 46)."""
     rows = getattr(problem, "regressor_rows", None)
     Binv = Rinv @ Rinv.T
     blocked = rows is not None and getattr(problem, "blocked", False)
@@ -83,7 +91,7 @@ def hac_std(
         for lag, blocks in zip(lags, _recording_scores(rows, e, weights, scale)):
             S += _streamed_long_run(blocks, lag, problem.nb)
         cov = Binv @ S @ Binv * (problem.rows / dof)
-        return np.sqrt(np.clip(np.diag(cov), 0.0, None)) / scale
+        return _unscaled(cov, scale, full)
     sample = np.asarray(problem.sample, dtype=int)
     sizes = [ds.n for ds in rows.datasets] if rows is not None else getattr(problem, "recording_sizes", None)
     if sizes is None:
@@ -100,6 +108,13 @@ def hac_std(
     g /= scale  # scaled coordinates, those of R
     edges = np.cumsum([0, *sizes])
     cov, _ = hac_covariance(Binv, g, list(zip(edges[:-1], edges[1:])), problem.rows / dof)
+    return _unscaled(cov, scale, full)
+
+
+def _unscaled(cov: np.ndarray, scale: np.ndarray, full: bool) -> np.ndarray:
+    """The standard deviations (or with ``full`` the covariance) in the parameters' units from the scaled ``cov``."""
+    if full:
+        return cov / np.outer(scale, scale)
     return np.sqrt(np.clip(np.diag(cov), 0.0, None)) / scale
 
 

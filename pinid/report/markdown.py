@@ -289,7 +289,10 @@ def floor_line(ident) -> str | None:
         f"{j} {number_text(m['rel_rms_percent'], '.3g')}"
         + (f" ({ident.best} {number_text(val.per_joint[j]['rel_rms_percent'], '.3g')})" if val is not None else "")
         for j, m in floor.per_joint.items()
+        if np.isfinite(m.get("rel_rms_percent", np.nan))  # the rows used only: no joint of a base-rows fit
     ]
+    if not cells:
+        return None
     return (
         f"model-class floor, valid. RMS raw % (the same terms fitted by OLS on the validation recording itself): "
         f"{', '.join(cells)}; near the floor the model class limits the result, far above it the identification"
@@ -471,6 +474,34 @@ def _offsets_section(ident) -> list[str]:
     return lines
 
 
+def _mass_section(ident) -> list[str]:
+    """A floating base's total mass and whole-body centre of mass per method with σ, beside the URDF's (issue 46);
+    nothing when the rows used do not determine them."""
+    have = {m: r for m, r in ident.results.items() if "total_mass" in r.info}
+    if not have:
+        return []
+
+    def pm(v, s, fmt=".4g"):
+        return f"{v:{fmt}} ± {s:.2g}" if np.isfinite(s) else f"{v:{fmt}} (σ —)"
+
+    rows = []
+    for m, r in have.items():
+        tm, com, std = r.info["total_mass"], r.info.get("com", [np.nan] * 3), r.info.get("com_std", [np.nan] * 3)
+        rows.append([m, pm(tm["value"], tm["std"]), *(pm(c, s, ".3g") for c, s in zip(com, std))])
+    d = ident.data
+    if "total_mass_urdf" in d:
+        rows.append(["URDF", f"{d['total_mass_urdf']:.4g}", *(f"{c:.3g}" for c in d.get("com_urdf", [np.nan] * 3))])
+    return [
+        "",
+        "### Total mass and centre of mass",
+        "",
+        "The total mass and the whole-body centre of mass (base frame, at the mean training posture) the rows used "
+        "determine, ± 1σ (the Newey–West σ of the base parameters, linearised for the centre of mass).",
+        "",
+        markdown_table(["method", "total mass [kg]", "CoM x [m]", "CoM y [m]", "CoM z [m]"], rows),
+    ]
+
+
 def report_markdown(ident, figures: dict[str, str] | None = None) -> str:
     """The report text; ``figures`` maps figure keys to the file names to link (missing keys are skipped)."""
     from pinid import __version__
@@ -499,6 +530,7 @@ def report_markdown(ident, figures: dict[str, str] | None = None) -> str:
         f"`model_{ident.best}.json`."
     )
     lines += _comparison_figures(ident, figures)
+    lines += _mass_section(ident)
 
     lines += ["", "## Robot and data", ""]
     urdf = robot.get("urdf")
