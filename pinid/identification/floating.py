@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import os
 import warnings
+from pathlib import Path
 from collections.abc import Mapping
 from dataclasses import dataclass
 
@@ -132,6 +133,110 @@ def check_floating(run: FloatingStack, ident, model: FloatingRobotModel, rows: s
         posture = np.mean(np.concatenate([s.data.q for s in run.train]), axis=0)
         com_warning(ident, model, run.problem.terms, run.problem.base, posture, run.sources)
         mass_and_com(ident, model, run.problem, posture)  # with σ, for the text, the JSON and the report
+
+
+#: The six base rows of a sample, in the order the problem stacks them (force, then moment, base frame).
+BASE_AXES: tuple[str, ...] = ("fx", "fy", "fz", "tx", "ty", "tz")
+
+
+def _base_rows(problem: IdentificationProblem) -> np.ndarray:
+    """Indices of the problem's base rows, 6 per sample in :data:`BASE_AXES`' order (body 0 is the base)."""
+    rows = np.flatnonzero(np.asarray(problem.joint) == 0)
+    return rows if len(rows) % 6 == 0 else rows[: len(rows) - len(rows) % 6]
+
+
+def base_axis_errors(problem: IdentificationProblem, base: np.ndarray) -> dict[str, dict[str, float]]:
+    """The error of each base row (``fx`` … ``tz``) of base parameters ``base`` on ``problem``: ``{axis: {"rms",
+    "rel_rms_percent"}}`` [N or N·m], against the wrench as prepared; {} without base rows."""
+    rows = _base_rows(problem)
+    if not len(rows):
+        return {}
+    y = np.asarray(problem.tau)[rows].reshape(-1, 6)
+    e = y - np.asarray(problem.predict(base))[rows].reshape(-1, 6)
+    rms, ref = np.sqrt(np.mean(e**2, axis=0)), np.sqrt(np.mean(y**2, axis=0))
+    return {
+        a: {"rms": float(r), "rel_rms_percent": float(100 * r / f) if f > 0 else float("nan")}
+        for a, r, f in zip(BASE_AXES, rms, ref)
+    }
+
+
+def _yaw(quat: np.ndarray) -> np.ndarray:
+    """Heading [rad] of (N, 4) quaternions ``x, y, z, w`` (the yaw of R = Rz(yaw)·Ry(pitch)·Rx(roll))."""
+    x, y, z, w = np.asarray(quat, dtype=float).T
+    return np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+
+
+def joint_chains(model) -> list[list[str]]:
+    """The actuated joints of a floating ``model`` grouped in unbranched chains (a leg, an arm, the torso up to
+    where the arms part, the neck), each in the model's order: a chain starts at a joint whose parent is the base
+    or has several child joints."""
+    m = model.ff_model
+    ids = {name: m.getJointId(name) for name in model.joint_names}
+    children: dict[int, int] = {}
+    for j in range(2, m.njoints):
+        children[m.parents[j]] = children.get(m.parents[j], 0) + 1
+    chains: dict[int, list[str]] = {}
+    for name, j in ids.items():
+        head = j
+        while m.parents[head] > 1 and children.get(m.parents[head], 0) == 1:
+            head = m.parents[head]
+        chains.setdefault(head, []).append(name)
+    return list(chains.values())
+
+
+def floating_curves(run: FloatingStack, ident, model: FloatingRobotModel) -> dict:
+    """What the floating figures draw (:mod:`pinid.report.plot_floating`; not saved): ``"wrench"`` — the base
+    wrench measured and predicted by the best method on the first validation recording (else the first training
+    one), per axis; ``"chains"`` — the model's joints by chain (:func:`joint_chains`);
+    ``"contacts"`` — the normal force of each measured wrench on that recording; ``"base"`` — the
+    base position and heading of every recording, by role.  Each method's per-axis errors go into its
+    ``info["base_axes"]`` (``{"on": "validation" | "training", axis: {"rms", "rel_rms_percent"}}``)."""
+    problem, samples, on = (
+        (run.validation, run.validation_samples, "validation")
+        if run.validation is not None
+        else (run.problem, run.train, "training")
+    )
+    for r in ident.results.values():
+        axes = base_axis_errors(problem, r.base)
+        if axes:
+            r.info["base_axes"] = {"on": on, **axes}
+    curves: dict = {}
+    rows = _base_rows(problem)
+    if len(rows) and ident.results:
+        first = np.asarray(problem.sample)[rows][::6] < samples[0].n  # the first recording's samples
+        keep = np.repeat(first, 6)
+        idx = np.asarray(problem.sample)[rows][::6][first]
+        measured = np.asarray(problem.tau)[rows][keep].reshape(-1, 6)
+        best = ident.best
+        predicted = {best: np.asarray(problem.predict(ident.results[best].base))[rows][keep].reshape(-1, 6)}
+        curves["wrench"] = {
+            "t": samples[0].data.t[idx],
+            "measured": measured,
+            "predicted": predicted,
+            "source": samples[0].source,
+            "kind": on,
+        }
+    s = samples[0]
+    if s.wrenches:
+        curves["contacts"] = {
+            "t": s.data.t,
+            "forces": {w.link: np.asarray(w.values)[:, 2] for w in s.wrenches},
+            "source": s.source,
+            "kind": on,
+        }
+    curves["chains"] = joint_chains(model)
+    curves["base"] = [
+        {
+            "label": f"{role}: {Path(str(r.source)).name}",
+            "t": r.data.t,
+            "position": r.base_q[:, :3],
+            "yaw": _yaw(r.base_q[:, 3:]),
+        }
+        for role, group in (("training", run.train), ("validation", run.validation_samples))
+        for r in group
+        if np.any(r.base_q[:, :3])  # an IMU gives no position
+    ]
+    return curves
 
 
 def floating_truth(truth, problem) -> np.ndarray:

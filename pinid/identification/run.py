@@ -687,7 +687,13 @@ def _setup_floating(study: Study) -> Setup:
 def _identify_floating(study: Study, running: dict, *, unsupported: dict) -> Identification:
     """:func:`identify` of a floating-base robot: its recordings and rows (:func:`setup`), then the fixed base's
     fits, results and checks (:mod:`pinid.identification.floating`)."""
-    from pinid.identification.floating import as_floating_options, check_floating, refuse_fixed_only, validate_floating
+    from pinid.identification.floating import (
+        as_floating_options,
+        check_floating,
+        floating_curves,
+        refuse_fixed_only,
+        validate_floating,
+    )
 
     refuse_fixed_only(unsupported)
     t_start, opts, model = time.perf_counter(), as_floating_options(study.floating), study.model
@@ -724,6 +730,7 @@ def _identify_floating(study: Study, running: dict, *, unsupported: dict) -> Ide
         floor=floor,
     )
     check_floating(run, ident, model, run.rows)
+    ident.curves.update(floating_curves(run, ident, model))  # the floating figures' traces, and each axis's error
     ident.seconds = time.perf_counter() - t_start
     return ident
 

@@ -80,6 +80,7 @@ def figure_names(ident) -> dict[str, str]:
         "choices": "cross_validation.png",
     }
     names.update({f"torque_{m}": f"torque_{m}.png" for m in ident.results})
+    names.update({"wrench": "base_wrench.png", "contacts": "contacts.png", "base_motion": "base_trajectory.png"})
     return names
 
 
@@ -88,7 +89,13 @@ def shown_figures(ident) -> list[str]:
     if not ident.results:
         return []
     chosen = ["choices"] if _choices(ident) else []
-    return ["errors", "parameters", "predictions", "motion", *chosen, f"torque_{ident.best}"]
+    floating = ["wrench", "contacts", "base_motion"] if _floating(ident) else []
+    return ["errors", "parameters", *floating, "predictions", "motion", *chosen, f"torque_{ident.best}"]
+
+
+def _floating(ident) -> bool:
+    """A floating base's identification (its figures: pinid.report.plot_floating)."""
+    return (ident.data or {}).get("base") == "floating"
 
 
 def _choices(ident) -> dict:
@@ -163,6 +170,9 @@ def figure_recipes(ident) -> dict[str, Recipe]:
     choices = _choices(ident)
     if choices:
         figs["choices"] = (cross_validation_figure, (choices.get("cutoff"), choices.get("terms")), {})
+    if _floating(ident):
+        figs.update(floating_recipes(ident, joints))
+        return figs
     metrics = {m: (r.validation if r.validation is not None else r.train) for m, r in ident.results.items()}
     if metrics:
         kind = "validation" if all(r.validation is not None for r in ident.results.values()) else "training"
@@ -175,6 +185,86 @@ def figure_recipes(ident) -> dict[str, Recipe]:
 #: figure 1, each further method redrawn into it (:func:`~pinid.report.plot_identification.torque_pngs`)
 #: 0.65, the motion and error figures ~0.6 each.
 _FIRST, _REDRAWN, _OTHER = 1.0, 0.65, 0.6
+
+
+def floating_recipes(ident, joints: list[str]) -> dict[str, Recipe]:
+    """The figures of a floating base (:mod:`pinid.report.plot_floating`): the errors of the rows used per base
+    axis (and joint, when joint rows were used), the determined base parameters, the base wrench measured against
+    predicted, the contact phases and the base trajectory; the motion figure with positions alone beyond 8 joints."""
+    from pinid.identification.floating_checks import EXCITED_FRACTION
+    from pinid.report import plot_floating as pf
+
+    figs: dict[str, Recipe] = {}
+    c = ident.curves or {}
+    rows = (ident.data or {}).get("rows", "all")
+    axes = {m: r.info["base_axes"] for m, r in ident.results.items() if r.info.get("base_axes")}
+    on = next((a.get("on") for a in axes.values()), "validation")
+    joint_err = None
+    if rows != "base":
+        joint_err = {}
+        for m, r in ident.results.items():
+            met = r.validation if r.validation is not None else r.train
+            per = (met.to_dict() if hasattr(met, "to_dict") else met).get("per_joint", {})
+            joint_err[m] = {
+                j: {"rms": v.get("rms"), "rel_rms_percent": v.get("rel_rms_percent")}
+                for j, v in per.items()
+                if j != "base" and v.get("rms") is not None and np.isfinite(v.get("rms"))
+            }
+    if axes:
+        title = (
+            f"RMS error of the rows used ({on}, against the prepared wrench{'' if rows == 'base' else ' and torques'})"
+        )
+        figs["errors"] = (pf.wrench_errors, (axes, joint_err or None), {"title": title})
+    names = ident.base.get("names") or []
+    if names and ident.results:
+        best = ident.results[ident.best]
+        scale = np.asarray(ident.base.get("scale") or [1.0] * len(names), dtype=float)
+        std = np.asarray(best.std, dtype=float)
+        determined = np.isfinite(std) & (2 * std <= EXCITED_FRACTION * scale)
+        shown = [ident.best] + (["ols"] if "ols" in ident.results and ident.best != "ols" else [])
+        estimates = {
+            m: {
+                "value": ident.results[m].base,
+                "std": ident.results[m].std,
+                "consistent": ident.results[m].physically_consistent,
+            }
+            for m in shown
+        }
+        figs["parameters"] = (
+            pf.determined_parameters,
+            (names, ident.base.get("nominal") or [None] * len(names), list(scale), estimates, determined),
+            {},
+        )
+    w = c.get("wrench")
+    if w is not None and len(w["t"]):
+        best_axes = ident.results[ident.best].info.get("base_axes") or {}
+        span = f", first {WINDOW:g} s" if w["t"][-1] - w["t"][0] > WINDOW else ""
+        title = f"base wrench, measured and predicted ({w['kind']}, {Path(str(w['source'])).name}{span}; base frame)"
+        errors = {a: v for a, v in best_axes.items() if isinstance(v, dict)}
+        figs["wrench"] = (
+            pf.wrench_comparison,
+            (w["t"], w["measured"], w["predicted"]),
+            {"errors": errors, "title": title, "window": WINDOW},
+        )
+    k = c.get("contacts")
+    if k is not None and len(k["t"]):
+        span = f", first {WINDOW:g} s" if k["t"][-1] - k["t"][0] > WINDOW else ""
+        weight = 9.81 * float((ident.data or {}).get("total_mass_urdf") or 0.0)
+        title = f"contact phases ({k['kind']}, {Path(str(k['source'])).name}{span})"
+        figs["contacts"] = (
+            pf.contact_phases,
+            (k["t"], k["forces"]),
+            {"threshold": 0.05 * weight if weight > 0 else None, "title": title, "window": WINDOW},
+        )
+    if c.get("base"):
+        figs["base_motion"] = (pf.base_trajectory, (c["base"],), {"title": "base trajectory (motion capture)"})
+    motion = c.get("motion")
+    if motion is not None and len(motion["t"]) and c.get("chains"):
+        t = np.asarray(motion["t"])
+        span = f", first {WINDOW:g} s" if t[-1] - t[0] > WINDOW else ""
+        title = f"training motion: joint positions per chain ({Path(str(motion['source'])).name}{span})"
+        figs["motion"] = (pf.chain_motion, (t, motion["q"], joints, c["chains"]), {"window": WINDOW, "title": title})
+    return figs
 
 
 def grouped_recipes(recipes: dict[str, Recipe], workers: int) -> dict[str | tuple[str, ...], Recipe]:
@@ -310,7 +400,9 @@ SUMMARY_NOTE = (
 def _comparison_figures(ident, figures: dict[str, str]) -> list[str]:
     """The summary's figures (those of ``figures``' keys that exist), each with a line saying what it shows."""
     lines = []
-    if "errors" in figures:
+    if "errors" in figures and _floating(ident):
+        lines += ["", f"![RMS error per base axis (and joint) and method]({figures['errors']})"]
+    elif "errors" in figures:
         lines += ["", f"![absolute torque error: mean and [p5, p95] per joint and method]({figures['errors']})"]
     if "parameters" in figures:
         shown = ident.best + (" and ols" if "ols" in ident.results and ident.best != "ols" else "")
@@ -322,6 +414,29 @@ def _comparison_figures(ident, figures: dict[str, str]) -> list[str]:
             "A hollow dot marks a result that is not physically consistent.",
             "",
             f"![base parameters: estimate ± 2σ against the URDF]({figures['parameters']})",
+        ]
+    if "wrench" in figures:
+        lines += [
+            "",
+            f"### The base wrench ({ident.best})",
+            "",
+            "The wrench the contacts apply to the whole robot, in the base frame (the 6 base rows), as measured "
+            "(grey) and as the identified model predicts it from the motion; forces [N] on the left, moments [N·m] "
+            "on the right.",
+            "",
+            f"![base wrench: measured and predicted]({figures['wrench']})",
+        ]
+    if "contacts" in figures:
+        lines += ["", f"![contact phases: normal force under each contact]({figures['contacts']})"]
+    if "base_motion" in figures:
+        lines += ["", f"![base trajectory: path, height and heading]({figures['base_motion']})"]
+    undetermined = _undetermined(ident)
+    if undetermined and "parameters" in figures:
+        lines += [
+            "",
+            f"Not determined by these data (2σ of {ident.best} above 10 % of the natural scale; not in the figure): "
+            + ", ".join(f"`{n}`" for n in undetermined)
+            + ".",
         ]
     key = f"torque_{ident.best}"
     if key in figures:
@@ -344,6 +459,19 @@ def _comparison_figures(ident, figures: dict[str, str]) -> list[str]:
             f"![every method's predicted torque]({figures['predictions']})",
         ]
     return lines
+
+
+def _undetermined(ident) -> list[str]:
+    """A floating base's base parameters the parameter figure leaves out (2σ of the best method above
+    EXCITED_FRACTION of the natural scale, or no σ); [] for a fixed base."""
+    if not _floating(ident) or not ident.results:
+        return []
+    from pinid.identification.floating_checks import EXCITED_FRACTION
+
+    names = ident.base.get("names") or []
+    scale = np.asarray(ident.base.get("scale") or [1.0] * len(names), dtype=float)
+    std = np.asarray(ident.results[ident.best].std, dtype=float)
+    return [n for n, s, sc in zip(names, std, scale) if not (np.isfinite(s) and 2 * s <= EXCITED_FRACTION * sc)]
 
 
 def _method_table(result, unit: str = "") -> tuple[list[str], list[list[str]]]:
@@ -565,7 +693,8 @@ def report_markdown(ident, figures: dict[str, str] | None = None) -> str:
             "",
             "The training motion as recorded (after preprocessing): it decides how well each parameter is excited.",
             "",
-            f"![training motion: q and dq per joint]({figures['motion']})",
+            f"![training motion: {'joint positions per chain' if _floating(ident) else 'q and dq per joint'}]"
+            f"({figures['motion']})",
         ]
 
     lines += _choices_section(ident, figures)
