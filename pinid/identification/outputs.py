@@ -118,7 +118,7 @@ def identification_text(ident, *, verbose: bool = False) -> str:
     floor = floor_line(ident)
     if floor is not None:
         lines += textwrap.wrap(floor, 120, subsequent_indent="  ", break_on_hyphens=False)
-    for line in mass_lines(ident):
+    for line in axis_lines(ident) + mass_lines(ident):
         lines += textwrap.wrap(line, 120, subsequent_indent="  ", break_on_hyphens=False)
     best = ident.results.get(ident.best) if ident.results else None
     if best is not None and len(best.base) and not np.all(np.isnan(best.std)):
@@ -139,6 +139,21 @@ def identification_text(ident, *, verbose: bool = False) -> str:
 def _pm(value: float, std: float, digits: str = ".4g") -> str:
     """``value ± σ`` (σ to 2 digits; "σ —" when there is none)."""
     return f"{value:{digits}} ± {std:.2g}" if np.isfinite(std) else f"{value:{digits}} (σ —)"
+
+
+def axis_lines(ident) -> list[str]:
+    """A floating base's error per base axis (``info["base_axes"]``) of the best method: RMS [N, N·m] and % of the
+    measured RMS, forces then moments; [] otherwise."""
+    best = ident.results.get(ident.best) if ident.results else None
+    axes = (best.info.get("base_axes") if best is not None else None) or {}
+    if not axes:
+        return []
+    cells = [
+        f"{a} {v['rms']:.3g} {'N' if a.startswith('f') else 'N·m'} ({v['rel_rms_percent']:.3g} %)"
+        for a, v in axes.items()
+        if isinstance(v, dict)
+    ]
+    return [f"base wrench, {axes.get('on', 'validation')} RMS per axis ({ident.best}): " + ", ".join(cells)]
 
 
 def mass_lines(ident) -> list[str]:
