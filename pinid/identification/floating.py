@@ -145,19 +145,37 @@ def _base_rows(problem: IdentificationProblem) -> np.ndarray:
     return rows if len(rows) % 6 == 0 else rows[: len(rows) - len(rows) % 6]
 
 
-def base_axis_errors(problem: IdentificationProblem, base: np.ndarray) -> dict[str, dict[str, float]]:
+def base_axis_errors(
+    problem: IdentificationProblem, base: np.ndarray, predicted: np.ndarray | None = None
+) -> dict[str, dict[str, float]]:
     """The error of each base row (``fx`` … ``tz``) of base parameters ``base`` on ``problem``: ``{axis: {"rms",
-    "rel_rms_percent"}}`` [N or N·m], against the wrench as prepared; {} without base rows."""
+    "rel_rms_percent"}}`` [N or N·m], against the wrench as prepared; {} without base rows.  ``predicted``:
+    ``problem.predict(base)`` when already computed (a pass over the regressor's blocks)."""
     rows = _base_rows(problem)
     if not len(rows):
         return {}
     y = np.asarray(problem.tau)[rows].reshape(-1, 6)
-    e = y - np.asarray(problem.predict(base))[rows].reshape(-1, 6)
+    predicted = problem.predict(base) if predicted is None else predicted
+    e = y - np.asarray(predicted)[rows].reshape(-1, 6)
     rms, ref = np.sqrt(np.mean(e**2, axis=0)), np.sqrt(np.mean(y**2, axis=0))
     return {
         a: {"rms": float(r), "rel_rms_percent": float(100 * r / f) if f > 0 else float("nan")}
         for a, r, f in zip(BASE_AXES, rms, ref)
     }
+
+
+def _predict_all(problem: IdentificationProblem, bases: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """``problem.predict`` of every base vector in one pass over the regressor's blocks (each pass rebuilds them)."""
+    if not bases:
+        return {}
+    B = np.column_stack([np.asarray(b, dtype=float) for b in bases.values()])
+    if not problem.blocked:
+        P = problem.W @ B
+    else:
+        P = np.empty((problem.rows, B.shape[1]))
+        for r, Wk in problem.regressor_rows.blocks():
+            P[r : r + len(Wk)] = Wk @ B
+    return {m: P[:, k] for k, m in enumerate(bases)}
 
 
 def _yaw(quat: np.ndarray) -> np.ndarray:
@@ -196,8 +214,9 @@ def floating_curves(run: FloatingStack, ident, model: FloatingRobotModel) -> dic
         if run.validation is not None
         else (run.problem, run.train, "training")
     )
-    for r in ident.results.values():
-        axes = base_axis_errors(problem, r.base)
+    predictions = _predict_all(problem, {m: r.base for m, r in ident.results.items()})
+    for m, r in ident.results.items():
+        axes = base_axis_errors(problem, r.base, predictions[m])
         if axes:
             r.info["base_axes"] = {"on": on, **axes}
     curves: dict = {}
@@ -208,7 +227,7 @@ def floating_curves(run: FloatingStack, ident, model: FloatingRobotModel) -> dic
         idx = np.asarray(problem.sample)[rows][::6][first]
         measured = np.asarray(problem.tau)[rows][keep].reshape(-1, 6)
         best = ident.best
-        predicted = {best: np.asarray(problem.predict(ident.results[best].base))[rows][keep].reshape(-1, 6)}
+        predicted = {best: np.asarray(predictions[best])[rows][keep].reshape(-1, 6)}
         curves["wrench"] = {
             "t": samples[0].data.t[idx],
             "measured": measured,
