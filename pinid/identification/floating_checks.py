@@ -131,15 +131,13 @@ def mass_and_com(ident, model, problem, q: np.ndarray) -> dict | None:
     ident.data["total_mass_urdf"] = float(c @ nominal)
     ident.data["com_urdf"] = (L @ nominal / (c @ nominal)).tolist()
     out = {}
-    C = None  # one sandwich (two passes over the regressor's blocks), at the best method's estimate
     for method, r in ident.results.items():
         x, std = np.asarray(r.base, dtype=float), np.asarray(r.std, dtype=float)
         m = float(c @ x)
         com = L @ x / m if m > 0 else np.full(3, np.nan)
         m_std, com_std = np.nan, np.full(3, np.nan)
         if np.any(np.isfinite(std)):
-            if C is None:
-                C = base_covariance(problem, np.asarray(ident.results[ident.best].base, dtype=float))
+            C = base_covariance(problem, x)  # at each method's own estimate: its residual's sandwich
             d = np.sqrt(np.clip(np.diag(C), 0.0, None))
             k = np.where(d > 0, std / np.where(d > 0, d, 1.0), np.nan)  # each method's σ, the sandwich's correlation
             Cm = C * np.outer(k, k)

@@ -46,6 +46,9 @@ REPORT_FILES = (
     "training_motion.png",
     "cross_validation.png",
     "torque_*.png",
+    "base_wrench.png",
+    "contacts.png",
+    "base_trajectory.png",
 )
 
 

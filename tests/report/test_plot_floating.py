@@ -159,3 +159,14 @@ def test_icub_walking_manifest_from_the_project_root(tmp_path):
         assert (clone / "out" / name).is_file(), name
     assert "total mass [kg]: ols" in proc.stdout and "base wrench, validation RMS per axis (sdp)" in proc.stdout
     assert "l_knee –" not in proc.stdout  # the floor line: the rows used only
+
+
+def test_every_figure_a_force_rerun_removes(floating_exo, walks):
+    """Every figure file of a floating report is one `pinid identify --force` removes of an earlier run's."""
+    import fnmatch
+
+    from pinid.report.markdown import REPORT_FILES, report_file_names
+
+    ident = _identify(floating_exo, walks, "all")
+    for name in report_file_names(ident):
+        assert any(fnmatch.fnmatch(name, p) for p in REPORT_FILES), name
