@@ -596,6 +596,7 @@ def identify(
             got = val_offsets[m] if val_sets else []
             sources = [d.source for d in checked] if val_sets else []
             r.info["offsets"] = offsets_summary(s.offsets, s.offsets.offsets(r.base), got, sources)
+    _fixed_total_mass(s, results, summary, nominal)
     return Identification(
         robot=robot_to_dict(model, terms),
         results=results,
@@ -611,6 +612,36 @@ def identify(
         curves=curves,
         floor=floor,
     )
+
+
+def _fixed_total_mass(s: Setup, results: dict, summary: dict, nominal) -> None:
+    """A fixed base's total mass with σ where its torque rows determine it (a vertical prismatic first joint carries
+    Σ mᵢ; revolute joints never do): each method's ``info["total_mass"]``, the URDF's ``summary["total_mass_urdf"]``
+    (issue 46); nothing otherwise."""
+    from pinid.identification.floating_checks import total_mass_combination
+    from pinid.problem.statistics import base_covariance
+
+    c = total_mass_combination(s.base)
+    if c is None or nominal is None or len(nominal) != len(c):
+        return
+    summary["total_mass_urdf"] = float(c @ np.asarray(nominal, dtype=float))
+    for r in results.values():
+        x, std = np.asarray(r.base, dtype=float), np.asarray(r.std, dtype=float)
+        if len(x) != len(c):
+            continue
+        used = np.flatnonzero(c)
+        if len(used) == 1:
+            sigma = float(abs(c[used[0]]) * std[used[0]])
+        else:  # the sandwich's correlations, each method's own σ
+            try:
+                C = base_covariance(s.problem, x)
+                d = np.sqrt(np.clip(np.diag(C), 0.0, None))
+                k = np.where(d > 0, std / np.where(d > 0, d, 1.0), np.nan)
+                sub = (C * np.outer(k, k))[np.ix_(used, used)]
+                sigma = float(np.sqrt(max(c[used] @ sub @ c[used], 0.0)))
+            except (SpecError, DataError, ValueError, np.linalg.LinAlgError):
+                sigma = float("nan")
+        r.info["total_mass"] = {"value": float(c @ x), "std": sigma}
 
 
 def _setup_floating(study: Study) -> Setup:

@@ -615,21 +615,25 @@ def _mass_section(ident) -> list[str]:
     def pm(v, s, fmt=".4g"):
         return f"{v:{fmt}} ± {s:.2g}" if np.isfinite(s) else f"{v:{fmt}} (σ —)"
 
+    com = any("com" in r.info for r in have.values())  # a floating base's; a fixed base has the mass alone
     rows = []
     for m, r in have.items():
-        tm, com, std = r.info["total_mass"], r.info.get("com", [np.nan] * 3), r.info.get("com_std", [np.nan] * 3)
-        rows.append([m, pm(tm["value"], tm["std"]), *(pm(c, s, ".3g") for c, s in zip(com, std))])
+        tm, c3, std = r.info["total_mass"], r.info.get("com", [np.nan] * 3), r.info.get("com_std", [np.nan] * 3)
+        rows.append([m, pm(tm["value"], tm["std"]), *((pm(c, s, ".3g") for c, s in zip(c3, std)) if com else ())])
     d = ident.data
     if "total_mass_urdf" in d:
-        rows.append(["URDF", f"{d['total_mass_urdf']:.4g}", *(f"{c:.3g}" for c in d.get("com_urdf", [np.nan] * 3))])
+        urdf_com = (f"{c:.3g}" for c in d.get("com_urdf", [np.nan] * 3)) if com else ()
+        rows.append(["URDF", f"{d['total_mass_urdf']:.4g}", *urdf_com])
+    header = ["method", "total mass [kg]"] + (["CoM x [m]", "CoM y [m]", "CoM z [m]"] if com else [])
+    what = "the whole-body centre of mass (base frame, at the mean training posture)" if com else "nothing else"
     return [
         "",
-        "### Total mass and centre of mass",
+        "### Total mass and centre of mass" if com else "### Total mass",
         "",
-        "The total mass and the whole-body centre of mass (base frame, at the mean training posture) the rows used "
-        "determine, ± 1σ (the Newey–West σ of the base parameters, linearised for the centre of mass).",
+        f"The total mass and {what} the rows used determine, ± 1σ (the Newey–West σ of the base parameters"
+        + (", linearised for the centre of mass)." if com else ")."),
         "",
-        markdown_table(["method", "total mass [kg]", "CoM x [m]", "CoM y [m]", "CoM z [m]"], rows),
+        markdown_table(header, rows),
     ]
 
 

@@ -97,3 +97,49 @@ def test_a_placeholder_velocity_limit_keeps_the_total_mass(tmp_path):
     assert c is not None and c[0] == pytest.approx(1.0) and np.count_nonzero(c) == 1
     assert total_mass_combination(base_parameters(RobotModel.from_urdf("exo_lower_body", base="floating"), none,
                                                   rows="joints")) is None  # fmt: skip
+
+
+LIFT = """<robot name="lift">
+  <link name="stand"/>
+  <joint name="lift" type="prismatic"><parent link="stand"/><child link="carriage"/><axis xyz="0 0 1"/>
+    <limit lower="-0.5" upper="0.5" effort="1000" velocity="1"/></joint>
+  <link name="carriage"><inertial><mass value="3"/><origin xyz="0.1 0 0"/>
+    <inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <joint name="arm" type="revolute"><parent link="carriage"/><child link="arm"/><origin xyz="0.2 0 0"/>
+    <axis xyz="0 1 0"/><limit lower="-1.5" upper="1.5" effort="100" velocity="2"/></joint>
+  <link name="arm"><inertial><mass value="2"/><origin xyz="0.3 0 0"/>
+    <inertia ixx="0.02" iyy="0.02" izz="0.02" ixy="0" ixz="0" iyz="0"/></inertial></link>
+</robot>
+"""
+
+
+def test_a_fixed_base_total_mass_where_determined(tmp_path):
+    """A fixed base's torques determine the total mass only through a vertical prismatic joint (its force carries
+    Σ mᵢ·g): there it is reported with σ and comes back within 3σ of the truth (5 kg); a revolute leg has none."""
+    from pinid.data.dataset import Dataset
+
+    (tmp_path / "lift.urdf").write_text(LIFT)
+    model = RobotModel.from_urdf(tmp_path / "lift.urdf")
+    t = np.arange(0, 10, 0.005)
+    w = np.array([[1.3, 0.7], [2.1, 1.1]])
+    q = np.column_stack([0.2 * np.sin(w[0, 0] * t) + 0.1 * np.sin(w[1, 0] * t), 0.8 * np.sin(w[0, 1] * t + 0.3)])
+    dq = np.column_stack([0.2 * w[0, 0] * np.cos(w[0, 0] * t) + 0.1 * w[1, 0] * np.cos(w[1, 0] * t),
+                          0.8 * w[0, 1] * np.cos(w[0, 1] * t + 0.3)])  # fmt: skip
+    ddq = np.column_stack([-0.2 * w[0, 0] ** 2 * np.sin(w[0, 0] * t) - 0.1 * w[1, 0] ** 2 * np.sin(w[1, 0] * t),
+                           -0.8 * w[0, 1] ** 2 * np.sin(w[0, 1] * t + 0.3)])  # fmt: skip
+    tau = model.rnea(q, dq, ddq) + np.random.default_rng(0).normal(0, 0.2, q.shape)
+    ds = Dataset(t, q, model.joint_names, dq=dq, ddq=ddq, tau=tau, source="lift")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        ident = identify(Study(model, [ds], terms="none", preprocess=False), ("ols", "sdp"))
+    assert ident.data["total_mass_urdf"] == pytest.approx(5.0)
+    for m in ("ols", "sdp"):
+        tm = ident.results[m].info["total_mass"]
+        assert 0 < tm["std"] < 0.05 and abs(tm["value"] - 5.0) <= 3 * tm["std"], (m, tm)
+    assert "total mass [kg]: ols 5" in identification_text(ident)
+    from pinid.report.markdown import report_markdown
+
+    report = report_markdown(ident)
+    assert "### Total mass\n" in report and "| URDF | 5 |" in report and "CoM x" not in report
+    leg = RobotModel.from_urdf("exo_leg")
+    assert total_mass_combination(base_parameters(leg, TermSelection.from_names("none"))) is None
