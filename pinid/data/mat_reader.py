@@ -85,12 +85,6 @@ class _Variables:
         if self.h5 is not None:
             self.h5.close()
 
-    def shape(self, name: str) -> tuple[int, ...]:
-        """MATLAB's size of a variable (read from the header, nothing loaded)."""
-        if self.h5 is not None:
-            return tuple(reversed(getattr(self.h5[name], "shape", ()) or ()))
-        return tuple(self._whos[name][0])
-
     def array(self, name: str, where: str) -> np.ndarray:
         """The variable as a float array of at most 2 dimensions, MATLAB's orientation; DataError otherwise."""
         if name in self._cache:

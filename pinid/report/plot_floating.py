@@ -67,10 +67,13 @@ def wrench_comparison(
         ax.grid(alpha=0.3)
     for ax in axes[-1]:
         ax.set_xlabel("time [s]")
-    axes[0, 0].legend(fontsize="small", loc="upper right", ncol=1 + len(predicted), frameon=False)
+    handles, labels = axes[0, 0].get_legend_handles_labels()
+    top = 0.4 if title else 0.05
+    fig.legend(handles, labels, loc="upper center", bbox_to_anchor=(0.5, 1 - top / fig.get_figheight()),
+               ncol=len(handles), fontsize="small", frameon=False)  # fmt: skip
     if title:
-        fig.suptitle(title, fontsize="medium")
-    fixed_layout(fig, left=0.85, right=0.2, bottom=0.5, top=0.6 if title else 0.3, hspace=0.45, wspace=0.85)
+        fig.suptitle(title, fontsize="medium", y=1 - 0.12 / fig.get_figheight())
+    fixed_layout(fig, left=0.85, right=0.2, bottom=0.5, top=top + 0.55, hspace=0.45, wspace=0.85)
     return fig
 
 
@@ -252,22 +255,29 @@ def wrench_errors(
     title: str | None = None,
 ):
     """The RMS error of each base row per method: forces fx, fy, fz [N] in one panel, moments tx, ty, tz [N·m] in
-    another (the value and the % of the measured RMS written), and, only when joint-torque rows were used, the
-    joints' [N·m or N] in a third.  ``axes_errors``: ``{method: {axis: {"rms", "rel_rms_percent"}}}``; ``joints``:
+    another (the value and the % of the measured RMS written upright), and, only when joint-torque rows were used,
+    the joints' [N·m] in a third below them, as wide as the figure.  ``axes_errors``: ``{method: {axis: {"rms", "rel_rms_percent"}}}``; ``joints``:
     ``{method: {joint: {"rms", "rel_rms_percent"}}}`` or None.  Returns the figure."""
     from pinid.report.colors import method_color
+
+    import matplotlib.gridspec as gridspec
 
     methods = list(axes_errors)
     groups = [("forces [N]", AXES[:3], axes_errors), ("moments [N·m]", AXES[3:], axes_errors)]
     joint_names = [] if not joints else list(next(iter(joints.values())))
     if joint_names:
-        groups.append(("joint torques [N·m]", tuple(joint_names), joints))
-    widths = [len(g[1]) for g in groups]
-    fig, axes = new_figure(
-        1, len(groups), figsize=(10, 3.4), squeeze=False, gridspec_kw={"width_ratios": [max(w, 2) for w in widths]}
-    )
+        groups.append(("joint torques", tuple(joint_names), joints))
+    longest = max((len(n) for n in joint_names), default=0)
+    bottom = 0.5 + (0.065 * longest if joint_names else 0.0)  # the joints' names, turned upright
+    height = 3.6 + (2.8 + 0.065 * longest if joint_names else 0.0)
+    fig, _ = new_figure(figsize=(10, height))
+    fig.clf()
+    grid = gridspec.GridSpec(2 if joint_names else 1, 2, figure=fig)
+    axes = [fig.add_subplot(grid[0, 0]), fig.add_subplot(grid[0, 1])]
+    if joint_names:
+        axes.append(fig.add_subplot(grid[1, :]))
     width = 0.8 / max(1, len(methods))
-    for ax, (label, names, table) in zip(axes[0], groups):
+    for ax, (label, names, table) in zip(axes, groups):
         x = np.arange(len(names))
         top = 0.0
         for i, m in enumerate(methods):
@@ -277,19 +287,20 @@ def wrench_errors(
             xs = x + (i - (len(methods) - 1) / 2) * width
             ax.bar(xs, v, width, color=method_color(m), label=m)
             for xi, vi, ri in zip(xs, v, rel):
-                if np.isfinite(vi):
-                    ax.annotate(f"{vi:.3g}\n{ri:.3g} %", (xi, vi), xytext=(0, 2), textcoords="offset points",
-                                ha="center", va="bottom", fontsize="xx-small")  # fmt: skip
+                if np.isfinite(vi):  # upright, so that neighbouring bars' values never overlap
+                    ax.annotate(f"{vi:.3g} ({ri:.3g} %)", (xi, vi), xytext=(0, 2), textcoords="offset points",
+                                ha="center", va="bottom", rotation=90, fontsize="xx-small")  # fmt: skip
                     top = max(top, vi)
         ax.set_xticks(x, names, rotation=0 if len(names) <= 6 else 90, fontsize="small")
-        ax.set_ylim(0, 1.3 * top if top > 0 else 1.0)
-        ax.set_ylabel(f"RMS error, {label}", fontsize="small")
+        ax.set_ylim(0, 1.9 * top if top > 0 else 1.0)
+        unit = "" if names in (AXES[:3], AXES[3:]) else " [N·m]"
+        ax.set_ylabel(f"RMS error, {label}{unit}", fontsize="small")
         ax.grid(axis="y", alpha=0.3)
-    handles, labels = axes[0, 0].get_legend_handles_labels()
+    handles, labels = axes[0].get_legend_handles_labels()
     top = 0.45 if title else 0.1
     fig.legend(handles, labels, loc="upper center", bbox_to_anchor=(0.5, 1 - top / fig.get_figheight()),
                ncol=len(methods), fontsize="small", frameon=False)  # fmt: skip
     if title:
         fig.suptitle(title, fontsize="medium", y=1 - 0.15 / fig.get_figheight())
-    fixed_layout(fig, left=0.75, right=0.2, bottom=0.5, top=top + 0.35, wspace=0.75)
+    fixed_layout(fig, left=0.75, right=0.2, bottom=bottom, top=top + 0.35, wspace=1.0, hspace=0.55)
     return fig
