@@ -613,8 +613,11 @@ _RPY = re.compile(r"(base|imu_.+)_(roll|pitch|yaw)")
 def rpy_to_quaternion(roll: np.ndarray, pitch: np.ndarray, yaw: np.ndarray) -> np.ndarray:
     """(N, 4) unit quaternions ``x, y, z, w`` of ``R = Rz(yaw)·Ry(pitch)·Rx(roll)`` (roll-pitch-yaw, ZYX) [rad],
     with a continuous sign (a yaw that wraps at ±π gives the same rotation, not a jump of the quaternion)."""
-    from pinid.data.contacts import continuous_quat
+    from pinid.checks import as_floats
 
+    roll, pitch, yaw = (as_floats(a, name).reshape(-1) for a, name in ((roll, "roll"), (pitch, "pitch"), (yaw, "yaw")))
+    if not len(roll) == len(pitch) == len(yaw):
+        raise DataError(f"roll, pitch, yaw: {len(roll)}, {len(pitch)}, {len(yaw)} samples, expected as many of each")
     cr, sr = np.cos(0.5 * roll), np.sin(0.5 * roll)
     cp, sp = np.cos(0.5 * pitch), np.sin(0.5 * pitch)
     cy, sy = np.cos(0.5 * yaw), np.sin(0.5 * yaw)
@@ -626,7 +629,10 @@ def rpy_to_quaternion(roll: np.ndarray, pitch: np.ndarray, yaw: np.ndarray) -> n
             cr * cp * cy + sr * sp * sy,
         ]
     )
-    return continuous_quat(q)
+    if len(q) > 1:  # as pinid.data.contacts.continuous_quat (which imports this module): q and −q are one rotation
+        dots = np.einsum("ij,ij->i", q[1:], q[:-1])
+        q *= np.concatenate([[1.0], np.cumprod(np.where(dots < 0, -1.0, 1.0))])[:, None]
+    return q
 
 
 def _orientations(floating: dict[str, np.ndarray]) -> dict[str, np.ndarray]:

@@ -23,12 +23,9 @@ import numpy as np
 from pinid.data.contacts import FloatingSamples
 from pinid.errors import DataError, SpecError
 from pinid.estimators import make_estimator
-from pinid.identification.floating_checks import (
-    com_warning,
-    mass_and_com,
-    total_mass_combination,
-    excitation_warning,
-)
+from pinid.identification.floating_checks import EXCITED_FRACTION, com_warning, excitation_warning
+from pinid.identification.floating_checks import total_mass_combination
+from pinid.identification.mass import mass_and_com
 from pinid.identification.metrics import TorqueMetrics, error_metrics, joint_units
 from pinid.io import read_json
 from pinid.model.floating import FloatingRobotModel
@@ -60,6 +57,25 @@ class FloatingOptions:
 
 #: The command-line option of a study argument whose name is not the option's (the rest: ``--name-with-dashes``).
 _OPTIONS = {"segmental": "--first-data", "terms": "--terms auto"}
+
+
+def rows_without_torque(opts: FloatingOptions, train) -> FloatingOptions:
+    """``opts`` with the base rows when every training recording lacks joint torque and the rows are ``all`` (the
+    default), said in one line (a legged robot's lab records no joint torque); ``opts`` otherwise (``joints``
+    without torque is refused where the rows are stacked)."""
+    from dataclasses import replace
+
+    from pinid.errors import DataWarning
+
+    if opts.rows != "all" or not train or any(r.data.tau is not None for r in train):
+        return opts
+    warnings.warn(
+        f"{', '.join(r.source for r in train)}: no joint torque (tau_<joint> columns): the 6 base rows alone are "
+        "used (rows='base', --rows base: contact wrenches and motion)",
+        DataWarning,
+        stacklevel=3,
+    )
+    return replace(opts, rows="base")
 
 
 def refuse_fixed_only(arguments: Mapping) -> None:
@@ -123,7 +139,9 @@ def validate_floating(run: FloatingStack, results: Mapping) -> TorqueMetrics | N
 
 def check_floating(run: FloatingStack, ident, model: FloatingRobotModel, rows: str) -> None:
     """The checks of a floating identification's results: the total mass (warned, or refused when every method's
-    is absurd), the barely excited base parameters, the whole-body centre of mass (``info["com"]``)."""
+    is absurd), the barely excited base parameters, the whole-body centre of mass (``info["com"]``); then the
+    total mass and centre of mass with σ (:func:`pinid.identification.mass.mass_and_com`) and the figures'
+    traces with each method's per-axis error (:func:`floating_curves`)."""
     if not isinstance(run, FloatingStack) or not hasattr(ident, "results") or rows not in ROWS:
         raise SpecError("check_floating: expected a FloatingStack, an Identification and the rows used")
     ident.data["flipped_torque_signs"] = run.flipped
@@ -133,6 +151,7 @@ def check_floating(run: FloatingStack, ident, model: FloatingRobotModel, rows: s
         posture = np.mean(np.concatenate([s.data.q for s in run.train]), axis=0)
         com_warning(ident, model, run.problem.terms, run.problem.base, posture, run.sources)
         mass_and_com(ident, model, run.problem, posture)  # with σ, for the text, the JSON and the report
+    ident.curves.update(floating_curves(run, ident, model))  # the floating figures' traces, each axis's error
 
 
 #: The six base rows of a sample, in the order the problem stacks them (force, then moment, base frame).
@@ -205,7 +224,8 @@ def joint_chains(model) -> list[list[str]]:
 def floating_curves(run: FloatingStack, ident, model: FloatingRobotModel) -> dict:
     """What the floating figures draw (:mod:`pinid.report.plot_floating`; not saved): ``"wrench"`` — the base
     wrench measured and predicted by the best method on the first validation recording (else the first training
-    one), per axis; ``"chains"`` — the model's joints by chain (:func:`joint_chains`);
+    one), per axis; ``"chains"`` — the model's joints by chain (:func:`joint_chains`); ``"determined"`` — per base
+    parameter, whether the best method's 2σ is within EXCITED_FRACTION of its natural scale;
     ``"contacts"`` — the normal force of each measured wrench on that recording; ``"base"`` — the
     base position and heading of every recording, by role.  Each method's per-axis errors go into its
     ``info["base_axes"]`` (``{"on": "validation" | "training", axis: {"rms", "rel_rms_percent"}}``)."""
@@ -244,6 +264,10 @@ def floating_curves(run: FloatingStack, ident, model: FloatingRobotModel) -> dic
             "kind": on,
         }
     curves["chains"] = joint_chains(model)
+    if ident.results:  # the base parameters the data determine (the parameter figure's), by the warning's rule
+        std = np.asarray(ident.results[ident.best].std, dtype=float)
+        scale = np.asarray(run.problem.natural_scale, dtype=float)
+        curves["determined"] = (np.isfinite(std) & (2 * std <= EXCITED_FRACTION * scale)).tolist()
     curves["base"] = [
         {
             "label": f"{role}: {Path(str(r.source)).name}",

@@ -144,6 +144,8 @@ def _pm(value: float, std: float, digits: str = ".4g") -> str:
 def axis_lines(ident) -> list[str]:
     """A floating base's error per base axis (``info["base_axes"]``) of the best method: RMS [N, N·m] and % of the
     measured RMS, forces then moments; [] otherwise."""
+    if not hasattr(ident, "results"):
+        raise SpecError(f"ident: got {type(ident).__name__}, expected an Identification")
     best = ident.results.get(ident.best) if ident.results else None
     axes = (best.info.get("base_axes") if best is not None else None) or {}
     if not axes:
@@ -159,6 +161,8 @@ def axis_lines(ident) -> list[str]:
 def mass_lines(ident) -> list[str]:
     """The total mass and the whole-body centre of mass of each method with σ (a floating base whose rows determine
     them: ``info["total_mass"]``, ``info["com"]``, ``info["com_std"]``), beside the URDF's; [] otherwise."""
+    if not hasattr(ident, "results"):
+        raise SpecError(f"ident: got {type(ident).__name__}, expected an Identification")
     have = {m: r for m, r in ident.results.items() if "total_mass" in r.info}
     if not have:
         return []

@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import os
 import time
-import warnings
 from dataclasses import replace
 from collections.abc import Callable, Iterable, Mapping, Sequence
 
@@ -22,8 +21,9 @@ import numpy as np
 
 from pinid.data.dataset import Dataset, as_dataset
 from pinid.data.delay import parse_delay, shift_torque
-from pinid.errors import DataError, DataWarning, SpecError
+from pinid.errors import DataError, SpecError
 from pinid.estimators import ESTIMATORS, make_estimator
+from pinid.identification.mass import fixed_total_mass
 from pinid.identification.metrics import joint_units, torque_metrics
 from pinid.identification.offsets import check_offset_options, offset_validation, offsets_summary, profile_offsets
 from pinid.problem.problem import (
@@ -596,7 +596,7 @@ def identify(
             got = val_offsets[m] if val_sets else []
             sources = [d.source for d in checked] if val_sets else []
             r.info["offsets"] = offsets_summary(s.offsets, s.offsets.offsets(r.base), got, sources)
-    _fixed_total_mass(s, results, summary, nominal)
+    fixed_total_mass(s, results, summary, nominal)  # where a fixed base's rows determine it (issue 46)
     return Identification(
         robot=robot_to_dict(model, terms),
         results=results,
@@ -614,36 +614,6 @@ def identify(
     )
 
 
-def _fixed_total_mass(s: Setup, results: dict, summary: dict, nominal) -> None:
-    """A fixed base's total mass with σ where its torque rows determine it (a vertical prismatic first joint carries
-    Σ mᵢ; revolute joints never do): each method's ``info["total_mass"]``, the URDF's ``summary["total_mass_urdf"]``
-    (issue 46); nothing otherwise."""
-    from pinid.identification.floating_checks import total_mass_combination
-    from pinid.problem.statistics import base_covariance
-
-    c = total_mass_combination(s.base)
-    if c is None or nominal is None or len(nominal) != len(c):
-        return
-    summary["total_mass_urdf"] = float(c @ np.asarray(nominal, dtype=float))
-    for r in results.values():
-        x, std = np.asarray(r.base, dtype=float), np.asarray(r.std, dtype=float)
-        if len(x) != len(c):
-            continue
-        used = np.flatnonzero(c)
-        if len(used) == 1:
-            sigma = float(abs(c[used[0]]) * std[used[0]])
-        else:  # the sandwich's correlations, each method's own σ
-            try:
-                C = base_covariance(s.problem, x)
-                d = np.sqrt(np.clip(np.diag(C), 0.0, None))
-                k = np.where(d > 0, std / np.where(d > 0, d, 1.0), np.nan)
-                sub = (C * np.outer(k, k))[np.ix_(used, used)]
-                sigma = float(np.sqrt(max(c[used] @ sub @ c[used], 0.0)))
-            except (SpecError, DataError, ValueError, np.linalg.LinAlgError):
-                sigma = float("nan")
-        r.info["total_mass"] = {"value": float(c @ x), "std": sigma}
-
-
 def _setup_floating(study: Study) -> Setup:
     """:func:`setup` of a floating-base robot (:mod:`pinid.identification.floating`): its recordings read, checked
     and prepared (base motion, contact wrenches; ``study.mapping``: a :class:`~pinid.data.mapping.MappingSpec` with its ``[floating]`` table),
@@ -654,6 +624,7 @@ def _setup_floating(study: Study) -> Setup:
     from pinid.data.mapping import MappingSpec
     from pinid.data.preprocess import Preprocessing
     from pinid.identification.floating import FloatingStack, as_floating_options, recording_hints, refuse_fixed_only
+    from pinid.identification.floating import rows_without_torque
     from pinid.identification.floating_checks import flipped_floating_signs, orientation_noise_warning
     from pinid.identification.plausibility import shared_excitation
     from pinid.model.floating import as_floating
@@ -688,14 +659,7 @@ def _setup_floating(study: Study) -> Setup:
 
     load = dict(swing_rows=opts.swing_rows)
     train = load_datasets(study.data, model, mapping, preprocess, check=check, **load)
-    if opts.rows == "all" and all(r.data.tau is None for r in train):  # the common case of a legged robot's lab
-        warnings.warn(
-            f"{', '.join(r.source for r in train)}: no joint torque (tau_<joint> columns): the 6 base rows alone are "
-            "used (rows='base', --rows base: contact wrenches and motion)",
-            DataWarning,
-            stacklevel=2,
-        )
-        opts = replace(opts, rows="base")
+    opts = rows_without_torque(opts, train)  # no joint torque: the base rows, said in one line
     flipped = flipped_floating_signs(model, train) if opts.rows != "base" else []  # one warning, as a fixed base's
     rows = dict(rows=opts.rows, base_weight=opts.base_weight, rest_velocity=rest)
     problem = floating_problem(model, train, terms=terms, **rows)
@@ -718,13 +682,7 @@ def _setup_floating(study: Study) -> Setup:
 def _identify_floating(study: Study, running: dict, *, unsupported: dict) -> Identification:
     """:func:`identify` of a floating-base robot: its recordings and rows (:func:`setup`), then the fixed base's
     fits, results and checks (:mod:`pinid.identification.floating`)."""
-    from pinid.identification.floating import (
-        as_floating_options,
-        check_floating,
-        floating_curves,
-        refuse_fixed_only,
-        validate_floating,
-    )
+    from pinid.identification.floating import as_floating_options, check_floating, refuse_fixed_only, validate_floating
 
     refuse_fixed_only(unsupported)
     t_start, opts, model = time.perf_counter(), as_floating_options(study.floating), study.model
@@ -760,8 +718,7 @@ def _identify_floating(study: Study, running: dict, *, unsupported: dict) -> Ide
         curves={"motion": {"source": ds.source, "t": ds.t, "q": ds.q, "dq": ds.dq}},
         floor=floor,
     )
-    check_floating(run, ident, model, run.rows)
-    ident.curves.update(floating_curves(run, ident, model))  # the floating figures' traces, and each axis's error
+    check_floating(run, ident, model, run.rows)  # and the floating figures' traces, each axis's error
     ident.seconds = time.perf_counter() - t_start
     return ident
 

@@ -35,6 +35,7 @@ from pinid.report.plot_identification import (
 )
 from pinid.report.plot_choices import cross_validation_figure
 from pinid.report.plot_parameters import parameter_plausibility
+from pinid.report.floating import floating_figure_lines, floating_recipes, mass_section
 
 #: Every file a report writes (patterns): what ``pinid identify --force`` removes of an earlier run's report.
 REPORT_FILES = (
@@ -174,7 +175,7 @@ def figure_recipes(ident) -> dict[str, Recipe]:
     if choices:
         figs["choices"] = (cross_validation_figure, (choices.get("cutoff"), choices.get("terms")), {})
     if _floating(ident):
-        figs.update(floating_recipes(ident, joints))
+        figs.update(floating_recipes(ident, joints, WINDOW))
         return figs
     metrics = {m: (r.validation if r.validation is not None else r.train) for m, r in ident.results.items()}
     if metrics:
@@ -188,86 +189,6 @@ def figure_recipes(ident) -> dict[str, Recipe]:
 #: figure 1, each further method redrawn into it (:func:`~pinid.report.plot_identification.torque_pngs`)
 #: 0.65, the motion and error figures ~0.6 each.
 _FIRST, _REDRAWN, _OTHER = 1.0, 0.65, 0.6
-
-
-def floating_recipes(ident, joints: list[str]) -> dict[str, Recipe]:
-    """The figures of a floating base (:mod:`pinid.report.plot_floating`): the errors of the rows used per base
-    axis (and joint, when joint rows were used), the determined base parameters, the base wrench measured against
-    predicted, the contact phases and the base trajectory; the motion figure with positions alone beyond 8 joints."""
-    from pinid.identification.floating_checks import EXCITED_FRACTION
-    from pinid.report import plot_floating as pf
-
-    figs: dict[str, Recipe] = {}
-    c = ident.curves or {}
-    rows = (ident.data or {}).get("rows", "all")
-    axes = {m: r.info["base_axes"] for m, r in ident.results.items() if r.info.get("base_axes")}
-    on = next((a.get("on") for a in axes.values()), "validation")
-    joint_err = None
-    if rows != "base":
-        joint_err = {}
-        for m, r in ident.results.items():
-            met = r.validation if r.validation is not None else r.train
-            per = (met.to_dict() if hasattr(met, "to_dict") else met).get("per_joint", {})
-            joint_err[m] = {
-                j: {"rms": v.get("rms"), "rel_rms_percent": v.get("rel_rms_percent")}
-                for j, v in per.items()
-                if j != "base" and v.get("rms") is not None and np.isfinite(v.get("rms"))
-            }
-    if axes:
-        title = (
-            f"RMS error of the rows used ({on}, against the prepared wrench{'' if rows == 'base' else ' and torques'})"
-        )
-        figs["errors"] = (pf.wrench_errors, (axes, joint_err or None), {"title": title})
-    names = ident.base.get("names") or []
-    if names and ident.results:
-        best = ident.results[ident.best]
-        scale = np.asarray(ident.base.get("scale") or [1.0] * len(names), dtype=float)
-        std = np.asarray(best.std, dtype=float)
-        determined = np.isfinite(std) & (2 * std <= EXCITED_FRACTION * scale)
-        shown = [ident.best] + (["ols"] if "ols" in ident.results and ident.best != "ols" else [])
-        estimates = {
-            m: {
-                "value": ident.results[m].base,
-                "std": ident.results[m].std,
-                "consistent": ident.results[m].physically_consistent,
-            }
-            for m in shown
-        }
-        figs["parameters"] = (
-            pf.determined_parameters,
-            (names, ident.base.get("nominal") or [None] * len(names), list(scale), estimates, determined),
-            {},
-        )
-    w = c.get("wrench")
-    if w is not None and len(w["t"]):
-        best_axes = ident.results[ident.best].info.get("base_axes") or {}
-        span = f", first {WINDOW:g} s" if w["t"][-1] - w["t"][0] > WINDOW else ""
-        title = f"base wrench, measured and predicted ({w['kind']}, {Path(str(w['source'])).name}{span}; base frame)"
-        errors = {a: v for a, v in best_axes.items() if isinstance(v, dict)}
-        figs["wrench"] = (
-            pf.wrench_comparison,
-            (w["t"], w["measured"], w["predicted"]),
-            {"errors": errors, "title": title, "window": WINDOW},
-        )
-    k = c.get("contacts")
-    if k is not None and len(k["t"]):
-        span = f", first {WINDOW:g} s" if k["t"][-1] - k["t"][0] > WINDOW else ""
-        weight = 9.81 * float((ident.data or {}).get("total_mass_urdf") or 0.0)
-        title = f"contact phases ({k['kind']}, {Path(str(k['source'])).name}{span})"
-        figs["contacts"] = (
-            pf.contact_phases,
-            (k["t"], k["forces"]),
-            {"threshold": 0.05 * weight if weight > 0 else None, "title": title, "window": WINDOW},
-        )
-    if c.get("base"):
-        figs["base_motion"] = (pf.base_trajectory, (c["base"],), {"title": "base trajectory (motion capture)"})
-    motion = c.get("motion")
-    if motion is not None and len(motion["t"]) and c.get("chains"):
-        t = np.asarray(motion["t"])
-        span = f", first {WINDOW:g} s" if t[-1] - t[0] > WINDOW else ""
-        title = f"training motion: joint positions per chain ({Path(str(motion['source'])).name}{span})"
-        figs["motion"] = (pf.chain_motion, (t, motion["q"], joints, c["chains"]), {"window": WINDOW, "title": title})
-    return figs
 
 
 def grouped_recipes(recipes: dict[str, Recipe], workers: int) -> dict[str | tuple[str, ...], Recipe]:
@@ -418,29 +339,7 @@ def _comparison_figures(ident, figures: dict[str, str]) -> list[str]:
             "",
             f"![base parameters: estimate ± 2σ against the URDF]({figures['parameters']})",
         ]
-    if "wrench" in figures:
-        lines += [
-            "",
-            f"### The base wrench ({ident.best})",
-            "",
-            "The wrench the contacts apply to the whole robot, in the base frame (the 6 base rows), as measured "
-            "(grey) and as the identified model predicts it from the motion; forces [N] on the left, moments [N·m] "
-            "on the right.",
-            "",
-            f"![base wrench: measured and predicted]({figures['wrench']})",
-        ]
-    if "contacts" in figures:
-        lines += ["", f"![contact phases: normal force under each contact]({figures['contacts']})"]
-    if "base_motion" in figures:
-        lines += ["", f"![base trajectory: path, height and heading]({figures['base_motion']})"]
-    undetermined = _undetermined(ident)
-    if undetermined and "parameters" in figures:
-        lines += [
-            "",
-            f"Not determined by these data (2σ of {ident.best} above 10 % of the natural scale; not in the figure): "
-            + ", ".join(f"`{n}`" for n in undetermined)
-            + ".",
-        ]
+    lines += floating_figure_lines(ident, figures)
     key = f"torque_{ident.best}"
     if key in figures:
         lines += [
@@ -462,19 +361,6 @@ def _comparison_figures(ident, figures: dict[str, str]) -> list[str]:
             f"![every method's predicted torque]({figures['predictions']})",
         ]
     return lines
-
-
-def _undetermined(ident) -> list[str]:
-    """A floating base's base parameters the parameter figure leaves out (2σ of the best method above
-    EXCITED_FRACTION of the natural scale, or no σ); [] for a fixed base."""
-    if not _floating(ident) or not ident.results:
-        return []
-    from pinid.identification.floating_checks import EXCITED_FRACTION
-
-    names = ident.base.get("names") or []
-    scale = np.asarray(ident.base.get("scale") or [1.0] * len(names), dtype=float)
-    std = np.asarray(ident.results[ident.best].std, dtype=float)
-    return [n for n, s, sc in zip(names, std, scale) if not (np.isfinite(s) and 2 * s <= EXCITED_FRACTION * sc)]
 
 
 def _method_table(result, unit: str = "") -> tuple[list[str], list[list[str]]]:
@@ -605,38 +491,6 @@ def _offsets_section(ident) -> list[str]:
     return lines
 
 
-def _mass_section(ident) -> list[str]:
-    """A floating base's total mass and whole-body centre of mass per method with σ, beside the URDF's (issue 46);
-    nothing when the rows used do not determine them."""
-    have = {m: r for m, r in ident.results.items() if "total_mass" in r.info}
-    if not have:
-        return []
-
-    def pm(v, s, fmt=".4g"):
-        return f"{v:{fmt}} ± {s:.2g}" if np.isfinite(s) else f"{v:{fmt}} (σ —)"
-
-    com = any("com" in r.info for r in have.values())  # a floating base's; a fixed base has the mass alone
-    rows = []
-    for m, r in have.items():
-        tm, c3, std = r.info["total_mass"], r.info.get("com", [np.nan] * 3), r.info.get("com_std", [np.nan] * 3)
-        rows.append([m, pm(tm["value"], tm["std"]), *((pm(c, s, ".3g") for c, s in zip(c3, std)) if com else ())])
-    d = ident.data
-    if "total_mass_urdf" in d:
-        urdf_com = (f"{c:.3g}" for c in d.get("com_urdf", [np.nan] * 3)) if com else ()
-        rows.append(["URDF", f"{d['total_mass_urdf']:.4g}", *urdf_com])
-    header = ["method", "total mass [kg]"] + (["CoM x [m]", "CoM y [m]", "CoM z [m]"] if com else [])
-    what = "the whole-body centre of mass (base frame, at the mean training posture)" if com else "nothing else"
-    return [
-        "",
-        "### Total mass and centre of mass" if com else "### Total mass",
-        "",
-        f"The total mass and {what} the rows used determine, ± 1σ (the Newey–West σ of the base parameters"
-        + (", linearised for the centre of mass)." if com else ")."),
-        "",
-        markdown_table(header, rows),
-    ]
-
-
 def report_markdown(ident, figures: dict[str, str] | None = None) -> str:
     """The report text; ``figures`` maps figure keys to the file names to link (missing keys are skipped)."""
     from pinid import __version__
@@ -665,7 +519,7 @@ def report_markdown(ident, figures: dict[str, str] | None = None) -> str:
         f"`model_{ident.best}.json`."
     )
     lines += _comparison_figures(ident, figures)
-    lines += _mass_section(ident)
+    lines += mass_section(ident)
 
     lines += ["", "## Robot and data", ""]
     urdf = robot.get("urdf")
