@@ -9,10 +9,31 @@ linearised for the centre of mass.
 
 from __future__ import annotations
 
+import contextlib
+
 import numpy as np
 
 from pinid.errors import DataError, SpecError
 from pinid.identification.floating_checks import first_moments_map, total_mass_combination
+
+
+#: The largest tall regressor (bytes) :func:`mass_and_com` builds whole for its covariances (one pass over the
+#: recordings instead of two per method); above it the blocks are streamed as everywhere else (issue 35's memory).
+WHOLE_REGRESSOR_BYTES = 128 * 2**20
+
+
+@contextlib.contextmanager
+def whole_regressor(problem, limit: int = WHOLE_REGRESSOR_BYTES):
+    """Within the block, ``problem``'s tall regressor built once and held (when it is built block by block and
+    takes at most ``limit`` bytes), so that several passes over it cost one; let go at the end."""
+    built = bool(getattr(problem, "blocked", False)) and problem.rows * problem.nb * 8 <= limit
+    if built:
+        problem.__dict__["_W"] = problem.regressor_rows.build()
+    try:
+        yield problem
+    finally:
+        if built:
+            problem.__dict__.pop("_W", None)
 
 
 def mass_and_com(ident, model, problem, q: np.ndarray) -> dict | None:
@@ -23,9 +44,8 @@ def mass_and_com(ident, model, problem, q: np.ndarray) -> dict | None:
     linearising at the estimate, with the Newey–West covariance of the base parameters
     (:func:`pinid.problem.statistics.base_covariance`) scaled to each method's own σ (for a single base parameter,
     such as ``base.mR``, exactly its σ).  Returns ``{method: {"mass", "mass_std", "com", "com_std"}}``; None when the
-    rows used do not determine the mass."""
-    from pinid.problem.statistics import base_covariance
-
+    rows used do not determine the mass.  The tall regressor is held whole meanwhile when small enough
+    (:func:`whole_regressor`)."""
     c = total_mass_combination(problem.base)
     if c is None or not ident.results:
         return None
@@ -35,28 +55,36 @@ def mass_and_com(ident, model, problem, q: np.ndarray) -> dict | None:
     ident.data["total_mass_urdf"] = float(c @ nominal)
     ident.data["com_urdf"] = (L @ nominal / (c @ nominal)).tolist()
     out = {}
-    for method, r in ident.results.items():
-        x, std = np.asarray(r.base, dtype=float), np.asarray(r.std, dtype=float)
-        m = float(c @ x)
-        com = L @ x / m if m > 0 else np.full(3, np.nan)
-        m_std, com_std = np.nan, np.full(3, np.nan)
-        if np.any(np.isfinite(std)):
-            C = base_covariance(problem, x)  # at each method's own estimate: its residual's sandwich
-            d = np.sqrt(np.clip(np.diag(C), 0.0, None))
-            k = np.where(d > 0, std / np.where(d > 0, d, 1.0), np.nan)  # each method's σ, the sandwich's correlation
-            Cm = C * np.outer(k, k)
-            J = np.vstack([c, (L / m - np.outer(L @ x, c) / m**2) if m > 0 else np.zeros((3, len(x)))])
-            used = np.any(J != 0, axis=0)
-            sub = Cm[np.ix_(used, used)]
-            if np.all(np.isfinite(sub)):
-                var = np.diag(J[:, used] @ sub @ J[:, used].T)
-                m_std = float(np.sqrt(max(var[0], 0.0)))
-                if m > 0:
-                    com_std = np.sqrt(np.clip(var[1:], 0.0, None))
-        r.info["total_mass"] = {"value": m, "std": m_std}
-        r.info["com"], r.info["com_std"] = com.tolist(), com_std.tolist()
-        out[method] = {"mass": m, "mass_std": m_std, "com": com, "com_std": com_std}
+    with whole_regressor(problem):
+        for method, r in ident.results.items():
+            out[method] = _mass_and_com_of(r, c, L, problem)
     return out
+
+
+def _mass_and_com_of(r, c: np.ndarray, L: np.ndarray, problem) -> dict:
+    """:func:`mass_and_com` of one result ``r``: into its ``info``, and returned."""
+    from pinid.problem.statistics import base_covariance
+
+    x, std = np.asarray(r.base, dtype=float), np.asarray(r.std, dtype=float)
+    m = float(c @ x)
+    com = L @ x / m if m > 0 else np.full(3, np.nan)
+    m_std, com_std = np.nan, np.full(3, np.nan)
+    if np.any(np.isfinite(std)):
+        C = base_covariance(problem, x)  # at each method's own estimate: its residual's sandwich
+        d = np.sqrt(np.clip(np.diag(C), 0.0, None))
+        k = np.where(d > 0, std / np.where(d > 0, d, 1.0), np.nan)  # each method's σ, the sandwich's correlation
+        Cm = C * np.outer(k, k)
+        J = np.vstack([c, (L / m - np.outer(L @ x, c) / m**2) if m > 0 else np.zeros((3, len(x)))])
+        used = np.any(J != 0, axis=0)
+        sub = Cm[np.ix_(used, used)]
+        if np.all(np.isfinite(sub)):
+            var = np.diag(J[:, used] @ sub @ J[:, used].T)
+            m_std = float(np.sqrt(max(var[0], 0.0)))
+            if m > 0:
+                com_std = np.sqrt(np.clip(var[1:], 0.0, None))
+    r.info["total_mass"] = {"value": m, "std": m_std}
+    r.info["com"], r.info["com_std"] = com.tolist(), com_std.tolist()
+    return {"mass": m, "mass_std": m_std, "com": com, "com_std": com_std}
 
 
 def fixed_total_mass(s, results: dict, summary: dict, nominal) -> None:

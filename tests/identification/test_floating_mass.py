@@ -143,3 +143,26 @@ def test_a_fixed_base_total_mass_where_determined(tmp_path):
     assert "### Total mass\n" in report and "| URDF | 5 |" in report and "CoM x" not in report
     leg = RobotModel.from_urdf("exo_leg")
     assert total_mass_combination(base_parameters(leg, TermSelection.from_names("none"))) is None
+
+
+def test_the_whole_regressor_gives_the_streamed_covariance(floating_exo):
+    """mass_and_com holds a tall regressor whole while it computes its covariances (one pass over the recordings
+    instead of two per method): the same covariance as the streamed blocks, and the problem streams again after."""
+    from pinid.identification.mass import whole_regressor
+    from pinid.problem.floating import floating_problem
+    from pinid.problem.statistics import base_covariance
+    from pinid.simulation.floating_twin import simulate_gait
+
+    problem = floating_problem(floating_exo, simulate_gait(floating_exo, seconds=2, rate=100).exact, terms=TERMS)
+    problem.__dict__.pop("_W", None)  # as identify leaves a tall problem: its rows rebuilt block by block
+    if problem.regressor_rows is None:
+        pytest.skip("this problem is not built block by block")
+    x = np.linalg.lstsq(problem.W, problem.tau, rcond=None)[0]
+    problem.__dict__.pop("_W", None)
+    assert problem.blocked
+    streamed = base_covariance(problem, x)
+    with whole_regressor(problem):
+        assert not problem.blocked
+        whole = base_covariance(problem, x)
+    assert problem.blocked
+    np.testing.assert_allclose(whole, streamed, rtol=1e-7, atol=1e-12 * np.abs(streamed).max())
