@@ -346,7 +346,7 @@ def run(args: argparse.Namespace) -> int:
     terms = terms_from_args(args, auto=True)
 
     def started() -> None:  # the inputs are read and checked: say what runs
-        floating = f" on a floating base ({args.rows} rows)" if args.base == "floating" else ""
+        floating = (" on a floating base" + f" ({args.rows} rows)" * (args.rows != "all")) * (args.base == "floating")
         print(
             f"identifying {model.name}{floating} ({', '.join(model.joint_names)}) with {', '.join(methods)}; "
             f"terms {'auto' if terms == 'auto' else ', '.join(terms.names) or 'none'}",

@@ -277,9 +277,17 @@ def _check_against_model(ds: Dataset, model, limits: str, degrees: str) -> Datas
         )
     missing = [j for j in names if j not in ds.joints]
     if missing:
+        recorded = [j for j in names if j in ds.joints]  # in the model's order
+        hint = (
+            f"; to identify with the recorded joints alone, give --joints {','.join(recorded)} (the others held at "
+            f"0, or mid-range when 0 is outside their limits; Python: joints=[...]), or say where they were held: "
+            f"{' '.join(f'--lock {j}=0' for j in missing)}"
+            if recorded
+            else ""
+        )
         raise DataError(
             f"{src}: no data for joint '{missing[0]}' of {model.name}"
-            f"{f' (nor {missing[1:]})' if len(missing) > 1 else ''}; the recording has {', '.join(ds.joints)}"
+            f"{f' (nor {missing[1:]})' if len(missing) > 1 else ''}; the recording has {', '.join(ds.joints)}{hint}"
         )
     for j in ds.joints:
         if j in model.locked:

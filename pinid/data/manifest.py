@@ -25,7 +25,8 @@ gains).  So one file can give a training and a validation range without a conver
     role = "validate"
     time = [60.0, 90.0]
 
-Paths (``file``, ``mapping``, ``drives``, ``payload``) are relative to the manifest's folder.  ``rows`` are
+Paths (``file``, ``mapping``, ``drives``, ``payload``) are relative to the manifest's folder, else (when no
+such file is there) to the working folder.  ``rows`` are
 0-based data rows, ``[first, stop)`` as a Python slice (``stop`` may be left out: ``rows = [6000]``);
 ``time`` selects the samples with ``start ≤ t < stop`` on the recording's own time column.  Two ranges
 that share a sample are refused (a validation range inside the training range measures a
@@ -262,7 +263,11 @@ def _file(v: Any, folder: Path, origin: str, key: str) -> Path:
         raise SpecError(f"{origin}: {key} = {v!r}, expected a file name (relative to the manifest's folder)")
     p = folder / v
     if not p.exists():
-        raise SpecError(f"{origin}: {key} = {v!r}: {p} not found")
+        here = Path(v)  # else relative to the working folder (a manifest in a clone naming ../shared/… beside it)
+        if not here.is_absolute() and here.exists():
+            return here
+        also = "" if Path(v).is_absolute() else f" nor {Path.cwd() / v}"
+        raise SpecError(f"{origin}: {key} = {v!r}: {p} not found{also}")
     return p
 
 

@@ -101,7 +101,7 @@ _TOP_KEYS = (_SOURCE_KEYS - {"path"}) | {
     "floating",
 }
 _COLUMN_KEYS = {"column", "source", "index", "scale", "sign", "offset"}
-_TIME_KEYS = {"column", "index", "scale", "offset", "rate"}
+_TIME_KEYS = {"column", "index", "scale", "offset", "rate", "rebase"}
 _CHECK_VALUES = ("error", "warn", "off")
 _CHECK_KEYS = {"limits", "degrees"}
 MAIN = "main"
@@ -133,6 +133,7 @@ class TimeSpec:
     scale: float = 1.0
     offset: float = 0.0
     rate: float | None = None
+    rebase: bool = False  # True: time from the file's first sample (t - t[0]), e.g. Unix time stamps
 
 
 @dataclass
@@ -314,7 +315,7 @@ class MappingSpec:
                 f"{path}: the joint and [floating] sources have no common time span (no sample lies inside every "
                 "source's time span); expected recordings of the same run"
             )
-        floating = {name: _convert(values[ref], ref) for name, ref in self.floating.items()}
+        floating = _orientations({name: _convert(values[ref], ref) for name, ref in self.floating.items()})
         columns_desc: dict[str, str] = {}
         for ref in values:
             columns_desc.setdefault(ref.where, f"{ref.source}:{ref.column!r}")
@@ -470,17 +471,23 @@ def _time(v: Any, origin: str, where: str) -> TimeSpec:
     if ("column" in v) == ("rate" in v):
         raise SpecError(f"{origin}: {where} needs exactly one of column (time stamps) or rate (constant rate in Hz)")
     if "rate" in v:
+        if "rebase" in v:
+            raise SpecError(f"{origin}: {where}.rebase is for a time column; a rate's time starts at 0")
         rate = _number(v["rate"], origin, f"{where}.rate")
         if rate <= 0:
             raise SpecError(f"{origin}: {where}.rate = {rate:g}, expected a sample rate > 0 [Hz]")
         return TimeSpec(rate=rate)
     col = _column_key(v["column"], origin, f"{where}.column")
     index = v.get("index")
+    rebase = v.get("rebase", False)
+    if not isinstance(rebase, bool):
+        raise SpecError(f"{origin}: {where}.rebase = {rebase!r}, expected true (time from the first sample) or false")
     return TimeSpec(
         column=col,
         index=index,
         scale=_number(v.get("scale", 1.0), origin, f"{where}.scale", words=TIME_WORDS),
         offset=_number(v.get("offset", 0.0), origin, f"{where}.offset"),
+        rebase=rebase,
     )
 
 
@@ -574,12 +581,69 @@ def _floating_table(d: Any, origin: str, sources: set[str]) -> dict[str, ColumnR
         raise SpecError(f'{origin}: [floating] must be a table of floating columns, e.g. base_x = "mocap_x"')
     out = {}
     for name, ref in d.items():
-        if not any(FloatingChannels.groups([name]).values()):
+        if not any(FloatingChannels.groups([name]).values()) and not _RPY.fullmatch(name):
             raise SpecError(
                 f"{origin}: [floating] {name}: not a floating column; expected base_x … base_qw, imu_<frame>_qx … _az, "
-                "wrench_<link>_fx … _tz, plate_<link>_fx … _tz or contact_<link> (docs/floating-base.md)"
+                "wrench_<link>_fx … _tz, plate_<link>_fx … _tz or contact_<link> (docs/floating-base.md), or an "
+                "orientation as roll, pitch, yaw: base_roll, base_pitch, base_yaw (imu_<frame>_roll …)"
             )
         out[name] = _column(ref, origin, f"[floating.{name}]", sources, words=_FLOATING_WORDS)
+    for prefix in sorted({m.group(1) for m in map(_RPY.fullmatch, out) if m}):
+        have = [a for a in RPY if f"{prefix}_{a}" in out]
+        if len(have) != 3:
+            missing = [f"{prefix}_{a}" for a in RPY if a not in have]
+            raise SpecError(
+                f"{origin}: [floating] {', '.join(f'{prefix}_{a}' for a in have)} without {', '.join(missing)}; "
+                "expected roll, pitch and yaw together (R = Rz(yaw)·Ry(pitch)·Rx(roll))"
+            )
+        quat = [f"{prefix}_{k}" for k in ("qx", "qy", "qz", "qw") if f"{prefix}_{k}" in out]
+        if quat:
+            raise SpecError(
+                f"{origin}: [floating] {prefix}_roll, _pitch, _yaw and {', '.join(quat)} both give the orientation; "
+                "expected one of the two (roll-pitch-yaw or a quaternion)"
+            )
+    return out
+
+
+#: The axes of an orientation given as roll, pitch, yaw in a ``[floating]`` table (``base_roll`` …).
+RPY: tuple[str, ...] = ("roll", "pitch", "yaw")
+_RPY = re.compile(r"(base|imu_.+)_(roll|pitch|yaw)")
+
+
+def rpy_to_quaternion(roll: np.ndarray, pitch: np.ndarray, yaw: np.ndarray) -> np.ndarray:
+    """(N, 4) unit quaternions ``x, y, z, w`` of ``R = Rz(yaw)·Ry(pitch)·Rx(roll)`` (roll-pitch-yaw, ZYX) [rad],
+    with a continuous sign (a yaw that wraps at ±π gives the same rotation, not a jump of the quaternion)."""
+    from pinid.checks import as_floats
+
+    roll, pitch, yaw = (as_floats(a, name).reshape(-1) for a, name in ((roll, "roll"), (pitch, "pitch"), (yaw, "yaw")))
+    if not len(roll) == len(pitch) == len(yaw):
+        raise DataError(f"roll, pitch, yaw: {len(roll)}, {len(pitch)}, {len(yaw)} samples, expected as many of each")
+    cr, sr = np.cos(0.5 * roll), np.sin(0.5 * roll)
+    cp, sp = np.cos(0.5 * pitch), np.sin(0.5 * pitch)
+    cy, sy = np.cos(0.5 * yaw), np.sin(0.5 * yaw)
+    q = np.column_stack(
+        [
+            sr * cp * cy - cr * sp * sy,
+            cr * sp * cy + sr * cp * sy,
+            cr * cp * sy - sr * sp * cy,
+            cr * cp * cy + sr * sp * sy,
+        ]
+    )
+    if len(q) > 1:  # as pinid.data.contacts.continuous_quat (which imports this module): q and −q are one rotation
+        dots = np.einsum("ij,ij->i", q[1:], q[:-1])
+        q *= np.concatenate([[1.0], np.cumprod(np.where(dots < 0, -1.0, 1.0))])[:, None]
+    return q
+
+
+def _orientations(floating: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """The ``[floating]`` columns with each roll-pitch-yaw triple replaced by its quaternion's 4 columns."""
+    prefixes = sorted({m.group(1) for m in map(_RPY.fullmatch, floating) if m})
+    if not prefixes:
+        return floating
+    out = {k: v for k, v in floating.items() if not _RPY.fullmatch(k)}
+    for prefix in prefixes:
+        q = rpy_to_quaternion(*(floating[f"{prefix}_{a}"] for a in RPY))
+        out.update({f"{prefix}_{k}": q[:, i] for i, k in enumerate(("qx", "qy", "qz", "qw"))})
     return out
 
 
@@ -622,6 +686,9 @@ def _open_source(src: SourceSpec, file: Path, main_path: Path, refs: list[Column
             )
         )
     tab = reader.read(file, src, wanted, origin)
+    tab.time0 = 0.0
+    if src.time is not None and src.time.rebase and tab.nrows:  # the file's first time stamp, before rows = [...]
+        tab.time0 = float(tab.data[(src.time.column, src.time.index)][0])
     start, stop = src.rows
     if start is not None or stop is not None:
         sl = slice(start, stop)
@@ -670,7 +737,10 @@ def _time_of(tab: Table, src: SourceSpec, origin: str) -> np.ndarray:
     key = (ts.column, ts.index)
     if key not in tab.data:  # pragma: no cover - always requested
         raise SpecError(f"{origin}: time column {ts.column!r} of {where} was not read")
-    t = tab.data[key] * ts.scale + ts.offset
+    raw = tab.data[key]
+    if ts.rebase:
+        raw = raw - getattr(tab, "time0", 0.0)
+    t = raw * ts.scale + ts.offset
     return t
 
 

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import os
 import warnings
+from pathlib import Path
 from collections.abc import Mapping
 from dataclasses import dataclass
 
@@ -22,10 +23,9 @@ import numpy as np
 from pinid.data.contacts import FloatingSamples
 from pinid.errors import DataError, SpecError
 from pinid.estimators import make_estimator
-from pinid.identification.floating_checks import (
-    com_warning,
-    excitation_warning,
-)
+from pinid.identification.floating_checks import EXCITED_FRACTION, com_warning, excitation_warning
+from pinid.identification.floating_checks import total_mass_combination
+from pinid.identification.mass import mass_and_com
 from pinid.identification.metrics import TorqueMetrics, error_metrics, joint_units
 from pinid.io import read_json
 from pinid.model.floating import FloatingRobotModel
@@ -63,6 +63,25 @@ class FloatingOptions:
 
 #: The command-line option of a study argument whose name is not the option's (the rest: ``--name-with-dashes``).
 _OPTIONS = {"segmental": "--first-data", "terms": "--terms auto"}
+
+
+def rows_without_torque(opts: FloatingOptions, train) -> FloatingOptions:
+    """``opts`` with the base rows when every training recording lacks joint torque and the rows are ``all`` (the
+    default), said in one line (a legged robot's lab records no joint torque); ``opts`` otherwise (``joints``
+    without torque is refused where the rows are stacked)."""
+    from dataclasses import replace
+
+    from pinid.errors import DataWarning
+
+    if opts.rows != "all" or not train or any(r.data.tau is not None for r in train):
+        return opts
+    warnings.warn(
+        f"{', '.join(r.source for r in train)}: no joint torque (tau_<joint> columns): the 6 base rows alone are "
+        "used (rows='base', --rows base: contact wrenches and motion)",
+        DataWarning,
+        stacklevel=3,
+    )
+    return replace(opts, rows="base")
 
 
 def refuse_fixed_only(arguments: Mapping) -> None:
@@ -108,6 +127,7 @@ class FloatingStack:
     sources: str
     torque_scale: float | None = None  # recorded / the URDF's joint torque (plausibility.torque_scale)
     calibration: object = None  # the Calibration applied to the training and validation recordings
+    rows: str = "all"  # the rows used: the options', or "base" for recordings without joint torque
 
 
 def validate_floating(run: FloatingStack, results: Mapping) -> TorqueMetrics | None:
@@ -128,15 +148,147 @@ def validate_floating(run: FloatingStack, results: Mapping) -> TorqueMetrics | N
 
 def check_floating(run: FloatingStack, ident, model: FloatingRobotModel, rows: str) -> None:
     """The checks of a floating identification's results: the total mass (warned, or refused when every method's
-    is absurd), the barely excited base parameters, the whole-body centre of mass (``info["com"]``)."""
+    is absurd), the barely excited base parameters, the whole-body centre of mass (``info["com"]``); then the
+    total mass and centre of mass with σ (:func:`pinid.identification.mass.mass_and_com`) and the figures'
+    traces with each method's per-axis error (:func:`floating_curves`)."""
     if not isinstance(run, FloatingStack) or not hasattr(ident, "results") or rows not in ROWS:
         raise SpecError("check_floating: expected a FloatingStack, an Identification and the rows used")
     ident.data["flipped_torque_signs"] = run.flipped
-    _check_total_mass(ident, run.hints, run.sources)
+    _check_total_mass(ident, run.hints, run.sources, run.problem.base)
     excitation_warning(ident, run.problem.natural_scale, run.sources)
     if rows != "joints":
         posture = np.mean(np.concatenate([s.data.q for s in run.train]), axis=0)
         com_warning(ident, model, run.problem.terms, run.problem.base, posture, run.sources, run.hints)
+        mass_and_com(ident, model, run.problem, posture)  # with σ, for the text, the JSON and the report
+    ident.curves.update(floating_curves(run, ident, model))  # the floating figures' traces, each axis's error
+
+
+#: The six base rows of a sample, in the order the problem stacks them (force, then moment, base frame).
+BASE_AXES: tuple[str, ...] = ("fx", "fy", "fz", "tx", "ty", "tz")
+
+
+def _base_rows(problem: IdentificationProblem) -> np.ndarray:
+    """Indices of the problem's base rows, 6 per sample in :data:`BASE_AXES`' order (body 0 is the base)."""
+    rows = np.flatnonzero(np.asarray(problem.joint) == 0)
+    return rows if len(rows) % 6 == 0 else rows[: len(rows) - len(rows) % 6]
+
+
+def base_axis_errors(
+    problem: IdentificationProblem, base: np.ndarray, predicted: np.ndarray | None = None
+) -> dict[str, dict[str, float]]:
+    """The error of each base row (``fx`` … ``tz``) of base parameters ``base`` on ``problem``: ``{axis: {"rms",
+    "rel_rms_percent"}}`` [N or N·m], against the wrench as prepared; {} without base rows.  ``predicted``:
+    ``problem.predict(base)`` when already computed (a pass over the regressor's blocks)."""
+    rows = _base_rows(problem)
+    if not len(rows):
+        return {}
+    y = np.asarray(problem.tau)[rows].reshape(-1, 6)
+    predicted = problem.predict(base) if predicted is None else predicted
+    e = y - np.asarray(predicted)[rows].reshape(-1, 6)
+    rms, ref = np.sqrt(np.mean(e**2, axis=0)), np.sqrt(np.mean(y**2, axis=0))
+    return {
+        a: {"rms": float(r), "rel_rms_percent": float(100 * r / f) if f > 0 else float("nan")}
+        for a, r, f in zip(BASE_AXES, rms, ref)
+    }
+
+
+def _predict_all(problem: IdentificationProblem, bases: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """``problem.predict`` of every base vector in one pass over the regressor's blocks (each pass rebuilds them)."""
+    if not bases:
+        return {}
+    B = np.column_stack([np.asarray(b, dtype=float) for b in bases.values()])
+    if not problem.blocked:
+        P = problem.W @ B
+    else:
+        P = np.empty((problem.rows, B.shape[1]))
+        for r, Wk in problem.regressor_rows.blocks():
+            P[r : r + len(Wk)] = Wk @ B
+    return {m: P[:, k] for k, m in enumerate(bases)}
+
+
+def _yaw(quat: np.ndarray) -> np.ndarray:
+    """Heading [rad] of (N, 4) quaternions ``x, y, z, w`` (the yaw of R = Rz(yaw)·Ry(pitch)·Rx(roll))."""
+    x, y, z, w = np.asarray(quat, dtype=float).T
+    return np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+
+
+def joint_chains(model) -> list[list[str]]:
+    """The actuated joints of a floating ``model`` grouped in unbranched chains (a leg, an arm, the torso up to
+    where the arms part, the neck), each in the model's order: a chain starts at a joint whose parent is the base
+    or has several child joints."""
+    m = model.ff_model
+    ids = {name: m.getJointId(name) for name in model.joint_names}
+    children: dict[int, int] = {}
+    for j in range(2, m.njoints):
+        children[m.parents[j]] = children.get(m.parents[j], 0) + 1
+    chains: dict[int, list[str]] = {}
+    for name, j in ids.items():
+        head = j
+        while m.parents[head] > 1 and children.get(m.parents[head], 0) == 1:
+            head = m.parents[head]
+        chains.setdefault(head, []).append(name)
+    return list(chains.values())
+
+
+def floating_curves(run: FloatingStack, ident, model: FloatingRobotModel) -> dict:
+    """What the floating figures draw (:mod:`pinid.report.plot_floating`; not saved): ``"wrench"`` — the base
+    wrench measured and predicted by the best method on the first validation recording (else the first training
+    one), per axis; ``"chains"`` — the model's joints by chain (:func:`joint_chains`); ``"determined"`` — per base
+    parameter, whether the best method's 2σ is within EXCITED_FRACTION of its natural scale;
+    ``"contacts"`` — the normal force of each measured wrench on that recording; ``"base"`` — the
+    base position and heading of every recording, by role.  Each method's per-axis errors go into its
+    ``info["base_axes"]`` (``{"on": "validation" | "training", axis: {"rms", "rel_rms_percent"}}``)."""
+    problem, samples, on = (
+        (run.validation, run.validation_samples, "validation")
+        if run.validation is not None
+        else (run.problem, run.train, "training")
+    )
+    predictions = _predict_all(problem, {m: r.base for m, r in ident.results.items()})
+    for m, r in ident.results.items():
+        axes = base_axis_errors(problem, r.base, predictions[m])
+        if axes:
+            r.info["base_axes"] = {"on": on, **axes}
+    curves: dict = {}
+    rows = _base_rows(problem)
+    if len(rows) and ident.results:
+        first = np.asarray(problem.sample)[rows][::6] < samples[0].n  # the first recording's samples
+        keep = np.repeat(first, 6)
+        idx = np.asarray(problem.sample)[rows][::6][first]
+        measured = np.asarray(problem.tau)[rows][keep].reshape(-1, 6)
+        best = ident.best
+        predicted = {best: np.asarray(predictions[best])[rows][keep].reshape(-1, 6)}
+        curves["wrench"] = {
+            "t": samples[0].data.t[idx],
+            "measured": measured,
+            "predicted": predicted,
+            "source": samples[0].source,
+            "kind": on,
+        }
+    s = samples[0]
+    if s.wrenches:
+        curves["contacts"] = {
+            "t": s.data.t,
+            "forces": {w.link: np.asarray(w.values)[:, 2] for w in s.wrenches},
+            "source": s.source,
+            "kind": on,
+        }
+    curves["chains"] = joint_chains(model)
+    if ident.results:  # the base parameters the data determine (the parameter figure's), by the warning's rule
+        std = np.asarray(ident.results[ident.best].std, dtype=float)
+        scale = np.asarray(run.problem.natural_scale, dtype=float)
+        curves["determined"] = (np.isfinite(std) & (2 * std <= EXCITED_FRACTION * scale)).tolist()
+    curves["base"] = [
+        {
+            "label": f"{role}: {Path(str(r.source)).name}",
+            "t": r.data.t,
+            "position": r.base_q[:, :3],
+            "yaw": _yaw(r.base_q[:, 3:]),
+        }
+        for role, group in (("training", run.train), ("validation", run.validation_samples))
+        for r in group
+        if np.any(r.base_q[:, :3])  # an IMU gives no position
+    ]
+    return curves
 
 
 def floating_truth(truth, problem) -> np.ndarray:
@@ -208,14 +360,14 @@ def recording_hints(rec, model: FloatingRobotModel) -> list[str]:
     return hints
 
 
-def _check_total_mass(ident, hints: list[str], source: str) -> None:
+def _check_total_mass(ident, hints: list[str], source: str, base) -> None:
     """Warn when a method's total mass is outside ``MASS_WARNED`` × the URDF's, refuse (DataError) when every
     method's is outside ``MASS_REFUSED`` × or negative, naming the likely cause."""
-    names = ident.base.get("names") or []
-    if not names or names[0] != "base.mR":
+    c = total_mass_combination(base)  # base.mR on most robots; any combination the rows determine
+    if c is None:
         return
-    nominal = float(ident.base["nominal"][0])
-    masses = {m: float(r.base[0]) for m, r in ident.results.items()}
+    nominal = float(c @ np.asarray(ident.base["nominal"], dtype=float))
+    masses = {m: float(c @ np.asarray(r.base, dtype=float)) for m, r in ident.results.items()}
     if nominal <= 0 or not masses:
         return
     odd = {m: v for m, v in masses.items() if not MASS_WARNED[0] <= v / nominal <= MASS_WARNED[1]}

@@ -67,25 +67,32 @@ def flipped_floating_signs(model, samples, *, limit: int = 5000, found: dict | N
 COM_WARNED = 0.10
 
 
-def whole_body_com(model, terms, base, q: np.ndarray, values: np.ndarray) -> np.ndarray:
-    """The whole-body centre of mass [m] in the base frame at joint positions ``q`` (nv,) of each base vector
-    ``values`` (k, nb) whose first entry is the total mass ``base.mR``: the first moments ``h = Σ mᵢcᵢ`` read
-    from the moment rows of the base at rest in three base orientations (``moment = g_b × h``, g in the
-    base frame), divided by the mass."""
-    if not hasattr(model, "ff_model") or not hasattr(base, "independent"):
-        raise SpecError("whole_body_com: expected a FloatingRobotModel, its terms and base parameters")
-    values = np.atleast_2d(np.asarray(values, dtype=float))
-    return values @ first_moment_map(model, terms, base, q).T / values[:, :1]
+def total_mass_combination(base) -> np.ndarray | None:
+    """(nb,) the combination c of the base parameters that is the total mass, ``Σ mᵢ = cᵀ·x`` (the sum of every
+    body's ``.m`` standard parameter, in the row space of the base map ``P``); None when the rows used do not
+    determine the total mass (a fixed base, the joint rows alone).  On a floating base with the base rows the QR
+    may lead the mass group with any body's mass (``torso_roll.mR`` on the iCub), so its name does not say it."""
+    names = list(getattr(base, "standard_names", []))
+    e = np.array([n.endswith(".m") for n in names], dtype=float)
+    if not e.any():
+        return None
+    P = np.asarray(base.P, dtype=float)
+    c = np.linalg.lstsq(P.T, e, rcond=None)[0]
+    if np.linalg.norm(P.T @ c - e) > 1e-8 * np.linalg.norm(e):
+        return None
+    return np.where(np.abs(c) < 1e-12, 0.0, c)
 
 
-def first_moment_map(model, terms, base, q: np.ndarray) -> np.ndarray:
-    """The (3, nb) matrix ``H`` that gives the whole-body first moments ``h = Σ mᵢcᵢ = H @ values`` [kg·m] (base
-    frame, joint positions ``q``) of a base vector: read from the moment rows of the base at rest in three base
-    orientations (``moment = g_b × h``, g in the base frame); :func:`whole_body_com` divides by the mass."""
+def first_moments_map(model, terms, base, q: np.ndarray) -> np.ndarray:
+    """(3, nb): the whole-body first moments ``h = Σ mᵢcᵢ = L·x`` [kg·m] of base parameters x, in the base frame
+    at joint positions ``q`` (nv,): read from the moment rows of the base at rest in three base orientations
+    (``moment = g_b × h``, g in the base frame), by least squares."""
     import pinocchio as pin
 
     from pinid.model.regressor import regressor
 
+    if not hasattr(model, "ff_model") or not hasattr(base, "independent"):
+        raise SpecError("whole_body_com: expected a FloatingRobotModel, its terms and base parameters")
     g = np.asarray(model.ff_model.gravity.linear)
     A, Y = [], []
     zero6, zero = np.zeros((1, 6)), np.zeros((1, model.nv))
@@ -100,8 +107,17 @@ def first_moment_map(model, terms, base, q: np.ndarray) -> np.ndarray:
         Y.append(W[3:6][:, base.independent])
         gb = R.T @ g
         A.append(pin.skew(gb))  # the moment the base must receive to hold the robot still: g_b × h
-    A, Y = np.vstack(A), np.vstack(Y)
-    return np.linalg.lstsq(A, Y, rcond=None)[0]  # (3, nb)
+    return np.linalg.lstsq(np.vstack(A), np.vstack(Y), rcond=None)[0]
+
+
+def whole_body_com(model, terms, base, q: np.ndarray, values: np.ndarray, mass: np.ndarray | None = None) -> np.ndarray:
+    """The whole-body centre of mass [m] in the base frame at joint positions ``q`` (nv,) of each base vector
+    ``values`` (k, nb): the first moments ``h`` (:func:`first_moments_map`) divided by the total mass ``cᵀ·x``
+    (``mass``: c, :func:`total_mass_combination`; default the first entry, ``base.mR``)."""
+    values = np.atleast_2d(np.asarray(values, dtype=float))
+    L = first_moments_map(model, terms, base, q)
+    c = np.eye(values.shape[1])[0] if mass is None else np.asarray(mass, dtype=float)
+    return (values @ L.T) / (values @ c)[:, None]
 
 
 #: ... and when the offset is this many of its standard deviations or more (:func:`com_offset_std`): an offset
@@ -110,17 +126,21 @@ def first_moment_map(model, terms, base, q: np.ndarray) -> np.ndarray:
 COM_SIGMAS = 3.0
 
 
-def com_offset_std(H: np.ndarray, values: np.ndarray, std: np.ndarray, offset: np.ndarray) -> float:
-    """The standard deviation [m] of a method's whole-body centre of mass ``c = H @ values / values[0]`` along its
-    ``offset`` from the URDF's, from the base parameters' σ ``std`` (first order: ``J = (H − c e₀ᵀ) / m``).  The
-    σ are per parameter (their correlations are not kept), so it is bounded by the sum ``Σ |uᵀJⱼ| σⱼ``, which holds
-    for any correlation; NaN where a σ is not known (a metaheuristic's, an SDP value on a bound)."""
+def com_offset_std(H: np.ndarray, values: np.ndarray, std: np.ndarray, offset: np.ndarray, mass=None) -> float:
+    """The standard deviation [m] of a method's whole-body centre of mass ``H @ values / m`` along its ``offset``
+    from the URDF's, from the base parameters' σ ``std``, with the total mass ``m = massᵀ·values`` (``mass``: the
+    combination :func:`total_mass_combination`; default the first entry, ``base.mR``), to first order
+    (``J = (H − com·massᵀ) / m``).  The σ are per parameter (their correlations are not kept), so it is bounded by
+    the sum ``Σ |uᵀJⱼ| σⱼ``, which holds for any correlation; NaN where a σ is not known (a metaheuristic's, an
+    SDP value on a bound)."""
     values, std = np.asarray(values, dtype=float), np.asarray(std, dtype=float)
+    c = np.eye(len(values))[0] if mass is None else np.asarray(mass, dtype=float)
+    m = float(values @ c)
     norm = float(np.linalg.norm(offset))
-    if norm == 0 or values[0] <= 0 or std.shape != values.shape or not np.all(np.isfinite(std)):
+    if norm == 0 or m <= 0 or std.shape != values.shape or not np.all(np.isfinite(std)):
         return float("nan")
-    c = H @ values / values[0]
-    J = (H - np.outer(c, np.eye(len(values))[0])) / values[0]
+    com = H @ values / m
+    J = (H - np.outer(com, c)) / m
     return float(np.abs((offset / norm) @ J) @ std)
 
 
@@ -137,17 +157,15 @@ def com_warning(ident, model, terms, base, q: np.ndarray, source: str, hints=())
 
     if not hasattr(ident, "results") or not hasattr(model, "ff_model") or not isinstance(source, str):
         raise SpecError("com_warning: expected an Identification, its FloatingRobotModel and a source name")
-    names = ident.base.get("names") or []
-    if not names or names[0] != "base.mR" or not ident.results:
+    mass = total_mass_combination(base)
+    if mass is None or not ident.results:
         return None
     methods = list(ident.results)
     values = np.array([ident.base["nominal"]] + [ident.results[m].base for m in methods])
-    if np.any(values[:, 0] <= 0):
+    if np.any(values @ mass <= 0):
         return None  # the total mass's own check says it
-    if not hasattr(base, "independent"):
-        raise SpecError("com_warning: expected a FloatingRobotModel, its terms and base parameters")
-    H = first_moment_map(model, terms, base, np.asarray(q, dtype=float))
-    com = values @ H.T / values[:, :1]
+    H = first_moments_map(model, terms, base, np.asarray(q, dtype=float))
+    com = values @ H.T / (values @ mass)[:, None]
     m, d = model.ff_model, model.ff_model.createData()
     pin.framesForwardKinematics(m, d, np.r_[0, 0, 0, 0, 0, 0, 1.0, model.configuration(q)])
     size = max(float(np.linalg.norm(f.translation)) for f in d.oMf)
@@ -155,7 +173,7 @@ def com_warning(ident, model, terms, base, q: np.ndarray, source: str, hints=())
     sigma = {}
     for k, c in zip(methods, com[1:]):
         ident.results[k].info["com"] = c.tolist()
-        sigma[k] = com_offset_std(H, values[1 + methods.index(k)], ident.results[k].std, c - com[0])
+        sigma[k] = com_offset_std(H, values[1 + methods.index(k)], ident.results[k].std, c - com[0], mass=mass)
         ident.results[k].info["com_offset_std"] = sigma[k] if np.isfinite(sigma[k]) else None
     ident.data["com_urdf"] = com[0].tolist()
     # far (COM_WARNED of the size) and known to be far (COM_SIGMAS σ): a centre of mass the data leave

@@ -118,6 +118,8 @@ def identification_text(ident, *, verbose: bool = False) -> str:
     floor = floor_line(ident)
     if floor is not None:
         lines += textwrap.wrap(floor, 120, subsequent_indent="  ", break_on_hyphens=False)
+    for line in axis_lines(ident) + mass_lines(ident):
+        lines += textwrap.wrap(line, 120, subsequent_indent="  ", break_on_hyphens=False)
     best = ident.results.get(ident.best) if ident.results else None
     if best is not None and len(best.base) and not np.all(np.isnan(best.std)):
         sp = best.std_percent
@@ -132,6 +134,50 @@ def identification_text(ident, *, verbose: bool = False) -> str:
     if best is not None and best.warning:  # one warning, wrapped to the terminal's 120 columns
         lines += textwrap.wrap(best.warning, 120, subsequent_indent="  ", break_on_hyphens=False)
     return "\n".join(lines)
+
+
+def _pm(value: float, std: float, digits: str = ".4g") -> str:
+    """``value ± σ`` (σ to 2 digits; "σ —" when there is none)."""
+    return f"{value:{digits}} ± {std:.2g}" if np.isfinite(std) else f"{value:{digits}} (σ —)"
+
+
+def axis_lines(ident) -> list[str]:
+    """A floating base's error per base axis (``info["base_axes"]``) of the best method: RMS [N, N·m] and % of the
+    measured RMS, forces then moments; [] otherwise."""
+    if not hasattr(ident, "results"):
+        raise SpecError(f"ident: got {type(ident).__name__}, expected an Identification")
+    best = ident.results.get(ident.best) if ident.results else None
+    axes = (best.info.get("base_axes") if best is not None else None) or {}
+    if not axes:
+        return []
+    cells = [
+        f"{a} {v['rms']:.3g} {'N' if a.startswith('f') else 'N·m'} ({v['rel_rms_percent']:.3g} %)"
+        for a, v in axes.items()
+        if isinstance(v, dict)
+    ]
+    return [f"base wrench, {axes.get('on', 'validation')} RMS per axis ({ident.best}): " + ", ".join(cells)]
+
+
+def mass_lines(ident) -> list[str]:
+    """The total mass and the whole-body centre of mass of each method with σ (a floating base whose rows determine
+    them: ``info["total_mass"]``, ``info["com"]``, ``info["com_std"]``), beside the URDF's; [] otherwise."""
+    if not hasattr(ident, "results"):
+        raise SpecError(f"ident: got {type(ident).__name__}, expected an Identification")
+    have = {m: r for m, r in ident.results.items() if "total_mass" in r.info}
+    if not have:
+        return []
+    d = ident.data
+    urdf = f" (URDF {d['total_mass_urdf']:.4g} kg)" if "total_mass_urdf" in d else ""
+    lines = ["total mass [kg]: " + ", ".join(f"{m} {_pm(**r.info['total_mass'])}" for m, r in have.items()) + urdf]
+    com = [
+        f"{m} ({', '.join(_pm(c, s, '.3g') for c, s in zip(r.info['com'], r.info.get('com_std', [np.nan] * 3)))})"
+        for m, r in have.items()
+        if "com" in r.info
+    ]
+    if com:
+        urdf = f"; URDF ({', '.join(f'{c:.3g}' for c in d['com_urdf'])})" if "com_urdf" in d else ""
+        lines.append("centre of mass [m] (x, y, z in the base frame, mean training posture): " + ", ".join(com) + urdf)
+    return lines
 
 
 def _held_out_lines(curve: str) -> list[str]:

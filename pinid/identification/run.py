@@ -24,6 +24,7 @@ from pinid.data.dataset import Dataset, as_dataset
 from pinid.data.delay import parse_delay, shift_torque
 from pinid.errors import DataError, SpecError
 from pinid.estimators import ESTIMATORS, make_estimator
+from pinid.identification.mass import fixed_total_mass
 from pinid.identification.metrics import joint_units, torque_metrics
 from pinid.identification.offsets import check_offset_options, offset_validation, offsets_summary, profile_offsets
 from pinid.problem.problem import (
@@ -476,7 +477,6 @@ def identify(
             dict(methods=methods, options=options, complete=complete, show_progress=show_progress, started=started)
             | {"workers": workers},
             unsupported=dict(
-                manifest=manifest,
                 payload=payload,
                 payload_data=payload_data,
                 stribeck_velocity=stribeck_velocity,
@@ -601,6 +601,7 @@ def identify(
             got = val_offsets[m] if val_sets else []
             sources = [d.source for d in checked] if val_sets else []
             r.info["offsets"] = offsets_summary(s.offsets, s.offsets.offsets(r.base), got, sources)
+    fixed_total_mass(s, results, summary, nominal)  # where a fixed base's rows determine it (issue 46)
     return Identification(
         robot=robot_to_dict(model, terms),
         results=results,
@@ -629,6 +630,7 @@ def _setup_floating(study: Study) -> Setup:
     from pinid.data.preprocess import Preprocessing
     from pinid.identification.calibration import fit_calibration
     from pinid.identification.floating import FloatingStack, as_floating_options, recording_hints, refuse_fixed_only
+    from pinid.identification.floating import rows_without_torque
     from pinid.identification.floating_checks import (
         cop_offset_warning,
         flipped_floating_signs,
@@ -638,7 +640,7 @@ def _setup_floating(study: Study) -> Setup:
     from pinid.model.floating import as_floating
     from pinid.problem.floating import floating_problem
 
-    fixed_only = ("manifest", "segmental", "payload", "payload_data", "stribeck_velocity", "stribeck_shape")
+    fixed_only = ("segmental", "payload", "payload_data", "stribeck_velocity", "stribeck_shape")
     refuse_fixed_only(
         {k: getattr(study, k) for k in (*fixed_only, "fit_joints", "delay")}
         | {"terms": "auto" if _is_auto(study.terms) else None}
@@ -673,6 +675,7 @@ def _setup_floating(study: Study) -> Setup:
 
     load = dict(swing_rows=opts.swing_rows)
     train = load_datasets(study.data, model, mapping, preprocess, check=check, **load)
+    opts = rows_without_torque(opts, train)  # no joint torque: the base rows, said in one line
     calibration = fit_calibration(model, train, opts.calibration, motion_capture=all(motion_capture))
     train = calibration.apply(train)  # the same calibration for the validation recordings, below
     # the joint torques' sign and scale, and the plates' centres of pressure, are judged against the measured
@@ -696,7 +699,16 @@ def _setup_floating(study: Study) -> Setup:
             "wrench applied by the environment on the robot) or joint torques with --rows all"
         )
     stack = FloatingStack(
-        problem, val_problem, train, val, hints, flipped, sources, found.get("torque_scale"), calibration
+        problem,
+        val_problem,
+        train,
+        val,
+        hints,
+        flipped,
+        sources,
+        torque_scale=found.get("torque_scale"),
+        calibration=calibration,
+        rows=opts.rows,
     )
     validation = {"validation": [s.data for s in val]} if val_problem is not None else {}
     return Setup(model, problem.terms, problem.base, problem, [s.data for s in train], validation, floating=stack)
@@ -732,7 +744,7 @@ def _identify_floating(study: Study, running: dict, *, unsupported: dict) -> Ide
         data=problem.summary()
         | {
             "base": "floating",
-            "rows": opts.rows,
+            "rows": run.rows,
             "base_weight": opts.base_weight,
             "rows_per_sample": int(problem.rows // max(problem.samples, 1)),
         }
@@ -751,7 +763,7 @@ def _identify_floating(study: Study, running: dict, *, unsupported: dict) -> Ide
         curves={"motion": {"source": ds.source, "t": ds.t, "q": ds.q, "dq": ds.dq}},
         floor=floor,
     )
-    check_floating(run, ident, model, opts.rows)
+    check_floating(run, ident, model, run.rows)  # and the floating figures' traces, each axis's error
     ident.seconds = time.perf_counter() - t_start
     return ident
 

@@ -161,11 +161,7 @@ class Study:
 
         if model is None:
             raise SpecError("Study.from_manifest: a manifest does not name the robot, expected model=")
-        model = _resolve(model)
-        if getattr(model, "ff_model", None) is not None:  # refused before its recordings are read as floating ones
-            from pinid.identification.floating import refuse_fixed_only
-
-            refuse_fixed_only({"manifest": manifest})
+        model = _resolve(model)  # a floating robot's recordings are read with their base and contact channels
         m = manifest if isinstance(manifest, Manifest) else Manifest.load(as_path(manifest, "manifest"))
         keys = {"data": "data", "validate": "validate", "payload": "payload", "payload_data": "payload data"}
         clash = [

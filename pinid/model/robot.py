@@ -89,6 +89,11 @@ class JointInfo:
     effort: float
 
 
+#: A joint velocity limit above this [rad/s or m/s] is a URDF's placeholder (the iCub's: 50000), not a limit:
+#: random states (base parameters) then draw speeds as for a joint without one.
+VELOCITY_PLACEHOLDER = 100.0
+
+
 class RobotModel:
     """A fixed-base serial (or tree) robot with one degree of freedom per active joint.
 
@@ -503,15 +508,15 @@ class RobotModel:
         self, n: int, rng: np.random.Generator, *, acceleration: float = 5.0
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``n`` random (q, dq, ddq) inside the position and velocity limits; |ddq| ≤ ``acceleration``.  A velocity
-        limit above :data:`RANDOM_VELOCITY_CAP` (a URDF's placeholder: iCub's 5e4 rad/s, solo12's 1000) is taken as
-        that cap: at such speeds the velocity-squared columns drown gravity's below the rank tolerance, and the base
-        parameters computed from these states lose the total mass (issue 46)."""
+        limit that is missing, or above :data:`VELOCITY_PLACEHOLDER` (a URDF's placeholder), draws |dq| ≤ 2 rad/s."""
         n = count(n, "n", low=1)
         acceleration = number(acceleration, "acceleration", low=0)
         lo = np.where(np.isfinite(self.lower), self.lower, -np.pi)
         hi = np.where(np.isfinite(self.upper), self.upper, np.pi)
-        vmax = np.where(np.isfinite(self.velocity_limit) & (self.velocity_limit > 0), self.velocity_limit, 2.0)
-        vmax = np.minimum(vmax, RANDOM_VELOCITY_CAP)
+        v = self.velocity_limit
+        # a placeholder limit (the iCub's URDF says 50000 rad/s) counts as none: random speeds of that size make
+        # the centripetal columns 1e10 × the gravity ones, and base_parameters drops the masses as zero columns
+        vmax = np.where(np.isfinite(v) & (v > 0) & (v <= VELOCITY_PLACEHOLDER), v, 2.0)
         q = rng.uniform(lo, hi, size=(n, self.nv))
         dq = rng.uniform(-vmax, vmax, size=(n, self.nv))
         ddq = rng.uniform(-acceleration, acceleration, size=(n, self.nv))
@@ -519,10 +524,6 @@ class RobotModel:
 
     def __repr__(self) -> str:
         return f"RobotModel({self.name!r}, joints={self.joint_names})"
-
-
-#: The largest speed [rad/s or m/s] of :meth:`RobotModel.random_states` (the states base parameters are computed from).
-RANDOM_VELOCITY_CAP = 20.0
 
 
 def _with_setting(settings: dict[str, object], name: str, value: object) -> dict[str, object]:

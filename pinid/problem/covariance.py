@@ -112,9 +112,10 @@ def _exact(problem, e: np.ndarray) -> bool:
     return tau is not None and float(np.linalg.norm(e)) <= 1e-9 * float(np.linalg.norm(tau))
 
 
-def _no_sigma(why: str, nb: int) -> np.ndarray:
+def _no_sigma(why: str, nb: int, full: bool = False) -> np.ndarray:
+    """NaN standard deviations (or with ``full`` a NaN covariance) and the warning ``why``."""
     warnings.warn(why, DataWarning, stacklevel=3)
-    return np.full(nb, np.nan)
+    return np.full((nb, nb) if full else nb, np.nan)
 
 
 def andrews_bandwidth(g: np.ndarray) -> int:
@@ -169,14 +170,22 @@ STREAM_SCORES_BYTES = 32 * 2**20
 
 
 def hac_std(
-    problem, e: np.ndarray, Rinv: np.ndarray, scale: np.ndarray, dof: int, *, weights: np.ndarray | None = None
+    problem,
+    e: np.ndarray,
+    Rinv: np.ndarray,
+    scale: np.ndarray,
+    dof: int,
+    *,
+    weights: np.ndarray | None = None,
+    full: bool = False,
 ) -> np.ndarray:
     """HAC standard deviations of the base parameters of ``problem`` (an identification problem) from its
     weighted residuals ``e = w·r`` (rows,), per recording; ``Rinv``, ``scale``: the inverse of the compressed
     ``R`` and its column scale (:meth:`~pinid.problem.problem.IdentificationProblem.compressed`); ``dof``:
     rows − nb; ``weights``: when given, ``e`` is the residual ``r`` and ``w·r`` is formed block by block.
     The scores are summed per sample (all joints); while the problem holds no tall ``W`` they are formed
-    block by block, twice (the bandwidths, then the Bartlett sums), and never held whole (issue 35)."""
+    block by block, twice (the bandwidths, then the Bartlett sums), and never held whole (issue 35).  ``full``:
+    the whole covariance matrix (nb, nb) instead of the standard deviations (for a combination's σ, issue 46)."""
     rows = getattr(problem, "regressor_rows", None)
     Binv = Rinv @ Rinv.T
     blocked = rows is not None and getattr(problem, "blocked", False)
@@ -186,11 +195,11 @@ def hac_std(
         sizes = [ds.n for ds in rows.datasets]
         why = None if _exact(problem, e) else short_recording(sizes, lags, problem.nb)
         if why:
-            return _no_sigma(why, problem.nb)
+            return _no_sigma(why, problem.nb, full)
         for lag, n, blocks in zip(lags, sizes, _recording_scores(rows, e, weights, scale)):
             S += _streamed_long_run(blocks, lag, problem.nb) / fixed_b_factor(lag, n)
         cov = Binv @ S @ Binv * (problem.rows / dof)
-        return np.sqrt(np.clip(np.diag(cov), 0.0, None)) / scale
+        return _unscaled(cov, scale, full)
     sample = np.asarray(problem.sample, dtype=int)
     sizes = [ds.n for ds in rows.datasets] if rows is not None else getattr(problem, "recording_sizes", None)
     if sizes is None:
@@ -209,7 +218,14 @@ def hac_std(
     cov, lags = hac_covariance(Binv, g, list(zip(edges[:-1], edges[1:])), problem.rows / dof)
     why = None if _exact(problem, e) else short_recording(sizes, lags, problem.nb)
     if why:
-        return _no_sigma(why, problem.nb)
+        return _no_sigma(why, problem.nb, full)
+    return _unscaled(cov, scale, full)
+
+
+def _unscaled(cov: np.ndarray, scale: np.ndarray, full: bool) -> np.ndarray:
+    """The standard deviations (or with ``full`` the covariance) in the parameters' units from the scaled ``cov``."""
+    if full:
+        return cov / np.outer(scale, scale)
     return np.sqrt(np.clip(np.diag(cov), 0.0, None)) / scale
 
 

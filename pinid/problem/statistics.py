@@ -63,6 +63,20 @@ def base_statistics(
     return std, cond, cond_scaled
 
 
+def base_covariance(problem: Problem, base: np.ndarray, weights: np.ndarray | None = None) -> np.ndarray:
+    """The Newey–West covariance (nb, nb) of base parameters fitted with row ``weights`` (the sandwich whose
+    diagonal :func:`base_statistics` gives as σ²); NaN where the compressed regressor is singular."""
+    w = problem.weights if weights is None else weights
+    r = problem.tau - problem.predict(base)  # block by block while the tall W is not built
+    dof = max(problem.rows - problem.nb - _offset_columns(problem), 1)
+    R, _, _, scale = problem.compressed(weights)
+    try:
+        Rinv = scipy.linalg.solve_triangular(R, np.eye(len(R)))
+        return hac_std(problem, r, Rinv, scale, dof, weights=unit_weights(w), full=True)
+    except (np.linalg.LinAlgError, ValueError):
+        return np.full((problem.nb, problem.nb), np.nan)
+
+
 def completed_standard(model: RobotModel, terms: TermSelection, base: BaseParameters, values: np.ndarray) -> np.ndarray:
     """The standard vector closest to the nominal one (in the scaled norm) with ``base.P·θ = values``."""
     nominal = standard_parameters(model, terms)

@@ -35,6 +35,7 @@ from pinid.report.plot_identification import (
 )
 from pinid.report.plot_choices import cross_validation_figure
 from pinid.report.plot_parameters import parameter_plausibility
+from pinid.report.floating import floating_figure_lines, floating_recipes, mass_section
 
 #: Every file a report writes (patterns): what ``pinid identify --force`` removes of an earlier run's report.
 REPORT_FILES = (
@@ -46,6 +47,9 @@ REPORT_FILES = (
     "training_motion.png",
     "cross_validation.png",
     "torque_*.png",
+    "base_wrench.png",
+    "contacts.png",
+    "base_trajectory.png",
 )
 
 
@@ -80,6 +84,7 @@ def figure_names(ident) -> dict[str, str]:
         "choices": "cross_validation.png",
     }
     names.update({f"torque_{m}": f"torque_{m}.png" for m in ident.results})
+    names.update({"wrench": "base_wrench.png", "contacts": "contacts.png", "base_motion": "base_trajectory.png"})
     return names
 
 
@@ -88,7 +93,13 @@ def shown_figures(ident) -> list[str]:
     if not ident.results:
         return []
     chosen = ["choices"] if _choices(ident) else []
-    return ["errors", "parameters", "predictions", "motion", *chosen, f"torque_{ident.best}"]
+    floating = ["wrench", "contacts", "base_motion"] if _floating(ident) else []
+    return ["errors", "parameters", *floating, "predictions", "motion", *chosen, f"torque_{ident.best}"]
+
+
+def _floating(ident) -> bool:
+    """A floating base's identification (its figures: pinid.report.plot_floating)."""
+    return (ident.data or {}).get("base") == "floating"
 
 
 def _choices(ident) -> dict:
@@ -163,6 +174,9 @@ def figure_recipes(ident) -> dict[str, Recipe]:
     choices = _choices(ident)
     if choices:
         figs["choices"] = (cross_validation_figure, (choices.get("cutoff"), choices.get("terms")), {})
+    if _floating(ident):
+        figs.update(floating_recipes(ident, joints, WINDOW))
+        return figs
     metrics = {m: (r.validation if r.validation is not None else r.train) for m, r in ident.results.items()}
     if metrics:
         kind = "validation" if all(r.validation is not None for r in ident.results.values()) else "training"
@@ -289,7 +303,10 @@ def floor_line(ident) -> str | None:
         f"{j} {number_text(m['rel_rms_percent'], '.3g')}"
         + (f" ({ident.best} {number_text(val.per_joint[j]['rel_rms_percent'], '.3g')})" if val is not None else "")
         for j, m in floor.per_joint.items()
+        if np.isfinite(m.get("rel_rms_percent", np.nan))  # the rows used only: no joint of a base-rows fit
     ]
+    if not cells:
+        return None
     return (
         f"model-class floor, valid. RMS raw % (the same terms fitted by OLS on the validation recording itself): "
         f"{', '.join(cells)}; near the floor the model class limits the result, far above it the identification"
@@ -307,7 +324,9 @@ SUMMARY_NOTE = (
 def _comparison_figures(ident, figures: dict[str, str]) -> list[str]:
     """The summary's figures (those of ``figures``' keys that exist), each with a line saying what it shows."""
     lines = []
-    if "errors" in figures:
+    if "errors" in figures and _floating(ident):
+        lines += ["", f"![RMS error per base axis (and joint) and method]({figures['errors']})"]
+    elif "errors" in figures:
         lines += ["", f"![absolute torque error: mean and [p5, p95] per joint and method]({figures['errors']})"]
     if "parameters" in figures:
         shown = ident.best + (" and ols" if "ols" in ident.results and ident.best != "ols" else "")
@@ -320,6 +339,7 @@ def _comparison_figures(ident, figures: dict[str, str]) -> list[str]:
             "",
             f"![base parameters: estimate ± 2σ against the URDF]({figures['parameters']})",
         ]
+    lines += floating_figure_lines(ident, figures)
     key = f"torque_{ident.best}"
     if key in figures:
         lines += [
@@ -502,6 +522,7 @@ def report_markdown(ident, figures: dict[str, str] | None = None) -> str:
         f"`model_{ident.best}.json`."
     )
     lines += _comparison_figures(ident, figures)
+    lines += mass_section(ident)
 
     lines += ["", "## Robot and data", ""]
     urdf = robot.get("urdf")
@@ -536,7 +557,8 @@ def report_markdown(ident, figures: dict[str, str] | None = None) -> str:
             "",
             "The training motion as recorded (after preprocessing): it decides how well each parameter is excited.",
             "",
-            f"![training motion: q and dq per joint]({figures['motion']})",
+            f"![training motion: {'joint positions per chain' if _floating(ident) else 'q and dq per joint'}]"
+            f"({figures['motion']})",
         ]
 
     lines += _choices_section(ident, figures)

@@ -121,11 +121,14 @@ def test_bad_floating_inputs_are_one_line_and_write_nothing(tmp_path):
         (["--data", "bad.csv", "--fit-joints", "l_knee"], "--fit-joints"),
         (["--data", "bad.csv", "--delay", "tau=0.05"], "--delay"),
         (["--data", "bad.csv", "--truth", "t.json"], "--truth"),
-        (["--manifest", "manifest.toml"], "--manifest"),
     ):
         proc = run_cli("identify", *EXO, *extra, "--no-report", "-o", "out", cwd=tmp_path)
         assert_clean_error(proc, f"{option}): not available with a floating base (docs/floating-base.md)")
         assert not (tmp_path / "out").exists()
+    # a manifest's recordings are read as floating ones (issue 46): the same check as --data
+    proc = run_cli("identify", *EXO, "--manifest", "manifest.toml", "--no-report", "-o", "out", cwd=tmp_path)
+    assert_clean_error(proc, "'nowhere' is not a link")
+    assert not (tmp_path / "out").exists()
     proc = run_cli(
         "identify", *EXO, "--data", "bad.csv", "--mapping", "m.toml", "--no-report", "-o", "out", cwd=tmp_path
     )

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from conftest import floating_excitation
-from pinid.errors import SolverError, SpecError
+from pinid.errors import DataWarning, SolverError, SpecError
 from pinid.identification.run import identify
 from pinid.identification.study import Study
 from pinid import DataError, RobotModel
@@ -251,6 +251,12 @@ def test_no_joint_torque_uses_the_base_rows_only(floating_exo, suspended, tmp_pa
     assert base[0] == pytest.approx(21.8, rel=5e-3)
     with pytest.raises(DataError, match="only the base rows can be used"):
         floating_problem(floating_exo, samples, rows="all")
+    # identify with the default rows: the base rows alone, said in one line (issue 46); rows="joints" is refused
+    with pytest.warns(DataWarning, match=r"no joint torque \(tau_<joint> columns\): the 6 base rows alone are used"):
+        ident = identify(Study(floating_exo, tmp_path / "w.csv", preprocess={"cutoff": 20.0}), methods=("ols",))
+    assert ident.data["rows"] == "base" and ident.results["ols"].base[0] == pytest.approx(base[0], rel=1e-9)
+    with pytest.raises(DataError, match="only the base rows can be used"):
+        identify(Study(floating_exo, tmp_path / "w.csv", floating={"rows": "joints"}), methods=("ols",))
 
 
 def test_rest_rows_left_out_on_request(floating_exo, gait):
