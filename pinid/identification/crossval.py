@@ -6,10 +6,17 @@ blocks but one and the held-out block is predicted and scored **against the torq
 samples every candidate keeps.  Blocks rather than random rows: the residuals of filtered recordings are
 correlated in time, and a random split scores a sample with its neighbours in the fit.
 
-Candidates are compared fold by fold: a difference counts when the mean of the paired fold differences
-exceeds :data:`STANDARD_ERRORS` standard errors of them (about a one-sided 95 % test).
-:mod:`pinid.identification.cutoff` (the low-pass cut-off) and :mod:`pinid.identification.term_choice` (the
-joint terms) use it.
+Candidates are compared fold by fold, on the paired differences of their held-out scores.  A candidate
+**wins** (:func:`better`: a term, a ripple, a cut-off is adopted) when its mean improvement exceeds the
+one-sided 95 % quantile of Student's t with ``blocks − 1`` degrees of freedom times the standard error of the
+differences — honest about how few blocks there are (2.13 for 5 blocks, 2.92 for 3, where the normal
+approximation's 2 was too lenient) — **and** lowers the pooled held-out score by at least
+:data:`MIN_GAIN` of it: a gain of 0.01 point is not worth a term, however steady.  Fewer than
+:data:`MIN_BLOCKS` scored blocks never win.  A fit whose held-out blocks score above :data:`UNSTABLE_PERCENT`
+(worse than predicting no torque at all) did not converge to anything usable (an ill-conditioned
+column, a Stribeck velocity far from the data's) and is reported as such, not scored (:func:`unstable`).
+:mod:`pinid.identification.cutoff` (the low-pass cut-off), :mod:`pinid.identification.term_choice` (the
+joint terms) and :mod:`pinid.identification.ripple_choice` (the ripple periods) use it.
 """
 
 from __future__ import annotations
@@ -27,8 +34,14 @@ from pinid.problem.problem import IdentificationProblem, base_regressor, check_d
 
 #: Contiguous blocks per training recording.
 FOLDS = 5
-#: A paired fold-by-fold difference counts when its mean exceeds this many standard errors.
-STANDARD_ERRORS = 2.0
+#: One-sided level of the paired t test of :func:`better` and :func:`not_worse`.
+LEVEL = 0.05
+#: A candidate must lower the held-out score by at least this fraction of it to win (:func:`better`).
+MIN_GAIN = 0.01
+#: Fewest scored blocks a comparison needs.
+MIN_BLOCKS = 3
+#: A held-out relative RMS [%] above this (worse than predicting zero torque) marks a fit that did not converge.
+UNSTABLE_PERCENT = 100.0
 
 
 @dataclass
@@ -125,23 +138,41 @@ def fold_scores(sums: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return pooled, per_fold
 
 
-def _paired(a: np.ndarray, b: np.ndarray) -> tuple[float, float] | None:
+def t_quantile(blocks: int, level: float = LEVEL) -> float:
+    """The one-sided ``1 − level`` quantile of Student's t with ``blocks − 1`` degrees of freedom."""
+    from scipy.stats import t  # loaded on use
+
+    return float(t.ppf(1.0 - level, max(int(blocks) - 1, 1)))
+
+
+def _paired(a: np.ndarray, b: np.ndarray) -> tuple[float, float, int] | None:
     d = np.asarray(a) - np.asarray(b)
     d = d[np.isfinite(d)]
-    if len(d) < 2:
+    if len(d) < MIN_BLOCKS:
         return None
-    return float(np.mean(d)), float(np.std(d, ddof=1) / np.sqrt(len(d)))
+    return float(np.mean(d)), float(np.std(d, ddof=1) / np.sqrt(len(d))), len(d)
 
 
 def not_worse(candidate: np.ndarray, reference: np.ndarray) -> bool:
-    """True when ``candidate``'s fold scores exceed ``reference``'s by at most :data:`STANDARD_ERRORS`
-    standard errors of the paired difference."""
+    """True when ``candidate``'s fold scores exceed ``reference``'s by at most the paired t test's margin
+    (:func:`t_quantile` standard errors of the paired difference)."""
     d = _paired(candidate, reference)
-    return d is not None and d[0] <= STANDARD_ERRORS * d[1]
+    return d is not None and d[0] <= t_quantile(d[2]) * d[1]
 
 
 def better(candidate: np.ndarray, reference: np.ndarray) -> bool:
-    """True when ``candidate``'s fold scores are below ``reference``'s by more than :data:`STANDARD_ERRORS`
-    standard errors of the paired difference (a measurable improvement)."""
-    d = _paired(candidate, reference)
-    return d is not None and -d[0] > STANDARD_ERRORS * d[1]
+    """True when ``candidate`` wins on the held-out blocks (module text): its fold scores below
+    ``reference``'s by more than the paired t test's margin, and by at least :data:`MIN_GAIN` of the
+    reference's mean score, on at least :data:`MIN_BLOCKS` blocks both scored."""
+    d = _paired(reference, candidate)
+    if d is None:
+        return False
+    both = np.isfinite(candidate) & np.isfinite(reference)
+    gain = d[0] >= MIN_GAIN * float(np.mean(np.asarray(reference)[both]))
+    return gain and d[0] > t_quantile(d[2]) * d[1]
+
+
+def unstable(per_fold: np.ndarray) -> bool:
+    """True when a candidate's held-out blocks score above :data:`UNSTABLE_PERCENT` (module text)."""
+    f = np.asarray(per_fold, dtype=float)
+    return bool(np.any(f[np.isfinite(f)] > UNSTABLE_PERCENT))

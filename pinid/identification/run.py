@@ -39,6 +39,7 @@ from pinid.parallel import check_workers
 from pinid.identification.segmental import SegmentalProblem
 from pinid.identification.study import Study
 from pinid.identification.stribeck import fit_velocity
+from pinid.identification.term_choice import has_drives, is_default, parse_auto
 from pinid.identification.truth import read_truth, true_base, truth_error
 from pinid.model.base import base_parameters
 from pinid.model.terms import TermSelection
@@ -121,9 +122,12 @@ def setup(
     model, data, validate, terms, mapping = study.model, study.data, study.validate, study.terms, study.mapping
     preprocess, rest_velocity, rest_fraction = study.preprocess, study.rest_velocity, study.rest_fraction
     segmental, fit_joints, delay = study.segmental, study.fit_joints, study.delay
-    auto_terms = _is_auto(terms)
+    keep = parse_auto(terms)  # terms "auto[,added…]": chosen by forward selection, starting from the added ones
+    auto_terms, default_terms = keep is not None, is_default(terms)
     model, terms = as_robot(model), TermSelection() if auto_terms else as_terms(terms)  # resolved ones as they are
     auto = dict(stribeck_auto or {})
+    # the default terms are chosen only where the rule was measured: one training set, no drives, no other choice
+    default_terms = default_terms and not (auto or segmental or study.offsets is not None or has_drives(model))
     if auto_terms and (auto or segmental):
         raise SpecError("terms auto with Stribeck velocity 'auto' or the segmental strategy: give the terms instead")
     fit = fit_mask(model, fit_joints)  # a bad joint name fails before any recording is read
@@ -160,7 +164,12 @@ def setup(
     if auto_terms:
         from pinid.identification.term_choice import choose_terms  # loaded on use
 
-        terms_choice = choose_terms(model, train, fit_joints=fitted, problem_options=rows)
+        terms_choice = choose_terms(model, train, fit_joints=fitted, problem_options=rows, keep=keep)
+        terms = final_terms = TermSelection(names=terms_choice.terms)
+    elif default_terms:
+        from pinid.identification.term_choice import choose_default_terms  # loaded on use
+
+        terms_choice = choose_default_terms(model, train, fit_joints=fitted, problem_options=rows)
         terms = final_terms = TermSelection(names=terms_choice.terms)
     ripple = None
     if ripple_auto:
@@ -447,14 +456,11 @@ def identify(
         study.payload_data,
     )
     fit_joints, delay, manifest, floating = study.fit_joints, study.delay, study.manifest, study.floating
-    rest_fraction, stribeck_velocity, stribeck_shape = (
-        study.rest_fraction,
-        study.stribeck_velocity,
-        study.stribeck_shape,
-    )
+    stribeck_velocity, stribeck_shape = study.stribeck_velocity, study.stribeck_shape
     if study.segmental is not None:
         raise SpecError("segmental: the seed-000 strategy of compare, not of identify")
-    auto_terms = _is_auto(terms)  # chosen by the training data
+    auto_spec = terms if parse_auto(terms) is not None else None  # chosen by the training data
+    auto_terms, default_terms = auto_spec is not None, is_default(terms)
     terms = TermSelection() if auto_terms else as_terms(terms)
     methods = parse_methods(methods)
     options = check_options(options, methods)
@@ -505,14 +511,14 @@ def identify(
         model=model,
         data=data,
         validate=validate,
-        terms="auto" if auto_terms else terms,
+        terms=auto_spec if auto_terms else "default" if default_terms else terms,
         preprocess=preprocess,
         payload=None,
         payload_data=None,
     )
     s = setup(used, show_progress=show_progress, stribeck_auto=auto)
     model = s.model  # with the fitted Stribeck shapes (auto): built once, used from here on
-    terms = s.terms if auto_terms else terms
+    terms = s.terms if auto_terms or default_terms else terms
     x_true = None if truth is None else true_base(truth, model, s.terms, s.base)  # checked before the fits
     check_recordings(s)
     if started is not None:
@@ -544,8 +550,8 @@ def identify(
             r.validation_filtered = torque_metrics(tau_all, pred, model.joint_names, units=units)
         from pinid.identification.floor import validation_floor
 
-        floor_terms = terms if s.offsets is None else TermSelection(names=[*terms.names, "offset"])
-        floor = validation_floor(model, floor_terms, checked, rest_velocity=rest_velocity, rest_fraction=rest_fraction)
+        floor, floor_fit = validation_floor(model, terms, checked, offsets_per_recording=s.offsets is not None)
+        summary["floor"] = floor_fit.to_dict()
         first = checked[0]
         curves = {
             "kind": "validation",
@@ -631,7 +637,7 @@ def _setup_floating(study: Study) -> Setup:
     fixed_only = ("manifest", "segmental", "payload", "payload_data", "stribeck_velocity", "stribeck_shape")
     refuse_fixed_only(
         {k: getattr(study, k) for k in (*fixed_only, "fit_joints", "delay")}
-        | {"terms": "auto" if _is_auto(study.terms) else None}
+        | {"terms": "auto" if parse_auto(study.terms) is not None else None}
     )  # identify and compare refuse theirs first, with their own arguments: this is for setup's own callers
     model, terms, opts = as_floating(study.model), as_terms(study.terms), as_floating_options(study.floating)
     preprocess, mapping, validate = study.preprocess, study.mapping, study.validate
