@@ -12,7 +12,7 @@ one-sided 95 % quantile of Student's t with ``blocks − 1`` degrees of freedom 
 differences — honest about how few blocks there are (2.13 for 5 blocks, 2.92 for 3, where the normal
 approximation's 2 was too lenient) — **and** lowers the pooled held-out score by at least
 :data:`MIN_GAIN` of it: a gain of 0.01 point is not worth a term, however steady.  Fewer than
-:data:`MIN_BLOCKS` scored blocks never win.  A fit whose held-out blocks score above :data:`UNSTABLE_PERCENT`
+:data:`MIN_BLOCKS` scored blocks never win, nor anything against a score at round-off (noise-free data).  A fit whose held-out blocks score above :data:`UNSTABLE_PERCENT`
 (worse than predicting no torque at all) did not converge to anything usable (an ill-conditioned
 column, a Stribeck velocity far from the data's) and is reported as such, not scored (:func:`unstable`).
 :mod:`pinid.identification.cutoff` (the low-pass cut-off), :mod:`pinid.identification.term_choice` (the
@@ -38,6 +38,8 @@ FOLDS = 5
 LEVEL = 0.05
 #: A candidate must lower the held-out score by at least this fraction of it to win (:func:`better`).
 MIN_GAIN = 0.01
+#: A reference scoring below this [%] is at round-off (noise-free data): nothing can win against it.
+ROUND_OFF_PERCENT = 1e-6
 #: Fewest scored blocks a comparison needs.
 MIN_BLOCKS = 3
 #: A held-out relative RMS [%] above this (worse than predicting zero torque) marks a fit that did not converge.
@@ -168,7 +170,8 @@ def better(candidate: np.ndarray, reference: np.ndarray) -> bool:
     if d is None:
         return False
     both = np.isfinite(candidate) & np.isfinite(reference)
-    gain = d[0] >= MIN_GAIN * float(np.mean(np.asarray(reference)[both]))
+    level = float(np.mean(np.asarray(reference)[both]))
+    gain = level > ROUND_OFF_PERCENT and d[0] >= MIN_GAIN * level
     return gain and d[0] > t_quantile(d[2]) * d[1]
 
 

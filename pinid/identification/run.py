@@ -177,6 +177,9 @@ def setup(
 
         ripple = choose_ripple_periods(model, train, terms, fit_joints=fitted, problem_options=rows)
         model = model.with_setting("ripple_periods", ripple.periods)
+        if not ripple.helps:  # a choice is adopted only when it wins on the held-out blocks (issue 44)
+            terms = TermSelection(names=[n for n in terms.names if not n.startswith("ripple_")])
+            final_terms = TermSelection(names=[n for n in final_terms.names if not n.startswith("ripple_")])
     sigmoid = None
     if _is_auto(model.setting("sigmoid")):  # the sigmoid friction's shape (identification.sigmoid)
         from pinid.identification.sigmoid import fit_sigmoid  # loaded on use (scipy.optimize)
@@ -588,8 +591,9 @@ def identify(
         summary["delay"] = s.delay
     if s.cutoff is not None:
         summary["cutoff"] = s.cutoff
-    if s.terms_choice is not None:
-        summary["terms_choice"] = s.terms_choice
+    if s.terms_choice is not None:  # the default terms' one test has a key of its own (no choices figure)
+        default = str(s.terms_choice.get("chosen_by", "")).startswith("default")
+        summary["default_terms" if default else "terms_choice"] = s.terms_choice
     if s.ripple is not None:
         summary["ripple_periods"] = s.ripple
     if s.sigmoid is not None:

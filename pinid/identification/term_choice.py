@@ -90,7 +90,7 @@ def is_default(terms) -> bool:
 def has_drives(model: RobotModel) -> bool:
     """True when ``model`` has motors (a URDF ``<transmission>`` or a drives file)."""
     drives = getattr(model, "drives", None)
-    return drives is not None and len(getattr(drives, "motors", [])) > 0
+    return drives is not None and len(getattr(drives, "motor_names", [])) > 0
 
 
 @dataclass(frozen=True)
