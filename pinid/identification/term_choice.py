@@ -37,6 +37,7 @@ from pinid.data.dataset import Dataset
 from pinid.errors import DataError, SpecError
 from pinid.identification.crossval import (
     FOLDS,
+    CandidateRows,
     block_edges,
     better,
     candidate_rows,
@@ -251,12 +252,45 @@ def choose_default_terms(
     prepared training recordings; on a robot with drives ``fc,fv`` as they are (nothing measured there)."""
     if has_drives(model):
         return TermsChoice(list(START), [], folds, {}, "default")
-    return choose_terms(
-        model,
-        prepared,
-        fit_joints=fit_joints,
-        problem_options=problem_options,
-        folds=folds,
-        steps=(("offset", ("offset",)),),
-        kind="default",
+    prepared = list(prepared)
+    joints = None if fit_joints is None else list(fit_joints)
+    with_offset = TermSelection(names=[*START, "offset"])
+    base, plain = (
+        base_parameters(model, with_offset, joints=joints),
+        base_parameters(model, TermSelection(), joints=joints),
     )
+    keep = [k for k, n in enumerate(base.names) if not n.endswith(".offset")]
+    if [base.names[k] for k in keep] != list(plain.names):  # the offset merged with another column: fit both
+        return choose_terms(
+            model,
+            prepared,
+            fit_joints=fit_joints,
+            problem_options=problem_options,
+            folds=folds,
+            steps=(("offset", ("offset",)),),
+            kind="default",
+        )
+    # one regressor for both candidates: fc,fv's base columns are fc,fv,offset's without the offset columns (and
+    # the rows fitted are the same: Coulomb friction decides which rows at rest are left out, in both)
+    rows = candidate_rows(model, prepared, with_offset, base, problem_options)
+    without = CandidateRows(
+        rows.W[:, keep],
+        rows.tau,
+        rows.weights,
+        rows.row_recording,
+        rows.row_time,
+        [f[:, keep] for f in rows.full],
+        rows.recorded,
+        rows.times,
+    )
+    edges, spans = block_edges(prepared, folds), common_spans([rows])
+    scores, per_fold = fold_scores(np.array([fold_sums(without, edges, spans), fold_sums(rows, edges, spans)]))
+    names, history, rejected = list(START), [{",".join(START): float(scores[0])}], {}
+    if unstable(per_fold[1]):
+        rejected["+offset"] = f"held-out block at {float(np.nanmax(per_fold[1])):.3g} %: the fit did not converge"
+        history.append({"+offset": float("nan")})
+    else:
+        history.append({"+offset": float(scores[1])})
+        if better(per_fold[1], per_fold[0]):
+            names = with_offset.names
+    return TermsChoice(names, history, folds, rejected, "default")

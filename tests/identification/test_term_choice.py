@@ -138,3 +138,16 @@ def test_a_candidate_whose_fit_does_not_converge_is_rejected_not_scored(monkeypa
     from pinid.identification.term_choice import TermsChoice
 
     assert TermsChoice.from_dict(choice.to_dict()).rejected == choice.rejected
+
+
+def test_the_default_rule_shares_one_regressor_and_scores_as_the_selection_does():
+    """choose_default_terms drops the offset columns of one regressor for fc,fv: the same held-out scores as
+    building each candidate (choose_terms with the offset as the only step), the same choice."""
+    from pinid.identification.term_choice import choose_default_terms
+
+    for ds in (noisy(offset=[0.8, -0.5]), noisy()):
+        fast = choose_default_terms(load("exo_leg"), [ds])
+        slow = choose_terms(load("exo_leg"), [ds], steps=(("offset", ("offset",)),), kind="default")
+        assert fast.terms == slow.terms
+        for a, b in zip(fast.steps, slow.steps):
+            assert a.keys() == b.keys() and all(a[k] == pytest.approx(b[k], rel=1e-9) for k in a)
