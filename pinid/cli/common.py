@@ -85,9 +85,8 @@ def terms_help() -> str:
         f"terms in the model, comma-separated: joint side {_term_list(joint)}; motor side (needs drives: URDF "
         f"<transmission> or --drives) {_term_list(motor)}; groups: {groups}; 'none' for none; 'auto' (identify): "
         "chosen on the training recordings by forward selection, from fc,fv (with drives also motor_fc,motor_fv,"
-        "motor_armature) and any terms added after it (auto,motor_offset); default fc,fv (identify without drives: "
-        "and offset when it wins on held-out blocks of the training recordings) (docs/identification.md, "
-        "docs/drives.md)"
+        "motor_armature) and any terms added after it (auto,motor_offset); default fc,fv (identify: and offset when it "
+        "wins on held-out blocks of the training recordings) (docs/identification.md, docs/drives.md)"
     )
 
 

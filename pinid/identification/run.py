@@ -39,7 +39,7 @@ from pinid.parallel import check_workers
 from pinid.identification.segmental import SegmentalProblem
 from pinid.identification.study import Study
 from pinid.identification.stribeck import fit_velocity
-from pinid.identification.term_choice import has_drives, is_default, parse_auto
+from pinid.identification.term_choice import is_default, parse_auto
 from pinid.identification.truth import read_truth, true_base, truth_error
 from pinid.model.base import base_parameters
 from pinid.model.terms import TermSelection
@@ -126,8 +126,9 @@ def setup(
     auto_terms, default_terms = keep is not None, is_default(terms)
     model, terms = as_robot(model), TermSelection() if auto_terms else as_terms(terms)  # resolved ones as they are
     auto = dict(stribeck_auto or {})
-    # the default terms are chosen only where the rule was measured: one training set, no drives, no other choice
-    default_terms = default_terms and not (auto or segmental or study.offsets is not None or has_drives(model))
+    # the default's offset test: not beside another choice of the terms' shapes, the segmental stages or offsets
+    # per recording (an offset term is collinear with those)
+    default_terms = default_terms and not (auto or segmental or study.offsets is not None)
     if auto_terms and (auto or segmental):
         raise SpecError("terms auto with Stribeck velocity 'auto' or the segmental strategy: give the terms instead")
     fit = fit_mask(model, fit_joints)  # a bad joint name fails before any recording is read
@@ -521,7 +522,7 @@ def identify(
     )
     s = setup(used, show_progress=show_progress, stribeck_auto=auto)
     model = s.model  # with the fitted Stribeck shapes (auto): built once, used from here on
-    terms = s.terms if auto_terms or default_terms else terms
+    terms = s.terms  # chosen (auto, default) or left without the ripple terms when their periods' choice lost
     x_true = None if truth is None else true_base(truth, model, s.terms, s.base)  # checked before the fits
     check_recordings(s)
     if started is not None:

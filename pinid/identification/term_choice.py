@@ -249,9 +249,7 @@ def choose_default_terms(
     folds: int = FOLDS,
 ) -> TermsChoice:
     """The default terms (module text): ``fc,fv``, and ``offset`` when it wins on the held-out blocks of the
-    prepared training recordings; on a robot with drives ``fc,fv`` as they are (nothing measured there)."""
-    if has_drives(model):
-        return TermsChoice(list(START), [], folds, {}, "default")
+    prepared training recordings (joint side, with drives or without: motor terms are never added by default)."""
     prepared = list(prepared)
     joints = None if fit_joints is None else list(fit_joints)
     with_offset = TermSelection(names=[*START, "offset"])
