@@ -89,9 +89,18 @@ def is_default(terms) -> bool:
 
 
 def has_drives(model: RobotModel) -> bool:
-    """True when ``model`` has motors (a URDF ``<transmission>`` or a drives file)."""
+    """True when ``model`` has motors (a URDF ``<transmission>`` or a drives file) whose names motor terms can
+    use (a motor named like a joint, as the double pendulum's URDF does, cannot carry motor terms)."""
+    from pinid.model.drives import check_motor_names
+
     drives = getattr(model, "drives", None)
-    return drives is not None and len(getattr(drives, "motor_names", [])) > 0
+    if drives is None or not len(getattr(drives, "motor_names", [])):
+        return False
+    try:
+        check_motor_names(list(drives.motor_names), list(model.joint_names), "drives")
+    except SpecError:
+        return False
+    return True
 
 
 @dataclass(frozen=True)
