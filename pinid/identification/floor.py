@@ -99,16 +99,15 @@ def validation_floor(
                     W = np.hstack([W, O])
                 yield i, slice(start, start + part.n), W, rec[start : start + part.n].reshape(-1)
 
-    # one pass: the scaled columns' norms, then the compressed form R, c of the tall system
-    norms2 = np.zeros(nb + extra)
-    for _, _, W, _ in blocks():
-        norms2 += np.einsum("ij,ij->j", W, W)
-    scale = np.sqrt(norms2)
-    scale[scale == 0] = 1.0
+    # one pass: the compressed form R, c of the tall system (W = Q·R, so ‖W_j‖ = ‖R_j‖: the columns are scaled
+    # on R), then one more for the prediction
     R, c = np.zeros((0, nb + extra)), np.zeros(0)
     for _, _, W, y in blocks():
-        Q, R = np.linalg.qr(np.vstack([R, W / scale]))
+        Q, R = np.linalg.qr(np.vstack([R, W]))
         c = Q.T @ np.concatenate([c, y])
+    scale = np.linalg.norm(R, axis=0)
+    scale[scale == 0] = 1.0
+    R = R / scale
     _, diag, piv = scipy.linalg.qr(R, mode="economic", pivoting=True)
     d = np.abs(np.diag(diag))
     rank = int(np.count_nonzero(d > RANK_TOL * max(d.max(initial=0.0), 1e-300)))
