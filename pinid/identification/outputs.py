@@ -178,6 +178,7 @@ def _recordings_lines(d: dict, joints: list[str]) -> list[str]:
     if d.get("default_terms"):
         c = d["default_terms"]
         said = ", ".join(f"{n} {v:.3g} %" for step in c["steps"] for n, v in step.items() if v is not None)
+        said = said or "; ".join(f"{k} {v}" for k, v in (c.get("rejected") or {}).items())
         kept = "offset" in c["terms"]
         lines.append(
             f"terms {', '.join(c['terms'])}: the default, the offset {'kept: it wins' if kept else 'left out: it does not win'}"

@@ -259,7 +259,14 @@ def choose_default_terms(
 ) -> TermsChoice:
     """The default terms (module text): ``fc,fv``, and ``offset`` when it wins on the held-out blocks of the
     prepared training recordings (joint side, with drives or without: motor terms are never added by default)."""
-    prepared = list(prepared)
+    try:
+        return _default_terms(model, list(prepared), fit_joints, problem_options, folds)
+    except DataError as exc:  # too few rows, a rank-deficient candidate: fc,fv, and the identification says why
+        return TermsChoice(list(START), [], folds, {"+offset": f"not tried: {exc}"}, "default")
+
+
+def _default_terms(model, prepared, fit_joints, problem_options, folds) -> TermsChoice:
+    """:func:`choose_default_terms`' test (DataError from the rows of a candidate as they come)."""
     joints = None if fit_joints is None else list(fit_joints)
     with_offset = TermSelection(names=[*START, "offset"])
     base, plain = (
