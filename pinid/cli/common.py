@@ -84,8 +84,9 @@ def terms_help() -> str:
     return (
         f"terms in the model, comma-separated: joint side {_term_list(joint)}; motor side (needs drives: URDF "
         f"<transmission> or --drives) {_term_list(motor)}; groups: {groups}; 'none' for none; 'auto' (identify): "
-        "chosen on the training recordings by forward selection; default fc,fv (docs/identification.md, "
-        "docs/drives.md)"
+        "chosen on the training recordings by forward selection, from fc,fv (with drives also motor_fc,motor_fv,"
+        "motor_armature) and any terms added after it (auto,motor_offset); default fc,fv (identify: and offset when it "
+        "wins on held-out blocks of the training recordings) (docs/identification.md, docs/drives.md)"
     )
 
 
@@ -138,10 +139,15 @@ def robot_from_args(args: argparse.Namespace, urdf: str | None = None):
 
 
 def terms_from_args(args: argparse.Namespace, *, auto: bool = False) -> TermSelection | str:
-    """The TermSelection the --terms option describes (``"auto"`` where ``auto`` allows it)."""
-    if auto and str(args.terms).strip().lower() == "auto":
-        return "auto"
+    """The TermSelection the --terms option describes (``"auto"``, ``"auto,motor_fc,…"`` and ``"default"`` as
+    they are where ``auto`` allows it: identify chooses them on the training recordings)."""
+    from pinid.identification.term_choice import is_default, parse_auto  # loaded on use
+
     try:
+        if auto and (is_default(args.terms) or parse_auto(args.terms) is not None):
+            return str(args.terms).strip().lower()
+        if is_default(args.terms):
+            return TermSelection()
         return TermSelection.from_names(args.terms)
     except ValueError as exc:
         raise SpecError(f"--terms: {exc}") from None

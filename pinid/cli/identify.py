@@ -37,7 +37,7 @@ from pinid.io import check_outputs
 from pinid.report.figures import start_figure_workers
 
 #: The default --methods and --terms of stage 1 (None in the namespace: not given, so stage 2 can refuse them).
-DEFAULT_METHODS, DEFAULT_TERMS = "ols,wls,sdp", "fc,fv"
+DEFAULT_METHODS, DEFAULT_TERMS = "ols,wls,sdp", "default"
 
 HELP = (
     f"identify dynamic parameters from recordings with the registry's estimators (default {DEFAULT_METHODS}), "
@@ -349,7 +349,7 @@ def run(args: argparse.Namespace) -> int:
         floating = (" on a floating base" + f" ({args.rows} rows)" * (args.rows != "all")) * (args.base == "floating")
         print(
             f"identifying {model.name}{floating} ({', '.join(model.joint_names)}) with {', '.join(methods)}; "
-            f"terms {'auto' if terms == 'auto' else ', '.join(terms.names) or 'none'}",
+            f"terms {terms if isinstance(terms, str) else ', '.join(terms.names) or 'none'}",
             flush=True,
         )
         if not (args.no_report or args.no_figures):

@@ -11,13 +11,20 @@ recordings best (the validation recording is never looked at):
    rows, fit joints) is fitted by ordinary least squares on all blocks but one;
 3. the held-out block is predicted and scored **against the torque as recorded** (not the low-passed copy,
    which moves with the cut-off: docs/identification.md, "The yardstick"), over the samples every candidate
-   keeps after its trimming, so all candidates are scored on the same samples;
+   keeps after its trimming, so all candidates are scored on the same samples.  The blocks divide that
+   common span (not the raw recording), so every block is scored; a candidate whose trimming (the filter's
+   settling, longer at low cut-offs) leaves less than :data:`MIN_KEPT` of a recording is skipped with that
+   reason — before issue 44 the 1 Hz candidate's 3 s at each end emptied the first and last of five blocks
+   of a 10 s recording for every candidate;
 4. the score of a candidate is the pooled relative RMS over all folds; the choice is the **highest**
-   cut-off that is not measurably worse than the lowest-scoring one (its fold-by-fold excess over it at
-   most two standard errors of that paired difference).  On the flat bottom of the curve this takes the
-   least smoothing: a cut-off lower than needed removes motion that a faster trajectory than the training
-   one has.  Measured (``tests/benchmarks/bench_cutoff.py``): the lowest score alone picked 3 Hz on a
-   5 kHz twin whose held-out best is 30 Hz (a curve flat to 1 % from 3 to 30 Hz); this rule picks 30 Hz.
+   cut-off that is not measurably worse than the lowest-scoring one: its fold-by-fold excess over it within
+   the paired t test's margin (:func:`pinid.identification.crossval.not_worse`, Student's t for the number
+   of blocks) **and** its pooled score within :data:`TOLERANCE` of the lowest.  The second condition is what
+   keeps the rule honest with few blocks, where a t test cannot tell much apart (three blocks let 30 Hz at
+   8.1 % pass for 7 Hz at 2.7 %).  On the flat bottom of the curve this takes the least smoothing: a cut-off
+   lower than needed removes motion that a faster trajectory than the training one has.  Measured
+   (``tests/benchmarks/bench_cutoff.py``): the lowest score alone picked 3 Hz on a 5 kHz twin whose
+   held-out best is 30 Hz (a curve flat to 1 % from 3 to 30 Hz).
 
 Blocks rather than random rows because the residuals of filtered recordings are correlated in time: a
 random split scores a sample with its neighbours in the fit and rewards a cut-off that lets noise in.
@@ -42,7 +49,6 @@ from pinid.model.terms import TermSelection
 from pinid.model.robot import RobotModel
 from pinid.identification.crossval import (
     FOLDS,
-    block_edges,
     candidate_rows,
     common_spans,
     fold_scores,
@@ -56,6 +62,10 @@ from pinid.result_protocol import ResultProtocol, panel
 GRID_HZ: tuple[float, ...] = (1.0, 1.5, 2.0, 3.0, 5.0, 7.0, 10.0, 15.0, 20.0, 30.0, 50.0, 70.0, 100.0, 150.0, 200.0)
 #: Highest candidate as a fraction of the Nyquist frequency (the filter refuses above 0.8).
 MAX_NYQUIST_FRACTION = 0.4
+#: A candidate must keep at least this fraction of every recording after its trimming to be scored.
+MIN_KEPT = 0.6
+#: A higher cut-off is taken only when its pooled held-out score is within this fraction of the lowest.
+TOLERANCE = 0.02
 
 
 @dataclass(frozen=True)
@@ -151,7 +161,6 @@ def choose_cutoff(
     candidates = sorted(float(c) for c in candidates)
     if not candidates:
         raise DataError("cut-off auto: the sample rate carries no candidate cut-off (at least 1 Hz)")
-    edges = block_edges(raw, folds)
     given = Preprocessing.normalize(preprocess)
     options = {k: v for k, v in (given if isinstance(given, dict) else {}).items() if k != "cutoff"}
     fits, reasons, unwrap = {}, {}, free_angles(model)
@@ -160,17 +169,29 @@ def choose_cutoff(
             with warnings.catch_warnings():  # a candidate's own warnings ("content above the cut-off") are its score's
                 warnings.simplefilter("ignore", DataWarning)
                 prepared = [prepare_dataset(ds, {**options, "cutoff": c}, unwrap=unwrap) for ds in raw]
-                fits[c] = candidate_rows(model, prepared, terms, base, problem_options)
+            kept = min((p.t[-1] - p.t[0]) / max(r.t[-1] - r.t[0], 1e-300) for p, r in zip(prepared, raw))
+            if kept < MIN_KEPT:
+                reasons[f"{c:g}"] = (
+                    f"its trimming keeps {100 * kept:.0f} % of a recording, expected at least {100 * MIN_KEPT:.0f} %"
+                    " (a longer recording)"
+                )
+                continue
+            fits[c] = candidate_rows(model, prepared, terms, base, problem_options)
         except (DataError, SpecError) as exc:
             reasons[f"{c:g}"] = str(exc)
     if not fits:
         raise DataError(f"cut-off auto: no candidate cut-off could be used ({next(iter(reasons.values()))})")
     spans = common_spans(list(fits.values()))
+    edges = [np.linspace(lo, hi, folds + 1) for lo, hi in spans]  # the blocks of what every candidate keeps
     nan = np.full((folds, 2), np.nan)
     sums = np.array([fold_sums(fits[c], edges, spans) if c in fits else nan for c in candidates])
     scores, per_fold = fold_scores(sums)
     if not np.any(np.isfinite(scores)):
         raise DataError("cut-off auto: no candidate left a held-out block to score (recordings too short)")
     best = int(np.nanargmin(scores))
-    kept = [best] + [c for c in range(len(candidates)) if not_worse(per_fold[c], per_fold[best])]
+    kept = [best] + [
+        c
+        for c in range(len(candidates))
+        if scores[c] <= (1 + TOLERANCE) * scores[best] and not_worse(per_fold[c], per_fold[best])
+    ]
     return CutoffChoice(candidates[max(kept)], candidates, [float(x) for x in scores], folds, reasons)

@@ -221,13 +221,22 @@ def _recordings_lines(d: dict, joints: list[str]) -> list[str]:
         for k, step in enumerate(c["steps"]):
             said = ", ".join(f"{n} {v:.3g} %" for n, v in step.items() if v is not None)
             lines.append(f"  {'start' if k == 0 else f'step {k}'}: held-out relative RMS {said}")
+    if d.get("default_terms"):
+        c = d["default_terms"]
+        said = ", ".join(f"{n} {v:.3g} %" for step in c["steps"] for n, v in step.items() if v is not None)
+        said = said or "; ".join(f"{k} {v}" for k, v in (c.get("rejected") or {}).items())
+        kept = "offset" in c["terms"]
+        lines.append(
+            f"terms {', '.join(c['terms'])}: the default, the offset {'kept: it wins' if kept else 'left out: it does not win'}"
+            f" on held-out blocks of the training recordings ({said}); --terms sets them"
+        )
     if d.get("ripple_periods"):
         c = d["ripple_periods"]
         curve = ", ".join(f"{r:g} {v:.3g} %" for r, v in zip(c["candidates"], c["cv_rel_rms_percent"]) if v is not None)
         lines.append(
             f"ripple periods per revolution {c['periods']:g}, chosen by {c['chosen_by']} "
             f"({'measurably better than' if c['measurably_better'] else 'not measurably better than'} no ripple, "
-            f"{c['without_ripple_percent']:.3g} %)"
+            f"{c['without_ripple_percent']:.3g} %{'' if c['measurably_better'] else ': the ripple terms are left out'})"
         )
         lines += _held_out_lines(curve)
     fit = d.get("fit_joints")

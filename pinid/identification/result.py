@@ -256,7 +256,7 @@ class Identification(ResultProtocol):
     validation_sources: list[str] = field(default_factory=list)
     seconds: float = 0.0
     curves: dict = field(default_factory=dict, repr=False, compare=False)
-    #: The model-class floor (:mod:`pinid.identification.floor`): the same terms fitted by OLS in-sample on
+    #: The model-class floor (:mod:`pinid.identification.floor`): the same terms fitted by least squares in-sample on
     #: the validation recordings, its torque error against the torque as recorded; None without validation.
     floor: TorqueMetrics | None = None
 

@@ -5,7 +5,9 @@ pole or gear-tooth count times the reduction, which a user often does not know. 
 :data:`CANDIDATES` (and the drives' ratio, when the robot has drives) is scored by the blocked
 cross-validation of :mod:`pinid.identification.crossval` (held-out blocks of the training recordings, against
 the torque as recorded); the best pooled score wins, one ``r`` for every joint.  The validation recordings
-play no part.  The model without ripple is scored too: the choice says whether the ripple helps measurably.
+play no part.  The model without ripple is scored too: the choice says whether the ripple helps measurably
+(wins on the held-out blocks, :func:`pinid.identification.crossval.better`), and ``identify`` leaves the ripple
+terms out when it does not (issue 44: a choice is adopted only when it wins).
 """
 
 from __future__ import annotations

@@ -41,6 +41,7 @@ from pinid.parallel import check_workers
 from pinid.identification.segmental import SegmentalProblem
 from pinid.identification.study import Study
 from pinid.identification.stribeck import fit_velocity
+from pinid.identification.term_choice import is_default, parse_auto
 from pinid.identification.truth import read_truth, true_base, truth_error
 from pinid.model.base import base_parameters
 from pinid.model.terms import TermSelection
@@ -123,9 +124,13 @@ def setup(
     model, data, validate, terms, mapping = study.model, study.data, study.validate, study.terms, study.mapping
     preprocess, rest_velocity, rest_fraction = study.preprocess, study.rest_velocity, study.rest_fraction
     segmental, fit_joints, delay = study.segmental, study.fit_joints, study.delay
-    auto_terms = _is_auto(terms)
+    keep = parse_auto(terms)  # terms "auto[,added…]": chosen by forward selection, starting from the added ones
+    auto_terms, default_terms = keep is not None, is_default(terms)
     model, terms = as_robot(model), TermSelection() if auto_terms else as_terms(terms)  # resolved ones as they are
     auto = dict(stribeck_auto or {})
+    # the default's offset test: not beside another choice of the terms' shapes, the segmental stages or offsets
+    # per recording (an offset term is collinear with those)
+    default_terms = default_terms and not (auto or segmental or study.offsets is not None)
     if auto_terms and (auto or segmental):
         raise SpecError("terms auto with Stribeck velocity 'auto' or the segmental strategy: give the terms instead")
     fit = fit_mask(model, fit_joints)  # a bad joint name fails before any recording is read
@@ -163,7 +168,12 @@ def setup(
     if auto_terms:
         from pinid.identification.term_choice import choose_terms  # loaded on use
 
-        terms_choice = choose_terms(model, train, fit_joints=fitted, problem_options=rows)
+        terms_choice = choose_terms(model, train, fit_joints=fitted, problem_options=rows, keep=keep)
+        terms = final_terms = TermSelection(names=terms_choice.terms)
+    elif default_terms:
+        from pinid.identification.term_choice import choose_default_terms  # loaded on use
+
+        terms_choice = choose_default_terms(model, train, fit_joints=fitted, problem_options=rows)
         terms = final_terms = TermSelection(names=terms_choice.terms)
     ripple = None
     if ripple_auto:
@@ -171,6 +181,9 @@ def setup(
 
         ripple = choose_ripple_periods(model, train, terms, fit_joints=fitted, problem_options=rows)
         model = model.with_setting("ripple_periods", ripple.periods)
+        if not ripple.helps:  # a choice is adopted only when it wins on the held-out blocks (issue 44)
+            terms = TermSelection(names=[n for n in terms.names if not n.startswith("ripple_")])
+            final_terms = TermSelection(names=[n for n in final_terms.names if not n.startswith("ripple_")])
     sigmoid = None
     if _is_auto(model.setting("sigmoid")):  # the sigmoid friction's shape (identification.sigmoid)
         from pinid.identification.sigmoid import fit_sigmoid  # loaded on use (scipy.optimize)
@@ -453,14 +466,11 @@ def identify(
         study.payload_data,
     )
     fit_joints, delay, manifest, floating = study.fit_joints, study.delay, study.manifest, study.floating
-    rest_fraction, stribeck_velocity, stribeck_shape = (
-        study.rest_fraction,
-        study.stribeck_velocity,
-        study.stribeck_shape,
-    )
+    stribeck_velocity, stribeck_shape = study.stribeck_velocity, study.stribeck_shape
     if study.segmental is not None:
         raise SpecError("segmental: the seed-000 strategy of compare, not of identify")
-    auto_terms = _is_auto(terms)  # chosen by the training data
+    auto_spec = terms if parse_auto(terms) is not None else None  # chosen by the training data
+    auto_terms, default_terms = auto_spec is not None, is_default(terms)
     terms = TermSelection() if auto_terms else as_terms(terms)
     methods = parse_methods(methods)
     options = check_options(options, methods)
@@ -510,14 +520,14 @@ def identify(
         model=model,
         data=data,
         validate=validate,
-        terms="auto" if auto_terms else terms,
+        terms=auto_spec if auto_terms else "default" if default_terms else terms,
         preprocess=preprocess,
         payload=None,
         payload_data=None,
     )
     s = setup(used, show_progress=show_progress, stribeck_auto=auto)
     model = s.model  # with the fitted Stribeck shapes (auto): built once, used from here on
-    terms = s.terms if auto_terms else terms
+    terms = s.terms  # chosen (auto, default) or left without the ripple terms when their periods' choice lost
     x_true = None if truth is None else true_base(truth, model, s.terms, s.base)  # checked before the fits
     ratio = check_recordings(s)
     if started is not None:
@@ -549,8 +559,8 @@ def identify(
             r.validation_filtered = torque_metrics(tau_all, pred, model.joint_names, units=units)
         from pinid.identification.floor import validation_floor
 
-        floor_terms = terms if s.offsets is None else TermSelection(names=[*terms.names, "offset"])
-        floor = validation_floor(model, floor_terms, checked, rest_velocity=rest_velocity, rest_fraction=rest_fraction)
+        floor, floor_fit = validation_floor(model, terms, checked, offsets_per_recording=s.offsets is not None)
+        summary["floor"] = floor_fit.to_dict()
         first = checked[0]
         curves = {
             "kind": "validation",
@@ -587,8 +597,9 @@ def identify(
         summary["delay"] = s.delay
     if s.cutoff is not None:
         summary["cutoff"] = s.cutoff
-    if s.terms_choice is not None:
-        summary["terms_choice"] = s.terms_choice
+    if s.terms_choice is not None:  # the default terms' one test has a key of its own (no choices figure)
+        default = str(s.terms_choice.get("chosen_by", "")).startswith("default")
+        summary["default_terms" if default else "terms_choice"] = s.terms_choice
     if s.ripple is not None:
         summary["ripple_periods"] = s.ripple
     if s.sigmoid is not None:
@@ -643,7 +654,7 @@ def _setup_floating(study: Study) -> Setup:
     fixed_only = ("segmental", "payload", "payload_data", "stribeck_velocity", "stribeck_shape")
     refuse_fixed_only(
         {k: getattr(study, k) for k in (*fixed_only, "fit_joints", "delay")}
-        | {"terms": "auto" if _is_auto(study.terms) else None}
+        | {"terms": "auto" if parse_auto(study.terms) is not None else None}
     )  # identify and compare refuse theirs first, with their own arguments: this is for setup's own callers
     model, terms, opts = as_floating(study.model), as_terms(study.terms), as_floating_options(study.floating)
     preprocess, mapping, validate = study.preprocess, study.mapping, study.validate

@@ -58,7 +58,10 @@ _CHECKS: dict[str, tuple] = {
         lambda v: v is None or _recordings(v) or (isinstance(v, Mapping) and all(_recordings(x) for x in v.values())),
         "recordings, or {label: recordings}",
     ),
-    "terms": (lambda v: isinstance(v, (TermSelection, str, list, tuple)), 'a TermSelection, "fc,fv", a list or "auto"'),
+    "terms": (
+        lambda v: isinstance(v, (TermSelection, str, list, tuple)),
+        'a TermSelection, "fc,fv", a list, "auto" (or "auto,motor_fc,…") or "default"',
+    ),
     "mapping": (lambda v: v is None or not isinstance(v, (bool, numbers.Number)), "a mapping spec, its TOML or dict"),
     "preprocess": (
         _optional(bool, Mapping, Preprocessing),
@@ -98,7 +101,9 @@ _CHECKS: dict[str, tuple] = {
 class Study:
     """What is identified, from what: ``model`` (a RobotModel, URDF path or bundled robot's name, resolved once
     to a RobotModel), ``data`` (training recordings: Datasets, paths, a floating base's samples), ``validate``
-    (recordings or ``{label: recordings}``), ``terms`` (default Coulomb and viscous friction; ``"auto"``),
+    (recordings or ``{label: recordings}``), ``terms`` (``"default"``: Coulomb and viscous friction, and a constant
+    offset when the training recordings' held-out blocks say it wins — :mod:`pinid.identification.term_choice`;
+    ``"auto"``, forward selection),
     ``mapping`` (the recordings' mapping spec), ``preprocess`` (a :class:`~pinid.data.preprocess.Preprocessing`
     or its dict form, kept as the dict: :meth:`~pinid.data.preprocess.Preprocessing.normalize`), ``rest_velocity`` [rad/s] (default ``"auto"``)
     and ``rest_fraction`` (the rows at rest dropped), ``payload`` with ``payload_data`` (drive gains from
@@ -113,7 +118,7 @@ class Study:
     model: RobotModel
     data: Any = None
     validate: Any = None
-    terms: Any = TermSelection()
+    terms: Any = "default"
     mapping: Any = None
     preprocess: Any = None
     rest_velocity: Any = "auto"

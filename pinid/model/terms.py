@@ -382,11 +382,14 @@ class TermSelection:
 
 
 def as_terms(terms: TermSelection | str | Iterable[str] | None) -> TermSelection:
-    """Joint terms from a :class:`TermSelection`, ``"fc,fv"``, a list of names or None (the default: Coulomb and
-    viscous friction); SpecError for anything else or an unknown name."""
+    """Joint terms from a :class:`TermSelection`, ``"fc,fv"``, a list of names, None or ``"default"`` (Coulomb and
+    viscous friction: where recordings are at hand, ``identify`` adds a constant offset to ``"default"`` when
+    they say it wins, :mod:`pinid.identification.term_choice`); SpecError for anything else or an unknown name."""
     if isinstance(terms, TermSelection):
         return terms
-    return TermSelection() if terms is None else TermSelection.from_names(terms)
+    if terms is None or (isinstance(terms, str) and terms.strip().lower() == "default"):
+        return TermSelection()
+    return TermSelection.from_names(terms)
 
 
 def _robot(robot) -> None:

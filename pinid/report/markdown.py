@@ -292,9 +292,10 @@ def summary_table(ident, bold=lambda text: f"**{text}**") -> tuple[list[str], li
 
 
 def floor_line(ident) -> str | None:
-    """One line: per joint, the model-class floor (the same terms fitted by OLS in-sample on the validation
-    recordings: :mod:`pinid.identification.floor`) beside the best method's validation error, both RMS % against
-    the torque as recorded; None without a floor."""
+    """One line: pooled and per joint, the model-class floor (the same terms fitted by least squares in-sample on
+    the validation recordings: :mod:`pinid.identification.floor`) beside the best method's validation error, both
+    RMS % against the torque as recorded, and which parameters the validation recordings left undetermined;
+    None without a floor."""
     floor = getattr(ident, "floor", None)
     if floor is None or not ident.results:
         return None
@@ -305,11 +306,29 @@ def floor_line(ident) -> str | None:
         for j, m in floor.per_joint.items()
         if np.isfinite(m.get("rel_rms_percent", np.nan))  # the rows used only: no joint of a base-rows fit
     ]
-    if not cells:
+    pooled = [
+        f"{k} {number_text(m['rel_rms_percent'], '.3g')}"
+        + (f" ({ident.best} {number_text(val.pools()[k]['rel_rms_percent'], '.3g')})" if val is not None else "")
+        for k, m in floor.pools().items()
+        if val is not None and k in val.pools()
+    ]
+    fit = (getattr(ident, "data", None) or {}).get("floor") or {}
+    undetermined = list(fit.get("undetermined") or [])
+    note = ""
+    if undetermined:
+        more = len(undetermined) - 5
+        names = ", ".join(undetermined[:5]) + (f" and {more} more" if more > 0 else "")
+        note = (
+            f"; the validation recording determines {fit.get('rank')} of {fit.get('parameters')} parameters "
+            f"(not {names}): minimum-norm fit of the columns it excites"
+        )
+    if not cells and not pooled:
         return None
     return (
-        f"model-class floor, valid. RMS raw % (the same terms fitted by OLS on the validation recording itself): "
-        f"{', '.join(cells)}; near the floor the model class limits the result, far above it the identification"
+        "model-class floor, valid. RMS raw % (the same terms fitted by least squares on the validation recording "
+        f"itself, against the torque as recorded: no method of this class validates below it pooled): "
+        f"{', '.join(pooled + cells)}; near the floor the model class limits the result, far above it the "
+        f"identification{note}"
     )
 
 

@@ -2,6 +2,7 @@
 
     python tests/benchmarks/bench_cutoff.py                     # twin 200 Hz, 1 kHz, 5 kHz + real recordings
     python tests/benchmarks/bench_cutoff.py --cases twin-5k     # one case
+    python tests/benchmarks/bench_cutoff.py --cases twin-200,twin-5k --seconds 10,60   # short and long (issue 44)
 
 For every case, OLS with the case's terms is run once per fixed cut-off of the candidate grid
 (:data:`pinid.identification.cutoff.GRID_HZ`, those the sample rate carries) and once with ``cutoff="auto"``;
@@ -42,11 +43,11 @@ from pinid.identification.cutoff import candidate_cutoffs  # noqa: E402
 from pinid.model.terms import as_terms  # noqa: E402
 
 
-def twin(folder: Path, rate: int) -> tuple[Path, Path]:
-    """Training and validation recordings of the exo_leg twin sampled at ``rate`` [Hz]."""
+def twin(folder: Path, rate: int, train_seconds: float = 20) -> tuple[Path, Path]:
+    """Training (``train_seconds`` long) and validation recordings of the exo_leg twin sampled at ``rate`` [Hz]."""
     out = []
-    for name, exc, seconds, seed in (("train", "exo_leg", 20, 0), ("val", "seed001_table3", 10, 1)):
-        path = folder / f"{name}_{rate}.csv"
+    for name, exc, seconds, seed in (("train", "exo_leg", train_seconds, 0), ("val", "seed001_table3", 10, 1)):
+        path = folder / f"{name}_{rate}_{seconds:g}s.csv"
         if not path.exists():
             cmd = [sys.executable, "-m", "pinid.cli", "simulate", "--urdf", "exo_leg", "--excitation", exc]
             cmd += ["--seconds", str(seconds), "--seed", str(seed), "--sample-rate", str(rate), "-o", str(path)]
@@ -63,12 +64,15 @@ def split(ds: Dataset, fraction: float) -> tuple[Dataset, Dataset]:
     return ds.select(slice(0, k)), ds.select(slice(k, ds.n))
 
 
-def cases(folder: Path, wanted: list[str]) -> list[tuple[str, str, object, object, str, object]]:
-    """``(name, urdf, train, validate, terms, mapping)`` of each case asked for that can run here."""
+def cases(folder: Path, wanted: list[str], seconds=(20.0,)) -> list[tuple[str, str, object, object, str, object]]:
+    """``(name, urdf, train, validate, terms, mapping)`` of each case asked for that can run here; the twins'
+    training recordings ``seconds`` long (each length a case of its own)."""
     out = []
     for rate, name in ((200, "twin-200"), (1000, "twin-1k"), (5000, "twin-5k")):
         if name in wanted:
-            out.append((name, "exo_leg", *twin(folder, rate), "fc,fv", None))
+            for sec in seconds:
+                label = name if tuple(seconds) == (20.0,) else f"{name} {sec:g} s"
+                out.append((label, "exo_leg", *twin(folder, rate, sec), "fc,fv", None))
     data = shared_data()
     dp = data / "double_pendulum"
     if "double-pendulum" in wanted and dp.is_dir():
@@ -107,12 +111,14 @@ def main() -> None:
     names = ["twin-200", "twin-1k", "twin-5k", "double-pendulum", "kuka"]
     ap.add_argument("--cases", default=",".join(names), help=f"comma-separated, from {', '.join(names)}")
     ap.add_argument("--folder", default=None, help="where the twin recordings are kept (default a temporary one)")
+    ap.add_argument("--seconds", default="20", help="the twins' training durations [s], comma-separated (10,60)")
     args = ap.parse_args()
+    seconds = tuple(float(x) for x in args.seconds.split(","))
     folder = Path(args.folder or tempfile.mkdtemp(prefix="bench_cutoff_"))
     folder.mkdir(parents=True, exist_ok=True)
     print(f"load average {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores; recordings in {folder}")
     rows = []
-    for name, urdf, train, val, terms, mapping in cases(folder, args.cases.split(",")):
+    for name, urdf, train, val, terms, mapping in cases(folder, args.cases.split(","), seconds):
         t0 = time.perf_counter()
         rate = (train if isinstance(train, Dataset) else read_recording(train, mapping=mapping)).sample_rate
         fixed = {}

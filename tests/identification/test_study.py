@@ -34,7 +34,7 @@ def test_the_model_is_resolved_once_to_a_robot_model(leg):
     s = Study("exo_leg", "run.csv")
     assert isinstance(s.model, RobotModel) and s.model.name == "exo_leg"
     assert Study(leg, "run.csv").model is leg
-    assert s.terms.names == ["fc", "fv"] and s.rest_velocity == "auto" and s.delay is None
+    assert s.terms == "default" and s.rest_velocity == "auto" and s.delay is None  # fc,fv (+ offset if it wins)
     with pytest.raises(dataclasses.FrozenInstanceError):
         s.delay = 0.1
 
