@@ -13,7 +13,7 @@ from pinid.errors import SpecError
 def test_memory_warning_for_large_recordings(monkeypatch):
     import pinid.memory as memory
     from pinid.errors import DataWarning
-    from pinid.identification.run import bytes_per_sample, warn_if_large_recordings
+    from pinid.identification.recording_checks import bytes_per_sample, warn_if_large_recordings
     from pinid.model.terms import TermSelection
 
     leg = load("exo_leg")

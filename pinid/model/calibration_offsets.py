@@ -23,7 +23,7 @@ import numpy as np
 
 from pinid.model.calibration import CalibrationTerm, Estimate
 from pinid.model.floating import Wrench
-from pinid.problem.covariance import andrews_bandwidth, bartlett_long_run
+from pinid.linalg import andrews_bandwidth, bartlett_long_run
 
 AXES = ("fx", "fy", "fz", "tx", "ty", "tz")
 #: Swing: force within this fraction of the robot's weight of the sensor's lowest readings.

@@ -33,6 +33,7 @@ import numpy as np
 import warnings
 
 from pinid.errors import DataWarning
+from pinid.linalg import andrews_bandwidth, bartlett_long_run
 
 #: Largest share of the long-run covariance the Bartlett kernel may drop (:func:`bias_bandwidth`).
 KERNEL_BIAS = 0.05
@@ -116,36 +117,6 @@ def _no_sigma(why: str, nb: int, full: bool = False) -> np.ndarray:
     """NaN standard deviations (or with ``full`` a NaN covariance) and the warning ``why``."""
     warnings.warn(why, DataWarning, stacklevel=3)
     return np.full((nb, nb) if full else nb, np.nan)
-
-
-def andrews_bandwidth(g: np.ndarray) -> int:
-    """Andrews' (1991) Bartlett bandwidth [samples] from AR(1) fits of each score column ``g`` (N, p)."""
-    n = len(g)
-    if n < 4:
-        return 0
-    x, y = g[:-1], g[1:]
-    den = np.einsum("ij,ij->j", x, x)
-    ok = den > 0
-    if not ok.any():
-        return 0
-    rho = np.clip(np.einsum("ij,ij->j", x[:, ok], y[:, ok]) / den[ok], -0.97, 0.97)
-    s2 = np.mean((y[:, ok] - rho * x[:, ok]) ** 2, axis=0)
-    num = np.sum(4 * rho**2 * s2**2 / ((1 - rho) ** 6 * (1 + rho) ** 2))
-    dd = np.sum(s2**2 / (1 - rho) ** 4)
-    if dd <= 0:
-        return 0
-    return int(min(np.ceil(1.1447 * (num / dd * n) ** (1 / 3)), n // 2))
-
-
-def bartlett_long_run(g: np.ndarray, lag: int) -> np.ndarray:
-    """``Σ_{t,s} (1 − |t−s|/(lag+1))₊ g_t g_sᵀ`` (p, p) of scores ``g`` (N, p), via moving window sums."""
-    if lag <= 0:
-        return g.T @ g
-    p = g.shape[1]
-    c = np.zeros((len(g) + 2 * lag + 1, p))
-    np.cumsum(np.vstack([np.zeros((lag, p)), g, np.zeros((lag, p))]), axis=0, out=c[1:])
-    h = c[lag + 1 :] - c[: -lag - 1]  # every window of lag+1 consecutive samples that meets the data
-    return (h.T @ h) / (lag + 1)
 
 
 def hac_covariance(

@@ -684,13 +684,13 @@ def identify_wearer_stage(
     options: WearerOptions | None = None,
 ) -> WearerStage:
     """``pinid identify --stage wearer`` in one call: the training recordings ``data`` and the ``validate``
-    ones (paths or Datasets, each given once: :func:`~pinid.identification.run.check_distinct`) read with
+    ones (paths or Datasets, each given once: :func:`~pinid.identification.recording_checks.check_distinct`) read with
     ``mapping`` and prepared with ``preprocess`` (:func:`~pinid.problem.recordings.load_datasets`), the
     wearer of ``robot`` (the exo + wearer URDF) identified with the exoskeleton fixed to ``exo`` (the
     stage-1 IdentifiedModel or its JSON path; :func:`identify_wearer` with ``options``, a
     :class:`~pinid.wearer.options.WearerOptions`) and its errors on both sets of recordings summarised."""
     from pinid.problem.recordings import load_datasets  # deferred: stage 2 on arrays does not need them
-    from pinid.identification.run import check_distinct
+    from pinid.identification.recording_checks import check_distinct
 
     robot = as_robot(robot)
     check_distinct(data, validate)
