@@ -161,6 +161,8 @@ class _Rows:
         if gravity:
             from scipy.spatial.transform import Rotation
 
+            self.A = _unit_accelerations(model, samples, self.keeps, base)
+        if gravity and self.A is None:
             # unit linear acceleration of the base along x, y, z, gravity cancelled: the rows see the base's
             # acceleration minus gravity (both in the base frame), so a = e_k + g_B gives A_k in one build each
             g = np.asarray(model.ff_model.gravity.linear, dtype=float)
@@ -179,6 +181,45 @@ class _Rows:
     def targets(self, samples) -> np.ndarray:
         """The right-hand side of these rows for other (corrected) samples of the same recordings."""
         return np.concatenate([self._targets(self.model, s)[k] for s, k in zip(samples, self.keeps)])
+
+
+def _unit_accelerations(model, samples, keeps, base) -> list[np.ndarray] | None:
+    """``A_k`` of :class:`_Rows` (the base rows' regressor for a unit linear acceleration of the base along its axis
+    ``k``, no velocity, no joint motion, no gravity) from the bodies' placements alone: every body then accelerates
+    by ``a``, so body i's columns are ``m: [a; p_i × a]`` and ``h_j: [0; (R_i e_j) × a]`` (``R_i``, ``p_i`` its joint
+    frame in the base frame; the inertia's columns are zero).  None when the rows are not the base rows of the
+    inertial columns alone (the regressor builds them then)."""
+    import pinocchio as pin
+
+    from pinid.model.floating import BASE_NQ
+
+    m, d = model.ff_model, model.ff_model.createData()
+    nb = m.njoints - 1
+    if len(base.standard_names) != 10 * nb or any(k[:, 6:].any() for k in keeps):
+        return None
+    blocks = [[], [], []]
+    for s, keep in zip(samples, keeps):
+        Q = np.zeros((s.n, m.nq))
+        Q[:, 6] = 1.0  # the base at the origin: placements in the base frame
+        Q[:, BASE_NQ:] = model.full_state(s.base_q, s.base_v, s.base_a, s.data.q, s.data.q * 0, s.data.q * 0)[0][
+            :, BASE_NQ:
+        ]
+        Rs, ps = np.empty((s.n, nb, 3, 3)), np.empty((s.n, nb, 3))
+        for k in range(s.n):
+            pin.forwardKinematics(m, d, Q[k])
+            for i in range(nb):
+                Rs[k, i], ps[k, i] = d.oMi[i + 1].rotation, d.oMi[i + 1].translation
+        for ax in range(3):
+            e = np.zeros(3)
+            e[ax] = 1.0
+            Y = np.zeros((s.n, 6, nb, 10))
+            Y[:, ax, :, 0] = 1.0
+            Y[:, 3:, :, 0] = np.moveaxis(np.cross(ps, e), -1, 1)
+            for j in range(3):
+                Y[:, 3:, :, 1 + j] = np.moveaxis(np.cross(Rs[:, :, :, j], e), -1, 1)
+            Y = Y.reshape(s.n, 6, 10 * nb)[:, :, base.independent]
+            blocks[ax].append(Y[keep[:, :6]])
+    return [np.concatenate(b) for b in blocks]
 
 
 def _lstsq(W: np.ndarray, y: np.ndarray, w: np.ndarray) -> np.ndarray:
