@@ -40,6 +40,9 @@ MASS_BAND = (0.8, 1.25)
 SIGNIFICANT = 3.0
 #: Gauss-Newton: at most this many steps; done when the angles move less than ``GN_TOL`` [rad].
 GN_STEPS, GN_TOL = 30, 1e-7
+#: ``auto`` fits its candidates from precomputed Gram blocks (:class:`_Gram`); False: on the rows themselves (the
+#: reference the tests compare it with).
+GRAM = True
 
 
 @dataclass
@@ -156,32 +159,82 @@ class _Rows:
         self._targets = floating_targets
         self.A = None
         if gravity:
-            built = []
-            for k in range(4):  # unit linear acceleration of the base along x, y, z; then none
+            from scipy.spatial.transform import Rotation
+
+            self.A = _unit_accelerations(model, samples, self.keeps, base)
+        if gravity and self.A is None:
+            # unit linear acceleration of the base along x, y, z, gravity cancelled: the rows see the base's
+            # acceleration minus gravity (both in the base frame), so a = e_k + g_B gives A_k in one build each
+            g = np.asarray(model.ff_model.gravity.linear, dtype=float)
+            self.A = []
+            for k in range(3):
                 mod = []
                 for s in samples:
                     a = np.zeros((s.n, 6))
-                    if k < 3:
-                        a[:, k] = 1.0
+                    a[:, :3] = Rotation.from_quat(s.base_q[:, 3:]).inv().apply(g)
+                    a[:, k] += 1.0
                     z = np.zeros_like(s.data.q)
                     mod.append(replace(s, base_v=np.zeros((s.n, 6)), base_a=a, data=replace(s.data, dq=z, ddq=z)))
-                built.append(FloatingRows(model, terms, base, mod, self.keeps).build())
-            self.A = [built[k] - built[3] for k in range(3)]
+                self.A.append(FloatingRows(model, terms, base, mod, self.keeps).build())
+        self._held_targets: dict[tuple, np.ndarray] = {}
 
     def targets(self, samples) -> np.ndarray:
         """The right-hand side of these rows for other (corrected) samples of the same recordings."""
         return np.concatenate([self._targets(self.model, s)[k] for s, k in zip(samples, self.keeps)])
 
 
+def _unit_accelerations(model, samples, keeps, base) -> list[np.ndarray] | None:
+    """``A_k`` of :class:`_Rows` (the base rows' regressor for a unit linear acceleration of the base along its axis
+    ``k``, no velocity, no joint motion, no gravity) from the bodies' placements alone: every body then accelerates
+    by ``a``, so body i's columns are ``m: [a; p_i × a]`` and ``h_j: [0; (R_i e_j) × a]`` (``R_i``, ``p_i`` its joint
+    frame in the base frame; the inertia's columns are zero).  None when the rows are not the base rows of the
+    inertial columns alone (the regressor builds them then)."""
+    import pinocchio as pin
+
+    from pinid.model.floating import BASE_NQ
+
+    m, d = model.ff_model, model.ff_model.createData()
+    nb = m.njoints - 1
+    if len(base.standard_names) != 10 * nb or any(k[:, 6:].any() for k in keeps):
+        return None
+    blocks = [[], [], []]
+    for s, keep in zip(samples, keeps):
+        Q = np.zeros((s.n, m.nq))
+        Q[:, 6] = 1.0  # the base at the origin: placements in the base frame
+        Q[:, BASE_NQ:] = model.full_state(s.base_q, s.base_v, s.base_a, s.data.q, s.data.q * 0, s.data.q * 0)[0][
+            :, BASE_NQ:
+        ]
+        Rs, ps = np.empty((s.n, nb, 3, 3)), np.empty((s.n, nb, 3))
+        for k in range(s.n):
+            pin.forwardKinematics(m, d, Q[k])
+            for i in range(nb):
+                Rs[k, i], ps[k, i] = d.oMi[i + 1].rotation, d.oMi[i + 1].translation
+        for ax in range(3):
+            e = np.zeros(3)
+            e[ax] = 1.0
+            Y = np.zeros((s.n, 6, nb, 10))
+            Y[:, ax, :, 0] = 1.0
+            Y[:, 3:, :, 0] = np.moveaxis(np.cross(ps, e), -1, 1)
+            for j in range(3):
+                Y[:, 3:, :, 1 + j] = np.moveaxis(np.cross(Rs[:, :, :, j], e), -1, 1)
+            Y = Y.reshape(s.n, 6, 10 * nb)[:, :, base.independent]
+            blocks[ax].append(Y[keep[:, :6]])
+    return [np.concatenate(b) for b in blocks]
+
+
 def _lstsq(W: np.ndarray, y: np.ndarray, w: np.ndarray) -> np.ndarray:
     """Weighted least squares by the normal equations of the column-scaled rows (Cholesky; a rank-deficient
     Gram falls back to the pseudo-inverse)."""
     Ww = W * w[:, None]
-    G = W.T @ Ww
+    return _solve_gram(W.T @ Ww, Ww.T @ y)
+
+
+def _solve_gram(G: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The least squares of :func:`_lstsq` from its normal equations ``G x = b``."""
     scale = np.sqrt(np.diag(G))
     scale[scale == 0] = 1.0
     Gs = G / np.outer(scale, scale)
-    b = (Ww.T @ y) / scale
+    b = b / scale
     try:
         return scipy.linalg.cho_solve(scipy.linalg.cho_factor(Gs, check_finite=False), b, check_finite=False) / scale
     except np.linalg.LinAlgError:
@@ -246,11 +299,123 @@ def _sigma(R: _Rows, W: np.ndarray, Jphi: np.ndarray, y: np.ndarray, theta: np.n
     B = Js.T @ (Js * R.w[:, None])
     Binv = np.linalg.pinv(B)
     g = np.zeros((len(R.base_q), J.shape[1]))
-    np.add.at(g, R.sample, Js * (R.w * r)[:, None])
+    first = np.flatnonzero(np.r_[True, np.diff(R.sample) != 0])  # R.sample is sorted: sums of runs
+    g[R.sample[first]] = np.add.reduceat(Js * (R.w * r)[:, None], first, axis=0)
     edges = np.cumsum([0, *R.sizes])
     dof = max(len(y) - J.shape[1], 1)
     cov, _ = hac_covariance(Binv, g, list(zip(edges[:-1], edges[1:])), len(y) / dof)
     return np.sqrt(np.clip(np.diag(cov), 0, None)) / scale
+
+
+class _Gram:
+    """The rows' Gram blocks, computed once, for every fit of the selection (issue 45: the calibration's cost).
+
+    With ``g_B = R_MBᵀ·g_M(φ)`` (the term's ``world``), ``W(φ) = C − Σ_j g_M,j(φ)·B_j`` where ``C`` is the rows'
+    regressor without gravity and ``B_j = Σ_k R_MB[j, k]·A_k`` (row by row): every ``W(φ)``, the Gauss-Newton
+    Jacobian ``[W, −J_φ]`` and a held-out block's residual are ``X·T`` for ``X = [C, B_0, B_1, B_2]`` (only the
+    columns gravity reaches in the ``B``) and a small ``T``.  So ``Xᵀ·X`` is summed once per *atom* (the rows held
+    out by the same folds) and a fold's fit and score are those of ``Tᵀ·(Σ Xᵀ X)·T``: the same normal equations
+    as :func:`_lstsq` on the rows themselves, equal to rounding, without touching the rows again.  Without a
+    fitted term ``X = W₀``.  Only for uniform row weights (the base rows'), which the scores count unweighted."""
+
+    def __init__(self, R: _Rows, term, g: np.ndarray, folds: int) -> None:
+        self.term, self.g, self.folds = term, g, folds
+        self.p = R.W0.shape[1]
+        if term is None:
+            X, self.nz = R.W0, np.zeros(0, int)
+            self.phi0 = None
+        else:
+            from scipy.spatial.transform import Rotation
+
+            self.phi0 = np.asarray(term.start(R.samples), dtype=float)
+            gB0 = term.gravity(self.phi0, R.base_q, g)[R.sample]
+            Rmb = Rotation.from_quat(R.base_q[:, 3:]).as_matrix()[R.sample]
+            self.nz = np.flatnonzero(np.any([np.any(a != 0, axis=0) for a in R.A], axis=0))
+            C = R.W0 + sum(gB0[:, k, None] * R.A[k] for k in range(3))
+            B = [sum(Rmb[:, j, k, None] * R.A[k][:, self.nz] for k in range(3)) for j in range(3)]
+            X = np.hstack([C, *B])
+        t, rec = R.times[R.sample], R.recording[R.sample]
+        edges = [np.linspace(s.data.t[0], s.data.t[-1], folds + 1) for s in R.samples]
+        code = np.zeros(len(R.y), dtype=np.int64)
+        for k in range(folds):
+            held = np.zeros(len(R.y), bool)
+            for i, e in enumerate(edges):
+                held |= (rec == i) & (t >= e[k]) & (t <= e[k + 1])
+            code |= held.astype(np.int64) << k
+        self.order = np.argsort(code, kind="stable")
+        self.codes, starts = np.unique(code[self.order], return_index=True)
+        bounds = [*starts, len(code)]
+        self.slices = [slice(a, b) for a, b in zip(bounds[:-1], bounds[1:])]
+        self.X = X[self.order]
+        self.M = np.stack([self.X[sl].T @ self.X[sl] for sl in self.slices])
+        self.counts = np.array([sl.stop - sl.start for sl in self.slices])
+        self.y0 = self._sq(R.y)
+
+    def _moments(self, y: np.ndarray) -> np.ndarray:
+        ys = y[self.order]
+        return np.stack([self.X[sl].T @ ys[sl] for sl in self.slices])
+
+    def _sq(self, y: np.ndarray) -> np.ndarray:
+        ys = y[self.order]
+        return np.array([ys[sl] @ ys[sl] for sl in self.slices])
+
+    def TW(self, phi) -> np.ndarray:
+        """``T`` with ``W(φ) = X·T`` (``W₀`` without a fitted term)."""
+        T = np.zeros((self.X.shape[1], self.p))
+        T[: self.p] = np.eye(self.p)
+        if phi is not None:
+            gm, q = self.term.world(phi, self.g), len(self.nz)
+            for j in range(3):
+                T[self.p + j * q + np.arange(q), self.nz] = -gm[j]
+        return T
+
+    def TJ(self, phi, theta) -> np.ndarray:
+        """``T`` with ``−J_φ = X·T`` at (φ, θ) (:func:`_jphi`)."""
+        h, q = 1e-6, len(self.nz)
+        dg = np.empty((3, len(phi)))
+        for m in range(len(phi)):
+            d = np.zeros(len(phi))
+            d[m] = h
+            dg[:, m] = (self.term.world(phi + d, self.g) - self.term.world(phi - d, self.g)) / (2 * h)
+        T = np.zeros((self.X.shape[1], len(phi)))
+        for j in range(3):
+            T[self.p + j * q : self.p + (j + 1) * q] = -np.outer(theta[self.nz], dg[j])
+        return T
+
+    def fit(self, M: np.ndarray, b: np.ndarray, gravity: bool, start=None):
+        """(θ, φ or None) of :func:`_fit` from the summed blocks ``M = Σ Xᵀ X``, ``b = Σ Xᵀ y``."""
+        if not gravity:
+            T = self.TW(None if self.term is None else self.phi0)
+            return _solve_gram(T.T @ M @ T, T.T @ b), None
+        phi = np.array(np.zeros(2) if start is None else start, dtype=float)
+        TW = self.TW(phi)
+        theta = _solve_gram(TW.T @ M @ TW, TW.T @ b)
+        for _ in range(GN_STEPS):
+            T = np.hstack([TW, self.TJ(phi, theta)])
+            step = _solve_gram(T.T @ M @ T, T.T @ (b - M @ (TW @ theta)))
+            theta, phi = theta + step[: self.p], phi + step[self.p :]
+            TW = self.TW(phi)
+            if np.max(np.abs(step[self.p :])) < GN_TOL:
+                break
+        return _solve_gram(TW.T @ M @ TW, TW.T @ b), phi
+
+    def full(self, y: np.ndarray, gravity: bool, start=None):
+        """(θ, φ) on every row."""
+        return self.fit(self.M.sum(axis=0), self._moments(y).sum(axis=0), gravity, start)
+
+    def fold_sums(self, y: np.ndarray, gravity: bool, start) -> np.ndarray:
+        """:func:`_fold_sums` from the blocks."""
+        v, yy = self._moments(y), self._sq(y)
+        out = np.full((self.folds, 2), np.nan)
+        for k in range(self.folds):
+            held = ((self.codes >> k) & 1).astype(bool)
+            if self.counts[~held].sum() <= self.p + 2:
+                continue
+            theta, phi = self.fit(self.M[~held].sum(axis=0), v[~held].sum(axis=0), gravity, start)
+            x = self.TW(phi if gravity else (None if self.term is None else self.phi0)) @ theta
+            Mh, bh = self.M[held].sum(axis=0), v[held].sum(axis=0)
+            out[k] = float(yy[held].sum() - 2 * x @ bh + x @ Mh @ x), float(self.y0[held].sum())
+        return out
 
 
 #: The calibration is found on at most this many samples per recording (every k-th: a 1 kHz recording filtered at
@@ -298,25 +463,38 @@ class _Candidate:
 def _candidate(R: _Rows, names: list[str], held_all: dict[str, Estimate], samples) -> _Candidate:
     held = {n: held_all[n] for n in names if n in held_all}
     corrected = list(samples)
-    for n in held:
+    for n in held if tuple(held) not in R._held_targets else ():
         corrected = [calibration_term(n).apply(s, held[n]) for s in corrected]
-    y = R.targets(corrected) if held else R.y
+    key = tuple(held)
+    if held and key not in R._held_targets:  # the same held terms give the same targets: computed once
+        R._held_targets[key] = R.targets(corrected)
+    y = R._held_targets[key] if held else R.y
     fitted = [calibration_term(n) for n in names if not calibration_term(n).held]
     if len(fitted) > 1:
         raise SpecError(f"calibration: terms {', '.join(t.name for t in fitted)} both turn gravity; expected one")
     return _Candidate(names, held, y, fitted[0] if fitted else None)
 
 
-def _fit(R: _Rows, c: _Candidate, pick: np.ndarray, g: np.ndarray, start=None):
-    """(θ, φ or None, W, Jφ or None) of a candidate on the rows ``pick``."""
+def _fit(R: _Rows, c: _Candidate, pick: np.ndarray, g: np.ndarray, start=None, gram: _Gram | None = None):
+    """(θ, φ or None, W, Jφ or None) of a candidate on the rows ``pick`` (with ``gram``: on every row, from the
+    Gram blocks)."""
+    if gram is not None and c.gravity_term is not None:
+        term = c.gravity_term
+        theta, phi = gram.full(c.y, True, start)
+        W = _W(R, term, phi, term.gravity(term.start(R.samples), R.base_q, g), g)
+        return theta, phi, W, _jphi(R, term, phi, theta, g)
     if c.gravity_term is None:
+        if gram is not None:
+            return gram.full(c.y, False)[0], None, R.W0, None
         return _lstsq(R.W0, c.y, _weights_of(R, pick)), None, R.W0, None
     term = c.gravity_term
     phi0 = np.zeros(2) if start is None else start
     return _fit_gravity(R, term, c.y, pick, term.start(R.samples), g, phi0)
 
 
-def _fold_sums(R: _Rows, c: _Candidate, g: np.ndarray, folds: int, start) -> np.ndarray:
+def _fold_sums(R: _Rows, c: _Candidate, g: np.ndarray, folds: int, start, gram: _Gram | None = None) -> np.ndarray:
+    if gram is not None:
+        return gram.fold_sums(c.y, c.gravity_term is not None, start)
     out = np.full((folds, 2), np.nan)
     t = R.times[R.sample]
     rec = R.recording[R.sample]
@@ -392,6 +570,17 @@ def fit_calibration(
     cmass = total_mass_vector(R.base)
     nominal_mass = urdf_mass(model)
     everything = R.w > 0
+    fitted_terms = [calibration_term(n) for n in offered if not calibration_term(n).held]
+    gram = None
+    if (
+        GRAM
+        and auto
+        and len(fitted_terms) <= 1
+        and all(t.world is not None for t in fitted_terms)
+        and np.all(R.w == R.w[0])
+        and R.w[0] > 0
+    ):
+        gram = _Gram(R, fitted_terms[0] if fitted_terms else None, g, folds)
 
     def mass_of(theta) -> float:
         return float("nan") if cmass is None else float(cmass @ theta)
@@ -401,7 +590,7 @@ def fit_calibration(
     def full_fit(c: _Candidate):
         key = ",".join(c.names) or "none"
         if key not in fits:
-            fits[key] = _fit(R, c, everything, g)
+            fits[key] = _fit(R, c, everything, g, gram=gram)
         return fits[key]
 
     def physical(c: _Candidate) -> bool:
@@ -437,7 +626,7 @@ def fit_calibration(
         chosen, steps = [], []
         current = _candidate(R, [], held_all, samples)
         masses["none"] = mass_of(full_fit(current)[0])
-        s0, f0 = fold_scores(_fold_sums(R, current, g, folds, None)[None])
+        s0, f0 = fold_scores(_fold_sums(R, current, g, folds, None, gram)[None])
         current_folds = f0[0]
         steps.append({"none": float(s0[0])})
         while True:
@@ -460,7 +649,7 @@ def fit_calibration(
                         stacklevel=3,
                     )
                     continue
-                s, f = fold_scores(_fold_sums(R, c, g, folds, phi)[None])
+                s, f = fold_scores(_fold_sums(R, c, g, folds, phi, gram)[None])
                 tried[n] = (names_, float(s[0]), f[0])
             if not tried:
                 break

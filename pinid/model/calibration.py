@@ -64,6 +64,10 @@ class CalibrationTerm:
     shown: Callable[[np.ndarray], np.ndarray] | None = None  # values as reported (rad → deg)
     shown_units: Callable[[Sequence], list[str]] | None = None
     negligible: float = 0.0  # values this small [their units] never make the term a candidate of "auto"
+    #: ``world(values, g) -> (3,)``: gravity [m/s²] in the world the base pose is read in, when ``gravity`` is
+    #: ``R_MBᵀ·world(values, g)`` (R_MB the base pose's rotation): the rows are then linear in a 3-vector that does
+    #: not depend on the sample, and the calibration's fits work on precomputed Gram blocks
+    world: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None
 
 
 #: The calibration terms by name, in the order they are applied: name → module defining ``TERM``.

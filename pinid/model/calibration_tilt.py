@@ -38,12 +38,16 @@ def _apply(s, estimate):
     return replace(s, base_q=bq, wrenches=wrenches)
 
 
+def _world(values: np.ndarray, g: np.ndarray) -> np.ndarray:
+    """(3,) gravity in the motion capture's world [m/s²]: ``R(φ)ᵀ·g``."""
+    return rotation_xy(values).T @ np.asarray(g, dtype=float)
+
+
 def _gravity(values: np.ndarray, base_q: np.ndarray, g: np.ndarray) -> np.ndarray:
     """(N, 3) gravity in the base frame [m/s²] for base poses ``base_q`` read in the motion capture's world."""
     from scipy.spatial.transform import Rotation
 
-    g_m = rotation_xy(values).T @ np.asarray(g, dtype=float)  # gravity in the motion capture's world
-    return Rotation.from_quat(base_q[:, 3:]).inv().apply(g_m)
+    return Rotation.from_quat(base_q[:, 3:]).inv().apply(_world(values, g))
 
 
 TERM = CalibrationTerm(
@@ -59,4 +63,5 @@ TERM = CalibrationTerm(
     shown=np.degrees,
     shown_units=lambda samples: ["deg", "deg"],
     negligible=1e-3,
+    world=_world,
 )

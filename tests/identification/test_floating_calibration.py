@@ -188,3 +188,28 @@ def test_an_unknown_calibration_term_is_one_line(tmp_path):
     )  # fmt: skip
     assert_clean_error(proc, "calibration term 'gains'", "offsets, tilt")
     assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("tilt", [TILT, None])
+def test_the_gram_blocks_give_the_rows_numbers(model, walks, monkeypatch, tilt):
+    """auto's selection from precomputed Gram blocks (issue 45) chooses the same terms with the same scores, values
+    and σ as the same fits on the rows themselves (GRAM = False), on the tilted recording and on an untilted one."""
+    from pinid.identification import calibration as C
+    from pinid.identification.run import setup
+
+    train, _ = walks
+    rec = _sensor_recording(model, train, offsets=OFFSETS, tilt=tilt, seed=5)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        samples = setup(Study(model, data=[rec], floating={"rows": "base", "calibration": "none"})).floating.train
+        fast = fit_calibration(model, samples, "auto")
+        monkeypatch.setattr(C, "GRAM", False)
+        slow = fit_calibration(model, samples, "auto")
+    assert fast.terms == slow.terms and fast.refused == slow.refused
+    assert [list(s) for s in fast.steps] == [list(s) for s in slow.steps]
+    for a, b in zip(fast.steps, slow.steps):
+        np.testing.assert_allclose(list(a.values()), list(b.values()), rtol=1e-7)
+    np.testing.assert_allclose(list(fast.masses.values()), list(slow.masses.values()), rtol=1e-9)
+    for name in slow.terms:
+        np.testing.assert_allclose(fast.estimates[name].values, slow.estimates[name].values, rtol=1e-7, atol=1e-10)
+        np.testing.assert_allclose(fast.estimates[name].std, slow.estimates[name].std, rtol=1e-6)
