@@ -191,6 +191,7 @@ def weighted_lstsq(W: np.ndarray, tau: np.ndarray, weights: np.ndarray | None = 
 
 def andrews_bandwidth(g: np.ndarray) -> int:
     """Andrews' (1991) Bartlett bandwidth [samples] from AR(1) fits of each score column ``g`` (N, p)."""
+    g = np.asarray(array_like(g, "g"), dtype=float)
     n = len(g)
     if n < 4:
         return 0
@@ -210,6 +211,7 @@ def andrews_bandwidth(g: np.ndarray) -> int:
 
 def bartlett_long_run(g: np.ndarray, lag: int) -> np.ndarray:
     """``Σ_{t,s} (1 − |t−s|/(lag+1))₊ g_t g_sᵀ`` (p, p) of scores ``g`` (N, p), via moving window sums."""
+    g, lag = np.asarray(array_like(g, "g"), dtype=float), count(lag, "lag")
     if lag <= 0:
         return g.T @ g
     p = g.shape[1]

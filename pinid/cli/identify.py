@@ -358,9 +358,7 @@ def run(args: argparse.Namespace) -> int:
     study = _study(args, model, terms)
     options = options_from_args(args, _options(args, methods))
     ident = identify(study, methods, options=options, show_progress=None, started=started, **_run_options(args))
-    print(identification_text(ident, verbose=args.verbose))
-    if args.base == "floating" and ident.data.get("calibration_text"):
-        print(ident.data["calibration_text"])
+    print(identification_text(ident, verbose=args.verbose))  # with a floating base's calibration
     written = write_identification(
         ident, out, report=not args.no_report, figures=not args.no_figures, force_export=args.force_export
     )

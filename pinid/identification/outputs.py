@@ -94,7 +94,8 @@ def identification_text(ident, *, verbose: bool = False) -> str:
         f"shape {v['shape']:.4g}{' (fitted)' if v.get('shape_fitted') else ''}"
         for name, v in d.get("stribeck", {}).items()
     ]
-    lines += _recordings_lines(d, ident.robot.get("joints") or [])
+    for line in _recordings_lines(d, ident.robot.get("joints") or []):  # the choices made: wrapped at 120
+        lines += textwrap.wrap(line, 120, subsequent_indent="  ", break_on_hyphens=False) if len(line) > 120 else [line]
     lines.append(
         f"training: {d['samples']} samples from {len(d['sources'])} recording(s), {d['rows']} torque rows used"
         + (f"; validation: {len(ident.validation_sources)} recording(s)" if ident.validation_sources else "")
@@ -118,7 +119,8 @@ def identification_text(ident, *, verbose: bool = False) -> str:
     floor = floor_line(ident)
     if floor is not None:
         lines += textwrap.wrap(floor, 120, subsequent_indent="  ", break_on_hyphens=False)
-    for line in axis_lines(ident) + mass_lines(ident):
+    calibration = str(d.get("calibration_text") or "").splitlines()  # a floating base's sensor calibration
+    for line in axis_lines(ident) + mass_lines(ident) + calibration:
         lines += textwrap.wrap(line, 120, subsequent_indent="  ", break_on_hyphens=False)
     best = ident.results.get(ident.best) if ident.results else None
     if best is not None and len(best.base) and not np.all(np.isnan(best.std)):

@@ -54,6 +54,11 @@ from pinid.result_protocol import ResultProtocol, panel
 
 #: Where the selection starts.
 START: tuple[str, ...] = ("fc", "fv")
+#: The default terms' offset test holds its candidates' rows whole: above this many training samples it runs on
+#: every k-th sample (the blocks stay contiguous in time), so that its memory stays bounded whatever the length
+#: of the recordings (the identification itself streams its regressor; docs/data.md "Memory").  The shipped
+#: real recordings are below it (KUKA Med7 70 %: 7 000 samples; two double-pendulum runs: 10 000).
+CV_SAMPLES = 12_000
 #: What the selection starts from besides, on a robot with drives: the motor side's friction and rotor inertia.
 DRIVE_START: tuple[str, ...] = ("motor_fc", "motor_fv", "motor_armature")
 #: The value of ``terms`` that asks for the default terms (:func:`choose_default_terms`).
@@ -258,9 +263,14 @@ def choose_default_terms(
     folds: int = FOLDS,
 ) -> TermsChoice:
     """The default terms (module text): ``fc,fv``, and ``offset`` when it wins on the held-out blocks of the
-    prepared training recordings (joint side, with drives or without: motor terms are never added by default)."""
+    prepared training recordings (joint side, with drives or without: motor terms are never added by default), on
+    at most :data:`CV_SAMPLES` of their samples."""
+    prepared = list(prepared)
+    step = -(-sum(len(ds.t) for ds in prepared) // CV_SAMPLES)  # ceil
+    if step > 1:
+        prepared = [ds.select(slice(None, None, step)) for ds in prepared]
     try:
-        return _default_terms(model, list(prepared), fit_joints, problem_options, folds)
+        return _default_terms(model, prepared, fit_joints, problem_options, folds)
     except DataError as exc:  # too few rows, a rank-deficient candidate: fc,fv, and the identification says why
         return TermsChoice(list(START), [], folds, {"+offset": f"not tried: {exc}"}, "default")
 

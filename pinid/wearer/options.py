@@ -39,7 +39,7 @@ class WearerOptions:
             raise SpecError(f"WearerOptions solver: got {type(self.solver).__name__}, expected a solver's name")
 
 
-def as_wearer_options(value) -> WearerOptions:
+def as_wearer_options(value: WearerOptions | None) -> WearerOptions:
     """``value`` as :class:`WearerOptions` (None: the defaults); SpecError for anything else."""
     if value is None:
         return WearerOptions()
