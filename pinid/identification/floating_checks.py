@@ -30,7 +30,7 @@ def flipped_floating_signs(model, samples, *, limit: int = 5000, found: dict | N
     flipped_torque_signs`, the fixed base's check).  The torques' scale against the same torque is checked too
     (:func:`~pinid.identification.plausibility.torque_scale`); ``found`` (a dict), when given, gets it under
     ``"torque_scale"``."""
-    from pinid.model.floating import BASE_NV, contact_forces, floating_rnea
+    from pinid.model.floating import BASE_NV
 
     if not hasattr(model, "ff_model") or isinstance(samples, (str, bytes)) or not hasattr(samples, "__iter__"):
         raise SpecError("flipped_floating_signs: expected a FloatingRobotModel and a list of FloatingSamples")
@@ -41,16 +41,11 @@ def flipped_floating_signs(model, samples, *, limit: int = 5000, found: dict | N
     step = max(1, total // limit)
     recorded, nominal = [], []
     for s in samples:
-        k = np.arange(0, s.n, step)
-        for contact in [*s.unsensed.values(), *getattr(s, "uncertain", {}).values()]:
-            k = k[~np.asarray(contact, bool)[k]]
-        if not len(k):
+        kept = _measured_rows(model, s, step)
+        if kept is None:
             continue
-        wrenches = [type(w)(w.link, np.asarray(w.values)[k], w.frame) for w in s.wrenches]
-        bq, q, dq = s.base_q[k], s.data.q[k], s.data.dq[k]
-        rnea = floating_rnea(model, bq, s.base_v[k], s.base_a[k], q, dq, s.data.ddq[k])[:, BASE_NV:]
-        ext = contact_forces(model, bq, q, wrenches)[:, BASE_NV:] if wrenches else 0.0
-        nominal.append(rnea - ext + model.coulomb * np.sign(dq) + model.viscous * dq)
+        k, _, _, dq, r = kept
+        nominal.append(r[:, BASE_NV:] + model.coulomb * np.sign(dq) + model.viscous * dq)
         recorded.append(s.data.tau[k])
     if not recorded:
         return []
@@ -481,7 +476,6 @@ def cop_offsets(model, samples, *, limit: int = 3000) -> dict[str, np.ndarray]:
     import pinocchio as pin
 
     from pinid.data.contacts import quat_matrix
-    from pinid.model.floating import BASE_NV, contact_forces, floating_rnea
 
     if not hasattr(model, "ff_model") or isinstance(samples, (str, bytes)) or not hasattr(samples, "__iter__"):
         raise SpecError("cop_offsets: expected a FloatingRobotModel and a list of FloatingSamples")
@@ -492,15 +486,10 @@ def cop_offsets(model, samples, *, limit: int = 3000) -> dict[str, np.ndarray]:
     step = max(1, sum(s.n for s in samples) // limit)
     X, y = [], []
     for s in samples:
-        k = np.arange(0, s.n, step)
-        for contact in [*s.unsensed.values(), *getattr(s, "uncertain", {}).values()]:
-            k = k[~np.asarray(contact, bool)[k]]
-        if not len(k):
+        kept = _measured_rows(model, s, step)
+        if kept is None:
             continue
-        wrenches = [type(w)(w.link, np.asarray(w.values)[k], w.frame) for w in s.wrenches]
-        bq, q, dq = s.base_q[k], s.data.q[k], s.data.dq[k]
-        r = floating_rnea(model, bq, s.base_v[k], s.base_a[k], q, dq, s.data.ddq[k])[:, :BASE_NV]
-        r = r - contact_forces(model, bq, q, wrenches)[:, :BASE_NV]
+        _, wrenches, bq, _, r = kept
         Rt = np.transpose(quat_matrix(bq[:, 3:]), (0, 2, 1))
         force = {w.link: np.asarray(w.values)[:, :3] for w in wrenches if w.frame == "world"}
         total = sum(force.values())
@@ -536,3 +525,20 @@ def cop_offset_warning(model, samples, source: str) -> str | None:
     )
     warnings.warn(line, DataWarning, stacklevel=3)
     return line
+
+
+def _measured_rows(model, s, step: int):
+    """Every ``step``-th sample of the prepared recording ``s`` outside a contact without a measured wrench or of
+    uncertain phase: ``(k, its wrenches, base_q, dq, rnea − Σ Jᵀf)`` (the last (len(k)·nv) rows, base first [N,
+    N·m]); None when no sample is left."""
+    from pinid.model.floating import contact_forces, floating_rnea
+
+    k = np.arange(0, s.n, step)
+    for contact in [*s.unsensed.values(), *getattr(s, "uncertain", {}).values()]:
+        k = k[~np.asarray(contact, bool)[k]]
+    if not len(k):
+        return None
+    wrenches = [type(w)(w.link, np.asarray(w.values)[k], w.frame) for w in s.wrenches]
+    bq, q, dq = s.base_q[k], s.data.q[k], s.data.dq[k]
+    r = floating_rnea(model, bq, s.base_v[k], s.base_a[k], q, dq, s.data.ddq[k])
+    return k, wrenches, bq, dq, (r - contact_forces(model, bq, q, wrenches) if wrenches else r)

@@ -11,6 +11,20 @@ import numpy as np
 from pinid.report.figures import Recipe
 
 
+def shown_estimates(ident) -> dict[str, dict]:
+    """The base-parameter estimates a parameter figure shows: the best method's and OLS's (when run and not the
+    best), each ``{"value", "std", "consistent"}``."""
+    shown = [ident.best] + (["ols"] if "ols" in ident.results and ident.best != "ols" else [])
+    return {
+        m: {
+            "value": ident.results[m].base,
+            "std": ident.results[m].std,
+            "consistent": ident.results[m].physically_consistent,
+        }
+        for m in shown
+    }
+
+
 def _table(header: list[str], rows: list[list[str]]) -> str:
     """A Markdown table (as :func:`pinid.report.markdown.markdown_table`, which imports this module)."""
 
@@ -56,15 +70,7 @@ def floating_recipes(ident, joints: list[str], window: float) -> dict[str, Recip
     if names and ident.results:
         scale = np.asarray(ident.base.get("scale") or [1.0] * len(names), dtype=float)
         determined = determined_mask(ident)
-        shown = [ident.best] + (["ols"] if "ols" in ident.results and ident.best != "ols" else [])
-        estimates = {
-            m: {
-                "value": ident.results[m].base,
-                "std": ident.results[m].std,
-                "consistent": ident.results[m].physically_consistent,
-            }
-            for m in shown
-        }
+        estimates = shown_estimates(ident)
         figs["parameters"] = (
             pf.determined_parameters,
             (names, ident.base.get("nominal") or [None] * len(names), list(scale), estimates, determined),

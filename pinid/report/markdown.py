@@ -35,7 +35,7 @@ from pinid.report.plot_identification import (
 )
 from pinid.report.plot_choices import cross_validation_figure
 from pinid.report.plot_parameters import parameter_plausibility
-from pinid.report.floating import floating_figure_lines, floating_recipes, mass_section
+from pinid.report.floating import floating_figure_lines, floating_recipes, mass_section, shown_estimates
 
 #: Every file a report writes (patterns): what ``pinid identify --force`` removes of an earlier run's report.
 REPORT_FILES = (
@@ -115,15 +115,7 @@ def _plausibility_recipe(ident) -> Recipe | None:
     names = ident.base.get("names") or []
     if not names or not ident.results:
         return None
-    shown = [ident.best] + (["ols"] if "ols" in ident.results and ident.best != "ols" else [])
-    estimates = {
-        m: {
-            "value": ident.results[m].base,
-            "std": ident.results[m].std,
-            "consistent": ident.results[m].physically_consistent,
-        }
-        for m in shown
-    }
+    estimates = shown_estimates(ident)
     truth = next((r.truth_error["truth"] for r in ident.results.values() if r.truth_error), None)
     truth_v = None if truth is None else [truth.get(n) for n in names]
     title = (
